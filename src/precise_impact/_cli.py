@@ -1,0 +1,155 @@
+"""Command-line interface: ``precise-impact`` (also ``python -m precise_impact``)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Sequence
+
+from ._errors import BudgetExceededError, ParameterError
+
+# Exit statuses: 0 ok, 2 bad input (argparse uses 2 as well), 3 a budget was hit.
+EXIT_BAD_INPUT = 2
+EXIT_BUDGET = 3
+
+_PARAM_FLAGS = (
+    ("--eta", "eta", "forcing frequency ratio, > 0 (default 0.712)"),
+    ("--zeta", "zeta", "damping ratio, >= 0 (default 0.05)"),
+    ("--a", "a", "forcing amplitude (default 1)"),
+    ("--xw", "x_w", "wall position (default 2)"),
+    ("--R", "R", "restitution coefficient, 0 <= R <= 1 (default 1)"),
+    ("--x0", "x0", "initial position, <= x_w (default 0)"),
+    ("--v0", "v0", "initial velocity (default 0)"),
+    ("--t0", "t0", "initial time / forcing phase (default 0)"),
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # no usage dump: one clear line, exit 2
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+
+
+def _add_param_flags(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("system parameters (exact decimals, e.g. 0.712 or 102/53)")
+    for flag, dest, helptext in _PARAM_FLAGS:
+        g.add_argument(flag, dest=dest, default=None, metavar="DEC", help=helptext)
+
+
+def _params_from(ns):
+    from ._params import Params
+
+    return Params.make(**{dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS})
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from ._simulate import MODELS
+
+    parser = _Parser(
+        prog="precise-impact",
+        description="Verification suite for the piecewise-linear impact oscillator and its electronic equivalent.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    s = sub.add_parser("simulate", help="simulate one model and print samples and impacts")
+    _add_param_flags(s)
+    s.add_argument("--periods", default="200", metavar="N", help="forcing periods (default 200)")
+    s.add_argument("--model", default="heyoka", help="one of: " + ", ".join(MODELS) + " (default heyoka)")
+    s.add_argument(
+        "--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS (default float64)"
+    )
+    s.add_argument("--tol", default=None, metavar="T", help="heyoka tolerance (default: the precision's epsilon)")
+    s.add_argument("--dense", default="0", metavar="K", help="dense output points per period (saved with --out)")
+    s.add_argument("--out", default=None, metavar="FILE", help="write samples and impacts to FILE.npz or FILE.csv")
+    s.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
+    a = sub.add_parser(
+        "accuracy", help="the paper's three frequencies: every model and precision against a demonstrated reference"
+    )
+    a.add_argument("--periods", default="100", metavar="N", help="forcing periods from rest (default 100)")
+    a.add_argument("--out", default=None, metavar="DIR", help="write accuracy.json and accuracy.png here")
+    a.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    return parser
+
+
+def _cmd_simulate(ns) -> int:
+    from pathlib import Path
+
+    from ._simulate import check_periods, make_solver
+
+    params = _params_from(ns)
+    periods = check_periods(ns.periods)
+    dense = check_periods(ns.dense, "dense", 100_000)
+    if ns.out is not None and Path(ns.out).suffix not in (".npz", ".csv"):
+        raise ParameterError("out", ns.out, "output file must end in .npz or .csv")
+    solver = make_solver(ns.model, ns.precision, ns.tol)
+    traj = solver.solve(params, periods, per_period=dense)
+    if ns.out is not None:
+        traj.save(ns.out)
+    if ns.json:
+        json.dump(traj.to_json_dict(), sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        s = traj.precision.to_str
+        print(f"{traj.model} {traj.precision.name}: {periods} periods, {traj.n_impacts} impacts, {traj.elapsed_s:.4f} s")
+        print(f"params: {', '.join(f'{k}={v}' for k, v in params.decimal().items())}")
+        print(f"final state at t={s(traj.t[-1])}:\n  x = {s(traj.x[-1])}\n  v = {s(traj.v[-1])}")
+        if ns.out is not None:
+            print(f"written: {ns.out}")
+    return 0
+
+
+def _cmd_accuracy(ns) -> int:
+    from ._accuracy import accuracy_table, format_table
+    from ._simulate import check_periods
+
+    periods = check_periods(ns.periods, maximum=2000)
+    result = accuracy_table(periods=periods, out=ns.out, progress=not ns.json)
+    if ns.json:
+        json.dump(result, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        print(format_table(result))
+        if ns.out is not None:
+            print(f"written: {ns.out}/accuracy.json, {ns.out}/accuracy.png")
+    return 0
+
+
+def _glue_negative_values(argv: list[str]) -> list[str]:
+    """``--tol -1e-9`` -> ``--tol=-1e-9``: argparse would read ``-1e-9`` as an option.
+
+    Lets the validators, not argparse, report a negative value with its allowed range.
+    """
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        a = argv[i]
+        if a.startswith("--") and "=" not in a and i + 1 < len(argv) and argv[i + 1].startswith("-"):
+            nxt = argv[i + 1]
+            if len(nxt) > 1 and (nxt[1].isdigit() or nxt[1] == "." or nxt[1:].lower() in ("inf", "infinity", "nan")):
+                out.append(f"{a}={nxt}")
+                i += 2
+                continue
+        out.append(a)
+        i += 1
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    ns = parser.parse_args(_glue_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    try:
+        return {"simulate": _cmd_simulate, "accuracy": _cmd_accuracy}[ns.command](ns)
+    except ParameterError as e:
+        print(f"precise-impact: error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except BudgetExceededError as e:
+        print(f"precise-impact: budget exceeded: {e}", file=sys.stderr)
+        return EXIT_BUDGET
+    except BrokenPipeError:  # e.g. piped into `head`
+        sys.stderr.close()
+        return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

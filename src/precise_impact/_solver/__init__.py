@@ -1,0 +1,1 @@
+"""Solvers: the heyoka reference integrator and the analytical (closed-form) solver."""

@@ -1,0 +1,98 @@
+"""The command-line contract other tools script against."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from precise_impact import Params, Precision, simulate
+from precise_impact._cli import main
+
+
+def run(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "precise_impact", *args], capture_output=True, text=True, timeout=300
+    )
+
+
+def test_simulate_json_contract():
+    r = run("simulate", "--eta", "0.74", "--periods", "12", "--precision", "float128", "--json")
+    assert r.returncode == 0, r.stderr
+    obj = json.loads(r.stdout)  # exactly one JSON object
+    assert set(obj) == {"params", "model", "precision", "tol", "samples", "impacts", "elapsed_s"}
+    assert obj["params"] == {"zeta": "0.05", "a": "1", "eta": "0.74", "x_w": "2", "R": "1", "x0": "0", "v0": "0", "t0": "0"}
+    assert obj["model"] == "heyoka" and obj["precision"] == "float128"
+    assert [s["period"] for s in obj["samples"]] == list(range(13))
+    assert isinstance(obj["elapsed_s"], float)
+    P = Precision.parse("float128")
+    # full digits: the strings round-trip to the float128 values of the Python API
+    tr = simulate(Params.make(eta="0.74"), 12, precision="float128")
+    assert [s["x"] for s in obj["samples"]] == [P.to_str(x) for x in tr.x]
+    assert len(obj["samples"][5]["x"].lstrip("-").replace(".", "").lstrip("0").split("e")[0]) >= 33
+    assert len(obj["impacts"]) == tr.n_impacts > 0
+    imp = obj["impacts"][0]
+    assert Fraction(imp["v_after"]) == -Fraction(imp["v_before"])
+
+
+@pytest.mark.parametrize("model", ["analytical", "analytical-paper"])
+def test_simulate_analytical_models(model):
+    r = run("simulate", "--eta", "0.74", "--periods", "5", "--model", model, "--json")
+    assert r.returncode == 0, r.stderr
+    obj = json.loads(r.stdout)
+    assert obj["model"] == model and obj["tol"] is None and len(obj["samples"]) == 6
+
+
+@pytest.mark.parametrize(
+    "args, name",
+    [
+        (["--eta", "-1"], "eta"),
+        (["--zeta", "nan"], "zeta"),
+        (["--R", "2"], "R"),
+        (["--x0", "5"], "x0"),
+        (["--periods", "-3"], "periods"),
+        (["--periods", "ten"], "periods"),
+        (["--precision", "mp:8"], "precision"),
+        (["--model", "euler"], "model"),
+        (["--tol", "-1e-9"], "tol"),
+        (["--out", "x.txt"], "out"),
+    ],
+)
+def test_bad_input_exit_2_no_traceback(args, name):
+    r = run("simulate", *args)
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr
+    assert r.stderr.startswith(f"precise-impact: error: {name} = ")
+    assert r.stdout == ""
+
+
+def test_out_files(tmp_path, capsys):
+    npz, csv = tmp_path / "a.npz", tmp_path / "a.csv"
+    assert main(["simulate", "--eta", "0.74", "--periods", "6", "--precision", "mp:128", "--dense", "10", "--out", str(npz)]) == 0
+    assert main(["simulate", "--eta", "0.74", "--periods", "6", "--out", str(csv)]) == 0
+    d = np.load(npz)
+    tr = simulate(Params.make(eta="0.74"), 6, precision="mp:128")
+    P = tr.precision
+    assert list(d["x_str"]) == [P.to_str(x) for x in tr.x]
+    assert d["dense_t"].shape == (61,)
+    lines = csv.read_text().splitlines()
+    assert lines[0].startswith("kind,index,t,x")
+    assert sum(1 for ln in lines if ln.startswith("sample,")) == 7
+    assert not list(tmp_path.glob(".*.tmp"))  # atomic writes leave no temporaries
+
+
+def test_accuracy_job(tmp_path):
+    """The README's main job: a table, a JSON file and a plot; reference demonstrated."""
+    r = run("accuracy", "--periods", "30", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    assert "reference" in r.stdout
+    res = json.loads((tmp_path / "accuracy.json").read_text())
+    assert (tmp_path / "accuracy.png").stat().st_size > 10_000
+    refs = [row for row in res["rows"] if row["role"] != "candidate"]
+    assert len(refs) == 3 and all(row["max_error"] < 1e-40 for row in refs)
+    f64 = {row["eta"]: row["max_error"] for row in res["rows"] if row["model"] == "heyoka" and row["precision"] == "float64"}
+    assert f64["0.74"] < 1e-12
