@@ -75,11 +75,12 @@ def build_parser() -> argparse.ArgumentParser:
 def _cmd_simulate(ns) -> int:
     from pathlib import Path
 
-    from ._simulate import check_periods, make_solver
+    from ._params import check_count
+    from ._simulate import make_solver
 
     params = _params_from(ns)
-    periods = check_periods(ns.periods)
-    dense = check_periods(ns.dense, "dense", 100_000)
+    periods = check_count(ns.periods)
+    dense = check_count(ns.dense, "dense", 100_000)
     if ns.out is not None and Path(ns.out).suffix not in (".npz", ".csv"):
         raise ParameterError("out", ns.out, "output file must end in .npz or .csv")
     solver = make_solver(ns.model, ns.precision, ns.tol)
@@ -101,9 +102,9 @@ def _cmd_simulate(ns) -> int:
 
 def _cmd_accuracy(ns) -> int:
     from ._accuracy import accuracy_table, format_table
-    from ._simulate import check_periods
+    from ._params import check_count
 
-    periods = check_periods(ns.periods, maximum=2000)
+    periods = check_count(ns.periods, maximum=2000)
     result = accuracy_table(periods=periods, out=ns.out, progress=not ns.json)
     if ns.json:
         json.dump(result, sys.stdout)

@@ -16,9 +16,11 @@ from decimal import Decimal, InvalidOperation
 from fractions import Fraction
 from typing import Any, Mapping
 
+import numpy as np
+
 from ._errors import ParameterError
 
-__all__ = ["Params", "exact", "PARAM_NAMES", "RUNTIME_PARAMS"]
+__all__ = ["Params", "exact", "check_count", "PARAM_NAMES", "RUNTIME_PARAMS"]
 
 #: Order of the fields, also the order of the CLI flags and of ``--json`` output.
 PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
@@ -81,6 +83,18 @@ def exact(name: str, value: Any) -> Fraction:
     raise ParameterError(
         name, value, f"expected a decimal string, int, Fraction or float, got {type(value).__name__}"
     )
+
+
+def check_count(value: Any, name: str = "periods", maximum: int = 10**8) -> int:
+    """Validate a count (periods, points per period) given as int or integer string."""
+    if isinstance(value, str):
+        try:
+            value = int(value.strip())
+        except ValueError:
+            raise ParameterError(name, value, f"an integer with 0 <= {name} <= {maximum}") from None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= maximum:
+        raise ParameterError(name, value, f"an integer with 0 <= {name} <= {maximum}")
+    return int(value)
 
 
 def decimal_str(q: Fraction) -> str:

@@ -6,13 +6,13 @@ import math
 from typing import Any
 
 from ._errors import ParameterError
-from ._params import Params
+from ._params import Params, check_count
 from ._precision import Precision
 from ._result import Trajectory
 from ._solver._analytical import AnalyticalSolver
 from ._solver._heyoka import HeyokaSolver
 
-__all__ = ["MODELS", "make_solver", "simulate", "check_periods"]
+__all__ = ["MODELS", "make_solver", "simulate"]
 
 #: Models ``simulate`` knows, with a one-line description each.
 MODELS = {
@@ -20,18 +20,6 @@ MODELS = {
     "analytical": "closed-form segments, robust impact finder (cannot miss a crossing)",
     "analytical-paper": "closed-form segments, the paper's 1e-3 T scan + bisection",
 }
-
-
-def check_periods(periods: Any, name: str = "periods", maximum: int = 10**8) -> int:
-    """Validate a period count given as int or integer string."""
-    if isinstance(periods, str):
-        try:
-            periods = int(periods.strip())
-        except ValueError:
-            raise ParameterError(name, periods, f"an integer with 0 <= {name} <= {maximum}") from None
-    if isinstance(periods, bool) or not isinstance(periods, int) or not 0 <= periods <= maximum:
-        raise ParameterError(name, periods, f"an integer with 0 <= {name} <= {maximum}")
-    return periods
 
 
 def make_solver(model: str = "heyoka", precision: str | Precision = "float64", tol: Any = None):
@@ -90,6 +78,6 @@ def simulate(
         params = Params.make(**param_values)
     elif param_values:
         params = params.replace(**param_values)
-    periods = check_periods(periods)
+    periods = check_count(periods, "periods")
     solver = make_solver(model, precision, tol)
     return solver.solve(params, periods, per_period=per_period)

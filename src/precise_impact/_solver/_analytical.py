@@ -53,7 +53,7 @@ from mpmath import libmp
 
 from .._errors import BudgetExceededError, ParameterError
 from .._impact import impact_at_start, reset_velocity
-from .._params import Params, decimal_str, exact
+from .._params import Params, check_count, decimal_str, exact
 from .._precision import Precision
 from .._result import Trajectory
 from .._system import acceleration, steady_state
@@ -453,9 +453,8 @@ class AnalyticalSolver:
         the motion sticks to the wall.
         """
         self.check_params(params)
-        for name, value in (("periods", periods), ("per_period", per_period)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise ParameterError(name, value, "an integer >= 0")
+        periods = check_count(periods, "periods")
+        per_period = check_count(per_period, "per_period", 100_000)
         precision = self.precision
         ops = self._ops
         max_evals = self.max_evals

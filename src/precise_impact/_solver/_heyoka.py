@@ -19,7 +19,7 @@ import numpy as np
 
 from .._errors import BudgetExceededError, ParameterError
 from .._impact import impact_at_start, reset_velocity
-from .._params import RUNTIME_PARAMS, Params, exact
+from .._params import RUNTIME_PARAMS, Params, check_count, exact
 from .._precision import Precision
 from .._result import Trajectory
 from .._system import acceleration
@@ -120,18 +120,6 @@ def _check_tol(tol: Any, precision: Precision) -> Fraction | None:
     return q
 
 
-def _check_periods(periods: Any) -> int:
-    if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) or periods < 0:
-        raise ParameterError("periods", periods, "number of forcing periods must be an integer >= 0")
-    return int(periods)
-
-
-def _check_per_period(per_period: Any) -> int:
-    if isinstance(per_period, bool) or not isinstance(per_period, (int, np.integer)) or not 0 <= per_period <= 100_000:
-        raise ParameterError("per_period", per_period, "dense points per period must be an integer in 0..100000")
-    return int(per_period)
-
-
 class HeyokaSolver:
     """heyoka Taylor integrator with impact events: the reference solver.
 
@@ -208,8 +196,8 @@ class HeyokaSolver:
         An impact that lands exactly on a sample time is applied before the sample
         (samples are right-continuous).
         """
-        periods = _check_periods(periods)
-        per_period = _check_per_period(per_period)
+        periods = check_count(periods, "periods")
+        per_period = check_count(per_period, "per_period", 100_000)
         P = self.precision
         step = max(per_period, 1)
         grid = P.sample_times(params.t0, params.eta, periods, step)
