@@ -96,3 +96,18 @@ def test_accuracy_job(tmp_path):
     assert len(refs) == 3 and all(row["max_error"] < 1e-40 for row in refs)
     f64 = {row["eta"]: row["max_error"] for row in res["rows"] if row["model"] == "heyoka" and row["precision"] == "float64"}
     assert f64["0.74"] < 1e-12
+
+
+def test_lle_json_contract():
+    r = run("lle", "--eta", "0.70", "--periods", "300", "--transient", "3000", "--json")
+    assert r.returncode == 0, r.stderr
+    obj = json.loads(r.stdout)
+    assert set(obj) == {"params", "method", "lle", "spectrum", "stderr", "periods", "impacts", "elapsed_s"}
+    assert obj["method"] == "variational" and obj["periods"] == 300 and obj["impacts"] == 0
+    assert abs(obj["lle"] + 0.05) < 1e-3 and abs(sum(obj["spectrum"]) + 0.1) < 1e-12
+
+
+@pytest.mark.parametrize("args, name", [(["--method", "qr"], "method"), (["--transient", "-1"], "transient"), (["--periods", "0"], "periods")])
+def test_lle_bad_input(args, name):
+    r = run("lle", *args)
+    assert r.returncode == 2 and r.stderr.startswith(f"precise-impact: error: {name} = ")

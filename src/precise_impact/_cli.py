@@ -63,6 +63,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default=None, metavar="FILE", help="write samples and impacts to FILE.npz or FILE.csv")
     s.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
+    ly = sub.add_parser("lle", help="largest Lyapunov exponent (variational with saltation, or two-trajectory)")
+    _add_param_flags(ly)
+    ly.add_argument("--periods", default="20000", metavar="N", help="measured forcing periods (default 20000)")
+    ly.add_argument("--transient", default="1000", metavar="N", help="discarded transient periods (default 1000)")
+    ly.add_argument("--method", default="variational", help="variational or two-trajectory (default variational)")
+    ly.add_argument("--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS")
+    ly.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
     a = sub.add_parser(
         "accuracy", help="the paper's three frequencies: every model and precision against a demonstrated reference"
     )
@@ -97,6 +105,28 @@ def _cmd_simulate(ns) -> int:
         print(f"final state at t={s(traj.t[-1])}:\n  x = {s(traj.x[-1])}\n  v = {s(traj.v[-1])}")
         if ns.out is not None:
             print(f"written: {ns.out}")
+    return 0
+
+
+def _cmd_lle(ns) -> int:
+    from ._lyapunov import LYAPUNOV_METHODS, lyapunov
+    from ._params import check_count
+    from ._precision import Precision
+
+    params = _params_from(ns)
+    periods = check_count(ns.periods)
+    transient = check_count(ns.transient, "transient")
+    if ns.method not in LYAPUNOV_METHODS:
+        raise ParameterError("method", ns.method, "one of " + ", ".join(LYAPUNOV_METHODS))
+    Precision.parse(ns.precision)
+    r = lyapunov(params, ns.method, periods=periods, transient=transient, precision=ns.precision, progress=not ns.json)
+    if ns.json:
+        json.dump(r.to_json_dict(), sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
+        print(f"LLE = {r.lle:.6f} +- {r.stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
+        print(f"{r.periods} periods after {r.transient} transient, {r.impacts} impacts, {r.elapsed_s:.3f} s")
     return 0
 
 
@@ -140,7 +170,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     ns = parser.parse_args(_glue_negative_values(list(sys.argv[1:] if argv is None else argv)))
     try:
-        return {"simulate": _cmd_simulate, "accuracy": _cmd_accuracy}[ns.command](ns)
+        return {"simulate": _cmd_simulate, "lle": _cmd_lle, "accuracy": _cmd_accuracy}[ns.command](ns)
     except ParameterError as e:
         print(f"precise-impact: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
