@@ -111,3 +111,13 @@ def test_lle_json_contract():
 def test_lle_bad_input(args, name):
     r = run("lle", *args)
     assert r.returncode == 2 and r.stderr.startswith(f"precise-impact: error: {name} = ")
+
+
+def test_bifurcation_cli(tmp_path):
+    r = run("bifurcation", "--eta", "0.70", "0.72", "3", "--periods", "100", "--transient", "200", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    assert "grazing eta (closed form): 0.710687" in r.stdout
+    assert (tmp_path / "bifurcation.png").exists() and (tmp_path / "bifurcation.npz").exists()
+    assert "3/3" in r.stderr  # progress bar
+    bad = run("bifurcation", "--eta", "0.7", "0.6", "3", "--out", str(tmp_path))
+    assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: eta_max = ")

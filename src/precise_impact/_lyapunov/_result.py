@@ -38,6 +38,11 @@ class LyapunovResult:
     segments : numpy.ndarray
         LLE estimate of each independent segment.
     elapsed_s : float
+    initial_conditions : int
+        Number of initial conditions the periods were spread over.
+    strobe_x, strobe_v : numpy.ndarray or None
+        Stroboscopic samples (float64) of the first initial condition's measured
+        periods, where the method records them (for bifurcation diagrams).
     """
 
     params: Params
@@ -52,6 +57,9 @@ class LyapunovResult:
     running: np.ndarray
     segments: np.ndarray
     elapsed_s: float
+    initial_conditions: int = 1
+    strobe_x: np.ndarray | None = None
+    strobe_v: np.ndarray | None = None
 
     def to_json_dict(self) -> dict:
         """The ``precise-impact lle --json`` object."""
