@@ -112,3 +112,17 @@ def test_chaotic_lle_converges_with_error_bar():
     # running estimate ends at the result (cumsum vs sum: ~N eps relative, N = 2e4)
     assert len(r.running) == r.periods and abs(r.running[-1] - r.lle) < 1e-11
     assert r.initial_conditions == 4 and len(r.segments) == 20
+
+
+def test_two_methods_agree_within_error_bars():
+    """Variational (saltation) and two-trajectory (Benettin) LLE at eta = 0.712.
+
+    Independent methods (tangent dynamics vs finite separation) on different orbit
+    stretches: they must agree within 3 combined standard errors.
+    """
+    from precise_impact._lyapunov import lyapunov
+
+    p = Params.make(eta="0.712")
+    a = lyapunov(p, "variational")
+    b = lyapunov(p, "two-trajectory")
+    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.stderr, b.stderr), (a.lle, a.stderr, b.lle, b.stderr)
