@@ -121,3 +121,20 @@ def test_bifurcation_cli(tmp_path):
     assert "3/3" in r.stderr  # progress bar
     bad = run("bifurcation", "--eta", "0.7", "0.6", "3", "--out", str(tmp_path))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: eta_max = ")
+
+
+def test_sync_cli(tmp_path):
+    """Coarse scan: k = 0 never synchronises, k = 0.08 always does; plots and JSON written."""
+    r = run("sync", "--form", "reduced", "--k", "0", "0.08", "2", "--periods", "300", "--ensemble", "3",
+            "--out", str(tmp_path), "--json")
+    assert r.returncode == 0, r.stderr
+    obj = json.loads(r.stdout)
+    assert obj["form"] == "reduced" and obj["k_values"] == ["0", "0.08"]
+    assert obj["fraction_synchronised"] == [0.0, 1.0]
+    assert 0 < obj["k_star"] < 0.08 and obj["lle"] > 0
+    for name in ("sync_reduced.json", "sync_reduced_fraction.png", "sync_reduced_fig7.png"):
+        assert (tmp_path / name).stat().st_size > 1000
+    bad = run("sync", "--form", "diagonal", "--out", str(tmp_path))
+    assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: form = ")
+    bad = run("sync", "--k", "0.05", "0.01", "3", "--out", str(tmp_path))
+    assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: k_max = ")

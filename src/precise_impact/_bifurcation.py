@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ._errors import ParameterError
-from ._params import Params, check_count, decimal_str, exact
+from ._params import Params, check_count, decimal_str, exact_grid
 from ._result import atomic_write
 from ._system import grazing_frequencies
 
@@ -117,17 +117,7 @@ class BifurcationResult:
 
 def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:
     """``n`` exact, evenly spaced values from ``eta_min`` to ``eta_max`` (both included)."""
-    lo, hi = exact("eta_min", eta_min), exact("eta_max", eta_max)
-    n = check_count(n, "n", 1_000_000)
-    if n < 1:
-        raise ParameterError("n", n, "an integer >= 1 (number of eta values)")
-    if lo <= 0:
-        raise ParameterError("eta_min", decimal_str(lo), "must be > 0")
-    if hi < lo or (hi == lo and n > 1):
-        raise ParameterError("eta_max", decimal_str(hi), f"must be > eta_min = {decimal_str(lo)} (or equal with n = 1)")
-    if n == 1:
-        return [lo]
-    return [lo + (hi - lo) * Fraction(i, n - 1) for i in range(n)]
+    return exact_grid(eta_min, eta_max, n, "eta", strict=True)
 
 
 def _one(args):

@@ -82,6 +82,19 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--workers", default=None, metavar="W", help="worker processes (default: all cores)")
     b.add_argument("--out", required=True, metavar="DIR", help="write bifurcation.png and bifurcation.npz here")
 
+    sy = sub.add_parser("sync", help="master-slave synchronisation threshold against the LLE (paper Fig. 7)")
+    sy.add_argument("--form", default="first-order", help="first-order, paper or reduced (default first-order)")
+    sy.add_argument("--k", nargs=3, default=["0.02", "0.045", "6"], metavar=("MIN", "MAX", "N"),
+                    help="coupling grid (default 0.02 0.045 6)")
+    _add_param_flags(sy)
+    sy.add_argument("--periods", default="500", metavar="P", help="forcing periods per run (default 500, as the paper)")
+    sy.add_argument("--ensemble", default="8", metavar="M", help="slave initial conditions per k (default 8)")
+    sy.add_argument("--seed", default="0", metavar="S", help="seed of the initial conditions (default 0)")
+    sy.add_argument("--fig7", nargs=2, default=["0.031", "0.032"], metavar=("K1", "K2"),
+                    help="couplings of the Fig. 7 plot (default the paper's 0.031 0.032)")
+    sy.add_argument("--out", default="results", metavar="DIR", help="plots and JSON go here (default results)")
+    sy.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
     a = sub.add_parser(
         "accuracy", help="the paper's three frequencies: every model and precision against a demonstrated reference"
     )
@@ -157,6 +170,45 @@ def _cmd_bifurcation(ns) -> int:
     return 0
 
 
+def _cmd_sync(ns) -> int:
+    from pathlib import Path
+
+    from ._coupled import check_form, check_k
+    from ._params import check_count, exact_grid
+    from ._result import atomic_write
+    from ._sync import plot_fig7, plot_sync_fraction, sync_scan
+
+    params = _params_from(ns)
+    form = check_form(ns.form)
+    ks = exact_grid(ns.k[0], ns.k[1], ns.k[2], "k")
+    periods = check_count(ns.periods)
+    ensemble = check_count(ns.ensemble, "ensemble", 10_000)
+    seed = check_count(ns.seed, "seed", 2**32)
+    k1, k2 = check_k(ns.fig7[0], "fig7"), check_k(ns.fig7[1], "fig7")
+    res = sync_scan(params, form, ks, periods=periods, ensemble=ensemble, seed=seed, progress=not ns.json)
+    out = Path(ns.out)
+    stem = f"sync_{form}"
+    text = json.dumps(res.to_json_dict(), indent=1)
+    atomic_write(out / f"{stem}.json", lambda fh: fh.write(text), binary=False)
+    plot_sync_fraction(res, out / f"{stem}_fraction.png")
+    plot_fig7(params, form, k1, k2, periods, out / f"{stem}_fig7.png")
+    if ns.json:
+        obj = res.to_json_dict()
+        obj.pop("runs", None)
+        json.dump(obj, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    print(f"form {form}: {periods} periods, ensemble {ensemble}, sync = |x - y| < {res.threshold:g} over the last "
+          f"{res.tail:.0%} of the run")
+    print(f"{'k':>8} {'synchronised':>12} {'intermittent':>12} {'rate + k':>9}")
+    for k, fs, fi, r in zip(res.k_values, res.fraction_synchronised, res.fraction_intermittent, res.mean_rate):
+        print(f"{float(k):8.4f} {fs:12.3f} {fi:12.3f} {r + float(k):9.4f}")
+    print(f"threshold k* = {res.k_star:.4f} +- {res.k_star_err:.4f} ({res.message})")
+    print(f"LLE (variational) = {res.lle:.4f} +- {res.lle_stderr:.4f}")
+    print(f"written: {out / (stem + '.json')}, {out / (stem + '_fraction.png')}, {out / (stem + '_fig7.png')}")
+    return 0
+
+
 def _cmd_accuracy(ns) -> int:
     from ._accuracy import accuracy_table, format_table
     from ._params import check_count
@@ -201,6 +253,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "simulate": _cmd_simulate,
             "lle": _cmd_lle,
             "bifurcation": _cmd_bifurcation,
+            "sync": _cmd_sync,
             "accuracy": _cmd_accuracy,
         }[ns.command](ns)
     except ParameterError as e:

@@ -20,7 +20,7 @@ import numpy as np
 
 from ._errors import ParameterError
 
-__all__ = ["Params", "exact", "check_count", "PARAM_NAMES", "RUNTIME_PARAMS"]
+__all__ = ["Params", "exact", "exact_grid", "check_count", "PARAM_NAMES", "RUNTIME_PARAMS"]
 
 #: Order of the fields, also the order of the CLI flags and of ``--json`` output.
 PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
@@ -95,6 +95,27 @@ def check_count(value: Any, name: str = "periods", maximum: int = 10**8) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= maximum:
         raise ParameterError(name, value, f"an integer with 0 <= {name} <= {maximum}")
     return int(value)
+
+
+def exact_grid(lo: Any, hi: Any, n: Any, name: str, minimum: Fraction = Fraction(0), strict: bool = False) -> list[Fraction]:
+    """``n`` exact, evenly spaced values from ``lo`` to ``hi`` (both included).
+
+    Errors name ``{name}_min``, ``{name}_max`` or ``n``; ``lo`` must be ``>= minimum``
+    (``> minimum`` when ``strict``).
+    """
+    lo_q, hi_q = exact(f"{name}_min", lo), exact(f"{name}_max", hi)
+    n = check_count(n, "n", 1_000_000)
+    if n < 1:
+        raise ParameterError("n", n, f"an integer >= 1 (number of {name} values)")
+    if lo_q < minimum or (strict and lo_q == minimum):
+        raise ParameterError(f"{name}_min", decimal_str(lo_q), f"must be {'>' if strict else '>='} {decimal_str(minimum)}")
+    if hi_q < lo_q or (hi_q == lo_q and n > 1):
+        raise ParameterError(
+            f"{name}_max", decimal_str(hi_q), f"must be > {name}_min = {decimal_str(lo_q)} (or equal with n = 1)"
+        )
+    if n == 1:
+        return [lo_q]
+    return [lo_q + (hi_q - lo_q) * Fraction(i, n - 1) for i in range(n)]
 
 
 def decimal_str(q: Fraction) -> str:
