@@ -67,7 +67,8 @@ class LyapunovResult:
             "params": self.params.decimal(),
             "method": self.method,
             "lle": self.lle,
-            "spectrum": list(self.spectrum) if self.spectrum is not None else None,
+            # JSON has no infinity: a -inf exponent (plastic impacts, R = 0) is null
+            "spectrum": [v if math.isfinite(v) else None for v in self.spectrum] if self.spectrum is not None else None,
             "stderr": self.stderr,
             "periods": self.periods,
             "impacts": self.impacts,

@@ -125,6 +125,12 @@ def _gram_schmidt(st, sqrt, log):
     b0, b1 = b0 - proj * q0, b1 - proj * q1
     r22 = sqrt(b0 * b0 + b1 * b1)
     st[2], st[4] = q0, q1
+    if r22 == 0:
+        # A plastic impact (R = 0, det S = 0) collapses the tangent space onto one
+        # direction: the second exponent is -inf.  Re-seed the second vector
+        # orthogonal to the first so the first exponent stays well defined.
+        st[3], st[5] = -q1, q0
+        return log(r11), -math.inf
     st[3], st[5] = b0 / r22, b1 / r22
     return log(r11), log(r22)
 
