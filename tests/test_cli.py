@@ -138,3 +138,17 @@ def test_sync_cli(tmp_path):
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: form = ")
     bad = run("sync", "--k", "0.05", "0.01", "3", "--out", str(tmp_path))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: k_max = ")
+
+
+def test_sweep_cli_resumes(tmp_path):
+    args = ("sweep", "--axis", "eta", "0.70", "0.74", "6", "--periods", "100", "--transient", "50",
+            "--tile", "3", "--out", str(tmp_path), "--json")
+    r = run(*args)
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert s["tiles_computed"] == 2 and s["complete"]
+    again = json.loads(run(*args).stdout)
+    assert again["tiles_reused"] == 2 and again["tiles_computed"] == 0
+    assert (tmp_path / "sweep.csv").read_text().startswith("eta,lle,stderr,lambda2,period,impacts_per_period")
+    bad = run("sweep", "--axis", "R", "0", "2", "3", "--out", str(tmp_path / "b"))
+    assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: R_max = ")

@@ -95,6 +95,20 @@ def build_parser() -> argparse.ArgumentParser:
     sy.add_argument("--out", default="results", metavar="DIR", help="plots and JSON go here (default results)")
     sy.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
+    sw = sub.add_parser("sweep", help="LLE, period and impact rate on a 1-D or 2-D parameter grid (tiled, resumable)")
+    sw.add_argument("--axis", nargs=4, action="append", required=True, metavar=("NAME", "MIN", "MAX", "N"),
+                    help="a swept parameter (eta, x_w, zeta, a, R); give once or twice")
+    _add_param_flags(sw)
+    sw.add_argument("--periods", default="2000", metavar="P", help="measured periods per point (default 2000)")
+    sw.add_argument("--transient", default="1000", metavar="T", help="transient periods per point (default 1000)")
+    sw.add_argument("--tile", default="64", metavar="K", help="points per tile (default 64)")
+    sw.add_argument("--workers", default=None, metavar="W", help="local processes / Dask workers (default: all cores)")
+    grp = sw.add_mutually_exclusive_group()
+    grp.add_argument("--dask", choices=["local"], default=None, help="run on a Dask LocalCluster")
+    grp.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="run on this Dask scheduler")
+    sw.add_argument("--out", required=True, metavar="DIR", help="tiles, sweep.npz, sweep.csv, sweep.png")
+    sw.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+
     a = sub.add_parser(
         "accuracy", help="the paper's three frequencies: every model and precision against a demonstrated reference"
     )
@@ -209,6 +223,29 @@ def _cmd_sync(ns) -> int:
     return 0
 
 
+def _cmd_sweep(ns) -> int:
+    from ._params import check_count
+    from ._sweep import SweepSpec, run_sweep
+
+    base = _params_from(ns)
+    spec = SweepSpec.make(base, [tuple(a) for a in ns.axis], periods=ns.periods, transient=ns.transient,
+                          tile_size=ns.tile)
+    workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
+    if ns.scheduler is not None and not ns.scheduler.startswith("tcp://"):
+        raise ParameterError("scheduler", ns.scheduler, "a Dask scheduler address tcp://HOST:PORT")
+    summary = run_sweep(spec, ns.out, workers=workers, dask=ns.dask or ns.scheduler, progress=not ns.json)
+    if ns.json:
+        json.dump(summary, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        print(f"{spec.n_points} points in {spec.n_tiles} tiles: {summary['tiles_computed']} computed, "
+              f"{summary['tiles_reused']} reused, {summary['elapsed_s']:.1f} s on {summary['workers']} "
+              f"{summary['backend']} worker(s)")
+        if summary.get("png"):
+            print(f"written: {summary['npz']}, {summary['csv']}, {summary['png']}")
+    return 0
+
+
 def _cmd_accuracy(ns) -> int:
     from ._accuracy import accuracy_table, format_table
     from ._params import check_count
@@ -254,6 +291,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "lle": _cmd_lle,
             "bifurcation": _cmd_bifurcation,
             "sync": _cmd_sync,
+            "sweep": _cmd_sweep,
             "accuracy": _cmd_accuracy,
         }[ns.command](ns)
     except ParameterError as e:
