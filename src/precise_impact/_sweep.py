@@ -360,10 +360,10 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
         ax1.set_title("largest Lyapunov exponent")
         import matplotlib
 
-        cmap = matplotlib.colormaps["tab20"].with_extremes(bad="lightgray")
-        per = np.ma.masked_equal(data["period"], 0)  # no period <= 32: chaotic / transient
+        cmap = matplotlib.colormaps["tab20"].with_extremes(bad="white")
+        per = np.ma.masked_equal(data["period"], 0)  # no period <= 32 (chaotic / transient): white
         im2 = ax2.imshow(per, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=0.5, vmax=20.5)
-        fig.colorbar(im2, ax=ax2, label="period (gray: none <= 32)")
+        fig.colorbar(im2, ax=ax2, label="period (white: none <= 32)")
         ax2.set_xlabel(n1)
         ax2.set_title("detected period")
     fig.suptitle(f"{spec.n_points} points, {spec.transient} transient + {spec.periods} periods each")
