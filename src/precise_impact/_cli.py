@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from typing import Sequence
 
@@ -273,7 +274,8 @@ def _glue_negative_values(argv: list[str]) -> list[str]:
         a = argv[i]
         if a.startswith("--") and "=" not in a and i + 1 < len(argv) and argv[i + 1].startswith("-"):
             nxt = argv[i + 1]
-            if len(nxt) > 1 and (nxt[1].isdigit() or nxt[1] == "." or nxt[1:].lower() in ("inf", "infinity", "nan")):
+            plain = re.fullmatch(r"-\d+|-\d*\.\d+", nxt)  # argparse itself reads these as values
+            if not plain and len(nxt) > 1 and (nxt[1].isdigit() or nxt[1] == "." or nxt[1:].lower() in ("inf", "infinity", "nan")):
                 out.append(f"{a}={nxt}")
                 i += 2
                 continue
