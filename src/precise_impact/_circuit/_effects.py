@@ -2,7 +2,9 @@
 
 Each effect is declared once here (name, the models it fits, its settings with
 unit, default, allowed range and the datasheet figure the default comes from).
-The equations each effect contributes live in the model that realises it
+Op-amp effects fit the op-amp network models ('circuit', 'spice'); the impact
+circuit's effects (comparator, flip-flop, switch) fit the models that contain it
+('switched-capacitor', 'spice').  The equations each effect contributes live in the model that realises it
 (:mod:`._network` for the op-amp network, :mod:`._switched` for the impact
 circuit, :mod:`.._spice` for the netlist); an effect that is off contributes no
 term, state or event, so a scene with no effects is the ideal model exactly.
@@ -73,18 +75,18 @@ class EffectSpec:
 EFFECTS: dict[str, EffectSpec] = {
     e.name: e
     for e in (
-        EffectSpec("opamp_gain", ("circuit", "switched-capacitor", "spice"),
+        EffectSpec("opamp_gain", ("circuit", "spice"),
                    {"A0": Setting("V/V", "200000", "10", "1e9", doc="open-loop DC gain (TL072: 200 V/mV)")},
                    "finite DC gain of U1-U4: virtual grounds sit at -V_out/A0"),
-        EffectSpec("opamp_gbw", ("circuit", "switched-capacitor", "spice"),
+        EffectSpec("opamp_gbw", ("circuit", "spice"),
                    {"gbw": Setting("Hz", "3e6", "1e3", "1e10", doc="gain-bandwidth product (TL072: 3 MHz)"),
                     "mode": Setting("", "quasi-static", choices=("quasi-static", "dynamic"),
                                     doc="'dynamic': each op-amp output a state (stiff); 'quasi-static': first-order lag correction")},
                    "single-pole open-loop response A(s) = A0 / (1 + s A0 / (2 pi GBW))"),
-        EffectSpec("opamp_saturation", ("circuit", "switched-capacitor", "spice"),
+        EffectSpec("opamp_saturation", ("circuit", "spice"),
                    {"v_sat": Setting("V", "13.5", "0.5", "100", doc="output swing limit (TL072 at +-15 V: +-13.5 V)")},
                    "op-amp outputs clip at +-v_sat"),
-        EffectSpec("opamp_offset", ("circuit", "switched-capacitor", "spice"),
+        EffectSpec("opamp_offset", ("circuit", "spice"),
                    {"v_os": Setting("V", "3e-3", "-0.1", "0.1", doc="input offset voltage, same sign on U1-U4 (TL072: 3 mV)")},
                    "input offset voltage at each op-amp's non-inverting input"),
         EffectSpec("tolerance", ("circuit", "switched-capacitor", "spice"),
