@@ -110,6 +110,13 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--out", required=True, metavar="DIR", help="tiles, sweep.npz, sweep.csv, sweep.png")
     sw.add_argument("--json", action="store_true", help="print the summary as one JSON object")
 
+    sub.add_parser("scenes", help="list the built-in scenes, one line each")
+    rn = sub.add_parser("run", help="run a scene (built-in name or FILE.toml)")
+    rn.add_argument("scene", help="built-in scene name (see: precise-impact scenes) or a .toml file")
+    rn.add_argument("--model", default=None, help="override the scene's model")
+    rn.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+    rn.add_argument("--out", default=None, metavar="DIR", help="write <scene>_<model>.json and .png here")
+
     a = sub.add_parser(
         "accuracy", help="the paper's three frequencies: every model and precision against a demonstrated reference"
     )
@@ -247,6 +254,43 @@ def _cmd_sweep(ns) -> int:
     return 0
 
 
+def _cmd_scenes(ns) -> int:
+    from ._params import decimal_str
+    from ._scene import builtin_scenes, load_scene
+
+    for name, path in sorted(builtin_scenes().items()):
+        sc = load_scene(path)
+        extra = f" k={decimal_str(sc.k)} form={sc.form}" if sc.kind == "coupled" else ""
+        print(f"{name:28s} {sc.model:18s} eta={sc.params.decimal()['eta']:<6s}{extra}  {sc.description}")
+    return 0
+
+
+def _cmd_run(ns) -> int:
+    from ._run import run_scene, save_scene_outputs, scene_json
+    from ._scene import SCENE_MODELS, load_scene
+
+    scene = load_scene(ns.scene)
+    if ns.model is not None and ns.model not in SCENE_MODELS:
+        raise ParameterError("model", ns.model, "one of " + ", ".join(SCENE_MODELS))
+    if ns.model is not None:
+        scene = scene.with_model(ns.model)  # validated before any work
+    result = run_scene(scene)
+    obj = scene_json(scene, result)
+    files = save_scene_outputs(scene, result, ns.out) if ns.out is not None else []
+    if ns.json:
+        json.dump(obj, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        last = obj["samples"][-1]
+        n_imp = len(obj["impacts"]) if isinstance(obj["impacts"], list) else sum(map(len, obj["impacts"].values()))
+        print(f"{scene.name}: model {obj['model']}, effects {', '.join(obj['effects']) or 'none'}, "
+              f"{len(obj['samples']) - 1} periods, {n_imp} impacts, {obj['elapsed_s']:.3f} s")
+        print(f"last sample: x = {last['x']}, v = {last['v']}" + (f", y = {last['y']}" if "y" in last else ""))
+        for f in files:
+            print(f"written: {f}")
+    return 0
+
+
 def _cmd_accuracy(ns) -> int:
     from ._accuracy import accuracy_table, format_table
     from ._params import check_count
@@ -294,6 +338,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             "bifurcation": _cmd_bifurcation,
             "sync": _cmd_sync,
             "sweep": _cmd_sweep,
+            "scenes": _cmd_scenes,
+            "run": _cmd_run,
             "accuracy": _cmd_accuracy,
         }[ns.command](ns)
     except ParameterError as e:
