@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from ._params import decimal_str
 from ._result import Trajectory, atomic_write
 from ._scene import Scene
 
@@ -73,7 +74,7 @@ def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]
     return {
         "scene": scene.name, "model": model, "effects": effects, "precision": P.name,
         "params": result["params"].decimal(), "form": scene.form if model != "circuit" else "paper",
-        "k": str(scene.k),
+        "k": decimal_str(scene.k),
         "samples": [{"period": i, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
                     for i, (t, x, v, y, w) in enumerate(zip(result["t"], result["x"], result["v"], result["y"], result["w"]))],
         "impacts": {"master": [s(t) for t in result["master_impacts_t"]], "slave": [s(t) for t in result["slave_impacts_t"]]},

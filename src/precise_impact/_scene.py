@@ -213,7 +213,9 @@ def _build(data: Mapping, source: str) -> Scene:
                   periods=periods, per_period=per_period, source=source)
     scene._raw = data
     if model in ("circuit", "switched-capacitor", "spice"):
-        scene.design()  # the components must realise the parameters exactly (checked now)
+        from ._circuit._components import exact_omega
+
+        exact_omega(scene.design())  # the design must map exactly onto the dimensionless system
     return scene
 
 

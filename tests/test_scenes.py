@@ -1,0 +1,130 @@
+"""Scenes: validation of every key, built-ins, and the run / scenes CLI."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from fractions import Fraction
+
+import pytest
+
+from precise_impact import ParameterError, Params, simulate
+from precise_impact._accuracy import sample_errors
+from precise_impact._run import run_scene
+from precise_impact._scene import builtin_scenes, load_scene, parse_quantity
+from precise_impact._cli import main
+
+BASE = """
+name = "t"
+[model]
+name = "{model}"
+[parameters]
+eta = "0.74"
+"""
+
+
+def write(tmp_path, text, name="s.toml"):
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def test_builtins_cover_the_papers_figures():
+    names = set(builtin_scenes())
+    for fig in ("fig4-periodic", "fig5-chaotic", "fig6-period3", "fig7-k0.031", "fig7-k0.032"):
+        assert {f"{fig}-ideal", f"{fig}-datasheet"} <= names
+    for n in names:
+        load_scene(n)  # every built-in validates
+
+
+def test_quantities_with_units():
+    assert parse_quantity("c", "100 nF", "F") == Fraction(1, 10**7)
+    assert parse_quantity("r", "10kohm", "ohm") == 10000
+    assert parse_quantity("d", "7 ns", "s") == Fraction(7, 10**9)
+    assert parse_quantity("r", "160", "ohm") == 160
+    with pytest.raises(ParameterError) as e:
+        parse_quantity("effects.switch.ron", "160 s", "ohm")
+    assert e.value.name == "effects.switch.ron" and "ohm" in str(e.value)
+
+
+@pytest.mark.parametrize(
+    "extra, model, name",
+    [
+        ("colour = 'red'\n", "mechanical", "colour"),
+        ("[model]\nspeed = 1\n", None, "model.speed"),
+        ("[effects.switch]\nron = '160 s'\n", "switched-capacitor", "effects.switch.ron"),
+        ("[effects.switch]\nron = '-5'\n", "switched-capacitor", "effects.switch.ron"),
+        ("[effects.switch]\nron = '160'\n", "circuit", "effects.switch"),
+        ("[effects.opamp_gain]\nA0 = '1e5'\n", "mechanical", "effects.opamp_gain"),
+        ("[effects.warp_drive]\n", "circuit", "effects.warp_drive"),
+        ("[effects.comparator]\nlatency = '1 ns'\n", "switched-capacitor", "effects.comparator.latency"),
+        ("[components]\nC = '100 ohm'\n", "circuit", "components.C"),
+        ("[components]\nR2 = '10001'\n", "circuit", "R2, R7, R3, C2, R8, C1"),
+        ("[duration]\nperiods = -3\n", "mechanical", "duration.periods"),
+        ("[system]\nkind = 'triple'\n", "mechanical", "system.kind"),
+        ("[system]\nkind = 'coupled'\nform = 'diagonal'\n", "mechanical", "form"),
+        ("[system]\nkind = 'coupled'\nk = 'nan'\n", "mechanical", "system.k"),
+        ("[system]\nkind = 'coupled'\n", "switched-capacitor", "model.name"),
+    ],
+)
+def test_scene_errors_name_the_key(tmp_path, extra, model, name):
+    text = BASE.format(model=model or "mechanical")
+    if extra.startswith("[model]"):
+        text = text.replace('[model]\nname = "mechanical"\n', "") + extra.replace("[model]\n", '[model]\nname = "mechanical"\n')
+    else:
+        text = text + extra if not extra.startswith("colour") else extra + text
+    with pytest.raises(ParameterError) as e:
+        load_scene(write(tmp_path, text))
+    assert e.value.name == name, str(e.value)
+
+
+def test_bad_parameters_and_files(tmp_path):
+    with pytest.raises(ParameterError) as e:
+        load_scene(write(tmp_path, BASE.format(model="mechanical").replace('"0.74"', '"-1"')))
+    assert e.value.name == "parameters.eta"
+    with pytest.raises(ParameterError) as e:
+        load_scene(write(tmp_path, "name = [", "bad.toml"))
+    assert e.value.name == "scene" and "TOML" in str(e.value)
+    with pytest.raises(ParameterError) as e:
+        load_scene("no-such-scene")
+    assert e.value.name == "scene"
+
+
+def test_run_models_of_one_scene_agree():
+    """fig6-period3-ideal (eta = 0.74): the circuit, the switched-capacitor model with no
+    effects, and the mechanical model agree to round-off (10 eps t)."""
+    sc = load_scene("fig6-period3-ideal")
+    ref = simulate(Params.make(eta="0.74"), sc.periods)
+    for model in ("circuit", "switched-capacitor", "mechanical"):
+        tr = run_scene(sc, model)
+        assert max(sample_errors(tr, ref)) < 10 * 2.2e-16 * float(ref.t[-1]), model
+
+
+def test_run_cli_json_and_files(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "precise_impact", "run", "fig6-period3-datasheet", "--json",
+                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    obj = json.loads(r.stdout)
+    assert obj["scene"] == "fig6-period3-datasheet" and obj["model"] == "switched-capacitor"
+    assert obj["effects"] == ["comparator", "flipflop", "switch", "tolerance"]
+    assert len(obj["samples"]) == 201 and obj["impacts"] and isinstance(obj["elapsed_s"], float)
+    assert (tmp_path / "fig6-period3-datasheet_switched-capacitor.png").stat().st_size > 5000
+    r = subprocess.run([sys.executable, "-m", "precise_impact", "run", "fig7-k0.032-ideal", "--json"],
+                       capture_output=True, text=True, timeout=300)
+    obj = json.loads(r.stdout)
+    assert obj["k"] == "0.032" and "y" in obj["samples"][0]
+
+
+def test_scenes_cli_lists_every_builtin(capsys):
+    assert main(["scenes"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == len(builtin_scenes()) and all(" eta=" in ln for ln in out)
+
+
+def test_run_cli_bad_scene_exit_2(tmp_path, capsys):
+    bad = write(tmp_path, BASE.format(model="circuit") + "[effects.switch]\nron = '1'\n")
+    assert main(["run", str(bad)]) == 2
+    assert capsys.readouterr().err.startswith("precise-impact: error: effects.switch = ")
+    assert main(["run", "fig5-chaotic-ideal", "--model", "warp"]) == 2
