@@ -191,11 +191,9 @@ class CircuitSolver:
         conv = P.from_fraction
         om, rcv, vuv = conv(omega), conv(rc), conv(vu)
 
-        def mech(t, Vs, Vq):
-            return om * t, -Vs / vuv, Vq / (om * rcv * vuv)
-
-        tau, x, v = zip(*(mech(t, s[0], s[1]) for t, s in zip(grid, states))) if len(grid) else ((), (), ())
-        tau, x, v = P.array(tau), P.array(x), P.array(v)
+        # readout (numpy arrays elementwise; object arrays for float128 / mp)
+        scale = om * rcv * vuv
+        tau, x, v = om * grid, -states[:, 0] / vuv, states[:, 1] / scale
         imp_t = P.array([om * t for t in rec.t])
         imp_vb = P.array([vb / (om * rcv * vuv) for vb in rec.vb])
         imp_va = P.array([va / (om * rcv * vuv) for va in rec.va])

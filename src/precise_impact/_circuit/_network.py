@@ -163,6 +163,15 @@ def network_rhs(hy, p: dict, V_s, V_q, op: OpAmp, V_q_of=None):
     mode the caller must use :func:`dynamic_network` instead.
     """
     V3 = p["V_A"] * hy.cos(p["Omega"] * hy.time)
+    if op.ideal:
+        # eqs. (3)-(4) with ideal op-amps, expanded so that every state and the source
+        # appear once, each with its coefficient made of component values:
+        # V_q' = R2/(R3 C2) (V3/R1 - (R5/R4) V_q/R6 + V_s/R7), V_s' = -V_q/(R8 C1)
+        g = p["R2"] / (p["R3"] * p["C2"])
+        dVq = (g / p["R1"]) * V3 - (g * p["R5"] / (p["R4"] * p["R6"])) * V_q + (g / p["R7"]) * V_s
+        V_mq = -(p["R5"] / p["R4"]) * V_q
+        V_p = -p["R2"] * (V3 / p["R1"] + V_mq / p["R6"] + V_s / p["R7"])
+        return -V_q / (p["R8"] * p["C1"]), dVq, {"V_p": V_p, "V_mq": V_mq, "V3": V3, "unclamped": []}
     rate3 = -p["V_A"] * p["Omega"] * hy.sin(p["Omega"] * hy.time)
     qs = op.gbw is not None and op.gbw_mode == "quasi-static"
     # ideal rates for the quasi-static lag (first order in tau, so ideal rates suffice)
