@@ -4,12 +4,94 @@ The tangent dynamics between impacts are heyoka's first-order variational
 equations (``var_ode_sys``) of the same flow :func:`precise_impact._system.acceleration`.
 heyoka does not know about the discontinuity: at every impact the terminal-event
 callback maps the tangent matrix through the saltation matrix
-(:func:`precise_impact._impact.oscillator_saltation`), ``Phi+ = S Phi-``.  Every
-period the tangent matrix is re-orthonormalised (Gram-Schmidt = QR; Benettin et
-al., Meccanica 15 (1980) 21-30; Shimada & Nagashima, Prog. Theor. Phys. 61 (1979)
-1605), so it never overflows nor underflows; the logs of the diagonal of R
-accumulate the two exponents.  Müller, Chaos Solitons Fractals 5 (1995) 1671
-introduced the saltation-matrix treatment for impacting systems.
+(:func:`precise_impact._impact.oscillator_saltation`), ``Phi+ = S Phi-``.  The
+tangent matrix is re-orthonormalised (Gram-Schmidt = QR; Benettin et al.,
+Meccanica 15 (1980) 21-30; Shimada & Nagashima, Prog. Theor. Phys. 61 (1979)
+1605) at the end of every period *and right after every impact*; the logs of the
+diagonal of R accumulate the two exponents.  Müller, Chaos Solitons Fractals 5
+(1995) 1671 introduced the saltation-matrix treatment for impacting systems.
+
+Hard cases
+----------
+*Near-grazing impacts: the 1/v- of the saltation matrix.*  For the oscillator
+``S = [[-R, 0], [s, -R]]`` with ``s = (1 + R)(a cos(eta t) - x_w) / v-``
+(:mod:`precise_impact._impact`), so ``|s|`` grows without bound as the impact
+velocity ``v- -> 0``.  Three things could go wrong and are prevented:
+
+1. *Overflow.*  ``S Phi`` has entries ``~|s| |Phi|``.  Applying ``S`` and then
+   re-orthonormalising immediately (in the impact callback) leaves entries of
+   size ``<= 1`` after every impact, whose logs ``ln r11``, ``ln r22`` are added
+   to the current period's logs (QR of a product = product of the R factors, so
+   the per-period logs are, in exact arithmetic, the same as with one QR at the
+   period end).  The largest value ever formed is ``|s|`` times an entry ``<= 1``
+   (times the growth of the smooth flow within one period, < 2 here): overflow
+   needs ``v- < ~1e-308`` in float64 and never happens in practice (float64
+   cannot resolve an impact with ``v- < ~1e-8``, see 3.), and the MPFR exponent
+   range of ``mp:BITS`` is astronomically wide.  Every log is finite unless
+   ``R = 0`` (``det S = 0``: ``lambda2 = -inf``, see :func:`_gram_schmidt`).
+2. *heyoka's event machinery sees the tangents.*  heyoka measures errors against
+   the infinity norm of the *whole* state, tangent entries included
+   (``g_eps = eps * max|state|``, ``taylor_adaptive.cpp``), and after a terminal
+   event it ignores the same event for a cooldown of ``10 g_eps / |g'|``
+   (``taylor_deduce_cooldown``, ``src/detail/event_detection.cpp``), here
+   ``10 g_eps / v-``.  Large tangent entries therefore lengthen the cooldown and
+   hide the next impacts: measured with identity tangents scaled by ``1e17`` at
+   eta = 0.712, R = 0.8, the cooldown after the first impact became 5.3 time
+   units (8 of 13 impacts in 20 periods found, the mass went through the wall to
+   x = 2.76) and with ``1e18`` 682 time units (1 of 13).  Renormalising right
+   after each impact keeps ``max|state|`` at the size of ``(x, v)``, so the
+   cooldown is the plain integrator's.
+3. *Contacts at rounding level are not impacts.*  An orbit whose maximum lies
+   within rounding of the wall (exact grazing) may or may not produce an event,
+   at random, with ``v-`` at the rounding level (measured on the grazing steady
+   orbit, x_w = amplitude to 1 ulp: ``v- ~ 1e-8`` in about half of the periods).
+   Applying the impact there kicks ``v`` by ``(1 + R) v-`` and multiplies the
+   tangents by ``|s| ~ 1e8`` on the strength of a rounding error: measured
+   (eta = 0.70, x_w = amplitude rounded down), the grazing steady orbit then
+   leaves for the impacting chaotic attractor within 4 periods (impact speeds
+   1.7e-8, 1.5e-4, 1.3e-2: Nordmark's square-root map amplifies the rounding-level
+   kick) and the LLE comes out as +0.034 instead of -zeta.  As for the robust
+   analytical finder (:class:`~precise_impact._solver._analytical.AnalyticalSolver`,
+   ``stats["grazing"]``), an event whose excursion beyond the wall,
+   ``depth = v-^2 / (2 |x''|)`` (``x'' < 0``: a maximum), is below the grazing
+   depth ``delta(t)`` is a tangential *contact*: no reset, no saltation, counted
+   in ``diagnostics["grazing"]``.  Default ``delta(t) = 16 u (|x_w| + |a| + A_p
+   (1 + eta |t|))`` with ``u = 2^-bits`` the unit roundoff and ``A_p`` the
+   steady-state amplitude (:func:`~precise_impact._system.steady_state`): a few
+   roundings of the terms of the Taylor evaluation, plus the rounding of the
+   forcing phase (heyoka evaluates ``cos(eta t)`` with ``t`` rounded, an absolute
+   phase error ``u eta |t|`` that jitters the orbit's amplitude by ``~u eta |t|
+   A_p``), times 16 for safety.  Measured apparent depths of the events on grazing
+   steady orbits (eta = 0.6, 0.70, 0.712, 0.74, 2e4 periods on an absolute clock):
+   ``<= 2.1 u eta |t| A_p`` and ``~5e-16`` in the first periods.  An event with
+   ``v- <= 0`` (rounding) is a contact as well; ``x'' >= 0`` at small ``v-``
+   (pushed into the wall) is always an impact.
+
+*Time.*  The forcing is ``T``-periodic, so every period is integrated on the same
+local interval ``[L0, L1]`` with the clock set back by one period afterwards
+(as in :mod:`._two_trajectory`, whose ``_local_clock`` is used): ``|t|`` stays
+below ``T + |t0 mod T|``, the forcing-phase rounding ``u eta |t|`` and the grazing
+depth ``delta(t)`` stay at the level of the first period for any run length
+(with absolute time the apparent depth on the grazing orbit grew to 4e-11 after
+2e4 periods).
+
+*Missed impacts: the guard.*  heyoka's event detection isolates the roots of the
+event polynomial of each step (Descartes' rule of signs with bisection) and
+refines them with TOMS 748; its documentation warns that roots of multiplicity
+> 1 (a tangency) can be missed (heyoka.py tutorial "Event detection",
+"Limitations and caveats: badly-conditioned event equations"), and a root
+whose refinement fails (TOMS 748 reporting an ``errno``, or too many iterations)
+is dropped with a logged warning (``event_detection.cpp``).  Measured: on the
+grazing steady orbit (eta = 0.74, x_w = amplitude rounded to nearest) heyoka
+logged "returned a nonzero errno with message 'Numerical argument out of domain'"
+once in 2000 periods; the dropped root was a maximum at exactly ``x - x_w = 0.0``
+(a rounding-level tangency, a contact).  As a check independent of that machinery, a
+non-terminal event on ``v`` (direction negative: every maximum of ``x``)
+evaluates ``x`` at the maximum (dense output): a maximum beyond the wall by more
+than ``4 delta(t)`` can only be a missed impact (contacts stay within
+``delta(t)``); it raises :class:`MissedImpactError` (``guard=True``) or is counted
+(``guard=False``).  Measured: no float64 or mp miss above rounding level; the
+guard fires on the deliberately inflated-cooldown case of 2. above.
 """
 
 from __future__ import annotations
@@ -25,39 +107,112 @@ import numpy as np
 
 from .._errors import BudgetExceededError, ParameterError
 from .._impact import impact_at_start, oscillator_saltation, reset_velocity
-from .._params import RUNTIME_PARAMS, Params, check_count
+from .._params import RUNTIME_PARAMS, Params, check_count, exact
 from .._precision import Precision
 from .._system import acceleration
 from ._result import LyapunovResult, block_stderr
 
-__all__ = ["variational_spectrum", "build_variational_integrator"]
+__all__ = [
+    "variational_spectrum",
+    "build_variational_integrator",
+    "MissedImpactError",
+    "grazing_depth_coefficient",
+    "steady_amplitude",
+]
 
 _IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
+_I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R", "x_w"))
 # heyoka's var_ode_sys state layout: [x, v, dx/dx0, dx/dv0, dv/dx0, dv/dv0]
 _PHI = (2, 3, 4, 5)
+#: Safety factor of the default grazing depth (see the module docstring, 3.).
+GRAZING_SAFETY = 16
+#: A maximum beyond the wall by more than this many grazing depths is a missed impact.
+GUARD_FACTOR = 4
+
+
+class MissedImpactError(RuntimeError):
+    """The guard found a maximum of ``x`` beyond the wall that no impact event caught."""
+
+
+def grazing_depth_coefficient(precision: Precision) -> Fraction:
+    """``16 u``, ``u = 2^-bits``: the default grazing depth is this times ``|x_w| + |a| + A_p (1 + eta |t|)``."""
+    return Fraction(GRAZING_SAFETY, 2**precision.bits)
+
+
+def steady_amplitude(params: Params) -> float:
+    """Steady-state amplitude ``A_p = |a| / sqrt((1 - eta^2)^2 + (2 zeta eta)^2)`` as a float.
+
+    At the undamped resonance (``zeta = 0``, ``eta = 1``: no steady state) ``|a|``.
+    """
+    from .._system import steady_state
+
+    try:
+        return math.sqrt(float(steady_state(params).amplitude_squared))
+    except ParameterError:
+        return float(abs(params.a))
+
+
+class _Depth:
+    """Grazing depth ``delta(t) = coef (|x_w| + |a| + amp (1 + eta |t|))``, or a fixed value."""
+
+    def __init__(self, coef: Any = 0.0, amp: Any = 0.0, fixed: Any = None) -> None:
+        self.coef = coef
+        self.amp = amp
+        self.fixed = fixed
+
+    def __call__(self, t: Any, pr: Any) -> Any:
+        if self.fixed is not None:
+            return self.fixed
+        return self.coef * (abs(pr[_I_XW]) + abs(pr[_I_A]) + self.amp * (1 + pr[_I_ETA] * abs(t)))
 
 
 class _SaltationRecorder:
     """Terminal-event callback: impact map on the state, saltation matrix on the tangents.
 
     Deep-copied into the integrator by heyoka: read it back from
-    ``ta.t_events[0].callback``.
+    ``ta.t_events[0].callback``.  Counters (since the last :meth:`reset`):
+    ``count`` impacts applied, ``grazing`` contacts (not impacts), ``min_speed``
+    smallest ``v-`` of an impact, ``max_contact_speed`` largest ``v-`` of a contact,
+    ``max_saltation`` largest ``|S[1][0]|``; ``log1``/``log2`` the logs of the
+    in-callback QR since the last :meth:`take_logs`.
     """
 
     def __init__(self) -> None:
-        self.reset(10**7)
+        self.reset(10**7, _Depth(), math.sqrt, math.log, math.cos)
 
-    def reset(self, max_impacts: int) -> None:
+    def reset(self, max_impacts: int, depth: _Depth, sqrt, log, cos) -> None:
         self.count = 0
+        self.grazing = 0
         self.max_impacts = max_impacts
         self.exceeded = False
         self.min_speed = math.inf
+        self.max_contact_speed = 0.0
+        self.max_saltation = 0.0
+        self.depth = depth
+        self.sqrt, self.log, self.cos = sqrt, log, cos
+        self.log1 = 0.0
+        self.log2 = 0.0
+
+    def take_logs(self) -> tuple[float, float]:
+        """The logs accumulated since the last call, and zero them."""
+        l1, l2 = self.log1, self.log2
+        self.log1 = self.log2 = 0.0
+        return l1, l2
 
     def __call__(self, ta, d_sgn) -> bool:
         st, pr = ta.state, ta.pars
-        R, x_w = pr[_IDX["R"]], pr[_IDX["x_w"]]
+        t = ta.time
+        R, x_w, eta, zeta, a = pr[_I_R], pr[_I_XW], pr[_I_ETA], pr[_I_ZETA], pr[_I_A]
         vb = st[1]
-        S = oscillator_saltation(ta.time, vb, pr[_IDX["eta"]], pr[_IDX["zeta"]], pr[_IDX["a"]], x_w, R, np.cos)
+        acc = acceleration(t, x_w, vb, eta, zeta, a, self.cos)
+        if not vb > 0 or (acc < 0 and vb * vb <= -2 * acc * self.depth(t, pr)):
+            # Tangential contact within rounding of the wall: not an impact.
+            self.grazing += 1
+            sp = abs(float(vb))
+            if sp > self.max_contact_speed:
+                self.max_contact_speed = sp
+            return True
+        S = oscillator_saltation(t, vb, eta, zeta, a, x_w, R, self.cos)
         p00, p01, p10, p11 = st[2], st[3], st[4], st[5]
         st[2] = S[0][0] * p00 + S[0][1] * p10
         st[3] = S[0][0] * p01 + S[0][1] * p11
@@ -65,14 +220,55 @@ class _SaltationRecorder:
         st[5] = S[1][0] * p01 + S[1][1] * p11
         st[1] = reset_velocity(vb, R)
         st[0] = x_w
+        # Renormalise at once (module docstring, 1. and 2.): the logs carry the growth.
+        g1, g2 = _gram_schmidt(st, self.sqrt, self.log)
+        self.log1 += float(g1)
+        self.log2 += float(g2)
         self.count += 1
         sp = abs(float(vb))
         if sp < self.min_speed:
             self.min_speed = sp
+        s = abs(float(S[1][0]))
+        if s > self.max_saltation:
+            self.max_saltation = s
         if self.count >= self.max_impacts:
             self.exceeded = True
             return False
         return True
+
+
+class _MaximumGuard:
+    """Non-terminal-event callback on ``v`` (negative direction): ``x`` at every maximum.
+
+    Counters since :meth:`reset`: ``maxima`` checked, ``missed`` maxima beyond the
+    wall by more than ``GUARD_FACTOR * delta(t)``, ``max_overshoot`` the largest
+    ``x - x_w`` at a maximum, ``first_miss`` ``(t, x - x_w)`` of the first miss.
+    Read it back from ``ta.nt_events[0].callback``.
+    """
+
+    def __init__(self) -> None:
+        self.reset(_Depth())
+
+    def reset(self, depth: _Depth) -> None:
+        self.depth = depth
+        self.maxima = 0
+        self.missed = 0
+        self.max_overshoot = -math.inf
+        self.first_miss: tuple[float, float] | None = None
+
+    def __call__(self, ta, time, d_sgn) -> None:
+        # The integrator's state is at the end of the step: evaluate the dense output.
+        ta.update_d_output(time)
+        pr = ta.pars
+        over = ta.d_output[0] - pr[_I_XW]
+        self.maxima += 1
+        o = float(over)
+        if o > self.max_overshoot:
+            self.max_overshoot = o
+        if over > GUARD_FACTOR * self.depth(time, pr):
+            self.missed += 1
+            if self.first_miss is None:
+                self.first_miss = (float(time), o)
 
 
 _CACHE: dict[tuple, Any] = {}
@@ -80,7 +276,14 @@ _LOCK = threading.Lock()
 
 
 def build_variational_integrator(precision: Precision, tol: Any = None):
-    """Compile (or fetch) the oscillator + first-order variational equations integrator."""
+    """Compile (or fetch) the oscillator + first-order variational equations integrator.
+
+    State ``[x, v, dx/dx0, dx/dv0, dv/dx0, dv/dv0]``; runtime parameters
+    ``RUNTIME_PARAMS``; one terminal event (``x - x_w``, positive direction,
+    :class:`_SaltationRecorder`) and one non-terminal event (``v``, negative
+    direction: maxima of ``x``, :class:`_MaximumGuard`).  ``tol`` as in
+    :class:`~precise_impact.HeyokaSolver` (``None``: the precision's epsilon).
+    """
     import heyoka as hy
 
     key = (precision.name, None if tol is None else precision.to_str(tol))
@@ -93,6 +296,7 @@ def build_variational_integrator(precision: Precision, tol: Any = None):
         vsys = hy.var_ode_sys([(x, v), (v, rhs)], hy.var_args.vars, order=1)
         kw = precision.heyoka_kwargs
         ev = hy.t_event(x - p["x_w"], callback=_SaltationRecorder(), direction=hy.event_direction.positive, fp_type=kw["fp_type"])
+        guard = hy.nt_event(v, callback=_MaximumGuard(), direction=hy.event_direction.negative, fp_type=kw["fp_type"])
         zero = precision.from_fraction(Fraction(0))
         extra = {"tol": tol} if tol is not None else {}
         ta = hy.taylor_adaptive(
@@ -100,6 +304,7 @@ def build_variational_integrator(precision: Precision, tol: Any = None):
             [zero, zero],
             pars=[zero] * len(RUNTIME_PARAMS),
             t_events=[ev],
+            nt_events=[guard],
             compact_mode=precision.kind == "mp",
             **extra,
             **kw,
@@ -135,46 +340,60 @@ def _gram_schmidt(st, sqrt, log):
     return log(r11), log(r22)
 
 
-def _one_orbit(ta, rec, P, params: Params, transient: int, periods: int, progress, label: str):
-    """Transient, then ``periods`` renormalised periods; returns per-period logs and samples."""
+def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, progress, label: str, check_guard: bool):
+    """Transient, then ``periods`` renormalised periods; returns per-period logs and samples.
+
+    Every period is integrated on the local clock ``[L0, L1]`` (module docstring, *Time*).
+    """
     import heyoka as hy
+
+    from ._two_trajectory import _local_clock
 
     conv = P.from_fraction
     one, zero = conv(Fraction(1)), conv(Fraction(0))
     x0, v0 = conv(params.x0), conv(params.v0)
     if impact_at_start(params.x0, params.v0, params.x_w, params.R):
         v0 = reset_velocity(v0, conv(params.R))
-    ta.time = conv(params.t0)
+    L0, L1, _ = _local_clock(P, params.t0, params.eta)
+    ta.time = L0
     ta.state[:] = P.array([x0, v0, one, zero, zero, one])
     ta.reset_cooldowns()
-    times = P.sample_times(params.t0, params.eta, transient + periods)
     sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
     import mpmath
 
     with mpmath.workdps(30):
         period = float(2 * mpmath.pi / (mpmath.mpf(params.eta.numerator) / params.eta.denominator))
 
-    def advance(t_end):
-        oc = ta.propagate_until(t_end)[0]
+    def advance():
+        oc = ta.propagate_until(L1)[0]
         if rec.exceeded:
             raise BudgetExceededError(f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}")
         if oc != hy.taylor_outcome.time_limit:
             raise RuntimeError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
+        if check_guard and guard.missed:
+            t_m, over = guard.first_miss
+            raise MissedImpactError(
+                f"a maximum of x lies {over:.3g} beyond the wall x_w = {float(params.x_w)!r} at local time "
+                f"{t_m:.17g} with no impact event (more than {GUARD_FACTOR} grazing depths): heyoka's event "
+                "detection missed an impact; the result cannot be trusted"
+            )
+        ta.time = L0  # the forcing is T-periodic: set the clock back one period
 
-    for k in range(1, transient + 1):
-        advance(times[k])
+    for _ in range(transient):
+        advance()
         _gram_schmidt(ta.state, sqrt, log)  # keep the tangents bounded during the transient too
     st = ta.state
     st[2], st[3], st[4], st[5] = one, zero, zero, one
+    rec.take_logs()  # the transient's logs are discarded
     impacts0 = rec.count
     l1, l2, dt = np.empty(periods), np.empty(periods), np.empty(periods)
     sx, sv = np.empty(periods), np.empty(periods)
     step = max(1, periods // 10)
     for j in range(periods):
-        k = transient + j + 1
-        advance(times[k])
+        advance()
         g1, g2 = _gram_schmidt(ta.state, sqrt, log)
-        l1[j], l2[j] = float(g1), float(g2)
+        c1, c2 = rec.take_logs()
+        l1[j], l2[j] = float(g1) + c1, float(g2) + c2
         sx[j], sv[j] = ta.state[0], ta.state[1]
         dt[j] = period
         if progress and (j + 1) % step == 0:
@@ -187,6 +406,20 @@ def initial_condition(params: Params, j: int) -> Params:
     return params if j == 0 else params.replace(v0=params.v0 + Fraction(j, 4))
 
 
+def _depth_for(P: Precision, grazing_depth: Any, params: Params) -> _Depth:
+    """The recorder's/guard's :class:`_Depth` in precision ``P`` (validated)."""
+    if grazing_depth is None:
+        coef = grazing_depth_coefficient(P)
+        amp = Fraction(steady_amplitude(params))  # a float is plenty for a safety margin
+        if P.kind == "float64":
+            return _Depth(float(coef), float(amp))
+        return _Depth(P.from_fraction(coef), P.from_fraction(amp))
+    q = exact("grazing_depth", grazing_depth)
+    if q < 0:
+        raise ParameterError("grazing_depth", str(grazing_depth), "None or a depth >= 0")
+    return _Depth(fixed=float(q) if P.kind == "float64" else P.from_fraction(q))
+
+
 def variational_spectrum(
     params: Params,
     periods: int = 20000,
@@ -197,6 +430,9 @@ def variational_spectrum(
     initial_conditions: int = 4,
     max_impacts: int = 10**7,
     progress: bool = False,
+    guard: bool = True,
+    grazing_depth: Any = None,
+    diagnostics: dict | None = None,
 ) -> LyapunovResult:
     """Both Lyapunov exponents from the variational equations with saltation matrices.
 
@@ -224,6 +460,25 @@ def variational_spectrum(
         Impact budget per orbit (raises :class:`BudgetExceededError`).
     progress : bool, default ``False``
         A progress line on stderr every 10 %.
+    guard : bool, default ``True``
+        Raise :class:`MissedImpactError` when a maximum of ``x`` lies beyond the wall
+        by more than ``4 delta(t)`` (an impact heyoka's event detection missed; module
+        docstring, *the guard*).  ``False``: only count it (``diagnostics["missed"]``).
+    grazing_depth : decimal or None, default ``None``
+        Excursion depth ``delta`` below which an event is a tangential contact, not an
+        impact (module docstring, 3.).  ``None``: ``16 u (|x_w| + |a| + A_p (1 + eta |t|))``,
+        ``u = 2^-bits``, ``A_p`` the steady-state amplitude (:func:`steady_amplitude`),
+        ``t`` the local clock (:func:`grazing_depth_coefficient`);
+        a number ``>= 0``: that fixed depth (``0``: every event with ``v- > 0`` is an
+        impact, as :class:`~precise_impact.HeyokaSolver` treats them).
+    diagnostics : dict or None, default ``None``
+        If a dict, it is filled with counters summed over all orbits (transients
+        included): ``impacts`` (applied), ``grazing`` (contacts), ``min_impact_speed``
+        (smallest ``v-`` of an impact, ``inf`` if none), ``max_contact_speed``,
+        ``max_saltation`` (largest ``|s|``, ``s = S[1][0]``), ``maxima`` (checked by
+        the guard), ``max_overshoot`` (largest ``x - x_w`` at a maximum), ``missed``,
+        ``max_period_log`` (largest per-period ``ln r11``, in-callback parts
+        included) and ``finite_logs`` (every per-period ``ln r11`` finite).
 
     Returns a :class:`LyapunovResult` with ``spectrum = (lambda1, lambda2)`` per unit
     time and the first orbit's stroboscopic samples.  Exact properties:
@@ -235,7 +490,10 @@ def variational_spectrum(
     References: Benettin et al., Meccanica 15 (1980) 9-30 (QR re-orthonormalisation);
     Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices for
     impacting systems); di Bernardo et al., Piecewise-smooth Dynamical Systems (2008),
-    sec. 2.5; Flyvbjerg & Petersen, J. Chem. Phys. 91 (1989) 461 (batch means).
+    sec. 2.5; Nordmark, J. Sound Vib. 145 (1991) 279-297 (grazing); Flyvbjerg &
+    Petersen, J. Chem. Phys. 91 (1989) 461 (batch means); heyoka.py tutorial "Event
+    detection" (limitations and caveats) and heyoka ``src/detail/event_detection.cpp``
+    (cooldown, root-finding failures).
     """
     P = Precision.parse(precision)
     periods = check_count(periods, "periods")
@@ -249,27 +507,33 @@ def variational_spectrum(
     if segments < 2:
         raise ParameterError("segments", segments, "an integer >= 2 (the error bar needs independent blocks)")
     if tol is not None:
-        from .._params import exact
-
         q = exact("tol", tol)
         if not 0 < q < 1:
             raise ParameterError("tol", str(tol), "tolerance must satisfy 0 < tol < 1")
         tol = P.from_fraction(q)
+    if diagnostics is not None and not isinstance(diagnostics, dict):
+        raise ParameterError("diagnostics", type(diagnostics).__name__, "None or a dict to fill")
+    depth = _depth_for(P, grazing_depth, params)
     ics = [initial_condition(params, j) for j in range(n_ic)]  # validated before any work
 
     ta = build_variational_integrator(P, tol)
     ta.pars[:] = P.array([P.from_fraction(getattr(params, n)) for n in RUNTIME_PARAMS])
     rec = ta.t_events[0].callback
+    grd = ta.nt_events[0].callback
+    fns = (math.sqrt, math.log, math.cos) if P.kind == "float64" else (np.sqrt, np.log, np.cos)
     start = _time.perf_counter()
     per_orbit = [periods // n_ic + (1 if j < periods % n_ic else 0) for j in range(n_ic)]
     blocks_per_orbit = max(2, -(-segments // n_ic))
     L1, L2, DT, blocks = [], [], [], []
     impacts = 0
     strobe = None
+    diag = {"impacts": 0, "grazing": 0, "min_impact_speed": math.inf, "max_contact_speed": 0.0, "max_saltation": 0.0,
+            "maxima": 0, "max_overshoot": -math.inf, "missed": 0}
     for j, (ic, n) in enumerate(zip(ics, per_orbit)):
-        rec.reset(max_impacts)
+        rec.reset(max_impacts, depth, *fns)
+        grd.reset(depth)
         label = f" (orbit {j + 1}/{n_ic})" if n_ic > 1 else ""
-        l1, l2, dt, sx, sv, imp = _one_orbit(ta, rec, P, ic, transient, n, progress, label)
+        l1, l2, dt, sx, sv, imp = _one_orbit(ta, rec, grd, P, ic, transient, n, progress, label, guard)
         if strobe is None:
             strobe = (sx, sv)
         L1.append(l1)
@@ -277,8 +541,20 @@ def variational_spectrum(
         DT.append(dt)
         impacts += imp
         blocks.append(block_stderr(l1, dt, min(blocks_per_orbit, n))[0])
+        diag["impacts"] += rec.count
+        diag["grazing"] += rec.grazing
+        diag["min_impact_speed"] = min(diag["min_impact_speed"], rec.min_speed)
+        diag["max_contact_speed"] = max(diag["max_contact_speed"], rec.max_contact_speed)
+        diag["max_saltation"] = max(diag["max_saltation"], rec.max_saltation)
+        diag["maxima"] += grd.maxima
+        diag["max_overshoot"] = max(diag["max_overshoot"], grd.max_overshoot)
+        diag["missed"] += grd.missed
     elapsed = _time.perf_counter() - start
     l1, l2, dt = np.concatenate(L1), np.concatenate(L2), np.concatenate(DT)
+    if diagnostics is not None:
+        diag["max_period_log"] = float(np.max(l1)) if len(l1) else -math.inf
+        diag["finite_logs"] = bool(np.all(np.isfinite(l1)))
+        diagnostics.update(diag)
     all_blocks = np.concatenate(blocks)
     se = float(np.std(all_blocks, ddof=1) / math.sqrt(len(all_blocks))) if len(all_blocks) > 1 else math.nan
     total = float(np.sum(dt))
