@@ -187,3 +187,64 @@ def chatter_accumulation_time(t_n: Any, v_n: Any, R: Any, g: Any) -> Any:
     number type.
     """
     return t_n + 2 * R * v_n / (g * (1 - R))
+
+
+# --------------------------------------------------------------------- grazing contacts
+#: Safety factor of the default grazing depth.
+GRAZING_SAFETY = 16
+
+
+def grazing_depth_coefficient(precision) -> "Fraction":
+    """``16 u``, ``u = 2^-bits``: the default grazing depth is this times ``|x_w| + |a| + A_p (1 + eta |t|)``."""
+    from fractions import Fraction
+
+    return Fraction(GRAZING_SAFETY, 2**precision.bits)
+
+
+def steady_amplitude(params) -> float:
+    """Steady-state amplitude ``A_p = |a| / sqrt((1 - eta^2)^2 + (2 zeta eta)^2)`` as a float.
+
+    At the undamped resonance (``zeta = 0``, ``eta = 1``: no steady state) ``|a|``.
+    """
+    import math
+
+    from ._errors import ParameterError
+    from ._system import steady_state
+
+    try:
+        return math.sqrt(float(steady_state(params).amplitude_squared))
+    except ParameterError:
+        return float(abs(params.a))
+
+
+class GrazingDepth:
+    """Grazing depth ``delta(t) = coef (|x_w| + |a| + amp (1 + eta |t|))``, or a fixed value.
+
+    The rounding-level distance beyond the wall below which an event is a tangential
+    contact, not an impact (:func:`is_contact`).  ``pr`` is an integrator's parameter
+    vector in :data:`~._params.RUNTIME_PARAMS` order.
+    """
+
+    def __init__(self, coef: Any = 0.0, amp: Any = 0.0, fixed: Any = None) -> None:
+        self.coef = coef
+        self.amp = amp
+        self.fixed = fixed
+
+    def __call__(self, t: Any, pr: Any) -> Any:
+        from ._params import RUNTIME_PARAMS
+
+        if self.fixed is not None:
+            return self.fixed
+        i = {n: k for k, n in enumerate(RUNTIME_PARAMS)}
+        return self.coef * (abs(pr[i["x_w"]]) + abs(pr[i["a"]]) + self.amp * (1 + pr[i["eta"]] * abs(t)))
+
+
+def is_contact(v_minus: Any, acc_minus: Any, depth: Any) -> bool:
+    """True if an event at the wall is a tangential contact, not an impact.
+
+    Either the mass is not moving into the wall (``v- <= 0``), or it is decelerating
+    (``acc- < 0``) and would go beyond the wall by at most ``v-^2 / (2 |acc-|) <= depth``
+    (a rounding-level excursion: resetting ``v`` there changes it by a rounding-level
+    amount, and the saltation matrix ~ 1/v- would be meaningless).
+    """
+    return not v_minus > 0 or (acc_minus < 0 and v_minus * v_minus <= -2 * acc_minus * depth)

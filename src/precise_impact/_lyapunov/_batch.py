@@ -28,10 +28,11 @@ from typing import Sequence
 import numpy as np
 
 from .._errors import BudgetExceededError, ParameterError
-from .._impact import impact_at_start, oscillator_saltation, reset_velocity
+from .._impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
 from .._params import RUNTIME_PARAMS, Params, check_count
 from .._system import acceleration
-from ._variational import GRAZING_SAFETY, GUARD_FACTOR, MissedImpactError, steady_amplitude
+from .._impact import GRAZING_SAFETY, steady_amplitude
+from ._variational import GUARD_FACTOR, MissedImpactError
 
 __all__ = ["batch_lle", "detect_period", "default_batch_size"]
 
@@ -73,7 +74,7 @@ class _BatchSaltation:
         eta, zeta, a = pr[_I_ETA, i], pr[_I_ZETA, i], pr[_I_A, i]
         vb = float(st[1, i])
         acc = acceleration(t, x_w, vb, eta, zeta, a, math.cos)
-        if not vb > 0 or (acc < 0 and vb * vb <= -2 * acc * _depth(t, pr, i, self.amp[i])):
+        if is_contact(vb, acc, _depth(t, pr, i, self.amp[i])):
             self.grazing[i] += 1  # tangential contact within rounding of the wall
             return True
         S = oscillator_saltation(t, vb, eta, zeta, a, x_w, R, math.cos)

@@ -106,7 +106,15 @@ from typing import Any
 import numpy as np
 
 from .._errors import BudgetExceededError, ParameterError
-from .._impact import impact_at_start, oscillator_saltation, reset_velocity
+from .._impact import GrazingDepth as _Depth
+from .._impact import (
+    grazing_depth_coefficient,
+    impact_at_start,
+    is_contact,
+    oscillator_saltation,
+    reset_velocity,
+    steady_amplitude,
+)
 from .._params import RUNTIME_PARAMS, Params, check_count, exact
 from .._precision import Precision
 from .._system import acceleration
@@ -124,46 +132,12 @@ _IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
 _I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R", "x_w"))
 # heyoka's var_ode_sys state layout: [x, v, dx/dx0, dx/dv0, dv/dx0, dv/dv0]
 _PHI = (2, 3, 4, 5)
-#: Safety factor of the default grazing depth (see the module docstring, 3.).
-GRAZING_SAFETY = 16
 #: A maximum beyond the wall by more than this many grazing depths is a missed impact.
 GUARD_FACTOR = 4
 
 
 class MissedImpactError(RuntimeError):
     """The guard found a maximum of ``x`` beyond the wall that no impact event caught."""
-
-
-def grazing_depth_coefficient(precision: Precision) -> Fraction:
-    """``16 u``, ``u = 2^-bits``: the default grazing depth is this times ``|x_w| + |a| + A_p (1 + eta |t|)``."""
-    return Fraction(GRAZING_SAFETY, 2**precision.bits)
-
-
-def steady_amplitude(params: Params) -> float:
-    """Steady-state amplitude ``A_p = |a| / sqrt((1 - eta^2)^2 + (2 zeta eta)^2)`` as a float.
-
-    At the undamped resonance (``zeta = 0``, ``eta = 1``: no steady state) ``|a|``.
-    """
-    from .._system import steady_state
-
-    try:
-        return math.sqrt(float(steady_state(params).amplitude_squared))
-    except ParameterError:
-        return float(abs(params.a))
-
-
-class _Depth:
-    """Grazing depth ``delta(t) = coef (|x_w| + |a| + amp (1 + eta |t|))``, or a fixed value."""
-
-    def __init__(self, coef: Any = 0.0, amp: Any = 0.0, fixed: Any = None) -> None:
-        self.coef = coef
-        self.amp = amp
-        self.fixed = fixed
-
-    def __call__(self, t: Any, pr: Any) -> Any:
-        if self.fixed is not None:
-            return self.fixed
-        return self.coef * (abs(pr[_I_XW]) + abs(pr[_I_A]) + self.amp * (1 + pr[_I_ETA] * abs(t)))
 
 
 class _SaltationRecorder:
@@ -205,7 +179,7 @@ class _SaltationRecorder:
         R, x_w, eta, zeta, a = pr[_I_R], pr[_I_XW], pr[_I_ETA], pr[_I_ZETA], pr[_I_A]
         vb = st[1]
         acc = acceleration(t, x_w, vb, eta, zeta, a, self.cos)
-        if not vb > 0 or (acc < 0 and vb * vb <= -2 * acc * self.depth(t, pr)):
+        if is_contact(vb, acc, self.depth(t, pr)):
             # Tangential contact within rounding of the wall: not an impact.
             self.grazing += 1
             sp = abs(float(vb))

@@ -66,9 +66,14 @@ from typing import Any
 
 import mpmath
 from mpmath import libmp
+import numpy as np
 
 from .._errors import BudgetExceededError, ParameterError
 from .._impact import (
+    GrazingDepth,
+    grazing_depth_coefficient,
+    is_contact,
+    steady_amplitude,
     chatter_accumulation_time,
     impact_at_start,
     pushes_into_wall,
@@ -125,6 +130,9 @@ class _ImpactRecorder:
         self.contact_t: Any = None
         self.spurious = 0
         self.spurious_v = 0.0
+        self.depth = None  # a GrazingDepth enables the contact rule (set by HeyokaSolver.solve)
+        self.cos = np.cos
+        self.grazing = 0
 
     def __call__(self, ta, d_sgn) -> bool:
         st = ta.state
@@ -139,6 +147,13 @@ class _ImpactRecorder:
                 self.stop_reason = "budget"
                 return False
             return True
+        if self.depth is not None:
+            acc = acceleration(ta.time, pars[_IDX["x_w"]], vb, pars[_IDX["eta"]], pars[_IDX["zeta"]], pars[_IDX["a"]], self.cos)
+            if is_contact(vb, acc, self.depth(ta.time, pars)):
+                # a tangential contact within rounding of the wall: not an impact
+                # (same rule as the variational LLE and the robust analytical finder)
+                self.grazing += 1
+                return True
         va = reset_velocity(vb, pars[_IDX["R"]])
         st[1] = va
         # The event fixes the impact instant; the position there is the wall by
@@ -644,11 +659,18 @@ class HeyokaSolver:
         if params.x0 == params.x_w:
             rec.contact_t = ta.time  # a start on the wall
         rec.spurious_v = math.sqrt(P.eps_float) * max(1.0, abs(float(params.a)), abs(float(params.x_w)))
+        coef, amp = grazing_depth_coefficient(P), Fraction(steady_amplitude(params))
+        if P.kind == "float64":
+            rec.depth, rec.cos = GrazingDepth(float(coef), float(amp)), math.cos
+        else:
+            rec.depth, rec.cos = GrazingDepth(P.from_fraction(coef), P.from_fraction(amp)), np.cos
         t_start = _time.perf_counter()
         try:
             xs, vs, stats = self._run(ta, rec, watch, params, run_grid, max_steps, n_out)
         finally:
             rec.watch = None  # the cached integrator is shared: leave a plain recorder behind
+            rec.depth = None
+        stats["grazing"] = rec.grazing
         elapsed = _time.perf_counter() - t_start
         # ---- trim to [t0, t_end] and make the output right-continuous
         k = bisect.bisect_right(rec.t, t_end)
