@@ -331,6 +331,11 @@ def _glue_negative_values(argv: list[str]) -> list[str]:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     ns = parser.parse_args(_glue_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    # heyoka logs its warnings (e.g. root finding near grazing) to stdout, which would
+    # corrupt --json output; the CLI keeps only errors.
+    import heyoka
+
+    heyoka.set_logger_level_error()
     try:
         return {
             "simulate": _cmd_simulate,
