@@ -16,7 +16,7 @@ from precise_impact._circuit._components import Components, dimensionless, nomin
 from precise_impact._circuit._coupled_circuit import CIRCUIT_COUPLED_FORM, coupling_resistors, simulate_coupled_circuit
 from precise_impact._circuit._network import NETWORK_PARS, OpAmp
 from precise_impact._circuit._switched import SwitchedCapacitorSolver
-from precise_impact._circuit._tolerance import E96, draw_components, e_series_round
+from precise_impact._circuit._tolerance import draw_components, e_series_round
 from precise_impact._coupled import simulate_coupled
 
 
@@ -163,15 +163,16 @@ def test_dynamic_gbw_is_stiff_but_consistent_with_quasi_static():
 
 
 def test_tolerance_draws_are_seeded_and_within_tolerance():
+    """Seeded (same seed, same parts), each part within its band around the E-series value."""
     c = nominal_components(Params.make())
-    a = draw_components(c, {"resistor_pct": Fraction(1), "capacitor_pct": Fraction(5), "seed": 3})
-    b = draw_components(c, {"resistor_pct": Fraction(1), "capacitor_pct": Fraction(5), "seed": 3})
-    assert a == b
+    a = draw_components(c, {"resistor_pct": "1", "capacitor_pct": "5", "seed": 3})
+    assert a == draw_components(c, {"resistor_pct": "1", "capacitor_pct": "5", "seed": 3})
+    assert a != draw_components(c, {"resistor_pct": "1", "capacitor_pct": "5", "seed": 4})
     for n in ("R1", "R6", "C1"):
-        nominal = e_series_round(getattr(c, n), E96 if n.startswith("R") else (10,))
-        tol = Fraction(1, 100) if n.startswith("R") else Fraction(5, 100)
-        assert abs(getattr(a, n) / e_series_round(getattr(c, n), E96 if n.startswith("R") else __import__("precise_impact._circuit._tolerance", fromlist=["E24"]).E24) - 1) <= tol
-    assert e_series_round(Fraction(100000), E96) == 100000
+        series, tol = ("E96", Fraction(1, 100)) if n.startswith("R") else ("E24", Fraction(5, 100))
+        nominal = e_series_round(getattr(c, n), series)
+        assert abs(getattr(a, n) / nominal - 1) <= tol * (1 + Fraction(1, 10**5))  # 6-digit rounding
+    assert e_series_round(Fraction(100000), "E96") == 100000
 
 
 def test_coupled_circuit_realises_the_printed_14a():

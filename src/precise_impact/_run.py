@@ -54,9 +54,13 @@ def run_scene(scene: Scene, model: str | None = None):
 
         s = SwitchedCapacitorSolver(P, scene.tol, scene.effects)
     else:
-        from ._spice import run_spice_trajectory
+        from ._spice import run_spice
 
-        return run_spice_trajectory(scene)
+        p = scene.params
+        kw = {} if scene.tmax is None else {"tmax": float(scene.tmax)}
+        res = run_spice(scene.design(), scene.effects, scene.periods, x0=p.x0, v0=p.v0, t0=p.t0,
+                        dense=scene.per_period > 0, **kw)
+        return res.to_trajectory()
     p = scene.params
     return s.solve(scene.design(), scene.periods, x0=p.x0, v0=p.v0, t0=p.t0, per_period=scene.per_period)
 
