@@ -16,7 +16,7 @@ from precise_impact._circuit._components import Components, dimensionless, nomin
 from precise_impact._circuit._coupled_circuit import CIRCUIT_COUPLED_FORM, coupling_resistors, simulate_coupled_circuit
 from precise_impact._circuit._network import NETWORK_PARS, OpAmp
 from precise_impact._circuit._switched import SwitchedCapacitorSolver
-from precise_impact._circuit._tolerance import draw_components, e_series_round
+from precise_impact._circuit.effects.tolerance import draw_components, e_series_round
 from precise_impact._coupled import simulate_coupled
 
 

@@ -25,7 +25,7 @@ def run_scene(scene: Scene, model: str | None = None):
         if scene.model == "circuit":
             from ._circuit._coupled_circuit import simulate_coupled_circuit
 
-            from ._circuit._tolerance import draw_components
+            from ._circuit.effects.tolerance import draw_components
 
             design = scene.design()
             tol_eff = scene.effects.get("tolerance")

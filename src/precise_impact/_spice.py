@@ -204,7 +204,7 @@ import numpy as np
 
 from ._circuit._components import Components, to_circuit, to_mechanical
 from ._circuit._effects import EFFECTS, validate_effects
-from ._circuit._tolerance import E24, E96, draw_components, e_series_round  # the one implementation
+from ._circuit.effects.tolerance import E24, E96, draw_components, e_series_round  # the one implementation
 from ._errors import ParameterError
 from ._params import check_count, decimal_str, exact
 

@@ -27,7 +27,7 @@ from .._result import Trajectory
 from ._components import Components, dimensionless, exact_omega as dimensionless_omega
 from ._effects import validate_effects
 from ._network import NETWORK_PARS, OpAmp, dynamic_network, network_rhs, opamp_from_effects, saturation_events
-from ._tolerance import draw_components
+from .effects.tolerance import draw_components
 
 __all__ = ["CircuitSolver", "circuit_system", "design_omega"]
 

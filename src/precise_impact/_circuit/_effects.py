@@ -4,9 +4,9 @@ Each effect is declared once here (name, the models it fits, its settings with
 unit, default, allowed range and the datasheet figure the default comes from).
 Op-amp effects fit the op-amp network models ('circuit', 'spice'); the impact
 circuit's effects (comparator, flip-flop, switch) fit the models that contain it
-('switched-capacitor', 'spice').  The equations each effect contributes live in the model that realises it
-(:mod:`._network` for the op-amp network, :mod:`._switched` for the impact
-circuit, :mod:`.._spice` for the netlist); an effect that is off contributes no
+('switched-capacitor', 'spice').  The equations each effect contributes live in its own module under
+:mod:`.effects` (called by :mod:`._network` for the op-amp network and
+:mod:`._switched` for the impact circuit; :mod:`.._spice` maps them to netlist elements); an effect that is off contributes no
 term, state or event, so a scene with no effects is the ideal model exactly.
 
 Datasheet typicals (typicals, not guaranteed values):

@@ -34,9 +34,10 @@ its closed-loop time constant ``tau = N / (2 pi GBW)`` to first order,
 from __future__ import annotations
 
 import dataclasses
-import math
 from fractions import Fraction
 from typing import Any, Mapping
+
+from .effects import opamp_gain, opamp_gbw, opamp_offset, opamp_saturation
 
 __all__ = ["NETWORK_PARS", "OpAmp", "inverting", "integrator", "network_rhs", "opamp_from_effects"]
 
@@ -88,15 +89,12 @@ def _num(q):
     return float(q)
 
 
-def clamp(hy, v, v_sat):
-    """``min(max(v, -v_sat), v_sat)`` with heyoka's select."""
-    return hy.select(hy.gt(v, v_sat), v_sat + 0 * v, hy.select(hy.lt(v, -v_sat), -v_sat + 0 * v, v))
-
-
 def inverting(hy, inputs, Rf, op: OpAmp, target_rate=None, unclamped=None):
     """Algebraic inverting (summing) stage: inputs = [(V_i, R_i)], feedback ``Rf``.
 
-    ``target_rate`` (d/dt of ``-Rf sum V_i/R_i``, ideal) enables the quasi-static GBW lag.
+    The ideal output, then each switched-on effect's own transformation
+    (:mod:`.effects`), in the order offset, finite gain, gain-bandwidth, saturation.
+    ``target_rate`` (d/dt of the ideal output) enables the quasi-static GBW lag.
     """
     ideal = -Rf * hy.sum([v / r for v, r in inputs]) if len(inputs) > 1 else -Rf * inputs[0][0] / inputs[0][1]
     if op.ideal:
@@ -104,16 +102,13 @@ def inverting(hy, inputs, Rf, op: OpAmp, target_rate=None, unclamped=None):
     N = 1 + Rf * hy.sum([1 / r for _, r in inputs]) if len(inputs) > 1 else 1 + Rf / inputs[0][1]
     out = ideal
     if op.v_os is not None:
-        out = out + _num(op.v_os) * N
-    A0 = op.gain()
-    if A0 is not None:
-        out = out / (1 + N / _num(A0))
+        out = opamp_offset.inverting(out, N, _num(op.v_os))
+    if op.gain() is not None:
+        out = opamp_gain.inverting(out, N, _num(op.gain()))
     if op.gbw is not None and op.gbw_mode == "quasi-static" and target_rate is not None:
-        out = out - N / (2 * math.pi * _num(op.gbw)) * target_rate
+        out = opamp_gbw.inverting(out, N, _num(op.gbw), target_rate)
     if op.v_sat is not None:
-        if unclamped is not None:
-            unclamped.append(out)
-        out = clamp(hy, out, _num(op.v_sat))
+        out = opamp_saturation.inverting(hy, out, _num(op.v_sat), unclamped)
     return out
 
 
@@ -123,36 +118,19 @@ def integrator(hy, V_in, R, C, V_out, op: OpAmp, in_rate=None):
         return -V_in / (R * C)
     vin = V_in
     if op.gbw is not None and op.gbw_mode == "quasi-static" and in_rate is not None:
-        # closed-loop lag of an integrator: noise gain ~1 at the crossover, tau = 1/(2 pi GBW)
-        vin = vin - in_rate / (2 * math.pi * _num(op.gbw))
+        vin = opamp_gbw.integrator_input(vin, _num(op.gbw), in_rate)
     if op.v_os is not None:
-        vin = vin - _num(op.v_os)
-    A0 = op.gain()
-    if A0 is not None:
-        rhs = -(vin + V_out / _num(A0)) / (R * C * (1 + 1 / _num(A0)))
-    else:
-        rhs = -vin / (R * C)
-    return rhs
+        vin = opamp_offset.integrator_input(vin, _num(op.v_os))
+    if op.gain() is not None:
+        return opamp_gain.integrator_rhs(vin, V_out, R, C, _num(op.gain()))
+    return -vin / (R * C)
 
 
 def saturation_events(hy, op: OpAmp, unclamped, fp_type, cooldown):
-    """Terminal events ending a Taylor step where a clipped stage output meets a rail.
-
-    heyoka evaluates the branch of ``select`` once per step, so without these a
-    step could run past the kink.  ``unclamped``: the stage outputs before clipping.
-    """
+    """The saturation effect's terminal events (none when it is off)."""
     if op.v_sat is None:
         return []
-    vs = _num(op.v_sat)
-    return [
-        hy.t_event(e - lvl, callback=_continue, fp_type=fp_type, cooldown=cooldown)
-        for e in unclamped
-        for lvl in (vs, -vs)
-    ]
-
-
-def _continue(ta, d_sgn) -> bool:
-    return True
+    return opamp_saturation.events(hy, unclamped, _num(op.v_sat), fp_type, cooldown)
 
 
 def network_rhs(hy, p: dict, V_s, V_q, op: OpAmp, V_q_of=None):
@@ -194,35 +172,5 @@ def network_rhs(hy, p: dict, V_s, V_q, op: OpAmp, V_q_of=None):
 
 
 def dynamic_network(hy, p: dict, op: OpAmp):
-    """Dynamic-GBW network: every op-amp output is a state.
-
-    States: ``V_s, V_q`` (U4, U2 outputs), ``V_p, V_mq`` (U1, U3 outputs), and the
-    capacitor voltages ``Vc1 = v-(U4) - V_s``, ``Vc2 = v-(U2) - V_q``.  Returns the
-    variable list and the right-hand sides.
-    """
-    V_s, V_q, V_p, V_mq, Vc1, Vc2 = hy.make_vars("V_s", "V_q", "V_p", "V_mq", "Vc1", "Vc2")
-    A0 = _num(op.gain())
-    wa = 2 * math.pi * _num(op.gbw) / A0
-    vos = 0.0 if op.v_os is None else _num(op.v_os)
-    V3 = p["V_A"] * hy.cos(p["Omega"] * hy.time)
-    # resistive stages: inverting-node voltage from the resistor network
-    g1 = 1 / p["R1"] + 1 / p["R6"] + 1 / p["R7"] + 1 / p["R2"]
-    vm1 = (V3 / p["R1"] + V_mq / p["R6"] + V_s / p["R7"] + V_p / p["R2"]) / g1
-    vm3 = (V_q / p["R4"] + V_mq / p["R5"]) / (1 / p["R4"] + 1 / p["R5"])
-    # integrators: inverting node = output + capacitor voltage
-    vm2 = V_q + Vc2
-    vm4 = V_s + Vc1
-
-    def out_rate(vo, vm):
-        r = wa * (A0 * (vos - vm) - vo)
-        return r
-
-    rhs = [
-        (V_s, out_rate(V_s, vm4)),
-        (V_q, out_rate(V_q, vm2)),
-        (V_p, out_rate(V_p, vm1)),
-        (V_mq, out_rate(V_mq, vm3)),
-        (Vc1, (V_q - vm4) / (p["R8"] * p["C1"])),
-        (Vc2, (V_p - vm2) / (p["R3"] * p["C2"])),
-    ]
-    return [V_s, V_q, V_p, V_mq, Vc1, Vc2], rhs
+    """Dynamic-GBW network (:func:`.effects.opamp_gbw.dynamic_network`)."""
+    return opamp_gbw.dynamic_network(hy, p, _num(op.gain()), _num(op.gbw), 0.0 if op.v_os is None else _num(op.v_os))

@@ -47,7 +47,8 @@ from ._circuit_model import design_omega
 from ._components import Components, dimensionless
 from ._effects import validate_effects
 from ._network import NETWORK_PARS
-from ._tolerance import draw_components
+from .effects import comparator, flipflop, switch
+from .effects.tolerance import draw_components
 
 __all__ = ["SwitchedCapacitorSolver"]
 
@@ -62,8 +63,8 @@ def _system():
     V_s, V_C = hy.make_vars("V_s", "V_C")
     V3 = p["V_A"] * hy.cos(p["Omega"] * hy.time)
     rho = p["R5"] / p["R4"]
-    k = 2 * p["ron"] * p["R2"] / p["R3"]
-    V_q = (-p["pol"] * V_C + k * (V3 / p["R1"] + V_s / p["R7"])) / (1 + k * rho / p["R6"])
+    k = switch.coupling(p["ron"], p["R2"], p["R3"])
+    V_q = switch.vq(p["pol"], V_C, V3, V_s, k, p["R1"], p["R6"], p["R7"], rho)
     V_p = -p["R2"] * (V3 / p["R1"] - rho * V_q / p["R6"] + V_s / p["R7"])
     return (V_s, V_C), [(V_s, -V_q / (p["R8"] * p["C1"])), (V_C, p["pol"] * V_p / (p["R3"] * p["C2"]))], V_q, V_p
 
@@ -170,9 +171,7 @@ class SwitchedCapacitorSolver:
         self.bbm = sw.get("bbm", Fraction(0))
         self.q_inj = sw.get("charge_injection", Fraction(0))
         self.slew = sw.get("slew_rate", Fraction(13 * 10**6))
-        self.delay = self.effects.get("comparator", {}).get("delay", Fraction(0)) + self.effects.get("flipflop", {}).get(
-            "delay", Fraction(0)
-        )
+        self.delay = comparator.delay(self.effects.get("comparator")) + flipflop.delay(self.effects.get("flipflop"))
         self.hyst = self.effects.get("comparator", {}).get("hysteresis", Fraction(0))
 
     def solve(self, design: Components, periods: int, x0: Any = 0, v0: Any = 0, t0: Any = 0,
@@ -194,14 +193,14 @@ class SwitchedCapacitorSolver:
         conv = P.from_fraction
         ta = _build(P, self.tol)
         pars = [getattr(comp, n) for n in NETWORK_PARS] + [
-            Fraction(1), self.ron, comp.V_wall - self.hyst / 2, comp.V_wall + self.hyst / 2
+            Fraction(1), self.ron, *comparator.thresholds(comp.V_wall, self.effects.get("comparator"))
         ]
         ta.pars[:] = P.array([conv(q) for q in pars])
         # initial state: V_s, and V_C such that V_q (with pol = +1) equals the mapped v0
         Vs0 = -params.x0 * vu
         Vq0 = params.v0 * omega * rc * vu
         t0s = params.t0 / omega
-        k = 2 * self.ron * comp.R2 / comp.R3
+        k = switch.coupling(self.ron, comp.R2, comp.R3)
         rho = comp.R5 / comp.R4
         # V3(t0) enters only through R_on; exact cosine at t0 via mpmath
         import mpmath
@@ -288,14 +287,13 @@ class SwitchedCapacitorSolver:
         R1, R2, R3, R6, R7 = (conv(getattr(comp, n)) for n in ("R1", "R2", "R3", "R6", "R7"))
         rho = conv(comp.R5 / comp.R4)
         VA, Om = conv(comp.V_A), conv(comp.Omega)
-        k = conv(2 * self.ron * comp.R2 / comp.R3)
+        k = conv(switch.coupling(self.ron, comp.R2, comp.R3))
         ideal = self.ron == 0
 
         def vq(t, Vs, VC, pol):
             if ideal:
                 return -pol * VC
-            V3 = VA * np.cos(Om * t)
-            return (-pol * VC + k * (V3 / R1 + Vs / R7)) / (1 + k * rho / R6)
+            return switch.vq(pol, VC, VA * np.cos(Om * t), Vs, k, R1, R6, R7, rho)
 
         return vq
 
@@ -312,17 +310,14 @@ class SwitchedCapacitorSolver:
             rho = conv(comp.R5 / comp.R4)
             V3 = conv(comp.V_A) * np.cos(conv(comp.Omega) * t_open)
             Vp = -R2 * (V3 / R1 - rho * vb / R6 + st[0] / R7)
-            s = 1 if Vp > 0 else -1
-            sr = conv(self.slew)
-            # V_q(t) = vb - s sr tau; V_s' = -V_q / (R8 C1)
-            st[0] = st[0] - (vb * tb - s * sr * tb * tb / 2) / conv(comp.R8 * comp.C1)
+            st[0] = switch.break_before_make(st[0], vb, Vp, tb, conv(self.slew), conv(comp.R8 * comp.C1))
             ta.time = t_open + tb
         ta.pars[_I["pol"]] = -pol
         cb = ta.t_events[0].callback
         if cb.rearm_at_flip:
             cb.armed = True
         if self.q_inj != 0:
-            st[1] = st[1] + conv(self.q_inj / comp.C2)
+            st[1] = st[1] + conv(switch.injected_voltage(self.q_inj, comp.C2))
         ta.reset_cooldowns()
         va = vq_fn(ta.time, st[0], st[1], -pol)
         return vb, va

@@ -13,10 +13,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .._errors import ParameterError
-from .._params import decimal_str, exact
-from ._components import Components
-from ._effects import validate_effects
+from ..._errors import ParameterError
+from ..._params import decimal_str, exact
+from .._components import Components
+from .._effects import validate_effects
 
 __all__ = ["E24", "E96", "e_series_round", "draw_components"]
 
@@ -60,7 +60,7 @@ def draw_components(components: Components, settings: Mapping[str, Any] | None =
     """Realised part values: E-series nominal, then a seeded draw within tolerance.
 
     Keywords (``settings``, the ``tolerance`` effect's table; missing keys take the
-    catalogue defaults of :mod:`._effects`):
+    catalogue defaults of :mod:`.._effects`):
 
     * ``resistor_pct`` (default 1 %): R1-R8 are rounded to the nearest **E96**
       value (the 1 % series), then multiplied by ``1 + resistor_pct/100 * u``.
