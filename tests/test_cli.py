@@ -152,3 +152,21 @@ def test_sweep_cli_resumes(tmp_path):
     assert (tmp_path / "sweep.csv").read_text().startswith("eta,lle,stderr,lambda2,period,impacts_per_period")
     bad = run("sweep", "--axis", "R", "0", "2", "3", "--out", str(tmp_path / "b"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: R_max = ")
+
+
+def test_reproduce_quick_main_job(tmp_path):
+    """The README's first command: report.md with every figure, the LLE and the sync thresholds."""
+    r = run("reproduce", "--quick", "--out", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    rep = json.loads((tmp_path / "report.json").read_text())
+    assert set(rep["figures"]) == {"4", "5", "6"}
+    for fig in ("4", "6"):  # periodic: the ideal circuit model equals the reference to round-off
+        assert rep["figures"][fig]["models"]["circuit (ideal)"]["max_error_second_half"] < 1e-10
+        assert rep["figures"][fig]["demonstrated"] < 1e-40
+    v = rep["lle"]["variational"]
+    assert abs(v[0] - 0.0305) < 5 * v[1] + 1e-3
+    assert set(rep["sync"]) == {"first-order", "reduced", "paper"}
+    md = (tmp_path / "report.md").read_text()
+    assert "Largest Lyapunov exponent" in md and "Fig. 6" in md
+    for name in ("fig4_phase_portraits.png", "fig7_first-order.png", "sync_fraction_paper.png"):
+        assert (tmp_path / name).stat().st_size > 5000

@@ -117,6 +117,10 @@ def build_parser() -> argparse.ArgumentParser:
     rn.add_argument("--json", action="store_true", help="print one JSON object to stdout")
     rn.add_argument("--out", default=None, metavar="DIR", help="write <scene>_<model>.json and .png here")
 
+    rp = sub.add_parser("reproduce", help="the main job: the paper's Figs. 4-7, LLE, sync thresholds, report.md")
+    rp.add_argument("--out", default="results", metavar="DIR", help="output directory (default results)")
+    rp.add_argument("--quick", action="store_true", help="shorter runs (about a minute)")
+
     a = sub.add_parser(
         "accuracy", help="the paper's three frequencies: every model and precision against a demonstrated reference"
     )
@@ -291,6 +295,20 @@ def _cmd_run(ns) -> int:
     return 0
 
 
+def _cmd_reproduce(ns) -> int:
+    from ._reproduce import reproduce
+
+    res = reproduce(ns.out, quick=ns.quick)
+    print(f"report: {ns.out}/report.md ({res['elapsed_s']:.0f} s)")
+    for fig, row in res["figures"].items():
+        print(f"Fig. {fig} eta={row['eta']}: " + ", ".join(
+            f"{n} {m['max_error_second_half']:.1e}" for n, m in row["models"].items()))
+    v = res["lle"]["variational"]
+    print(f"LLE(0.712) = {v[0]:.4f} +- {v[1]:.4f}; sync k*: " + ", ".join(
+        f"{f} {s['k_star']:.4f}" for f, s in res["sync"].items()))
+    return 0
+
+
 def _cmd_accuracy(ns) -> int:
     from ._accuracy import accuracy_table, format_table
     from ._params import check_count
@@ -345,6 +363,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "sweep": _cmd_sweep,
             "scenes": _cmd_scenes,
             "run": _cmd_run,
+            "reproduce": _cmd_reproduce,
             "accuracy": _cmd_accuracy,
         }[ns.command](ns)
     except ParameterError as e:
