@@ -117,6 +117,11 @@ def build_parser() -> argparse.ArgumentParser:
     rn.add_argument("--json", action="store_true", help="print one JSON object to stdout")
     rn.add_argument("--out", default=None, metavar="DIR", help="write <scene>_<model>.json and .png here")
 
+    from . import _cli_bench, _cli_compare, _cli_reference
+
+    _cli_compare.add_parser(sub)
+    _cli_reference.add_parser(sub)
+    _cli_bench.add_parser(sub)
     rp = sub.add_parser("reproduce", help="the main job: the paper's Figs. 4-7, LLE, sync thresholds, report.md")
     rp.add_argument("--out", default="results", metavar="DIR", help="output directory (default results)")
     rp.add_argument("--quick", action="store_true", help="shorter runs (about a minute)")
@@ -309,6 +314,24 @@ def _cmd_reproduce(ns) -> int:
     return 0
 
 
+def _cmd_bench(ns) -> int:
+    from ._cli_bench import run
+
+    return run(ns)
+
+
+def _cmd_compare(ns) -> int:
+    from ._cli_compare import run
+
+    return run(ns)
+
+
+def _cmd_reference(ns) -> int:
+    from ._cli_reference import run
+
+    return run(ns)
+
+
 def _cmd_accuracy(ns) -> int:
     from ._accuracy import accuracy_table, format_table
     from ._params import check_count
@@ -364,6 +387,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             "scenes": _cmd_scenes,
             "run": _cmd_run,
             "reproduce": _cmd_reproduce,
+            "compare": _cmd_compare,
+            "reference": _cmd_reference,
+            "bench": _cmd_bench,
             "accuracy": _cmd_accuracy,
         }[ns.command](ns)
     except ParameterError as e:

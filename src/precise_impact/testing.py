@@ -1,0 +1,290 @@
+"""Check your own solver against the shipped reference data (for users' pytest suites).
+
+Example::
+
+    from precise_impact.testing import assert_stroboscopic_close
+
+    def my_solver(params, periods):
+        # params: {"zeta": "0.05", "a": "1", "eta": "0.74", "x_w": "2", "R": "1",
+        #          "x0": "0", "v0": "0", "t0": "0"} (exact decimal strings)
+        # return x, v at t0 + k 2 pi / eta, k = 0..periods (periods + 1 values each)
+        ...
+
+    def test_my_solver():
+        assert_stroboscopic_close(my_solver, "single-0.74", periods=30, atol=1e-6, rtol=1e-6)
+
+Errors are scipy-style: ``|y - y_ref| / (atol + rtol |y_ref|)`` for ``y`` in ``x``
+and ``v`` at every stroboscopic sample, computed exactly (mpmath); the check passes
+when every error is ``<= 1``.  The stored reference is a multiprecision run whose
+accuracy is demonstrated by a second run at +64 bits (see each case's
+``manifest.json``), far below any tolerance a float64 or float128 solver can meet.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import mpmath
+import numpy as np
+
+__all__ = ["ReferenceCase", "load_reference", "score_solver", "assert_stroboscopic_close", "SINGLE_CASES"]
+
+#: Cases with stroboscopic samples usable by :func:`score_solver`.
+SINGLE_CASES = ("single-0.70", "single-0.712", "single-0.74")
+
+_WORKPREC = 400  # bits; above every stored reference precision
+
+
+def _root(root: str | os.PathLike | None) -> Path:
+    if root is not None:
+        return Path(root)
+    env = os.environ.get("PRECISE_IMPACT_REFERENCE")
+    if env:
+        return Path(env)
+    from ._reference import default_root
+
+    return default_root()
+
+
+@dataclasses.dataclass
+class ReferenceCase:
+    """One single-oscillator reference case.
+
+    Attributes
+    ----------
+    name : str
+        Case name, e.g. ``'single-0.74'``.
+    params : dict[str, str]
+        Exact decimal parameters (``zeta, a, eta, x_w, R, x0, v0, t0``).
+    precision : str
+        Precision of the stored run (``'mp:320'``).
+    accuracy : float
+        Demonstrated accuracy: largest disagreement with the +64-bit run over all samples.
+    t, x, v : list
+        Stroboscopic samples ``k = 0..periods`` (``mpmath.mpf``, or ``float`` with
+        ``as_float=True``).
+    impacts : list[dict]
+        Every impact: ``{'t', 'v_before', 'v_after'}`` (same number type).
+    manifest : dict
+        The case's ``manifest.json``.
+    """
+
+    name: str
+    params: dict
+    precision: str
+    accuracy: float
+    t: list
+    x: list
+    v: list
+    impacts: list
+    manifest: dict
+
+    @property
+    def periods(self) -> int:
+        return len(self.t) - 1
+
+
+def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike | None = None) -> ReferenceCase:
+    """Load a single-oscillator reference case.
+
+    Keywords
+    --------
+    case : str
+        One of :data:`SINGLE_CASES` (``'single-0.70'``, ``'single-0.712'``, ``'single-0.74'``).
+    as_float : bool, default ``False``
+        ``False``: numbers are exact ``mpmath.mpf`` values of the stored decimals
+        (independent of ``mpmath.mp.prec``); ``True``: Python floats.
+    root : directory or None, default ``None``
+        Where the datasets live; ``None`` means ``$PRECISE_IMPACT_REFERENCE`` if set,
+        else the ``reference_data/`` directory of the source checkout.
+    """
+    if case not in SINGLE_CASES:
+        raise ValueError(f"case must be one of {', '.join(SINGLE_CASES)}, got {case!r}")
+    d = _root(root) / case
+    try:
+        with open(d / "samples.json") as fh:
+            data = json.load(fh)
+        with open(d / "manifest.json") as fh:
+            manifest = json.load(fh)
+    except FileNotFoundError as e:
+        raise FileNotFoundError(
+            f"reference case {case!r} not found under {d.parent} (run `precise-impact reference generate`)"
+        ) from e
+
+    if as_float:
+        conv: Callable[[str], Any] = float
+    else:
+        def conv(s: str) -> mpmath.mpf:
+            with mpmath.workprec(_WORKPREC):
+                return mpmath.mpf(s)
+
+    samples = data["samples"]
+    return ReferenceCase(
+        name=case,
+        params=dict(data["params"]),
+        precision=data["precision"],
+        accuracy=float(manifest["accuracy"]["max_sample_disagreement"]),
+        t=[conv(r["t"]) for r in samples],
+        x=[conv(r["x"]) for r in samples],
+        v=[conv(r["v"]) for r in samples],
+        impacts=[{k: conv(r[k]) for k in ("t", "v_before", "v_after")} for r in data["impacts"]],
+        manifest=manifest,
+    )
+
+
+def _to_mpf(value: Any) -> mpmath.mpf:
+    """Exact mpmath value of a user number (float, numpy float, longdouble, heyoka real, str, Decimal)."""
+    with mpmath.workprec(_WORKPREC):
+        if isinstance(value, (float, np.float64, np.float32, int, np.integer)):
+            return mpmath.mpf(float(value)) if not isinstance(value, (int, np.integer)) else mpmath.mpf(int(value))
+        if isinstance(value, np.longdouble):
+            n, d = value.as_integer_ratio()
+            return mpmath.mpf(n) / d
+        if isinstance(value, Fraction):
+            return mpmath.mpf(value.numerator) / value.denominator
+        if isinstance(value, mpmath.mpf):
+            return +value
+        return mpmath.mpf(str(value))
+
+
+def score_solver(
+    solver: Callable[[dict, int], tuple[Sequence[Any], Sequence[Any]]],
+    case: str = "single-0.712",
+    periods: int | None = None,
+    atol: float = 1e-6,
+    rtol: float = 1e-6,
+    *,
+    root: str | os.PathLike | None = None,
+) -> dict[str, Any]:
+    """Run ``solver`` on a reference case and return its errors (never raises on a mismatch).
+
+    Keywords
+    --------
+    solver : callable ``solver(params, periods) -> (x, v)``
+        ``params`` is a dict of exact decimal strings (``zeta, a, eta, x_w, R, x0,
+        v0, t0``); ``x`` and ``v`` are sequences of ``periods + 1`` stroboscopic
+        samples at ``t0 + k 2 pi / eta``, ``k = 0..periods`` (floats, numpy floats,
+        longdoubles, decimal strings, mpmath or heyoka numbers).
+    case : str, default ``'single-0.712'``
+        One of :data:`SINGLE_CASES`.
+    periods : int or None, default ``None`` (every stored period, 300)
+        Periods to compare, ``1 <= periods <= stored``.
+    atol, rtol : float, default ``1e-6`` each
+        Absolute and relative tolerance; ``error = |y - y_ref| / (atol + rtol |y_ref|)``.
+    root : directory or None, default ``None``
+        Dataset location (see :func:`load_reference`).
+
+    Returns a dict: ``case``, ``periods``, ``atol``, ``rtol``, ``error_x``,
+    ``error_v`` (numpy arrays of the scaled errors per sample), ``solver_x``,
+    ``solver_v`` (the solver's samples as float64), ``abs_error_x``,
+    ``abs_error_v`` (numpy arrays of ``|y - y_ref|``), ``max_error`` (largest scaled
+    error), ``worst_period``, ``worst_variable`` (``'x'`` or ``'v'``), ``passed``
+    (``max_error <= 1``), ``reference_accuracy`` (the stored run's demonstrated
+    accuracy), ``shape_error`` (a message if the solver returned the wrong number of
+    samples, else ``None``; then every error is ``inf``).
+    """
+    ref = load_reference(case, root=root)
+    if periods is None:
+        periods = ref.periods
+    if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) or not 1 <= periods <= ref.periods:
+        raise ValueError(f"periods must be an integer in 1..{ref.periods} for case {case!r}, got {periods!r}")
+    periods = int(periods)
+    for name, tol in (("atol", atol), ("rtol", rtol)):
+        if not (isinstance(tol, (int, float)) and tol >= 0 and np.isfinite(tol)):
+            raise ValueError(f"{name} must be a finite number >= 0, got {tol!r}")
+    if atol == 0 and rtol == 0:
+        raise ValueError("atol and rtol cannot both be 0")
+    out = solver(dict(ref.params), periods)
+    n = periods + 1
+    result: dict[str, Any] = {
+        "case": case,
+        "periods": periods,
+        "atol": atol,
+        "rtol": rtol,
+        "reference_accuracy": ref.accuracy,
+        "shape_error": None,
+    }
+    try:
+        x, v = out
+        x, v = list(x), list(v)
+    except (TypeError, ValueError):
+        x = v = None
+    if x is None or len(x) != n or len(v) != n:
+        got = "not a pair of sequences" if x is None else f"{len(x)} x and {len(v)} v samples"
+        result["shape_error"] = f"solver must return (x, v) with {n} samples each (k = 0..{periods}); got {got}"
+        inf = np.full(n, np.inf)
+        result.update(error_x=inf, error_v=inf, abs_error_x=inf, abs_error_v=inf, max_error=np.inf,
+                      worst_period=0, worst_variable="x", passed=False)
+        return result
+    ex, ev, ax, av = (np.empty(n) for _ in range(4))
+    result["solver_x"] = np.array([float(_to_mpf(y)) for y in x])
+    result["solver_v"] = np.array([float(_to_mpf(y)) for y in v])
+    with mpmath.workprec(_WORKPREC):
+        for k in range(n):
+            for y, yr, e, a in ((x[k], ref.x[k], ex, ax), (v[k], ref.v[k], ev, av)):
+                ym = _to_mpf(y)
+                if not mpmath.isfinite(ym):
+                    a[k] = e[k] = np.inf
+                    continue
+                d = abs(ym - yr)
+                a[k] = float(d)
+                e[k] = float(d / (atol + rtol * abs(yr)))
+    kx, kv = int(np.argmax(ex)), int(np.argmax(ev))
+    if ev[kv] > ex[kx]:
+        worst, var = kv, "v"
+    else:
+        worst, var = kx, "x"
+    mx = float(max(ex[kx], ev[kv]))
+    result.update(error_x=ex, error_v=ev, abs_error_x=ax, abs_error_v=av, max_error=mx,
+                  worst_period=worst, worst_variable=var, passed=bool(mx <= 1.0))
+    return result
+
+
+def assert_stroboscopic_close(
+    solver: Callable[[dict, int], tuple[Sequence[Any], Sequence[Any]]],
+    case: str = "single-0.712",
+    periods: int | None = None,
+    atol: float = 1e-6,
+    rtol: float = 1e-6,
+    *,
+    root: str | os.PathLike | None = None,
+) -> dict[str, Any]:
+    """Assert that ``solver``'s stroboscopic samples match the reference case.
+
+    Same keywords as :func:`score_solver` (``solver``, ``case``, ``periods``,
+    ``atol``, ``rtol``, ``root``).  Raises :class:`AssertionError` naming the first
+    offending period, the variable, both values, the absolute and scaled error, and
+    the tolerances, if any scaled error ``|y - y_ref| / (atol + rtol |y_ref|)``
+    exceeds 1 (or the solver returned the wrong number of samples).  Returns the
+    :func:`score_solver` dict when it passes.
+
+    Note: at ``eta = 0.712`` (chaotic) errors grow ~0.12 decimal digits per period,
+    so a float64 solver meets ``1e-6`` only for roughly the first 80 periods.
+    """
+    r = score_solver(solver, case, periods, atol, rtol, root=root)
+    if r["shape_error"]:
+        raise AssertionError(f"{case}: {r['shape_error']}")
+    if not r["passed"]:
+        ref = load_reference(case, root=root)
+        e = np.maximum(r["error_x"], r["error_v"])
+        first = int(np.argmax(e > 1.0))
+        var = "x" if r["error_x"][first] >= r["error_v"][first] else "v"
+        got_err = r[f"error_{var}"][first]
+        absd = r[f"abs_error_{var}"][first]
+        yref = float((ref.x if var == "x" else ref.v)[first])
+        n_bad = int(np.sum(e > 1.0))
+        raise AssertionError(
+            f"solver differs from reference {case!r} (params {ref.params}):\n"
+            f"  first failure at period {first}: solver {var} = {r['solver_' + var][first]:.17g}, "
+            f"reference {var} = {yref:.17g}, |diff| = {absd:.3e}, "
+            f"scaled error |diff|/(atol + rtol*|ref|) = {got_err:.3e} > 1 (atol={atol:g}, rtol={rtol:g})\n"
+            f"  {n_bad} of {len(e)} samples fail; worst: period {r['worst_period']} ({r['worst_variable']}), "
+            f"scaled error {r['max_error']:.3e}\n"
+            f"  reference accuracy (demonstrated): {ref.accuracy:.1e}"
+        )
+    return r
