@@ -20,7 +20,7 @@ import numpy as np
 
 from ._errors import ParameterError
 
-__all__ = ["Params", "exact", "exact_grid", "check_count", "PARAM_NAMES", "RUNTIME_PARAMS"]
+__all__ = ["Params", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES", "RUNTIME_PARAMS"]
 
 #: Order of the fields, also the order of the CLI flags and of ``--json`` output.
 PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
@@ -95,6 +95,16 @@ def check_count(value: Any, name: str = "periods", maximum: int = 10**8) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= maximum:
         raise ParameterError(name, value, f"an integer with 0 <= {name} <= {maximum}")
     return int(value)
+
+
+def check_tol(tol: Any, name: str = "tol") -> Fraction | None:
+    """Validate an integrator tolerance: ``None`` (the precision's epsilon) or exact ``0 < tol < 1``."""
+    if tol is None:
+        return None
+    q = exact(name, tol)
+    if not 0 < q < 1:
+        raise ParameterError(name, str(tol), "tolerance must satisfy 0 < tol < 1")
+    return q
 
 
 def exact_grid(lo: Any, hi: Any, n: Any, name: str, minimum: Fraction = Fraction(0), strict: bool = False) -> list[Fraction]:

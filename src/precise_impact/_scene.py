@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from ._errors import ParameterError
-from ._params import PARAM_NAMES, Params, check_count, decimal_str, exact
+from ._params import PARAM_NAMES, Params, check_count, check_tol, decimal_str, exact
 from ._precision import Precision
 
 __all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
@@ -157,10 +157,7 @@ def _build(data: Mapping, source: str) -> Scene:
         raise ParameterError("model.name", model, "coupled scenes run on 'mechanical' or 'circuit'")
     precision = Precision.parse(str(model_t.get("precision", "float64")))
     tol = model_t.get("tol")
-    if tol is not None:
-        q = exact("model.tol", tol)
-        if not 0 < q < 1:
-            raise ParameterError("model.tol", decimal_str(q), "0 < tol < 1")
+    check_tol(tol, "model.tol")
     tmax = None
     if "tmax" in model_t:
         if model != "spice":

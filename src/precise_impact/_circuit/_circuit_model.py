@@ -21,7 +21,7 @@ import numpy as np
 
 from .._errors import BudgetExceededError, ParameterError
 from .._impact import reset_velocity
-from .._params import Params, check_count
+from .._params import Params, check_count, check_tol
 from .._precision import Precision
 from .._result import Trajectory
 from ._components import Components, dimensionless, exact_omega as dimensionless_omega
@@ -127,14 +127,8 @@ class CircuitSolver:
         self.precision = Precision.parse(precision)
         self.effects = validate_effects(effects, "circuit")
         self.op = opamp_from_effects(self.effects)
-        if tol is not None:
-            from .._params import exact
-
-            q = exact("tol", tol)
-            if not 0 < q < 1:
-                raise ParameterError("tol", str(tol), "tolerance must satisfy 0 < tol < 1")
-            tol = self.precision.from_fraction(q)
-        self.tol = tol
+        q = check_tol(tol)
+        self.tol = None if q is None else self.precision.from_fraction(q)
         self.max_impacts = check_count(max_impacts, "max_impacts", 10**9)
 
     def actual_components(self, design: Components) -> Components:

@@ -40,7 +40,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .._errors import BudgetExceededError, ParameterError
-from .._params import check_count
+from .._params import check_count, check_tol
 from .._precision import Precision
 from .._result import Trajectory
 from ._circuit_model import design_omega
@@ -157,14 +157,8 @@ class SwitchedCapacitorSolver:
                  effects: Mapping[str, Mapping[str, Any]] | None = None, max_impacts: int = 10**6) -> None:
         self.precision = Precision.parse(precision)
         self.effects = validate_effects(effects, "switched-capacitor")
-        if tol is not None:
-            from .._params import exact
-
-            q = exact("tol", tol)
-            if not 0 < q < 1:
-                raise ParameterError("tol", str(tol), "tolerance must satisfy 0 < tol < 1")
-            tol = self.precision.from_fraction(q)
-        self.tol = tol
+        q = check_tol(tol)
+        self.tol = None if q is None else self.precision.from_fraction(q)
         self.max_impacts = check_count(max_impacts, "max_impacts", 10**9)
         sw = self.effects.get("switch", {})
         self.ron = sw.get("ron", Fraction(0))

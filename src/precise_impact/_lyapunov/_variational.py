@@ -115,7 +115,7 @@ from .._impact import (
     reset_velocity,
     steady_amplitude,
 )
-from .._params import RUNTIME_PARAMS, Params, check_count, exact
+from .._params import RUNTIME_PARAMS, Params, check_count, check_tol, exact
 from .._precision import Precision
 from .._system import acceleration
 from ._result import LyapunovResult, block_stderr
@@ -480,11 +480,8 @@ def variational_spectrum(
     segments = check_count(segments, "segments", 10**6)
     if segments < 2:
         raise ParameterError("segments", segments, "an integer >= 2 (the error bar needs independent blocks)")
-    if tol is not None:
-        q = exact("tol", tol)
-        if not 0 < q < 1:
-            raise ParameterError("tol", str(tol), "tolerance must satisfy 0 < tol < 1")
-        tol = P.from_fraction(q)
+    q = check_tol(tol)
+    tol = None if q is None else P.from_fraction(q)
     if diagnostics is not None and not isinstance(diagnostics, dict):
         raise ParameterError("diagnostics", type(diagnostics).__name__, "None or a dict to fill")
     depth = _depth_for(P, grazing_depth, params)

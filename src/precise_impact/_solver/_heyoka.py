@@ -81,7 +81,7 @@ from .._impact import (
     reset_velocity,
     wall_acceleration,
 )
-from .._params import RUNTIME_PARAMS, Params, check_count, exact
+from .._params import RUNTIME_PARAMS, Params, check_count, check_tol, exact
 from .._precision import Precision
 from .._result import Trajectory
 from .._system import acceleration
@@ -222,15 +222,6 @@ def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool 
         )
         _CACHE[key] = ta
         return ta
-
-
-def _check_tol(tol: Any, precision: Precision) -> Fraction | None:
-    if tol is None:
-        return None
-    q = exact("tol", tol)
-    if not (0 < q < 1):
-        raise ParameterError("tol", str(tol), "tolerance must satisfy 0 < tol < 1")
-    return q
 
 
 # --------------------------------------------------------------------------- the wall
@@ -586,7 +577,7 @@ class HeyokaSolver:
         max_steps: int | None = None,
     ) -> None:
         self.precision = Precision.parse(precision)
-        self.tol_exact = _check_tol(tol, self.precision)
+        self.tol_exact = check_tol(tol)
         self.tol = None if self.tol_exact is None else self.precision.from_fraction(self.tol_exact)
         if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
             raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")
