@@ -21,8 +21,8 @@ from pathlib import Path
 import heyoka as hy
 
 from precise_impact import AnalyticalSolver, HeyokaSolver, Params
-from precise_impact._result import atomic_write
-from precise_impact._solver import _heyoka
+from precise_impact.core.trajectory import atomic_write
+from precise_impact.solvers import heyoka as _heyoka
 
 OUT = Path(__file__).resolve().parent / "results"
 

@@ -38,9 +38,9 @@ from pathlib import Path
 import numpy as np
 
 from precise_impact import HeyokaSolver, Params
-from precise_impact._circuit._components import nominal_components
-from precise_impact._result import atomic_write
-from precise_impact._spice import OUTPUT_FILE, run_spice, spice_netlist
+from precise_impact.models.circuit.components import nominal_components
+from precise_impact.core.trajectory import atomic_write
+from precise_impact.models.circuit.spice import OUTPUT_FILE, run_spice, spice_netlist
 
 OUT = Path(__file__).resolve().parent / "results"
 TMAXES = (100e-6, 30e-6, 10e-6, 3e-6, 1e-6)

@@ -24,9 +24,9 @@ import time
 from pathlib import Path
 
 from precise_impact import Params
-from precise_impact._lyapunov._variational import variational_spectrum
-from precise_impact._result import atomic_write
-from precise_impact._sweep import SweepSpec, run_sweep
+from precise_impact.analysis.lyapunov.variational import variational_spectrum
+from precise_impact.core.trajectory import atomic_write
+from precise_impact.analysis.sweep import SweepSpec, run_sweep
 
 OUT = Path(__file__).resolve().parent / "results"
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from precise_impact._workprecision import format_table, work_precision
+from precise_impact.verification.workprecision import format_table, work_precision
 
 
 def main() -> int:

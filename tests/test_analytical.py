@@ -19,11 +19,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from precise_impact._errors import BudgetExceededError, ParameterError
-from precise_impact._params import Params
-from precise_impact._precision import Precision
-from precise_impact._solver._analytical import AnalyticalSolver
-from precise_impact._system import steady_state
+from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.params import Params
+from precise_impact.core.precision import Precision
+from precise_impact.solvers.analytical import AnalyticalSolver
+from precise_impact.core.flow import steady_state
 
 EPS64 = 2.0**-52
 

@@ -12,8 +12,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from precise_impact import HeyokaSolver, ParameterError, Params, Precision, simulate
-from precise_impact._cli import main
-from precise_impact._params import PARAM_NAMES
+from precise_impact.cli.main import main
+from precise_impact.core.params import PARAM_NAMES
 
 BAD_NUMBERS = ["nan", "NaN", "inf", "-inf", "Infinity", "abc", "", "1e", "0x10", "1/0"]
 

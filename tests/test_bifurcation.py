@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, grazing_frequencies
-from precise_impact._bifurcation import bifurcation, eta_grid
+from precise_impact.analysis.bifurcation import bifurcation, eta_grid
 
 
 def test_grazing_frequency_closed_form_matches_amplitude_condition():

@@ -26,7 +26,7 @@ import mpmath
 import pytest
 
 from precise_impact import BudgetExceededError, HeyokaSolver, ParameterError, Params, Precision
-from precise_impact._impact import (
+from precise_impact.core.impact import (
     chatter_accumulation_time,
     pushes_into_wall,
     release_time,
@@ -274,7 +274,7 @@ def test_plastic_impact_with_force_pulling_away_leaves_the_wall(precision):
     within 1e-10 (float64; chaotic transient amplifies eps) / 1e-30 (mp:128).
     """
     from precise_impact import AnalyticalSolver
-    from precise_impact._accuracy import sample_errors
+    from precise_impact.verification.accuracy import sample_errors
 
     p = Params.make(R="0", eta="0.712")
     tr = HeyokaSolver(precision).solve(p, 60)

@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, acceleration, simulate
-from precise_impact._accuracy import sample_errors
-from precise_impact._circuit._circuit_model import CircuitSolver, circuit_system
-from precise_impact._circuit._components import Components, dimensionless, nominal_components
-from precise_impact._circuit._coupled_circuit import CIRCUIT_COUPLED_FORM, coupling_resistors, simulate_coupled_circuit
-from precise_impact._circuit._network import NETWORK_PARS, OpAmp
-from precise_impact._circuit._switched import SwitchedCapacitorSolver
-from precise_impact._circuit.effects.tolerance import draw_components, e_series_round
-from precise_impact._coupled import simulate_coupled
+from precise_impact.verification.accuracy import sample_errors
+from precise_impact.models.circuit.opamp import CircuitSolver, circuit_system
+from precise_impact.models.circuit.components import Components, dimensionless, nominal_components
+from precise_impact.models.circuit.coupled import CIRCUIT_COUPLED_FORM, coupling_resistors, simulate_coupled_circuit
+from precise_impact.models.circuit.network import NETWORK_PARS, OpAmp
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
+from precise_impact.models.circuit.effects.tolerance import draw_components, e_series_round
+from precise_impact.models.coupled import simulate_coupled
 
 
 def test_nominal_components_and_mapping_are_exact():

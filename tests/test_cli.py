@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from precise_impact import Params, Precision, simulate
-from precise_impact._cli import main
+from precise_impact.cli.main import main
 
 
 def run(*args):

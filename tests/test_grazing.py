@@ -45,10 +45,10 @@ import numpy as np
 import pytest
 
 from precise_impact import AnalyticalSolver, HeyokaSolver, Params, Precision, oscillator_saltation, steady_state
-from precise_impact._lyapunov import _variational as var
-from precise_impact._lyapunov._batch import batch_lle
-from precise_impact._lyapunov._variational import MissedImpactError, build_variational_integrator, variational_spectrum
-from precise_impact._system import acceleration, grazing_frequencies
+from precise_impact.analysis.lyapunov import variational as var
+from precise_impact.analysis.lyapunov.batch import batch_lle
+from precise_impact.analysis.lyapunov.variational import MissedImpactError, build_variational_integrator, variational_spectrum
+from precise_impact.core.flow import acceleration, grazing_frequencies
 
 ZETA = 0.05
 

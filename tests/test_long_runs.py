@@ -35,7 +35,7 @@ import numpy as np
 import pytest
 
 from precise_impact import HeyokaSolver, Params, Precision
-from precise_impact._lyapunov._variational import variational_spectrum
+from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
 ZETA = 0.05
 

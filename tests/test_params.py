@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from precise_impact import ParameterError, Params, Precision, simulate
-from precise_impact._params import decimal_str
+from precise_impact.core.params import decimal_str
 
 
 @pytest.mark.parametrize(

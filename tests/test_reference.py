@@ -17,7 +17,7 @@ import mpmath
 import pytest
 
 from precise_impact import HeyokaSolver, Params, Precision, oscillator_saltation, simulate, steady_state
-from precise_impact._accuracy import sample_errors
+from precise_impact.verification.accuracy import sample_errors
 
 
 def mpq(q: Fraction) -> mpmath.mpf:
@@ -258,7 +258,7 @@ def test_long_chaotic_reference_needs_and_gets_more_bits():
     the run with 64 more must agree to <= 1e-30 at period 600, while float128
     (34 digits, ~72 lost) must have lost all accuracy (error > 1e-3).
     """
-    from precise_impact._accuracy import reference_bits
+    from precise_impact.verification.accuracy import reference_bits
 
     p = Params.make(eta="0.712")
     bits = reference_bits(600)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from precise_impact import Params, simulate
-from precise_impact._cli_reference import main as reference_main
-from precise_impact._reference import CASES, default_root, verify
+from precise_impact.cli.reference import main as reference_main
+from precise_impact.verification.reference import CASES, default_root, verify
 from precise_impact.testing import assert_stroboscopic_close, load_reference, score_solver
 
 ROOT = default_root()
@@ -55,7 +55,7 @@ def test_tampered_copy_is_detected(tmp_path):
 
 def test_recomputation_catches_a_consistent_forgery(tmp_path):
     """Data changed *and* re-checksummed still fails the float128 recomputation."""
-    from precise_impact._reference import _finish, read_manifest
+    from precise_impact.verification.reference import _finish, read_manifest
 
     copy = tmp_path / "ref"
     shutil.copytree(ROOT / "single-0.712", copy / "single-0.712")

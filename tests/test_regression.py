@@ -16,9 +16,9 @@ import mpmath
 import pytest
 
 from precise_impact import Params, simulate
-from precise_impact._circuit._circuit_model import CircuitSolver
-from precise_impact._circuit._components import nominal_components
-from precise_impact._circuit._switched import SwitchedCapacitorSolver
+from precise_impact.models.circuit.opamp import CircuitSolver
+from precise_impact.models.circuit.components import nominal_components
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.testing import load_reference
 
 

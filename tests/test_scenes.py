@@ -11,10 +11,10 @@ from fractions import Fraction
 import pytest
 
 from precise_impact import ParameterError, Params, simulate
-from precise_impact._accuracy import sample_errors
-from precise_impact._run import run_scene
-from precise_impact._scene import builtin_scenes, load_scene, parse_quantity
-from precise_impact._cli import main
+from precise_impact.verification.accuracy import sample_errors
+from precise_impact.scenes.run import run_scene
+from precise_impact.scenes.scene import builtin_scenes, load_scene, parse_quantity
+from precise_impact.cli.main import main
 
 BASE = """
 name = "t"

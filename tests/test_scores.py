@@ -7,16 +7,16 @@ import math
 import numpy as np
 import pytest
 
-from precise_impact._errors import ParameterError
-from precise_impact._params import Params
-from precise_impact._scores import (
+from precise_impact.errors import ParameterError
+from precise_impact.core.params import Params
+from precise_impact.verification.scores import (
     divergence_rate,
     predictability_horizon,
     score,
     sliced_wasserstein,
     wasserstein_1d,
 )
-from precise_impact._simulate import simulate
+from precise_impact.solvers.simulate import simulate
 
 
 def test_sliced_wasserstein_of_a_cloud_with_itself_is_zero():
@@ -57,8 +57,8 @@ def test_divergence_rate_of_a_synthetic_exponential():
 
 
 def test_periodic_score_ideal_circuit_at_period_3():
-    from precise_impact._run import run_scene
-    from precise_impact._scene import load_scene
+    from precise_impact.scenes.run import run_scene
+    from precise_impact.scenes.scene import load_scene
 
     scene = load_scene("fig6-period3-ideal")
     ref = simulate(scene.params, scene.periods, precision="mp:128")
@@ -93,7 +93,7 @@ def test_score_refuses_unknown_regime():
 
 
 def test_compare_writes_report_and_figures(tmp_path):
-    from precise_impact._compare import compare
+    from precise_impact.verification.compare import compare
 
     res = compare("fig6-period3-ideal", ["circuit", "switched-capacitor"], out=tmp_path, progress=False)
     assert res["regime"] == "periodic"
@@ -110,8 +110,8 @@ def test_compare_writes_report_and_figures(tmp_path):
 def test_compare_and_cli_refuse_bad_models():
     import argparse
 
-    from precise_impact._cli_compare import add_parser, run
-    from precise_impact._compare import compare
+    from precise_impact.cli.compare import add_parser, run
+    from precise_impact.verification.compare import compare
 
     with pytest.raises(ParameterError, match="models"):
         compare("fig6-period3-ideal", ["circuit", "nonsense"])

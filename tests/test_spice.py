@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 from precise_impact import HeyokaSolver, ParameterError, Params, steady_state
-from precise_impact._circuit._components import nominal_components
-from precise_impact._circuit._effects import DATASHEET_SWITCH
-from precise_impact._spice import (
+from precise_impact.models.circuit.components import nominal_components
+from precise_impact.models.circuit.effects.catalogue import DATASHEET_SWITCH
+from precise_impact.models.circuit.spice import (
     E24,
     E96,
     NgspiceNotFoundError,

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params
-from precise_impact._lyapunov._batch import batch_lle, detect_period
-from precise_impact._lyapunov._variational import variational_spectrum
-from precise_impact._sweep import SweepSpec, load_sweep, run_sweep
+from precise_impact.analysis.lyapunov.batch import batch_lle, detect_period
+from precise_impact.analysis.lyapunov.variational import variational_spectrum
+from precise_impact.analysis.sweep import SweepSpec, load_sweep, run_sweep
 
 FIELDS = ("lle", "stderr", "lambda2", "period", "impacts_per_period")
 

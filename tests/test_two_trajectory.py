@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, steady_state
-from precise_impact._lyapunov._two_trajectory import _LAST_STATS, default_d0, two_trajectory_lle
+from precise_impact.analysis.lyapunov.two_trajectory import _LAST_STATS, default_d0, two_trajectory_lle
 
 ZETA = 0.05
 

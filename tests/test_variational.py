@@ -9,7 +9,7 @@ import mpmath
 import pytest
 
 from precise_impact import HeyokaSolver, Params, oscillator_saltation
-from precise_impact._lyapunov._variational import variational_spectrum
+from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
 
 def mpq(q: Fraction):
@@ -120,7 +120,7 @@ def test_two_methods_agree_within_error_bars():
     Independent methods (tangent dynamics vs finite separation) on different orbit
     stretches: they must agree within 3 combined standard errors.
     """
-    from precise_impact._lyapunov import lyapunov
+    from precise_impact.analysis.lyapunov import lyapunov
 
     p = Params.make(eta="0.712")
     a = lyapunov(p, "variational")
@@ -132,7 +132,7 @@ def test_plastic_impacts_r0():
     """R = 0: det S = 0 makes lambda2 = -inf; lambda1 stays finite and equals the
     two-trajectory estimate (independent method) within 5e-4 (O(1/t) bias of the
     finite-time estimates at 4000 periods, measured difference 2e-4)."""
-    from precise_impact._lyapunov import lyapunov
+    from precise_impact.analysis.lyapunov import lyapunov
 
     p = Params.make(eta="0.8", R="0")
     a = variational_spectrum(p, periods=4000, transient=200)

@@ -7,8 +7,8 @@ import math
 import pytest
 
 from precise_impact import Params
-from precise_impact._solver._heyoka import HeyokaSolver
-from precise_impact._workprecision import predicted_bits, scipy_solve, work_precision
+from precise_impact.solvers.heyoka import HeyokaSolver
+from precise_impact.verification.workprecision import predicted_bits, scipy_solve, work_precision
 
 TINY = {
     "cases": {"periodic": {"eta": "0.74", "periods": 10}, "chaotic": {"eta": "0.712", "periods": 10}},

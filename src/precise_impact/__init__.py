@@ -10,15 +10,15 @@ Public API (the private modules ``_params``, ``_precision``, ``_system``,
 * :func:`acceleration`, :func:`steady_state`, :func:`grazing_frequencies` - the smooth flow.
 """
 
-from ._errors import BudgetExceededError, ParameterError
-from ._impact import impact_at_start, oscillator_saltation, reset_velocity, saltation_matrix
-from ._params import PARAM_NAMES, RUNTIME_PARAMS, Params
-from ._precision import Precision
-from ._result import Trajectory
-from ._simulate import MODELS, make_solver, simulate
-from ._solver._analytical import AnalyticalSolver
-from ._solver._heyoka import HeyokaSolver
-from ._system import SteadyState, acceleration, grazing_frequencies, steady_state
+from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.impact import impact_at_start, oscillator_saltation, reset_velocity, saltation_matrix
+from precise_impact.core.params import PARAM_NAMES, RUNTIME_PARAMS, Params
+from precise_impact.core.precision import Precision
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.solvers.simulate import MODELS, make_solver, simulate
+from precise_impact.solvers.analytical import AnalyticalSolver
+from precise_impact.solvers.heyoka import HeyokaSolver
+from precise_impact.core.flow import SteadyState, acceleration, grazing_frequencies, steady_state
 
 __version__ = "0.1.0"
 

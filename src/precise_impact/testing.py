@@ -41,14 +41,9 @@ _WORKPREC = 400  # bits; above every stored reference precision
 
 
 def _root(root: str | os.PathLike | None) -> Path:
-    if root is not None:
-        return Path(root)
-    env = os.environ.get("PRECISE_IMPACT_REFERENCE")
-    if env:
-        return Path(env)
-    from ._reference import default_root
+    from precise_impact.verification.reference import default_root
 
-    return default_root()
+    return Path(root) if root is not None else default_root()
 
 
 @dataclasses.dataclass

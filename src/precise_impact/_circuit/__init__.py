@@ -1,1 +1,0 @@
-"""The electronic equivalent: component values, the op-amp network model, the switched-capacitor impact."""

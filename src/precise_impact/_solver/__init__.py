@@ -1,1 +1,0 @@
-"""Solvers: the heyoka reference integrator and the analytical (closed-form) solver."""

@@ -1,0 +1,221 @@
+"""Bifurcation diagram over eta with the largest Lyapunov exponent beneath.
+
+Each eta value is one variational run (:func:`~._lyapunov._variational.variational_spectrum`)
+that yields both the stroboscopic points and the LLE; the values are spread over
+worker processes (each compiles its integrator once), with a progress bar on stderr.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import math
+import os
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.errors import ParameterError
+from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
+from precise_impact.core.trajectory import atomic_write
+from precise_impact.core.flow import grazing_frequencies
+
+__all__ = ["BifurcationResult", "bifurcation", "eta_grid"]
+
+
+@dataclasses.dataclass
+class BifurcationResult:
+    """Stroboscopic x and LLE for each eta.
+
+    Attributes: ``eta`` (exact Fractions), ``x`` (n x periods float64 samples),
+    ``lle``, ``lle_stderr``, ``impacts_per_period``, ``grazing`` (closed-form grazing
+    frequencies inside the range), ``periods``, ``transient``, ``elapsed_s``, ``workers``.
+    """
+
+    params: Params
+    eta: list
+    x: np.ndarray
+    lle: np.ndarray
+    lle_stderr: np.ndarray
+    impacts_per_period: np.ndarray
+    grazing: list
+    periods: int
+    transient: int
+    elapsed_s: float
+    workers: int
+
+    def save(self, out: str | os.PathLike) -> dict[str, Path]:
+        """Write ``bifurcation.npz`` and ``bifurcation.png`` into ``out`` (atomically)."""
+        out = Path(out)
+        npz = out / "bifurcation.npz"
+        png = out / "bifurcation.png"
+        arrays = {
+            "eta": np.array([float(e) for e in self.eta]),
+            "eta_str": np.array([decimal_str(e) for e in self.eta]),
+            "x": self.x,
+            "lle": self.lle,
+            "lle_stderr": self.lle_stderr,
+            "impacts_per_period": self.impacts_per_period,
+            "grazing": np.array(self.grazing, dtype=float),
+            "meta_json": np.asarray(
+                json.dumps(
+                    {
+                        "params": self.params.decimal(),
+                        "periods": self.periods,
+                        "transient": self.transient,
+                        "elapsed_s": self.elapsed_s,
+                        "workers": self.workers,
+                    }
+                )
+            ),
+        }
+        atomic_write(npz, lambda fh: np.savez_compressed(fh, **arrays), binary=True)
+        self.plot(png)
+        return {"npz": npz, "png": png}
+
+    def plot(self, path: str | os.PathLike) -> None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        eta = np.array([float(e) for e in self.eta])
+        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+        xs = np.repeat(eta, self.x.shape[1])
+        ax1.plot(xs, self.x.ravel(), ",", color="k", alpha=0.5)
+        ax1.axhline(float(self.params.x_w), color="tab:red", lw=0.8, label="wall x_w")
+        ax1.set_ylabel("x at t0 + kT")
+        ax2.errorbar(eta, self.lle, yerr=self.lle_stderr, fmt="-", lw=0.8, color="tab:blue", ecolor="tab:gray")
+        ax2.axhline(0, color="k", lw=0.6)
+        ax2.axhline(-float(self.params.zeta), color="tab:green", lw=0.6, ls="--", label="-zeta (no impacts)")
+        ax2.set_ylabel("LLE per unit time")
+        ax2.set_xlabel("eta")
+        for g in self.grazing:
+            for ax in (ax1, ax2):
+                ax.axvline(g, color="tab:orange", ls=":", lw=1)
+        if self.grazing:
+            ax1.plot([], [], color="tab:orange", ls=":", label=f"grazing eta = {self.grazing[0]:.5f}")
+        ax1.legend(loc="upper right", fontsize=8)
+        ax2.legend(loc="lower right", fontsize=8)
+        fig.suptitle(
+            f"Bifurcation diagram and LLE (zeta={decimal_str(self.params.zeta)}, a={decimal_str(self.params.a)}, "
+            f"x_w={decimal_str(self.params.x_w)}, R={decimal_str(self.params.R)}; "
+            f"{self.transient} transient + {self.periods} periods)"
+        )
+        fig.tight_layout()
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=120)
+        plt.close(fig)
+        atomic_write(path, lambda fh: fh.write(buf.getvalue()), binary=True)
+
+
+def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:
+    """``n`` exact, evenly spaced values from ``eta_min`` to ``eta_max`` (both included)."""
+    return exact_grid(eta_min, eta_max, n, "eta", strict=True)
+
+
+def _one(args):
+    params, periods, transient = args
+    from precise_impact.analysis.lyapunov.variational import variational_spectrum
+
+    r = variational_spectrum(params, periods=periods, transient=transient, initial_conditions=1, segments=10)
+    return r.strobe_x, r.lle, r.stderr, r.impacts / r.periods
+
+
+def bifurcation(
+    params: Params,
+    eta_min: Any,
+    eta_max: Any,
+    n: int,
+    periods: int = 2000,
+    transient: int = 1000,
+    workers: int | None = None,
+    progress: bool = True,
+) -> BifurcationResult:
+    """Stroboscopic x and the LLE for ``n`` values of eta.
+
+    Keywords
+    --------
+    params : Params
+        Every parameter but eta (and the initial condition of each run).
+    eta_min, eta_max, n :
+        Exact evenly spaced grid (:func:`eta_grid`).
+    periods : int, default 2000
+        Measured periods per value (stroboscopic points and LLE).
+    transient : int, default 1000
+        Discarded periods per value.
+    workers : int or None, default ``None`` (all cores, ``os.cpu_count()``)
+        Worker processes; 1 runs in this process.
+    progress : bool, default ``True``
+        A progress bar on stderr.
+    """
+    etas = eta_grid(eta_min, eta_max, n)
+    periods = check_count(periods, "periods")
+    if periods < 1:
+        raise ParameterError("periods", periods, "an integer >= 1")
+    transient = check_count(transient, "transient")
+    if workers is None:
+        workers = os.cpu_count() or 1
+    workers = check_count(workers, "workers", 1024)
+    if workers < 1:
+        raise ParameterError("workers", workers, "an integer >= 1")
+    jobs = [(params.replace(eta=e), periods, transient) for e in etas]  # validates every eta first
+    start = time.perf_counter()
+    results: list[Any] = [None] * len(jobs)
+    done = 0
+
+    def tick():
+        if progress:
+            width = 40
+            filled = int(width * done / len(jobs))
+            el = time.perf_counter() - start
+            print(
+                f"\r  bifurcation [{'#' * filled}{'.' * (width - filled)}] {done}/{len(jobs)}  {el:6.1f} s",
+                end="" if done < len(jobs) else "\n",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    if workers == 1:
+        for i, job in enumerate(jobs):
+            results[i] = _one(job)
+            done += 1
+            tick()
+    else:
+        chunks = max(1, len(jobs) // (workers * 8))
+        with ProcessPoolExecutor(max_workers=workers) as ex:
+            futs = {}
+            for lo in range(0, len(jobs), chunks):
+                futs[ex.submit(_many, jobs[lo : lo + chunks])] = lo
+            for f in as_completed(futs):
+                lo = futs[f]
+                for j, r in enumerate(f.result()):
+                    results[lo + j] = r
+                done += len(f.result())
+                tick()
+    elapsed = time.perf_counter() - start
+    lo_f, hi_f = float(etas[0]), float(etas[-1])
+    graz = [float(g) for g in grazing_frequencies(params) if lo_f <= float(g) <= hi_f]
+    return BifurcationResult(
+        params=params,
+        eta=etas,
+        x=np.array([r[0] for r in results]),
+        lle=np.array([r[1] for r in results]),
+        lle_stderr=np.array([r[2] for r in results]),
+        impacts_per_period=np.array([r[3] for r in results]),
+        grazing=graz,
+        periods=periods,
+        transient=transient,
+        elapsed_s=elapsed,
+        workers=workers,
+    )
+
+
+def _many(jobs):
+    return [_one(j) for j in jobs]

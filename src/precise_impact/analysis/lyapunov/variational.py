@@ -1,0 +1,549 @@
+"""Lyapunov spectrum from the variational equations with the impact's saltation matrix.
+
+The tangent dynamics between impacts are heyoka's first-order variational
+equations (``var_ode_sys``) of the same flow :func:`precise_impact._system.acceleration`.
+heyoka does not know about the discontinuity: at every impact the terminal-event
+callback maps the tangent matrix through the saltation matrix
+(:func:`precise_impact._impact.oscillator_saltation`), ``Phi+ = S Phi-``.  The
+tangent matrix is re-orthonormalised (Gram-Schmidt = QR; Benettin et al.,
+Meccanica 15 (1980) 21-30; Shimada & Nagashima, Prog. Theor. Phys. 61 (1979)
+1605) at the end of every period *and right after every impact*; the logs of the
+diagonal of R accumulate the two exponents.  Müller, Chaos Solitons Fractals 5
+(1995) 1671 introduced the saltation-matrix treatment for impacting systems.
+
+Hard cases
+----------
+*Near-grazing impacts: the 1/v- of the saltation matrix.*  For the oscillator
+``S = [[-R, 0], [s, -R]]`` with ``s = (1 + R)(a cos(eta t) - x_w) / v-``
+(:mod:`precise_impact._impact`), so ``|s|`` grows without bound as the impact
+velocity ``v- -> 0``.  Three things could go wrong and are prevented:
+
+1. *Overflow.*  ``S Phi`` has entries ``~|s| |Phi|``.  Applying ``S`` and then
+   re-orthonormalising immediately (in the impact callback) leaves entries of
+   size ``<= 1`` after every impact, whose logs ``ln r11``, ``ln r22`` are added
+   to the current period's logs (QR of a product = product of the R factors, so
+   the per-period logs are, in exact arithmetic, the same as with one QR at the
+   period end).  The largest value ever formed is ``|s|`` times an entry ``<= 1``
+   (times the growth of the smooth flow within one period, < 2 here): overflow
+   needs ``v- < ~1e-308`` in float64 and never happens in practice (float64
+   cannot resolve an impact with ``v- < ~1e-8``, see 3.), and the MPFR exponent
+   range of ``mp:BITS`` is astronomically wide.  Every log is finite unless
+   ``R = 0`` (``det S = 0``: ``lambda2 = -inf``, see :func:`_gram_schmidt`).
+2. *heyoka's event machinery sees the tangents.*  heyoka measures errors against
+   the infinity norm of the *whole* state, tangent entries included
+   (``g_eps = eps * max|state|``, ``taylor_adaptive.cpp``), and after a terminal
+   event it ignores the same event for a cooldown of ``10 g_eps / |g'|``
+   (``taylor_deduce_cooldown``, ``src/detail/event_detection.cpp``), here
+   ``10 g_eps / v-``.  Large tangent entries therefore lengthen the cooldown and
+   hide the next impacts: measured with identity tangents scaled by ``1e17`` at
+   eta = 0.712, R = 0.8, the cooldown after the first impact became 5.3 time
+   units (8 of 13 impacts in 20 periods found, the mass went through the wall to
+   x = 2.76) and with ``1e18`` 682 time units (1 of 13).  Renormalising right
+   after each impact keeps ``max|state|`` at the size of ``(x, v)``, so the
+   cooldown is the plain integrator's.
+3. *Contacts at rounding level are not impacts.*  An orbit whose maximum lies
+   within rounding of the wall (exact grazing) may or may not produce an event,
+   at random, with ``v-`` at the rounding level (measured on the grazing steady
+   orbit, x_w = amplitude to 1 ulp: ``v- ~ 1e-8`` in about half of the periods).
+   Applying the impact there kicks ``v`` by ``(1 + R) v-`` and multiplies the
+   tangents by ``|s| ~ 1e8`` on the strength of a rounding error: measured
+   (eta = 0.70, x_w = amplitude rounded down), the grazing steady orbit then
+   leaves for the impacting chaotic attractor within 4 periods (impact speeds
+   1.7e-8, 1.5e-4, 1.3e-2: Nordmark's square-root map amplifies the rounding-level
+   kick) and the LLE comes out as +0.034 instead of -zeta.  As for the robust
+   analytical finder (:class:`~precise_impact._solver._analytical.AnalyticalSolver`,
+   ``stats["grazing"]``), an event whose excursion beyond the wall,
+   ``depth = v-^2 / (2 |x''|)`` (``x'' < 0``: a maximum), is below the grazing
+   depth ``delta(t)`` is a tangential *contact*: no reset, no saltation, counted
+   in ``diagnostics["grazing"]``.  Default ``delta(t) = 16 u (|x_w| + |a| + A_p
+   (1 + eta |t|))`` with ``u = 2^-bits`` the unit roundoff and ``A_p`` the
+   steady-state amplitude (:func:`~precise_impact._system.steady_state`): a few
+   roundings of the terms of the Taylor evaluation, plus the rounding of the
+   forcing phase (heyoka evaluates ``cos(eta t)`` with ``t`` rounded, an absolute
+   phase error ``u eta |t|`` that jitters the orbit's amplitude by ``~u eta |t|
+   A_p``), times 16 for safety.  Measured apparent depths of the events on grazing
+   steady orbits (eta = 0.6, 0.70, 0.712, 0.74, 2e4 periods on an absolute clock):
+   ``<= 2.1 u eta |t| A_p`` and ``~5e-16`` in the first periods.  An event with
+   ``v- <= 0`` (rounding) is a contact as well; ``x'' >= 0`` at small ``v-``
+   (pushed into the wall) is always an impact.
+
+*Time.*  The forcing is ``T``-periodic, so every period is integrated on the same
+local interval ``[L0, L1]`` with the clock set back by one period afterwards
+(as in :mod:`._two_trajectory`, whose ``_local_clock`` is used): ``|t|`` stays
+below ``T + |t0 mod T|``, the forcing-phase rounding ``u eta |t|`` and the grazing
+depth ``delta(t)`` stay at the level of the first period for any run length
+(with absolute time the apparent depth on the grazing orbit grew to 4e-11 after
+2e4 periods).
+
+*Missed impacts: the guard.*  heyoka's event detection isolates the roots of the
+event polynomial of each step (Descartes' rule of signs with bisection) and
+refines them with TOMS 748; its documentation warns that roots of multiplicity
+> 1 (a tangency) can be missed (heyoka.py tutorial "Event detection",
+"Limitations and caveats: badly-conditioned event equations"), and a root
+whose refinement fails (TOMS 748 reporting an ``errno``, or too many iterations)
+is dropped with a logged warning (``event_detection.cpp``).  Measured: on the
+grazing steady orbit (eta = 0.74, x_w = amplitude rounded to nearest) heyoka
+logged "returned a nonzero errno with message 'Numerical argument out of domain'"
+once in 2000 periods; the dropped root was a maximum at exactly ``x - x_w = 0.0``
+(a rounding-level tangency, a contact).  As a check independent of that machinery, a
+non-terminal event on ``v`` (direction negative: every maximum of ``x``)
+evaluates ``x`` at the maximum (dense output): a maximum beyond the wall by more
+than ``4 delta(t)`` can only be a missed impact (contacts stay within
+``delta(t)``); it raises :class:`MissedImpactError` (``guard=True``) or is counted
+(``guard=False``).  Measured: no float64 or mp miss above rounding level; the
+guard fires on the deliberately inflated-cooldown case of 2. above.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time as _time
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.impact import GrazingDepth as _Depth
+from precise_impact.core.impact import (
+    grazing_depth_coefficient,
+    impact_at_start,
+    is_contact,
+    oscillator_saltation,
+    reset_velocity,
+    steady_amplitude,
+)
+from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, check_tol, exact
+from precise_impact.core.precision import Precision
+from precise_impact.core.flow import acceleration
+from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
+
+__all__ = [
+    "variational_spectrum",
+    "build_variational_integrator",
+    "MissedImpactError",
+    "grazing_depth_coefficient",
+    "steady_amplitude",
+]
+
+_IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
+_I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R", "x_w"))
+# heyoka's var_ode_sys state layout: [x, v, dx/dx0, dx/dv0, dv/dx0, dv/dv0]
+_PHI = (2, 3, 4, 5)
+#: A maximum beyond the wall by more than this many grazing depths is a missed impact.
+GUARD_FACTOR = 4
+
+
+class MissedImpactError(RuntimeError):
+    """The guard found a maximum of ``x`` beyond the wall that no impact event caught."""
+
+
+class _SaltationRecorder:
+    """Terminal-event callback: impact map on the state, saltation matrix on the tangents.
+
+    Deep-copied into the integrator by heyoka: read it back from
+    ``ta.t_events[0].callback``.  Counters (since the last :meth:`reset`):
+    ``count`` impacts applied, ``grazing`` contacts (not impacts), ``min_speed``
+    smallest ``v-`` of an impact, ``max_contact_speed`` largest ``v-`` of a contact,
+    ``max_saltation`` largest ``|S[1][0]|``; ``log1``/``log2`` the logs of the
+    in-callback QR since the last :meth:`take_logs`.
+    """
+
+    def __init__(self) -> None:
+        self.reset(10**7, _Depth(), math.sqrt, math.log, math.cos)
+
+    def reset(self, max_impacts: int, depth: _Depth, sqrt, log, cos) -> None:
+        self.count = 0
+        self.grazing = 0
+        self.max_impacts = max_impacts
+        self.exceeded = False
+        self.min_speed = math.inf
+        self.max_contact_speed = 0.0
+        self.max_saltation = 0.0
+        self.depth = depth
+        self.sqrt, self.log, self.cos = sqrt, log, cos
+        self.log1 = 0.0
+        self.log2 = 0.0
+
+    def take_logs(self) -> tuple[float, float]:
+        """The logs accumulated since the last call, and zero them."""
+        l1, l2 = self.log1, self.log2
+        self.log1 = self.log2 = 0.0
+        return l1, l2
+
+    def __call__(self, ta, d_sgn) -> bool:
+        st, pr = ta.state, ta.pars
+        t = ta.time
+        R, x_w, eta, zeta, a = pr[_I_R], pr[_I_XW], pr[_I_ETA], pr[_I_ZETA], pr[_I_A]
+        vb = st[1]
+        acc = acceleration(t, x_w, vb, eta, zeta, a, self.cos)
+        if is_contact(vb, acc, self.depth(t, pr)):
+            # Tangential contact within rounding of the wall: not an impact.
+            self.grazing += 1
+            sp = abs(float(vb))
+            if sp > self.max_contact_speed:
+                self.max_contact_speed = sp
+            return True
+        S = oscillator_saltation(t, vb, eta, zeta, a, x_w, R, self.cos)
+        p00, p01, p10, p11 = st[2], st[3], st[4], st[5]
+        st[2] = S[0][0] * p00 + S[0][1] * p10
+        st[3] = S[0][0] * p01 + S[0][1] * p11
+        st[4] = S[1][0] * p00 + S[1][1] * p10
+        st[5] = S[1][0] * p01 + S[1][1] * p11
+        st[1] = reset_velocity(vb, R)
+        st[0] = x_w
+        # Renormalise at once (module docstring, 1. and 2.): the logs carry the growth.
+        g1, g2 = _gram_schmidt(st, self.sqrt, self.log)
+        self.log1 += float(g1)
+        self.log2 += float(g2)
+        self.count += 1
+        sp = abs(float(vb))
+        if sp < self.min_speed:
+            self.min_speed = sp
+        s = abs(float(S[1][0]))
+        if s > self.max_saltation:
+            self.max_saltation = s
+        if self.count >= self.max_impacts:
+            self.exceeded = True
+            return False
+        return True
+
+
+class _MaximumGuard:
+    """Non-terminal-event callback on ``v`` (negative direction): ``x`` at every maximum.
+
+    Counters since :meth:`reset`: ``maxima`` checked, ``missed`` maxima beyond the
+    wall by more than ``GUARD_FACTOR * delta(t)``, ``max_overshoot`` the largest
+    ``x - x_w`` at a maximum, ``first_miss`` ``(t, x - x_w)`` of the first miss.
+    Read it back from ``ta.nt_events[0].callback``.
+    """
+
+    def __init__(self) -> None:
+        self.reset(_Depth())
+
+    def reset(self, depth: _Depth) -> None:
+        self.depth = depth
+        self.maxima = 0
+        self.missed = 0
+        self.max_overshoot = -math.inf
+        self.first_miss: tuple[float, float] | None = None
+
+    def __call__(self, ta, time, d_sgn) -> None:
+        # The integrator's state is at the end of the step: evaluate the dense output.
+        ta.update_d_output(time)
+        pr = ta.pars
+        over = ta.d_output[0] - pr[_I_XW]
+        self.maxima += 1
+        o = float(over)
+        if o > self.max_overshoot:
+            self.max_overshoot = o
+        if over > GUARD_FACTOR * self.depth(time, pr):
+            self.missed += 1
+            if self.first_miss is None:
+                self.first_miss = (float(time), o)
+
+
+_CACHE: dict[tuple, Any] = {}
+_LOCK = threading.Lock()
+
+
+def build_variational_integrator(precision: Precision, tol: Any = None):
+    """Compile (or fetch) the oscillator + first-order variational equations integrator.
+
+    State ``[x, v, dx/dx0, dx/dv0, dv/dx0, dv/dv0]``; runtime parameters
+    ``RUNTIME_PARAMS``; one terminal event (``x - x_w``, positive direction,
+    :class:`_SaltationRecorder`) and one non-terminal event (``v``, negative
+    direction: maxima of ``x``, :class:`_MaximumGuard`).  ``tol`` as in
+    :class:`~precise_impact.HeyokaSolver` (``None``: the precision's epsilon).
+    """
+    import heyoka as hy
+
+    key = (precision.name, None if tol is None else precision.to_str(tol))
+    with _LOCK:
+        if key in _CACHE:
+            return _CACHE[key]
+        x, v = hy.make_vars("x", "v")
+        p = {name: hy.par[i] for i, name in enumerate(RUNTIME_PARAMS)}
+        rhs = acceleration(hy.time, x, v, p["eta"], p["zeta"], p["a"], hy.cos)
+        vsys = hy.var_ode_sys([(x, v), (v, rhs)], hy.var_args.vars, order=1)
+        kw = precision.heyoka_kwargs
+        ev = hy.t_event(x - p["x_w"], callback=_SaltationRecorder(), direction=hy.event_direction.positive, fp_type=kw["fp_type"])
+        guard = hy.nt_event(v, callback=_MaximumGuard(), direction=hy.event_direction.negative, fp_type=kw["fp_type"])
+        zero = precision.from_fraction(Fraction(0))
+        extra = {"tol": tol} if tol is not None else {}
+        ta = hy.taylor_adaptive(
+            vsys,
+            [zero, zero],
+            pars=[zero] * len(RUNTIME_PARAMS),
+            t_events=[ev],
+            nt_events=[guard],
+            compact_mode=precision.kind == "mp",
+            **extra,
+            **kw,
+        )
+        _CACHE[key] = ta
+        return ta
+
+
+def _gram_schmidt(st, sqrt, log):
+    """Orthonormalise the tangent columns in place (modified Gram-Schmidt = QR).
+
+    Returns ``(ln r11, ln r22)``.  ``sqrt``/``log`` are math's for float64 (Python
+    floats are several times faster than numpy scalars) and numpy's otherwise.
+    """
+    if sqrt is math.sqrt:
+        a0, b0, a1, b1 = st[2:6].tolist()  # [dx/dx0, dx/dv0, dv/dx0, dv/dv0]
+    else:
+        a0, b0, a1, b1 = st[2], st[3], st[4], st[5]
+    # columns: c1 = (a0, a1) (d/dx0), c2 = (b0, b1) (d/dv0)
+    r11 = sqrt(a0 * a0 + a1 * a1)
+    q0, q1 = a0 / r11, a1 / r11
+    proj = q0 * b0 + q1 * b1
+    b0, b1 = b0 - proj * q0, b1 - proj * q1
+    r22 = sqrt(b0 * b0 + b1 * b1)
+    st[2], st[4] = q0, q1
+    if r22 == 0:
+        # A plastic impact (R = 0, det S = 0) collapses the tangent space onto one
+        # direction: the second exponent is -inf.  Re-seed the second vector
+        # orthogonal to the first so the first exponent stays well defined.
+        st[3], st[5] = -q1, q0
+        return log(r11), -math.inf
+    st[3], st[5] = b0 / r22, b1 / r22
+    return log(r11), log(r22)
+
+
+def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, progress, label: str, check_guard: bool):
+    """Transient, then ``periods`` renormalised periods; returns per-period logs and samples.
+
+    Every period is integrated on the local clock ``[L0, L1]`` (module docstring, *Time*).
+    """
+    import heyoka as hy
+
+    from precise_impact.analysis.lyapunov.two_trajectory import _local_clock
+
+    conv = P.from_fraction
+    one, zero = conv(Fraction(1)), conv(Fraction(0))
+    x0, v0 = conv(params.x0), conv(params.v0)
+    if impact_at_start(params.x0, params.v0, params.x_w, params.R):
+        v0 = reset_velocity(v0, conv(params.R))
+    L0, L1, _ = _local_clock(P, params.t0, params.eta)
+    ta.time = L0
+    ta.state[:] = P.array([x0, v0, one, zero, zero, one])
+    ta.reset_cooldowns()
+    sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
+    import mpmath
+
+    with mpmath.workdps(30):
+        period = float(2 * mpmath.pi / (mpmath.mpf(params.eta.numerator) / params.eta.denominator))
+
+    def advance():
+        oc = ta.propagate_until(L1)[0]
+        if rec.exceeded:
+            raise BudgetExceededError(f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}")
+        if oc != hy.taylor_outcome.time_limit:
+            raise RuntimeError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
+        if check_guard and guard.missed:
+            t_m, over = guard.first_miss
+            raise MissedImpactError(
+                f"a maximum of x lies {over:.3g} beyond the wall x_w = {float(params.x_w)!r} at local time "
+                f"{t_m:.17g} with no impact event (more than {GUARD_FACTOR} grazing depths): heyoka's event "
+                "detection missed an impact; the result cannot be trusted"
+            )
+        ta.time = L0  # the forcing is T-periodic: set the clock back one period
+
+    for _ in range(transient):
+        advance()
+        _gram_schmidt(ta.state, sqrt, log)  # keep the tangents bounded during the transient too
+    st = ta.state
+    st[2], st[3], st[4], st[5] = one, zero, zero, one
+    rec.take_logs()  # the transient's logs are discarded
+    impacts0 = rec.count
+    l1, l2, dt = np.empty(periods), np.empty(periods), np.empty(periods)
+    sx, sv = np.empty(periods), np.empty(periods)
+    step = max(1, periods // 10)
+    for j in range(periods):
+        advance()
+        g1, g2 = _gram_schmidt(ta.state, sqrt, log)
+        c1, c2 = rec.take_logs()
+        l1[j], l2[j] = float(g1) + c1, float(g2) + c2
+        sx[j], sv[j] = ta.state[0], ta.state[1]
+        dt[j] = period
+        if progress and (j + 1) % step == 0:
+            print(f"  variational LLE{label}: {j + 1}/{periods} periods", file=sys.stderr, flush=True)
+    return l1, l2, dt, sx, sv, rec.count - impacts0
+
+
+def initial_condition(params: Params, j: int) -> Params:
+    """The ``j``-th initial condition of an ensemble: ``v0 + j/4`` (j = 0 is ``params`` itself)."""
+    return params if j == 0 else params.replace(v0=params.v0 + Fraction(j, 4))
+
+
+def _depth_for(P: Precision, grazing_depth: Any, params: Params) -> _Depth:
+    """The recorder's/guard's :class:`_Depth` in precision ``P`` (validated)."""
+    if grazing_depth is None:
+        coef = grazing_depth_coefficient(P)
+        amp = Fraction(steady_amplitude(params))  # a float is plenty for a safety margin
+        if P.kind == "float64":
+            return _Depth(float(coef), float(amp))
+        return _Depth(P.from_fraction(coef), P.from_fraction(amp))
+    q = exact("grazing_depth", grazing_depth)
+    if q < 0:
+        raise ParameterError("grazing_depth", str(grazing_depth), "None or a depth >= 0")
+    return _Depth(fixed=float(q) if P.kind == "float64" else P.from_fraction(q))
+
+
+def variational_spectrum(
+    params: Params,
+    periods: int = 20000,
+    transient: int = 1000,
+    precision: str | Precision = "float64",
+    tol: Any = None,
+    segments: int = 20,
+    initial_conditions: int = 4,
+    max_impacts: int = 10**7,
+    progress: bool = False,
+    guard: bool = True,
+    grazing_depth: Any = None,
+    diagnostics: dict | None = None,
+) -> LyapunovResult:
+    """Both Lyapunov exponents from the variational equations with saltation matrices.
+
+    Keywords
+    --------
+    params : Params
+        System and initial condition (the paper's defaults: eta = 0.712 chaotic).
+    periods : int, default 20000
+        Measured forcing periods in all (each ``T = 2 pi / eta`` long), spread evenly
+        over the initial conditions; ``>= initial_conditions``.
+    transient : int, default 1000
+        Periods integrated first from each initial condition and discarded (the
+        tangents are renormalised during it and restart as the identity after it).
+    precision : str, default ``'float64'``
+        Any precision of :class:`~precise_impact.Precision`.
+    tol : decimal or None, default ``None`` (the precision's epsilon)
+    segments : int, default 20
+        Independent blocks for the standard error (batch means, :func:`block_stderr`),
+        spread over the initial conditions; ``>= 2``.
+    initial_conditions : int, default 4
+        Orbits started from ``(x0, v0 + j/4)``, ``j = 0..n-1`` (:func:`initial_condition`);
+        their blocks enter one error bar, so an attractor that depends on the initial
+        condition shows up as a large error bar rather than a confident wrong value.
+    max_impacts : int, default 10**7
+        Impact budget per orbit (raises :class:`BudgetExceededError`).
+    progress : bool, default ``False``
+        A progress line on stderr every 10 %.
+    guard : bool, default ``True``
+        Raise :class:`MissedImpactError` when a maximum of ``x`` lies beyond the wall
+        by more than ``4 delta(t)`` (an impact heyoka's event detection missed; module
+        docstring, *the guard*).  ``False``: only count it (``diagnostics["missed"]``).
+    grazing_depth : decimal or None, default ``None``
+        Excursion depth ``delta`` below which an event is a tangential contact, not an
+        impact (module docstring, 3.).  ``None``: ``16 u (|x_w| + |a| + A_p (1 + eta |t|))``,
+        ``u = 2^-bits``, ``A_p`` the steady-state amplitude (:func:`steady_amplitude`),
+        ``t`` the local clock (:func:`grazing_depth_coefficient`);
+        a number ``>= 0``: that fixed depth (``0``: every event with ``v- > 0`` is an
+        impact, as :class:`~precise_impact.HeyokaSolver` treats them).
+    diagnostics : dict or None, default ``None``
+        If a dict, it is filled with counters summed over all orbits (transients
+        included): ``impacts`` (applied), ``grazing`` (contacts), ``min_impact_speed``
+        (smallest ``v-`` of an impact, ``inf`` if none), ``max_contact_speed``,
+        ``max_saltation`` (largest ``|s|``, ``s = S[1][0]``), ``maxima`` (checked by
+        the guard), ``max_overshoot`` (largest ``x - x_w`` at a maximum), ``missed``,
+        ``max_period_log`` (largest per-period ``ln r11``, in-callback parts
+        included) and ``finite_logs`` (every per-period ``ln r11`` finite).
+
+    Returns a :class:`LyapunovResult` with ``spectrum = (lambda1, lambda2)`` per unit
+    time and the first orbit's stroboscopic samples.  Exact properties:
+    ``lambda1 + lambda2 = -2 zeta + (impacts / time) ln R^2`` (``det Phi`` of the
+    smooth flow is ``exp(-2 zeta t)``, ``det S = R^2``); without impacts both
+    exponents equal ``-zeta`` (underdamped linear flow).  For a periodic orbit the
+    estimate converges as O(1/t) (a bias, which the batch-means error bar does not see).
+
+    References: Benettin et al., Meccanica 15 (1980) 9-30 (QR re-orthonormalisation);
+    Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices for
+    impacting systems); di Bernardo et al., Piecewise-smooth Dynamical Systems (2008),
+    sec. 2.5; Nordmark, J. Sound Vib. 145 (1991) 279-297 (grazing); Flyvbjerg &
+    Petersen, J. Chem. Phys. 91 (1989) 461 (batch means); heyoka.py tutorial "Event
+    detection" (limitations and caveats) and heyoka ``src/detail/event_detection.cpp``
+    (cooldown, root-finding failures).
+    """
+    P = Precision.parse(precision)
+    periods = check_count(periods, "periods")
+    n_ic = check_count(initial_conditions, "initial_conditions", 1000)
+    if n_ic < 1:
+        raise ParameterError("initial_conditions", initial_conditions, "an integer with 1 <= initial_conditions <= 1000")
+    if periods < n_ic:
+        raise ParameterError("periods", periods, f"an integer >= initial_conditions = {n_ic} (>= 1 period per orbit)")
+    transient = check_count(transient, "transient")
+    segments = check_count(segments, "segments", 10**6)
+    if segments < 2:
+        raise ParameterError("segments", segments, "an integer >= 2 (the error bar needs independent blocks)")
+    q = check_tol(tol)
+    tol = None if q is None else P.from_fraction(q)
+    if diagnostics is not None and not isinstance(diagnostics, dict):
+        raise ParameterError("diagnostics", type(diagnostics).__name__, "None or a dict to fill")
+    depth = _depth_for(P, grazing_depth, params)
+    ics = [initial_condition(params, j) for j in range(n_ic)]  # validated before any work
+
+    ta = build_variational_integrator(P, tol)
+    ta.pars[:] = P.array([P.from_fraction(getattr(params, n)) for n in RUNTIME_PARAMS])
+    rec = ta.t_events[0].callback
+    grd = ta.nt_events[0].callback
+    fns = (math.sqrt, math.log, math.cos) if P.kind == "float64" else (np.sqrt, np.log, np.cos)
+    start = _time.perf_counter()
+    per_orbit = [periods // n_ic + (1 if j < periods % n_ic else 0) for j in range(n_ic)]
+    blocks_per_orbit = max(2, -(-segments // n_ic))
+    L1, L2, DT, blocks = [], [], [], []
+    impacts = 0
+    strobe = None
+    diag = {"impacts": 0, "grazing": 0, "min_impact_speed": math.inf, "max_contact_speed": 0.0, "max_saltation": 0.0,
+            "maxima": 0, "max_overshoot": -math.inf, "missed": 0}
+    for j, (ic, n) in enumerate(zip(ics, per_orbit)):
+        rec.reset(max_impacts, depth, *fns)
+        grd.reset(depth)
+        label = f" (orbit {j + 1}/{n_ic})" if n_ic > 1 else ""
+        l1, l2, dt, sx, sv, imp = _one_orbit(ta, rec, grd, P, ic, transient, n, progress, label, guard)
+        if strobe is None:
+            strobe = (sx, sv)
+        L1.append(l1)
+        L2.append(l2)
+        DT.append(dt)
+        impacts += imp
+        blocks.append(block_stderr(l1, dt, min(blocks_per_orbit, n))[0])
+        diag["impacts"] += rec.count
+        diag["grazing"] += rec.grazing
+        diag["min_impact_speed"] = min(diag["min_impact_speed"], rec.min_speed)
+        diag["max_contact_speed"] = max(diag["max_contact_speed"], rec.max_contact_speed)
+        diag["max_saltation"] = max(diag["max_saltation"], rec.max_saltation)
+        diag["maxima"] += grd.maxima
+        diag["max_overshoot"] = max(diag["max_overshoot"], grd.max_overshoot)
+        diag["missed"] += grd.missed
+    elapsed = _time.perf_counter() - start
+    l1, l2, dt = np.concatenate(L1), np.concatenate(L2), np.concatenate(DT)
+    if diagnostics is not None:
+        diag["max_period_log"] = float(np.max(l1)) if len(l1) else -math.inf
+        diag["finite_logs"] = bool(np.all(np.isfinite(l1)))
+        diagnostics.update(diag)
+    all_blocks = np.concatenate(blocks)
+    se = float(np.std(all_blocks, ddof=1) / math.sqrt(len(all_blocks))) if len(all_blocks) > 1 else math.nan
+    total = float(np.sum(dt))
+    lam1, lam2 = float(np.sum(l1) / total), float(np.sum(l2) / total)
+    return LyapunovResult(
+        params=params,
+        method="variational",
+        precision=P.name,
+        lle=lam1,
+        spectrum=(lam1, lam2),
+        stderr=se,
+        periods=periods,
+        transient=transient,
+        impacts=impacts,
+        running=np.cumsum(l1) / np.cumsum(dt),
+        segments=all_blocks,
+        elapsed_s=elapsed,
+        initial_conditions=n_ic,
+        strobe_x=strobe[0],
+        strobe_v=strobe[1],
+    )

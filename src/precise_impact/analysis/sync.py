@@ -1,0 +1,555 @@
+"""Complete synchronisation of master-slave impact oscillators and its coupling threshold.
+
+For diagonal coupling (eq. 10, ``D = I``) the transverse perturbation ``e = y - x``
+of the first-order system (12) obeys, between impacts, ``e' = (A - k I) e`` with
+``A`` the oscillator's own (linear) flow, and at impacts the same saltation
+matrices as the master: every exponent of ``e`` is the master's shifted by
+``-k``.  The synchronous state is therefore linearly stable iff
+``k > lambda_max`` (Pikovsky, Rosenblum & Kurths, *Synchronization*, 2001,
+sec. 13.1; Fujisaka & Yamada, Prog. Theor. Phys. 69 (1983) 32) -- the
+criterion ``k1 + k2 > LLE`` the paper uses to read the LLE off Fig. 7
+(``k = 0.031`` not synchronised, ``0.032`` synchronised, ``LLE ~ 0.03``).  For the
+printed eq. (14a) the coupling is not ``k I`` in the first-order variables, so its
+threshold need not equal the LLE.
+
+:func:`sync_scan` measures the fraction of synchronised runs against ``k``;
+near the threshold the finite-time transverse exponent fluctuates about
+``lambda_max - k`` and ``|x - y|`` shows on-off intermittency (Platt, Spiegel &
+Tresser, Phys. Rev. Lett. 70 (1993) 279; Heagy, Platt & Hammel, Phys. Rev. E 49
+(1994) 1140), which the scan records.  Note the finite-time bias: from an
+``O(1)`` start a run of length ``T_run`` reaches ``threshold`` only if
+``k - lambda_max >~ ln(1/threshold) / T_run`` (``~0.004`` for 500 periods and
+``1e-8``), so the half-crossing ``k*`` lies a little *above* ``lambda_max``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+import time as _time
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from precise_impact.models.coupled import CoupledTrajectory, check_form, check_k, simulate_coupled
+from precise_impact.errors import ParameterError
+from precise_impact.core.params import Params, check_count, decimal_str, exact
+from precise_impact.core.precision import Precision
+from precise_impact.core.trajectory import atomic_write
+
+__all__ = ["SyncRun", "SyncResult", "sync_scan", "classify", "plot_fig7", "plot_sync_fraction", "ensemble_y0"]
+
+_PLOT_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
+
+
+# ------------------------------------------------------------------ per run
+@dataclasses.dataclass
+class SyncRun:
+    """Outcome of one master-slave run.
+
+    Attributes
+    ----------
+    y0 : tuple[Fraction, Fraction]
+        Slave initial condition (in the form's own variables).
+    synchronised : bool
+        ``|x - y| < threshold`` at every checked sample of the tail.
+    intermittent : bool
+        ``|x - y|`` fell below ``threshold`` at some sample but the run is not
+        synchronised over the whole tail.
+    burst : bool
+        After first falling below ``threshold`` it rose above it again (on-off
+        intermittency proper; a run that merely arrives late is not a burst).
+        Synchronised runs near the threshold usually have bursts too, before the
+        tail: the finite-time transverse exponent fluctuates strongly.
+    final : float
+        ``|x - y|`` at the last sample.
+    minimum : float
+        Smallest ``|x - y|`` over the run.
+    rate : float
+        Least-squares slope of ``ln |x - y|`` against ``t`` over the second half of
+        the run, using only samples above the round-off floor ``1e3 eps``; NaN if
+        fewer than two periods of samples remain (e.g. it reached the floor before
+        mid-run).  For the first-order form it estimates ``lambda_max - k`` while
+        ``|x - y|`` is small; a run saturated at the attractor size gives ~0.
+    collapsed : bool
+        ``|x - y|`` is exactly 0 at the end: the slave has become the master bit for
+        bit.  In floating point this state is absorbing (on the diagonal every
+        coupling term is exactly 0, see :mod:`._coupled`), so a run that a
+        fluctuation brings down to round-off stays synchronised for ever even
+        slightly *below* the threshold, where a real (noisy) pair would desynchronise.
+    """
+
+    y0: tuple
+    synchronised: bool
+    intermittent: bool
+    burst: bool
+    final: float
+    minimum: float
+    rate: float
+    collapsed: bool = False
+
+    def to_json_dict(self) -> dict:
+        return {
+            "y0": [decimal_str(q) for q in self.y0],
+            "synchronised": self.synchronised,
+            "intermittent": self.intermittent,
+            "burst": self.burst,
+            "final": self.final,
+            "minimum": self.minimum,
+            "rate": None if math.isnan(self.rate) else self.rate,
+            "collapsed": self.collapsed,
+        }
+
+
+def classify(traj: CoupledTrajectory, tail: float, threshold: float) -> SyncRun:
+    """Classify one run with dense output (see :class:`SyncRun`).
+
+    The tail is the last ``ceil(tail * periods)`` periods; every dense sample in it
+    (which includes the stroboscopic ones) must lie below ``threshold``.
+    """
+    if traj.dense_t is None:
+        raise ParameterError("per_period", 0, "classification needs dense output: per_period >= 1")
+    t, d = traj.difference(dense=True)
+    n = traj.periods
+    per = (len(t) - 1) // max(n, 1)
+    n_tail = min(n, max(1, math.ceil(tail * n)))
+    tail_d = d[(n - n_tail) * per :]
+    synchronised = bool(np.all(tail_d < threshold))
+    below = d < threshold
+    reached = bool(below.any())
+    burst = False
+    if reached:
+        first = int(np.argmax(below))
+        burst = bool(np.any(~below[first:]))
+    floor = 1e3 * traj.precision.eps_float
+    half = t >= t[0] + (t[-1] - t[0]) / 2
+    use = half & (d > floor)
+    rate = math.nan
+    if np.count_nonzero(use) >= 2 * per and np.count_nonzero(use) >= 3:
+        rate = float(np.polyfit(t[use], np.log(d[use]), 1)[0])
+    return SyncRun(
+        y0=traj.y0,
+        synchronised=synchronised,
+        intermittent=reached and not synchronised,
+        burst=burst,
+        final=float(d[-1]),
+        minimum=float(d.min()),
+        rate=rate,
+        collapsed=bool(d[-1] == 0.0),
+    )
+
+
+def ensemble_y0(params: Params, ensemble: int, seed: int, spread: Fraction = Fraction(1)) -> list[tuple[Fraction, Fraction]]:
+    """Deterministic slave initial conditions around the master's ``(x0, v0)``.
+
+    ``y0 = (x0 + spread u1, v0 + spread u2)`` with ``u`` on the grid ``j / 10**6``,
+    ``j`` uniform in ``[-10**6, 10**6]`` from ``numpy.random.default_rng(seed)``
+    (exact rationals); a position beyond the wall is reflected about it.
+    """
+    rng = np.random.default_rng(seed)
+    draws = rng.integers(-(10**6), 10**6, size=(ensemble, 2), endpoint=True)
+    out = []
+    for j1, j2 in draws:
+        yp = params.x0 + spread * Fraction(int(j1), 10**6)
+        if yp > params.x_w:
+            yp = 2 * params.x_w - yp
+        out.append((yp, params.v0 + spread * Fraction(int(j2), 10**6)))
+    return out
+
+
+# ------------------------------------------------------------------ the scan
+@dataclasses.dataclass
+class SyncResult:
+    """Result of :func:`sync_scan`.
+
+    Attributes
+    ----------
+    params : Params
+    form : str
+    k_values : list[Fraction]
+        Couplings, ascending, exact.
+    periods, ensemble, seed, per_period : int
+    tail, threshold : float
+    fraction_synchronised, fraction_intermittent, fraction_burst, fraction_collapsed : numpy arrays
+        Per ``k``: fraction of the ensemble synchronised / intermittent / bursting /
+        collapsed onto the master bit for bit (see :class:`SyncRun`).
+    mean_rate : numpy array
+        Per ``k``: mean of the runs' finite ``rate`` (NaN if none).
+    runs : list[list[SyncRun]]
+        ``runs[i][j]``: member ``j`` at ``k_values[i]``.
+    k_star, k_star_err : float
+        Coupling where the synchronised fraction first crosses 1/2 upwards (linear
+        interpolation between grid points) and the half-width of the bracketing
+        grid interval; NaN if there is no crossing in range (see ``message``).
+    message : str
+        How ``k_star`` was obtained (or why not).
+    lle, lle_stderr : float
+        Variational LLE of the single oscillator (:func:`variational_spectrum`)
+        with its batch-means standard error; NaN if ``lle_periods = 0``.
+    lle_periods : int
+    elapsed_s : float
+        Wall time of the whole scan (LLE included).
+    """
+
+    params: Params
+    form: str
+    k_values: list
+    periods: int
+    ensemble: int
+    seed: int
+    per_period: int
+    tail: float
+    threshold: float
+    fraction_synchronised: np.ndarray
+    fraction_intermittent: np.ndarray
+    fraction_burst: np.ndarray
+    fraction_collapsed: np.ndarray
+    mean_rate: np.ndarray
+    runs: list
+    k_star: float
+    k_star_err: float
+    message: str
+    lle: float
+    lle_stderr: float
+    lle_periods: int
+    elapsed_s: float
+
+    def to_json_dict(self) -> dict:
+        def num(x):
+            return None if x is None or (isinstance(x, float) and math.isnan(x)) else float(x)
+
+        return {
+            "params": self.params.decimal(),
+            "form": self.form,
+            "k_values": [decimal_str(k) for k in self.k_values],
+            "periods": self.periods,
+            "ensemble": self.ensemble,
+            "seed": self.seed,
+            "per_period": self.per_period,
+            "tail": self.tail,
+            "threshold": self.threshold,
+            "fraction_synchronised": [float(f) for f in self.fraction_synchronised],
+            "fraction_intermittent": [float(f) for f in self.fraction_intermittent],
+            "fraction_burst": [float(f) for f in self.fraction_burst],
+            "fraction_collapsed": [float(f) for f in self.fraction_collapsed],
+            "mean_rate": [num(r) for r in self.mean_rate],
+            "k_star": num(self.k_star),
+            "k_star_err": num(self.k_star_err),
+            "message": self.message,
+            "lle": num(self.lle),
+            "lle_stderr": num(self.lle_stderr),
+            "lle_periods": self.lle_periods,
+            "runs": [[r.to_json_dict() for r in row] for row in self.runs],
+            "elapsed_s": self.elapsed_s,
+        }
+
+
+def half_crossing(k: Sequence[float], frac: Sequence[float]) -> tuple[float, float, str]:
+    """First upward crossing of 1/2 by ``frac(k)``: ``(k*, half-width, message)``.
+
+    Linear interpolation between the bracketing grid points ``k_i < k_{i+1}``
+    with ``frac_i < 1/2 <= frac_{i+1}``; the error is ``(k_{i+1} - k_i) / 2``.
+    """
+    k = [float(v) for v in k]
+    f = [float(v) for v in frac]
+    if not k:
+        return math.nan, math.nan, "no k values"
+    if f[0] >= 0.5:
+        return math.nan, math.nan, f"no crossing in range: fraction >= 1/2 already at the lowest k = {k[0]:g}"
+    for i in range(len(k) - 1):
+        if f[i] < 0.5 <= f[i + 1]:
+            ks = k[i] + (0.5 - f[i]) * (k[i + 1] - k[i]) / (f[i + 1] - f[i])
+            msg = f"fraction crosses 1/2 between k = {k[i]:g} and {k[i + 1]:g}"
+            later = [j for j in range(i + 1, len(k)) if f[j] < 0.5]
+            if later:
+                msg += f"; not monotone: below 1/2 again at k = {', '.join(f'{k[j]:g}' for j in later)}"
+            return ks, (k[i + 1] - k[i]) / 2, msg
+    return math.nan, math.nan, f"no crossing in range: fraction < 1/2 up to the highest k = {k[-1]:g}"
+
+
+def sync_scan(
+    params: Params,
+    form: str,
+    k_values: Sequence[Any],
+    periods: int = 500,
+    ensemble: int = 8,
+    seed: int = 0,
+    tail: float = 0.1,
+    threshold: float = 1e-8,
+    progress: bool = False,
+    per_period: int = 20,
+    spread: Any = 1,
+    lle_periods: int = 20000,
+    lle_transient: int = 1000,
+    precision: str | Precision = "float64",
+) -> SyncResult:
+    """Fraction of synchronised master-slave runs against the coupling ``k``.
+
+    Keywords
+    --------
+    params : Params
+        System and the master's initial condition (every run starts the master there).
+    form : str
+        One of :data:`~._coupled.COUPLED_FORMS`.
+    k_values : sequence of decimal strings / Fractions / numbers
+        Couplings ``>= 0`` (exact; sorted ascending; no duplicates).
+    periods : int, default 500
+        Forcing periods per run (the paper's Fig. 7); ``>= 1``.
+    ensemble : int, default 8
+        Runs per ``k``, slave initial conditions from :func:`ensemble_y0`; ``>= 1``.
+    seed : int, default 0
+        Seed of those initial conditions (the same ensemble at every ``k``).
+    tail : float, default 0.1
+        Fraction of the run (``0 < tail <= 1``) over which a synchronised run must
+        stay below ``threshold`` (at least one period).
+    threshold : float, default 1e-8
+        ``|x - y|`` below which the pair counts as synchronised; ``> 0``.
+    progress : bool, default ``False``
+        One line per ``k`` on stderr.
+    per_period : int, default 20
+        Dense samples per period checked in the tail (stroboscopic ones included); ``>= 1``.
+    spread : decimal, default 1
+        Half-width of the slave initial-condition box around ``(x0, v0)``; ``> 0``.
+    lle_periods : int, default 20000
+        Periods for the single oscillator's variational LLE
+        (:func:`~._lyapunov._variational.variational_spectrum`); 0 skips it.
+    lle_transient : int, default 1000
+        Transient periods discarded before the LLE.
+    precision : str, default ``'float64'``
+        Precision of the coupled runs.
+
+    Returns a :class:`SyncResult` (per-``k`` fractions, ``k*`` where the synchronised
+    fraction crosses 1/2, the LLE with its standard error).
+
+    References: the paper, eqs. (10)-(12) and Fig. 7; Pikovsky, Rosenblum & Kurths,
+    *Synchronization* (2001), ch. 13; Heagy, Platt & Hammel, PRE 49 (1994) 1140
+    (on-off intermittency at the threshold).
+    """
+    if not isinstance(params, Params):
+        raise ParameterError("params", type(params).__name__, "a precise_impact.Params (use Params.make(...))")
+    form = check_form(form)
+    if isinstance(k_values, (str, bytes)) or not isinstance(k_values, Sequence) or len(k_values) == 0:
+        raise ParameterError("k_values", k_values, "a non-empty sequence of couplings k >= 0")
+    ks = sorted(check_k(k, "k_values") for k in k_values)
+    if len(set(ks)) != len(ks):
+        raise ParameterError("k_values", [decimal_str(k) for k in ks], "couplings must be distinct")
+    periods = check_count(periods, "periods")
+    if periods < 1:
+        raise ParameterError("periods", periods, "an integer with 1 <= periods <= 100000000")
+    ensemble = check_count(ensemble, "ensemble", 10**6)
+    if ensemble < 1:
+        raise ParameterError("ensemble", ensemble, "an integer with 1 <= ensemble <= 1000000")
+    seed = check_count(seed, "seed", 2**63 - 1)
+    tq = exact("tail", tail)
+    if not 0 < tq <= 1:
+        raise ParameterError("tail", tail, "fraction of the run with 0 < tail <= 1")
+    thr = exact("threshold", threshold)
+    if not thr > 0:
+        raise ParameterError("threshold", threshold, "a finite |x - y| level > 0")
+    per_period = check_count(per_period, "per_period", 100_000)
+    if per_period < 1:
+        raise ParameterError("per_period", per_period, "an integer with 1 <= per_period <= 100000")
+    sq = exact("spread", spread)
+    if not sq > 0:
+        raise ParameterError("spread", spread, "half-width of the initial-condition box, > 0")
+    lle_periods = check_count(lle_periods, "lle_periods")
+    lle_transient = check_count(lle_transient, "lle_transient")
+    P = Precision.parse(precision)
+
+    start = _time.perf_counter()
+    y0s = ensemble_y0(params, ensemble, seed, sq)
+    tail_f, thr_f = float(tq), float(thr)
+    runs: list[list[SyncRun]] = []
+    for k in ks:
+        row = []
+        t_k = _time.perf_counter()
+        for y0 in y0s:
+            tr = simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period, precision=P)
+            row.append(classify(tr, tail_f, thr_f))
+        runs.append(row)
+        if progress:
+            ns = sum(r.synchronised for r in row)
+            ni = sum(r.intermittent for r in row)
+            print(
+                f"  sync {form} k={decimal_str(k)}: {ns}/{ensemble} synchronised, {ni} intermittent "
+                f"({_time.perf_counter() - t_k:.2f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
+    fs = np.array([np.mean([r.synchronised for r in row]) for row in runs])
+    fi = np.array([np.mean([r.intermittent for r in row]) for row in runs])
+    fb = np.array([np.mean([r.burst for r in row]) for row in runs])
+    fc = np.array([np.mean([r.collapsed for r in row]) for row in runs])
+    mr = np.array(
+        [
+            float(np.mean(finite)) if (finite := [r.rate for r in row if math.isfinite(r.rate)]) else math.nan
+            for row in runs
+        ]
+    )
+    k_star, k_err, msg = half_crossing([float(k) for k in ks], fs)
+
+    lle = lle_se = math.nan
+    if lle_periods > 0:
+        from precise_impact.analysis.lyapunov.variational import variational_spectrum
+
+        lr = variational_spectrum(params, periods=lle_periods, transient=lle_transient)
+        lle, lle_se = float(lr.lle), float(lr.stderr)
+    return SyncResult(
+        params=params,
+        form=form,
+        k_values=ks,
+        periods=periods,
+        ensemble=ensemble,
+        seed=seed,
+        per_period=per_period,
+        tail=tail_f,
+        threshold=thr_f,
+        fraction_synchronised=fs,
+        fraction_intermittent=fi,
+        fraction_burst=fb,
+        fraction_collapsed=fc,
+        mean_rate=mr,
+        runs=runs,
+        k_star=k_star,
+        k_star_err=k_err,
+        message=msg,
+        lle=lle,
+        lle_stderr=lle_se,
+        lle_periods=lle_periods,
+        elapsed_s=_time.perf_counter() - start,
+    )
+
+
+# ------------------------------------------------------------------ plots
+def _check_plot_path(path: Any) -> tuple[Path, str]:
+    p = Path(path)
+    fmt = _PLOT_FORMATS.get(p.suffix.lower())
+    if fmt is None:
+        raise ParameterError("path", str(path), "a plot file ending in " + ", ".join(_PLOT_FORMATS))
+    return p, fmt
+
+
+def _save(fig, path: Path, fmt: str) -> None:
+    atomic_write(path, lambda fh: fig.savefig(fh, format=fmt, dpi=150), binary=True)
+
+
+def _figure(nrows: int, ncols: int, size: tuple[float, float]):
+    # The Agg canvas directly: no pyplot, no global backend switch.
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    return fig, axes
+
+
+def plot_fig7(
+    params: Params,
+    form: str,
+    k_low: Any,
+    k_high: Any,
+    periods: int,
+    path: Any,
+    y0: Sequence[Any] | None = None,
+    per_period: int = 20,
+    threshold: float | None = 1e-8,
+) -> tuple[CoupledTrajectory, CoupledTrajectory]:
+    """The paper's Fig. 7: ``|x - y|`` against time (log scale) for two couplings.
+
+    Keywords
+    --------
+    params : Params
+        System and the master's initial condition.
+    form : str
+        One of :data:`~._coupled.COUPLED_FORMS`.
+    k_low, k_high : decimal
+        Couplings of panels (a) and (b) (the paper: 0.031 and 0.032).
+    periods : int
+        Forcing periods (the paper: 500).
+    path : str or Path
+        Output file, ``.png``, ``.pdf`` or ``.svg``; written atomically.
+    y0 : pair or None, default ``None``
+        Slave initial condition in the form's variables; ``None`` means
+        ``(x0 - 1/2, v0 + 1/2)`` (the paper does not state its own).
+    per_period : int, default 20
+        Plotted samples per period.
+    threshold : float or None, default 1e-8
+        Drawn as a dashed horizontal line (``None``: not drawn).
+
+    Samples where ``|x - y|`` is exactly 0 (the slave has collapsed onto the master
+    bit for bit) cannot be shown on a log axis; the panel notes from when.
+    Returns the two :class:`~._coupled.CoupledTrajectory` objects.
+    """
+    p, fmt = _check_plot_path(path)
+    if not isinstance(params, Params):
+        raise ParameterError("params", type(params).__name__, "a precise_impact.Params (use Params.make(...))")
+    form = check_form(form)
+    kl, kh = check_k(k_low, "k_low"), check_k(k_high, "k_high")
+    periods = check_count(periods, "periods")
+    per_period = check_count(per_period, "per_period", 100_000)
+    if per_period < 1:
+        raise ParameterError("per_period", per_period, "an integer with 1 <= per_period <= 100000")
+    if y0 is None:
+        y0 = (params.x0 - Fraction(1, 2), params.v0 + Fraction(1, 2))
+    trajs = [simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period) for k in (kl, kh)]
+    fig, axes = _figure(2, 1, (7.5, 6.0))
+    for ax, tr, label in zip(axes[:, 0], trajs, ("a", "b")):
+        t, d = tr.difference(dense=True)
+        pos = d > 0
+        ax.semilogy(t[pos], d[pos], lw=0.6, color="C0")
+        if threshold is not None:
+            ax.axhline(threshold, ls="--", lw=0.8, color="C3", label=f"threshold {threshold:g}")
+            ax.legend(loc="upper right", fontsize=8)
+        zero = np.flatnonzero(~pos)
+        note = ""
+        if len(zero) and zero[0] > 0 and not pos[zero[0]:].any():
+            note = f"  (|x - y| = 0 exactly from t = {t[zero[0]]:.0f})"
+        ax.set_title(f"{label}) {form}, k = {decimal_str(tr.k)}{note}", fontsize=10)
+        ax.set_ylabel("|x - y|")
+        ax.grid(True, which="major", lw=0.3)
+    axes[-1, 0].set_xlabel("t (dimensionless)")
+    _save(fig, p, fmt)
+    return trajs[0], trajs[1]
+
+
+def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
+    """Synchronised (and intermittent) fraction against ``k``, with the LLE marked.
+
+    Keywords
+    --------
+    result : SyncResult
+        From :func:`sync_scan`.
+    path : str or Path
+        Output file, ``.png``, ``.pdf`` or ``.svg``; written atomically.
+
+    The single oscillator's LLE is drawn as a vertical line with a band of
+    ``+- stderr``; ``k*`` (half crossing) as a point with its horizontal error bar.
+    """
+    p, fmt = _check_plot_path(path)
+    if not isinstance(result, SyncResult):
+        raise ParameterError("result", type(result).__name__, "a SyncResult from sync_scan")
+    k = np.array([float(v) for v in result.k_values])
+    fig, axes = _figure(1, 1, (6.5, 4.0))
+    ax = axes[0, 0]
+    if math.isfinite(result.lle):
+        se = result.lle_stderr if math.isfinite(result.lle_stderr) else 0.0
+        ax.axvspan(result.lle - se, result.lle + se, color="0.8", label=f"LLE = {result.lle:.4f} ± {se:.4f}")
+        ax.axvline(result.lle, color="0.4", lw=0.8)
+    ax.plot(k, result.fraction_synchronised, "o-", color="C0", label="synchronised")
+    ax.plot(k, result.fraction_intermittent, "s--", color="C1", ms=4, label="intermittent")
+    if math.isfinite(result.k_star):
+        ax.errorbar([result.k_star], [0.5], xerr=[result.k_star_err], fmt="D", color="C3", capsize=3,
+                    label=f"k* = {result.k_star:.4f} ± {result.k_star_err:.4f}")
+    ax.set_xlabel("coupling k")
+    ax.set_ylabel(f"fraction of {result.ensemble} runs")
+    ax.set_ylim(-0.05, 1.05)
+    ax.set_title(f"{result.form}: {result.periods} periods, tail {result.tail:g}, threshold {result.threshold:g}",
+                 fontsize=10)
+    ax.legend(fontsize=8, loc="center right")
+    ax.grid(True, lw=0.3)
+    _save(fig, p, fmt)
+    return p

@@ -1,0 +1,407 @@
+"""Command-line interface: ``precise-impact`` (also ``python -m precise_impact``)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from typing import Sequence
+
+from precise_impact.errors import BudgetExceededError, ParameterError
+
+# Exit statuses: 0 ok, 2 bad input (argparse uses 2 as well), 3 a budget was hit.
+EXIT_BAD_INPUT = 2
+EXIT_BUDGET = 3
+
+_PARAM_FLAGS = (
+    ("--eta", "eta", "forcing frequency ratio, > 0 (default 0.712)"),
+    ("--zeta", "zeta", "damping ratio, >= 0 (default 0.05)"),
+    ("--a", "a", "forcing amplitude (default 1)"),
+    ("--xw", "x_w", "wall position (default 2)"),
+    ("--R", "R", "restitution coefficient, 0 <= R <= 1 (default 1)"),
+    ("--x0", "x0", "initial position, <= x_w (default 0)"),
+    ("--v0", "v0", "initial velocity (default 0)"),
+    ("--t0", "t0", "initial time / forcing phase (default 0)"),
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # no usage dump: one clear line, exit 2
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+
+
+def _add_param_flags(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("system parameters (exact decimals, e.g. 0.712 or 102/53)")
+    for flag, dest, helptext in _PARAM_FLAGS:
+        g.add_argument(flag, dest=dest, default=None, metavar="DEC", help=helptext)
+
+
+def _params_from(ns):
+    from precise_impact.core.params import Params
+
+    return Params.make(**{dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS})
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from precise_impact.solvers.simulate import MODELS
+
+    parser = _Parser(
+        prog="precise-impact",
+        description="Verification suite for the piecewise-linear impact oscillator and its electronic equivalent.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    s = sub.add_parser("simulate", help="simulate one model and print samples and impacts")
+    _add_param_flags(s)
+    s.add_argument("--periods", default="200", metavar="N", help="forcing periods (default 200)")
+    s.add_argument("--model", default="heyoka", help="one of: " + ", ".join(MODELS) + " (default heyoka)")
+    s.add_argument(
+        "--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS (default float64)"
+    )
+    s.add_argument("--tol", default=None, metavar="T", help="heyoka tolerance (default: the precision's epsilon)")
+    s.add_argument("--dense", default="0", metavar="K", help="dense output points per period (saved with --out)")
+    s.add_argument("--out", default=None, metavar="FILE", help="write samples and impacts to FILE.npz or FILE.csv")
+    s.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
+    ly = sub.add_parser("lle", help="largest Lyapunov exponent (variational with saltation, or two-trajectory)")
+    _add_param_flags(ly)
+    ly.add_argument("--periods", default="20000", metavar="N", help="measured forcing periods (default 20000)")
+    ly.add_argument("--transient", default="1000", metavar="N", help="discarded transient periods (default 1000)")
+    ly.add_argument("--method", default="variational", help="variational or two-trajectory (default variational)")
+    ly.add_argument("--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS")
+    ly.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
+    b = sub.add_parser("bifurcation", help="stroboscopic x against eta with the LLE beneath (PNG + NPZ)")
+    b.add_argument("--eta", nargs=3, required=True, metavar=("MIN", "MAX", "N"), help="eta grid: MIN MAX N")
+    g = b.add_argument_group("other system parameters (exact decimals)")
+    for flag, dest, helptext in _PARAM_FLAGS:
+        if dest != "eta":
+            g.add_argument(flag, dest=dest, default=None, metavar="DEC", help=helptext)
+    b.add_argument("--periods", default="2000", metavar="P", help="measured periods per value (default 2000)")
+    b.add_argument("--transient", default="1000", metavar="T", help="transient periods per value (default 1000)")
+    b.add_argument("--workers", default=None, metavar="W", help="worker processes (default: all cores)")
+    b.add_argument("--out", required=True, metavar="DIR", help="write bifurcation.png and bifurcation.npz here")
+
+    sy = sub.add_parser("sync", help="master-slave synchronisation threshold against the LLE (paper Fig. 7)")
+    sy.add_argument("--form", default="first-order", help="first-order, paper or reduced (default first-order)")
+    sy.add_argument("--k", nargs=3, default=["0.02", "0.045", "6"], metavar=("MIN", "MAX", "N"),
+                    help="coupling grid (default 0.02 0.045 6)")
+    _add_param_flags(sy)
+    sy.add_argument("--periods", default="500", metavar="P", help="forcing periods per run (default 500, as the paper)")
+    sy.add_argument("--ensemble", default="8", metavar="M", help="slave initial conditions per k (default 8)")
+    sy.add_argument("--seed", default="0", metavar="S", help="seed of the initial conditions (default 0)")
+    sy.add_argument("--fig7", nargs=2, default=["0.031", "0.032"], metavar=("K1", "K2"),
+                    help="couplings of the Fig. 7 plot (default the paper's 0.031 0.032)")
+    sy.add_argument("--out", default="results", metavar="DIR", help="plots and JSON go here (default results)")
+    sy.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
+    sw = sub.add_parser("sweep", help="LLE, period and impact rate on a 1-D or 2-D parameter grid (tiled, resumable)")
+    sw.add_argument("--axis", nargs=4, action="append", required=True, metavar=("NAME", "MIN", "MAX", "N"),
+                    help="a swept parameter (eta, x_w, zeta, a, R); give once or twice")
+    _add_param_flags(sw)
+    sw.add_argument("--periods", default="2000", metavar="P", help="measured periods per point (default 2000)")
+    sw.add_argument("--transient", default="1000", metavar="T", help="transient periods per point (default 1000)")
+    sw.add_argument("--tile", default="64", metavar="K", help="points per tile (default 64)")
+    sw.add_argument("--workers", default=None, metavar="W", help="local processes / Dask workers (default: all cores)")
+    grp = sw.add_mutually_exclusive_group()
+    grp.add_argument("--dask", choices=["local"], default=None, help="run on a Dask LocalCluster")
+    grp.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="run on this Dask scheduler")
+    sw.add_argument("--out", required=True, metavar="DIR", help="tiles, sweep.npz, sweep.csv, sweep.png")
+    sw.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+
+    sub.add_parser("scenes", help="list the built-in scenes, one line each")
+    rn = sub.add_parser("run", help="run a scene (built-in name or FILE.toml)")
+    rn.add_argument("scene", help="built-in scene name (see: precise-impact scenes) or a .toml file")
+    rn.add_argument("--model", default=None, help="override the scene's model")
+    rn.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+    rn.add_argument("--out", default=None, metavar="DIR", help="write <scene>_<model>.json and .png here")
+
+    from precise_impact.cli import bench as _cli_bench, compare as _cli_compare, reference as _cli_reference
+
+    _cli_compare.add_parser(sub)
+    _cli_reference.add_parser(sub)
+    _cli_bench.add_parser(sub)
+    rp = sub.add_parser("reproduce", help="the main job: the paper's Figs. 4-7, LLE, sync thresholds, report.md")
+    rp.add_argument("--out", default="results", metavar="DIR", help="output directory (default results)")
+    rp.add_argument("--quick", action="store_true", help="shorter runs (about a minute)")
+
+    a = sub.add_parser(
+        "accuracy", help="the paper's three frequencies: every model and precision against a demonstrated reference"
+    )
+    a.add_argument("--periods", default="100", metavar="N", help="forcing periods from rest (default 100)")
+    a.add_argument("--out", default=None, metavar="DIR", help="write accuracy.json and accuracy.png here")
+    a.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    return parser
+
+
+def _cmd_simulate(ns) -> int:
+    from pathlib import Path
+
+    from precise_impact.core.params import check_count
+    from precise_impact.solvers.simulate import make_solver
+
+    params = _params_from(ns)
+    periods = check_count(ns.periods)
+    dense = check_count(ns.dense, "dense", 100_000)
+    if ns.out is not None and Path(ns.out).suffix not in (".npz", ".csv"):
+        raise ParameterError("out", ns.out, "output file must end in .npz or .csv")
+    solver = make_solver(ns.model, ns.precision, ns.tol)
+    traj = solver.solve(params, periods, per_period=dense)
+    if ns.out is not None:
+        traj.save(ns.out)
+    if ns.json:
+        json.dump(traj.to_json_dict(), sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        s = traj.precision.to_str
+        print(f"{traj.model} {traj.precision.name}: {periods} periods, {traj.n_impacts} impacts, {traj.elapsed_s:.4f} s")
+        print(f"params: {', '.join(f'{k}={v}' for k, v in params.decimal().items())}")
+        print(f"final state at t={s(traj.t[-1])}:\n  x = {s(traj.x[-1])}\n  v = {s(traj.v[-1])}")
+        if ns.out is not None:
+            print(f"written: {ns.out}")
+    return 0
+
+
+def _cmd_lle(ns) -> int:
+    from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, lyapunov
+    from precise_impact.core.params import check_count
+    from precise_impact.core.precision import Precision
+
+    params = _params_from(ns)
+    periods = check_count(ns.periods)
+    transient = check_count(ns.transient, "transient")
+    if ns.method not in LYAPUNOV_METHODS:
+        raise ParameterError("method", ns.method, "one of " + ", ".join(LYAPUNOV_METHODS))
+    Precision.parse(ns.precision)
+    r = lyapunov(params, ns.method, periods=periods, transient=transient, precision=ns.precision, progress=not ns.json)
+    if ns.json:
+        json.dump(r.to_json_dict(), sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
+        print(f"LLE = {r.lle:.6f} +- {r.stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
+        print(f"{r.periods} periods after {r.transient} transient, {r.impacts} impacts, {r.elapsed_s:.3f} s")
+    return 0
+
+
+def _cmd_bifurcation(ns) -> int:
+    from precise_impact.analysis.bifurcation import bifurcation
+    from precise_impact.core.params import Params, check_count
+
+    params = Params.make(**{dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS if dest != "eta"})
+    workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
+    res = bifurcation(
+        params, ns.eta[0], ns.eta[1], ns.eta[2], periods=ns.periods, transient=ns.transient, workers=workers
+    )
+    files = res.save(ns.out)
+    print(f"{len(res.eta)} values of eta in {res.elapsed_s:.1f} s on {res.workers} worker(s); "
+          f"grazing eta (closed form): {', '.join(f'{g:.6f}' for g in res.grazing) or 'none in range'}")
+    print(f"LLE range: {res.lle.min():.4f} .. {res.lle.max():.4f}; written: {files['png']}, {files['npz']}")
+    return 0
+
+
+def _cmd_sync(ns) -> int:
+    from pathlib import Path
+
+    from precise_impact.models.coupled import check_form, check_k
+    from precise_impact.core.params import check_count, exact_grid
+    from precise_impact.core.trajectory import atomic_write
+    from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
+
+    params = _params_from(ns)
+    form = check_form(ns.form)
+    ks = exact_grid(ns.k[0], ns.k[1], ns.k[2], "k")
+    periods = check_count(ns.periods)
+    ensemble = check_count(ns.ensemble, "ensemble", 10_000)
+    seed = check_count(ns.seed, "seed", 2**32)
+    k1, k2 = check_k(ns.fig7[0], "fig7"), check_k(ns.fig7[1], "fig7")
+    res = sync_scan(params, form, ks, periods=periods, ensemble=ensemble, seed=seed, progress=not ns.json)
+    out = Path(ns.out)
+    stem = f"sync_{form}"
+    text = json.dumps(res.to_json_dict(), indent=1)
+    atomic_write(out / f"{stem}.json", lambda fh: fh.write(text), binary=False)
+    plot_sync_fraction(res, out / f"{stem}_fraction.png")
+    plot_fig7(params, form, k1, k2, periods, out / f"{stem}_fig7.png")
+    if ns.json:
+        obj = res.to_json_dict()
+        obj.pop("runs", None)
+        json.dump(obj, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    print(f"form {form}: {periods} periods, ensemble {ensemble}, sync = |x - y| < {res.threshold:g} over the last "
+          f"{res.tail:.0%} of the run")
+    print(f"{'k':>8} {'synchronised':>12} {'intermittent':>12} {'rate + k':>9}")
+    for k, fs, fi, r in zip(res.k_values, res.fraction_synchronised, res.fraction_intermittent, res.mean_rate):
+        print(f"{float(k):8.4f} {fs:12.3f} {fi:12.3f} {r + float(k):9.4f}")
+    print(f"threshold k* = {res.k_star:.4f} +- {res.k_star_err:.4f} ({res.message})")
+    print(f"LLE (variational) = {res.lle:.4f} +- {res.lle_stderr:.4f}")
+    print(f"written: {out / (stem + '.json')}, {out / (stem + '_fraction.png')}, {out / (stem + '_fig7.png')}")
+    return 0
+
+
+def _cmd_sweep(ns) -> int:
+    from precise_impact.core.params import check_count
+    from precise_impact.analysis.sweep import SweepSpec, run_sweep
+
+    base = _params_from(ns)
+    spec = SweepSpec.make(base, [tuple(a) for a in ns.axis], periods=ns.periods, transient=ns.transient,
+                          tile_size=ns.tile)
+    workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
+    if ns.scheduler is not None and not ns.scheduler.startswith("tcp://"):
+        raise ParameterError("scheduler", ns.scheduler, "a Dask scheduler address tcp://HOST:PORT")
+    summary = run_sweep(spec, ns.out, workers=workers, dask=ns.dask or ns.scheduler, progress=not ns.json)
+    if ns.json:
+        json.dump(summary, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        print(f"{spec.n_points} points in {spec.n_tiles} tiles: {summary['tiles_computed']} computed, "
+              f"{summary['tiles_reused']} reused, {summary['elapsed_s']:.1f} s on {summary['workers']} "
+              f"{summary['backend']} worker(s)")
+        if summary.get("png"):
+            print(f"written: {summary['npz']}, {summary['csv']}, {summary['png']}")
+    return 0
+
+
+def _cmd_scenes(ns) -> int:
+    from precise_impact.core.params import decimal_str
+    from precise_impact.scenes.scene import builtin_scenes, load_scene
+
+    for name, path in sorted(builtin_scenes().items()):
+        sc = load_scene(path)
+        extra = f" k={decimal_str(sc.k)} form={sc.form}" if sc.kind == "coupled" else ""
+        print(f"{name:28s} {sc.model:18s} eta={sc.params.decimal()['eta']:<6s}{extra}  {sc.description}")
+    return 0
+
+
+def _cmd_run(ns) -> int:
+    from precise_impact.scenes.run import run_scene, save_scene_outputs, scene_json
+    from precise_impact.scenes.scene import SCENE_MODELS, load_scene
+
+    scene = load_scene(ns.scene)
+    if ns.model is not None and ns.model not in SCENE_MODELS:
+        raise ParameterError("model", ns.model, "one of " + ", ".join(SCENE_MODELS))
+    if ns.model is not None:
+        scene = scene.with_model(ns.model)  # validated before any work
+    result = run_scene(scene)
+    obj = scene_json(scene, result)
+    files = save_scene_outputs(scene, result, ns.out) if ns.out is not None else []
+    if ns.json:
+        json.dump(obj, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        last = obj["samples"][-1]
+        n_imp = len(obj["impacts"]) if isinstance(obj["impacts"], list) else sum(map(len, obj["impacts"].values()))
+        print(f"{scene.name}: model {obj['model']}, effects {', '.join(obj['effects']) or 'none'}, "
+              f"{len(obj['samples']) - 1} periods, {n_imp} impacts, {obj['elapsed_s']:.3f} s")
+        print(f"last sample: x = {last['x']}, v = {last['v']}" + (f", y = {last['y']}" if "y" in last else ""))
+        for f in files:
+            print(f"written: {f}")
+    return 0
+
+
+def _cmd_reproduce(ns) -> int:
+    from precise_impact.verification.reproduce import reproduce
+
+    res = reproduce(ns.out, quick=ns.quick)
+    print(f"report: {ns.out}/report.md ({res['elapsed_s']:.0f} s)")
+    for fig, row in res["figures"].items():
+        print(f"Fig. {fig} eta={row['eta']}: " + ", ".join(
+            f"{n} {m['max_error_second_half']:.1e}" for n, m in row["models"].items()))
+    v = res["lle"]["variational"]
+    print(f"LLE(0.712) = {v[0]:.4f} +- {v[1]:.4f}; sync k*: " + ", ".join(
+        f"{f} {s['k_star']:.4f}" for f, s in res["sync"].items()))
+    return 0
+
+
+def _cmd_bench(ns) -> int:
+    from precise_impact.cli.bench import run
+
+    return run(ns)
+
+
+def _cmd_compare(ns) -> int:
+    from precise_impact.cli.compare import run
+
+    return run(ns)
+
+
+def _cmd_reference(ns) -> int:
+    from precise_impact.cli.reference import run
+
+    return run(ns)
+
+
+def _cmd_accuracy(ns) -> int:
+    from precise_impact.verification.accuracy import accuracy_table, format_table
+    from precise_impact.core.params import check_count
+
+    periods = check_count(ns.periods, maximum=2000)
+    result = accuracy_table(periods=periods, out=ns.out, progress=not ns.json)
+    if ns.json:
+        json.dump(result, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        print(format_table(result))
+        if ns.out is not None:
+            print(f"written: {ns.out}/accuracy.json, {ns.out}/accuracy.png")
+    return 0
+
+
+def _glue_negative_values(argv: list[str]) -> list[str]:
+    """``--tol -1e-9`` -> ``--tol=-1e-9``: argparse would read ``-1e-9`` as an option.
+
+    Lets the validators, not argparse, report a negative value with its allowed range.
+    """
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        a = argv[i]
+        if a.startswith("--") and "=" not in a and i + 1 < len(argv) and argv[i + 1].startswith("-"):
+            nxt = argv[i + 1]
+            plain = re.fullmatch(r"-\d+|-\d*\.\d+", nxt)  # argparse itself reads these as values
+            if not plain and len(nxt) > 1 and (nxt[1].isdigit() or nxt[1] == "." or nxt[1:].lower() in ("inf", "infinity", "nan")):
+                out.append(f"{a}={nxt}")
+                i += 2
+                continue
+        out.append(a)
+        i += 1
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    ns = parser.parse_args(_glue_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    # heyoka logs its warnings (e.g. root finding near grazing) to stdout, which would
+    # corrupt --json output; the CLI keeps only errors.
+    import heyoka
+
+    heyoka.set_logger_level_error()
+    try:
+        return {
+            "simulate": _cmd_simulate,
+            "lle": _cmd_lle,
+            "bifurcation": _cmd_bifurcation,
+            "sync": _cmd_sync,
+            "sweep": _cmd_sweep,
+            "scenes": _cmd_scenes,
+            "run": _cmd_run,
+            "reproduce": _cmd_reproduce,
+            "compare": _cmd_compare,
+            "reference": _cmd_reference,
+            "bench": _cmd_bench,
+            "accuracy": _cmd_accuracy,
+        }[ns.command](ns)
+    except ParameterError as e:
+        print(f"precise-impact: error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except BudgetExceededError as e:
+        print(f"precise-impact: budget exceeded: {e}", file=sys.stderr)
+        return EXIT_BUDGET
+    except BrokenPipeError:  # e.g. piped into `head`
+        sys.stderr.close()
+        return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,90 @@
+"""``precise-impact reference generate|verify``: the reference datasets from the command line.
+
+``add_parser(sub)`` adds the ``reference`` command to an argparse sub-parser set;
+``run(ns)`` executes it and returns the exit status (0 ok; 1 verification found a
+problem; 2 bad input).  Until the main CLI dispatches to it, run it standalone:
+``python -m precise_impact._cli_reference reference verify``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Sequence
+
+from precise_impact.errors import ParameterError
+
+__all__ = ["add_parser", "run", "main"]
+
+EXIT_MISMATCH = 1
+EXIT_BAD_INPUT = 2
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Add ``reference`` (with ``generate`` and ``verify``) to ``sub`` (from ``add_subparsers``)."""
+    from precise_impact.verification.reference import CASES
+
+    p = sub.add_parser("reference", help="generate or verify the reference datasets (reference_data/)")
+    rsub = p.add_subparsers(dest="reference_command", metavar="{generate,verify}")
+    rsub.required = True
+    g = rsub.add_parser("generate", help="generate datasets (skips cases whose manifest and checksums verify)")
+    which = g.add_mutually_exclusive_group()
+    which.add_argument(
+        "--case", action="append", metavar="NAME", choices=list(CASES),
+        help="case to generate (repeatable): " + ", ".join(CASES),
+    )
+    which.add_argument("--all", action="store_true", help="every case (the default)")
+    g.add_argument("--out", default=None, metavar="DIR", help="output directory (default: the checkout's reference_data/)")
+    g.add_argument("--force", action="store_true", help="regenerate cases that are already complete")
+    g.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    v = rsub.add_parser("verify", help="check checksums and recompute a cheap subset; exit 1 on any problem")
+    v.add_argument("--root", default=None, metavar="DIR", help="dataset directory (default: the checkout's reference_data/)")
+    v.add_argument("--case", action="append", metavar="NAME", choices=list(CASES), help="only this case (repeatable)")
+    v.add_argument("--no-recompute", action="store_true", help="checksums only")
+    return p
+
+
+def run(ns: argparse.Namespace) -> int:
+    """Execute a parsed ``reference`` command; return the exit status."""
+    from precise_impact.verification.reference import default_root, generate, verify
+
+    if ns.reference_command == "generate":
+        out = Path(ns.out) if ns.out else default_root()
+        res = generate(None if ns.all or not ns.case else ns.case, out=out, progress=not ns.quiet, force=ns.force)
+        for case, m in res.items():
+            state = "up to date" if m.get("skipped") else "written"
+            size = sum(f["bytes"] for f in m["files"].values())
+            print(f"{case}: {state} ({size / 1024:.0f} KiB) in {out / case}")
+        return 0
+    if ns.reference_command == "verify":
+        root = Path(ns.root) if ns.root else default_root()
+        problems = verify(root, cases=ns.case, recompute=not ns.no_recompute)
+        for p in problems:
+            print(f"MISMATCH: {p}")
+        if problems:
+            print(f"{len(problems)} problem(s) in {root}", file=sys.stderr)
+            return EXIT_MISMATCH
+        print(f"ok: every case in {root} verifies")
+        return 0
+    raise ParameterError("reference", ns.reference_command, "one of generate, verify")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Standalone entry: ``python -m precise_impact._cli_reference reference {generate,verify} ...``."""
+    parser = argparse.ArgumentParser(prog="precise-impact")
+    sub = parser.add_subparsers(dest="command", required=True)
+    add_parser(sub)
+    ns = parser.parse_args(argv)
+    import heyoka
+
+    heyoka.set_logger_level_error()
+    try:
+        return run(ns)
+    except ParameterError as e:
+        print(f"precise-impact: error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

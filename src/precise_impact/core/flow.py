@@ -1,0 +1,80 @@
+"""The smooth flow of the impact oscillator, eq. (2a), written once.
+
+``x' = v``, ``v' = a cos(eta t) - 2 zeta v - x``.  :func:`acceleration` is generic in
+its number type: heyoka builds it from expressions, mpmath and numpy call it with
+numbers, so every model and precision integrates the same formula.  The closed-form
+steady state of the non-impacting oscillator and the grazing frequency live here too.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from fractions import Fraction
+from typing import Any, Callable
+
+import mpmath
+
+__all__ = ["acceleration", "SteadyState", "steady_state", "grazing_frequencies"]
+
+
+def acceleration(t: Any, x: Any, v: Any, eta: Any, zeta: Any, a: Any, cos: Callable[[Any], Any]) -> Any:
+    """Right-hand side of ``v' `` in eq. (2a): ``a cos(eta t) - 2 zeta v - x``."""
+    return a * cos(eta * t) - 2 * zeta * v - x
+
+
+@dataclasses.dataclass(frozen=True)
+class SteadyState:
+    """Non-impacting periodic response ``x_p(t) = P cos(eta t) + Q sin(eta t)``.
+
+    ``P = a (1 - eta^2) / D``, ``Q = 2 zeta eta a / D``, ``D = (1 - eta^2)^2 + (2 zeta eta)^2``,
+    exact rationals for rational parameters.  It is the unique periodic solution of
+    (2a) when ``zeta > 0``; every solution that stops impacting converges to it as
+    ``exp(-zeta t)``.
+    """
+
+    P: Fraction
+    Q: Fraction
+    eta: Fraction
+
+    @property
+    def amplitude_squared(self) -> Fraction:
+        return self.P * self.P + self.Q * self.Q
+
+    def at(self, t: Any, cos=mpmath.cos, sin=mpmath.sin) -> tuple[Any, Any]:
+        """``(x_p(t), x_p'(t))`` evaluated with the given cos/sin."""
+        eta = self.eta
+        c, s = cos(eta * t), sin(eta * t)
+        return self.P * c + self.Q * s, eta * (self.Q * c - self.P * s)
+
+
+def steady_state(params) -> SteadyState:
+    """Closed-form steady state of the smooth oscillator for ``params`` (exact)."""
+    eta, zeta, a = params.eta, params.zeta, params.a
+    d = (1 - eta**2) ** 2 + (2 * zeta * eta) ** 2
+    if d == 0:
+        from precise_impact.errors import ParameterError
+
+        raise ParameterError(
+            "zeta", "0", "zeta = 0 with eta = 1 is the undamped resonance: no bounded steady state; need zeta > 0"
+        )
+    return SteadyState(P=a * (1 - eta**2) / d, Q=2 * zeta * eta * a / d, eta=eta)
+
+
+def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
+    """Forcing frequencies at which the steady-state amplitude equals ``|x_w|``.
+
+    Solves ``(1 - u)^2 + 4 zeta^2 u = a^2 / x_w^2`` for ``u = eta^2`` (closed form),
+    returning the positive ``eta`` in increasing order.  For the paper's parameters
+    the lower root is eta ~ 0.71069: below it the non-impacting orbit stays clear
+    of the wall.
+    """
+    with mpmath.workdps(dps):
+        z = mpmath.mpf(params.zeta.numerator) / params.zeta.denominator
+        a = mpmath.mpf(params.a.numerator) / params.a.denominator
+        xw = mpmath.mpf(params.x_w.numerator) / params.x_w.denominator
+        b = 1 - 2 * z**2
+        disc = b**2 - 1 + (a / xw) ** 2
+        if disc < 0:
+            return []
+        roots = [b - mpmath.sqrt(disc), b + mpmath.sqrt(disc)]
+        return sorted(mpmath.sqrt(u) for u in roots if u > 0)

@@ -1,0 +1,250 @@
+"""The impact: eq. (2b) and its saltation matrix, written once for every model and precision.
+
+At ``x = x_w`` with ``v > 0`` the velocity is reset, ``v+ = -R v-`` (the position is
+kept).  The reset is discontinuous, so a perturbation of the state just before the
+impact is *not* mapped by the Jacobian of the reset alone: the perturbed orbit hits
+the wall at a slightly different time.  The saltation matrix (Aizerman & Gantmakher
+1958; Müller 1995; di Bernardo et al., *Piecewise-smooth Dynamical Systems*, 2008,
+sec. 2.5) accounts for that:
+
+``S = Dg + (f+ - Dg f-) n^T / (n^T f-)``
+
+with ``g`` the reset map, ``Dg`` its Jacobian, ``f-``/``f+`` the vector fields just
+before/after, and ``n`` the gradient of the event function ``h = x - x_w``.  For the
+oscillator ``n = (1, 0)``, ``Dg = diag(1, -R)``, ``f = (v, acc)`` and
+
+``S = [[-R, 0], [(acc+ + R acc-) / v-, -R]]``,  ``det S = R^2``.
+
+(For the smooth flow (2a) ``acc+ + R acc- = (1 + R)(a cos(eta t) - x_w)``.)  Note the
+``1/v-``: near grazing (``v- -> 0``) the saltation matrix blows up.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any, Sequence
+
+import mpmath
+
+from precise_impact.core.flow import acceleration
+
+__all__ = [
+    "reset_velocity",
+    "saltation_matrix",
+    "oscillator_saltation",
+    "impact_at_start",
+    "wall_acceleration",
+    "pushes_into_wall",
+    "release_time",
+    "chatter_accumulation_time",
+]
+
+
+def reset_velocity(v_minus: Any, R: Any) -> Any:
+    """Velocity after the impact, eq. (2b): ``v+ = -R v-``."""
+    return -R * v_minus
+
+
+def saltation_matrix(
+    jac_reset: Sequence[Sequence[Any]],
+    f_minus: Sequence[Any],
+    f_plus: Sequence[Any],
+    normal: Sequence[Any],
+) -> list[list[Any]]:
+    """General saltation matrix ``Dg + (f+ - Dg f-) n^T / (n^T f-)`` for any dimension.
+
+    Works for any number type with ``+ - * /`` (float, numpy, mpmath, heyoka real).
+    Raises ``ZeroDivisionError`` for a tangential impact (``n^T f- = 0``).
+    """
+    n = len(f_minus)
+    dg_f = [sum(jac_reset[i][k] * f_minus[k] for k in range(n)) for i in range(n)]
+    denom = sum(normal[k] * f_minus[k] for k in range(n))
+    if denom == 0:
+        raise ZeroDivisionError("tangential (grazing) impact: n . f- = 0, saltation matrix undefined")
+    return [
+        [jac_reset[i][j] + (f_plus[i] - dg_f[i]) * normal[j] / denom for j in range(n)] for i in range(n)
+    ]
+
+
+def oscillator_saltation(t: Any, v_minus: Any, eta: Any, zeta: Any, a: Any, x_w: Any, R: Any, cos) -> list[list[Any]]:
+    """Saltation matrix of the single oscillator's impact at ``(t, x_w, v_minus)``.
+
+    Built from :func:`saltation_matrix` with the flow :func:`~._system.acceleration`,
+    so the two are never out of step.
+    """
+    v_plus = reset_velocity(v_minus, R)
+    f_minus = [v_minus, acceleration(t, x_w, v_minus, eta, zeta, a, cos)]
+    f_plus = [v_plus, acceleration(t, x_w, v_plus, eta, zeta, a, cos)]
+    zero, one = 0 * R, 0 * R + 1
+    jac = [[one, zero], [zero, -R]]
+    return saltation_matrix(jac, f_minus, f_plus, [one, zero])
+
+
+def impact_at_start(x0: Any, v0: Any, x_w: Any, R: Any) -> bool:
+    """True if the initial state lies on the wall moving into it (``x0 = x_w``, ``v0 > 0``).
+
+    Such a start is an impact at ``t0``; solvers apply :func:`reset_velocity` first.
+    """
+    return x0 == x_w and v0 > 0
+
+
+# --------------------------------------------------------------------------- sticking
+# Eq. (2) has no rule for a mass *resting* on the wall.  The standard completion
+# (Budd & Dux 1994; di Bernardo et al., *Piecewise-smooth Dynamical Systems*,
+# 2008: the sticking region of an impacting system) keeps ``x = x_w``, ``v = 0``
+# while the net force at the wall pushes into it, ``wall_acceleration > 0``, and
+# releases the mass, with ``v = 0``, where that force changes sign.  The
+# functions below evaluate that force and its zeros in closed form.
+
+
+def wall_acceleration(t: Any, eta: Any, zeta: Any, a: Any, x_w: Any, cos) -> Any:
+    """Acceleration of the mass at rest on the wall, ``x'' (x = x_w, v = 0) = a cos(eta t) - x_w``.
+
+    Built from :func:`~._system.acceleration`; positive means the net force
+    pushes the mass into the wall.  Generic in the number type like ``acceleration``.
+    """
+    return acceleration(t, x_w, 0 * x_w, eta, zeta, a, cos)
+
+
+def _mpq(q: Any) -> Any:
+    q = Fraction(q)
+    return mpmath.mpf(q.numerator) / q.denominator
+
+
+def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
+    """True if a mass at rest on the wall at time ``t`` stays there (sticks).
+
+    ``G(s) = a cos(eta s) - x_w`` is the wall force (:func:`wall_acceleration`).
+    The mass sticks if ``G(t) > 0``; at an exact zero of ``G`` (possible only at
+    ``t = 0`` or for ``a = x_w = 0``) the first non-zero derivative decides:
+    ``G' > 0``, or ``G' = 0`` and ``G'' = -eta^2 x_w > 0``.  ``G == 0`` everywhere
+    (``a = x_w = 0``: the mass rests at the spring's equilibrium, on the wall)
+    counts as sticking: the mass stays where it is, for good.
+
+    ``t`` is an exact number (Fraction, int, or an mpf, evaluated at the current
+    mpmath precision; callers add guard bits); the parameters are exact rationals.
+    """
+    eta, a, x_w = Fraction(eta), Fraction(a), Fraction(x_w)
+    if t == 0:
+        g0 = a - x_w  # exact: cos(0) = 1
+        if g0 != 0:
+            return g0 > 0
+        if a == 0 and x_w == 0:
+            return True  # G == 0 everywhere: at rest for good
+        return -eta * eta * x_w > 0  # G'(0) = 0, G''(0) = -a eta^2 = -eta^2 x_w
+    th = _mpq(eta) * (t if isinstance(t, mpmath.mpf) else _mpq(t))
+    g = _mpq(a) * mpmath.cos(th) - _mpq(x_w)
+    if g != 0:
+        return g > 0
+    g1 = -_mpq(a) * _mpq(eta) * mpmath.sin(th)
+    if g1 != 0:
+        return g1 > 0
+    if a == 0 and x_w == 0:
+        return True
+    return -eta * eta * x_w > 0
+
+
+def release_time(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> Any:
+    """First time ``s > t`` at which the wall force ``G = a cos(eta s) - x_w`` turns negative.
+
+    Closed form at the current mpmath precision (callers add guard bits for
+    ``|eta t|``): with ``c = x_w / |a|`` and ``-1 < c < 1`` the zeros of ``G`` where
+    ``G' = -a eta sin(eta s) < 0`` are ``eta s = phi + 2 pi k``,
+    ``phi = acos(c)`` for ``a > 0`` and ``phi = acos(c) - pi`` for ``a < 0``
+    (equivalently ``-acos(x_w / a)``); the smallest one with ``eta s > eta t`` is
+    returned as an mpf.  Returns ``None`` if ``G`` never turns negative:
+    ``a = 0`` (constant force) or ``c <= -1`` (``G >= 0`` everywhere, touching
+    zero at most tangentially when ``c = -1``); also for ``c >= 1``, where ``G <= 0``
+    everywhere and nothing can stick in the first place.
+    """
+    eta, a, x_w = Fraction(eta), Fraction(a), Fraction(x_w)
+    if a == 0:
+        return None
+    c = x_w / abs(a)
+    if c <= -1 or c >= 1:
+        return None
+    two_pi = 2 * mpmath.pi
+    phi = mpmath.acos(_mpq(c))
+    if a < 0:
+        phi -= mpmath.pi
+    th = _mpq(eta) * (t if isinstance(t, mpmath.mpf) else _mpq(t))
+    k = mpmath.floor((th - phi) / two_pi) + 1
+    th_rel = phi + two_pi * k
+    while th_rel <= th:  # guards the floor against rounding at an exact zero
+        th_rel += two_pi
+    return th_rel / _mpq(eta)
+
+
+def chatter_accumulation_time(t_n: Any, v_n: Any, R: Any, g: Any) -> Any:
+    """Accumulation time of a chattering sequence in the constant-force limit.
+
+    A mass hitting the wall at ``t_n`` with speed ``v_n > 0`` and restitution
+    ``0 <= R < 1``, under a constant acceleration ``g > 0`` into the wall, flies
+    ``2 R^k v_n / g`` between its k-th and (k+1)-th later impacts, so the impacts
+    accumulate (Zeno) at ``t_n + 2 R v_n / (g (1 - R))`` (C. J. Budd, F. Dux,
+    Phil. Trans. R. Soc. A 347 (1994) 365-389; for a slowly varying force this is
+    the leading term, with a relative error O(flight time)).  Generic in the
+    number type.
+    """
+    return t_n + 2 * R * v_n / (g * (1 - R))
+
+
+# --------------------------------------------------------------------- grazing contacts
+#: Safety factor of the default grazing depth.
+GRAZING_SAFETY = 16
+
+
+def grazing_depth_coefficient(precision) -> "Fraction":
+    """``16 u``, ``u = 2^-bits``: the default grazing depth is this times ``|x_w| + |a| + A_p (1 + eta |t|)``."""
+    from fractions import Fraction
+
+    return Fraction(GRAZING_SAFETY, 2**precision.bits)
+
+
+def steady_amplitude(params) -> float:
+    """Steady-state amplitude ``A_p = |a| / sqrt((1 - eta^2)^2 + (2 zeta eta)^2)`` as a float.
+
+    At the undamped resonance (``zeta = 0``, ``eta = 1``: no steady state) ``|a|``.
+    """
+    import math
+
+    from precise_impact.errors import ParameterError
+    from precise_impact.core.flow import steady_state
+
+    try:
+        return math.sqrt(float(steady_state(params).amplitude_squared))
+    except ParameterError:
+        return float(abs(params.a))
+
+
+class GrazingDepth:
+    """Grazing depth ``delta(t) = coef (|x_w| + |a| + amp (1 + eta |t|))``, or a fixed value.
+
+    The rounding-level distance beyond the wall below which an event is a tangential
+    contact, not an impact (:func:`is_contact`).  ``pr`` is an integrator's parameter
+    vector in :data:`~._params.RUNTIME_PARAMS` order.
+    """
+
+    def __init__(self, coef: Any = 0.0, amp: Any = 0.0, fixed: Any = None) -> None:
+        self.coef = coef
+        self.amp = amp
+        self.fixed = fixed
+
+    def __call__(self, t: Any, pr: Any) -> Any:
+        from precise_impact.core.params import RUNTIME_PARAMS
+
+        if self.fixed is not None:
+            return self.fixed
+        i = {n: k for k, n in enumerate(RUNTIME_PARAMS)}
+        return self.coef * (abs(pr[i["x_w"]]) + abs(pr[i["a"]]) + self.amp * (1 + pr[i["eta"]] * abs(t)))
+
+
+def is_contact(v_minus: Any, acc_minus: Any, depth: Any) -> bool:
+    """True if an event at the wall is a tangential contact, not an impact.
+
+    Either the mass is not moving into the wall (``v- <= 0``), or it is decelerating
+    (``acc- < 0``) and would go beyond the wall by at most ``v-^2 / (2 |acc-|) <= depth``
+    (a rounding-level excursion: resetting ``v`` there changes it by a rounding-level
+    amount, and the saltation matrix ~ 1/v- would be meaningless).
+    """
+    return not v_minus > 0 or (acc_minus < 0 and v_minus * v_minus <= -2 * acc_minus * depth)

@@ -1,0 +1,230 @@
+"""System parameters as exact rationals, written once for every model and precision.
+
+The paper's parameters are decimal numbers (``eta = 0.712``).  ``0.712`` rounded to
+float64 is a *different* dynamical system, and in the chaotic regime the difference
+is amplified by about 0.12 decimal digits per forcing period.  Every parameter is
+therefore stored as an exact :class:`fractions.Fraction` built from its decimal
+string and is rounded *once*, correctly, into each working precision
+(:meth:`precise_impact.Precision.from_fraction`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from decimal import Decimal, InvalidOperation
+from fractions import Fraction
+from typing import Any, Mapping
+
+import numpy as np
+
+from precise_impact.errors import ParameterError
+
+__all__ = ["Params", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES", "RUNTIME_PARAMS"]
+
+#: Order of the fields, also the order of the CLI flags and of ``--json`` output.
+PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
+
+#: Parameters that are heyoka runtime parameters (changed without recompiling),
+#: in the order of the integrator's ``pars`` vector.  ``R`` only enters the impact
+#: callback; it is given the slot *before* ``x_w`` so that heyoka, which sizes the
+#: parameter vector by the highest index used in the equations and events,
+#: still allocates it.
+RUNTIME_PARAMS = ("eta", "zeta", "a", "R", "x_w")
+
+_DEFAULTS = {
+    "zeta": "0.05",
+    "a": "1",
+    "eta": "0.712",
+    "x_w": "2",
+    "R": "1",
+    "x0": "0",
+    "v0": "0",
+    "t0": "0",
+}
+
+
+def exact(name: str, value: Any) -> Fraction:
+    """Convert a user value to an exact rational, or raise :class:`ParameterError`.
+
+    Accepted: decimal strings (``"0.712"``, ``"1e-3"``, ``"102/53"``), ``int``,
+    :class:`~fractions.Fraction`, :class:`~decimal.Decimal`, and ``float``.  A float
+    is read as the *shortest decimal that round-trips to it* (``0.712`` means the
+    decimal 0.712, which is what the user typed), not as its binary value.
+    NaN, infinities, booleans and other types are refused.
+    """
+    if isinstance(value, bool):
+        raise ParameterError(name, value, "expected a finite number, got a boolean")
+    if isinstance(value, Fraction):
+        return value
+    if isinstance(value, int):
+        return Fraction(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ParameterError(name, value, "every value must be finite (no NaN or inf)")
+        return Fraction(repr(value))
+    if isinstance(value, Decimal):
+        if not value.is_finite():
+            raise ParameterError(name, value, "every value must be finite (no NaN or inf)")
+        return Fraction(value)
+    if isinstance(value, str):
+        s = value.strip()
+        try:
+            if "/" in s:
+                return Fraction(s)
+            d = Decimal(s)
+        except (InvalidOperation, ValueError, ZeroDivisionError):
+            raise ParameterError(
+                name, value, "expected a decimal number such as '0.712' or a ratio such as '102/53'"
+            ) from None
+        if not d.is_finite():
+            raise ParameterError(name, value, "every value must be finite (no NaN or inf)")
+        return Fraction(d)
+    raise ParameterError(
+        name, value, f"expected a decimal string, int, Fraction or float, got {type(value).__name__}"
+    )
+
+
+def check_count(value: Any, name: str = "periods", maximum: int = 10**8) -> int:
+    """Validate a count (periods, points per period) given as int or integer string."""
+    if isinstance(value, str):
+        try:
+            value = int(value.strip())
+        except ValueError:
+            raise ParameterError(name, value, f"an integer with 0 <= {name} <= {maximum}") from None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= maximum:
+        raise ParameterError(name, value, f"an integer with 0 <= {name} <= {maximum}")
+    return int(value)
+
+
+def check_tol(tol: Any, name: str = "tol") -> Fraction | None:
+    """Validate an integrator tolerance: ``None`` (the precision's epsilon) or exact ``0 < tol < 1``."""
+    if tol is None:
+        return None
+    q = exact(name, tol)
+    if not 0 < q < 1:
+        raise ParameterError(name, str(tol), "tolerance must satisfy 0 < tol < 1")
+    return q
+
+
+def exact_grid(lo: Any, hi: Any, n: Any, name: str, minimum: Fraction = Fraction(0), strict: bool = False) -> list[Fraction]:
+    """``n`` exact, evenly spaced values from ``lo`` to ``hi`` (both included).
+
+    Errors name ``{name}_min``, ``{name}_max`` or ``n``; ``lo`` must be ``>= minimum``
+    (``> minimum`` when ``strict``).
+    """
+    lo_q, hi_q = exact(f"{name}_min", lo), exact(f"{name}_max", hi)
+    n = check_count(n, "n", 1_000_000)
+    if n < 1:
+        raise ParameterError("n", n, f"an integer >= 1 (number of {name} values)")
+    if lo_q < minimum or (strict and lo_q == minimum):
+        raise ParameterError(f"{name}_min", decimal_str(lo_q), f"must be {'>' if strict else '>='} {decimal_str(minimum)}")
+    if hi_q < lo_q or (hi_q == lo_q and n > 1):
+        raise ParameterError(
+            f"{name}_max", decimal_str(hi_q), f"must be > {name}_min = {decimal_str(lo_q)} (or equal with n = 1)"
+        )
+    if n == 1:
+        return [lo_q]
+    return [lo_q + (hi_q - lo_q) * Fraction(i, n - 1) for i in range(n)]
+
+
+def decimal_str(q: Fraction) -> str:
+    """The exact decimal string of ``q`` if it terminates, else ``'p/q'``."""
+    den = q.denominator
+    twos = fives = 0
+    while den % 2 == 0:
+        den //= 2
+        twos += 1
+    while den % 5 == 0:
+        den //= 5
+        fives += 1
+    if den != 1:
+        return f"{q.numerator}/{q.denominator}"
+    places = max(twos, fives)
+    d = Decimal(q.numerator * 10**places // q.denominator).scaleb(-places)
+    s = format(d, "f")
+    if "." in s:
+        s = s.rstrip("0").rstrip(".")
+    return s if s not in ("-0", "") else "0"
+
+
+@dataclasses.dataclass(frozen=True)
+class Params:
+    """Parameters of the dimensionless impact oscillator, eq. (2) of the paper.
+
+    ``x'' + 2 zeta x' + x = a cos(eta tau)`` for ``x < x_w``; at ``x = x_w``,
+    ``x'(+) = -R x'(-)``.  Initial state ``(x0, v0)`` at time ``t0``.
+
+    Every field is an exact :class:`~fractions.Fraction`; construct with
+    :meth:`Params.make`, which validates.  Allowed ranges (checked before any work):
+
+    ===========  ==================================  ============
+    name         allowed                             default
+    ===========  ==================================  ============
+    zeta         >= 0 (damping ratio)                0.05
+    a            finite (forcing amplitude)          1
+    eta          > 0 (forcing/natural frequency)     0.712
+    x_w          finite (wall position)              2
+    R            0 <= R <= 1 (restitution)           1
+    x0           <= x_w (start outside the wall)     0
+    v0           finite                              0
+    t0           finite (start time, forcing phase)  0
+    ===========  ==================================  ============
+
+    Defaults are the paper's (zeta = 0.05, a = 1, x_w = 2, R = 1, chaotic eta = 0.712).
+    """
+
+    zeta: Fraction
+    a: Fraction
+    eta: Fraction
+    x_w: Fraction
+    R: Fraction
+    x0: Fraction
+    v0: Fraction
+    t0: Fraction
+
+    @classmethod
+    def make(cls, **values: Any) -> "Params":
+        """Build and validate.  Unknown names are refused; missing ones take defaults."""
+        unknown = sorted(set(values) - set(PARAM_NAMES))
+        if unknown:
+            raise ParameterError(
+                unknown[0], values[unknown[0]], f"unknown parameter; known: {', '.join(PARAM_NAMES)}"
+            )
+        merged = {n: values[n] if values.get(n) is not None else _DEFAULTS[n] for n in PARAM_NAMES}
+        q = {n: exact(n, merged[n]) for n in PARAM_NAMES}
+        p = cls(**q)
+        p.validate()
+        return p
+
+    def validate(self) -> None:
+        """Check every range; raise :class:`ParameterError` naming the first bad one."""
+        if self.zeta < 0:
+            raise ParameterError("zeta", decimal_str(self.zeta), "damping ratio must be >= 0")
+        if self.eta <= 0:
+            raise ParameterError("eta", decimal_str(self.eta), "forcing frequency ratio must be > 0")
+        if not (0 <= self.R <= 1):
+            raise ParameterError("R", decimal_str(self.R), "restitution coefficient must satisfy 0 <= R <= 1")
+        if self.x0 > self.x_w:
+            raise ParameterError(
+                "x0",
+                decimal_str(self.x0),
+                f"the start must not lie inside the wall: x0 <= x_w = {decimal_str(self.x_w)}",
+            )
+
+    def replace(self, **values: Any) -> "Params":
+        """A copy with some fields changed (validated)."""
+        d = {n: getattr(self, n) for n in PARAM_NAMES}
+        d.update(values)
+        return Params.make(**d)
+
+    def decimal(self) -> dict[str, str]:
+        """``{name: exact decimal string}`` (``'p/q'`` for non-terminating rationals)."""
+        return {n: decimal_str(getattr(self, n)) for n in PARAM_NAMES}
+
+    def __str__(self) -> str:
+        return "Params(" + ", ".join(f"{k}={v}" for k, v in self.decimal().items()) + ")"
+
+    @classmethod
+    def from_mapping(cls, m: Mapping[str, Any]) -> "Params":
+        return cls.make(**dict(m))

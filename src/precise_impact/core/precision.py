@@ -1,0 +1,207 @@
+"""Floating-point precisions: float64, longdouble, float128 and heyoka ``real`` (MPFR).
+
+A :class:`Precision` converts exact rationals into its number type with a single
+correct rounding (through :func:`mpmath.libmp.from_rational`, never through
+float64), converts its numbers back to exact :mod:`mpmath` values, and prints them
+with enough significant digits to round-trip.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from fractions import Fraction
+from typing import Any
+
+import mpmath
+import numpy as np
+from mpmath import libmp
+
+from precise_impact.errors import ParameterError
+
+__all__ = ["Precision", "PRECISION_HELP"]
+
+PRECISION_HELP = "one of 'float64', 'longdouble', 'float128', or 'mp:BITS' with an integer BITS >= 64"
+
+_LONGDOUBLE_BITS = np.finfo(np.longdouble).nmant + 1
+
+
+@dataclasses.dataclass(frozen=True)
+class Precision:
+    """A working precision.
+
+    Attributes
+    ----------
+    name : str
+        ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp:BITS'``.
+    kind : str
+        ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp'``.
+    bits : int
+        Significand bits including the implicit one (53, 64 on x86-64, 113, BITS).
+    """
+
+    name: str
+    kind: str
+    bits: int
+
+    # ----------------------------------------------------------------- parsing
+    @staticmethod
+    @functools.lru_cache(maxsize=None)
+    def parse(spec: "str | Precision") -> "Precision":
+        """Parse a precision string; raise :class:`ParameterError` if unknown."""
+        if isinstance(spec, Precision):
+            return spec
+        if not isinstance(spec, str):
+            raise ParameterError("precision", spec, PRECISION_HELP)
+        s = spec.strip().lower()
+        if s in ("float64", "double", "f64"):
+            return Precision("float64", "float64", 53)
+        if s in ("longdouble", "long double", "ld"):
+            return Precision("longdouble", "longdouble", _LONGDOUBLE_BITS)
+        if s in ("float128", "quad", "f128"):
+            return Precision("float128", "float128", 113)
+        if s.startswith("mp:"):
+            try:
+                bits = int(s[3:])
+            except ValueError:
+                raise ParameterError("precision", spec, PRECISION_HELP) from None
+            if bits < 64:
+                raise ParameterError("precision", spec, "multiprecision needs BITS >= 64 ('mp:BITS')")
+            if bits > 100_000:
+                raise ParameterError("precision", spec, "multiprecision needs BITS <= 100000")
+            return Precision(f"mp:{bits}", "mp", bits)
+        raise ParameterError("precision", spec, PRECISION_HELP)
+
+    # --------------------------------------------------------------- constants
+    @property
+    def fp_type(self) -> Any:
+        """The number type heyoka and numpy use for this precision."""
+        import heyoka as hy
+
+        return {"float64": np.float64, "longdouble": np.longdouble, "float128": hy.real128, "mp": hy.real}[
+            self.kind
+        ]
+
+    @property
+    def heyoka_kwargs(self) -> dict:
+        """Keyword arguments selecting this precision in heyoka constructors."""
+        kw: dict = {"fp_type": self.fp_type}
+        if self.kind == "mp":
+            kw["prec"] = self.bits
+        return kw
+
+    @property
+    def eps_fraction(self) -> Fraction:
+        """Machine epsilon 2**(1 - bits), exact."""
+        return Fraction(1, 2 ** (self.bits - 1))
+
+    @property
+    def eps(self) -> Any:
+        """Machine epsilon in this number type."""
+        return self.from_fraction(self.eps_fraction)
+
+    @property
+    def eps_float(self) -> float:
+        """Machine epsilon as a Python float (for tolerances in tests)."""
+        return 2.0 ** (1 - self.bits)
+
+    @property
+    def digits(self) -> int:
+        """Significant decimal digits that round-trip: ceil(bits log10 2) + 1."""
+        return math.ceil(self.bits * math.log10(2)) + 1
+
+    # ------------------------------------------------------------- conversion
+    def _from_mpf_exact(self, m: mpmath.mpf) -> Any:
+        """Convert an mpf that is already representable in this precision."""
+        if self.kind == "float64":
+            return float(m)
+        # A decimal string with 10 more digits than round-trip needs lies far
+        # inside half an ulp of ``m``, so the target's correctly-rounded parser
+        # returns ``m`` itself.
+        s = libmp.to_str(m._mpf_, self.digits + 10)
+        if self.kind == "longdouble":
+            return np.longdouble(s)
+        import heyoka as hy
+
+        if self.kind == "float128":
+            return hy.real128(s)
+        return hy.real(s, self.bits)
+
+    def from_fraction(self, q: Fraction) -> Any:
+        """Round an exact rational to this precision once, to nearest."""
+        q = Fraction(q)
+        return self._from_mpf_exact(_mk(libmp.from_rational(q.numerator, q.denominator, self.bits, "n")))
+
+    def from_decimal(self, s: str) -> Any:
+        """Round a decimal string to this precision once, to nearest."""
+        return self.from_fraction(Fraction(s))
+
+    def from_mpf(self, m: Any) -> Any:
+        """Round an mpmath number (any precision) to this precision, to nearest."""
+        m = mpmath.mpf(m) if not isinstance(m, mpmath.mpf) else m
+        return self._from_mpf_exact(_mk(libmp.normalize(*m._mpf_, self.bits, "n")))
+
+    def to_mpf(self, x: Any) -> mpmath.mpf:
+        """Exact mpmath value of a number of this precision (independent of mp.prec)."""
+        if self.kind == "float64":
+            return _mk(libmp.from_float(float(x)))
+        if self.kind == "longdouble":
+            n, d = np.longdouble(x).as_integer_ratio()
+            return _mk(libmp.from_rational(n, d, self.bits, "n"))
+        # heyoka prints real128/real with round-trip digits; re-parsing at the
+        # same number of bits recovers the exact value.
+        return _mk(libmp.from_str(str(x), self.bits, "n"))
+
+    def to_fraction(self, x: Any) -> Fraction:
+        """Exact rational value of a number of this precision."""
+        man, exp = _mpf_man_exp(self.to_mpf(x))
+        return Fraction(man) * Fraction(2) ** exp
+
+    def to_str(self, x: Any) -> str:
+        """Decimal string with :attr:`digits` significant digits (round-trips exactly)."""
+        return libmp.to_str(self.to_mpf(x)._mpf_, self.digits)
+
+    def to_float(self, x: Any) -> float:
+        return float(self.to_mpf(x))
+
+    def array(self, values: Any) -> np.ndarray:
+        """A numpy array of this precision's type (object array for float128 / mp)."""
+        values = list(values)
+        if self.kind in ("float64", "longdouble"):
+            return np.array(values, dtype=self.fp_type)
+        arr = np.empty(len(values), dtype=object)
+        for i, v in enumerate(values):
+            arr[i] = v
+        return arr
+
+    def mp_workprec(self, extra_bits: int = 0):
+        """Context manager: mpmath working precision = this precision + ``extra_bits``."""
+        return mpmath.workprec(self.bits + extra_bits)
+
+    def sample_times(self, t0: Fraction, eta: Fraction, periods: int, per_period: int = 1) -> list:
+        """Times ``t0 + j * T / per_period``, ``T = 2 pi / eta``, j = 0..periods*per_period.
+
+        Each time is computed in mpmath with 64 guard bits plus the bits of the
+        largest index and rounded once to this precision, so sample times carry no
+        accumulated ``k * eps`` drift.
+        """
+        n = periods * per_period
+        guard = 64 + max(n, 1).bit_length()
+        with mpmath.workprec(self.bits + guard):
+            step = 2 * mpmath.pi / (mpmath.mpf(eta.numerator) / eta.denominator) / per_period
+            t0m = mpmath.mpf(t0.numerator) / t0.denominator
+            return [self.from_mpf(t0m + j * step) for j in range(n + 1)]
+
+    def __str__(self) -> str:
+        return self.name
+
+
+def _mk(raw: tuple) -> mpmath.mpf:
+    """An mpf from a raw mpmath tuple *without* rounding to the global mp.prec."""
+    return mpmath.mp.make_mpf(raw)
+
+
+def _mpf_man_exp(m: mpmath.mpf) -> tuple[int, int]:
+    sign, man, exp, _ = m._mpf_
+    return (-man if sign else man), exp

@@ -1,0 +1,180 @@
+"""Result of one simulation: stroboscopic samples, impacts, optional dense output."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.core.params import Params, decimal_str
+from precise_impact.core.precision import Precision
+
+__all__ = ["Trajectory", "atomic_write"]
+
+
+@dataclasses.dataclass
+class Trajectory:
+    """What a solver returns.
+
+    Attributes
+    ----------
+    params : Params
+        The exact parameters.
+    model : str
+        ``'heyoka'``, ``'analytical'``, ``'analytical-paper'``, ...
+    precision : Precision
+        Number type of every state value below.
+    tol : Any
+        Tolerance the solver was run with (in ``precision``'s type, or ``None``).
+    t, x, v : numpy arrays
+        Stroboscopic samples at ``t0 + k T``, ``k = 0..periods`` (``T = 2 pi / eta``);
+        object arrays for float128 / mp.
+    impacts_t, impacts_v_before, impacts_v_after : numpy arrays
+        Every impact, in time order.
+    dense_t, dense_x, dense_v : numpy arrays or None
+        Optional dense output (``per_period`` points per period).
+    elapsed_s : float
+        Wall time of the integration (compilation excluded).
+    stats : dict
+        Solver statistics (steps, ...).
+    """
+
+    params: Params
+    model: str
+    precision: Precision
+    tol: Any
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    impacts_t: np.ndarray
+    impacts_v_before: np.ndarray
+    impacts_v_after: np.ndarray
+    dense_t: np.ndarray | None = None
+    dense_x: np.ndarray | None = None
+    dense_v: np.ndarray | None = None
+    elapsed_s: float = 0.0
+    stats: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def periods(self) -> int:
+        return len(self.t) - 1
+
+    @property
+    def n_impacts(self) -> int:
+        return len(self.impacts_t)
+
+    def state_mpf(self, k: int) -> tuple:
+        """Exact mpmath values ``(t, x, v)`` of sample ``k``."""
+        P = self.precision
+        return P.to_mpf(self.t[k]), P.to_mpf(self.x[k]), P.to_mpf(self.v[k])
+
+    def impacts_mpf(self) -> list[tuple]:
+        """Exact mpmath values ``(t, v_before, v_after)`` of every impact."""
+        P = self.precision
+        return [
+            (P.to_mpf(t), P.to_mpf(vb), P.to_mpf(va))
+            for t, vb, va in zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after)
+        ]
+
+    def as_float64(self) -> dict[str, np.ndarray]:
+        """Samples and impacts rounded to float64 (for plotting)."""
+        f = np.vectorize(self.precision.to_float, otypes=[float])
+
+        def conv(a):
+            return f(a) if a is not None and len(a) else np.zeros(0)
+
+        return {
+            "t": conv(self.t),
+            "x": conv(self.x),
+            "v": conv(self.v),
+            "impacts_t": conv(self.impacts_t),
+            "impacts_v_before": conv(self.impacts_v_before),
+            "impacts_v_after": conv(self.impacts_v_after),
+        }
+
+    # ------------------------------------------------------------------ output
+    def to_json_dict(self) -> dict:
+        """The CLI's ``--json`` object; every state number a full-precision decimal string."""
+        s = self.precision.to_str
+        return {
+            "params": self.params.decimal(),
+            "model": self.model,
+            "precision": self.precision.name,
+            "tol": s(self.tol) if self.tol is not None else None,
+            "samples": [
+                {"period": k, "t": s(t), "x": s(x), "v": s(v)}
+                for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v))
+            ],
+            "impacts": [
+                {"t": s(t), "v_before": s(vb), "v_after": s(va)}
+                for t, vb, va in zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after)
+            ],
+            "elapsed_s": self.elapsed_s,
+        }
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write ``.npz`` (decimal strings for every number, plus float64 copies) or ``.csv``.
+
+        The file is written atomically (temporary file + rename).
+        """
+        path = Path(path)
+        s = np.vectorize(self.precision.to_str, otypes=[object])
+        if path.suffix == ".npz":
+            arrays: dict[str, np.ndarray] = {}
+            for name in ("t", "x", "v", "impacts_t", "impacts_v_before", "impacts_v_after"):
+                a = getattr(self, name)
+                arrays[name + "_str"] = np.asarray(s(a) if len(a) else [], dtype=str)
+            for k, a in self.as_float64().items():
+                arrays[k] = a
+            if self.dense_t is not None:
+                f = np.vectorize(self.precision.to_float, otypes=[float])
+                arrays["dense_t"], arrays["dense_x"], arrays["dense_v"] = (
+                    f(self.dense_t),
+                    f(self.dense_x),
+                    f(self.dense_v),
+                )
+            meta = {k: v for k, v in self.to_json_dict().items() if k not in ("samples", "impacts")}
+            arrays["meta_json"] = np.asarray(json.dumps(meta))
+
+            def write(fh):
+                np.savez_compressed(fh, **arrays)
+
+            atomic_write(path, write, binary=True)
+        elif path.suffix == ".csv":
+            lines = ["kind,index,t,x,v_or_v_before,v_after"]
+            for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v)):
+                lines.append(f"sample,{k},{self.precision.to_str(t)},{self.precision.to_str(x)},{self.precision.to_str(v)},")
+            for i, (t, vb, va) in enumerate(zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after)):
+                p = self.precision
+                lines.append(f"impact,{i},{p.to_str(t)},{decimal_str(self.params.x_w)},{p.to_str(vb)},{p.to_str(va)}")
+            text = "\n".join(lines) + "\n"
+            atomic_write(path, lambda fh: fh.write(text), binary=False)
+        else:
+            from precise_impact.errors import ParameterError
+
+            raise ParameterError("out", str(path), "output file must end in .npz or .csv")
+        return path
+
+
+def atomic_write(path: str | os.PathLike, writer, binary: bool = True) -> None:
+    """Write through ``writer(fh)`` into a temporary file beside ``path``, then rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb" if binary else "w") as fh:
+            writer(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise

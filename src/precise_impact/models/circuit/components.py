@@ -1,0 +1,198 @@
+"""Component values of the circuit (paper Fig. 2) and the mapping to the dimensionless system.
+
+Written once: every circuit-level model (the op-amp network equations, the
+switched-capacitor impact, the ngspice netlist) takes a :class:`Components` and
+uses :func:`dimensionless` / :func:`state_to_mechanical` to compare with the
+mechanical reference.
+
+The network (paper eqs. 3-4, with the inverter U3 made explicit):
+
+* U1, summing amplifier: ``V_p = -R2 (V3/R1 + V_mq/R6 + V_s/R7)``;
+* U2, integrator with C2 (the capacitor the switches reverse): ``V_q' = -V_p / (R3 C2)``;
+* U3, inverter: ``V_mq = -(R5/R4) V_q`` (the paper's ``V_{-q}``);
+* U4, integrator with C1: ``V_s' = -V_q / (R8 C1)``;
+* source ``V3 = V_A cos(Omega t)``; comparator U5 compares ``V_s`` with ``V_wall``.
+
+Substituting (3) into (4a) gives ``V_q' = +R2/(R3 C2) (V3/R1 - V_q/R6 + V_s/R7)``
+for R4 = R5: the printed eq. (5b) (and hence (7)) carries a sign slip ("-R2/(R3 C2)");
+with the printed sign the network would have negative damping and negative
+stiffness (tested in tests/test_circuit.py).  With ``x = -V_s / V_unit``:
+
+``omega^2 = R2 / (R7 R3 C2 R8 C1)``, ``2 zeta omega = R2 R5 / (R4 R6 R3 C2)``,
+``a = V_A R7 / (R1 V_unit)``, ``eta = Omega / omega``, ``x_w = -V_wall / V_unit``,
+``tau = omega t``, ``x = -V_s / V_unit``, ``x' = V_q / (omega R8 C1 V_unit)``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from fractions import Fraction
+from typing import Any
+
+import mpmath
+
+from precise_impact.errors import ParameterError
+from precise_impact.core.params import Params, decimal_str, exact
+
+__all__ = ["Components", "nominal_components", "dimensionless", "exact_omega", "to_mechanical", "to_circuit", "COMPONENT_UNITS"]
+
+#: Each component and its SI unit.
+COMPONENT_UNITS = {
+    "R1": "ohm", "R2": "ohm", "R3": "ohm", "R4": "ohm", "R5": "ohm", "R6": "ohm", "R7": "ohm", "R8": "ohm",
+    "C1": "F", "C2": "F", "V_A": "V", "Omega": "rad/s", "V_wall": "V", "V_unit": "V",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Components:
+    """Component values, exact rationals in SI units (ohm, farad, volt, rad/s).
+
+    ``V_unit`` is the voltage that represents one unit of the dimensionless
+    displacement (1 V by default).  Construct with :meth:`make` (validated) or
+    :func:`nominal_components`.
+    """
+
+    R1: Fraction
+    R2: Fraction
+    R3: Fraction
+    R4: Fraction
+    R5: Fraction
+    R6: Fraction
+    R7: Fraction
+    R8: Fraction
+    C1: Fraction
+    C2: Fraction
+    V_A: Fraction
+    Omega: Fraction
+    V_wall: Fraction
+    V_unit: Fraction = Fraction(1)
+
+    @classmethod
+    def make(cls, **values: Any) -> "Components":
+        unknown = sorted(set(values) - set(COMPONENT_UNITS))
+        if unknown:
+            raise ParameterError(unknown[0], values[unknown[0]], "unknown component; known: " + ", ".join(COMPONENT_UNITS))
+        missing = [n for n in COMPONENT_UNITS if n not in values and n != "V_unit"]
+        if missing:
+            raise ParameterError(missing[0], None, "component value missing")
+        q = {n: exact(n, v) for n, v in values.items()}
+        for n, v in q.items():
+            if COMPONENT_UNITS[n] in ("ohm", "F") and v <= 0:
+                raise ParameterError(n, decimal_str(v), f"a {COMPONENT_UNITS[n]} value must be > 0")
+        if q.get("Omega", 1) <= 0:
+            raise ParameterError("Omega", decimal_str(q["Omega"]), "forcing angular frequency must be > 0 rad/s")
+        if q.get("V_unit", 1) <= 0:
+            raise ParameterError("V_unit", decimal_str(q["V_unit"]), "volts per unit displacement must be > 0")
+        return cls(**q)
+
+    def replace(self, **values: Any) -> "Components":
+        d = dataclasses.asdict(self)
+        d.update(values)
+        return Components.make(**d)
+
+    def decimal(self) -> dict[str, str]:
+        return {n: decimal_str(getattr(self, n)) for n in COMPONENT_UNITS}
+
+    # the mapping, written once ---------------------------------------------------
+    @property
+    def omega_squared(self) -> Fraction:
+        """``omega^2 = R2 / (R7 R3 C2 R8 C1)`` [1/s^2] (exact)."""
+        return self.R2 / (self.R7 * self.R3 * self.C2 * self.R8 * self.C1)
+
+    def omega(self, dps: int = 40) -> mpmath.mpf:
+        """Natural angular frequency [rad/s] (an mpmath number: sqrt is irrational in general)."""
+        with mpmath.workdps(dps):
+            w2 = self.omega_squared
+            return mpmath.sqrt(mpmath.mpf(w2.numerator) / w2.denominator)
+
+
+def dimensionless(comp: Components, x0: Any = 0, v0: Any = 0, t0: Any = 0, R: Any = 1) -> Params:
+    """The mechanical :class:`Params` the ideal circuit realises (exact when omega is rational).
+
+    ``zeta = R2 R5 / (2 R4 R6 R3 C2 omega)``, ``a = V_A R7 / (R1 V_unit)``,
+    ``eta = Omega / omega``, ``x_w = -V_wall / V_unit``.  ``omega`` must be rational
+    (e.g. R3 C2 = R8 C1 and R2 = R7, as in the paper's design); otherwise a
+    :class:`ParameterError` names the components.
+    """
+    w = exact_omega(comp)
+    zeta = comp.R2 * comp.R5 / (2 * comp.R4 * comp.R6 * comp.R3 * comp.C2 * w)
+    return Params.make(
+        zeta=zeta,
+        a=comp.V_A * comp.R7 / (comp.R1 * comp.V_unit),
+        eta=comp.Omega / w,
+        x_w=-comp.V_wall / comp.V_unit,
+        R=R,
+        x0=x0,
+        v0=v0,
+        t0=t0,
+    )
+
+
+def exact_omega(comp: Components) -> Fraction:
+    """``omega`` as an exact rational, or :class:`ParameterError` if it is irrational."""
+    w2 = comp.omega_squared
+    root = _isqrt_fraction(w2)
+    if root is None:
+        raise ParameterError(
+            "R2, R7, R3, C2, R8, C1", decimal_str(w2),
+            "omega^2 = R2/(R7 R3 C2 R8 C1) must be a rational square for an exact mapping (design values)",
+        )
+    return root
+
+
+def _isqrt_fraction(q: Fraction) -> Fraction | None:
+    import math
+
+    n, d = q.numerator, q.denominator
+    rn, rd = math.isqrt(n), math.isqrt(d)
+    if rn * rn == n and rd * rd == d:
+        return Fraction(rn, rd)
+    return None
+
+
+def nominal_components(params: Params, R: Any = "10e3", C: Any = "100e-9", V_unit: Any = 1) -> Components:
+    """Ideal-design component values realising ``params`` (paper's design rules).
+
+    ``R1 = R2 = R3 = R4 = R5 = R7 = R8 = R``, ``C1 = C2 = C`` (so ``omega = 1/(R C)``,
+    1000 rad/s with the defaults 10 kOhm, 100 nF), ``R6 = R2 / (2 zeta)`` (100 kOhm for
+    zeta = 0.05), ``V_A = a V_unit``, ``Omega = eta omega``, ``V_wall = -x_w V_unit``.
+    ``zeta = 0`` is refused (R6 would be infinite: leave the damping resistor out
+    by giving a huge R6 through :meth:`Components.replace`).
+    """
+    r, c, vu = exact("R", R), exact("C", C), exact("V_unit", V_unit)
+    if r <= 0 or c <= 0:
+        raise ParameterError("R" if r <= 0 else "C", decimal_str(r if r <= 0 else c), "must be > 0")
+    if params.zeta == 0:
+        raise ParameterError("zeta", "0", "the circuit realises zeta > 0 (R6 = R2 / (2 zeta))")
+    w = 1 / (r * c)
+    return Components.make(
+        R1=r, R2=r, R3=r, R4=r, R5=r, R6=r / (2 * params.zeta), R7=r, R8=r, C1=c, C2=c,
+        V_A=params.a * vu, Omega=params.eta * w, V_wall=-params.x_w * vu, V_unit=vu,
+    )
+
+
+def to_mechanical(comp: Components, t: Any, V_s: Any, V_q: Any, omega: Any):
+    """Circuit state (seconds, volts) -> dimensionless ``(tau, x, x')``.
+
+    ``tau = omega t``, ``x = -V_s / V_unit``, ``x' = V_q / (omega R8 C1 V_unit)``.
+    Works elementwise on numpy arrays and on mpmath/heyoka numbers; ``omega`` in the
+    caller's number type (``comp.omega()`` rounded to it).
+    """
+    vu = comp.V_unit
+    rc = comp.R8 * comp.C1
+    return omega * t, -V_s / _num(vu, V_s), V_q / (omega * _num(rc, V_q) * _num(vu, V_q))
+
+
+def to_circuit(comp: Components, tau: Any, x: Any, v: Any, omega: Any):
+    """Dimensionless ``(tau, x, x')`` -> circuit ``(t, V_s, V_q)`` (inverse of :func:`to_mechanical`)."""
+    vu = comp.V_unit
+    rc = comp.R8 * comp.C1
+    return tau / omega, -x * _num(vu, x), v * omega * _num(rc, v) * _num(vu, v)
+
+
+def _num(q: Fraction, like: Any):
+    """An exact rational rounded to the number type of ``like``: mpmath for mpmath
+    numbers (at the current mpmath precision), float64 otherwise."""
+    if isinstance(like, mpmath.mpf):
+        return mpmath.mpf(q.numerator) / q.denominator
+    return float(q)

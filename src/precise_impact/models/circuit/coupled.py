@@ -1,0 +1,159 @@
+"""The coupled circuit of Fig. 3: two networks, difference amplifiers U15/U16, R31 and R32.
+
+U15 outputs ``V_s2 - V_s1`` (``x - y``) and U16 ``V_q1 - V_q2`` (``x' - y'``), both
+unamplified (R23..R30 equal); they enter the slave's summing amplifier through
+R31 and R32 with (paper eq. 15) ``R3/R31 = 2k`` and ``R3/R32 = k(1 + 2 zeta)``.
+Repeating the derivation of the single circuit, the slave obeys
+
+``y'' + 2 zeta y' + y + (R2/R32)(y' - x') + (R2/R31)(y - x) = a cos(eta tau)``,
+
+i.e. with eq. (15): ``k(1 + 2 zeta)(y' - x') + 2k(y - x)``, which is the printed
+eq. (14a) (the ``'paper'`` coupled form), *not* the reduction of eqs. (12) (the
+``'reduced'`` form, gains ``2k`` and ``k(2 zeta + k)``).  The circuit therefore
+synchronises at the threshold of the printed form (tests/test_circuit.py checks
+the equivalence to round-off).  Op-amps are ideal here; impacts follow the
+mechanical impact law on each oscillator's ``V_q``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time as _time
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from precise_impact.errors import BudgetExceededError
+from precise_impact.core.impact import reset_velocity
+from precise_impact.core.params import Params, check_count
+from precise_impact.core.precision import Precision
+from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.models.circuit.components import Components, dimensionless
+from precise_impact.models.circuit.network import NETWORK_PARS
+
+__all__ = ["coupling_resistors", "simulate_coupled_circuit", "CIRCUIT_COUPLED_FORM"]
+
+#: The coupled form the Fig. 3 circuit realises.
+CIRCUIT_COUPLED_FORM = "paper"
+PARS = NETWORK_PARS + ("R31", "R32")
+_I = {n: i for i, n in enumerate(PARS)}
+
+
+def coupling_resistors(design: Components, k: Fraction, zeta: Fraction) -> tuple[Fraction, Fraction]:
+    """Eq. (15): ``R31 = R3 / (2k)``, ``R32 = R3 / (k (1 + 2 zeta))`` (k > 0)."""
+    return design.R3 / (2 * k), design.R3 / (k * (1 + 2 * zeta))
+
+
+class _Impact:
+    def __init__(self, s: int, q: int) -> None:
+        self.s, self.q = s, q
+        self.reset()
+
+    def reset(self) -> None:
+        self.t: list = []
+
+    def __call__(self, ta, d_sgn) -> bool:
+        st = ta.state
+        st[self.q] = reset_velocity(st[self.q], 1 + 0 * st[self.q])
+        st[self.s] = ta.pars[_I["V_wall"]]
+        self.t.append(ta.time)
+        return len(self.t) < 10**7
+
+
+_CACHE: dict = {}
+_LOCK = threading.Lock()
+
+
+def _build(P: Precision):
+    import heyoka as hy
+
+    with _LOCK:
+        if P.name in _CACHE:
+            return _CACHE[P.name]
+        p = {n: hy.par[i] for i, n in enumerate(PARS)}
+        Vs1, Vq1, Vs2, Vq2 = hy.make_vars("V_s1", "V_q1", "V_s2", "V_q2")
+        V3 = p["V_A"] * hy.cos(p["Omega"] * hy.time)
+        rho = p["R5"] / p["R4"]
+
+        def vp(Vs, Vq, extra):
+            return -p["R2"] * (V3 / p["R1"] - rho * Vq / p["R6"] + Vs / p["R7"] + extra)
+
+        Vd = Vs2 - Vs1  # U15
+        Ve = Vq1 - Vq2  # U16
+        rhs = [
+            (Vs1, -Vq1 / (p["R8"] * p["C1"])),
+            (Vq1, -vp(Vs1, Vq1, 0.0) / (p["R3"] * p["C2"])),
+            (Vs2, -Vq2 / (p["R8"] * p["C1"])),
+            (Vq2, -vp(Vs2, Vq2, Vd / p["R31"] + Ve / p["R32"]) / (p["R3"] * p["C2"])),
+        ]
+        kw = P.heyoka_kwargs
+        evs = [
+            hy.t_event(Vs1 - p["V_wall"], callback=_Impact(0, 1), direction=hy.event_direction.negative, fp_type=kw["fp_type"]),
+            hy.t_event(Vs2 - p["V_wall"], callback=_Impact(2, 3), direction=hy.event_direction.negative, fp_type=kw["fp_type"]),
+        ]
+        zero = P.from_fraction(Fraction(0))
+        ta = hy.taylor_adaptive(rhs, [zero] * 4, pars=[zero] * len(PARS), t_events=evs, compact_mode=P.kind == "mp", **kw)
+        _CACHE[P.name] = ta
+        return ta
+
+
+def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=0, y0=(0, 0), t0=0,
+                             per_period: int = 0, precision: str = "float64", zeta: Fraction | None = None,
+                             actual: Components | None = None) -> dict:
+    """Simulate the Fig. 3 circuit; returns dimensionless samples ``t, x, v, y, w`` and impacts.
+
+    ``zeta`` (for eq. 15) defaults to the design's own damping.  ``y0`` = (y, y') of
+    the slave.  ``actual``: simulated component values (e.g. a tolerance draw; both
+    oscillators share it), read out through ``design``.  Keywords as :func:`precise_impact._coupled.simulate_coupled`.
+    """
+    from precise_impact.models.coupled import check_k
+
+    P = Precision.parse(precision)
+    k = check_k(k)
+    periods = check_count(periods, "periods")
+    per_period = check_count(per_period, "per_period", 100_000)
+    params = dimensionless(design, x0=x0, v0=v0, t0=t0)
+    Params.make(**{**params.decimal(), "x0": y0[0], "v0": y0[1]})  # slave start validated like the master's
+    zeta = params.zeta if zeta is None else zeta
+    R31, R32 = coupling_resistors(design, k, zeta) if k > 0 else (Fraction(10) ** 30, Fraction(10) ** 30)
+    omega = design_omega(design)
+    rc, vu = design.R8 * design.C1, design.V_unit
+    conv = P.from_fraction
+    ta = _build(P)
+    sim = design if actual is None else actual
+    ta.pars[:] = P.array([conv(getattr(sim, n)) for n in NETWORK_PARS] + [conv(R31), conv(R32)])
+    y, w = Fraction(y0[0]), Fraction(y0[1])
+    state = [-params.x0 * vu, params.v0 * omega * rc * vu, -y * vu, w * omega * rc * vu]
+    ta.time = conv(params.t0 / omega)
+    ta.state[:] = P.array([conv(s) for s in state])
+    ta.reset_cooldowns()
+    for ev in ta.t_events:
+        ev.callback.reset()
+    step = max(per_period, 1)
+    grid = P.array(P.sample_times(params.t0 / omega, design.Omega, periods, step))
+    t_start = _time.perf_counter()
+    res = ta.propagate_grid(grid)
+    elapsed = _time.perf_counter() - t_start
+    import heyoka as hy
+
+    if res[0] != hy.taylor_outcome.time_limit:
+        raise BudgetExceededError(f"coupled circuit stopped early: {res[0]}")
+    st = np.asarray(res[-1])
+    om, rcv, vuv = conv(omega), conv(rc), conv(vu)
+    scale = om * rcv * vuv
+    out = {
+        "t": P.array([om * t for t in grid])[::step],
+        "x": P.array([-s / vuv for s in st[:, 0]])[::step],
+        "v": P.array([q / scale for q in st[:, 1]])[::step],
+        "y": P.array([-s / vuv for s in st[:, 2]])[::step],
+        "w": P.array([q / scale for q in st[:, 3]])[::step],
+        "master_impacts_t": P.array([om * t for t in ta.t_events[0].callback.t]),
+        "slave_impacts_t": P.array([om * t for t in ta.t_events[1].callback.t]),
+        "elapsed_s": elapsed,
+        "precision": P,
+        "params": params,
+        "R31": R31,
+        "R32": R32,
+    }
+    return out

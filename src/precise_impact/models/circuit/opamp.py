@@ -1,0 +1,202 @@
+"""The circuit model: the op-amp network (:mod:`._network`) with the mechanical impact law.
+
+State in volts and seconds (``V_s``, ``V_q``, plus op-amp states in dynamic-GBW
+mode); the wall is the comparator threshold ``V_s = V_wall`` crossed downwards; the
+impact applies :func:`precise_impact._impact.reset_velocity` to ``V_q`` (a linear
+image of the velocity).  Results are mapped to the dimensionless system with
+:func:`._components.to_mechanical` through the *design* components (the nominal
+ones a scene starts from), so a circuit with drawn tolerances is read out the way
+an experimenter reads the real circuit.
+"""
+
+from __future__ import annotations
+
+import threading
+import time as _time
+from fractions import Fraction
+from typing import Any, Mapping
+
+import mpmath
+import numpy as np
+
+from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.impact import reset_velocity
+from precise_impact.core.params import Params, check_count, check_tol
+from precise_impact.core.precision import Precision
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.models.circuit.components import Components, dimensionless, exact_omega as dimensionless_omega
+from precise_impact.models.circuit.effects.catalogue import validate_effects
+from precise_impact.models.circuit.network import NETWORK_PARS, OpAmp, dynamic_network, network_rhs, opamp_from_effects, saturation_events
+from precise_impact.models.circuit.effects.tolerance import draw_components
+
+__all__ = ["CircuitSolver", "circuit_system", "design_omega"]
+
+
+def design_omega(design: Components) -> Fraction:
+    """The design's natural angular frequency, exact (the mapping needs it rational)."""
+    return dimensionless_omega(design)
+
+_IDX = {n: i for i, n in enumerate(NETWORK_PARS)}
+
+
+def circuit_system(op: OpAmp):
+    """heyoka variables and right-hand sides of the network for ``op`` (runtime component parameters)."""
+    import heyoka as hy
+
+    p = {n: hy.par[i] for i, n in enumerate(NETWORK_PARS)}
+    if op.dynamic:
+        return dynamic_network(hy, p, op)
+    V_s, V_q = hy.make_vars("V_s", "V_q")
+    dVs, dVq, _ = network_rhs(hy, p, V_s, V_q, op)
+    return [V_s, V_q], [(V_s, dVs), (V_q, dVq)]
+
+
+class _Impact:
+    """Comparator event callback: the mechanical impact law applied to ``V_q``."""
+
+    def __init__(self, dynamic: bool) -> None:
+        self.dynamic = dynamic
+        self.reset(10**6)
+
+    def reset(self, max_impacts: int) -> None:
+        self.t, self.vb, self.va = [], [], []
+        self.max_impacts = max_impacts
+        self.exceeded = False
+
+    def __call__(self, ta, d_sgn) -> bool:
+        st = ta.state
+        vb = st[1]
+        va = reset_velocity(vb, 1 + 0 * vb)  # the circuit realises R = 1
+        if self.dynamic:  # keep U2's inverting node where it was: Vc2 = v- - V_q
+            st[5] = (vb + st[5]) - va
+        st[1] = va
+        st[0] = ta.pars[_IDX["V_wall"]]
+        self.t.append(ta.time)
+        self.vb.append(vb)
+        self.va.append(va)
+        if len(self.t) >= self.max_impacts:
+            self.exceeded = True
+            return False
+        return True
+
+
+_CACHE: dict = {}
+_LOCK = threading.Lock()
+
+
+def _build(precision: Precision, tol, op: OpAmp):
+    import heyoka as hy
+
+    key = (precision.name, None if tol is None else precision.to_str(tol), op)
+    with _LOCK:
+        if key in _CACHE:
+            return _CACHE[key]
+        vars_, rhs = circuit_system(op)
+        kw = precision.heyoka_kwargs
+        ev = hy.t_event(vars_[0] - hy.par[_IDX["V_wall"]], callback=_Impact(op.dynamic),
+                        direction=hy.event_direction.negative, fp_type=kw["fp_type"])
+        sat = []
+        if not op.dynamic and op.v_sat is not None:
+            _, _, alg = network_rhs(hy, {n: hy.par[i] for i, n in enumerate(NETWORK_PARS)}, vars_[0], vars_[1], op)
+            sat = saturation_events(hy, op, alg["unclamped"], kw["fp_type"], precision.from_fraction(Fraction(1, 10**12)))
+        zero = precision.from_fraction(Fraction(0))
+        extra = {"tol": tol} if tol is not None else {}
+        ta = hy.taylor_adaptive(rhs, [zero] * len(vars_), pars=[zero] * len(NETWORK_PARS), t_events=[ev] + sat,
+                                compact_mode=precision.kind == "mp" or op.dynamic, **extra, **kw)
+        _CACHE[key] = ta
+        return ta
+
+
+class CircuitSolver:
+    """The op-amp network with component values, integrated by heyoka in volts and seconds.
+
+    Keywords
+    --------
+    precision : str, default ``'float64'``
+    tol : decimal or None, default ``None`` (the precision's epsilon)
+    effects : mapping or None, default ``None``
+        ``{name: {setting: value}}`` from :data:`._effects.EFFECTS` that fit model
+        ``'circuit'`` (op-amp gain, GBW, saturation, offset; component tolerance).
+    max_impacts : int, default ``10**6``
+    """
+
+    model_name = "circuit"
+
+    def __init__(self, precision: str | Precision = "float64", tol: Any = None,
+                 effects: Mapping[str, Mapping[str, Any]] | None = None, max_impacts: int = 10**6) -> None:
+        self.precision = Precision.parse(precision)
+        self.effects = validate_effects(effects, "circuit")
+        self.op = opamp_from_effects(self.effects)
+        q = check_tol(tol)
+        self.tol = None if q is None else self.precision.from_fraction(q)
+        self.max_impacts = check_count(max_impacts, "max_impacts", 10**9)
+
+    def actual_components(self, design: Components) -> Components:
+        """The components simulated: ``design``, or its tolerance draw if that effect is on."""
+        t = self.effects.get("tolerance")
+        return design if t is None else draw_components(design, t)
+
+    def solve(self, design: Components, periods: int, x0: Any = 0, v0: Any = 0, t0: Any = 0,
+              per_period: int = 0) -> Trajectory:
+        """Simulate ``periods`` forcing periods; samples at ``t0 + k 2 pi / Omega`` (seconds).
+
+        ``x0, v0, t0`` are dimensionless (mapped through the design components).
+        Returns a :class:`Trajectory` in the dimensionless variables of
+        ``dimensionless(design)``; ``stats`` holds the circuit-level arrays.
+        """
+        P = self.precision
+        periods = check_count(periods, "periods")
+        per_period = check_count(per_period, "per_period", 100_000)
+        params = dimensionless(design, x0=x0, v0=v0, t0=t0)
+        comp = self.actual_components(design)
+        ta = _build(P, self.tol, self.op)
+        ta.pars[:] = P.array([P.from_fraction(getattr(comp, n)) for n in NETWORK_PARS])
+        omega = design_omega(design)
+        rc, vu = design.R8 * design.C1, design.V_unit
+        Vs0 = -params.x0 * vu
+        Vq0 = params.v0 * omega * rc * vu
+        t0s = params.t0 / omega
+        state = [Vs0, Vq0]
+        if self.op.dynamic:
+            # consistent op-amp states: ideal stage outputs, virtual grounds at 0
+            with mpmath.workprec(P.bits + 32):
+                om_t0 = mpmath.mpf(comp.Omega.numerator) / comp.Omega.denominator * t0s.numerator / t0s.denominator
+                V3 = Fraction(mpmath.nstr(comp.V_A.numerator * mpmath.cos(om_t0) / comp.V_A.denominator, P.digits + 5))
+            Vmq0 = -(comp.R5 / comp.R4) * Vq0
+            Vp0 = -comp.R2 * (V3 / comp.R1 + Vmq0 / comp.R6 + Vs0 / comp.R7)
+            state += [Vp0, Vmq0, -Vs0, -Vq0]
+        ta.time = P.from_fraction(t0s)
+        ta.state[:] = P.array([P.from_fraction(s) for s in state])
+        ta.reset_cooldowns()
+        rec = ta.t_events[0].callback
+        rec.reset(self.max_impacts)
+        step = max(per_period, 1)
+        grid = P.array(P.sample_times(t0s, comp.Omega, periods, step))
+        start = _time.perf_counter()
+        res = ta.propagate_grid(grid)
+        elapsed = _time.perf_counter() - start
+        import heyoka as hy
+
+        if rec.exceeded:
+            raise BudgetExceededError(f"impact budget max_impacts={self.max_impacts} exhausted")
+        if res[0] != hy.taylor_outcome.time_limit:
+            raise RuntimeError(f"heyoka stopped early: {res[0]}")
+        states = np.asarray(res[-1])
+        conv = P.from_fraction
+        om, rcv, vuv = conv(omega), conv(rc), conv(vu)
+
+        # readout (numpy arrays elementwise; object arrays for float128 / mp)
+        scale = om * rcv * vuv
+        tau, x, v = om * grid, -states[:, 0] / vuv, states[:, 1] / scale
+        imp_t = P.array([om * t for t in rec.t])
+        imp_vb = P.array([vb / (om * rcv * vuv) for vb in rec.vb])
+        imp_va = P.array([va / (om * rcv * vuv) for va in rec.va])
+        traj = Trajectory(params=params, model=self.model_name, precision=P,
+                          tol=self.tol if self.tol is not None else P.eps,
+                          t=tau[::step], x=x[::step], v=v[::step],
+                          impacts_t=imp_t, impacts_v_before=imp_vb, impacts_v_after=imp_va,
+                          elapsed_s=elapsed, stats={"steps": int(res[3]), "effects": sorted(self.effects),
+                                                    "components": comp.decimal()})
+        if per_period > 0:
+            traj.dense_t, traj.dense_x, traj.dense_v = tau, x, v
+        return traj

@@ -1,0 +1,317 @@
+"""The switched-capacitor model: the impact made by the circuit itself.
+
+Comparator U5 sees ``V_s`` fall through the wall voltage, flip-flop A1 toggles,
+and the analog switches U6/U7 reconnect C2 with reversed polarity, which reverses
+the output ``V_q`` of integrator U2.  States: ``V_s`` (U4 output) and ``V_C`` (the
+voltage of C2 across its own terminals); the switch polarity ``pol = +-1`` is a
+heyoka runtime parameter the event callback flips.  U2's output follows
+algebraically from KCL at its virtual ground, with the two conducting switches
+(``2 R_on``) in series with C2:
+
+``V_q = -pol V_C - (2 R_on / R3) V_p``, ``V_p = -R2 (V3/R1 - rho V_q/R6 + V_s/R7)``
+(``rho = R5/R4``), solved for ``V_q``:
+``V_q (1 + 2 R_on R2 rho / (R3 R6)) = -pol V_C + (2 R_on R2 / R3)(V3/R1 + V_s/R7)``,
+``dV_C/dt = pol V_p / (R3 C2)``, ``dV_s/dt = -V_q / (R8 C1)``.
+
+With ``R_on = 0``: ``V_q = -pol V_C`` and flipping ``pol`` gives exactly ``V_q -> -V_q``:
+the ideal impact with R = 1.  The effects (each off unless a scene switches it on):
+
+* ``comparator``: trips when ``V_s`` falls to ``V_wall - h/2``, re-arms when it rises
+  above ``V_wall + h/2`` (hysteresis ``h``); the toggle happens ``delay`` later;
+* ``flipflop``: adds its clock-to-output ``delay``;
+* ``switch``: ``ron`` as above (about ``2 R_on / R3`` of extra damping in
+  ``2 zeta`` units: 0.032 for 160 ohm and R3 = 10 kOhm, a third of the paper's
+  0.1; scaling every impedance up reduces it); ``bbm``: for this interval both
+  switch pairs are open, C2 floats (``V_C`` frozen) and U2, without feedback, slews
+  its output at ``slew_rate`` towards the rail opposite to ``V_p`` while U4 keeps
+  integrating it (closed form: ``V_q`` linear, ``V_s`` quadratic in time; the
+  op-amp's recovery slew after reconnection is neglected); ``charge_injection``:
+  the charge ``Q`` moved onto C2 at each reconnection, ``V_C += Q / C2``.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time as _time
+from fractions import Fraction
+from typing import Any, Mapping
+
+import numpy as np
+
+from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.params import check_count, check_tol
+from precise_impact.core.precision import Precision
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.models.circuit.components import Components, dimensionless
+from precise_impact.models.circuit.effects.catalogue import validate_effects
+from precise_impact.models.circuit.network import NETWORK_PARS
+from precise_impact.models.circuit.effects import comparator, flipflop, switch
+from precise_impact.models.circuit.effects.tolerance import draw_components
+
+__all__ = ["SwitchedCapacitorSolver"]
+
+PARS = NETWORK_PARS + ("pol", "ron", "v_trip", "v_rearm")
+_I = {n: i for i, n in enumerate(PARS)}
+
+
+def _system():
+    import heyoka as hy
+
+    p = {n: hy.par[i] for i, n in enumerate(PARS)}
+    V_s, V_C = hy.make_vars("V_s", "V_C")
+    V3 = p["V_A"] * hy.cos(p["Omega"] * hy.time)
+    rho = p["R5"] / p["R4"]
+    k = switch.coupling(p["ron"], p["R2"], p["R3"])
+    V_q = switch.vq(p["pol"], V_C, V3, V_s, k, p["R1"], p["R6"], p["R7"], rho)
+    V_p = -p["R2"] * (V3 / p["R1"] - rho * V_q / p["R6"] + V_s / p["R7"])
+    return (V_s, V_C), [(V_s, -V_q / (p["R8"] * p["C1"])), (V_C, p["pol"] * V_p / (p["R3"] * p["C2"]))], V_q, V_p
+
+
+class _Comparator:
+    """Trip event (``V_s`` falls through ``v_trip``): toggles at once, or stops for a delayed toggle."""
+
+    def __init__(self) -> None:
+        self.reset(True, 10**6)
+
+    def reset(self, immediate: bool, max_impacts: int, rearm_at_flip: bool = True) -> None:
+        self.immediate = immediate
+        # Without hysteresis the comparator output drops as soon as V_s is back above
+        # V_wall, which is right at the flip: an event root at the very start of the
+        # next step would not be seen, so re-arm at the flip (no downward crossing can
+        # follow before V_s has risen again, so nothing is tripped early).
+        self.rearm_at_flip = rearm_at_flip
+        self.armed = True
+        self.trips: list = []
+        self.pending = False
+        self.max_impacts = max_impacts
+        self.exceeded = False
+
+    def __call__(self, ta, d_sgn) -> bool:
+        if not self.armed:
+            return True
+        self.armed = False
+        self.trips.append(ta.time)
+        if len(self.trips) >= self.max_impacts:
+            self.exceeded = True
+            return False
+        if self.immediate:
+            ta.pars[_I["pol"]] = -ta.pars[_I["pol"]]
+            self.armed = self.rearm_at_flip
+            return True
+        self.pending = True
+        return False
+
+
+class _Rearm:
+    def __init__(self, comparator_index: int = 0) -> None:
+        self.i = comparator_index
+
+    def __call__(self, ta, d_sgn) -> bool:
+        ta.t_events[self.i].callback.armed = True
+        return True
+
+
+_CACHE: dict = {}
+_LOCK = threading.Lock()
+
+
+def _build(P: Precision, tol):
+    import heyoka as hy
+
+    key = (P.name, None if tol is None else P.to_str(tol))
+    with _LOCK:
+        if key in _CACHE:
+            return _CACHE[key]
+        (V_s, V_C), rhs, _, _ = _system()
+        kw = P.heyoka_kwargs
+        trip = hy.t_event(V_s - hy.par[_I["v_trip"]], callback=_Comparator(), direction=hy.event_direction.negative,
+                          fp_type=kw["fp_type"])
+        rearm = hy.t_event(V_s - hy.par[_I["v_rearm"]], callback=_Rearm(0), direction=hy.event_direction.positive,
+                           fp_type=kw["fp_type"])
+        zero = P.from_fraction(Fraction(0))
+        extra = {"tol": tol} if tol is not None else {}
+        ta = hy.taylor_adaptive(rhs, [zero, zero], pars=[zero] * len(PARS), t_events=[trip, rearm],
+                                compact_mode=P.kind == "mp", **extra, **kw)
+        _CACHE[key] = ta
+        return ta
+
+
+class SwitchedCapacitorSolver:
+    """Comparator, flip-flop and analog switches reversing C2, at component level.
+
+    Keywords
+    --------
+    precision : str, default ``'float64'``
+    tol : decimal or None, default ``None`` (the precision's epsilon)
+    effects : mapping or None, default ``None``
+        Effects fitting ``'switched-capacitor'``: ``comparator``, ``flipflop``,
+        ``switch``, ``tolerance`` (:data:`._effects.EFFECTS`).
+    max_impacts : int, default ``10**6``
+    """
+
+    model_name = "switched-capacitor"
+
+    def __init__(self, precision: str | Precision = "float64", tol: Any = None,
+                 effects: Mapping[str, Mapping[str, Any]] | None = None, max_impacts: int = 10**6) -> None:
+        self.precision = Precision.parse(precision)
+        self.effects = validate_effects(effects, "switched-capacitor")
+        q = check_tol(tol)
+        self.tol = None if q is None else self.precision.from_fraction(q)
+        self.max_impacts = check_count(max_impacts, "max_impacts", 10**9)
+        sw = self.effects.get("switch", {})
+        self.ron = sw.get("ron", Fraction(0))
+        self.bbm = sw.get("bbm", Fraction(0))
+        self.q_inj = sw.get("charge_injection", Fraction(0))
+        self.slew = sw.get("slew_rate", Fraction(13 * 10**6))
+        self.delay = comparator.delay(self.effects.get("comparator")) + flipflop.delay(self.effects.get("flipflop"))
+        self.hyst = self.effects.get("comparator", {}).get("hysteresis", Fraction(0))
+
+    def solve(self, design: Components, periods: int, x0: Any = 0, v0: Any = 0, t0: Any = 0,
+              per_period: int = 0) -> Trajectory:
+        """Simulate; samples at ``t0 + k 2 pi / Omega``, mapped to the dimensionless system.
+
+        Impacts are recorded when the switches reconnect C2 (the velocity jump):
+        ``impacts_t`` is that instant (dimensionless), ``v_before``/``v_after`` the
+        mapped ``V_q`` just before the switches opened and just after they closed.
+        """
+        P = self.precision
+        periods = check_count(periods, "periods")
+        per_period = check_count(per_period, "per_period", 100_000)
+        params = dimensionless(design, x0=x0, v0=v0, t0=t0)
+        t_eff = self.effects.get("tolerance")
+        comp = design if t_eff is None else draw_components(design, t_eff)
+        omega = design_omega(design)
+        rc, vu = design.R8 * design.C1, design.V_unit
+        conv = P.from_fraction
+        ta = _build(P, self.tol)
+        pars = [getattr(comp, n) for n in NETWORK_PARS] + [
+            Fraction(1), self.ron, *comparator.thresholds(comp.V_wall, self.effects.get("comparator"))
+        ]
+        ta.pars[:] = P.array([conv(q) for q in pars])
+        # initial state: V_s, and V_C such that V_q (with pol = +1) equals the mapped v0
+        Vs0 = -params.x0 * vu
+        Vq0 = params.v0 * omega * rc * vu
+        t0s = params.t0 / omega
+        k = switch.coupling(self.ron, comp.R2, comp.R3)
+        rho = comp.R5 / comp.R4
+        # V3(t0) enters only through R_on; exact cosine at t0 via mpmath
+        import mpmath
+
+        with mpmath.workprec(P.bits + 32):
+            c = mpmath.cos(mpmath.mpf(comp.Omega.numerator) / comp.Omega.denominator * t0s.numerator / t0s.denominator)
+            V3 = Fraction(mpmath.nstr(c * comp.V_A.numerator / comp.V_A.denominator, P.digits + 5)) if k else Fraction(0)
+        VC0 = -(Vq0 * (1 + k * rho / comp.R6) - k * (V3 / comp.R1 + Vs0 / comp.R7))
+        ta.time = conv(t0s)
+        ta.state[:] = P.array([conv(Vs0), conv(VC0)])
+        ta.reset_cooldowns()
+        immediate = self.delay == 0 and self.bbm == 0 and self.q_inj == 0
+        cmp_ = ta.t_events[0].callback
+        cmp_.reset(immediate, self.max_impacts, rearm_at_flip=self.hyst == 0)
+        if Vs0 <= pars[_I["v_trip"]]:
+            raise ParameterError("x0", str(params.x0), "the start must be outside the comparator threshold (x0 < x_w)")
+        step = max(per_period, 1)
+        grid = P.sample_times(t0s, comp.Omega, periods, step)
+        vq_fn = self._vq_function(P, comp)
+        samples = []
+        switch_times, vq_before, vq_after = [], [], []
+        pending_at = None
+        start = _time.perf_counter()
+        import heyoka as hy
+
+        for target in grid:
+            while True:
+                stop = target if pending_at is None or pending_at > target else pending_at
+                if ta.time < stop:
+                    oc = ta.propagate_until(stop)[0]
+                else:
+                    oc = hy.taylor_outcome.time_limit
+                if cmp_.exceeded:
+                    raise BudgetExceededError(f"impact budget max_impacts={self.max_impacts} exhausted")
+                if cmp_.pending:
+                    cmp_.pending = False
+                    pending_at = ta.time + conv(self.delay)
+                    continue
+                if immediate and len(cmp_.trips) > len(switch_times):
+                    # fast path: the callback flipped pol at the trip instant
+                    for tt in cmp_.trips[len(switch_times):]:
+                        switch_times.append(tt)
+                        vq_before.append(None)
+                        vq_after.append(None)
+                if pending_at is not None and ta.time == pending_at:
+                    vb, va = self._switch(ta, P, comp, vq_fn)
+                    switch_times.append(ta.time)
+                    vq_before.append(vb)
+                    vq_after.append(va)
+                    pending_at = None
+                    continue
+                if oc != hy.taylor_outcome.time_limit and not (int(oc) < 0):
+                    raise RuntimeError(f"heyoka stopped early: {oc}")
+                break
+            samples.append((ta.time, ta.state[0], vq_fn(ta.time, ta.state[0], ta.state[1], ta.pars[_I["pol"]])))
+        elapsed = _time.perf_counter() - start
+        om, rcv, vuv = conv(omega), conv(rc), conv(vu)
+        tau = P.array([om * s[0] for s in samples])
+        x = P.array([-s[1] / vuv for s in samples])
+        v = P.array([s[2] / (om * rcv * vuv) for s in samples])
+        # impact velocities: for the immediate path V_q flips sign exactly at the trip
+        imp_t, imp_vb, imp_va = [], [], []
+        for tt, vb, va in zip(switch_times, vq_before, vq_after):
+            imp_t.append(om * tt)
+            if vb is None:
+                imp_vb.append(None)
+                imp_va.append(None)
+            else:
+                imp_vb.append(vb / (om * rcv * vuv))
+                imp_va.append(va / (om * rcv * vuv))
+        traj = Trajectory(params=params, model=self.model_name, precision=P,
+                          tol=self.tol if self.tol is not None else P.eps,
+                          t=tau[::step], x=x[::step], v=v[::step],
+                          impacts_t=P.array(imp_t), impacts_v_before=P.array(imp_vb), impacts_v_after=P.array(imp_va),
+                          elapsed_s=elapsed,
+                          stats={"effects": sorted(self.effects), "components": comp.decimal(),
+                                 "comparator_trips": len(cmp_.trips)})
+        if per_period > 0:
+            traj.dense_t, traj.dense_x, traj.dense_v = tau, x, v
+        return traj
+
+    def _vq_function(self, P, comp):
+        conv = P.from_fraction
+        R1, R2, R3, R6, R7 = (conv(getattr(comp, n)) for n in ("R1", "R2", "R3", "R6", "R7"))
+        rho = conv(comp.R5 / comp.R4)
+        VA, Om = conv(comp.V_A), conv(comp.Omega)
+        k = conv(switch.coupling(self.ron, comp.R2, comp.R3))
+        ideal = self.ron == 0
+
+        def vq(t, Vs, VC, pol):
+            if ideal:
+                return -pol * VC
+            return switch.vq(pol, VC, VA * np.cos(Om * t), Vs, k, R1, R6, R7, rho)
+
+        return vq
+
+    def _switch(self, ta, P, comp, vq_fn):
+        """Break-before-make interval (closed form), polarity reversal, charge injection."""
+        conv = P.from_fraction
+        st = ta.state
+        t_open = ta.time
+        pol = ta.pars[_I["pol"]]
+        vb = vq_fn(t_open, st[0], st[1], pol)
+        if self.bbm > 0:
+            tb = conv(self.bbm)
+            R1, R2, R6, R7 = (conv(getattr(comp, n)) for n in ("R1", "R2", "R6", "R7"))
+            rho = conv(comp.R5 / comp.R4)
+            V3 = conv(comp.V_A) * np.cos(conv(comp.Omega) * t_open)
+            Vp = -R2 * (V3 / R1 - rho * vb / R6 + st[0] / R7)
+            st[0] = switch.break_before_make(st[0], vb, Vp, tb, conv(self.slew), conv(comp.R8 * comp.C1))
+            ta.time = t_open + tb
+        ta.pars[_I["pol"]] = -pol
+        cb = ta.t_events[0].callback
+        if cb.rearm_at_flip:
+            cb.armed = True
+        if self.q_inj != 0:
+            st[1] = st[1] + conv(switch.injected_voltage(self.q_inj, comp.C2))
+        ta.reset_cooldowns()
+        va = vq_fn(ta.time, st[0], st[1], -pol)
+        return vb, va

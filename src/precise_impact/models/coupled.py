@@ -1,0 +1,515 @@
+"""Two identical impact oscillators with master-slave (unidirectional) coupling, eqs. (11)-(14).
+
+The master ``x`` obeys eq. (11) (the single oscillator, unaffected by the slave);
+the slave ``y`` is pulled towards it with coupling ``k >= 0`` (``k1 = 0, k2 = k`` in
+eq. 10).  Three forms of the slave are offered, each with its own impact rule:
+
+``'first-order'`` -- eqs. (12a-c) as written, state ``(y1, y2)``::
+
+    y1' = y2 + k (x1 - y1)
+    y2' = -2 zeta y2 - y1 + a cos(eta t) + k (x2 - y2)
+    impact at y1 = x_w (upward):  y2+ = -R y2-
+
+``'paper'`` -- eqs. (14a-b) as printed, state ``(y, y')``::
+
+    y'' + 2 zeta y' + y + k (1 + 2 zeta)(y' - x') + 2 k (y - x) = a cos(eta t)
+    impact at y = x_w:  y'+ = -R y'-
+
+``'reduced'`` -- the second-order equation that (12) actually reduces to, state
+``(y, y')`` with ``y = y1``.  Derivation: (12a) gives ``y2 = y' - k (x - y)``;
+between impacts ``x1' = x2 = x'``, so differentiating,
+``y2' = y'' - k (x' - y')``.  Substituting both into (12b)::
+
+    y'' - k (x' - y') = -2 zeta (y' - k (x - y)) - y + a cos(eta t) + k (x' - y' + k (x - y))
+
+    y'' + 2 zeta y' + y + 2 k (y' - x') + k (2 zeta + k)(y - x) = a cos(eta t).
+
+The printed (14a) has the coefficients the other way round and altered: velocity
+coupling ``k (1 + 2 zeta)`` instead of ``2 k`` and position coupling ``2 k``
+instead of ``k (2 zeta + k)``; it is therefore *not* equivalent to (12) (for
+``k = 0.1``, ``zeta = 0.05`` the velocity gain is 0.11 instead of 0.2, the
+position gain 0.2 instead of 0.02).  The impact rule in these variables: at
+``y = x_w``, ``y' = y2 + k (x - x_w)`` and (12c) flips ``y2``, hence::
+
+    y'+ = -R y'- + (1 + R) k (x - x_w).
+
+(The reduced slave equation contains ``x'``, which jumps at every *master*
+impact, ``x'+ = -R x'-``: ``y''`` is discontinuous there, ``y`` and ``y'`` stay
+continuous, just as ``y1`` and ``y2`` do in (12).  The integrator stops at every
+master impact, so this kink is resolved exactly.)
+
+On the diagonal ``y = x, y' = x'`` (``y1 = x1, y2 = x2``) every coupling term is
+exactly zero and both impact rules coincide with the master's, so identical
+starts stay identical in all three forms -- bit for bit here: the slave
+right-hand side is the master's expression plus the coupling term, evaluated in
+the same order, and a simultaneous master/slave impact is applied to both at
+once (see :class:`_CoupledImpact`).
+
+Integration: heyoka's Taylor integrator (state ``x, v, y, w``) with two terminal
+events, ``x - x_w`` and ``y - x_w`` (positive direction).  ``eta, zeta, a, R, x_w``
+and ``k`` are runtime parameters (a new ``k`` does not recompile); one compiled
+integrator is cached per (form, precision).
+
+References: the paper's eqs. (10)-(15); Pecora & Carroll, Phys. Rev. Lett. 64
+(1990) 821 (master-slave synchronisation); Pikovsky, Rosenblum & Kurths,
+*Synchronization* (2001), ch. 13 (diagonal coupling, threshold ``k > lambda_max``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+import time as _time
+from fractions import Fraction
+from typing import Any, Sequence
+
+import numpy as np
+
+from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.impact import impact_at_start, reset_velocity
+from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str, exact
+from precise_impact.core.precision import Precision
+from precise_impact.core.flow import acceleration
+
+__all__ = [
+    "COUPLED_FORMS",
+    "CoupledTrajectory",
+    "simulate_coupled",
+    "slave_rhs",
+    "slave_position_rate",
+    "slave_reset",
+    "check_k",
+    "check_form",
+]
+
+#: The slave equations offered (see the module docstring).
+COUPLED_FORMS = ("first-order", "paper", "reduced")
+
+#: Runtime parameters of the coupled integrator: the single oscillator's, then k.
+COUPLED_PARAMS = RUNTIME_PARAMS + ("k",)
+_IDX = {name: i for i, name in enumerate(COUPLED_PARAMS)}
+
+
+# ------------------------------------------------------------------ the equations
+def slave_rhs(form: str, t: Any, x: Any, v: Any, y: Any, w: Any, eta: Any, zeta: Any, a: Any, k: Any, cos) -> tuple:
+    """``(y', w')`` of the slave in ``form``'s own variables (generic number type).
+
+    The uncoupled part is :func:`~._system.acceleration` evaluated first, the
+    coupling added last, so that on the diagonal (coupling exactly 0) the slave's
+    arithmetic is the master's, operation by operation.
+    """
+    acc = acceleration(t, y, w, eta, zeta, a, cos)
+    if form == "first-order":
+        return w + k * (x - y), acc + k * (v - w)
+    if form == "paper":
+        return w, acc + k * (1 + 2 * zeta) * (v - w) + 2 * k * (x - y)
+    if form == "reduced":
+        return w, acc + 2 * k * (v - w) + k * (2 * zeta + k) * (x - y)
+    raise ParameterError("form", form, "one of " + ", ".join(COUPLED_FORMS))
+
+
+def slave_position_rate(form: str, x: Any, y: Any, w: Any, k: Any) -> Any:
+    """``dy/dt`` of the slave (``w + k (x - y)`` for 'first-order', ``w`` otherwise)."""
+    if form == "first-order":
+        return w + k * (x - y)
+    return w
+
+
+def slave_reset(form: str, x: Any, w_minus: Any, R: Any, k: Any, x_w: Any) -> Any:
+    """Slave velocity variable after its impact at ``y = x_w`` (master at ``x``).
+
+    'first-order' flips ``y2`` (12c), 'paper' flips ``y'`` (14b), both by
+    :func:`~._impact.reset_velocity`.  'reduced' converts to ``y2 = y' - k (x - x_w)``,
+    flips ``y2`` with the same function and converts back, i.e.
+    ``y'+ = -R y'- + (1 + R) k (x - x_w)``.
+    """
+    if form == "reduced":
+        shift = k * (x - x_w)
+        return reset_velocity(w_minus - shift, R) + shift
+    return reset_velocity(w_minus, R)
+
+
+def check_form(form: Any) -> str:
+    if not isinstance(form, str) or form not in COUPLED_FORMS:
+        raise ParameterError("form", form, "one of " + ", ".join(repr(f) for f in COUPLED_FORMS))
+    return form
+
+
+def check_k(k: Any, name: str = "k") -> Fraction:
+    """Exact coupling from a decimal string / Fraction / number; must be finite and >= 0."""
+    q = exact(name, k)
+    if q < 0:
+        raise ParameterError(name, decimal_str(q), "coupling must be finite and >= 0")
+    return q
+
+
+# ------------------------------------------------------------------ the callback
+def _touch_tol(P: Precision, x_w: Fraction) -> float:
+    """How far below the wall (in position) the *other* oscillator may be and still
+    be treated as impacting at the same instant: a few ulps of the wall position."""
+    return 64 * P.eps_float * (1 + abs(float(x_w)))
+
+
+class _CoupledImpact:
+    """Terminal-event callback for one of the two impact events.
+
+    ``role`` is ``'master'`` (event ``x - x_w``) or ``'slave'`` (event ``y - x_w``).
+    When it fires it also looks at the other oscillator: if that one is within
+    :func:`_touch_tol` of the wall and moving into it, both impacts are applied
+    now, the master's first (so the slave's reduced-form rule sees ``x = x_w``).
+    Without this a simultaneous impact (always the case on the diagonal ``y = x``)
+    would leave the other oscillator a round-off *beyond* the wall after this
+    event, where heyoka (which detects sign changes) could miss its impact.
+
+    heyoka deep-copies the callback: read results from ``ta.t_events[i].callback``.
+    """
+
+    def __init__(self, role: str, form: str) -> None:
+        self.role = role
+        self.form = form
+        self.touch = 0.0
+        self.reset(10**6)
+
+    def reset(self, max_impacts: int, touch: float = 0.0) -> None:
+        self.master: list = []  # (t, v_before, v_after)
+        self.slave: list = []  # (t, w_before, w_after, x)
+        self.max_impacts = max_impacts
+        self.touch = touch
+        self.exceeded = False
+
+    def __call__(self, ta, d_sgn) -> bool:
+        st, pr = ta.state, ta.pars
+        R, x_w, k = pr[_IDX["R"]], pr[_IDX["x_w"]], pr[_IDX["k"]]
+        x, v, y, w = st[0], st[1], st[2], st[3]
+        if self.role == "master":
+            hit_m = True
+            hit_s = float(y - x_w) >= -self.touch and slave_position_rate(self.form, x, y, w, k) > 0
+        else:
+            hit_s = True
+            hit_m = float(x - x_w) >= -self.touch and v > 0
+        t = ta.time
+        if hit_m:
+            va = reset_velocity(v, R)
+            st[0] = x_w  # the event fixes the instant; the position is the wall (2b)
+            st[1] = va
+            self.master.append((t, v, va))
+        if hit_s:
+            xm = st[0]
+            wa = slave_reset(self.form, xm, w, R, k, x_w)
+            st[2] = x_w
+            st[3] = wa
+            self.slave.append((t, w, wa, xm))
+        if len(self.master) + len(self.slave) >= self.max_impacts:
+            self.exceeded = True
+            return False
+        return True
+
+
+_CACHE: dict[tuple, Any] = {}
+_LOCK = threading.Lock()
+
+
+def build_coupled_integrator(form: str, precision: Precision):
+    """Compile (or fetch from the cache) the coupled integrator for ``form``.
+
+    State ``(x, v, y, w)``; runtime parameters ``COUPLED_PARAMS`` =
+    ``(eta, zeta, a, R, x_w, k)``; events ``[master, slave]``.  Returns the cached
+    object itself: callers reset time, state, parameters and callbacks before use.
+    """
+    import heyoka as hy
+
+    check_form(form)
+    key = (form, precision.name)
+    with _LOCK:
+        ta = _CACHE.get(key)
+        if ta is not None:
+            return ta
+        x, v, y, w = hy.make_vars("x", "v", "y", "w")
+        p = {name: hy.par[i] for i, name in enumerate(COUPLED_PARAMS)}
+        acc_x = acceleration(hy.time, x, v, p["eta"], p["zeta"], p["a"], hy.cos)
+        dy, dw = slave_rhs(form, hy.time, x, v, y, w, p["eta"], p["zeta"], p["a"], p["k"], hy.cos)
+        kw = precision.heyoka_kwargs
+        events = [
+            hy.t_event(
+                z - p["x_w"],
+                callback=_CoupledImpact(role, form),
+                direction=hy.event_direction.positive,
+                fp_type=kw["fp_type"],
+            )
+            for z, role in ((x, "master"), (y, "slave"))
+        ]
+        zero = precision.from_fraction(Fraction(0))
+        ta = hy.taylor_adaptive(
+            [(x, v), (v, acc_x), (y, dy), (w, dw)],
+            [zero] * 4,
+            pars=[zero] * len(COUPLED_PARAMS),
+            t_events=events,
+            compact_mode=precision.kind == "mp",
+            **kw,
+        )
+        _CACHE[key] = ta
+        return ta
+
+
+# ------------------------------------------------------------------ the result
+@dataclasses.dataclass
+class CoupledTrajectory:
+    """What :func:`simulate_coupled` returns.
+
+    Attributes
+    ----------
+    params : Params
+        Exact parameters; the master starts at ``(params.x0, params.v0)``.
+    form : str
+        One of :data:`COUPLED_FORMS`.
+    k : Fraction
+        The coupling, exact.
+    y0 : tuple[Fraction, Fraction]
+        Slave initial ``(position, velocity variable)`` in ``form``'s variables.
+    precision : Precision
+    t, x, v, y, w : numpy arrays
+        Stroboscopic samples at ``t0 + j T`` (``T = 2 pi / eta``, ``j = 0..periods``):
+        master position and velocity, slave position and velocity variable (``y2``
+        for 'first-order', ``y'`` for 'paper' and 'reduced').
+    master_impacts_t, master_impacts_v_before, master_impacts_v_after : numpy arrays
+    slave_impacts_t, slave_impacts_w_before, slave_impacts_w_after : numpy arrays
+    slave_impacts_x : numpy array
+        The master position at each slave impact (enters the reduced-form rule).
+    dense_t, dense_x, dense_v, dense_y, dense_w : numpy arrays or None
+        ``per_period`` samples per period (including the stroboscopic ones).
+    elapsed_s : float
+        Wall time of the integration (compilation excluded).
+    stats : dict
+        ``steps``; ``simultaneous`` = impacts applied to both oscillators at once.
+    """
+
+    params: Params
+    form: str
+    k: Fraction
+    y0: tuple
+    precision: Precision
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    master_impacts_t: np.ndarray
+    master_impacts_v_before: np.ndarray
+    master_impacts_v_after: np.ndarray
+    slave_impacts_t: np.ndarray
+    slave_impacts_w_before: np.ndarray
+    slave_impacts_w_after: np.ndarray
+    slave_impacts_x: np.ndarray
+    dense_t: np.ndarray | None = None
+    dense_x: np.ndarray | None = None
+    dense_v: np.ndarray | None = None
+    dense_y: np.ndarray | None = None
+    dense_w: np.ndarray | None = None
+    elapsed_s: float = 0.0
+    stats: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def periods(self) -> int:
+        return len(self.t) - 1
+
+    def _f(self, a) -> np.ndarray:
+        if a is None:
+            return np.zeros(0)
+        if self.precision.kind == "float64":
+            return np.asarray(a, dtype=float)
+        f = np.vectorize(self.precision.to_float, otypes=[float])
+        return f(a) if len(a) else np.zeros(0)
+
+    def difference(self, dense: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """``(t, |x - y|)`` as float64 (stroboscopic, or dense if ``dense``).
+
+        The difference is formed in the working precision, then rounded.
+        """
+        if dense:
+            if self.dense_t is None:
+                raise ParameterError("dense", True, "this trajectory has no dense output (per_period = 0)")
+            t, x, y = self.dense_t, self.dense_x, self.dense_y
+        else:
+            t, x, y = self.t, self.x, self.y
+        return self._f(t), np.abs(self._f(x - y))
+
+    def to_json_dict(self) -> dict:
+        """Every number a full-precision decimal string (stroboscopic samples, impacts)."""
+        s = self.precision.to_str
+        return {
+            "params": self.params.decimal(),
+            "form": self.form,
+            "k": decimal_str(self.k),
+            "y0": [decimal_str(q) for q in self.y0],
+            "precision": self.precision.name,
+            "samples": [
+                {"period": j, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
+                for j, (t, x, v, y, w) in enumerate(zip(self.t, self.x, self.v, self.y, self.w))
+            ],
+            "master_impacts": [
+                {"t": s(t), "v_before": s(b), "v_after": s(a)}
+                for t, b, a in zip(self.master_impacts_t, self.master_impacts_v_before, self.master_impacts_v_after)
+            ],
+            "slave_impacts": [
+                {"t": s(t), "w_before": s(b), "w_after": s(a), "x": s(x)}
+                for t, b, a, x in zip(
+                    self.slave_impacts_t, self.slave_impacts_w_before, self.slave_impacts_w_after, self.slave_impacts_x
+                )
+            ],
+            "elapsed_s": self.elapsed_s,
+            "stats": self.stats,
+        }
+
+
+# ------------------------------------------------------------------ the driver
+def _check_y0(y0: Any, params: Params) -> tuple[Fraction, Fraction] | None:
+    if y0 is None:
+        return None
+    if isinstance(y0, (str, bytes)) or not isinstance(y0, Sequence) or len(y0) != 2:
+        raise ParameterError("y0", y0, "a pair (slave position, slave velocity variable) or None")
+    yp, yv = exact("y0[0]", y0[0]), exact("y0[1]", y0[1])
+    if yp > params.x_w:
+        raise ParameterError(
+            "y0[0]", decimal_str(yp), f"the slave must not start inside the wall: y0[0] <= x_w = {decimal_str(params.x_w)}"
+        )
+    return yp, yv
+
+
+def simulate_coupled(
+    params: Params,
+    k: Any,
+    form: str = "first-order",
+    periods: int = 500,
+    y0: Sequence[Any] | None = None,
+    per_period: int = 0,
+    precision: str | Precision = "float64",
+    max_impacts: int = 10**7,
+) -> CoupledTrajectory:
+    """Integrate the master-slave pair (11) + slave ``form`` for ``periods`` forcing periods.
+
+    Keywords
+    --------
+    params : Params
+        System parameters (the paper's: zeta = 0.05, a = 1, x_w = 2, R = 1,
+        eta = 0.712 chaotic) and the master's initial state ``(x0, v0)`` at ``t0``.
+    k : decimal string / Fraction / int / float
+        Coupling ``k >= 0``, converted exactly (:func:`~._params.exact`; a float is
+        read as its shortest round-trip decimal).
+    form : str, default ``'first-order'``
+        One of :data:`COUPLED_FORMS`: eqs. (12) as written, (14a) as printed, or the
+        correct second-order reduction of (12) (module docstring).
+    periods : int, default 500
+        Forcing periods ``T = 2 pi / eta`` (the paper's Fig. 7 uses 500).
+    y0 : pair or None, default ``None``
+        Slave ``(position, velocity variable)`` in ``form``'s own variables
+        (``(y1, y2)`` or ``(y, y')``), each exact; position ``<= x_w``.  ``None``
+        starts the slave on the master, ``(x0, v0)`` -- the diagonal.
+    per_period : int, default 0
+        Dense samples per period (``0 <= per_period <= 100000``) for plotting.
+    precision : str, default ``'float64'``
+        ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp:BITS'``.
+    max_impacts : int, default ``10**7``
+        Budget over both oscillators; exceeding it raises :class:`BudgetExceededError`.
+
+    A start on the wall moving into it is an impact at ``t0`` (applied before the
+    first sample).  Every input is validated before any work; a bad value raises
+    :class:`ParameterError` naming it and its allowed range.
+
+    References: the paper's eqs. (11)-(14); Biscani & Izzo, MNRAS 504 (2021) 2614
+    (heyoka's Taylor method and event detection).
+    """
+    if not isinstance(params, Params):
+        raise ParameterError("params", type(params).__name__, "a precise_impact.Params (use Params.make(...))")
+    kq = check_k(k)
+    form = check_form(form)
+    periods = check_count(periods, "periods")
+    per_period = check_count(per_period, "per_period", 100_000)
+    y0q = _check_y0(y0, params)
+    P = Precision.parse(precision)
+    if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
+        raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")
+    if y0q is None:
+        y0q = (params.x0, params.v0)
+
+    # Initial state, exact; a start on the wall moving into it is an impact at t0.
+    x0, v0 = params.x0, params.v0
+    yp, yv = y0q
+    m0: list = []
+    s0: list = []
+    if impact_at_start(x0, v0, params.x_w, params.R):
+        va = reset_velocity(v0, params.R)
+        m0.append((params.t0, v0, va))
+        v0 = va
+    if yp == params.x_w and slave_position_rate(form, x0, yp, yv, kq) > 0:
+        wa = slave_reset(form, x0, yv, params.R, kq, params.x_w)
+        s0.append((params.t0, yv, wa, x0))
+        yv = wa
+
+    ta = build_coupled_integrator(form, P)
+    conv = P.from_fraction
+    ta.pars[:] = P.array([conv(getattr(params, n)) for n in RUNTIME_PARAMS] + [conv(kq)])
+    ta.time = conv(params.t0)
+    ta.state[:] = P.array([conv(x0), conv(v0), conv(yp), conv(yv)])
+    touch = _touch_tol(P, params.x_w)
+    recs = [ta.t_events[0].callback, ta.t_events[1].callback]
+    for r in recs:
+        r.reset(max_impacts, touch)
+    ta.reset_cooldowns()
+
+    step = max(per_period, 1)
+    grid = P.array(P.sample_times(params.t0, params.eta, periods, step))
+    import heyoka as hy
+
+    start = _time.perf_counter()
+    res = ta.propagate_grid(grid)
+    elapsed = _time.perf_counter() - start
+    outcome, n_steps, states = res[0], res[3], np.asarray(res[-1])
+    if any(r.exceeded for r in recs):
+        raise BudgetExceededError(
+            f"impact budget max_impacts={max_impacts} exhausted at t={P.to_str(ta.time)} "
+            "(chattering/Zeno sequence?); raise max_impacts or check the parameters"
+        )
+    if outcome != hy.taylor_outcome.time_limit:
+        raise RuntimeError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}")
+
+    def conv_exact(rows):
+        return [tuple(conv(c) if isinstance(c, Fraction) else c for c in r) for r in rows]
+
+    def merged(attr):
+        rows = [row for r in recs for row in getattr(r, attr)]
+        rows.sort(key=lambda row: row[0])
+        return rows
+
+    master = conv_exact(m0) + merged("master")
+    slave = conv_exact(s0) + merged("slave")
+    simultaneous = sum(1 for r in recs for row in (r.slave if r.role == "master" else r.master))
+
+    def col(rows, i):
+        return P.array([row[i] for row in rows])
+
+    traj = CoupledTrajectory(
+        params=params,
+        form=form,
+        k=kq,
+        y0=y0q,
+        precision=P,
+        t=grid[::step].copy(),
+        x=states[::step, 0].copy(),
+        v=states[::step, 1].copy(),
+        y=states[::step, 2].copy(),
+        w=states[::step, 3].copy(),
+        master_impacts_t=col(master, 0),
+        master_impacts_v_before=col(master, 1),
+        master_impacts_v_after=col(master, 2),
+        slave_impacts_t=col(slave, 0),
+        slave_impacts_w_before=col(slave, 1),
+        slave_impacts_w_after=col(slave, 2),
+        slave_impacts_x=col(slave, 3),
+        elapsed_s=elapsed,
+        stats={"steps": int(n_steps), "simultaneous": int(simultaneous)},
+    )
+    if per_period > 0:
+        traj.dense_t = grid
+        traj.dense_x, traj.dense_v = states[:, 0].copy(), states[:, 1].copy()
+        traj.dense_y, traj.dense_w = states[:, 2].copy(), states[:, 3].copy()
+    return traj

@@ -1,0 +1,125 @@
+"""Run a scene on its model (or another one) and report it like ``simulate --json``."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+from precise_impact.core.params import decimal_str
+from precise_impact.core.trajectory import Trajectory, atomic_write
+from precise_impact.scenes.scene import Scene
+
+__all__ = ["run_scene", "scene_json"]
+
+
+def run_scene(scene: Scene, model: str | None = None):
+    """Simulate ``scene`` (optionally with another model); returns a Trajectory, or a
+    dict of arrays for coupled scenes."""
+    if model is not None and model != scene.model:
+        scene = scene.with_model(model)
+    P = scene.precision
+    if scene.kind == "coupled":
+        y0 = (scene.params.x0 + 1, scene.params.v0)  # the slave starts one unit away (paper Fig. 7)
+        if scene.model == "circuit":
+            from precise_impact.models.circuit.coupled import simulate_coupled_circuit
+
+            from precise_impact.models.circuit.effects.tolerance import draw_components
+
+            design = scene.design()
+            tol_eff = scene.effects.get("tolerance")
+            actual = None if tol_eff is None else draw_components(design, tol_eff)
+            return simulate_coupled_circuit(design, scene.k, scene.periods, x0=scene.params.x0,
+                                            v0=scene.params.v0, y0=y0, t0=scene.params.t0,
+                                            per_period=scene.per_period, precision=P.name, actual=actual)
+        from precise_impact.models.coupled import simulate_coupled
+
+        tr = simulate_coupled(scene.params, scene.k, scene.form, scene.periods, y0=y0,
+                              per_period=scene.per_period, precision=P.name)
+        return {"t": tr.t, "x": tr.x, "v": tr.v, "y": tr.y, "w": tr.w, "master_impacts_t": tr.master_impacts_t,
+                "slave_impacts_t": tr.slave_impacts_t, "elapsed_s": tr.elapsed_s, "precision": tr.precision,
+                "params": scene.params}
+    if scene.model in ("mechanical", "analytical"):
+        from precise_impact.solvers.simulate import make_solver
+
+        solver = make_solver("heyoka" if scene.model == "mechanical" else "analytical", P, scene.tol)
+        return solver.solve(scene.params, scene.periods, per_period=scene.per_period)
+    if scene.model == "circuit":
+        from precise_impact.models.circuit.opamp import CircuitSolver
+
+        s = CircuitSolver(P, scene.tol, scene.effects)
+    elif scene.model == "switched-capacitor":
+        from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
+
+        s = SwitchedCapacitorSolver(P, scene.tol, scene.effects)
+    else:
+        from precise_impact.models.circuit.spice import run_spice
+
+        p = scene.params
+        kw = {} if scene.tmax is None else {"tmax": float(scene.tmax)}
+        res = run_spice(scene.design(), scene.effects, scene.periods, x0=p.x0, v0=p.v0, t0=p.t0,
+                        dense=scene.per_period > 0, **kw)
+        return res.to_trajectory()
+    p = scene.params
+    return s.solve(scene.design(), scene.periods, x0=p.x0, v0=p.v0, t0=p.t0, per_period=scene.per_period)
+
+
+def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]:
+    """``{"scene", "model", "effects", "samples", "impacts", "elapsed_s", ...}``."""
+    model = model or scene.model
+    effects = sorted(scene.with_model(model).effects) if model != scene.model else sorted(scene.effects)
+    if isinstance(result, Trajectory):
+        d = result.to_json_dict()
+        return {"scene": scene.name, "model": model, "effects": effects, "precision": d["precision"],
+                "params": d["params"], "samples": d["samples"], "impacts": d["impacts"], "elapsed_s": d["elapsed_s"]}
+    P = result["precision"]
+    s = P.to_str
+    return {
+        "scene": scene.name, "model": model, "effects": effects, "precision": P.name,
+        "params": result["params"].decimal(), "form": scene.form if model != "circuit" else "paper",
+        "k": decimal_str(scene.k),
+        "samples": [{"period": i, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
+                    for i, (t, x, v, y, w) in enumerate(zip(result["t"], result["x"], result["v"], result["y"], result["w"]))],
+        "impacts": {"master": [s(t) for t in result["master_impacts_t"]], "slave": [s(t) for t in result["slave_impacts_t"]]},
+        "elapsed_s": result["elapsed_s"],
+    }
+
+
+def save_scene_outputs(scene: Scene, result, out: str | Path, model: str | None = None) -> list[Path]:
+    """Write ``<scene>.json`` and a phase-portrait (or |x - y|) PNG into ``out``."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    import numpy as np
+
+    out = Path(out)
+    obj = scene_json(scene, result, model)
+    stem = f"{scene.name}_{obj['model']}"
+    text = json.dumps(obj)
+    atomic_write(out / f"{stem}.json", lambda fh: fh.write(text), binary=False)
+    fig = Figure(figsize=(6, 4.5))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    if isinstance(result, Trajectory):
+        f = result.as_float64()
+        if result.dense_x is not None:
+            conv = np.vectorize(result.precision.to_float, otypes=[float])
+            ax.plot(conv(result.dense_x), conv(result.dense_v), lw=0.5)
+        ax.plot(f["x"], f["v"], ".", ms=3, color="k", label="x, v at t0 + kT")
+        ax.axvline(float(scene.params.x_w), color="tab:red", lw=0.8, label="wall")
+        ax.set_xlabel("x")
+        ax.set_ylabel("x'")
+        ax.legend(fontsize=8)
+    else:
+        P = result["precision"]
+        d = [abs(P.to_float(x) - P.to_float(y)) for x, y in zip(result["x"], result["y"])]
+        ax.semilogy([P.to_float(t) for t in result["t"]], [max(v, 1e-300) for v in d])
+        ax.set_xlabel("t (dimensionless)")
+        ax.set_ylabel("|x - y| at t0 + kT")
+    ax.set_title(f"{scene.name}: {obj['model']}, effects: {', '.join(obj['effects']) or 'none'}", fontsize=9)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    png = out / f"{stem}.png"
+    atomic_write(png, lambda fh: fh.write(buf.getvalue()), binary=True)
+    return [out / f"{stem}.json", png]

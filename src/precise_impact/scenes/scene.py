@@ -1,0 +1,239 @@
+"""Scenes: declarative TOML descriptions of one simulation, validated before any work.
+
+A scene names the system (single, or coupled with its form and k), the model
+(mechanical, analytical, circuit, switched-capacitor, spice), the dimensionless
+parameters, optional component values, the effects switched on with their
+settings, the precision and tolerance, the duration and the outputs::
+
+    name = "fig6-period3-datasheet"
+    description = "eta = 0.74, period-3 orbit, datasheet parts"
+    [system]
+    kind = "single"                 # or "coupled" (then: form = "first-order" | "paper" | "reduced", k = "0.032")
+    [model]
+    name = "switched-capacitor"
+    precision = "float64"           # float64 | longdouble | float128 | mp:BITS
+    # tol = "1e-12"
+    [parameters]                    # exact decimals (strings or numbers)
+    eta = "0.74"
+    [components]                    # optional, SI units; quantities may carry their unit
+    R = "10 kohm"                   # design resistance (R1..R5, R7, R8); R6 = R2 / (2 zeta)
+    C = "100 nF"
+    [effects.switch]
+    ron = "160 ohm"
+    [duration]
+    periods = 200
+    [outputs]
+    per_period = 0                  # dense points per period
+
+Unknown keys, wrong units, out-of-range values and effects that do not fit the
+model are refused with an error naming the key (``effects.switch.ron`` ...).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import tomllib
+from fractions import Fraction
+from importlib import resources
+from pathlib import Path
+from typing import Any, Mapping
+
+from precise_impact.errors import ParameterError
+from precise_impact.core.params import PARAM_NAMES, Params, check_count, check_tol, decimal_str, exact
+from precise_impact.core.precision import Precision
+
+__all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
+
+SCENE_MODELS = ("mechanical", "analytical", "circuit", "switched-capacitor", "spice")
+_TOP = {"name", "description", "system", "model", "parameters", "components", "effects", "duration", "outputs"}
+_SECTIONS = {
+    "system": {"kind", "form", "k"},
+    "model": {"name", "precision", "tol", "tmax"},
+    "duration": {"periods"},
+    "outputs": {"per_period"},
+    "components": {"R", "C", "V_unit", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2"},
+}
+_COMPONENT_UNIT = {"R": "ohm", "C": "F", "V_unit": "V", **{f"R{i}": "ohm" for i in range(1, 9)}, "C1": "F", "C2": "F"}
+_PREFIX = {"p": Fraction(1, 10**12), "n": Fraction(1, 10**9), "u": Fraction(1, 10**6), "µ": Fraction(1, 10**6),
+           "m": Fraction(1, 1000), "": Fraction(1), "k": Fraction(1000), "M": Fraction(10**6), "G": Fraction(10**9)}
+_UNIT_ALIASES = {"ohm": "ohm", "Ω": "ohm", "F": "F", "V": "V", "s": "s", "Hz": "Hz", "C": "C", "V/V": "V/V",
+                 "%": "%", "V/s": "V/s"}
+
+
+def parse_quantity(name: str, value: Any, unit: str) -> Fraction:
+    """A number, or a string ``"<decimal> [prefix]<unit>"`` whose unit must be ``unit``.
+
+    ``"10 kohm"``, ``"100nF"``, ``"7 ns"``, ``"160"`` (bare: in ``unit``).  A wrong
+    unit (``"160 s"`` for an ohm value) raises :class:`ParameterError` naming ``name``.
+    """
+    if isinstance(value, str):
+        m = re.fullmatch(r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?(?:/[0-9]+)?)\s*([a-zA-Zµ%Ω/]*)\s*", value)
+        if m and m.group(2):
+            num, u = m.group(1), m.group(2)
+            for p in sorted(_PREFIX, key=len, reverse=True):
+                base = u[len(p):] if p and u.startswith(p) else (u if not p else None)
+                if base is not None and _UNIT_ALIASES.get(base) == unit:
+                    return exact(name, num) * _PREFIX[p]
+            raise ParameterError(name, value, f"expected a value in {unit} (with an optional SI prefix p n u m k M G)")
+    return exact(name, value)
+
+
+@dataclasses.dataclass
+class Scene:
+    """A validated scene (see the module docstring for the TOML layout)."""
+
+    name: str
+    description: str
+    kind: str
+    form: str | None
+    k: Fraction | None
+    model: str
+    precision: Precision
+    tol: Any
+    tmax: Fraction | None
+    params: Params
+    components: dict
+    effects: dict
+    periods: int
+    per_period: int
+    source: str
+
+    def with_model(self, model: str) -> "Scene":
+        """The same scene with another model (effects re-validated for it)."""
+        data = dict(self._raw)
+        data["model"] = dict(data.get("model", {}), name=model)
+        return _build(data, self.source)
+
+    def design(self):
+        """Design components (nominal from the parameters, then overrides)."""
+        from precise_impact.models.circuit.components import nominal_components
+
+        base = nominal_components(self.params, R=self.components.get("R", "10e3"), C=self.components.get("C", "100e-9"),
+                                  V_unit=self.components.get("V_unit", 1))
+        over = {n: v for n, v in self.components.items() if n not in ("R", "C", "V_unit")}
+        return base.replace(**over) if over else base
+
+
+def _check_keys(section: str, table: Mapping, allowed: set) -> None:
+    for key in table:
+        if key not in allowed:
+            raise ParameterError(f"{section}.{key}" if section else key, table[key],
+                                 "unknown key; allowed: " + ", ".join(sorted(allowed)))
+
+
+def _build(data: Mapping, source: str) -> Scene:
+    from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
+
+    if not isinstance(data, Mapping):
+        raise ParameterError("scene", source, "a TOML table")
+    _check_keys("", data, _TOP)
+    for sec, allowed in _SECTIONS.items():
+        t = data.get(sec, {})
+        if not isinstance(t, Mapping):
+            raise ParameterError(sec, t, "a table")
+        _check_keys(sec, t, allowed)
+    name = data.get("name", Path(source).stem)
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", name):
+        raise ParameterError("name", name, "letters, digits, '_', '.', '-'")
+    system = data.get("system", {})
+    kind = system.get("kind", "single")
+    if kind not in ("single", "coupled"):
+        raise ParameterError("system.kind", kind, "'single' or 'coupled'")
+    form = k = None
+    if kind == "coupled":
+        from precise_impact.models.coupled import check_form, check_k
+
+        form = check_form(system.get("form", "first-order"))
+        k = check_k(system.get("k", "0.032"), "system.k")
+    elif "form" in system or "k" in system:
+        raise ParameterError("system.form" if "form" in system else "system.k", system.get("form", system.get("k")),
+                             "only for kind = 'coupled'")
+    model_t = data.get("model", {})
+    model = model_t.get("name", "mechanical")
+    if model not in SCENE_MODELS:
+        raise ParameterError("model.name", model, "one of " + ", ".join(SCENE_MODELS))
+    if kind == "coupled" and model not in ("mechanical", "circuit"):
+        raise ParameterError("model.name", model, "coupled scenes run on 'mechanical' or 'circuit'")
+    precision = Precision.parse(str(model_t.get("precision", "float64")))
+    tol = model_t.get("tol")
+    check_tol(tol, "model.tol")
+    tmax = None
+    if "tmax" in model_t:
+        if model != "spice":
+            raise ParameterError("model.tmax", model_t["tmax"], "only for model 'spice'")
+        tmax = parse_quantity("model.tmax", model_t["tmax"], "s")
+        if not 0 < tmax <= Fraction(1, 1000):
+            raise ParameterError("model.tmax", decimal_str(tmax), "0 < tmax <= 1 ms")
+    pt = data.get("parameters", {})
+    if not isinstance(pt, Mapping):
+        raise ParameterError("parameters", pt, "a table")
+    _check_keys("parameters", pt, set(PARAM_NAMES))
+    try:
+        params = Params.make(**dict(pt))
+    except ParameterError as e:
+        raise ParameterError(f"parameters.{e.name}", e.value, e.allowed) from None
+    comps = {n: parse_quantity(f"components.{n}", v, _COMPONENT_UNIT[n]) for n, v in data.get("components", {}).items()}
+    for n, v in comps.items():
+        if v <= 0:
+            raise ParameterError(f"components.{n}", decimal_str(v), "must be > 0")
+    raw_eff = data.get("effects", {})
+    if not isinstance(raw_eff, Mapping):
+        raise ParameterError("effects", raw_eff, "a table of effect tables")
+    if raw_eff and model in ("mechanical", "analytical"):
+        first = next(iter(raw_eff))
+        raise ParameterError(f"effects.{first}", model, f"model '{model}' has no circuit effects; use circuit, switched-capacitor or spice")
+    eff_in = {}
+    for en, settings in raw_eff.items():
+        spec = EFFECTS.get(en)
+        if spec is None or not isinstance(settings, Mapping):
+            eff_in[en] = settings
+            continue
+        conv = {}
+        for key, val in settings.items():
+            st = spec.settings.get(key)
+            if st is not None and st.unit not in ("", "int") and isinstance(val, str) and re.search(r"[a-zA-Zµ%Ω]", val):
+                conv[key] = parse_quantity(f"effects.{en}.{key}", val, st.unit)
+            else:
+                conv[key] = val
+        eff_in[en] = conv
+    effects = validate_effects(eff_in, model) if model not in ("mechanical", "analytical") else {}
+    if kind == "coupled" and model == "circuit":
+        bad = sorted(set(effects) - {"tolerance"})
+        if bad:
+            raise ParameterError(f"effects.{bad[0]}", "coupled circuit", "the coupled circuit model takes only 'tolerance'")
+    dur = data.get("duration", {})
+    periods = check_count(dur.get("periods", 200), "duration.periods", 10**7)
+    per_period = check_count(data.get("outputs", {}).get("per_period", 0), "outputs.per_period", 10_000)
+    scene = Scene(name=name, description=str(data.get("description", "")), kind=kind, form=form, k=k, model=model,
+                  precision=precision, tol=tol, tmax=tmax, params=params, components=comps, effects=effects,
+                  periods=periods, per_period=per_period, source=source)
+    scene._raw = data
+    if model in ("circuit", "switched-capacitor", "spice"):
+        from precise_impact.models.circuit.components import exact_omega
+
+        exact_omega(scene.design())  # the design must map exactly onto the dimensionless system
+    return scene
+
+
+def builtin_scenes() -> dict[str, Path]:
+    """``{name: path}`` of the scenes shipped in ``precise_impact/scenes``."""
+    root = resources.files("precise_impact") / "scenes"
+    return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
+
+
+def load_scene(spec: str | Path) -> Scene:
+    """A built-in scene name or a path to a ``.toml`` file, parsed and validated."""
+    spec = str(spec)
+    built = builtin_scenes()
+    if spec in built:
+        path = built[spec]
+    else:
+        path = Path(spec)
+        if path.suffix != ".toml" or not path.exists():
+            raise ParameterError("scene", spec, "a built-in scene name (precise-impact scenes) or an existing .toml file")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise ParameterError("scene", str(path), f"not valid TOML: {e}") from None
+    return _build(data, str(path))

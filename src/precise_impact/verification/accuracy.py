@@ -1,0 +1,177 @@
+"""The paper's three frequencies: every model and precision against a demonstrated reference.
+
+For each eta the reference is heyoka in multiprecision at two precisions
+(``bits`` and ``bits + 64``); their largest disagreement over all stroboscopic
+samples is the reference's *demonstrated* accuracy.  Each candidate's error is
+its largest distance from the reference over the same samples.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any, Sequence
+
+import mpmath
+
+from precise_impact.core.params import Params
+from precise_impact.core.trajectory import Trajectory, atomic_write
+from precise_impact.solvers.simulate import simulate
+
+__all__ = ["PAPER_ETAS", "CANDIDATES", "reference_bits", "sample_errors", "accuracy_table"]
+
+#: The paper's three regimes: periodic without impacts, chaotic, period-3.
+PAPER_ETAS = ("0.70", "0.712", "0.74")
+
+#: (model, precision) pairs scored against the reference.
+CANDIDATES = (
+    ("heyoka", "float64"),
+    ("heyoka", "longdouble"),
+    ("heyoka", "float128"),
+    ("analytical", "float64"),
+    ("analytical-paper", "float64"),
+)
+
+#: Decimal digits lost per forcing period in the chaotic regime (measured: float64
+#: O(1) after ~140 periods, float128 after ~290, 256 bits after ~650).
+DIGITS_LOST_PER_PERIOD = 0.12
+
+
+def reference_bits(periods: int, target_digits: int = 30) -> int:
+    """Bits a chaotic reference needs to keep ``target_digits`` after ``periods`` periods.
+
+    Rounded up to a multiple of 64 and at least 128; uses a 1.5x safety factor on the
+    measured loss rate.
+    """
+    digits = target_digits + 1.5 * DIGITS_LOST_PER_PERIOD * periods + 5
+    return max(128, 64 * math.ceil(digits * math.log2(10) / 64))
+
+
+def sample_errors(traj: Trajectory, ref: Trajectory) -> list[float]:
+    """``max(|x - x_ref|, |v - v_ref|)`` at every stroboscopic sample, as floats."""
+    out = []
+    with mpmath.workprec(max(traj.precision.bits, ref.precision.bits) + 16):
+        for k in range(min(len(traj.t), len(ref.t))):
+            _, x, v = traj.state_mpf(k)
+            _, xr, vr = ref.state_mpf(k)
+            out.append(float(max(abs(x - xr), abs(v - vr))))
+    return out
+
+
+def _progress(msg: str, enabled: bool) -> None:
+    if enabled:
+        print(msg, file=sys.stderr, flush=True)
+
+
+def accuracy_table(
+    periods: int = 100,
+    etas: Sequence[str] = PAPER_ETAS,
+    out: str | Path | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Score every candidate at each eta; write ``accuracy.json`` and ``accuracy.png`` to ``out``.
+
+    Keywords
+    --------
+    periods : int, default 100
+        Forcing periods from rest.
+    etas : sequence of decimal strings, default the paper's ``('0.70', '0.712', '0.74')``.
+    out : directory or None, default ``None`` (nothing written)
+    progress : bool, default ``True``
+        One line per finished run on stderr.
+    """
+    bits = reference_bits(periods)
+    rows: list[dict[str, Any]] = []
+    curves: dict[str, dict[str, list[float]]] = {}
+    for eta in etas:
+        params = Params.make(eta=eta)
+        t0 = time.perf_counter()
+        ref = simulate(params, periods, precision=f"mp:{bits}")
+        check = simulate(params, periods, precision=f"mp:{bits + 64}")
+        agreement = max(sample_errors(ref, check))
+        _progress(
+            f"eta={eta}: reference mp:{bits} vs mp:{bits + 64} agree to {agreement:.1e} "
+            f"({time.perf_counter() - t0:.1f} s)",
+            progress,
+        )
+        rows.append(
+            {
+                "eta": eta,
+                "model": "heyoka",
+                "precision": f"mp:{bits}",
+                "max_error": agreement,
+                "final_error": sample_errors(ref, check)[-1],
+                "impacts": ref.n_impacts,
+                "elapsed_s": ref.elapsed_s,
+                "role": "reference (error = disagreement with mp:%d)" % (bits + 64),
+            }
+        )
+        curves[eta] = {}
+        for model, prec in CANDIDATES:
+            traj = simulate(params, periods, model=model, precision=prec)
+            errs = sample_errors(traj, ref)
+            curves[eta][f"{model} {prec}"] = errs
+            rows.append(
+                {
+                    "eta": eta,
+                    "model": model,
+                    "precision": prec,
+                    "max_error": max(errs),
+                    "final_error": errs[-1],
+                    "impacts": traj.n_impacts,
+                    "elapsed_s": traj.elapsed_s,
+                    "role": "candidate",
+                }
+            )
+            _progress(f"eta={eta}: {model} {prec}: max error {max(errs):.2e}", progress)
+    result = {"periods": periods, "reference_bits": bits, "rows": rows}
+    if out is not None:
+        out = Path(out)
+        text = json.dumps(result, indent=2)
+        atomic_write(out / "accuracy.json", lambda fh: fh.write(text), binary=False)
+        _plot(curves, periods, out / "accuracy.png")
+    return result
+
+
+def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(curves), figsize=(5 * len(curves), 4), sharey=True, squeeze=False)
+    for ax, (eta, by_model) in zip(axes[0], curves.items()):
+        for label, errs in by_model.items():
+            ax.semilogy(range(len(errs)), [max(e, 1e-40) for e in errs], label=label)
+        ax.set_title(f"eta = {eta}")
+        ax.set_xlabel("forcing period k")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].set_ylabel("max(|x - x_ref|, |v - v_ref|) at t0 + kT")
+    axes[0][-1].legend(fontsize=8)
+    fig.suptitle(f"Error against the multiprecision heyoka reference over {periods} periods (floor 1e-40)")
+    fig.tight_layout()
+
+    def write(fh):
+        fig.savefig(fh, format="png", dpi=110)
+
+    atomic_write(path, write, binary=True)
+    plt.close(fig)
+
+
+def format_table(result: dict[str, Any]) -> str:
+    """The table printed by ``precise-impact accuracy``."""
+    lines = [
+        f"Errors over {result['periods']} periods from rest against heyoka mp:{result['reference_bits']} "
+        "(max over stroboscopic samples of max(|dx|, |dv|))",
+        f"{'eta':>6}  {'model':<17} {'precision':<11} {'max error':>10} {'at end':>10} {'impacts':>7} {'time [s]':>9}",
+    ]
+    for r in result["rows"]:
+        tag = "  <- reference: disagreement with +64 bits" if r["role"] != "candidate" else ""
+        lines.append(
+            f"{r['eta']:>6}  {r['model']:<17} {r['precision']:<11} {r['max_error']:>10.2e} "
+            f"{r['final_error']:>10.2e} {r['impacts']:>7d} {r['elapsed_s']:>9.4f}{tag}"
+        )
+    return "\n".join(lines)

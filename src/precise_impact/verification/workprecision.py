@@ -1,0 +1,640 @@
+"""Work-precision: every method's error against a demonstrated reference, and its cost.
+
+Two cases, both from rest with the paper's parameters:
+
+* ``periodic``: eta = 0.74 (period 3), 50 periods; error = largest
+  ``max(|dx|, |dv|)`` over the stroboscopic samples ``k = 0..50``.
+* ``chaotic``: eta = 0.712, 50 periods; error at period 50, plus the
+  predictability horizon (first period whose error exceeds 1e-3, ``None`` if
+  none within the run).
+
+The reference is heyoka in multiprecision at ``bits`` and ``bits + 64``
+(:func:`._accuracy.reference_bits`); their largest disagreement is reported as
+``reference.agreement``.  Wall times are the median of repeated runs after one
+warm-up run (runs longer than a few seconds are timed once, after the warm-up
+when it is cheap enough; ``repeats`` says how many); heyoka's compile time is
+measured separately (the first ``integrator()`` call) and not included.
+
+Methods: heyoka (float64, longdouble, float128 over a tolerance sweep; mp at a few
+precisions), the analytical solver (paper finder at scan fractions 1/100,
+1/1000, 1/10000 and the robust finder, float64; mpmath at two digit counts),
+scipy ``solve_ivp`` (DOP853, Radau, LSODA; terminal event on ``x - x_w`` with
+direction +1 and a restart with ``v -> -R v``; ``atol = rtol * 1e-3``), and
+ngspice (ideal parts) when installed.
+
+"What chaos costs": for each N, the smallest ``mp:64k`` precision whose state at
+period N agrees with the highest-precision run of the sweep to <= 1e-15, with
+its run time, beside the prediction
+``(15 + N T lambda / ln 10 + margin) log2(10)`` bits.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import shutil
+import statistics
+import sys
+import time
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Callable
+
+import mpmath
+import numpy as np
+
+from precise_impact.verification.accuracy import reference_bits
+from precise_impact.core.params import Params
+from precise_impact.core.trajectory import atomic_write
+from precise_impact.solvers.analytical import AnalyticalSolver
+from precise_impact.solvers.heyoka import HeyokaSolver
+
+__all__ = [
+    "CASES",
+    "LAMBDA",
+    "predicted_bits",
+    "scipy_solve",
+    "work_precision",
+    "format_table",
+]
+
+#: Largest Lyapunov exponent at eta = 0.712 (per unit time; README, ``lle``).
+LAMBDA = 0.0305
+#: Decimal digits of margin in the chaos-cost prediction.
+MARGIN_DIGITS = 3
+#: Error threshold defining the predictability horizon.
+HORIZON_ERROR = 1e-3
+#: Agreement required in the chaos-cost search.
+CHAOS_TARGET = 1e-15
+
+CASES = {
+    "periodic": {"eta": "0.74", "periods": 50},
+    "chaotic": {"eta": "0.712", "periods": 50},
+}
+
+
+def predicted_bits(N: int, eta: float = 0.712, lam: float = LAMBDA, margin: float = MARGIN_DIGITS) -> float:
+    """Bits needed to keep 15 digits after N periods: ``(15 + N T lam / ln 10 + margin) log2 10``."""
+    T = 2 * math.pi / eta
+    return (15 + N * T * lam / math.log(10) + margin) * math.log2(10)
+
+
+def _progress(msg: str, enabled: bool) -> None:
+    if enabled:
+        print(msg, file=sys.stderr, flush=True)
+
+
+# --------------------------------------------------------------------------- scipy
+
+
+class ScipyResult:
+    """Samples and impacts of :func:`scipy_solve` (float64)."""
+
+    def __init__(self, t, x, v, impacts_t, nfev):
+        self.t, self.x, self.v = t, x, v
+        self.impacts_t = impacts_t
+        self.nfev = nfev
+
+
+def scipy_solve(params: Params, periods: int, method: str = "DOP853", rtol: float = 1e-10,
+                atol: float | None = None, max_impacts: int = 100_000) -> ScipyResult:
+    """The oscillator with ``scipy.integrate.solve_ivp``: terminal events and restarts.
+
+    Event ``x - x_w`` (direction +1, terminal); at an event the state is set to
+    ``(x_w, -R v)`` and integration restarts at the event time.  ``atol``
+    defaults to ``rtol * 1e-3``.  Samples at ``k 2 pi / eta`` (float64).
+    """
+    from scipy.integrate import solve_ivp
+
+    eta, zeta, a = float(params.eta), float(params.zeta), float(params.a)
+    xw, R = float(params.x_w), float(params.R)
+    atol = rtol * 1e-3 if atol is None else atol
+    T = 2 * math.pi / eta
+    t0 = float(params.t0)
+    ts = t0 + T * np.arange(periods + 1)
+
+    def rhs(t, y):
+        return [y[1], -2 * zeta * y[1] - y[0] + a * math.cos(eta * t)]
+
+    def jac(t, y):
+        return [[0.0, 1.0], [-1.0, -2 * zeta]]
+
+    def wall(t, y):
+        return y[0] - xw
+
+    wall.terminal = True
+    wall.direction = 1
+
+    xs = np.empty(periods + 1)
+    vs = np.empty(periods + 1)
+    xs[0], vs[0] = float(params.x0), float(params.v0)
+    filled = 1
+    t, y = t0, [float(params.x0), float(params.v0)]
+    t_end = ts[-1]
+    impacts: list[float] = []
+    nfev = 0
+    kw = {"jac": jac} if method in ("Radau", "BDF", "LSODA") else {}
+    while t < t_end:
+        t_eval = ts[filled:][ts[filled:] > t]
+        sol = solve_ivp(rhs, (t, t_end), y, method=method, rtol=rtol, atol=atol, events=wall,
+                        t_eval=t_eval, **kw)
+        nfev += sol.nfev
+        if sol.status == -1:
+            raise RuntimeError(f"solve_ivp {method} failed: {sol.message}")
+        n = len(sol.t)
+        if n:
+            ys = np.asarray(sol.y)
+            xs[filled:filled + n] = ys[0]
+            vs[filled:filled + n] = ys[1]
+        filled += n
+        if sol.status == 1 and len(sol.t_events[0]):
+            te = float(sol.t_events[0][0])
+            ye = sol.y_events[0][0]
+            impacts.append(te)
+            if len(impacts) > max_impacts:
+                raise RuntimeError("impact budget exceeded")
+            t, y = te, [xw, -R * float(ye[1])]
+        else:
+            break
+    if filled != periods + 1:
+        raise RuntimeError(f"solve_ivp {method}: {filled} of {periods + 1} samples")
+    return ScipyResult(ts, xs, vs, np.array(impacts), nfev)
+
+
+def _have_scipy() -> bool:
+    try:
+        import scipy.integrate  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+# --------------------------------------------------------------------------- errors and timing
+
+
+def _ref_states(traj) -> list[tuple]:
+    return [traj.state_mpf(k)[1:] for k in range(len(traj.t))]
+
+
+def _states(res) -> list[tuple]:
+    if hasattr(res, "state_mpf"):
+        return _ref_states(res)
+    return [(mpmath.mpf(float(x)), mpmath.mpf(float(v))) for x, v in zip(res.x, res.v)]
+
+
+def _errors(res, ref_states: list[tuple], bits: int) -> list[float]:
+    out = []
+    with mpmath.workprec(bits + 32):
+        for (x, v), (xr, vr) in zip(_states(res), ref_states):
+            out.append(float(max(abs(x - xr), abs(v - vr))))
+    return out
+
+
+def _timed(fn: Callable[[], Any], budget_s: float) -> tuple[Any, float, int]:
+    """Warm-up run, then the median of repeats; ``(result, median_s, repeats)``.
+
+    The warm-up itself is the measurement (``repeats = 1``) when it took longer
+    than ``budget_s``.
+    """
+    t0 = time.perf_counter()
+    res = fn()
+    w = time.perf_counter() - t0
+    if w > budget_s:
+        return res, w, 1
+    n = 5 if w < 0.05 else 3 if w < budget_s / 3 else 1
+    times = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        res = fn()
+        times.append(time.perf_counter() - t0)
+    return res, statistics.median(times), n
+
+
+# --------------------------------------------------------------------------- configuration
+
+
+def _config(quick: bool) -> dict[str, Any]:
+    if quick:
+        return {
+            "cases": CASES,
+            "heyoka": {
+                "float64": ["1e-6", "1e-9", "1e-12", None],
+                "longdouble": ["1e-12", None],
+                "float128": ["1e-20", None],
+            },
+            "heyoka_mp": [128],
+            "analytical_paper": [Fraction(1, 100), Fraction(1, 1000)],
+            "analytical_robust": True,
+            "analytical_mp_dps": [30],
+            "scipy": {"DOP853": [1e-6, 1e-8, 1e-10, 1e-12, 1e-13], "Radau": [1e-6, 1e-9], "LSODA": [1e-6, 1e-9]},
+            "spice_tmax": ["30e-6"],
+            "chaos_N": [50, 100, 200],
+            "certify_N": 300,
+            "budget_s": 2.0,
+            "circuit": True,
+        }
+    return {
+        "cases": CASES,
+        "heyoka": {
+            "float64": ["1e-6", "1e-8", "1e-10", "1e-12", "1e-14", None],
+            "longdouble": ["1e-8", "1e-12", "1e-16", None],
+            "float128": ["1e-12", "1e-20", "1e-28", None],
+        },
+        "heyoka_mp": [128, 160, 256],
+        "analytical_paper": [Fraction(1, 100), Fraction(1, 1000), Fraction(1, 10000)],
+        "analytical_robust": True,
+        "analytical_mp_dps": [30, 50],
+        "scipy": {
+            "DOP853": [1e-4, 1e-6, 1e-8, 1e-10, 1e-11, 1e-12, 1e-13],
+            "Radau": [1e-4, 1e-6, 1e-8],
+            "LSODA": [1e-4, 1e-6, 1e-8, 1e-10, 1e-12],
+        },
+        "spice_tmax": ["30e-6", "10e-6"],
+        "chaos_N": [50, 100, 200, 300, 500],
+        "certify_N": 300,
+        "budget_s": 5.0,
+        "circuit": True,
+    }
+
+
+# --------------------------------------------------------------------------- main
+
+
+def _row(case, family, method, setting, errs, elapsed, repeats, compile_s=None, note="", **extra):
+    horizon = next((k for k, e in enumerate(errs) if e > HORIZON_ERROR), None)
+    r = {
+        "case": case,
+        "family": family,
+        "method": method,
+        "setting": setting,
+        "max_error": max(errs),
+        "final_error": errs[-1],
+        "horizon": horizon,
+        "time_s": elapsed,
+        "repeats": repeats,
+        "compile_s": compile_s,
+        "note": note,
+    }
+    r.update(extra)
+    r["error"] = r["max_error"] if case == "periodic" else r["final_error"]
+    return r
+
+
+def _case_rows(case: str, spec: dict, cfg: dict, progress: bool, notes: list[str]) -> tuple[list, dict]:
+    params = Params.make(eta=spec["eta"])
+    periods = spec["periods"]
+    bits = reference_bits(periods)
+    t0 = time.perf_counter()
+    ref = HeyokaSolver(f"mp:{bits}").solve(params, periods)
+    check = HeyokaSolver(f"mp:{bits + 64}").solve(params, periods)
+    rs = _ref_states(ref)
+    agreement = max(_errors(check, rs, bits + 64))
+    reference = {"precision": f"mp:{bits}", "check": f"mp:{bits + 64}", "agreement": agreement,
+                 "time_s": time.perf_counter() - t0, "impacts": ref.n_impacts}
+    _progress(f"[{case}] reference mp:{bits} vs mp:{bits + 64}: agree to {agreement:.1e}", progress)
+    budget = cfg["budget_s"]
+    rows: list[dict] = []
+
+    def add(r):
+        rows.append(r)
+        hz = "" if r["horizon"] is None else f", horizon {r['horizon']}"
+        _progress(f"[{case}] {r['method']} {r['setting']}: error {r['error']:.2e}{hz}, {r['time_s']:.4f} s", progress)
+
+    # heyoka fixed precisions and mp
+    hey = [(p, tol) for p, tols in cfg["heyoka"].items() for tol in tols]
+    hey += [(f"mp:{b}", None) for b in cfg["heyoka_mp"]]
+    for prec, tol in hey:
+        solver = HeyokaSolver(prec, tol=tol)
+        c0 = time.perf_counter()
+        solver.integrator()
+        compile_s = time.perf_counter() - c0
+        traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
+        fam = "heyoka mp" if prec.startswith("mp:") else f"heyoka {prec}"
+        tol_s = "eps" if tol is None else tol
+        add(_row(case, fam, f"heyoka {prec}", f"tol={tol_s}", _errors(traj, rs, bits), el, n, compile_s,
+                 tol=None if tol is None else float(tol), impacts=traj.n_impacts))
+
+    # analytical
+    for sf in cfg["analytical_paper"]:
+        solver = AnalyticalSolver(finder="paper", backend="float64", scan_fraction=sf)
+        traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
+        add(_row(case, "analytical paper float64", "analytical paper float64", f"scan={sf}",
+                 _errors(traj, rs, bits), el, n, impacts=traj.n_impacts))
+    if cfg["analytical_robust"]:
+        solver = AnalyticalSolver(finder="robust", backend="float64")
+        traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
+        add(_row(case, "analytical robust float64", "analytical robust float64", "robust",
+                 _errors(traj, rs, bits), el, n, impacts=traj.n_impacts))
+    for dps in cfg["analytical_mp_dps"]:
+        solver = AnalyticalSolver(finder="robust", backend="mpmath", dps=dps)
+        traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
+        add(_row(case, "analytical robust mpmath", "analytical robust mpmath", f"dps={dps}",
+                 _errors(traj, rs, bits), el, n, impacts=traj.n_impacts))
+
+    # scipy
+    if cfg["scipy"]:
+        if _have_scipy():
+            for method, rtols in cfg["scipy"].items():
+                for rtol in rtols:
+                    try:
+                        res, el, n = _timed(lambda: scipy_solve(params, periods, method, rtol), budget)
+                    except RuntimeError as exc:
+                        notes.append(f"{case}: scipy {method} rtol={rtol:g} failed: {exc}")
+                        continue
+                    add(_row(case, f"scipy {method}", f"scipy {method}", f"rtol={rtol:g}",
+                             _errors(res, rs, bits), el, n, rtol=rtol, atol=rtol * 1e-3,
+                             impacts=len(res.impacts_t), nfev=res.nfev))
+        elif not any("scipy missing" in s for s in notes):
+            notes.append("scipy missing: solve_ivp methods skipped (pip install scipy)")
+
+    # ngspice
+    if cfg["spice_tmax"]:
+        if shutil.which("ngspice"):
+            from precise_impact.models.circuit.components import nominal_components
+            from precise_impact.models.circuit.spice import run_spice
+
+            comps = nominal_components(params)
+            for tmax in cfg["spice_tmax"]:
+                res, el, n = _timed(lambda: run_spice(comps, {}, periods, tmax=tmax), budget)
+                add(_row(case, "ngspice", "ngspice", f"tmax={float(tmax) * 1e6:g}us", _errors(res, rs, bits),
+                         el, n, ngspice_s=res.elapsed_s, impacts=len(res.impacts_t)))
+        elif not any("ngspice" in s for s in notes):
+            notes.append("ngspice not on PATH: circuit-simulator rows skipped")
+    return rows, reference
+
+
+def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]:
+    """Smallest mp:64k precision reaching 1e-15 at period N, per N; certification time."""
+    params = Params.make(eta="0.712")
+    Nmax = max(Ns)
+    runs: dict[int, Any] = {}
+    b = 64
+    top_need = 64 * math.ceil(predicted_bits(Nmax) / 64) + 64
+    # Sweep precisions upward until two consecutive precisions agree at Nmax and we
+    # are at least one step past the prediction (so the top run is a genuine reference).
+    while True:
+        runs[b] = HeyokaSolver(f"mp:{b}").solve(params, Nmax)
+        _progress(f"[chaos] mp:{b} x {Nmax} periods: {runs[b].elapsed_s:.2f} s", progress)
+        if b - 64 in runs and b >= top_need:
+            with mpmath.workprec(b + 32):
+                _, x1, v1 = runs[b].state_mpf(Nmax)
+                _, x0, v0 = runs[b - 64].state_mpf(Nmax)
+                if max(abs(x1 - x0), abs(v1 - v0)) < 1e-30:
+                    break
+        if b > 2048:
+            break
+        b += 64
+    top = max(runs)
+    rows = []
+    for N in Ns:
+        chosen, diff_at = None, None
+        with mpmath.workprec(top + 32):
+            _, xt, vt = runs[top].state_mpf(N)
+            for bb in sorted(runs):
+                if bb == top:
+                    continue
+                _, x, v = runs[bb].state_mpf(N)
+                d = float(max(abs(x - xt), abs(v - vt)))
+                if d <= CHAOS_TARGET:
+                    chosen, diff_at = bb, d
+                    break
+        if chosen is None:
+            chosen, diff_at = top, 0.0
+        solver = HeyokaSolver(f"mp:{chosen}")
+        t0 = time.perf_counter()
+        solver.solve(params, N)
+        el = time.perf_counter() - t0
+        pred = predicted_bits(N)
+        rows.append({"N": N, "bits": chosen, "agreement": diff_at, "time_s": el, "predicted_bits": pred,
+                     "predicted_bits_64": 64 * math.ceil(pred / 64)})
+        _progress(f"[chaos] N={N}: mp:{chosen} (predicted {pred:.0f} bits), {el:.2f} s", progress)
+    # Certification of certify_N periods: predicted precision and +64 bits, agreement <= 1e-15.
+    bc = 64 * math.ceil(predicted_bits(certify_N) / 64)
+    t0 = time.perf_counter()
+    a = HeyokaSolver(f"mp:{bc}").solve(params, certify_N)
+    c = HeyokaSolver(f"mp:{bc + 64}").solve(params, certify_N)
+    with mpmath.workprec(bc + 96):
+        _, xa, va = a.state_mpf(certify_N)
+        _, xc, vc = c.state_mpf(certify_N)
+        agree = float(max(abs(xa - xc), abs(va - vc)))
+    cert_s = time.perf_counter() - t0
+    _progress(f"[chaos] certify {certify_N} periods: mp:{bc} vs mp:{bc + 64} agree to {agree:.1e}, "
+              f"{cert_s:.2f} s", progress)
+    return {
+        "lambda": LAMBDA,
+        "margin_digits": MARGIN_DIGITS,
+        "target": CHAOS_TARGET,
+        "reference_precision": f"mp:{top}",
+        "rows": rows,
+        "certify": {"periods": certify_N, "precision": f"mp:{bc}", "check": f"mp:{bc + 64}",
+                    "agreement": agree, "certified": agree <= CHAOS_TARGET, "time_s": cert_s,
+                    "target_s": 10.0},
+    }
+
+
+def _time_at_error(rows: list[dict], family: str, target: float) -> float | None:
+    pts = sorted((math.log10(max(r["error"], 1e-300)), math.log10(r["time_s"])) for r in rows if r["family"] == family)
+    if len(pts) < 2:
+        return None
+    le = math.log10(target)
+    # Interpolate between the two bracketing points (by error); None when not bracketed.
+    for (e0, t0), (e1, t1) in zip(pts, pts[1:]):
+        if e0 <= le <= e1:
+            return 10 ** (t0 if e1 == e0 else t0 + (t1 - t0) * (le - e0) / (e1 - e0))
+    return None
+
+
+def _headlines(rows: list[dict], cfg: dict, progress: bool) -> dict[str, Any]:
+    per = [r for r in rows if r["case"] == "periodic"]
+    th = _time_at_error(per, "heyoka float64", 1e-12)
+    ts = _time_at_error(per, "scipy DOP853", 1e-12)
+    out: dict[str, Any] = {
+        "error_target": 1e-12,
+        "heyoka_float64_time_s": th,
+        "scipy_dop853_time_s": ts,
+        "heyoka_vs_dop853": None if (th is None or ts is None) else ts / th,
+        "heyoka_vs_dop853_target": 100.0,
+    }
+    if cfg.get("circuit"):
+        from precise_impact.models.circuit.opamp import CircuitSolver
+        from precise_impact.models.circuit.components import nominal_components
+
+        spec = cfg["cases"]["periodic"]
+        p = Params.make(eta=spec["eta"])
+        comps = nominal_components(p)
+        cs = CircuitSolver()
+        hs = HeyokaSolver("float64")
+        _, tc, nc = _timed(lambda: cs.solve(comps, spec["periods"]), cfg["budget_s"])
+        _, tm, nm = _timed(lambda: hs.solve(p, spec["periods"]), cfg["budget_s"])
+        out.update({"circuit_time_s": tc, "mechanical_time_s": tm, "circuit_vs_mechanical": tc / tm,
+                    "circuit_vs_mechanical_target": "within 10% (0.9..1.1)"})
+        _progress(f"circuit {tc:.4f} s vs mechanical {tm:.4f} s: ratio {tc / tm:.2f}", progress)
+    return out
+
+
+def work_precision(quick: bool = False, out: str | Path | None = None, progress: bool = True,
+                   *, config: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Measure error and wall time of every method on the periodic and chaotic cases.
+
+    Keywords
+    --------
+    quick : bool, default False
+        Fewer tolerances and methods, chaos cost for N in (50, 100, 200).
+    out : directory or None
+        Writes ``work_precision.json``, ``work_precision.csv``, ``work_precision.png``
+        (both cases) and ``chaos_cost.png``.
+    progress : bool
+        One line per run on stderr.
+    config : dict or None
+        Overrides of the internal configuration (tests use it to shrink the run).
+    """
+    cfg = _config(quick)
+    if config:
+        cfg.update(config)
+    t_start = time.perf_counter()
+    notes: list[str] = [
+        "scipy solve_ivp: atol = rtol * 1e-3; terminal event on x - x_w (direction +1), restart with v -> -R v",
+        "times: median of repeats after one warm-up (repeats column); heyoka compile time separate",
+        "periodic error: max over stroboscopic samples; chaotic error: at the last period",
+    ]
+    rows: list[dict] = []
+    references: dict[str, Any] = {}
+    for case, spec in cfg["cases"].items():
+        r, ref = _case_rows(case, spec, cfg, progress, notes)
+        rows += r
+        references[case] = {"eta": spec["eta"], "periods": spec["periods"], **ref}
+    chaos = _chaos_cost(list(cfg["chaos_N"]), cfg["certify_N"], progress) if cfg["chaos_N"] else None
+    headlines = _headlines(rows, cfg, progress)
+    result = {
+        "quick": quick,
+        "cases": {k: dict(v) for k, v in cfg["cases"].items()},
+        "references": references,
+        "rows": rows,
+        "chaos_cost": chaos,
+        "headlines": headlines,
+        "notes": notes,
+        "elapsed_s": time.perf_counter() - t_start,
+    }
+    if out is not None:
+        write_outputs(result, Path(out))
+    return result
+
+
+# --------------------------------------------------------------------------- outputs
+
+CSV_FIELDS = ["case", "family", "method", "setting", "error", "max_error", "final_error", "horizon", "time_s",
+              "repeats", "compile_s", "impacts", "note"]
+
+
+def write_outputs(result: dict[str, Any], out: Path) -> None:
+    text = json.dumps(result, indent=2, default=str)
+    atomic_write(out / "work_precision.json", lambda fh: fh.write(text), binary=False)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, extrasaction="ignore")
+    w.writeheader()
+    for r in result["rows"]:
+        w.writerow(r)
+    atomic_write(out / "work_precision.csv", lambda fh: fh.write(buf.getvalue()), binary=False)
+    _plot_wp(result, out / "work_precision.png")
+    if result.get("chaos_cost"):
+        _plot_chaos(result["chaos_cost"], out / "chaos_cost.png")
+
+
+def _save(fig, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=110), binary=True)
+    plt.close(fig)
+
+
+def _plot_wp(result: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = list(result["cases"])
+    fig, axes = plt.subplots(1, len(cases), figsize=(7 * len(cases), 5.5), squeeze=False)
+    for ax, case in zip(axes[0], cases):
+        rows = [r for r in result["rows"] if r["case"] == case]
+        fams = list(dict.fromkeys(r["family"] for r in rows))
+        for fam in fams:
+            pts = sorted((r["time_s"], max(r["error"], 1e-40)) for r in rows if r["family"] == fam)
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=fam, ms=4)
+        ref = result["references"][case]
+        ax.axhline(max(ref["agreement"], 1e-40), color="k", ls=":", lw=0.8,
+                   label=f"reference agreement ({ref['precision']} vs {ref['check']})")
+        what = "max error over samples" if case == "periodic" else f"error at period {ref['periods']}"
+        ax.set_title(f"{case}: eta = {ref['eta']}, {ref['periods']} periods")
+        ax.set_xlabel("wall time [s] (median)")
+        ax.set_ylabel(what + " (floor 1e-40)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle("Work-precision: error against the demonstrated multiprecision reference vs wall time")
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = chaos["rows"]
+    N = [r["N"] for r in rows]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(N, [r["bits"] for r in rows], "o-", label="measured: smallest mp:64k reaching 1e-15")
+    ax.plot(N, [r["predicted_bits"] for r in rows], "s--", label="predicted (15 + N T lambda/ln10 + margin) log2 10")
+    ax.set_xlabel("chaotic periods N (eta = 0.712)")
+    ax.set_ylabel("bits")
+    ax.grid(True, alpha=0.3)
+    ax2 = ax.twinx()
+    ax2.semilogy(N, [r["time_s"] for r in rows], "^:", color="C3", label="time at that precision [s]")
+    ax2.set_ylabel("wall time [s]")
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left")
+    c = chaos["certify"]
+    ax.set_title(f"What chaos costs; certify {c['periods']} periods: {c['time_s']:.2f} s")
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def format_table(result: dict[str, Any]) -> str:
+    lines = []
+    for case, ref in result["references"].items():
+        lines.append(f"{case}: eta={ref['eta']}, {ref['periods']} periods; reference {ref['precision']} vs "
+                     f"{ref['check']} agree to {ref['agreement']:.1e}")
+        lines.append(f"  {'method':<28} {'setting':<14} {'error':>9} {'horizon':>7} {'time [s]':>10} "
+                     f"{'compile':>8} {'rep':>3}")
+        for r in result["rows"]:
+            if r["case"] != case:
+                continue
+            hz = "-" if r["horizon"] is None else str(r["horizon"])
+            cs = "" if r["compile_s"] is None else f"{r['compile_s']:.3f}"
+            lines.append(f"  {r['method']:<28} {r['setting']:<14} {r['error']:>9.2e} {hz:>7} "
+                         f"{r['time_s']:>10.5f} {cs:>8} {r['repeats']:>3}")
+    ch = result.get("chaos_cost")
+    if ch:
+        lines.append(f"What chaos costs (eta=0.712, target {ch['target']:g}, reference {ch['reference_precision']}):")
+        lines.append(f"  {'N':>4} {'bits':>5} {'predicted':>9} {'time [s]':>9}")
+        for r in ch["rows"]:
+            lines.append(f"  {r['N']:>4} {r['bits']:>5} {r['predicted_bits']:>9.0f} {r['time_s']:>9.3f}")
+        c = ch["certify"]
+        lines.append(f"  certify {c['periods']} periods: {c['precision']} vs {c['check']} agree to "
+                     f"{c['agreement']:.1e} in {c['time_s']:.2f} s (target < {c['target_s']:g} s)")
+    h = result["headlines"]
+    r = h.get("heyoka_vs_dop853")
+    lines.append("Headlines:")
+    lines.append(f"  heyoka float64 vs scipy DOP853 at error {h['error_target']:g} (periodic): "
+                 + ("n/a (error not bracketed by both curves)" if r is None else
+                    f"{r:.0f}x ({h['scipy_dop853_time_s']:.4f} s vs {h['heyoka_float64_time_s']:.5f} s)"))
+    if "circuit_vs_mechanical" in h:
+        lines.append(f"  ideal circuit vs mechanical (heyoka float64): {h['circuit_vs_mechanical']:.2f}x "
+                     f"({h['circuit_time_s']:.5f} s vs {h['mechanical_time_s']:.5f} s)")
+    for n in result["notes"]:
+        lines.append(f"  note: {n}")
+    return "\n".join(lines)
