@@ -258,8 +258,7 @@ def test_rounding_level_excursion_is_a_contact():
     assert h64.n_impacts == 0 or float(h64.impacts_t[0]) > float(t_max) + 1 or float(h64.impacts_v_before[0]) <= graze_v
     a64 = AnalyticalSolver().solve(p, 1)
     assert a64.stats["grazing"] >= 1 and float(a64.impacts_t[0]) > float(t_max) + 1
-    d: dict = {}
-    variational_spectrum(p, periods=1, transient=0, initial_conditions=1, segments=2, diagnostics=d)
+    d = variational_spectrum(p, periods=1, transient=0, initial_conditions=1, segments=2).stats
     assert d["min_impact_speed"] > 1  # only the next, ordinary impact (v- = 2.53) was applied
     assert d["missed"] == 0 and d["max_overshoot"] <= 4 * graze_v**2 / (2 * abs(float(acc)))
     hmp = HeyokaSolver("mp:256").solve(p, 1)
@@ -318,8 +317,7 @@ def test_variational_spectrum_raises_on_a_dropped_impact(monkeypatch):
     p = Params.make(eta="0.712")
     with pytest.raises(MissedImpactError, match="beyond the wall"):
         variational_spectrum(p, periods=40, transient=0, initial_conditions=1)
-    d: dict = {}
-    variational_spectrum(p, periods=40, transient=0, initial_conditions=1, guard=False, diagnostics=d)
+    d = variational_spectrum(p, periods=40, transient=0, initial_conditions=1, guard=False).stats
     assert d["missed"] >= 1 and d["max_overshoot"] > 1e-3
 
 
@@ -331,8 +329,8 @@ def test_lle_straddling_the_grazing_frequency_is_finite(eta):
     exponents obey ``lambda1 + lambda2 = -2 zeta`` (R = 1) to 1e-12, and the LLE is
     0.030 +- 0.0015 (measured 0.0290 ... 0.0306 with stderr <= 0.001; the paper's
     value near eta = 0.712 is ~0.03)."""
-    d: dict = {}
-    r = variational_spectrum(Params.make(eta=eta), periods=4000, transient=500, diagnostics=d)
+    r = variational_spectrum(Params.make(eta=eta), periods=4000, transient=500)
+    d = r.stats
     assert d["finite_logs"] and np.all(np.isfinite(r.running))
     assert abs(sum(r.spectrum) + 2 * ZETA) < 1e-12
     assert r.impacts > 2000 and d["missed"] == 0
@@ -381,8 +379,8 @@ def test_huge_saltation_gives_the_monodromy_lle(precision, delta):
     p = Params.make(eta="0.74", x_w=xw)
     lam_ref, imps = monodromy_lle(p)
     assert len(imps) == 2 and abs(float(imps[0][1]) - math.sqrt(2 * 1.2187 * float(delta))) < 1e-2 * float(imps[0][1])
-    d: dict = {}
-    r = variational_spectrum(p, periods=1, transient=0, initial_conditions=1, segments=2, precision=precision, diagnostics=d)
+    r = variational_spectrum(p, periods=1, transient=0, initial_conditions=1, segments=2, precision=precision)
+    d = r.stats
     T = 2 * math.pi / 0.74
     u, u64 = unit_roundoff(P), 2.0**-53
     assert r.impacts == 2 and d["grazing"] == 0 and d["finite_logs"]
@@ -426,17 +424,17 @@ def test_exactly_grazing_orbit_lle_is_minus_zeta(precision, periods):
     T = 2 * math.pi / 0.70
     t = periods * T
     bound = math.log(1 + 2 * ZETA / math.sqrt(1 - ZETA**2)) / t
-    d: dict = {}
-    r = variational_spectrum(p, periods=periods, transient=0, initial_conditions=1, precision=precision, diagnostics=d)
+    r = variational_spectrum(p, periods=periods, transient=0, initial_conditions=1, precision=precision)
+    d = r.stats
     delta = graze_depth(P, p, T)  # the local clock keeps t within one period
     v_graze = math.sqrt(2 * 0.70**2 * A * delta)
     assert r.impacts == 0 and d["impacts"] == 0 and d["missed"] == 0
     assert abs(r.spectrum[0] + ZETA) <= bound and abs(r.spectrum[1] + ZETA) <= bound
     assert d["grazing"] >= 1 and 0 < d["max_contact_speed"] <= v_graze
     assert -delta <= d["max_overshoot"] <= 4 * delta
-    raw: dict = {}
     r0 = variational_spectrum(p, periods=periods, transient=0, initial_conditions=1, precision=precision,
-                              grazing_depth=0, diagnostics=raw)
+                              grazing_depth=0)
+    raw = r0.stats
     assert raw["grazing"] == 0 and raw["max_saltation"] > 1e7 and r0.lle > 0.01
 
 

@@ -137,8 +137,8 @@ def test_variational_1e5_periods_logs_finite(R, lle_range):
     to 1e-12 after 10^5 periods (float64 summation of 10^5 logs of size <= 10:
     ~1e5 * 1e-15 / 9e5 time units ~ 1e-16)."""
     p = Params.make(eta="0.712", R=R)
-    d: dict = {}
-    r = variational_spectrum(p, periods=100_000, transient=100, initial_conditions=1, diagnostics=d)
+    r = variational_spectrum(p, periods=100_000, transient=100, initial_conditions=1)
+    d = r.stats
     t = r.periods * 2 * math.pi / 0.712
     assert d["finite_logs"] and np.all(np.isfinite(r.running)) and math.isfinite(r.spectrum[1])
     assert d["max_period_log"] < 50 and d["missed"] == 0
@@ -153,10 +153,10 @@ def test_variational_1e6_periods():
     """10^6 variational periods: finite logs, identity to 1e-12, LLE 0.030 +- 0.002.
     The local clock keeps |t| below one period, so nothing in the run depends on
     its length (time per period: module docstring)."""
-    d: dict = {}
     t0 = time.perf_counter()
     r = variational_spectrum(Params.make(eta="0.712"), periods=1_000_000, transient=100, initial_conditions=1,
-                             segments=100, diagnostics=d)
+                             segments=100)
+    d = r.stats
     elapsed = time.perf_counter() - t0
     print(f"\nvariational 10^6 periods: {elapsed:.1f} s ({elapsed:.1f} us/period), LLE {r.lle:.5f} "
           f"+- {r.stderr:.5f}, max per-period log {d['max_period_log']:.2f}")

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, steady_state
-from precise_impact.analysis.lyapunov.two_trajectory import _LAST_STATS, default_d0, two_trajectory_lle
+from precise_impact.analysis.lyapunov.two_trajectory import default_d0, two_trajectory_lle
 
 ZETA = 0.05
 
@@ -174,9 +174,9 @@ def test_impact_straddling_the_period_boundary():
     p = p0.replace(x0=x0, v0=v0)
 
     straddled = two_trajectory_lle(p, periods=3, transient=0, d0="1e-4")
-    assert _LAST_STATS["straddles"] == 1 and _LAST_STATS["grazing_misses"] == 0
+    assert straddled.stats["straddles"] == 1 and straddled.stats["grazing_misses"] == 0
     reference = two_trajectory_lle(p, periods=3, transient=0, d0="1e-8")
-    assert _LAST_STATS["straddles"] == 0
+    assert reference.stats["straddles"] == 0
     assert straddled.impacts == reference.impacts == 2
     naive = math.log(1 / 1e-4) / float(T)
     assert abs(straddled.running[0] - reference.running[0]) < 1e-4 < 0.1 * naive
@@ -188,7 +188,7 @@ def test_many_straddles_at_large_d0_agree(chaotic):
     and meets a few grazing misses; the estimate must still agree with the default
     d0 within 3 stderr (measured 0.03018 vs 0.03024, 28 straddles)."""
     r = two_trajectory_lle(Params.make(eta="0.712"), periods=20000, transient=1000, d0="1e-3")
-    assert _LAST_STATS["straddles"] > 0
+    assert r.stats["straddles"] > 0
     assert abs(r.lle - chaotic.lle) < 3 * chaotic.stderr
 
 

@@ -58,13 +58,13 @@ References: the paper's eqs. (10)-(15); Pecora & Carroll, Phys. Rev. Lett. 64
 from __future__ import annotations
 
 import dataclasses
-import threading
 import time as _time
 from fractions import Fraction
 from typing import Any, Sequence
 
 import numpy as np
 
+from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str, exact
@@ -205,25 +205,22 @@ class _CoupledImpact:
         return True
 
 
-_CACHE: dict[tuple, Any] = {}
-_LOCK = threading.Lock()
+_INTEGRATORS = IntegratorCache("coupled")  # compiled once; every caller gets its own copy
 
 
 def build_coupled_integrator(form: str, precision: Precision):
-    """Compile (or fetch from the cache) the coupled integrator for ``form``.
+    """The coupled integrator for ``form``.
 
     State ``(x, v, y, w)``; runtime parameters ``COUPLED_PARAMS`` =
-    ``(eta, zeta, a, R, x_w, k)``; events ``[master, slave]``.  Returns the cached
-    object itself: callers reset time, state, parameters and callbacks before use.
+    ``(eta, zeta, a, R, x_w, k)``; events ``[master, slave]``.  Returns a private
+    copy (:class:`~precise_impact.solvers.cache.IntegratorCache`).
     """
     import heyoka as hy
 
     check_form(form)
     key = (form, precision.name)
-    with _LOCK:
-        ta = _CACHE.get(key)
-        if ta is not None:
-            return ta
+
+    def compile_():
         x, v, y, w = hy.make_vars("x", "v", "y", "w")
         p = {name: hy.par[i] for i, name in enumerate(COUPLED_PARAMS)}
         acc_x = acceleration(hy.time, x, v, p["eta"], p["zeta"], p["a"], hy.cos)
@@ -247,8 +244,9 @@ def build_coupled_integrator(form: str, precision: Precision):
             compact_mode=precision.kind == "mp",
             **kw,
         )
-        _CACHE[key] = ta
         return ta
+
+    return _INTEGRATORS.get(key, compile_)
 
 
 # ------------------------------------------------------------------ the result

@@ -84,6 +84,7 @@ from precise_impact.core.impact import (
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, check_tol, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
+from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.core.flow import acceleration
 
 __all__ = ["HeyokaSolver", "build_integrator"]
@@ -178,24 +179,23 @@ class _ImpactRecorder:
         return True
 
 
-_CACHE: dict[tuple, Any] = {}
-_LOCK = threading.Lock()
+_INTEGRATORS = IntegratorCache("oscillator")
 
 
 def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool = False, compact_mode: bool = False):
-    """Compile (or fetch from the cache) a heyoka integrator for the oscillator.
+    """A heyoka integrator for the oscillator, owned by the caller.
 
-    The integrator's runtime parameters are ordered as ``RUNTIME_PARAMS`` =
-    ``(eta, zeta, a, R, x_w)``.  Returns the cached object itself: callers reset
-    time, state, parameters and the callback before each use.
+    Compiled once per ``(precision, tol, high_accuracy, compact_mode)`` and process
+    (:class:`~precise_impact.solvers.cache.IntegratorCache`); every call returns a
+    private copy, so callers may reset time, state, parameters and the callback
+    freely and use copies from different threads.  The integrator's runtime
+    parameters are ordered as ``RUNTIME_PARAMS`` = ``(eta, zeta, a, R, x_w)``.
     """
-    import heyoka as hy
-
     key = (precision.name, None if tol is None else precision.to_str(tol), high_accuracy, compact_mode)
-    with _LOCK:
-        ta = _CACHE.get(key)
-        if ta is not None:
-            return ta
+
+    def compile_():
+        import heyoka as hy
+
         x, v = hy.make_vars("x", "v")
         p = {name: hy.par[i] for i, name in enumerate(RUNTIME_PARAMS)}
         rhs = acceleration(hy.time, x, v, p["eta"], p["zeta"], p["a"], hy.cos)
@@ -210,7 +210,7 @@ def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool 
         extra = {}
         if tol is not None:
             extra["tol"] = tol
-        ta = hy.taylor_adaptive(
+        return hy.taylor_adaptive(
             [(x, v), (v, rhs)],
             [zero, zero],
             pars=[zero] * len(RUNTIME_PARAMS),
@@ -220,8 +220,8 @@ def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool 
             **extra,
             **kw,
         )
-        _CACHE[key] = ta
-        return ta
+
+    return _INTEGRATORS.get(key, compile_)
 
 
 # --------------------------------------------------------------------------- the wall
@@ -589,10 +589,29 @@ class HeyokaSolver:
         self.compact_mode = (self.precision.kind == "mp") if compact_mode is None else bool(compact_mode)
         self.max_impacts = max_impacts
         self.max_steps = max_steps
+        self._ta = None
+        self._lock = threading.Lock()
+
+    def __getstate__(self) -> dict:
+        # The owned integrator and the lock stay with this process/object.
+        state = self.__dict__.copy()
+        state["_ta"], state["_lock"] = None, None
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
 
     def integrator(self):
-        """The compiled (cached) heyoka integrator this solver uses."""
-        return build_integrator(self.precision, self.tol, self.high_accuracy, self.compact_mode)
+        """The heyoka integrator this solver owns (a private copy of the compiled one).
+
+        Made on first use and reused by every :meth:`solve` of this object; solves of
+        one object from several threads take turns (a lock), solves of different
+        objects run in parallel.
+        """
+        if self._ta is None:
+            self._ta = build_integrator(self.precision, self.tol, self.high_accuracy, self.compact_mode)
+        return self._ta
 
     def step_budget(self, periods: int) -> int:
         """The step budget of a run of ``periods`` periods (see ``max_steps``)."""
@@ -622,6 +641,11 @@ class HeyokaSolver:
         return ta, rec
 
     def solve(self, params: Params, periods: int, per_period: int = 0) -> Trajectory:
+        """Integrate ``periods`` forcing periods (see :meth:`_solve`); thread-safe."""
+        with self._lock:
+            return self._solve(params, periods, per_period)
+
+    def _solve(self, params: Params, periods: int, per_period: int = 0) -> Trajectory:
         """Integrate ``periods`` forcing periods from ``(params.x0, params.v0)`` at ``params.t0``.
 
         Returns stroboscopic samples at ``t0 + k T`` (``k = 0..periods``), every
@@ -659,7 +683,7 @@ class HeyokaSolver:
         try:
             xs, vs, stats = self._run(ta, rec, watch, params, run_grid, max_steps, n_out)
         finally:
-            rec.watch = None  # the cached integrator is shared: leave a plain recorder behind
+            rec.watch = None  # leave a plain recorder behind for the next solve
             rec.depth = None
         stats["grazing"] = rec.grazing
         elapsed = _time.perf_counter() - t_start

@@ -22,11 +22,11 @@ maximum (a maximum beyond the wall by more than 4 grazing depths is a missed imp
 from __future__ import annotations
 
 import math
-import threading
 from typing import Sequence
 
 import numpy as np
 
+from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
@@ -128,8 +128,7 @@ class _BatchGuard:
                 self.first_miss = (i, float(time), float(over))
 
 
-_CACHE: dict[int, object] = {}
-_LOCK = threading.Lock()
+_INTEGRATORS = IntegratorCache("batch-variational")  # compiled once; every caller gets its own copy
 
 
 def default_batch_size() -> int:
@@ -142,9 +141,7 @@ def default_batch_size() -> int:
 def _integrator(batch_size: int):
     import heyoka as hy
 
-    with _LOCK:
-        if batch_size in _CACHE:
-            return _CACHE[batch_size]
+    def compile_():
         x, v = hy.make_vars("x", "v")
         p = {name: hy.par[i] for i, name in enumerate(RUNTIME_PARAMS)}
         rhs = acceleration(hy.time, x, v, p["eta"], p["zeta"], p["a"], hy.cos)
@@ -158,8 +155,9 @@ def _integrator(batch_size: int):
             t_events=[ev],
             nt_events=[guard],
         )
-        _CACHE[batch_size] = ta
         return ta
+
+    return _INTEGRATORS.get(batch_size, compile_)
 
 
 def detect_period(xs: np.ndarray, vs: np.ndarray, max_period: int = 32, rtol: float = 1e-6) -> int:

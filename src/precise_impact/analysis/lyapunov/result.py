@@ -43,6 +43,10 @@ class LyapunovResult:
     strobe_x, strobe_v : numpy.ndarray or None
         Stroboscopic samples (float64) of the first initial condition's measured
         periods, where the method records them (for bifurcation diagrams).
+    stats : dict
+        Method diagnostics (variational: impacts, grazing contacts, guard checks,
+        missed impacts ...; two-trajectory: straddled boundaries, grazing misses,
+        collapses, the separation ``d0`` used).
     """
 
     params: Params
@@ -60,6 +64,7 @@ class LyapunovResult:
     initial_conditions: int = 1
     strobe_x: np.ndarray | None = None
     strobe_v: np.ndarray | None = None
+    stats: dict = dataclasses.field(default_factory=dict)
 
     def to_json_dict(self) -> dict:
         """The ``precise-impact lle --json`` object."""

@@ -471,14 +471,6 @@ def two_trajectory_lle(
         running=running,
         segments=blocks,
         elapsed_s=elapsed,
-    )
-    _LAST_STATS.clear()
-    _LAST_STATS.update(
-        straddles=straddles, grazing_misses=grazing_misses, collapses=collapses, flips=flips[0], d0=d0q
+        stats=dict(straddles=straddles, grazing_misses=grazing_misses, collapses=collapses, flips=flips[0], d0=d0q),
     )
     return result
-
-
-#: Diagnostics of the most recent call in this process (straddled boundaries,
-#: grazing misses, collapses, d0 used); for tests and debugging only.
-_LAST_STATS: dict[str, Any] = {}

@@ -55,7 +55,7 @@ velocity ``v- -> 0``.  Three things could go wrong and are prevented:
    ``stats["grazing"]``), an event whose excursion beyond the wall,
    ``depth = v-^2 / (2 |x''|)`` (``x'' < 0``: a maximum), is below the grazing
    depth ``delta(t)`` is a tangential *contact*: no reset, no saltation, counted
-   in ``diagnostics["grazing"]``.  Default ``delta(t) = 16 u (|x_w| + |a| + A_p
+   in ``stats["grazing"]``.  Default ``delta(t) = 16 u (|x_w| + |a| + A_p
    (1 + eta |t|))`` with ``u = 2^-bits`` the unit roundoff and ``A_p`` the
    steady-state amplitude (:func:`~precise_impact._system.steady_state`): a few
    roundings of the terms of the Taylor evaluation, plus the rounding of the
@@ -98,13 +98,13 @@ from __future__ import annotations
 
 import math
 import sys
-import threading
 import time as _time
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.impact import (
@@ -245,12 +245,11 @@ class _MaximumGuard:
                 self.first_miss = (float(time), o)
 
 
-_CACHE: dict[tuple, Any] = {}
-_LOCK = threading.Lock()
+_INTEGRATORS = IntegratorCache("variational")  # compiled once; every caller gets its own copy
 
 
 def build_variational_integrator(precision: Precision, tol: Any = None):
-    """Compile (or fetch) the oscillator + first-order variational equations integrator.
+    """The oscillator + first-order variational equations integrator.
 
     State ``[x, v, dx/dx0, dx/dv0, dv/dx0, dv/dv0]``; runtime parameters
     ``RUNTIME_PARAMS``; one terminal event (``x - x_w``, positive direction,
@@ -261,9 +260,8 @@ def build_variational_integrator(precision: Precision, tol: Any = None):
     import heyoka as hy
 
     key = (precision.name, None if tol is None else precision.to_str(tol))
-    with _LOCK:
-        if key in _CACHE:
-            return _CACHE[key]
+
+    def compile_():
         x, v = hy.make_vars("x", "v")
         p = {name: hy.par[i] for i, name in enumerate(RUNTIME_PARAMS)}
         rhs = acceleration(hy.time, x, v, p["eta"], p["zeta"], p["a"], hy.cos)
@@ -283,8 +281,9 @@ def build_variational_integrator(precision: Precision, tol: Any = None):
             **extra,
             **kw,
         )
-        _CACHE[key] = ta
         return ta
+
+    return _INTEGRATORS.get(key, compile_)
 
 
 def _gram_schmidt(st, sqrt, log):
@@ -406,7 +405,6 @@ def variational_spectrum(
     progress: bool = False,
     guard: bool = True,
     grazing_depth: Any = None,
-    diagnostics: dict | None = None,
 ) -> LyapunovResult:
     """Both Lyapunov exponents from the variational equations with saltation matrices.
 
@@ -437,7 +435,7 @@ def variational_spectrum(
     guard : bool, default ``True``
         Raise :class:`MissedImpactError` when a maximum of ``x`` lies beyond the wall
         by more than ``4 delta(t)`` (an impact heyoka's event detection missed; module
-        docstring, *the guard*).  ``False``: only count it (``diagnostics["missed"]``).
+        docstring, *the guard*).  ``False``: only count it (``stats["missed"]``).
     grazing_depth : decimal or None, default ``None``
         Excursion depth ``delta`` below which an event is a tangential contact, not an
         impact (module docstring, 3.).  ``None``: ``16 u (|x_w| + |a| + A_p (1 + eta |t|))``,
@@ -445,8 +443,7 @@ def variational_spectrum(
         ``t`` the local clock (:func:`grazing_depth_coefficient`);
         a number ``>= 0``: that fixed depth (``0``: every event with ``v- > 0`` is an
         impact, as :class:`~precise_impact.HeyokaSolver` treats them).
-    diagnostics : dict or None, default ``None``
-        If a dict, it is filled with counters summed over all orbits (transients
+    The result's ``stats`` dict holds counters summed over all orbits (transients
         included): ``impacts`` (applied), ``grazing`` (contacts), ``min_impact_speed``
         (smallest ``v-`` of an impact, ``inf`` if none), ``max_contact_speed``,
         ``max_saltation`` (largest ``|s|``, ``s = S[1][0]``), ``maxima`` (checked by
@@ -482,8 +479,6 @@ def variational_spectrum(
         raise ParameterError("segments", segments, "an integer >= 2 (the error bar needs independent blocks)")
     q = check_tol(tol)
     tol = None if q is None else P.from_fraction(q)
-    if diagnostics is not None and not isinstance(diagnostics, dict):
-        raise ParameterError("diagnostics", type(diagnostics).__name__, "None or a dict to fill")
     depth = _depth_for(P, grazing_depth, params)
     ics = [initial_condition(params, j) for j in range(n_ic)]  # validated before any work
 
@@ -522,10 +517,8 @@ def variational_spectrum(
         diag["missed"] += grd.missed
     elapsed = _time.perf_counter() - start
     l1, l2, dt = np.concatenate(L1), np.concatenate(L2), np.concatenate(DT)
-    if diagnostics is not None:
-        diag["max_period_log"] = float(np.max(l1)) if len(l1) else -math.inf
-        diag["finite_logs"] = bool(np.all(np.isfinite(l1)))
-        diagnostics.update(diag)
+    diag["max_period_log"] = float(np.max(l1)) if len(l1) else -math.inf
+    diag["finite_logs"] = bool(np.all(np.isfinite(l1)))
     all_blocks = np.concatenate(blocks)
     se = float(np.std(all_blocks, ddof=1) / math.sqrt(len(all_blocks))) if len(all_blocks) > 1 else math.nan
     total = float(np.sum(dt))
@@ -546,4 +539,5 @@ def variational_spectrum(
         initial_conditions=n_ic,
         strobe_x=strobe[0],
         strobe_v=strobe[1],
+        stats=diag,
     )

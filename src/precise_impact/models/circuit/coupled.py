@@ -17,13 +17,13 @@ mechanical impact law on each oscillator's ``V_q``.
 
 from __future__ import annotations
 
-import threading
 import time as _time
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
@@ -61,16 +61,13 @@ class _Impact:
         return len(self.t) < 10**7
 
 
-_CACHE: dict = {}
-_LOCK = threading.Lock()
+_INTEGRATORS = IntegratorCache("coupled-circuit")  # compiled once; every caller gets its own copy
 
 
 def _build(P: Precision):
     import heyoka as hy
 
-    with _LOCK:
-        if P.name in _CACHE:
-            return _CACHE[P.name]
+    def compile_():
         p = {n: hy.par[i] for i, n in enumerate(PARS)}
         Vs1, Vq1, Vs2, Vq2 = hy.make_vars("V_s1", "V_q1", "V_s2", "V_q2")
         V3 = p["V_A"] * hy.cos(p["Omega"] * hy.time)
@@ -94,8 +91,9 @@ def _build(P: Precision):
         ]
         zero = P.from_fraction(Fraction(0))
         ta = hy.taylor_adaptive(rhs, [zero] * 4, pars=[zero] * len(PARS), t_events=evs, compact_mode=P.kind == "mp", **kw)
-        _CACHE[P.name] = ta
         return ta
+
+    return _INTEGRATORS.get(P.name, compile_)
 
 
 def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=0, y0=(0, 0), t0=0,

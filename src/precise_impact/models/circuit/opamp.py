@@ -11,7 +11,6 @@ an experimenter reads the real circuit.
 
 from __future__ import annotations
 
-import threading
 import time as _time
 from fractions import Fraction
 from typing import Any, Mapping
@@ -19,6 +18,7 @@ from typing import Any, Mapping
 import mpmath
 import numpy as np
 
+from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count, check_tol
@@ -80,17 +80,15 @@ class _Impact:
         return True
 
 
-_CACHE: dict = {}
-_LOCK = threading.Lock()
+_INTEGRATORS = IntegratorCache("circuit")  # compiled once; every caller gets its own copy
 
 
 def _build(precision: Precision, tol, op: OpAmp):
     import heyoka as hy
 
     key = (precision.name, None if tol is None else precision.to_str(tol), op)
-    with _LOCK:
-        if key in _CACHE:
-            return _CACHE[key]
+
+    def compile_():
         vars_, rhs = circuit_system(op)
         kw = precision.heyoka_kwargs
         ev = hy.t_event(vars_[0] - hy.par[_IDX["V_wall"]], callback=_Impact(op.dynamic),
@@ -103,8 +101,9 @@ def _build(precision: Precision, tol, op: OpAmp):
         extra = {"tol": tol} if tol is not None else {}
         ta = hy.taylor_adaptive(rhs, [zero] * len(vars_), pars=[zero] * len(NETWORK_PARS), t_events=[ev] + sat,
                                 compact_mode=precision.kind == "mp" or op.dynamic, **extra, **kw)
-        _CACHE[key] = ta
         return ta
+
+    return _INTEGRATORS.get(key, compile_)
 
 
 class CircuitSolver:

@@ -32,13 +32,13 @@ the ideal impact with R = 1.  The effects (each off unless a scene switches it o
 from __future__ import annotations
 
 import math
-import threading
 import time as _time
 from fractions import Fraction
 from typing import Any, Mapping
 
 import numpy as np
 
+from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.params import check_count, check_tol
 from precise_impact.core.precision import Precision
@@ -113,17 +113,15 @@ class _Rearm:
         return True
 
 
-_CACHE: dict = {}
-_LOCK = threading.Lock()
+_INTEGRATORS = IntegratorCache("switched-capacitor")  # compiled once; every caller gets its own copy
 
 
 def _build(P: Precision, tol):
     import heyoka as hy
 
     key = (P.name, None if tol is None else P.to_str(tol))
-    with _LOCK:
-        if key in _CACHE:
-            return _CACHE[key]
+
+    def compile_():
         (V_s, V_C), rhs, _, _ = _system()
         kw = P.heyoka_kwargs
         trip = hy.t_event(V_s - hy.par[_I["v_trip"]], callback=_Comparator(), direction=hy.event_direction.negative,
@@ -134,8 +132,9 @@ def _build(P: Precision, tol):
         extra = {"tol": tol} if tol is not None else {}
         ta = hy.taylor_adaptive(rhs, [zero, zero], pars=[zero] * len(PARS), t_events=[trip, rearm],
                                 compact_mode=P.kind == "mp", **extra, **kw)
-        _CACHE[key] = ta
         return ta
+
+    return _INTEGRATORS.get(key, compile_)
 
 
 class SwitchedCapacitorSolver:
