@@ -8,7 +8,6 @@ worker processes (each compiles its integrator once), with a progress bar on std
 from __future__ import annotations
 
 import dataclasses
-import io
 import json
 import math
 import os
@@ -23,7 +22,8 @@ import numpy as np
 
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
-from precise_impact.core.trajectory import atomic_write
+from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.core.flow import grazing_frequencies
 
 __all__ = ["BifurcationResult", "bifurcation", "eta_grid"]
@@ -80,13 +80,10 @@ class BifurcationResult:
         return {"npz": npz, "png": png}
 
     def plot(self, path: str | os.PathLike) -> None:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
+        """Stroboscopic x against eta with the LLE beneath; saved to ``path`` (PNG)."""
         eta = np.array([float(e) for e in self.eta])
-        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+        fig, axes = new_figure(2, 1, figsize=(10, 7), layout="tight", sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+        ax1, ax2 = axes[:, 0]
         xs = np.repeat(eta, self.x.shape[1])
         ax1.plot(xs, self.x.ravel(), ",", color="k", alpha=0.5)
         ax1.axhline(float(self.params.x_w), color="tab:red", lw=0.8, label="wall x_w")
@@ -108,11 +105,7 @@ class BifurcationResult:
             f"x_w={decimal_str(self.params.x_w)}, R={decimal_str(self.params.R)}; "
             f"{self.transient} transient + {self.periods} periods)"
         )
-        fig.tight_layout()
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=120)
-        plt.close(fig)
-        atomic_write(path, lambda fh: fh.write(buf.getvalue()), binary=True)
+        save_figure(fig, path, fmt="png", dpi=120)
 
 
 def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:

@@ -26,9 +26,10 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from precise_impact.io.figures import figure
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
-from precise_impact.core.trajectory import atomic_write
+from precise_impact.io.atomic import atomic_write
 
 __all__ = ["SWEEP_PARAMS", "SweepSpec", "compute_tile", "run_sweep", "load_sweep"]
 
@@ -328,12 +329,9 @@ def assemble(spec: SweepSpec, out: Path) -> dict[str, str]:
 
 
 def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.colors import TwoSlopeNorm
-    from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(12, 4.8))
-    FigureCanvasAgg(fig)
+    fig = figure(figsize=(12, 4.8))
     if len(spec.axes) == 1:
         name, vals = spec.axes[0]
         x = [float(v) for v in vals]

@@ -34,11 +34,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from precise_impact.io.figures import new_figure
 from precise_impact.models.coupled import CoupledTrajectory, check_form, check_k, simulate_coupled
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
-from precise_impact.core.trajectory import atomic_write
+from precise_impact.io.atomic import atomic_write
 
 __all__ = ["SyncRun", "SyncResult", "sync_scan", "classify", "plot_fig7", "plot_sync_fraction", "ensemble_y0"]
 
@@ -437,14 +438,7 @@ def _save(fig, path: Path, fmt: str) -> None:
 
 
 def _figure(nrows: int, ncols: int, size: tuple[float, float]):
-    # The Agg canvas directly: no pyplot, no global backend switch.
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=size, layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(nrows, ncols, squeeze=False)
-    return fig, axes
+    return new_figure(nrows, ncols, figsize=size)
 
 
 def plot_fig7(

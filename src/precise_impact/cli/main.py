@@ -206,7 +206,7 @@ def _cmd_sync(ns) -> int:
 
     from precise_impact.models.coupled import check_form, check_k
     from precise_impact.core.params import check_count, exact_grid
-    from precise_impact.core.trajectory import atomic_write
+    from precise_impact.io.atomic import atomic_write
     from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
 
     params = _params_from(ns)

@@ -5,12 +5,12 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from precise_impact.io.atomic import atomic_write
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
 
@@ -159,22 +159,3 @@ class Trajectory:
 
             raise ParameterError("out", str(path), "output file must end in .npz or .csv")
         return path
-
-
-def atomic_write(path: str | os.PathLike, writer, binary: bool = True) -> None:
-    """Write through ``writer(fh)`` into a temporary file beside ``path``, then rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb" if binary else "w") as fh:
-            writer(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise

@@ -7,8 +7,10 @@ import json
 from pathlib import Path
 from typing import Any
 
+from precise_impact.io.figures import figure
 from precise_impact.core.params import decimal_str
-from precise_impact.core.trajectory import Trajectory, atomic_write
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.io.atomic import atomic_write
 from precise_impact.scenes.scene import Scene
 
 __all__ = ["run_scene", "scene_json"]
@@ -88,8 +90,6 @@ def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]
 
 def save_scene_outputs(scene: Scene, result, out: str | Path, model: str | None = None) -> list[Path]:
     """Write ``<scene>.json`` and a phase-portrait (or |x - y|) PNG into ``out``."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
     import numpy as np
 
     out = Path(out)
@@ -97,8 +97,7 @@ def save_scene_outputs(scene: Scene, result, out: str | Path, model: str | None 
     stem = f"{scene.name}_{obj['model']}"
     text = json.dumps(obj)
     atomic_write(out / f"{stem}.json", lambda fh: fh.write(text), binary=False)
-    fig = Figure(figsize=(6, 4.5))
-    FigureCanvasAgg(fig)
+    fig = figure(figsize=(6, 4.5))
     ax = fig.subplots()
     if isinstance(result, Trajectory):
         f = result.as_float64()

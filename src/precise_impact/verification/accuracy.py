@@ -17,8 +17,11 @@ from typing import Any, Sequence
 
 import mpmath
 
+from precise_impact.io.progress import say as _progress
 from precise_impact.core.params import Params
-from precise_impact.core.trajectory import Trajectory, atomic_write
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.solvers.simulate import simulate
 
 __all__ = ["PAPER_ETAS", "CANDIDATES", "reference_bits", "sample_errors", "accuracy_table"]
@@ -61,9 +64,6 @@ def sample_errors(traj: Trajectory, ref: Trajectory) -> list[float]:
     return out
 
 
-def _progress(msg: str, enabled: bool) -> None:
-    if enabled:
-        print(msg, file=sys.stderr, flush=True)
 
 
 def accuracy_table(
@@ -137,12 +137,7 @@ def accuracy_table(
 
 
 def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, len(curves), figsize=(5 * len(curves), 4), sharey=True, squeeze=False)
+    fig, axes = new_figure(1, len(curves), figsize=(5 * len(curves), 4), layout="tight", sharey=True)
     for ax, (eta, by_model) in zip(axes[0], curves.items()):
         for label, errs in by_model.items():
             ax.semilogy(range(len(errs)), [max(e, 1e-40) for e in errs], label=label)
@@ -152,13 +147,7 @@ def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -
     axes[0][0].set_ylabel("max(|x - x_ref|, |v - v_ref|) at t0 + kT")
     axes[0][-1].legend(fontsize=8)
     fig.suptitle(f"Error against the multiprecision heyoka reference over {periods} periods (floor 1e-40)")
-    fig.tight_layout()
-
-    def write(fh):
-        fig.savefig(fh, format="png", dpi=110)
-
-    atomic_write(path, write, binary=True)
-    plt.close(fig)
+    save_figure(fig, path, fmt="png", dpi=110)
 
 
 def format_table(result: dict[str, Any]) -> str:

@@ -31,10 +31,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from precise_impact.io.progress import say as _progress
+from precise_impact.io.figures import figure
 from precise_impact.verification.accuracy import reference_bits, sample_errors
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import check_count, decimal_str
-from precise_impact.core.trajectory import Trajectory, atomic_write
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.io.atomic import atomic_write
 from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
 from precise_impact.verification.scores import detected_period, divergence_rate, score, separation
 
@@ -61,9 +64,6 @@ def check_models(models: str | Sequence[str]) -> list[str]:
     return models
 
 
-def _progress(msg: str, enabled: bool) -> None:
-    if enabled:
-        print(msg, file=sys.stderr, flush=True)
 
 
 def scene_for_model(scene: Scene, model: str) -> tuple[Scene, list[str]]:
@@ -231,12 +231,9 @@ def _save(fig, path: Path) -> None:
 
 
 def _plot_portraits(scene: Scene, ref: Trajectory, trajs: dict, k: int, path: Path) -> None:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
 
     panels = [("reference: heyoka " + ref.precision.name, ref)] + [(m, t) for m, t in trajs.items()]
-    fig = Figure(figsize=(4.2 * len(panels), 4))
-    FigureCanvasAgg(fig)
+    fig = figure(figsize=(4.2 * len(panels), 4))
     axes = fig.subplots(1, len(panels), sharex=True, sharey=True, squeeze=False)[0]
     for ax, (label, tr) in zip(axes, panels):
         with np.errstate(invalid="ignore"):
@@ -260,11 +257,8 @@ def _plot_portraits(scene: Scene, ref: Trajectory, trajs: dict, k: int, path: Pa
 
 def _plot_separation(scene: Scene, ref: Trajectory, check: Trajectory, trajs: dict, lam: float, results: dict,
                      path: Path) -> None:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(7.5, 4.5))
-    FigureCanvasAgg(fig)
+    fig = figure(figsize=(7.5, 4.5))
     ax = fig.subplots()
     floor = 1e-60
     anchor = None

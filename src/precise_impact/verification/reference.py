@@ -41,11 +41,12 @@ from typing import Any, Callable, Sequence
 import mpmath
 import numpy as np
 
+from precise_impact.io.progress import say as _log
 from precise_impact.verification.accuracy import DIGITS_LOST_PER_PERIOD, reference_bits, sample_errors
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
-from precise_impact.core.trajectory import atomic_write
+from precise_impact.io.atomic import atomic_write, sha256_file, write_json
 from precise_impact.solvers.simulate import simulate
 
 __all__ = [
@@ -110,12 +111,7 @@ def default_root() -> Path:
 
 
 # ------------------------------------------------------------------ helpers
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+_sha256 = sha256_file
 
 
 def _versions() -> dict[str, str]:
@@ -132,9 +128,7 @@ def _versions() -> dict[str, str]:
     }
 
 
-def _write_json(path: Path, obj: Any) -> None:
-    text = json.dumps(obj, indent=1) + "\n"
-    atomic_write(path, lambda fh: fh.write(text), binary=False)
+_write_json = write_json
 
 
 def _write_npz(path: Path, **arrays: np.ndarray) -> None:
@@ -180,9 +174,6 @@ def _checksum_problems(case_dir: Path, case: str) -> list[str]:
     return problems
 
 
-def _log(msg: str, progress: bool) -> None:
-    if progress:
-        print(msg, file=sys.stderr, flush=True)
 
 
 # ------------------------------------------------------------------ single cases

@@ -21,18 +21,18 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.io.progress import say as _say
+from precise_impact.io.figures import figure as new_fig
 from precise_impact.verification.accuracy import reference_bits, sample_errors
 from precise_impact.core.params import Params
-from precise_impact.core.trajectory import Trajectory, atomic_write
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.io.atomic import atomic_write
 
 __all__ = ["reproduce"]
 
 FIGS = (("4", "0.70", "periodic, no impacts after the transient"), ("5", "0.712", "chaotic"), ("6", "0.74", "period 3"))
 
 
-def _say(msg: str, progress: bool) -> None:
-    if progress:
-        print(msg, file=sys.stderr, flush=True)
 
 
 def _floats(tr: Trajectory, dense: bool):
@@ -67,8 +67,6 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool =
     progress : bool, default ``True``
         One line per finished step on stderr.
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
 
     from precise_impact.models.circuit.opamp import CircuitSolver
     from precise_impact.models.circuit.components import nominal_components
@@ -111,9 +109,8 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool =
                                    "impacts": tr.n_impacts, "elapsed_s": tr.elapsed_s}
         res["figures"][fig] = row
         # side-by-side phase portraits (paper Figs. 4-6)
-        figure = Figure(figsize=(4 * len(models), 3.8))
-        FigureCanvasAgg(figure)
-        axes = figure.subplots(1, len(models), sharex=True, sharey=True)
+        fig_ = new_fig(figsize=(4 * len(models), 3.8))
+        axes = fig_.subplots(1, len(models), sharex=True, sharey=True)
         for ax, (name, tr) in zip(np.atleast_1d(axes), models.items()):
             xs, vs = _floats(tr, True)
             half = len(xs) // 2
@@ -122,9 +119,9 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool =
             ax.set_title(name, fontsize=9)
             ax.set_xlabel("x")
         np.atleast_1d(axes)[0].set_ylabel("x'")
-        figure.suptitle(f"Fig. {fig}: eta = {eta} ({regime}), second half of {periods} periods")
-        figure.tight_layout()
-        _save_png(figure, out / f"fig{fig}_phase_portraits.png")
+        fig_.suptitle(f"Fig. {fig}: eta = {eta} ({regime}), second half of {periods} periods")
+        fig_.tight_layout()
+        _save_png(fig_, out / f"fig{fig}_phase_portraits.png")
         _say(f"Fig. {fig} (eta = {eta}): reference agreement {demonstrated:.1e}; "
              + ", ".join(f"{n}: {m['max_error_second_half']:.2e}" for n, m in row["models"].items()), progress)
     # LLE, two methods

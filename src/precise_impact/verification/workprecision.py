@@ -45,9 +45,11 @@ from typing import Any, Callable
 import mpmath
 import numpy as np
 
+from precise_impact.io.progress import say as _progress
 from precise_impact.verification.accuracy import reference_bits
 from precise_impact.core.params import Params
-from precise_impact.core.trajectory import atomic_write
+from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.solvers.analytical import AnalyticalSolver
 from precise_impact.solvers.heyoka import HeyokaSolver
 
@@ -81,9 +83,6 @@ def predicted_bits(N: int, eta: float = 0.712, lam: float = LAMBDA, margin: floa
     return (15 + N * T * lam / math.log(10) + margin) * math.log2(10)
 
 
-def _progress(msg: str, enabled: bool) -> None:
-    if enabled:
-        print(msg, file=sys.stderr, flush=True)
 
 
 # --------------------------------------------------------------------------- scipy
@@ -543,20 +542,12 @@ def write_outputs(result: dict[str, Any], out: Path) -> None:
 
 
 def _save(fig, path: Path) -> None:
-    import matplotlib.pyplot as plt
-
-    atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=110), binary=True)
-    plt.close(fig)
+    save_figure(fig, path, fmt="png", dpi=110)
 
 
 def _plot_wp(result: dict[str, Any], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     cases = list(result["cases"])
-    fig, axes = plt.subplots(1, len(cases), figsize=(7 * len(cases), 5.5), squeeze=False)
+    fig, axes = new_figure(1, len(cases), figsize=(7 * len(cases), 5.5), layout="tight")
     for ax, case in zip(axes[0], cases):
         rows = [r for r in result["rows"] if r["case"] == case]
         fams = list(dict.fromkeys(r["family"] for r in rows))
@@ -578,14 +569,10 @@ def _plot_wp(result: dict[str, Any], path: Path) -> None:
 
 
 def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     rows = chaos["rows"]
     N = [r["N"] for r in rows]
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, axes = new_figure(figsize=(7, 4.5), layout="tight")
+    ax = axes[0, 0]
     ax.plot(N, [r["bits"] for r in rows], "o-", label="measured: smallest mp:64k reaching 1e-15")
     ax.plot(N, [r["predicted_bits"] for r in rows], "s--", label="predicted (15 + N T lambda/ln10 + margin) log2 10")
     ax.set_xlabel("chaotic periods N (eta = 0.712)")

@@ -1,0 +1,76 @@
+"""Atomic file writes: a reader never sees a half-written file.
+
+Every file the package writes (trajectories, reports, plots, reference datasets,
+sweep tiles) goes through :func:`atomic_write`: the content is written to a
+temporary file in the target directory, flushed and fsync'ed, given the mode an
+ordinary ``open()`` would give (``0o666`` less the umask, not ``mkstemp``'s
+``0o600``), then renamed over the target in one step.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Callable
+
+__all__ = ["atomic_write", "write_json", "sha256_file", "current_umask"]
+
+
+def current_umask() -> int:
+    """The process umask (read without changing it for longer than one call)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write(path: str | os.PathLike, writer: Callable[[Any], Any], binary: bool = True) -> None:
+    """Write ``path`` through ``writer(fh)`` atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        The target file; its directory is created if missing.
+    writer : callable
+        Called once with an open file object; writes the whole content.
+    binary : bool, default ``True``
+        Open the temporary file in binary (``'wb'``) or text (``'w'``) mode.
+
+    Raises
+    ------
+    OSError
+        Whatever the file system raises; the temporary file is removed and an
+        existing target is left as it was.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        os.fchmod(fd, 0o666 & ~current_umask())
+        with os.fdopen(fd, "wb" if binary else "w") as fh:
+            writer(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def write_json(path: str | os.PathLike, obj: Any, indent: int | None = 1) -> None:
+    """Write ``obj`` as JSON (UTF-8, trailing newline) atomically."""
+    atomic_write(path, lambda fh: fh.write(json.dumps(obj, indent=indent) + "\n"), binary=False)
+
+
+def sha256_file(path: str | os.PathLike) -> str:
+    """Hex SHA-256 of a file, read in 1 MiB chunks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
