@@ -2,7 +2,7 @@
 
 Run:  python benchmarks/bench_work_precision.py [--quick]
 Writes benchmarks/results/work_precision.{json,csv,png} and chaos_cost.png
-(precise_impact._workprecision.work_precision; scipy rows need the ``bench``
+(precise_impact.verification.workprecision.work_precision; scipy rows need the ``bench``
 extra, ngspice rows need ``apt-get install ngspice``).
 """
 

@@ -274,7 +274,7 @@ def test_plastic_impact_with_force_pulling_away_leaves_the_wall(precision):
     within 1e-10 (float64; chaotic transient amplifies eps) / 1e-30 (mp:128).
     """
     from precise_impact import AnalyticalSolver
-    from precise_impact.verification.accuracy import sample_errors
+    from precise_impact.verification.metrics import sample_errors
 
     p = Params.make(R="0", eta="0.712")
     tr = HeyokaSolver(precision).solve(p, 60)

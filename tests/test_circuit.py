@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, acceleration, simulate
-from precise_impact.verification.accuracy import sample_errors
+from precise_impact.verification.metrics import sample_errors
 from precise_impact.models.circuit.opamp import CircuitSolver, circuit_system
 from precise_impact.models.circuit.components import Components, dimensionless, nominal_components
 from precise_impact.models.circuit.coupled import CIRCUIT_COUPLED_FORM, coupling_resistors, simulate_coupled_circuit

@@ -102,7 +102,7 @@ def test_lle_json_contract():
     r = run("lle", "--eta", "0.70", "--periods", "300", "--transient", "3000", "--json")
     assert r.returncode == 0, r.stderr
     obj = json.loads(r.stdout)
-    assert set(obj) == {"params", "method", "lle", "spectrum", "stderr", "periods", "impacts", "elapsed_s"}
+    assert set(obj) == {"params", "method", "lle", "spectrum", "stderr", "periods", "impacts", "elapsed_s", "stats"}
     assert obj["method"] == "variational" and obj["periods"] == 300 and obj["impacts"] == 0
     assert abs(obj["lle"] + 0.05) < 1e-3 and abs(sum(obj["spectrum"]) + 0.1) < 1e-12
 

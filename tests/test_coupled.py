@@ -247,7 +247,7 @@ def test_threshold_from_coarse_scan_matches_lle(tmp_path):
     assert 0.028 <= r.lle <= 0.033
     bias = math.log(1 / 1e-8) / (500 * 2 * math.pi / 0.712)
     assert r.lle - 2 * r.lle_stderr - r.k_star_err <= r.k_star <= r.lle + 2 * r.lle_stderr + r.k_star_err + bias
-    d = r.to_json_dict()
+    d = r.to_dict()
     json.dumps(d)
     assert d["k_values"] == ["0.02", "0.03", "0.04", "0.05"] and len(d["runs"]) == 4
     out = plot_sync_fraction(r, tmp_path / "frac.png")

@@ -17,7 +17,7 @@ import mpmath
 import pytest
 
 from precise_impact import HeyokaSolver, Params, Precision, oscillator_saltation, simulate, steady_state
-from precise_impact.verification.accuracy import sample_errors
+from precise_impact.verification.metrics import sample_errors
 
 
 def mpq(q: Fraction) -> mpmath.mpf:
@@ -152,7 +152,7 @@ def test_saltation_matrix_against_finite_differences():
     Reference: central finite differences of heyoka mp:256 runs (h = 1e-30:
     truncation ~h^2 = 1e-60, round-off ~1e-77/1e-30 = 1e-47).  The product uses
     mpmath's matrix exponential for the smooth parts and the saltation matrix of
-    precise_impact._impact.  Tolerance 1e-40 relative to the entries (~1..10).
+    precise_impact.core.impact.  Tolerance 1e-40 relative to the entries (~1..10).
     """
     base = Params.make(eta="0.74", x0="1.5", v0="0.9", t0="0")
     prec = "mp:256"
@@ -186,13 +186,18 @@ def test_saltation_matrix_against_finite_differences():
 
 # ------------------------------------------------------------------ engine behaviour
 def test_parameters_are_runtime_and_integrators_are_reused():
-    """Changing eta, zeta, a, R, x_w reuses the same compiled integrator."""
+    """Changing eta, zeta, a, R, x_w reuses the solver's integrator; a second solver
+    gets its own copy of the same compiled code (nothing recompiled, nothing shared)."""
+    from precise_impact.solvers.heyoka import INTEGRATORS
+
     s = HeyokaSolver("float64")
     ta = s.integrator()
+    compiled = len(INTEGRATORS)
     s.solve(Params.make(eta="0.74"), 3)
     s.solve(Params.make(eta="0.70", zeta="0.1", a="1.5", R="0.9", x_w="2.5"), 3)
     assert s.integrator() is ta
-    assert HeyokaSolver("float64").integrator() is ta
+    other = HeyokaSolver("float64").integrator()
+    assert other is not ta and len(INTEGRATORS) == compiled
 
 
 def test_callback_results_read_from_integrators_copy():
@@ -258,7 +263,7 @@ def test_long_chaotic_reference_needs_and_gets_more_bits():
     the run with 64 more must agree to <= 1e-30 at period 600, while float128
     (34 digits, ~72 lost) must have lost all accuracy (error > 1e-3).
     """
-    from precise_impact.verification.accuracy import reference_bits
+    from precise_impact.verification.metrics import reference_bits
 
     p = Params.make(eta="0.712")
     bits = reference_bits(600)

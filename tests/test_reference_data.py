@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from precise_impact import Params, simulate
-from precise_impact.cli.reference import main as reference_main
+from precise_impact.cli.main import main as cli_main
 from precise_impact.verification.reference import CASES, default_root, verify
 from precise_impact.testing import assert_stroboscopic_close, load_reference, score_solver
 
@@ -47,7 +47,7 @@ def test_tampered_copy_is_detected(tmp_path):
     p.write_text(json.dumps(data, indent=1) + "\n")
     problems = verify(copy, cases=["single-0.74"])
     assert problems and "checksum" in problems[0]
-    assert reference_main(["reference", "verify", "--root", str(copy), "--case", "single-0.74"]) == 1
+    assert cli_main(["reference", "verify", "--root", str(copy), "--case", "single-0.74"]) == 1
     # A missing case is a problem too.
     shutil.rmtree(copy / "lle")
     assert any("lle" in q for q in verify(copy, cases=["lle"]))
@@ -55,7 +55,7 @@ def test_tampered_copy_is_detected(tmp_path):
 
 def test_recomputation_catches_a_consistent_forgery(tmp_path):
     """Data changed *and* re-checksummed still fails the float128 recomputation."""
-    from precise_impact.verification.reference import _finish, read_manifest
+    from precise_impact.verification.reference import write_manifest, read_manifest
 
     copy = tmp_path / "ref"
     shutil.copytree(ROOT / "single-0.712", copy / "single-0.712")
@@ -64,7 +64,7 @@ def test_recomputation_catches_a_consistent_forgery(tmp_path):
     data["samples"][3]["v"] = "0.5"
     p.write_text(json.dumps(data, indent=1) + "\n")
     m = read_manifest(copy / "single-0.712")
-    _finish(copy / "single-0.712", list(m["files"]), {k: v for k, v in m.items() if k != "files"})
+    write_manifest(copy / "single-0.712", list(m["files"]), {k: v for k, v in m.items() if k != "files"})
     problems = verify(copy, cases=["single-0.712"])
     assert problems and "period 3" in problems[0]
 

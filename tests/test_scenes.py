@@ -11,7 +11,7 @@ from fractions import Fraction
 import pytest
 
 from precise_impact import ParameterError, Params, simulate
-from precise_impact.verification.accuracy import sample_errors
+from precise_impact.verification.metrics import sample_errors
 from precise_impact.scenes.run import run_scene
 from precise_impact.scenes.scene import builtin_scenes, load_scene, parse_quantity
 from precise_impact.cli.main import main

@@ -1,4 +1,4 @@
-"""The ngspice backend (precise_impact._spice) against the heyoka reference.
+"""The ngspice backend (precise_impact.models.circuit.spice) against the heyoka reference.
 
 Tests that run ngspice are skipped when it is not installed; netlist generation,
 validation, the E-series/tolerance draws and the missing-ngspice error run

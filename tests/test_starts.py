@@ -22,7 +22,7 @@ import mpmath
 import pytest
 
 from precise_impact import AnalyticalSolver, BudgetExceededError, HeyokaSolver, Params, Precision
-from precise_impact.verification.accuracy import sample_errors
+from precise_impact.verification.metrics import sample_errors
 
 PRECISIONS = ["float64", "longdouble", "float128", "mp:128"]
 

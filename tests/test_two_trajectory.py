@@ -77,7 +77,7 @@ def test_chaotic_lle_positive_around_0_03(chaotic):
     assert len(r.running) == 20000 and r.running[-1] == pytest.approx(r.lle, rel=1e-12)
     assert len(r.segments) == 20 and np.mean(r.segments) == pytest.approx(r.lle, abs=3 * r.stderr)
     assert r.elapsed_s > 0
-    assert r.to_json_dict()["method"] == "two-trajectory"
+    assert r.to_dict()["method"] == "two-trajectory"
 
 
 def test_d0_plateau_on_long_run(chaotic):

@@ -1,4 +1,4 @@
-"""Work-precision benchmark (precise_impact._workprecision): a tiny run's structure and sanity."""
+"""Work-precision benchmark (precise_impact.verification.workprecision): a tiny run's structure and sanity."""
 
 from __future__ import annotations
 

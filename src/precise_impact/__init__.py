@@ -1,46 +1,91 @@
-"""precise_impact: verification suite for the piecewise-linear impact oscillator.
+"""precise_impact: a verification suite for the piecewise-linear impact oscillator.
 
-Public API (the private modules ``_params``, ``_precision``, ``_system``,
-``_impact``, ``_solver`` ... are implementation detail):
+    x'' + 2 zeta x' + x = a cos(eta t)  for x < x_w,    x'(t+) = -R x'(t-)  at x = x_w
 
-* :class:`Params` - exact parameters; :class:`Precision` - working precisions.
-* :func:`simulate`, :class:`HeyokaSolver` (the reference), :class:`AnalyticalSolver`.
-* :class:`Trajectory` - what solvers return.
-* :func:`reset_velocity`, :func:`saltation_matrix`, :func:`oscillator_saltation` - the impact.
-* :func:`acceleration`, :func:`steady_state`, :func:`grazing_frequencies` - the smooth flow.
+and its electronic equivalent (Denysenko, Balcerzak & Dabrowski).  Reference
+trajectories whose accuracy is demonstrated, every model's distance from them,
+Lyapunov exponents, synchronisation, bifurcation diagrams, sweeps and what
+accuracy costs in time.
+
+The package is layered; each layer imports only the ones before it:
+
+* :mod:`precise_impact.errors`, :mod:`precise_impact.io` — error types; atomic writes, figures, progress.
+* :mod:`precise_impact.core` — exact parameters, precisions, the flow, the impact map, results.
+* :mod:`precise_impact.solvers` — the Solver protocol and model registry, heyoka, closed form.
+* :mod:`precise_impact.models` — coupled oscillators, the circuit models, ngspice.
+* :mod:`precise_impact.analysis` — Lyapunov exponents, periods, sync, bifurcation, sweeps.
+* :mod:`precise_impact.scenes` — TOML scenes.
+* :mod:`precise_impact.verification` — metrics, accuracy, scores, compare, reference datasets,
+  work-precision, the main job.
+* :mod:`precise_impact.testing` — accuracy regression tests for other people's solvers.
+* :mod:`precise_impact.cli` — the ``precise-impact`` command.
+
+The names below are the public API; everything else may change between releases.
 """
 
-from precise_impact.errors import BudgetExceededError, ParameterError
-from precise_impact.core.impact import impact_at_start, oscillator_saltation, reset_velocity, saltation_matrix
+from precise_impact.version import __version__
+from precise_impact.errors import (
+    BudgetExceededError,
+    MissedImpactError,
+    NgspiceNotFoundError,
+    OptionalDependencyError,
+    ParameterError,
+    SpiceError,
+)
 from precise_impact.core.params import PARAM_NAMES, RUNTIME_PARAMS, Params
 from precise_impact.core.precision import Precision
-from precise_impact.core.trajectory import Trajectory
-from precise_impact.solvers.simulate import MODELS, make_solver, simulate
-from precise_impact.solvers.analytical import AnalyticalSolver
-from precise_impact.solvers.heyoka import HeyokaSolver
 from precise_impact.core.flow import SteadyState, acceleration, grazing_frequencies, steady_state
+from precise_impact.core.impact import impact_at_start, oscillator_saltation, reset_velocity, saltation_matrix
+from precise_impact.core.result import ResultMixin
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.solvers.base import MODEL_ALIASES, MODELS, Solver, make_solver
+from precise_impact.solvers.simulate import simulate
+from precise_impact.solvers.heyoka import HeyokaSolver
+from precise_impact.solvers.analytical import AnalyticalSolver
+from precise_impact.models.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled
+from precise_impact.models.circuit.components import Components, nominal_components
+from precise_impact.models.circuit.effects.catalogue import EFFECTS
+from precise_impact.models.circuit.opamp import CircuitSolver
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
+from precise_impact.models.circuit.spice import SpiceSolver
+from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit
+from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, lyapunov
+from precise_impact.analysis.periodicity import detect_period
+from precise_impact.analysis.sync import SyncResult, sync_scan
+from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
+from precise_impact.analysis.sweep import SweepSpec, SweepSummary, load_sweep, run_sweep
+from precise_impact.scenes.scene import Scene, builtin_scenes, load_scene
+from precise_impact.scenes.run import run_scene
+from precise_impact.verification.accuracy import AccuracyResult, accuracy_table
+from precise_impact.verification.scores import score
+from precise_impact.verification.compare import CompareResult, compare
+from precise_impact.verification.reference import generate as generate_reference
+from precise_impact.verification.reference import verify as verify_reference
+from precise_impact.verification.workprecision import WorkPrecisionResult, work_precision
+from precise_impact.verification.reproduce import ReproduceResult, reproduce
 
-__version__ = "0.1.0"
 
 __all__ = [
-    "AnalyticalSolver",
-    "BudgetExceededError",
-    "HeyokaSolver",
-    "MODELS",
-    "PARAM_NAMES",
-    "ParameterError",
-    "Params",
-    "Precision",
-    "RUNTIME_PARAMS",
-    "SteadyState",
-    "Trajectory",
-    "acceleration",
-    "grazing_frequencies",
-    "impact_at_start",
-    "make_solver",
-    "oscillator_saltation",
-    "reset_velocity",
-    "saltation_matrix",
-    "simulate",
-    "steady_state",
+    # errors
+    "BudgetExceededError", "MissedImpactError", "NgspiceNotFoundError", "OptionalDependencyError",
+    "ParameterError", "SpiceError",
+    # core
+    "PARAM_NAMES", "RUNTIME_PARAMS", "Params", "Precision", "SteadyState", "acceleration",
+    "grazing_frequencies", "steady_state", "impact_at_start", "oscillator_saltation", "reset_velocity",
+    "saltation_matrix", "ResultMixin", "Trajectory",
+    # solvers
+    "MODELS", "MODEL_ALIASES", "Solver", "make_solver", "simulate", "HeyokaSolver", "AnalyticalSolver",
+    # models
+    "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "Components", "nominal_components", "EFFECTS",
+    "CircuitSolver", "SwitchedCapacitorSolver", "SpiceSolver", "CoupledCircuitTrajectory",
+    "simulate_coupled_circuit",
+    # analysis
+    "LYAPUNOV_METHODS", "LyapunovResult", "lyapunov", "detect_period", "SyncResult", "sync_scan",
+    "BifurcationResult", "bifurcation", "SweepSpec", "SweepSummary", "load_sweep", "run_sweep",
+    # scenes
+    "Scene", "builtin_scenes", "load_scene", "run_scene",
+    # verification
+    "AccuracyResult", "accuracy_table", "score", "CompareResult", "compare", "generate_reference",
+    "verify_reference", "WorkPrecisionResult", "work_precision", "ReproduceResult", "reproduce",
+    "__version__",
 ]

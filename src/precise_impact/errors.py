@@ -19,3 +19,42 @@ class ParameterError(ValueError):
 
 class BudgetExceededError(RuntimeError):
     """An integration hit its impact or step budget (e.g. a Zeno impact sequence)."""
+
+
+class OptionalDependencyError(RuntimeError):
+    """An optional component a request needs is not installed.
+
+    Parameters
+    ----------
+    component : str
+        What is missing (``'ngspice'``, ``'scipy'``, ``'dask'`` ...).
+    install : str
+        The one command that installs it.
+    purpose : str
+        What needs it.
+
+    The CLI prints the message as one line and exits with status 2 (bad input:
+    the request cannot be served on this installation), without a traceback.
+    """
+
+    def __init__(self, component: str, install: str, purpose: str):
+        self.component = component
+        self.install = install
+        self.purpose = purpose
+        super().__init__(f"{purpose} needs {component}, which is not installed; install it with: {install}")
+
+
+class MissedImpactError(RuntimeError):
+    """The guard found a maximum of ``x`` beyond the wall that no impact event caught."""
+
+
+class SpiceError(RuntimeError):
+    """ngspice failed, timed out, or wrote no usable output (message has its log tail)."""
+
+
+class NgspiceNotFoundError(SpiceError, OptionalDependencyError):
+    """ngspice is not installed / not on PATH (``apt-get install ngspice``)."""
+
+    def __init__(self, message: str):
+        RuntimeError.__init__(self, message)
+        self.component, self.install, self.purpose = "ngspice", "apt-get install ngspice", "the spice model"

@@ -87,8 +87,8 @@ class ReferenceCase:
 def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike | None = None) -> ReferenceCase:
     """Load a single-oscillator reference case.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     case : str
         One of :data:`SINGLE_CASES` (``'single-0.70'``, ``'single-0.712'``, ``'single-0.74'``).
     as_float : bool, default ``False``
@@ -158,8 +158,8 @@ def score_solver(
 ) -> dict[str, Any]:
     """Run ``solver`` on a reference case and return its errors (never raises on a mismatch).
 
-    Keywords
-    --------
+    Parameters
+    ----------
     solver : callable ``solver(params, periods) -> (x, v)``
         ``params`` is a dict of exact decimal strings (``zeta, a, eta, x_w, R, x0,
         v0, t0``); ``x`` and ``v`` are sequences of ``periods + 1`` stroboscopic

@@ -1,6 +1,6 @@
 """Bifurcation diagram over eta with the largest Lyapunov exponent beneath.
 
-Each eta value is one variational run (:func:`~._lyapunov._variational.variational_spectrum`)
+Each eta value is one variational run (:func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`)
 that yields both the stroboscopic points and the LLE; the values are spread over
 worker processes (each compiles its integrator once), with a progress bar on stderr.
 """
@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import os
 import sys
 import time
@@ -20,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.io.atomic import atomic_write
@@ -30,7 +30,7 @@ __all__ = ["BifurcationResult", "bifurcation", "eta_grid"]
 
 
 @dataclasses.dataclass
-class BifurcationResult:
+class BifurcationResult(ResultMixin):
     """Stroboscopic x and LLE for each eta.
 
     Attributes: ``eta`` (exact Fractions), ``x`` (n x periods float64 samples),
@@ -133,8 +133,8 @@ def bifurcation(
 ) -> BifurcationResult:
     """Stroboscopic x and the LLE for ``n`` values of eta.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     params : Params
         Every parameter but eta (and the initial condition of each run).
     eta_min, eta_max, n :

@@ -2,7 +2,7 @@
 
 The grid is cut into *tiles* of consecutive points (row-major order).  Each tile is
 computed by :func:`compute_tile` (SIMD batch variational integration,
-:mod:`._lyapunov._batch`) in a worker process, or on a Dask cluster, and written
+:mod:`precise_impact.analysis.lyapunov.batch`) in a worker process, or on a Dask cluster, and written
 atomically to ``OUT/tiles/tile_NNNNN.npz`` as soon as it is done.  A rerun with the
 same specification skips finished tiles, so an interrupted sweep resumes where it
 stopped and yields the same numbers bit for bit.  The assembled table is written as
@@ -26,8 +26,9 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from precise_impact.core.result import ResultMixin
 from precise_impact.io.figures import figure
-from precise_impact.errors import ParameterError
+from precise_impact.errors import OptionalDependencyError, ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.io.atomic import atomic_write
 
@@ -182,11 +183,11 @@ def run_sweep(
     dask: str | None = None,
     progress: bool = True,
     max_tiles: int | None = None,
-) -> dict[str, Any]:
+) -> SweepSummary:
     """Compute every unfinished tile, then assemble the table and the plots.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     spec : SweepSpec
     out : directory
         Holds ``sweep_spec.json``, ``tiles/`` and the assembled outputs.  An ``out``
@@ -265,14 +266,49 @@ def run_sweep(
     }
     if summary["complete"]:
         summary.update(assemble(spec, out))
-    return summary
+    return SweepSummary(**summary)
+
+
+@dataclasses.dataclass
+class SweepSummary(ResultMixin):
+    """What :func:`run_sweep` did.
+
+    Attributes
+    ----------
+    tiles_total, tiles_reused, tiles_computed : int
+        Tiles of the grid; found finished in ``out`` (resume); computed by this call.
+    elapsed_s : float
+        Wall time of this call.
+    points_per_s : float or None
+        Grid points computed per second (``None`` if nothing was computed).
+    workers : int
+        Processes (or Dask workers) used.
+    backend : str
+        ``'processes'`` or ``'dask'``.
+    complete : bool
+        Every tile is finished (then the assembled files exist).
+    npz, csv, png : str or None
+        The assembled ``sweep.npz``, ``sweep.csv``, ``sweep.png`` (when complete).
+    """
+
+    tiles_total: int
+    tiles_reused: int
+    tiles_computed: int
+    elapsed_s: float
+    points_per_s: float | None
+    workers: int
+    backend: str
+    complete: bool
+    npz: str | None = None
+    csv: str | None = None
+    png: str | None = None
 
 
 def _run_dask(spec: SweepSpec, todo: list[int], dask: str, finished: Callable, workers: int | None) -> int:
     try:
         from dask.distributed import Client, LocalCluster, as_completed as dask_as_completed
     except ImportError:
-        raise ParameterError("dask", dask, "needs the optional extra: pip install 'precise_impact[dask]'") from None
+        raise OptionalDependencyError("dask", "pip install 'precise_impact[dask]'", "--dask") from None
     if dask == "local":
         n = workers if workers is not None else (os.cpu_count() or 1)
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)

@@ -34,6 +34,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from precise_impact.core.result import ResultMixin
 from precise_impact.io.figures import new_figure
 from precise_impact.models.coupled import CoupledTrajectory, check_form, check_k, simulate_coupled
 from precise_impact.errors import ParameterError
@@ -48,7 +49,7 @@ _PLOT_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
 
 # ------------------------------------------------------------------ per run
 @dataclasses.dataclass
-class SyncRun:
+class SyncRun(ResultMixin):
     """Outcome of one master-slave run.
 
     Attributes
@@ -78,7 +79,7 @@ class SyncRun:
     collapsed : bool
         ``|x - y|`` is exactly 0 at the end: the slave has become the master bit for
         bit.  In floating point this state is absorbing (on the diagonal every
-        coupling term is exactly 0, see :mod:`._coupled`), so a run that a
+        coupling term is exactly 0, see :mod:`precise_impact.models.coupled`), so a run that a
         fluctuation brings down to round-off stays synchronised for ever even
         slightly *below* the threshold, where a real (noisy) pair would desynchronise.
     """
@@ -92,7 +93,7 @@ class SyncRun:
     rate: float
     collapsed: bool = False
 
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         return {
             "y0": [decimal_str(q) for q in self.y0],
             "synchronised": self.synchronised,
@@ -163,7 +164,7 @@ def ensemble_y0(params: Params, ensemble: int, seed: int, spread: Fraction = Fra
 
 # ------------------------------------------------------------------ the scan
 @dataclasses.dataclass
-class SyncResult:
+class SyncResult(ResultMixin):
     """Result of :func:`sync_scan`.
 
     Attributes
@@ -218,7 +219,7 @@ class SyncResult:
     lle_periods: int
     elapsed_s: float
 
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         def num(x):
             return None if x is None or (isinstance(x, float) and math.isnan(x)) else float(x)
 
@@ -243,7 +244,7 @@ class SyncResult:
             "lle": num(self.lle),
             "lle_stderr": num(self.lle_stderr),
             "lle_periods": self.lle_periods,
-            "runs": [[r.to_json_dict() for r in row] for row in self.runs],
+            "runs": [[r.to_dict() for r in row] for row in self.runs],
             "elapsed_s": self.elapsed_s,
         }
 
@@ -289,12 +290,12 @@ def sync_scan(
 ) -> SyncResult:
     """Fraction of synchronised master-slave runs against the coupling ``k``.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     params : Params
         System and the master's initial condition (every run starts the master there).
     form : str
-        One of :data:`~._coupled.COUPLED_FORMS`.
+        One of :data:`~precise_impact.models.coupled.COUPLED_FORMS`.
     k_values : sequence of decimal strings / Fractions / numbers
         Couplings ``>= 0`` (exact; sorted ascending; no duplicates).
     periods : int, default 500
@@ -316,7 +317,7 @@ def sync_scan(
         Half-width of the slave initial-condition box around ``(x0, v0)``; ``> 0``.
     lle_periods : int, default 20000
         Periods for the single oscillator's variational LLE
-        (:func:`~._lyapunov._variational.variational_spectrum`); 0 skips it.
+        (:func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`); 0 skips it.
     lle_transient : int, default 1000
         Transient periods discarded before the LLE.
     precision : str, default ``'float64'``
@@ -454,12 +455,12 @@ def plot_fig7(
 ) -> tuple[CoupledTrajectory, CoupledTrajectory]:
     """The paper's Fig. 7: ``|x - y|`` against time (log scale) for two couplings.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     params : Params
         System and the master's initial condition.
     form : str
-        One of :data:`~._coupled.COUPLED_FORMS`.
+        One of :data:`~precise_impact.models.coupled.COUPLED_FORMS`.
     k_low, k_high : decimal
         Couplings of panels (a) and (b) (the paper: 0.031 and 0.032).
     periods : int
@@ -476,7 +477,7 @@ def plot_fig7(
 
     Samples where ``|x - y|`` is exactly 0 (the slave has collapsed onto the master
     bit for bit) cannot be shown on a log axis; the panel notes from when.
-    Returns the two :class:`~._coupled.CoupledTrajectory` objects.
+    Returns the two :class:`~precise_impact.models.coupled.CoupledTrajectory` objects.
     """
     p, fmt = _check_plot_path(path)
     if not isinstance(params, Params):
@@ -513,8 +514,8 @@ def plot_fig7(
 def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
     """Synchronised (and intermittent) fraction against ``k``, with the LLE marked.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     result : SyncResult
         From :func:`sync_scan`.
     path : str or Path
@@ -547,3 +548,8 @@ def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
     ax.grid(True, lw=0.3)
     _save(fig, p, fmt)
     return p
+
+
+# 0.1.0 name, kept for one release.
+SyncResult.to_json_dict = SyncResult.to_dict  # type: ignore[attr-defined]
+SyncRun.to_json_dict = SyncRun.to_dict  # type: ignore[attr-defined]

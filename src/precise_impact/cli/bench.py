@@ -37,7 +37,7 @@ def run(ns: argparse.Namespace) -> int:
         return 2
     result = work_precision(quick=ns.quick, out=ns.out, progress=not ns.json)
     if ns.json:
-        print(json.dumps(result, default=str))
+        print(json.dumps(result.to_dict()))
     else:
         print(format_table(result))
     return 0

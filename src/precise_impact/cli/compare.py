@@ -2,7 +2,7 @@
 
 ``add_parser(sub)`` adds the subcommand to an argparse sub-parser collection;
 ``run(ns)`` runs it and returns the exit status.  Bad input raises
-:class:`~precise_impact._errors.ParameterError` (naming ``models``, ``periods``,
+:class:`~precise_impact.errors.ParameterError` (naming ``models``, ``periods``,
 ``scene``) before any work.
 """
 
@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import sys
 
-from precise_impact.errors import ParameterError
 
 __all__ = ["add_parser", "run"]
 
@@ -44,29 +43,10 @@ def run(ns) -> int:
         heyoka.set_logger_level_error()
     result = compare(ns.scene, models, out=ns.out, periods=periods, progress=not ns.json)
     if ns.json:
-        json.dump(result, sys.stdout, default=lambda o: o.item() if hasattr(o, "item") else str(o))
+        json.dump(result.to_dict(), sys.stdout)
         sys.stdout.write("\n")
     else:
         print(format_scores(result))
         if ns.out is not None:
             print("written: " + ", ".join(result.get("files", [])))
     return 0
-
-
-def main(argv=None) -> int:
-    """Stand-alone entry (``python -m precise_impact._cli_compare compare ...``)."""
-    import argparse
-
-    parser = argparse.ArgumentParser(prog="precise-impact")
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_parser(sub)
-    ns = parser.parse_args(argv)
-    try:
-        return ns._run(ns)
-    except ParameterError as e:
-        print(f"precise-impact: error: {e}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -8,7 +8,7 @@ import re
 import sys
 from typing import Sequence
 
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import BudgetExceededError, OptionalDependencyError, ParameterError
 
 # Exit statuses: 0 ok, 2 bad input (argparse uses 2 as well), 3 a budget was hit.
 EXIT_BAD_INPUT = 2
@@ -18,7 +18,7 @@ _PARAM_FLAGS = (
     ("--eta", "eta", "forcing frequency ratio, > 0 (default 0.712)"),
     ("--zeta", "zeta", "damping ratio, >= 0 (default 0.05)"),
     ("--a", "a", "forcing amplitude (default 1)"),
-    ("--xw", "x_w", "wall position (default 2)"),
+    ("--x_w", "x_w", "wall position (default 2; --xw is accepted too)"),
     ("--R", "R", "restitution coefficient, 0 <= R <= 1 (default 1)"),
     ("--x0", "x0", "initial position, <= x_w (default 0)"),
     ("--v0", "v0", "initial velocity (default 0)"),
@@ -34,7 +34,9 @@ class _Parser(argparse.ArgumentParser):
 def _add_param_flags(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("system parameters (exact decimals, e.g. 0.712 or 102/53)")
     for flag, dest, helptext in _PARAM_FLAGS:
-        g.add_argument(flag, dest=dest, default=None, metavar="DEC", help=helptext)
+        # Flags are the Params names (as in sweep axes and scenes); --xw is the 0.1.0 spelling.
+        names = (flag, "--xw") if dest == "x_w" else (flag,)
+        g.add_argument(*names, dest=dest, default=None, metavar="DEC", help=helptext)
 
 
 def _params_from(ns):
@@ -50,6 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="precise-impact",
         description="Verification suite for the piecewise-linear impact oscillator and its electronic equivalent.",
     )
+    from precise_impact.version import __version__
+
+    parser.add_argument("--version", action="version", version=f"precise-impact {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     s = sub.add_parser("simulate", help="simulate one model and print samples and impacts")
@@ -144,14 +149,14 @@ def _cmd_simulate(ns) -> int:
     params = _params_from(ns)
     periods = check_count(ns.periods)
     dense = check_count(ns.dense, "dense", 100_000)
-    if ns.out is not None and Path(ns.out).suffix not in (".npz", ".csv"):
-        raise ParameterError("out", ns.out, "output file must end in .npz or .csv")
+    if ns.out is not None and Path(ns.out).suffix not in (".npz", ".csv", ".json"):
+        raise ParameterError("out", ns.out, "output file must end in .npz, .csv or .json")
     solver = make_solver(ns.model, ns.precision, ns.tol)
     traj = solver.solve(params, periods, per_period=dense)
     if ns.out is not None:
         traj.save(ns.out)
     if ns.json:
-        json.dump(traj.to_json_dict(), sys.stdout)
+        json.dump(traj.to_dict(), sys.stdout)
         sys.stdout.write("\n")
     else:
         s = traj.precision.to_str
@@ -176,7 +181,7 @@ def _cmd_lle(ns) -> int:
     Precision.parse(ns.precision)
     r = lyapunov(params, ns.method, periods=periods, transient=transient, precision=ns.precision, progress=not ns.json)
     if ns.json:
-        json.dump(r.to_json_dict(), sys.stdout)
+        json.dump(r.to_dict(), sys.stdout)
         sys.stdout.write("\n")
     else:
         spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
@@ -219,12 +224,12 @@ def _cmd_sync(ns) -> int:
     res = sync_scan(params, form, ks, periods=periods, ensemble=ensemble, seed=seed, progress=not ns.json)
     out = Path(ns.out)
     stem = f"sync_{form}"
-    text = json.dumps(res.to_json_dict(), indent=1)
+    text = json.dumps(res.to_dict(), indent=1)
     atomic_write(out / f"{stem}.json", lambda fh: fh.write(text), binary=False)
     plot_sync_fraction(res, out / f"{stem}_fraction.png")
     plot_fig7(params, form, k1, k2, periods, out / f"{stem}_fig7.png")
     if ns.json:
-        obj = res.to_json_dict()
+        obj = res.to_dict()
         obj.pop("runs", None)
         json.dump(obj, sys.stdout)
         sys.stdout.write("\n")
@@ -252,7 +257,7 @@ def _cmd_sweep(ns) -> int:
         raise ParameterError("scheduler", ns.scheduler, "a Dask scheduler address tcp://HOST:PORT")
     summary = run_sweep(spec, ns.out, workers=workers, dask=ns.dask or ns.scheduler, progress=not ns.json)
     if ns.json:
-        json.dump(summary, sys.stdout)
+        json.dump(summary.to_dict(), sys.stdout)
         sys.stdout.write("\n")
     else:
         print(f"{spec.n_points} points in {spec.n_tiles} tiles: {summary['tiles_computed']} computed, "
@@ -339,7 +344,7 @@ def _cmd_accuracy(ns) -> int:
     periods = check_count(ns.periods, maximum=2000)
     result = accuracy_table(periods=periods, out=ns.out, progress=not ns.json)
     if ns.json:
-        json.dump(result, sys.stdout)
+        json.dump(result.to_dict(), sys.stdout)
         sys.stdout.write("\n")
     else:
         print(format_table(result))
@@ -393,6 +398,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             "accuracy": _cmd_accuracy,
         }[ns.command](ns)
     except ParameterError as e:
+        print(f"precise-impact: error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OptionalDependencyError as e:
         print(f"precise-impact: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BudgetExceededError as e:

@@ -2,8 +2,7 @@
 
 ``add_parser(sub)`` adds the ``reference`` command to an argparse sub-parser set;
 ``run(ns)`` executes it and returns the exit status (0 ok; 1 verification found a
-problem; 2 bad input).  Until the main CLI dispatches to it, run it standalone:
-``python -m precise_impact._cli_reference reference verify``.
+problem; 2 bad input); :func:`precise_impact.cli.main.main` dispatches to it.
 """
 
 from __future__ import annotations
@@ -11,11 +10,10 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Sequence
 
 from precise_impact.errors import ParameterError
 
-__all__ = ["add_parser", "run", "main"]
+__all__ = ["add_parser", "run"]
 
 EXIT_MISMATCH = 1
 EXIT_BAD_INPUT = 2
@@ -68,23 +66,3 @@ def run(ns: argparse.Namespace) -> int:
         print(f"ok: every case in {root} verifies")
         return 0
     raise ParameterError("reference", ns.reference_command, "one of generate, verify")
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Standalone entry: ``python -m precise_impact._cli_reference reference {generate,verify} ...``."""
-    parser = argparse.ArgumentParser(prog="precise-impact")
-    sub = parser.add_subparsers(dest="command", required=True)
-    add_parser(sub)
-    ns = parser.parse_args(argv)
-    import heyoka
-
-    heyoka.set_logger_level_error()
-    try:
-        return run(ns)
-    except ParameterError as e:
-        print(f"precise-impact: error: {e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

@@ -69,7 +69,7 @@ def saltation_matrix(
 def oscillator_saltation(t: Any, v_minus: Any, eta: Any, zeta: Any, a: Any, x_w: Any, R: Any, cos) -> list[list[Any]]:
     """Saltation matrix of the single oscillator's impact at ``(t, x_w, v_minus)``.
 
-    Built from :func:`saltation_matrix` with the flow :func:`~._system.acceleration`,
+    Built from :func:`saltation_matrix` with the flow :func:`~precise_impact.core.flow.acceleration`,
     so the two are never out of step.
     """
     v_plus = reset_velocity(v_minus, R)
@@ -100,7 +100,7 @@ def impact_at_start(x0: Any, v0: Any, x_w: Any, R: Any) -> bool:
 def wall_acceleration(t: Any, eta: Any, zeta: Any, a: Any, x_w: Any, cos) -> Any:
     """Acceleration of the mass at rest on the wall, ``x'' (x = x_w, v = 0) = a cos(eta t) - x_w``.
 
-    Built from :func:`~._system.acceleration`; positive means the net force
+    Built from :func:`~precise_impact.core.flow.acceleration`; positive means the net force
     pushes the mass into the wall.  Generic in the number type like ``acceleration``.
     """
     return acceleration(t, x_w, 0 * x_w, eta, zeta, a, cos)
@@ -222,7 +222,7 @@ class GrazingDepth:
 
     The rounding-level distance beyond the wall below which an event is a tangential
     contact, not an impact (:func:`is_contact`).  ``pr`` is an integrator's parameter
-    vector in :data:`~._params.RUNTIME_PARAMS` order.
+    vector in :data:`~precise_impact.core.params.RUNTIME_PARAMS` order.
     """
 
     def __init__(self, coef: Any = 0.0, amp: Any = 0.0, fixed: Any = None) -> None:

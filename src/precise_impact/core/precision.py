@@ -20,11 +20,44 @@ from mpmath import libmp
 
 from precise_impact.errors import ParameterError
 
-__all__ = ["Precision", "PRECISION_HELP"]
+__all__ = ["Precision", "PRECISION_HELP", "has_quad", "quad_or_mp"]
 
 PRECISION_HELP = "one of 'float64', 'longdouble', 'float128', or 'mp:BITS' with an integer BITS >= 64"
 
 _LONGDOUBLE_BITS = np.finfo(np.longdouble).nmant + 1
+
+
+def _real128() -> type:
+    """heyoka's quad-precision type, looked up only when float128 is asked for.
+
+    heyoka is built with quad precision only where the platform's compiler has
+    ``__float128`` (x86-64 Linux, not macOS or ARM builds): there a float64 run must
+    still work, and a float128 request gets a clear refusal.
+    """
+    import heyoka as hy
+
+    t = getattr(hy, "real128", None)
+    if t is None:
+        raise ParameterError(
+            "precision", "float128",
+            "this heyoka build has no quad precision (heyoka.real128); use 'longdouble' or 'mp:113'",
+        )
+    return t
+
+
+def has_quad() -> bool:
+    """Whether this heyoka build has quad precision (``heyoka.real128``)."""
+    import heyoka as hy
+
+    return hasattr(hy, "real128")
+
+
+def quad_or_mp() -> str:
+    """``'float128'`` where heyoka has quad precision, else ``'mp:113'`` (the same 113-bit significand, in MPFR).
+
+    For checks that want "about 34 digits" and must run on every platform.
+    """
+    return "float128" if has_quad() else "mp:113"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,11 +110,15 @@ class Precision:
     @property
     def fp_type(self) -> Any:
         """The number type heyoka and numpy use for this precision."""
+        if self.kind == "float64":
+            return np.float64
+        if self.kind == "longdouble":
+            return np.longdouble
+        if self.kind == "float128":
+            return _real128()
         import heyoka as hy
 
-        return {"float64": np.float64, "longdouble": np.longdouble, "float128": hy.real128, "mp": hy.real}[
-            self.kind
-        ]
+        return hy.real
 
     @property
     def heyoka_kwargs(self) -> dict:
@@ -125,7 +162,7 @@ class Precision:
         import heyoka as hy
 
         if self.kind == "float128":
-            return hy.real128(s)
+            return _real128()(s)
         return hy.real(s, self.bits)
 
     def from_fraction(self, q: Fraction) -> Any:

@@ -10,7 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.io.atomic import atomic_write
+from precise_impact.core.result import ResultMixin
+from precise_impact.io.atomic import atomic_write, write_json
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
 
@@ -18,7 +19,7 @@ __all__ = ["Trajectory", "atomic_write"]
 
 
 @dataclasses.dataclass
-class Trajectory:
+class Trajectory(ResultMixin):
     """What a solver returns.
 
     Attributes
@@ -98,7 +99,7 @@ class Trajectory:
         }
 
     # ------------------------------------------------------------------ output
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """The CLI's ``--json`` object; every state number a full-precision decimal string."""
         s = self.precision.to_str
         return {
@@ -118,9 +119,10 @@ class Trajectory:
         }
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write ``.npz`` (decimal strings for every number, plus float64 copies) or ``.csv``.
+        """Write ``.npz`` (decimal strings for every number, plus float64 copies), ``.csv`` or ``.json``.
 
-        The file is written atomically (temporary file + rename).
+        ``.json`` is :meth:`to_dict` (the CLI's ``--json`` object).  The file is
+        written atomically (temporary file + rename).
         """
         path = Path(path)
         s = np.vectorize(self.precision.to_str, otypes=[object])
@@ -138,7 +140,7 @@ class Trajectory:
                     f(self.dense_x),
                     f(self.dense_v),
                 )
-            meta = {k: v for k, v in self.to_json_dict().items() if k not in ("samples", "impacts")}
+            meta = {k: v for k, v in self.to_dict().items() if k not in ("samples", "impacts")}
             arrays["meta_json"] = np.asarray(json.dumps(meta))
 
             def write(fh):
@@ -154,8 +156,14 @@ class Trajectory:
                 lines.append(f"impact,{i},{p.to_str(t)},{decimal_str(self.params.x_w)},{p.to_str(vb)},{p.to_str(va)}")
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
+        elif path.suffix == ".json":
+            write_json(path, self.to_dict(), indent=None)
         else:
             from precise_impact.errors import ParameterError
 
-            raise ParameterError("out", str(path), "output file must end in .npz or .csv")
+            raise ParameterError("out", str(path), "output file must end in .npz, .csv or .json")
         return path
+
+
+# 0.1.0 name, kept for one release.
+Trajectory.to_json_dict = Trajectory.to_dict  # type: ignore[attr-defined]

@@ -1,0 +1,48 @@
+"""Models of the oscillator beyond the single mechanical one: coupled forms and circuits.
+
+* :mod:`precise_impact.models.coupled` — master-slave coupled oscillators (three forms).
+* :mod:`precise_impact.models.circuit` — the paper's electronic equivalent: component
+  values, the op-amp network with effects, the switched-capacitor impact circuit, the
+  coupled circuit and the ngspice netlist.
+
+Importing this package registers the circuit models with the model registry of
+:mod:`precise_impact.solvers.base` (``circuit``, ``switched-capacitor``, ``spice``), so
+:func:`~precise_impact.simulate` and :func:`~precise_impact.make_solver` reach them by name.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from precise_impact.core.precision import Precision
+from precise_impact.errors import ParameterError
+from precise_impact.solvers.base import register_model
+
+__all__: list[str] = []
+
+
+def _circuit(prec: Precision, tol: Any, **options: Any):
+    from precise_impact.models.circuit.opamp import CircuitSolver
+
+    return CircuitSolver(prec, tol, **options)
+
+
+def _switched(prec: Precision, tol: Any, **options: Any):
+    from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
+
+    return SwitchedCapacitorSolver(prec, tol, **options)
+
+
+def _spice(prec: Precision, tol: Any, **options: Any):
+    from precise_impact.models.circuit.spice import SpiceSolver
+
+    if prec.kind != "float64":
+        raise ParameterError("precision", prec.name, "the spice model runs in 'float64' (ngspice's arithmetic)")
+    if tol is not None:
+        raise ParameterError("tol", str(tol), "the spice model takes no tolerance (use tmax)")
+    return SpiceSolver(**options)
+
+
+register_model("circuit", "the op-amp network of Fig. 2 with the mechanical impact law (nominal parts)", _circuit)
+register_model("switched-capacitor", "the impact made by the circuit: comparator, flip-flop, switches", _switched)
+register_model("spice", "the Fig. 2 circuit as an ngspice netlist (float64; needs ngspice)", _spice)

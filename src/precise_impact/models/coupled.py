@@ -64,6 +64,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from precise_impact.core.result import ResultMixin
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.impact import impact_at_start, reset_velocity
@@ -94,7 +95,7 @@ _IDX = {name: i for i, name in enumerate(COUPLED_PARAMS)}
 def slave_rhs(form: str, t: Any, x: Any, v: Any, y: Any, w: Any, eta: Any, zeta: Any, a: Any, k: Any, cos) -> tuple:
     """``(y', w')`` of the slave in ``form``'s own variables (generic number type).
 
-    The uncoupled part is :func:`~._system.acceleration` evaluated first, the
+    The uncoupled part is :func:`~precise_impact.core.flow.acceleration` evaluated first, the
     coupling added last, so that on the diagonal (coupling exactly 0) the slave's
     arithmetic is the master's, operation by operation.
     """
@@ -119,7 +120,7 @@ def slave_reset(form: str, x: Any, w_minus: Any, R: Any, k: Any, x_w: Any) -> An
     """Slave velocity variable after its impact at ``y = x_w`` (master at ``x``).
 
     'first-order' flips ``y2`` (12c), 'paper' flips ``y'`` (14b), both by
-    :func:`~._impact.reset_velocity`.  'reduced' converts to ``y2 = y' - k (x - x_w)``,
+    :func:`~precise_impact.core.impact.reset_velocity`.  'reduced' converts to ``y2 = y' - k (x - x_w)``,
     flips ``y2`` with the same function and converts back, i.e.
     ``y'+ = -R y'- + (1 + R) k (x - x_w)``.
     """
@@ -251,7 +252,7 @@ def build_coupled_integrator(form: str, precision: Precision):
 
 # ------------------------------------------------------------------ the result
 @dataclasses.dataclass
-class CoupledTrajectory:
+class CoupledTrajectory(ResultMixin):
     """What :func:`simulate_coupled` returns.
 
     Attributes
@@ -331,7 +332,7 @@ class CoupledTrajectory:
             t, x, y = self.t, self.x, self.y
         return self._f(t), np.abs(self._f(x - y))
 
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Every number a full-precision decimal string (stroboscopic samples, impacts)."""
         s = self.precision.to_str
         return {
@@ -385,13 +386,13 @@ def simulate_coupled(
 ) -> CoupledTrajectory:
     """Integrate the master-slave pair (11) + slave ``form`` for ``periods`` forcing periods.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     params : Params
         System parameters (the paper's: zeta = 0.05, a = 1, x_w = 2, R = 1,
         eta = 0.712 chaotic) and the master's initial state ``(x0, v0)`` at ``t0``.
     k : decimal string / Fraction / int / float
-        Coupling ``k >= 0``, converted exactly (:func:`~._params.exact`; a float is
+        Coupling ``k >= 0``, converted exactly (:func:`~precise_impact.core.params.exact`; a float is
         read as its shortest round-trip decimal).
     form : str, default ``'first-order'``
         One of :data:`COUPLED_FORMS`: eqs. (12) as written, (14a) as printed, or the
@@ -511,3 +512,7 @@ def simulate_coupled(
         traj.dense_x, traj.dense_v = states[:, 0].copy(), states[:, 1].copy()
         traj.dense_y, traj.dense_w = states[:, 2].copy(), states[:, 3].copy()
     return traj
+
+
+# 0.1.0 name, kept for one release.
+CoupledTrajectory.to_json_dict = CoupledTrajectory.to_dict  # type: ignore[attr-defined]

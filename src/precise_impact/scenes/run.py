@@ -17,8 +17,20 @@ __all__ = ["run_scene", "scene_json"]
 
 
 def run_scene(scene: Scene, model: str | None = None):
-    """Simulate ``scene`` (optionally with another model); returns a Trajectory, or a
-    dict of arrays for coupled scenes."""
+    """Simulate ``scene`` (optionally with another model).
+
+    Parameters
+    ----------
+    scene : Scene
+        A loaded scene (:func:`~precise_impact.scenes.scene.load_scene`).
+    model : str or None, default ``None``
+        Another model to run the scene on (effects re-validated for it).
+
+    Returns
+    -------
+    Trajectory, CoupledTrajectory or CoupledCircuitTrajectory
+        By the scene's system and model.
+    """
     if model is not None and model != scene.model:
         scene = scene.with_model(model)
     P = scene.precision
@@ -37,15 +49,12 @@ def run_scene(scene: Scene, model: str | None = None):
                                             per_period=scene.per_period, precision=P.name, actual=actual)
         from precise_impact.models.coupled import simulate_coupled
 
-        tr = simulate_coupled(scene.params, scene.k, scene.form, scene.periods, y0=y0,
-                              per_period=scene.per_period, precision=P.name)
-        return {"t": tr.t, "x": tr.x, "v": tr.v, "y": tr.y, "w": tr.w, "master_impacts_t": tr.master_impacts_t,
-                "slave_impacts_t": tr.slave_impacts_t, "elapsed_s": tr.elapsed_s, "precision": tr.precision,
-                "params": scene.params}
-    if scene.model in ("mechanical", "analytical"):
-        from precise_impact.solvers.simulate import make_solver
+        return simulate_coupled(scene.params, scene.k, scene.form, scene.periods, y0=y0,
+                                per_period=scene.per_period, precision=P.name)
+    if scene.model in ("heyoka", "analytical"):
+        from precise_impact.solvers.base import make_solver
 
-        solver = make_solver("heyoka" if scene.model == "mechanical" else "analytical", P, scene.tol)
+        solver = make_solver(scene.model, P, scene.tol)
         return solver.solve(scene.params, scene.periods, per_period=scene.per_period)
     if scene.model == "circuit":
         from precise_impact.models.circuit.opamp import CircuitSolver
@@ -72,7 +81,7 @@ def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]
     model = model or scene.model
     effects = sorted(scene.with_model(model).effects) if model != scene.model else sorted(scene.effects)
     if isinstance(result, Trajectory):
-        d = result.to_json_dict()
+        d = result.to_dict()
         return {"scene": scene.name, "model": model, "effects": effects, "precision": d["precision"],
                 "params": d["params"], "samples": d["samples"], "impacts": d["impacts"], "elapsed_s": d["elapsed_s"]}
     P = result["precision"]

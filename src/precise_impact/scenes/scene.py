@@ -42,10 +42,11 @@ from typing import Any, Mapping
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import PARAM_NAMES, Params, check_count, check_tol, decimal_str, exact
 from precise_impact.core.precision import Precision
+from precise_impact.solvers.base import MODEL_ALIASES
 
 __all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
 
-SCENE_MODELS = ("mechanical", "analytical", "circuit", "switched-capacitor", "spice")
+SCENE_MODELS = ("heyoka", "analytical", "circuit", "switched-capacitor", "spice")
 _TOP = {"name", "description", "system", "model", "parameters", "components", "effects", "duration", "outputs"}
 _SECTIONS = {
     "system": {"kind", "form", "k"},
@@ -105,6 +106,28 @@ class Scene:
         data["model"] = dict(data.get("model", {}), name=model)
         return _build(data, self.source)
 
+    def fitted_to(self, model: str) -> tuple["Scene", list[str]]:
+        """The same scene on ``model``, keeping only the effects that fit ``model``.
+
+        Returns
+        -------
+        scene : Scene
+        dropped : list of str
+            The effects that do not fit ``model`` (e.g. the comparator of a
+            switched-capacitor scene run on the op-amp ``circuit`` model).
+        """
+        from precise_impact.models.circuit.effects.catalogue import EFFECTS
+
+        model = MODEL_ALIASES.get(model, model)
+        raw = dict(self._raw)
+        eff = dict(raw.get("effects", {}))
+        keep = {n: v for n, v in eff.items() if n in EFFECTS and model in EFFECTS[n].models}
+        raw["model"] = dict(raw.get("model", {}), name=model)
+        raw["effects"] = keep
+        if model in ("heyoka", "analytical"):
+            raw.pop("components", None)
+        return _build(raw, self.source), sorted(set(eff) - set(keep))
+
     def design(self):
         """Design components (nominal from the parameters, then overrides)."""
         from precise_impact.models.circuit.components import nominal_components
@@ -150,11 +173,12 @@ def _build(data: Mapping, source: str) -> Scene:
         raise ParameterError("system.form" if "form" in system else "system.k", system.get("form", system.get("k")),
                              "only for kind = 'coupled'")
     model_t = data.get("model", {})
-    model = model_t.get("name", "mechanical")
+    model = model_t.get("name", "heyoka")
+    model = MODEL_ALIASES.get(model, model) if isinstance(model, str) else model
     if model not in SCENE_MODELS:
         raise ParameterError("model.name", model, "one of " + ", ".join(SCENE_MODELS))
-    if kind == "coupled" and model not in ("mechanical", "circuit"):
-        raise ParameterError("model.name", model, "coupled scenes run on 'mechanical' or 'circuit'")
+    if kind == "coupled" and model not in ("heyoka", "circuit"):
+        raise ParameterError("model.name", model, "coupled scenes run on 'heyoka' (alias 'mechanical') or 'circuit'")
     precision = Precision.parse(str(model_t.get("precision", "float64")))
     tol = model_t.get("tol")
     check_tol(tol, "model.tol")
@@ -180,7 +204,7 @@ def _build(data: Mapping, source: str) -> Scene:
     raw_eff = data.get("effects", {})
     if not isinstance(raw_eff, Mapping):
         raise ParameterError("effects", raw_eff, "a table of effect tables")
-    if raw_eff and model in ("mechanical", "analytical"):
+    if raw_eff and model in ("heyoka", "analytical"):
         first = next(iter(raw_eff))
         raise ParameterError(f"effects.{first}", model, f"model '{model}' has no circuit effects; use circuit, switched-capacitor or spice")
     eff_in = {}
@@ -197,7 +221,7 @@ def _build(data: Mapping, source: str) -> Scene:
             else:
                 conv[key] = val
         eff_in[en] = conv
-    effects = validate_effects(eff_in, model) if model not in ("mechanical", "analytical") else {}
+    effects = validate_effects(eff_in, model) if model not in ("heyoka", "analytical") else {}
     if kind == "coupled" and model == "circuit":
         bad = sorted(set(effects) - {"tolerance"})
         if bad:

@@ -5,10 +5,10 @@ Between two impacts the flow (2a) is linear, so the motion is known exactly::
     x(t) = x_p(t) + exp(-zeta s) (A cos(wd s) + B sin(wd s)),   s = t - t_s,  wd = sqrt(1 - zeta^2)
 
 with ``x_p(t) = P cos(eta t) + Q sin(eta t)`` the steady state of
-:func:`~precise_impact._system.steady_state` and ``A``, ``B`` fixed by the state
+:func:`~precise_impact.core.flow.steady_state` and ``A``, ``B`` fixed by the state
 ``(x_s, v_s)`` at the segment start ``t_s``.  The only numerical task left is to
 find the impact times: the first upward crossing of ``x = x_w`` after ``t_s``.  At
-each impact the velocity is reset with :func:`~precise_impact._impact.reset_velocity`
+each impact the velocity is reset with :func:`~precise_impact.core.impact.reset_velocity`
 (eq. 2b) and a new segment starts on the wall.
 
 Two impact finders are provided:
@@ -28,12 +28,15 @@ Two impact finders are provided:
 
 Conventions
 -----------
+
 * Samples and dense output are *right-continuous*: an output time that coincides
   exactly with an impact time records the state **after** the reset (as heyoka
   does when a terminal event lands on a grid point).  The same holds at ``t0``
-  when the start is on the wall moving into it (:func:`~._impact.impact_at_start`).
+  when the start is on the wall moving into it (:func:`~precise_impact.core.impact.impact_at_start`).
+
 * Each impact is recorded as ``(t, v_before, v_after)``; the position is exactly
   ``x_w`` at an impact.
+
 * A contact in which the orbit does not go beyond the wall by more than a few
   rounding margins (a tangential, "grazing" contact, impact velocity at rounding
   level) is *not* an impact for the robust finder; such contacts are counted in
@@ -199,7 +202,7 @@ class _Model:
         return x, v, dec
 
     def accel(self, t, x, v):
-        """``x''`` from eq. (2a), via :func:`~precise_impact._system.acceleration`."""
+        """``x''`` from eq. (2a), via :func:`~precise_impact.core.flow.acceleration`."""
         return acceleration(t, x, v, self.eta, self.zeta, self.a, self.ops.cos)
 
     # -- rounding margins and derivative bounds ------------------------------------
@@ -277,9 +280,9 @@ class AnalyticalSolver:
     Between impacts the motion is the exact solution of the linear flow (2a)
     (underdamped, ``0 <= zeta < 1``); impacts are found as the first upward
     crossing of ``x = x_w`` and the velocity is reset with
-    :func:`~precise_impact._impact.reset_velocity`.
+    :func:`~precise_impact.core.impact.reset_velocity`.
 
-    ## Keyword arguments
+    Keyword arguments:
 
     * ``finder = "robust"``: how impact times are located.
 
@@ -289,19 +292,24 @@ class AnalyticalSolver:
         ``x(t + Delta) > x_w``, bisect ``[t, t + Delta]`` to working precision.
         Misses grazing excursions shorter than one scan step (intended: it is the
         published baseline).
+
     * ``backend = "float64"``: ``"float64"`` (Python floats and :mod:`math`) or
       ``"mpmath"`` (:mod:`mpmath` at ``dps`` digits).
+
     * ``dps = None``: decimal digits of the mpmath backend; ``None`` means 60.
       Must be an int with ``20 <= dps <= 30000``; must be ``None`` for float64.
       The result's precision is ``mp:ceil(dps log2 10)``.
+
     * ``scan_fraction = Fraction(1, 1000)``: scan step of the ``"paper"`` finder
       as a fraction of the forcing period ``T = 2 pi / eta`` (paper:
       ``Delta t = 10^-3 T``); ``0 < scan_fraction <= 1``.  Ignored by ``"robust"``.
+
     * ``max_impacts = 10**6``: more impacts than this raise
-      :class:`~precise_impact._errors.BudgetExceededError` (e.g. chattering).
+      :class:`~precise_impact.errors.BudgetExceededError` (e.g. chattering).
+
     * ``max_evals = None``: budget of closed-form evaluations of the impact finder;
       ``None`` means ``(periods + 1) * (10**5 + 2 ceil(1 / scan_fraction))``.
-      Exceeding it raises :class:`~precise_impact._errors.BudgetExceededError`.
+      Exceeding it raises :class:`~precise_impact.errors.BudgetExceededError`.
 
     ## How the robust finder cannot miss the first crossing
 
@@ -327,8 +335,10 @@ class AnalyticalSolver:
        bisection to working precision (float64: ``4 u max(1, |t|)``; mpmath:
        ``10^(5 - dps) max(1, |t|)`` for the last Newton correction, which
        leaves an error far below that).
+
     2. **leaving the wall** (after an impact, ``f1' + d1 < 0``): step to where the
        Taylor bound reaches ``-5 d0``; on the way ``f <= f1 + d0``.
+
     3. **grazing**: ``f1`` within the margin and ``f1'`` at rounding level with
        ``f'' < 0`` (a maximum touching the wall).  With ``M3`` a bound on
        ``|x'''|``, ``f'' <= f1'' + d2 + M3 h <= (f1'' + d2) / 2 = -kappa`` for
@@ -338,9 +348,10 @@ class AnalyticalSolver:
        (the orbit goes beyond the wall by at most a few rounding margins; an
        impact there would change the velocity by a rounding-level amount) and is
        counted in ``stats["grazing"]``.
+
     4. otherwise (``f'' >= 0`` at zero velocity on the wall: sticking or
        chattering, which eq. (2) does not model) raise
-       :class:`~precise_impact._errors.BudgetExceededError`.
+       :class:`~precise_impact.errors.BudgetExceededError`.
 
     If ``Ap + E exp(-zeta s) < x_w`` (minus the margin) no impact can happen any
     more, and the segment is continued to the end without stepping
@@ -351,10 +362,13 @@ class AnalyticalSolver:
     * V. Denysenko, M. Balcerzak, A. Dabrowski, *Electronic equivalent of a
       mechanical impact oscillator* (eq. 2; "Numerical verification" for the
       ``"paper"`` finder).
+
     * S. W. Shaw, P. J. Holmes, *A periodically forced piecewise linear
       oscillator*, J. Sound Vib. 90 (1983) 129-155 (closed-form segments).
+
     * A. B. Nordmark, *Non-periodic motion caused by grazing incidence in an
       impact oscillator*, J. Sound Vib. 145 (1991) 279-297 (grazing).
+
     * C. J. Budd, F. Dux, *Chattering and related behaviour in impact
       oscillators*, Phil. Trans. R. Soc. A 347 (1994) 365-389 (chattering).
     """
@@ -441,13 +455,15 @@ class AnalyticalSolver:
     def solve(self, params: Params, periods: int, per_period: int = 0) -> Trajectory:
         """Integrate ``periods`` forcing periods from ``(t0, x0, v0)``.
 
-        ## Arguments
-        * ``params``: :class:`~precise_impact._params.Params` (exact rationals).
+        Arguments:
+
+        * ``params``: :class:`~precise_impact.core.params.Params` (exact rationals).
         * ``periods``: number of forcing periods; samples at ``t0 + k T``,
           ``k = 0..periods``.
+
         * ``per_period = 0``: dense output points per period (``0`` = none).
 
-        Returns a :class:`~precise_impact._result.Trajectory` (``tol = None``).
+        Returns a :class:`~precise_impact.core.trajectory.Trajectory` (``tol = None``).
         Raises :class:`ParameterError` before any work for parameters outside the
         closed form's range, :class:`BudgetExceededError` when a budget is hit or
         the motion sticks to the wall.

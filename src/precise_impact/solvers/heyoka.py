@@ -1,8 +1,8 @@
 """Ground truth: heyoka's adaptive Taylor integrator with event detection.
 
-The flow is :func:`precise_impact._system.acceleration` built from heyoka
+The flow is :func:`precise_impact.core.flow.acceleration` built from heyoka
 expressions; the impact is a terminal event on ``x - x_w`` (positive direction)
-whose callback applies :func:`precise_impact._impact.reset_velocity`.  Every
+whose callback applies :func:`precise_impact.core.impact.reset_velocity`.  Every
 parameter a sweep varies (``eta, zeta, a, R, x_w``) is a heyoka runtime parameter,
 so changing it does not recompile; compiled integrators are cached per
 (precision, tolerance, mode) and reused within a process.
@@ -22,7 +22,7 @@ eventually exceeds the flight time (``~ 2 R v / g``) and the next impact is miss
    ``~R`` per impact with a net force ``g = a cos(eta t) - x_w > 0`` into the wall
    and flights short against the forcing, it extrapolates the accumulation time
    ``t_inf`` from the recorded impacts - the constant-force limit
-   ``t_n + 2 R v_n / (g (1 - R))`` (:func:`~precise_impact._impact.chatter_accumulation_time`)
+   ``t_n + 2 R v_n / (g (1 - R))`` (:func:`~precise_impact.core.impact.chatter_accumulation_time`)
    has a relative error ``O(flight)``, i.e. an error that is a power series in
    ``R^n``, which Richardson extrapolation in ``n`` removes term by term - and
    stops when that extrapolation has converged to working precision (or,
@@ -32,7 +32,7 @@ eventually exceeds the flight time (``~ 2 R v / g``) and the next impact is miss
    (sticking; di Bernardo et al. 2008), for as long as the wall force pushes into
    the wall;
 3. releases it at the closed-form zero of ``a cos(eta t) - x_w`` where that force
-   turns negative (:func:`~precise_impact._impact.release_time`, evaluated in
+   turns negative (:func:`~precise_impact.core.impact.release_time`, evaluated in
    mpmath with guard bits and rounded up to the working precision), and resumes
    free flight from ``(x_w, 0)``.
 
@@ -81,7 +81,7 @@ from precise_impact.core.impact import (
     reset_velocity,
     wall_acceleration,
 )
-from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, check_tol, exact
+from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, check_tol
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.cache import IntegratorCache
@@ -179,7 +179,8 @@ class _ImpactRecorder:
         return True
 
 
-_INTEGRATORS = IntegratorCache("oscillator")
+#: Compiled oscillator integrators (one per precision, tolerance and mode), copied to each caller.
+INTEGRATORS = IntegratorCache("oscillator")
 
 
 def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool = False, compact_mode: bool = False):
@@ -221,7 +222,7 @@ def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool 
             **kw,
         )
 
-    return _INTEGRATORS.get(key, compile_)
+    return INTEGRATORS.get(key, compile_)
 
 
 # --------------------------------------------------------------------------- the wall
@@ -499,8 +500,8 @@ def _pad_time(P: Precision, grid: list, eta: Fraction, per_period: int) -> Any:
 class HeyokaSolver:
     """heyoka Taylor integrator with impact events: the reference solver.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     precision : str or Precision, default ``'float64'``
         ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp:BITS'`` (BITS >= 64).
     tol : decimal string / Fraction / number or None, default ``None``
@@ -525,8 +526,10 @@ class HeyokaSolver:
         ``None`` means ``10**5 * (periods + 1) + 2 * max_impacts`` (a period
         takes ~20-300 steps; every impact ends a step).
 
-    Conventions
-    -----------
+    Notes
+    -----
+    Conventions:
+
     * Samples (and dense output) are right-continuous: an output time equal to an
       impact time holds the post-impact state; one inside a sticking interval,
       at its ends included, holds ``(x_w, 0)``.

@@ -11,37 +11,32 @@ from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.analytical import AnalyticalSolver
 from precise_impact.solvers.heyoka import HeyokaSolver
+from precise_impact.solvers.base import MODELS, Solver, make_solver, register_model
 
 __all__ = ["MODELS", "make_solver", "simulate"]
 
-#: Models ``simulate`` knows, with a one-line description each.
-MODELS = {
-    "heyoka": "heyoka Taylor integrator with impact events (the reference)",
-    "analytical": "closed-form segments, robust impact finder (cannot miss a crossing)",
-    "analytical-paper": "closed-form segments, the paper's 1e-3 T scan + bisection",
-}
+
+def _heyoka(prec: Precision, tol: Any, **options: Any) -> Solver:
+    return HeyokaSolver(prec, tol=tol, **options)
 
 
-def make_solver(model: str = "heyoka", precision: str | Precision = "float64", tol: Any = None):
-    """The solver object for ``model`` at ``precision``.
+def _analytical(finder: str):
+    def factory(prec: Precision, tol: Any, **options: Any) -> Solver:
+        model = "analytical" if finder == "robust" else "analytical-paper"
+        if tol is not None:
+            raise ParameterError("tol", str(tol), f"the {model} model takes no tolerance (it works to the precision's epsilon)")
+        if prec.kind == "float64":
+            return AnalyticalSolver(finder=finder, backend="float64", **options)
+        if prec.kind == "mp":
+            return AnalyticalSolver(finder=finder, backend="mpmath", dps=max(20, math.ceil(prec.bits * math.log10(2))), **options)
+        raise ParameterError("precision", prec.name, f"the {model} model runs in 'float64' or 'mp:BITS'")
 
-    ``heyoka`` takes every precision and a tolerance; the analytical models take
-    ``float64`` (numpy/math) or ``mp:BITS`` (mpmath with ``ceil(BITS log10 2)``
-    digits) and no tolerance (they refine impacts to working precision).
-    """
-    if model not in MODELS:
-        raise ParameterError("model", model, "one of " + ", ".join(MODELS))
-    prec = Precision.parse(precision)
-    if model == "heyoka":
-        return HeyokaSolver(prec, tol=tol)
-    if tol is not None:
-        raise ParameterError("tol", str(tol), f"the {model} model takes no tolerance (it works to the precision's epsilon)")
-    finder = "robust" if model == "analytical" else "paper"
-    if prec.kind == "float64":
-        return AnalyticalSolver(finder=finder, backend="float64")
-    if prec.kind == "mp":
-        return AnalyticalSolver(finder=finder, backend="mpmath", dps=max(20, math.ceil(prec.bits * math.log10(2))))
-    raise ParameterError("precision", prec.name, f"the {model} model runs in 'float64' or 'mp:BITS'")
+    return factory
+
+
+register_model("heyoka", "heyoka Taylor integrator with impact events (the mechanical reference)", _heyoka)
+register_model("analytical", "closed-form segments, robust impact finder (cannot miss a crossing)", _analytical("robust"))
+register_model("analytical-paper", "closed-form segments, the paper's 1e-3 T scan + bisection", _analytical("paper"))
 
 
 def simulate(
@@ -54,25 +49,45 @@ def simulate(
     per_period: int = 0,
     **param_values: Any,
 ) -> Trajectory:
-    """Simulate the impact oscillator.
+    """Simulate the impact oscillator with any model.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     params : Params or None, default ``None``
         Exact parameters; ``None`` builds them from ``param_values`` (names as in
         :class:`Params`, defaults the paper's: zeta=0.05, a=1, eta=0.712, x_w=2, R=1).
     periods : int, default 200
         Forcing periods; samples at ``t0 + k 2 pi / eta``, ``k = 0..periods``.
     model : str, default ``'heyoka'``
-        One of :data:`MODELS`.
+        One of :data:`~precise_impact.solvers.base.MODELS` (``'mechanical'`` is accepted
+        for ``'heyoka'``): the heyoka reference, the closed forms, the circuit models.
     precision : str, default ``'float64'``
         ``'float64'``, ``'longdouble'``, ``'float128'``, ``'mp:BITS'``.
     tol : decimal or None, default ``None`` (the precision's epsilon)
         heyoka's tolerance.
     per_period : int, default 0
         Dense output points per period.
+    **param_values
+        Parameter values (exact decimals) replacing those of ``params``.
 
-    All input is validated before any work; bad values raise :class:`ParameterError`.
+    Returns
+    -------
+    Trajectory
+        Stroboscopic samples, impacts, and dense output if asked for.
+
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+    BudgetExceededError
+        An impact or step budget was exhausted (e.g. a Zeno impact sequence).
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+       mechanical impact oscillator" (the system and its parameters).
+    .. [2] F. Biscani, D. Izzo, "Revisiting high-order Taylor methods for astrodynamics
+       and celestial mechanics", MNRAS 504 (2021) (heyoka, the reference integrator).
     """
     if params is None:
         params = Params.make(**param_values)

@@ -8,18 +8,19 @@ its largest distance from the reference over the same samples.
 
 from __future__ import annotations
 
+import dataclasses
+
 import json
-import math
-import sys
 import time
 from pathlib import Path
 from typing import Any, Sequence
 
-import mpmath
 
+from precise_impact.verification.metrics import reference_bits, sample_errors
+from precise_impact.core.result import ResultMixin
 from precise_impact.io.progress import say as _progress
 from precise_impact.core.params import Params
-from precise_impact.core.trajectory import Trajectory
+from precise_impact.core.precision import has_quad
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.solvers.simulate import simulate
@@ -38,34 +39,6 @@ CANDIDATES = (
     ("analytical-paper", "float64"),
 )
 
-#: Decimal digits lost per forcing period in the chaotic regime (measured: float64
-#: O(1) after ~140 periods, float128 after ~290, 256 bits after ~650).
-DIGITS_LOST_PER_PERIOD = 0.12
-
-
-def reference_bits(periods: int, target_digits: int = 30) -> int:
-    """Bits a chaotic reference needs to keep ``target_digits`` after ``periods`` periods.
-
-    Rounded up to a multiple of 64 and at least 128; uses a 1.5x safety factor on the
-    measured loss rate.
-    """
-    digits = target_digits + 1.5 * DIGITS_LOST_PER_PERIOD * periods + 5
-    return max(128, 64 * math.ceil(digits * math.log2(10) / 64))
-
-
-def sample_errors(traj: Trajectory, ref: Trajectory) -> list[float]:
-    """``max(|x - x_ref|, |v - v_ref|)`` at every stroboscopic sample, as floats."""
-    out = []
-    with mpmath.workprec(max(traj.precision.bits, ref.precision.bits) + 16):
-        for k in range(min(len(traj.t), len(ref.t))):
-            _, x, v = traj.state_mpf(k)
-            _, xr, vr = ref.state_mpf(k)
-            out.append(float(max(abs(x - xr), abs(v - vr))))
-    return out
-
-
-
-
 def accuracy_table(
     periods: int = 100,
     etas: Sequence[str] = PAPER_ETAS,
@@ -74,8 +47,8 @@ def accuracy_table(
 ) -> dict[str, Any]:
     """Score every candidate at each eta; write ``accuracy.json`` and ``accuracy.png`` to ``out``.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     periods : int, default 100
         Forcing periods from rest.
     etas : sequence of decimal strings, default the paper's ``('0.70', '0.712', '0.74')``.
@@ -111,6 +84,8 @@ def accuracy_table(
         )
         curves[eta] = {}
         for model, prec in CANDIDATES:
+            if prec == "float128" and not has_quad():
+                continue  # this heyoka build has no quad precision: the row does not exist here
             traj = simulate(params, periods, model=model, precision=prec)
             errs = sample_errors(traj, ref)
             curves[eta][f"{model} {prec}"] = errs
@@ -127,10 +102,10 @@ def accuracy_table(
                 }
             )
             _progress(f"eta={eta}: {model} {prec}: max error {max(errs):.2e}", progress)
-    result = {"periods": periods, "reference_bits": bits, "rows": rows}
+    result = AccuracyResult(periods=periods, reference_bits=bits, rows=rows)
     if out is not None:
         out = Path(out)
-        text = json.dumps(result, indent=2)
+        text = json.dumps(result.to_dict(), indent=2)
         atomic_write(out / "accuracy.json", lambda fh: fh.write(text), binary=False)
         _plot(curves, periods, out / "accuracy.png")
     return result
@@ -148,6 +123,26 @@ def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -
     axes[0][-1].legend(fontsize=8)
     fig.suptitle(f"Error against the multiprecision heyoka reference over {periods} periods (floor 1e-40)")
     save_figure(fig, path, fmt="png", dpi=110)
+
+
+@dataclasses.dataclass
+class AccuracyResult(ResultMixin):
+    """Every model and precision scored against the demonstrated reference (:func:`accuracy_table`).
+
+    Attributes
+    ----------
+    periods : int
+        Forcing periods of every run.
+    reference_bits : int
+        Bits of the multiprecision reference (demonstrated by a run 64 bits wider).
+    rows : list of dict
+        One row per (eta, model, precision): ``eta``, ``model``, ``precision``,
+        ``max_error``, ``final_error``, ``impacts``, ``elapsed_s``, ``role``.
+    """
+
+    periods: int
+    reference_bits: int
+    rows: list
 
 
 def format_table(result: dict[str, Any]) -> str:

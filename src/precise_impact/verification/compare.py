@@ -11,7 +11,7 @@
    each model a second model run from ``x0 + 1e-9`` (the model's finite-time
    divergence rate, reported as its LLE estimate);
 3. the reference LLE from ``lyapunov(params, 'variational')`` (default run);
-4. every model, scored by :func:`precise_impact._scores.score`.
+4. every model, scored by :func:`precise_impact.verification.scores.score`.
 
 With ``out`` it writes ``report.md``, ``scores.json``, ``phase_portraits.png`` and
 ``separation.png`` (all atomically).
@@ -23,7 +23,6 @@ import dataclasses
 import io
 import json
 import math
-import sys
 import time
 from fractions import Fraction
 from pathlib import Path
@@ -31,10 +30,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from precise_impact.core.result import ResultMixin
 from precise_impact.io.progress import say as _progress
 from precise_impact.io.figures import figure
-from precise_impact.verification.accuracy import reference_bits, sample_errors
+from precise_impact.verification.metrics import reference_bits, sample_errors
 from precise_impact.errors import ParameterError
+from precise_impact.solvers.base import MODEL_ALIASES
 from precise_impact.core.params import check_count, decimal_str
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
@@ -53,7 +54,7 @@ def check_models(models: str | Sequence[str]) -> list[str]:
     """``'a,b'`` or ``['a', 'b']`` -> validated list; :class:`ParameterError` naming ``models``."""
     if isinstance(models, str):
         models = [m.strip() for m in models.split(",")]
-    models = list(models)
+    models = [MODEL_ALIASES.get(m, m) for m in models]
     if not models or any(not m for m in models):
         raise ParameterError("models", ",".join(models), "a comma-separated list of " + ", ".join(SCENE_MODELS))
     for m in models:
@@ -72,18 +73,7 @@ def scene_for_model(scene: Scene, model: str) -> tuple[Scene, list[str]]:
     Returns the scene and the names of the effects dropped (e.g. the comparator of a
     switched-capacitor scene when run on the op-amp ``circuit`` model).
     """
-    from precise_impact.models.circuit.effects.catalogue import EFFECTS
-    from precise_impact.scenes.scene import _build
-
-    raw = dict(scene._raw)
-    eff = dict(raw.get("effects", {}))
-    keep = {n: v for n, v in eff.items() if n in EFFECTS and model in EFFECTS[n].models}
-    dropped = sorted(set(eff) - set(keep))
-    raw["model"] = dict(raw.get("model", {}), name=model)
-    raw["effects"] = keep
-    if model in ("mechanical", "analytical"):
-        raw.pop("components", None)
-    return _build(raw, scene.source), dropped
+    return scene.fitted_to(model)
 
 
 def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=None) -> Trajectory:
@@ -102,9 +92,9 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
             periods: int | None = None, progress: bool = True, transient: int | None = None) -> dict[str, Any]:
     """Score ``models`` on a scene against a demonstrated heyoka reference.
 
-    Keywords
-    --------
-    models : list of names from :data:`precise_impact._scene.SCENE_MODELS` (or ``'a,b'``)
+    Parameters
+    ----------
+    models : list of names from :data:`precise_impact.scenes.scene.SCENE_MODELS` (or ``'a,b'``)
     out : directory or None (nothing written)
         ``report.md``, ``scores.json``, ``phase_portraits.png``, ``separation.png``.
     periods : int or None, default the scene's duration
@@ -187,7 +177,46 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
         md = _report(result)
         atomic_write(out / "report.md", lambda fh: fh.write(md), binary=False)
         result["files"] = [str(out / n) for n in ("report.md", "scores.json", "phase_portraits.png", "separation.png")]
-    return result
+    return CompareResult(**result)
+
+
+@dataclasses.dataclass
+class CompareResult(ResultMixin):
+    """Scores of models on a scene against a demonstrated reference (:func:`compare`).
+
+    Attributes
+    ----------
+    scene, description : str
+        The scene compared.
+    params : dict
+        Exact parameters (decimal strings).
+    periods, transient_periods : int
+        Forcing periods simulated; periods discarded before scoring.
+    regime : str
+        ``'periodic'`` or ``'chaotic'`` (from the reference's stroboscopic samples).
+    reference_period : int or None
+        Detected period of the reference.
+    reference : dict
+        How the reference was made and its demonstrated accuracy.
+    lle : dict
+        The reference's largest Lyapunov exponent with its error bar.
+    models : dict
+        Model name -> its scores (see :func:`~precise_impact.verification.scores.score`).
+    files : list of str or None
+        Files written when ``out`` was given.
+    """
+
+    scene: str
+    description: str
+    params: dict
+    periods: int
+    transient_periods: int
+    regime: str
+    reference_period: Any
+    reference: dict
+    lle: dict
+    models: dict
+    files: list | None = None
 
 
 def _json_default(o):

@@ -16,7 +16,7 @@ Cases (:data:`CASES`):
   plus ``dense.npz``: float64 dense output (50 points per period, last 50 periods).
 * ``coupled-fig7``: the master-slave pair (first-order form) at k = 0.031 and 0.032,
   500 periods, slave start ``(-1/2, 1/2)`` (as ``plot_fig7``), float64 samples of
-  x, y and |x - y|; checked against the same runs in float128 (only the periods
+  x, y and ``|x - y|``; checked against the same runs in float128 (only the periods
   over which the two agree are demonstrated; see the manifest).
 * ``lle``: variational LLE with error bar and the two-trajectory estimate at the
   paper's three frequencies.
@@ -27,14 +27,11 @@ Cases (:data:`CASES`):
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 import os
 import json
 import math
 import platform
-import sys
 import time
-from fractions import Fraction
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -42,10 +39,10 @@ import mpmath
 import numpy as np
 
 from precise_impact.io.progress import say as _log
-from precise_impact.verification.accuracy import DIGITS_LOST_PER_PERIOD, reference_bits, sample_errors
+from precise_impact.verification.metrics import DIGITS_LOST_PER_PERIOD, reference_bits, sample_errors
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, decimal_str
-from precise_impact.core.precision import Precision
+from precise_impact.core.precision import Precision, quad_or_mp
 from precise_impact.io.atomic import atomic_write, sha256_file, write_json
 from precise_impact.solvers.simulate import simulate
 
@@ -55,6 +52,7 @@ __all__ = [
     "SINGLE_CASES",
     "REFERENCE_ENV",
     "default_root",
+    "write_manifest",
     "shipped_root",
     "generate",
     "verify",
@@ -117,7 +115,7 @@ _sha256 = sha256_file
 def _versions() -> dict[str, str]:
     import heyoka
 
-    from precise_impact import __version__
+    from precise_impact.version import __version__
 
     return {
         "precise_impact": __version__,
@@ -135,7 +133,7 @@ def _write_npz(path: Path, **arrays: np.ndarray) -> None:
     atomic_write(path, lambda fh: np.savez_compressed(fh, **arrays), binary=True)
 
 
-def _finish(case_dir: Path, files: Sequence[str], manifest: dict) -> dict:
+def write_manifest(case_dir: Path, files: Sequence[str], manifest: dict) -> dict:
     """Checksum ``files`` and write the manifest last (atomically)."""
     manifest = dict(manifest)
     manifest["format_version"] = FORMAT_VERSION
@@ -236,7 +234,7 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
         strobe_v=f64["v"],
         impacts_t=f64["impacts_t"],
     )
-    return _finish(
+    return write_manifest(
         case_dir,
         ["samples.json", "dense.npz"],
         {
@@ -299,7 +297,7 @@ def _gen_coupled(case: str, case_dir: Path, progress: bool) -> dict:
         }
         _log(f"  {case}: k={k}: float64 and float128 agree to 1e-6 for {n_ok} periods", progress)
     _write_npz(case_dir / "coupled.npz", **arrays)
-    return _finish(
+    return write_manifest(
         case_dir,
         ["coupled.npz"],
         {
@@ -357,7 +355,7 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
         )
         _log(f"  {case}: eta={eta}: {var.lle:.5f} +- {var.stderr:.5f} (two-traj {two.lle:.5f} +- {two.stderr:.5f})", progress)
     _write_json(case_dir / "lle.json", {"case": case, "units": "per unit dimensionless time", "rows": rows})
-    return _finish(
+    return write_manifest(
         case_dir,
         ["lle.json"],
         {
@@ -396,7 +394,7 @@ def _gen_bifurcation(case: str, case_dir: Path, progress: bool) -> dict:
         strobe_x_last=np.asarray(r.x, dtype=float)[:, -BIF_KEEP_X:],
         grazing=np.asarray(r.grazing, dtype=float),
     )
-    return _finish(
+    return write_manifest(
         case_dir,
         ["bifurcation.npz"],
         {
@@ -458,8 +456,8 @@ def generate(
 ) -> dict[str, dict]:
     """Generate reference datasets into ``out/<case>/``.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     cases : None, a case name or a list of names, default ``None`` (every case in :data:`CASES`)
     out : directory, default ``reference_data``
     progress : bool, default ``True``
@@ -501,7 +499,7 @@ def single_tolerance(period: int, precision: Precision, stored_disagreement: flo
     """Allowed |recomputed - stored| at ``period`` for a recomputation in ``precision``.
 
     ``1e4 eps`` at the start, growing by 1.5x the measured chaotic loss rate
-    (:data:`~._accuracy.DIGITS_LOST_PER_PERIOD` decimal digits per period), plus the
+    (:data:`~precise_impact.verification.accuracy.DIGITS_LOST_PER_PERIOD` decimal digits per period), plus the
     stored reference's own demonstrated disagreement.
     """
     return 1e4 * precision.eps_float * 10 ** (1.5 * DIGITS_LOST_PER_PERIOD * period) + stored_disagreement
@@ -511,7 +509,7 @@ def _recompute_single(case: str, case_dir: Path) -> list[str]:
     with open(case_dir / "samples.json") as fh:
         data = json.load(fh)
     params = Params.make(**data["params"])
-    P = Precision.parse("float128")
+    P = Precision.parse(quad_or_mp())
     n = min(VERIFY_PERIODS, data["periods"])
     traj = simulate(params, n, precision=P)
     manifest = read_manifest(case_dir)
@@ -554,7 +552,7 @@ def _recompute_coupled(case: str, case_dir: Path) -> list[str]:
     with np.load(case_dir / "coupled.npz") as z:
         for k in COUPLED_KS:
             tag = k.replace(".", "p")
-            tr = simulate_coupled(Params.make(), k, "first-order", n, y0=COUPLED_Y0, precision="float128")
+            tr = simulate_coupled(Params.make(), k, "first-order", n, y0=COUPLED_Y0, precision=quad_or_mp())
             dev = max(
                 float(np.max(np.abs(tr._f(tr.x) - z[f"x_k{tag}"][: n + 1]))),
                 float(np.max(np.abs(tr._f(tr.y) - z[f"y_k{tag}"][: n + 1]))),
@@ -584,8 +582,8 @@ def _sanity(case: str, case_dir: Path) -> list[str]:
 def verify(root: str | Path | None = None, cases: Sequence[str] | str | None = None, recompute: bool = True) -> list[str]:
     """Check the datasets under ``root``; return a list of problems (empty = ok).
 
-    Keywords
-    --------
+    Parameters
+    ----------
     root : directory or None, default ``None`` (:func:`default_root`)
     cases : None, a case name or a list, default ``None`` (every case in :data:`CASES`;
         a missing case is a problem)

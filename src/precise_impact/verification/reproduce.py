@@ -10,20 +10,22 @@ synchronisation threshold of each coupled form with Fig. 7-like plots; and write
 
 from __future__ import annotations
 
+import dataclasses
+
 import io
 import json
 import math
 import shutil
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from precise_impact.core.result import ResultMixin
 from precise_impact.io.progress import say as _say
 from precise_impact.io.figures import figure as new_fig
-from precise_impact.verification.accuracy import reference_bits, sample_errors
+from precise_impact.verification.metrics import reference_bits, sample_errors
 from precise_impact.core.params import Params
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
@@ -55,11 +57,42 @@ def _save_png(fig, path: Path) -> None:
     atomic_write(path, lambda fh: fh.write(buf.getvalue()), binary=True)
 
 
-def reproduce(out: str | Path = "results", quick: bool = False, progress: bool = True) -> dict[str, Any]:
+@dataclasses.dataclass
+class ReproduceResult(ResultMixin):
+    """The main job's numbers (also in ``out/report.json``; see :func:`reproduce`).
+
+    Attributes
+    ----------
+    quick : bool
+        The quick configuration was run.
+    periods : int
+        Forcing periods per figure.
+    ngspice : bool
+        ngspice was found and run.
+    figures : dict
+        Figure number -> eta, regime, the reference's demonstrated accuracy and each model's error.
+    lle : dict
+        Method -> ``[lle, stderr, periods]``.
+    sync : dict
+        Coupled form -> synchronisation threshold ``k_star`` with its error and the scan.
+    elapsed_s : float
+        Wall time.
+    """
+
+    quick: bool
+    periods: int
+    ngspice: bool
+    figures: dict
+    lle: dict
+    sync: dict
+    elapsed_s: float
+
+
+def reproduce(out: str | Path = "results", quick: bool = False, progress: bool = True) -> ReproduceResult:
     """Run the main job; returns the numbers written to ``out/report.json``.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     out : directory, default ``'results'``
     quick : bool, default ``False``
         Fewer periods (150 instead of 300 per figure, 300 instead of 500 for Fig. 7,
@@ -150,7 +183,7 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool =
     text = json.dumps(res, indent=1, default=str)
     atomic_write(out / "report.json", lambda fh: fh.write(text), binary=False)
     atomic_write(out / "report.md", lambda fh: fh.write(_report_md(res)), binary=False)
-    return res
+    return ReproduceResult(**res)
 
 
 def _report_md(res: dict) -> str:

@@ -1,7 +1,7 @@
 """How far a model is from the reference: scores on :class:`Trajectory` objects.
 
 The reference is heyoka at a *demonstrated* precision (two multiprecision runs
-agreeing, see :mod:`precise_impact._compare`).  Two families of scores:
+agreeing, see :mod:`precise_impact.verification.compare`).  Two families of scores:
 
 * periodic regimes -- the largest state error at the stroboscopic samples after a
   transient, impact times and velocities matched impact by impact (each model impact
@@ -24,7 +24,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from precise_impact.verification.accuracy import sample_errors
+from precise_impact.analysis.periodicity import detect_period
+from precise_impact.verification.metrics import sample_errors
 from precise_impact.errors import ParameterError
 from precise_impact.core.trajectory import Trajectory
 
@@ -224,8 +225,6 @@ def sample_diff(a, b, ia, ib, ta: Trajectory, tb: Trajectory) -> list[float]:
 
 def detected_period(traj: Trajectory, transient: int = 0, max_period: int = 32, rtol: float = 1e-6) -> int:
     """Smallest p <= ``max_period`` with p-periodic stroboscopic samples after ``transient``; 0 if none."""
-    from precise_impact.analysis.lyapunov.batch import detect_period
-
     f = _f64(traj)
     return int(detect_period(f["x"][transient:], f["v"][transient:], max_period=max_period, rtol=rtol))
 
@@ -325,13 +324,13 @@ def score(model_traj: Trajectory, ref_traj: Trajectory, regime: str = "auto", ll
           n_proj: int = 256, seed: int = 0) -> dict[str, Any]:
     """Every score of ``model_traj`` against ``ref_traj``.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     regime : ``'auto'`` (default), ``'periodic'`` or ``'chaotic'``
         ``'auto'``: periodic if the reference's samples after the transient are
         p-periodic for some p <= ``max_period``, else chaotic.
     lle, model_lle : float or None
-        Reference LLE (e.g. from :func:`precise_impact._lyapunov.lyapunov`) and the
+        Reference LLE (e.g. from :func:`precise_impact.analysis.lyapunov.lyapunov`) and the
         model's, for the rate comparison and the LLE gap.
     ref2 : Trajectory or None
         Second reference for the noise floor of the distribution distances.

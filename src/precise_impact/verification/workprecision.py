@@ -9,7 +9,7 @@ Two cases, both from rest with the paper's parameters:
   none within the run).
 
 The reference is heyoka in multiprecision at ``bits`` and ``bits + 64``
-(:func:`._accuracy.reference_bits`); their largest disagreement is reported as
+(:func:`~precise_impact.verification.accuracy.reference_bits`); their largest disagreement is reported as
 ``reference.agreement``.  Wall times are the median of repeated runs after one
 warm-up run (runs longer than a few seconds are timed once, after the warm-up
 when it is cheap enough; ``repeats`` says how many); heyoka's compile time is
@@ -30,13 +30,14 @@ its run time, beside the prediction
 
 from __future__ import annotations
 
+import dataclasses
+
 import csv
 import io
 import json
 import math
 import shutil
 import statistics
-import sys
 import time
 from fractions import Fraction
 from pathlib import Path
@@ -45,8 +46,9 @@ from typing import Any, Callable
 import mpmath
 import numpy as np
 
+from precise_impact.core.result import ResultMixin
 from precise_impact.io.progress import say as _progress
-from precise_impact.verification.accuracy import reference_bits
+from precise_impact.verification.metrics import reference_bits
 from precise_impact.core.params import Params
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
@@ -477,8 +479,8 @@ def work_precision(quick: bool = False, out: str | Path | None = None, progress:
                    *, config: dict[str, Any] | None = None) -> dict[str, Any]:
     """Measure error and wall time of every method on the periodic and chaotic cases.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     quick : bool, default False
         Fewer tolerances and methods, chaos cost for N in (50, 100, 200).
     out : directory or None
@@ -518,7 +520,42 @@ def work_precision(quick: bool = False, out: str | Path | None = None, progress:
     }
     if out is not None:
         write_outputs(result, Path(out))
-    return result
+    return WorkPrecisionResult(**result)
+
+
+@dataclasses.dataclass
+class WorkPrecisionResult(ResultMixin):
+    """Error against the demonstrated reference versus wall time, per method (:func:`work_precision`).
+
+    Attributes
+    ----------
+    quick : bool
+        The reduced configuration was run.
+    cases : dict
+        Case name -> its eta and periods.
+    references : dict
+        Case name -> the reference used and its demonstrated agreement.
+    rows : list of dict
+        One row per method and setting: ``case``, ``family``, ``method``, ``setting``,
+        ``error``, ``time_s``, ...
+    chaos_cost : dict or None
+        Bits and time needed to certify N chaotic periods to 1e-15.
+    headlines : dict
+        Speed ratios at matched error.
+    notes : list of str
+        What was skipped and why.
+    elapsed_s : float
+        Wall time.
+    """
+
+    quick: bool
+    cases: dict
+    references: dict
+    rows: list
+    chaos_cost: Any
+    headlines: dict
+    notes: list
+    elapsed_s: float
 
 
 # --------------------------------------------------------------------------- outputs

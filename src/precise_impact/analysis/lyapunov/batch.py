@@ -1,12 +1,12 @@
 """SIMD batch variational LLE (float64): many parameter points in one heyoka batch integrator.
 
-The same flow (:func:`~precise_impact._system.acceleration`), impact map and saltation
-matrix (:mod:`precise_impact._impact`) as :mod:`._variational`, integrated by
+The same flow (:func:`~precise_impact.core.flow.acceleration`), impact map and saltation
+matrix (:mod:`precise_impact.core.impact`) as :mod:`precise_impact.analysis.lyapunov.variational`, integrated by
 ``taylor_adaptive_batch`` so that ``batch_size`` parameter points advance together in
 SIMD lanes; each lane keeps its own step size, events and period boundaries.  Used
 by parameter sweeps, where per-point Python overhead would otherwise dominate.
 
-The hard cases are treated exactly as in :mod:`._variational` (see its module
+The hard cases are treated exactly as in :mod:`precise_impact.analysis.lyapunov.variational` (see its module
 docstring): the tangents are re-orthonormalised right after every impact (the
 saltation matrix's ``1/v-`` never accumulates, and heyoka's cooldown
 ``10 eps max|state| / v-`` does not see large tangent entries), an event whose
@@ -16,7 +16,7 @@ amplitude) is a tangential contact and not an impact, every period runs on the
 lane's local clock ``[L0, L1]``
 (``L0 = fl(t0 mod T)``), and a non-terminal event on ``v`` checks ``x`` at every
 maximum (a maximum beyond the wall by more than 4 grazing depths is a missed impact:
-:class:`~._variational.MissedImpactError`).
+:class:`~precise_impact.errors.MissedImpactError`).
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from typing import Sequence
 
 import numpy as np
 
+from precise_impact.analysis.periodicity import detect_period
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
@@ -44,7 +45,7 @@ _I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R",
 
 
 def _depth(t: float, pr, i: int, amp: float) -> float:
-    """Grazing depth of lane ``i`` at local time ``t``, ``amp`` its steady amplitude (see :mod:`._variational`)."""
+    """Grazing depth of lane ``i`` at local time ``t``, ``amp`` its steady amplitude (see :mod:`precise_impact.analysis.lyapunov.variational`)."""
     return GRAZING_SAFETY * _U * (abs(pr[_I_XW, i]) + abs(pr[_I_A, i]) + amp * (1 + pr[_I_ETA, i] * abs(t)))
 
 
@@ -160,26 +161,6 @@ def _integrator(batch_size: int):
     return _INTEGRATORS.get(batch_size, compile_)
 
 
-def detect_period(xs: np.ndarray, vs: np.ndarray, max_period: int = 32, rtol: float = 1e-6) -> int:
-    """Smallest p <= ``max_period`` with the stroboscopic samples p-periodic, else 0.
-
-    Every one of the last ``2 max_period`` samples must repeat after p periods to
-    ``rtol * (1 + |x|)``; 0 means no period up to ``max_period`` (chaotic,
-    quasi-periodic, or still transient).
-    """
-    n = len(xs)
-    w = min(n, 2 * max_period)
-    for p in range(1, max_period + 1):
-        if n < w + p:
-            break
-        a = slice(n - w, n)
-        b = slice(n - w - p, n - p)
-        tol = rtol * (1 + np.abs(xs[a]) + np.abs(vs[a]))
-        if np.all(np.abs(xs[a] - xs[b]) <= tol) and np.all(np.abs(vs[a] - vs[b]) <= tol):
-            return p
-    return 0
-
-
 def batch_lle(
     points: Sequence[Params],
     periods: int = 2000,
@@ -191,8 +172,8 @@ def batch_lle(
 ) -> list[dict]:
     """LLE (variational, saltation), its error bar, the period and impacts per period for each point.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     points : sequence of Params
         One parameter point (with its own initial condition) per entry.
     periods : int, default 2000
@@ -212,12 +193,12 @@ def batch_lle(
     Returns one dict per point: ``lle``, ``lambda2``, ``stderr``, ``period``,
     ``impacts_per_period``, ``x_last``/``v_last`` (the last stroboscopic sample) and
     ``grazing`` (tangential contacts over the whole run, transient included: events
-    within the grazing depth of the wall, not impacts; see :mod:`._variational`).
-    Raises :class:`~._variational.MissedImpactError` if a lane's maximum of ``x``
+    within the grazing depth of the wall, not impacts; see :mod:`precise_impact.analysis.lyapunov.variational`).
+    Raises :class:`~precise_impact.errors.MissedImpactError` if a lane's maximum of ``x``
     lies beyond the wall by more than 4 grazing depths (an impact heyoka missed).
     Each lane is integrated exactly as it would be alone (per-lane steps, events and
     period boundaries), so a point's result does not depend on its batch neighbours.
-    References as :func:`~._variational.variational_spectrum`.
+    References as :func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`.
     """
     periods = check_count(periods, "periods")
     if periods < 1:

@@ -8,13 +8,14 @@ from typing import Sequence
 
 import numpy as np
 
+from precise_impact.core.result import ResultMixin, to_jsonable
 from precise_impact.core.params import Params
 
 __all__ = ["LyapunovResult", "block_stderr"]
 
 
 @dataclasses.dataclass
-class LyapunovResult:
+class LyapunovResult(ResultMixin):
     """Largest Lyapunov exponent (per unit dimensionless time) with its error bar.
 
     Attributes
@@ -66,7 +67,7 @@ class LyapunovResult:
     strobe_v: np.ndarray | None = None
     stats: dict = dataclasses.field(default_factory=dict)
 
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """The ``precise-impact lle --json`` object."""
         return {
             "params": self.params.decimal(),
@@ -78,6 +79,7 @@ class LyapunovResult:
             "periods": self.periods,
             "impacts": self.impacts,
             "elapsed_s": self.elapsed_s,
+            "stats": to_jsonable(self.stats),
         }
 
 
@@ -97,3 +99,7 @@ def block_stderr(log_growth: Sequence[float], dt: Sequence[float], n_blocks: int
     if len(blocks) < 2:
         return blocks, math.nan
     return blocks, float(np.std(blocks, ddof=1) / math.sqrt(len(blocks)))
+
+
+# 0.1.0 name, kept for one release.
+LyapunovResult.to_json_dict = LyapunovResult.to_dict  # type: ignore[attr-defined]

@@ -45,7 +45,7 @@ import mpmath
 import numpy as np
 
 from precise_impact.errors import BudgetExceededError, ParameterError
-from precise_impact.core.impact import impact_at_start, reset_velocity
+from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, exact
 from precise_impact.core.precision import Precision
 from precise_impact.solvers.heyoka import build_integrator
@@ -273,23 +273,30 @@ def two_trajectory_lle(
     reference integrator, and after every forcing period ``T = 2π/η`` the perturbed
     one is rescaled back to distance ``d0`` along the separation.
 
-    ## Keyword arguments
+    Keyword arguments:
+
     * `params` (required): :class:`~precise_impact.Params`; the orbit starts at
       ``(x0, v0)`` at time ``t0``.
+
     * `periods = 20000`: forcing periods over which the exponent is measured
       (integer ``>= 1``).
+
     * `transient = 1000`: forcing periods integrated first and discarded, so the
       fiducial orbit is on the attractor (integer ``>= 0``).
+
     * `precision = "float64"`: ``"float64"``, ``"longdouble"``, ``"float128"`` or
       ``"mp:BITS"``; both trajectories, the rescaling and the sample times use it.
+
     * `d0 = None`: initial and rescaling distance in the Euclidean ``(x, v)`` norm;
       ``None`` means ``1e-2 sqrt(eps)`` of the precision (float64: 1.5e-10,
       float128: 1.4e-19; see :func:`default_d0`).  Allowed:
       ``100 eps <= d0 <= 1e-3`` (below ``100 eps`` round-off of the O(1) state
       dominates the separation).  Decimal strings and Fractions are accepted.
+
     * `segments = 20`: number of contiguous blocks for the batch-means standard
-      error (:func:`~precise_impact._lyapunov._result.block_stderr`); integer
+      error (:func:`~precise_impact.analysis.lyapunov.result.block_stderr`); integer
       ``>= 2``.  The error bar is NaN when ``periods < 2``.
+
     * `progress = False`: if true, print the running estimate to stderr about every
       10% of the periods.
 
@@ -342,7 +349,7 @@ def two_trajectory_lle(
     re-seeded along ``(1, 1)/sqrt(2)`` and a :class:`RuntimeWarning` is issued.
 
     ## Returns
-    :class:`~precise_impact._lyapunov._result.LyapunovResult` with
+    :class:`~precise_impact.analysis.lyapunov.result.LyapunovResult` with
     ``method='two-trajectory'``, ``spectrum=None``, ``running`` the estimate after
     each measured period, ``segments`` the per-block estimates, ``stderr`` their
     standard error, ``impacts`` the fiducial orbit's impacts during the measured

@@ -1,10 +1,10 @@
 """Lyapunov spectrum from the variational equations with the impact's saltation matrix.
 
 The tangent dynamics between impacts are heyoka's first-order variational
-equations (``var_ode_sys``) of the same flow :func:`precise_impact._system.acceleration`.
+equations (``var_ode_sys``) of the same flow :func:`precise_impact.core.flow.acceleration`.
 heyoka does not know about the discontinuity: at every impact the terminal-event
 callback maps the tangent matrix through the saltation matrix
-(:func:`precise_impact._impact.oscillator_saltation`), ``Phi+ = S Phi-``.  The
+(:func:`precise_impact.core.impact.oscillator_saltation`), ``Phi+ = S Phi-``.  The
 tangent matrix is re-orthonormalised (Gram-Schmidt = QR; Benettin et al.,
 Meccanica 15 (1980) 21-30; Shimada & Nagashima, Prog. Theor. Phys. 61 (1979)
 1605) at the end of every period *and right after every impact*; the logs of the
@@ -15,7 +15,7 @@ Hard cases
 ----------
 *Near-grazing impacts: the 1/v- of the saltation matrix.*  For the oscillator
 ``S = [[-R, 0], [s, -R]]`` with ``s = (1 + R)(a cos(eta t) - x_w) / v-``
-(:mod:`precise_impact._impact`), so ``|s|`` grows without bound as the impact
+(:mod:`precise_impact.core.impact`), so ``|s|`` grows without bound as the impact
 velocity ``v- -> 0``.  Three things could go wrong and are prevented:
 
 1. *Overflow.*  ``S Phi`` has entries ``~|s| |Phi|``.  Applying ``S`` and then
@@ -51,13 +51,13 @@ velocity ``v- -> 0``.  Three things could go wrong and are prevented:
    leaves for the impacting chaotic attractor within 4 periods (impact speeds
    1.7e-8, 1.5e-4, 1.3e-2: Nordmark's square-root map amplifies the rounding-level
    kick) and the LLE comes out as +0.034 instead of -zeta.  As for the robust
-   analytical finder (:class:`~precise_impact._solver._analytical.AnalyticalSolver`,
+   analytical finder (:class:`~precise_impact.solvers.analytical.AnalyticalSolver`,
    ``stats["grazing"]``), an event whose excursion beyond the wall,
    ``depth = v-^2 / (2 |x''|)`` (``x'' < 0``: a maximum), is below the grazing
    depth ``delta(t)`` is a tangential *contact*: no reset, no saltation, counted
    in ``stats["grazing"]``.  Default ``delta(t) = 16 u (|x_w| + |a| + A_p
    (1 + eta |t|))`` with ``u = 2^-bits`` the unit roundoff and ``A_p`` the
-   steady-state amplitude (:func:`~precise_impact._system.steady_state`): a few
+   steady-state amplitude (:func:`~precise_impact.core.flow.steady_state`): a few
    roundings of the terms of the Taylor evaluation, plus the rounding of the
    forcing phase (heyoka evaluates ``cos(eta t)`` with ``t`` rounded, an absolute
    phase error ``u eta |t|`` that jitters the orbit's amplitude by ``~u eta |t|
@@ -69,7 +69,7 @@ velocity ``v- -> 0``.  Three things could go wrong and are prevented:
 
 *Time.*  The forcing is ``T``-periodic, so every period is integrated on the same
 local interval ``[L0, L1]`` with the clock set back by one period afterwards
-(as in :mod:`._two_trajectory`, whose ``_local_clock`` is used): ``|t|`` stays
+(as in :mod:`precise_impact.analysis.lyapunov.two_trajectory`, whose ``_local_clock`` is used): ``|t|`` stays
 below ``T + |t0 mod T|``, the forcing-phase rounding ``u eta |t|`` and the grazing
 depth ``delta(t)`` stay at the level of the first period for any run length
 (with absolute time the apparent depth on the grazing orbit grew to 4e-11 after
@@ -105,7 +105,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import BudgetExceededError, MissedImpactError, ParameterError
 from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.impact import (
     grazing_depth_coefficient,
@@ -134,10 +134,6 @@ _I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R",
 _PHI = (2, 3, 4, 5)
 #: A maximum beyond the wall by more than this many grazing depths is a missed impact.
 GUARD_FACTOR = 4
-
-
-class MissedImpactError(RuntimeError):
-    """The guard found a maximum of ``x`` beyond the wall that no impact event caught."""
 
 
 class _SaltationRecorder:
@@ -408,8 +404,8 @@ def variational_spectrum(
 ) -> LyapunovResult:
     """Both Lyapunov exponents from the variational equations with saltation matrices.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     params : Params
         System and initial condition (the paper's defaults: eta = 0.712 chaotic).
     periods : int, default 20000

@@ -34,7 +34,8 @@ import mpmath
 from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, decimal_str, exact
 
-__all__ = ["Components", "nominal_components", "dimensionless", "exact_omega", "to_mechanical", "to_circuit", "COMPONENT_UNITS"]
+__all__ = [
+    "design_and_start", "Components", "nominal_components", "dimensionless", "exact_omega", "to_mechanical", "to_circuit", "COMPONENT_UNITS"]
 
 #: Each component and its SI unit.
 COMPONENT_UNITS = {
@@ -196,3 +197,27 @@ def _num(q: Fraction, like: Any):
     if isinstance(like, mpmath.mpf):
         return mpmath.mpf(q.numerator) / q.denominator
     return float(q)
+
+
+def design_and_start(system: "Params | Components", x0: Any = None, v0: Any = None, t0: Any = None):
+    """``(design, x0, v0, t0)`` for a circuit solve, from parameters or from components.
+
+    Parameters
+    ----------
+    system : Params or Components
+        ``Params``: the nominal design realising them (:func:`nominal_components`) and
+        their initial condition (unless ``x0``, ``v0``, ``t0`` are given);
+        ``Components``: that design, started from ``x0``, ``v0``, ``t0`` (default 0).
+    x0, v0, t0 : decimal or None, default ``None``
+        Dimensionless initial condition overriding the one of ``system``.
+
+    This is what lets the circuit models implement the :class:`~precise_impact.solvers.base.Solver`
+    protocol (``solve(params, periods)``) and still take a design of their own.
+    """
+    if isinstance(system, Params):
+        design = nominal_components(system)
+        pick = lambda given, own: own if given is None else given  # noqa: E731
+        return design, pick(x0, system.x0), pick(v0, system.v0), pick(t0, system.t0)
+    if isinstance(system, Components):
+        return system, 0 if x0 is None else x0, 0 if v0 is None else v0, 0 if t0 is None else t0
+    raise ParameterError("params", type(system).__name__, "a Params or a Components object")

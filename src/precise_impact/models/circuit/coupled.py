@@ -17,12 +17,15 @@ mechanical impact law on each oscillator's ``V_q``.
 
 from __future__ import annotations
 
+import dataclasses
+
 import time as _time
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from precise_impact.core.result import ResultMixin
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError
 from precise_impact.core.impact import reset_velocity
@@ -98,12 +101,12 @@ def _build(P: Precision):
 
 def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=0, y0=(0, 0), t0=0,
                              per_period: int = 0, precision: str = "float64", zeta: Fraction | None = None,
-                             actual: Components | None = None) -> dict:
+                             actual: Components | None = None) -> "CoupledCircuitTrajectory":
     """Simulate the Fig. 3 circuit; returns dimensionless samples ``t, x, v, y, w`` and impacts.
 
     ``zeta`` (for eq. 15) defaults to the design's own damping.  ``y0`` = (y, y') of
     the slave.  ``actual``: simulated component values (e.g. a tolerance draw; both
-    oscillators share it), read out through ``design``.  Keywords as :func:`precise_impact._coupled.simulate_coupled`.
+    oscillators share it), read out through ``design``.  Keywords as :func:`precise_impact.models.coupled.simulate_coupled`.
     """
     from precise_impact.models.coupled import check_k
 
@@ -140,7 +143,7 @@ def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=
     st = np.asarray(res[-1])
     om, rcv, vuv = conv(omega), conv(rc), conv(vu)
     scale = om * rcv * vuv
-    out = {
+    return CoupledCircuitTrajectory(**{
         "t": P.array([om * t for t in grid])[::step],
         "x": P.array([-s / vuv for s in st[:, 0]])[::step],
         "v": P.array([q / scale for q in st[:, 1]])[::step],
@@ -153,5 +156,37 @@ def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=
         "params": params,
         "R31": R31,
         "R32": R32,
-    }
-    return out
+    })
+
+
+@dataclasses.dataclass
+class CoupledCircuitTrajectory(ResultMixin):
+    """What :func:`simulate_coupled_circuit` returns (dimensionless, read out through the design).
+
+    Attributes
+    ----------
+    t, x, v, y, w : numpy.ndarray
+        Samples at the forcing period: time, master (x, x'), slave (y, y').
+    master_impacts_t, slave_impacts_t : numpy.ndarray
+        Impact times (dimensionless).
+    elapsed_s : float
+        Integration wall time.
+    precision : Precision
+    params : Params
+        The dimensionless parameters of the design.
+    R31, R32 : Fraction
+        The coupling resistors of eq. (15).
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    master_impacts_t: np.ndarray
+    slave_impacts_t: np.ndarray
+    elapsed_s: float
+    precision: Precision
+    params: Params
+    R31: Fraction
+    R32: Fraction

@@ -1,10 +1,10 @@
-"""The circuit model: the op-amp network (:mod:`._network`) with the mechanical impact law.
+"""The circuit model: the op-amp network (:mod:`precise_impact.models.circuit.network`) with the mechanical impact law.
 
 State in volts and seconds (``V_s``, ``V_q``, plus op-amp states in dynamic-GBW
 mode); the wall is the comparator threshold ``V_s = V_wall`` crossed downwards; the
-impact applies :func:`precise_impact._impact.reset_velocity` to ``V_q`` (a linear
+impact applies :func:`precise_impact.core.impact.reset_velocity` to ``V_q`` (a linear
 image of the velocity).  Results are mapped to the dimensionless system with
-:func:`._components.to_mechanical` through the *design* components (the nominal
+:func:`~precise_impact.models.circuit.components.to_mechanical` through the *design* components (the nominal
 ones a scene starts from), so a circuit with drawn tolerances is read out the way
 an experimenter reads the real circuit.
 """
@@ -19,12 +19,12 @@ import mpmath
 import numpy as np
 
 from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import BudgetExceededError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count, check_tol
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.models.circuit.components import Components, dimensionless, exact_omega as dimensionless_omega
+from precise_impact.models.circuit.components import Components, design_and_start, dimensionless, exact_omega as dimensionless_omega
 from precise_impact.models.circuit.effects.catalogue import validate_effects
 from precise_impact.models.circuit.network import NETWORK_PARS, OpAmp, dynamic_network, network_rhs, opamp_from_effects, saturation_events
 from precise_impact.models.circuit.effects.tolerance import draw_components
@@ -109,12 +109,12 @@ def _build(precision: Precision, tol, op: OpAmp):
 class CircuitSolver:
     """The op-amp network with component values, integrated by heyoka in volts and seconds.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     precision : str, default ``'float64'``
     tol : decimal or None, default ``None`` (the precision's epsilon)
     effects : mapping or None, default ``None``
-        ``{name: {setting: value}}`` from :data:`._effects.EFFECTS` that fit model
+        ``{name: {setting: value}}`` from :data:`~precise_impact.models.circuit.effects.catalogue.EFFECTS` that fit model
         ``'circuit'`` (op-amp gain, GBW, saturation, offset; component tolerance).
     max_impacts : int, default ``10**6``
     """
@@ -135,7 +135,7 @@ class CircuitSolver:
         t = self.effects.get("tolerance")
         return design if t is None else draw_components(design, t)
 
-    def solve(self, design: Components, periods: int, x0: Any = 0, v0: Any = 0, t0: Any = 0,
+    def solve(self, params: Params | Components, periods: int, x0: Any = None, v0: Any = None, t0: Any = None,
               per_period: int = 0) -> Trajectory:
         """Simulate ``periods`` forcing periods; samples at ``t0 + k 2 pi / Omega`` (seconds).
 
@@ -143,6 +143,7 @@ class CircuitSolver:
         Returns a :class:`Trajectory` in the dimensionless variables of
         ``dimensionless(design)``; ``stats`` holds the circuit-level arrays.
         """
+        design, x0, v0, t0 = design_and_start(params, x0, v0, t0)
         P = self.precision
         periods = check_count(periods, "periods")
         per_period = check_count(per_period, "per_period", 100_000)

@@ -1,19 +1,21 @@
 """ngspice backend: the circuit of the paper's Fig. 2 simulated by a real circuit simulator.
 
 The paper simulated its circuit in LTspice; this module writes the same circuit as
-an ngspice netlist from the same :class:`~precise_impact._circuit._components.Components`
+an ngspice netlist from the same :class:`~precise_impact.models.circuit.components.Components`
 every circuit model uses, runs ``ngspice -b`` in a subprocess (no PySpice) and maps
 the node voltages back to the dimensionless oscillator with
-:func:`~precise_impact._circuit._components.to_mechanical`.  ngspice >= 39 must be on
+:func:`~precise_impact.models.circuit.components.to_mechanical`.  ngspice >= 39 must be on
 ``PATH`` (Debian/Ubuntu: ``apt-get install ngspice``); developed and measured with
 ngspice 39.3 (Debian 12).
 
 Public API
 ----------
+
 * :func:`spice_netlist` - the netlist text (validates every input first).
 * :func:`run_spice` - run ngspice, return a :class:`SpiceResult`.
 * :func:`draw_components` / :func:`e_series_round` - E-series rounding and seeded
   tolerance draws (the ``tolerance`` effect), reusable by every circuit model.
+
 * :class:`SpiceError`, :class:`NgspiceNotFoundError`.
 
 The netlist
@@ -46,12 +48,14 @@ Impact circuit - all analogue, no XSPICE digital bridge (see the pitfalls):
   a smooth comparator with an output pole; for ``h > 0`` it holds between the
   thresholds (hysteresis without positive feedback).  The impact is ``x > x_w``,
   i.e. ``V_s < V_wall``.
+
 * **A1 toggle flip-flop**: a master-slave pair of gated track/hold cells
   (B-source currents into capacitors, tracking time constant 10 ps) with
   non-overlapping clocks: the master tracks ``NOT ps`` (restored by a steep
   tanh) while ``cmp < 0.4``, the slave ``ps`` tracks the master while
   ``cmp > 0.6``; in hold a cell's current is exactly 0.  The output ``pol`` is
   ``ps`` through a lag ``tau_ff``.
+
 * **U6/U7 analogue switches**: pair A (``n2-ca``, ``q-cb``) conducts for
   ``pol = 0``, pair B (``n2-cb``, ``q-ca``) for ``pol = 1``.  All four are
   B-source conductances driven from the *one* node ``pol``; each resistance moves
@@ -67,7 +71,7 @@ reversal then comes < 1 ns after the wall crossing: measured overshoot
 ~13, so this costs ~1e-5).
 
 Effects and what each maps to (names and settings from
-:data:`precise_impact._circuit._effects.EFFECTS`, model ``'spice'``)
+:data:`precise_impact.models.circuit.effects.catalogue.EFFECTS`, model ``'spice'``)
 -------------------------------------------------------------------------------
 A pure delay ``d`` is mapped to a **first-order lag with the same 50 % step
 delay**, ``tau = d / ln 2`` (a lossless line would be exact but is not needed for
@@ -120,6 +124,7 @@ ngspice pitfalls for this circuit (each verified with ngspice 39.3; the
 experiments are re-run by ``benchmarks/bench_spice.py`` into
 ``benchmarks/results/spice_tmax.md``, section "Pitfalls", whose numbers these are)
 ----------------------------------------------------------------------------------
+
 1. **Comparator straight into an XSPICE digital bridge** (``adc_bridge`` ->
    ``d_tff`` -> ``dac_bridge``): the bridge samples the comparator only at
    accepted analogue steps and nothing in the step control knows the threshold,
@@ -130,12 +135,14 @@ experiments are re-run by ``benchmarks/bench_spice.py`` into
    spuriously (20 toggles instead of 13).  The all-analogue chain makes ngspice
    reject the step across which ``cmp`` jumps (its truncation error) and land
    on the crossing.
+
 2. **Switch pairs driven from two nodes**: with ngspice ``S`` switches
    (R_on = 1 Ohm) and pair A driven by a separately generated complement
    (``polb`` with twice the lag of ``pol``) the pairs overlap and short C2:
    ``|v+/v-|`` = 0.91 per impact (one drive node: 1.0007).  With R_on = 160 Ohm,
    ``R_on C2`` = 16 us >> the overlap and the extra loss is < 1e-3.  Here all
    four switches are functions of one node.
+
 3. **XSPICE flip-flop, batch vs shared library**: the digital-toggle netlist
    gives different impacts in ``ngspice -b`` and through libngspice (ctypes, the
    way PySpice runs it): batch toggled three times within 0.5 ns at the third
@@ -144,21 +151,25 @@ experiments are re-run by ``benchmarks/bench_spice.py`` into
    all-analogue netlist gives bit-identical toggle times in both modes.
    (ngspice's dctran.c has separate ``SHARED_MODULE`` code paths for rejected
    steps - a plausible cause, not proven.)
+
 4. **``.options interp`` with ``-r``**: the binary raw file's header says 16982
    points, its data block holds 18360.2 points' worth of bytes (3075 NaN, time
    not monotone).  Without ``interp`` it is consistent.  This module writes
    text with ``wrdata`` from a ``.control`` block: every accepted time point,
    17 significant digits (``option numdgt=17``).
+
 5. **``uic`` drops t = 0**: under ``.tran ... uic`` the first written point is
    t = 1e-7 s (dctran.c dumps only ``CKTtime > 0`` in MODEUIC); sample 0 is the
    initial condition written into the netlist, and the tests check the first
    accepted point against heyoka.
+
 6. **Trapezoidal ringing**: with ``method=trap`` the stiff logic nodes ring once
    the step grows again, and the latches capture the ringing: with the 14 ns
    flip-flop delay ``pol`` swung between -2.06 and 3.67 and toggled 46 times in
    60 periods instead of 40.  ``method=gear`` (BDF2, L-stable) is therefore the
    default (:data:`DEFAULT_OPTIONS`); its truncation error is about 4x trap's at
    equal TMAX (ideal parts, 10 us: 2.0e-3 vs 5.2e-4, when trap survives).
+
 7. **Bistable elements at large steps**: a step much longer than a latch's time
    constant makes its equation algebraic with several roots, and Newton may
    take any.  A Schmitt trigger with positive feedback (threshold x = 2.005)
@@ -166,9 +177,11 @@ experiments are re-run by ``benchmarks/bench_spice.py`` into
    2.00500 every time); a regenerative latch (relaxing to 0 or 1, an earlier
    design) sat at its metastable 1/2 after ~120 periods (both pairs half on).
    Hence gated track/hold cells, linear in their own state.
+
 8. **Saturating op-amps as algebraic ``tanh`` B-sources**: "Timestep too
    small ... trouble with node n1" at the first impact (a flat ``tanh`` gives
    Newton no slope); saturation therefore clamps the op-amp's pole state.
+
 9. **Landing with op-amp poles** (odd, not fixed): with ``opamp_gbw`` (or the
    slew model) ngspice sometimes accepts one ~100 ns step across the whole
    toggle, so ``impacts_x`` (x at the reversal, interpolated) scatters by
@@ -194,8 +207,6 @@ import shutil
 import subprocess
 import tempfile
 import time as _time
-from decimal import Decimal
-from fractions import Fraction
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -205,10 +216,11 @@ import numpy as np
 from precise_impact.models.circuit.components import Components, to_circuit, to_mechanical
 from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
 from precise_impact.models.circuit.effects.tolerance import E24, E96, draw_components, e_series_round  # the one implementation
-from precise_impact.errors import ParameterError
+from precise_impact.errors import NgspiceNotFoundError, ParameterError, SpiceError
 from precise_impact.core.params import check_count, decimal_str, exact
 
 __all__ = [
+    "SpiceSolver",
     "spice_netlist",
     "run_spice",
     "draw_components",
@@ -254,14 +266,6 @@ _INJ_TAU = 1e-8  # shortest lag of the charge-injection pulse [s]
 _PARASITIC_C = 5e-12  # node capacitance added with break-before-make [F]
 _CLAMP_G = 1e3  # saturation clamp strength [A/V] against the op-amp drive d [A per V]
 _CLAMP_K = 1e3  # saturation clamp knee sharpness [1/V] (knee width ~1 mV)
-
-
-class SpiceError(RuntimeError):
-    """ngspice failed, timed out, or wrote no usable output (message has its log tail)."""
-
-
-class NgspiceNotFoundError(SpiceError):
-    """ngspice is not installed / not on PATH."""
 
 
 # ================================================================== netlist
@@ -382,13 +386,13 @@ def spice_netlist(
 ) -> str:
     """The ngspice netlist of the paper's Fig. 2 for ``components`` and ``effects``.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     components : Components
         Design values (e.g. ``nominal_components(Params.make(eta='0.74'))``).
     effects : mapping or None
         ``{effect: {setting: value}}`` from the catalogue
-        (:data:`precise_impact._circuit._effects.EFFECTS`), model ``'spice'``;
+        (:data:`precise_impact.models.circuit.effects.catalogue.EFFECTS`), model ``'spice'``;
         ``None`` / ``{}`` is the ideal circuit.  Mapping: module docstring.
     periods : int >= 1
         Forcing periods ``2 pi / Omega`` simulated (TSTOP = periods * period).
@@ -434,6 +438,7 @@ def spice_netlist(
     _, vs0, vq0 = to_circuit(components, 0.0, float(x0q), float(v0q), omega)
     with mpmath.workdps(40):  # eta t0 = Omega t0 / omega, rounded once
         phi = float(mpmath.mpf(components.Omega.numerator) / components.Omega.denominator
+
                     * mpmath.mpf(t0q.numerator) / t0q.denominator / components.omega(40))
     vmq0 = -c["R5"] / c["R4"] * vq0
     vp0 = -c["R2"] * (c["V_A"] * math.cos(phi) / c["R1"] + vmq0 / c["R6"] + vs0 / c["R7"])
@@ -448,7 +453,7 @@ def spice_netlist(
     L: list[str] = []
     a = L.append
     a("* precise_impact: electronic impact oscillator (Denysenko, Balcerzak, Dabrowski, Fig. 2)")
-    a(f"* generated by precise_impact._spice; effects: {', '.join(sorted(eff)) or 'none (ideal parts)'}")
+    a(f"* generated by precise_impact.models.circuit.spice; effects: {', '.join(sorted(eff)) or 'none (ideal parts)'}")
     a("* design: " + ", ".join(f"{k}={v}" for k, v in components.decimal().items()))
     if "tolerance" in eff:
         a("* drawn:  " + ", ".join(f"{k}={v}" for k, v in comp.decimal().items()))
@@ -652,9 +657,8 @@ def _find_ngspice(executable: str | None) -> str:
     exe = shutil.which(executable or "ngspice")
     if exe is None:
         raise NgspiceNotFoundError(
-            f"ngspice not found ({executable or 'ngspice'!r} is not on PATH): the spice model needs the "
-            "ngspice circuit simulator (>= 39); install it with 'apt-get install ngspice' "
-            "(Debian/Ubuntu) or from https://ngspice.sourceforge.io"
+            f"the spice model needs the ngspice circuit simulator (>= 39), and {executable or 'ngspice'!r} "
+            "is not on PATH; install it with: apt-get install ngspice"
         )
     return exe
 
@@ -676,8 +680,8 @@ def run_spice(
 ) -> SpiceResult:
     """Simulate the circuit with ``ngspice -b`` and map it to the dimensionless oscillator.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     components, effects, periods, x0, v0, t0, options
         As :func:`spice_netlist`.
     tmax : default ``10e-6`` s
@@ -829,3 +833,58 @@ def _run(exe, netlist, wd: Path, components, eff, periods, tm, x0q, v0q, t0q, ti
         dt, dx, dv = to_mechanical(components, ts, vs, vq, omega)
         res.dense_t, res.dense_x, res.dense_v = dt + t0f, dx, dv
     return res
+
+
+class SpiceSolver:
+    """The ngspice model as a :class:`~precise_impact.solvers.base.Solver`.
+
+    Parameters
+    ----------
+    effects : mapping or None, default ``None``
+        Effects to switch on (names and settings as in the effect catalogue).
+    tmax : float, default ``10e-6``
+        TMAX of ``.tran`` in seconds (error and run time against TMAX:
+        ``benchmarks/results/spice_tmax.md``).
+    timeout : float, default 600
+        Wall-time limit of one ngspice run in seconds.
+    executable : str or None, default ``None``
+        The ngspice binary (``None``: ``ngspice`` on PATH).
+
+    Notes
+    -----
+    ngspice computes in float64, so ``precision`` is always float64.  ``solve``
+    raises :class:`~precise_impact.errors.NgspiceNotFoundError` (an
+    :class:`~precise_impact.errors.OptionalDependencyError`) when ngspice is missing.
+    """
+
+    model_name = "spice"
+
+    def __init__(self, effects: Mapping[str, Mapping[str, Any]] | None = None, tmax: Any = 10e-6,
+                 timeout: float = 600, executable: str | None = None) -> None:
+        from precise_impact.core.precision import Precision
+
+        self.precision = Precision.parse("float64")
+        self.effects = validate_effects(effects, "spice")
+        self.tmax, self.timeout, self.executable = tmax, timeout, executable
+
+    def solve(self, params, periods: int, x0: Any = None, v0: Any = None, t0: Any = None,
+              per_period: int = 0):
+        """Run ngspice for ``periods`` forcing periods; returns a float64 :class:`~precise_impact.Trajectory`.
+
+        Parameters
+        ----------
+        params : Params or Components
+            The system (nominal design realising ``Params``) or a design of your own.
+        periods : int
+            Forcing periods.
+        x0, v0, t0 : decimal or None, default ``None``
+            Dimensionless initial condition overriding the one of ``params``.
+        per_period : int, default 0
+            ``> 0``: also return every accepted ngspice time point as dense output.
+        """
+        from precise_impact.models.circuit.components import design_and_start
+
+        design, x0, v0, t0 = design_and_start(params, x0, v0, t0)
+        res = run_spice(design, self.effects, periods, tmax=self.tmax, x0=x0, v0=v0, t0=t0,
+                        timeout=self.timeout, dense=per_period > 0, executable=self.executable)
+        return res.to_trajectory()

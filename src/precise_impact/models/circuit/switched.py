@@ -31,7 +31,6 @@ the ideal impact with R = 1.  The effects (each off unless a scene switches it o
 
 from __future__ import annotations
 
-import math
 import time as _time
 from fractions import Fraction
 from typing import Any, Mapping
@@ -40,11 +39,11 @@ import numpy as np
 
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
-from precise_impact.core.params import check_count, check_tol
+from precise_impact.core.params import Params, check_count, check_tol
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.models.circuit.opamp import design_omega
-from precise_impact.models.circuit.components import Components, dimensionless
+from precise_impact.models.circuit.components import Components, design_and_start, dimensionless
 from precise_impact.models.circuit.effects.catalogue import validate_effects
 from precise_impact.models.circuit.network import NETWORK_PARS
 from precise_impact.models.circuit.effects import comparator, flipflop, switch
@@ -140,13 +139,13 @@ def _build(P: Precision, tol):
 class SwitchedCapacitorSolver:
     """Comparator, flip-flop and analog switches reversing C2, at component level.
 
-    Keywords
-    --------
+    Parameters
+    ----------
     precision : str, default ``'float64'``
     tol : decimal or None, default ``None`` (the precision's epsilon)
     effects : mapping or None, default ``None``
         Effects fitting ``'switched-capacitor'``: ``comparator``, ``flipflop``,
-        ``switch``, ``tolerance`` (:data:`._effects.EFFECTS`).
+        ``switch``, ``tolerance`` (:data:`~precise_impact.models.circuit.effects.catalogue.EFFECTS`).
     max_impacts : int, default ``10**6``
     """
 
@@ -167,7 +166,7 @@ class SwitchedCapacitorSolver:
         self.delay = comparator.delay(self.effects.get("comparator")) + flipflop.delay(self.effects.get("flipflop"))
         self.hyst = self.effects.get("comparator", {}).get("hysteresis", Fraction(0))
 
-    def solve(self, design: Components, periods: int, x0: Any = 0, v0: Any = 0, t0: Any = 0,
+    def solve(self, params: Params | Components, periods: int, x0: Any = None, v0: Any = None, t0: Any = None,
               per_period: int = 0) -> Trajectory:
         """Simulate; samples at ``t0 + k 2 pi / Omega``, mapped to the dimensionless system.
 
@@ -175,6 +174,7 @@ class SwitchedCapacitorSolver:
         ``impacts_t`` is that instant (dimensionless), ``v_before``/``v_after`` the
         mapped ``V_q`` just before the switches opened and just after they closed.
         """
+        design, x0, v0, t0 = design_and_start(params, x0, v0, t0)
         P = self.precision
         periods = check_count(periods, "periods")
         per_period = check_count(per_period, "per_period", 100_000)

@@ -60,7 +60,7 @@ def draw_components(components: Components, settings: Mapping[str, Any] | None =
     """Realised part values: E-series nominal, then a seeded draw within tolerance.
 
     Keywords (``settings``, the ``tolerance`` effect's table; missing keys take the
-    catalogue defaults of :mod:`.._effects`):
+    catalogue defaults of :mod:`precise_impact.models.circuit.effects.catalogue`):
 
     * ``resistor_pct`` (default 1 %): R1-R8 are rounded to the nearest **E96**
       value (the 1 % series), then multiplied by ``1 + resistor_pct/100 * u``.

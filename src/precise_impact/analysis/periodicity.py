@@ -1,0 +1,31 @@
+"""Periods of stroboscopic sequences: the one home of period detection.
+
+Used by the batch Lyapunov code (each sweep point's period), by the scores (a
+model's detected period against the reference's) and by the reports.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["detect_period"]
+
+
+def detect_period(xs: np.ndarray, vs: np.ndarray, max_period: int = 32, rtol: float = 1e-6) -> int:
+    """Smallest p <= ``max_period`` with the stroboscopic samples p-periodic, else 0.
+
+    Every one of the last ``2 max_period`` samples must repeat after p periods to
+    ``rtol * (1 + |x|)``; 0 means no period up to ``max_period`` (chaotic,
+    quasi-periodic, or still transient).
+    """
+    n = len(xs)
+    w = min(n, 2 * max_period)
+    for p in range(1, max_period + 1):
+        if n < w + p:
+            break
+        a = slice(n - w, n)
+        b = slice(n - w - p, n - p)
+        tol = rtol * (1 + np.abs(xs[a]) + np.abs(vs[a]))
+        if np.all(np.abs(xs[a] - xs[b]) <= tol) and np.all(np.abs(vs[a] - vs[b]) <= tol):
+            return p
+    return 0

@@ -1,0 +1,109 @@
+"""One base for result types: ``to_dict()`` (JSON-ready) and ``save(path)`` (atomic).
+
+Every public function returns a dataclass that mixes in :class:`ResultMixin`:
+:class:`~precise_impact.Trajectory`, :class:`~precise_impact.LyapunovResult`, the
+sync, bifurcation, sweep, accuracy and compare results.  ``to_dict()`` turns a result
+into plain JSON types (exact parameters as decimal strings, numbers of the float
+precisions as floats, numbers of the other precisions as round-trip decimal strings,
+arrays as lists); ``save(path)`` writes that dictionary as JSON, or the arrays as
+``.npz``, atomically.
+
+Results that replaced the plain dictionaries of 0.1.0 also accept ``result["key"]``
+for one release (the same value as ``result.key``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.errors import ParameterError
+from precise_impact.io.atomic import atomic_write, write_json
+
+__all__ = ["ResultMixin", "to_jsonable"]
+
+
+def to_jsonable(obj: Any) -> Any:
+    """``obj`` in plain JSON types (see the module docstring); non-finite floats become ``None``."""
+    from precise_impact.core.params import Params, decimal_str
+    from precise_impact.core.precision import Precision
+
+    if obj is None or isinstance(obj, (bool, str, int)):
+        return obj
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, Fraction):
+        return decimal_str(obj)
+    if isinstance(obj, Params):
+        return obj.decimal()
+    if isinstance(obj, Precision):
+        return obj.name
+    if isinstance(obj, ResultMixin):
+        return obj.to_dict()
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, np.generic):
+        return to_jsonable(obj.item())
+    if isinstance(obj, np.ndarray):
+        if obj.dtype.kind in "fiub":
+            return [to_jsonable(v) for v in obj.tolist()]
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if dataclasses.is_dataclass(obj):
+        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    return str(obj)  # heyoka real / real128: their str() round-trips
+
+
+class ResultMixin:
+    """``to_dict()``, ``save(path)`` and (for one release) ``result["field"]`` for dataclass results."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The result as plain JSON types (``json.dumps(result.to_dict())`` always works)."""
+        return {f.name: to_jsonable(getattr(self, f.name)) for f in dataclasses.fields(self)}  # type: ignore[arg-type]
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the result atomically: ``.json`` (:meth:`to_dict`) or ``.npz`` (its arrays and scalars).
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+
+        Raises
+        ------
+        ParameterError
+            ``path`` ends in neither ``.json`` nor ``.npz``.
+        """
+        path = Path(path)
+        if path.suffix == ".json":
+            write_json(path, self.to_dict())
+        elif path.suffix == ".npz":
+            arrays = {}
+            for f in dataclasses.fields(self):  # type: ignore[arg-type]
+                v = getattr(self, f.name)
+                if isinstance(v, np.ndarray) and v.dtype != object:
+                    arrays[f.name] = v
+                elif isinstance(v, (int, float, bool, np.generic)):
+                    arrays[f.name] = np.asarray(v)
+            atomic_write(path, lambda fh: np.savez_compressed(fh, **arrays), binary=True)
+        else:
+            raise ParameterError("path", str(path), "a file ending in .json or .npz")
+        return path
+
+    def __contains__(self, key: object) -> bool:
+        return key in {f.name for f in dataclasses.fields(self)}  # type: ignore[arg-type]
+
+    def __getitem__(self, key: str) -> Any:
+        names = {f.name for f in dataclasses.fields(self)}  # type: ignore[arg-type]
+        if key not in names:
+            raise KeyError(key)
+        return getattr(self, key)

@@ -1,0 +1,41 @@
+"""Error metrics between a trajectory and a reference, and the reference precision they need.
+
+The one home of the general metrics used by the accuracy table, the scores, the
+reference datasets, the work-precision harness and the main job.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mpmath
+
+from precise_impact.core.trajectory import Trajectory
+
+__all__ = ["DIGITS_LOST_PER_PERIOD", "reference_bits", "sample_errors"]
+
+
+#: Decimal digits lost per forcing period in the chaotic regime (measured: float64
+#: O(1) after ~140 periods, float128 after ~290, 256 bits after ~650).
+DIGITS_LOST_PER_PERIOD = 0.12
+
+
+def reference_bits(periods: int, target_digits: int = 30) -> int:
+    """Bits a chaotic reference needs to keep ``target_digits`` after ``periods`` periods.
+
+    Rounded up to a multiple of 64 and at least 128; uses a 1.5x safety factor on the
+    measured loss rate.
+    """
+    digits = target_digits + 1.5 * DIGITS_LOST_PER_PERIOD * periods + 5
+    return max(128, 64 * math.ceil(digits * math.log2(10) / 64))
+
+
+def sample_errors(traj: Trajectory, ref: Trajectory) -> list[float]:
+    """``max(|x - x_ref|, |v - v_ref|)`` at every stroboscopic sample, as floats."""
+    out = []
+    with mpmath.workprec(max(traj.precision.bits, ref.precision.bits) + 16):
+        for k in range(min(len(traj.t), len(ref.t))):
+            _, x, v = traj.state_mpf(k)
+            _, xr, vr = ref.state_mpf(k)
+            out.append(float(max(abs(x - xr), abs(v - vr))))
+    return out
