@@ -43,7 +43,9 @@ def pytest_collection_modifyitems(config, items):
     skip = pytest.mark.skip(reason="this heyoka build has no quad precision (heyoka.real128)")
     for item in items:
         # A parametrized case needs quad if its id says so; any other test needs it
-        # if its code asks for float128.
+        # if its code asks for float128, unless it is marked to run without it.
+        if item.get_closest_marker("without_quad"):
+            continue
         if hasattr(item, "callspec"):
             needs = "float128" in item.nodeid
         else:

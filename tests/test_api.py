@@ -137,6 +137,7 @@ def test_missing_dask_is_one_line_and_exit_2(tmp_path):
     assert "dask" in lines[0] and "pip install 'precise_impact[dask]'" in lines[0]
 
 
+@pytest.mark.without_quad
 def test_float128_without_quad_precision_is_refused_clearly(monkeypatch):
     """A heyoka build without heyoka.real128: float64 still works, float128 is refused by name."""
     import heyoka

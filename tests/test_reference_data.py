@@ -116,3 +116,23 @@ def test_readme_example():
     print(ref.precision, ref.accuracy, ref.x[300])
     # ---------------------------------------------------------------------------------
     assert np.isfinite(scores["max_error"])
+
+
+def test_environment_override_is_honoured_by_the_cli(tmp_path):
+    """$PRECISE_IMPACT_REFERENCE points `reference verify` (and every other entry point) at a copy:
+    a tampered copy must fail there, while the shipped data still passes."""
+    import os
+    import subprocess
+    import sys
+
+    copy = tmp_path / "ref"
+    shutil.copytree(ROOT / "single-0.74", copy / "single-0.74")
+    p = copy / "single-0.74" / "samples.json"
+    p.write_text(p.read_text().replace('"x": "0', '"x": "1', 1))
+    env = dict(os.environ, PRECISE_IMPACT_REFERENCE=str(copy))
+    cmd = [sys.executable, "-m", "precise_impact", "reference", "verify", "--case", "single-0.74"]
+    bad = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    assert bad.returncode == 1 and "checksum mismatch" in bad.stdout + bad.stderr
+    env.pop("PRECISE_IMPACT_REFERENCE")
+    good = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    assert good.returncode == 0, good.stdout + good.stderr

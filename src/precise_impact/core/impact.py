@@ -27,9 +27,11 @@ from typing import Any, Sequence
 import mpmath
 
 from precise_impact.core.flow import acceleration
+from precise_impact.core.params import RUNTIME_PARAMS
 
 __all__ = [
     "reset_velocity",
+    "grazing_depth",
     "saltation_matrix",
     "oscillator_saltation",
     "impact_at_start",
@@ -217,6 +219,11 @@ def steady_amplitude(params) -> float:
         return float(abs(params.a))
 
 
+# Positions in an integrator's parameter vector (RUNTIME_PARAMS order), looked up once:
+# GrazingDepth is called at every impact event.
+_I_XW, _I_A, _I_ETA = (RUNTIME_PARAMS.index(n) for n in ("x_w", "a", "eta"))
+
+
 class GrazingDepth:
     """Grazing depth ``delta(t) = coef (|x_w| + |a| + amp (1 + eta |t|))``, or a fixed value.
 
@@ -231,12 +238,20 @@ class GrazingDepth:
         self.fixed = fixed
 
     def __call__(self, t: Any, pr: Any) -> Any:
-        from precise_impact.core.params import RUNTIME_PARAMS
-
         if self.fixed is not None:
             return self.fixed
-        i = {n: k for k, n in enumerate(RUNTIME_PARAMS)}
-        return self.coef * (abs(pr[i["x_w"]]) + abs(pr[i["a"]]) + self.amp * (1 + pr[i["eta"]] * abs(t)))
+        return grazing_depth(self.coef, self.amp, t, pr[_I_XW], pr[_I_A], pr[_I_ETA])
+
+
+def grazing_depth(coef: Any, amp: Any, t: Any, x_w: Any, a: Any, eta: Any) -> Any:
+    """The grazing-depth formula ``coef (|x_w| + |a| + amp (1 + eta |t|))``, written once.
+
+    :class:`GrazingDepth` evaluates it from an integrator's parameter vector; the SIMD
+    batch Lyapunov code per lane.  ``coef`` is :func:`grazing_depth_coefficient` in the
+    working precision, ``amp`` the steady-state amplitude (:func:`steady_amplitude`),
+    ``t`` the local clock.
+    """
+    return coef * (abs(x_w) + abs(a) + amp * (1 + eta * abs(t)))
 
 
 def is_contact(v_minus: Any, acc_minus: Any, depth: Any) -> bool:

@@ -228,7 +228,17 @@ class Precision:
         with mpmath.workprec(self.bits + guard):
             step = 2 * mpmath.pi / (mpmath.mpf(eta.numerator) / eta.denominator) / per_period
             t0m = mpmath.mpf(t0.numerator) / t0.denominator
-            return [self.from_mpf(t0m + j * step) for j in range(n + 1)]
+            if self.kind != "float64":
+                return [self.from_mpf(t0m + j * step) for j in range(n + 1)]
+        # float64: the same values without an mpmath operation per sample.  With
+        # t0m = m0 2^e0 and step = ms 2^es (both exact at the working precision above),
+        # t0m + j step = (A + j B) 2^E exactly in integers, and float(int) rounds once,
+        # to nearest (Python's int -> float conversion is correctly rounded); ldexp by a
+        # power of two is exact.  Fewer roundings than the mpmath sum, ~20x faster.
+        (m0, e0), (ms, es) = _mpf_man_exp(t0m), _mpf_man_exp(step)
+        E = min(e0, es)
+        A, B = m0 << (e0 - E), ms << (es - E)
+        return [math.ldexp(float(A + j * B), E) for j in range(n + 1)]
 
     def __str__(self) -> str:
         return self.name

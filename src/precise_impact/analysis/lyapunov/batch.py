@@ -26,13 +26,14 @@ from typing import Sequence
 
 import numpy as np
 
+from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
 from precise_impact.core.flow import acceleration
-from precise_impact.core.impact import GRAZING_SAFETY, steady_amplitude
+from precise_impact.core.impact import GRAZING_SAFETY, grazing_depth, steady_amplitude
 from precise_impact.analysis.lyapunov.variational import GUARD_FACTOR, MissedImpactError
 
 __all__ = ["batch_lle", "detect_period", "default_batch_size"]
@@ -40,13 +41,14 @@ __all__ = ["batch_lle", "detect_period", "default_batch_size"]
 _IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
 
 
-_U = 2.0**-53  # float64 unit roundoff
+_COEF64 = GRAZING_SAFETY * 2.0**-53  # grazing_depth_coefficient(float64), exactly (a power of two times 16)
 _I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R", "x_w"))
 
 
 def _depth(t: float, pr, i: int, amp: float) -> float:
-    """Grazing depth of lane ``i`` at local time ``t``, ``amp`` its steady amplitude (see :mod:`precise_impact.analysis.lyapunov.variational`)."""
-    return GRAZING_SAFETY * _U * (abs(pr[_I_XW, i]) + abs(pr[_I_A, i]) + amp * (1 + pr[_I_ETA, i] * abs(t)))
+    """Grazing depth of lane ``i`` at local time ``t``, ``amp`` its steady amplitude (the one formula,
+    :func:`~precise_impact.core.impact.grazing_depth`, with float64's coefficient)."""
+    return grazing_depth(_COEF64, amp, t, pr[_I_XW, i], pr[_I_A, i], pr[_I_ETA, i])
 
 
 class _BatchSaltation:
@@ -84,19 +86,12 @@ class _BatchSaltation:
         b0 = S[0][0] * p01 + S[0][1] * p11
         a1 = S[1][0] * p00 + S[1][1] * p10
         b1 = S[1][0] * p01 + S[1][1] * p11
-        # QR at once (module docstring of ._variational): the logs carry the growth.
-        r11 = math.sqrt(a0 * a0 + a1 * a1)
-        q0, q1 = a0 / r11, a1 / r11
-        proj = q0 * b0 + q1 * b1
-        c0, c1 = b0 - proj * q0, b1 - proj * q1
-        r22 = math.sqrt(c0 * c0 + c1 * c1)
-        st[2, i], st[4, i] = q0, q1
+        # QR at once (module docstring of the variational method): the logs carry the growth.
+        st[2, i], st[4, i], st[3, i], st[5, i], r11, r22 = gram_schmidt2(a0, a1, b0, b1)
         self.log1[i] += math.log(r11)
         if r22 > 0:
-            st[3, i], st[5, i] = c0 / r22, c1 / r22
             self.log2[i] += math.log(r22)
-        else:  # plastic impact (R = 0): lambda2 = -inf, re-seed orthogonally
-            st[3, i], st[5, i] = -q1, q0
+        else:  # plastic impact (R = 0): lambda2 = -inf (the second column was re-seeded)
             self.log2[i] = -math.inf
         st[1, i] = reset_velocity(vb, R)
         st[0, i] = x_w
@@ -265,16 +260,8 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
             )
         ta.set_time(L0)  # the forcing is T-periodic: set every lane's clock back one period
         s = ta.state
-        a0, b0, a1, b1 = s[2], s[3], s[4], s[5]
-        r11 = np.sqrt(a0 * a0 + a1 * a1)
-        q0, q1 = a0 / r11, a1 / r11
-        proj = q0 * b0 + q1 * b1
-        c0, c1 = b0 - proj * q0, b1 - proj * q1
-        r22 = np.sqrt(c0 * c0 + c1 * c1)
-        safe = r22 > 0
-        s[2], s[4] = q0, q1
-        s[3] = np.where(safe, c0 / np.where(safe, r22, 1.0), -q1)
-        s[5] = np.where(safe, c1 / np.where(safe, r22, 1.0), q0)
+        q0, q1, u0, u1, r11, r22 = gram_schmidt2(s[2], s[4], s[3], s[5], np.sqrt)
+        s[2], s[4], s[3], s[5] = q0, q1, u0, u1
         c1_log, c2_log = rec.log1.copy(), rec.log2.copy()  # in-callback QR logs of this period
         rec.log1[:] = 0.0
         rec.log2[:] = 0.0

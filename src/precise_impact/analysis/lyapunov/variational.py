@@ -104,6 +104,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, MissedImpactError, ParameterError
 from precise_impact.core.impact import GrazingDepth as _Depth
@@ -293,19 +294,9 @@ def _gram_schmidt(st, sqrt, log):
     else:
         a0, b0, a1, b1 = st[2], st[3], st[4], st[5]
     # columns: c1 = (a0, a1) (d/dx0), c2 = (b0, b1) (d/dv0)
-    r11 = sqrt(a0 * a0 + a1 * a1)
-    q0, q1 = a0 / r11, a1 / r11
-    proj = q0 * b0 + q1 * b1
-    b0, b1 = b0 - proj * q0, b1 - proj * q1
-    r22 = sqrt(b0 * b0 + b1 * b1)
-    st[2], st[4] = q0, q1
+    st[2], st[4], st[3], st[5], r11, r22 = gram_schmidt2(a0, a1, b0, b1, sqrt)
     if r22 == 0:
-        # A plastic impact (R = 0, det S = 0) collapses the tangent space onto one
-        # direction: the second exponent is -inf.  Re-seed the second vector
-        # orthogonal to the first so the first exponent stays well defined.
-        st[3], st[5] = -q1, q0
-        return log(r11), -math.inf
-    st[3], st[5] = b0 / r22, b1 / r22
+        return log(r11), -math.inf  # plastic impact (R = 0): the second exponent is -inf
     return log(r11), log(r22)
 
 
