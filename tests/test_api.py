@@ -177,3 +177,14 @@ def test_output_files_respect_the_umask(tmp_path):
     finally:
         os.umask(old)
     assert (tmp_path / "t.npz").stat().st_mode & 0o777 == 0o640
+
+
+def test_missing_scipy_is_one_line_and_exit_2_before_any_work(tmp_path):
+    code = ("import sys; sys.modules['scipy'] = None; sys.modules['scipy.integrate'] = None; "
+            "from precise_impact.cli.main import main; "
+            f"sys.exit(main(['bench', 'work-precision', '--quick', '--out', {str(tmp_path / 'wp')!r}]))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert "scipy" in lines[0] and "pip install 'precise_impact[bench]'" in lines[0]
+    assert not (tmp_path / "wp").exists()  # refused before any work or output

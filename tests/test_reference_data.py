@@ -136,3 +136,26 @@ def test_environment_override_is_honoured_by_the_cli(tmp_path):
     env.pop("PRECISE_IMPACT_REFERENCE")
     good = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
     assert good.returncode == 0, good.stdout + good.stderr
+
+
+def test_a_damaged_reference_is_an_error_not_a_verdict(tmp_path):
+    """0.1.0 scored against a corrupted copy, blamed the correct solver and reported the reference
+    as accurate.  Now the checksums are checked first: the error names the file, for the
+    testing API with root= and through $PRECISE_IMPACT_REFERENCE alike."""
+    import os
+
+    from precise_impact import ReferenceDataError
+
+    copy = tmp_path / "ref"
+    shutil.copytree(ROOT / "single-0.74", copy / "single-0.74")
+    p = copy / "single-0.74" / "samples.json"
+    p.write_text(p.read_text().replace('"x": "0', '"x": "1', 1))
+    with pytest.raises(ReferenceDataError, match=r"samples\.json"):
+        assert_stroboscopic_close(heyoka_float64, "single-0.74", periods=30, atol=1e-6, rtol=1e-6, root=copy)
+    os.environ["PRECISE_IMPACT_REFERENCE"] = str(copy)
+    try:
+        with pytest.raises(ReferenceDataError, match="checksum mismatch"):
+            load_reference("single-0.74")
+    finally:
+        del os.environ["PRECISE_IMPACT_REFERENCE"]
+    assert load_reference("single-0.74").name == "single-0.74"  # the shipped data still loads

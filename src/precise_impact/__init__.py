@@ -30,6 +30,7 @@ from precise_impact.errors import (
     NgspiceNotFoundError,
     OptionalDependencyError,
     ParameterError,
+    ReferenceDataError,
     SpiceError,
 )
 from precise_impact.core.params import PARAM_NAMES, RUNTIME_PARAMS, Params
@@ -68,7 +69,7 @@ from precise_impact.verification.reproduce import ReproduceResult, reproduce
 __all__ = [
     # errors
     "BudgetExceededError", "MissedImpactError", "NgspiceNotFoundError", "OptionalDependencyError",
-    "ParameterError", "SpiceError",
+    "ParameterError", "ReferenceDataError", "SpiceError",
     # core
     "PARAM_NAMES", "RUNTIME_PARAMS", "Params", "Precision", "SteadyState", "acceleration",
     "grazing_frequencies", "steady_state", "impact_at_start", "oscillator_saltation", "reset_velocity",

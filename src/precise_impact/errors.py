@@ -58,3 +58,11 @@ class NgspiceNotFoundError(SpiceError, OptionalDependencyError):
     def __init__(self, message: str):
         RuntimeError.__init__(self, message)
         self.component, self.install, self.purpose = "ngspice", "apt-get install ngspice", "the spice model"
+
+
+class ReferenceDataError(RuntimeError):
+    """A reference dataset is missing, damaged or changed since it was generated.
+
+    Raised by every loader before any scoring: a damaged reference is never turned into a
+    verdict on the solver being scored.  The message names the case and the file.
+    """

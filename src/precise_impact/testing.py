@@ -32,6 +32,8 @@ from typing import Any, Callable, Sequence
 import mpmath
 import numpy as np
 
+from precise_impact.errors import ReferenceDataError
+
 __all__ = ["ReferenceCase", "load_reference", "score_solver", "assert_stroboscopic_close", "SINGLE_CASES"]
 
 #: Cases with stroboscopic samples usable by :func:`score_solver`.
@@ -100,16 +102,22 @@ def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike
     """
     if case not in SINGLE_CASES:
         raise ValueError(f"case must be one of {', '.join(SINGLE_CASES)}, got {case!r}")
+    from precise_impact.verification.reference import checksum_problems
+
     d = _root(root) / case
-    try:
-        with open(d / "samples.json") as fh:
-            data = json.load(fh)
-        with open(d / "manifest.json") as fh:
-            manifest = json.load(fh)
-    except FileNotFoundError as e:
-        raise FileNotFoundError(
+    if not d.is_dir():
+        raise ReferenceDataError(
             f"reference case {case!r} not found under {d.parent} (run `precise-impact reference generate`)"
-        ) from e
+        )
+    # The checksums first: a damaged reference must be an error naming the file, never a
+    # verdict on the solver being scored.
+    problems = checksum_problems(d, case)
+    if problems:
+        raise ReferenceDataError(f"reference data under {d} cannot be trusted: " + "; ".join(problems))
+    with open(d / "samples.json") as fh:
+        data = json.load(fh)
+    with open(d / "manifest.json") as fh:
+        manifest = json.load(fh)
 
     if as_float:
         conv: Callable[[str], Any] = float

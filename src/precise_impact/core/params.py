@@ -20,7 +20,8 @@ import numpy as np
 
 from precise_impact.errors import ParameterError
 
-__all__ = ["Params", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES", "RUNTIME_PARAMS"]
+__all__ = ["Params", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES", "RUNTIME_PARAMS", "MAX_DIGITS",
+           "MAX_EXPONENT"]
 
 #: Order of the fields, also the order of the CLI flags and of ``--json`` output.
 PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
@@ -44,45 +45,101 @@ _DEFAULTS = {
 }
 
 
-def exact(name: str, value: Any) -> Fraction:
+#: Longest decimal string accepted for one number (a 5000-digit decimal is refused, not expanded).
+MAX_DIGITS = 400
+
+#: Default magnitude range of a number: 0, or 10**-MAX_EXPONENT <= |value| <= 10**MAX_EXPONENT.
+#: Inside it every value converts to float64 without overflow or underflow (float64 reaches
+#: 1.8e308 and 2.2e-308), so no precision sees an infinite or flushed-to-zero parameter.
+MAX_EXPONENT = 100
+
+
+def exact(name: str, value: Any, max_exponent: int = MAX_EXPONENT) -> Fraction:
     """Convert a user value to an exact rational, or raise :class:`ParameterError`.
 
-    Accepted: decimal strings (``"0.712"``, ``"1e-3"``, ``"102/53"``), ``int``,
-    :class:`~fractions.Fraction`, :class:`~decimal.Decimal`, and ``float``.  A float
-    is read as the *shortest decimal that round-trips to it* (``0.712`` means the
-    decimal 0.712, which is what the user typed), not as its binary value.
-    NaN, infinities, booleans and other types are refused.
+    The one number parser of the package: every parameter, tolerance, coupling, grid
+    bound and component value goes through it.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name (for the error message).
+    value : str, int, float, Fraction, Decimal or numpy scalar
+        Decimal strings (``"0.712"``, ``"1e-3"``, ``"102/53"``), ``int``,
+        :class:`~fractions.Fraction`, :class:`~decimal.Decimal`, ``float`` and numpy
+        integer / floating scalars.  A float is read as the *shortest decimal that
+        round-trips to it* (``0.712`` means the decimal 0.712, which is what the user
+        typed), not as its binary value.
+    max_exponent : int, default :data:`MAX_EXPONENT` (100)
+        The value must be 0 or have ``10**-max_exponent <= |value| <= 10**max_exponent``.
+
+    Raises
+    ------
+    ParameterError
+        NaN, infinities, booleans, other types, strings longer than :data:`MAX_DIGITS`
+        characters, and magnitudes outside the range.  Sizes and exponents are checked
+        *before* any exact arithmetic, so ``'1e999999999'`` is refused at once instead of
+        being expanded into a billion-digit integer.
     """
-    if isinstance(value, bool):
+    rng = f"0, or 1e-{max_exponent} <= |{name}| <= 1e{max_exponent}"
+    if isinstance(value, (bool, np.bool_)):
         raise ParameterError(name, value, "expected a finite number, got a boolean")
+    if isinstance(value, np.integer):
+        value = int(value)
+    elif isinstance(value, np.floating):
+        value = float(value)
     if isinstance(value, Fraction):
-        return value
-    if isinstance(value, int):
-        return Fraction(value)
-    if isinstance(value, float):
+        q = value
+    elif isinstance(value, int):
+        if value.bit_length() > 4 * max_exponent + 4:  # |value| > ~16^max_exponent: refuse before printing it
+            raise ParameterError(name, f"<integer of {value.bit_length()} bits>", rng)
+        q = Fraction(value)
+    elif isinstance(value, float):
         if not math.isfinite(value):
             raise ParameterError(name, value, "every value must be finite (no NaN or inf)")
-        return Fraction(repr(value))
+        q = Fraction(repr(value))
+    elif isinstance(value, (str, Decimal)):
+        q = _parse_decimal(name, value, max_exponent, rng)
+    else:
+        raise ParameterError(
+            name, value, f"expected a decimal string, int, Fraction or float, got {type(value).__name__}"
+        )
+    if q != 0 and not (Fraction(1, 10**max_exponent) <= abs(q) <= 10**max_exponent):
+        raise ParameterError(name, _short(value), rng)
+    return q
+
+
+def _short(value: Any) -> str:
+    s = str(value)
+    return s if len(s) <= 40 else s[:20] + "..." + s[-10:]
+
+
+def _parse_decimal(name: str, value: "str | Decimal", max_exponent: int, rng: str) -> Fraction:
+    """A decimal string, ratio or Decimal -> Fraction, with sizes bounded before expansion."""
     if isinstance(value, Decimal):
-        if not value.is_finite():
-            raise ParameterError(name, value, "every value must be finite (no NaN or inf)")
-        return Fraction(value)
-    if isinstance(value, str):
+        d = value
+    else:
         s = value.strip()
+        if len(s) > MAX_DIGITS:
+            raise ParameterError(name, _short(s), f"at most {MAX_DIGITS} characters")
+        if "/" in s:
+            num, _, den = s.partition("/")
+            a, b = _parse_decimal(name, num, max_exponent, rng), _parse_decimal(name, den, max_exponent, rng)
+            if b == 0:
+                raise ParameterError(name, s, "a ratio p/q needs q != 0")
+            return a / b
         try:
-            if "/" in s:
-                return Fraction(s)
             d = Decimal(s)
-        except (InvalidOperation, ValueError, ZeroDivisionError):
+        except (InvalidOperation, ValueError):
             raise ParameterError(
-                name, value, "expected a decimal number such as '0.712' or a ratio such as '102/53'"
+                name, _short(value), "expected a decimal number such as '0.712' or a ratio such as '102/53'"
             ) from None
-        if not d.is_finite():
-            raise ParameterError(name, value, "every value must be finite (no NaN or inf)")
-        return Fraction(d)
-    raise ParameterError(
-        name, value, f"expected a decimal string, int, Fraction or float, got {type(value).__name__}"
-    )
+    if not d.is_finite():
+        raise ParameterError(name, _short(value), "every value must be finite (no NaN or inf)")
+    # adjusted() is the exponent of the leading digit: known without expanding the number.
+    if not d.is_zero() and not -max_exponent - 1 <= d.adjusted() <= max_exponent:
+        raise ParameterError(name, _short(value), rng)
+    return Fraction(d)
 
 
 def check_count(value: Any, name: str = "periods", maximum: int = 10**8) -> int:
@@ -101,7 +158,7 @@ def check_tol(tol: Any, name: str = "tol") -> Fraction | None:
     """Validate an integrator tolerance: ``None`` (the precision's epsilon) or exact ``0 < tol < 1``."""
     if tol is None:
         return None
-    q = exact(name, tol)
+    q = exact(name, tol, max_exponent=3000)  # mp:8192's epsilon is ~1e-2466
     if not 0 < q < 1:
         raise ParameterError(name, str(tol), "tolerance must satisfy 0 < tol < 1")
     return q
@@ -183,6 +240,15 @@ class Params:
     v0: Fraction
     t0: Fraction
 
+    def __post_init__(self) -> None:
+        # However a Params is built (make, the constructor, dataclasses.replace), its
+        # fields are exact rationals inside their ranges.
+        for n in PARAM_NAMES:
+            v = getattr(self, n)
+            if not isinstance(v, Fraction):
+                object.__setattr__(self, n, exact(n, v))
+        self.validate()
+
     @classmethod
     def make(cls, **values: Any) -> "Params":
         """Build and validate.  Unknown names are refused; missing ones take defaults."""
@@ -192,10 +258,7 @@ class Params:
                 unknown[0], values[unknown[0]], f"unknown parameter; known: {', '.join(PARAM_NAMES)}"
             )
         merged = {n: values[n] if values.get(n) is not None else _DEFAULTS[n] for n in PARAM_NAMES}
-        q = {n: exact(n, merged[n]) for n in PARAM_NAMES}
-        p = cls(**q)
-        p.validate()
-        return p
+        return cls(**{n: exact(n, merged[n]) for n in PARAM_NAMES})
 
     def validate(self) -> None:
         """Check every range; raise :class:`ParameterError` naming the first bad one."""
@@ -227,4 +290,7 @@ class Params:
 
     @classmethod
     def from_mapping(cls, m: Mapping[str, Any]) -> "Params":
-        return cls.make(**dict(m))
+        """Build from a mapping ``{name: value}`` (e.g. parsed JSON); see :meth:`make`."""
+        if not isinstance(m, Mapping):
+            raise ParameterError("params", type(m).__name__, "a Params or a mapping {name: value}")
+        return cls.make(**{str(k): v for k, v in m.items()})

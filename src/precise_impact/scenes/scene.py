@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from precise_impact.errors import ParameterError
-from precise_impact.core.params import PARAM_NAMES, Params, check_count, check_tol, decimal_str, exact
+from precise_impact.core.params import PARAM_NAMES, Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.solvers.base import MODEL_ALIASES
 
@@ -181,7 +181,7 @@ def _build(data: Mapping, source: str) -> Scene:
         raise ParameterError("model.name", model, "coupled scenes run on 'heyoka' (alias 'mechanical') or 'circuit'")
     precision = Precision.parse(str(model_t.get("precision", "float64")))
     tol = model_t.get("tol")
-    check_tol(tol, "model.tol")
+    precision.check_tol(tol, "model.tol")
     tmax = None
     if "tmax" in model_t:
         if model != "spice":

@@ -113,10 +113,14 @@ class _MpmathOps:
     cos = staticmethod(mpmath.cos)
     cos_sin = staticmethod(mpmath.cos_sin)
 
-    def __init__(self, dps: int) -> None:
-        self.dps = dps
-        with mpmath.workdps(dps):
-            self.prec = mpmath.mp.prec
+    def __init__(self, dps: int | None = None, bits: int | None = None) -> None:
+        if bits is not None:
+            self.prec, self.dps = bits, mpmath.libmp.prec_to_dps(bits)
+        else:
+            with mpmath.workdps(dps):
+                self.prec = mpmath.mp.prec
+            self.dps = dps
+        with mpmath.workprec(self.prec):
             self.u = mpmath.ldexp(mpmath.mpf(1), -self.prec)
 
     @property
@@ -124,7 +128,7 @@ class _MpmathOps:
         return +mpmath.pi
 
     def context(self):
-        return mpmath.workdps(self.dps)
+        return mpmath.workprec(self.prec)
 
     def num(self, q: Fraction) -> mpmath.mpf:
         q = Fraction(q)
@@ -298,7 +302,10 @@ class AnalyticalSolver:
 
     * ``dps = None``: decimal digits of the mpmath backend; ``None`` means 60.
       Must be an int with ``20 <= dps <= 30000``; must be ``None`` for float64.
-      The result's precision is ``mp:ceil(dps log2 10)``.
+      The result's precision is ``mp:BITS`` with the bits mpmath uses at ``dps`` digits.
+    * ``bits = None``: the mpmath backend's working bits instead of ``dps``
+      (``simulate(..., model="analytical", precision="mp:320")`` passes 320: the
+      result reports exactly the precision that was asked for and used).
 
     * ``scan_fraction = Fraction(1, 1000)``: scan step of the ``"paper"`` finder
       as a fraction of the forcing period ``T = 2 pi / eta`` (paper:
@@ -381,6 +388,7 @@ class AnalyticalSolver:
         scan_fraction: Any = Fraction(1, 1000),
         max_impacts: int = 10**6,
         max_evals: Optional[int] = None,
+        bits: Optional[int] = None,
     ) -> None:
         if finder not in _FINDERS:
             raise ParameterError("finder", finder, "one of 'robust', 'paper'")
@@ -389,11 +397,19 @@ class AnalyticalSolver:
         if backend == "float64":
             if dps is not None:
                 raise ParameterError("dps", dps, "dps is only for backend='mpmath'; use None with float64")
+            if bits is not None:
+                raise ParameterError("bits", bits, "bits is only for backend='mpmath'; use None with float64")
         else:
-            if dps is None:
-                dps = 60
-            if isinstance(dps, bool) or not isinstance(dps, int) or not (20 <= dps <= 30000):
-                raise ParameterError("dps", dps, "an integer with 20 <= dps <= 30000")
+            if bits is not None:
+                if dps is not None:
+                    raise ParameterError("dps", dps, "give dps or bits, not both")
+                if isinstance(bits, bool) or not isinstance(bits, int) or not (64 <= bits <= 100_000):
+                    raise ParameterError("bits", bits, "an integer with 64 <= bits <= 100000")
+            else:
+                if dps is None:
+                    dps = 60
+                if isinstance(dps, bool) or not isinstance(dps, int) or not (20 <= dps <= 30000):
+                    raise ParameterError("dps", dps, "an integer with 20 <= dps <= 30000")
         sf = exact("scan_fraction", scan_fraction)
         if not (0 < sf <= 1):
             raise ParameterError("scan_fraction", decimal_str(sf), "0 < scan_fraction <= 1")
@@ -409,7 +425,8 @@ class AnalyticalSolver:
         self.scan_fraction = sf
         self.max_impacts = max_impacts
         self.max_evals = max_evals
-        self._ops = _Float64Ops() if backend == "float64" else _MpmathOps(dps)
+        self._ops = _Float64Ops() if backend == "float64" else _MpmathOps(dps, bits)
+        self.dps = None if backend == "float64" else self._ops.dps
 
     # ------------------------------------------------------------------ public API
     @property
@@ -418,10 +435,10 @@ class AnalyticalSolver:
 
     @property
     def precision(self) -> Precision:
-        """Precision of the returned Trajectory's state values."""
+        """Precision of the returned Trajectory's state values: the bits mpmath really works with."""
         if self.backend == "float64":
             return Precision.parse("float64")
-        return Precision.parse(f"mp:{math.ceil(self.dps * math.log2(10))}")
+        return Precision.parse(f"mp:{self._ops.prec}")
 
     @staticmethod
     def check_params(params: Params) -> None:

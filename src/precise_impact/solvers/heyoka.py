@@ -81,7 +81,7 @@ from precise_impact.core.impact import (
     reset_velocity,
     wall_acceleration,
 )
-from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, check_tol
+from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.cache import IntegratorCache
@@ -580,7 +580,7 @@ class HeyokaSolver:
         max_steps: int | None = None,
     ) -> None:
         self.precision = Precision.parse(precision)
-        self.tol_exact = check_tol(tol)
+        self.tol_exact = self.precision.check_tol(tol)
         self.tol = None if self.tol_exact is None else self.precision.from_fraction(self.tol_exact)
         if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
             raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")

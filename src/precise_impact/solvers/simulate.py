@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from precise_impact.errors import ParameterError
@@ -28,7 +27,7 @@ def _analytical(finder: str):
         if prec.kind == "float64":
             return AnalyticalSolver(finder=finder, backend="float64", **options)
         if prec.kind == "mp":
-            return AnalyticalSolver(finder=finder, backend="mpmath", dps=max(20, math.ceil(prec.bits * math.log10(2))), **options)
+            return AnalyticalSolver(finder=finder, backend="mpmath", bits=prec.bits, **options)
         raise ParameterError("precision", prec.name, f"the {model} model runs in 'float64' or 'mp:BITS'")
 
     return factory
@@ -53,7 +52,7 @@ def simulate(
 
     Parameters
     ----------
-    params : Params or None, default ``None``
+    params : Params, mapping or None, default ``None``
         Exact parameters; ``None`` builds them from ``param_values`` (names as in
         :class:`Params`, defaults the paper's: zeta=0.05, a=1, eta=0.712, x_w=2, R=1).
     periods : int, default 200
@@ -91,8 +90,11 @@ def simulate(
     """
     if params is None:
         params = Params.make(**param_values)
-    elif param_values:
-        params = params.replace(**param_values)
+    else:
+        if not isinstance(params, Params):
+            params = Params.from_mapping(params)  # a plain mapping {name: value}
+        if param_values:
+            params = params.replace(**param_values)
     periods = check_count(periods, "periods")
     solver = make_solver(model, precision, tol)
     return solver.solve(params, periods, per_period=per_period)

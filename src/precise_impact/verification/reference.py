@@ -53,6 +53,7 @@ __all__ = [
     "REFERENCE_ENV",
     "default_root",
     "write_manifest",
+    "checksum_problems",
     "shipped_root",
     "generate",
     "verify",
@@ -151,7 +152,14 @@ def read_manifest(case_dir: Path) -> dict:
         return json.load(fh)
 
 
-def _checksum_problems(case_dir: Path, case: str) -> list[str]:
+def checksum_problems(case_dir: Path, case: str) -> list[str]:
+    """Problems of one dataset directory against its manifest: missing files, changed checksums.
+
+    Returns
+    -------
+    list of str
+        One line per problem, each naming the case and the file; empty if intact.
+    """
     mpath = case_dir / MANIFEST
     if not mpath.is_file():
         return [f"{case}: missing {MANIFEST}"]
@@ -477,7 +485,7 @@ def generate(
     heyoka.set_logger_level_error()
     for case in names:
         case_dir = out / case
-        if not force and (case_dir / MANIFEST).is_file() and not _checksum_problems(case_dir, case):
+        if not force and (case_dir / MANIFEST).is_file() and not checksum_problems(case_dir, case):
             m = read_manifest(case_dir)
             m["skipped"] = True
             result[case] = m
@@ -597,7 +605,7 @@ def verify(root: str | Path | None = None, cases: Sequence[str] | str | None = N
     problems: list[str] = []
     for case in _check_cases(cases):
         case_dir = root / case
-        p = _checksum_problems(case_dir, case)
+        p = checksum_problems(case_dir, case)
         problems += p
         if p or not recompute:
             continue

@@ -50,6 +50,7 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.io.progress import say as _progress
 from precise_impact.verification.metrics import reference_bits
 from precise_impact.core.params import Params
+from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.solvers.analytical import AnalyticalSolver
@@ -107,7 +108,10 @@ def scipy_solve(params: Params, periods: int, method: str = "DOP853", rtol: floa
     ``(x_w, -R v)`` and integration restarts at the event time.  ``atol``
     defaults to ``rtol * 1e-3``.  Samples at ``k 2 pi / eta`` (float64).
     """
-    from scipy.integrate import solve_ivp
+    try:
+        from scipy.integrate import solve_ivp
+    except ImportError:
+        raise OptionalDependencyError("scipy", "pip install 'precise_impact[bench]'", "scipy_solve") from None
 
     eta, zeta, a = float(params.eta), float(params.zeta), float(params.a)
     xw, R = float(params.x_w), float(params.R)
@@ -336,19 +340,16 @@ def _case_rows(case: str, spec: dict, cfg: dict, progress: bool, notes: list[str
 
     # scipy
     if cfg["scipy"]:
-        if _have_scipy():
-            for method, rtols in cfg["scipy"].items():
-                for rtol in rtols:
-                    try:
-                        res, el, n = _timed(lambda: scipy_solve(params, periods, method, rtol), budget)
-                    except RuntimeError as exc:
-                        notes.append(f"{case}: scipy {method} rtol={rtol:g} failed: {exc}")
-                        continue
-                    add(_row(case, f"scipy {method}", f"scipy {method}", f"rtol={rtol:g}",
-                             _errors(res, rs, bits), el, n, rtol=rtol, atol=rtol * 1e-3,
-                             impacts=len(res.impacts_t), nfev=res.nfev))
-        elif not any("scipy missing" in s for s in notes):
-            notes.append("scipy missing: solve_ivp methods skipped (pip install scipy)")
+        for method, rtols in cfg["scipy"].items():
+            for rtol in rtols:
+                try:
+                    res, el, n = _timed(lambda: scipy_solve(params, periods, method, rtol), budget)
+                except RuntimeError as exc:
+                    notes.append(f"{case}: scipy {method} rtol={rtol:g} failed: {exc}")
+                    continue
+                add(_row(case, f"scipy {method}", f"scipy {method}", f"rtol={rtol:g}",
+                         _errors(res, rs, bits), el, n, rtol=rtol, atol=rtol * 1e-3,
+                         impacts=len(res.impacts_t), nfev=res.nfev))
 
     # ngspice
     if cfg["spice_tmax"]:
@@ -494,6 +495,8 @@ def work_precision(quick: bool = False, out: str | Path | None = None, progress:
     cfg = _config(quick)
     if config:
         cfg.update(config)
+    if cfg["scipy"] and not _have_scipy():  # refuse before any work, not after it
+        raise OptionalDependencyError("scipy", "pip install 'precise_impact[bench]'", "the work-precision benchmark")
     t_start = time.perf_counter()
     notes: list[str] = [
         "scipy solve_ivp: atol = rtol * 1e-3; terminal event on x - x_w (direction +1), restart with v -> -R v",

@@ -116,7 +116,7 @@ from precise_impact.core.impact import (
     reset_velocity,
     steady_amplitude,
 )
-from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, check_tol, exact
+from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.flow import acceleration
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
@@ -464,7 +464,7 @@ def variational_spectrum(
     segments = check_count(segments, "segments", 10**6)
     if segments < 2:
         raise ParameterError("segments", segments, "an integer >= 2 (the error bar needs independent blocks)")
-    q = check_tol(tol)
+    q = P.check_tol(tol)
     tol = None if q is None else P.from_fraction(q)
     depth = _depth_for(P, grazing_depth, params)
     ics = [initial_condition(params, j) for j in range(n_ic)]  # validated before any work

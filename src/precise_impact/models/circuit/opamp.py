@@ -21,7 +21,7 @@ import numpy as np
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError
 from precise_impact.core.impact import reset_velocity
-from precise_impact.core.params import Params, check_count, check_tol
+from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.models.circuit.components import Components, design_and_start, dimensionless, exact_omega as dimensionless_omega
@@ -126,7 +126,7 @@ class CircuitSolver:
         self.precision = Precision.parse(precision)
         self.effects = validate_effects(effects, "circuit")
         self.op = opamp_from_effects(self.effects)
-        q = check_tol(tol)
+        q = self.precision.check_tol(tol)
         self.tol = None if q is None else self.precision.from_fraction(q)
         self.max_impacts = check_count(max_impacts, "max_impacts", 10**9)
 

@@ -39,7 +39,7 @@ import numpy as np
 
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.errors import BudgetExceededError, ParameterError
-from precise_impact.core.params import Params, check_count, check_tol
+from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.models.circuit.opamp import design_omega
@@ -155,7 +155,7 @@ class SwitchedCapacitorSolver:
                  effects: Mapping[str, Mapping[str, Any]] | None = None, max_impacts: int = 10**6) -> None:
         self.precision = Precision.parse(precision)
         self.effects = validate_effects(effects, "switched-capacitor")
-        q = check_tol(tol)
+        q = self.precision.check_tol(tol)
         self.tol = None if q is None else self.precision.from_fraction(q)
         self.max_impacts = check_count(max_impacts, "max_impacts", 10**9)
         sw = self.effects.get("switch", {})
