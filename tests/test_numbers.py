@@ -92,3 +92,16 @@ def test_the_precision_reported_is_the_precision_used(bits):
     assert tr.precision.name == f"mp:{bits}"
     # and it really computed at that width: the samples carry `bits` bits, not more
     assert all(tr.precision.to_mpf(x)._mpf_[3] <= bits for x in tr.x)
+
+
+@pytest.mark.parametrize("name,edge,beyond", [("eta", "1000", "1000.001"), ("eta", "0.001", "0.000999"),
+                                              ("zeta", "1000", "1001"), ("a", "1e6", "1000001"),
+                                              ("t0", "1e9", "-1000000001")])
+def test_the_parameter_box_edges_run_and_beyond_is_refused(name, edge, beyond):
+    """Legal values run (float64 overflowed at eta = 1e20 before the box existed: heyoka
+    stopped with a non-finite state); the first value outside is refused by name."""
+    tr = pi.simulate(pi.Params.make(**{name: edge}), 1)
+    assert np.all(np.isfinite(np.asarray(tr.x, dtype=float)))
+    with pytest.raises(pi.ParameterError) as e:
+        pi.Params.make(**{name: beyond})
+    assert e.value.name == name

@@ -17,9 +17,9 @@ from precise_impact.core.params import decimal_str
 @pytest.mark.parametrize(
     "values, name, phrase",
     [
-        ({"zeta": "-0.01"}, "zeta", ">= 0"),
-        ({"eta": "0"}, "eta", "> 0"),
-        ({"eta": "-0.7"}, "eta", "> 0"),
+        ({"zeta": "-0.01"}, "zeta", "0 <= zeta <= 1000"),
+        ({"eta": "0"}, "eta", "0.001 <= eta <= 1000"),
+        ({"eta": "-0.7"}, "eta", "0.001 <= eta <= 1000"),
         ({"R": "1.5"}, "R", "0 <= R <= 1"),
         ({"R": "-0.1"}, "R", "0 <= R <= 1"),
         ({"x0": "2.0001"}, "x0", "x0 <= x_w"),

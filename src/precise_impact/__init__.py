@@ -26,6 +26,7 @@ The names below are the public API; everything else may change between releases.
 from precise_impact.version import __version__
 from precise_impact.errors import (
     BudgetExceededError,
+    IntegrationError,
     MissedImpactError,
     NgspiceNotFoundError,
     OptionalDependencyError,
@@ -68,7 +69,7 @@ from precise_impact.verification.reproduce import ReproduceResult, reproduce
 
 __all__ = [
     # errors
-    "BudgetExceededError", "MissedImpactError", "NgspiceNotFoundError", "OptionalDependencyError",
+    "BudgetExceededError", "IntegrationError", "MissedImpactError", "NgspiceNotFoundError", "OptionalDependencyError",
     "ParameterError", "ReferenceDataError", "SpiceError",
     # core
     "PARAM_NAMES", "RUNTIME_PARAMS", "Params", "Precision", "SteadyState", "acceleration",

@@ -66,3 +66,11 @@ class ReferenceDataError(RuntimeError):
     Raised by every loader before any scoring: a damaged reference is never turned into a
     verdict on the solver being scored.  The message names the case and the file.
     """
+
+
+class IntegrationError(RuntimeError):
+    """The integrator could not continue (heyoka stopped with a non-finite state or an error outcome).
+
+    Inside the documented parameter box this does not happen; the CLI reports it as one
+    line with exit status 3, like an exhausted budget, and keeps what was finished.
+    """

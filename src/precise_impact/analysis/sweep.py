@@ -40,6 +40,12 @@ _FIELDS = ("lle", "stderr", "lambda2", "period", "impacts_per_period")
 _MINIMUM = {"eta": (Fraction(0), True), "zeta": (Fraction(0), False), "R": (Fraction(0), False)}
 
 
+#: Default work budget of a sweep in point-periods (grid points x (periods + transient)):
+#: 10^10 is a 1000 x 1000 map at 2000 + 1000 periods three times over (~15 h at today's
+#: 60 points/s on 2 cores); larger sweeps ask for --max-work explicitly.
+MAX_WORK = 10**10
+
+
 @dataclasses.dataclass(frozen=True)
 class SweepSpec:
     """What a sweep computes.  Everything here enters the tiles' identity hash.
@@ -68,12 +74,30 @@ class SweepSpec:
 
     @classmethod
     def make(cls, base: Params, axes: Sequence[tuple[str, Any, Any, Any]], periods=2000, transient=1000,
-             tile_size=64, batch_size=None) -> "SweepSpec":
-        """Validate and build: ``axes`` = [(name, min, max, n), ...] (1 or 2 axes)."""
+             tile_size=64, batch_size=None, max_work: int = MAX_WORK) -> "SweepSpec":
+        """Validate and build: ``axes`` = [(name, min, max, n), ...] (1 or 2 axes).
+
+        The work, grid points x (periods + transient), is checked against ``max_work``
+        (default :data:`MAX_WORK`) before any grid is built, so a 10^6 x 10^6 request is
+        refused at once with the figure and the way to raise the budget.
+        """
         from precise_impact.analysis.lyapunov.batch import default_batch_size
 
         if not 1 <= len(axes) <= 2:
             raise ParameterError("axes", len(axes), "a sweep has 1 or 2 axes")
+        periods = check_count(periods, "periods", minimum=1)
+        transient = check_count(transient, "transient")
+        max_work = check_count(max_work, "max_work", 10**15, minimum=1)
+        points = 1
+        for ax in axes:
+            if len(ax) != 4:
+                raise ParameterError("axis", ax, "(name, min, max, n)")
+            points *= check_count(ax[3], "n", 1_000_000, minimum=1)
+        work = points * (periods + transient)
+        if work > max_work:
+            raise ParameterError("max_work", max_work, f"this sweep needs {points} points x {periods + transient} periods "
+                                 f"= {work:.3g} point-periods (~{work / 3000 / 60 / 3600:.3g} h at 60 points/s of "
+                                 f"3000 periods); raise the budget (--max-work) to at least {work}")
         built = []
         for name, lo, hi, n in axes:
             if name not in SWEEP_PARAMS:
@@ -88,10 +112,6 @@ class SweepSpec:
             built.append((name, tuple(vals)))
         if len(built) == 2 and built[0][0] == built[1][0]:
             raise ParameterError("axis", built[1][0], "the two axes must be different parameters")
-        periods = check_count(periods, "periods")
-        if periods < 1:
-            raise ParameterError("periods", periods, "an integer >= 1")
-        transient = check_count(transient, "transient")
         tile_size = check_count(tile_size, "tile_size", 100_000)
         if tile_size < 1:
             raise ParameterError("tile_size", tile_size, "an integer >= 1")
@@ -310,12 +330,15 @@ def _run_dask(spec: SweepSpec, todo: list[int], dask: str, finished: Callable, w
     except ImportError:
         raise OptionalDependencyError("dask", "pip install 'precise_impact[dask]'", "--dask") from None
     if dask == "local":
-        n = workers if workers is not None else (os.cpu_count() or 1)
+        n = check_count(workers, "workers", 1024, minimum=1) if workers is not None else (os.cpu_count() or 1)
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)
     elif dask.startswith("tcp://"):
         cluster = None
-        client = Client(dask)
+        try:
+            client = Client(dask, timeout=10)
+        except (OSError, TimeoutError) as e:
+            raise ParameterError("scheduler", dask, f"a reachable Dask scheduler (none answered within 10 s: {type(e).__name__})") from None
     else:
         raise ParameterError("dask", dask, "'local' or a scheduler address tcp://HOST:PORT")
     try:

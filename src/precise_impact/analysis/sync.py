@@ -42,7 +42,10 @@ from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.io.atomic import atomic_write
 
-__all__ = ["SyncRun", "SyncResult", "sync_scan", "classify", "plot_fig7", "plot_sync_fraction", "ensemble_y0"]
+#: Most slave starts per coupling value (one stated range for the CLI and the API).
+MAX_ENSEMBLE = 10_000
+
+__all__ = ["MAX_ENSEMBLE", "SyncRun", "SyncResult", "sync_scan", "classify", "plot_fig7", "plot_sync_fraction", "ensemble_y0"]
 
 _PLOT_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
 
@@ -341,9 +344,7 @@ def sync_scan(
     periods = check_count(periods, "periods")
     if periods < 1:
         raise ParameterError("periods", periods, "an integer with 1 <= periods <= 100000000")
-    ensemble = check_count(ensemble, "ensemble", 10**6)
-    if ensemble < 1:
-        raise ParameterError("ensemble", ensemble, "an integer with 1 <= ensemble <= 1000000")
+    ensemble = check_count(ensemble, "ensemble", MAX_ENSEMBLE, minimum=1)
     seed = check_count(seed, "seed", 2**63 - 1)
     tq = exact("tail", tail)
     if not 0 < tq <= 1:

@@ -32,11 +32,13 @@ def add_parser(sub):
 def run(ns) -> int:
     from precise_impact.verification.compare import check_models, compare, format_scores
     from precise_impact.core.params import check_count
+    from precise_impact.verification.metrics import max_reference_periods
 
     models = check_models(ns.models)
     periods = None
     if ns.periods is not None:
-        periods = check_count(ns.periods, "periods", 10**6)
+        # a demonstrated chaotic reference needs mp:BITS <= MAX_MP_BITS
+        periods = check_count(ns.periods, "periods", max_reference_periods(), minimum=1)
     if ns.json:
         import heyoka
 

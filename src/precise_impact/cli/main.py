@@ -8,11 +8,14 @@ import re
 import sys
 from typing import Sequence
 
-from precise_impact.errors import BudgetExceededError, OptionalDependencyError, ParameterError
+from precise_impact.errors import BudgetExceededError, IntegrationError, OptionalDependencyError, ParameterError
+from precise_impact.analysis.sync import MAX_ENSEMBLE
 
-# Exit statuses: 0 ok, 2 bad input (argparse uses 2 as well), 3 a budget was hit.
+# Exit statuses: 0 ok, 2 bad input (argparse uses 2 as well), 3 a budget was hit,
+# 4 an I/O error during the run (finished files are complete: every write is atomic).
 EXIT_BAD_INPUT = 2
 EXIT_BUDGET = 3
+EXIT_IO = 4
 
 _PARAM_FLAGS = (
     ("--eta", "eta", "forcing frequency ratio, > 0 (default 0.712)"),
@@ -66,7 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("--tol", default=None, metavar="T", help="heyoka tolerance (default: the precision's epsilon)")
     s.add_argument("--dense", default="0", metavar="K", help="dense output points per period (saved with --out)")
-    s.add_argument("--out", default=None, metavar="FILE", help="write samples and impacts to FILE.npz or FILE.csv")
+    s.add_argument("--out", default=None, metavar="FILE", help="write samples and impacts to FILE.npz, .csv or .json")
+    s.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     s.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
     ly = sub.add_parser("lle", help="largest Lyapunov exponent (variational with saltation, or two-trajectory)")
@@ -108,6 +112,8 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--periods", default="2000", metavar="P", help="measured periods per point (default 2000)")
     sw.add_argument("--transient", default="1000", metavar="T", help="transient periods per point (default 1000)")
     sw.add_argument("--tile", default="64", metavar="K", help="points per tile (default 64)")
+    sw.add_argument("--max-work", default=None, metavar="W",
+                    help="work budget in point-periods, points x (periods + transient) (default 1e10)")
     sw.add_argument("--workers", default=None, metavar="W", help="local processes / Dask workers (default: all cores)")
     grp = sw.add_mutually_exclusive_group()
     grp.add_argument("--dask", choices=["local"], default=None, help="run on a Dask LocalCluster")
@@ -218,7 +224,7 @@ def _cmd_sync(ns) -> int:
     form = check_form(ns.form)
     ks = exact_grid(ns.k[0], ns.k[1], ns.k[2], "k")
     periods = check_count(ns.periods)
-    ensemble = check_count(ns.ensemble, "ensemble", 10_000)
+    ensemble = check_count(ns.ensemble, "ensemble", MAX_ENSEMBLE, minimum=1)
     seed = check_count(ns.seed, "seed", 2**32)
     k1, k2 = check_k(ns.fig7[0], "fig7"), check_k(ns.fig7[1], "fig7")
     res = sync_scan(params, form, ks, periods=periods, ensemble=ensemble, seed=seed, progress=not ns.json)
@@ -250,8 +256,18 @@ def _cmd_sweep(ns) -> int:
     from precise_impact.analysis.sweep import SweepSpec, run_sweep
 
     base = _params_from(ns)
+    from precise_impact.analysis.sweep import MAX_WORK
+
+    max_work = MAX_WORK
+    if ns.max_work is not None:
+        from precise_impact.core.params import exact
+
+        q = exact("max_work", ns.max_work, max_exponent=15)  # '1e12' is fine
+        if q.denominator != 1 or not 1 <= q <= 10**15:
+            raise ParameterError("max_work", ns.max_work, "a whole number of point-periods, 1 <= max_work <= 1e15")
+        max_work = int(q)
     spec = SweepSpec.make(base, [tuple(a) for a in ns.axis], periods=ns.periods, transient=ns.transient,
-                          tile_size=ns.tile)
+                          tile_size=ns.tile, max_work=max_work)
     workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
     if ns.scheduler is not None and not ns.scheduler.startswith("tcp://"):
         raise ParameterError("scheduler", ns.scheduler, "a Dask scheduler address tcp://HOST:PORT")
@@ -341,7 +357,7 @@ def _cmd_accuracy(ns) -> int:
     from precise_impact.verification.accuracy import accuracy_table, format_table
     from precise_impact.core.params import check_count
 
-    periods = check_count(ns.periods, maximum=2000)
+    periods = check_count(ns.periods, maximum=2000, minimum=1)
     result = accuracy_table(periods=periods, out=ns.out, progress=not ns.json)
     if ns.json:
         json.dump(result.to_dict(), sys.stdout)
@@ -369,9 +385,34 @@ def _glue_negative_values(argv: list[str]) -> list[str]:
                 out.append(f"{a}={nxt}")
                 i += 2
                 continue
+        # Any other token that is a negative number (``--axis x_w -1e-3 2 3``): a leading
+        # space makes argparse take it as a value; the number parser strips it.
+        if len(a) > 1 and a[0] == "-" and not a.startswith("--") and _is_number(a):
+            a = " " + a
         out.append(a)
         i += 1
     return out
+
+
+def _is_number(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True
+
+
+def _check_outputs(ns) -> None:
+    """Every --out checked before any work: the right kind of path, writable, no silent overwrite."""
+    from precise_impact.io.atomic import check_output_dir, check_output_file
+
+    out = getattr(ns, "out", None)
+    if out is None:
+        return
+    if ns.command == "simulate":
+        check_output_file(out, force=ns.force)
+    else:
+        check_output_dir(out)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -383,6 +424,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     heyoka.set_logger_level_error()
     try:
+        _check_outputs(ns)
         return {
             "simulate": _cmd_simulate,
             "lle": _cmd_lle,
@@ -406,9 +448,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BudgetExceededError as e:
         print(f"precise-impact: budget exceeded: {e}", file=sys.stderr)
         return EXIT_BUDGET
+    except IntegrationError as e:
+        print(f"precise-impact: integration stopped: {e}", file=sys.stderr)
+        return EXIT_BUDGET
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()
         return 0
+    except OSError as e:  # a full or read-only file system mid-run: one line, finished files intact
+        print(f"precise-impact: I/O error: {e.strerror or e}: {e.filename or ''}".rstrip(": "), file=sys.stderr)
+        return EXIT_IO
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -33,6 +33,18 @@ PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
 #: still allocates it.
 RUNTIME_PARAMS = ("eta", "zeta", "a", "R", "x_w")
 
+# The box in which every precision integrates the system (legal values run; others are
+# refused by name).  Taylor coefficients of the forcing grow like eta^k: at eta = 1e20
+# float64 overflows within one step (heyoka: non-finite state), so eta is bounded by 1e3,
+# three decades past the paper's resonance region, and below by 1e-3 (a forcing period of
+# 6283 time units).  Amplitudes, positions and velocities to 1e6, start times to 1e9
+# (sample times then keep 6 digits of the period in float64), damping to 1e3
+# (overdamped by three decades).
+ETA_MIN, ETA_MAX = Fraction(1, 1000), 1000
+ZETA_MAX = 1000
+STATE_MAX = 10**6
+T0_MAX = 10**9
+
 _DEFAULTS = {
     "zeta": "0.05",
     "a": "1",
@@ -142,15 +154,24 @@ def _parse_decimal(name: str, value: "str | Decimal", max_exponent: int, rng: st
     return Fraction(d)
 
 
-def check_count(value: Any, name: str = "periods", maximum: int = 10**8) -> int:
-    """Validate a count (periods, points per period) given as int or integer string."""
+def check_count(value: Any, name: str = "periods", maximum: int = 10**8, minimum: int = 0) -> int:
+    """Validate a count (periods, points per period ...) given as int, numpy integer or integer string.
+
+    Raises :class:`ParameterError` naming ``name`` and the one range
+    ``minimum <= name <= maximum`` for anything else (the string's length is bounded
+    before it is converted).
+    """
+    rng = f"an integer with {minimum} <= {name} <= {maximum}"
     if isinstance(value, str):
+        s = value.strip()
+        if len(s) > 30:
+            raise ParameterError(name, _short(s), rng)
         try:
-            value = int(value.strip())
+            value = int(s)
         except ValueError:
-            raise ParameterError(name, value, f"an integer with 0 <= {name} <= {maximum}") from None
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value <= maximum:
-        raise ParameterError(name, value, f"an integer with 0 <= {name} <= {maximum}")
+            raise ParameterError(name, value, rng) from None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not minimum <= value <= maximum:
+        raise ParameterError(name, value if not isinstance(value, int) or value.bit_length() < 200 else "<huge>", rng)
     return int(value)
 
 
@@ -171,9 +192,7 @@ def exact_grid(lo: Any, hi: Any, n: Any, name: str, minimum: Fraction = Fraction
     (``> minimum`` when ``strict``).
     """
     lo_q, hi_q = exact(f"{name}_min", lo), exact(f"{name}_max", hi)
-    n = check_count(n, "n", 1_000_000)
-    if n < 1:
-        raise ParameterError("n", n, f"an integer >= 1 (number of {name} values)")
+    n = check_count(n, "n", 1_000_000, minimum=1)  # the number of {name} values
     if lo_q < minimum or (strict and lo_q == minimum):
         raise ParameterError(f"{name}_min", decimal_str(lo_q), f"must be {'>' if strict else '>='} {decimal_str(minimum)}")
     if hi_q < lo_q or (hi_q == lo_q and n > 1):
@@ -218,14 +237,14 @@ class Params:
     ===========  ==================================  ============
     name         allowed                             default
     ===========  ==================================  ============
-    zeta         >= 0 (damping ratio)                0.05
-    a            finite (forcing amplitude)          1
-    eta          > 0 (forcing/natural frequency)     0.712
-    x_w          finite (wall position)              2
+    zeta         0 <= zeta <= 1e3 (damping ratio)    0.05
+    a            |a| <= 1e6 (forcing amplitude)      1
+    eta          1e-3 <= eta <= 1e3 (frequency)      0.712
+    x_w          |x_w| <= 1e6 (wall position)        2
     R            0 <= R <= 1 (restitution)           1
-    x0           <= x_w (start outside the wall)     0
-    v0           finite                              0
-    t0           finite (start time, forcing phase)  0
+    x0           <= x_w, |x0| <= 1e6                 0
+    v0           |v0| <= 1e6                         0
+    t0           |t0| <= 1e9 (start, forcing phase)  0
     ===========  ==================================  ============
 
     Defaults are the paper's (zeta = 0.05, a = 1, x_w = 2, R = 1, chaotic eta = 0.712).
@@ -262,10 +281,16 @@ class Params:
 
     def validate(self) -> None:
         """Check every range; raise :class:`ParameterError` naming the first bad one."""
-        if self.zeta < 0:
-            raise ParameterError("zeta", decimal_str(self.zeta), "damping ratio must be >= 0")
-        if self.eta <= 0:
-            raise ParameterError("eta", decimal_str(self.eta), "forcing frequency ratio must be > 0")
+        if not 0 <= self.zeta <= ZETA_MAX:
+            raise ParameterError("zeta", decimal_str(self.zeta), f"damping ratio must satisfy 0 <= zeta <= {ZETA_MAX}")
+        if not ETA_MIN <= self.eta <= ETA_MAX:
+            raise ParameterError("eta", decimal_str(self.eta),
+                                 f"forcing frequency ratio must satisfy {decimal_str(ETA_MIN)} <= eta <= {ETA_MAX}")
+        for n in ("a", "x_w", "x0", "v0"):
+            if abs(getattr(self, n)) > STATE_MAX:
+                raise ParameterError(n, decimal_str(getattr(self, n)), f"|{n}| <= {STATE_MAX:.0e}")
+        if abs(self.t0) > T0_MAX:
+            raise ParameterError("t0", decimal_str(self.t0), f"|t0| <= {T0_MAX:.0e}")
         if not (0 <= self.R <= 1):
             raise ParameterError("R", decimal_str(self.R), "restitution coefficient must satisfy 0 <= R <= 1")
         if self.x0 > self.x_w:

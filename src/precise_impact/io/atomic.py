@@ -16,7 +16,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
-__all__ = ["atomic_write", "write_json", "sha256_file", "current_umask"]
+__all__ = ["atomic_write", "write_json", "sha256_file", "current_umask", "check_output_file", "check_output_dir"]
 
 
 def current_umask() -> int:
@@ -74,3 +74,47 @@ def sha256_file(path: str | os.PathLike) -> str:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+def _nearest_existing(path: Path) -> Path:
+    p = path
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    return p
+
+
+def check_output_file(path: str | os.PathLike, force: bool = False, name: str = "out") -> Path:
+    """Check, before any work, that ``path`` can be written as a new file.
+
+    Refused with :class:`~precise_impact.errors.ParameterError` naming ``name``: a
+    directory at ``path``, a file where a parent directory should be, a directory that
+    cannot be written, and an existing file unless ``force``.
+    """
+    from precise_impact.errors import ParameterError
+
+    path = Path(path)
+    if path.is_dir():
+        raise ParameterError(name, str(path), "a file path, not a directory")
+    if path.exists() and not force:
+        raise ParameterError(name, str(path), "a path that does not exist yet (use --force to overwrite)")
+    base = _nearest_existing(path.parent)
+    if not base.is_dir():
+        raise ParameterError(name, str(path), f"a path under a directory ({base} is a file)")
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise ParameterError(name, str(path), f"a writable location ({base} is not writable)")
+    return path
+
+
+def check_output_dir(path: str | os.PathLike, name: str = "out") -> Path:
+    """Check, before any work, that ``path`` is (or can be created as) a writable directory."""
+    from precise_impact.errors import ParameterError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ParameterError(name, str(path), "a directory (this is an existing file)")
+    base = _nearest_existing(path)
+    if not base.is_dir():
+        raise ParameterError(name, str(path), f"a directory path ({base} is a file)")
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise ParameterError(name, str(path), f"a writable location ({base} is not writable)")
+    return path

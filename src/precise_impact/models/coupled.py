@@ -66,7 +66,7 @@ import numpy as np
 
 from precise_impact.core.result import ResultMixin
 from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
@@ -469,7 +469,7 @@ def simulate_coupled(
             "(chattering/Zeno sequence?); raise max_impacts or check the parameters"
         )
     if outcome != hy.taylor_outcome.time_limit:
-        raise RuntimeError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}")
+        raise IntegrationError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}")
 
     def conv_exact(rows):
         return [tuple(conv(c) if isinstance(c, Fraction) else c for c in r) for r in rows]

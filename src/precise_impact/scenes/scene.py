@@ -256,8 +256,35 @@ def load_scene(spec: str | Path) -> Scene:
         path = Path(spec)
         if path.suffix != ".toml" or not path.exists():
             raise ParameterError("scene", spec, "a built-in scene name (precise-impact scenes) or an existing .toml file")
+    return _build(_read_toml(path), str(path))
+
+
+#: Largest scene file read (a scene is a few hundred bytes; this refuses a link to an
+#: endless device or a huge file before reading it into memory).
+MAX_SCENE_BYTES = 1 << 20
+
+
+def _read_toml(path: Path) -> dict:
+    """Parse a scene file: a regular file, at most MAX_SCENE_BYTES, UTF-8, valid TOML."""
+    import stat
+
     try:
-        data = tomllib.loads(path.read_text())
+        st = path.stat()  # follows links: a link to /dev/zero is a character device here
+    except OSError as e:
+        raise ParameterError("scene", str(path), f"a readable .toml file ({e.strerror})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ParameterError("scene", str(path), "a regular .toml file (this is a directory or a device)")
+    if st.st_size > MAX_SCENE_BYTES:
+        raise ParameterError("scene", str(path), f"a scene file of at most {MAX_SCENE_BYTES} bytes ({st.st_size})")
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_SCENE_BYTES + 1)
+        text = raw.decode("utf-8")
+    except OSError as e:
+        raise ParameterError("scene", str(path), f"a readable .toml file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise ParameterError("scene", str(path), f"UTF-8 text (byte {e.start} is not)") from None
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ParameterError("scene", str(path), f"not valid TOML: {e}") from None
-    return _build(data, str(path))

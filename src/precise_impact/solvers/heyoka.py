@@ -68,7 +68,7 @@ import mpmath
 from mpmath import libmp
 import numpy as np
 
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.impact import (
     GrazingDepth,
     grazing_depth_coefficient,
@@ -821,7 +821,7 @@ class HeyokaSolver:
                 rest_on_wall(t_inf)
                 watch.clear_run()
                 continue
-            raise RuntimeError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}")
+            raise IntegrationError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}")
 
         stats = {
             "steps": steps,

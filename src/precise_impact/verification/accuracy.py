@@ -19,7 +19,7 @@ from typing import Any, Sequence
 from precise_impact.verification.metrics import reference_bits, sample_errors
 from precise_impact.core.result import ResultMixin
 from precise_impact.io.progress import say as _progress
-from precise_impact.core.params import Params
+from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import has_quad
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
@@ -56,6 +56,7 @@ def accuracy_table(
     progress : bool, default ``True``
         One line per finished run on stderr.
     """
+    periods = check_count(periods, "periods", 2000, minimum=1)
     bits = reference_bits(periods)
     rows: list[dict[str, Any]] = []
     curves: dict[str, dict[str, list[float]]] = {}

@@ -12,7 +12,7 @@ import mpmath
 
 from precise_impact.core.trajectory import Trajectory
 
-__all__ = ["DIGITS_LOST_PER_PERIOD", "reference_bits", "sample_errors"]
+__all__ = ["DIGITS_LOST_PER_PERIOD", "max_reference_periods", "reference_bits", "sample_errors"]
 
 
 #: Decimal digits lost per forcing period in the chaotic regime (measured: float64
@@ -28,6 +28,26 @@ def reference_bits(periods: int, target_digits: int = 30) -> int:
     """
     digits = target_digits + 1.5 * DIGITS_LOST_PER_PERIOD * periods + 5
     return max(128, 64 * math.ceil(digits * math.log2(10) / 64))
+
+
+def max_reference_periods(target_digits: int = 30, max_bits: int | None = None) -> int:
+    """Most chaotic periods a demonstrated reference can cover within the multiprecision ceiling.
+
+    The largest ``N`` with ``reference_bits(N, target_digits) + 64 <= max_bits`` (the
+    reference and its check 64 bits wider must both be allowed precisions;
+    ``max_bits`` defaults to :data:`~precise_impact.core.precision.MAX_MP_BITS`).
+    """
+    from precise_impact.core.precision import MAX_MP_BITS
+
+    limit = MAX_MP_BITS if max_bits is None else max_bits
+    lo, hi = 0, 10**7
+    while lo < hi:  # reference_bits is nondecreasing in N
+        mid = (lo + hi + 1) // 2
+        if reference_bits(mid, target_digits) + 64 <= limit:
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
 
 
 def sample_errors(traj: Trajectory, ref: Trajectory) -> list[float]:

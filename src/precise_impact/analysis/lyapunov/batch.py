@@ -29,7 +29,7 @@ import numpy as np
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
 from precise_impact.core.flow import acceleration
@@ -251,7 +251,7 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
         if rec.exceeded:
             raise BudgetExceededError(f"impact budget max_impacts={max_impacts} exhausted in a batch lane")
         if any(r[0] != hy.taylor_outcome.time_limit for r in ta.propagate_res):
-            raise RuntimeError(f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}")
+            raise IntegrationError(f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}")
         if grd.first_miss is not None:
             i, t_m, over = grd.first_miss
             raise MissedImpactError(

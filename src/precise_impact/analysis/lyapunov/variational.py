@@ -106,7 +106,7 @@ import numpy as np
 
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.errors import BudgetExceededError, MissedImpactError, ParameterError
+from precise_impact.errors import BudgetExceededError, IntegrationError, MissedImpactError, ParameterError
 from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.impact import (
     grazing_depth_coefficient,
@@ -329,7 +329,7 @@ def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, 
         if rec.exceeded:
             raise BudgetExceededError(f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}")
         if oc != hy.taylor_outcome.time_limit:
-            raise RuntimeError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
+            raise IntegrationError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
         if check_guard and guard.missed:
             t_m, over = guard.first_miss
             raise MissedImpactError(

@@ -19,7 +19,7 @@ import mpmath
 import numpy as np
 
 from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.errors import BudgetExceededError
+from precise_impact.errors import BudgetExceededError, IntegrationError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
@@ -180,7 +180,7 @@ class CircuitSolver:
         if rec.exceeded:
             raise BudgetExceededError(f"impact budget max_impacts={self.max_impacts} exhausted")
         if res[0] != hy.taylor_outcome.time_limit:
-            raise RuntimeError(f"heyoka stopped early: {res[0]}")
+            raise IntegrationError(f"heyoka stopped early: {res[0]}")
         states = np.asarray(res[-1])
         conv = P.from_fraction
         om, rcv, vuv = conv(omega), conv(rc), conv(vu)

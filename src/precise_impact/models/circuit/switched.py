@@ -38,7 +38,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
@@ -246,7 +246,7 @@ class SwitchedCapacitorSolver:
                     pending_at = None
                     continue
                 if oc != hy.taylor_outcome.time_limit and not (int(oc) < 0):
-                    raise RuntimeError(f"heyoka stopped early: {oc}")
+                    raise IntegrationError(f"heyoka stopped early: {oc}")
                 break
             samples.append((ta.time, ta.state[0], vq_fn(ta.time, ta.state[0], ta.state[1], ta.pars[_I["pol"]])))
         elapsed = _time.perf_counter() - start

@@ -1,0 +1,104 @@
+"""Hostile and careless input to the command line: one line, the right exit status, at once.
+
+Each case is one class of failure from the reliability review (a traceback, a hang, or
+work lost before the refusal).  The invariant: exit status 2 (bad input) with exactly one
+line on stderr naming the parameter, no traceback, within the time bound.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+TIME_BOUND = 60  # seconds: the review's bound for every case
+
+
+def cli(*args, timeout=TIME_BOUND):
+    t = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "precise_impact", *args], capture_output=True, text=True,
+                       timeout=timeout, stdin=subprocess.DEVNULL)
+    return r, time.perf_counter() - t
+
+
+def one_line_refusal(r, name):
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2, (r.returncode, r.stderr[-500:])
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr[-500:]
+    assert name in lines[0], lines[0]
+
+
+@pytest.mark.parametrize("args,name", [
+    (["accuracy", "--periods", "0"], "periods"),
+    (["sweep", "--dask", "local", "--workers", "0", "--axis", "eta", "0.7", "0.72", "2", "--out", "{tmp}/s"], "workers"),
+    (["sweep", "--axis", "eta", "0.6", "0.8", "1000000", "--axis", "x_w", "1", "3", "1000000", "--out", "{tmp}/s"],
+     "max_work"),
+    (["sweep", "--axis", "x_w", "-1e-3", "2", "3", "--out", "{tmp}/s"], "x0"),  # parsed; x0 = 0 > x_w = -0.001
+    (["sync", "--k", "0.02", "0.05", "100000000"], "1 <= n <= 1000000"),
+    (["sync", "--ensemble", "0"], "1 <= ensemble <= 10000"),
+    (["sync", "--ensemble", "100000"], "1 <= ensemble <= 10000"),
+    (["compare", "fig5-chaotic-ideal", "--models", "circuit", "--periods", "1000000"], "periods"),
+    (["run", "{tmp}/bad.toml"], "UTF-8"),
+    (["run", "{tmp}/dir.toml"], "regular .toml file"),
+    (["run", "{tmp}/zero.toml"], "regular .toml file"),
+    (["simulate", "--periods", "2", "--out", "{tmp}/existing.csv"], "--force"),
+    (["simulate", "--periods", "2", "--out", "{tmp}/x.csv"], "not a directory"),
+    (["simulate", "--periods", "2", "--out", "{tmp}/existing.csv/sub.csv"], "is a file"),
+    (["bifurcation", "--eta", "0.7", "0.72", "2", "--out", "{tmp}/existing.csv"], "existing file"),
+])
+def test_each_class_of_hostile_input_is_refused_cleanly(tmp_path, args, name):
+    (tmp_path / "bad.toml").write_bytes(b"\xff\xfe not utf-8")
+    (tmp_path / "dir.toml").mkdir()
+    (tmp_path / "zero.toml").symlink_to("/dev/zero")
+    (tmp_path / "existing.csv").write_text("keep me\n")
+    (tmp_path / "x.csv").mkdir()
+    r, took = cli(*[a.replace("{tmp}", str(tmp_path)) for a in args])
+    one_line_refusal(r, name)
+    assert took < TIME_BOUND
+    assert (tmp_path / "existing.csv").read_text() == "keep me\n"  # never silently overwritten
+
+
+def test_force_overwrites(tmp_path):
+    target = tmp_path / "t.csv"
+    target.write_text("old\n")
+    r, _ = cli("simulate", "--periods", "2", "--out", str(target), "--force")
+    assert r.returncode == 0 and target.read_text().startswith("kind,index")
+
+
+def test_unreachable_scheduler_is_one_line(tmp_path):
+    pytest.importorskip("distributed", reason="Dask is an optional extra; CI installs it")
+    r, took = cli("sweep", "--scheduler", "tcp://127.0.0.1:9", "--axis", "eta", "0.7", "0.72", "2",
+                  "--out", str(tmp_path / "s"))
+    one_line_refusal(r, "scheduler")
+    assert took < 30
+
+
+# --- fuzzing: arbitrary text for every parameter flag --------------------------------------
+PARAM_FLAGS = ["--eta", "--zeta", "--a", "--x_w", "--R", "--x0", "--v0", "--t0", "--tol", "--periods",
+               "--precision"]
+
+
+@settings(max_examples=int(os.environ.get("PRECISE_IMPACT_FUZZ_EXAMPLES", "25")), deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(flag=st.sampled_from(PARAM_FLAGS),
+       value=st.one_of(st.text(min_size=0, max_size=40),
+                       st.from_regex(r"-?[0-9]{1,6}(\.[0-9]{0,6})?([eE][-+]?[0-9]{1,12})?", fullmatch=True),
+                       st.sampled_from(["nan", "inf", "-0", "1e400", "9" * 600, "mp:0", "mp:999999", "1/0"])))
+def test_fuzz_parameter_flags(flag, value):
+    """Whatever text a flag gets: exit 0 (a legal value, 1 period), 2 (one line naming the flag's
+    parameter) or 3 (a budget), never a traceback, within the bound."""
+    if "\x00" in value:
+        value = value.replace("\x00", "")
+    args = ["simulate", "--periods", "1", flag, value] if flag != "--periods" else ["simulate", flag, value]
+    r, took = cli(*args)
+    assert r.returncode in (0, 2, 3), (args, r.returncode, r.stderr[-800:])
+    assert "Traceback" not in r.stderr, (args, r.stderr[-800:])
+    if r.returncode in (2, 3):
+        assert len(r.stderr.strip().splitlines()) == 1, (args, r.stderr)
+    assert took < TIME_BOUND
