@@ -18,12 +18,9 @@ import sys
 import time
 from pathlib import Path
 
-from precise_impact import HeyokaSolver, Params
-from precise_impact.models.circuit.opamp import CircuitSolver
-from precise_impact.models.circuit.components import nominal_components
-from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
-from precise_impact.core.trajectory import atomic_write
-from precise_impact.scenes.scene import load_scene
+from precise_impact import CircuitSolver, HeyokaSolver, Params, SwitchedCapacitorSolver, nominal_components
+from precise_impact.io.atomic import atomic_write
+from precise_impact import load_scene
 
 OUT = Path(__file__).resolve().parent / "results"
 

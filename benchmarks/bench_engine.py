@@ -21,8 +21,8 @@ from pathlib import Path
 import heyoka as hy
 
 from precise_impact import AnalyticalSolver, HeyokaSolver, Params
-from precise_impact.core.trajectory import atomic_write
-from precise_impact.solvers import heyoka as _heyoka
+from precise_impact.io.atomic import atomic_write
+from precise_impact.solvers.heyoka import INTEGRATORS
 
 OUT = Path(__file__).resolve().parent / "results"
 
@@ -47,7 +47,7 @@ def compile_time(precision: str) -> dict:
         f"HeyokaSolver({precision!r}).integrator(); print(time.perf_counter() - t)"
     )
     fresh = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
-    _heyoka._CACHE.clear()
+    INTEGRATORS.clear()
     hy.llvm_state.clear_memcache()
     t0 = time.perf_counter()
     HeyokaSolver(precision).integrator()

@@ -19,10 +19,8 @@ import sys
 import time
 from pathlib import Path
 
-from precise_impact import Params
-from precise_impact.analysis.bifurcation import bifurcation
-from precise_impact.analysis.lyapunov import lyapunov
-from precise_impact.core.trajectory import atomic_write
+from precise_impact import Params, bifurcation, lyapunov
+from precise_impact.io.atomic import atomic_write
 
 OUT = Path(__file__).resolve().parent / "results"
 

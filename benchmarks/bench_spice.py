@@ -37,9 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from precise_impact import HeyokaSolver, Params
-from precise_impact.models.circuit.components import nominal_components
-from precise_impact.core.trajectory import atomic_write
+from precise_impact import HeyokaSolver, Params, nominal_components
+from precise_impact.io.atomic import atomic_write
 from precise_impact.models.circuit.spice import OUTPUT_FILE, run_spice, spice_netlist
 
 OUT = Path(__file__).resolve().parent / "results"

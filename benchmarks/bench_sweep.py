@@ -23,10 +23,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from precise_impact import Params
+from precise_impact import Params, SweepSpec, run_sweep
 from precise_impact.analysis.lyapunov.variational import variational_spectrum
-from precise_impact.core.trajectory import atomic_write
-from precise_impact.analysis.sweep import SweepSpec, run_sweep
+from precise_impact.io.atomic import atomic_write
 
 OUT = Path(__file__).resolve().parent / "results"
 
@@ -46,7 +45,7 @@ def main() -> int:
             t0 = time.perf_counter()
             s = run_sweep(spec, tmp / backend, workers=cpus, dask="local" if backend == "dask" else None, progress=True)
             wall = time.perf_counter() - t0
-            rows[backend] = {"points": spec.n_points, "wall_s": wall, "points_per_s": spec.n_points / wall, "workers": s["workers"]}
+            rows[backend] = {"points": spec.n_points, "wall_s": wall, "points_per_s": spec.n_points / wall, "workers": s.stats["workers"]}
             print(backend, rows[backend], file=sys.stderr, flush=True)
         if (tmp / "processes" / "sweep.png").exists():
             shutil.copy(tmp / "processes" / "sweep.png", OUT / "sweep_map.png")

@@ -28,6 +28,13 @@ autodoc_typehints = "none"  # types are in the numpydoc sections
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
+# Validation: every documented object (public API and module helpers alike) must have a
+# summary line and parameter sections that match its signature: no documented parameter
+# that does not exist (PR02), the signature's order (PR03), "name : type" (PR10).
+# The curated public API (precise_impact.__all__, precise_impact.testing.__all__ and the
+# solvers' solve methods) is held to more in tests/test_docs.py: every parameter
+# documented (PR01) and a Returns section (RT01).
+numpydoc_validation_checks = {"SS01", "PR02", "PR03", "PR10"}
 
 # The examples in the user guide run under `sphinx-build -b doctest`; each page's setup
 # imports the package and makes figures without a display.

@@ -1,59 +1,121 @@
 #!/usr/bin/env bash
-# Test what users install: build the wheel, install it (non-editable) into a fresh venv outside
-# the checkout, and from a directory outside the checkout run the whole test suite against the
-# installed package, `precise-impact reference verify`, the README's testing example and the
-# documentation build (warnings are errors; the docs' examples are executed).  Then the
-# lowest declared dependency versions (ci/lowest-constraints.txt) get a fast subset.
+# Test what users install.  Builds the wheel from the files git knows (tracked, or new and
+# not ignored: no stale build/ directory can leak into it), checks that every file of the
+# package (data/reference/** at any depth, scenes/*.toml, py.typed) is in it, installs it
+# non-editable with the extras [test,dask,bench,docs] into a fresh venv outside the
+# checkout and, from a directory outside the checkout, runs:
+#   precise-impact --version, precise-impact reference verify, the README's testing example
+#   (the code block itself, read from README.md), the whole test suite against the installed
+#   package (pyproject's pytest settings: markers, -m 'not slow'), and the documentation
+#   build (html and doctest, warnings are errors) when docs/conf.py exists.
+# Then the lowest declared dependency versions (ci/lowest-constraints.txt) in a second
+# venv run a fast subset.  Every step is timed.
 #
-# Usage: bash scripts/test-installed.sh        (from anywhere; needs python3 >= 3.11, pip, venv)
+# Usage: bash scripts/test-installed.sh        (from anywhere; needs python3 >= 3.11 with venv)
+# Env:   PYTHON=python3.12 to pick the interpreter; KEEP=1 keeps the work directory.
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
+py=${PYTHON:-python3}
 work=$(mktemp -d "${TMPDIR:-/tmp}/precise-impact-test.XXXXXX")
-trap 'rm -rf "$work"' EXIT
-echo "== building the wheel"
-python3 -m venv "$work/build" && "$work/build/bin/pip" install -q --upgrade pip build >/dev/null
-"$work/build/bin/python" -m build --wheel --outdir "$work/dist" "$repo" >/dev/null
-wheel=$(ls "$work/dist"/precise_impact-*.whl)
-echo "   $(basename "$wheel") ($(du -k "$wheel" | cut -f1) KiB)"
+if [ "${KEEP:-0}" = 1 ]; then echo "   work directory kept: $work"; else trap 'rm -rf "$work"' EXIT; fi
+t_all=$SECONDS
+t=$SECONDS
+step() { echo "== $* ($(date +%T))"; t=$SECONDS; }
+took() { echo "   ($((SECONDS - t)) s)"; }
 
-echo "== installing it into a fresh venv: $work/venv"
-python3 -m venv "$work/venv"
-. "$work/venv/bin/activate"
-pip install -q --upgrade pip >/dev/null
-pip install -q "${wheel}[test,dask,bench,docs]"
+step "fresh venv outside the checkout: $work/venv"
+"$py" -m venv "$work/venv"
+vpy="$work/venv/bin/python"
+"$vpy" -m pip install -q --upgrade pip
+took
 
-cd "$work"   # outside the checkout: nothing can be imported from src/
-echo "== $(precise-impact --version) from $(python -c 'import precise_impact, os; print(os.path.dirname(precise_impact.__file__))')"
-echo "== reference verify (shipped datasets, checksums + recomputation)"
-precise-impact reference verify
-echo "== the README's testing example"
-python - <<'PY'
-from precise_impact import Params, simulate
-from precise_impact.testing import assert_stroboscopic_close
-
-def my_solver(params, periods):            # params: exact decimal strings
-    traj = simulate(Params.make(**params), periods, precision="float64")
-    return traj.x, traj.v                    # x, v at t0 + k 2 pi / eta, k = 0..periods
-
-assert_stroboscopic_close(my_solver, "single-0.74", periods=30, atol=1e-6, rtol=1e-6)
-print("   testing example passed")
-PY
-echo "== the test suite against the installed package"
-PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider --rootdir "$repo" -c "$repo/pyproject.toml"
-if [ -f "$repo/docs/conf.py" ]; then
-  echo "== documentation (warnings are errors; examples executed)"
-  sphinx-build -q -W --keep-going -b html "$repo/docs" "$work/docs-html"
-  sphinx-build -q -W --keep-going -b doctest "$repo/docs" "$work/docs-doctest"
+step "building the wheel"
+mkdir -p "$work/src"
+if git -C "$repo" rev-parse --is-inside-work-tree >/dev/null 2>&1; then
+  (cd "$repo" && git ls-files -z --cached --others --exclude-standard \
+     | while IFS= read -r -d '' f; do [ -e "$f" ] && printf '%s\0' "$f"; done \
+     | xargs -0 cp --parents -t "$work/src")
+else
+  (cd "$repo" && tar --exclude=.venv --exclude=build --exclude='*.egg-info' --exclude=__pycache__ -cf - .) \
+    | tar -xf - -C "$work/src"
 fi
-deactivate
+"$vpy" -m pip wheel -q --no-deps -w "$work/dist" "$work/src"
+wheel=$(ls "$work/dist"/precise_impact-*.whl)
+echo "   $(basename "$wheel"): $(du -k "$wheel" | cut -f1) KiB"
+"$vpy" - "$wheel" "$work/src/src" <<'PY'
+import pathlib, sys, zipfile
+wheel, src = sys.argv[1], pathlib.Path(sys.argv[2])
+names = set(zipfile.ZipFile(wheel).namelist())
+want = {p.relative_to(src).as_posix() for p in (src / "precise_impact").rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc"}
+missing = sorted(want - names)
+if missing:
+    sys.exit("files of the package missing from the wheel:\n  " + "\n  ".join(missing))
+data = sorted(n for n in want if n.startswith("precise_impact/data/"))
+print(f"   all {len(want)} package files are in the wheel ({len(data)} under precise_impact/data/)")
+PY
+took
 
-echo "== lowest declared dependency versions ($(tr '\n' ' ' < "$repo/ci/lowest-constraints.txt"))"
-python3 -m venv "$work/lowest"
-"$work/lowest/bin/pip" install -q --upgrade pip >/dev/null
-"$work/lowest/bin/pip" install -q -c "$repo/ci/lowest-constraints.txt" "${wheel}[test]"
+step "installing it (non-editable) with [test,dask,bench,docs]"
+"$vpy" -m pip install -q "${wheel}[test,dask,bench,docs]"
+took
+
+mkdir -p "$work/run" && cd "$work/run"   # outside the checkout: nothing is imported from src/
+export PATH="$work/venv/bin:$PATH"
+echo "== $(precise-impact --version) from $(python -c 'import precise_impact, os; print(os.path.dirname(precise_impact.__file__))')"
+
+step "precise-impact reference verify (shipped datasets: checksums, a recomputed subset)"
+precise-impact reference verify
+took
+
+step "the README's testing example (the code block in README.md)"
+python - "$repo/README.md" <<'PY'
+import re, sys
+text = open(sys.argv[1], encoding="utf-8").read()
+blocks = [b for b in re.findall(r"```python\n(.*?)```", text, re.S) if "assert_stroboscopic_close(" in b]
+if len(blocks) != 1:
+    sys.exit(f"expected one README code block with assert_stroboscopic_close, found {len(blocks)}")
+exec(compile(blocks[0], "README.md", "exec"), {"__name__": "__main__"})
+print("   passed")
+PY
+took
+
+step "the test suite against the installed package"
+PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider \
+  --rootdir "$repo" -c "$repo/pyproject.toml" 2>&1 | tee "$work/pytest.log"
+# pyproject's settings applied (its markers and addopts -m 'not slow'), not pytest's defaults
+grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
+grep -Eq "[0-9]+ deselected" "$work/pytest.log" || { echo "addopts -m 'not slow' was not applied"; exit 1; }
+took
+
+if [ -f "$repo/docs/conf.py" ]; then
+  step "documentation: html and doctest (warnings are errors, every example executed)"
+  sphinx-build -q -W --keep-going -b html "$repo/docs" "$work/docs/html"
+  if grep -q "sphinx.ext.doctest" "$repo/docs/conf.py"; then
+    sphinx-build -q -W --keep-going -b doctest -d "$work/docs/doctrees" "$repo/docs" "$work/docs/doctest"
+  fi
+  took
+fi
+
+step "lowest declared dependency versions: $(grep -v '^#' "$repo/ci/lowest-constraints.txt" | tr '\n' ' ')"
+"$py" -m venv "$work/lowest"
+"$work/lowest/bin/python" -m pip install -q --upgrade pip
+"$work/lowest/bin/python" -m pip install -q -c "$repo/ci/lowest-constraints.txt" "${wheel}[test,dask,bench]"
+"$work/lowest/bin/python" - "$repo/ci/lowest-constraints.txt" <<'PY'
+import sys
+from importlib.metadata import version
+pins = [l.split("==") for l in open(sys.argv[1]) if "==" in l and not l.startswith("#")]
+wrong = [(n, v.strip(), version(n)) for n, v in pins if version(n) != v.strip()]
+if wrong:
+    sys.exit(f"not the lowest versions: {wrong}")
+print("   installed:", ", ".join(f"{n} {v.strip()}" for n, v in pins))
+PY
 PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cacheprovider \
   --rootdir "$repo" -c "$repo/pyproject.toml" -q \
   "$repo/tests/test_params.py" "$repo/tests/test_reference.py" "$repo/tests/test_analytical.py" \
   "$repo/tests/test_variational.py" "$repo/tests/test_threads.py" "$repo/tests/test_reference_data.py" \
-  "$repo/tests/test_api.py" "$repo/tests/test_layering.py"
-echo "== all checks passed"
+  "$repo/tests/test_api.py" "$repo/tests/test_layering.py" "$repo/tests/test_packaging.py" \
+  "$repo/tests/test_sweep.py" "$repo/tests/test_workprecision.py"
+took
+
+echo "== all checks passed in $((SECONDS - t_all)) s"

@@ -15,7 +15,7 @@ import heyoka as hy
 import mpmath
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from precise_impact.errors import BudgetExceededError, ParameterError
@@ -264,9 +264,16 @@ def test_robust_never_goes_through_the_wall(eta, zeta, x_w, R):
     """On a dense grid no state lies beyond the wall (a missed impact would show there).
 
     Position errors of float64 closed-form evaluation are ~eps * (|t| + 10) < 1e-12.
+    The box contains sticking orbits (e.g. eta = 1/2, zeta = 1/5, x_w = 1/2, R = 1/2, which
+    other hypothesis versions draw): there the solver must refuse by name, never pass the wall.
     """
+    assume(not (zeta == 0 and eta == 1))  # undamped resonance: refused by Params (tested below)
     p = Params.make(eta=eta, zeta=zeta, x_w=x_w, R=R)
-    tr = AnalyticalSolver().solve(p, 6, per_period=400)
+    try:
+        tr = AnalyticalSolver().solve(p, 6, per_period=400)
+    except BudgetExceededError as e:
+        assert "sticking" in str(e)
+        return
     assert np.max(tr.dense_x) <= float(p.x_w) + 1e-12
     # impacts strictly ordered in time, each with v_before > 0
     assert np.all(np.diff(tr.impacts_t) >= 0) and np.all(tr.impacts_v_before > 0)

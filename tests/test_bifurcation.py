@@ -49,7 +49,7 @@ def test_bifurcation_parallel_equals_serial_and_files(tmp_path):
     assert a.impacts_per_period[0] == 0
     assert a.lle[1] > 0 and a.lle[2] > 0  # 0.71, 0.72: chaotic
     assert a.grazing and 0.70 < a.grazing[0] < 0.72
-    files = a.save(tmp_path)
+    files = a.save_all(tmp_path)
     d = np.load(files["npz"])
     assert list(d["eta_str"]) == ["0.7", "0.71", "0.72"] and d["x"].shape == (3, 300)
     assert files["png"].stat().st_size > 20_000

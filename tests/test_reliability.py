@@ -102,3 +102,19 @@ def test_fuzz_parameter_flags(flag, value):
     if r.returncode in (2, 3):
         assert len(r.stderr.strip().splitlines()) == 1, (args, r.stderr)
     assert took < TIME_BOUND
+
+
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGINT"])
+def test_a_long_run_stops_on_a_signal_with_exit_130(sig):
+    """Ctrl-C or SIGTERM: one line, exit 130, within seconds (the run would take ~2 minutes)."""
+    import signal
+
+    p = subprocess.Popen([sys.executable, "-m", "precise_impact", "simulate", "--periods", "20000",
+                          "--precision", "mp:256"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         # a default SIGINT disposition even when the test runner ignores it
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.default_int_handler))
+    time.sleep(4)
+    p.send_signal(getattr(signal, sig))
+    out, err = p.communicate(timeout=TIME_BOUND)
+    assert p.returncode == 130, err[-500:]
+    assert err.strip().splitlines() == ["precise-impact: interrupted; finished results are kept"]

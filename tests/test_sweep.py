@@ -8,10 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from precise_impact import ParameterError, Params
-from precise_impact.analysis.lyapunov.batch import batch_lle, detect_period
+from precise_impact import ParameterError, Params, SweepSpec, detect_period, load_sweep, run_sweep
+from precise_impact.analysis.lyapunov.batch import batch_lle
 from precise_impact.analysis.lyapunov.variational import variational_spectrum
-from precise_impact.analysis.sweep import SweepSpec, load_sweep, run_sweep
 
 FIELDS = ("lle", "stderr", "lambda2", "period", "impacts_per_period")
 
@@ -29,11 +28,13 @@ def same(a, b):
 def test_resumed_sweep_equals_uninterrupted_bit_for_bit(tmp_path):
     spec = small_spec()
     full = run_sweep(spec, tmp_path / "full", workers=2, progress=False)
-    assert full["complete"] and full["tiles_computed"] == spec.n_tiles == 3
+    assert full.complete and full.stats["tiles_computed"] == spec.n_tiles == 3
     part = run_sweep(spec, tmp_path / "part", workers=1, progress=False, max_tiles=2)
-    assert not part["complete"] and part["tiles_computed"] == 2
+    assert not part.complete and part.stats["tiles_computed"] == 2
+    assert np.isnan(part.lle).sum() == spec.tile_size  # the unfinished tile
     rest = run_sweep(spec, tmp_path / "part", workers=2, progress=False)
-    assert rest["tiles_reused"] == 2 and rest["tiles_computed"] == 1 and rest["complete"]
+    assert rest.stats["tiles_reused"] == 2 and rest.stats["tiles_computed"] == 1 and rest.complete
+    assert same(rest, full)
     assert same(load_sweep(tmp_path / "full", spec), load_sweep(tmp_path / "part", spec))
     a, b = np.load(tmp_path / "full" / "sweep.npz"), np.load(tmp_path / "part" / "sweep.npz")
     assert same(a, b)
@@ -57,7 +58,7 @@ def test_dask_local_cluster_equals_local_processes(tmp_path):
     spec = small_spec()
     run_sweep(spec, tmp_path / "p", workers=2, progress=False)
     s = run_sweep(spec, tmp_path / "d", workers=2, dask="local", progress=False)
-    assert s["backend"] == "dask" and s["workers"] == 2 and s["complete"]
+    assert s.stats["backend"] == "dask" and s.stats["workers"] == 2 and s.complete
     assert same(load_sweep(tmp_path / "p", spec), load_sweep(tmp_path / "d", spec))
 
 

@@ -100,9 +100,12 @@ def test_sweep_on_a_threaded_dask_worker_is_bit_identical(tmp_path):
     spec = SweepSpec.make(Params.make(), [("eta", "0.70", "0.75", 4), ("x_w", "1.9", "2.1", 3)],
                           periods=120, transient=60, tile_size=2)
     run_sweep(spec, tmp_path / "serial", workers=1, progress=False)
-    with LocalCluster(n_workers=1, threads_per_worker=THREADS, processes=True, dashboard_address=None) as cluster:
+    # processes=False: the worker's THREADS threads share this process (and the one
+    # integrator cache) with each other and with the serial run above.
+    with LocalCluster(n_workers=1, threads_per_worker=THREADS, processes=False,
+                      protocol="tcp://", dashboard_address=None) as cluster:
         s = run_sweep(spec, tmp_path / "threads", dask=cluster.scheduler_address, progress=False)
-    assert s["complete"]
+    assert s.complete
     a, b = load_sweep(tmp_path / "serial", spec), load_sweep(tmp_path / "threads", spec)
     for f in ("lle", "stderr", "lambda2", "period", "impacts_per_period"):
         assert np.array_equal(a[f], b[f], equal_nan=True), f

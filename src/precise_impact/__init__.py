@@ -55,7 +55,7 @@ from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, l
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.analysis.sync import SyncResult, sync_scan
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
-from precise_impact.analysis.sweep import SweepSpec, SweepSummary, load_sweep, run_sweep
+from precise_impact.analysis.sweep import SweepResult, SweepSpec, load_sweep, run_sweep
 from precise_impact.scenes.scene import Scene, builtin_scenes, load_scene
 from precise_impact.scenes.run import run_scene
 from precise_impact.verification.accuracy import AccuracyResult, accuracy_table
@@ -83,7 +83,7 @@ __all__ = [
     "simulate_coupled_circuit",
     # analysis
     "LYAPUNOV_METHODS", "LyapunovResult", "lyapunov", "detect_period", "SyncResult", "sync_scan",
-    "BifurcationResult", "bifurcation", "SweepSpec", "SweepSummary", "load_sweep", "run_sweep",
+    "BifurcationResult", "bifurcation", "SweepSpec", "SweepResult", "load_sweep", "run_sweep",
     # scenes
     "Scene", "builtin_scenes", "load_scene", "run_scene",
     # verification

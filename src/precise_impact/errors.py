@@ -8,6 +8,15 @@ class ParameterError(ValueError):
 
     Raised before any work starts.  The CLI turns it into a one-line message on
     stderr and exit status 2, without a traceback.
+
+    Parameters
+    ----------
+    name : str
+        The parameter (``Params`` field names, CLI flags without ``--``).
+    value : object
+        The value given.
+    allowed : str
+        The allowed range or set, in words.
     """
 
     def __init__(self, name: str, value: object, allowed: str):
@@ -24,6 +33,9 @@ class BudgetExceededError(RuntimeError):
 class OptionalDependencyError(RuntimeError):
     """An optional component a request needs is not installed.
 
+    The CLI prints the message as one line and exits with status 2 (bad input:
+    the request cannot be served on this installation), without a traceback.
+
     Parameters
     ----------
     component : str
@@ -32,9 +44,6 @@ class OptionalDependencyError(RuntimeError):
         The one command that installs it.
     purpose : str
         What needs it.
-
-    The CLI prints the message as one line and exits with status 2 (bad input:
-    the request cannot be served on this installation), without a traceback.
     """
 
     def __init__(self, component: str, install: str, purpose: str):
@@ -53,7 +62,13 @@ class SpiceError(RuntimeError):
 
 
 class NgspiceNotFoundError(SpiceError, OptionalDependencyError):
-    """ngspice is not installed / not on PATH (``apt-get install ngspice``)."""
+    """ngspice is not installed / not on PATH (``apt-get install ngspice``).
+
+    Parameters
+    ----------
+    message : str
+        The one-line message (what needed ngspice and the install command).
+    """
 
     def __init__(self, message: str):
         RuntimeError.__init__(self, message)

@@ -98,7 +98,23 @@ def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike
         (independent of ``mpmath.mp.prec``); ``True``: Python floats.
     root : directory or None, default ``None``
         Where the datasets live; ``None`` means ``$PRECISE_IMPACT_REFERENCE`` if set,
-        else the ``reference_data/`` directory of the source checkout.
+        else the datasets shipped inside the installed package
+        (:func:`~precise_impact.verification.reference.default_root`).
+
+    Returns
+    -------
+    ReferenceCase
+        Parameters (exact decimal strings), the stroboscopic samples ``t, x, v``
+        (``periods + 1`` of them), the impacts, the precision and the demonstrated
+        accuracy of the stored run.
+
+    Raises
+    ------
+    ValueError
+        ``case`` is not one of :data:`SINGLE_CASES`.
+    ReferenceDataError
+        The case is missing, or a file fails its sha256 checksum (checked before
+        anything is read).
     """
     if case not in SINGLE_CASES:
         raise ValueError(f"case must be one of {', '.join(SINGLE_CASES)}, got {case!r}")
@@ -175,21 +191,34 @@ def score_solver(
         longdoubles, decimal strings, mpmath or heyoka numbers).
     case : str, default ``'single-0.712'``
         One of :data:`SINGLE_CASES`.
-    periods : int or None, default ``None`` (every stored period, 300)
-        Periods to compare, ``1 <= periods <= stored``.
-    atol, rtol : float, default ``1e-6`` each
-        Absolute and relative tolerance; ``error = |y - y_ref| / (atol + rtol |y_ref|)``.
+    periods : int or None, default ``None``
+        Periods to compare, ``1 <= periods <= stored``; ``None``: every stored
+        period (300).
+    atol : float, default 1e-6
+        Absolute tolerance.
+    rtol : float, default 1e-6
+        Relative tolerance; ``error = |y - y_ref| / (atol + rtol |y_ref|)``.
     root : directory or None, default ``None``
         Dataset location (see :func:`load_reference`).
 
-    Returns a dict: ``case``, ``periods``, ``atol``, ``rtol``, ``error_x``,
-    ``error_v`` (numpy arrays of the scaled errors per sample), ``solver_x``,
-    ``solver_v`` (the solver's samples as float64), ``abs_error_x``,
-    ``abs_error_v`` (numpy arrays of ``|y - y_ref|``), ``max_error`` (largest scaled
-    error), ``worst_period``, ``worst_variable`` (``'x'`` or ``'v'``), ``passed``
-    (``max_error <= 1``), ``reference_accuracy`` (the stored run's demonstrated
-    accuracy), ``shape_error`` (a message if the solver returned the wrong number of
-    samples, else ``None``; then every error is ``inf``).
+    Returns
+    -------
+    dict
+        ``case``, ``periods``, ``atol``, ``rtol``; ``error_x``, ``error_v`` (numpy
+        arrays of the scaled errors per sample); ``solver_x``, ``solver_v`` (the
+        solver's samples as float64); ``abs_error_x``, ``abs_error_v`` (numpy arrays of
+        ``|y - y_ref|``); ``max_error`` (largest scaled error); ``worst_period``;
+        ``worst_variable`` (``'x'`` or ``'v'``); ``passed`` (``max_error <= 1``);
+        ``reference_accuracy`` (the stored run's demonstrated accuracy);
+        ``shape_error`` (a message if the solver returned the wrong number of samples,
+        else ``None``; then every error is ``inf``).
+
+    Raises
+    ------
+    ParameterError
+        Bad ``case``, ``periods`` or tolerances.
+    ReferenceDataError
+        The reference is missing or damaged (never turned into a verdict).
     """
     ref = load_reference(case, root=root)
     if periods is None:
@@ -259,15 +288,39 @@ def assert_stroboscopic_close(
 ) -> dict[str, Any]:
     """Assert that ``solver``'s stroboscopic samples match the reference case.
 
-    Same keywords as :func:`score_solver` (``solver``, ``case``, ``periods``,
-    ``atol``, ``rtol``, ``root``).  Raises :class:`AssertionError` naming the first
-    offending period, the variable, both values, the absolute and scaled error, and
-    the tolerances, if any scaled error ``|y - y_ref| / (atol + rtol |y_ref|)``
-    exceeds 1 (or the solver returned the wrong number of samples).  Returns the
-    :func:`score_solver` dict when it passes.
+    Parameters
+    ----------
+    solver : callable ``solver(params, periods) -> (x, v)``
+        As in :func:`score_solver`.
+    case : str, default ``'single-0.712'``
+        One of :data:`SINGLE_CASES`.
+    periods : int or None, default ``None``
+        Periods to compare; ``None``: every stored period (300).
+    atol : float, default 1e-6
+        Absolute tolerance.
+    rtol : float, default 1e-6
+        Relative tolerance; a sample fails when ``|y - y_ref| / (atol + rtol |y_ref|) > 1``.
+    root : directory or None, default ``None``
+        Dataset location (see :func:`load_reference`).
 
-    Note: at ``eta = 0.712`` (chaotic) errors grow ~0.12 decimal digits per period,
-    so a float64 solver meets ``1e-6`` only for roughly the first 80 periods.
+    Returns
+    -------
+    dict
+        The :func:`score_solver` dict (``passed`` is true).
+
+    Raises
+    ------
+    AssertionError
+        A scaled error exceeds 1 (the message names the first offending period, the
+        variable, both values, the absolute and scaled error and the tolerances), or
+        the solver returned the wrong number of samples.
+    ReferenceDataError
+        The reference is missing or damaged.
+
+    Notes
+    -----
+    At ``eta = 0.712`` (chaotic) errors grow ~0.12 decimal digits per period, so a
+    float64 solver meets ``1e-6`` only for roughly the first 80 periods.
     """
     r = score_solver(solver, case, periods, atol, rtol, root=root)
     if r["shape_error"]:

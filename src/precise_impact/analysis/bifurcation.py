@@ -10,7 +10,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from fractions import Fraction
@@ -24,6 +23,7 @@ from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.progress import Progress
 from precise_impact.core.flow import grazing_frequencies
 
 __all__ = ["BifurcationResult", "bifurcation", "eta_grid"]
@@ -31,11 +31,28 @@ __all__ = ["BifurcationResult", "bifurcation", "eta_grid"]
 
 @dataclasses.dataclass
 class BifurcationResult(ResultMixin):
-    """Stroboscopic x and LLE for each eta.
+    """Stroboscopic x and LLE for each eta (:func:`bifurcation`).
 
-    Attributes: ``eta`` (exact Fractions), ``x`` (n x periods float64 samples),
-    ``lle``, ``lle_stderr``, ``impacts_per_period``, ``grazing`` (closed-form grazing
-    frequencies inside the range), ``periods``, ``transient``, ``elapsed_s``, ``workers``.
+    Attributes
+    ----------
+    params : Params
+        The fixed parameters and initial condition (``eta`` replaced by each value).
+    eta : list of Fraction
+        The exact values of eta.
+    x : numpy.ndarray of float, shape ``(len(eta), periods)``
+        Stroboscopic x after the transient.
+    lle, lle_stderr : numpy.ndarray of float
+        Largest Lyapunov exponent per unit time and its standard error, per eta.
+    impacts_per_period : numpy.ndarray of float
+        Mean impacts per forcing period, per eta.
+    grazing : list of float
+        Closed-form grazing frequencies inside the range.
+    periods, transient : int
+        Measured and discarded periods per value.
+    elapsed_s : float
+        Wall time (diagnostic).
+    workers : int
+        Processes used (diagnostic).
     """
 
     params: Params
@@ -50,11 +67,33 @@ class BifurcationResult(ResultMixin):
     elapsed_s: float
     workers: int
 
-    def save(self, out: str | os.PathLike) -> dict[str, Path]:
-        """Write ``bifurcation.npz`` and ``bifurcation.png`` into ``out`` (atomically)."""
-        out = Path(out)
-        npz = out / "bifurcation.npz"
-        png = out / "bifurcation.png"
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write one file atomically; the suffix picks it.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            ``.json`` (:meth:`to_dict`), ``.npz`` (``eta`` as floats and as exact
+            decimal strings ``eta_str``, ``x``, ``lle``, ``lle_stderr``,
+            ``impacts_per_period``, ``grazing`` and the rest as ``meta_json``) or
+            ``.png`` (:meth:`plot`).
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+
+        Raises
+        ------
+        ParameterError
+            Another suffix.
+        """
+        path = Path(path)
+        if path.suffix == ".png":
+            self.plot(path)
+            return path
+        if path.suffix != ".npz":
+            return super().save(path)
         arrays = {
             "eta": np.array([float(e) for e in self.eta]),
             "eta_str": np.array([decimal_str(e) for e in self.eta]),
@@ -75,12 +114,34 @@ class BifurcationResult(ResultMixin):
                 )
             ),
         }
-        atomic_write(npz, lambda fh: np.savez_compressed(fh, **arrays), binary=True)
-        self.plot(png)
-        return {"npz": npz, "png": png}
+        atomic_write(path, lambda fh: np.savez_compressed(fh, **arrays), binary=True)
+        return path
+
+    def save_all(self, out: str | os.PathLike) -> dict[str, Path]:
+        """Write ``bifurcation.npz`` and ``bifurcation.png`` into the directory ``out``.
+
+        Parameters
+        ----------
+        out : str or os.PathLike
+            The directory (created if missing).
+
+        Returns
+        -------
+        dict of str to pathlib.Path
+            The files under the keys ``'npz'`` and ``'png'``.
+        """
+        out = Path(out)
+        return {"npz": self.save(out / "bifurcation.npz"), "png": self.save(out / "bifurcation.png")}
 
     def plot(self, path: str | os.PathLike) -> None:
-        """Stroboscopic x against eta with the LLE beneath; saved to ``path`` (PNG)."""
+        """Stroboscopic x against eta with the LLE beneath, saved as an image.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Output file (PNG; ``.pdf`` and ``.svg`` by their suffix), written atomically
+            with matplotlib's object API (the user's backend is never changed).
+        """
         eta = np.array([float(e) for e in self.eta])
         fig, axes = new_figure(2, 1, figsize=(10, 7), layout="tight", sharex=True, gridspec_kw={"height_ratios": [3, 2]})
         ax1, ax2 = axes[:, 0]
@@ -109,7 +170,20 @@ class BifurcationResult(ResultMixin):
 
 
 def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:
-    """``n`` exact, evenly spaced values from ``eta_min`` to ``eta_max`` (both included)."""
+    """``n`` exact, evenly spaced values from ``eta_min`` to ``eta_max`` (both included).
+
+    Parameters
+    ----------
+    eta_min, eta_max : decimal
+        Ends of the grid (decimal strings, Fractions or numbers; converted exactly).
+    n : int
+        Number of values, ``>= 1`` (``n = 1`` gives ``[eta_min]``).
+
+    Returns
+    -------
+    list of Fraction
+        The grid, exact rationals.
+    """
     return exact_grid(eta_min, eta_max, n, "eta", strict=True)
 
 
@@ -129,7 +203,7 @@ def bifurcation(
     periods: int = 2000,
     transient: int = 1000,
     workers: int | None = None,
-    progress: bool = True,
+    progress: bool | None = None,
 ) -> BifurcationResult:
     """Stroboscopic x and the LLE for ``n`` values of eta.
 
@@ -137,16 +211,38 @@ def bifurcation(
     ----------
     params : Params
         Every parameter but eta (and the initial condition of each run).
-    eta_min, eta_max, n :
-        Exact evenly spaced grid (:func:`eta_grid`).
+    eta_min, eta_max : decimal
+        Ends of the grid (both included; exact decimals).
+    n : int
+        Number of values (:func:`eta_grid`: exact, evenly spaced).
     periods : int, default 2000
         Measured periods per value (stroboscopic points and LLE).
     transient : int, default 1000
         Discarded periods per value.
-    workers : int or None, default ``None`` (all cores, ``os.cpu_count()``)
-        Worker processes; 1 runs in this process.
-    progress : bool, default ``True``
-        A progress bar on stderr.
+    workers : int or None, default ``None``
+        Worker processes; ``None`` uses all cores (``os.cpu_count()``), 1 runs in
+        this process.
+    progress : bool or None, default ``None``
+        A progress bar on stderr (:class:`~precise_impact.io.progress.Progress`):
+        ``None`` shows it only when stderr is a terminal.
+
+    Returns
+    -------
+    BifurcationResult
+        ``eta``, the stroboscopic ``x`` (``n x periods``), ``lle`` with ``lle_stderr``,
+        impacts per period and the closed-form grazing frequencies (``grazing``);
+        ``plot(path)`` draws the diagram.
+
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+           mechanical impact oscillator" (the period-3 orbit at eta = 0.74 and the
+           chaotic band near eta = 0.712).
     """
     etas = eta_grid(eta_min, eta_max, n)
     periods = check_count(periods, "periods")
@@ -162,18 +258,10 @@ def bifurcation(
     start = time.perf_counter()
     results: list[Any] = [None] * len(jobs)
     done = 0
+    bar = Progress(len(jobs), "bifurcation", progress)
 
     def tick():
-        if progress:
-            width = 40
-            filled = int(width * done / len(jobs))
-            el = time.perf_counter() - start
-            print(
-                f"\r  bifurcation [{'#' * filled}{'.' * (width - filled)}] {done}/{len(jobs)}  {el:6.1f} s",
-                end="" if done < len(jobs) else "\n",
-                file=sys.stderr,
-                flush=True,
-            )
+        bar.update(done)
 
     if workers == 1:
         for i, job in enumerate(jobs):

@@ -12,11 +12,31 @@ __all__ = ["detect_period"]
 
 
 def detect_period(xs: np.ndarray, vs: np.ndarray, max_period: int = 32, rtol: float = 1e-6) -> int:
-    """Smallest p <= ``max_period`` with the stroboscopic samples p-periodic, else 0.
+    """Smallest period ``p <= max_period`` of a stroboscopic sequence, else 0.
 
-    Every one of the last ``2 max_period`` samples must repeat after p periods to
-    ``rtol * (1 + |x|)``; 0 means no period up to ``max_period`` (chaotic,
-    quasi-periodic, or still transient).
+    Parameters
+    ----------
+    xs, vs : numpy.ndarray
+        Stroboscopic samples of ``x`` and ``v`` (float64), one per forcing period.
+    max_period : int, default 32
+        Largest period tried.
+    rtol : float, default 1e-6
+        Every one of the last ``2 max_period`` samples must repeat after ``p`` periods
+        to ``rtol * (1 + |x|)``.
+
+    Returns
+    -------
+    int
+        The period; 0 means no period up to ``max_period`` (chaotic, quasi-periodic,
+        or still transient).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from precise_impact import detect_period
+    >>> xs = np.tile([0.1, 0.7, -0.4], 40)
+    >>> detect_period(xs, xs)
+    3
     """
     n = len(xs)
     w = min(n, 2 * max_period)

@@ -17,7 +17,6 @@ import io
 import json
 import math
 import os
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from fractions import Fraction
@@ -31,8 +30,9 @@ from precise_impact.io.figures import figure
 from precise_impact.errors import OptionalDependencyError, ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.progress import Progress
 
-__all__ = ["SWEEP_PARAMS", "SweepSpec", "compute_tile", "run_sweep", "load_sweep"]
+__all__ = ["SWEEP_PARAMS", "SweepSpec", "SweepResult", "compute_tile", "run_sweep", "load_sweep"]
 
 #: Runtime parameters a sweep may vary (no recompilation between points).
 SWEEP_PARAMS = ("eta", "x_w", "zeta", "a", "R")
@@ -75,11 +75,38 @@ class SweepSpec:
     @classmethod
     def make(cls, base: Params, axes: Sequence[tuple[str, Any, Any, Any]], periods=2000, transient=1000,
              tile_size=64, batch_size=None, max_work: int = MAX_WORK) -> "SweepSpec":
-        """Validate and build: ``axes`` = [(name, min, max, n), ...] (1 or 2 axes).
+        """Validate and build a sweep specification.
 
-        The work, grid points x (periods + transient), is checked against ``max_work``
-        (default :data:`MAX_WORK`) before any grid is built, so a 10^6 x 10^6 request is
-        refused at once with the figure and the way to raise the budget.
+        Parameters
+        ----------
+        base : Params
+            Every parameter not swept (and the initial condition of each run).
+        axes : sequence of (name, min, max, n)
+            One or two axes; ``name`` one of ``eta``, ``x_w``, ``zeta``, ``a``, ``R``;
+            ``min`` and ``max`` exact decimals (both included), ``n >= 1`` values.
+        periods : int, default 2000
+            Measured periods per grid point (LLE, period detection, impacts).
+        transient : int, default 1000
+            Discarded periods per grid point.
+        tile_size : int, default 64
+            Grid points per tile (the unit of work written atomically and resumed).
+        batch_size : int or None, default ``None``
+            SIMD lanes per batch integrator (``<= 64``); ``None`` is heyoka's recommended
+            width on this CPU (8 with AVX-512, 4 with AVX2).
+        max_work : int, default :data:`MAX_WORK`
+            Budget on grid points x (periods + transient), checked before any grid is
+            built, so a 10^6 x 10^6 request is refused at once with the figure and the
+            way to raise the budget.
+
+        Returns
+        -------
+        SweepSpec
+            The validated, immutable specification.
+
+        Raises
+        ------
+        ParameterError
+            Bad axis name, range, count or a budget exceeded.
         """
         from precise_impact.analysis.lyapunov.batch import default_batch_size
 
@@ -201,16 +228,17 @@ def run_sweep(
     out: str | os.PathLike,
     workers: int | None = None,
     dask: str | None = None,
-    progress: bool = True,
+    progress: bool | None = None,
     max_tiles: int | None = None,
-) -> SweepSummary:
+) -> SweepResult:
     """Compute every unfinished tile, then assemble the table and the plots.
 
     Parameters
     ----------
     spec : SweepSpec
-    out : directory
-        Holds ``sweep_spec.json``, ``tiles/`` and the assembled outputs.  An ``out``
+        What to compute (:meth:`SweepSpec.make`).
+    out : str or os.PathLike
+        Directory; holds ``sweep_spec.json``, ``tiles/`` and the assembled outputs.  An ``out``
         that holds a *different* sweep is refused (:class:`ParameterError`).
     workers : int or None, default ``None`` (``os.cpu_count()``)
         Local worker processes (ignored with ``dask``).
@@ -218,12 +246,25 @@ def run_sweep(
         Run the tiles on a Dask ``LocalCluster`` (one single-threaded worker process
         per core) or on the cluster behind the address (``pip install
         precise_impact[dask]``).
-    progress : bool, default ``True``
-        A progress bar on stderr.
-    max_tiles : int or None
+    progress : bool or None, default ``None``
+        A progress bar on stderr (:class:`~precise_impact.io.progress.Progress`):
+        ``None`` shows it only when stderr is a terminal.
+    max_tiles : int or None, default ``None`` (no limit)
         Stop after this many newly computed tiles (for tests of resuming).
 
-    Returns a summary dict (tiles computed / reused, points per second, paths).
+    Returns
+    -------
+    SweepResult
+        The grid (NaN at the points of tiles not finished yet), ``complete``, the
+        assembled ``files`` (when complete) and the run's ``stats``: tiles total /
+        reused / computed, wall time, points per second, workers, backend.
+
+    Raises
+    ------
+    ParameterError
+        Bad input, or ``out`` holds a different sweep, before any work.
+    OptionalDependencyError
+        ``dask`` is asked for and Dask is not installed.
     """
     out = Path(out)
     spec_file = out / "sweep_spec.json"
@@ -241,22 +282,13 @@ def run_sweep(
         todo = todo[:max_tiles]
     start = time.perf_counter()
     count = {"n": 0}
+    bar = Progress(spec.n_tiles, "sweep tiles", progress)
 
     def finished(t: int, arrays: dict) -> None:
         _write_tile(out, spec, t, arrays)
         count["n"] += 1
-        if progress:
-            n_done = len(done) + count["n"]
-            w = 40
-            f = int(w * n_done / spec.n_tiles)
-            el = time.perf_counter() - start
-            rate = count["n"] * spec.tile_size / max(el, 1e-9)
-            print(
-                f"\r  sweep [{'#' * f}{'.' * (w - f)}] {n_done}/{spec.n_tiles} tiles  {el:7.1f} s  ~{rate:6.1f} points/s",
-                end="\n" if n_done == spec.n_tiles or count["n"] == len(todo) else "",
-                file=sys.stderr,
-                flush=True,
-            )
+        rate = count["n"] * spec.tile_size / max(time.perf_counter() - start, 1e-9)
+        bar.update(len(done) + count["n"], f"~{rate:.1f} points/s")
 
     if dask is not None:
         n_workers = _run_dask(spec, todo, dask, finished, workers)
@@ -273,8 +305,9 @@ def run_sweep(
                 futs = {ex.submit(compute_tile, spec, t): t for t in todo}
                 for f in as_completed(futs):
                     finished(futs[f], f.result())
+    bar.close()
     elapsed = time.perf_counter() - start
-    summary = {
+    stats = {
         "tiles_total": spec.n_tiles,
         "tiles_reused": len(done),
         "tiles_computed": count["n"],
@@ -282,46 +315,106 @@ def run_sweep(
         "points_per_s": count["n"] * spec.tile_size / elapsed if count["n"] and elapsed > 0 else None,
         "workers": n_workers,
         "backend": "dask" if dask is not None else "processes",
-        "complete": len(done) + count["n"] == spec.n_tiles,
     }
-    if summary["complete"]:
-        summary.update(assemble(spec, out))
-    return SweepSummary(**summary)
+    result = _gather(out, spec, stats, strict=False)
+    if result.complete:
+        result.files = assemble(result, out)
+    return result
 
 
 @dataclasses.dataclass
-class SweepSummary(ResultMixin):
-    """What :func:`run_sweep` did.
+class SweepResult(ResultMixin):
+    """A sweep's table on its grid, returned by :func:`run_sweep` and :func:`load_sweep`.
 
     Attributes
     ----------
-    tiles_total, tiles_reused, tiles_computed : int
-        Tiles of the grid; found finished in ``out`` (resume); computed by this call.
-    elapsed_s : float
-        Wall time of this call.
-    points_per_s : float or None
-        Grid points computed per second (``None`` if nothing was computed).
-    workers : int
-        Processes (or Dask workers) used.
-    backend : str
-        ``'processes'`` or ``'dask'``.
+    spec : SweepSpec
+        What was swept (the grid is ``spec.axes``, row-major).
+    lle, stderr, lambda2 : numpy.ndarray of float, shape ``spec.shape``
+        Largest Lyapunov exponent per unit time, its standard error, the second exponent.
+    period : numpy.ndarray of float, shape ``spec.shape``
+        Detected period of the stroboscopic samples
+        (:func:`~precise_impact.analysis.periodicity.detect_period`; 0: none <= 32).
+    impacts_per_period : numpy.ndarray of float, shape ``spec.shape``
+        Mean impacts per forcing period.
     complete : bool
-        Every tile is finished (then the assembled files exist).
-    npz, csv, png : str or None
-        The assembled ``sweep.npz``, ``sweep.csv``, ``sweep.png`` (when complete).
+        Every tile is finished.  The arrays are NaN at the points of unfinished tiles.
+    files : dict of str to str
+        ``{'npz', 'csv', 'png'}``: the assembled outputs :func:`run_sweep` wrote (empty
+        before the sweep is complete, and from :func:`load_sweep`).
+    stats : dict
+        Diagnostics.  From :func:`run_sweep`: ``tiles_total``, ``tiles_reused`` (found
+        finished: resume), ``tiles_computed`` (by this call), ``elapsed_s``,
+        ``points_per_s`` (``None`` if nothing was computed), ``workers``, ``backend``
+        (``'processes'`` or ``'dask'``).  From :func:`load_sweep`: ``tiles_total``.
+
+    Notes
+    -----
+    ``save(path)`` writes ``.json`` (:meth:`to_dict`), ``.npz`` (the arrays, one
+    ``axisI_NAME`` array of coordinates per axis and the specification as
+    ``spec_json``) or ``.csv`` (one row per point: coordinates as exact decimals, then
+    the fields).
     """
 
-    tiles_total: int
-    tiles_reused: int
-    tiles_computed: int
-    elapsed_s: float
-    points_per_s: float | None
-    workers: int
-    backend: str
+    spec: SweepSpec
+    lle: np.ndarray
+    stderr: np.ndarray
+    lambda2: np.ndarray
+    period: np.ndarray
+    impacts_per_period: np.ndarray
     complete: bool
-    npz: str | None = None
-    csv: str | None = None
-    png: str | None = None
+    files: dict = dataclasses.field(default_factory=dict)
+    stats: dict = dataclasses.field(default_factory=dict)
+
+    def coordinates(self) -> dict[str, np.ndarray]:
+        """Each axis' values as float64, ``{name: array}`` in axis order."""
+        return {name: np.array([float(v) for v in vals]) for name, vals in self.spec.axes}
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the result atomically as ``.json``, ``.npz`` or ``.csv`` (see Notes of the class).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file; its suffix picks the format.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+
+        Raises
+        ------
+        ParameterError
+            ``path`` ends in none of ``.json``, ``.npz``, ``.csv``.
+        """
+        path = Path(path)
+        spec = self.spec
+        if path.suffix == ".npz":
+            axes = {f"axis{i}_{name}": v for i, (name, v) in enumerate(self.coordinates().items())}
+            npz = dict({f: getattr(self, f) for f in _FIELDS}, **axes,
+                       spec_json=np.asarray(json.dumps(spec.to_json_dict())))
+            atomic_write(path, lambda fh: np.savez_compressed(fh, **npz), binary=True)
+            return path
+        if path.suffix == ".csv":
+            names = [name for name, _ in spec.axes]
+            lines = [",".join(names + list(_FIELDS))]
+            for k in range(spec.n_points):
+                idx = np.unravel_index(k, spec.shape)
+                coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx)]
+                row = [repr(float(getattr(self, f)[idx])) if f != "period" else _int_or_nan(self.period[idx])
+                       for f in _FIELDS]
+                lines.append(",".join(coords + row))
+            text = "\n".join(lines) + "\n"
+            atomic_write(path, lambda fh: fh.write(text), binary=False)
+            return path
+        if path.suffix != ".json":
+            raise ParameterError("path", str(path), "a file ending in .json, .npz or .csv")
+        return super().save(path)
+
+
+def _int_or_nan(x: float) -> str:
+    return str(int(x)) if math.isfinite(x) else "nan"
 
 
 def _run_dask(spec: SweepSpec, todo: list[int], dask: str, finished: Callable, workers: int | None) -> int:
@@ -355,36 +448,71 @@ def _run_dask(spec: SweepSpec, todo: list[int], dask: str, finished: Callable, w
     return n_workers
 
 
-def load_sweep(out: str | os.PathLike, spec: SweepSpec) -> dict[str, np.ndarray]:
-    """Read every tile of a finished sweep into arrays of the grid's shape."""
-    out = Path(out)
+def _gather(out: Path, spec: SweepSpec, stats: dict, strict: bool) -> SweepResult:
+    """The tiles found in ``out`` as a :class:`SweepResult` (NaN where a tile is missing)."""
     arrays = {f: np.full(spec.n_points, np.nan) for f in _FIELDS}
+    found = 0
     for t in range(spec.n_tiles):
-        with np.load(_tile_path(out, t)) as d:
+        path = _tile_path(out, t)
+        if not path.exists():
+            if strict:
+                raise ParameterError("out", str(out), f"a finished sweep (tile {t} of {spec.n_tiles} is missing: "
+                                     "run run_sweep / precise-impact sweep again to finish it)")
+            continue
+        with np.load(path) as d:
             if str(d["digest"]) != spec.digest:
                 raise ParameterError("out", str(out), f"tile {t} belongs to another sweep")
             for f in _FIELDS:
                 arrays[f][d["index"]] = d[f]
-    return {f: a.reshape(spec.shape) for f, a in arrays.items()}
+        found += 1
+    grid = {f: a.reshape(spec.shape) for f, a in arrays.items()}
+    return SweepResult(spec=spec, **grid, complete=found == spec.n_tiles, stats=stats)
 
 
-def assemble(spec: SweepSpec, out: Path) -> dict[str, str]:
-    """Write ``sweep.npz``, ``sweep.csv`` and ``sweep.png`` from the tiles."""
-    data = load_sweep(out, spec)
-    axes = {f"axis{i}_{name}": np.array([float(v) for v in vals]) for i, (name, vals) in enumerate(spec.axes)}
-    npz = dict(data, **axes, spec_json=np.asarray(json.dumps(spec.to_json_dict())))
-    atomic_write(out / "sweep.npz", lambda fh: np.savez_compressed(fh, **npz), binary=True)
-    names = [name for name, _ in spec.axes]
-    lines = [",".join(names + list(_FIELDS))]
-    for k in range(spec.n_points):
-        idx = np.unravel_index(k, spec.shape)
-        coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx)]
-        vals = [repr(float(data[f][idx])) if f != "period" else str(int(data[f][idx])) for f in _FIELDS]
-        lines.append(",".join(coords + vals))
-    text = "\n".join(lines) + "\n"
-    atomic_write(out / "sweep.csv", lambda fh: fh.write(text), binary=False)
-    _plot(spec, data, out / "sweep.png")
-    return {"npz": str(out / "sweep.npz"), "csv": str(out / "sweep.csv"), "png": str(out / "sweep.png")}
+def load_sweep(out: str | os.PathLike, spec: SweepSpec) -> SweepResult:
+    """Read every tile of a finished sweep into arrays of the grid's shape.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The sweep's directory (``run_sweep``'s ``out``).
+    spec : SweepSpec
+        The sweep's specification (every tile's identity is checked against it).
+
+    Returns
+    -------
+    SweepResult
+        ``complete`` is true; ``stats`` holds ``tiles_total``.
+
+    Raises
+    ------
+    ParameterError
+        A tile is missing (the sweep is not finished) or belongs to another sweep.
+    """
+    return _gather(Path(out), spec, {"tiles_total": spec.n_tiles}, strict=True)
+
+
+def assemble(result: SweepResult, out: Path) -> dict[str, str]:
+    """Write ``sweep.npz``, ``sweep.csv`` and ``sweep.png`` of a complete sweep into ``out``.
+
+    Parameters
+    ----------
+    result : SweepResult
+        A complete sweep.
+    out : pathlib.Path
+        The directory.
+
+    Returns
+    -------
+    dict of str to str
+        The three paths under the keys ``'npz'``, ``'csv'``, ``'png'``.
+    """
+    files = {ext: out / f"sweep.{ext}" for ext in ("npz", "csv")}
+    for path in files.values():
+        result.save(path)
+    files["png"] = out / "sweep.png"
+    _plot(result.spec, {f: getattr(result, f) for f in _FIELDS}, files["png"])
+    return {k: str(v) for k, v in files.items()}
 
 
 def _plot(spec: SweepSpec, data: dict, path: Path) -> None:

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 import time as _time
 from fractions import Fraction
 from pathlib import Path
@@ -41,6 +40,7 @@ from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.progress import say
 
 #: Most slave starts per coupling value (one stated range for the CLI and the API).
 MAX_ENSEMBLE = 10_000
@@ -326,12 +326,24 @@ def sync_scan(
     precision : str, default ``'float64'``
         Precision of the coupled runs.
 
-    Returns a :class:`SyncResult` (per-``k`` fractions, ``k*`` where the synchronised
-    fraction crosses 1/2, the LLE with its standard error).
+    Returns
+    -------
+    SyncResult
+        Per-``k`` fractions (synchronised, intermittent, collapsed), ``k*`` where the
+        synchronised fraction crosses 1/2, the LLE with its standard error.
 
-    References: the paper, eqs. (10)-(12) and Fig. 7; Pikovsky, Rosenblum & Kurths,
-    *Synchronization* (2001), ch. 13; Heagy, Platt & Hammel, PRE 49 (1994) 1140
-    (on-off intermittency at the threshold).
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+           mechanical impact oscillator", eqs. (10)-(12) and Fig. 7.
+    .. [2] A. Pikovsky, M. Rosenblum, J. Kurths, *Synchronization* (2001), ch. 13.
+    .. [3] J. F. Heagy, N. Platt, S. M. Hammel, PRE 49 (1994) 1140 (on-off
+           intermittency at the threshold).
     """
     if not isinstance(params, Params):
         raise ParameterError("params", type(params).__name__, "a precise_impact.Params (use Params.make(...))")
@@ -376,12 +388,8 @@ def sync_scan(
         if progress:
             ns = sum(r.synchronised for r in row)
             ni = sum(r.intermittent for r in row)
-            print(
-                f"  sync {form} k={decimal_str(k)}: {ns}/{ensemble} synchronised, {ni} intermittent "
-                f"({_time.perf_counter() - t_k:.2f} s)",
-                file=sys.stderr,
-                flush=True,
-            )
+            say(f"  sync {form} k={decimal_str(k)}: {ns}/{ensemble} synchronised, {ni} intermittent "
+                f"({_time.perf_counter() - t_k:.2f} s)", progress)
     fs = np.array([np.mean([r.synchronised for r in row]) for row in runs])
     fi = np.array([np.mean([r.intermittent for r in row]) for row in runs])
     fb = np.array([np.mean([r.burst for r in row]) for row in runs])
@@ -476,9 +484,20 @@ def plot_fig7(
     threshold : float or None, default 1e-8
         Drawn as a dashed horizontal line (``None``: not drawn).
 
+    Returns
+    -------
+    tuple of CoupledTrajectory
+        The runs of panels (a) and (b).
+
+    Notes
+    -----
     Samples where ``|x - y|`` is exactly 0 (the slave has collapsed onto the master
     bit for bit) cannot be shown on a log axis; the panel notes from when.
-    Returns the two :class:`~precise_impact.models.coupled.CoupledTrajectory` objects.
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+           mechanical impact oscillator", Fig. 7.
     """
     p, fmt = _check_plot_path(path)
     if not isinstance(params, Params):
@@ -515,15 +534,15 @@ def plot_fig7(
 def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
     """Synchronised (and intermittent) fraction against ``k``, with the LLE marked.
 
+    The single oscillator's LLE is drawn as a vertical line with a band of
+    ``+- stderr``; ``k*`` (half crossing) as a point with its horizontal error bar.
+
     Parameters
     ----------
     result : SyncResult
         From :func:`sync_scan`.
     path : str or Path
         Output file, ``.png``, ``.pdf`` or ``.svg``; written atomically.
-
-    The single oscillator's LLE is drawn as a vertical line with a band of
-    ``+- stderr``; ``k*`` (half crossing) as a point with its horizontal error bar.
     """
     p, fmt = _check_plot_path(path)
     if not isinstance(result, SyncResult):

@@ -16,6 +16,7 @@ from precise_impact.analysis.sync import MAX_ENSEMBLE
 EXIT_BAD_INPUT = 2
 EXIT_BUDGET = 3
 EXIT_IO = 4
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, the shell's convention
 
 _PARAM_FLAGS = (
     ("--eta", "eta", "forcing frequency ratio, > 0 (default 0.712)"),
@@ -203,9 +204,10 @@ def _cmd_bifurcation(ns) -> int:
     params = Params.make(**{dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS if dest != "eta"})
     workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
     res = bifurcation(
-        params, ns.eta[0], ns.eta[1], ns.eta[2], periods=ns.periods, transient=ns.transient, workers=workers
+        params, ns.eta[0], ns.eta[1], ns.eta[2], periods=ns.periods, transient=ns.transient, workers=workers,
+        progress=True,
     )
-    files = res.save(ns.out)
+    files = res.save_all(ns.out)
     print(f"{len(res.eta)} values of eta in {res.elapsed_s:.1f} s on {res.workers} worker(s); "
           f"grazing eta (closed form): {', '.join(f'{g:.6f}' for g in res.grazing) or 'none in range'}")
     print(f"LLE range: {res.lle.min():.4f} .. {res.lle.max():.4f}; written: {files['png']}, {files['npz']}")
@@ -271,16 +273,16 @@ def _cmd_sweep(ns) -> int:
     workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
     if ns.scheduler is not None and not ns.scheduler.startswith("tcp://"):
         raise ParameterError("scheduler", ns.scheduler, "a Dask scheduler address tcp://HOST:PORT")
-    summary = run_sweep(spec, ns.out, workers=workers, dask=ns.dask or ns.scheduler, progress=not ns.json)
-    if ns.json:
-        json.dump(summary.to_dict(), sys.stdout)
+    res = run_sweep(spec, ns.out, workers=workers, dask=ns.dask or ns.scheduler, progress=not ns.json)
+    st = res.stats
+    if ns.json:  # the run, not the grid (that is in sweep.npz / sweep.csv)
+        json.dump(dict(st, complete=res.complete, **res.files), sys.stdout)
         sys.stdout.write("\n")
     else:
-        print(f"{spec.n_points} points in {spec.n_tiles} tiles: {summary['tiles_computed']} computed, "
-              f"{summary['tiles_reused']} reused, {summary['elapsed_s']:.1f} s on {summary['workers']} "
-              f"{summary['backend']} worker(s)")
-        if summary.get("png"):
-            print(f"written: {summary['npz']}, {summary['csv']}, {summary['png']}")
+        print(f"{spec.n_points} points in {spec.n_tiles} tiles: {st['tiles_computed']} computed, "
+              f"{st['tiles_reused']} reused, {st['elapsed_s']:.1f} s on {st['workers']} {st['backend']} worker(s)")
+        if res.files:
+            print(f"written: {res.files['npz']}, {res.files['csv']}, {res.files['png']}")
     return 0
 
 
@@ -324,7 +326,7 @@ def _cmd_run(ns) -> int:
 def _cmd_reproduce(ns) -> int:
     from precise_impact.verification.reproduce import reproduce
 
-    res = reproduce(ns.out, quick=ns.quick)
+    res = reproduce(ns.out, quick=ns.quick, progress=True)
     print(f"report: {ns.out}/report.md ({res['elapsed_s']:.0f} s)")
     for fig, row in res["figures"].items():
         print(f"Fig. {fig} eta={row['eta']}: " + ", ".join(
@@ -402,6 +404,20 @@ def _is_number(s: str) -> bool:
     return True
 
 
+def _terminate_as_interrupt() -> None:
+    """SIGTERM ends a run like Ctrl-C: the same cleanup, one line, exit 130."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return  # signal handlers can only be set from the main thread (e.g. main() called in a test thread)
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, handler)
+
+
 def _check_outputs(ns) -> None:
     """Every --out checked before any work: the right kind of path, writable, no silent overwrite."""
     from precise_impact.io.atomic import check_output_dir, check_output_file
@@ -423,6 +439,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import heyoka
 
     heyoka.set_logger_level_error()
+    _terminate_as_interrupt()
     try:
         _check_outputs(ns)
         return {
@@ -454,6 +471,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()
         return 0
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: finished files (tiles, outputs) are complete
+        print("precise-impact: interrupted; finished results are kept", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except OSError as e:  # a full or read-only file system mid-run: one line, finished files intact
         print(f"precise-impact: I/O error: {e.strerror or e}: {e.filename or ''}".rstrip(": "), file=sys.stderr)
         return EXIT_IO

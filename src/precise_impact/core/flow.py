@@ -18,7 +18,22 @@ __all__ = ["acceleration", "SteadyState", "steady_state", "grazing_frequencies"]
 
 
 def acceleration(t: Any, x: Any, v: Any, eta: Any, zeta: Any, a: Any, cos: Callable[[Any], Any]) -> Any:
-    """Right-hand side of ``v' `` in eq. (2a): ``a cos(eta t) - 2 zeta v - x``."""
+    """Right-hand side of ``v'`` in eq. (2a): ``a cos(eta t) - 2 zeta v - x``.
+
+    Parameters
+    ----------
+    t, x, v : number
+        Time and state.
+    eta, zeta, a : number
+        Forcing frequency, damping ratio, forcing amplitude.
+    cos : callable
+        The cosine of the number type (``math.cos``, ``mpmath.cos``, ``heyoka.cos`` ...).
+
+    Returns
+    -------
+    number
+        The acceleration, in the number type of the arguments.
+    """
     return a * cos(eta * t) - 2 * zeta * v - x
 
 
@@ -41,14 +56,45 @@ class SteadyState:
         return self.P * self.P + self.Q * self.Q
 
     def at(self, t: Any, cos=mpmath.cos, sin=mpmath.sin) -> tuple[Any, Any]:
-        """``(x_p(t), x_p'(t))`` evaluated with the given cos/sin."""
+        """``(x_p(t), x_p'(t))`` evaluated with the given cos/sin.
+
+        Parameters
+        ----------
+        t : number
+            Time.
+        cos, sin : callable, default ``mpmath.cos``, ``mpmath.sin``
+            Functions of the number type wanted.
+
+        Returns
+        -------
+        tuple
+            Position and velocity of the steady state at ``t``.
+        """
         eta = self.eta
         c, s = cos(eta * t), sin(eta * t)
         return self.P * c + self.Q * s, eta * (self.Q * c - self.P * s)
 
 
 def steady_state(params) -> SteadyState:
-    """Closed-form steady state of the smooth oscillator for ``params`` (exact)."""
+    """Closed-form steady state of the smooth (non-impacting) oscillator, exact.
+
+    Parameters
+    ----------
+    params : Params
+        System (``zeta``, ``a``, ``eta`` are used).
+
+    Returns
+    -------
+    SteadyState
+        ``P``, ``Q`` and ``eta`` as Fractions: ``x_p(t) = P cos(eta t) + Q sin(eta t)``.
+
+    Examples
+    --------
+    >>> from precise_impact import Params, steady_state
+    >>> ss = steady_state(Params.make(eta="0.70"))
+    >>> ss.P, ss.eta * ss.Q
+    (Fraction(102, 53), Fraction(49, 265))
+    """
     eta, zeta, a = params.eta, params.zeta, params.a
     d = (1 - eta**2) ** 2 + (2 * zeta * eta) ** 2
     if d == 0:
@@ -63,10 +109,22 @@ def steady_state(params) -> SteadyState:
 def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
     """Forcing frequencies at which the steady-state amplitude equals ``|x_w|``.
 
-    Solves ``(1 - u)^2 + 4 zeta^2 u = a^2 / x_w^2`` for ``u = eta^2`` (closed form),
-    returning the positive ``eta`` in increasing order.  For the paper's parameters
-    the lower root is eta ~ 0.71069: below it the non-impacting orbit stays clear
-    of the wall.
+    Solves ``(1 - u)^2 + 4 zeta^2 u = a^2 / x_w^2`` for ``u = eta^2`` (closed form).
+    For the paper's parameters the lower root is eta ~ 0.71069: below it the
+    non-impacting orbit stays clear of the wall.
+
+    Parameters
+    ----------
+    params : Params
+        System (``zeta``, ``a``, ``x_w`` are used).
+    dps : int, default 30
+        Decimal digits of the mpmath evaluation.
+
+    Returns
+    -------
+    list of mpmath.mpf
+        The positive roots ``eta`` in increasing order (empty if the amplitude never
+        reaches the wall).
     """
     with mpmath.workdps(dps):
         z = mpmath.mpf(params.zeta.numerator) / params.zeta.denominator

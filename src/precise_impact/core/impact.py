@@ -43,7 +43,20 @@ __all__ = [
 
 
 def reset_velocity(v_minus: Any, R: Any) -> Any:
-    """Velocity after the impact, eq. (2b): ``v+ = -R v-``."""
+    """Velocity after the impact, eq. (2b): ``v+ = -R v-``.
+
+    Parameters
+    ----------
+    v_minus : number
+        Velocity before the impact.
+    R : number
+        Restitution coefficient, ``0 <= R <= 1``.
+
+    Returns
+    -------
+    number
+        Velocity after the impact.
+    """
     return -R * v_minus
 
 
@@ -56,7 +69,29 @@ def saltation_matrix(
     """General saltation matrix ``Dg + (f+ - Dg f-) n^T / (n^T f-)`` for any dimension.
 
     Works for any number type with ``+ - * /`` (float, numpy, mpmath, heyoka real).
-    Raises ``ZeroDivisionError`` for a tangential impact (``n^T f- = 0``).
+
+    Parameters
+    ----------
+    jac_reset : sequence of sequences
+        Jacobian ``Dg`` of the reset map.
+    f_minus, f_plus : sequence
+        Vector field just before and just after the impact.
+    normal : sequence
+        Normal ``n`` of the switching surface.
+
+    Returns
+    -------
+    list of list
+        The saltation matrix.
+
+    Raises
+    ------
+    ZeroDivisionError
+        A tangential impact (``n^T f- = 0``).
+
+    References
+    ----------
+    .. [1] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681.
     """
     n = len(f_minus)
     dg_f = [sum(jac_reset[i][k] * f_minus[k] for k in range(n)) for i in range(n)]
@@ -72,7 +107,41 @@ def oscillator_saltation(t: Any, v_minus: Any, eta: Any, zeta: Any, a: Any, x_w:
     """Saltation matrix of the single oscillator's impact at ``(t, x_w, v_minus)``.
 
     Built from :func:`saltation_matrix` with the flow :func:`~precise_impact.core.flow.acceleration`,
-    so the two are never out of step.
+    so the two are never out of step.  Its determinant is ``R^2``.
+
+    Parameters
+    ----------
+    t : number
+        Impact time.
+    v_minus : number
+        Velocity before the impact (``> 0`` for a transversal impact).
+    eta, zeta, a, x_w, R : number
+        System parameters (as in :class:`~precise_impact.Params`).
+    cos : callable
+        The cosine of the number type.
+
+    Returns
+    -------
+    list of list
+        The 2x2 matrix mapping a pre-impact state perturbation to the post-impact one.
+
+    Raises
+    ------
+    ZeroDivisionError
+        ``v_minus = 0`` (a tangential, grazing contact has no saltation matrix).
+
+    References
+    ----------
+    .. [1] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681.
+    .. [2] M. di Bernardo et al., Piecewise-smooth Dynamical Systems (2008), sec. 2.5.
+
+    Examples
+    --------
+    >>> import math
+    >>> from precise_impact import oscillator_saltation
+    >>> S = oscillator_saltation(1.0, 0.7, 0.712, 0.05, 1.0, 2.0, 0.8, math.cos)
+    >>> round(S[0][0] * S[1][1] - S[0][1] * S[1][0], 12)    # det S = R^2
+    0.64
     """
     v_plus = reset_velocity(v_minus, R)
     f_minus = [v_minus, acceleration(t, x_w, v_minus, eta, zeta, a, cos)]
@@ -86,6 +155,20 @@ def impact_at_start(x0: Any, v0: Any, x_w: Any, R: Any) -> bool:
     """True if the initial state lies on the wall moving into it (``x0 = x_w``, ``v0 > 0``).
 
     Such a start is an impact at ``t0``; solvers apply :func:`reset_velocity` first.
+
+    Parameters
+    ----------
+    x0, v0 : number
+        Initial state.
+    x_w : number
+        Wall position.
+    R : number
+        Restitution coefficient (part of the signature of every impact rule).
+
+    Returns
+    -------
+    bool
+        Whether the start is an impact.
     """
     return x0 == x_w and v0 > 0
 

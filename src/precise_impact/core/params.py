@@ -60,7 +60,7 @@ _DEFAULTS = {
 #: Longest decimal string accepted for one number (a 5000-digit decimal is refused, not expanded).
 MAX_DIGITS = 400
 
-#: Default magnitude range of a number: 0, or 10**-MAX_EXPONENT <= |value| <= 10**MAX_EXPONENT.
+#: Default magnitude range of a number: 0, or 10**-MAX_EXPONENT <= abs(value) <= 10**MAX_EXPONENT.
 #: Inside it every value converts to float64 without overflow or underflow (float64 reaches
 #: 1.8e308 and 2.2e-308), so no precision sees an infinite or flushed-to-zero parameter.
 MAX_EXPONENT = 100
@@ -238,13 +238,13 @@ class Params:
     name         allowed                             default
     ===========  ==================================  ============
     zeta         0 <= zeta <= 1e3 (damping ratio)    0.05
-    a            |a| <= 1e6 (forcing amplitude)      1
+    a            abs(a) <= 1e6 (forcing amplitude)   1
     eta          1e-3 <= eta <= 1e3 (frequency)      0.712
-    x_w          |x_w| <= 1e6 (wall position)        2
+    x_w          abs(x_w) <= 1e6 (wall position)     2
     R            0 <= R <= 1 (restitution)           1
-    x0           <= x_w, |x0| <= 1e6                 0
-    v0           |v0| <= 1e6                         0
-    t0           |t0| <= 1e9 (start, forcing phase)  0
+    x0           <= x_w, abs(x0) <= 1e6              0
+    v0           abs(v0) <= 1e6                      0
+    t0           abs(t0) <= 1e9 (start time, phase)  0
     ===========  ==================================  ============
 
     Defaults are the paper's (zeta = 0.05, a = 1, x_w = 2, R = 1, chaotic eta = 0.712).
@@ -270,7 +270,25 @@ class Params:
 
     @classmethod
     def make(cls, **values: Any) -> "Params":
-        """Build and validate.  Unknown names are refused; missing ones take defaults."""
+        """Build and validate.  Unknown names are refused; missing ones take defaults.
+
+        Parameters
+        ----------
+        **values
+            Any of ``zeta, a, eta, x_w, R, x0, v0, t0`` as decimal strings, Fractions,
+            ints or floats (a float is read as its shortest round-trip decimal); ``None``
+            or a missing name takes the paper's default (table above).
+
+        Returns
+        -------
+        Params
+            Exact, validated parameters.
+
+        Raises
+        ------
+        ParameterError
+            An unknown name or a value outside its range.
+        """
         unknown = sorted(set(values) - set(PARAM_NAMES))
         if unknown:
             raise ParameterError(
@@ -301,13 +319,30 @@ class Params:
             )
 
     def replace(self, **values: Any) -> "Params":
-        """A copy with some fields changed (validated)."""
+        """A copy with some fields changed (validated).
+
+        Parameters
+        ----------
+        **values
+            Fields to change, as in :meth:`make`.
+
+        Returns
+        -------
+        Params
+            The new parameters.
+        """
         d = {n: getattr(self, n) for n in PARAM_NAMES}
         d.update(values)
         return Params.make(**d)
 
     def decimal(self) -> dict[str, str]:
-        """``{name: exact decimal string}`` (``'p/q'`` for non-terminating rationals)."""
+        """Every field as an exact decimal string.
+
+        Returns
+        -------
+        dict of str to str
+            ``{name: exact decimal string}`` (``'p/q'`` for non-terminating rationals).
+        """
         return {n: decimal_str(getattr(self, n)) for n in PARAM_NAMES}
 
     def __str__(self) -> str:
@@ -315,7 +350,23 @@ class Params:
 
     @classmethod
     def from_mapping(cls, m: Mapping[str, Any]) -> "Params":
-        """Build from a mapping ``{name: value}`` (e.g. parsed JSON); see :meth:`make`."""
+        """Build from a mapping ``{name: value}`` (e.g. parsed JSON); see :meth:`make`.
+
+        Parameters
+        ----------
+        m : Mapping
+            Parameter names to values.
+
+        Returns
+        -------
+        Params
+            Exact, validated parameters.
+
+        Raises
+        ------
+        ParameterError
+            ``m`` is not a mapping, or a name or value is refused by :meth:`make`.
+        """
         if not isinstance(m, Mapping):
             raise ParameterError("params", type(m).__name__, "a Params or a mapping {name: value}")
         return cls.make(**{str(k): v for k, v in m.items()})

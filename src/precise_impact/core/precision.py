@@ -240,26 +240,25 @@ class Precision:
     def sample_times(self, t0: Fraction, eta: Fraction, periods: int, per_period: int = 1) -> list:
         """Times ``t0 + j * T / per_period``, ``T = 2 pi / eta``, j = 0..periods*per_period.
 
-        Each time is computed in mpmath with 64 guard bits plus the bits of the
-        largest index and rounded once to this precision, so sample times carry no
-        accumulated ``k * eps`` drift.
+        Each rounded once to this precision: :func:`precise_impact.core.clock.sample_times`.
+
+        Parameters
+        ----------
+        t0, eta : Fraction
+            Start time and forcing frequency (exact).
+        periods : int
+            Forcing periods.
+        per_period : int, default 1
+            Output times per period.
+
+        Returns
+        -------
+        list
+            ``periods * per_period + 1`` numbers of this precision.
         """
-        n = periods * per_period
-        guard = 64 + max(n, 1).bit_length()
-        with mpmath.workprec(self.bits + guard):
-            step = 2 * mpmath.pi / (mpmath.mpf(eta.numerator) / eta.denominator) / per_period
-            t0m = mpmath.mpf(t0.numerator) / t0.denominator
-            if self.kind != "float64":
-                return [self.from_mpf(t0m + j * step) for j in range(n + 1)]
-        # float64: the same values without an mpmath operation per sample.  With
-        # t0m = m0 2^e0 and step = ms 2^es (both exact at the working precision above),
-        # t0m + j step = (A + j B) 2^E exactly in integers, and float(int) rounds once,
-        # to nearest (Python's int -> float conversion is correctly rounded); ldexp by a
-        # power of two is exact.  Fewer roundings than the mpmath sum, ~20x faster.
-        (m0, e0), (ms, es) = _mpf_man_exp(t0m), _mpf_man_exp(step)
-        E = min(e0, es)
-        A, B = m0 << (e0 - E), ms << (es - E)
-        return [math.ldexp(float(A + j * B), E) for j in range(n + 1)]
+        from precise_impact.core.clock import sample_times
+
+        return sample_times(self, t0, eta, periods, per_period)
 
     def __str__(self) -> str:
         return self.name

@@ -36,7 +36,7 @@ def atomic_write(path: str | os.PathLike, writer: Callable[[Any], Any], binary: 
     writer : callable
         Called once with an open file object; writes the whole content.
     binary : bool, default ``True``
-        Open the temporary file in binary (``'wb'``) or text (``'w'``) mode.
+        Open the temporary file in binary (``'wb'``) or UTF-8 text (``'w'``) mode.
 
     Raises
     ------
@@ -49,7 +49,7 @@ def atomic_write(path: str | os.PathLike, writer: Callable[[Any], Any], binary: 
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         os.fchmod(fd, 0o666 & ~current_umask())
-        with os.fdopen(fd, "wb" if binary else "w") as fh:
+        with (os.fdopen(fd, "wb") if binary else os.fdopen(fd, "w", encoding="utf-8")) as fh:
             writer(fh)
             fh.flush()
             os.fsync(fh.fileno())

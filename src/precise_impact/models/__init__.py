@@ -18,7 +18,10 @@ from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
 from precise_impact.solvers.base import register_model
 
-__all__: list[str] = []
+__all__ = [
+    "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "Components", "nominal_components", "EFFECTS",
+    "CircuitSolver", "SwitchedCapacitorSolver", "SpiceSolver", "CoupledCircuitTrajectory", "simulate_coupled_circuit",
+]
 
 
 def _circuit(prec: Precision, tol: Any, **options: Any):
@@ -46,3 +49,12 @@ def _spice(prec: Precision, tol: Any, **options: Any):
 register_model("circuit", "the op-amp network of Fig. 2 with the mechanical impact law (nominal parts)", _circuit)
 register_model("switched-capacitor", "the impact made by the circuit: comparator, flip-flop, switches", _switched)
 register_model("spice", "the Fig. 2 circuit as an ngspice netlist (float64; needs ngspice)", _spice)
+
+# The public names (after the registration, which needs none of them).
+from precise_impact.models.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled  # noqa: E402
+from precise_impact.models.circuit.components import Components, nominal_components  # noqa: E402
+from precise_impact.models.circuit.effects.catalogue import EFFECTS  # noqa: E402
+from precise_impact.models.circuit.opamp import CircuitSolver  # noqa: E402
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver  # noqa: E402
+from precise_impact.models.circuit.spice import SpiceSolver  # noqa: E402
+from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit  # noqa: E402

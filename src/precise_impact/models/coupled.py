@@ -66,6 +66,7 @@ import numpy as np
 
 from precise_impact.core.result import ResultMixin
 from precise_impact.solvers.cache import IntegratorCache
+from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str, exact
@@ -162,7 +163,10 @@ class _CoupledImpact:
     would leave the other oscillator a round-off *beyond* the wall after this
     event, where heyoka (which detects sign changes) could miss its impact.
 
-    heyoka deep-copies the callback: read results from ``ta.t_events[i].callback``.
+    The impacts it applies go to two :class:`~precise_impact.solvers.events.ImpactRecorder`
+    logs, ``master`` (``t, v_before, v_after``) and ``slave`` (``t, w_before, w_after``
+    and the master's position in ``aux``); the budget covers both.  heyoka deep-copies
+    the callback: read results from ``ta.t_events[i].callback``.
     """
 
     def __init__(self, role: str, form: str) -> None:
@@ -172,8 +176,8 @@ class _CoupledImpact:
         self.reset(10**6)
 
     def reset(self, max_impacts: int, touch: float = 0.0) -> None:
-        self.master: list = []  # (t, v_before, v_after)
-        self.slave: list = []  # (t, w_before, w_after, x)
+        self.master = ImpactRecorder()  # (t, v_before, v_after)
+        self.slave = ImpactRecorder()  # (t, w_before, w_after, aux = x)
         self.max_impacts = max_impacts
         self.touch = touch
         self.exceeded = False
@@ -193,14 +197,14 @@ class _CoupledImpact:
             va = reset_velocity(v, R)
             st[0] = x_w  # the event fixes the instant; the position is the wall (2b)
             st[1] = va
-            self.master.append((t, v, va))
+            self.master.log(t, v, va)
         if hit_s:
             xm = st[0]
             wa = slave_reset(self.form, xm, w, R, k, x_w)
             st[2] = x_w
             st[3] = wa
-            self.slave.append((t, w, wa, xm))
-        if len(self.master) + len(self.slave) >= self.max_impacts:
+            self.slave.log(t, w, wa, xm)
+        if self.master.count + self.slave.count >= self.max_impacts:
             self.exceeded = True
             return False
         return True
@@ -323,6 +327,17 @@ class CoupledTrajectory(ResultMixin):
         """``(t, |x - y|)`` as float64 (stroboscopic, or dense if ``dense``).
 
         The difference is formed in the working precision, then rounded.
+
+        Parameters
+        ----------
+        dense : bool, default ``False``
+            Use the dense samples (``per_period > 0`` in the run) instead of the
+            stroboscopic ones.
+
+        Returns
+        -------
+        t, d : numpy.ndarray
+            Times and ``|x - y|``, float64.
         """
         if dense:
             if self.dense_t is None:
@@ -410,12 +425,31 @@ def simulate_coupled(
     max_impacts : int, default ``10**7``
         Budget over both oscillators; exceeding it raises :class:`BudgetExceededError`.
 
-    A start on the wall moving into it is an impact at ``t0`` (applied before the
-    first sample).  Every input is validated before any work; a bad value raises
-    :class:`ParameterError` naming it and its allowed range.
+    Returns
+    -------
+    CoupledTrajectory
+        Stroboscopic (and dense, if asked for) samples of master ``(x, v)`` and slave
+        ``(y, w)``, both oscillators' impacts; ``difference()`` gives ``|x - y|``.
 
-    References: the paper's eqs. (11)-(14); Biscani & Izzo, MNRAS 504 (2021) 2614
-    (heyoka's Taylor method and event detection).
+    Raises
+    ------
+    ParameterError
+        Every input is validated before any work; a bad value is named with its
+        allowed range.
+    BudgetExceededError
+        More than ``max_impacts`` impacts.
+
+    Notes
+    -----
+    A start on the wall moving into it is an impact at ``t0`` (applied before the
+    first sample).
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+           mechanical impact oscillator", eqs. (11)-(14) and Fig. 7.
+    .. [2] F. Biscani, D. Izzo, MNRAS 504 (2021) 2614 (heyoka's Taylor method and
+           event detection).
     """
     if not isinstance(params, Params):
         raise ParameterError("params", type(params).__name__, "a precise_impact.Params (use Params.make(...))")
@@ -475,13 +509,13 @@ def simulate_coupled(
         return [tuple(conv(c) if isinstance(c, Fraction) else c for c in r) for r in rows]
 
     def merged(attr):
-        rows = [row for r in recs for row in getattr(r, attr)]
+        rows = [row for r in recs for row in getattr(r, attr).rows()]
         rows.sort(key=lambda row: row[0])
         return rows
 
     master = conv_exact(m0) + merged("master")
     slave = conv_exact(s0) + merged("slave")
-    simultaneous = sum(1 for r in recs for row in (r.slave if r.role == "master" else r.master))
+    simultaneous = sum((r.slave if r.role == "master" else r.master).count for r in recs)
 
     def col(rows, i):
         return P.array([row[i] for row in rows])

@@ -241,13 +241,36 @@ def _build(data: Mapping, source: str) -> Scene:
 
 
 def builtin_scenes() -> dict[str, Path]:
-    """``{name: path}`` of the scenes shipped in ``precise_impact/scenes``."""
+    """The scenes shipped in ``precise_impact/scenes``.
+
+    Returns
+    -------
+    dict of str to Path
+        ``{name: path}`` of each built-in ``.toml`` scene.
+    """
     root = resources.files("precise_impact") / "scenes"
     return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
 
 
 def load_scene(spec: str | Path) -> Scene:
-    """A built-in scene name or a path to a ``.toml`` file, parsed and validated."""
+    """A built-in scene name or a path to a ``.toml`` file, parsed and validated.
+
+    Parameters
+    ----------
+    spec : str or Path
+        A name from :func:`builtin_scenes` or a path to a regular UTF-8 ``.toml``
+        file (at most 1 MiB).
+
+    Returns
+    -------
+    Scene
+        The validated scene (exact parameters, model, precision, effects).
+
+    Raises
+    ------
+    ParameterError
+        Unknown name, unreadable or malformed file, or a value out of range.
+    """
     spec = str(spec)
     built = builtin_scenes()
     if spec in built:

@@ -470,20 +470,28 @@ class AnalyticalSolver:
         return ClosedForm(model, seg)
 
     def solve(self, params: Params, periods: int, per_period: int = 0) -> Trajectory:
-        """Integrate ``periods`` forcing periods from ``(t0, x0, v0)``.
+        """Integrate ``periods`` forcing periods from ``(t0, x0, v0)`` by closed-form segments.
 
-        Arguments:
+        Parameters
+        ----------
+        params : Params
+            System and initial condition (exact rationals).
+        periods : int
+            Forcing periods; samples at ``t0 + k T``, ``k = 0..periods``.
+        per_period : int, default 0
+            Dense output points per period (0: none).
 
-        * ``params``: :class:`~precise_impact.core.params.Params` (exact rationals).
-        * ``periods``: number of forcing periods; samples at ``t0 + k T``,
-          ``k = 0..periods``.
+        Returns
+        -------
+        Trajectory
+            Samples and impacts (``tol = None``).
 
-        * ``per_period = 0``: dense output points per period (``0`` = none).
-
-        Returns a :class:`~precise_impact.core.trajectory.Trajectory` (``tol = None``).
-        Raises :class:`ParameterError` before any work for parameters outside the
-        closed form's range, :class:`BudgetExceededError` when a budget is hit or
-        the motion sticks to the wall.
+        Raises
+        ------
+        ParameterError
+            Parameters outside the closed form's range, before any work.
+        BudgetExceededError
+            A budget is hit or the motion sticks to the wall.
         """
         self.check_params(params)
         periods = check_count(periods, "periods")

@@ -32,8 +32,14 @@ __all__ = ["Solver", "MODELS", "MODEL_ALIASES", "register_model", "canonical_mod
 class Solver(Protocol):
     """What every model implements.
 
+    ``isinstance(obj, Solver)`` checks that ``obj`` has the two attributes and a
+    ``solve`` method (Python checks no signatures); every model of the registry has
+    the signature below, and :func:`simulate`, the scenes and compare rely on it.
+
     Attributes
     ----------
+    model_name : str
+        The model's name in :data:`MODELS` (also :attr:`Trajectory.model` of its results).
     precision : Precision
         The working precision of the solver's numbers.
 
@@ -42,12 +48,31 @@ class Solver(Protocol):
     solve(params, periods, *, per_period=0) -> Trajectory
         Simulate ``periods`` forcing periods from ``params``' initial condition;
         stroboscopic samples at ``t0 + k 2 pi / eta`` (``k = 0..periods``), every
-        impact, and ``per_period`` dense points per period when ``> 0``.
+        impact, and ``per_period`` dense points per period when ``> 0``.  Models
+        may take further keyword-only options (the circuit models: ``x0, v0, t0``).
     """
 
+    model_name: str
     precision: Precision
 
-    def solve(self, params: Params, periods: int, per_period: int = 0) -> Trajectory:  # pragma: no cover - protocol
+    def solve(self, params: Params, periods: int, *, per_period: int = 0) -> Trajectory:  # pragma: no cover - protocol
+        """Simulate ``periods`` forcing periods; see the class docstring.
+
+        Parameters
+        ----------
+        params : Params
+            System and initial condition.
+        periods : int
+            Forcing periods; stroboscopic samples at ``t0 + k 2 pi / eta``,
+            ``k = 0..periods``.
+        per_period : int, default 0
+            Dense output points per period (0: none).
+
+        Returns
+        -------
+        Trajectory
+            Samples, impacts and ``stats``.
+        """
         ...
 
 

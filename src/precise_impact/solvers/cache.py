@@ -68,6 +68,11 @@ class IntegratorCache:
             # no promise about concurrent copies of one object.
             return copy.deepcopy(template)
 
+    def clear(self) -> None:
+        """Drop every compiled template (the next :meth:`get` of each key compiles again)."""
+        with self._lock:
+            self._templates.clear()
+
     def __len__(self) -> int:
         with self._lock:
             return len(self._templates)

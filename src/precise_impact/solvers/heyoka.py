@@ -85,6 +85,7 @@ from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.cache import IntegratorCache
+from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.core.flow import acceleration
 
 __all__ = ["HeyokaSolver", "build_integrator"]
@@ -95,8 +96,9 @@ _IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
 _GUARD_BITS = 64
 
 
-class _ImpactRecorder:
-    """Terminal-event callback: applies the impact map and records the impact.
+class _ImpactRecorder(ImpactRecorder):
+    """Terminal-event callback: applies the impact map and records the impact
+    (:class:`~precise_impact.solvers.events.ImpactRecorder`).
 
     heyoka deep-copies the callback into the integrator, so results are read back
     from ``ta.t_events[0].callback`` (the integrator's copy), never from the object
@@ -118,18 +120,19 @@ class _ImpactRecorder:
     """
 
     def __init__(self) -> None:
+        super().__init__()
         self.reset(10**6)
 
+    @property
+    def spurious(self) -> int:
+        """Events discarded at the instant the mass was put at rest (charged to the budget)."""
+        return self.charged
+
     def reset(self, max_impacts: int, watch: "_ZenoWatch | None" = None) -> None:
-        self.t: list = []
-        self.v_before: list = []
-        self.v_after: list = []
-        self.max_impacts = max_impacts
-        self.exceeded = False
+        self.reset_log(max_impacts)
         self.watch = watch
         self.stop_reason: str | None = None
         self.contact_t: Any = None
-        self.spurious = 0
         self.spurious_v = 0.0
         self.depth = None  # a GrazingDepth enables the contact rule (set by HeyokaSolver.solve)
         self.cos = np.cos
@@ -142,9 +145,7 @@ class _ImpactRecorder:
         if self.watch is not None and ta.time == self.contact_t and abs(float(vb)) <= self.spurious_v:
             st[0] = pars[_IDX["x_w"]]
             st[1] = 0 * vb
-            self.spurious += 1
-            if len(self.t) + self.spurious >= self.max_impacts:
-                self.exceeded = True
+            if not self.charge():
                 self.stop_reason = "budget"
                 return False
             return True
@@ -160,11 +161,7 @@ class _ImpactRecorder:
         # The event fixes the impact instant; the position there is the wall by
         # definition (eq. 2b).  The root finder leaves x within O(eps) of x_w.
         st[0] = pars[_IDX["x_w"]]
-        self.t.append(ta.time)
-        self.v_before.append(vb)
-        self.v_after.append(va)
-        if len(self.t) + self.spurious >= self.max_impacts:
-            self.exceeded = True
+        if not self.record(ta.time, vb, va):
             self.stop_reason = "budget"
             return False
         watch = self.watch
@@ -635,16 +632,44 @@ class HeyokaSolver:
         if impact_at_start(params.x0, params.v0, params.x_w, params.R):
             # Starting on the wall moving into it is an impact at t0.
             va = reset_velocity(v0, conv(params.R))
-            rec.t.append(ta.time)
-            rec.v_before.append(v0)
-            rec.v_after.append(va)
+            rec.log(ta.time, v0, va)
             v0 = va
         ta.state[:] = P.array([x0, v0])
         ta.reset_cooldowns()
         return ta, rec
 
     def solve(self, params: Params, periods: int, per_period: int = 0) -> Trajectory:
-        """Integrate ``periods`` forcing periods (see :meth:`_solve`); thread-safe."""
+        """Integrate ``periods`` forcing periods (see :meth:`_solve`); thread-safe.
+
+        Parameters
+        ----------
+        params : Params
+            System and initial condition (converted once into this solver's precision).
+        periods : int
+            Forcing periods; stroboscopic samples at ``t0 + k 2 pi / eta``,
+            ``k = 0..periods``.
+        per_period : int, default 0
+            Dense output points per period (0: none).
+
+        Returns
+        -------
+        Trajectory
+            Samples, impacts (time, velocities before and after) and ``stats``.
+
+        Raises
+        ------
+        ParameterError
+            Bad input, before any work.
+        BudgetExceededError
+            An impact or step budget was exhausted (e.g. a Zeno impact sequence).
+        IntegrationError
+            heyoka stopped with a non-finite state or an error outcome.
+
+        References
+        ----------
+        .. [1] F. Biscani, D. Izzo, "Revisiting high-order Taylor methods for
+               astrodynamics and celestial mechanics", MNRAS 504 (2021) 2614.
+        """
         with self._lock:
             return self._solve(params, periods, per_period)
 

@@ -25,7 +25,8 @@ from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.solvers.simulate import simulate
 
-__all__ = ["PAPER_ETAS", "CANDIDATES", "reference_bits", "sample_errors", "accuracy_table"]
+__all__ = ["PAPER_ETAS", "CANDIDATES", "AccuracyResult", "reference_bits", "sample_errors", "accuracy_table",
+           "format_table"]
 
 #: The paper's three regimes: periodic without impacts, chaotic, period-3.
 PAPER_ETAS = ("0.70", "0.712", "0.74")
@@ -43,18 +44,30 @@ def accuracy_table(
     periods: int = 100,
     etas: Sequence[str] = PAPER_ETAS,
     out: str | Path | None = None,
-    progress: bool = True,
-) -> dict[str, Any]:
+    progress: bool | None = None,
+) -> AccuracyResult:
     """Score every candidate at each eta; write ``accuracy.json`` and ``accuracy.png`` to ``out``.
 
     Parameters
     ----------
     periods : int, default 100
         Forcing periods from rest.
-    etas : sequence of decimal strings, default the paper's ``('0.70', '0.712', '0.74')``.
-    out : directory or None, default ``None`` (nothing written)
-    progress : bool, default ``True``
-        One line per finished run on stderr.
+    etas : sequence of decimal strings, default ``PAPER_ETAS``
+        Forcing frequencies, the paper's ``('0.70', '0.712', '0.74')``.
+    out : directory or None, default ``None``
+        Where ``accuracy.json`` and ``accuracy.png`` go; ``None`` writes nothing.
+    progress : bool or None, default ``None``
+        One line per finished run on stderr (``None``: only when stderr is a terminal).
+
+    Returns
+    -------
+    AccuracyResult
+        One row per (eta, model, precision), the reference's own row first.
+
+    Raises
+    ------
+    ParameterError
+        ``periods`` outside 1..2000, before any work.
     """
     periods = check_count(periods, "periods", 2000, minimum=1)
     bits = reference_bits(periods)
@@ -146,8 +159,18 @@ class AccuracyResult(ResultMixin):
     rows: list
 
 
-def format_table(result: dict[str, Any]) -> str:
-    """The table printed by ``precise-impact accuracy``."""
+def format_table(result: AccuracyResult) -> str:
+    """The table printed by ``precise-impact accuracy``.
+
+    Parameters
+    ----------
+    result : AccuracyResult
+        From :func:`accuracy_table`.
+
+    Returns
+    -------
+    str
+    """
     lines = [
         f"Errors over {result['periods']} periods from rest against heyoka mp:{result['reference_bits']} "
         "(max over stroboscopic samples of max(|dx|, |dv|))",

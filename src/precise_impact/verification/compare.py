@@ -42,7 +42,7 @@ from precise_impact.io.atomic import atomic_write
 from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
 from precise_impact.verification.scores import detected_period, divergence_rate, score, separation
 
-__all__ = ["compare", "check_models", "format_scores", "REF_PERTURBATION", "MODEL_PERTURBATION"]
+__all__ = ["compare", "CompareResult", "check_models", "format_scores", "REF_PERTURBATION", "MODEL_PERTURBATION"]
 
 #: x0 offset of the second reference (chaotic scenes): decorrelates within ~30 periods.
 REF_PERTURBATION = Fraction(1, 1000)
@@ -89,20 +89,39 @@ def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=N
 
 
 def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: str | Path | None = None,
-            periods: int | None = None, progress: bool = True, transient: int | None = None) -> dict[str, Any]:
+            periods: int | None = None, progress: bool | None = None, transient: int | None = None) -> CompareResult:
     """Score ``models`` on a scene against a demonstrated heyoka reference.
 
     Parameters
     ----------
-    models : list of names from :data:`precise_impact.scenes.scene.SCENE_MODELS` (or ``'a,b'``)
-    out : directory or None (nothing written)
-        ``report.md``, ``scores.json``, ``phase_portraits.png``, ``separation.png``.
-    periods : int or None, default the scene's duration
-    progress : bool, one line per finished run on stderr
-    transient : int or None, default ``periods // 5``
+    scene_name_or_path : str or Path
+        A built-in scene (:func:`~precise_impact.scenes.builtin_scenes`) or a ``.toml`` file.
+    models : sequence of str or str
+        Names from :data:`precise_impact.scenes.scene.SCENE_MODELS` (or one string
+        ``'a,b'``).
+    out : directory or None, default ``None``
+        Writes ``report.md``, ``scores.json``, ``phase_portraits.png``,
+        ``separation.png``; ``None`` writes nothing.
+    periods : int or None, default ``None``
+        Forcing periods; ``None`` is the scene's duration.
+    progress : bool or None, default ``None``
+        One line per finished run on stderr (``None``: only when stderr is a terminal).
+    transient : int or None, default ``None``
+        Periods discarded before scoring; ``None`` is ``periods // 5``.
 
-    Returns ``{"scene", "params", "periods", "regime", "reference", "lle", "models":
-    {name: scores}}``.
+    Returns
+    -------
+    CompareResult
+        The scene, parameters, regime, how the reference was made (with its
+        demonstrated accuracy), the reference LLE and every model's scores
+        (:func:`~precise_impact.verification.scores.score`).
+
+    Raises
+    ------
+    ParameterError
+        Unknown scene or model, or bad counts, before any work.
+    OptionalDependencyError
+        A model needs a component that is not installed (e.g. ngspice).
     """
     from precise_impact.analysis.lyapunov import lyapunov
     from precise_impact.solvers.simulate import make_solver
@@ -236,8 +255,18 @@ def _one_line(sc: dict) -> str:
             f"impact-v W1 {sc['impact_v_wasserstein']:.3f} (floor {sc['impact_v_floor']:.3f})")
 
 
-def format_scores(result: dict) -> str:
-    """Plain-text summary printed by ``precise-impact compare``."""
+def format_scores(result: CompareResult) -> str:
+    """Plain-text summary printed by ``precise-impact compare``.
+
+    Parameters
+    ----------
+    result : CompareResult
+        From :func:`compare`.
+
+    Returns
+    -------
+    str
+    """
     r = result["reference"]
     lines = [f"scene {result['scene']}: {result['regime']} (reference period {result['reference_period']}), "
              f"{result['periods']} periods, transient {result['transient_periods']}",
@@ -365,7 +394,7 @@ def _report(res: dict) -> str:
               "time (within T/4; one model impact per reference impact); dt and dv = |v_before - v_before_ref| are "
               "over matched pairs; unmatched counts are the impacts left over on each side.",
               "* *period*: smallest p <= 32 such that the model's samples after the transient repeat after p "
-              "periods to 1e-6 (1 + |x| + |v|) (`_lyapunov._batch.detect_period`)."]
+              "periods to 1e-6 (1 + |x| + |v|) (`precise_impact.analysis.periodicity.detect_period`)."]
     else:
         deltas = list(next(iter(res["models"].values()))["horizons"])
         L += ["| model | " + " | ".join(f"horizon d={d}" for d in deltas) + " | fitted rate | rate / LLE | "

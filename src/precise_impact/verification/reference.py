@@ -459,23 +459,28 @@ def _check_cases(cases: Sequence[str] | str | None) -> list[str]:
 def generate(
     cases: Sequence[str] | str | None = None,
     out: str | Path = Path("reference_data"),
-    progress: bool = True,
+    progress: bool | None = None,
     force: bool = False,
 ) -> dict[str, dict]:
     """Generate reference datasets into ``out/<case>/``.
 
     Parameters
     ----------
-    cases : None, a case name or a list of names, default ``None`` (every case in :data:`CASES`)
-    out : directory, default ``reference_data``
-    progress : bool, default ``True``
-        One line per step on stderr.
+    cases : None, str or list of str, default ``None``
+        A case name or a list of names; ``None`` is every case in :data:`CASES`.
+    out : directory, default ``'reference_data'``
+        Where the case directories are written.
+    progress : bool or None, default ``None``
+        One line per step on stderr (``None``: only when stderr is a terminal).
     force : bool, default ``False``
         Regenerate even cases whose manifest exists and whose checksums verify
         (otherwise those are skipped: resume after an interruption).
 
-    Returns ``{case: manifest}`` (the existing manifest for skipped cases, with
-    ``"skipped": True`` added).  Every file is written atomically, the manifest last.
+    Returns
+    -------
+    dict
+        ``{case: manifest}`` (the existing manifest for skipped cases, with
+        ``"skipped": True`` added).  Every file is written atomically, the manifest last.
     """
     names = _check_cases(cases)
     out = Path(out)
@@ -592,14 +597,22 @@ def verify(root: str | Path | None = None, cases: Sequence[str] | str | None = N
 
     Parameters
     ----------
-    root : directory or None, default ``None`` (:func:`default_root`)
-    cases : None, a case name or a list, default ``None`` (every case in :data:`CASES`;
-        a missing case is a problem)
+    root : directory or None, default ``None``
+        Datasets to check; ``None`` is :func:`default_root`.
+    cases : None, str or list of str, default ``None``
+        A case name or a list; ``None`` is every case in :data:`CASES` (a missing
+        case is a problem).
     recompute : bool, default ``True``
         Besides the checksums, recompute a cheap subset: the first
         :data:`VERIFY_PERIODS` periods of each single case in float128 (compared to
         the stored decimals within :func:`single_tolerance`) and of each coupled run
         (within 1e-9); sanity checks on the LLE and bifurcation tables.
+
+    Returns
+    -------
+    list of str
+        One message per problem (missing file, checksum mismatch, recomputed
+        value outside its tolerance); empty when every dataset verifies.
     """
     root = default_root() if root is None else Path(root)
     problems: list[str] = []

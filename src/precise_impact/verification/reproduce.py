@@ -13,7 +13,6 @@ from __future__ import annotations
 import dataclasses
 
 import io
-import json
 import math
 import shutil
 import time
@@ -88,17 +87,28 @@ class ReproduceResult(ResultMixin):
     elapsed_s: float
 
 
-def reproduce(out: str | Path = "results", quick: bool = False, progress: bool = True) -> ReproduceResult:
-    """Run the main job; returns the numbers written to ``out/report.json``.
+def reproduce(out: str | Path = "results", quick: bool = False, progress: bool | None = None) -> ReproduceResult:
+    """Run the main job: the paper's figures and tables, side by side with ours.
 
     Parameters
     ----------
     out : directory, default ``'results'``
+        Receives ``report.json``, ``report.md`` and the figures.
     quick : bool, default ``False``
         Fewer periods (150 instead of 300 per figure, 300 instead of 500 for Fig. 7,
         smaller ensembles) so that a fresh machine finishes in about a minute.
-    progress : bool, default ``True``
-        One line per finished step on stderr.
+    progress : bool or None, default ``None``
+        One line per finished step on stderr (``None``: only when stderr is a terminal).
+
+    Returns
+    -------
+    ReproduceResult
+        The numbers written to ``out/report.json``.
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+           mechanical impact oscillator" (Figs. 4-7).
     """
 
     from precise_impact.models.circuit.opamp import CircuitSolver
@@ -180,10 +190,10 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool =
         plot_fig7(p, form, "0.031", "0.032", sp, out / f"fig7_{form}.png")
         _say(f"sync {form}: k* = {sr.k_star:.4f} +- {sr.k_star_err:.4f}", progress)
     res["elapsed_s"] = time.perf_counter() - t_all
-    text = json.dumps(res, indent=1, default=str)
-    atomic_write(out / "report.json", lambda fh: fh.write(text), binary=False)
+    result = ReproduceResult(**res)
+    result.save(out / "report.json")  # report.json is result.to_dict()
     atomic_write(out / "report.md", lambda fh: fh.write(_report_md(res)), binary=False)
-    return ReproduceResult(**res)
+    return result
 
 
 def _report_md(res: dict) -> str:

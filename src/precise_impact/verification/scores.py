@@ -326,19 +326,44 @@ def score(model_traj: Trajectory, ref_traj: Trajectory, regime: str = "auto", ll
 
     Parameters
     ----------
-    regime : ``'auto'`` (default), ``'periodic'`` or ``'chaotic'``
-        ``'auto'``: periodic if the reference's samples after the transient are
-        p-periodic for some p <= ``max_period``, else chaotic.
-    lle, model_lle : float or None
-        Reference LLE (e.g. from :func:`precise_impact.analysis.lyapunov.lyapunov`) and the
-        model's, for the rate comparison and the LLE gap.
-    ref2 : Trajectory or None
+    model_traj, ref_traj : Trajectory
+        The model's run and the reference, with the same parameters and sample times.
+    regime : str, default ``'auto'``
+        ``'periodic'``, ``'chaotic'`` or ``'auto'``: periodic if the reference's samples
+        after the transient are p-periodic for some p <= ``max_period``, else chaotic.
+    lle : float or None, default ``None``
+        Reference LLE (e.g. from :func:`precise_impact.analysis.lyapunov.lyapunov`), for
+        the divergence-rate comparison.
+    model_lle : float or None, default ``None``
+        The model's LLE, for the LLE gap.
+    ref2 : Trajectory or None, default ``None``
         Second reference for the noise floor of the distribution distances.
-    transient : int or None, default ``periods // 5``
-        Samples discarded before the state errors, periods and clouds.
+    transient : int or None, default ``None``
+        Samples discarded before the state errors, periods and clouds; ``None`` is
+        ``periods // 5``.
+    deltas : sequence of float, default :data:`DEFAULT_DELTAS`
+        Separation thresholds of the predictability horizons (chaotic).
+    max_period : int, default 32
+        Largest period detected (:func:`~precise_impact.analysis.periodicity.detect_period`).
+    rtol : float, default 1e-6
+        Relative tolerance of the period detection.
+    n_proj : int, default 256
+        Random projections of the sliced Wasserstein distance between Poincare clouds.
+    seed : int, default 0
+        Seed of those projections.
 
-    Returns a dict with ``regime``, ``max_state_error`` (all samples after the
-    transient) and the periodic or chaotic block.
+    Returns
+    -------
+    dict
+        ``regime``, ``max_state_error`` (all samples after the transient) and the
+        periodic block (``period_model``, ``period_reference``, impact-by-impact
+        errors) or the chaotic block (predictability horizons, divergence rate,
+        cloud distances).
+
+    Raises
+    ------
+    ParameterError
+        Trajectories that do not match (parameters, sample count) or bad keywords.
     """
     if regime not in REGIMES:
         raise ParameterError("regime", regime, "one of " + ", ".join(REGIMES))

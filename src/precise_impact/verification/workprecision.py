@@ -476,21 +476,32 @@ def _headlines(rows: list[dict], cfg: dict, progress: bool) -> dict[str, Any]:
     return out
 
 
-def work_precision(quick: bool = False, out: str | Path | None = None, progress: bool = True,
-                   *, config: dict[str, Any] | None = None) -> dict[str, Any]:
+def work_precision(quick: bool = False, out: str | Path | None = None, progress: bool | None = None,
+                   *, config: dict[str, Any] | None = None) -> WorkPrecisionResult:
     """Measure error and wall time of every method on the periodic and chaotic cases.
 
     Parameters
     ----------
-    quick : bool, default False
+    quick : bool, default ``False``
         Fewer tolerances and methods, chaos cost for N in (50, 100, 200).
-    out : directory or None
+    out : directory or None, default ``None``
         Writes ``work_precision.json``, ``work_precision.csv``, ``work_precision.png``
-        (both cases) and ``chaos_cost.png``.
-    progress : bool
-        One line per run on stderr.
-    config : dict or None
+        (both cases) and ``chaos_cost.png``; ``None`` writes nothing.
+    progress : bool or None, default ``None``
+        One line per run on stderr (``None``: only when stderr is a terminal).
+    config : dict or None, default ``None``
         Overrides of the internal configuration (tests use it to shrink the run).
+
+    Returns
+    -------
+    WorkPrecisionResult
+        Per method, precision and tolerance: error against the demonstrated
+        reference and wall time; the chaos cost table.
+
+    References
+    ----------
+    .. [1] F. Biscani, D. Izzo, "Revisiting high-order Taylor methods for
+           astrodynamics and celestial mechanics", MNRAS 504 (2021) 2614 (heyoka).
     """
     cfg = _config(quick)
     if config:

@@ -26,9 +26,11 @@ from typing import Sequence
 
 import numpy as np
 
+from precise_impact.core.clock import local_clock
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.solvers.cache import IntegratorCache
+from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
@@ -54,7 +56,8 @@ def _depth(t: float, pr, i: int, amp: float) -> float:
 class _BatchSaltation:
     """Batch terminal-event callback: impact map + saltation matrix + QR on one lane.
 
-    Per lane: ``count`` impacts, ``grazing`` contacts, ``log1``/``log2`` the logs of
+    Per lane: an :class:`~precise_impact.solvers.events.ImpactRecorder` (count and
+    budget, no log) in ``lanes``, ``grazing`` contacts, ``log1``/``log2`` the logs of
     the in-callback QR since the last period boundary.
     """
 
@@ -63,12 +66,20 @@ class _BatchSaltation:
 
     def reset(self, batch_size: int, max_impacts: int, amp: np.ndarray) -> None:
         self.amp = np.asarray(amp, dtype=float)
-        self.count = np.zeros(batch_size, dtype=np.int64)
+        self.lanes = [ImpactRecorder(keep=False, max_impacts=max_impacts) for _ in range(batch_size)]
         self.grazing = np.zeros(batch_size, dtype=np.int64)
         self.log1 = np.zeros(batch_size)
         self.log2 = np.zeros(batch_size)
-        self.max_impacts = max_impacts
-        self.exceeded = False
+
+    @property
+    def count(self) -> np.ndarray:
+        """Impacts per lane since :meth:`reset`."""
+        return np.array([lane.count for lane in self.lanes], dtype=np.int64)
+
+    @property
+    def exceeded(self) -> bool:
+        """Has any lane exhausted its impact budget?"""
+        return any(lane.exceeded for lane in self.lanes)
 
     def __call__(self, ta, d_sgn, i) -> bool:
         st, pr = ta.state, ta.pars
@@ -95,11 +106,7 @@ class _BatchSaltation:
             self.log2[i] = -math.inf
         st[1, i] = reset_velocity(vb, R)
         st[0, i] = x_w
-        self.count[i] += 1
-        if self.count[i] >= self.max_impacts:
-            self.exceeded = True
-            return False
-        return True
+        return self.lanes[i].record(t)
 
 
 class _BatchGuard:
@@ -217,7 +224,6 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
     import heyoka as hy
 
     from precise_impact.core.precision import Precision
-    from precise_impact.analysis.lyapunov.two_trajectory import _local_clock
 
     ta = _integrator(B)
     rec = ta.t_events[0].callback
@@ -234,7 +240,7 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
         st[:, i] = (float(p.x0), v0, 1.0, 0.0, 0.0, 1.0)
     ta.state[:] = st
     P64 = Precision.parse("float64")
-    clocks = [_local_clock(P64, p.t0, p.eta) for p in group]
+    clocks = [local_clock(P64, p.t0, p.eta) for p in group]
     L0 = np.array([c[0] for c in clocks])
     L1 = np.array([c[1] for c in clocks])
     T = L1 - L0  # the period each lane integrates (the local clock's)
@@ -267,7 +273,7 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
         rec.log2[:] = 0.0
         if k == transient:
             s[2], s[3], s[4], s[5] = 1.0, 0.0, 0.0, 1.0
-            imp0 = rec.count.copy()
+            imp0 = rec.count
         elif k > transient:
             j = k - transient - 1
             with np.errstate(divide="ignore"):
@@ -275,6 +281,7 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
             xs[j], vs[j] = s[0], s[1]
     if imp0 is None:  # transient == 0
         imp0 = np.zeros(B, dtype=np.int64)
+    counts = rec.count
     results = []
     nb = min(segments, periods)
     for i in range(B):
@@ -288,7 +295,7 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
                 "lambda2": float(l2[:, i].sum() / tot),
                 "stderr": float(np.std(blocks, ddof=1) / math.sqrt(nb)) if nb > 1 else math.nan,
                 "period": detect_period(xs[:, i], vs[:, i], max_period),
-                "impacts_per_period": float((rec.count[i] - imp0[i]) / periods),
+                "impacts_per_period": float((counts[i] - imp0[i]) / periods),
                 "x_last": float(xs[-1, i]),
                 "v_last": float(vs[-1, i]),
                 "grazing": int(rec.grazing[i]),

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import copy
 import math
-import sys
 import time as _time
 import warnings
 from fractions import Fraction
@@ -45,9 +44,11 @@ import mpmath
 import numpy as np
 
 from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.clock import local_clock
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, exact
 from precise_impact.core.precision import Precision
+from precise_impact.io.progress import Progress
 from precise_impact.solvers.heyoka import build_integrator
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 
@@ -164,7 +165,7 @@ class _Orbit:
     @property
     def count(self) -> int:
         """Impacts since the recorder was last reset."""
-        return len(self.rec.t)
+        return self.rec.count
 
     def clear(self) -> None:
         self.rec.reset(_IMPACT_BUDGET)
@@ -205,9 +206,7 @@ class _Orbit:
         into it is an impact (recorded, as in ``HeyokaSolver``)."""
         if x == x_w and v > 0:
             vb, v = v, reset_velocity(v, R)
-            self.rec.t.append(self.ta.time)
-            self.rec.v_before.append(vb)
-            self.rec.v_after.append(v)
+            self.rec.log(self.ta.time, vb, v)
         self.ta.state[0] = x
         self.ta.state[1] = v
         self.ta.reset_cooldowns()
@@ -236,22 +235,11 @@ def _synchronise(fid: _Orbit, per: _Orbit, t_limit: Any, P: Precision) -> bool:
 
 
 def _local_clock(P: Precision, t0: Fraction, eta: Fraction) -> tuple[Any, Any, Any]:
-    """``(L0, L1, W)``: one forcing period ``[L0, L1]`` of the local clock, and ``T/8``.
-
-    The forcing is ``T``-periodic, so ``t0`` is first reduced modulo
-    ``T = 2 pi / eta`` (exactly, in mpmath), ``s0 = t0 - floor(t0/T) T``; then
-    ``L0 = fl(s0)`` and ``L1 = fl(s0 + T)``, each correctly rounded once from a
-    value carried with 64 guard bits (as :meth:`Precision.sample_times`).  Every
-    period is integrated from ``L0`` to ``L1`` and the clock set back to ``L0``,
-    so time never grows beyond ``T + T/8`` (see the module docstring for why).
-    """
-    extra = 64 + abs(t0).__ceil__().bit_length() + abs(eta).__ceil__().bit_length()
-    with mpmath.workprec(P.bits + extra):
-        T = 2 * mpmath.pi / (mpmath.mpf(eta.numerator) / eta.denominator)
-        t0m = mpmath.mpf(t0.numerator) / t0.denominator
-        s0 = t0m - mpmath.floor(t0m / T) * T
-        window = T * _SYNC_FRACTION.numerator / _SYNC_FRACTION.denominator
-        return P.from_mpf(s0), P.from_mpf(s0 + T), P.from_mpf(window)
+    """``(L0, L1, W)``: one forcing period ``[L0, L1]`` of the local clock, and ``T/8``
+    (:func:`precise_impact.core.clock.local_clock`).  Every period is integrated from
+    ``L0`` to ``L1`` and the clock set back to ``L0``, so time never grows beyond
+    ``T + T/8`` (see the module docstring for why)."""
+    return local_clock(P, t0, eta, _SYNC_FRACTION)
 
 
 # ------------------------------------------------------------------ main entry
@@ -264,64 +252,79 @@ def two_trajectory_lle(
     segments: int = 20,
     progress: bool = False,
 ) -> LyapunovResult:
-    """    two_trajectory_lle(params; periods=20000, transient=1000, precision="float64",
-                       d0=None, segments=20, progress=False) -> LyapunovResult
+    """Largest Lyapunov exponent by Benettin's two-trajectory method.
 
-    Largest Lyapunov exponent ``λ`` (per unit of dimensionless time τ) of the impact
-    oscillator, computed with Benettin's two-trajectory method [^Benettin1980]: a
-    fiducial and a perturbed trajectory are evolved together with the heyoka
-    reference integrator, and after every forcing period ``T = 2π/η`` the perturbed
-    one is rescaled back to distance ``d0`` along the separation.
+    The exponent ``lambda`` (per unit of dimensionless time) is measured from a
+    fiducial and a perturbed trajectory evolved together with the heyoka reference
+    integrator; after every forcing period ``T = 2 pi / eta`` the perturbed one is
+    rescaled back to distance ``d0`` along the separation [1]_.
 
-    Keyword arguments:
+    Parameters
+    ----------
+    params : Params
+        System; the orbit starts at ``(x0, v0)`` at time ``t0``.
+    periods : int, default 20000
+        Forcing periods over which the exponent is measured; ``>= 1``.
+    transient : int, default 1000
+        Forcing periods integrated first and discarded, so the fiducial orbit is on
+        the attractor; ``>= 0``.
+    precision : str or Precision, default ``'float64'``
+        ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp:BITS'``; both
+        trajectories, the rescaling and the sample times use it.
+    d0 : decimal or None, default ``None``
+        Initial and rescaling distance in the Euclidean ``(x, v)`` norm; ``None`` means
+        ``1e-2 sqrt(eps)`` of the precision (float64: 1.5e-10, float128: 1.4e-19; see
+        :func:`default_d0`).  Allowed: ``100 eps <= d0 <= 1e-3`` (below ``100 eps``
+        round-off of the O(1) state dominates the separation).  Decimal strings and
+        Fractions are accepted.
+    segments : int, default 20
+        Contiguous blocks for the batch-means standard error
+        (:func:`~precise_impact.analysis.lyapunov.result.block_stderr`); ``>= 2``.  The
+        error bar is NaN when ``periods < 2``.
+    progress : bool, default ``False``
+        Report the count and the running estimate on stderr
+        (:class:`~precise_impact.io.progress.Progress`: throttled, the last one always).
 
-    * `params` (required): :class:`~precise_impact.Params`; the orbit starts at
-      ``(x0, v0)`` at time ``t0``.
+    Returns
+    -------
+    LyapunovResult
+        ``method='two-trajectory'``, ``spectrum=None``, ``running`` the estimate after
+        each measured period, ``segments`` the per-block estimates, ``stderr`` their
+        standard error, ``impacts`` the fiducial orbit's impacts during the measured
+        periods and ``elapsed_s`` the wall time (transient included).
 
-    * `periods = 20000`: forcing periods over which the exponent is measured
-      (integer ``>= 1``).
+    Raises
+    ------
+    ParameterError
+        Bad input (validated before any work), naming the parameter and its range.
 
-    * `transient = 1000`: forcing periods integrated first and discarded, so the
-      fiducial orbit is on the attractor (integer ``>= 0``).
+    Warns
+    -----
+    RuntimeWarning
+        The separation collapsed to exactly zero and was re-seeded (see Notes).
 
-    * `precision = "float64"`: ``"float64"``, ``"longdouble"``, ``"float128"`` or
-      ``"mp:BITS"``; both trajectories, the rescaling and the sample times use it.
-
-    * `d0 = None`: initial and rescaling distance in the Euclidean ``(x, v)`` norm;
-      ``None`` means ``1e-2 sqrt(eps)`` of the precision (float64: 1.5e-10,
-      float128: 1.4e-19; see :func:`default_d0`).  Allowed:
-      ``100 eps <= d0 <= 1e-3`` (below ``100 eps`` round-off of the O(1) state
-      dominates the separation).  Decimal strings and Fractions are accepted.
-
-    * `segments = 20`: number of contiguous blocks for the batch-means standard
-      error (:func:`~precise_impact.analysis.lyapunov.result.block_stderr`); integer
-      ``>= 2``.  The error bar is NaN when ``periods < 2``.
-
-    * `progress = False`: if true, print the running estimate to stderr about every
-      10% of the periods.
-
-    ## Description
+    Notes
+    -----
     After the transient the perturbed state is ``x + d0 (1, 1)/sqrt(2)``.  Each
     period both are propagated to the next period boundary, the distance ``d`` is
     measured, ``ln(d/d0)`` accumulated and the perturbed state replaced by
     ``fiducial + (d0/d)(perturbed - fiducial)``.  Then
-    ``λ = Σ ln(d_k/d0) / Σ Δt_k`` (time, not periods, in the denominator).
+    ``lambda = sum ln(d_k/d0) / sum dt_k`` (time, not periods, in the denominator).
 
     *Local clock.*  Every period is integrated over the same interval
     ``[L0, L1]``, ``L0 = fl(t0 mod T)``, ``L1 = fl(L0 + T)`` (each rounded once, as
-    :meth:`Precision.sample_times`), and the clock is set back by one period
-    afterwards; the forcing is ``T``-periodic, so this is the stroboscopic map, but
-    the time never exceeds ``~T`` and the rounding of ``t`` inside
-    ``cos(eta t)`` stays ``eps T`` instead of ``eps t``.  With absolute time that
-    rounding, different in the two trajectories' adaptive steps, adds separation
-    noise ``~0.3 eps t`` per period and biases the exponent for small ``d0`` and
-    long runs (module docstring).
+    :meth:`~precise_impact.Precision.sample_times`), and the clock is set back by one
+    period afterwards; the forcing is ``T``-periodic, so this is the stroboscopic map,
+    but the time never exceeds ``~T`` and the rounding of ``t`` inside ``cos(eta t)``
+    stays ``eps T`` instead of ``eps t``.  With absolute time that rounding, different
+    in the two trajectories' adaptive steps, adds separation noise ``~0.3 eps t`` per
+    period and biases the exponent for small ``d0`` and long runs (module docstring).
 
     *Choice of d0.*  A finite separation has two errors: nonlinearity, growing
     like ``c d0`` (``c ~ 50`` per period at the near-grazing impacts of
     eta = 0.712, where the saltation matrix has a ``1/v`` factor; it grows like
     ``1/v^2`` closer to grazing), and round-off, zero-mean noise in ``ln d`` of
-    ``~5e-16/d0`` per period in float64, whose bias on ``λ`` is only second
+    ``~5e-16/d0`` per period in float64, whose bias on ``lambda`` is only second
     order.  ``sqrt(eps)`` balances the two; the factor ``1e-2`` errs on the
     harmless (round-off) side to keep grazing impacts linear.  Measured at
     eta = 0.712, float64, 20000 periods on one fiducial orbit: d0 = 1e-13 ...
@@ -334,7 +337,7 @@ def two_trajectory_lle(
     it), the lagging orbit is stepped exactly to its impact and the leading one to
     the same instant, and the separation is measured there (both post-impact;
     never more than ``T/8`` past the boundary).  The next interval then starts at
-    that instant, so every ``Δt_k`` is the true elapsed time.  If the counts cannot
+    that instant, so every ``dt_k`` is the true elapsed time.  If the counts cannot
     be levelled within ``T/8`` (a grazing impact made by one orbit only), the
     separation is measured at ``t_k + T/8``: it is then a genuine effect of the
     grazing discontinuity, not an artefact.  A rescaled perturbed state that would
@@ -348,20 +351,14 @@ def two_trajectory_lle(
     state, so this bounds the true growth from above), the perturbation is
     re-seeded along ``(1, 1)/sqrt(2)`` and a :class:`RuntimeWarning` is issued.
 
-    ## Returns
-    :class:`~precise_impact.analysis.lyapunov.result.LyapunovResult` with
-    ``method='two-trajectory'``, ``spectrum=None``, ``running`` the estimate after
-    each measured period, ``segments`` the per-block estimates, ``stderr`` their
-    standard error, ``impacts`` the fiducial orbit's impacts during the measured
-    periods and ``elapsed_s`` the wall time (transient included).
-
-    All input is validated before any work; bad values raise
-    :class:`~precise_impact.ParameterError` naming the parameter and its range.
-
-    [^Benettin1980]: G. Benettin, L. Galgani, A. Giorgilli, J.-M. Strelcyn,
-        "Lyapunov characteristic exponents for smooth dynamical systems and for
-        Hamiltonian systems; a method for computing all of them", Meccanica 15
-        (1980) 9-20 (part 1: theory, part 2: numerical application).
+    References
+    ----------
+    .. [1] G. Benettin, L. Galgani, A. Giorgilli, J.-M. Strelcyn, "Lyapunov
+           characteristic exponents for smooth dynamical systems and for Hamiltonian
+           systems; a method for computing all of them", Meccanica 15 (1980) 9-20
+           (part 1: theory, part 2: numerical application).
+    .. [2] F. Biscani, D. Izzo, "Revisiting high-order Taylor methods for
+           astrodynamics and celestial mechanics", MNRAS 504 (2021) (heyoka).
     """
     # ---- validation (before any work)
     if not isinstance(params, Params):
@@ -414,7 +411,7 @@ def two_trajectory_lle(
     dts = np.empty(periods)
     impacts = 0
     straddles = grazing_misses = collapses = 0
-    report_every = max(1, periods // 10)
+    bar = Progress(periods, "two-trajectory LLE", bool(progress))
     t_limit = L1 + sync_window
 
     for j in range(periods):
@@ -445,14 +442,8 @@ def two_trajectory_lle(
         fid.clear()
         per.clear()
         place(dx, dv)
-        if progress and ((j + 1) % report_every == 0 or j + 1 == periods):
-            est = log_growth[: j + 1].sum() / dts[: j + 1].sum()
-            print(
-                f"two-trajectory lle: {j + 1}/{periods} periods, lle ~ {est:.6g}, "
-                f"{_time.perf_counter() - t_start:.1f} s",
-                file=sys.stderr,
-                flush=True,
-            )
+        if progress:
+            bar.update(j + 1, f"lle ~ {log_growth[: j + 1].sum() / dts[: j + 1].sum():.6g}")
 
     if collapses:
         warnings.warn(

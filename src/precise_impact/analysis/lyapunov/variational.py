@@ -69,7 +69,7 @@ velocity ``v- -> 0``.  Three things could go wrong and are prevented:
 
 *Time.*  The forcing is ``T``-periodic, so every period is integrated on the same
 local interval ``[L0, L1]`` with the clock set back by one period afterwards
-(as in :mod:`precise_impact.analysis.lyapunov.two_trajectory`, whose ``_local_clock`` is used): ``|t|`` stays
+(as in :mod:`precise_impact.analysis.lyapunov.two_trajectory`; :func:`precise_impact.core.clock.local_clock`): ``|t|`` stays
 below ``T + |t0 mod T|``, the forcing-phase rounding ``u eta |t|`` and the grazing
 depth ``delta(t)`` stay at the level of the first period for any run length
 (with absolute time the apparent depth on the grazing orbit grew to 4e-11 after
@@ -97,15 +97,17 @@ guard fires on the deliberately inflated-cooldown case of 2. above.
 from __future__ import annotations
 
 import math
-import sys
 import time as _time
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from precise_impact.core.clock import local_clock, period_float
 from precise_impact.core.linalg import gram_schmidt2
+from precise_impact.io.progress import Progress
 from precise_impact.solvers.cache import IntegratorCache
+from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, MissedImpactError, ParameterError
 from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.impact import (
@@ -137,8 +139,11 @@ _PHI = (2, 3, 4, 5)
 GUARD_FACTOR = 4
 
 
-class _SaltationRecorder:
+class _SaltationRecorder(ImpactRecorder):
     """Terminal-event callback: impact map on the state, saltation matrix on the tangents.
+
+    Counts impacts against the budget with :class:`~precise_impact.solvers.events.ImpactRecorder`
+    (no log: ``keep=False``).
 
     Deep-copied into the integrator by heyoka: read it back from
     ``ta.t_events[0].callback``.  Counters (since the last :meth:`reset`):
@@ -149,18 +154,17 @@ class _SaltationRecorder:
     """
 
     def __init__(self) -> None:
+        super().__init__(keep=False)
         self.reset(10**7, _Depth(), math.sqrt, math.log, math.cos)
 
     def reset(self, max_impacts: int, depth: _Depth, sqrt, log, cos) -> None:
-        self.count = 0
+        self.reset_log(max_impacts, keep=False)
         self.grazing = 0
-        self.max_impacts = max_impacts
-        self.exceeded = False
         self.min_speed = math.inf
         self.max_contact_speed = 0.0
         self.max_saltation = 0.0
         self.depth = depth
-        self.sqrt, self.log, self.cos = sqrt, log, cos
+        self.sqrt, self.ln, self.cos = sqrt, log, cos
         self.log1 = 0.0
         self.log2 = 0.0
 
@@ -192,20 +196,17 @@ class _SaltationRecorder:
         st[1] = reset_velocity(vb, R)
         st[0] = x_w
         # Renormalise at once (module docstring, 1. and 2.): the logs carry the growth.
-        g1, g2 = _gram_schmidt(st, self.sqrt, self.log)
+        g1, g2 = _gram_schmidt(st, self.sqrt, self.ln)
         self.log1 += float(g1)
         self.log2 += float(g2)
-        self.count += 1
+        self.log(t)
         sp = abs(float(vb))
         if sp < self.min_speed:
             self.min_speed = sp
         s = abs(float(S[1][0]))
         if s > self.max_saltation:
             self.max_saltation = s
-        if self.count >= self.max_impacts:
-            self.exceeded = True
-            return False
-        return True
+        return self.within_budget()
 
 
 class _MaximumGuard:
@@ -307,22 +308,17 @@ def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, 
     """
     import heyoka as hy
 
-    from precise_impact.analysis.lyapunov.two_trajectory import _local_clock
-
     conv = P.from_fraction
     one, zero = conv(Fraction(1)), conv(Fraction(0))
     x0, v0 = conv(params.x0), conv(params.v0)
     if impact_at_start(params.x0, params.v0, params.x_w, params.R):
         v0 = reset_velocity(v0, conv(params.R))
-    L0, L1, _ = _local_clock(P, params.t0, params.eta)
+    L0, L1, _ = local_clock(P, params.t0, params.eta)
     ta.time = L0
     ta.state[:] = P.array([x0, v0, one, zero, zero, one])
     ta.reset_cooldowns()
     sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
-    import mpmath
-
-    with mpmath.workdps(30):
-        period = float(2 * mpmath.pi / (mpmath.mpf(params.eta.numerator) / params.eta.denominator))
+    period = period_float(params.eta)
 
     def advance():
         oc = ta.propagate_until(L1)[0]
@@ -348,7 +344,7 @@ def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, 
     impacts0 = rec.count
     l1, l2, dt = np.empty(periods), np.empty(periods), np.empty(periods)
     sx, sv = np.empty(periods), np.empty(periods)
-    step = max(1, periods // 10)
+    bar = Progress(periods, f"variational LLE{label}", progress)
     for j in range(periods):
         advance()
         g1, g2 = _gram_schmidt(ta.state, sqrt, log)
@@ -356,8 +352,7 @@ def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, 
         l1[j], l2[j] = float(g1) + c1, float(g2) + c2
         sx[j], sv[j] = ta.state[0], ta.state[1]
         dt[j] = period
-        if progress and (j + 1) % step == 0:
-            print(f"  variational LLE{label}: {j + 1}/{periods} periods", file=sys.stderr, flush=True)
+        bar.update(j + 1)
     return l1, l2, dt, sx, sv, rec.count - impacts0
 
 
@@ -407,7 +402,8 @@ def variational_spectrum(
         tangents are renormalised during it and restart as the identity after it).
     precision : str, default ``'float64'``
         Any precision of :class:`~precise_impact.Precision`.
-    tol : decimal or None, default ``None`` (the precision's epsilon)
+    tol : decimal or None, default ``None``
+        heyoka's tolerance; ``None`` is the precision's epsilon.
     segments : int, default 20
         Independent blocks for the standard error (batch means, :func:`block_stderr`),
         spread over the initial conditions; ``>= 2``.
@@ -416,13 +412,15 @@ def variational_spectrum(
         their blocks enter one error bar, so an attractor that depends on the initial
         condition shows up as a large error bar rather than a confident wrong value.
     max_impacts : int, default 10**7
-        Impact budget per orbit (raises :class:`BudgetExceededError`).
-    progress : bool, default ``False``
-        A progress line on stderr every 10 %.
+        Impact budget per orbit (raises :class:`~precise_impact.BudgetExceededError`).
+    progress : bool or None, default ``False``
+        Periods done on stderr (:class:`~precise_impact.io.progress.Progress`: throttled;
+        ``None``: only when stderr is a terminal).
     guard : bool, default ``True``
-        Raise :class:`MissedImpactError` when a maximum of ``x`` lies beyond the wall
-        by more than ``4 delta(t)`` (an impact heyoka's event detection missed; module
-        docstring, *the guard*).  ``False``: only count it (``stats["missed"]``).
+        Raise :class:`~precise_impact.MissedImpactError` when a maximum of ``x`` lies
+        beyond the wall by more than ``4 delta(t)`` (an impact heyoka's event detection
+        missed; module docstring, *the guard*).  ``False``: only count it
+        (``stats["missed"]``).
     grazing_depth : decimal or None, default ``None``
         Excursion depth ``delta`` below which an event is a tangential contact, not an
         impact (module docstring, 3.).  ``None``: ``16 u (|x_w| + |a| + A_p (1 + eta |t|))``,
@@ -430,28 +428,47 @@ def variational_spectrum(
         ``t`` the local clock (:func:`grazing_depth_coefficient`);
         a number ``>= 0``: that fixed depth (``0``: every event with ``v- > 0`` is an
         impact, as :class:`~precise_impact.HeyokaSolver` treats them).
-    The result's ``stats`` dict holds counters summed over all orbits (transients
-        included): ``impacts`` (applied), ``grazing`` (contacts), ``min_impact_speed``
-        (smallest ``v-`` of an impact, ``inf`` if none), ``max_contact_speed``,
-        ``max_saltation`` (largest ``|s|``, ``s = S[1][0]``), ``maxima`` (checked by
-        the guard), ``max_overshoot`` (largest ``x - x_w`` at a maximum), ``missed``,
-        ``max_period_log`` (largest per-period ``ln r11``, in-callback parts
-        included) and ``finite_logs`` (every per-period ``ln r11`` finite).
 
-    Returns a :class:`LyapunovResult` with ``spectrum = (lambda1, lambda2)`` per unit
-    time and the first orbit's stroboscopic samples.  Exact properties:
-    ``lambda1 + lambda2 = -2 zeta + (impacts / time) ln R^2`` (``det Phi`` of the
-    smooth flow is ``exp(-2 zeta t)``, ``det S = R^2``); without impacts both
-    exponents equal ``-zeta`` (underdamped linear flow).  For a periodic orbit the
-    estimate converges as O(1/t) (a bias, which the batch-means error bar does not see).
+    Returns
+    -------
+    LyapunovResult
+        ``spectrum = (lambda1, lambda2)`` per unit time, ``lle = lambda1`` with its
+        batch-means ``stderr``, and the first orbit's stroboscopic samples.  Its
+        ``stats`` dict holds counters summed over all orbits (transients included):
+        ``impacts`` (applied), ``grazing`` (contacts), ``min_impact_speed`` (smallest
+        ``v-`` of an impact, ``inf`` if none), ``max_contact_speed``, ``max_saltation``
+        (largest ``|s|``, ``s = S[1][0]``), ``maxima`` (checked by the guard),
+        ``max_overshoot`` (largest ``x - x_w`` at a maximum), ``missed``,
+        ``max_period_log`` (largest per-period ``ln r11``, in-callback parts included)
+        and ``finite_logs`` (every per-period ``ln r11`` finite).
 
-    References: Benettin et al., Meccanica 15 (1980) 9-30 (QR re-orthonormalisation);
-    Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices for
-    impacting systems); di Bernardo et al., Piecewise-smooth Dynamical Systems (2008),
-    sec. 2.5; Nordmark, J. Sound Vib. 145 (1991) 279-297 (grazing); Flyvbjerg &
-    Petersen, J. Chem. Phys. 91 (1989) 461 (batch means); heyoka.py tutorial "Event
-    detection" (limitations and caveats) and heyoka ``src/detail/event_detection.cpp``
-    (cooldown, root-finding failures).
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+    BudgetExceededError
+        An orbit needed more than ``max_impacts`` impacts.
+    MissedImpactError
+        With ``guard=True``: an impact missed by heyoka's event detection.
+
+    Notes
+    -----
+    Exact properties: ``lambda1 + lambda2 = -2 zeta + (impacts / time) ln R^2``
+    (``det Phi`` of the smooth flow is ``exp(-2 zeta t)``, ``det S = R^2``); without
+    impacts both exponents equal ``-zeta`` (underdamped linear flow).  For a periodic
+    orbit the estimate converges as O(1/t) (a bias, which the batch-means error bar
+    does not see).
+
+    References
+    ----------
+    .. [1] G. Benettin et al., Meccanica 15 (1980) 9-30 (QR re-orthonormalisation).
+    .. [2] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation
+           matrices for impacting systems).
+    .. [3] M. di Bernardo et al., Piecewise-smooth Dynamical Systems (2008), sec. 2.5.
+    .. [4] A. B. Nordmark, J. Sound Vib. 145 (1991) 279-297 (grazing).
+    .. [5] H. Flyvbjerg, H. G. Petersen, J. Chem. Phys. 91 (1989) 461 (batch means).
+    .. [6] heyoka.py tutorial "Event detection" (limitations and caveats) and heyoka
+           ``src/detail/event_detection.cpp`` (cooldown, root-finding failures).
     """
     P = Precision.parse(precision)
     periods = check_count(periods, "periods")

@@ -157,8 +157,33 @@ def nominal_components(params: Params, R: Any = "10e3", C: Any = "100e-9", V_uni
     ``R1 = R2 = R3 = R4 = R5 = R7 = R8 = R``, ``C1 = C2 = C`` (so ``omega = 1/(R C)``,
     1000 rad/s with the defaults 10 kOhm, 100 nF), ``R6 = R2 / (2 zeta)`` (100 kOhm for
     zeta = 0.05), ``V_A = a V_unit``, ``Omega = eta omega``, ``V_wall = -x_w V_unit``.
-    ``zeta = 0`` is refused (R6 would be infinite: leave the damping resistor out
-    by giving a huge R6 through :meth:`Components.replace`).
+
+    Parameters
+    ----------
+    params : Params
+        Dimensionless system (``zeta > 0``).
+    R : decimal, default ``'10e3'``
+        The common resistance in ohms.
+    C : decimal, default ``'100e-9'``
+        The common capacitance in farads.
+    V_unit : decimal, default 1
+        Volts per unit of the dimensionless displacement.
+
+    Returns
+    -------
+    Components
+        Exact component values (Fractions).
+
+    Raises
+    ------
+    ParameterError
+        ``zeta = 0`` (R6 would be infinite: leave the damping resistor out by giving
+        a huge R6 through :meth:`Components.replace`) or a non-positive value.
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+           mechanical impact oscillator", eqs. (3)-(9) and Fig. 2.
     """
     r, c, vu = exact("R", R), exact("C", C), exact("V_unit", V_unit)
     if r <= 0 or c <= 0:
@@ -202,6 +227,9 @@ def _num(q: Fraction, like: Any):
 def design_and_start(system: "Params | Components", x0: Any = None, v0: Any = None, t0: Any = None):
     """``(design, x0, v0, t0)`` for a circuit solve, from parameters or from components.
 
+    This is what lets the circuit models implement the :class:`~precise_impact.solvers.base.Solver`
+    protocol (``solve(params, periods)``) and still take a design of their own.
+
     Parameters
     ----------
     system : Params or Components
@@ -211,8 +239,10 @@ def design_and_start(system: "Params | Components", x0: Any = None, v0: Any = No
     x0, v0, t0 : decimal or None, default ``None``
         Dimensionless initial condition overriding the one of ``system``.
 
-    This is what lets the circuit models implement the :class:`~precise_impact.solvers.base.Solver`
-    protocol (``solve(params, periods)``) and still take a design of their own.
+    Returns
+    -------
+    tuple
+        ``(Components, x0, v0, t0)``, the initial condition as Fractions.
     """
     if isinstance(system, Params):
         design = nominal_components(system)

@@ -27,6 +27,7 @@ import numpy as np
 
 from precise_impact.core.result import ResultMixin
 from precise_impact.solvers.cache import IntegratorCache
+from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
@@ -35,12 +36,14 @@ from precise_impact.models.circuit.opamp import design_omega
 from precise_impact.models.circuit.components import Components, dimensionless
 from precise_impact.models.circuit.network import NETWORK_PARS
 
-__all__ = ["coupling_resistors", "simulate_coupled_circuit", "CIRCUIT_COUPLED_FORM"]
+__all__ = ["coupling_resistors", "simulate_coupled_circuit", "CoupledCircuitTrajectory", "CIRCUIT_COUPLED_FORM"]
 
 #: The coupled form the Fig. 3 circuit realises.
 CIRCUIT_COUPLED_FORM = "paper"
 PARS = NETWORK_PARS + ("R31", "R32")
 _I = {n: i for i, n in enumerate(PARS)}
+#: Impact budget per oscillator (the integration stops there: ``BudgetExceededError``).
+_MAX_IMPACTS = 10**7
 
 
 def coupling_resistors(design: Components, k: Fraction, zeta: Fraction) -> tuple[Fraction, Fraction]:
@@ -48,20 +51,24 @@ def coupling_resistors(design: Components, k: Fraction, zeta: Fraction) -> tuple
     return design.R3 / (2 * k), design.R3 / (k * (1 + 2 * zeta))
 
 
-class _Impact:
+class _Impact(ImpactRecorder):
+    """Comparator event callback of one oscillator (state indices ``s``, ``q``): the
+    impact law on ``V_q`` (R = 1), recorded with a budget of 10**7 impacts."""
+
     def __init__(self, s: int, q: int) -> None:
+        super().__init__(max_impacts=_MAX_IMPACTS)
         self.s, self.q = s, q
-        self.reset()
 
     def reset(self) -> None:
-        self.t: list = []
+        self.reset_log(_MAX_IMPACTS)
 
     def __call__(self, ta, d_sgn) -> bool:
         st = ta.state
-        st[self.q] = reset_velocity(st[self.q], 1 + 0 * st[self.q])
+        vb = st[self.q]
+        va = reset_velocity(vb, 1 + 0 * vb)
+        st[self.q] = va
         st[self.s] = ta.pars[_I["V_wall"]]
-        self.t.append(ta.time)
-        return len(self.t) < 10**7
+        return self.record(ta.time, vb, va)
 
 
 _INTEGRATORS = IntegratorCache("coupled-circuit")  # compiled once; every caller gets its own copy
@@ -102,11 +109,50 @@ def _build(P: Precision):
 def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=0, y0=(0, 0), t0=0,
                              per_period: int = 0, precision: str = "float64", zeta: Fraction | None = None,
                              actual: Components | None = None) -> "CoupledCircuitTrajectory":
-    """Simulate the Fig. 3 circuit; returns dimensionless samples ``t, x, v, y, w`` and impacts.
+    """Simulate the paper's Fig. 3 circuit: two coupled op-amp oscillators.
 
-    ``zeta`` (for eq. 15) defaults to the design's own damping.  ``y0`` = (y, y') of
-    the slave.  ``actual``: simulated component values (e.g. a tolerance draw; both
-    oscillators share it), read out through ``design``.  Keywords as :func:`precise_impact.models.coupled.simulate_coupled`.
+    Parameters
+    ----------
+    design : Components
+        The design (read-out: dimensionless ``x``, ``v`` from the node voltages).
+    k : decimal
+        Coupling ``k >= 0`` (realised by the coupling resistors of eq. 15).
+    periods : int
+        Forcing periods, ``>= 1``.
+    x0, v0 : decimal, default 0
+        Master's dimensionless initial state.
+    y0 : pair of decimal, default ``(0, 0)``
+        Slave's ``(y, y')``.
+    t0 : decimal, default 0
+        Initial time.
+    per_period : int, default 0
+        Dense samples per period (``<= 100000``).
+    precision : str, default ``'float64'``
+        ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp:BITS'``.
+    zeta : Fraction or None, default ``None``
+        Damping used in eq. 15; ``None`` is the design's own damping.
+    actual : Components or None, default ``None``
+        Simulated component values (e.g. a tolerance draw; both oscillators share
+        it), read out through ``design``; ``None`` simulates ``design`` itself.
+
+    Returns
+    -------
+    CoupledCircuitTrajectory
+        Dimensionless samples ``t, x, v, y, w`` and the impacts of both oscillators.
+
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+
+    See Also
+    --------
+    precise_impact.models.coupled.simulate_coupled : the mechanical master-slave pair.
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+           mechanical impact oscillator", Fig. 3 and eq. (15).
     """
     from precise_impact.models.coupled import check_k
 

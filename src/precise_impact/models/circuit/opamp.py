@@ -19,6 +19,7 @@ import mpmath
 import numpy as np
 
 from precise_impact.solvers.cache import IntegratorCache
+from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
@@ -51,17 +52,17 @@ def circuit_system(op: OpAmp):
     return [V_s, V_q], [(V_s, dVs), (V_q, dVq)]
 
 
-class _Impact:
-    """Comparator event callback: the mechanical impact law applied to ``V_q``."""
+class _Impact(ImpactRecorder):
+    """Comparator event callback: the mechanical impact law applied to ``V_q``
+    (recorded by :class:`~precise_impact.solvers.events.ImpactRecorder`)."""
 
     def __init__(self, dynamic: bool) -> None:
+        super().__init__()
         self.dynamic = dynamic
         self.reset(10**6)
 
     def reset(self, max_impacts: int) -> None:
-        self.t, self.vb, self.va = [], [], []
-        self.max_impacts = max_impacts
-        self.exceeded = False
+        self.reset_log(max_impacts)
 
     def __call__(self, ta, d_sgn) -> bool:
         st = ta.state
@@ -71,13 +72,7 @@ class _Impact:
             st[5] = (vb + st[5]) - va
         st[1] = va
         st[0] = ta.pars[_IDX["V_wall"]]
-        self.t.append(ta.time)
-        self.vb.append(vb)
-        self.va.append(va)
-        if len(self.t) >= self.max_impacts:
-            self.exceeded = True
-            return False
-        return True
+        return self.record(ta.time, vb, va)
 
 
 _INTEGRATORS = IntegratorCache("circuit")  # compiled once; every caller gets its own copy
@@ -135,13 +130,33 @@ class CircuitSolver:
         t = self.effects.get("tolerance")
         return design if t is None else draw_components(design, t)
 
-    def solve(self, params: Params | Components, periods: int, x0: Any = None, v0: Any = None, t0: Any = None,
-              per_period: int = 0) -> Trajectory:
+    def solve(self, params: Params | Components, periods: int, *, per_period: int = 0,
+              x0: Any = None, v0: Any = None, t0: Any = None) -> Trajectory:
         """Simulate ``periods`` forcing periods; samples at ``t0 + k 2 pi / Omega`` (seconds).
 
         ``x0, v0, t0`` are dimensionless (mapped through the design components).
-        Returns a :class:`Trajectory` in the dimensionless variables of
-        ``dimensionless(design)``; ``stats`` holds the circuit-level arrays.
+        ``stats`` of the result holds the circuit-level arrays.
+
+        Parameters
+        ----------
+        params : Params or Components
+            The system (the nominal design realising ``Params``) or a design of your own.
+        periods : int
+            Forcing periods.
+        per_period : int, default 0
+            Dense output points per period (``0``: none).
+        x0, v0, t0 : decimal or None, default ``None``
+            Dimensionless initial condition replacing the one of ``params``.
+
+        Returns
+        -------
+        Trajectory
+            In the dimensionless variables of ``dimensionless(design)``.
+
+        Raises
+        ------
+        ParameterError
+            Bad input, before any work.
         """
         design, x0, v0, t0 = design_and_start(params, x0, v0, t0)
         P = self.precision
@@ -189,8 +204,8 @@ class CircuitSolver:
         scale = om * rcv * vuv
         tau, x, v = om * grid, -states[:, 0] / vuv, states[:, 1] / scale
         imp_t = P.array([om * t for t in rec.t])
-        imp_vb = P.array([vb / (om * rcv * vuv) for vb in rec.vb])
-        imp_va = P.array([va / (om * rcv * vuv) for va in rec.va])
+        imp_vb = P.array([vb / (om * rcv * vuv) for vb in rec.v_before])
+        imp_va = P.array([va / (om * rcv * vuv) for va in rec.v_after])
         traj = Trajectory(params=params, model=self.model_name, precision=P,
                           tol=self.tol if self.tol is not None else P.eps,
                           t=tau[::step], x=x[::step], v=v[::step],

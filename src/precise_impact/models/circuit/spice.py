@@ -218,6 +218,7 @@ from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_ef
 from precise_impact.models.circuit.effects.tolerance import E24, E96, draw_components, e_series_round  # the one implementation
 from precise_impact.errors import NgspiceNotFoundError, ParameterError, SpiceError
 from precise_impact.core.params import check_count, decimal_str, exact
+from precise_impact.core.trajectory import Trajectory
 
 __all__ = [
     "SpiceSolver",
@@ -414,7 +415,18 @@ def spice_netlist(
     output_file : str, default :data:`OUTPUT_FILE`
         File ``wrdata`` writes (columns: time, V(s), V(q), V(pol), V(cmp)).
 
-    Everything is validated (:class:`ParameterError`) before any text is built.
+    Returns
+    -------
+    str
+        The netlist text.
+
+    Raises
+    ------
+    ParameterError
+        Everything is validated before any text is built.
+
+    Notes
+    -----
     With ``tolerance`` the netlist uses :func:`draw_components`' values; the
     initial state is mapped with the *design* values (what an experimenter
     would set).
@@ -682,28 +694,42 @@ def run_spice(
 
     Parameters
     ----------
-    components, effects, periods, x0, v0, t0, options
+    components, effects, periods
         As :func:`spice_netlist`.
-    tmax : default ``10e-6`` s
-        TMAX of ``.tran``.  Error and run time against TMAX:
+    tmax : decimal, default ``1e-5``
+        In seconds: TMAX of ``.tran``.  Error and run time against TMAX:
         ``benchmarks/results/spice_tmax.md``.
+    x0, v0 : decimal, default 0
+        Dimensionless initial state, as :func:`spice_netlist`.
     timeout : float > 0, default 600 s
         Wall-time limit of the ngspice subprocess (:class:`SpiceError` when hit).
     workdir : path or None, default None
         Directory for the netlist (``circuit.cir``), the log (``ngspice.log``) and
         the data file (kept); ``None``: a temporary directory, removed afterwards.
+    t0 : decimal, default 0
+        Dimensionless start time, as :func:`spice_netlist`.
+    options : mapping or None, default ``None``
+        Extra ``.options``, as :func:`spice_netlist`.
     dense : bool, default False
         Also return every accepted time point (``dense_t/x/v``).
     executable : str or None, default None
         The ngspice program (``None``: ``ngspice`` on ``PATH``).
 
-    Returns a :class:`SpiceResult`: samples at ``t0 + k 2 pi/eta`` (``k = 0..periods``)
-    mapped with :func:`to_mechanical` (design values), impact times from the
-    polarity node, ``elapsed_s`` (ngspice wall time) and the netlist.
+    Returns
+    -------
+    SpiceResult
+        Samples at ``t0 + k 2 pi/eta`` (``k = 0..periods``) mapped with
+        :func:`to_mechanical` (design values), impact times from the polarity node,
+        ``elapsed_s`` (ngspice wall time) and the netlist.
 
-    Raises :class:`ParameterError` (bad input, before any work),
-    :class:`NgspiceNotFoundError` (no ngspice: ``apt-get install ngspice``),
-    :class:`SpiceError` (ngspice failed or timed out).
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+    NgspiceNotFoundError
+        No ngspice (``apt-get install ngspice``).
+    SpiceError
+        ngspice failed or timed out.
     """
     netlist = spice_netlist(components, effects, periods, tmax, x0, v0, t0, options=options)
     eff, periods, tm, x0q, v0q, t0q = _check_inputs(components, effects, periods, tmax, x0, v0, t0)
@@ -867,8 +893,8 @@ class SpiceSolver:
         self.effects = validate_effects(effects, "spice")
         self.tmax, self.timeout, self.executable = tmax, timeout, executable
 
-    def solve(self, params, periods: int, x0: Any = None, v0: Any = None, t0: Any = None,
-              per_period: int = 0):
+    def solve(self, params, periods: int, *, per_period: int = 0,
+              x0: Any = None, v0: Any = None, t0: Any = None) -> Trajectory:
         """Run ngspice for ``periods`` forcing periods; returns a float64 :class:`~precise_impact.Trajectory`.
 
         Parameters
@@ -877,10 +903,25 @@ class SpiceSolver:
             The system (nominal design realising ``Params``) or a design of your own.
         periods : int
             Forcing periods.
-        x0, v0, t0 : decimal or None, default ``None``
-            Dimensionless initial condition overriding the one of ``params``.
         per_period : int, default 0
             ``> 0``: also return every accepted ngspice time point as dense output.
+        x0, v0, t0 : decimal or None, default ``None``
+            Dimensionless initial condition overriding the one of ``params``.
+
+        Returns
+        -------
+        Trajectory
+            Stroboscopic samples read out of the node voltages (float64) and the impacts
+            detected at the comparator.
+
+        Raises
+        ------
+        ParameterError
+            Bad input, before any work.
+        NgspiceNotFoundError
+            ngspice is not installed (``apt-get install ngspice``).
+        SpiceError
+            ngspice failed or timed out.
         """
         from precise_impact.models.circuit.components import design_and_start
 

@@ -38,6 +38,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from precise_impact.solvers.cache import IntegratorCache
+from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
@@ -68,10 +69,15 @@ def _system():
     return (V_s, V_C), [(V_s, -V_q / (p["R8"] * p["C1"])), (V_C, p["pol"] * V_p / (p["R3"] * p["C2"]))], V_q, V_p
 
 
-class _Comparator:
-    """Trip event (``V_s`` falls through ``v_trip``): toggles at once, or stops for a delayed toggle."""
+class _Comparator(ImpactRecorder):
+    """Trip event (``V_s`` falls through ``v_trip``): toggles at once, or stops for a delayed toggle.
+
+    The trip times are its :class:`~precise_impact.solvers.events.ImpactRecorder` log
+    (``t``; no velocities: the switching is resolved by the solver), under the impact budget.
+    """
 
     def __init__(self) -> None:
+        super().__init__()
         self.reset(True, 10**6)
 
     def reset(self, immediate: bool, max_impacts: int, rearm_at_flip: bool = True) -> None:
@@ -82,18 +88,14 @@ class _Comparator:
         # follow before V_s has risen again, so nothing is tripped early).
         self.rearm_at_flip = rearm_at_flip
         self.armed = True
-        self.trips: list = []
+        self.reset_log(max_impacts)
         self.pending = False
-        self.max_impacts = max_impacts
-        self.exceeded = False
 
     def __call__(self, ta, d_sgn) -> bool:
         if not self.armed:
             return True
         self.armed = False
-        self.trips.append(ta.time)
-        if len(self.trips) >= self.max_impacts:
-            self.exceeded = True
+        if not self.record(ta.time):
             return False
         if self.immediate:
             ta.pars[_I["pol"]] = -ta.pars[_I["pol"]]
@@ -166,13 +168,34 @@ class SwitchedCapacitorSolver:
         self.delay = comparator.delay(self.effects.get("comparator")) + flipflop.delay(self.effects.get("flipflop"))
         self.hyst = self.effects.get("comparator", {}).get("hysteresis", Fraction(0))
 
-    def solve(self, params: Params | Components, periods: int, x0: Any = None, v0: Any = None, t0: Any = None,
-              per_period: int = 0) -> Trajectory:
+    def solve(self, params: Params | Components, periods: int, *, per_period: int = 0,
+              x0: Any = None, v0: Any = None, t0: Any = None) -> Trajectory:
         """Simulate; samples at ``t0 + k 2 pi / Omega``, mapped to the dimensionless system.
 
         Impacts are recorded when the switches reconnect C2 (the velocity jump):
         ``impacts_t`` is that instant (dimensionless), ``v_before``/``v_after`` the
         mapped ``V_q`` just before the switches opened and just after they closed.
+
+        Parameters
+        ----------
+        params : Params or Components
+            The system (the nominal design realising ``Params``) or a design of your own.
+        periods : int
+            Forcing periods.
+        per_period : int, default 0
+            Dense output points per period (``0``: none).
+        x0, v0, t0 : decimal or None, default ``None``
+            Dimensionless initial condition replacing the one of ``params``.
+
+        Returns
+        -------
+        Trajectory
+            In the dimensionless variables of ``dimensionless(design)``.
+
+        Raises
+        ------
+        ParameterError
+            Bad input, before any work.
         """
         design, x0, v0, t0 = design_and_start(params, x0, v0, t0)
         P = self.precision
@@ -213,8 +236,9 @@ class SwitchedCapacitorSolver:
         step = max(per_period, 1)
         grid = P.sample_times(t0s, comp.Omega, periods, step)
         vq_fn = self._vq_function(P, comp)
+        sw = self._switch_constants(P, comp)  # converted once per solve, not per switching
         samples = []
-        switch_times, vq_before, vq_after = [], [], []
+        switches = ImpactRecorder(max_impacts=self.max_impacts)  # the reconnections of C2
         pending_at = None
         start = _time.perf_counter()
         import heyoka as hy
@@ -230,19 +254,15 @@ class SwitchedCapacitorSolver:
                     raise BudgetExceededError(f"impact budget max_impacts={self.max_impacts} exhausted")
                 if cmp_.pending:
                     cmp_.pending = False
-                    pending_at = ta.time + conv(self.delay)
+                    pending_at = ta.time + sw["delay"]
                     continue
-                if immediate and len(cmp_.trips) > len(switch_times):
+                if immediate and cmp_.count > switches.count:
                     # fast path: the callback flipped pol at the trip instant
-                    for tt in cmp_.trips[len(switch_times):]:
-                        switch_times.append(tt)
-                        vq_before.append(None)
-                        vq_after.append(None)
+                    for tt in cmp_.t[switches.count:]:
+                        switches.log(tt)
                 if pending_at is not None and ta.time == pending_at:
-                    vb, va = self._switch(ta, P, comp, vq_fn)
-                    switch_times.append(ta.time)
-                    vq_before.append(vb)
-                    vq_after.append(va)
+                    vb, va = self._switch(ta, sw, vq_fn)
+                    switches.log(ta.time, vb, va)
                     pending_at = None
                     continue
                 if oc != hy.taylor_outcome.time_limit and not (int(oc) < 0):
@@ -256,7 +276,7 @@ class SwitchedCapacitorSolver:
         v = P.array([s[2] / (om * rcv * vuv) for s in samples])
         # impact velocities: for the immediate path V_q flips sign exactly at the trip
         imp_t, imp_vb, imp_va = [], [], []
-        for tt, vb, va in zip(switch_times, vq_before, vq_after):
+        for tt, vb, va in switches.rows():
             imp_t.append(om * tt)
             if vb is None:
                 imp_vb.append(None)
@@ -270,7 +290,7 @@ class SwitchedCapacitorSolver:
                           impacts_t=P.array(imp_t), impacts_v_before=P.array(imp_vb), impacts_v_after=P.array(imp_va),
                           elapsed_s=elapsed,
                           stats={"effects": sorted(self.effects), "components": comp.decimal(),
-                                 "comparator_trips": len(cmp_.trips)})
+                                 "comparator_trips": cmp_.count})
         if per_period > 0:
             traj.dense_t, traj.dense_x, traj.dense_v = tau, x, v
         return traj
@@ -290,27 +310,35 @@ class SwitchedCapacitorSolver:
 
         return vq
 
-    def _switch(self, ta, P, comp, vq_fn):
-        """Break-before-make interval (closed form), polarity reversal, charge injection."""
+    def _switch_constants(self, P, comp) -> dict:
+        """The constants of :meth:`_switch` in the working precision (each rounded once)."""
         conv = P.from_fraction
+        c = {n: conv(getattr(comp, n)) for n in ("R1", "R2", "R6", "R7", "V_A", "Omega")}
+        c.update(delay=conv(self.delay), bbm=conv(self.bbm), rho=conv(comp.R5 / comp.R4), slew=conv(self.slew),
+                 rc=conv(comp.R8 * comp.C1), dq=conv(switch.injected_voltage(self.q_inj, comp.C2)) if self.q_inj != 0 else None)
+        return c
+
+    def _switch(self, ta, c: dict, vq_fn):
+        """Break-before-make interval (closed form), polarity reversal, charge injection.
+
+        ``c``: :meth:`_switch_constants`.
+        """
         st = ta.state
         t_open = ta.time
         pol = ta.pars[_I["pol"]]
         vb = vq_fn(t_open, st[0], st[1], pol)
         if self.bbm > 0:
-            tb = conv(self.bbm)
-            R1, R2, R6, R7 = (conv(getattr(comp, n)) for n in ("R1", "R2", "R6", "R7"))
-            rho = conv(comp.R5 / comp.R4)
-            V3 = conv(comp.V_A) * np.cos(conv(comp.Omega) * t_open)
-            Vp = -R2 * (V3 / R1 - rho * vb / R6 + st[0] / R7)
-            st[0] = switch.break_before_make(st[0], vb, Vp, tb, conv(self.slew), conv(comp.R8 * comp.C1))
+            tb = c["bbm"]
+            V3 = c["V_A"] * np.cos(c["Omega"] * t_open)
+            Vp = -c["R2"] * (V3 / c["R1"] - c["rho"] * vb / c["R6"] + st[0] / c["R7"])
+            st[0] = switch.break_before_make(st[0], vb, Vp, tb, c["slew"], c["rc"])
             ta.time = t_open + tb
         ta.pars[_I["pol"]] = -pol
         cb = ta.t_events[0].callback
         if cb.rearm_at_flip:
             cb.armed = True
         if self.q_inj != 0:
-            st[1] = st[1] + conv(switch.injected_voltage(self.q_inj, comp.C2))
+            st[1] = st[1] + c["dq"]
         ta.reset_cooldowns()
         va = vq_fn(ta.time, st[0], st[1], -pol)
         return vb, va

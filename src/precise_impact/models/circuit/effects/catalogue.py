@@ -44,6 +44,22 @@ CIRCUIT_MODELS = ("circuit", "switched-capacitor", "spice")
 
 @dataclasses.dataclass(frozen=True)
 class Setting:
+    """One setting of an effect: unit, default and allowed range or choices.
+
+    Parameters
+    ----------
+    unit : str
+        Physical unit (``'V'``, ``'Hz'``, ``'%'``; ``'int'`` for an integer; ``''`` none).
+    default : decimal or str
+        Value used when a scene switches the effect on without this setting.
+    lo, hi : decimal or None, default ``None``
+        Allowed range (inclusive); ``None``: unbounded.
+    choices : tuple, default ``()``
+        Allowed values of a non-numeric setting (then ``lo``/``hi`` are unused).
+    doc : str, default ``''``
+        One line for the catalogue listing.
+    """
+
     unit: str
     default: Any
     lo: Any = None
@@ -70,6 +86,20 @@ class Setting:
 
 @dataclasses.dataclass(frozen=True)
 class EffectSpec:
+    """A physical non-ideality a scene may switch on (an entry of :data:`EFFECTS`).
+
+    Parameters
+    ----------
+    name : str
+        Key in scenes (``[effects.NAME]``) and in :data:`EFFECTS`.
+    models : tuple of str
+        Circuit models that implement it.
+    settings : mapping of str to Setting
+        Its settings with units, defaults and ranges.
+    doc : str
+        What it models, one line.
+    """
+
     name: str
     models: tuple
     settings: Mapping[str, Setting]
