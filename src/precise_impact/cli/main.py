@@ -456,10 +456,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "bench": _cmd_bench,
             "accuracy": _cmd_accuracy,
         }[ns.command](ns)
-    except ParameterError as e:
-        print(f"precise-impact: error: {e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except OptionalDependencyError as e:
+    except (ParameterError, OptionalDependencyError) as e:  # bad input, or a component this request needs
         print(f"precise-impact: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BudgetExceededError as e:

@@ -39,11 +39,10 @@ def run_scene(scene: Scene, model: str | None = None):
         if scene.model == "circuit":
             from precise_impact.models.circuit.coupled import simulate_coupled_circuit
 
-            from precise_impact.models.circuit.effects.tolerance import draw_components
+            from precise_impact.models.circuit.effects.tolerance import actual_components
 
             design = scene.design()
-            tol_eff = scene.effects.get("tolerance")
-            actual = None if tol_eff is None else draw_components(design, tol_eff)
+            actual = actual_components(design, scene.effects)
             return simulate_coupled_circuit(design, scene.k, scene.periods, x0=scene.params.x0,
                                             v0=scene.params.v0, y0=y0, t0=scene.params.t0,
                                             per_period=scene.per_period, precision=P.name, actual=actual)

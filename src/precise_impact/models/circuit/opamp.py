@@ -28,7 +28,7 @@ from precise_impact.core.trajectory import Trajectory
 from precise_impact.models.circuit.components import Components, design_and_start, dimensionless, exact_omega as dimensionless_omega
 from precise_impact.models.circuit.effects.catalogue import validate_effects
 from precise_impact.models.circuit.network import NETWORK_PARS, OpAmp, dynamic_network, network_rhs, opamp_from_effects, saturation_events
-from precise_impact.models.circuit.effects.tolerance import draw_components
+from precise_impact.models.circuit.effects.tolerance import actual_components
 
 __all__ = ["CircuitSolver", "circuit_system", "design_omega"]
 
@@ -127,8 +127,7 @@ class CircuitSolver:
 
     def actual_components(self, design: Components) -> Components:
         """The components simulated: ``design``, or its tolerance draw if that effect is on."""
-        t = self.effects.get("tolerance")
-        return design if t is None else draw_components(design, t)
+        return actual_components(design, self.effects)
 
     def solve(self, params: Params | Components, periods: int, *, per_period: int = 0,
               x0: Any = None, v0: Any = None, t0: Any = None) -> Trajectory:

@@ -215,7 +215,7 @@ import numpy as np
 
 from precise_impact.models.circuit.components import Components, to_circuit, to_mechanical
 from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
-from precise_impact.models.circuit.effects.tolerance import E24, E96, draw_components, e_series_round  # the one implementation
+from precise_impact.models.circuit.effects.tolerance import E24, E96, actual_components, draw_components, e_series_round  # the one implementation
 from precise_impact.errors import NgspiceNotFoundError, ParameterError, SpiceError
 from precise_impact.core.params import check_count, decimal_str, exact
 from precise_impact.core.trajectory import Trajectory
@@ -442,7 +442,7 @@ def spice_netlist(
     if not re.fullmatch(r"[A-Za-z0-9_.\-]+", output_file):
         raise ParameterError("output_file", output_file, "a plain file name (letters, digits, _ . -)")
 
-    comp = draw_components(components, eff["tolerance"]) if "tolerance" in eff else components
+    comp = actual_components(components, eff)
     c = {n: float(getattr(comp, n)) for n in ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2", "V_A", "Omega", "V_wall", "V_unit")}
     omega = float(components.omega())
     eta = float(components.Omega) / omega
@@ -830,7 +830,7 @@ def _run(exe, netlist, wd: Path, components, eff, periods, tm, x0q, v0q, t0q, ti
         version = m.group(1)
     res = SpiceResult(
         components=components,
-        used_components=draw_components(components, eff["tolerance"]) if "tolerance" in eff else components,
+        used_components=actual_components(components, eff),
         effects=eff,
         periods=periods,
         tmax=float(tm),

@@ -48,7 +48,7 @@ from precise_impact.models.circuit.components import Components, design_and_star
 from precise_impact.models.circuit.effects.catalogue import validate_effects
 from precise_impact.models.circuit.network import NETWORK_PARS
 from precise_impact.models.circuit.effects import comparator, flipflop, switch
-from precise_impact.models.circuit.effects.tolerance import draw_components
+from precise_impact.models.circuit.effects.tolerance import actual_components
 
 __all__ = ["SwitchedCapacitorSolver"]
 
@@ -202,8 +202,7 @@ class SwitchedCapacitorSolver:
         periods = check_count(periods, "periods")
         per_period = check_count(per_period, "per_period", 100_000)
         params = dimensionless(design, x0=x0, v0=v0, t0=t0)
-        t_eff = self.effects.get("tolerance")
-        comp = design if t_eff is None else draw_components(design, t_eff)
+        comp = actual_components(design, self.effects)
         omega = design_omega(design)
         rc, vu = design.R8 * design.C1, design.V_unit
         conv = P.from_fraction

@@ -18,7 +18,7 @@ from precise_impact.core.params import decimal_str, exact
 from precise_impact.models.circuit.components import Components
 from precise_impact.models.circuit.effects.catalogue import validate_effects
 
-__all__ = ["E24", "E96", "e_series_round", "draw_components"]
+__all__ = ["actual_components", "E24", "E96", "e_series_round", "draw_components"]
 
 # IEC 60063 value tables
 E24 = (10, 11, 12, 13, 15, 16, 18, 20, 22, 24, 27, 30, 33, 36, 39, 43, 47, 51, 56, 62, 68, 75, 82, 91)
@@ -88,3 +88,22 @@ def draw_components(components: Components, settings: Mapping[str, Any] | None =
         drawn = nominal * Fraction(Decimal(f"{factor:.12g}"))
         out[name] = Fraction(Decimal(f"{float(drawn):.6g}")) if pct else nominal
     return components.replace(**out)
+
+
+def actual_components(design: Components, effects: Mapping[str, Mapping[str, Any]]) -> Components:
+    """The components a model simulates: ``design``, or its tolerance draw if that effect is on.
+
+    Parameters
+    ----------
+    design : Components
+        The design values.
+    effects : mapping
+        Validated effects of the model (only ``'tolerance'`` matters here).
+
+    Returns
+    -------
+    Components
+        ``draw_components(design, effects["tolerance"])`` or ``design`` itself.
+    """
+    t = effects.get("tolerance")
+    return design if t is None else draw_components(design, t)
