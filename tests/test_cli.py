@@ -119,7 +119,7 @@ def test_bifurcation_cli(tmp_path):
     assert "grazing eta (closed form): 0.710687" in r.stdout
     assert (tmp_path / "bifurcation.png").exists() and (tmp_path / "bifurcation.npz").exists()
     assert "3/3" in r.stderr  # progress bar
-    bad = run("bifurcation", "--eta", "0.7", "0.6", "3", "--out", str(tmp_path))
+    bad = run("bifurcation", "--eta", "0.7", "0.6", "3", "--out", str(tmp_path / "new"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: eta_max = ")
 
 
@@ -134,9 +134,9 @@ def test_sync_cli(tmp_path):
     assert 0 < obj["k_star"] < 0.08 and obj["lle"] > 0
     for name in ("sync_reduced.json", "sync_reduced_fraction.png", "sync_reduced_fig7.png"):
         assert (tmp_path / name).stat().st_size > 1000
-    bad = run("sync", "--form", "diagonal", "--out", str(tmp_path))
+    bad = run("sync", "--form", "diagonal", "--out", str(tmp_path / "new"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: form = ")
-    bad = run("sync", "--k", "0.05", "0.01", "3", "--out", str(tmp_path))
+    bad = run("sync", "--k", "0.05", "0.01", "3", "--out", str(tmp_path / "new"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: k_max = ")
 
 

@@ -299,7 +299,7 @@ def test_plot_fig7(tmp_path):
         ({"y0": ("1",)}, "y0", "pair"),
         ({"y0": ("1", "nan")}, "y0[1]", "finite"),
         ({"precision": "float32"}, "precision", "float64"),
-        ({"params": {"eta": "0.7"}}, "params", "Params"),
+        ({"params": "eta = 0.7"}, "params", "Params"),  # a mapping is accepted (as_params), text is not
     ],
 )
 def test_simulate_coupled_validation(kwargs, name, phrase):

@@ -51,6 +51,13 @@ def one_line_refusal(r, name):
     (["simulate", "--periods", "2", "--out", "{tmp}/x.csv"], "not a directory"),
     (["simulate", "--periods", "2", "--out", "{tmp}/existing.csv/sub.csv"], "is a file"),
     (["bifurcation", "--eta", "0.7", "0.72", "2", "--out", "{tmp}/existing.csv"], "existing file"),
+    # cost estimates before any work (core/budget.py)
+    (["simulate", "--periods", "10000000", "--dense", "10000"], "half this machine's memory"),
+    (["simulate", "--periods", "100000", "--precision", "mp:2048"], "max_time"),
+    (["lle", "--periods", "100000000"], "max_time"),
+    (["simulate", "--periods", "5", "--max-time", "0"], "1 <= max_time <= 604800"),
+    (["run", "{tmp}/huge.toml"], "half this machine's memory"),
+    (["run", "{tmp}/long.toml"], "max_time"),
 ])
 def test_each_class_of_hostile_input_is_refused_cleanly(tmp_path, args, name):
     (tmp_path / "bad.toml").write_bytes(b"\xff\xfe not utf-8")
@@ -58,10 +65,22 @@ def test_each_class_of_hostile_input_is_refused_cleanly(tmp_path, args, name):
     (tmp_path / "zero.toml").symlink_to("/dev/zero")
     (tmp_path / "existing.csv").write_text("keep me\n")
     (tmp_path / "x.csv").mkdir()
+    # the review's case: 1e7 periods x 1e4 samples per period; and 1e7 periods at mp:1024
+    (tmp_path / "huge.toml").write_text('[system]\nkind = "single"\n[model]\nname = "heyoka"\n[duration]\nperiods = 10000000\n[outputs]\nper_period = 10000\n')
+    (tmp_path / "long.toml").write_text('[system]\nkind = "single"\n[model]\nname = "heyoka"\nprecision = "mp:1024"\n[duration]\nperiods = 100000\n')
     r, took = cli(*[a.replace("{tmp}", str(tmp_path)) for a in args])
     one_line_refusal(r, name)
     assert took < TIME_BOUND
     assert (tmp_path / "existing.csv").read_text() == "keep me\n"  # never silently overwritten
+
+
+def test_elastic_bounce_into_the_wall_is_a_budget_with_one_line():
+    """R = 1 with the force always into the wall (x_w = -1.5 < -a): recognised at the first
+    short flight (tests/test_chattering.py), exit 3 with one line, not a 10^6-impact run."""
+    r, took = cli("simulate", "--x_w", "-1.5", "--R", "1", "--x0", "-1.6", "--v0", "0", "--periods", "100")
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 3 and len(lines) == 1 and "not Zeno" in lines[0], r.stderr[-500:]
+    assert took < TIME_BOUND
 
 
 def test_force_overwrites(tmp_path):
@@ -118,3 +137,53 @@ def test_a_long_run_stops_on_a_signal_with_exit_130(sig):
     out, err = p.communicate(timeout=TIME_BOUND)
     assert p.returncode == 130, err[-500:]
     assert err.strip().splitlines() == ["precise-impact: interrupted; finished results are kept"]
+
+
+def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
+    """SIGTERM during a long run with --out: exit 130, one line naming the partial file, and
+    that file holds the finished chunks (whole multiples of CHUNK_PERIODS), bit-identical to
+    an uninterrupted run of that many periods (chunk boundaries sit at fixed positions)."""
+    import signal
+
+    import numpy as np
+
+    from precise_impact import HeyokaSolver, Params
+    from precise_impact.solvers.heyoka import CHUNK_PERIODS
+
+    out = tmp_path / "long.npz"
+    p = subprocess.Popen([sys.executable, "-m", "precise_impact", "simulate", "--periods", "40000",
+                          "--precision", "mp:128", "--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    part = tmp_path / "long.partial.npz"
+    deadline = time.monotonic() + 40
+    time.sleep(5)  # ~1.2 ms per period at 128 bits: a few chunks are finished by now
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=TIME_BOUND)
+    assert time.monotonic() < deadline + TIME_BOUND
+    assert p.returncode == 130, err[-500:]
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and str(part) in lines[0] and "of 40000 periods" in lines[0], err[-500:]
+    assert not out.exists()
+    with np.load(part) as d:
+        x, v, meta = list(d["x_str"]), list(d["v_str"]), __import__("json").loads(str(d["meta_json"]))
+    done = len(x) - 1
+    assert done > 0 and done % CHUNK_PERIODS == 0 and done < 40000
+    assert meta["partial"] == {"periods_done": done, "periods_asked": 40000}
+    ref = HeyokaSolver(precision="mp:128").solve(Params.make(), done)
+    to_str = ref.precision.to_str
+    assert [to_str(a) for a in ref.x] == x and [to_str(a) for a in ref.v] == v
+
+
+def test_directory_outputs_are_not_overwritten_without_force(tmp_path):
+    """A directory --out that holds anything is refused before work (the run would replace
+    files of the same name); --force writes into it.  A sweep resumes in its own directory."""
+    out = tmp_path / "bif"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine\n")
+    args = ["bifurcation", "--eta", "0.70", "0.72", "2", "--periods", "5", "--transient", "5", "--out", str(out)]
+    r, _ = cli(*args)
+    one_line_refusal(r, "--force")
+    assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
+    r, _ = cli(*args, "--force")
+    assert r.returncode == 0, r.stderr[-500:]
+    assert (out / "keep.txt").read_text() == "mine\n" and len(list(out.iterdir())) > 1

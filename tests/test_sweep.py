@@ -108,3 +108,98 @@ def test_validation(axes, name):
     with pytest.raises(ParameterError) as e:
         SweepSpec.make(Params.make(), axes)
     assert e.value.name == name
+
+
+# --- sweep state that cannot lie (issue 12, item 5) ---------------------------------
+
+def _tiny_spec(**kw):
+    base = dict(periods=60, transient=20, tile_size=2)
+    base.update(kw)
+    return SweepSpec.make(Params.make(), [("eta", "0.70", "0.74", 3)], **base)
+
+
+def _tile(out, t):
+    return out / "tiles" / f"tile_{t:05d}.npz"
+
+
+@pytest.mark.parametrize("damage", ["copy-other-tile", "truncate", "empty", "flip-bit", "foreign", "garbage"])
+def test_damaged_or_foreign_tile_is_recomputed_with_a_line(tmp_path, capsys, damage):
+    spec = _tiny_spec()
+    good = run_sweep(spec, tmp_path / "good", workers=1, progress=False)
+    out = tmp_path / "bad"
+    run_sweep(spec, out, workers=1, progress=False)
+    t0, t1 = _tile(out, 0), _tile(out, 1)
+    if damage == "copy-other-tile":  # same sweep, same shape: passes a digest-only check
+        t1.write_bytes(t0.read_bytes())
+    elif damage == "truncate":
+        t1.write_bytes(t1.read_bytes()[:100])
+    elif damage == "empty":
+        t1.write_bytes(b"")
+    elif damage == "flip-bit":
+        raw = bytearray(t1.read_bytes())
+        with np.load(t1) as d:  # flip a bit inside the stored lle values, not the zip framing
+            pos = raw.find(d["lle"].tobytes())
+        assert pos > 0
+        raw[pos + 3] ^= 0x10
+        t1.write_bytes(bytes(raw))
+    elif damage == "foreign":
+        other = tmp_path / "other"
+        run_sweep(_tiny_spec(periods=61), other, workers=1, progress=False)
+        t1.write_bytes(_tile(other, 1).read_bytes())
+    elif damage == "garbage":
+        t1.write_bytes(b"PK\x03\x04" + b"\xff" * 300)
+    (out / "sweep.npz").unlink()
+    capsys.readouterr()
+    with pytest.raises(ParameterError) as e:  # a reader never takes a damaged tile
+        load_sweep(out, spec)
+    assert e.value.name == "out" and "tile 1" in str(e.value)
+    again = run_sweep(spec, out, workers=1, progress=False)
+    err = capsys.readouterr().err
+    assert "tile_00001.npz" in err and "recomputing" in err and "Traceback" not in err
+    assert again.stats["tiles_computed"] == 1 and again.complete
+    assert same(again, good)
+    assert same(np.load(out / "sweep.npz"), np.load(tmp_path / "good" / "sweep.npz"))
+
+
+def test_damaged_spec_file_is_rewritten_or_refused(tmp_path, capsys):
+    spec = _tiny_spec()
+    out = tmp_path / "s"
+    run_sweep(spec, out, workers=1, progress=False, max_tiles=1)
+    (out / "sweep_spec.json").write_text('{"digest": "12')  # truncated JSON
+    res = run_sweep(spec, out, workers=1, progress=False)
+    assert res.complete and res.stats["tiles_reused"] == 1
+    assert "sweep_spec.json is damaged" in capsys.readouterr().err
+    # damaged spec + tiles of another sweep: refused, the other sweep's tiles untouched
+    (out / "sweep_spec.json").write_bytes(b"\x00\x01")
+    before = _tile(out, 0).read_bytes()
+    with pytest.raises(ParameterError, match="belongs to another sweep"):
+        run_sweep(_tiny_spec(periods=61), out, workers=1, progress=False)
+    assert _tile(out, 0).read_bytes() == before
+
+
+def test_one_writer_per_out_directory(tmp_path):
+    from precise_impact.io.lock import DirectoryLock
+
+    spec = _tiny_spec()
+    with DirectoryLock(tmp_path, "out"):  # another writer holds it (a separate open file: flock conflicts)
+        with pytest.raises(ParameterError) as e:
+            run_sweep(spec, tmp_path, workers=1, progress=False)
+        assert e.value.name == "out" and f"pid {__import__('os').getpid()}" in str(e.value)
+    assert not (tmp_path / "sweep_spec.json").exists()  # refused before anything was written
+    assert run_sweep(spec, tmp_path, workers=1, progress=False).complete  # released: free again
+
+
+def test_lock_left_by_a_killed_process_is_stale(tmp_path):
+    import subprocess
+    import sys
+
+    from precise_impact.io.lock import LOCK_NAME, DirectoryLock
+
+    code = ("import os,sys; from precise_impact.io.lock import DirectoryLock; "
+            f"DirectoryLock({str(tmp_path)!r}).acquire(); os.kill(os.getpid(), 9)")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == -9
+    assert (tmp_path / LOCK_NAME).read_text()  # the dead holder's record is still there
+    lock = DirectoryLock(tmp_path).acquire()
+    assert lock.stale is not None and lock.stale["pid"] != __import__("os").getpid()
+    lock.release()
+    assert DirectoryLock(tmp_path).acquire().stale is None  # a clean release is not stale

@@ -245,7 +245,7 @@ def test_validation(kwargs, name):
 
 def test_validation_params_type():
     with pytest.raises(ParameterError) as exc:
-        two_trajectory_lle({"eta": "0.712"})
+        two_trajectory_lle("eta = 0.712")  # a mapping {"eta": "0.712"} is accepted (as_params); text is not
     assert exc.value.name == "params"
 
 

@@ -27,6 +27,7 @@ from precise_impact.version import __version__
 from precise_impact.errors import (
     BudgetExceededError,
     IntegrationError,
+    Interrupted,
     MissedImpactError,
     NgspiceNotFoundError,
     OptionalDependencyError,
@@ -69,7 +70,7 @@ from precise_impact.verification.reproduce import ReproduceResult, reproduce
 
 __all__ = [
     # errors
-    "BudgetExceededError", "IntegrationError", "MissedImpactError", "NgspiceNotFoundError", "OptionalDependencyError",
+    "BudgetExceededError", "IntegrationError", "Interrupted", "MissedImpactError", "NgspiceNotFoundError", "OptionalDependencyError",
     "ParameterError", "ReferenceDataError", "SpiceError",
     # core
     "PARAM_NAMES", "RUNTIME_PARAMS", "Params", "Precision", "SteadyState", "acceleration",

@@ -89,3 +89,16 @@ class IntegrationError(RuntimeError):
     Inside the documented parameter box this does not happen; the CLI reports it as one
     line with exit status 3, like an exhausted budget, and keeps what was finished.
     """
+
+
+class Interrupted(KeyboardInterrupt):
+    """A long run was interrupted (Ctrl-C, or SIGTERM through the CLI); ``partial`` keeps
+    what was finished (e.g. a :class:`~precise_impact.core.trajectory.Trajectory` up to the
+    last finished chunk, with ``stats['partial'] = True``).
+
+    A ``KeyboardInterrupt``, so code that does not know it behaves as before.
+    """
+
+    def __init__(self, message: str, partial=None) -> None:
+        super().__init__(message)
+        self.partial = partial

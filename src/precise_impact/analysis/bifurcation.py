@@ -244,6 +244,9 @@ def bifurcation(
            mechanical impact oscillator" (the period-3 orbit at eta = 0.74 and the
            chaotic band near eta = 0.712).
     """
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
     etas = eta_grid(eta_min, eta_max, n)
     periods = check_count(periods, "periods")
     if periods < 1:

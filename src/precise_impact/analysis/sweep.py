@@ -29,8 +29,9 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.io.figures import figure
 from precise_impact.errors import OptionalDependencyError, ParameterError
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
-from precise_impact.io.atomic import atomic_write
-from precise_impact.io.progress import Progress
+from precise_impact.io.atomic import atomic_write, write_json
+from precise_impact.io.lock import DirectoryLock
+from precise_impact.io.progress import Progress, say
 
 __all__ = ["SWEEP_PARAMS", "SweepSpec", "SweepResult", "compute_tile", "run_sweep", "load_sweep"]
 
@@ -110,6 +111,11 @@ class SweepSpec:
         """
         from precise_impact.analysis.lyapunov.batch import default_batch_size
 
+        from precise_impact.core.params import as_params
+
+        base = as_params(base, "base")
+        if isinstance(axes, (str, bytes)) or not isinstance(axes, Sequence):
+            raise ParameterError("axes", type(axes).__name__, "a list of 1 or 2 axes (name, min, max, n)")
         if not 1 <= len(axes) <= 2:
             raise ParameterError("axes", len(axes), "a sweep has 1 or 2 axes")
         periods = check_count(periods, "periods", minimum=1)
@@ -117,8 +123,8 @@ class SweepSpec:
         max_work = check_count(max_work, "max_work", 10**15, minimum=1)
         points = 1
         for ax in axes:
-            if len(ax) != 4:
-                raise ParameterError("axis", ax, "(name, min, max, n)")
+            if isinstance(ax, (str, bytes)) or not isinstance(ax, Sequence) or len(ax) != 4:
+                raise ParameterError("axes", ax, "a list of 1 or 2 axes (name, min, max, n)")
             points *= check_count(ax[3], "n", 1_000_000, minimum=1)
         work = points * (periods + transient)
         if work > max_work:
@@ -200,22 +206,61 @@ def _tile_path(out: Path, tile: int) -> Path:
     return out / "tiles" / f"tile_{tile:05d}.npz"
 
 
+_TILE_KEYS = _FIELDS + ("index",)
+
+
+def _tile_checksum(digest: str, tile: int, arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 over the tile's identity (sweep digest, tile number) and every array's
+    dtype, shape and bytes: a tile copied onto another tile's path, or a flipped bit
+    anywhere in it, no longer matches."""
+    h = hashlib.sha256(f"{digest}:{tile}".encode())
+    for key in _TILE_KEYS:
+        a = np.ascontiguousarray(arrays[key])
+        h.update(f"{key}:{a.dtype.str}:{a.shape}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
 def _write_tile(out: Path, spec: SweepSpec, tile: int, arrays: dict[str, np.ndarray]) -> None:
-    data = dict(arrays, digest=np.asarray(spec.digest))
+    data = {k: np.asarray(arrays[k]) for k in _TILE_KEYS}
+    data.update(digest=np.asarray(spec.digest), tile=np.asarray(tile),
+                checksum=np.asarray(_tile_checksum(spec.digest, tile, data)))
     atomic_write(_tile_path(out, tile), lambda fh: np.savez(fh, **data), binary=True)
 
 
-def _finished(out: Path, spec: SweepSpec) -> set[int]:
+def _read_tile(out: Path, spec: SweepSpec, tile: int) -> tuple[dict | None, str | None]:
+    """``(arrays, None)`` for a verified tile; ``(None, why)`` for a missing, damaged or
+    foreign one (``why`` is ``None`` when the file is simply absent)."""
+    path = _tile_path(out, tile)
+    if not path.exists():
+        return None, None
+    try:
+        with np.load(path, allow_pickle=False) as d:
+            data = {k: d[k] for k in _TILE_KEYS + ("digest", "tile", "checksum")}
+    except Exception as e:  # truncated, empty, not a zip, missing keys, bad header ...
+        return None, f"unreadable ({type(e).__name__})"
+    if str(data["digest"]) != spec.digest:
+        return None, "belongs to another sweep"
+    lo = tile * spec.tile_size
+    hi = min(spec.n_points, lo + spec.tile_size)
+    if data["tile"].shape != () or int(data["tile"]) != tile or not np.array_equal(data["index"], np.arange(lo, hi)):
+        return None, "holds another tile's points"
+    if any(data[f].shape != (hi - lo,) for f in _FIELDS):
+        return None, "has arrays of the wrong length"
+    if str(data["checksum"]) != _tile_checksum(spec.digest, tile, data):
+        return None, "fails its checksum"
+    return {k: data[k] for k in _TILE_KEYS}, None
+
+
+def _finished(out: Path, spec: SweepSpec, say: Callable[[str], None]) -> set[int]:
+    """The tiles that verify; every damaged or foreign tile is named (it will be recomputed)."""
     done = set()
     for t in range(spec.n_tiles):
-        p = _tile_path(out, t)
-        if p.exists():
-            try:
-                with np.load(p) as d:
-                    if str(d["digest"]) == spec.digest:
-                        done.add(t)
-            except (OSError, ValueError, KeyError):
-                pass  # unreadable (should not happen with atomic writes): recompute
+        arrays, why = _read_tile(out, spec, t)
+        if arrays is not None:
+            done.add(t)
+        elif why is not None:
+            say(f"sweep: {_tile_path(out, t)} {why}: recomputing it")
     return done
 
 
@@ -252,6 +297,15 @@ def run_sweep(
     max_tiles : int or None, default ``None`` (no limit)
         Stop after this many newly computed tiles (for tests of resuming).
 
+    Notes
+    -----
+    Each tile file carries the sweep's digest, its tile number, its points' indices and
+    a SHA-256 over all of them and its arrays.  On resume a tile that is unreadable,
+    belongs to another sweep, holds another tile's points or fails its checksum is
+    named on stderr and recomputed; ``sweep.npz`` / ``sweep.csv`` are written only when
+    every tile verifies.  A damaged ``sweep_spec.json`` is rewritten (with a line)
+    unless a tile shows that the directory holds another sweep.
+
     Returns
     -------
     SweepResult
@@ -262,21 +316,48 @@ def run_sweep(
     Raises
     ------
     ParameterError
-        Bad input, or ``out`` holds a different sweep, before any work.
+        Bad input, ``out`` holds a different sweep, or another run is writing to ``out``
+        (a lock file, :class:`~precise_impact.io.lock.DirectoryLock`), before any work.
     OptionalDependencyError
         ``dask`` is asked for and Dask is not installed.
     """
     out = Path(out)
+    with DirectoryLock(out, "out"):  # one writer per directory, before anything is read or written
+        return _run_locked(spec, out, workers, dask, progress, max_tiles)
+
+
+def _check_spec_file(spec: SweepSpec, out: Path) -> None:
+    """Refuse a directory that holds another sweep; write (or repair) ``sweep_spec.json``."""
     spec_file = out / "sweep_spec.json"
     ident = dict(spec.to_json_dict(), digest=spec.digest)
     if spec_file.exists():
-        old = json.loads(spec_file.read_text())
-        if old.get("digest") != spec.digest:
-            raise ParameterError("out", str(out), "holds a different sweep (sweep_spec.json); use another --out or delete it")
-    else:
-        text = json.dumps(ident, indent=1)
-        atomic_write(spec_file, lambda fh: fh.write(text), binary=False)
-    done = _finished(out, spec)
+        try:
+            old = json.loads(spec_file.read_text(encoding="utf-8"))
+            old_digest = old.get("digest") if isinstance(old, dict) else None
+        except (OSError, ValueError):
+            old = old_digest = None
+        if old_digest == spec.digest:
+            return
+        if old is not None and old_digest is not None:
+            raise ParameterError("out", str(out), "a directory of this sweep or an empty one (it holds a different "
+                                 "sweep: sweep_spec.json); use another --out or delete it")
+        # Damaged: the tiles carry their own identity; if any belongs to another sweep, refuse.
+        for t in sorted(out.glob("tiles/tile_*.npz")):
+            try:
+                with np.load(t, allow_pickle=False) as d:
+                    foreign = str(d["digest"]) != spec.digest
+            except Exception:
+                continue
+            if foreign:
+                raise ParameterError("out", str(out), "a directory of this sweep or an empty one (sweep_spec.json is "
+                                     f"damaged and {t.name} belongs to another sweep); use another --out")
+        say(f"sweep: {spec_file} is damaged: rewriting it (the tiles carry their own identity)")
+    write_json(spec_file, ident)
+
+
+def _run_locked(spec, out, workers, dask, progress, max_tiles) -> SweepResult:
+    _check_spec_file(spec, out)
+    done = _finished(out, spec, say)
     todo = [t for t in range(spec.n_tiles) if t not in done]
     if max_tiles is not None:
         todo = todo[:max_tiles]
@@ -317,7 +398,7 @@ def run_sweep(
         "backend": "dask" if dask is not None else "processes",
     }
     result = _gather(out, spec, stats, strict=False)
-    if result.complete:
+    if result.complete:  # every tile verified just now: only then the assembled files
         result.files = assemble(result, out)
     return result
 
@@ -449,21 +530,19 @@ def _run_dask(spec: SweepSpec, todo: list[int], dask: str, finished: Callable, w
 
 
 def _gather(out: Path, spec: SweepSpec, stats: dict, strict: bool) -> SweepResult:
-    """The tiles found in ``out`` as a :class:`SweepResult` (NaN where a tile is missing)."""
+    """The verified tiles in ``out`` as a :class:`SweepResult` (NaN where a tile is missing)."""
     arrays = {f: np.full(spec.n_points, np.nan) for f in _FIELDS}
     found = 0
     for t in range(spec.n_tiles):
-        path = _tile_path(out, t)
-        if not path.exists():
+        data, why = _read_tile(out, spec, t)
+        if data is None:
             if strict:
-                raise ParameterError("out", str(out), f"a finished sweep (tile {t} of {spec.n_tiles} is missing: "
-                                     "run run_sweep / precise-impact sweep again to finish it)")
+                raise ParameterError("out", str(out), f"a finished sweep (tile {t} of {spec.n_tiles} "
+                                     + ("is missing" if why is None else why)
+                                     + ": run run_sweep / precise-impact sweep again to finish it)")
             continue
-        with np.load(path) as d:
-            if str(d["digest"]) != spec.digest:
-                raise ParameterError("out", str(out), f"tile {t} belongs to another sweep")
-            for f in _FIELDS:
-                arrays[f][d["index"]] = d[f]
+        for f in _FIELDS:
+            arrays[f][data["index"]] = data[f]
         found += 1
     grid = {f: a.reshape(spec.shape) for f, a in arrays.items()}
     return SweepResult(spec=spec, **grid, complete=found == spec.n_tiles, stats=stats)

@@ -345,8 +345,9 @@ def sync_scan(
     .. [3] J. F. Heagy, N. Platt, S. M. Hammel, PRE 49 (1994) 1140 (on-off
            intermittency at the threshold).
     """
-    if not isinstance(params, Params):
-        raise ParameterError("params", type(params).__name__, "a precise_impact.Params (use Params.make(...))")
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
     form = check_form(form)
     if isinstance(k_values, (str, bytes)) or not isinstance(k_values, Sequence) or len(k_values) == 0:
         raise ParameterError("k_values", k_values, "a non-empty sequence of couplings k >= 0")
@@ -371,6 +372,8 @@ def sync_scan(
     if not sq > 0:
         raise ParameterError("spread", spread, "half-width of the initial-condition box, > 0")
     lle_periods = check_count(lle_periods, "lle_periods")
+    if 0 < lle_periods < 4:  # the variational estimate runs 4 initial conditions
+        raise ParameterError("lle_periods", lle_periods, "0 (no LLE) or an integer with 4 <= lle_periods <= 100000000")
     lle_transient = check_count(lle_transient, "lle_transient")
     P = Precision.parse(precision)
 
@@ -500,8 +503,9 @@ def plot_fig7(
            mechanical impact oscillator", Fig. 7.
     """
     p, fmt = _check_plot_path(path)
-    if not isinstance(params, Params):
-        raise ParameterError("params", type(params).__name__, "a precise_impact.Params (use Params.make(...))")
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
     form = check_form(form)
     kl, kh = check_k(k_low, "k_low"), check_k(k_high, "k_high")
     periods = check_count(periods, "periods")

@@ -25,6 +25,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
     wp.add_argument("--out", default=None, metavar="DIR",
                     help="write work_precision.json/.csv/.png and chaos_cost.png into DIR")
     wp.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    wp.add_argument("--force", action="store_true",
+                    help="write into an existing non-empty --out directory (files of the same name are replaced)")
     return b
 
 

@@ -8,7 +8,13 @@ import re
 import sys
 from typing import Sequence
 
-from precise_impact.errors import BudgetExceededError, IntegrationError, OptionalDependencyError, ParameterError
+from precise_impact.errors import (
+    BudgetExceededError,
+    IntegrationError,
+    Interrupted,
+    OptionalDependencyError,
+    ParameterError,
+)
 from precise_impact.analysis.sync import MAX_ENSEMBLE
 
 # Exit statuses: 0 ok, 2 bad input (argparse uses 2 as well), 3 a budget was hit,
@@ -73,11 +79,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default=None, metavar="FILE", help="write samples and impacts to FILE.npz, .csv or .json")
     s.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     s.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+    _add_max_time(s)
 
     ly = sub.add_parser("lle", help="largest Lyapunov exponent (variational with saltation, or two-trajectory)")
     _add_param_flags(ly)
     ly.add_argument("--periods", default="20000", metavar="N", help="measured forcing periods (default 20000)")
     ly.add_argument("--transient", default="1000", metavar="N", help="discarded transient periods (default 1000)")
+    _add_max_time(ly)
     ly.add_argument("--method", default="variational", help="variational or two-trajectory (default variational)")
     ly.add_argument("--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS")
     ly.add_argument("--json", action="store_true", help="print one JSON object to stdout")
@@ -92,6 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--transient", default="1000", metavar="T", help="transient periods per value (default 1000)")
     b.add_argument("--workers", default=None, metavar="W", help="worker processes (default: all cores)")
     b.add_argument("--out", required=True, metavar="DIR", help="write bifurcation.png and bifurcation.npz here")
+    _add_max_time(b)
 
     sy = sub.add_parser("sync", help="master-slave synchronisation threshold against the LLE (paper Fig. 7)")
     sy.add_argument("--form", default="first-order", help="first-order, paper or reduced (default first-order)")
@@ -105,6 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="couplings of the Fig. 7 plot (default the paper's 0.031 0.032)")
     sy.add_argument("--out", default="results", metavar="DIR", help="plots and JSON go here (default results)")
     sy.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+    _add_max_time(sy)
 
     sw = sub.add_parser("sweep", help="LLE, period and impact rate on a 1-D or 2-D parameter grid (tiled, resumable)")
     sw.add_argument("--axis", nargs=4, action="append", required=True, metavar=("NAME", "MIN", "MAX", "N"),
@@ -128,6 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
     rn.add_argument("--model", default=None, help="override the scene's model")
     rn.add_argument("--json", action="store_true", help="print one JSON object to stdout")
     rn.add_argument("--out", default=None, metavar="DIR", help="write <scene>_<model>.json and .png here")
+    _add_max_time(rn)
 
     from precise_impact.cli import bench as _cli_bench, compare as _cli_compare, reference as _cli_reference
 
@@ -144,7 +155,23 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--periods", default="100", metavar="N", help="forcing periods from rest (default 100)")
     a.add_argument("--out", default=None, metavar="DIR", help="write accuracy.json and accuracy.png here")
     a.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    for name, sp in sub.choices.items():  # every directory --out: no silent overwrite without --force
+        opts = {o for a in sp._actions for o in a.option_strings}
+        if "--out" in opts and "--force" not in opts and name != "sweep":
+            sp.add_argument("--force", action="store_true",
+                            help="write into an existing non-empty --out directory (files of the same name are replaced)")
     return parser
+
+
+def _add_max_time(p) -> None:
+    p.add_argument("--max-time", default=None, metavar="S",
+                   help="time budget in seconds, checked against an estimate before any work (default 3600)")
+
+
+def _max_time(ns) -> float:
+    from precise_impact.core.budget import DEFAULT_MAX_TIME, parse_max_time
+
+    return DEFAULT_MAX_TIME if ns.max_time is None else parse_max_time(ns.max_time)
 
 
 def _cmd_simulate(ns) -> int:
@@ -159,7 +186,28 @@ def _cmd_simulate(ns) -> int:
     if ns.out is not None and Path(ns.out).suffix not in (".npz", ".csv", ".json"):
         raise ParameterError("out", ns.out, "output file must end in .npz, .csv or .json")
     solver = make_solver(ns.model, ns.precision, ns.tol)
-    traj = solver.solve(params, periods, per_period=dense)
+    from precise_impact.core.budget import check_cost, estimate_cost
+    from precise_impact.core.precision import Precision
+    from precise_impact.io.progress import Progress
+    from precise_impact.solvers.heyoka import HeyokaSolver
+
+    cost = estimate_cost(getattr(solver, "precision", None) or Precision.parse(ns.precision), periods, dense)
+    check_cost(cost, _max_time(ns))
+    if isinstance(solver, HeyokaSolver):  # long runs: progress on stderr, a partial file on interrupt
+        bar = Progress(periods, "simulate periods", None if not ns.json and cost.seconds > 2 else False)
+        try:
+            traj = solver.solve(params, periods, per_period=dense, progress=lambda k, n: bar.update(k))
+        except Interrupted as e:
+            bar.close()
+            if ns.out is not None and e.partial is not None:
+                part = Path(ns.out)
+                part = part.with_name(part.stem + ".partial" + part.suffix)
+                e.partial.save(part)
+                e.kept = f"{e}; the finished periods are in {part}"
+            raise
+        bar.close()
+    else:
+        traj = solver.solve(params, periods, per_period=dense)
     if ns.out is not None:
         traj.save(ns.out)
     if ns.json:
@@ -185,7 +233,10 @@ def _cmd_lle(ns) -> int:
     transient = check_count(ns.transient, "transient")
     if ns.method not in LYAPUNOV_METHODS:
         raise ParameterError("method", ns.method, "one of " + ", ".join(LYAPUNOV_METHODS))
-    Precision.parse(ns.precision)
+    from precise_impact.core.budget import check_cost, estimate_cost
+
+    # four starting conditions; the variational equations cost about twice a trajectory
+    check_cost(estimate_cost(Precision.parse(ns.precision), periods + transient, runs=4, factor=2, stored=False), _max_time(ns))
     r = lyapunov(params, ns.method, periods=periods, transient=transient, precision=ns.precision, progress=not ns.json)
     if ns.json:
         json.dump(r.to_dict(), sys.stdout)
@@ -203,6 +254,14 @@ def _cmd_bifurcation(ns) -> int:
 
     params = Params.make(**{dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS if dest != "eta"})
     workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
+    from precise_impact.core.budget import check_cost, estimate_cost
+    from precise_impact.core.precision import Precision
+
+    n = check_count(ns.eta[2], "n", 1_000_000, minimum=1)
+    length = check_count(ns.periods, "periods") + check_count(ns.transient, "transient")
+    # one variational run per value (x2), spread over the workers
+    check_cost(estimate_cost(Precision.parse("float64"), length, runs=n, factor=2, stored=False),
+               _max_time(ns) * (workers or __import__("os").cpu_count() or 1))
     res = bifurcation(
         params, ns.eta[0], ns.eta[1], ns.eta[2], periods=ns.periods, transient=ns.transient, workers=workers,
         progress=True,
@@ -229,6 +288,12 @@ def _cmd_sync(ns) -> int:
     ensemble = check_count(ns.ensemble, "ensemble", MAX_ENSEMBLE, minimum=1)
     seed = check_count(ns.seed, "seed", 2**32)
     k1, k2 = check_k(ns.fig7[0], "fig7"), check_k(ns.fig7[1], "fig7")
+    from precise_impact.core.budget import check_cost, estimate_cost
+    from precise_impact.core.precision import Precision
+
+    # master + slave (4 states, x4) for every k and ensemble member, plus the master's LLE
+    check_cost(estimate_cost(Precision.parse("float64"), periods, 20, runs=len(ks) * ensemble, factor=4,
+                             stored=False), _max_time(ns))
     res = sync_scan(params, form, ks, periods=periods, ensemble=ensemble, seed=seed, progress=not ns.json)
     out = Path(ns.out)
     stem = f"sync_{form}"
@@ -306,7 +371,7 @@ def _cmd_run(ns) -> int:
         raise ParameterError("model", ns.model, "one of " + ", ".join(SCENE_MODELS))
     if ns.model is not None:
         scene = scene.with_model(ns.model)  # validated before any work
-    result = run_scene(scene)
+    result = run_scene(scene, max_time=_max_time(ns))
     obj = scene_json(scene, result)
     files = save_scene_outputs(scene, result, ns.out) if ns.out is not None else []
     if ns.json:
@@ -427,8 +492,8 @@ def _check_outputs(ns) -> None:
         return
     if ns.command == "simulate":
         check_output_file(out, force=ns.force)
-    else:
-        check_output_dir(out)
+    else:  # a sweep and a reference dataset resume in their own directory (checked there)
+        check_output_dir(out, force=ns.command in ("sweep", "reference") or getattr(ns, "force", False))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -468,8 +533,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()
         return 0
-    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: finished files (tiles, outputs) are complete
-        print("precise-impact: interrupted; finished results are kept", file=sys.stderr)
+    except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM: finished files (tiles, outputs) are complete
+        print(f"precise-impact: {getattr(e, 'kept', 'interrupted; finished results are kept')}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except OSError as e:  # a full or read-only file system mid-run: one line, finished files intact
         print(f"precise-impact: I/O error: {e.strerror or e}: {e.filename or ''}".rstrip(": "), file=sys.stderr)

@@ -95,6 +95,9 @@ def steady_state(params) -> SteadyState:
     >>> ss.P, ss.eta * ss.Q
     (Fraction(102, 53), Fraction(49, 265))
     """
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
     eta, zeta, a = params.eta, params.zeta, params.a
     d = (1 - eta**2) ** 2 + (2 * zeta * eta) ** 2
     if d == 0:
@@ -126,6 +129,10 @@ def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
         The positive roots ``eta`` in increasing order (empty if the amplitude never
         reaches the wall).
     """
+    from precise_impact.core.params import as_params, check_count
+
+    params = as_params(params)
+    dps = check_count(dps, 'dps', 10_000, minimum=1)
     with mpmath.workdps(dps):
         z = mpmath.mpf(params.zeta.numerator) / params.zeta.denominator
         a = mpmath.mpf(params.a.numerator) / params.a.denominator

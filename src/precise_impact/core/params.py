@@ -20,7 +20,7 @@ import numpy as np
 
 from precise_impact.errors import ParameterError
 
-__all__ = ["Params", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES", "RUNTIME_PARAMS", "MAX_DIGITS",
+__all__ = ["Params", "as_params", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES", "RUNTIME_PARAMS", "MAX_DIGITS",
            "MAX_EXPONENT"]
 
 #: Order of the fields, also the order of the CLI flags and of ``--json`` output.
@@ -370,3 +370,15 @@ class Params:
         if not isinstance(m, Mapping):
             raise ParameterError("params", type(m).__name__, "a Params or a mapping {name: value}")
         return cls.make(**{str(k): v for k, v in m.items()})
+
+
+def as_params(value: Any, name: str = "params") -> "Params":
+    """The one conversion of a user's ``params`` argument: a :class:`Params` (validated
+    however it was built), a plain mapping ``{name: value}`` (:meth:`Params.from_mapping`),
+    or a :class:`ParameterError` naming ``name``."""
+    if isinstance(value, Params):
+        value.validate()
+        return value
+    if isinstance(value, Mapping):
+        return Params.from_mapping(value)
+    raise ParameterError(name, type(value).__name__, "a Params or a mapping {name: value}")

@@ -87,13 +87,18 @@ class Precision:
 
     # ----------------------------------------------------------------- parsing
     @staticmethod
-    @functools.lru_cache(maxsize=None)
     def parse(spec: "str | Precision") -> "Precision":
         """Parse a precision string; raise :class:`ParameterError` if unknown."""
         if isinstance(spec, Precision):
             return spec
-        if not isinstance(spec, str):
-            raise ParameterError("precision", spec, PRECISION_HELP)
+        if not isinstance(spec, str) or len(spec) > 40:
+            raise ParameterError("precision", spec if isinstance(spec, str) and len(spec) <= 40 else type(spec).__name__,
+                                 PRECISION_HELP)
+        return Precision._parse(spec)
+
+    @staticmethod
+    @functools.lru_cache(maxsize=256)
+    def _parse(spec: str) -> "Precision":
         s = spec.strip().lower()
         if s in ("float64", "double", "f64"):
             return Precision("float64", "float64", 53)

@@ -102,7 +102,11 @@ class Trajectory(ResultMixin):
     def to_dict(self) -> dict:
         """The CLI's ``--json`` object; every state number a full-precision decimal string."""
         s = self.precision.to_str
+        partial = {}
+        if self.stats and self.stats.get("partial"):  # an interrupted run: say so in every file
+            partial = {"partial": {k: self.stats[k] for k in ("periods_done", "periods_asked")}}
         return {
+            **partial,
             "params": self.params.decimal(),
             "model": self.model,
             "precision": self.precision.name,

@@ -105,13 +105,25 @@ def check_output_file(path: str | os.PathLike, force: bool = False, name: str = 
     return path
 
 
-def check_output_dir(path: str | os.PathLike, name: str = "out") -> Path:
-    """Check, before any work, that ``path`` is (or can be created as) a writable directory."""
+def check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = True) -> Path:
+    """Check, before any work, that ``path`` is (or can be created as) a writable directory.
+
+    With ``force=False`` an existing directory that holds anything is refused (the run
+    would replace files of the same name in it): a new or empty directory, or ``--force``.
+    """
     from precise_impact.errors import ParameterError
 
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise ParameterError(name, str(path), "a directory (this is an existing file)")
+    if not force and path.is_dir():
+        try:
+            first = next(iter(sorted(path.iterdir())), None)
+        except OSError:
+            first = None
+        if first is not None:
+            raise ParameterError(name, str(path), f"a new or empty directory (it holds {first.name}, which this run "
+                                 "may replace): another --out, or --force to write into it")
     base = _nearest_existing(path)
     if not base.is_dir():
         raise ParameterError(name, str(path), f"a directory path ({base} is a file)")

@@ -451,8 +451,9 @@ def simulate_coupled(
     .. [2] F. Biscani, D. Izzo, MNRAS 504 (2021) 2614 (heyoka's Taylor method and
            event detection).
     """
-    if not isinstance(params, Params):
-        raise ParameterError("params", type(params).__name__, "a precise_impact.Params (use Params.make(...))")
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
     kq = check_k(k)
     form = check_form(form)
     periods = check_count(periods, "periods")

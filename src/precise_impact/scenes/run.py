@@ -16,7 +16,7 @@ from precise_impact.scenes.scene import Scene
 __all__ = ["run_scene", "scene_json"]
 
 
-def run_scene(scene: Scene, model: str | None = None):
+def run_scene(scene: Scene, model: str | None = None, max_time: float | None = None):
     """Simulate ``scene`` (optionally with another model).
 
     Parameters
@@ -25,6 +25,11 @@ def run_scene(scene: Scene, model: str | None = None):
         A loaded scene (:func:`~precise_impact.scenes.scene.load_scene`).
     model : str or None, default ``None``
         Another model to run the scene on (effects re-validated for it).
+    max_time : float or None, default ``None`` (:data:`~precise_impact.core.budget.DEFAULT_MAX_TIME`)
+        Time budget in seconds: the scene's estimated cost
+        (:func:`~precise_impact.core.budget.estimate_cost`) is checked against it before
+        any work (:class:`~precise_impact.errors.ParameterError` naming ``max_time``, or
+        ``periods`` when the samples would not fit in half the machine's memory).
 
     Returns
     -------
@@ -34,6 +39,12 @@ def run_scene(scene: Scene, model: str | None = None):
     if model is not None and model != scene.model:
         scene = scene.with_model(model)
     P = scene.precision
+    from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, estimate_cost
+
+    # circuits and coupled systems integrate 2-4x the states of the mechanical model
+    factor = 1.0 if scene.kind != "coupled" and scene.model in ("heyoka", "analytical") else 4.0
+    check_cost(estimate_cost(P, scene.periods, scene.per_period, factor=factor),
+               DEFAULT_MAX_TIME if max_time is None else max_time)
     if scene.kind == "coupled":
         y0 = (scene.params.x0 + 1, scene.params.v0)  # the slave starts one unit away (paper Fig. 7)
         if scene.model == "circuit":

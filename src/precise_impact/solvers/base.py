@@ -122,7 +122,7 @@ def canonical_model(name: str) -> str:
         ``name`` is neither a model nor an alias.
     """
     name = MODEL_ALIASES.get(name, name) if isinstance(name, str) else name
-    if name not in _REGISTRY:
+    if not isinstance(name, str) or name not in _REGISTRY:
         allowed = ", ".join(list(_REGISTRY) + [f"{a} (= {c})" for a, c in MODEL_ALIASES.items()])
         raise ParameterError("model", name, "one of " + allowed)
     return name

@@ -39,6 +39,17 @@ eventually exceeds the flight time (``~ 2 R v / g``) and the next impact is miss
 A plastic impact (``R = 0``) and a start at rest on the wall go straight to the
 sticking decision.  Samples inside a sticking interval are ``(x_w, 0)``.
 
+``R = 1`` with the force into the wall is *not* Zeno: the bounce's action
+``J = (2/3) v^3 / g`` decays like ``exp(-2 zeta t)``, so impact speeds fall like
+``exp(-2 zeta t / 3)`` and the impact rate grows like ``exp(2 zeta t / 3)`` without the
+impacts ever accumulating (``tests/test_chattering.py`` checks both laws against heyoka to
+1e-3).  The model follows every bounce; once the speed is below the floor above the mass
+is taken to be at rest.  At the first short flight :meth:`_ZenoWatch.elastic_bounces`
+predicts how many impacts remain until the force releases the mass, the speed reaches the
+floor, or the run ends; a prediction over the impact budget stops the run at once with
+:class:`~precise_impact.errors.BudgetExceededError` saying so (before: the whole budget
+of 10^6 impacts was spent first).
+
 Event-detection details handled here
 ------------------------------------
 * A fresh propagation that starts exactly on the wall (a root of ``x - x_w`` at
@@ -68,7 +79,7 @@ import mpmath
 from mpmath import libmp
 import numpy as np
 
-from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
+from precise_impact.errors import BudgetExceededError, IntegrationError, Interrupted, ParameterError
 from precise_impact.core.impact import (
     GrazingDepth,
     grazing_depth_coefficient,
@@ -91,6 +102,10 @@ from precise_impact.core.flow import acceleration
 __all__ = ["HeyokaSolver", "build_integrator"]
 
 _IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
+
+#: Forcing periods per ``propagate_grid`` call (progress, interrupt and partial results
+#: happen between chunks).  Runs of up to this many periods are one call, as before.
+CHUNK_PERIODS = 1000
 
 #: Guard bits of every mpmath evaluation of the wall force, release and accumulation times.
 _GUARD_BITS = 64
@@ -171,7 +186,7 @@ class _ImpactRecorder(ImpactRecorder):
                 self.stop_reason = "rest"
                 return False
             if watch.observe(ta.time, vb):
-                self.stop_reason = "chatter"
+                self.stop_reason = "bounce" if watch.refusal else "chatter"
                 return False
         return True
 
@@ -332,9 +347,14 @@ class _ZenoWatch:
         self.eps_f = P.eps_float
         self.tol_f = max(float(tol), self.eps_f)
         self.result: dict | None = None
+        self.refusal: str | None = None
+        #: Set by the solver: impacts left in the budget (a callable) and the budget.
+        self.budget_left = None
+        self.max_impacts = None
         self.clear_run()
 
     def clear_run(self) -> None:
+        self.predicted = False
         self.run_n = 0
         self.prev_v: float | None = None
         self.row: list = []
@@ -375,6 +395,44 @@ class _ZenoWatch:
         i = bisect.bisect_right(self.grid, t)
         return i < len(self.grid) and self.grid[i] < t_inf
 
+    def elastic_bounces(self, t: float, v: float) -> tuple[float, str]:
+        """Predicted impacts of an ``R = 1`` bounce sequence on the wall from impact ``(t, v)``.
+
+        With ``R = 1`` and short flights under the wall force ``g(s) = a cos(eta s) - x_w > 0``
+        the bounce's action ``J = (2/3) v^3 / g`` is an adiabatic invariant of the flight
+        between impacts, and linear damping makes it decay exactly like ``exp(-2 zeta s)``
+        on average (``dJ/dt = -2 zeta J`` for any bounce shape).  So the impact speed is
+        ``v(s) = (1.5 g(s) J(s))^(1/3)``, ``~ exp(-2 zeta s / 3)``: flights shrink, the impact
+        rate ``g / (2 v)`` grows exponentially, but their sum diverges (not a Zeno
+        sequence).  The impact count is the integral of that rate up to the first of:
+        the force turning (release), the speed floor (taken as rest), the run's end.
+        Returns ``(count, what ends it)``; ``inf`` when the integral passes 1e18.
+        """
+        zeta = float(self.params.zeta)
+        J0 = 2.0 * v**3 / 3.0 / max(self.a_f * math.cos(self.eta_f * t) - self.xw_f, 1e-300)
+        t_end = float(self.grid[-1])
+        h = min(2 * math.pi / self.omega / 64, max(t_end - t, 1e-300))
+        total, s0 = 0.0, t
+        for _ in range(64):  # chunks of 4096 steps: enough for 4096 forcing periods
+            s = s0 + h * np.arange(1, 4097)
+            g = self.a_f * np.cos(self.eta_f * s) - self.xw_f
+            J = J0 * np.exp(-2 * zeta * (s - t))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                vs = np.cbrt(1.5 * np.maximum(g, 0) * J)
+                rate = np.where(g > 0, g / (2 * vs), 0.0)
+            floor = np.sqrt(500.0 * self.eps_f * self.scale * np.maximum(g, 0))
+            stop = (g <= 0) | (vs < floor) | (s >= t_end)
+            k = int(np.argmax(stop)) if stop.any() else len(s)
+            total += float(np.sum(rate[:k])) * h
+            if k < len(s):
+                what = ("the end of the run" if s[k] >= t_end else
+                        f"the release at t ~ {s[k]:.6g}" if g[k] <= 0 else f"rest on the wall at t ~ {s[k]:.6g}")
+                return total, what
+            if total > 1e18:
+                return math.inf, "the end of the run"
+            s0 = float(s[-1])
+        return total, f"t = {s0:.6g}"
+
     # -- called by the impact callback ------------------------------------------------
     def observe(self, t: Any, vb: Any) -> bool:
         tf, vf = float(t), float(vb)
@@ -389,6 +447,19 @@ class _ZenoWatch:
             if at_floor:
                 self._finish(t, vb, None, at_floor=True)
                 return True
+            short = 2 * vf / g * self.omega <= self.flight_fraction
+            if short and not self.predicted and self.budget_left is not None:
+                self.predicted = True  # once per run of short bounces
+                n, until = self.elastic_bounces(tf, vf)
+                if n > self.budget_left():
+                    self.refusal = (
+                        f"R = 1 with the net force into the wall from t = {tf:.6g}: the mass bounces on the wall "
+                        f"with speeds decaying like exp(-2 zeta t / 3) and ever shorter flights (not Zeno: the "
+                        f"impacts never accumulate, there is no sticking); reaching {until} takes ~{n:.2g} more "
+                        f"impacts, over the budget max_impacts = {self.max_impacts}; raise max_impacts, shorten "
+                        "the run or use R < 1"
+                    )
+                    return True
             return False
         short = 2 * R * vf / g * self.omega <= self.flight_fraction
         if not short and not at_floor:
@@ -638,7 +709,7 @@ class HeyokaSolver:
         ta.reset_cooldowns()
         return ta, rec
 
-    def solve(self, params: Params, periods: int, per_period: int = 0) -> Trajectory:
+    def solve(self, params: Params, periods: int, per_period: int = 0, *, progress: Any = None) -> Trajectory:
         """Integrate ``periods`` forcing periods (see :meth:`_solve`); thread-safe.
 
         Parameters
@@ -650,11 +721,22 @@ class HeyokaSolver:
             ``k = 0..periods``.
         per_period : int, default 0
             Dense output points per period (0: none).
+        progress : callable or None, default ``None``
+            Called as ``progress(periods_done, periods)`` after every chunk of
+            :data:`CHUNK_PERIODS` periods (e.g. :meth:`~precise_impact.io.progress.Progress.update`).
 
         Returns
         -------
         Trajectory
             Samples, impacts (time, velocities before and after) and ``stats``.
+
+        Notes
+        -----
+        The run is integrated in chunks of :data:`CHUNK_PERIODS` forcing periods (one
+        ``propagate_grid`` each; a run of up to that many periods is one call).  A
+        ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM through the CLI)
+        raises :class:`~precise_impact.errors.Interrupted` whose ``partial`` is the
+        trajectory up to the last finished chunk (``stats['partial'] = True``).
 
         Raises
         ------
@@ -671,9 +753,9 @@ class HeyokaSolver:
                astrodynamics and celestial mechanics", MNRAS 504 (2021) 2614.
         """
         with self._lock:
-            return self._solve(params, periods, per_period)
+            return self._solve(params, periods, per_period, progress)
 
-    def _solve(self, params: Params, periods: int, per_period: int = 0) -> Trajectory:
+    def _solve(self, params: Params, periods: int, per_period: int = 0, progress: Any = None) -> Trajectory:
         """Integrate ``periods`` forcing periods from ``(params.x0, params.v0)`` at ``params.t0``.
 
         Returns stroboscopic samples at ``t0 + k T`` (``k = 0..periods``), every
@@ -690,7 +772,6 @@ class HeyokaSolver:
         step = max(per_period, 1)
         grid = P.sample_times(params.t0, params.eta, periods, step)
         n_out = len(grid)
-        t_end = grid[-1]
         # One output time past the end, so that an impact exactly at the end time
         # lies inside a step (heyoka does not detect an event at the very end of
         # the last step); everything past t_end is discarded below.
@@ -699,6 +780,8 @@ class HeyokaSolver:
         ta, rec = self._prepare(params)
         watch = _ZenoWatch(P, params, self.tol_exact if self.tol_exact is not None else P.eps_fraction, run_grid)
         rec.watch = watch
+        watch.max_impacts = rec.max_impacts
+        watch.budget_left = lambda: rec.max_impacts - rec.count - rec.charged
         if params.x0 == params.x_w:
             rec.contact_t = ta.time  # a start on the wall
         rec.spurious_v = math.sqrt(P.eps_float) * max(1.0, abs(float(params.a)), abs(float(params.x_w)))
@@ -708,17 +791,36 @@ class HeyokaSolver:
         else:
             rec.depth, rec.cos = GrazingDepth(P.from_fraction(coef), P.from_fraction(amp)), np.cos
         t_start = _time.perf_counter()
+        live: dict = {"done": 0}
+        chunk = CHUNK_PERIODS * step
+        if progress is not None:
+            live["progress"] = lambda i: progress(min(i, n_out - 1) // step, periods)
         try:
-            xs, vs, stats = self._run(ta, rec, watch, params, run_grid, max_steps, n_out)
+            xs, vs, stats = self._run(ta, rec, watch, params, run_grid, max_steps, n_out, chunk, live)
+        except KeyboardInterrupt as e:
+            done = (min(live["done"], n_out) - 1) // step * step + 1  # whole periods only
+            if done < 1 + step:
+                raise
+            xs, vs = live["xs"][:done], live["vs"][:done]
+            stats = {"partial": True, "periods_done": (done - 1) // step, "periods_asked": periods}
+            part = self._trajectory(params, grid[:done], xs, vs, rec, stats, step, per_period,
+                                    _time.perf_counter() - t_start)
+            raise Interrupted(f"interrupted after {(done - 1) // step} of {periods} periods", part) from e
         finally:
             rec.watch = None  # leave a plain recorder behind for the next solve
             rec.depth = None
         stats["grazing"] = rec.grazing
-        elapsed = _time.perf_counter() - t_start
+        return self._trajectory(params, grid, xs[:n_out], vs[:n_out], rec, stats, step, per_period,
+                                _time.perf_counter() - t_start)
+
+    def _trajectory(self, params: Params, grid: list, xs: list, vs: list, rec, stats: dict, step: int,
+                    per_period: int, elapsed: float) -> Trajectory:
+        """Trim the impacts to ``[t0, grid[-1]]``, make the samples right-continuous, wrap."""
+        P = self.precision
+        n_out, t_end = len(grid), grid[-1]
         # ---- trim to [t0, t_end] and make the output right-continuous
         k = bisect.bisect_right(rec.t, t_end)
         imp_t, imp_vb, imp_va = rec.t[:k], rec.v_before[:k], rec.v_after[:k]
-        xs, vs = xs[:n_out], vs[:n_out]
         x_w = P.from_fraction(params.x_w)
         for tc, va in zip(imp_t, imp_va):
             j = bisect.bisect_left(grid, tc)
@@ -727,8 +829,9 @@ class HeyokaSolver:
                 # pre-impact state in some precisions (longdouble, mp) and a
                 # rounding-level post-impact one in others: set the post-impact state.
                 xs[j], vs[j] = x_w, va
-        stats["chattering"] = [z for z in stats["chattering"] if z["t_last_impact"] <= t_end]
-        stats["sticking"] = [st for st in stats["sticking"] if st[0] <= t_end]
+        if "chattering" in stats:
+            stats["chattering"] = [z for z in stats["chattering"] if z["t_last_impact"] <= t_end]
+            stats["sticking"] = [st for st in stats["sticking"] if st[0] <= t_end]
         grid_arr = P.array(grid)
         xs, vs = P.array(xs), P.array(vs)
         traj = Trajectory(
@@ -749,11 +852,15 @@ class HeyokaSolver:
             traj.dense_t, traj.dense_x, traj.dense_v = grid_arr, xs, vs
         return traj
 
-    def _run(self, ta, rec: _ImpactRecorder, watch: _ZenoWatch, params: Params, grid: list, max_steps: int, n_out: int):
+    def _run(self, ta, rec: _ImpactRecorder, watch: _ZenoWatch, params: Params, grid: list, max_steps: int,
+             n_out: int, chunk: int, live: dict):
         """Free flights (heyoka) alternating with sticking phases (closed form).
 
         ``grid[:n_out]`` are the output times, ``grid[n_out:]`` the padding; a budget
-        running out in the padding only ends the run.
+        running out in the padding only ends the run.  Free flights are propagated
+        over at most ``chunk`` output times at a time, ending at multiples of
+        ``chunk``; ``live`` receives the sample lists and the count of finished
+        samples (``'done'``) for progress and for a partial result on interrupt.
         """
         import heyoka as hy
 
@@ -765,6 +872,8 @@ class HeyokaSolver:
         n = len(grid)
         xs: list = [None] * n
         vs: list = [None] * n
+        live["xs"], live["vs"] = xs, vs
+        report = live.get("progress")
         i = 0
         steps = 0
         sticking: list = []
@@ -779,6 +888,9 @@ class HeyokaSolver:
             rec.contact_t = t
 
         while i < n:
+            live["done"] = i
+            if report is not None:
+                report(i)
             t_cur = ta.time
             # ---- at rest on the wall: stick while the force pushes into it
             if ta.state[0] == x_w and ta.state[1] == 0 and wall.sticks(t_cur):
@@ -811,7 +923,10 @@ class HeyokaSolver:
                 # report a spurious one; start a rounding-level distance below it.
                 v_cur = ta.state[1]
                 ta.state[0] = x_below
-            res = ta.propagate_grid(P.array(([t_cur] if prepend else []) + grid[i:]), max_steps=remaining)
+            # chunks end at output times k * chunk (fixed positions); a run of up to
+            # CHUNK_PERIODS periods (+ the padding) stays one call
+            stop = n if n <= chunk + 2 else min(n, (i // chunk + 1) * chunk + 1)
+            res = ta.propagate_grid(P.array(([t_cur] if prepend else []) + grid[i:stop]), max_steps=remaining)
             outcome, n_steps, states = res[0], res[3], res[-1]
             steps += int(n_steps)
             i_first = i
@@ -829,8 +944,11 @@ class HeyokaSolver:
             if rec.exceeded:
                 raise BudgetExceededError(
                     f"impact budget max_impacts={self.max_impacts} exhausted at t={P.to_str(ta.time)} "
-                    "(chattering/Zeno sequence?); raise max_impacts or check the parameters"
+                    f"({min(i, n_out)} of {n_out} output times done); raise max_impacts, ask for a shorter run "
+                    "or check the parameters (a Zeno sequence?)"
                 )
+            if rec.stop_reason == "bounce":
+                raise BudgetExceededError(watch.refusal)
             if rec.stop_reason == "rest":
                 continue
             if rec.stop_reason == "chatter":
@@ -848,6 +966,7 @@ class HeyokaSolver:
                 continue
             raise IntegrationError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}")
 
+        live["done"] = i
         stats = {
             "steps": steps,
             "max_steps": max_steps,

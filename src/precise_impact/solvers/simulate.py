@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from precise_impact.errors import ParameterError
-from precise_impact.core.params import Params, check_count
+from precise_impact.core.params import as_params, Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.analytical import AnalyticalSolver
@@ -91,8 +91,7 @@ def simulate(
     if params is None:
         params = Params.make(**param_values)
     else:
-        if not isinstance(params, Params):
-            params = Params.from_mapping(params)  # a plain mapping {name: value}
+        params = as_params(params)  # a Params (validated) or a plain mapping {name: value}
         if param_values:
             params = params.replace(**param_values)
     periods = check_count(periods, "periods")

@@ -55,6 +55,9 @@ def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> Lyap
     >>> r.method, abs(sum(r.spectrum) + 0.1) < 1e-12    # lambda1 + lambda2 = -2 zeta (R = 1)
     ('variational', True)
     """
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
     if method == "variational":
         from precise_impact.analysis.lyapunov.variational import variational_spectrum
 

@@ -361,8 +361,9 @@ def two_trajectory_lle(
            astrodynamics and celestial mechanics", MNRAS 504 (2021) (heyoka).
     """
     # ---- validation (before any work)
-    if not isinstance(params, Params):
-        raise ParameterError("params", params, "a precise_impact.Params (build it with Params.make(...))")
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
     periods = _check_int("periods", periods, 1, _MAX_PERIODS)
     transient = _check_int("transient", transient, 0, _MAX_PERIODS)
     segments = _check_int("segments", segments, 2, _MAX_PERIODS)

@@ -132,6 +132,12 @@ def dimensionless(comp: Components, x0: Any = 0, v0: Any = 0, t0: Any = 0, R: An
 def exact_omega(comp: Components) -> Fraction:
     """``omega`` as an exact rational, or :class:`ParameterError` if it is irrational."""
     w2 = comp.omega_squared
+    if not OMEGA_RANGE[0] ** 2 <= w2 <= OMEGA_RANGE[1] ** 2:
+        raise ParameterError(
+            "R2, R7, R3, C2, R8, C1", f"omega = {float(w2) ** 0.5:.3g} rad/s",
+            f"a design with {OMEGA_RANGE[0]:g} <= omega = sqrt(R2/(R7 R3 C2 R8 C1)) <= {OMEGA_RANGE[1]:g} rad/s "
+            "(beyond it the circuit's time and voltage scales leave float64)",
+        )
     root = _isqrt_fraction(w2)
     if root is None:
         raise ParameterError(
@@ -139,6 +145,13 @@ def exact_omega(comp: Components) -> Fraction:
             "omega^2 = R2/(R7 R3 C2 R8 C1) must be a rational square for an exact mapping (design values)",
         )
     return root
+
+
+#: The circuit's natural angular frequency ``omega = 1/(R C)`` a design may have, rad/s:
+#: every real RC (1 ohm .. 1 Gohm, 1 fF .. 1 F) lies well inside; outside, products such
+#: as ``omega^2 V`` in the circuit equations overflow float64 (measured: R = 2e-79 ohm
+#: with C = 100 nF stopped heyoka with a non-finite state).
+OMEGA_RANGE = (1e-12, 1e18)
 
 
 def _isqrt_fraction(q: Fraction) -> Fraction | None:
@@ -185,16 +198,23 @@ def nominal_components(params: Params, R: Any = "10e3", C: Any = "100e-9", V_uni
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
            mechanical impact oscillator", eqs. (3)-(9) and Fig. 2.
     """
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
     r, c, vu = exact("R", R), exact("C", C), exact("V_unit", V_unit)
     if r <= 0 or c <= 0:
         raise ParameterError("R" if r <= 0 else "C", decimal_str(r if r <= 0 else c), "must be > 0")
     if params.zeta == 0:
         raise ParameterError("zeta", "0", "the circuit realises zeta > 0 (R6 = R2 / (2 zeta))")
     w = 1 / (r * c)
-    return Components.make(
-        R1=r, R2=r, R3=r, R4=r, R5=r, R6=r / (2 * params.zeta), R7=r, R8=r, C1=c, C2=c,
-        V_A=params.a * vu, Omega=params.eta * w, V_wall=-params.x_w * vu, V_unit=vu,
-    )
+    try:
+        return Components.make(
+            R1=r, R2=r, R3=r, R4=r, R5=r, R6=r / (2 * params.zeta), R7=r, R8=r, C1=c, C2=c,
+            V_A=params.a * vu, Omega=params.eta * w, V_wall=-params.x_w * vu, V_unit=vu,
+        )
+    except ParameterError as e:  # a derived value out of range: name what the caller gave
+        raise ParameterError("R, C, V_unit", f"{decimal_str(r)}, {decimal_str(c)}, {decimal_str(vu)}",
+                             f"values whose derived component {e.name} is in range ({e.allowed})") from None
 
 
 def to_mechanical(comp: Components, t: Any, V_s: Any, V_q: Any, omega: Any):

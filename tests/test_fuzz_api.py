@@ -1,0 +1,264 @@
+"""Fuzzing the Python API and the scene files: hostile values for every argument.
+
+The invariant (issue 12, item 7): a public function given any value for one argument
+either does its (small, bounded) job or raises :class:`ParameterError` (a ``ValueError``)
+whose ``name`` is that argument; never another exception, never a hang.  Numpy scalars and
+plain mappings are accepted where a user would pass them.  Scene files: any value of any
+key is refused in one ``ParameterError`` naming the key, or the scene runs.
+
+Examples per test: ``PRECISE_IMPACT_FUZZ_EXAMPLES`` (default 25; the ``slow`` run below
+uses 20x as many).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from precise_impact import (
+    BudgetExceededError,
+    OptionalDependencyError,
+    ParameterError,
+    Params,
+    SweepSpec,
+    bifurcation,
+    grazing_frequencies,
+    load_scene,
+    lyapunov,
+    make_solver,
+    nominal_components,
+    run_scene,
+    simulate,
+    simulate_coupled,
+    steady_state,
+    sync_scan,
+)
+
+EXAMPLES = int(os.environ.get("PRECISE_IMPACT_FUZZ_EXAMPLES", "25"))
+TIME_BOUND = 60.0
+
+#: Values a careless or hostile caller passes.  Legal ones must run (small jobs only:
+#: counts are either illegal or tiny), illegal ones must be refused by name.
+HOSTILE = st.one_of(
+    st.text(max_size=30),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([None, [], {}, (), object(), b"1", True, False, -1, 0, 10**30, 2**64, -(10**400),
+                     "1e400", "1e-400", "nan", "inf", "-0", "9" * 700, "1e999999999", "mp:0", "mp:100000",
+                     Fraction(1, 3), Fraction(-7, 2), np.float64("nan"), np.float64(1e308), np.int64(-5),
+                     np.float32(0.5), complex(1, 1), "0x10", " 0.7 ", "1_000", "٣"]),
+)
+
+ETA = dict(params=Params.make())
+
+
+def _call_simulate(**kw):
+    base = dict(periods=2)
+    base.update(kw)
+    return simulate(**base)
+
+
+def _call_lyapunov(**kw):
+    base = dict(periods=20, transient=5)
+    base.update(kw)
+    return lyapunov(base.pop("params", Params.make()), base.pop("method", "variational"), **base)
+
+
+def _call_bifurcation(**kw):
+    base = dict(eta_min="0.7", eta_max="0.72", n=2, periods=5, transient=5, workers=1, progress=False)
+    base.update(kw)
+    return bifurcation(base.pop("params", Params.make()), **base)
+
+
+def _call_sync(**kw):
+    base = dict(form="first-order", k_values=["0.05"], periods=5, ensemble=1, lle_periods=10,
+                lle_transient=5, per_period=2)
+    base.update(kw)
+    return sync_scan(base.pop("params", Params.make()), **base)
+
+
+def _call_sweep_spec(**kw):
+    base = dict(axes=[("eta", "0.7", "0.72", 2)], periods=5, transient=5)
+    base.update(kw)
+    return SweepSpec.make(base.pop("base", Params.make()), **base)
+
+
+def _call_coupled(**kw):
+    base = dict(k="0.05", periods=3)
+    base.update(kw)
+    return simulate_coupled(base.pop("params", Params.make()), **base)
+
+
+def _call_solver(**kw):
+    base = dict(model="heyoka", precision="float64", tol=None)
+    base.update(kw)
+    return make_solver(base.pop("model"), base.pop("precision"), base.pop("tol")).solve(Params.make(), 2)
+
+
+#: (callable, the arguments to fuzz); each call with valid defaults takes milliseconds.
+ENTRY_POINTS = {
+    "Params.make": (lambda **kw: Params.make(**kw), ["eta", "zeta", "a", "x_w", "R", "x0", "v0", "t0"]),
+    "simulate": (_call_simulate, ["params", "periods", "per_period", "precision", "tol", "model", "eta", "zeta",
+                                  "a", "x_w", "R", "x0", "v0", "t0"]),
+    "make_solver": (_call_solver, ["model", "precision", "tol"]),
+    "lyapunov": (_call_lyapunov, ["params", "method", "periods", "transient", "precision"]),
+    "bifurcation": (_call_bifurcation, ["params", "eta_min", "eta_max", "n", "periods", "transient", "workers"]),
+    "sync_scan": (_call_sync, ["params", "form", "k_values", "periods", "ensemble", "seed", "tail", "threshold",
+                               "per_period", "spread", "lle_periods", "lle_transient", "precision"]),
+    "SweepSpec.make": (_call_sweep_spec, ["base", "axes", "periods", "transient", "tile_size", "batch_size",
+                                          "max_work"]),
+    "simulate_coupled": (_call_coupled, ["params", "k", "form", "periods", "per_period", "precision",
+                                         "max_impacts"]),
+    "nominal_components": (lambda **kw: nominal_components(kw.pop("params", Params.make()), **kw),
+                           ["params", "R", "C", "V_unit"]),
+    "steady_state": (lambda **kw: steady_state(kw.get("params", Params.make())), ["params"]),
+    "grazing_frequencies": (lambda **kw: grazing_frequencies(kw.pop("params", Params.make()), **kw),
+                            ["params", "dps"]),
+}
+CASES = [(name, arg) for name, (_, args) in ENTRY_POINTS.items() for arg in args]
+
+
+def _names_argument(err: ParameterError, arg: str) -> bool:
+    """The refusal names the argument (or, for a parameter set, one of its fields)."""
+    n = err.name
+    if n == arg or n.startswith(arg + ".") or n.startswith(arg + "[") or arg in n.split(", "):
+        return True
+    if arg in ("params", "base") and n in Params.__dataclass_fields__:
+        return True  # a field of the parameter set
+    if arg == "axes" and (n in ("axis", "n") or n.endswith(("_min", "_max"))):
+        return True  # an element of an axis
+    if arg.endswith(("_min", "_max")) and n == arg[:-4]:
+        return True  # an end of a range outside the parameter's box names the parameter
+    return arg in str(err)  # a relation between two arguments (x0 <= x_w, eta_max > eta_min)
+
+
+@pytest.mark.parametrize("entry,arg", CASES, ids=[f"{e}-{a}" for e, a in CASES])
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(value=HOSTILE)
+def test_fuzz_public_functions(entry, arg, value):
+    fn, _ = ENTRY_POINTS[entry]
+    t0 = time.perf_counter()
+    try:
+        fn(**{arg: value})
+    except ParameterError as e:
+        assert isinstance(e, ValueError)
+        assert _names_argument(e, arg), f"{entry}({arg}={value!r}) names {e.name!r}: {e}"
+        assert "\n" not in str(e)
+    except (BudgetExceededError, OptionalDependencyError):
+        pass
+    assert time.perf_counter() - t0 < TIME_BOUND  # a hang guard, not a speed claim
+
+
+@pytest.mark.parametrize("value", [np.float64(0.712), np.float32(0.75), np.int64(1), np.int32(2),
+                                   Fraction(89, 125), "0.712", 0.712, 1])
+def test_numpy_scalars_and_exact_values_are_parameters(value):
+    """A value a user would pass is taken; a binary float as its shortest round-trip decimal
+    (np.float64(0.712) is the 0.712 the user typed, not 0.71199999999999996625...)."""
+    p = Params.make(eta=value)
+    expect = Fraction(repr(float(value))) if isinstance(value, (float, np.floating)) else Fraction(value)
+    assert p.eta == expect
+    assert math.isfinite(float(p.eta))
+
+
+@pytest.mark.parametrize("entry", ["simulate", "lyapunov", "bifurcation", "sync_scan", "simulate_coupled",
+                                   "nominal_components", "steady_state", "grazing_frequencies"])
+def test_plain_mappings_are_parameter_sets(entry):
+    fn, _ = ENTRY_POINTS[entry]
+    fn(params={"eta": "0.712", "x_w": np.float64(2.0)})
+    with pytest.raises(ParameterError) as e:
+        fn(params={"eta": "-1"})
+    assert e.value.name == "eta"
+
+
+def test_params_are_validated_however_they_were_built():
+    import dataclasses
+
+    p = Params.make()
+    bad = object.__new__(Params)  # bypasses __init__ and __post_init__
+    for f in dataclasses.fields(Params):
+        object.__setattr__(bad, f.name, getattr(p, f.name))
+    object.__setattr__(bad, "eta", Fraction(-1))
+    with pytest.raises(ParameterError) as e:
+        simulate(bad, 2)
+    assert e.value.name == "eta"
+    with pytest.raises(ParameterError):
+        dataclasses.replace(p, eta=Fraction(-1))
+
+
+# --- scene files ------------------------------------------------------------------
+SCENE_KEYS = [
+    ("parameters", "eta"), ("parameters", "zeta"), ("parameters", "a"), ("parameters", "x_w"),
+    ("parameters", "R"), ("parameters", "x0"), ("model", "precision"), ("model", "tol"), ("model", "name"),
+    ("duration", "periods"), ("outputs", "per_period"), ("system", "kind"), ("components", "R"),
+    ("components", "C"),
+]
+
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return {math.inf: "inf", -math.inf: "-inf"}.get(v, "nan" if v != v else repr(v))
+    s = str(v).replace("\\", "\\\\").replace('"', '\\"')
+    s = "".join(c if c.isprintable() else f"\\u{ord(c):04x}" for c in s if ord(c) < 0x10000)
+    return f'"{s}"'
+
+
+SCENE_VALUES = st.one_of(
+    st.text(max_size=30),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(min_value=-(10**20), max_value=10**20),
+    st.booleans(),
+    st.sampled_from(["1e999 ohm", "1e-999 ohm", "1e400 ohm", "1e999 F", "1e9999999 ohm", "0 ohm", "-5 nF",
+                     "10 kohm", "100 nF", "mp:99999", "float128", "1e-300", "spice"]),
+)
+
+
+@pytest.mark.parametrize("section,key", SCENE_KEYS, ids=[f"{s}.{k}" for s, k in SCENE_KEYS])
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(value=SCENE_VALUES)
+def test_fuzz_scene_values(tmp_path_factory, section, key, value):
+    base = {
+        "system": {"kind": '"single"'},
+        "model": {"name": '"circuit"', "precision": '"float64"'},
+        "parameters": {"eta": '"0.712"'},
+        "components": {"R": '"10 kohm"', "C": '"100 nF"'},
+        "duration": {"periods": "2"},
+        "outputs": {"per_period": "0"},
+    }
+    base[section][key] = _toml_value(value)
+    text = 'name = "fuzz"\n' + "".join(
+        f"[{sec}]\n" + "".join(f"{k} = {v}\n" for k, v in kv.items()) for sec, kv in base.items())
+    path = tmp_path_factory.mktemp("scene") / "fuzz.toml"
+    path.write_text(text, encoding="utf-8")
+    t0 = time.perf_counter()
+    try:
+        scene = load_scene(path)
+        run_scene(scene, max_time=60)
+    except ParameterError as e:
+        # the key, or a relation naming it (x0 <= x_w), or a whole-scene budget
+        assert key in e.name or key in str(e) or e.name in ("scene", "max_time", "periods"), (section, key, value, str(e))
+    except (BudgetExceededError, OptionalDependencyError):
+        pass
+    assert time.perf_counter() - t0 < TIME_BOUND
+
+
+@pytest.mark.slow
+def test_fuzz_long_run():
+    """The same fuzzing with 20x the examples (marked slow; run with -m slow)."""
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PRECISE_IMPACT_FUZZ_EXAMPLES=str(20 * EXAMPLES))
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", __file__,
+                        os.path.join(os.path.dirname(__file__), "test_reliability.py"), "-k", "fuzz and not long_run"],
+                       env=env, capture_output=True, text=True, timeout=5400)
+    assert r.returncode == 0, r.stdout[-3000:]
