@@ -16,6 +16,8 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
+import math
+
 import numpy as np
 
 from precise_impact.core.result import ResultMixin
@@ -188,7 +190,20 @@ def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:
 
 
 def _one(args):
-    params, periods, transient = args
+    params, periods, transient, engine = args
+    if engine == "fast" and params.zeta < 1:
+        from precise_impact.solvers.fast import STATUS_OK, lle_batch_serial
+
+        pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w), float(params.R)]])
+        starts = np.array([[float(params.t0), float(params.x0), float(params.v0)]])
+        st, l1, _, imps, bsums, xt, _ = lle_batch_serial(pars, starts, periods, transient, min(10, periods), 10**7,
+                                                         periods)
+        if st[0] == STATUS_OK:
+            T = 2 * math.pi / float(params.eta)
+            nb = min(10, periods)
+            bm = bsums[0] / ((periods // nb) * T)
+            se = float(np.std(bm, ddof=1) / math.sqrt(nb)) if nb > 1 else math.nan
+            return xt[0], float(l1[0] / (periods * T)), se, float(imps[0] / periods)
     from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
     r = variational_spectrum(params, periods=periods, transient=transient, initial_conditions=1, segments=10)
@@ -204,6 +219,7 @@ def bifurcation(
     transient: int = 1000,
     workers: int | None = None,
     progress: bool | None = None,
+    engine: str = "fast",
 ) -> BifurcationResult:
     """Stroboscopic x and the LLE for ``n`` values of eta.
 
@@ -225,6 +241,11 @@ def bifurcation(
     progress : bool or None, default ``None``
         A progress bar on stderr (:class:`~precise_impact.io.progress.Progress`):
         ``None`` shows it only when stderr is a terminal.
+    engine : str, default ``'fast'``
+        ``'fast'``: the compiled closed form (:mod:`precise_impact.solvers.fast`; the
+        tangent basis runs on through the transient; a value it does not resolve, or
+        ``zeta >= 1``, is computed by heyoka); ``'heyoka'``: one heyoka variational run
+        per value.
 
     Returns
     -------
@@ -257,7 +278,9 @@ def bifurcation(
     workers = check_count(workers, "workers", 1024)
     if workers < 1:
         raise ParameterError("workers", workers, "an integer >= 1")
-    jobs = [(params.replace(eta=e), periods, transient) for e in etas]  # validates every eta first
+    if engine not in ("fast", "heyoka"):
+        raise ParameterError("engine", engine, "'fast' or 'heyoka'")
+    jobs = [(params.replace(eta=e), periods, transient, engine) for e in etas]  # validates every eta first
     start = time.perf_counter()
     results: list[Any] = [None] * len(jobs)
     done = 0

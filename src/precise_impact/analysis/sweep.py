@@ -63,7 +63,11 @@ class SweepSpec:
         Points per tile (the unit of work, checkpoint and resume).
     batch_size : int
         SIMD lanes per batch integrator (part of the identity: results are computed
-        group by group).
+        group by group; used by the heyoka engine).
+    engine : str
+        ``'fast'`` (the compiled closed form, :func:`~precise_impact.analysis.lyapunov.fast.fast_batch`;
+        a point it does not resolve is computed by heyoka) or ``'heyoka'`` (SIMD batch
+        variational integration, :func:`~precise_impact.analysis.lyapunov.batch.batch_lle`).
     """
 
     base: Params
@@ -72,10 +76,11 @@ class SweepSpec:
     transient: int = 1000
     tile_size: int = 64
     batch_size: int = 8
+    engine: str = "fast"
 
     @classmethod
     def make(cls, base: Params, axes: Sequence[tuple[str, Any, Any, Any]], periods=2000, transient=1000,
-             tile_size=64, batch_size=None, max_work: int = MAX_WORK) -> "SweepSpec":
+             tile_size=64, batch_size=None, max_work: int = MAX_WORK, engine: str = "fast") -> "SweepSpec":
         """Validate and build a sweep specification.
 
         Parameters
@@ -98,6 +103,9 @@ class SweepSpec:
             Budget on grid points x (periods + transient), checked before any grid is
             built, so a 10^6 x 10^6 request is refused at once with the figure and the
             way to raise the budget.
+        engine : str, default ``'fast'``
+            ``'fast'`` (compiled closed form, ~30x heyoka's points per second) or
+            ``'heyoka'``.
 
         Returns
         -------
@@ -149,7 +157,9 @@ class SweepSpec:
         if tile_size < 1:
             raise ParameterError("tile_size", tile_size, "an integer >= 1")
         batch_size = default_batch_size() if batch_size is None else check_count(batch_size, "batch_size", 64)
-        spec = cls(base, tuple(built), periods, transient, tile_size, batch_size)
+        if engine not in ("fast", "heyoka"):
+            raise ParameterError("engine", engine, "'fast' or 'heyoka'")
+        spec = cls(base, tuple(built), periods, transient, tile_size, batch_size, engine)
         for k in (0, spec.n_points - 1):  # every point valid (ranges are monotone): check the corners
             spec.point(k)
         return spec
@@ -171,6 +181,21 @@ class SweepSpec:
         idx = np.unravel_index(k, self.shape)
         return self.base.replace(**{name: vals[i] for (name, vals), i in zip(self.axes, idx)})
 
+    def rows(self, lo: int, hi: int) -> np.ndarray:
+        """Flat points ``lo .. hi - 1`` as float rows (columns
+        :data:`~precise_impact.analysis.lyapunov.fast.ROW_FIELDS`), each value rounded once
+        from its exact decimal, as ``float(self.point(k).name)`` (no Params per point:
+        the corners were validated by :meth:`make` and the axes are monotone)."""
+        from precise_impact.analysis.lyapunov.fast import ROW_FIELDS
+
+        row = {n: float(getattr(self.base, n)) for n in ROW_FIELDS}
+        out = np.empty((hi - lo, len(ROW_FIELDS)))
+        out[:] = [row[n] for n in ROW_FIELDS]
+        idx = np.unravel_index(np.arange(lo, hi), self.shape)
+        for (name, vals), ix in zip(self.axes, idx):
+            out[:, ROW_FIELDS.index(name)] = np.array([float(v) for v in vals])[ix]
+        return out
+
     def to_json_dict(self) -> dict:
         return {
             "base": self.base.decimal(),
@@ -179,6 +204,7 @@ class SweepSpec:
             "transient": self.transient,
             "tile_size": self.tile_size,
             "batch_size": self.batch_size,
+            "engine": self.engine,
         }
 
     @property
@@ -186,17 +212,27 @@ class SweepSpec:
         import heyoka
 
         ident = dict(self.to_json_dict(), heyoka=heyoka.__version__)
+        if self.engine == "fast":
+            import numba
+
+            ident["numba"] = numba.__version__
         return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
     """Compute one tile (a pure function of ``spec`` and ``tile``)."""
-    from precise_impact.analysis.lyapunov.batch import batch_lle
-
     lo = tile * spec.tile_size
     hi = min(spec.n_points, lo + spec.tile_size)
-    pts = [spec.point(k) for k in range(lo, hi)]
-    res = batch_lle(pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size)
+    if spec.engine == "fast":
+        from precise_impact.analysis.lyapunov.fast import fast_batch_rows
+
+        res = fast_batch_rows(spec.rows(lo, hi), lambda idx: [spec.point(lo + i) for i in idx],
+                              periods=spec.periods, transient=spec.transient)
+    else:
+        from precise_impact.analysis.lyapunov.batch import batch_lle
+
+        pts = [spec.point(k) for k in range(lo, hi)]
+        res = batch_lle(pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size)
     out = {f: np.array([r[f] for r in res]) for f in _FIELDS}
     out["index"] = np.arange(lo, hi)
     return out

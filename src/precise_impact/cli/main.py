@@ -86,7 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
     ly.add_argument("--periods", default="20000", metavar="N", help="measured forcing periods (default 20000)")
     ly.add_argument("--transient", default="1000", metavar="N", help="discarded transient periods (default 1000)")
     _add_max_time(ly)
-    ly.add_argument("--method", default="variational", help="variational or two-trajectory (default variational)")
+    ly.add_argument("--method", default="variational",
+                    help="variational, two-trajectory or fast (compiled closed form, float64) (default variational)")
     ly.add_argument("--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS")
     ly.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
@@ -123,6 +124,8 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--periods", default="2000", metavar="P", help="measured periods per point (default 2000)")
     sw.add_argument("--transient", default="1000", metavar="T", help="transient periods per point (default 1000)")
     sw.add_argument("--tile", default="64", metavar="K", help="points per tile (default 64)")
+    sw.add_argument("--engine", default="fast", choices=("fast", "heyoka"),
+                    help="fast (compiled closed form) or heyoka (SIMD batch variational) (default fast)")
     sw.add_argument("--max-work", default=None, metavar="W",
                     help="work budget in point-periods, points x (periods + transient) (default 1e10)")
     sw.add_argument("--workers", default=None, metavar="W", help="local processes / Dask workers (default: all cores)")
@@ -236,7 +239,10 @@ def _cmd_lle(ns) -> int:
     from precise_impact.core.budget import check_cost, estimate_cost
 
     # four starting conditions; the variational equations cost about twice a trajectory
-    check_cost(estimate_cost(Precision.parse(ns.precision), periods + transient, runs=4, factor=2, stored=False), _max_time(ns))
+    # the compiled engine costs ~1/30 of heyoka's variational run (benchmarks/results/fast.md)
+    factor = 2 / 30 if ns.method == "fast" else 2
+    check_cost(estimate_cost(Precision.parse(ns.precision), periods + transient, runs=4, factor=factor, stored=False),
+               _max_time(ns))
     r = lyapunov(params, ns.method, periods=periods, transient=transient, precision=ns.precision, progress=not ns.json)
     if ns.json:
         json.dump(r.to_dict(), sys.stdout)
@@ -334,7 +340,7 @@ def _cmd_sweep(ns) -> int:
             raise ParameterError("max_work", ns.max_work, "a whole number of point-periods, 1 <= max_work <= 1e15")
         max_work = int(q)
     spec = SweepSpec.make(base, [tuple(a) for a in ns.axis], periods=ns.periods, transient=ns.transient,
-                          tile_size=ns.tile, max_work=max_work)
+                          tile_size=ns.tile, max_work=max_work, engine=ns.engine)
     workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
     if ns.scheduler is not None and not ns.scheduler.startswith("tcp://"):
         raise ParameterError("scheduler", ns.scheduler, "a Dask scheduler address tcp://HOST:PORT")

@@ -10,6 +10,8 @@ mpmath with guard bits and rounded *once* to the working precision, so that no
   on which the Lyapunov integrations run every period, setting the clock back to
   ``L0`` after each one (``|t|`` never grows, so neither does the rounding error of
   ``cos(eta t)``);
+* :func:`local_grid` - several periods of that clock, for integrations that set it
+  back after a few periods rather than after every one;
 * :func:`period_float` - ``T`` as a Python float (per-period bookkeeping).
 
 Written once here; :meth:`Precision.sample_times
@@ -25,7 +27,7 @@ from typing import Any
 
 import mpmath
 
-__all__ = ["sample_times", "local_clock", "period_float", "GUARD_BITS"]
+__all__ = ["sample_times", "local_clock", "local_grid", "period_float", "GUARD_BITS"]
 
 #: Guard bits carried above the working precision before the one rounding.
 GUARD_BITS = 64
@@ -117,6 +119,36 @@ def local_clock(precision: Any, t0: Fraction, eta: Fraction, window: Fraction = 
         s0 = t0m - mpmath.floor(t0m / T) * T
         w = T * window.numerator / window.denominator
         return precision.from_mpf(s0), precision.from_mpf(s0 + T), precision.from_mpf(w)
+
+
+def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> list:
+    """``periods + 1`` times ``fl(s0 + k T)``, ``k = 0..periods``, of the local clock.
+
+    Parameters
+    ----------
+    precision : Precision
+        The working precision of the times.
+    t0 : Fraction
+        Start time (exact); ``s0 = t0 mod T`` as in :func:`local_clock`.
+    eta : Fraction
+        Forcing frequency (exact, > 0).
+    periods : int
+        Forcing periods the grid spans (``>= 1``).
+
+    Returns
+    -------
+    list
+        Numbers of ``precision``, each rounded once; ``[0]`` and ``[1]`` are
+        :func:`local_clock`'s ``L0`` and ``L1``.  An integration over the whole grid
+        sets its clock back to ``[0]`` afterwards (the forcing is ``T``-periodic), so
+        ``|t|`` stays below ``(periods + 1) T``.
+    """
+    extra = GUARD_BITS + abs(t0).__ceil__().bit_length() + abs(eta).__ceil__().bit_length() + periods.bit_length()
+    with mpmath.workprec(precision.bits + extra):
+        T = 2 * mpmath.pi / _mpq(eta)
+        t0m = _mpq(t0)
+        s0 = t0m - mpmath.floor(t0m / T) * T
+        return [precision.from_mpf(s0 + k * T) for k in range(periods + 1)]
 
 
 def period_float(eta: Fraction) -> float:

@@ -102,6 +102,7 @@ from precise_impact.core.flow import acceleration
 __all__ = ["HeyokaSolver", "build_integrator"]
 
 _IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
+_I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R", "x_w"))
 
 #: Forcing periods per ``propagate_grid`` call (progress, interrupt and partial results
 #: happen between chunks).  Runs of up to this many periods are one call, as before.
@@ -151,41 +152,49 @@ class _ImpactRecorder(ImpactRecorder):
         self.spurious_v = 0.0
         self.depth = None  # a GrazingDepth enables the contact rule (set by HeyokaSolver.solve)
         self.cos = np.cos
+        self.f64 = None  # float64: the runtime parameters as Python floats (set by HeyokaSolver.solve)
         self.grazing = 0
 
     def __call__(self, ta, d_sgn) -> bool:
         st = ta.state
-        pars = ta.pars
-        vb = st[1]
-        if self.watch is not None and ta.time == self.contact_t and abs(float(vb)) <= self.spurious_v:
-            st[0] = pars[_IDX["x_w"]]
+        f = self.f64
+        if f is not None:  # float64: Python floats (numpy scalars cost several times more)
+            pars = f
+            vb = st.tolist()[1]
+        else:
+            pars = ta.pars
+            vb = st[1]
+        t = ta.time
+        x_w = pars[_I_XW]
+        if self.watch is not None and t == self.contact_t and abs(float(vb)) <= self.spurious_v:
+            st[0] = x_w
             st[1] = 0 * vb
             if not self.charge():
                 self.stop_reason = "budget"
                 return False
             return True
         if self.depth is not None:
-            acc = acceleration(ta.time, pars[_IDX["x_w"]], vb, pars[_IDX["eta"]], pars[_IDX["zeta"]], pars[_IDX["a"]], self.cos)
-            if is_contact(vb, acc, self.depth(ta.time, pars)):
+            acc = acceleration(t, x_w, vb, pars[_I_ETA], pars[_I_ZETA], pars[_I_A], self.cos)
+            if is_contact(vb, acc, self.depth(t, pars)):
                 # a tangential contact within rounding of the wall: not an impact
                 # (same rule as the variational LLE and the robust analytical finder)
                 self.grazing += 1
                 return True
-        va = reset_velocity(vb, pars[_IDX["R"]])
-        st[1] = va
+        va = reset_velocity(vb, pars[_I_R])
         # The event fixes the impact instant; the position there is the wall by
         # definition (eq. 2b).  The root finder leaves x within O(eps) of x_w.
-        st[0] = pars[_IDX["x_w"]]
-        if not self.record(ta.time, vb, va):
+        st[1] = va
+        st[0] = x_w
+        if not self.record(t, vb, va):
             self.stop_reason = "budget"
             return False
         watch = self.watch
         if watch is not None:
             if va == 0:
-                self.contact_t = ta.time
+                self.contact_t = t
                 self.stop_reason = "rest"
                 return False
-            if watch.observe(ta.time, vb):
+            if watch.can_chatter and watch.observe(t, vb):
                 self.stop_reason = "bounce" if watch.refusal else "chatter"
                 return False
         return True
@@ -343,6 +352,9 @@ class _ZenoWatch:
         self.Rf = float(params.R)
         self.eta_f, self.a_f, self.xw_f = float(params.eta), float(params.a), float(params.x_w)
         self.omega = max(1.0, self.eta_f)
+        #: The wall force ``a cos(eta t) - x_w`` can push into the wall (``|a| > x_w``):
+        #: otherwise no run can start and :meth:`observe` is never needed.
+        self.can_chatter = abs(params.a) > params.x_w
         self.scale = max(1.0, abs(self.a_f), abs(self.xw_f))
         self.eps_f = P.eps_float
         self.tol_f = max(float(tol), self.eps_f)
@@ -684,6 +696,10 @@ class HeyokaSolver:
             self._ta = build_integrator(self.precision, self.tol, self.high_accuracy, self.compact_mode)
         return self._ta
 
+    def busy(self) -> bool:
+        """True while a :meth:`solve` of this object runs (in any thread)."""
+        return self._lock.locked()
+
     def step_budget(self, periods: int) -> int:
         """The step budget of a run of ``periods`` periods (see ``max_steps``)."""
         if self.max_steps is not None:
@@ -788,6 +804,7 @@ class HeyokaSolver:
         coef, amp = grazing_depth_coefficient(P), Fraction(steady_amplitude(params))
         if P.kind == "float64":
             rec.depth, rec.cos = GrazingDepth(float(coef), float(amp)), math.cos
+            rec.f64 = ta.pars.tolist()
         else:
             rec.depth, rec.cos = GrazingDepth(P.from_fraction(coef), P.from_fraction(amp)), np.cos
         t_start = _time.perf_counter()
@@ -808,7 +825,7 @@ class HeyokaSolver:
             raise Interrupted(f"interrupted after {(done - 1) // step} of {periods} periods", part) from e
         finally:
             rec.watch = None  # leave a plain recorder behind for the next solve
-            rec.depth = None
+            rec.depth = rec.f64 = None
         stats["grazing"] = rec.grazing
         return self._trajectory(params, grid, xs[:n_out], vs[:n_out], rec, stats, step, per_period,
                                 _time.perf_counter() - t_start)
@@ -930,7 +947,8 @@ class HeyokaSolver:
             outcome, n_steps, states = res[0], res[3], res[-1]
             steps += int(n_steps)
             i_first = i
-            for row in states[1:] if prepend else states:
+            rows = states.tolist() if P.kind == "float64" else states  # Python floats: exact for float64
+            for row in rows[1:] if prepend else rows:
                 xs[i], vs[i] = row[0], row[1]
                 i += 1
             if on_wall and not prepend and i > i_first:

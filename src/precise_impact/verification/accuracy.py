@@ -38,6 +38,7 @@ CANDIDATES = (
     ("heyoka", "float128"),
     ("analytical", "float64"),
     ("analytical-paper", "float64"),
+    ("fast", "float64"),
 )
 
 def accuracy_table(

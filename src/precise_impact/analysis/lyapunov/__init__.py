@@ -10,7 +10,7 @@ from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 
 __all__ = ["LYAPUNOV_METHODS", "lyapunov", "LyapunovResult", "block_stderr"]
 
-LYAPUNOV_METHODS = ("variational", "two-trajectory")
+LYAPUNOV_METHODS = ("variational", "two-trajectory", "fast")
 
 
 def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> LyapunovResult:
@@ -23,12 +23,14 @@ def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> Lyap
     method : str, default ``'variational'``
         One of :data:`LYAPUNOV_METHODS`: ``'variational'`` (heyoka's variational
         equations, saltation matrix at each impact, QR every period:
-        :func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`) or
+        :func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`),
         ``'two-trajectory'`` (Benettin's renormalised pair of orbits:
-        :func:`~precise_impact.analysis.lyapunov.two_trajectory.two_trajectory_lle`).
+        :func:`~precise_impact.analysis.lyapunov.two_trajectory.two_trajectory_lle`) or
+        ``'fast'`` (the same spectrum as ``'variational'`` from the compiled closed-form
+        engine, float64, every core: :func:`~precise_impact.analysis.lyapunov.fast.fast_spectrum`).
     **kwargs
         Passed on to that method; every keyword and its default is documented there
-        (common to both: ``periods=20000``, ``transient=1000``, ``precision='float64'``,
+        (common to all: ``periods=20000``, ``transient=1000``, ``precision='float64'``,
         ``segments=20``, ``progress=False``).
 
     Returns
@@ -62,6 +64,10 @@ def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> Lyap
         from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
         return variational_spectrum(params, **kwargs)
+    if method == "fast":
+        from precise_impact.analysis.lyapunov.fast import fast_spectrum
+
+        return fast_spectrum(params, **kwargs)
     if method == "two-trajectory":
         from precise_impact.analysis.lyapunov.two_trajectory import two_trajectory_lle
 

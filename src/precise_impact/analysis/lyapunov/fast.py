@@ -1,0 +1,225 @@
+"""Lyapunov spectrum on the compiled closed-form engine (float64, every core).
+
+The same quantity as :mod:`~precise_impact.analysis.lyapunov.variational` (tangent flow,
+saltation matrix at every impact, QR every period), computed by
+:func:`precise_impact.solvers.fast.lle_batch`: the tangent flow between impacts is the
+exact 2x2 matrix of the linear system, so there is no variational ODE to integrate.  The
+starts run in parallel; the tangent basis is never restarted after the transient.  A
+start the engine does not resolve (tangential contact, chattering, sticking, ``zeta >=
+1``) makes the whole estimate fall back to the heyoka variational method, said in
+``stats['engine']``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from fractions import Fraction
+
+import numpy as np
+
+from precise_impact.analysis.lyapunov.result import LyapunovResult
+from precise_impact.core.params import as_params, check_count
+from precise_impact.errors import ParameterError
+
+__all__ = ["fast_spectrum", "fast_batch", "fast_batch_rows", "point_rows", "ROW_FIELDS"]
+
+
+def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_conditions: int = 4,
+                  segments: int = 20, precision: str = "float64", max_impacts: int = 10**8,
+                  progress: bool = False) -> LyapunovResult:
+    """Both Lyapunov exponents from the compiled engine.
+
+    Parameters
+    ----------
+    params : Params or mapping
+        System; the starts are ``(x0, v0 + j/4)``, ``j = 0 .. initial_conditions - 1``
+        (as the variational method).
+    periods : int, default 20000
+        Measured forcing periods in all, split over the starts (as the variational method).
+    transient : int, default 1000
+        Discarded periods per start (its logs, not its tangent basis).
+    initial_conditions : int, default 4
+        Starts, run in parallel on every core.
+    segments : int, default 20
+        Batch-means blocks in all (split over the starts) for ``stderr``.
+    precision : str, default ``'float64'``
+        Only ``'float64'`` (the engine's type); other precisions: ``method='variational'``.
+    max_impacts : int, default ``10**8``
+        Impact budget per start.
+    progress : bool, default ``False``
+        Accepted for the common signature of :func:`~precise_impact.analysis.lyapunov.lyapunov`
+        (the run is one compiled call).
+
+    Returns
+    -------
+    LyapunovResult
+        ``method = 'fast'``; ``stats`` has ``engine``, ``per_start`` (LLE, lambda2,
+        impacts and status of every start).
+
+    References
+    ----------
+    .. [1] G. Benettin, L. Galgani, A. Giorgilli, J.-M. Strelcyn, Meccanica 15 (1980) 9-30.
+    .. [2] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices).
+    """
+    params = as_params(params)
+    if precision not in ("float64",):
+        raise ParameterError("precision", precision, "'float64' for method 'fast' (other precisions: 'variational')")
+    n = check_count(initial_conditions, "initial_conditions", 1000, minimum=1)
+    periods = check_count(periods, "periods", minimum=n)
+    transient = check_count(transient, "transient")
+    segments = check_count(segments, "segments", 10**6, minimum=2)
+    max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
+    per = periods // n
+    blocks = max(2, min(per, -(-segments // n)))
+    from precise_impact.solvers.fast import STATUS_OK, STATUS_TEXT, lle_batch
+
+    pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w),
+                      float(params.R)]] * n)
+    starts = np.array([[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)])
+    unsupported = not params.zeta < 1 or (params.zeta == 0 and params.eta == 1)
+    start = time.perf_counter()
+    if not unsupported:
+        status, log1, log2, imps, bsums, xt, vt = lle_batch(pars, starts, per, transient, blocks, max_impacts, 64)
+    if unsupported or np.any(status != STATUS_OK):
+        why = "zeta >= 1" if unsupported else "; ".join(sorted({STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}))
+        from precise_impact.analysis.lyapunov.variational import variational_spectrum
+
+        r = variational_spectrum(params, periods=per * n, transient=transient, initial_conditions=n,
+                                 segments=segments, max_impacts=max_impacts)
+        r.stats["engine"] = f"heyoka variational (fallback: {why})"
+        return r
+    elapsed = time.perf_counter() - start
+    T = 2 * math.pi / float(params.eta)
+    time_total = per * T * n
+    per_block = per // blocks
+    block_means = (bsums / (per_block * T)).ravel()
+    lam1, lam2 = float(log1.sum() / time_total), float(log2.sum() / time_total)
+    running = np.cumsum(bsums.sum(axis=0)) / (np.arange(1, blocks + 1) * per_block * T * n)
+    per_start = [{"lle": float(log1[i] / (per * T)), "lambda2": float(log2[i] / (per * T)), "impacts": int(imps[i]),
+                  "status": STATUS_TEXT[int(status[i])]} for i in range(n)]
+    return LyapunovResult(
+        params=params, method="fast", precision="float64", lle=lam1, spectrum=(lam1, lam2),
+        stderr=float(np.std(block_means, ddof=1) / math.sqrt(len(block_means))),
+        periods=per * n, transient=transient, impacts=int(imps.sum()), running=running, segments=block_means,
+        elapsed_s=elapsed, initial_conditions=n, strobe_x=xt[0], strobe_v=vt[0],
+        stats={"engine": "fast", "per_start": per_start},
+    )
+
+
+def fast_batch(points, periods: int = 2000, transient: int = 1000, segments: int = 10, max_period: int = 32,
+               max_impacts: int = 10**7, parallel: bool = False) -> list[dict]:
+    """:func:`~precise_impact.analysis.lyapunov.batch.batch_lle` on the compiled engine.
+
+    Parameters
+    ----------
+    points : sequence of Params
+        One parameter point (with its own initial condition) per entry.
+    periods : int, default 2000
+        Measured periods per point.
+    transient : int, default 1000
+        Discarded periods per point (logs only; the tangent basis runs on).
+    segments : int, default 10
+        Batch-means blocks per point for ``stderr``.
+    max_period : int, default 32
+        Longest period :func:`~precise_impact.analysis.periodicity.detect_period` looks for
+        (on the last ``3 max_period`` stroboscopic samples).
+    max_impacts : int, default ``10**7``
+        Impact budget per point.
+    parallel : bool, default ``False``
+        Points on every core (numba threads); ``False`` inside a sweep's worker processes.
+
+    Returns
+    -------
+    list of dict
+        As ``batch_lle``: ``lle``, ``lambda2``, ``stderr``, ``period``,
+        ``impacts_per_period``, ``x_last``, ``v_last``, ``grazing`` (0), and ``engine``
+        (``'fast'``, or ``'heyoka'`` for a point the engine did not resolve, computed by
+        ``batch_lle`` instead).
+    """
+    points = [as_params(p, "points") for p in points]
+    return fast_batch_rows(point_rows(points), lambda idx: [points[i] for i in idx], periods, transient, segments,
+                           max_period, max_impacts, parallel)
+
+
+def point_rows(points) -> np.ndarray:
+    """``points`` as float rows ``(eta, zeta, a, x_w, R, t0, x0, v0)`` (each value rounded once).
+
+    Parameters
+    ----------
+    points : sequence of Params
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(len(points), 8)``.
+    """
+    return np.array([[float(getattr(p, n)) for n in ROW_FIELDS] for p in points]).reshape(-1, len(ROW_FIELDS))
+
+
+#: The columns of :func:`point_rows` (and of :meth:`~precise_impact.SweepSpec.rows`).
+ROW_FIELDS = ("eta", "zeta", "a", "x_w", "R", "t0", "x0", "v0")
+
+
+def fast_batch_rows(rows: np.ndarray, fallback_points, periods: int = 2000, transient: int = 1000,
+                    segments: int = 10, max_period: int = 32, max_impacts: int = 10**7,
+                    parallel: bool = False) -> list[dict]:
+    """:func:`fast_batch` on float rows (a sweep's tile: no exact parameters per point).
+
+    Parameters
+    ----------
+    rows : numpy.ndarray
+        Shape ``(n, 8)``, columns :data:`ROW_FIELDS` (:func:`point_rows`).
+    fallback_points : callable
+        ``fallback_points(indices)`` returns the exact :class:`~precise_impact.Params` of
+        those rows, called only for points the engine does not resolve (computed by
+        ``batch_lle``).
+    periods, transient, segments, max_period, max_impacts, parallel
+        As :func:`fast_batch`.
+
+    Returns
+    -------
+    list of dict
+        As :func:`fast_batch`.
+    """
+    from precise_impact.analysis.periodicity import detect_period
+    from precise_impact.solvers.fast import STATUS_OK, lle_batch, lle_batch_serial
+
+    periods = check_count(periods, "periods", minimum=1)
+    transient = check_count(transient, "transient")
+    segments = check_count(segments, "segments", 10**6, minimum=1)
+    max_period = check_count(max_period, "max_period", 1000, minimum=1)
+    keep = min(periods, 3 * max_period)
+    blocks = min(segments, periods)
+    rows = np.asarray(rows, dtype=float).reshape(-1, len(ROW_FIELDS))
+    eta, zeta = rows[:, 0], rows[:, 1]
+    ok_pts = np.flatnonzero((zeta < 1) & ~((zeta == 0) & (eta == 1)))  # underdamped, not the undamped resonance
+    run = lle_batch if parallel else lle_batch_serial
+    status, log1, log2, imps, bsums, xt, vt = run(rows[ok_pts, :5], rows[ok_pts, 5:], periods, transient, blocks,
+                                                    max_impacts, keep)
+    results: list = [None] * len(rows)
+    per_block = periods // blocks
+    for j, i in enumerate(ok_pts.tolist()):
+        if status[j] != STATUS_OK:
+            continue
+        T = 2 * math.pi / eta[i]
+        bm = bsums[j] / (per_block * T)
+        results[i] = {
+            "lle": float(log1[j] / (periods * T)),
+            "lambda2": float(log2[j] / (periods * T)),
+            "stderr": float(np.std(bm, ddof=1) / math.sqrt(blocks)) if blocks > 1 else math.nan,
+            "period": detect_period(xt[j], vt[j], max_period),
+            "impacts_per_period": float(imps[j] / periods),
+            "x_last": float(xt[j][-1]),
+            "v_last": float(vt[j][-1]),
+            "grazing": 0,
+            "engine": "fast",
+        }
+    rest = [i for i, r in enumerate(results) if r is None]
+    if rest:
+        from precise_impact.analysis.lyapunov.batch import batch_lle
+
+        for i, r in zip(rest, batch_lle(fallback_points(rest), periods=periods, transient=transient,
+                                        segments=max(2, segments), max_period=max_period, max_impacts=max_impacts)):
+            results[i] = dict(r, engine="heyoka")
+    return results
