@@ -65,6 +65,23 @@ def test_one_solver_object_shared_by_threads_is_bit_identical():
     assert all(_same(s, t) for s, t in zip(serial, threaded))
 
 
+def test_simulate_reuses_a_solver_per_thread_bit_identically():
+    """``simulate`` keeps one heyoka solver per thread and setting: every call, in any order
+    and from any thread, equals a solve by a brand-new solver (a fresh copy of the compiled
+    integrator), so the reuse leaves no state behind."""
+    from precise_impact import simulate
+
+    fresh = {eta: _trajectory_key(HeyokaSolver("float64").solve(Params.make(eta=eta), 30)) for eta in ETAS}
+
+    def run(eta):
+        return _trajectory_key(simulate(Params.make(eta=eta), 30))
+
+    order = ETAS + ETAS[::-1]
+    assert all(_same(run(eta), fresh[eta]) for eta in order)
+    threaded = _in_threads(run, order)
+    assert all(_same(t, fresh[eta]) for t, eta in zip(threaded, order))
+
+
 def test_variational_lle_from_threads_is_bit_identical():
     def run(eta):
         r = lyapunov(Params.make(eta=eta), periods=60, transient=20, initial_conditions=1, segments=2)

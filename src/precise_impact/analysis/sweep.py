@@ -12,6 +12,7 @@ stopped and yields the same numbers bit for bit.  The assembled table is written
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import io
 import json
@@ -207,8 +208,10 @@ class SweepSpec:
             "engine": self.engine,
         }
 
-    @property
+    @functools.cached_property
     def digest(self) -> str:
+        """The sweep's identity: a hash of :meth:`to_json_dict` and the engine versions
+        (computed once per object: every tile written and read checks it)."""
         import heyoka
 
         ident = dict(self.to_json_dict(), heyoka=heyoka.__version__)

@@ -290,6 +290,7 @@ def sync_scan(
     lle_periods: int = 20000,
     lle_transient: int = 1000,
     precision: str | Precision = "float64",
+    engine: str | None = None,
 ) -> SyncResult:
     """Fraction of synchronised master-slave runs against the coupling ``k``.
 
@@ -319,12 +320,16 @@ def sync_scan(
     spread : decimal, default 1
         Half-width of the slave initial-condition box around ``(x0, v0)``; ``> 0``.
     lle_periods : int, default 20000
-        Periods for the single oscillator's variational LLE
-        (:func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`); 0 skips it.
+        Periods for the single oscillator's LLE (:func:`~precise_impact.analysis.lyapunov.lyapunov`,
+        method ``'fast'`` with the fast engine, ``'variational'`` otherwise); 0 skips it.
     lle_transient : int, default 1000
         Transient periods discarded before the LLE.
     precision : str, default ``'float64'``
         Precision of the coupled runs.
+    engine : str or None, default ``None``
+        ``'fast'`` (compiled closed forms, :mod:`~precise_impact.models.coupled_fast`, and the
+        LLE by ``method='fast'``), ``'heyoka'``, or ``None``: ``'fast'`` in float64, heyoka
+        otherwise.
 
     Returns
     -------
@@ -376,6 +381,12 @@ def sync_scan(
         raise ParameterError("lle_periods", lle_periods, "0 (no LLE) or an integer with 4 <= lle_periods <= 100000000")
     lle_transient = check_count(lle_transient, "lle_transient")
     P = Precision.parse(precision)
+    if engine is None:
+        engine = "fast" if P.kind == "float64" else "heyoka"
+    if engine not in ("fast", "heyoka"):
+        raise ParameterError("engine", engine, "'fast', 'heyoka' or None")
+    if engine == "fast" and P.kind != "float64":
+        raise ParameterError("precision", P.name, "'float64' for engine='fast' (engine='heyoka' for other precisions)")
 
     start = _time.perf_counter()
     y0s = ensemble_y0(params, ensemble, seed, sq)
@@ -385,7 +396,7 @@ def sync_scan(
         row = []
         t_k = _time.perf_counter()
         for y0 in y0s:
-            tr = simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period, precision=P)
+            tr = simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period, precision=P, engine=engine)
             row.append(classify(tr, tail_f, thr_f))
         runs.append(row)
         if progress:
@@ -407,9 +418,10 @@ def sync_scan(
 
     lle = lle_se = math.nan
     if lle_periods > 0:
-        from precise_impact.analysis.lyapunov.variational import variational_spectrum
+        from precise_impact.analysis.lyapunov import lyapunov
 
-        lr = variational_spectrum(params, periods=lle_periods, transient=lle_transient)
+        lr = lyapunov(params, "fast" if engine == "fast" else "variational", periods=lle_periods,
+                      transient=lle_transient)
         lle, lle_se = float(lr.lle), float(lr.stderr)
     return SyncResult(
         params=params,

@@ -398,6 +398,7 @@ def simulate_coupled(
     per_period: int = 0,
     precision: str | Precision = "float64",
     max_impacts: int = 10**7,
+    engine: str = "heyoka",
 ) -> CoupledTrajectory:
     """Integrate the master-slave pair (11) + slave ``form`` for ``periods`` forcing periods.
 
@@ -424,6 +425,11 @@ def simulate_coupled(
         ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp:BITS'``.
     max_impacts : int, default ``10**7``
         Budget over both oscillators; exceeding it raises :class:`BudgetExceededError`.
+    engine : str, default ``'heyoka'``
+        ``'heyoka'`` (Taylor integration, any precision) or ``'fast'`` (float64 closed
+        forms, :mod:`~precise_impact.models.coupled_fast`, ~50x faster; a run it does not
+        resolve, a tangential contact or chattering, is integrated by heyoka and
+        ``stats['engine']`` says so).
 
     Returns
     -------
@@ -462,6 +468,10 @@ def simulate_coupled(
     P = Precision.parse(precision)
     if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
         raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")
+    if engine not in ("heyoka", "fast"):
+        raise ParameterError("engine", engine, "'heyoka' or 'fast'")
+    if engine == "fast" and P.kind != "float64":
+        raise ParameterError("precision", P.name, "'float64' for engine='fast' (engine='heyoka' for other precisions)")
     if y0q is None:
         y0q = (params.x0, params.v0)
 
@@ -479,6 +489,14 @@ def simulate_coupled(
         s0.append((params.t0, yv, wa, x0))
         yv = wa
 
+    step = max(per_period, 1)
+    fallback = None
+    if engine == "fast":
+        traj, fallback = _fast_run(params, kq, form, y0q, periods, step, per_period, (x0, v0, yp, yv), m0, s0,
+                                   max_impacts)
+        if traj is not None:
+            return traj
+
     ta = build_coupled_integrator(form, P)
     conv = P.from_fraction
     ta.pars[:] = P.array([conv(getattr(params, n)) for n in RUNTIME_PARAMS] + [conv(kq)])
@@ -490,7 +508,6 @@ def simulate_coupled(
         r.reset(max_impacts, touch)
     ta.reset_cooldowns()
 
-    step = max(per_period, 1)
     grid = P.array(P.sample_times(params.t0, params.eta, periods, step))
     import heyoka as hy
 
@@ -540,13 +557,62 @@ def simulate_coupled(
         slave_impacts_w_after=col(slave, 2),
         slave_impacts_x=col(slave, 3),
         elapsed_s=elapsed,
-        stats={"steps": int(n_steps), "simultaneous": int(simultaneous)},
+        stats={"steps": int(n_steps), "simultaneous": int(simultaneous),
+               "engine": "heyoka" if fallback is None else f"heyoka (fallback: {fallback})"},
     )
     if per_period > 0:
         traj.dense_t = grid
         traj.dense_x, traj.dense_v = states[:, 0].copy(), states[:, 1].copy()
         traj.dense_y, traj.dense_w = states[:, 2].copy(), states[:, 3].copy()
     return traj
+
+
+def _fast_run(params: Params, kq: Fraction, form: str, y0q: tuple, periods: int, step: int, per_period: int,
+              start: tuple, m0: list, s0: list, max_impacts: int) -> tuple[CoupledTrajectory | None, str | None]:
+    """:func:`simulate_coupled` on the compiled engine: ``(trajectory, None)``, or ``(None, why)``
+    when the engine does not resolve the run (the caller integrates it with heyoka)."""
+    from precise_impact.models.coupled_fast import FORM_IDS, STATUS_UNSUPPORTED, coupled_strobe, error_coefficients
+    from precise_impact.solvers.fast import STATUS_BUDGET, STATUS_OK, STATUS_TEXT
+
+    f = float
+    c1, c0 = error_coefficients(form, f(params.zeta), f(kq))
+    n = periods * step
+    cols = [np.empty(n + 1) for _ in range(5)]
+    budget = max_impacts - len(m0) - len(s0)
+    cap = 64 + 4 * periods
+    start_t = _time.perf_counter()
+    while True:
+        m_imp, s_imp = np.empty((cap, 3)), np.empty((cap, 4))
+        st, nm, ns, nb, _done = coupled_strobe(
+            f(params.eta), f(params.zeta), f(params.a), f(params.x_w), f(params.R), f(kq), FORM_IDS[form], c1, c0,
+            f(params.t0), *(f(q) for q in start), n, step, max(budget, 1), *cols, m_imp, s_imp)
+        if nm <= cap and ns <= cap:
+            break
+        cap = 2 * max(nm, ns)
+    elapsed = _time.perf_counter() - start_t
+    if st == STATUS_BUDGET or budget < 1:
+        raise BudgetExceededError(f"impact budget max_impacts={max_impacts} exhausted (chattering/Zeno sequence?); "
+                                  "raise max_impacts or check the parameters")
+    if st != STATUS_OK:
+        why = ("the slave's difference equation is not underdamped" if st == STATUS_UNSUPPORTED
+               else STATUS_TEXT[int(st)])
+        return None, why
+    ts, xs, vs, ys, ws = cols[4], cols[0], cols[1], cols[2], cols[3]
+    m = np.array([[f(c) for c in r] for r in m0]).reshape(-1, 3)
+    sl = np.array([[f(c) for c in r] for r in s0]).reshape(-1, 4)
+    m = np.concatenate([m, m_imp[:nm]])
+    sl = np.concatenate([sl, s_imp[:ns]])
+    P = Precision.parse("float64")
+    traj = CoupledTrajectory(
+        params=params, form=form, k=kq, y0=y0q, precision=P,
+        t=ts[::step].copy(), x=xs[::step].copy(), v=vs[::step].copy(), y=ys[::step].copy(), w=ws[::step].copy(),
+        master_impacts_t=m[:, 0].copy(), master_impacts_v_before=m[:, 1].copy(), master_impacts_v_after=m[:, 2].copy(),
+        slave_impacts_t=sl[:, 0].copy(), slave_impacts_w_before=sl[:, 1].copy(), slave_impacts_w_after=sl[:, 2].copy(),
+        slave_impacts_x=sl[:, 3].copy(), elapsed_s=elapsed, stats={"simultaneous": int(nb), "engine": "fast"},
+    )
+    if per_period > 0:
+        traj.dense_t, traj.dense_x, traj.dense_v, traj.dense_y, traj.dense_w = ts, xs, vs, ys, ws
+    return traj, None
 
 
 # 0.1.0 name, kept for one release.

@@ -13,13 +13,20 @@ which is also the flow of the variational equation.  At an impact (``x = x_w``, 
 :func:`~precise_impact.core.impact.oscillator_saltation`; ``tests/test_fast.py`` checks
 they agree).
 
-Impact detection cannot miss a crossing: on ``[lo, lo + h]`` the gap ``g = x - x_w``
-satisfies ``g(lo + s) <= g(lo) + g'(lo) s + M s^2 / 2`` with ``M`` a bound on ``|x''|``
-over the whole free flight (``|y''| <= A_y + 2 zeta A_v`` from the homogeneous amplitudes,
-which only decay, plus ``eta^2 sqrt(P^2 + Q^2)``).  An interval whose bound stays below
-``-err`` (the rounding error of ``g``) is proven free of crossings and skipped; otherwise it
-is halved, and a sign change is refined by safeguarded Newton once ``g' > 0`` is proven on
-the bracket (a unique root).  An interval shorter than ``h_min`` that can be neither
+Impact detection cannot miss a crossing: a step ``[lo, lo + h]`` is cleared by a proof
+(:func:`no_crossing`) that uses bounds on the derivatives of the gap ``g = x - x_w`` over
+the whole free flight (``|y^(n)|`` from the homogeneous amplitudes ``A_y``, ``A_v``, which
+only decay, plus ``eta^n sqrt(P^2 + Q^2)``) and ``err``, a bound on the evaluation error of
+``g`` (the terms, and the forcing phase ``eta t`` rounded: ``eps eta |t|``): the slope stays
+negative, or the Taylor polynomial from ``lo`` stays below ``-err``, or the Hermite
+interpolant of both ends does.  Otherwise the step is halved, and a sign change is refined
+by safeguarded Newton (started at the Hermite cubic's root) once ``g' > 0`` is proven on
+the bracket (a unique root).  Steps are ``h_max / 2^k`` (a quarter of the shorter of the
+forcing and natural periods), whose flow matrices are computed once; a flight records up to
+``FLIGHT_SAMPLES`` samples on the way, each evaluated from the flight's start (so the
+chained steps only serve the proofs, with their error bound grown by the chain length).
+:func:`lle_orbit` keeps the tangent basis at the flight's start and takes its QR every
+``QR_EVERY`` samples.  An interval shorter than ``h_min`` that can be neither
 cleared nor bracketed holds at most a rounding-level excursion beyond the wall: a
 tangential contact, which this engine does not resolve; it stops with ``STATUS_CONTACT``
 and the caller reruns the orbit with heyoka (which applies the contact rule).  Likewise
@@ -51,26 +58,33 @@ STATUS_TEXT = {
     STATUS_NONFINITE: "non-finite state",
 }
 
-_JIT = dict(cache=True, fastmath=False, error_model="numpy")
+JIT = dict(cache=True, fastmath=False, error_model="numpy")
 
 
-@numba.njit(**_JIT)
-def _coefficients(eta, zeta, a):
+@numba.njit(**JIT)
+def coefficients(eta, zeta, a):
     """``(P, Q, w)``: particular solution ``P cos + Q sin`` and the damped frequency."""
     d = (1.0 - eta * eta) ** 2 + 4.0 * zeta * zeta * eta * eta
     return a * (1.0 - eta * eta) / d, 2.0 * zeta * eta * a / d, math.sqrt(1.0 - zeta * zeta)
 
 
-@numba.njit(**_JIT)
-def _phi(tau, zeta, w):
+@numba.njit(**JIT)
+def phi_damped(tau, alpha, wd, c0):
+    """The 2x2 flow of ``e'' + 2 alpha e' + c0 e = 0`` over ``tau`` in ``(e, e')``, underdamped
+    (``wd = sqrt(c0 - alpha^2) > 0``); also the tangent flow."""
+    e = math.exp(-alpha * tau)
+    c, s = math.cos(wd * tau), math.sin(wd * tau)
+    sw = s / wd
+    return e * (c + alpha * sw), e * sw, -c0 * e * sw, e * (c - alpha * sw)
+
+
+@numba.njit(**JIT)
+def phi(tau, zeta, w):
     """The 2x2 flow of ``y'' + 2 zeta y' + y = 0`` over ``tau`` (also the tangent flow)."""
-    e = math.exp(-zeta * tau)
-    c, s = math.cos(w * tau), math.sin(w * tau)
-    sw = s / w
-    return e * (c + zeta * sw), e * sw, -e * sw, e * (c - zeta * sw)
+    return phi_damped(tau, zeta, w, 1.0)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def compiled_saltation(t, vm, eta, zeta, a, xw, R):
     """``[[-R, 0], [(acc+ + R acc-) / v-, -R]]`` (core.impact.oscillator_saltation)."""
     f = a * math.cos(eta * t) - xw  # the acceleration at the wall without damping, once
@@ -78,6 +92,11 @@ def compiled_saltation(t, vm, eta, zeta, a, xw, R):
     ap = f + 2.0 * zeta * R * vm
     return -R, 0.0, (ap + R * am) / vm, -R
 
+
+#: ``cos``/``sin(eta t)`` are evaluated at ``eta t`` rounded (relative error ``eps / 2``): an
+#: absolute phase error ``eps eta |t| / 2`` and a gap error up to ``sqrt(P^2 + Q^2)`` times
+#: that; bounded with a factor 8 to spare as ``PHASE_ERROR sqrt(P^2 + Q^2) eta |t|``.
+PHASE_ERROR = 4.0 * 2.220446049250313e-16
 
 #: Samples between two QRs of the tangent basis in :func:`lle_orbit` (the basis grows or
 #: shrinks by at most ~e^2 per period between impacts; large growth forces a QR at once).
@@ -90,16 +109,84 @@ STEP_LEVELS = 40
 FLIGHT_SAMPLES = 16
 
 
-@numba.njit(**_JIT)
-def _sample_time(tb, T, step, k):
+@numba.njit(**JIT)
+def no_crossing(g_lo, gp_lo, acc_lo, g_hi, gp_hi, h, J, J4, err, exact_start):
+    """Proof that ``g = x - x_w`` stays below ``-err`` on ``(lo, lo + h]`` (no crossing).
+
+    ``g_lo, gp_lo, acc_lo``: ``g, g', g''`` at ``lo``; ``g_hi, gp_hi`` at ``lo + h``; ``J``,
+    ``J4`` bounds on ``|g'''|``, ``|g''''|`` over the flight; ``err`` the evaluation error of
+    ``g``; ``exact_start``: ``g_lo`` is exact (the flight's start, on or below the wall).
+    Proof 0 (moving away): ``g' <= g'(lo) + g''(lo) s + J s^2/2 < 0`` on the whole step (the
+    bound is convex in ``s``: its ends suffice), so no upward crossing, wherever ``g`` is
+    (a state a rounding error beyond the wall and moving away, left by an impact of the
+    other oscillator of a coupled pair, is cleared here).
+    Proof 1 (Taylor from lo): ``g(lo + s) <= q(s) = g + g' s + g'' s^2/2 + J s^3/6``, whose
+    maximum on ``[0, h]`` is at an end or at the smaller root of ``q'`` (``q'`` is convex).
+    Proof 2 (both ends): the cubic Hermite interpolant ``H`` of ``g, g'`` at ``lo`` and
+    ``lo + h``, with ``|g - H| <= max|g''''| s^2 (h - s)^2 / 24 <= J4 h^4 / 384``.
+    ``err`` bounds the evaluation error of ``g'`` as well (same scale).
+    """
+    if gp_lo < -err and gp_lo + h * (acc_lo + 0.5 * h * J) < -err:
+        return True
+    q_end = g_lo + h * (gp_lo + h * (0.5 * acc_lo + h * J / 6.0))
+    q_max = q_end
+    disc = acc_lo * acc_lo - 2.0 * J * gp_lo
+    if disc >= 0.0 and J > 0.0:
+        sm = (-acc_lo - math.sqrt(disc)) / J
+        if 0.0 < sm < h:
+            q_max = max(q_max, g_lo + sm * (gp_lo + sm * (0.5 * acc_lo + sm * J / 6.0)))
+    start_ok = (g_lo < -err) or (exact_start and g_lo <= 0.0 and gp_lo < 0.0 and q_end < 0.0)
+    if start_ok and q_max < -err:
+        return True
+    if not (g_lo < -err and g_hi < -err):
+        return False
+    c2, c3 = _hermite(g_lo, gp_lo, g_hi, gp_hi, h)
+    h_max_val = max(g_lo, g_hi)
+    # H'(s) = gp_lo + 2 c2 s + 3 c3 s^2 = 0
+    if c3 != 0.0:
+        d2 = c2 * c2 - 3.0 * c3 * gp_lo
+        if d2 >= 0.0:
+            r = math.sqrt(d2)
+            for sc in ((-c2 - r) / (3.0 * c3), (-c2 + r) / (3.0 * c3)):
+                if 0.0 < sc < h:
+                    h_max_val = max(h_max_val, g_lo + sc * (gp_lo + sc * (c2 + sc * c3)))
+    elif c2 != 0.0:
+        sc = -gp_lo / (2.0 * c2)
+        if 0.0 < sc < h:
+            h_max_val = max(h_max_val, g_lo + sc * (gp_lo + sc * c2))
+    return h_max_val + J4 * h * h * h * h / 384.0 < -err
+
+
+@numba.njit(**JIT)
+def _hermite(g_lo, gp_lo, g_hi, gp_hi, h):
+    """``(c2, c3)`` of the cubic Hermite interpolant ``H(s) = g_lo + gp_lo s + c2 s^2 + c3 s^3``."""
+    dg = (g_hi - g_lo) / h
+    return (3.0 * dg - 2.0 * gp_lo - gp_hi) / h, (gp_lo + gp_hi - 2.0 * dg) / (h * h)
+
+
+@numba.njit(**JIT)
+def newton_start(g_lo, gp_lo, g_hi, gp_hi, h):
+    """Offset in ``[0, h]`` of the root of the Hermite cubic of a bracketed crossing (a few
+    Newton steps on the polynomial from the secant's root): the closed-form Newton's start."""
+    c2, c3 = _hermite(g_lo, gp_lo, g_hi, gp_hi, h)
+    sr = -g_lo / (g_hi - g_lo) * h
+    for _ in range(4):
+        hd = gp_lo + sr * (2.0 * c2 + 3.0 * sr * c3)
+        if hd > 0.0:
+            sr = min(max(sr - (g_lo + sr * (gp_lo + sr * (c2 + sr * c3))) / hd, 0.0), h)
+    return sr
+
+
+@numba.njit(**JIT)
+def sample_time(tb, T, step, k):
     """Sample ``k``: ``tb + (k // step) T + (k % step) T / step`` (one formula for every caller)."""
     return tb + (k // step) * T + (k % step) * (T / step)
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf):
     """A free flight from ``(x0, v0)`` at ``t0`` (the anchor) to the first upward crossing of
-    ``x = x_w``, recording the samples ``k, k + 1, ...`` (times :func:`_sample_time`) on the way.
+    ``x = x_w``, recording the samples ``k, k + 1, ...`` (times :func:`sample_time`) on the way.
 
     Returns ``(status, ns, hit, t, v, F)``.  ``buf[i]`` (``i < ns``) holds sample ``k + i``:
     ``x, v`` and the flow matrix ``Phi(t_sample - t0)`` (four entries; it is also the
@@ -119,12 +206,12 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
     """
     n_buf = buf.shape[0]
     ns = 0
-    ts = _sample_time(tb, T, step, k)
+    ts = sample_time(tb, T, step, k)
     while ts <= t0 and k <= k_last and ns < n_buf:  # a sample at the anchor itself
         buf[ns, 0], buf[ns, 1], buf[ns, 2], buf[ns, 3], buf[ns, 4], buf[ns, 5] = x0, v0, 1.0, 0.0, 0.0, 1.0
         ns += 1
         k += 1
-        ts = _sample_time(tb, T, step, k)
+        ts = sample_time(tb, T, step, k)
     if k > k_last or ns == n_buf:
         return STATUS_OK, ns, False, t0, v0, 1.0, 0.0, 0.0, 1.0
     h_min = 64.0 * 2.220446049250313e-16 * max(1.0, abs(ts))
@@ -140,7 +227,11 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
     M = My + eta * eta * S  # |x''|
     J = Jy + eta * eta * eta * S  # |x'''| (x_p''' = -eta^2 x_p')
     J4 = 2.0 * zeta * Jy + My + eta * eta * eta * eta * S  # |x''''|
-    err0 = err_scale * (abs(xw) + S + ay + 1.0)  # rounding error of g = x - x_w from the anchor
+    # rounding error of g = x - x_w evaluated from the anchor: the terms, and the forcing
+    # phase eta t rounded (an absolute error eps eta |t| in cos and sin) up to the flight's
+    # last possible sample
+    t_far = max(abs(t0), abs(sample_time(tb, T, step, min(k + n_buf, k_last))))
+    err0 = err_scale * (abs(xw) + S + ay + 1.0) + PHASE_ERROR * S * eta * t_far
     acc_lo = a * cl - 2.0 * zeta * v0 - x0
     lo, g_lo, gp_lo = t0, x0 - xw, v0
     exact_start = True  # (x0, v0) is the exact state at t0 (no evaluation error)
@@ -165,45 +256,14 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
             G10, G11 = f10 * F00 + f11 * F10, f10 * F01 + f11 * F11
             m_hi = m_lo + 1
         else:
-            G00, G01, G10, G11 = _phi(hi - t0, zeta, w)
+            G00, G01, G10, G11 = phi(hi - t0, zeta, w)
             yh, uh = G00 * y0 + G01 * u0, G10 * y0 + G11 * u0
             ch_, sh_ = math.cos(eta * hi), math.sin(eta * hi)
             m_hi = 0
         err = err0 * (1.0 + 0.125 * max(m_lo, m_hi))
         xph, vph = P * ch_ + Q * sh_, eta * (Q * ch_ - P * sh_)
         g_hi, gp_hi = xph + yh - xw, vph + uh
-        # Proof 1 (Taylor from lo): g(lo + s) <= q(s) = g + g' s + g'' s^2/2 + J s^3/6; the
-        # maximum of q on [0, h] is at an end or at the smaller root of q' (q' is convex).
-        q_end = g_lo + h * (gp_lo + h * (0.5 * acc_lo + h * J / 6.0))
-        q_max = q_end
-        disc = acc_lo * acc_lo - 2.0 * J * gp_lo
-        if disc >= 0.0 and J > 0.0:
-            sm = (-acc_lo - math.sqrt(disc)) / J
-            if 0.0 < sm < h:
-                q_max = max(q_max, g_lo + sm * (gp_lo + sm * (0.5 * acc_lo + sm * J / 6.0)))
-        start_ok = (g_lo < -err) or (exact_start and g_lo <= 0.0 and gp_lo < 0.0 and q_end < 0.0)
-        proven = start_ok and q_max < -err
-        if not proven:
-            # the cubic Hermite interpolant H(s) = g_lo + gp_lo s + c2 s^2 + c3 s^3 of g, g' at lo, hi
-            dg = (g_hi - g_lo) / h
-            c2 = (3.0 * dg - 2.0 * gp_lo - gp_hi) / h
-            c3 = (gp_lo + gp_hi - 2.0 * dg) / (h * h)
-        if not proven and g_lo < -err and g_hi < -err:
-            # Proof 2 (both ends): |g - H| <= max|x''''| s^2 (h - s)^2 / 24 <= J4 h^4 / 384
-            h_max_val = max(g_lo, g_hi)
-            # H'(s) = gp_lo + 2 c2 s + 3 c3 s^2 = 0
-            if c3 != 0.0:
-                d2 = c2 * c2 - 3.0 * c3 * gp_lo
-                if d2 >= 0.0:
-                    r = math.sqrt(d2)
-                    for sc in ((-c2 - r) / (3.0 * c3), (-c2 + r) / (3.0 * c3)):
-                        if 0.0 < sc < h:
-                            h_max_val = max(h_max_val, g_lo + sc * (gp_lo + sc * (c2 + sc * c3)))
-            elif c2 != 0.0:
-                sc = -gp_lo / (2.0 * c2)
-                if 0.0 < sc < h:
-                    h_max_val = max(h_max_val, g_lo + sc * (gp_lo + sc * c2))
-            proven = h_max_val + J4 * h * h * h * h / 384.0 < -err
+        proven = no_crossing(g_lo, gp_lo, acc_lo, g_hi, gp_hi, h, J, J4, err, exact_start)
         if proven:
             # no crossing in (lo, hi]
             yl, ul, cl, sl = yh, uh, ch_, sh_
@@ -219,7 +279,7 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
                 k += 1
                 if k > k_last or ns == n_buf:
                     return STATUS_OK, ns, False, lo, gp_lo, G00, G01, G10, G11
-                ts = _sample_time(tb, T, step, k)
+                ts = sample_time(tb, T, step, k)
                 h_min = 64.0 * 2.220446049250313e-16 * max(1.0, abs(ts))
                 h, lev = h_max, 0
             elif lev > 0:
@@ -231,21 +291,16 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
             continue
         # not proven: a crossing bracketed with g' > 0 on [lo, hi], or halve
         if g_hi > err and gp_lo - M * h > 0.0 and g_lo < 0.0:
-            # a sign change and g' > 0 on [lo, hi]: exactly one root.  Newton starts from the
-            # root of H (a few Newton steps on the polynomial from the secant's root), then
-            # safeguarded Newton on the closed form.
-            sr = -g_lo / (g_hi - g_lo) * h
-            for _ in range(4):
-                hd = gp_lo + sr * (2.0 * c2 + 3.0 * sr * c3)
-                if hd > 0.0:
-                    sr = min(max(sr - (g_lo + sr * (gp_lo + sr * (c2 + sr * c3))) / hd, 0.0), h)
+            # a sign change and g' > 0 on [lo, hi]: exactly one root; safeguarded Newton on
+            # the closed form from the root of the Hermite cubic
+            sr = newton_start(g_lo, gp_lo, g_hi, gp_hi, h)
             a_, b_ = lo, hi
             tc = lo + sr
             p00, p01, p10, p11, gp = 1.0, 0.0, 0.0, 1.0, gp_lo
             for _ in range(100):
                 if not (a_ < tc < b_):
                     tc = 0.5 * (a_ + b_)
-                p00, p01, p10, p11 = _phi(tc - t0, zeta, w)
+                p00, p01, p10, p11 = phi(tc - t0, zeta, w)
                 cc, sc_ = math.cos(eta * tc), math.sin(eta * tc)
                 yc, uc = p00 * y0 + p01 * u0, p10 * y0 + p11 * u0
                 xpc = P * cc + Q * sc_
@@ -283,9 +338,9 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
             return STATUS_CONTACT, ns, False, lo, gp_lo, F00, F01, F10, F11
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def _setup(eta, zeta, a, xw):
-    P, Q, w = _coefficients(eta, zeta, a)
+    P, Q, w = coefficients(eta, zeta, a)
     S = math.sqrt(P * P + Q * Q)
     err_scale = 64.0 * 2.220446049250313e-16
     h_max = 0.25 * min(2.0 * math.pi / eta, 2.0 * math.pi)  # 1/4 of the shorter period
@@ -293,14 +348,14 @@ def _setup(eta, zeta, a, xw):
     steps = np.empty((STEP_LEVELS, 6))
     h = h_max
     for k in range(STEP_LEVELS):
-        f00, f01, f10, f11 = _phi(h, zeta, w)
+        f00, f01, f10, f11 = phi(h, zeta, w)
         steps[k, 0], steps[k, 1], steps[k, 2], steps[k, 3] = f00, f01, f10, f11
         steps[k, 4], steps[k, 5] = math.cos(eta * h), math.sin(eta * h)
         h = 0.5 * h
     return P, Q, w, S, err_scale, h_max, v_floor, steps
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb, xs, vs, ts):
     """Samples at ``t0 + k (2 pi / eta) / step`` (``k = 0..n``) and every impact.
 
@@ -320,7 +375,7 @@ def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb,
         st, ns, hit, tc, vc, _, _, _, _ = _flight(t, x, v, t0, T, step, k, n, eta, zeta, a, xw, P, Q, w, S,
                                                   err_scale, h_max, steps, buf)
         for i in range(ns):
-            xs[k], vs[k], ts[k] = buf[i, 0], buf[i, 1], _sample_time(t0, T, step, k)
+            xs[k], vs[k], ts[k] = buf[i, 0], buf[i, 1], sample_time(t0, T, step, k)
             k += 1
         if st != STATUS_OK:
             return st, n_imp, k - 1
@@ -339,7 +394,7 @@ def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb,
     return STATUS_OK, n_imp, n
 
 
-@numba.njit(**_JIT)
+@numba.njit(**JIT)
 def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_impacts, block_sums, xs_tail,
               vs_tail):
     """Both Lyapunov exponents of one orbit: tangent flow ``Phi``, saltation at every impact,
@@ -423,7 +478,7 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
         if st != STATUS_OK:
             return st, log1, log2, n_meas, x, v
         if not hit:  # re-anchor at the last sample
-            t, x, v = _sample_time(t0, T, 1, k - 1), buf[ns - 1, 0], buf[ns - 1, 1]
+            t, x, v = sample_time(t0, T, 1, k - 1), buf[ns - 1, 0], buf[ns - 1, 1]
             W00, W01, W10, W11 = c00, c01, c10, c11
             continue
         if vc < v_floor:
@@ -450,7 +505,7 @@ def _batch(pars, starts, periods, transient, blocks, max_impacts, keep, status, 
     status[i], log1[i], log2[i], imps[i] = st, l1, l2, ni
 
 
-_batch_one = numba.njit(**_JIT)(_batch)
+_batch_one = numba.njit(**JIT)(_batch)
 
 
 def _make_batch(parallel: bool):

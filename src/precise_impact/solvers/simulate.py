@@ -61,8 +61,8 @@ def _solver(model: Any, precision: Any, tol: Any) -> Solver:
     A :class:`HeyokaSolver` owns a private copy of the compiled integrator, and making
     that copy costs ~0.6 ms in float64 (a third of a 200-period run).  Each thread
     keeps its own solvers, per setting, so nothing is shared across threads (a
-    compiled integrator is mutable state); one that is busy (a progress callback
-    calling :func:`simulate` from inside a run) is not reused.  Every solve resets
+    compiled integrator is mutable state); one that is busy (re-entered from inside
+    a run, e.g. by a signal handler) is not reused.  Every solve resets
     the integrator's time, state, parameters and callback, so a reused solver gives
     the same bits as a new one (``tests/test_threads.py``).
     """

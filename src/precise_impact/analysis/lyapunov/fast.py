@@ -1,7 +1,7 @@
 """Lyapunov spectrum on the compiled closed-form engine (float64, every core).
 
 The same quantity as :mod:`~precise_impact.analysis.lyapunov.variational` (tangent flow,
-saltation matrix at every impact, QR every period), computed by
+saltation matrix at every impact, QR every few periods), computed by
 :func:`precise_impact.solvers.fast.lle_batch`: the tangent flow between impacts is the
 exact 2x2 matrix of the linear system, so there is no variational ODE to integrate.  The
 starts run in parallel; the tangent basis is never restarted after the transient.  A
