@@ -106,6 +106,7 @@ def results(tmp_path_factory):
         pi.accuracy_table(periods=3, etas=("0.74",), progress=False),
         pi.compare("fig6-period3-ideal", ["circuit"], periods=10, progress=False),
         pi.work_precision(quick=True, progress=False, config=tiny),
+        pi.find_orbit(pi.Params.make(eta="0.74"), 3),
     ]
     return {type(r).__name__: r for r in made}
 

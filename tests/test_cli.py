@@ -115,6 +115,30 @@ def test_lle_bad_input(args, name):
     assert r.returncode == 2 and r.stderr.startswith(f"precise-impact: error: {name} = ")
 
 
+def test_orbit_json_contract():
+    """The issue's contract: one object with params, period, impacts, state {t, x, v},
+    multipliers [[re, im], ...], stable, lle, residual; the period-3 orbit at eta = 0.74."""
+    r = run("orbit", "--eta", "0.74", "--period", "3", "--json")
+    assert r.returncode == 0, r.stderr
+    obj = json.loads(r.stdout)
+    assert {"params", "period", "impacts", "state", "multipliers", "stable", "lle", "residual"} <= set(obj)
+    assert obj["period"] == 3 and obj["impacts"] == 2 and obj["stable"] is True
+    assert set(obj["state"]) == {"t", "x", "v"} and all(len(m) == 2 for m in obj["multipliers"])
+    assert obj["residual"] < 1e-13
+
+
+@pytest.mark.parametrize("args, name, code", [(["--period", "0"], "period", 2), (["--impacts", "-2"], "impacts", 2),
+                                              (["--guess", "9", "0"], "guess[0]", 2)])
+def test_orbit_bad_input(args, name, code):
+    r = run("orbit", "--eta", "0.74", *args)
+    assert r.returncode == code and r.stderr.startswith(f"precise-impact: error: {name} = "), r.stderr
+
+
+def test_orbit_newton_failure_is_one_line_exit_3():
+    r = run("orbit", "--eta", "0.74", "--period", "3", "--impacts", "5")
+    assert r.returncode == 3 and "not 5" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
 def test_bifurcation_cli(tmp_path):
     r = run("bifurcation", "--eta", "0.70", "0.72", "3", "--periods", "100", "--transient", "200", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr

@@ -54,6 +54,7 @@ from precise_impact.models.circuit.spice import SpiceSolver
 from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit
 from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, lyapunov
 from precise_impact.analysis.periodicity import detect_period
+from precise_impact.analysis.orbits import ConvergenceError, PeriodicOrbit, find_orbit, one_impact_orbits
 from precise_impact.analysis.sync import SyncResult, sync_scan
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
 from precise_impact.analysis.sweep import SweepResult, SweepSpec, load_sweep, run_sweep
@@ -85,6 +86,7 @@ __all__ = [
     # analysis
     "LYAPUNOV_METHODS", "LyapunovResult", "lyapunov", "detect_period", "SyncResult", "sync_scan",
     "BifurcationResult", "bifurcation", "SweepSpec", "SweepResult", "load_sweep", "run_sweep",
+    "PeriodicOrbit", "find_orbit", "one_impact_orbits", "ConvergenceError",
     # scenes
     "Scene", "builtin_scenes", "load_scene", "run_scene",
     # verification

@@ -91,6 +91,17 @@ def build_parser() -> argparse.ArgumentParser:
     ly.add_argument("--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS")
     ly.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
+    ob = sub.add_parser("orbit", help="a periodic orbit by Newton's method: its point, impacts, Floquet "
+                                      "multipliers, stability and exact LLE")
+    _add_param_flags(ob)
+    ob.add_argument("--period", default="1", metavar="P", help="forcing periods of the orbit (default 1)")
+    ob.add_argument("--impacts", default=None, metavar="N", help="required impacts per orbit (default: any)")
+    ob.add_argument("--guess", nargs=2, default=None, metavar=("X", "V"),
+                    help="starting state at t0 (default: the state after --transient periods)")
+    ob.add_argument("--transient", default="2000", metavar="N", help="periods run for the default guess (default 2000)")
+    ob.add_argument("--precision", default="float64", metavar="P", help="float64 or mp:BITS (Newton refined to that precision)")
+    ob.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
     b = sub.add_parser("bifurcation", help="stroboscopic x against eta with the LLE beneath (PNG + NPZ)")
     b.add_argument("--eta", nargs=3, required=True, metavar=("MIN", "MAX", "N"), help="eta grid: MIN MAX N")
     g = b.add_argument_group("other system parameters (exact decimals)")
@@ -253,6 +264,28 @@ def _cmd_lle(ns) -> int:
         spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
         print(f"LLE = {r.lle:.6f} +- {r.stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
         print(f"{r.periods} periods after {r.transient} transient, {r.impacts} impacts, {r.elapsed_s:.3f} s")
+    return 0
+
+
+def _cmd_orbit(ns) -> int:
+    from precise_impact.analysis.orbits import find_orbit
+    from precise_impact.core.params import check_count
+
+    params = _params_from(ns)
+    period = check_count(ns.period, "period", 1000, minimum=1)
+    impacts = None if ns.impacts is None else check_count(ns.impacts, "impacts", 10**6)
+    o = find_orbit(params, period, guess=ns.guess, impacts=impacts, transient=check_count(ns.transient, "transient"),
+                   precision=ns.precision)
+    if ns.json:
+        json.dump(o.to_dict(), sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    mus = ", ".join(f"{m.real:.12g}{m.imag:+.12g}i" if m.imag else f"{m.real:.12g}" for m in o.multipliers)
+    st = o.to_dict()["state"]
+    print(f"period-{o.period} orbit with {o.impacts} impact(s): x = {st['x']}, v = {st['v']} at t = {o.t!r} "
+          f"({o.precision})")
+    print(f"Floquet multipliers {mus}: {'stable' if o.stable else 'unstable'}; LLE = ln|mu_max| / (p T) = {o.lle:.10g}")
+    print(f"residual |P^p(z) - z| = {o.residual:.3g} after {o.iterations} Newton iteration(s)")
     return 0
 
 
@@ -519,6 +552,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return {
             "simulate": _cmd_simulate,
             "lle": _cmd_lle,
+            "orbit": _cmd_orbit,
             "bifurcation": _cmd_bifurcation,
             "sync": _cmd_sync,
             "sweep": _cmd_sweep,

@@ -20,8 +20,8 @@ import numpy as np
 
 from precise_impact.errors import ParameterError
 
-__all__ = ["Params", "as_params", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES", "RUNTIME_PARAMS", "MAX_DIGITS",
-           "MAX_EXPONENT"]
+__all__ = ["Params", "as_params", "params_or_values", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES",
+           "RUNTIME_PARAMS", "MAX_DIGITS", "MAX_EXPONENT"]
 
 #: Order of the fields, also the order of the CLI flags and of ``--json`` output.
 PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
@@ -382,3 +382,13 @@ def as_params(value: Any, name: str = "params") -> "Params":
     if isinstance(value, Mapping):
         return Params.from_mapping(value)
     raise ParameterError(name, type(value).__name__, "a Params or a mapping {name: value}")
+
+
+def params_or_values(params: Any, param_values: Mapping[str, Any]) -> "Params":
+    """``params`` (as :func:`as_params`) with ``param_values`` replaced, or, when ``params`` is
+    ``None``, ``Params.make(**param_values)``: the calling convention of ``simulate`` and the
+    orbit finders, written once."""
+    if params is None:
+        return Params.make(**param_values)
+    params = as_params(params)
+    return params.replace(**param_values) if param_values else params

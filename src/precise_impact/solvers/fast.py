@@ -48,7 +48,7 @@ STATUS_SLOW_IMPACT = 2  # an impact slower than v_floor (chattering / sticking):
 STATUS_BUDGET = 3  # max_impacts exhausted
 STATUS_NONFINITE = 4
 
-__all__ = ["FastSolver", "fast_lle", "compiled_saltation", "strobe", "lle_orbit", "lle_batch", "lle_batch_serial", "STATUS_TEXT", "STATUS_OK"]
+__all__ = ["FastSolver", "fast_lle", "compiled_saltation", "strobe", "lle_orbit", "orbit_map", "lle_batch", "lle_batch_serial", "STATUS_TEXT", "STATUS_OK"]
 
 STATUS_TEXT = {
     STATUS_OK: "ok",
@@ -82,6 +82,12 @@ def phi_damped(tau, alpha, wd, c0):
 def phi(tau, zeta, w):
     """The 2x2 flow of ``y'' + 2 zeta y' + y = 0`` over ``tau`` (also the tangent flow)."""
     return phi_damped(tau, zeta, w, 1.0)
+
+
+@numba.njit(**JIT)
+def mul2(a00, a01, a10, a11, b00, b01, b10, b11):
+    """The 2x2 product ``A B`` (entries row by row)."""
+    return a00 * b00 + a01 * b10, a00 * b01 + a01 * b11, a10 * b00 + a11 * b10, a10 * b01 + a11 * b11
 
 
 @numba.njit(**JIT)
@@ -435,8 +441,7 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
         for i in range(ns):
             xk, vk = buf[i, 0], buf[i, 1]
             p00, p01, p10, p11 = buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
-            c00, c10 = p00 * W00 + p01 * W10, p10 * W00 + p11 * W10
-            c01, c11 = p00 * W01 + p01 * W11, p10 * W01 + p11 * W11
+            c00, c01, c10, c11 = mul2(p00, p01, p10, p11, W00, W01, W10, W11)
             jt = k - (total - keep) - 1
             if jt >= 0:
                 xs_tail[jt], vs_tail[jt] = xk, vk
@@ -484,11 +489,8 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
         if vc < v_floor:
             return STATUS_SLOW_IMPACT, log1, log2, n_meas, x, v
         # the basis just before the impact, then through the saltation matrix
-        b00, b10 = F00 * W00 + F01 * W10, F10 * W00 + F11 * W10
-        b01, b11 = F00 * W01 + F01 * W11, F10 * W01 + F11 * W11
         s00, s01, s10, s11 = compiled_saltation(tc, vc, eta, zeta, a, xw, R)
-        W00, W10 = s00 * b00 + s01 * b10, s10 * b00 + s11 * b10
-        W01, W11 = s00 * b01 + s01 * b11, s10 * b01 + s11 * b11
+        W00, W01, W10, W11 = mul2(s00, s01, s10, s11, *mul2(F00, F01, F10, F11, W00, W01, W10, W11))
         n_imp += 1
         if k > transient:
             n_meas += 1
@@ -496,6 +498,47 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
             return STATUS_BUDGET, log1, log2, n_meas, x, v
         t, x, v = tc, xw, -R * vc
     return STATUS_OK, log1, log2, n_meas, x, v
+
+
+@numba.njit(**JIT)
+def orbit_map(eta, zeta, a, xw, R, t0, x0, v0, periods):
+    """The ``periods``-fold stroboscopic map from ``(x0, v0)`` at ``t0`` and its Jacobian.
+
+    Returns ``(status, x, v, M00, M01, M10, M11, impacts)``: the state at
+    ``t0 + periods 2 pi / eta`` and the monodromy ``M = d(x, v) / d(x0, v0)``, the product of
+    the flight flows and the saltation matrices of the impacts on the way (no QR: for a
+    periodic orbit's Floquet multipliers over a few periods).
+    """
+    P, Q, w, S, err_scale, h_max, v_floor, steps = _setup(eta, zeta, a, xw)
+    T = 2.0 * math.pi / eta
+    buf = np.empty((FLIGHT_SAMPLES, 6))
+    t, x, v = t0, x0, v0
+    W00, W01, W10, W11 = 1.0, 0.0, 0.0, 1.0  # the Jacobian at the anchor
+    c00, c01, c10, c11 = 1.0, 0.0, 0.0, 1.0
+    n_imp = 0
+    k = 1
+    xk, vk = x0, v0
+    while k <= periods:
+        st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(t, x, v, t0, T, 1, k, periods, eta, zeta, a, xw, P, Q, w,
+                                                          S, err_scale, h_max, steps, buf)
+        for i in range(ns):
+            xk, vk = buf[i, 0], buf[i, 1]
+            p00, p01, p10, p11 = buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
+            c00, c01, c10, c11 = mul2(p00, p01, p10, p11, W00, W01, W10, W11)
+            k += 1
+        if st != STATUS_OK:
+            return st, xk, vk, c00, c01, c10, c11, n_imp
+        if not hit:
+            t, x, v = sample_time(t0, T, 1, k - 1), xk, vk
+            W00, W01, W10, W11 = c00, c01, c10, c11
+            continue
+        if vc < v_floor:
+            return STATUS_SLOW_IMPACT, xk, vk, c00, c01, c10, c11, n_imp
+        s00, s01, s10, s11 = compiled_saltation(tc, vc, eta, zeta, a, xw, R)
+        W00, W01, W10, W11 = mul2(s00, s01, s10, s11, *mul2(F00, F01, F10, F11, W00, W01, W10, W11))
+        n_imp += 1
+        t, x, v = tc, xw, -R * vc
+    return STATUS_OK, xk, vk, c00, c01, c10, c11, n_imp
 
 
 def _batch(pars, starts, periods, transient, blocks, max_impacts, keep, status, log1, log2, imps, bsums, xt, vt, i):

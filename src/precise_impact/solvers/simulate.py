@@ -6,7 +6,7 @@ import threading
 from typing import Any
 
 from precise_impact.errors import ParameterError
-from precise_impact.core.params import as_params, Params, check_count
+from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.analytical import AnalyticalSolver
@@ -130,12 +130,7 @@ def simulate(
     .. [2] F. Biscani, D. Izzo, "Revisiting high-order Taylor methods for astrodynamics
        and celestial mechanics", MNRAS 504 (2021) (heyoka, the reference integrator).
     """
-    if params is None:
-        params = Params.make(**param_values)
-    else:
-        params = as_params(params)  # a Params (validated) or a plain mapping {name: value}
-        if param_values:
-            params = params.replace(**param_values)
+    params = params_or_values(params, param_values)  # a Params (validated), a mapping, or None
     periods = check_count(periods, "periods")
     solver = _solver(model, precision, tol)
     return solver.solve(params, periods, per_period=per_period)

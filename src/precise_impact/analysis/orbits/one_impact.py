@@ -1,0 +1,140 @@
+"""The 1:1 impacting orbit in closed form: one impact per forcing period.
+
+Derivation.  Between impacts ``x = x_p + y`` with the steady state
+``x_p = P cos(eta t) + Q sin(eta t)`` (:func:`~precise_impact.core.flow.steady_state`) and
+``(y, y')`` carried by the homogeneous flow ``Phi(tau)``.  A T-periodic orbit
+(``T = 2 pi / eta``) that hits the wall once per period at ``t*`` with speed ``v > 0``
+leaves it with ``(x_w, -R v)`` and, one period later, arrives with ``(x_w, v)``; ``x_p``
+is T-periodic, so with ``X = x_p(t*)``, ``V = x_p'(t*)`` and ``a = x_w - X``::
+
+    Phi(T) (a, -R v - V) = (a, v - V).
+
+The first row gives ``v = ((phi00 - 1) a - phi01 V) / (phi01 R)``; putting it into the
+second leaves one equation linear in ``a`` and ``V``::
+
+    C1 a + C2 V = 0,   C1 = phi01 phi10 R - (1 + phi11 R)(phi00 - 1),   C2 = phi01 (1 + R),
+
+i.e. ``A_c cos(eta t*) + A_s sin(eta t*) = C1 x_w`` with ``A_c = C1 P - C2 eta Q``,
+``A_s = C1 Q + C2 eta P``: two phases ``eta t* = psi +- acos(C1 x_w / rho)`` (``rho``,
+``psi`` the polar form of ``(A_c, A_s)``).  A candidate is an orbit when ``v > 0`` and the
+free flight stays below the wall for the whole period (checked on a fine grid).  Its
+monodromy matrix is ``S Phi(T)`` (``S`` the saltation matrix at ``(t*, v)``), so the
+Floquet multipliers follow in closed form; when they are complex,
+``|mu|^2 = det = R^2 exp(-2 zeta T)`` and the LLE is ``ln R / T - zeta`` exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+from typing import Any
+
+import mpmath
+
+from precise_impact.analysis.orbits.result import PeriodicOrbit
+from precise_impact.core.flow import steady_state
+from precise_impact.core.impact import oscillator_saltation
+from precise_impact.core.params import check_count, params_or_values
+from precise_impact.errors import ParameterError
+
+__all__ = ["one_impact_orbits", "flow_matrix"]
+
+
+def _q(f: Fraction) -> mpmath.mpf:
+    return mpmath.mpf(f.numerator) / f.denominator
+
+
+def _phi(tau, zeta, w):
+    e = mpmath.exp(-zeta * tau)
+    c, s = mpmath.cos(w * tau), mpmath.sin(w * tau)
+    return e * (c + zeta * s / w), e * s / w, -e * s / w, e * (c - zeta * s / w)
+
+
+def flow_matrix(tau, zeta, w) -> mpmath.matrix:
+    """The homogeneous flow (and tangent flow) ``Phi(tau)`` of the free flight as an mpmath
+    matrix, ``w = sqrt(1 - zeta^2)``."""
+    p00, p01, p10, p11 = _phi(tau, zeta, w)
+    return mpmath.matrix([[p00, p01], [p10, p11]])
+
+
+def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, **param_values: Any) -> list[PeriodicOrbit]:
+    """Every 1:1 impacting orbit of ``params``, in closed form (module docstring).
+
+    Parameters
+    ----------
+    params : Params, mapping or None, default ``None``
+        The system (``0 <= zeta < 1``, ``0 < R <= 1``); ``t0`` is the stroboscopic phase of the
+        returned points.
+    dps : int, default 50
+        Decimal digits of the mpmath evaluation (``15 <= dps <= 10000``).
+    grid : int, default 2000
+        Points per period on which the free flight is checked to stay below the wall.
+    **param_values
+        Parameter values replacing those of ``params``.
+
+    Returns
+    -------
+    list of PeriodicOrbit
+        ``method = 'closed form'``, ``precision = 'mp:BITS'``; ``x``, ``v`` (at ``t0``) and the
+        multipliers are mpmath numbers; ``stats``-free.  Empty when there is none.
+
+    Raises
+    ------
+    ParameterError
+        Bad input.
+    """
+    params = params_or_values(params, param_values)
+    dps = check_count(dps, "dps", 10_000, minimum=15)
+    grid = check_count(grid, "grid", 10**6, minimum=10)
+    if not (0 <= params.zeta < 1) or not (0 < params.R <= 1):
+        raise ParameterError("params", params.decimal(), "0 <= zeta < 1 and 0 < R <= 1 for the closed form")
+    ss = steady_state(params)
+    out = []
+    with mpmath.workdps(dps):
+        eta, zeta, a, xw, R = (_q(getattr(params, n)) for n in ("eta", "zeta", "a", "x_w", "R"))
+        P, Q = _q(ss.P), _q(ss.Q)
+        T = 2 * mpmath.pi / eta
+        w = mpmath.sqrt(1 - zeta * zeta)
+        p00, p01, p10, p11 = _phi(T, zeta, w)
+        C1 = p01 * p10 * R - (1 + p11 * R) * (p00 - 1)
+        C2 = p01 * (1 + R)
+        Ac, As = C1 * P - C2 * eta * Q, C1 * Q + C2 * eta * P
+        rho, psi = mpmath.hypot(Ac, As), mpmath.atan2(As, Ac)
+        if rho == 0 or abs(C1 * xw / rho) > 1:
+            return []
+        delta = mpmath.acos(C1 * xw / rho)
+        for theta in (psi + delta, psi - delta):
+            ts = mpmath.fmod(theta / eta, T)
+            if ts < 0:
+                ts += T
+            X = P * mpmath.cos(eta * ts) + Q * mpmath.sin(eta * ts)
+            V = eta * (Q * mpmath.cos(eta * ts) - P * mpmath.sin(eta * ts))
+            v = ((p00 - 1) * (xw - X) - p01 * V) / (p01 * R)
+            if not v > 0:
+                continue
+            y0, u0 = xw - X, -R * v - V
+
+            def x_at(t):
+                f00, f01, _, _ = _phi(t - ts, zeta, w)
+                return P * mpmath.cos(eta * t) + Q * mpmath.sin(eta * t) + f00 * y0 + f01 * u0
+
+            if any(x_at(ts + T * j / grid) >= xw for j in range(1, grid)):
+                continue  # the flight would cross the wall: not a 1:1 orbit
+            t0 = _q(params.t0)
+            tau = mpmath.fmod(t0 - ts, T)
+            if tau < 0:
+                tau += T
+            f00, f01, f10, f11 = _phi(tau, zeta, w)
+            t_s = ts + tau
+            x0 = P * mpmath.cos(eta * t_s) + Q * mpmath.sin(eta * t_s) + f00 * y0 + f01 * u0
+            v0 = eta * (Q * mpmath.cos(eta * t_s) - P * mpmath.sin(eta * t_s)) + f10 * y0 + f11 * u0
+            S = oscillator_saltation(ts, v, eta, zeta, a, xw, R, mpmath.cos)
+            M = mpmath.matrix(S) * mpmath.matrix([[p00, p01], [p10, p11]])
+            mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
+            lle = mpmath.log(abs(mu[0])) / T
+            out.append(PeriodicOrbit(
+                params=params, period=1, impacts=1, t=float(t0), x=x0, v=v0, multipliers=list(mu),
+                stable=bool(abs(mu[0]) < 1), lle=float(lle), residual=0.0, iterations=0, method="closed form",
+                precision=f"mp:{mpmath.mp.prec}",
+            ))
+    return out
