@@ -263,6 +263,17 @@ def _cmd_lle(ns) -> int:
     else:
         spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
         print(f"LLE = {r.lle:.6f} +- {r.stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
+        groups = r.stats.get("attractors", [])
+        if r.stats.get("lle_source") == "floquet":
+            g = next(g for g in groups if 0 in g["starts"])
+            ft = r.stats["finite_time"]
+            print(f"periodic attractor: period {g['period']}, {g['impacts']} impact(s); the LLE is its Floquet value "
+                  f"ln|mu_max| / (p T) (finite-time estimate {ft['lle']:.6f} +- {ft['stderr']:.6f})")
+        if "warning" in r.stats:
+            print("warning: " + r.stats["warning"] + ": " + "; ".join(
+                f"starts {g['starts']} {g['kind']}" + (f" period {g['period']} LLE {g['floquet_lle']:.6f}"
+                                                      if g["kind"] == "periodic" else f" LLE {g['lle']:.6f}")
+                for g in groups))
         print(f"{r.periods} periods after {r.transient} transient, {r.impacts} impacts, {r.elapsed_s:.3f} s")
     return 0
 

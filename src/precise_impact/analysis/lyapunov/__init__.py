@@ -37,7 +37,13 @@ def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> Lyap
     -------
     LyapunovResult
         ``lle`` with its batch-means ``stderr``, ``spectrum`` (variational only), the
-        running estimate, impact counts and the method's diagnostics in ``stats``.
+        running estimate, impact counts and the method's diagnostics in ``stats``.  The
+        variational and fast methods also say which attractor each start ended on
+        (``stats['attractors']``): on a periodic attractor ``lle`` and ``spectrum`` are the
+        exact Floquet values of the Newton-refined orbit (``stats['lle_source'] =
+        'floquet'``, the finite-time estimate in ``stats['finite_time']``), and starts on
+        different attractors are reported separately, never averaged
+        (:mod:`~precise_impact.analysis.lyapunov.attractors`).
 
     Raises
     ------

@@ -271,8 +271,7 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
         c1_log, c2_log = rec.log1.copy(), rec.log2.copy()  # in-callback QR logs of this period
         rec.log1[:] = 0.0
         rec.log2[:] = 0.0
-        if k == transient:
-            s[2], s[3], s[4], s[5] = 1.0, 0.0, 0.0, 1.0
+        if k == transient:  # the transient's logs are dropped, not its basis (no 1/t restart bias)
             imp0 = rec.count
         elif k > transient:
             j = k - transient - 1

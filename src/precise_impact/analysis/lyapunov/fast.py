@@ -18,6 +18,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
 from precise_impact.analysis.lyapunov.result import LyapunovResult
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import ParameterError
@@ -27,7 +28,7 @@ __all__ = ["fast_spectrum", "fast_batch", "fast_batch_rows", "point_rows", "ROW_
 
 def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_conditions: int = 4,
                   segments: int = 20, precision: str = "float64", max_impacts: int = 10**8,
-                  progress: bool = False) -> LyapunovResult:
+                  progress: bool = False, attractors: bool = True) -> LyapunovResult:
     """Both Lyapunov exponents from the compiled engine.
 
     Parameters
@@ -50,6 +51,9 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     progress : bool, default ``False``
         Accepted for the common signature of :func:`~precise_impact.analysis.lyapunov.lyapunov`
         (the run is one compiled call).
+    attractors : bool, default ``True``
+        Group the starts by attractor and give a periodic attractor's exact (Floquet) LLE
+        (:func:`~precise_impact.analysis.lyapunov.attractors.attribute`).
 
     Returns
     -------
@@ -80,7 +84,8 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     unsupported = not params.zeta < 1 or (params.zeta == 0 and params.eta == 1)
     start = time.perf_counter()
     if not unsupported:
-        status, log1, log2, imps, bsums, xt, vt = lle_batch(pars, starts, per, transient, blocks, max_impacts, 64)
+        status, log1, log2, imps, bsums, xt, vt = lle_batch(pars, starts, per, transient, blocks, max_impacts,
+                                                            min(per, 3 * MAX_PERIOD))
     if unsupported or np.any(status != STATUS_OK):
         why = "zeta >= 1" if unsupported else "; ".join(sorted({STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}))
         from precise_impact.analysis.lyapunov.variational import variational_spectrum
@@ -98,13 +103,17 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     running = np.cumsum(bsums.sum(axis=0)) / (np.arange(1, blocks + 1) * per_block * T * n)
     per_start = [{"lle": float(log1[i] / (per * T)), "lambda2": float(log2[i] / (per * T)), "impacts": int(imps[i]),
                   "status": STATUS_TEXT[int(status[i])]} for i in range(n)]
-    return LyapunovResult(
+    result = LyapunovResult(
         params=params, method="fast", precision="float64", lle=lam1, spectrum=(lam1, lam2),
         stderr=float(np.std(block_means, ddof=1) / math.sqrt(len(block_means))),
         periods=per * n, transient=transient, impacts=int(imps.sum()), running=running, segments=block_means,
         elapsed_s=elapsed, initial_conditions=n, strobe_x=xt[0], strobe_v=vt[0],
         stats={"engine": "fast", "per_start": per_start},
     )
+    if attractors:
+        bm = bsums / (per_block * T)  # batch means per start
+        attribute(result, list(zip(xt, vt)), [(d["lle"], d["lambda2"], bm[i]) for i, d in enumerate(per_start)])
+    return result
 
 
 def fast_batch(points, periods: int = 2000, transient: int = 1000, segments: int = 10, max_period: int = 32,

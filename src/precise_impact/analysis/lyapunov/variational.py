@@ -144,6 +144,7 @@ from precise_impact.core.impact import (
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.flow import acceleration
+from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 
 __all__ = [
@@ -410,9 +411,9 @@ def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, 
         advance(k)
         _gram_schmidt(ta.state, sqrt, log)  # keep the tangents bounded during the transient too
         done += k
-    st = ta.state
-    st[2], st[3], st[4], st[5] = one, zero, zero, one
-    rec.take_logs()  # the transient's logs are discarded
+    # the transient's logs are discarded, not its basis: the tangents keep the orientation
+    # they converged to (a restart at the identity costs a 1/t bias the error bar cannot see)
+    rec.take_logs()
     impacts0 = rec.count
     l1, l2, dt = np.empty(periods), np.empty(periods), np.full(periods, period)
     sx, sv = np.empty(periods), np.empty(periods)
@@ -474,6 +475,7 @@ def variational_spectrum(
     progress: bool = False,
     guard: bool = True,
     grazing_depth: Any = None,
+    attractors: bool = True,
 ) -> LyapunovResult:
     """Both Lyapunov exponents from the variational equations with saltation matrices.
 
@@ -486,7 +488,8 @@ def variational_spectrum(
         over the initial conditions; ``>= initial_conditions``.
     transient : int, default 1000
         Periods integrated first from each initial condition and discarded (the
-        tangents are renormalised during it and restart as the identity after it).
+        tangents are renormalised during it and carry on after it: its logs are
+        discarded, not its basis).
     precision : str, default ``'float64'``
         Any precision of :class:`~precise_impact.Precision`.
     tol : decimal or None, default ``None``
@@ -515,6 +518,10 @@ def variational_spectrum(
         ``t`` the local clock (:func:`grazing_depth_coefficient`);
         a number ``>= 0``: that fixed depth (``0``: every event with ``v- > 0`` is an
         impact, as :class:`~precise_impact.HeyokaSolver` treats them).
+    attractors : bool, default ``True``
+        Group the starts by attractor and give a periodic attractor's exact (Floquet) LLE
+        (:func:`~precise_impact.analysis.lyapunov.attractors.attribute`; Newton in this
+        precision if it is ``mp:BITS``, else in float64).
 
     Returns
     -------
@@ -581,7 +588,7 @@ def variational_spectrum(
     start = _time.perf_counter()
     per_orbit = [periods // n_ic + (1 if j < periods % n_ic else 0) for j in range(n_ic)]
     blocks_per_orbit = max(2, -(-segments // n_ic))
-    L1, L2, DT, blocks = [], [], [], []
+    L1, L2, DT, blocks, tails = [], [], [], [], []
     impacts = 0
     strobe = None
     diag = {"impacts": 0, "grazing": 0, "min_impact_speed": math.inf, "max_contact_speed": 0.0, "max_saltation": 0.0,
@@ -593,6 +600,7 @@ def variational_spectrum(
         l1, l2, dt, sx, sv, imp = _one_orbit(ta, rec, grd, P, ic, transient, n, progress, label, guard)
         if strobe is None:
             strobe = (sx, sv)
+        tails.append((sx[-3 * MAX_PERIOD:], sv[-3 * MAX_PERIOD:]))
         L1.append(l1)
         L2.append(l2)
         DT.append(dt)
@@ -614,7 +622,7 @@ def variational_spectrum(
     se = float(np.std(all_blocks, ddof=1) / math.sqrt(len(all_blocks))) if len(all_blocks) > 1 else math.nan
     total = float(np.sum(dt))
     lam1, lam2 = float(np.sum(l1) / total), float(np.sum(l2) / total)
-    return LyapunovResult(
+    result = LyapunovResult(
         params=params,
         method="variational",
         precision=P.name,
@@ -632,3 +640,8 @@ def variational_spectrum(
         strobe_v=strobe[1],
         stats=diag,
     )
+    if attractors:
+        per_start = [(float(np.sum(a) / np.sum(d)), float(np.sum(b) / np.sum(d)), blk)
+                     for a, b, d, blk in zip(L1, L2, DT, blocks)]
+        attribute(result, tails, per_start, P.name if P.kind in ("float64", "mp") else "float64")
+    return result

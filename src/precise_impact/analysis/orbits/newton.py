@@ -25,6 +25,9 @@ __all__ = ["find_orbit", "ConvergenceError"]
 
 _EPS = 2.0**-52
 
+#: Largest multiprecision of the Newton refinement (each step runs the mpmath closed forms).
+MAX_BITS = 2048
+
 
 class ConvergenceError(IntegrationError):
     """Newton's iteration did not reach a periodic orbit (the message says how far it got)."""
@@ -129,7 +132,7 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
     max_iterations : int, default 50
         Newton iterations at most.
     precision : str, default ``'float64'``
-        ``'float64'`` (the compiled closed forms) or ``'mp:BITS'``: the float64 orbit refined
+        ``'float64'`` (the compiled closed forms) or ``'mp:BITS'`` (``BITS <= 2048``): the float64 orbit refined
         by Newton in multiprecision, the map evaluated by the robust analytical solver
         (mpmath) and its Jacobian by the closed-form flow and saltation matrices;
         quadratic convergence to the working precision.
@@ -175,8 +178,8 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
     from precise_impact.core.precision import Precision
 
     Pq = Precision.parse(precision)
-    if Pq.kind not in ("float64", "mp"):
-        raise ParameterError("precision", precision, "'float64' or 'mp:BITS'")
+    if Pq.kind not in ("float64", "mp") or (Pq.kind == "mp" and Pq.bits > MAX_BITS):
+        raise ParameterError("precision", precision, f"'float64' or 'mp:BITS' with BITS <= {MAX_BITS}")
     if not params.zeta < 1:
         raise ParameterError("zeta", str(params.zeta), "0 <= zeta < 1 (underdamped) for the orbit finder")
     if guess is None:
