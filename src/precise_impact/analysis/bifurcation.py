@@ -22,6 +22,7 @@ import numpy as np
 
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
+from precise_impact.solvers.base import check_engine
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
@@ -192,6 +193,7 @@ def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:
 def _one(args):
     params, periods, transient, engine = args
     if engine == "fast" and params.zeta < 1:
+        from precise_impact.analysis.lyapunov.result import means_stderr
         from precise_impact.solvers.fast import STATUS_OK, lle_batch_serial
 
         pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w), float(params.R)]])
@@ -202,7 +204,7 @@ def _one(args):
             T = 2 * math.pi / float(params.eta)
             nb = min(10, periods)
             bm = bsums[0] / ((periods // nb) * T)
-            se = float(np.std(bm, ddof=1) / math.sqrt(nb)) if nb > 1 else math.nan
+            se = means_stderr(bm)
             return xt[0], float(l1[0] / (periods * T)), se, float(imps[0] / periods)
     from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
@@ -278,8 +280,7 @@ def bifurcation(
     workers = check_count(workers, "workers", 1024)
     if workers < 1:
         raise ParameterError("workers", workers, "an integer >= 1")
-    if engine not in ("fast", "heyoka"):
-        raise ParameterError("engine", engine, "'fast' or 'heyoka'")
+    check_engine(engine)
     jobs = [(params.replace(eta=e), periods, transient, engine) for e in etas]  # validates every eta first
     start = time.perf_counter()
     results: list[Any] = [None] * len(jobs)

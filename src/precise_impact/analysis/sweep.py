@@ -29,6 +29,7 @@ import numpy as np
 from precise_impact.core.result import ResultMixin
 from precise_impact.io.figures import figure
 from precise_impact.errors import OptionalDependencyError, ParameterError
+from precise_impact.solvers.base import check_engine
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.io.atomic import atomic_write, write_json
 from precise_impact.io.lock import DirectoryLock
@@ -158,8 +159,7 @@ class SweepSpec:
         if tile_size < 1:
             raise ParameterError("tile_size", tile_size, "an integer >= 1")
         batch_size = default_batch_size() if batch_size is None else check_count(batch_size, "batch_size", 64)
-        if engine not in ("fast", "heyoka"):
-            raise ParameterError("engine", engine, "'fast' or 'heyoka'")
+        check_engine(engine)
         spec = cls(base, tuple(built), periods, transient, tile_size, batch_size, engine)
         for k in (0, spec.n_points - 1):  # every point valid (ranges are monotone): check the corners
             spec.point(k)

@@ -37,6 +37,7 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.io.figures import new_figure
 from precise_impact.models.coupled import CoupledTrajectory, check_form, check_k, simulate_coupled
 from precise_impact.errors import ParameterError
+from precise_impact.solvers.base import check_engine
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.io.atomic import atomic_write
@@ -383,10 +384,7 @@ def sync_scan(
     P = Precision.parse(precision)
     if engine is None:
         engine = "fast" if P.kind == "float64" else "heyoka"
-    if engine not in ("fast", "heyoka"):
-        raise ParameterError("engine", engine, "'fast', 'heyoka' or None")
-    if engine == "fast" and P.kind != "float64":
-        raise ParameterError("precision", P.name, "'float64' for engine='fast' (engine='heyoka' for other precisions)")
+    check_engine(engine, P)
 
     start = _time.perf_counter()
     y0s = ensemble_y0(params, ensemble, seed, sq)

@@ -86,6 +86,13 @@ def sample_times(precision: Any, t0: Fraction, eta: Fraction, periods: int, per_
     return [math.ldexp(float(A + j * B), E) for j in range(n + 1)]
 
 
+def _period_and_start(t0: Fraction, eta: Fraction) -> tuple[mpmath.mpf, mpmath.mpf]:
+    """``T = 2 pi / eta`` and ``s0 = t0 mod T`` at mpmath's current precision (the caller's guard bits)."""
+    T = 2 * mpmath.pi / _mpq(eta)
+    t0m = _mpq(t0)
+    return T, t0m - mpmath.floor(t0m / T) * T
+
+
 def local_clock(precision: Any, t0: Fraction, eta: Fraction, window: Fraction = Fraction(0)) -> tuple[Any, Any, Any]:
     """One forcing period ``[L0, L1]`` of the local clock, and ``window * T``.
 
@@ -114,9 +121,7 @@ def local_clock(precision: Any, t0: Fraction, eta: Fraction, window: Fraction = 
     """
     extra = GUARD_BITS + abs(t0).__ceil__().bit_length() + abs(eta).__ceil__().bit_length()
     with mpmath.workprec(precision.bits + extra):
-        T = 2 * mpmath.pi / _mpq(eta)
-        t0m = _mpq(t0)
-        s0 = t0m - mpmath.floor(t0m / T) * T
+        T, s0 = _period_and_start(t0, eta)
         w = T * window.numerator / window.denominator
         return precision.from_mpf(s0), precision.from_mpf(s0 + T), precision.from_mpf(w)
 
@@ -145,9 +150,7 @@ def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> lis
     """
     extra = GUARD_BITS + abs(t0).__ceil__().bit_length() + abs(eta).__ceil__().bit_length() + periods.bit_length()
     with mpmath.workprec(precision.bits + extra):
-        T = 2 * mpmath.pi / _mpq(eta)
-        t0m = _mpq(t0)
-        s0 = t0m - mpmath.floor(t0m / T) * T
+        T, s0 = _period_and_start(t0, eta)
         return [precision.from_mpf(s0 + k * T) for k in range(periods + 1)]
 
 

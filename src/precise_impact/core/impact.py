@@ -27,7 +27,7 @@ from typing import Any, Sequence
 import mpmath
 
 from precise_impact.core.flow import acceleration
-from precise_impact.core.params import RUNTIME_PARAMS
+from precise_impact.core.params import I_A, I_ETA, I_XW
 
 __all__ = [
     "reset_velocity",
@@ -302,11 +302,6 @@ def steady_amplitude(params) -> float:
         return float(abs(params.a))
 
 
-# Positions in an integrator's parameter vector (RUNTIME_PARAMS order), looked up once:
-# GrazingDepth is called at every impact event.
-_I_XW, _I_A, _I_ETA = (RUNTIME_PARAMS.index(n) for n in ("x_w", "a", "eta"))
-
-
 class GrazingDepth:
     """Grazing depth ``delta(t) = coef (|x_w| + |a| + amp (1 + eta |t|))``, or a fixed value.
 
@@ -323,7 +318,7 @@ class GrazingDepth:
     def __call__(self, t: Any, pr: Any) -> Any:
         if self.fixed is not None:
             return self.fixed
-        return grazing_depth(self.coef, self.amp, t, pr[_I_XW], pr[_I_A], pr[_I_ETA])
+        return grazing_depth(self.coef, self.amp, t, pr[I_XW], pr[I_A], pr[I_ETA])
 
 
 def grazing_depth(coef: Any, amp: Any, t: Any, x_w: Any, a: Any, eta: Any) -> Any:

@@ -21,7 +21,7 @@ import numpy as np
 from precise_impact.errors import ParameterError
 
 __all__ = ["Params", "as_params", "params_or_values", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES",
-           "RUNTIME_PARAMS", "MAX_DIGITS", "MAX_EXPONENT"]
+           "RUNTIME_PARAMS", "I_ETA", "I_ZETA", "I_A", "I_R", "I_XW", "MAX_DIGITS", "MAX_EXPONENT"]
 
 #: Order of the fields, also the order of the CLI flags and of ``--json`` output.
 PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
@@ -32,6 +32,9 @@ PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
 #: parameter vector by the highest index used in the equations and events,
 #: still allocates it.
 RUNTIME_PARAMS = ("eta", "zeta", "a", "R", "x_w")
+#: Positions of eta, zeta, a, R and x_w in an integrator's runtime-parameter vector
+#: (``RUNTIME_PARAMS`` order), looked up once for every event callback.
+I_ETA, I_ZETA, I_A, I_R, I_XW = (RUNTIME_PARAMS.index(n) for n in ("eta", "zeta", "a", "R", "x_w"))
 
 # The box in which every precision integrates the system (legal values run; others are
 # refused by name).  Taylor coefficients of the forcing grow like eta^k: at eta = 1e20

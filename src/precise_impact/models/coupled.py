@@ -65,6 +65,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from precise_impact.core.result import ResultMixin
+from precise_impact.solvers.base import check_engine
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
@@ -468,10 +469,7 @@ def simulate_coupled(
     P = Precision.parse(precision)
     if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
         raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")
-    if engine not in ("heyoka", "fast"):
-        raise ParameterError("engine", engine, "'heyoka' or 'fast'")
-    if engine == "fast" and P.kind != "float64":
-        raise ParameterError("precision", P.name, "'float64' for engine='fast' (engine='heyoka' for other precisions)")
+    check_engine(engine, P)
     if y0q is None:
         y0q = (params.x0, params.v0)
 

@@ -25,7 +25,23 @@ from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import ParameterError
 
-__all__ = ["Solver", "MODELS", "MODEL_ALIASES", "register_model", "canonical_model", "make_solver"]
+__all__ = ["Solver", "MODELS", "MODEL_ALIASES", "register_model", "canonical_model", "make_solver", "ENGINES",
+           "check_engine"]
+
+#: Engines of the float64 jobs that offer both (sweep, bifurcation, coupled runs and sync):
+#: the compiled closed form (:mod:`precise_impact.solvers.fast`) or heyoka.
+ENGINES = ("fast", "heyoka")
+
+
+def check_engine(engine: Any, precision: Precision | None = None) -> str:
+    """``engine`` if it is one of :data:`ENGINES`, else a :class:`ParameterError` naming it;
+    with a ``precision``, ``'fast'`` also needs it to be float64 (the engine's type)."""
+    if not isinstance(engine, str) or engine not in ENGINES:
+        raise ParameterError("engine", engine, "'fast' or 'heyoka'")
+    if engine == "fast" and precision is not None and precision.kind != "float64":
+        raise ParameterError("precision", precision.name,
+                             "'float64' for engine='fast' (engine='heyoka' for other precisions)")
+    return engine
 
 
 @runtime_checkable

@@ -92,7 +92,7 @@ from precise_impact.core.impact import (
     reset_velocity,
     wall_acceleration,
 )
-from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
+from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.cache import IntegratorCache
@@ -101,8 +101,6 @@ from precise_impact.core.flow import acceleration
 
 __all__ = ["HeyokaSolver", "build_integrator"]
 
-_IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
-_I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R", "x_w"))
 
 #: Forcing periods per ``propagate_grid`` call (progress, interrupt and partial results
 #: happen between chunks).  Runs of up to this many periods are one call, as before.
@@ -165,7 +163,7 @@ class _ImpactRecorder(ImpactRecorder):
             pars = ta.pars
             vb = st[1]
         t = ta.time
-        x_w = pars[_I_XW]
+        x_w = pars[I_XW]
         if self.watch is not None and t == self.contact_t and abs(float(vb)) <= self.spurious_v:
             st[0] = x_w
             st[1] = 0 * vb
@@ -174,13 +172,13 @@ class _ImpactRecorder(ImpactRecorder):
                 return False
             return True
         if self.depth is not None:
-            acc = acceleration(t, x_w, vb, pars[_I_ETA], pars[_I_ZETA], pars[_I_A], self.cos)
+            acc = acceleration(t, x_w, vb, pars[I_ETA], pars[I_ZETA], pars[I_A], self.cos)
             if is_contact(vb, acc, self.depth(t, pars)):
                 # a tangential contact within rounding of the wall: not an impact
                 # (same rule as the variational LLE and the robust analytical finder)
                 self.grazing += 1
                 return True
-        va = reset_velocity(vb, pars[_I_R])
+        va = reset_velocity(vb, pars[I_R])
         # The event fixes the impact instant; the position there is the wall by
         # definition (eq. 2b).  The root finder leaves x within O(eps) of x_w.
         st[1] = va

@@ -65,6 +65,7 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
     .. [1] M. di Bernardo et al., *Piecewise-smooth Dynamical Systems* (2008), sec. 6
            (Floquet multipliers of impacting orbits).
     """
+    from precise_impact.analysis.lyapunov.result import means_stderr
     from precise_impact.analysis.orbits.newton import find_orbit
     from precise_impact.analysis.periodicity import detect_period
     from precise_impact.errors import IntegrationError
@@ -77,6 +78,13 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
         p = detect_period(xs, vs, MAX_PERIOD) if len(xs) >= 3 * MAX_PERIOD else 0
         orbit = None
         if p > 0:
+            cycle = np.column_stack([xs[-p:], vs[-p:]])
+            tol = 1e-6 * (1 + float(np.max(np.abs(cycle))))
+            known = next((g for g in groups if g["kind"] == "periodic" and g["period"] == p
+                          and _same_cycle(g["_cycle"], cycle, tol)), None)
+            if known is not None:  # an orbit already refined: no second Newton run
+                known["starts"].append(j)
+                continue
             try:
                 orbit = find_orbit(params, p, guess=(float(xs[-1]), float(vs[-1])), precision=precision)
             except IntegrationError:  # Newton did not settle (e.g. a contact on the way): not claimed
@@ -89,16 +97,9 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
             else:
                 groups.append({"kind": "not periodic", "starts": [j]})
             continue
-        cycle = np.column_stack([xs[-p:], vs[-p:]])
-        tol = 1e-6 * (1 + float(np.max(np.abs(cycle))))
-        for g in groups:
-            if g["kind"] == "periodic" and g["period"] == p and _same_cycle(g["_cycle"], cycle, tol):
-                g["starts"].append(j)
-                break
-        else:
-            groups.append({"kind": "periodic", "starts": [j], "period": p, "impacts": orbit.impacts,
-                           "multipliers": [[float(complex(m).real), float(complex(m).imag)] for m in orbit.multipliers],
-                           "floquet_lle": orbit.lle, "residual": orbit.residual, "_orbit": orbit, "_cycle": cycle})
+        groups.append({"kind": "periodic", "starts": [j], "period": p, "impacts": orbit.impacts,
+                       "multipliers": [[float(complex(m).real), float(complex(m).imag)] for m in orbit.multipliers],
+                       "floquet_lle": orbit.lle, "residual": orbit.residual, "_orbit": orbit, "_cycle": cycle})
     finite = {"lle": result.lle, "stderr": result.stderr, "spectrum": result.spectrum}
     first = next(g for g in groups if 0 in g["starts"])
     if first["kind"] == "periodic":
@@ -117,7 +118,7 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
             if result.spectrum is not None:
                 result.spectrum = (result.lle, float(np.mean([per_start[j][1] for j in st])))
             blocks = np.concatenate([np.asarray(per_start[j][2], float) for j in st])
-            result.stderr = float(np.std(blocks, ddof=1) / math.sqrt(len(blocks))) if len(blocks) > 1 else math.nan
+            result.stderr = means_stderr(blocks)
         source = "finite-time"
     for g in groups:
         if g["kind"] == "not periodic":

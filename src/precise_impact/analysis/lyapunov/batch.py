@@ -28,29 +28,28 @@ import numpy as np
 
 from precise_impact.core.clock import local_clock
 from precise_impact.core.linalg import gram_schmidt2
+from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.solvers.cache import IntegratorCache
 from precise_impact.solvers.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
-from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
+from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import GRAZING_SAFETY, grazing_depth, steady_amplitude
 from precise_impact.analysis.lyapunov.variational import GUARD_FACTOR, MissedImpactError
 
 __all__ = ["batch_lle", "detect_period", "default_batch_size"]
 
-_IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
 
 
 _COEF64 = GRAZING_SAFETY * 2.0**-53  # grazing_depth_coefficient(float64), exactly (a power of two times 16)
-_I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R", "x_w"))
 
 
 def _depth(t: float, pr, i: int, amp: float) -> float:
     """Grazing depth of lane ``i`` at local time ``t``, ``amp`` its steady amplitude (the one formula,
     :func:`~precise_impact.core.impact.grazing_depth`, with float64's coefficient)."""
-    return grazing_depth(_COEF64, amp, t, pr[_I_XW, i], pr[_I_A, i], pr[_I_ETA, i])
+    return grazing_depth(_COEF64, amp, t, pr[I_XW, i], pr[I_A, i], pr[I_ETA, i])
 
 
 class _BatchSaltation:
@@ -84,8 +83,8 @@ class _BatchSaltation:
     def __call__(self, ta, d_sgn, i) -> bool:
         st, pr = ta.state, ta.pars
         t = float(ta.time[i])
-        R, x_w = pr[_I_R, i], pr[_I_XW, i]
-        eta, zeta, a = pr[_I_ETA, i], pr[_I_ZETA, i], pr[_I_A, i]
+        R, x_w = pr[I_R, i], pr[I_XW, i]
+        eta, zeta, a = pr[I_ETA, i], pr[I_ZETA, i], pr[I_A, i]
         vb = float(st[1, i])
         acc = acceleration(t, x_w, vb, eta, zeta, a, math.cos)
         if is_contact(vb, acc, _depth(t, pr, i, self.amp[i])):
@@ -124,7 +123,7 @@ class _BatchGuard:
         tt = np.array(ta.time, dtype=float)
         tt[i] = time
         x = ta.update_d_output(tt)[0, i]
-        over = x - ta.pars[_I_XW, i]
+        over = x - ta.pars[I_XW, i]
         if over > GUARD_FACTOR * _depth(time, ta.pars, i, self.amp[i]):
             self.missed[i] += 1
             if self.first_miss is None:
@@ -292,7 +291,7 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
             {
                 "lle": float(l1[:, i].sum() / tot),
                 "lambda2": float(l2[:, i].sum() / tot),
-                "stderr": float(np.std(blocks, ddof=1) / math.sqrt(nb)) if nb > 1 else math.nan,
+                "stderr": means_stderr(blocks),
                 "period": detect_period(xs[:, i], vs[:, i], max_period),
                 "impacts_per_period": float((counts[i] - imp0[i]) / periods),
                 "x_last": float(xs[-1, i]),

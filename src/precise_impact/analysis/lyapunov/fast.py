@@ -19,7 +19,7 @@ from fractions import Fraction
 import numpy as np
 
 from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
-from precise_impact.analysis.lyapunov.result import LyapunovResult
+from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import ParameterError
 
@@ -105,7 +105,7 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
                   "status": STATUS_TEXT[int(status[i])]} for i in range(n)]
     result = LyapunovResult(
         params=params, method="fast", precision="float64", lle=lam1, spectrum=(lam1, lam2),
-        stderr=float(np.std(block_means, ddof=1) / math.sqrt(len(block_means))),
+        stderr=means_stderr(block_means),
         periods=per * n, transient=transient, impacts=int(imps.sum()), running=running, segments=block_means,
         elapsed_s=elapsed, initial_conditions=n, strobe_x=xt[0], strobe_v=vt[0],
         stats={"engine": "fast", "per_start": per_start},
@@ -216,7 +216,7 @@ def fast_batch_rows(rows: np.ndarray, fallback_points, periods: int = 2000, tran
         results[i] = {
             "lle": float(log1[j] / (periods * T)),
             "lambda2": float(log2[j] / (periods * T)),
-            "stderr": float(np.std(bm, ddof=1) / math.sqrt(blocks)) if blocks > 1 else math.nan,
+            "stderr": means_stderr(bm),
             "period": detect_period(xt[j], vt[j], max_period),
             "impacts_per_period": float(imps[j] / periods),
             "x_last": float(xt[j][-1]),

@@ -11,7 +11,7 @@ import numpy as np
 from precise_impact.core.result import ResultMixin, to_jsonable
 from precise_impact.core.params import Params
 
-__all__ = ["LyapunovResult", "block_stderr"]
+__all__ = ["LyapunovResult", "block_stderr", "means_stderr"]
 
 
 @dataclasses.dataclass
@@ -83,6 +83,13 @@ class LyapunovResult(ResultMixin):
         }
 
 
+def means_stderr(blocks: Sequence[float]) -> float:
+    """Standard error of the mean of independent block estimates, ``std(ddof=1) / sqrt(n)``
+    (batch means; NaN for fewer than two blocks): written once for every Lyapunov method."""
+    b = np.asarray(blocks, dtype=float).ravel()
+    return float(np.std(b, ddof=1) / math.sqrt(len(b))) if len(b) > 1 else math.nan
+
+
 def block_stderr(log_growth: Sequence[float], dt: Sequence[float], n_blocks: int) -> tuple[np.ndarray, float]:
     """Split per-period log-growths into ``n_blocks`` contiguous blocks.
 
@@ -96,9 +103,7 @@ def block_stderr(log_growth: Sequence[float], dt: Sequence[float], n_blocks: int
     n_blocks = max(1, min(n_blocks, len(g)))
     idx = np.array_split(np.arange(len(g)), n_blocks)
     blocks = np.array([g[i].sum() / t[i].sum() for i in idx if len(i)])
-    if len(blocks) < 2:
-        return blocks, math.nan
-    return blocks, float(np.std(blocks, ddof=1) / math.sqrt(len(blocks)))
+    return blocks, means_stderr(blocks)
 
 
 # 0.1.0 name, kept for one release.

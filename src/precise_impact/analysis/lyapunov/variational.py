@@ -141,11 +141,11 @@ from precise_impact.core.impact import (
     reset_velocity,
     steady_amplitude,
 )
-from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, exact
+from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.flow import acceleration
 from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
-from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
+from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr, means_stderr
 
 __all__ = [
     "variational_spectrum",
@@ -155,8 +155,6 @@ __all__ = [
     "steady_amplitude",
 ]
 
-_IDX = {name: i for i, name in enumerate(RUNTIME_PARAMS)}
-_I_ETA, _I_ZETA, _I_A, _I_R, _I_XW = (_IDX[n] for n in ("eta", "zeta", "a", "R", "x_w"))
 # heyoka's var_ode_sys state layout: [x, v, dx/dx0, dx/dv0, dv/dx0, dv/dv0]
 _PHI = (2, 3, 4, 5)
 #: A maximum beyond the wall by more than this many grazing depths is a missed impact.
@@ -218,7 +216,7 @@ class _SaltationRecorder(ImpactRecorder):
         else:
             pr = ta.pars
             vb, p00, p01, p10, p11 = st[1], st[2], st[3], st[4], st[5]
-        R, x_w, eta, zeta, a = pr[_I_R], pr[_I_XW], pr[_I_ETA], pr[_I_ZETA], pr[_I_A]
+        R, x_w, eta, zeta, a = pr[I_R], pr[I_XW], pr[I_ETA], pr[I_ZETA], pr[I_A]
         acc = acceleration(t, x_w, vb, eta, zeta, a, self.cos)
         if is_contact(vb, acc, self.depth(self.t_depth, pr)):
             # Tangential contact within rounding of the wall: not an impact.
@@ -276,7 +274,7 @@ class _MaximumGuard:
         # The integrator's state is at the end of the step: evaluate the dense output.
         ta.update_d_output(time)
         pr = self.pars if self.pars is not None else ta.pars
-        over = ta.d_output[0] - pr[_I_XW]
+        over = ta.d_output[0] - pr[I_XW]
         self.maxima += 1
         o = float(over)
         if o > self.max_overshoot:
@@ -619,7 +617,7 @@ def variational_spectrum(
     diag["max_period_log"] = float(np.max(l1)) if len(l1) else -math.inf
     diag["finite_logs"] = bool(np.all(np.isfinite(l1)))
     all_blocks = np.concatenate(blocks)
-    se = float(np.std(all_blocks, ddof=1) / math.sqrt(len(all_blocks))) if len(all_blocks) > 1 else math.nan
+    se = means_stderr(all_blocks)
     total = float(np.sum(dt))
     lam1, lam2 = float(np.sum(l1) / total), float(np.sum(l2) / total)
     result = LyapunovResult(
