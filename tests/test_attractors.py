@@ -52,3 +52,36 @@ def test_chaotic_estimate_is_untouched():
     r = lyapunov(Params.make(eta="0.712"), "fast", periods=4000, transient=1000)
     assert r.stats["lle_source"] == "finite-time" and r.lle == r.stats["finite_time"]["lle"]
     assert [g["kind"] for g in r.stats["attractors"]] == ["not periodic"]
+
+
+def test_chaotic_error_bars_cover_the_long_run_value_at_the_stated_rate():
+    """100 runs of 20000 periods (4 starts, 20 batch-means blocks each) from different x0 against
+    the 800 000-period value: |z| = |lle - ref| / sqrt(se^2 + se_ref^2) must be below 1 and 2 at
+    the rates a batch-means error bar states (Student t, 19 degrees of freedom: 0.67 and 0.94).
+    Bounds: +-3.2 binomial standard deviations for 100 runs (0.047 and 0.024), so a correct error
+    bar fails about once in a thousand seeds -- and the seeds are fixed."""
+    from fractions import Fraction
+
+    import numpy as np
+
+    p = Params.make()
+    ref = lyapunov(p, "fast", periods=800_000, transient=1000, initial_conditions=8, segments=80)
+    assert ref.stats["engine"] == "fast"
+    z = []
+    for i in range(100):
+        r = lyapunov(p.replace(x0=Fraction(i, 75) - 1), "fast", periods=20_000, transient=500, initial_conditions=4,
+                        segments=20)
+        z.append(abs(r.lle - ref.lle) / math.hypot(r.stderr, ref.stderr))
+    z = np.array(z)
+    assert 0.52 <= float(np.mean(z < 1)) <= 0.82 and float(np.mean(z < 2)) >= 0.865, (np.mean(z < 1), np.mean(z < 2))
+
+
+def test_two_trajectory_reports_the_floquet_lle_on_a_periodic_attractor():
+    """The two-trajectory method's single fiducial orbit is identified as the other methods'
+    starts are: on the 1:1 orbit (R = 0.8, eta = 1) the exact ln R / T - zeta, on chaos its estimate."""
+    r = lyapunov(Params.make(R="0.8", eta="1"), "two-trajectory", periods=1000, transient=500)
+    exact = math.log(0.8) / (2 * math.pi) - 0.05
+    assert r.stats["lle_source"] == "floquet" and abs(r.lle - exact) < 1e-12
+    assert abs(r.stats["finite_time"]["lle"] - exact) < 5 * r.stats["finite_time"]["stderr"]
+    c = lyapunov(Params.make(), "two-trajectory", periods=500, transient=200)
+    assert c.stats["lle_source"] == "finite-time" and c.stats["attractors"][0]["kind"] == "not periodic"

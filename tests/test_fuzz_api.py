@@ -118,6 +118,14 @@ def _call_one_impact(**kw):
     return one_impact_orbits(base.pop("params", Params.make(R="0.8", eta="1")), **base)
 
 
+def _call_continue(**kw):
+    from precise_impact import continue_orbit
+
+    base = dict(parameter="eta", start="1", stop="0.99", period=1, max_points=4, doublings=0, transient=200)
+    base.update(kw)
+    return continue_orbit(base.pop("params", Params.make(R="0.8")), **base)
+
+
 #: (callable, the arguments to fuzz); each call with valid defaults takes milliseconds.
 ENTRY_POINTS = {
     "Params.make": (lambda **kw: Params.make(**kw), ["eta", "zeta", "a", "x_w", "R", "x0", "v0", "t0"]),
@@ -140,10 +148,12 @@ ENTRY_POINTS = {
     "find_orbit": (_call_orbit, ["params", "period", "guess", "transient", "impacts", "max_iterations",
                                  "precision"]),
     "one_impact_orbits": (_call_one_impact, ["params", "dps", "grid"]),
+    "continue_orbit": (_call_continue, ["params", "parameter", "start", "stop", "period", "impacts", "guess",
+                                        "transient", "max_points", "doublings", "virtual"]),
 }
 #: Outcomes that are answers, not failures, for some entry points: Newton may not reach an
 #: orbit (ConvergenceError) or meet a tangential contact on the way (IntegrationError).
-ANSWERS = {"find_orbit": (IntegrationError,)}
+ANSWERS = {"find_orbit": (IntegrationError,), "continue_orbit": (IntegrationError,)}
 CASES = [(name, arg) for name, (_, args) in ENTRY_POINTS.items() for arg in args]
 
 

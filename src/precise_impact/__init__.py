@@ -54,7 +54,17 @@ from precise_impact.models.circuit.spice import SpiceSolver
 from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit
 from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, lyapunov
 from precise_impact.analysis.periodicity import detect_period
-from precise_impact.analysis.orbits import ConvergenceError, PeriodicOrbit, find_orbit, one_impact_orbits
+from precise_impact.analysis.orbits import (
+    Bifurcation,
+    Branch,
+    ContinuationResult,
+    ConvergenceError,
+    PeriodicOrbit,
+    brute_force_diagram,
+    continue_orbit,
+    find_orbit,
+    one_impact_orbits,
+)
 from precise_impact.analysis.sync import SyncResult, sync_scan
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
 from precise_impact.analysis.sweep import SweepResult, SweepSpec, load_sweep, run_sweep
@@ -86,7 +96,8 @@ __all__ = [
     # analysis
     "LYAPUNOV_METHODS", "LyapunovResult", "lyapunov", "detect_period", "SyncResult", "sync_scan",
     "BifurcationResult", "bifurcation", "SweepSpec", "SweepResult", "load_sweep", "run_sweep",
-    "PeriodicOrbit", "find_orbit", "one_impact_orbits", "ConvergenceError",
+    "PeriodicOrbit", "find_orbit", "one_impact_orbits", "ConvergenceError", "continue_orbit", "Branch", "Bifurcation",
+    "ContinuationResult", "brute_force_diagram",
     # scenes
     "Scene", "builtin_scenes", "load_scene", "run_scene",
     # verification

@@ -23,6 +23,8 @@ def add_parser(sub):
     c.add_argument("scene", help="built-in scene name or FILE.toml")
     c.add_argument("--models", required=True, help="comma-separated: " + ",".join(SCENE_MODELS))
     c.add_argument("--periods", default=None, help="forcing periods (default: the scene's)")
+    c.add_argument("--points", action="store_true",
+                   help="also score the grazing and period-doubling points along eta against the mechanics")
     c.add_argument("--json", action="store_true", help="print one JSON object")
     c.add_argument("--out", default=None, help="directory for report.md, scores.json and the PNGs")
     c.set_defaults(_run=run)
@@ -43,12 +45,12 @@ def run(ns) -> int:
         import heyoka
 
         heyoka.set_logger_level_error()
-    result = compare(ns.scene, models, out=ns.out, periods=periods, progress=not ns.json)
+    result = compare(ns.scene, models, out=ns.out, periods=periods, progress=not ns.json, points=ns.points)
     if ns.json:
         json.dump(result.to_dict(), sys.stdout)
         sys.stdout.write("\n")
     else:
         print(format_scores(result))
         if ns.out is not None:
-            print("written: " + ", ".join(result.get("files", [])))
+            print("written: " + ", ".join(result.files or []))
     return 0

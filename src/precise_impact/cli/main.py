@@ -55,6 +55,15 @@ def _params_from(ns):
     return Params.make(**{dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS})
 
 
+def _add_orbit_flags(p: argparse.ArgumentParser, which: str) -> None:
+    """``--period --impacts --guess --transient`` of the orbit commands (``which``: whose orbit)."""
+    p.add_argument("--period", default="1", metavar="P", help="forcing periods of the orbit (default 1)")
+    p.add_argument("--impacts", default=None, metavar="N", help=f"required impacts per orbit{which} (default: any)")
+    p.add_argument("--guess", nargs=2, default=None, metavar=("X", "V"),
+                   help=f"starting state at t0{which} (default: the state after --transient periods)")
+    p.add_argument("--transient", default="2000", metavar="N", help="periods run for the default guess (default 2000)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from precise_impact.solvers.simulate import MODELS
 
@@ -94,13 +103,25 @@ def build_parser() -> argparse.ArgumentParser:
     ob = sub.add_parser("orbit", help="a periodic orbit by Newton's method: its point, impacts, Floquet "
                                       "multipliers, stability and exact LLE")
     _add_param_flags(ob)
-    ob.add_argument("--period", default="1", metavar="P", help="forcing periods of the orbit (default 1)")
-    ob.add_argument("--impacts", default=None, metavar="N", help="required impacts per orbit (default: any)")
-    ob.add_argument("--guess", nargs=2, default=None, metavar=("X", "V"),
-                    help="starting state at t0 (default: the state after --transient periods)")
-    ob.add_argument("--transient", default="2000", metavar="N", help="periods run for the default guess (default 2000)")
+    _add_orbit_flags(ob, "")
     ob.add_argument("--precision", default="float64", metavar="P", help="float64 or mp:BITS (Newton refined to that precision)")
     ob.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
+    co = sub.add_parser("continue", help="continue a branch of periodic orbits in one parameter: stability, "
+                                         "grazing, period-doubling (with branch switching), fold")
+    co.add_argument("--param", nargs=3, required=True, metavar=("NAME", "FROM", "TO"),
+                    help="the continued parameter (eta, x_w, zeta, a or R) and its range")
+    _add_param_flags(co)
+    _add_orbit_flags(co, " of the starting orbit (at FROM)")
+    co.add_argument("--max-points", dest="max_points", default="400", metavar="N",
+                    help="points per branch at most (default 400)")
+    co.add_argument("--doublings", default="2", metavar="K", help="period-doubling branch switches followed (default 2)")
+    co.add_argument("--virtual", default="0.1", metavar="F",
+                    help="fraction of the range a branch may run on past grazing as a virtual orbit (default 0.1)")
+    co.add_argument("--diagram", default="200", metavar="N",
+                    help="values of the brute-force diagram drawn beneath the branches with --out (default 200; 0: none)")
+    co.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+    co.add_argument("--out", default=None, metavar="DIR", help="write continuation.json and continuation.png here")
 
     b = sub.add_parser("bifurcation", help="stroboscopic x against eta with the LLE beneath (PNG + NPZ)")
     b.add_argument("--eta", nargs=3, required=True, metavar=("MIN", "MAX", "N"), help="eta grid: MIN MAX N")
@@ -297,6 +318,47 @@ def _cmd_orbit(ns) -> int:
           f"({o.precision})")
     print(f"Floquet multipliers {mus}: {'stable' if o.stable else 'unstable'}; LLE = ln|mu_max| / (p T) = {o.lle:.10g}")
     print(f"residual |P^p(z) - z| = {o.residual:.3g} after {o.iterations} Newton iteration(s)")
+    return 0
+
+
+def _cmd_continue(ns) -> int:
+    from precise_impact.analysis.orbits import continue_orbit
+    from precise_impact.core.params import check_count
+
+    name, lo, hi = ns.param
+    fixed = {dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS}
+    if name in fixed and fixed[name] is not None:
+        raise ParameterError(name, fixed[name], f"not given twice: --{name} is set by --param {name} FROM TO")
+    params = _params_from(ns)
+    n_diagram = check_count(ns.diagram, "diagram", 5000)
+    res = continue_orbit(params, name, lo, hi, ns.period, impacts=None if ns.impacts is None else ns.impacts,
+                         guess=ns.guess, transient=ns.transient, max_points=ns.max_points, doublings=ns.doublings,
+                         virtual=ns.virtual, progress=None if ns.json else True)
+    if ns.out is not None:
+        from precise_impact.analysis.orbits.branch import brute_force_diagram
+
+        diagram = None
+        if n_diagram:
+            diagram = brute_force_diagram(res.params, name, float(res.start), float(res.stop), n_diagram)
+        files = res.save_all(ns.out, diagram=diagram)
+        if not ns.json:
+            print("wrote " + ", ".join(str(f) for f in files.values()))
+    if ns.json:
+        json.dump(res.to_dict(), sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    for k, b in enumerate(res.branches):
+        n_st = int(b.stable.sum())
+        print(f"branch {k}: period {b.period}, {b.impacts} impact(s), {len(b.values)} points, {name} "
+              f"{b.values.min():.10g} .. {b.values.max():.10g}, {n_st} stable, "
+              f"{int((~b.admissible).sum())} virtual ({b.origin}; {b.stop_reason})")
+    if not res.bifurcations:
+        print("no bifurcation in the range")
+    for bif in res.bifurcations:
+        mus = ", ".join(f"{m[0]:.8g}{m[1]:+.3g}i" if m[1] else f"{m[0]:.8g}" for m in bif.multipliers)
+        where = "" if bif.admissible else " (virtual orbit)"
+        print(f"{bif.type} on branch {bif.branch} at {name} = {bif.value!r}{where}: multipliers {mus}"
+              + (f"; {bif.detail}" if bif.detail else ""))
     return 0
 
 
@@ -564,6 +626,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "simulate": _cmd_simulate,
             "lle": _cmd_lle,
             "orbit": _cmd_orbit,
+            "continue": _cmd_continue,
             "bifurcation": _cmd_bifurcation,
             "sync": _cmd_sync,
             "sweep": _cmd_sweep,
@@ -581,8 +644,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BudgetExceededError as e:
         print(f"precise-impact: budget exceeded: {e}", file=sys.stderr)
         return EXIT_BUDGET
-    except IntegrationError as e:
-        print(f"precise-impact: integration stopped: {e}", file=sys.stderr)
+    except IntegrationError as e:  # ConvergenceError (a Newton that found no orbit) says so
+        what = "no periodic orbit" if type(e).__name__ == "ConvergenceError" else "integration stopped"
+        print(f"precise-impact: {what}: {e}", file=sys.stderr)
         return EXIT_BUDGET
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()

@@ -89,7 +89,8 @@ def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=N
 
 
 def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: str | Path | None = None,
-            periods: int | None = None, progress: bool | None = None, transient: int | None = None) -> CompareResult:
+            periods: int | None = None, progress: bool | None = None, transient: int | None = None,
+            points: bool = False) -> CompareResult:
     """Score ``models`` on a scene against a demonstrated heyoka reference.
 
     Parameters
@@ -108,6 +109,11 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
         One line per finished run on stderr (``None``: only when stderr is a terminal).
     transient : int or None, default ``None``
         Periods discarded before scoring; ``None`` is ``periods // 5``.
+    points : bool, default ``False``
+        Also score where each model puts the grazing point of the non-impacting orbit and
+        the period-doubling point of the 1:1 orbit along eta, against the mechanics
+        (:func:`~precise_impact.verification.points.point_scores`; ~1-10 s per model):
+        ``models[m]["points"]`` and ``reference["points"]``.
 
     Returns
     -------
@@ -163,6 +169,14 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
         ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, periods)
         ref_info["second_reference_x0"] = decimal_str(p2.x0)
 
+    mech = None
+    if points:
+        from precise_impact.verification.points import mechanical_points
+
+        mech = mechanical_points(params)
+        ref_info["points"] = {"grazing": mech["grazing"], "period-doubling": mech["period-doubling"],
+                              "method": "grazing: closed form; period-doubling of the stable 1:1 orbit: "
+                                        "continuation from eta = 1 (multiplier -1 located to rounding)"}
     results: dict[str, Any] = {}
     trajs: dict[str, Trajectory] = {}
     for m in models:
@@ -181,6 +195,10 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
         sc.update(extra)
         sc["effects_dropped"] = dropped[m]
         sc["effects"] = sorted(scene_for_model(scene, m)[0].effects)
+        if mech is not None:
+            from precise_impact.verification.points import point_scores
+
+            sc["points"] = point_scores(scene, m, mech)
         results[m] = sc
         _progress(f"{m}: " + _one_line(sc), progress)
 
@@ -274,6 +292,10 @@ def format_scores(result: CompareResult) -> str:
              f"LLE {result['lle']['lle']:.4f} +- {result['lle']['stderr']:.4f}"]
     for m, sc in result["models"].items():
         lines.append(f"  {m:<20} {_one_line(sc)}")
+        if "points" in sc:
+            g, d = sc["points"]["grazing"], sc["points"]["period-doubling"]
+            pd = "" if d is None else f", period-doubling eta {d['model']:.8g} ({d['shift']:+.2e}, {d['how']})"
+            lines.append(f"  {'':<20} grazing eta {g['model']:.8g} ({g['shift']:+.2e}){pd}")
     return "\n".join(lines)
 
 
@@ -359,6 +381,31 @@ def _g(x, fmt=".3e") -> str:
     return format(x, fmt)
 
 
+def _points_report(res: dict) -> list[str]:
+    rp = res["reference"]["points"]
+    L = ["", "## Bifurcation points along eta", "",
+         f"Mechanics: grazing of the non-impacting orbit at eta = {rp['grazing']:.12g} (closed form); "
+         f"period-doubling of the 1:1 orbit at eta = {_g(rp['period-doubling'], '.12g')} (continuation).", "",
+         "| model | grazing eta | shift | resolution | period-doubling eta | shift | resolution | how |",
+         "|---|---:|---:|---:|---:|---:|---:|---|"]
+    for m, s in res["models"].items():
+        g, d = s["points"]["grazing"], s["points"]["period-doubling"]
+        dd = ("n/a",) * 4 if d is None else (f"{d['model']:.10g}", f"{d['shift']:+.3e}", f"{d['resolution']:.1e}",
+                                               d["how"] + (f" (orbit lost at eta {d['lost'][0]:.8g} .. {d['lost'][1]:.8g} "
+                                                           f"with det(A+I) = {d['test_at_last_valid']:.3g})"
+                                                           if d["how"] == "extrapolated" else ""))
+        L.append(f"| {m} | {g['model']:.10g} | {g['shift']:+.3e} | {g['resolution']:.1e} | " + " | ".join(dd) + " |")
+    L += ["", "How obtained (`precise_impact.verification.points`): the grazing point is the root of x_w - max x of "
+          "the model's own steady state, the period-doubling point the root of det(A + I) of the model's "
+          "stroboscopic map identified from its runs (A fitted, multipliers = eig A); both approached from the "
+          "valid side by a safeguarded secant.  *how* = root: the test function reached zero there; extrapolated: "
+          "the model's orbit was lost (it escaped) while the test function was still away from zero -- an "
+          "imperfect, discontinuity-induced bifurcation of the switching hardware -- and the eta given "
+          "extrapolates the smooth test function (resolution = the extrapolated distance).  The heyoka model "
+          "itself recovers both mechanical points to ~1e-9."]
+    return L
+
+
 def _report(res: dict) -> str:
     r, ly = res["reference"], res["lle"]
     p = ", ".join(f"{k} = {v}" for k, v in res["params"].items())
@@ -423,6 +470,8 @@ def _report(res: dict) -> str:
               "same attractor) -- a model distance near the floor is indistinguishable from sampling noise.",
               "* *impact-v W1*: 1-D Wasserstein distance between the v_before values of the impacts after the "
               "transient; floor as above."]
+    if "points" in r:
+        L += _points_report(res)
     L += ["", "Effects per model (the scene's effects that do not fit a model are dropped for it):", ""]
     for m, s in res["models"].items():
         L.append(f"* {m}: {', '.join(s['effects']) or 'none'}"

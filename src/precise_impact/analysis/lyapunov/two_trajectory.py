@@ -251,6 +251,7 @@ def two_trajectory_lle(
     d0: Any = None,
     segments: int = 20,
     progress: bool = False,
+    attractors: bool = True,
 ) -> LyapunovResult:
     """Largest Lyapunov exponent by Benettin's two-trajectory method.
 
@@ -284,6 +285,11 @@ def two_trajectory_lle(
     progress : bool, default ``False``
         Report the count and the running estimate on stderr
         (:class:`~precise_impact.io.progress.Progress`: throttled, the last one always).
+    attractors : bool, default ``True``
+        Identify the fiducial orbit's attractor from its last stroboscopic samples; on a
+        periodic one report the exact Floquet LLE of the Newton-refined orbit
+        (:func:`~precise_impact.analysis.lyapunov.attractors.attribute`; ``stats['lle_source']``,
+        the finite-time estimate in ``stats['finite_time']``).
 
     Returns
     -------
@@ -291,7 +297,8 @@ def two_trajectory_lle(
         ``method='two-trajectory'``, ``spectrum=None``, ``running`` the estimate after
         each measured period, ``segments`` the per-block estimates, ``stderr`` their
         standard error, ``impacts`` the fiducial orbit's impacts during the measured
-        periods and ``elapsed_s`` the wall time (transient included).
+        periods and ``elapsed_s`` the wall time (transient included); ``stats['attractors']``
+        and ``stats['lle_source']`` as the variational method's.
 
     Raises
     ------
@@ -371,6 +378,8 @@ def two_trajectory_lle(
     d0q = _check_d0(d0, P)
     if not isinstance(progress, (bool, np.bool_)):
         raise ParameterError("progress", progress, "True or False")
+    if not isinstance(attractors, (bool, np.bool_)):
+        raise ParameterError("attractors", attractors, "True or False")
 
     t_start = _time.perf_counter()
     conv = P.from_fraction
@@ -410,6 +419,7 @@ def two_trajectory_lle(
 
     log_growth = np.empty(periods)
     dts = np.empty(periods)
+    strobe = np.empty((periods, 2))  # the fiducial's stroboscopic samples (the attractor test)
     impacts = 0
     straddles = grazing_misses = collapses = 0
     bar = Progress(periods, "two-trajectory LLE", bool(progress))
@@ -431,6 +441,7 @@ def two_trajectory_lle(
         fid.ta.time = t_next
         per.ta.time = t_next
         xf, vf = fid.ta.state[0], fid.ta.state[1]
+        strobe[j] = float(xf), float(vf)
         m = arith.measure(per.ta.state[0] - xf, per.ta.state[1] - vf)
         if m is None:
             collapses += 1
@@ -472,4 +483,10 @@ def two_trajectory_lle(
         elapsed_s=elapsed,
         stats=dict(straddles=straddles, grazing_misses=grazing_misses, collapses=collapses, flips=flips[0], d0=d0q),
     )
+    if attractors:
+        from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
+
+        tail = strobe[-3 * MAX_PERIOD:]
+        attribute(result, [(tail[:, 0], tail[:, 1])], [(result.lle, math.nan, blocks)],
+                  P.name if P.kind in ("float64", "mp") else "float64")
     return result

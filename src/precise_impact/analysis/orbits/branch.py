@@ -1,0 +1,289 @@
+"""Result types of continuation: a branch, a located bifurcation, and the whole run."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.core.params import Params, decimal_str
+from precise_impact.core.result import ResultMixin
+
+__all__ = ["Branch", "Bifurcation", "ContinuationResult"]
+
+
+@dataclasses.dataclass
+class Branch(ResultMixin):
+    """One continued branch of period-``p`` orbits with ``n`` impacts.
+
+    Attributes
+    ----------
+    parameter : str
+        The continued parameter.
+    period, impacts : int
+        Forcing periods and impacts per orbit.
+    origin : str
+        ``'start'`` or where it was switched to (``'period-doubling of branch K at ...'``).
+    values : numpy.ndarray of float, shape ``(m,)``
+        The parameter along the branch (in continuation order; it turns back at folds).
+    x, v : numpy.ndarray of float, shape ``(m, p)``
+        The ``p`` stroboscopic states ``(x, v)`` at ``t0 + k T`` of each orbit.
+    multipliers : numpy.ndarray of float, shape ``(m, 2, 2)``
+        Floquet multipliers as ``[re, im]`` pairs, largest modulus first.
+    stable : numpy.ndarray of bool
+        Every multiplier inside the unit circle.
+    admissible : numpy.ndarray of bool
+        The orbit is physical: every flight stays below the wall and every impact
+        arrives with ``v^- >= 0`` (false past a grazing point: a *virtual* orbit).
+    lle : numpy.ndarray of float
+        ``ln |mu_max| / (p T)``.
+    stop_reason : str
+        Why the branch ended.
+    """
+
+    parameter: str
+    period: int
+    impacts: int
+    origin: str
+    values: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    multipliers: np.ndarray
+    stable: np.ndarray
+    admissible: np.ndarray
+    lle: np.ndarray
+    stop_reason: str
+
+    @classmethod
+    def from_points(cls, parameter: str, period: int, impacts: int, origin: str, pts: list, reason: str) -> "Branch":
+        return cls(parameter=parameter, period=period, impacts=impacts, origin=origin,
+                   values=np.array([p.lam for p in pts]),
+                   x=np.array([p.states[:, 0] for p in pts]).reshape(len(pts), period),
+                   v=np.array([p.states[:, 1] for p in pts]).reshape(len(pts), period),
+                   multipliers=np.array([[[m.real, m.imag] for m in p.mu] for p in pts]).reshape(len(pts), 2, 2),
+                   stable=np.array([abs(p.mu[0]) < 1 for p in pts]),
+                   admissible=np.array([p.admissible for p in pts]),
+                   lle=np.array([p.lle for p in pts]), stop_reason=reason)
+
+
+@dataclasses.dataclass
+class Bifurcation(ResultMixin):
+    """A located bifurcation point of a branch.
+
+    Attributes
+    ----------
+    type : str
+        ``'grazing'``, ``'period-doubling'``, ``'fold'``, ``'branch-point'`` or
+        ``'neimark-sacker'``.
+    parameter : str
+        The continued parameter; :meth:`to_dict` also gives the value under its name.
+    value : float
+        The parameter at the point (located to the precision of its test function).
+    branch : int
+        Index of the branch it lies on.
+    period, impacts : int
+        Of that branch.
+    x, v : list of float
+        The ``p`` stroboscopic states of the orbit at the point.
+    multipliers : list of [re, im]
+        Floquet multipliers at the point.
+    admissible : bool
+        The orbit at the point is physical (see :attr:`Branch.admissible`).
+    test : float
+        The test function's value at the returned point (how close to zero it got).
+    detail : str
+        Which grazing (interior maximum or impact velocity), or the branch switched to.
+    """
+
+    type: str
+    parameter: str
+    value: float
+    branch: int
+    period: int
+    impacts: int
+    x: list
+    v: list
+    multipliers: list
+    admissible: bool
+    test: float
+    detail: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"type", NAME: value, "parameter", "value", ...}`` (NAME the continued parameter)."""
+        d = super().to_dict()
+        return {"type": self.type, self.parameter: self.value, **{k: v for k, v in d.items() if k != "type"}}
+
+
+@dataclasses.dataclass
+class ContinuationResult(ResultMixin):
+    """Branches of periodic orbits and their bifurcations (:func:`continue_orbit`).
+
+    Attributes
+    ----------
+    params : Params
+        The system at the start of the range.
+    parameter : str
+        The continued parameter.
+    start, stop : Fraction
+        The range (exact).
+    branches : list of Branch
+        Branch 0 starts at ``start``; period-doubling switches add the others.
+    bifurcations : list of Bifurcation
+        Every located point, by branch and along the range.
+    elapsed_s : float
+        Wall time (diagnostic).
+    """
+
+    params: Params
+    parameter: str
+    start: Fraction
+    stop: Fraction
+    branches: list
+    bifurcations: list
+    elapsed_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The CLI's ``--json`` object: ``params``, ``parameter``, ``from``, ``to``, ``branches``
+        (each with its points) and ``bifurcations`` (``[{"type", NAME: value, ...}]``)."""
+        return {"params": self.params.decimal(), "parameter": self.parameter, "from": decimal_str(self.start),
+                "to": decimal_str(self.stop), "branches": [b.to_dict() for b in self.branches],
+                "bifurcations": [b.to_dict() for b in self.bifurcations], "elapsed_s": self.elapsed_s}
+
+    def plot(self, path: str | os.PathLike, diagram: tuple | None = None) -> Path:
+        """Stroboscopic ``x`` of every branch (stable solid, unstable dashed, virtual dotted
+        grey) with the bifurcation points, over a brute-force diagram; LLE beneath.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Output image (PNG; ``.pdf``/``.svg`` by suffix), written atomically with the
+            object API (the user's backend is never changed).
+        diagram : tuple or None, default ``None``
+            ``(values, x)`` of a brute-force diagram (:func:`brute_force_diagram`) drawn
+            beneath in grey dots.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+        """
+        from precise_impact.io.figures import new_figure, save_figure
+
+        fig, axes = new_figure(2, 1, figsize=(10, 7.5), layout="tight", sharex=True,
+                               gridspec_kw={"height_ratios": [3, 2]})
+        ax1, ax2 = axes[:, 0]
+        if diagram is not None:
+            vals, xs = diagram
+            ax1.plot(np.repeat(vals, xs.shape[1]), xs.ravel(), ",", color="0.55", alpha=0.6, zorder=0)
+            ax1.plot([], [], ".", color="0.55", label="brute force (simulated attractors)")
+        colors = ["tab:blue", "tab:purple", "tab:brown", "tab:cyan", "tab:olive", "tab:pink", "tab:green", "tab:gray"]
+        for k, b in enumerate(self.branches):
+            c = colors[k % len(colors)]
+            kind = np.where(~b.admissible, 2, np.where(b.stable, 0, 1))
+            for lo, hi in _runs(kind):
+                sl = slice(lo, min(hi + 1, len(kind)))
+                style = {0: dict(ls="-", lw=1.6, color=c), 1: dict(ls="--", lw=1.2, color=c),
+                         2: dict(ls=":", lw=0.9, color="0.6")}[int(kind[lo])]
+                for j in range(b.period):
+                    ax1.plot(b.values[sl], b.x[sl, j], **style)
+                ax2.plot(b.values[sl], b.lle[sl], **style)
+            ax1.plot([], [], color=c, label=f"branch {k}: period {b.period}, {b.impacts} impact(s)")
+        ax1.plot([], [], "k-", label="stable")
+        ax1.plot([], [], "k--", label="unstable")
+        ax1.plot([], [], ":", color="0.6", label="virtual (past grazing)")
+        marks = {"grazing": ("o", "tab:orange"), "period-doubling": ("s", "tab:red"), "fold": ("^", "tab:green"),
+                 "branch-point": ("v", "tab:olive"), "neimark-sacker": ("D", "tab:pink")}
+        seen = set()
+        for bif in self.bifurcations:
+            m, c = marks[bif.type]
+            lab = bif.type if bif.type not in seen else None
+            seen.add(bif.type)
+            ax1.plot([bif.value] * len(bif.x), bif.x, m, color=c, ms=6, mfc=c if bif.admissible else "none", label=lab,
+                     zorder=5)
+        xw = float(self.params.x_w) if self.parameter != "x_w" else None
+        if xw is not None:
+            ax1.axhline(xw, color="tab:red", lw=0.7)
+        ax1.set_ylabel("x at t0 + kT")
+        ax1.legend(loc="best", fontsize=7)
+        ax2.axhline(0, color="k", lw=0.6)
+        ax2.set_ylabel("LLE = ln|mu_max| / (pT)")
+        ax2.set_xlabel(self.parameter)
+        p = self.params
+        fig.suptitle(f"Continuation in {self.parameter} from {decimal_str(self.start)} to {decimal_str(self.stop)} "
+                     f"(zeta={decimal_str(p.zeta)}, a={decimal_str(p.a)}, x_w={decimal_str(p.x_w)}, "
+                     f"R={decimal_str(p.R)}, eta={decimal_str(p.eta)})", fontsize=10)
+        return save_figure(fig, path, fmt="png", dpi=120)
+
+    def save_all(self, out: str | os.PathLike, diagram: tuple | None = None) -> dict[str, Path]:
+        """``continuation.json`` and ``continuation.png`` (with the brute-force diagram beneath) in ``out``.
+
+        Parameters
+        ----------
+        out : str or os.PathLike
+            Directory (created).
+        diagram : tuple or None, default ``None``
+            As in :meth:`plot`.
+
+        Returns
+        -------
+        dict
+            ``{"json": path, "png": path}``.
+        """
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        files = {"json": self.save(out / "continuation.json")}
+        files["png"] = self.plot(out / "continuation.png", diagram=diagram)
+        return files
+
+
+def _runs(kind: np.ndarray):
+    """Maximal runs ``[lo, hi)`` of equal values."""
+    lo = 0
+    for i in range(1, len(kind) + 1):
+        if i == len(kind) or kind[i] != kind[lo]:
+            yield lo, i
+            lo = i
+
+
+def brute_force_diagram(params: Params, parameter: str, start: float, stop: float, n: int = 200,
+                        periods: int = 64, transient: int = 1000) -> tuple:
+    """Stroboscopic ``x`` of the simulated attractor at ``n`` values of ``parameter``.
+
+    Parameters
+    ----------
+    params : Params
+        The system (``parameter`` replaced by each value; every run starts at its ``(x0, v0)``).
+    parameter : str
+        The varied parameter.
+    start, stop : float
+        Range (both included).
+    n : int, default 200
+        Values.
+    periods, transient : int, default 64, 1000
+        Recorded and discarded periods per value.
+
+    Returns
+    -------
+    tuple
+        ``(values, x)``: ``x`` of shape ``(n, periods)`` (NaN where the fast engine
+        handed over, chattering or sticking, and the value is skipped).
+    """
+    from precise_impact.solvers.fast import FastSolver
+
+    vals = np.linspace(start, stop, n)
+    xs = np.full((n, periods), math.nan)
+    solver = FastSolver(fallback=False)
+    for i, lam in enumerate(vals):
+        q = params.replace(**{parameter: Fraction(float(lam))})
+        try:
+            tr = solver.solve(q, transient + periods, per_period=1)
+        except Exception:  # chattering/sticking without the heyoka fallback: left out of the picture
+            continue
+        xs[i] = np.asarray(tr.x[-periods:], dtype=float)
+    return vals, xs
+
