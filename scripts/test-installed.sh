@@ -116,7 +116,7 @@ PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cachep
   "$repo/tests/test_variational.py" "$repo/tests/test_threads.py" "$repo/tests/test_reference_data.py" \
   "$repo/tests/test_api.py" "$repo/tests/test_layering.py" "$repo/tests/test_packaging.py" \
   "$repo/tests/test_sweep.py" "$repo/tests/test_workprecision.py" "$repo/tests/test_fast.py" \
-  "$repo/tests/test_coupled_fast.py"
+  "$repo/tests/test_coupled_fast.py" "$repo/tests/test_certified.py"
 took
 
 echo "== all checks passed in $((SECONDS - t_all)) s"

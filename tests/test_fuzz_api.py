@@ -126,6 +126,22 @@ def _call_continue(**kw):
     return continue_orbit(base.pop("params", Params.make(R="0.8")), **base)
 
 
+def _call_certify(**kw):
+    from precise_impact import certify
+
+    base = dict(periods=2, bits=128)
+    base.update(kw)
+    return certify(base.pop("params", Params.make()), **base)
+
+
+def _call_prove(**kw):
+    from precise_impact import prove_orbit
+
+    base = dict(period=1, bits=128, guess=("102/53", "49/265"), impacts=0)
+    base.update(kw)
+    return prove_orbit(base.pop("params", Params.make(eta="0.70")), **base)
+
+
 #: (callable, the arguments to fuzz); each call with valid defaults takes milliseconds.
 ENTRY_POINTS = {
     "Params.make": (lambda **kw: Params.make(**kw), ["eta", "zeta", "a", "x_w", "R", "x0", "v0", "t0"]),
@@ -148,12 +164,15 @@ ENTRY_POINTS = {
     "find_orbit": (_call_orbit, ["params", "period", "guess", "transient", "impacts", "max_iterations",
                                  "precision"]),
     "one_impact_orbits": (_call_one_impact, ["params", "dps", "grid"]),
+    "certify": (_call_certify, ["params", "periods", "bits", "target_radius", "max_bits"]),
+    "prove_orbit": (_call_prove, ["params", "period", "guess", "impacts", "bits", "radius", "transient"]),
     "continue_orbit": (_call_continue, ["params", "parameter", "start", "stop", "period", "impacts", "guess",
                                         "transient", "max_points", "doublings", "virtual"]),
 }
 #: Outcomes that are answers, not failures, for some entry points: Newton may not reach an
 #: orbit (ConvergenceError) or meet a tangential contact on the way (IntegrationError).
-ANSWERS = {"find_orbit": (IntegrationError,), "continue_orbit": (IntegrationError,)}
+ANSWERS = {"find_orbit": (IntegrationError,), "continue_orbit": (IntegrationError,), "certify": (IntegrationError,),
+           "prove_orbit": (IntegrationError,)}
 CASES = [(name, arg) for name, (_, args) in ENTRY_POINTS.items() for arg in args]
 
 

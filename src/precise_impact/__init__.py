@@ -45,6 +45,7 @@ from precise_impact.solvers.base import MODEL_ALIASES, MODELS, Solver, make_solv
 from precise_impact.solvers.simulate import simulate
 from precise_impact.solvers.heyoka import HeyokaSolver
 from precise_impact.solvers.analytical import AnalyticalSolver
+from precise_impact.solvers.certified import CertificationError, CertifiedSolver, CertifiedTrajectory, certify
 from precise_impact.models.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled
 from precise_impact.models.circuit.components import Components, nominal_components
 from precise_impact.models.circuit.effects.catalogue import EFFECTS
@@ -64,6 +65,8 @@ from precise_impact.analysis.orbits import (
     continue_orbit,
     find_orbit,
     one_impact_orbits,
+    prove_orbit,
+    ProvenOrbit,
 )
 from precise_impact.analysis.sync import SyncResult, sync_scan
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
@@ -89,6 +92,7 @@ __all__ = [
     "saltation_matrix", "ResultMixin", "Trajectory",
     # solvers
     "MODELS", "MODEL_ALIASES", "Solver", "make_solver", "simulate", "HeyokaSolver", "AnalyticalSolver",
+    "certify", "CertifiedTrajectory", "CertificationError", "CertifiedSolver",
     # models
     "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "Components", "nominal_components", "EFFECTS",
     "CircuitSolver", "SwitchedCapacitorSolver", "SpiceSolver", "CoupledCircuitTrajectory",
@@ -97,7 +101,7 @@ __all__ = [
     "LYAPUNOV_METHODS", "LyapunovResult", "lyapunov", "detect_period", "SyncResult", "sync_scan",
     "BifurcationResult", "bifurcation", "SweepSpec", "SweepResult", "load_sweep", "run_sweep",
     "PeriodicOrbit", "find_orbit", "one_impact_orbits", "ConvergenceError", "continue_orbit", "Branch", "Bifurcation",
-    "ContinuationResult", "brute_force_diagram",
+    "ContinuationResult", "brute_force_diagram", "prove_orbit", "ProvenOrbit",
     # scenes
     "Scene", "builtin_scenes", "load_scene", "run_scene",
     # verification

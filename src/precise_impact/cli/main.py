@@ -107,6 +107,17 @@ def build_parser() -> argparse.ArgumentParser:
     ob.add_argument("--precision", default="float64", metavar="P", help="float64 or mp:BITS (Newton refined to that precision)")
     ob.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
+    ce = sub.add_parser("certify", help="a certified trajectory: every sample and impact in a proven ball "
+                                        "(ball arithmetic, python-flint)")
+    _add_param_flags(ce)
+    ce.add_argument("--periods", default="300", metavar="N", help="forcing periods (default 300)")
+    ce.add_argument("--bits", default=None, metavar="B",
+                    help="working precision (default: chosen from --target and the measured radius growth)")
+    ce.add_argument("--target", default="1e-30", metavar="R", help="radius wanted at every sample (default 1e-30)")
+    ce.add_argument("--max-bits", dest="max_bits", default="8192", metavar="B",
+                    help="bits are doubled after a failed proof up to this (default 8192)")
+    ce.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+
     co = sub.add_parser("continue", help="continue a branch of periodic orbits in one parameter: stability, "
                                          "grazing, period-doubling (with branch switching), fold")
     co.add_argument("--param", nargs=3, required=True, metavar=("NAME", "FROM", "TO"),
@@ -318,6 +329,29 @@ def _cmd_orbit(ns) -> int:
           f"({o.precision})")
     print(f"Floquet multipliers {mus}: {'stable' if o.stable else 'unstable'}; LLE = ln|mu_max| / (p T) = {o.lle:.10g}")
     print(f"residual |P^p(z) - z| = {o.residual:.3g} after {o.iterations} Newton iteration(s)")
+    return 0
+
+
+def _cmd_certify(ns) -> int:
+    from precise_impact.core.params import check_count
+    from precise_impact.solvers.certified import MAX_BITS, certify
+
+    params = _params_from(ns)
+    max_bits = check_count(ns.max_bits, "max_bits", MAX_BITS, minimum=64)
+    bits = None if ns.bits is None else check_count(ns.bits, "bits", max_bits, minimum=64)
+    r = certify(params, ns.periods, bits=bits, target_radius=ns.target, max_bits=max_bits,
+                progress=None if ns.json else True)
+    if ns.json:
+        json.dump(r.to_dict(), sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    last = r.to_dict()["samples"][-1]
+    print(f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits ({r.bits_choice}) "
+          f"in {r.elapsed_s:.2f} s")
+    print(f"largest radius {r.max_radius():.2e}; radius growth {r.growth_digits_per_period():.3f} decimal digits "
+          f"per period")
+    print(f"x({last['period']} T) = {last['x']} +- {last['x_rad']}")
+    print(f"v({last['period']} T) = {last['v']} +- {last['v_rad']}")
     return 0
 
 
@@ -627,6 +661,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "lle": _cmd_lle,
             "orbit": _cmd_orbit,
             "continue": _cmd_continue,
+            "certify": _cmd_certify,
             "bifurcation": _cmd_bifurcation,
             "sync": _cmd_sync,
             "sweep": _cmd_sweep,

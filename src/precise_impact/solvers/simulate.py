@@ -44,10 +44,21 @@ def _fast(prec: Precision, tol: Any, **options: Any) -> Solver:
     return FastSolver(**options)
 
 
+def _certified(prec: Precision, tol: Any, **options: Any) -> Solver:
+    if prec.kind != "mp":
+        raise ParameterError("precision", prec.name, "'mp:BITS' for the certified model (ball arithmetic at BITS)")
+    if tol is not None:
+        raise ParameterError("tol", str(tol), "the certified model takes no tolerance (proven enclosures at BITS)")
+    from precise_impact.solvers.certified import CertifiedSolver  # python-flint is imported only when asked for
+
+    return CertifiedSolver(prec.bits, **options)
+
+
 register_model("heyoka", "heyoka Taylor integrator with impact events (the mechanical reference)", _heyoka)
 register_model("analytical", "closed-form segments, robust impact finder (cannot miss a crossing)", _analytical("robust"))
 register_model("analytical-paper", "closed-form segments, the paper's 1e-3 T scan + bisection", _analytical("paper"))
 register_model("fast", "compiled closed form (numba, float64): cannot miss a crossing; heyoka for contacts", _fast)
+register_model("certified", "ball arithmetic on the closed form (python-flint, mp:BITS): proven enclosures", _certified)
 
 
 _PER_THREAD = threading.local()

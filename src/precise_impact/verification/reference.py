@@ -86,6 +86,8 @@ BIF_KEEP_X = 8
 VERIFY_PERIODS = 20
 
 MANIFEST = "manifest.json"
+#: The proof beside a single case (:mod:`precise_impact.verification.certificate`).
+CERTIFICATE_FILE = "certificate.json"
 
 
 #: Environment variable naming a dataset directory that replaces the shipped one everywhere.
@@ -242,7 +244,7 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
         strobe_v=f64["v"],
         impacts_t=f64["impacts_t"],
     )
-    return write_manifest(
+    write_manifest(
         case_dir,
         ["samples.json", "dense.npz"],
         {
@@ -272,6 +274,10 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
             },
         },
     )
+    from precise_impact.verification.certificate import add_certificate
+
+    _log(f"  {case}: certifying (proven error bounds of the stored decimals)", progress)
+    return add_certificate(case_dir)
 
 
 # ------------------------------------------------------------------ coupled
@@ -616,6 +622,12 @@ def verify(root: str | Path | None = None, cases: Sequence[str] | str | None = N
     """
     root = default_root() if root is None else Path(root)
     problems: list[str] = []
+    import importlib.util
+
+    if importlib.util.find_spec("flint") is None:  # the proofs need python-flint (a dependency)
+        from precise_impact.errors import OptionalDependencyError
+
+        raise OptionalDependencyError("python-flint", "re-checking the references' proofs", "pip install python-flint")
     for case in _check_cases(cases):
         case_dir = root / case
         p = checksum_problems(case_dir, case)
@@ -625,6 +637,10 @@ def verify(root: str | Path | None = None, cases: Sequence[str] | str | None = N
         try:
             if case in SINGLE_CASES:
                 problems += _recompute_single(case, case_dir)
+                if CERTIFICATE_FILE in read_manifest(case_dir)["files"]:
+                    from precise_impact.verification.certificate import check_certificate
+
+                    problems += check_certificate(case, case_dir)
             elif case == "coupled-fig7":
                 problems += _recompute_coupled(case, case_dir)
             else:

@@ -1,0 +1,621 @@
+"""Certified trajectories: every sample and impact enclosed in a ball proven to contain the truth.
+
+Between impacts the oscillator is linear, so the flight from ``(s, x_s, v_s)`` is a closed form
+(the steady state ``x_p = P cos(eta t) + Q sin(eta t)`` plus a damped homogeneous part).  This
+engine evaluates it in ball arithmetic (python-flint's ``arb``: midpoint-radius intervals with
+rigorous rounding), from the exact rational parameters, so an enclosure of ``x(t), v(t)`` is
+proven, not estimated.  The impacts are *isolated*:
+
+* **no earlier crossing**: time is scanned in intervals ``I = m + [-h/2, h/2]``; a second-order
+  Taylor enclosure ``x(I) in x(m) + |v(m)| h/2 + A h^2/8`` with ``A`` a proven bound of
+  ``|x''|`` over the flight (:meth:`_Flight.acceleration_bound`) shows ``x < x_w`` on ``I``, or
+  ``I`` is bisected;
+* **one crossing**: on a sub-interval where ``v > 0`` is proven and ``x - x_w`` changes sign
+  (proven at its ends), the crossing is unique;
+* **interval Newton** ``N(J) = m - (x(m) - x_w) / v(J)`` narrows it to the working precision;
+* the **reset** ``v+ = -R v-`` is applied to the balls, and the next flight starts from the
+  ball of the impact time at ``x = x_w`` exactly.
+
+Where a proof is impossible at the working precision -- a crossing that cannot be separated
+from a graze, a tangential or sticking impact, an impact on a sample time -- it raises
+:class:`CertificationError` naming the time and the ball (never a guess); :func:`certify`
+then retries at twice the bits up to ``max_bits``.
+
+python-flint's working precision is one process-wide setting: certified runs hold a lock, so
+threads take turns (each run's numbers are those of its own bits).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+import time
+from fractions import Fraction
+from typing import Any
+
+from precise_impact.core.params import Params, check_count, params_or_values
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import IntegrationError, OptionalDependencyError, ParameterError
+
+__all__ = ["certify", "CertifiedTrajectory", "CertificationError", "CertifiedSolver", "ball_str", "working_bits",
+           "flow_matrix", "run_balls", "to_ball", "exact_value", "MAX_BITS", "MIN_BITS"]
+
+#: Bounds of the working precision (bits).
+MIN_BITS, MAX_BITS = 64, 16384
+#: Bisection depth at which an interval that is neither cleared nor isolated is declared a
+#: tangency the working precision cannot resolve (halves of a forcing period: 2^-60 T ~ 1e-17 T
+#: beyond the bits' own limit is never needed).
+_MAX_DEPTH_EXTRA = 40
+_LOCK = threading.RLock()
+
+
+class CertificationError(IntegrationError):
+    """No proof at this precision: the message names the time and the ball."""
+
+
+def _flint():
+    try:
+        import flint
+    except ImportError as e:  # pragma: no cover - CI installs it
+        raise OptionalDependencyError("python-flint", "certified trajectories (ball arithmetic)",
+                                      "pip install python-flint") from e
+    return flint
+
+
+def to_ball(q: Fraction):
+    """The exact rational ``q`` as a python-flint ball at the current working precision."""
+    flint = _flint()
+    return flint.arb(flint.fmpq(q.numerator, q.denominator))
+
+
+def exact_value(exact_arb) -> Fraction:
+    """An exact arb (a dyadic point, e.g. a midpoint or a radius) as the Fraction it is."""
+    man, exp = exact_arb.man_exp()
+    man, exp = int(man), int(exp)
+    return Fraction(man * 2**exp) if exp >= 0 else Fraction(man, 2 ** (-exp))
+
+
+def ball_str(b, digits: int | None = None) -> tuple[str, str]:
+    """``(midpoint, radius)`` of a ball as decimal strings, rigorously: the radius is rounded up
+    and includes the decimal rounding of the midpoint, so ``[mid - rad, mid + rad]`` contains
+    the ball.
+
+    Parameters
+    ----------
+    b : flint.arb
+        The ball.
+    digits : int or None, default ``None``
+        Significant digits of the midpoint; ``None``: three more than the ball's accuracy.
+
+    Returns
+    -------
+    tuple of str
+        Midpoint and radius (the radius with 3 significant digits, rounded up).
+    """
+    from decimal import ROUND_CEILING, Decimal, localcontext
+
+    mid, rad = exact_value(b.mid()), exact_value(b.rad())
+    if digits is None:
+        if rad == 0:
+            digits = 40
+        else:
+            scale = max(abs(mid), rad)
+            digits = max(3, int(math.ceil(math.log10(float(scale / rad)) if scale / rad < 10**300 else 300)) + 3)
+    with localcontext() as ctx:
+        ctx.prec = digits
+        dm = Decimal(mid.numerator) / Decimal(mid.denominator)  # rounded to `digits`
+    err = abs(Fraction(dm) - mid) + rad
+    if err == 0:
+        return format(dm, "f") if abs(dm) < 10**6 else str(dm), "0"
+    with localcontext() as ctx:
+        ctx.prec = 3
+        ctx.rounding = ROUND_CEILING
+        dr = Decimal(err.numerator) / Decimal(err.denominator)
+    return str(dm), str(dr).replace("E", "e")
+
+
+class _Flight:
+    """The closed-form flight from ``(s, x_s, v_s)``, all balls, evaluated at ball or point times."""
+
+    def __init__(self, c: "_Constants", s, xs, vs) -> None:
+        self.c = c
+        self.s = s
+        cs, ss = c.phase(s)
+        self.hx = xs - (c.P * cs + c.Q * ss)
+        self.hv = vs - c.eta * (c.Q * cs - c.P * ss)
+        self._amax = None
+
+    def at(self, t):
+        c = self.c
+        st, ct = (c.eta * t).sin_cos()
+        tau = t - self.s
+        e = (-c.zeta * tau).exp()
+        sw, cw = (c.w * tau).sin_cos()
+        x = c.P * ct + c.Q * st + e * ((cw + c.zw * sw) * self.hx + sw * c.iw * self.hv)
+        v = c.eta * (c.Q * ct - c.P * st) + e * (-sw * c.iw * self.hx + (cw - c.zw * sw) * self.hv)
+        return x, v
+
+    def acceleration_bound(self):
+        """A proven bound of ``|x''|`` on the flight (``tau >= 0``): ``|a| + 2 zeta B_v + B_x`` with
+        ``B_x, B_v`` bounds of ``|x|, |v|`` from the closed form (``e^(-zeta tau) <= 1``)."""
+        if self._amax is None:
+            c = self.c
+            amp = (c.P * c.P + c.Q * c.Q).sqrt()
+            hx, hv = abs(self.hx), abs(self.hv)
+            bx = amp + hx * (1 + c.zw) + hv * c.iw
+            bv = c.eta * amp + hx * c.iw + hv * (1 + c.zw)
+            self._amax = (abs(c.a) + 2 * c.zeta * bv + bx).upper()
+        return self._amax
+
+
+class _Constants:
+    def __init__(self, params: Params, bits: int) -> None:
+        from precise_impact.core.flow import steady_state
+
+        flint = _flint()
+        ss = steady_state(params)
+        self.eta, self.zeta, self.a = to_ball(params.eta), to_ball(params.zeta), to_ball(params.a)
+        self.xw, self.R = to_ball(params.x_w), to_ball(params.R)
+        self.P, self.Q = to_ball(ss.P), to_ball(ss.Q)
+        self.w = (1 - self.zeta * self.zeta).sqrt()
+        self.zw, self.iw = self.zeta / self.w, 1 / self.w
+        self.T = 2 * flint.arb.pi() / self.eta
+        self.t0 = to_ball(params.t0)
+        self.bits = bits
+
+    def phase(self, t):
+        st, ct = (self.eta * t).sin_cos()
+        return ct, st
+
+
+def _point(x):
+    """The exact midpoint of a ball (a dyadic point)."""
+    return _flint().arb(x.mid())
+
+
+def _upper(x):
+    return _flint().arb(x.upper())
+
+
+def _lower(x):
+    return _flint().arb(x.lower())
+
+
+def _interval(lo, hi):
+    return lo.union(hi)
+
+
+def _describe(t, what: str) -> str:
+    m, r = ball_str(t, 20)
+    return f"{what} at t = {m} +- {r}"
+
+
+class _Engine:
+    def __init__(self, params: Params, bits: int) -> None:
+        self.p = params
+        self.bits = bits
+        self.c = _Constants(params, bits)
+        self.max_depth = bits + _MAX_DEPTH_EXTRA
+
+    # -- the search for the first crossing in [a, b] (exact points, x(a) < x_w proven)
+    def _first_crossing(self, fl: _Flight, a, b, depth: int):
+        c = self.c
+        h = b - a
+        m = _point((a + b) / 2)
+        xm, vm = fl.at(m)
+        A = fl.acceleration_bound()
+        if xm + abs(vm) * h / 2 + A * h * h / 8 < c.xw:
+            return None  # cleared: x < x_w on [a, b]
+        vlo = vm - A * h / 2
+        vhi = vm + A * h / 2
+        if vhi < 0:
+            return None  # x decreasing from x(a) < x_w
+        if vlo > 0:
+            xb, _ = fl.at(b)
+            if xb < c.xw:
+                return None  # increasing and still below the wall at b
+            if xb > c.xw:
+                return self._newton(fl, a, b)
+        if depth > self.max_depth:
+            raise CertificationError(_describe(_interval(a, b), "a crossing cannot be separated from a graze")
+                                     + f" with x in {fl.at(_interval(a, b))[0]} (x_w = {self.c.xw}) at "
+                                       f"{self.bits} bits")
+        r = self._first_crossing(fl, a, m, depth + 1)
+        return r if r is not None else self._first_crossing(fl, m, b, depth + 1)
+
+    def _newton(self, fl: _Flight, a, b):
+        """The unique crossing in ``[a, b]`` (``v > 0`` proven there, ``x(a) < x_w < x(b)``)."""
+        c = self.c
+        J = _interval(a, b)
+        width = J.rad()
+        for _ in range(200):
+            m = _point(J)
+            xm, _ = fl.at(m)
+            _, vJ = fl.at(J)
+            N = m - (xm - c.xw) / vJ
+            Jn = J.intersection(N)
+            if not (Jn.rad() < width * 0.75):
+                J = Jn
+                break
+            J, width = Jn, Jn.rad()
+        return J
+
+    def _depart(self, fl: _Flight, s):
+        """After an impact at the ball ``s`` (``x = x_w``, ``v+ < 0``): the first point from which the
+        scan may go on, with ``x < x_w`` proven from the impact to it."""
+        c = self.c
+        _, v = fl.at(s)
+        A = fl.acceleration_bound()
+        if not v < 0:
+            raise CertificationError(_describe(s, "a tangential or sticking impact (v+ not proven < 0)")
+                                     + f", v+ in {v}, at {self.bits} bits")
+        h = _point(-v.upper() / (4 * A))  # v stays < 0 for a quarter of |v+| / A
+        while True:
+            b = _point(_upper(s) + h)
+            J = _interval(_lower(s), b)
+            _, vm = fl.at(_point(J))
+            if vm + A * J.rad() < 0:
+                xb, _ = fl.at(b)
+                if xb < c.xw:
+                    return b
+            h = _point(h / 2)
+            if h < s.rad() * 4 or h.is_zero():
+                raise CertificationError(_describe(s, "an impact whose departure cannot be proven")
+                                         + f" at {self.bits} bits")
+
+    def run(self, periods: int, progress=None, start: tuple | None = None):
+        """Samples ``(k, t, x, v)`` and impacts ``(t, v_before, v_after)`` over ``periods``, from
+        the initial condition of the parameters or from ``start = (x0, v0)`` balls at ``t0``
+        (a box: every state in it is followed, the balls enclose them all)."""
+        c = self.c
+        p = self.p
+        x0, v0 = (to_ball(p.x0), to_ball(p.v0)) if start is None else start
+        s = c.t0
+        samples = [(0, c.t0, x0, v0)]
+        impacts = []
+        fl = _Flight(c, s, x0, v0)
+        if start is not None:
+            if not x0 < c.xw:
+                raise CertificationError(f"the start box x in {x0} is not proven below the wall x_w")
+            a = s
+        elif p.x0 == p.x_w:
+            if p.v0 > 0:
+                impacts.append((s, v0, -c.R * v0))
+                fl = _Flight(c, s, c.xw, -c.R * v0)
+            elif p.v0 == 0:
+                raise CertificationError("the start (x0 = x_w, v0 = 0) is a contact: not certified")
+            a = self._depart(fl, s)
+        else:
+            a = s
+        hstep = _point(c.T / 16)
+        for k in range(1, periods + 1):
+            tk = c.t0 + k * c.T
+            end = _upper(tk)
+            while True:
+                b = a + hstep
+                b = _point(b) if b < end else end
+                hit = self._first_crossing(fl, a, b, 0)
+                if hit is None:
+                    if b is end or not (b < end):
+                        break
+                    a = b
+                    continue
+                if hit.overlaps(tk):
+                    raise CertificationError(_describe(hit, "an impact on a sample time") + f" at {self.bits} bits")
+                _, vb = fl.at(hit)
+                va = -c.R * vb
+                impacts.append((hit, vb, va))
+                fl = _Flight(c, hit, c.xw, va)
+                a = self._depart(fl, hit)
+                if not (a < end):
+                    if a.overlaps(tk) or a > end:
+                        # the departure interval reaches past the sample: x < x_w proven on it
+                        break
+            x, v = fl.at(tk)
+            samples.append((k, tk, x, v))
+            a = end
+            if progress is not None:
+                progress.update(k)
+        return samples, impacts
+
+
+def decimal(q: Fraction) -> str:
+    from precise_impact.core.params import decimal_str
+
+    return decimal_str(q)
+
+
+@dataclasses.dataclass
+class CertifiedTrajectory(ResultMixin):
+    """A trajectory with proven enclosures (:func:`certify`).
+
+    Attributes
+    ----------
+    params : Params
+        The system (exact).
+    periods : int
+        Forcing periods; samples at ``t_k = t0 + k 2 pi / eta`` (exact times, enclosed in balls).
+    bits : int
+        Working precision used.
+    bits_choice : str
+        How ``bits`` was chosen (given, or automatic from the target radius and the measured
+        growth, and any retries).
+    samples : list of tuple
+        ``(k, t, x, v)`` with ``t, x, v`` python-flint ``arb`` balls.
+    impacts : list of tuple
+        ``(t, v_before, v_after)`` balls, in order.
+    elapsed_s : float
+        Wall time of the final run (diagnostic).
+    """
+
+    params: Params
+    periods: int
+    bits: int
+    bits_choice: str
+    samples: list
+    impacts: list
+    elapsed_s: float
+
+    @property
+    def x(self) -> list:
+        """The sample balls of ``x``."""
+        return [s[2] for s in self.samples]
+
+    @property
+    def v(self) -> list:
+        """The sample balls of ``v``."""
+        return [s[3] for s in self.samples]
+
+    def radii(self) -> list[float]:
+        """``max(rad x, rad v)`` per sample (floats, rounded up)."""
+        return [float(exact_value(max(s[2].rad(), s[3].rad()))) * (1 + 2**-50) for s in self.samples]
+
+    def max_radius(self) -> float:
+        """The largest radius of any sample."""
+        return max(self.radii())
+
+    def growth_digits_per_period(self) -> float:
+        """Decimal digits of radius lost per forcing period (least squares over the samples after the first)."""
+        r = self.radii()[1:]
+        ks = [k for k in range(1, len(r) + 1) if r[k - 1] > 0]
+        if len(ks) < 2:
+            return 0.0
+        ys = [math.log10(r[k - 1]) for k in ks]
+        km, ym = sum(ks) / len(ks), sum(ys) / len(ys)
+        den = sum((k - km) ** 2 for k in ks)
+        return sum((k - km) * (y - ym) for k, y in zip(ks, ys)) / den if den else 0.0
+
+    def contains(self, k: int, x: Any, v: Any) -> bool:
+        """Whether the exact decimals ``x, v`` lie in sample ``k``'s balls.
+
+        Parameters
+        ----------
+        k : int
+            Sample index (period).
+        x, v : str, Fraction or number
+            The values to check (exact decimals; floats are read as their shortest decimal).
+
+        Returns
+        -------
+        bool
+        """
+        from precise_impact.core.params import exact
+
+        _, _, bx, bv = self.samples[k]
+        return bool(bx.contains(to_ball(exact("x", x, 10**6))) and bv.contains(to_ball(exact("v", v, 10**6))))
+
+    def to_dict(self) -> dict:
+        """The CLI's ``--json`` object: ``params``, ``periods``, ``bits``, ``bits_choice``,
+        ``samples`` (``{"period", "t", "x", "v", "x_rad", "v_rad"}``: decimal midpoints and
+        rigorous radii as decimal strings), ``impacts`` (``{"t", "t_rad", "v_before",
+        "v_after", "v_rad"}``), ``max_radius``, ``growth_digits_per_period``, ``elapsed_s``."""
+        out = []
+        for k, t, x, v in self.samples:
+            tm, _ = ball_str(t)
+            xm, xr = ball_str(x)
+            vm, vr = ball_str(v)
+            out.append({"period": k, "t": tm, "x": xm, "v": vm, "x_rad": xr, "v_rad": vr})
+        imps = []
+        for t, vb, va in self.impacts:
+            tm, tr = ball_str(t)
+            bm, br = ball_str(vb)
+            am, ar = ball_str(va)
+            imps.append({"t": tm, "t_rad": tr, "v_before": bm, "v_after": am, "v_rad": max(br, ar, key=float)})
+        return {"params": self.params.decimal(), "periods": self.periods, "bits": self.bits,
+                "bits_choice": self.bits_choice, "samples": out, "impacts": imps, "max_radius": self.max_radius(),
+                "growth_digits_per_period": self.growth_digits_per_period(), "elapsed_s": self.elapsed_s}
+
+
+class working_bits:
+    """``with working_bits(bits):`` python-flint at ``bits`` under the engine's lock (restored after)."""
+
+    def __init__(self, bits: int) -> None:
+        self.bits = bits
+
+    def __enter__(self):
+        flint = _flint()
+        _LOCK.acquire()
+        self.old = flint.ctx.prec
+        flint.ctx.prec = self.bits
+        return self
+
+    def __exit__(self, *exc) -> None:
+        _flint().ctx.prec = self.old
+        _LOCK.release()
+
+
+def flow_matrix(c: "_Constants", tau):
+    """The homogeneous (and tangent) flow ``Phi(tau)`` of a flight as a 2x2 list of balls."""
+    e = (-c.zeta * tau).exp()
+    sw, cw = (c.w * tau).sin_cos()
+    return [[e * (cw + c.zw * sw), e * sw * c.iw], [-e * sw * c.iw, e * (cw - c.zw * sw)]]
+
+
+def run_balls(params: Params, periods: int, bits: int, start: tuple | None = None) -> tuple:
+    """``(samples, impacts, constants)`` of one certified run at ``bits`` (the caller holds
+    :class:`working_bits`); ``start``: ``(x0, v0)`` balls at ``t0`` instead of the parameters'."""
+    eng = _Engine(params, bits)
+    samples, impacts = eng.run(periods, None, start)
+    return samples, impacts, eng.c
+
+
+def _run(params: Params, periods: int, bits: int, progress) -> tuple:
+    with working_bits(bits):
+        return _Engine(params, bits).run(periods, progress)
+
+
+def certify(params: Any = None, periods: int = 300, *, bits: int | None = None, target_radius: Any = "1e-30",
+            max_bits: int = 8192, progress: bool | None = None, **param_values: Any) -> CertifiedTrajectory:
+    """A certified trajectory: every stroboscopic sample and impact enclosed in a proven ball.
+
+    Parameters
+    ----------
+    params : Params, mapping or None, default ``None``
+        The system and initial condition (exact rationals); ``None``: the paper's defaults
+        with ``param_values``.
+    periods : int, default 300
+        Forcing periods (``1 <= periods <= 100000``).
+    bits : int or None, default ``None``
+        Working precision (``64 <= bits <= max_bits``).  ``None`` chooses it: a pilot run
+        of ``min(periods, 40)`` periods at 128 bits measures the growth of the radius per
+        period, and the bits are set so that the last sample's radius is below
+        ``target_radius`` with two decimal digits to spare (rounded up to a multiple of 64).
+    target_radius : decimal, default ``'1e-30'``
+        The radius wanted at every sample when ``bits`` is ``None``
+        (``1e-3000 <= target_radius <= 1e-3``).
+    max_bits : int, default 8192
+        The precision is doubled (from ``bits`` or the automatic choice) after a failed proof
+        or a missed target, up to this (``<= 16384``).
+    progress : bool or None, default ``None``
+        A progress line on stderr (``None``: only when stderr is a terminal).
+    **param_values
+        Parameter values replacing those of ``params``.
+
+    Returns
+    -------
+    CertifiedTrajectory
+        Balls of every sample and impact, the bits used and how they were chosen.
+
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+    CertificationError
+        No proof up to ``max_bits`` (a tangential contact, chattering, an impact on a sample
+        time); the message names the time and the ball.
+    OptionalDependencyError
+        python-flint is not installed.
+
+    References
+    ----------
+    .. [1] F. Johansson, "Arb: efficient arbitrary-precision midpoint-radius interval
+           arithmetic", IEEE Trans. Comput. 66 (2017) 1281-1292.
+    .. [2] R. E. Moore, R. B. Kearfott, M. J. Cloud, *Introduction to Interval Analysis*,
+           SIAM 2009, ch. 8 (interval Newton).
+    """
+    from precise_impact.core.params import exact
+    from precise_impact.io.progress import Progress
+
+    params = params_or_values(params, param_values)
+    periods = check_count(periods, "periods", 100_000, minimum=1)
+    max_bits = check_count(max_bits, "max_bits", MAX_BITS, minimum=MIN_BITS)
+    if bits is not None:
+        bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
+    target = exact("target_radius", target_radius, 3000)
+    if not Fraction(1, 10**3000) <= target <= Fraction(1, 1000):
+        raise ParameterError("target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3")
+    if not params.zeta < 1:
+        raise ParameterError("zeta", str(params.zeta), "0 <= zeta < 1 (underdamped) for the certified engine")
+    if (1 - params.eta**2) ** 2 + (2 * params.zeta * params.eta) ** 2 == 0:
+        raise ParameterError("zeta", "0", "zeta > 0 at eta = 1 (the undamped resonance has no steady state)")
+    _flint()
+    if params.x0 > params.x_w:
+        raise ParameterError("x0", str(params.x0), f"x0 <= x_w = {decimal(params.x_w)}")
+    choice = "given"
+    if bits is None:
+        n_pilot = min(periods, 40)
+        pilot = CertifiedTrajectory(params, n_pilot, 128, "pilot", *_run(params, n_pilot, 128, None), 0.0)
+        g = max(pilot.growth_digits_per_period(), 0.0)
+        r_pilot = math.log10(max(pilot.radii()[-1], 1e-300))
+        # radius ~ 10^(r_pilot + g (N - n_pilot) - 0.30103 (bits - 128)); two digits to spare
+        need = r_pilot + g * (periods - n_pilot) - math.log10(float(target)) + 2
+        bits = int(64 * math.ceil(max(128, 128 + need / 0.30103) / 64))
+        choice = (f"automatic: radius growth {g:.3f} digits/period (pilot of {n_pilot} periods at 128 bits) "
+                  f"-> {bits} bits for radius {float(target):.0e} after {periods} periods")
+        if bits > max_bits:
+            raise ParameterError("target_radius", str(target_radius),
+                                 f"a target reachable within max_bits = {max_bits} (needs ~{bits} bits)")
+    bar = Progress(periods, "certified periods", enabled=progress)
+    while True:
+        t0 = time.perf_counter()
+        try:
+            samples, impacts = _run(params, periods, bits, bar)
+            res = CertifiedTrajectory(params, periods, bits, choice, samples, impacts, time.perf_counter() - t0)
+            if choice.startswith("given") or res.max_radius() <= float(target) or 2 * bits > max_bits:
+                bar.update(periods)
+                return res
+            choice += f"; radius {res.max_radius():.1e} missed the target at {bits} bits, retried at {2 * bits}"
+        except CertificationError as e:
+            if 2 * bits > max_bits:
+                raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
+            choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
+        bits *= 2
+
+
+class CertifiedSolver:
+    """The certified engine as a model of the registry (``model='certified'``, ``precision='mp:BITS'``).
+
+    Its :class:`~precise_impact.core.trajectory.Trajectory` holds the balls' midpoints in the
+    working precision; ``stats['x_rad']``, ``stats['v_rad']`` (floats, rounded up) and
+    ``stats['max_radius']`` carry the proven radii.  Dense output is not offered
+    (``per_period`` must be 0): use :func:`certify` for the balls themselves.
+
+    Parameters
+    ----------
+    bits : int
+        Working precision (``MIN_BITS <= bits <= MAX_BITS``).
+    """
+
+    model_name = "certified"
+
+    def __init__(self, bits: int) -> None:
+        from precise_impact.core.precision import Precision
+
+        self.bits = check_count(bits, "bits", MAX_BITS, minimum=MIN_BITS)
+        self.precision = Precision.parse(f"mp:{self.bits}")
+
+    def solve(self, params: Params, periods: int, *, per_period: int = 0):
+        """Certify ``periods`` periods at the solver's bits (see the class docstring).
+
+        Parameters
+        ----------
+        params : Params
+            System and initial condition.
+        periods : int
+            Forcing periods.
+        per_period : int, default 0
+            Must be 0 (no dense output).
+
+        Returns
+        -------
+        Trajectory
+            Midpoints of the certified balls, radii in ``stats``.
+        """
+        from precise_impact.core.trajectory import Trajectory
+
+        if per_period:
+            raise ParameterError("per_period", str(per_period), "0 for the certified model (no dense output)")
+        r = certify(params, periods, bits=self.bits, max_bits=self.bits)
+        P = self.precision
+        mid = lambda b: P.from_fraction(exact_value(b.mid()))  # noqa: E731
+        rad = lambda b: float(exact_value(b.rad())) * (1 + 2**-50)  # noqa: E731
+        return Trajectory(
+            params=params, model=self.model_name, precision=P, tol=None,
+            t=P.array([mid(s[1]) for s in r.samples]), x=P.array([mid(s[2]) for s in r.samples]),
+            v=P.array([mid(s[3]) for s in r.samples]),
+            impacts_t=P.array([mid(i[0]) for i in r.impacts]), impacts_v_before=P.array([mid(i[1]) for i in r.impacts]),
+            impacts_v_after=P.array([mid(i[2]) for i in r.impacts]), elapsed_s=r.elapsed_s,
+            stats={"certified": True, "bits": self.bits, "x_rad": [rad(s[2]) for s in r.samples],
+                   "v_rad": [rad(s[3]) for s in r.samples], "max_radius": r.max_radius()},
+        )

@@ -1,0 +1,212 @@
+"""Certified trajectories and proven periodic orbits, each against an independent reference:
+heyoka's multiprecision references (another method, another code), closed forms, the float64
+Newton orbits, and constructed near-tangencies whose truth is known exactly."""
+
+import json
+import math
+import subprocess
+import sys
+import threading
+from fractions import Fraction
+
+import pytest
+
+import precise_impact as pi
+from precise_impact.verification.reference import shipped_root
+
+flint = pytest.importorskip("flint", reason="python-flint: pip install python-flint")
+from precise_impact.solvers.certified import CertificationError, certify  # noqa: E402
+
+
+def _exact(s):
+    return flint.arb(flint.fmpq(Fraction(s).numerator, Fraction(s).denominator))
+
+
+@pytest.mark.parametrize("case", ["single-0.70", "single-0.712", "single-0.74"])
+def test_heyoka_mp_references_lie_within_their_stated_accuracy_of_the_proven_balls(case):
+    """The shipped mp:320 heyoka references against certified balls (512 bits, radius <= 1e-70):
+    equal impact counts, and every sample's *proven* error |ref - truth| <= |ref - mid| + rad is
+    within twice the accuracy the manifest demonstrated by two precisions (the mp:384 run's own
+    error is ~2^-384 of that: the factor 2 is room, not slack)."""
+    data = json.loads((shipped_root() / case / "samples.json").read_text())
+    manifest = json.loads((shipped_root() / case / "manifest.json").read_text())
+    p = pi.Params.make(**data["params"])
+    r = certify(p, data["periods"], bits=512)
+    assert len(r.impacts) == len(data["impacts"]) == manifest["impacts"]
+    assert r.max_radius() < 1e-70
+    stated = float(manifest["accuracy"]["max_sample_disagreement"])
+    worst = 0.0
+    old = flint.ctx.prec
+    flint.ctx.prec = 1024
+    try:
+        for s in data["samples"]:
+            _, tk, bx, bv = r.samples[s["period"]]
+            # the reference's sample time is t_k rounded to mp:320: |dt| <= 2^-319 t_k moves
+            # the state by |f| dt < 1e-90, far below the accuracies compared here
+            assert abs(float(_exact(s["t"]).mid()) - float(tk.mid())) <= 1e-80 * (1 + float(tk.mid()))
+            for ref, ball in ((s["x"], bx), (s["v"], bv)):
+                err = abs(_exact(ref) - ball) + ball.rad()
+                worst = max(worst, float(err.upper()))
+    finally:
+        flint.ctx.prec = old
+    assert worst <= 2 * stated + 1e-70, (worst, stated)
+
+
+def test_a_grazing_impact_missed_by_the_papers_scan_is_found_and_proven():
+    """The non-impacting orbit just above the grazing frequency pokes 1.7e-7 past the wall for
+    ~1e-3 time units: the paper's scan (steps of 1e-3 T) misses the crossing, the certified
+    engine proves it (a crossing isolated, v- > 0) -- as the robust finder, the fast engine and
+    heyoka also find."""
+    from precise_impact.solvers.analytical import AnalyticalSolver
+
+    p = pi.Params.make(eta="0.7106874")
+    ss = pi.steady_state(p)
+    q = p.replace(x0=ss.P, v0=ss.eta * ss.Q)
+    paper = AnalyticalSolver(finder="paper", backend="float64").solve(q, 3)
+    r = certify(q, 3, bits=256)
+    assert paper.n_impacts == 0 and len(r.impacts) == 2
+    for other in (pi.simulate(q, 3), pi.simulate(q, 3, model="fast"), pi.simulate(q, 3, model="analytical")):
+        assert other.n_impacts == 2
+        for (t, vb, _), t2 in zip(r.impacts, other.impacts_t):
+            assert abs(float(t.mid()) - float(t2)) < 1e-9  # float64 impact times, ~1e-12 apart
+    assert all(vb > 0 for _, vb, _ in r.impacts)  # proven transversal
+
+
+@pytest.mark.parametrize("sign,impacts", [(1, 0), (-1, 2)])
+def test_a_near_tangency_beyond_the_precision_is_refused_then_resolved(sign, impacts):
+    """x'' = -x from (-1, 0) peaks at exactly 1 at t = pi: with the wall at 1 +- 1e-200 there is
+    no impact (+) or one at every return (-).  At 128 bits no proof is possible (an error naming
+    the time, never a guess); doubling the bits resolves it either way."""
+    p = pi.Params.make(a="0", zeta="0", eta="0.5", x0="-1", v0="0", x_w=Fraction(1) + sign * Fraction(1, 10**200))
+    with pytest.raises(CertificationError, match=r"t = 3\.14159265358979"):
+        certify(p, 1, bits=128, max_bits=128)
+    r = certify(p, 1, bits=128, max_bits=4096)
+    assert len(r.impacts) == impacts and "no proof at 128 bits" in r.bits_choice and r.bits > 128
+    if impacts:  # the wall 1e-200 below the peak: the crossing sqrt(2e-200) = 1.41e-100 before t = pi
+        old = flint.ctx.prec
+        flint.ctx.prec = 1024
+        try:
+            gap = flint.arb.pi() - r.impacts[0][0]
+            assert abs(gap - flint.arb(2).sqrt() * flint.arb(10) ** -100) < flint.arb(10) ** -250
+        finally:
+            flint.ctx.prec = old
+
+
+def test_automatic_bits_reach_the_target_and_say_so():
+    r = certify(pi.Params.make(eta="0.712"), 300)
+    assert r.max_radius() <= 1e-30 and r.bits_choice.startswith("automatic")
+    # the naive enclosure loses more than the true sensitivity LLE T / ln 10 = 0.116 digits/period
+    assert 0.116 < r.growth_digits_per_period() < 0.5
+
+
+def test_certified_model_and_threads():
+    p = pi.Params.make(eta="0.74")
+    tr = pi.simulate(p, 30, model="certified", precision="mp:256")
+    ref = pi.simulate(p, 30, precision="mp:256")
+    assert tr.n_impacts == ref.n_impacts and tr.stats["max_radius"] < 1e-60
+    assert max(abs(a - b) for a, b in zip(tr.x, ref.x)) < 1e-60  # heyoka mp:256 vs the proven midpoints
+    serial = [certify(pi.Params.make(eta=e), 40, bits=b).to_dict() for e, b in (("0.712", 192), ("0.74", 320))] * 2
+    out = [None] * 4
+
+    def work(i):
+        e, b = (("0.712", 192), ("0.74", 320))[i % 2]
+        out[i] = certify(pi.Params.make(eta=e), 40, bits=b).to_dict()
+
+    ts = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    [t.start() for t in ts]
+    [t.join() for t in ts]
+    for a, b in zip(out, serial):
+        assert a["samples"] == b["samples"] and a["bits"] == b["bits"]
+
+
+def test_proven_period_3_orbit_and_its_stability():
+    from precise_impact.analysis.orbits.proof import prove_orbit
+
+    o = prove_orbit(pi.Params.make(eta="0.74"), 3)
+    assert o.proven and o.impacts == 2 and o.stable is True
+    f = pi.find_orbit(pi.Params.make(eta="0.74"), 3)
+    # the float64 Newton orbit lies within its rounding (1e-15) of the proven box
+    assert abs(float(o.x[0]) - f.x) < 1e-14 and abs(float(o.v[0]) - f.v) < 1e-14
+    for enc, mu in zip(o.multipliers, sorted(f.multipliers, key=lambda m: -abs(m))):
+        assert abs(float(enc["re"]) - mu.real) < 1e-13
+    assert o.lle[0] <= f.lle + 1e-13 and f.lle - 1e-13 <= o.lle[1]
+
+
+def test_proven_non_impacting_orbit_is_the_closed_form():
+    from precise_impact.analysis.orbits.proof import prove_orbit
+
+    o = prove_orbit(pi.Params.make(eta="0.70"), 1, guess=("102/53", "49/265"), impacts=0)
+    assert o.proven and o.impacts == 0 and o.stable is True
+    old = flint.ctx.prec
+    flint.ctx.prec = 512
+    try:
+        for (mid, rad), q in ((o.x, Fraction(102, 53)), (o.v, Fraction(49, 265))):
+            assert abs(_exact(mid) - _exact(q)) < _exact(rad)  # the closed form lies in the proven box
+        # |mu| = exp(-zeta T) exactly: LLE = -zeta
+        assert o.lle[0] <= -0.05 <= o.lle[1] and o.lle[1] - o.lle[0] < 1e-15
+    finally:
+        flint.ctx.prec = old
+
+
+def test_proven_unstable_orbit():
+    from precise_impact.analysis.orbits.proof import prove_orbit
+
+    p = pi.Params.make(eta="0.712")
+    unstable = [u for u in pi.one_impact_orbits(p, dps=30) if not u.stable]
+    o = prove_orbit(p, 1, guess=(float(unstable[0].x), float(unstable[0].v)), impacts=1)
+    assert o.proven and o.stable is False and o.lle[0] > 0
+
+
+def test_certify_cli_contract():
+    r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", "--eta", "0.712", "--periods", "5",
+                        "--bits", "128", "--json"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert d["bits"] == 128 and len(d["samples"]) == 6
+    assert set(d["samples"][1]) == {"period", "t", "x", "v", "x_rad", "v_rad"}
+    assert set(d["impacts"][0]) == {"t", "t_rad", "v_before", "v_after", "v_rad"}
+    assert float(d["samples"][5]["x_rad"]) < 1e-30
+    for argv, word in ((["--bits", "20"], "bits"), (["--target", "1e-2"], "target_radius"),
+                       (["--periods", "0"], "periods"), (["--x0", "3"], "x0")):
+        r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", *argv], capture_output=True, text=True,
+                           timeout=120)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (argv, r.stderr)
+
+
+def test_reference_certificates_hold_and_a_false_bound_is_caught(tmp_path):
+    """The shipped single cases carry proven error bounds (certificate.json, checksummed); verify
+    re-proves them.  A bound tightened below the stored value's true error is refused."""
+    import shutil
+
+    from precise_impact.verification.certificate import CERTIFICATE, check_certificate
+    from precise_impact.io.atomic import sha256_file
+    from precise_impact.verification.reference import verify
+
+    for case in ("single-0.70", "single-0.712", "single-0.74"):
+        m = json.loads((shipped_root() / case / "manifest.json").read_text())
+        assert CERTIFICATE in m["files"] and float(m["proof"]["max_proven_error"]) <= 2 * float(
+            m["accuracy"]["max_sample_disagreement"]) + 1e-80
+    d = tmp_path / "single-0.74"
+    shutil.copytree(shipped_root() / "single-0.74", d)
+    assert check_certificate("single-0.74", d) == []
+    cert = json.loads((d / CERTIFICATE).read_text())
+    cert["samples"][150]["x_err"] = "1e-120"  # the stored x there is ~1e-93 from the truth
+    (d / CERTIFICATE).write_text(json.dumps(cert))
+    m = json.loads((d / "manifest.json").read_text())
+    m["files"][CERTIFICATE]["sha256"] = sha256_file(d / CERTIFICATE)
+    (d / "manifest.json").write_text(json.dumps(m))
+    problems = verify(tmp_path, "single-0.74")
+    assert len(problems) == 1 and "period 150" in problems[0] and "proven bound" in problems[0]
+
+
+def test_fast_engine_scored_against_proven_balls():
+    """A regression test against proven truth: the fast engine's period-3 orbit over 100 periods
+    stays within 4 eps t max|v| (its stated rounding growth) of the certified balls."""
+    p = pi.Params.make(eta="0.74")
+    r = certify(p, 100, bits=192)
+    tr = pi.simulate(p, 100, model="fast")
+    eps = 2.0**-52
+    for k in range(1, 101):
+        _, tk, bx, bv = r.samples[k]
+        bound = 4 * eps * float(tk.mid()) * 2.5 + float(bx.rad().mid())  # max |v| ~ 2.4 on this orbit
+        assert abs(float(tr.x[k]) - float(bx.mid())) <= bound and abs(float(tr.v[k]) - float(bv.mid())) <= bound
