@@ -42,7 +42,7 @@ def test_models_is_read_only_and_aliases_resolve():
     assert isinstance(pi.MODELS, types.MappingProxyType)
     with pytest.raises(TypeError):
         pi.MODELS["mine"] = "no"  # type: ignore[index]
-    assert set(pi.MODELS) == {"heyoka", "analytical", "analytical-paper", "fast", "circuit", "switched-capacitor", "spice"}
+    assert set(pi.MODELS) == {"heyoka", "analytical", "analytical-paper", "fast", "certified", "circuit", "switched-capacitor", "spice"}
     assert isinstance(pi.make_solver("mechanical"), pi.HeyokaSolver)
     with pytest.raises(pi.ParameterError) as e:
         pi.make_solver("nonsense")

@@ -210,3 +210,31 @@ def test_fast_engine_scored_against_proven_balls():
         _, tk, bx, bv = r.samples[k]
         bound = 4 * eps * float(tk.mid()) * 2.5 + float(bx.rad().mid())  # max |v| ~ 2.4 on this orbit
         assert abs(float(tr.x[k]) - float(bx.mid())) <= bound and abs(float(tr.v[k]) - float(bv.mid())) <= bound
+
+
+def test_users_scores_carry_proven_error_bounds():
+    """precise_impact.testing scores a user's solver with a *proven* bound of |y - truth| (the
+    certificate's bound of |y_ref - truth| added): it must never be below the true error, whose
+    lower bound |y - mid| - rad comes from a fresh certified run (another computation)."""
+    from precise_impact.testing import load_reference, score_solver
+
+    def fast(params, periods):
+        tr = pi.simulate(pi.Params.make(**params), periods, model="fast")
+        return tr.x, tr.v
+
+    ref = load_reference("single-0.712")
+    assert ref.proven_x_err is not None and max(ref.proven_x_err) < 1e-50
+    s = score_solver(fast, "single-0.712", periods=60, atol=1e-9, rtol=1e-9)
+    r = certify(pi.Params.make(**ref.params), 60, bits=256)
+    old = flint.ctx.prec
+    flint.ctx.prec = 256
+    try:
+        for k in range(61):
+            _, _, bx, bv = r.samples[k]
+            for y, ball, bound in ((s["solver_x"][k], bx, s["proven_error_x"][k]),
+                                   (s["solver_v"][k], bv, s["proven_error_v"][k])):
+                true_lower = abs(flint.arb(float(y)) - ball).lower()  # <= |y - truth|
+                assert float(true_lower) <= bound
+                assert bound <= s["abs_error_x" if ball is bx else "abs_error_v"][k] * (1 + 1e-12) + 1e-50
+    finally:
+        flint.ctx.prec = old

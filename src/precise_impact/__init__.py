@@ -47,6 +47,7 @@ from precise_impact.solvers.heyoka import HeyokaSolver
 from precise_impact.solvers.analytical import AnalyticalSolver
 from precise_impact.solvers.certified import CertificationError, CertifiedSolver, CertifiedTrajectory, certify
 from precise_impact.models.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled
+from precise_impact.models.coupled_certified import CertifiedCoupledTrajectory, certify_coupled
 from precise_impact.models.circuit.components import Components, nominal_components
 from precise_impact.models.circuit.effects.catalogue import EFFECTS
 from precise_impact.models.circuit.opamp import CircuitSolver
@@ -94,7 +95,7 @@ __all__ = [
     "MODELS", "MODEL_ALIASES", "Solver", "make_solver", "simulate", "HeyokaSolver", "AnalyticalSolver",
     "certify", "CertifiedTrajectory", "CertificationError", "CertifiedSolver",
     # models
-    "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "Components", "nominal_components", "EFFECTS",
+    "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "certify_coupled", "CertifiedCoupledTrajectory", "Components", "nominal_components", "EFFECTS",
     "CircuitSolver", "SwitchedCapacitorSolver", "SpiceSolver", "CoupledCircuitTrajectory",
     "simulate_coupled_circuit",
     # analysis

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 from fractions import Fraction
 from pathlib import Path
@@ -69,6 +70,10 @@ class ReferenceCase:
         Every impact: ``{'t', 'v_before', 'v_after'}`` (same number type).
     manifest : dict
         The case's ``manifest.json``.
+    proven_x_err, proven_v_err : list of float or None
+        Per sample, a *proven* bound of ``|stored - truth|`` (from the case's
+        ``certificate.json``: ball arithmetic, :mod:`precise_impact.verification.certificate`;
+        floats rounded up), or ``None`` when the case carries no proof.
     """
 
     name: str
@@ -80,6 +85,8 @@ class ReferenceCase:
     v: list
     impacts: list
     manifest: dict
+    proven_x_err: list | None = None
+    proven_v_err: list | None = None
 
     @property
     def periods(self) -> int:
@@ -143,6 +150,14 @@ def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike
                 return mpmath.mpf(s)
 
     samples = data["samples"]
+    px = pv = None
+    cert_name = (manifest.get("proof") or {}).get("file")
+    if cert_name and cert_name in manifest.get("files", {}):  # checksummed above with the other files
+        with open(d / cert_name) as fh:
+            rows = {r["period"]: r for r in json.load(fh)["samples"]}
+        up = lambda s: math.nextafter(float(s), math.inf)  # noqa: E731 - a float never below the decimal bound
+        px = [up(rows[r["period"]]["x_err"]) for r in samples]
+        pv = [up(rows[r["period"]]["v_err"]) for r in samples]
     return ReferenceCase(
         name=case,
         params=dict(data["params"]),
@@ -153,6 +168,8 @@ def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike
         v=[conv(r["v"]) for r in samples],
         impacts=[{k: conv(r[k]) for k in ("t", "v_before", "v_after")} for r in data["impacts"]],
         manifest=manifest,
+        proven_x_err=px,
+        proven_v_err=pv,
     )
 
 
@@ -210,6 +227,9 @@ def score_solver(
         ``|y - y_ref|``); ``max_error`` (largest scaled error); ``worst_period``;
         ``worst_variable`` (``'x'`` or ``'v'``); ``passed`` (``max_error <= 1``);
         ``reference_accuracy`` (the stored run's demonstrated accuracy);
+        ``proven_error_x``, ``proven_error_v`` (numpy arrays: *proven* upper bounds of the
+        solver's ``|y - truth|``, ``|y - y_ref|`` plus the certificate's bound of
+        ``|y_ref - truth|``, rounded up; ``None`` for a case without a certificate);
         ``shape_error`` (a message if the solver returned the wrong number of samples,
         else ``None``; then every error is ``inf``).
 
@@ -251,7 +271,7 @@ def score_solver(
         result["shape_error"] = f"solver must return (x, v) with {n} samples each (k = 0..{periods}); got {got}"
         inf = np.full(n, np.inf)
         result.update(error_x=inf, error_v=inf, abs_error_x=inf, abs_error_v=inf, max_error=np.inf,
-                      worst_period=0, worst_variable="x", passed=False)
+                      worst_period=0, worst_variable="x", passed=False, proven_error_x=inf, proven_error_v=inf)
         return result
     ex, ev, ax, av = (np.empty(n) for _ in range(4))
     result["solver_x"] = np.array([float(_to_mpf(y)) for y in x])
@@ -274,6 +294,12 @@ def score_solver(
     mx = float(max(ex[kx], ev[kv]))
     result.update(error_x=ex, error_v=ev, abs_error_x=ax, abs_error_v=av, max_error=mx,
                   worst_period=worst, worst_variable=var, passed=bool(mx <= 1.0))
+    if ref.proven_x_err is not None:
+        # |y - truth| <= |y - y_ref| + |y_ref - truth|; the float sum rounded up by one ulp
+        result["proven_error_x"] = np.nextafter(ax + np.array(ref.proven_x_err[:n]), np.inf)
+        result["proven_error_v"] = np.nextafter(av + np.array(ref.proven_v_err[:n]), np.inf)
+    else:
+        result["proven_error_x"] = result["proven_error_v"] = None
     return result
 
 

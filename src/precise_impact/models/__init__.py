@@ -1,6 +1,7 @@
 """Models of the oscillator beyond the single mechanical one: coupled forms and circuits.
 
-* :mod:`precise_impact.models.coupled` — master-slave coupled oscillators (three forms).
+* :mod:`precise_impact.models.coupled` — master-slave coupled oscillators (three forms);
+  :mod:`precise_impact.models.coupled_certified` — the pair certified (ball arithmetic).
 * :mod:`precise_impact.models.circuit` — the paper's electronic equivalent: component
   values, the op-amp network with effects, the switched-capacitor impact circuit, the
   coupled circuit and the ngspice netlist.
@@ -19,7 +20,8 @@ from precise_impact.errors import ParameterError
 from precise_impact.solvers.base import register_model
 
 __all__ = [
-    "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "Components", "nominal_components", "EFFECTS",
+    "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "certify_coupled", "CertifiedCoupledTrajectory",
+    "Components", "nominal_components", "EFFECTS",
     "CircuitSolver", "SwitchedCapacitorSolver", "SpiceSolver", "CoupledCircuitTrajectory", "simulate_coupled_circuit",
 ]
 
@@ -52,6 +54,7 @@ register_model("spice", "the Fig. 2 circuit as an ngspice netlist (float64; need
 
 # The public names (after the registration, which needs none of them).
 from precise_impact.models.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled  # noqa: E402
+from precise_impact.models.coupled_certified import CertifiedCoupledTrajectory, certify_coupled  # noqa: E402
 from precise_impact.models.circuit.components import Components, nominal_components  # noqa: E402
 from precise_impact.models.circuit.effects.catalogue import EFFECTS  # noqa: E402
 from precise_impact.models.circuit.opamp import CircuitSolver  # noqa: E402

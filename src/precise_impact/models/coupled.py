@@ -83,6 +83,7 @@ __all__ = [
     "slave_reset",
     "check_k",
     "check_form",
+    "check_y0",
 ]
 
 #: The slave equations offered (see the module docstring).
@@ -377,7 +378,8 @@ class CoupledTrajectory(ResultMixin):
 
 
 # ------------------------------------------------------------------ the driver
-def _check_y0(y0: Any, params: Params) -> tuple[Fraction, Fraction] | None:
+def check_y0(y0: Any, params: Params) -> tuple[Fraction, Fraction] | None:
+    """The slave's start ``(position, velocity variable)``, exact, position ``<= x_w``; ``None`` stays ``None``."""
     if y0 is None:
         return None
     if isinstance(y0, (str, bytes)) or not isinstance(y0, Sequence) or len(y0) != 2:
@@ -465,7 +467,7 @@ def simulate_coupled(
     form = check_form(form)
     periods = check_count(periods, "periods")
     per_period = check_count(per_period, "per_period", 100_000)
-    y0q = _check_y0(y0, params)
+    y0q = check_y0(y0, params)
     P = Precision.parse(precision)
     if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
         raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")

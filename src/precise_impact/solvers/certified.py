@@ -8,7 +8,7 @@ proven, not estimated.  The impacts are *isolated*:
 
 * **no earlier crossing**: time is scanned in intervals ``I = m + [-h/2, h/2]``; a second-order
   Taylor enclosure ``x(I) in x(m) + |v(m)| h/2 + A h^2/8`` with ``A`` a proven bound of
-  ``|x''|`` over the flight (:meth:`_Flight.acceleration_bound`) shows ``x < x_w`` on ``I``, or
+  ``|x''|`` over the flight (:meth:`Flight.acceleration_bound`) shows ``x < x_w`` on ``I``, or
   ``I`` is bisected;
 * **one crossing**: on a sub-interval where ``v > 0`` is proven and ``x - x_w`` changes sign
   (proven at its ends), the crossing is unique;
@@ -39,7 +39,8 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.errors import IntegrationError, OptionalDependencyError, ParameterError
 
 __all__ = ["certify", "CertifiedTrajectory", "CertificationError", "CertifiedSolver", "ball_str", "working_bits",
-           "flow_matrix", "run_balls", "to_ball", "exact_value", "MAX_BITS", "MIN_BITS"]
+           "flow_matrix", "run_balls", "to_ball", "exact_value", "MAX_BITS", "MIN_BITS", "Constants", "Flight",
+           "Isolator", "point", "upper", "lower", "describe"]
 
 #: Bounds of the working precision (bits).
 MIN_BITS, MAX_BITS = 64, 16384
@@ -115,10 +116,12 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
     return str(dm), str(dr).replace("E", "e")
 
 
-class _Flight:
-    """The closed-form flight from ``(s, x_s, v_s)``, all balls, evaluated at ball or point times."""
+class Flight:
+    """The closed-form flight of the single oscillator from ``(s, x_s, v_s)``, all balls,
+    evaluated at ball or point times (also the master of the certified pair,
+    :mod:`precise_impact.models.coupled_certified`)."""
 
-    def __init__(self, c: "_Constants", s, xs, vs) -> None:
+    def __init__(self, c: "Constants", s, xs, vs) -> None:
         self.c = c
         self.s = s
         cs, ss = c.phase(s)
@@ -127,6 +130,7 @@ class _Flight:
         self._amax = None
 
     def at(self, t):
+        """``(x, v)`` at ``t`` (balls)."""
         c = self.c
         st, ct = (c.eta * t).sin_cos()
         tau = t - self.s
@@ -135,6 +139,11 @@ class _Flight:
         x = c.P * ct + c.Q * st + e * ((cw + c.zw * sw) * self.hx + sw * c.iw * self.hv)
         v = c.eta * (c.Q * ct - c.P * st) + e * (-sw * c.iw * self.hx + (cw - c.zw * sw) * self.hv)
         return x, v
+
+    def gap(self, t):
+        """``(x - x_w, x')`` at ``t``: the wall gap :class:`Isolator` works on."""
+        x, v = self.at(t)
+        return x - self.c.xw, v
 
     def acceleration_bound(self):
         """A proven bound of ``|x''|`` on the flight (``tau >= 0``): ``|a| + 2 zeta B_v + B_x`` with
@@ -149,7 +158,10 @@ class _Flight:
         return self._amax
 
 
-class _Constants:
+class Constants:
+    """The exact parameters as balls at the working precision, and the derived constants of
+    the flight (``P, Q`` of the steady state, ``omega_d = sqrt(1 - zeta^2)``, ``T``)."""
+
     def __init__(self, params: Params, bits: int) -> None:
         from precise_impact.core.flow import steady_state
 
@@ -169,16 +181,18 @@ class _Constants:
         return ct, st
 
 
-def _point(x):
+def point(x):
     """The exact midpoint of a ball (a dyadic point)."""
     return _flint().arb(x.mid())
 
 
-def _upper(x):
+def upper(x):
+    """The upper end of a ball as an exact point."""
     return _flint().arb(x.upper())
 
 
-def _lower(x):
+def lower(x):
+    """The lower end of a ball as an exact point."""
     return _flint().arb(x.lower())
 
 
@@ -186,54 +200,68 @@ def _interval(lo, hi):
     return lo.union(hi)
 
 
-def _describe(t, what: str) -> str:
-    m, r = ball_str(t, 20)
-    return f"{what} at t = {m} +- {r}"
+def describe(t, what: str) -> str:
+    """``"<what> at t = <mid> +- <rad>"`` for an error message."""
+    m, _ = ball_str(t, 20)
+    return f"{what} at t = {m} (a ball of radius {float(exact_value(t.rad())):.2e})"
 
 
-class _Engine:
-    def __init__(self, params: Params, bits: int) -> None:
-        self.p = params
+class Isolator:
+    """Impact isolation in ball arithmetic, for any wall gap ``g`` of a flight.
+
+    ``gap(t)`` returns ``(g, g')`` (balls; the wall is ``g = 0``, the inside ``g > 0``) and
+    ``A`` is a proven bound of ``|g''|`` over the flight.  Written once, used for the single
+    oscillator and both oscillators of the certified pair.
+
+    Parameters
+    ----------
+    bits : int
+        Working precision (for the messages and the bisection depth limit).
+    """
+
+    def __init__(self, bits: int) -> None:
         self.bits = bits
-        self.c = _Constants(params, bits)
         self.max_depth = bits + _MAX_DEPTH_EXTRA
 
-    # -- the search for the first crossing in [a, b] (exact points, x(a) < x_w proven)
-    def _first_crossing(self, fl: _Flight, a, b, depth: int):
-        c = self.c
+    def first_crossing(self, gap, A, a, b, depth: int = 0, *, check_start: bool = False):
+        """The first crossing of ``g = 0`` in ``[a, b]`` (exact points) as a ball narrowed by
+        interval Newton, or ``None`` with ``g < 0`` proven on ``[a, b]``.  ``g(a) < 0`` is
+        assumed (proven by the caller) unless ``check_start``, which proves it first."""
+        if check_start:
+            ga, _ = gap(a)
+            if not ga < 0:
+                raise CertificationError(describe(a, "a wall contact cannot be excluded") + f" (gap {ga}) "
+                                         f"at {self.bits} bits")
         h = b - a
-        m = _point((a + b) / 2)
-        xm, vm = fl.at(m)
-        A = fl.acceleration_bound()
-        if xm + abs(vm) * h / 2 + A * h * h / 8 < c.xw:
-            return None  # cleared: x < x_w on [a, b]
+        m = point((a + b) / 2)
+        gm, vm = gap(m)
+        if gm + abs(vm) * h / 2 + A * h * h / 8 < 0:
+            return None  # cleared: g < 0 on [a, b]
         vlo = vm - A * h / 2
         vhi = vm + A * h / 2
         if vhi < 0:
-            return None  # x decreasing from x(a) < x_w
+            return None  # g decreasing from g(a) < 0
         if vlo > 0:
-            xb, _ = fl.at(b)
-            if xb < c.xw:
+            gb, _ = gap(b)
+            if gb < 0:
                 return None  # increasing and still below the wall at b
-            if xb > c.xw:
-                return self._newton(fl, a, b)
+            if gb > 0:
+                return self.newton(gap, a, b)
         if depth > self.max_depth:
-            raise CertificationError(_describe(_interval(a, b), "a crossing cannot be separated from a graze")
-                                     + f" with x in {fl.at(_interval(a, b))[0]} (x_w = {self.c.xw}) at "
-                                       f"{self.bits} bits")
-        r = self._first_crossing(fl, a, m, depth + 1)
-        return r if r is not None else self._first_crossing(fl, m, b, depth + 1)
+            raise CertificationError(describe(_interval(a, b), "a crossing cannot be separated from a graze")
+                                     + f" with gap in {gap(_interval(a, b))[0]} at {self.bits} bits")
+        r = self.first_crossing(gap, A, a, m, depth + 1)
+        return r if r is not None else self.first_crossing(gap, A, m, b, depth + 1)
 
-    def _newton(self, fl: _Flight, a, b):
-        """The unique crossing in ``[a, b]`` (``v > 0`` proven there, ``x(a) < x_w < x(b)``)."""
-        c = self.c
+    def newton(self, gap, a, b):
+        """The unique crossing in ``[a, b]`` (``g' > 0`` proven there, ``g(a) < 0 < g(b)``)."""
         J = _interval(a, b)
         width = J.rad()
         for _ in range(200):
-            m = _point(J)
-            xm, _ = fl.at(m)
-            _, vJ = fl.at(J)
-            N = m - (xm - c.xw) / vJ
+            m = point(J)
+            gm, _ = gap(m)
+            _, vJ = gap(J)
+            N = m - gm / vJ
             Jn = J.intersection(N)
             if not (Jn.rad() < width * 0.75):
                 J = Jn
@@ -241,28 +269,34 @@ class _Engine:
             J, width = Jn, Jn.rad()
         return J
 
-    def _depart(self, fl: _Flight, s):
-        """After an impact at the ball ``s`` (``x = x_w``, ``v+ < 0``): the first point from which the
-        scan may go on, with ``x < x_w`` proven from the impact to it."""
-        c = self.c
-        _, v = fl.at(s)
-        A = fl.acceleration_bound()
+    def depart(self, gap, A, s):
+        """After an impact at the ball ``s`` (``g = 0``, ``g'+ < 0``): the first point from which
+        the scan may go on, with ``g < 0`` proven from the impact to it."""
+        _, v = gap(s)
         if not v < 0:
-            raise CertificationError(_describe(s, "a tangential or sticking impact (v+ not proven < 0)")
-                                     + f", v+ in {v}, at {self.bits} bits")
-        h = _point(-v.upper() / (4 * A))  # v stays < 0 for a quarter of |v+| / A
+            raise CertificationError(describe(s, "a tangential or sticking impact (velocity after it not "
+                                                 "proven < 0)") + f", {v}, at {self.bits} bits")
+        h = point(-v.upper() / (4 * A))  # g' stays < 0 for a quarter of |g'+| / A
         while True:
-            b = _point(_upper(s) + h)
-            J = _interval(_lower(s), b)
-            _, vm = fl.at(_point(J))
+            b = point(upper(s) + h)
+            J = _interval(lower(s), b)
+            _, vm = gap(point(J))
             if vm + A * J.rad() < 0:
-                xb, _ = fl.at(b)
-                if xb < c.xw:
+                gb, _ = gap(b)
+                if gb < 0:
                     return b
-            h = _point(h / 2)
+            h = point(h / 2)
             if h < s.rad() * 4 or h.is_zero():
-                raise CertificationError(_describe(s, "an impact whose departure cannot be proven")
+                raise CertificationError(describe(s, "an impact whose departure cannot be proven")
                                          + f" at {self.bits} bits")
+
+
+class _Engine:
+    def __init__(self, params: Params, bits: int) -> None:
+        self.p = params
+        self.bits = bits
+        self.c = Constants(params, bits)
+        self.iso = Isolator(bits)
 
     def run(self, periods: int, progress=None, start: tuple | None = None):
         """Samples ``(k, t, x, v)`` and impacts ``(t, v_before, v_after)`` over ``periods``, from
@@ -270,11 +304,12 @@ class _Engine:
         (a box: every state in it is followed, the balls enclose them all)."""
         c = self.c
         p = self.p
+        iso = self.iso
         x0, v0 = (to_ball(p.x0), to_ball(p.v0)) if start is None else start
         s = c.t0
         samples = [(0, c.t0, x0, v0)]
         impacts = []
-        fl = _Flight(c, s, x0, v0)
+        fl = Flight(c, s, x0, v0)
         if start is not None:
             if not x0 < c.xw:
                 raise CertificationError(f"the start box x in {x0} is not proven below the wall x_w")
@@ -282,32 +317,32 @@ class _Engine:
         elif p.x0 == p.x_w:
             if p.v0 > 0:
                 impacts.append((s, v0, -c.R * v0))
-                fl = _Flight(c, s, c.xw, -c.R * v0)
+                fl = Flight(c, s, c.xw, -c.R * v0)
             elif p.v0 == 0:
                 raise CertificationError("the start (x0 = x_w, v0 = 0) is a contact: not certified")
-            a = self._depart(fl, s)
+            a = iso.depart(fl.gap, fl.acceleration_bound(), s)
         else:
             a = s
-        hstep = _point(c.T / 16)
+        hstep = point(c.T / 16)
         for k in range(1, periods + 1):
             tk = c.t0 + k * c.T
-            end = _upper(tk)
+            end = upper(tk)
             while True:
                 b = a + hstep
-                b = _point(b) if b < end else end
-                hit = self._first_crossing(fl, a, b, 0)
+                b = point(b) if b < end else end
+                hit = iso.first_crossing(fl.gap, fl.acceleration_bound(), a, b)
                 if hit is None:
                     if b is end or not (b < end):
                         break
                     a = b
                     continue
                 if hit.overlaps(tk):
-                    raise CertificationError(_describe(hit, "an impact on a sample time") + f" at {self.bits} bits")
+                    raise CertificationError(describe(hit, "an impact on a sample time") + f" at {self.bits} bits")
                 _, vb = fl.at(hit)
                 va = -c.R * vb
                 impacts.append((hit, vb, va))
-                fl = _Flight(c, hit, c.xw, va)
-                a = self._depart(fl, hit)
+                fl = Flight(c, hit, c.xw, va)
+                a = iso.depart(fl.gap, fl.acceleration_bound(), hit)
                 if not (a < end):
                     if a.overlaps(tk) or a > end:
                         # the departure interval reaches past the sample: x < x_w proven on it
@@ -445,7 +480,7 @@ class working_bits:
         _LOCK.release()
 
 
-def flow_matrix(c: "_Constants", tau):
+def flow_matrix(c: "Constants", tau):
     """The homogeneous (and tangent) flow ``Phi(tau)`` of a flight as a 2x2 list of balls."""
     e = (-c.zeta * tau).exp()
     sw, cw = (c.w * tau).sin_cos()

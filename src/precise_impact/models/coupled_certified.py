@@ -1,0 +1,366 @@
+"""The master-slave pair certified: every sample and impact of both oscillators in a proven ball.
+
+Between impacts both oscillators are linear (:mod:`~precise_impact.models.coupled_fast` derives
+it): the master is the single oscillator's closed-form flight
+(:class:`~precise_impact.solvers.certified.Flight`) and the difference ``e = y - x`` of the
+positions obeys, in every form of :mod:`~precise_impact.models.coupled`::
+
+    e'' + c1 e' + c0 e = 0,
+    'first-order', 'reduced':  c1 = 2 zeta + 2 k,            c0 = 1 + 2 zeta k + k^2
+    'paper':                   c1 = 2 zeta + k (1 + 2 zeta), c0 = 1 + 2 k
+
+whose flow is ``e^(-alpha tau) [[cos + (alpha/omega) sin, sin/omega], [-(c0/omega) sin,
+cos - (alpha/omega) sin]]`` (``alpha = c1/2``, ``omega = sqrt(c0 - alpha^2)``, arguments
+``omega tau``).  Both are evaluated in ball arithmetic from the exact rationals.
+
+Impacts, as :func:`~precise_impact.models.coupled.simulate_coupled` applies them: the master's
+(``x = x_w``, ``x' > 0``) flips ``x'`` (``y'`` is continuous, so ``e'`` jumps); the slave's
+(``y = x_w``, ``y' > 0``) resets the slave's velocity variable by
+:func:`~precise_impact.models.coupled.slave_reset`.  Each oscillator's wall gap (``x - x_w``,
+``x + e - x_w``) is searched with the one :class:`~precise_impact.solvers.certified.Isolator`
+(no earlier crossing proven, the crossing isolated and narrowed by interval Newton), the
+earlier of the two crossings taken; when their balls overlap the order cannot be proven and
+the run stops with :class:`~precise_impact.solvers.certified.CertificationError` naming the time
+(never a guess).  A start on the diagonal (``y0`` omitted) stays on it exactly in every form
+(every coupling term is 0 and the two impacts coincide), so the slave *is* the master: that run
+is the single oscillator's certified run, copied.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from fractions import Fraction
+from typing import Any, Sequence
+
+from precise_impact.core.params import check_count, decimal_str, params_or_values
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ParameterError
+from precise_impact.models.coupled import check_form, check_k, check_y0, slave_reset
+from precise_impact.solvers.certified import (
+    MAX_BITS,
+    MIN_BITS,
+    CertificationError,
+    Constants,
+    Flight,
+    Isolator,
+    ball_str,
+    describe,
+    exact_value,
+    point,
+    run_balls,
+    to_ball,
+    upper,
+    working_bits,
+)
+
+__all__ = ["certify_coupled", "CertifiedCoupledTrajectory"]
+
+
+class _ErrorFlow:
+    """``e'' + c1 e' + c0 e = 0`` from ``(e0, e0')`` at the anchor ``s`` (balls)."""
+
+    def __init__(self, al, om, c0, s, e0, ep0) -> None:
+        self.al, self.om, self.c0, self.s, self.e0, self.ep0 = al, om, c0, s, e0, ep0
+        self._bound = None
+
+    def at(self, t):
+        tau = t - self.s
+        ex = (-self.al * tau).exp()
+        sn, cs = (self.om * tau).sin_cos()
+        so = sn / self.om
+        e = ex * ((cs + self.al * so) * self.e0 + so * self.ep0)
+        ep = ex * (-self.c0 * so * self.e0 + (cs - self.al * so) * self.ep0)
+        return e, ep
+
+    def second_bound(self):
+        """A proven bound of ``|e''| = |c1 e' + c0 e|`` for ``tau >= 0`` (``e^(-alpha tau) <= 1``,
+        ``|sin| <= 1``, ``|cos| <= 1``)."""
+        if self._bound is None:
+            a0, a1, io = abs(self.e0), abs(self.ep0), 1 / self.om
+            be = a0 * (1 + self.al * io) + a1 * io
+            bep = a0 * self.c0 * io + a1 * (1 + self.al * io)
+            self._bound = (2 * self.al * bep + self.c0 * be).upper()
+        return self._bound
+
+
+class _Pair:
+    """Master flight and error flow from one anchor; the two wall gaps."""
+
+    def __init__(self, c: Constants, consts: tuple, s, x, v, e, ep, master: Flight | None = None) -> None:
+        self.c = c
+        # the master's flight goes on unchanged through a slave impact (no re-anchoring, no wrapping)
+        self.m = Flight(c, s, x, v) if master is None else master
+        self.e = _ErrorFlow(*consts, s, e, ep)
+
+    def state(self, t):
+        x, v = self.m.at(t)
+        e, ep = self.e.at(t)
+        return x, v, e, ep
+
+    def master_gap(self, t):
+        return self.m.gap(t)
+
+    def slave_gap(self, t):
+        x, v = self.m.at(t)
+        e, ep = self.e.at(t)
+        return x + e - self.c.xw, v + ep
+
+    def master_bound(self):
+        return self.m.acceleration_bound()
+
+    def slave_bound(self):
+        return self.m.acceleration_bound() + self.e.second_bound()
+
+
+@dataclasses.dataclass
+class CertifiedCoupledTrajectory(ResultMixin):
+    """The master-slave pair with proven enclosures (:func:`certify_coupled`).
+
+    Attributes
+    ----------
+    params : Params
+        The system and the master's start (exact).
+    form : str
+        One of :data:`~precise_impact.models.coupled.COUPLED_FORMS`.
+    k : Fraction
+        The coupling, exact.
+    y0 : tuple of Fraction or None
+        The slave's start in ``form``'s variables; ``None``: on the diagonal.
+    periods, bits : int
+        Forcing periods and working precision.
+    samples : list of tuple
+        ``(period, t, x, v, y, w)`` balls at ``t0 + period T`` (``w``: the slave's velocity
+        variable, ``y2`` for 'first-order', ``y'`` otherwise).
+    master_impacts : list of tuple
+        ``(t, v_before, v_after)`` balls.
+    slave_impacts : list of tuple
+        ``(t, w_before, w_after)`` balls.
+    elapsed_s : float
+        Wall time (diagnostic).
+    """
+
+    params: Any
+    form: str
+    k: Fraction
+    y0: Any
+    periods: int
+    bits: int
+    samples: list
+    master_impacts: list
+    slave_impacts: list
+    elapsed_s: float
+
+    def max_radius(self) -> float:
+        """The largest radius of any sample coordinate (a float rounded up)."""
+        return max(float(exact_value(b.rad())) for s in self.samples for b in s[2:]) * (1 + 2**-50)
+
+    def to_dict(self) -> dict:
+        """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``samples`` (``{"period",
+        "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}``), ``master_impacts`` and
+        ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``), ``max_radius``,
+        ``elapsed_s``; midpoints and rigorous radii as decimal strings."""
+        rows = []
+        for k, t, *balls in self.samples:
+            row: dict = {"period": k, "t": ball_str(t)[0]}
+            for name, b in zip("xvyw", balls):
+                row[name], row[name + "_rad"] = ball_str(b)
+            rows.append(row)
+
+        def imps(lst):
+            out = []
+            for t, b, a in lst:
+                (tm, tr), (bm, br), (am, ar) = ball_str(t), ball_str(b), ball_str(a)
+                out.append({"t": tm, "t_rad": tr, "before": bm, "after": am, "rad": max(br, ar, key=float)})
+            return out
+
+        return {"params": self.params.decimal(), "form": self.form, "k": decimal_str(self.k),
+                "y0": None if self.y0 is None else [decimal_str(q) for q in self.y0], "periods": self.periods,
+                "bits": self.bits, "samples": rows, "master_impacts": imps(self.master_impacts),
+                "slave_impacts": imps(self.slave_impacts), "max_radius": self.max_radius(),
+                "elapsed_s": self.elapsed_s}
+
+
+def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress) -> tuple:
+    c = Constants(params, bits)
+    iso = Isolator(bits)
+    k = to_ball(kq)
+    if form == "paper":
+        c1, c0 = 2 * c.zeta + k * (1 + 2 * c.zeta), 1 + 2 * k
+    else:
+        c1, c0 = 2 * c.zeta + 2 * k, 1 + 2 * c.zeta * k + k * k
+    al = c1 / 2
+    om2 = c0 - al * al
+    if not om2 > 0:  # pragma: no cover - refused by certify_coupled before any work
+        raise CertificationError(f"e'' + c1 e' + c0 e = 0 is not proven underdamped (c0 - c1^2/4 in {om2})")
+    consts = (al, om2.sqrt(), c0)
+    fo = form == "first-order"
+    x0, v0 = to_ball(params.x0), to_ball(params.v0)
+    yp, yv = to_ball(y0q[0]), to_ball(y0q[1])
+    e0 = yp - x0
+    ep0 = (yv - k * e0 if fo else yv) - v0  # y' = w - k e ('first-order'), w otherwise
+    s = c.t0
+    pair = _Pair(c, consts, s, x0, v0, e0, ep0)
+
+    def w_of(e, yd):
+        return yd + k * e if fo else yd
+
+    samples = [(0, s, x0, v0, yp, yv)]
+    mimp: list = []
+    simp: list = []
+    a = s
+    check = True  # prove both gaps < 0 at a after a (re)start
+    hstep = point(c.T / 16)
+    for n in range(1, periods + 1):
+        tk = c.t0 + n * c.T
+        end = upper(tk)
+        while True:
+            b = a + hstep
+            b = point(b) if b < end else end
+            hm = iso.first_crossing(pair.master_gap, pair.master_bound(), a, b, check_start=check)
+            hs = iso.first_crossing(pair.slave_gap, pair.slave_bound(), a, b, check_start=check)
+            check = False
+            if hm is None and hs is None:
+                if not (b < end):
+                    break
+                a = b
+                continue
+            if hm is not None and hs is not None and hm.overlaps(hs):
+                raise CertificationError(describe(hm.union(hs), "simultaneous master and slave impacts whose "
+                                                                "order cannot be proven") + f" at {bits} bits")
+            master = hs is None or (hm is not None and hm < hs)
+            hit = hm if master else hs
+            while True:  # apply the impact; the other oscillator may impact before this one departs
+                if hit.overlaps(tk):
+                    raise CertificationError(describe(hit, "an impact on a sample time") + f" at {bits} bits")
+                x, v, e, ep = pair.state(hit)
+                if master:
+                    va = -c.R * v
+                    mimp.append((hit, v, va))
+                    yd = v + ep  # y' is continuous through the master's impact
+                    pair = _Pair(c, consts, hit, c.xw, va, e, yd - va)
+                    gap, bound, other, obound = pair.master_gap, pair.master_bound(), pair.slave_gap, pair.slave_bound()
+                else:
+                    wb = w_of(e, v + ep)
+                    wa = slave_reset(form, x, wb, c.R, k, c.xw)
+                    simp.append((hit, wb, wa))
+                    e_at = c.xw - x  # the slave is on the wall
+                    yd = wa - k * e_at if fo else wa
+                    pair = _Pair(c, consts, hit, x, v, e_at, yd - v, master=pair.m)
+                    gap, bound, other, obound = pair.slave_gap, pair.slave_bound(), pair.master_gap, pair.master_bound()
+                d = iso.depart(gap, bound, hit)  # this one's gap < 0 proven on (impact, d]
+                stop = d if d < end else end
+                nxt = iso.first_crossing(other, obound, point(hit.lower()), stop, check_start=True)
+                if nxt is None:
+                    break
+                if nxt.overlaps(hit) or not nxt > hit:
+                    raise CertificationError(describe(hit.union(nxt), "simultaneous master and slave impacts "
+                                                                      "whose order cannot be proven")
+                                             + f" at {bits} bits")
+                master, hit = not master, nxt
+            a = d if d < end else end
+            if not (a < end):
+                break  # both gaps < 0 proven up to the sample
+        x, v, e, ep = pair.state(tk)
+        samples.append((n, tk, x, v, x + e, w_of(e, v + ep)))
+        a = end
+        if progress is not None:
+            progress.update(n)
+    return samples, mimp, simp
+
+
+def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order", periods: int = 100, *,
+                    y0: Sequence[Any] | None = None, bits: int = 256, max_bits: int = 4096,
+                    progress: bool | None = None, **param_values: Any) -> CertifiedCoupledTrajectory:
+    """The master-slave pair certified: every sample and impact of both oscillators in a proven ball.
+
+    Parameters
+    ----------
+    params : Params, mapping or None, default ``None``
+        The system and the master's start (exact); ``None``: the paper's defaults with
+        ``param_values``.  The master must start below the wall (``x0 < x_w``).
+    k : decimal, default ``'0.1'``
+        Coupling ``k >= 0`` (exact); ``e'' + c1 e' + c0 e = 0`` must be underdamped
+        (always for 'first-order' and 'reduced'; ``k`` up to about 3.4 for 'paper' at
+        zeta = 0.05).
+    form : str, default ``'first-order'``
+        ``'first-order'``, ``'paper'`` or ``'reduced'`` (:mod:`~precise_impact.models.coupled`).
+    periods : int, default 100
+        Forcing periods (``1 <= periods <= 100000``).
+    y0 : pair or None, default ``None``
+        The slave's start ``(position, velocity variable)`` in ``form``'s variables, exact,
+        position ``< x_w``; ``None``: on the diagonal (the slave is the master, exactly).
+    bits : int, default 256
+        Working precision (``64 <= bits <= max_bits``).
+    max_bits : int, default 4096
+        After a failed proof the bits are doubled up to this (``<= 16384``).
+    progress : bool or None, default ``None``
+        A progress line on stderr (``None``: only when stderr is a terminal).
+    **param_values
+        Parameter values replacing those of ``params``.
+
+    Returns
+    -------
+    CertifiedCoupledTrajectory
+        Balls of every sample of ``(x, v, y, w)`` and of every impact of each oscillator.
+
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+    CertificationError
+        No proof up to ``max_bits`` (an impact order that cannot be proven, a tangential
+        contact, an impact on a sample time); the message names the time.
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a mechanical
+           impact oscillator", eqs. (11)-(14).
+    .. [2] F. Johansson, "Arb: efficient arbitrary-precision midpoint-radius interval
+           arithmetic", IEEE Trans. Comput. 66 (2017) 1281-1292.
+    """
+    from precise_impact.io.progress import Progress
+
+    params = params_or_values(params, param_values)
+    kq = check_k(k)
+    form = check_form(form)
+    periods = check_count(periods, "periods", 100_000, minimum=1)
+    max_bits = check_count(max_bits, "max_bits", MAX_BITS, minimum=MIN_BITS)
+    bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
+    y0q = check_y0(y0, params)
+    if not params.zeta < 1:
+        raise ParameterError("zeta", decimal_str(params.zeta), "0 <= zeta < 1 (underdamped) for the certified engine")
+    if (1 - params.eta**2) ** 2 + (2 * params.zeta * params.eta) ** 2 == 0:
+        raise ParameterError("zeta", "0", "zeta > 0 at eta = 1 (the undamped resonance has no steady state)")
+    if form == "paper":
+        c1, c0 = 2 * params.zeta + kq * (1 + 2 * params.zeta), 1 + 2 * kq
+    else:
+        c1, c0 = 2 * params.zeta + 2 * kq, 1 + 2 * params.zeta * kq + kq * kq
+    if not c0 > c1 * c1 / 4:
+        raise ParameterError("k", decimal_str(kq), f"a coupling with c0 > c1^2/4 (underdamped error equation) for "
+                                                   f"the '{form}' form")
+    if y0q is not None:
+        if not params.x0 < params.x_w:
+            raise ParameterError("x0", decimal_str(params.x0), f"x0 < x_w = {decimal_str(params.x_w)} for the "
+                                                               "certified pair off the diagonal")
+        if not y0q[0] < params.x_w:
+            raise ParameterError("y0[0]", decimal_str(y0q[0]), f"y0[0] < x_w = {decimal_str(params.x_w)} for the "
+                                                                "certified pair")
+    bar = Progress(periods, "certified periods (pair)", enabled=progress)
+    while True:
+        t0 = time.perf_counter()
+        try:
+            with working_bits(bits):
+                if y0q is None:  # the diagonal: the slave is the master, exactly (module docstring)
+                    ss, imps, _ = run_balls(params, periods, bits)
+                    samples = [(n, t, x, v, x, v) for n, t, x, v in ss]
+                    mimp = simp = list(imps)
+                else:
+                    samples, mimp, simp = _run(params, kq, form, y0q, periods, bits, bar)
+            bar.update(periods)
+            return CertifiedCoupledTrajectory(params, form, kq, y0q, periods, bits, samples, mimp, simp,
+                                              time.perf_counter() - t0)
+        except CertificationError as e:
+            if 2 * bits > max_bits:
+                raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
+            bits *= 2

@@ -1,0 +1,95 @@
+"""The certified master-slave pair against independent references: heyoka's multiprecision
+integration of the pair (another method: Taylor series with event detection on the four-state
+system, not the closed form), the single oscillator's certified run (the diagonal), and a
+constructed near-simultaneous impact whose order is known exactly."""
+
+import json
+import subprocess
+import sys
+from fractions import Fraction
+
+import pytest
+
+import precise_impact as pi
+
+flint = pytest.importorskip("flint", reason="python-flint: pip install python-flint")
+mpmath = pytest.importorskip("mpmath")
+
+from precise_impact.solvers.certified import CertificationError, exact_value  # noqa: E402
+
+
+def _mp(b):
+    f = exact_value(b.mid())
+    return mpmath.mpf(f.numerator) / f.denominator
+
+
+@pytest.mark.parametrize("form", ["first-order", "paper", "reduced"])
+@pytest.mark.parametrize("k", ["0.1", "0.02"])
+def test_pair_contains_heyoka_mp(form, k):
+    """60 chaotic periods (eta = 0.712) off the diagonal: equal impact counts of both
+    oscillators, and every heyoka mp:256 sample of (x, v, y, w) inside the certified ball
+    widened by heyoka's own error.  That error: rounding 2^-256 ~ 1e-77 grown by the chaos,
+    10^(0.131 x 60) ~ 1e8, and by ~1e4 steps and impacts: <= 1e-65; 1e-60 is the bound used
+    (the balls themselves are measured at 1e-58 .. 1e-50 at 256 bits)."""
+    p = pi.Params.make(eta="0.712")
+    y0 = ("0.5", "0.1")
+    r = pi.certify_coupled(p, k, form, 60, y0=y0, bits=256)
+    h = pi.simulate_coupled(p, k, form, 60, y0=y0, precision="mp:256")
+    assert len(r.master_impacts) == len(h.master_impacts_t) and len(r.slave_impacts) == len(h.slave_impacts_t)
+    assert r.max_radius() < 1e-45
+    with mpmath.workprec(600):
+        for i, (_, _, *balls) in enumerate(r.samples):
+            for b, hv in zip(balls, (h.x[i], h.v[i], h.y[i], h.w[i])):
+                assert abs(mpmath.mpf(str(hv)) - _mp(b)) <= float(exact_value(b.rad())) + 1e-60
+        for (t, _, _), ht in zip(r.slave_impacts, h.slave_impacts_t):
+            assert abs(mpmath.mpf(str(ht)) - _mp(t)) <= float(exact_value(t.rad())) + 1e-60
+
+
+def test_diagonal_is_the_single_oscillator_exactly():
+    """On the diagonal the slave is the master in every form (all coupling terms vanish)."""
+    p = pi.Params.make(eta="0.74")
+    r = pi.certify_coupled(p, "0.3", "paper", 30, bits=192)
+    s = pi.certify(p, 30, bits=192)
+    assert len(r.master_impacts) == len(r.slave_impacts) == len(s.impacts) == 20
+    def same(a, b):  # the same ball: midpoint and radius
+        return exact_value(a.mid()) == exact_value(b.mid()) and exact_value(a.rad()) == exact_value(b.rad())
+
+    for (_, t, x, v, y, w), (_, t2, x2, v2) in zip(r.samples, s.samples):
+        assert same(x, x2) and same(y, x2) and same(v, v2) and same(w, v2)
+
+
+def test_near_simultaneous_impacts_refused_then_ordered():
+    """The slave 1e-90 ahead of the master: their impacts are ~1e-92 apart.  At 256 bits
+    (impact balls ~1e-75) the order cannot be proven: an error naming the time, never a guess;
+    doubling the bits (512: balls ~1e-149) orders every pair of impacts."""
+    p = pi.Params.make(eta="0.712")
+    y0 = (Fraction(1, 10**90), "0")
+    with pytest.raises(CertificationError, match=r"simultaneous master and slave impacts .* at t = 8\.24167"):
+        pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, bits=256, max_bits=256)
+    r = pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, bits=256)
+    assert r.bits == 512 and len(r.master_impacts) == len(r.slave_impacts) == 4
+    for (tm, _, _), (ts, _, _) in zip(r.master_impacts, r.slave_impacts):
+        gap = abs(float((ts - tm).mid()))
+        # |e| ~ 1e-90 decays like exp(-(zeta + k) t) <= 1; |y'| ~ 1: the impacts 1e-93 .. 1e-90 apart
+        assert 1e-94 < gap < 1e-89 and not ts.overlaps(tm)
+
+
+def test_pair_bad_input_one_line_exit_2():
+    for argv, word in ((["--k", "-1", "--y0", "0.5", "0"], "k"), (["--k", "9", "--form", "paper", "--y0", "0.5", "0"], "k"),
+                       (["--k", "0.1", "--y0", "3", "0"], "y0[0]"), (["--y0", "0.5", "0"], "y0"),
+                       (["--k", "0.1", "--form", "nonsense"], "form")):
+        r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", "--periods", "2", *argv],
+                           capture_output=True, text=True, timeout=120)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (argv, r.stderr)
+
+
+def test_pair_cli_json():
+    r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", "--k", "0.1", "--form", "reduced", "--y0",
+                        "0.5", "0.1", "--periods", "4", "--bits", "128", "--json"], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert d["form"] == "reduced" and d["k"] == "0.1" and d["y0"] == ["0.5", "0.1"] and len(d["samples"]) == 5
+    assert set(d["samples"][1]) == {"period", "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}
+    assert d["slave_impacts"] and set(d["slave_impacts"][0]) == {"t", "t_rad", "before", "after", "rad"}
+    assert float(d["samples"][4]["y_rad"]) < 1e-25
