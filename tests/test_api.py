@@ -110,6 +110,7 @@ def results(tmp_path_factory):
     ]
     cont = pi.continue_orbit(pi.Params.make(R="0.8", eta="1"), "eta", "1", "0.95", 1, max_points=40)
     made += [cont, cont.branches[0], cont.bifurcations[0], pi.certify(p, 3, bits=128),
+             pi.certify_coupled(p, "0.1", "reduced", 3, y0=("0.5", "0.1"), bits=128),
              pi.prove_orbit(pi.Params.make(eta="0.70"), 1, guess=("102/53", "49/265"), impacts=0)]
     return {type(r).__name__: r for r in made}
 

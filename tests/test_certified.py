@@ -238,3 +238,12 @@ def test_users_scores_carry_proven_error_bounds():
                 assert bound <= s["abs_error_x" if ball is bx else "abs_error_v"][k] * (1 + 1e-12) + 1e-50
     finally:
         flint.ctx.prec = old
+
+
+def test_targets_below_the_float_range_are_met_not_underflowed():
+    """A radius below 1e-308 is 0.0 as a float: the target check and the growth use log10 of the
+    exact dyadic radius instead (a float comparison would pass 0.0 <= 0.0 for any radius)."""
+    r = certify(pi.Params.make(eta="0.712"), 20, target_radius="1e-400")
+    assert r.max_log10_radius() <= -400 and r.bits >= 1400  # 400 digits need >= 1329 bits
+    assert r.max_radius() == 0.0  # the float view underflows, as documented
+    assert 0.116 < r.growth_digits_per_period() < 0.5

@@ -188,3 +188,25 @@ def test_continuation_in_R_lands_on_the_end_of_its_range():
     assert b.values[-1] == 1.0 and b.stop_reason == "reached R = 1"
     o = pi.find_orbit(pi.Params.make(eta="1", R="1"), 1, guess=(b.x[-1, 0], b.v[-1, 0]))
     assert abs(o.x - b.x[-1, 0]) < 1e-12 and abs(o.v - b.v[-1, 0]) < 1e-12
+
+
+def test_continuation_in_zeta_follows_the_closed_form():
+    """The 1:1 orbit at R = 0.8, eta = 1 continued in zeta from 0.05 to 0.15: every point of the
+    branch is the closed-form 1:1 orbit at its zeta (one_impact_orbits, mpmath).  The corrector
+    stops at steps <= 64 eps (1 + |y|) after quadratic convergence, so a point is the exact
+    solution perturbed by the rounding of G (~100 eps over a flight of length T) times
+    |G_u^-1| (~10 here): ~1e-13; 1e-10 is the bound asked, with room."""
+    res = pi.continue_orbit(pi.Params.make(R="0.8", eta="1"), "zeta", "0.05", "0.15", 1, doublings=0)
+    b = res.branches[0]
+    assert b.parameter == "zeta" and b.impacts == 1 and b.values.max() == 0.15 and b.values.min() == 0.05
+    assert len(b.values) >= 10 and b.admissible.all()
+    worst = 0.0
+    for k, z in enumerate(b.values):
+        cf = pi.one_impact_orbits(pi.Params.make(R="0.8", eta="1", zeta=Fraction(float(z))), dps=30, grid=200)
+        best = min(max(abs(float(o.x) - b.x[k, 0]), abs(float(o.v) - b.v[k, 0])) for o in cf)
+        worst = max(worst, best)
+        # the closed-form multipliers are the branch's (|mu| the same to the same level)
+        o = min(cf, key=lambda o: abs(float(o.x) - b.x[k, 0]))
+        assert np.allclose(sorted(abs(complex(m)) for m in o.multipliers),
+                           sorted(math.hypot(*m) for m in b.multipliers[k]), rtol=0, atol=1e-10)
+    assert worst <= 1e-10, worst

@@ -134,6 +134,14 @@ def _call_certify(**kw):
     return certify(base.pop("params", Params.make()), **base)
 
 
+def _call_certify_coupled(**kw):
+    from precise_impact import certify_coupled
+
+    base = dict(k="0.1", form="reduced", periods=2, y0=("0.5", "0.1"), bits=128)
+    base.update(kw)
+    return certify_coupled(base.pop("params", Params.make()), **base)
+
+
 def _call_prove(**kw):
     from precise_impact import prove_orbit
 
@@ -165,13 +173,14 @@ ENTRY_POINTS = {
                                  "precision"]),
     "one_impact_orbits": (_call_one_impact, ["params", "dps", "grid"]),
     "certify": (_call_certify, ["params", "periods", "bits", "target_radius", "max_bits"]),
+    "certify_coupled": (_call_certify_coupled, ["params", "k", "form", "periods", "y0", "bits", "max_bits"]),
     "prove_orbit": (_call_prove, ["params", "period", "guess", "impacts", "bits", "radius", "transient"]),
     "continue_orbit": (_call_continue, ["params", "parameter", "start", "stop", "period", "impacts", "guess",
                                         "transient", "max_points", "doublings", "virtual"]),
 }
 #: Outcomes that are answers, not failures, for some entry points: Newton may not reach an
 #: orbit (ConvergenceError) or meet a tangential contact on the way (IntegrationError).
-ANSWERS = {"find_orbit": (IntegrationError,), "continue_orbit": (IntegrationError,), "certify": (IntegrationError,),
+ANSWERS = {"find_orbit": (IntegrationError,), "continue_orbit": (IntegrationError,), "certify": (IntegrationError,), "certify_coupled": (IntegrationError,),
            "prove_orbit": (IntegrationError,)}
 CASES = [(name, arg) for name, (_, args) in ENTRY_POINTS.items() for arg in args]
 

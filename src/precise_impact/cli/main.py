@@ -105,7 +105,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_param_flags(ob)
     _add_orbit_flags(ob, "")
     ob.add_argument("--precision", default="float64", metavar="P", help="float64 or mp:BITS (Newton refined to that precision)")
-    ob.add_argument("--json", action="store_true", help="print one JSON object to stdout")
+    ob.add_argument("--seed", default="auto", choices=("auto", "simulation", "closed-form"),
+                    help="where Newton starts without --guess: the closed-form orbit with one impact per P periods "
+                         "(closed-form), the state after --transient periods (simulation), or auto: the closed form "
+                         "when --impacts 1 is given and one exists, else the simulation (default auto)")
+    ob.add_argument("--json", action="store_true",
+                    help="print one JSON object to stdout (state.x and state.v: JSON numbers in float64, decimal "
+                         "strings with every digit at mp:BITS; stability: stable, unstable or elliptic)")
 
     ce = sub.add_parser("certify", help="a certified trajectory: every sample and impact in a proven ball "
                                         "(ball arithmetic, python-flint)")
@@ -116,6 +122,11 @@ def build_parser() -> argparse.ArgumentParser:
     ce.add_argument("--target", default="1e-30", metavar="R", help="radius wanted at every sample (default 1e-30)")
     ce.add_argument("--max-bits", dest="max_bits", default="8192", metavar="B",
                     help="bits are doubled after a failed proof up to this (default 8192)")
+    ce.add_argument("--k", default=None, metavar="K",
+                    help="certify the master-slave pair with coupling K >= 0 (default: the single oscillator)")
+    ce.add_argument("--form", default="first-order", help="the pair's slave equation: first-order, paper or reduced")
+    ce.add_argument("--y0", nargs=2, default=None, metavar=("Y", "W"),
+                    help="the slave's start (position, velocity variable); default: on the master (the diagonal)")
     ce.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
     co = sub.add_parser("continue", help="continue a branch of periodic orbits in one parameter: stability, "
@@ -296,16 +307,20 @@ def _cmd_lle(ns) -> int:
         spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
         print(f"LLE = {r.lle:.6f} +- {r.stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
         groups = r.stats.get("attractors", [])
-        if r.stats.get("lle_source") == "floquet":
-            g = next(g for g in groups if 0 in g["starts"])
+        head = next((g for g in groups if g["id"] == r.stats.get("headline_attractor")), None)
+        if r.stats.get("lle_source") == "floquet" and head is not None:
             ft = r.stats["finite_time"]
-            print(f"periodic attractor: period {g['period']}, {g['impacts']} impact(s); the LLE is its Floquet value "
-                  f"ln|mu_max| / (p T) (finite-time estimate {ft['lle']:.6f} +- {ft['stderr']:.6f})")
+            print(f"periodic attractor: period {head['period']}, {head['impacts']} impact(s); the LLE is its Floquet "
+                  f"value ln|mu_max| / (p T) (finite-time estimate {ft['lle']:.6f} +- {ft['stderr']:.2g}, "
+                  "1/t offset included)")
         if "warning" in r.stats:
-            print("warning: " + r.stats["warning"] + ": " + "; ".join(
-                f"starts {g['starts']} {g['kind']}" + (f" period {g['period']} LLE {g['floquet_lle']:.6f}"
-                                                      if g["kind"] == "periodic" else f" LLE {g['lle']:.6f}")
-                for g in groups))
+            print("warning: " + r.stats["warning"])
+        if len(r.stats.get("per_start", [])) > 1:
+            for j, s in enumerate(r.stats["per_start"]):
+                rate = s.get("impact_rate")
+                print(f"  start {j}: LLE {s['lle']:.6f} +- {s['stderr']:.2g}, "
+                      + (f"{rate:.4f} impacts/period, " if rate is not None and rate == rate else "")
+                      + f"attractor #{s.get('attractor')}")
         print(f"{r.periods} periods after {r.transient} transient, {r.impacts} impacts, {r.elapsed_s:.3f} s")
     return 0
 
@@ -318,7 +333,7 @@ def _cmd_orbit(ns) -> int:
     period = check_count(ns.period, "period", 1000, minimum=1)
     impacts = None if ns.impacts is None else check_count(ns.impacts, "impacts", 10**6)
     o = find_orbit(params, period, guess=ns.guess, impacts=impacts, transient=check_count(ns.transient, "transient"),
-                   precision=ns.precision)
+                   precision=ns.precision, seed=ns.seed)
     if ns.json:
         json.dump(o.to_dict(), sys.stdout)
         sys.stdout.write("\n")
@@ -327,7 +342,9 @@ def _cmd_orbit(ns) -> int:
     st = o.to_dict()["state"]
     print(f"period-{o.period} orbit with {o.impacts} impact(s): x = {st['x']}, v = {st['v']} at t = {o.t!r} "
           f"({o.precision})")
-    print(f"Floquet multipliers {mus}: {'stable' if o.stable else 'unstable'}; LLE = ln|mu_max| / (p T) = {o.lle:.10g}")
+    kind = o.stability + (" (neutral: zeta = 0 and R = 1 make det M = 1, the pair on the unit circle)"
+                          if o.stability == "elliptic" else "")
+    print(f"Floquet multipliers {mus}: {kind}; LLE = ln|mu_max| / (p T) = {o.lle:.10g}")
     print(f"residual |P^p(z) - z| = {o.residual:.3g} after {o.iterations} Newton iteration(s)")
     return 0
 
@@ -339,19 +356,33 @@ def _cmd_certify(ns) -> int:
     params = _params_from(ns)
     max_bits = check_count(ns.max_bits, "max_bits", MAX_BITS, minimum=64)
     bits = None if ns.bits is None else check_count(ns.bits, "bits", max_bits, minimum=64)
-    r = certify(params, ns.periods, bits=bits, target_radius=ns.target, max_bits=max_bits,
-                progress=None if ns.json else True)
+    progress = None if ns.json else True
+    if ns.k is not None:
+        from precise_impact.models.coupled_certified import certify_coupled
+
+        r = certify_coupled(params, ns.k, ns.form, ns.periods, y0=ns.y0, bits=256 if bits is None else bits,
+                            max_bits=max_bits, progress=progress)
+        lines = [f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, {len(r.master_impacts)} master and "
+                 f"{len(r.slave_impacts)} slave impacts, at {r.bits} bits in {r.elapsed_s:.2f} s; largest radius "
+                 f"{r.max_radius():.2e}"]
+        names = "xvyw"
+    else:
+        if ns.y0 is not None:
+            raise ParameterError("y0", " ".join(ns.y0), "only with --k (the coupled pair)")
+        r = certify(params, ns.periods, bits=bits, target_radius=ns.target, max_bits=max_bits, progress=progress)
+        lines = [f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits ({r.bits_choice}) "
+                 f"in {r.elapsed_s:.2f} s",
+                 f"largest radius {r.max_radius():.2e}; radius growth {r.growth_digits_per_period():.3f} decimal "
+                 f"digits per period"]
+        names = "xv"
+    d = r.to_dict()
     if ns.json:
-        json.dump(r.to_dict(), sys.stdout)
+        json.dump(d, sys.stdout)
         sys.stdout.write("\n")
         return 0
-    last = r.to_dict()["samples"][-1]
-    print(f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits ({r.bits_choice}) "
-          f"in {r.elapsed_s:.2f} s")
-    print(f"largest radius {r.max_radius():.2e}; radius growth {r.growth_digits_per_period():.3f} decimal digits "
-          f"per period")
-    print(f"x({last['period']} T) = {last['x']} +- {last['x_rad']}")
-    print(f"v({last['period']} T) = {last['v']} +- {last['v_rad']}")
+    last = d["samples"][-1]
+    lines += [f"{n}({last['period']} T) = {last[n]} +- {last[n + '_rad']}" for n in names]
+    print("\n".join(lines))
     return 0
 
 
@@ -383,8 +414,10 @@ def _cmd_continue(ns) -> int:
         return 0
     for k, b in enumerate(res.branches):
         n_st = int(b.stable.sum())
+        n_el = int((b.stability == "elliptic").sum())
         print(f"branch {k}: period {b.period}, {b.impacts} impact(s), {len(b.values)} points, {name} "
               f"{b.values.min():.10g} .. {b.values.max():.10g}, {n_st} stable, "
+              + (f"{n_el} elliptic (neutral), " if n_el else "") +
               f"{int((~b.admissible).sum())} virtual ({b.origin}; {b.stop_reason})")
     if not res.bifurcations:
         print("no bifurcation in the range")

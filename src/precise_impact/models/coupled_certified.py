@@ -47,6 +47,7 @@ from precise_impact.solvers.certified import (
     ball_str,
     describe,
     exact_value,
+    log10_abs,
     point,
     run_balls,
     to_ball,
@@ -152,13 +153,17 @@ class CertifiedCoupledTrajectory(ResultMixin):
     elapsed_s: float
 
     def max_radius(self) -> float:
-        """The largest radius of any sample coordinate (a float rounded up)."""
+        """The largest radius of any sample coordinate (a float rounded up; 0.0 below 1e-308)."""
         return max(float(exact_value(b.rad())) for s in self.samples for b in s[2:]) * (1 + 2**-50)
+
+    def max_log10_radius(self) -> float:
+        """``log10`` of the largest radius of any sample coordinate, at any magnitude."""
+        return max(log10_abs(b.rad()) for s in self.samples for b in s[2:])
 
     def to_dict(self) -> dict:
         """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``samples`` (``{"period",
         "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}``), ``master_impacts`` and
-        ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``), ``max_radius``,
+        ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``), ``max_radius``, ``max_log10_radius``,
         ``elapsed_s``; midpoints and rigorous radii as decimal strings."""
         rows = []
         for k, t, *balls in self.samples:
@@ -177,7 +182,7 @@ class CertifiedCoupledTrajectory(ResultMixin):
         return {"params": self.params.decimal(), "form": self.form, "k": decimal_str(self.k),
                 "y0": None if self.y0 is None else [decimal_str(q) for q in self.y0], "periods": self.periods,
                 "bits": self.bits, "samples": rows, "master_impacts": imps(self.master_impacts),
-                "slave_impacts": imps(self.slave_impacts), "max_radius": self.max_radius(),
+                "slave_impacts": imps(self.slave_impacts), "max_radius": self.max_radius(), "max_log10_radius": self.max_log10_radius(),
                 "elapsed_s": self.elapsed_s}
 
 
@@ -280,7 +285,7 @@ def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order
         The system and the master's start (exact); ``None``: the paper's defaults with
         ``param_values``.  The master must start below the wall (``x0 < x_w``).
     k : decimal, default ``'0.1'``
-        Coupling ``k >= 0`` (exact); ``e'' + c1 e' + c0 e = 0`` must be underdamped
+        Coupling ``0 <= k <= 100`` (exact); ``e'' + c1 e' + c0 e = 0`` must be underdamped
         (always for 'first-order' and 'reduced'; ``k`` up to about 3.4 for 'paper' at
         zeta = 0.05).
     form : str, default ``'first-order'``
@@ -332,6 +337,8 @@ def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order
         raise ParameterError("zeta", decimal_str(params.zeta), "0 <= zeta < 1 (underdamped) for the certified engine")
     if (1 - params.eta**2) ** 2 + (2 * params.zeta * params.eta) ** 2 == 0:
         raise ParameterError("zeta", "0", "zeta > 0 at eta = 1 (the undamped resonance has no steady state)")
+    if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
+        raise ParameterError("k", decimal_str(kq), "0 <= k <= 100 for the certified pair")
     if form == "paper":
         c1, c0 = 2 * params.zeta + kq * (1 + 2 * params.zeta), 1 + 2 * kq
     else:

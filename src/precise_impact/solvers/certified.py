@@ -39,7 +39,7 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.errors import IntegrationError, OptionalDependencyError, ParameterError
 
 __all__ = ["certify", "CertifiedTrajectory", "CertificationError", "CertifiedSolver", "ball_str", "working_bits",
-           "flow_matrix", "run_balls", "to_ball", "exact_value", "MAX_BITS", "MIN_BITS", "Constants", "Flight",
+           "flow_matrix", "run_balls", "to_ball", "exact_value", "log10_abs", "MAX_BITS", "MIN_BITS", "Constants", "Flight",
            "Isolator", "point", "upper", "lower", "describe"]
 
 #: Bounds of the working precision (bits).
@@ -75,6 +75,14 @@ def exact_value(exact_arb) -> Fraction:
     man, exp = exact_arb.man_exp()
     man, exp = int(man), int(exp)
     return Fraction(man * 2**exp) if exp >= 0 else Fraction(man, 2 ** (-exp))
+
+
+def log10_abs(x) -> float:
+    """``log10 |x|`` of an exact arb (a dyadic point such as a radius) at any magnitude
+    (``-inf`` for 0): no float underflow below 1e-308."""
+    man, exp = x.man_exp()
+    man, exp = abs(int(man)), int(exp)
+    return -math.inf if man == 0 else math.log10(man) + exp * math.log10(2)
 
 
 def ball_str(b, digits: int | None = None) -> tuple[str, str]:
@@ -403,20 +411,29 @@ class CertifiedTrajectory(ResultMixin):
         return [s[3] for s in self.samples]
 
     def radii(self) -> list[float]:
-        """``max(rad x, rad v)`` per sample (floats, rounded up)."""
+        """``max(rad x, rad v)`` per sample (floats, rounded up; a radius below 1e-308 underflows
+        to 0.0: :meth:`log10_radii` never does)."""
         return [float(exact_value(max(s[2].rad(), s[3].rad()))) * (1 + 2**-50) for s in self.samples]
 
+    def log10_radii(self) -> list[float]:
+        """``log10 max(rad x, rad v)`` per sample (``-inf`` for an exact point), at any magnitude."""
+        return [log10_abs(max(s[2].rad(), s[3].rad())) for s in self.samples]
+
     def max_radius(self) -> float:
-        """The largest radius of any sample."""
+        """The largest radius of any sample (a float: 0.0 if below 1e-308, see :meth:`max_log10_radius`)."""
         return max(self.radii())
+
+    def max_log10_radius(self) -> float:
+        """``log10`` of the largest radius of any sample, at any magnitude."""
+        return max(self.log10_radii())
 
     def growth_digits_per_period(self) -> float:
         """Decimal digits of radius lost per forcing period (least squares over the samples after the first)."""
-        r = self.radii()[1:]
-        ks = [k for k in range(1, len(r) + 1) if r[k - 1] > 0]
+        r = self.log10_radii()[1:]
+        ks = [k for k in range(1, len(r) + 1) if math.isfinite(r[k - 1])]
         if len(ks) < 2:
             return 0.0
-        ys = [math.log10(r[k - 1]) for k in ks]
+        ys = [r[k - 1] for k in ks]
         km, ym = sum(ks) / len(ks), sum(ys) / len(ys)
         den = sum((k - km) ** 2 for k in ks)
         return sum((k - km) * (y - ym) for k, y in zip(ks, ys)) / den if den else 0.0
@@ -444,7 +461,8 @@ class CertifiedTrajectory(ResultMixin):
         """The CLI's ``--json`` object: ``params``, ``periods``, ``bits``, ``bits_choice``,
         ``samples`` (``{"period", "t", "x", "v", "x_rad", "v_rad"}``: decimal midpoints and
         rigorous radii as decimal strings), ``impacts`` (``{"t", "t_rad", "v_before",
-        "v_after", "v_rad"}``), ``max_radius``, ``growth_digits_per_period``, ``elapsed_s``."""
+        "v_after", "v_rad"}``), ``max_radius`` (0.0 below 1e-308), ``max_log10_radius``, ``growth_digits_per_period``,
+        ``elapsed_s``."""
         out = []
         for k, t, x, v in self.samples:
             tm, _ = ball_str(t)
@@ -459,6 +477,7 @@ class CertifiedTrajectory(ResultMixin):
             imps.append({"t": tm, "t_rad": tr, "v_before": bm, "v_after": am, "v_rad": max(br, ar, key=float)})
         return {"params": self.params.decimal(), "periods": self.periods, "bits": self.bits,
                 "bits_choice": self.bits_choice, "samples": out, "impacts": imps, "max_radius": self.max_radius(),
+                "max_log10_radius": self.max_log10_radius(),
                 "growth_digits_per_period": self.growth_digits_per_period(), "elapsed_s": self.elapsed_s}
 
 
@@ -568,16 +587,17 @@ def certify(params: Any = None, periods: int = 300, *, bits: int | None = None, 
     if params.x0 > params.x_w:
         raise ParameterError("x0", str(params.x0), f"x0 <= x_w = {decimal(params.x_w)}")
     choice = "given"
+    log_target = math.log10(target.numerator) - math.log10(target.denominator)  # no underflow below 1e-308
     if bits is None:
         n_pilot = min(periods, 40)
         pilot = CertifiedTrajectory(params, n_pilot, 128, "pilot", *_run(params, n_pilot, 128, None), 0.0)
         g = max(pilot.growth_digits_per_period(), 0.0)
-        r_pilot = math.log10(max(pilot.radii()[-1], 1e-300))
+        r_pilot = max(pilot.log10_radii()[-1], -300.0)
         # radius ~ 10^(r_pilot + g (N - n_pilot) - 0.30103 (bits - 128)); two digits to spare
-        need = r_pilot + g * (periods - n_pilot) - math.log10(float(target)) + 2
+        need = r_pilot + g * (periods - n_pilot) - log_target + 2
         bits = int(64 * math.ceil(max(128, 128 + need / 0.30103) / 64))
         choice = (f"automatic: radius growth {g:.3f} digits/period (pilot of {n_pilot} periods at 128 bits) "
-                  f"-> {bits} bits for radius {float(target):.0e} after {periods} periods")
+                  f"-> {bits} bits for radius 1e{log_target:.0f} after {periods} periods")
         if bits > max_bits:
             raise ParameterError("target_radius", str(target_radius),
                                  f"a target reachable within max_bits = {max_bits} (needs ~{bits} bits)")
@@ -587,10 +607,11 @@ def certify(params: Any = None, periods: int = 300, *, bits: int | None = None, 
         try:
             samples, impacts = _run(params, periods, bits, bar)
             res = CertifiedTrajectory(params, periods, bits, choice, samples, impacts, time.perf_counter() - t0)
-            if choice.startswith("given") or res.max_radius() <= float(target) or 2 * bits > max_bits:
+            if choice.startswith("given") or res.max_log10_radius() <= log_target or 2 * bits > max_bits:
                 bar.update(periods)
                 return res
-            choice += f"; radius {res.max_radius():.1e} missed the target at {bits} bits, retried at {2 * bits}"
+            choice += (f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, retried at "
+                       f"{2 * bits}")
         except CertificationError as e:
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
@@ -603,7 +624,7 @@ class CertifiedSolver:
 
     Its :class:`~precise_impact.core.trajectory.Trajectory` holds the balls' midpoints in the
     working precision; ``stats['x_rad']``, ``stats['v_rad']`` (floats, rounded up) and
-    ``stats['max_radius']`` carry the proven radii.  Dense output is not offered
+    ``stats['max_radius']`` (and ``stats['max_log10_radius']``, which never underflows) carry the proven radii.  Dense output is not offered
     (``per_period`` must be 0): use :func:`certify` for the balls themselves.
 
     Parameters
@@ -652,5 +673,6 @@ class CertifiedSolver:
             impacts_t=P.array([mid(i[0]) for i in r.impacts]), impacts_v_before=P.array([mid(i[1]) for i in r.impacts]),
             impacts_v_after=P.array([mid(i[2]) for i in r.impacts]), elapsed_s=r.elapsed_s,
             stats={"certified": True, "bits": self.bits, "x_rad": [rad(s[2]) for s in r.samples],
-                   "v_rad": [rad(s[3]) for s in r.samples], "max_radius": r.max_radius()},
+                   "v_rad": [rad(s[3]) for s in r.samples], "max_radius": r.max_radius(),
+                   "max_log10_radius": r.max_log10_radius()},
         )

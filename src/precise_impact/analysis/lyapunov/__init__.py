@@ -41,8 +41,10 @@ def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> Lyap
         variational and fast methods also say which attractor each start ended on
         (``stats['attractors']``): on a periodic attractor ``lle`` and ``spectrum`` are the
         exact Floquet values of the Newton-refined orbit (``stats['lle_source'] =
-        'floquet'``, the finite-time estimate in ``stats['finite_time']``), and starts on
-        different attractors are reported separately, never averaged
+        'floquet'``, the finite-time estimate in ``stats['finite_time']`` with an error bar
+        that includes its ``1/t`` offset), and starts on different attractors are reported
+        separately, never averaged: ``lle`` is the attractor with the most starts, every
+        start's values are in ``stats['per_start']``
         (:mod:`~precise_impact.analysis.lyapunov.attractors`).
 
     Raises

@@ -18,7 +18,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
+from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, TEST_BLOCK_PERIODS, TEST_BLOCKS, attribute
 from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import ParameterError
@@ -59,7 +59,9 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     -------
     LyapunovResult
         ``method = 'fast'``; ``stats`` has ``engine``, ``per_start`` (LLE, lambda2,
-        impacts and status of every start).
+        impacts and status of every start; with ``attractors``: also its ``stderr``,
+        ``impact_rate``, ``impact_rate_stderr``, ``periods`` and ``attractor`` id, as
+        :func:`~precise_impact.analysis.lyapunov.attractors.attribute` says).
 
     References
     ----------
@@ -76,6 +78,13 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
     per = periods // n
     blocks = max(2, min(per, -(-segments // n)))
+    # finer blocks for the attractors' per-start tests (module attractors, *Grouping*): up to
+    # TEST_BLOCKS per start of >= TEST_BLOCK_PERIODS periods, summed back into ``blocks`` for
+    # the error bar (m is chosen so that the summed blocks are exactly the ``per // blocks``
+    # periods of the plain run: the same blocks, to rounding)
+    m = max(1, min(-(-TEST_BLOCKS // blocks), per // (TEST_BLOCK_PERIODS * blocks))) if attractors else 1
+    while m > 1 and (per // (blocks * m)) * m != per // blocks:
+        m -= 1
     from precise_impact.solvers.fast import STATUS_OK, STATUS_TEXT, lle_batch
 
     pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w),
@@ -84,8 +93,9 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     unsupported = not params.zeta < 1 or (params.zeta == 0 and params.eta == 1)
     start = time.perf_counter()
     if not unsupported:
-        status, log1, log2, imps, bsums, xt, vt = lle_batch(pars, starts, per, transient, blocks, max_impacts,
-                                                            min(per, 3 * MAX_PERIOD))
+        status, log1, log2, imps, fine, xt, vt = lle_batch(pars, starts, per, transient, blocks * m, max_impacts,
+                                                           min(per, 3 * MAX_PERIOD))
+        bsums = fine.reshape(n, blocks, m).sum(axis=2)
     if unsupported or np.any(status != STATUS_OK):
         why = "zeta >= 1" if unsupported else "; ".join(sorted({STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}))
         from precise_impact.analysis.lyapunov.variational import variational_spectrum
@@ -111,9 +121,44 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
         stats={"engine": "fast", "per_start": per_start},
     )
     if attractors:
-        bm = bsums / (per_block * T)  # batch means per start
-        attribute(result, list(zip(xt, vt)), [(d["lle"], d["lambda2"], bm[i]) for i, d in enumerate(per_start)])
+        bm = fine / ((per // (blocks * m)) * T)  # batch means per start, the finer blocks
+        rates = _impact_blocks(pars, starts, per, transient, blocks * m, max_impacts) if n > 1 else None
+        attribute(result, list(zip(xt, vt)), [(d["lle"], d["lambda2"], bm[i]) for i, d in enumerate(per_start)],
+                  impact_blocks=rates, periods=[per] * n)
     return result
+
+
+def _impact_blocks(pars: np.ndarray, starts: np.ndarray, per: int, transient: int, blocks: int,
+                   max_impacts: int) -> list:
+    """Impacts per period of each start in the blocks of :func:`~precise_impact.solvers.fast.lle_orbit`.
+
+    The compiled LLE returns only each start's total, so the orbit is run again without
+    tangents (:func:`~precise_impact.solvers.fast.strobe`, the same flights from the same
+    start) and its impact times counted per block of ``per // blocks`` measured periods (the
+    attractors' impact-rate test).  An entry is ``None`` where the rerun fails.
+    """
+    from precise_impact.solvers.fast import STATUS_OK, strobe
+
+    out: list = []
+    m = transient + per
+    per_block = max(1, per // blocks)
+    for i in range(len(starts)):
+        T = 2 * math.pi / pars[i, 0]
+        cap = 4 * m + 64
+        while True:
+            xs, vs, ts = np.empty(m + 1), np.empty(m + 1), np.empty(m + 1)
+            it, iv = np.empty(cap), np.empty(cap)
+            st, k, _ = strobe(*pars[i], *starts[i], m, 1, max_impacts, it, iv, xs, vs, ts)
+            if k <= cap or st != STATUS_OK:
+                break
+            cap = 4 * k + 64
+        if st != STATUS_OK:
+            out.append(None)
+            continue
+        j = (np.floor((it[:k] - starts[i, 0]) / T).astype(np.int64) - transient) // per_block
+        j = j[(j >= 0) & (j < blocks)]
+        out.append(np.bincount(j, minlength=blocks)[:blocks] / per_block)
+    return out
 
 
 def fast_batch(points, periods: int = 2000, transient: int = 1000, segments: int = 10, max_period: int = 32,

@@ -298,7 +298,8 @@ def two_trajectory_lle(
         each measured period, ``segments`` the per-block estimates, ``stderr`` their
         standard error, ``impacts`` the fiducial orbit's impacts during the measured
         periods and ``elapsed_s`` the wall time (transient included); ``stats['attractors']``
-        and ``stats['lle_source']`` as the variational method's.
+        and ``stats['lle_source']`` as the variational method's, ``stats['per_start']`` the
+        one start's ``lle``, ``stderr``, ``impact_rate`` and ``attractor``.
 
     Raises
     ------
@@ -488,5 +489,5 @@ def two_trajectory_lle(
 
         tail = strobe[-3 * MAX_PERIOD:]
         attribute(result, [(tail[:, 0], tail[:, 1])], [(result.lle, math.nan, blocks)],
-                  P.name if P.kind in ("float64", "mp") else "float64")
+                  P.name if P.kind in ("float64", "mp") else "float64", periods=[periods])
     return result

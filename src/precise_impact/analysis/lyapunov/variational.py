@@ -144,7 +144,7 @@ from precise_impact.core.impact import (
 from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.flow import acceleration
-from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
+from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, TEST_BLOCK_PERIODS, TEST_BLOCKS, attribute
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr, means_stderr
 
 __all__ = [
@@ -415,6 +415,7 @@ def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, 
     impacts0 = rec.count
     l1, l2, dt = np.empty(periods), np.empty(periods), np.full(periods, period)
     sx, sv = np.empty(periods), np.empty(periods)
+    ni = np.zeros(periods)  # impacts in each measured period (the attractors' impact-rate test)
     bar = Progress(periods, f"variational LLE{label}", progress)
     done = 0
     while done < periods:
@@ -433,13 +434,14 @@ def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, 
                 p1 += c1[j]
                 p2 += c2[j]  # -inf after a plastic impact (R = 0); the state logs stay finite
                 j += 1
+                ni[done + i] += 1
             l1[done + i], l2[done + i] = p1 + (a1[i] - s1), p2 + (a2[i] - s2)
             s1, s2 = a1[i], a2[i]
         sx[done : done + k], sv[done : done + k] = rows[:, 0], rows[:, 1]
         _gram_schmidt(ta.state, sqrt, log)  # its logs are a1[-1], a2[-1], already counted
         done += k
         bar.update(done)
-    return l1, l2, dt, sx, sv, rec.count - impacts0
+    return l1, l2, dt, sx, sv, rec.count - impacts0, ni
 
 
 def initial_condition(params: Params, j: int) -> Params:
@@ -532,7 +534,11 @@ def variational_spectrum(
         (largest ``|s|``, ``s = S[1][0]``), ``maxima`` (checked by the guard),
         ``max_overshoot`` (largest ``x - x_w`` at a maximum), ``missed``,
         ``max_period_log`` (largest per-period ``ln r11``, in-callback parts included)
-        and ``finite_logs`` (every per-period ``ln r11`` finite).
+        and ``finite_logs`` (every per-period ``ln r11`` finite); with ``attractors``
+        also ``per_start`` (each start's ``lle``, ``stderr``, ``impact_rate``,
+        ``impact_rate_stderr``, ``periods``, ``attractor`` id), ``attractors``,
+        ``headline_attractor``, ``lle_source`` and ``finite_time``
+        (:func:`~precise_impact.analysis.lyapunov.attractors.attribute`).
 
     Raises
     ------
@@ -586,7 +592,7 @@ def variational_spectrum(
     start = _time.perf_counter()
     per_orbit = [periods // n_ic + (1 if j < periods % n_ic else 0) for j in range(n_ic)]
     blocks_per_orbit = max(2, -(-segments // n_ic))
-    L1, L2, DT, blocks, tails = [], [], [], [], []
+    L1, L2, DT, blocks, tails, rates, test_blocks = [], [], [], [], [], [], []
     impacts = 0
     strobe = None
     diag = {"impacts": 0, "grazing": 0, "min_impact_speed": math.inf, "max_contact_speed": 0.0, "max_saltation": 0.0,
@@ -595,7 +601,7 @@ def variational_spectrum(
         rec.reset(max_impacts, depth, *fns, pars=ta.pars)
         grd.reset(depth, rec.f64)
         label = f" (orbit {j + 1}/{n_ic})" if n_ic > 1 else ""
-        l1, l2, dt, sx, sv, imp = _one_orbit(ta, rec, grd, P, ic, transient, n, progress, label, guard)
+        l1, l2, dt, sx, sv, imp, ni = _one_orbit(ta, rec, grd, P, ic, transient, n, progress, label, guard)
         if strobe is None:
             strobe = (sx, sv)
         tails.append((sx[-3 * MAX_PERIOD:], sv[-3 * MAX_PERIOD:]))
@@ -604,6 +610,11 @@ def variational_spectrum(
         DT.append(dt)
         impacts += imp
         blocks.append(block_stderr(l1, dt, min(blocks_per_orbit, n))[0])
+        # the attractors' per-start tests: finer blocks (TEST_BLOCKS of >= TEST_BLOCK_PERIODS
+        # periods) and the impacts per period in the same blocks (block_stderr's split)
+        nt = min(n, max(blocks_per_orbit, min(TEST_BLOCKS, n // TEST_BLOCK_PERIODS)))
+        test_blocks.append(block_stderr(l1, dt, nt)[0])
+        rates.append(np.array([ni[i].mean() for i in np.array_split(np.arange(n), nt) if len(i)]))
         diag["impacts"] += rec.count
         diag["grazing"] += rec.grazing
         diag["min_impact_speed"] = min(diag["min_impact_speed"], rec.min_speed)
@@ -640,6 +651,7 @@ def variational_spectrum(
     )
     if attractors:
         per_start = [(float(np.sum(a) / np.sum(d)), float(np.sum(b) / np.sum(d)), blk)
-                     for a, b, d, blk in zip(L1, L2, DT, blocks)]
-        attribute(result, tails, per_start, P.name if P.kind in ("float64", "mp") else "float64")
+                     for a, b, d, blk in zip(L1, L2, DT, test_blocks)]
+        attribute(result, tails, per_start, P.name if P.kind in ("float64", "mp") else "float64",
+                  impact_blocks=rates, periods=per_orbit)
     return result

@@ -36,7 +36,7 @@ class Branch(ResultMixin):
     multipliers : numpy.ndarray of float, shape ``(m, 2, 2)``
         Floquet multipliers as ``[re, im]`` pairs, largest modulus first.
     stable : numpy.ndarray of bool
-        Every multiplier inside the unit circle.
+        Every multiplier inside the unit circle (false for an elliptic orbit).
     admissible : numpy.ndarray of bool
         The orbit is physical: every flight stays below the wall and every impact
         arrives with ``v^- >= 0`` (false past a grazing point: a *virtual* orbit).
@@ -44,6 +44,11 @@ class Branch(ResultMixin):
         ``ln |mu_max| / (p T)``.
     stop_reason : str
         Why the branch ended.
+    stability : numpy.ndarray of str or None, default ``None``
+        ``'stable'``, ``'unstable'`` or ``'elliptic'`` per point: ``'elliptic'`` (neutral)
+        when ``zeta = 0`` and ``R = 1`` make ``det M = 1`` identically and the multipliers
+        are a complex pair on the unit circle (then ``stable`` is false and ``lle`` is 0).
+        ``None`` (a branch built by hand): derived from ``stable``.
     """
 
     parameter: str
@@ -58,6 +63,11 @@ class Branch(ResultMixin):
     admissible: np.ndarray
     lle: np.ndarray
     stop_reason: str
+    stability: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.stability is None:
+            self.stability = np.where(np.asarray(self.stable, dtype=bool), "stable", "unstable")
 
     @classmethod
     def from_points(cls, parameter: str, period: int, impacts: int, origin: str, pts: list, reason: str) -> "Branch":
@@ -66,9 +76,10 @@ class Branch(ResultMixin):
                    x=np.array([p.states[:, 0] for p in pts]).reshape(len(pts), period),
                    v=np.array([p.states[:, 1] for p in pts]).reshape(len(pts), period),
                    multipliers=np.array([[[m.real, m.imag] for m in p.mu] for p in pts]).reshape(len(pts), 2, 2),
-                   stable=np.array([abs(p.mu[0]) < 1 for p in pts]),
+                   stable=np.array([p.stability == "stable" for p in pts], dtype=bool),
                    admissible=np.array([p.admissible for p in pts]),
-                   lle=np.array([p.lle for p in pts]), stop_reason=reason)
+                   lle=np.array([p.lle for p in pts]), stop_reason=reason,
+                   stability=np.array([p.stability for p in pts], dtype=object))
 
 
 @dataclasses.dataclass
@@ -184,17 +195,20 @@ class ContinuationResult(ResultMixin):
         colors = ["tab:blue", "tab:purple", "tab:brown", "tab:cyan", "tab:olive", "tab:pink", "tab:green", "tab:gray"]
         for k, b in enumerate(self.branches):
             c = colors[k % len(colors)]
-            kind = np.where(~b.admissible, 2, np.where(b.stable, 0, 1))
+            elliptic = np.asarray(b.stability) == "elliptic"
+            kind = np.where(~b.admissible, 2, np.where(b.stable, 0, np.where(elliptic, 3, 1)))
             for lo, hi in _runs(kind):
                 sl = slice(lo, min(hi + 1, len(kind)))
                 style = {0: dict(ls="-", lw=1.6, color=c), 1: dict(ls="--", lw=1.2, color=c),
-                         2: dict(ls=":", lw=0.9, color="0.6")}[int(kind[lo])]
+                         2: dict(ls=":", lw=0.9, color="0.6"), 3: dict(ls="-.", lw=1.2, color=c)}[int(kind[lo])]
                 for j in range(b.period):
                     ax1.plot(b.values[sl], b.x[sl, j], **style)
                 ax2.plot(b.values[sl], b.lle[sl], **style)
             ax1.plot([], [], color=c, label=f"branch {k}: period {b.period}, {b.impacts} impact(s)")
         ax1.plot([], [], "k-", label="stable")
         ax1.plot([], [], "k--", label="unstable")
+        if any(np.any(np.asarray(b.stability) == "elliptic") for b in self.branches):
+            ax1.plot([], [], "k-.", label="elliptic (neutral: zeta = 0, R = 1)")
         ax1.plot([], [], ":", color="0.6", label="virtual (past grazing)")
         marks = {"grazing": ("o", "tab:orange"), "period-doubling": ("s", "tab:red"), "fold": ("^", "tab:green"),
                  "branch-point": ("v", "tab:olive"), "neimark-sacker": ("D", "tab:pink")}

@@ -13,8 +13,13 @@ are passed.  Between consecutive points the test functions are watched:
 * period-doubling: ``det(M + I)`` (a multiplier at ``-1``);
 * fold: ``det(M - I)`` with the parameter turning (``branch-point`` if it does not);
 * Neimark-Sacker: ``det M - 1`` with complex multipliers.  Here ``det M = R^(2n)
-  exp(-2 zeta p T)`` (saltation ``R^2``, flow ``exp(-2 zeta t)``), so it cannot happen for
-  ``zeta > 0`` or ``R < 1``; the test stays for the general case.
+  exp(-2 zeta p T)`` (saltation ``R^2``, flow ``exp(-2 zeta t)``), and the test evaluates
+  that closed form rather than the rounded determinant: it is negative for ``zeta > 0`` or
+  ``R < 1``, so no point is reported.  With ``zeta = 0`` and ``R = 1`` (or ``n = 0``) it is
+  identically zero: the map preserves area, the computed ``det M - 1`` would be rounding
+  noise of either sign, and it is not watched at all.  A complex pair then lies on the unit
+  circle exactly: the orbit is ``'elliptic'`` (neutral; :attr:`Branch.stability`), decided
+  by ``|tr M| < 2``, not by the rounding of ``|mu|``.
 
 A sign change is located by the Illinois variant of regula falsi on the arclength (each
 trial point corrected onto the branch), to the precision at which the test function is
@@ -33,6 +38,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from precise_impact.analysis.orbits.branch import Bifurcation, Branch, ContinuationResult
+from precise_impact.analysis.orbits.result import area_preserving, classify
 from precise_impact.analysis.orbits.shooting import CONTINUABLE, ShootingSystem, from_orbit
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.errors import ParameterError
@@ -124,11 +130,21 @@ class _Point:
         gi, gv = system.grazing_tests(u, lam)
         tr, det = float(np.trace(self.M)), float(np.linalg.det(self.M))
         complex_pair = tr * tr < 4 * det
+        vals = system.values(lam)
+        T = system.forcing_period(vals)
+        zeta, R = vals[1], vals[4]
+        neutral = area_preserving(zeta, R, system.impacts)
+        # det M in closed form (exact up to one rounding of exp): never rounding noise of either sign
+        det_exact = R ** (2 * system.impacts) * math.exp(-2 * zeta * system.period * T)
+        ns = (det_exact - 1) if complex_pair and not neutral else math.nan
         self.tests = {"graze_interior": gi, "graze_impact": gv, "period-doubling": 1 + tr + det,
-                      "fold": 1 - tr + det, "neimark-sacker": (det - 1) if complex_pair else math.nan}
+                      "fold": 1 - tr + det, "neimark-sacker": ns}
         self.admissible = bool(gi >= 0 and gv >= 0)
-        T = system.forcing_period(system.values(lam))
-        self.lle = math.log(abs(self.mu[0])) / (system.period * T) if abs(self.mu[0]) > 0 else -math.inf
+        self.stability = classify(self.mu, neutral)
+        if self.stability == "elliptic":
+            self.lle = 0.0  # |mu| = 1 exactly (det M = 1, complex pair)
+        else:
+            self.lle = math.log(abs(self.mu[0])) / (system.period * T) if abs(self.mu[0]) > 0 else -math.inf
 
 
 def _sign_change(a: float, b: float) -> bool:

@@ -17,7 +17,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from precise_impact.analysis.orbits.result import PeriodicOrbit
+from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.errors import IntegrationError, ParameterError
 
@@ -88,6 +88,7 @@ def _map_mp(params: Params, z: tuple, period: int, bits: int):
 def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations: int):
     import mpmath
 
+    steps = []
     with mpmath.workprec(bits):
         z = mpmath.matrix([mpmath.mpf(z0[0]), mpmath.mpf(z0[1])])
         tiny = mpmath.mpf(2) ** (8 - bits)
@@ -98,6 +99,7 @@ def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations
             dz = mpmath.lu_solve(M - mpmath.eye(2), -F)
             z = z + dz
             size = max(abs(dz[0]), abs(dz[1]))
+            steps.append(size)
             if size <= tiny * (1 + max(abs(z[0]), abs(z[1]))) or (size >= last and last < mpmath.mpf(2) ** (-bits // 2)):
                 break
             last = size
@@ -108,12 +110,29 @@ def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations
         mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
         T = 2 * mpmath.pi / _mpq(params.eta)
         lle = float(mpmath.log(abs(mu[0])) / (period * T))
-        return z[0], z[1], list(mu), lle, float(residual), n, it
+        return z[0], z[1], list(mu), lle, float(residual), n, it, [float(h) for h in steps]
+
+
+def _closed_form_seed(params: Params, period: int, near: np.ndarray | None):
+    """The closed-form 1:``period`` orbit (:func:`one_impact_orbits`) to start Newton from:
+    the one nearest ``near``, else the stable one, else the least unstable; ``None`` if none."""
+    from precise_impact.analysis.orbits.one_impact import one_impact_orbits
+
+    if not (0 <= params.zeta < 1 and 0 < params.R <= 1):
+        return None
+    found = one_impact_orbits(params, dps=30, period=period)
+    if not found:
+        return None
+    if near is not None:
+        best = min(found, key=lambda o: math.hypot(float(o.x) - near[0], float(o.v) - near[1]))
+    else:
+        best = min(found, key=lambda o: (not o.stable, float(abs(o.multipliers[0]))))
+    return np.array([float(best.x), float(best.v)])
 
 
 def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | None = None, transient: int = 2000,
                impacts: int | None = None, max_iterations: int = 50, precision: str = "float64",
-               **param_values: Any) -> PeriodicOrbit:
+               seed: str = "simulation", **param_values: Any) -> PeriodicOrbit:
     """A periodic orbit of the stroboscopic map (stable or unstable) by Newton's method.
 
     Parameters
@@ -136,6 +155,15 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
         by Newton in multiprecision, the map evaluated by the robust analytical solver
         (mpmath) and its Jacobian by the closed-form flow and saltation matrices;
         quadratic convergence to the working precision.
+    seed : str, default ``'simulation'``
+        Where Newton starts when ``guess`` is ``None``: ``'simulation'`` (the state after
+        ``transient`` periods), ``'closed-form'`` (the closed-form 1:``period`` orbit of
+        :func:`~precise_impact.analysis.orbits.one_impact.one_impact_orbits`: one impact per
+        ``period`` forcing periods, the stable one if there is one, else the least unstable;
+        requires ``impacts`` ``None`` or 1, and :class:`ConvergenceError` if there is none),
+        or ``'auto'`` (the closed form when ``impacts == 1`` and one exists, else the
+        simulation).  With a ``guess`` and ``'closed-form'``, the closed-form orbit nearest
+        the guess.
     **param_values
         Parameter values replacing those of ``params``.
 
@@ -175,6 +203,10 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
     max_iterations = check_count(max_iterations, "max_iterations", 10_000, minimum=1)
     if impacts is not None:
         impacts = check_count(impacts, "impacts", 10**6)
+    if seed not in ("simulation", "closed-form", "auto"):
+        raise ParameterError("seed", seed, "'simulation', 'closed-form' or 'auto'")
+    if seed == "closed-form" and impacts not in (None, 1):
+        raise ParameterError("impacts", str(impacts), "None or 1 with seed='closed-form' (one impact per orbit)")
     from precise_impact.core.precision import Precision
 
     Pq = Precision.parse(precision)
@@ -182,19 +214,28 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
         raise ParameterError("precision", precision, f"'float64' or 'mp:BITS' with BITS <= {MAX_BITS}")
     if not params.zeta < 1:
         raise ParameterError("zeta", str(params.zeta), "0 <= zeta < 1 (underdamped) for the orbit finder")
-    if guess is None:
+    g = None
+    if guess is not None:
+        if isinstance(guess, (str, bytes)) or not isinstance(guess, Sequence) or len(guess) != 2:
+            raise ParameterError("guess", guess, "a pair (x, v) or None")
+        g = np.array([float(exact("guess[0]", guess[0])), float(exact("guess[1]", guess[1]))])
+        if g[0] > float(params.x_w):
+            raise ParameterError("guess[0]", str(guess[0]), f"a position <= x_w = {float(params.x_w)!r}")
+    z = None
+    if seed == "closed-form" or (seed == "auto" and g is None and impacts == 1):
+        z = _closed_form_seed(params, period, g)
+        if z is None and seed == "closed-form":
+            raise ConvergenceError(f"no admissible closed-form orbit with one impact per {period} period(s) here")
+    if z is None and g is not None:
+        z = g
+    elif z is None:
         from precise_impact.solvers.fast import FastSolver
 
         tr = FastSolver().solve(params, transient)
         z = np.array([float(tr.x[-1]), float(tr.v[-1])])
-    else:
-        if isinstance(guess, (str, bytes)) or not isinstance(guess, Sequence) or len(guess) != 2:
-            raise ParameterError("guess", guess, "a pair (x, v) or None")
-        z = np.array([float(exact("guess[0]", guess[0])), float(exact("guess[1]", guess[1]))])
-        if z[0] > float(params.x_w):
-            raise ParameterError("guess[0]", str(guess[0]), f"a position <= x_w = {float(params.x_w)!r}")
     last = math.inf
     it = 0
+    steps: list = []
     for it in range(1, max_iterations + 1):
         fz, M, n = _map(params, z, period)
         F = fz - z
@@ -207,6 +248,7 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
         if z[0] > float(params.x_w):  # a step beyond the wall: back to it
             z[0] = float(params.x_w)
         size = float(np.max(np.abs(dz)))
+        steps.append(size)
         if size <= 16 * _EPS * (1 + float(np.max(np.abs(z)))) or (size >= last and last < 1e-8):
             break
         last = size
@@ -220,17 +262,19 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
     if impacts is not None and n != impacts:
         raise ConvergenceError(f"converged to a period-{period} orbit with {n} impacts, not {impacts}")
     if Pq.kind == "mp":  # refine the float64 orbit to the working precision (quadratic convergence)
-        x, v, mu, lle, res, n_mp, it_mp = _newton_mp(params, (z[0], z[1]), period, Pq.bits, max_iterations)
+        x, v, mu, lle, res, n_mp, it_mp, steps_mp = _newton_mp(params, (z[0], z[1]), period, Pq.bits, max_iterations)
         if n_mp != n:
             raise ConvergenceError(f"the multiprecision refinement found {n_mp} impacts, float64 {n}")
-        import mpmath
-
+        kind = classify(mu, area_preserving(params.zeta, params.R, n))
         return PeriodicOrbit(params=params, period=period, impacts=n, t=float(params.t0), x=x, v=v,
-                             multipliers=mu, stable=bool(abs(mu[0]) < 1), lle=lle, residual=res,
-                             iterations=it + it_mp, precision=Pq.name)
+                             multipliers=mu, stable=kind == "stable", lle=0.0 if kind == "elliptic" else lle,
+                             residual=res, iterations=it + it_mp, precision=Pq.name, stability=kind,
+                             steps=steps + steps_mp)
     mu = sorted(np.linalg.eigvals(M).tolist(), key=lambda m: -abs(m))
     T = 2 * math.pi / float(params.eta)
     lle = math.log(abs(mu[0])) / (period * T) if abs(mu[0]) > 0 else -math.inf
+    kind = classify(mu, area_preserving(params.zeta, params.R, n))
     return PeriodicOrbit(params=params, period=period, impacts=n, t=float(params.t0), x=float(z[0]), v=float(z[1]),
-                         multipliers=[complex(m) for m in mu], stable=bool(abs(mu[0]) < 1), lle=lle,
-                         residual=residual, iterations=it)
+                         multipliers=[complex(m) for m in mu], stable=kind == "stable",
+                         lle=0.0 if kind == "elliptic" else lle, residual=residual, iterations=it, stability=kind,
+                         steps=steps)

@@ -1,4 +1,4 @@
-"""The 1:1 impacting orbit in closed form: one impact per forcing period.
+"""The 1:1 and 1:n impacting orbits in closed form: one impact per n forcing periods.
 
 Derivation.  Between impacts ``x = x_p + y`` with the steady state
 ``x_p = P cos(eta t) + Q sin(eta t)`` (:func:`~precise_impact.core.flow.steady_state`) and
@@ -21,6 +21,16 @@ free flight stays below the wall for the whole period (checked on a fine grid). 
 monodromy matrix is ``S Phi(T)`` (``S`` the saltation matrix at ``(t*, v)``), so the
 Floquet multipliers follow in closed form; when they are complex,
 ``|mu|^2 = det = R^2 exp(-2 zeta T)`` and the LLE is ``ln R / T - zeta`` exactly.
+
+1:n orbits (``period = n``: one impact per ``n`` forcing periods, the flight lasting
+``n T``).  ``x_p`` is T-periodic, hence ``nT``-periodic, so the derivation is the same with
+``Phi(nT)`` in place of ``Phi(T)``: the same two phases ``eta t* = psi +- acos(C1 x_w / rho)``
+(``t*`` modulo ``T``: shifting the impact by whole forcing periods gives the same orbit
+seen from another of its ``n`` stroboscopic points), ``v`` from the first row, admissible
+when ``v > 0`` and the flight stays below the wall for all of ``n T``.  Monodromy
+``S Phi(nT)``; ``|mu|^2 = R^2 exp(-2 zeta n T)`` for a complex pair.  The returned point
+is the orbit's state at ``t0`` (``t0 - t*`` reduced modulo ``n T``); its images under
+the stroboscopic map are the other ``n - 1`` points of the same orbit.
 """
 
 from __future__ import annotations
@@ -31,7 +41,7 @@ from typing import Any
 
 import mpmath
 
-from precise_impact.analysis.orbits.result import PeriodicOrbit
+from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
 from precise_impact.core.flow import steady_state
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import check_count, params_or_values
@@ -57,8 +67,9 @@ def flow_matrix(tau, zeta, w) -> mpmath.matrix:
     return mpmath.matrix([[p00, p01], [p10, p11]])
 
 
-def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, **param_values: Any) -> list[PeriodicOrbit]:
-    """Every 1:1 impacting orbit of ``params``, in closed form (module docstring).
+def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, *, period: int = 1,
+                      **param_values: Any) -> list[PeriodicOrbit]:
+    """Every 1:1 (or 1:n) impacting orbit of ``params``, in closed form (module docstring).
 
     Parameters
     ----------
@@ -68,15 +79,20 @@ def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, **par
     dps : int, default 50
         Decimal digits of the mpmath evaluation (``15 <= dps <= 10000``).
     grid : int, default 2000
-        Points per period on which the free flight is checked to stay below the wall.
+        Points per forcing period on which the free flight is checked to stay below the wall.
+    period : int, default 1
+        ``n``: one impact per ``n`` forcing periods (``1 <= n <= 1000``); the orbit's
+        period is ``n T``.
     **param_values
         Parameter values replacing those of ``params``.
 
     Returns
     -------
     list of PeriodicOrbit
-        ``method = 'closed form'``, ``precision = 'mp:BITS'``; ``x``, ``v`` (at ``t0``) and the
-        multipliers are mpmath numbers; ``stats``-free.  Empty when there is none.
+        ``method = 'closed form'``, ``precision = 'mp:BITS'``, ``period = n``, ``impacts = 1``;
+        ``x``, ``v`` (at ``t0``) and the multipliers are mpmath numbers; ``stats``-free.
+        ``stability`` is ``'elliptic'`` for a complex pair when ``zeta = 0`` and ``R = 1``.
+        Empty when there is none.
 
     Raises
     ------
@@ -86,6 +102,7 @@ def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, **par
     params = params_or_values(params, param_values)
     dps = check_count(dps, "dps", 10_000, minimum=15)
     grid = check_count(grid, "grid", 10**6, minimum=10)
+    n = check_count(period, "period", 1000, minimum=1)
     if not (0 <= params.zeta < 1) or not (0 < params.R <= 1):
         raise ParameterError("params", params.decimal(), "0 <= zeta < 1 and 0 < R <= 1 for the closed form")
     ss = steady_state(params)
@@ -94,8 +111,9 @@ def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, **par
         eta, zeta, a, xw, R = (_q(getattr(params, n)) for n in ("eta", "zeta", "a", "x_w", "R"))
         P, Q = _q(ss.P), _q(ss.Q)
         T = 2 * mpmath.pi / eta
+        nT = n * T
         w = mpmath.sqrt(1 - zeta * zeta)
-        p00, p01, p10, p11 = _phi(T, zeta, w)
+        p00, p01, p10, p11 = _phi(nT, zeta, w)
         C1 = p01 * p10 * R - (1 + p11 * R) * (p00 - 1)
         C2 = p01 * (1 + R)
         Ac, As = C1 * P - C2 * eta * Q, C1 * Q + C2 * eta * P
@@ -118,23 +136,24 @@ def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, **par
                 f00, f01, _, _ = _phi(t - ts, zeta, w)
                 return P * mpmath.cos(eta * t) + Q * mpmath.sin(eta * t) + f00 * y0 + f01 * u0
 
-            if any(x_at(ts + T * j / grid) >= xw for j in range(1, grid)):
-                continue  # the flight would cross the wall: not a 1:1 orbit
+            if any(x_at(ts + nT * j / (n * grid)) >= xw for j in range(1, n * grid)):
+                continue  # the flight would cross the wall: not a 1:n orbit
             t0 = _q(params.t0)
-            tau = mpmath.fmod(t0 - ts, T)
+            tau = mpmath.fmod(t0 - ts, nT)
             if tau < 0:
-                tau += T
+                tau += nT
             f00, f01, f10, f11 = _phi(tau, zeta, w)
             t_s = ts + tau
             x0 = P * mpmath.cos(eta * t_s) + Q * mpmath.sin(eta * t_s) + f00 * y0 + f01 * u0
             v0 = eta * (Q * mpmath.cos(eta * t_s) - P * mpmath.sin(eta * t_s)) + f10 * y0 + f11 * u0
             S = oscillator_saltation(ts, v, eta, zeta, a, xw, R, mpmath.cos)
-            M = mpmath.matrix(S) * mpmath.matrix([[p00, p01], [p10, p11]])
+            M = mpmath.matrix(S) * mpmath.matrix([[p00, p01], [p10, p11]])  # S Phi(nT)
             mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
-            lle = mpmath.log(abs(mu[0])) / T
+            kind = classify(mu, area_preserving(params.zeta, params.R, 1))
+            lle = 0.0 if kind == "elliptic" else float(mpmath.log(abs(mu[0])) / nT)
             out.append(PeriodicOrbit(
-                params=params, period=1, impacts=1, t=float(t0), x=x0, v=v0, multipliers=list(mu),
-                stable=bool(abs(mu[0]) < 1), lle=float(lle), residual=0.0, iterations=0, method="closed form",
-                precision=f"mp:{mpmath.mp.prec}",
+                params=params, period=n, impacts=1, t=float(t0), x=x0, v=v0, multipliers=list(mu),
+                stable=kind == "stable", lle=lle, residual=0.0, iterations=0, method="closed form",
+                precision=f"mp:{mpmath.mp.prec}", stability=kind,
             ))
     return out

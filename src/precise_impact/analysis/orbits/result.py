@@ -8,7 +8,7 @@ import math
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin
 
-__all__ = ["PeriodicOrbit"]
+__all__ = ["PeriodicOrbit", "area_preserving", "classify"]
 
 
 @dataclasses.dataclass
@@ -29,7 +29,8 @@ class PeriodicOrbit(ResultMixin):
         Eigenvalues of the monodromy matrix over ``p`` periods (flow and saltation
         matrices), largest modulus first.
     stable : bool
-        Every multiplier inside the unit circle.
+        Every multiplier inside the unit circle (asymptotically stable).  False for an
+        ``'elliptic'`` orbit.
     lle : float
         ``ln |mu_max| / (p T)``: the exact largest Lyapunov exponent of the orbit.
     residual : float
@@ -40,6 +41,15 @@ class PeriodicOrbit(ResultMixin):
         ``'newton'`` or ``'closed form'``.
     precision : str
         The working precision.
+    stability : str
+        ``'stable'``, ``'unstable'`` or ``'elliptic'``.  ``'elliptic'`` (neutral) when the
+        system conserves area, ``zeta = 0`` and ``R = 1`` (then ``det M = R^(2n)
+        exp(-2 zeta p T) = 1`` identically), and the multipliers are a complex pair: both lie
+        on the unit circle exactly, so ``stable`` is false (not by rounding) and ``lle`` is
+        ``0.0``.  Empty at construction: filled from ``stable``.
+    steps : list of float
+        Sizes ``max |dz|`` of the Newton steps, in order (float64 first, then the
+        multiprecision refinement); their ratios show the quadratic convergence.
     """
 
     params: Params
@@ -55,9 +65,16 @@ class PeriodicOrbit(ResultMixin):
     iterations: int = 0
     method: str = "newton"
     precision: str = "float64"
+    stability: str = ""
+    steps: list = dataclasses.field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if not self.stability:
+            self.stability = "stable" if self.stable else "unstable"
 
     def _num(self, z):
-        """A float, or (multiprecision) a decimal string with every digit of the working precision."""
+        """A float (float64: JSON numbers round-trip it exactly), or (multiprecision) a decimal
+        string with every digit of the working precision (a JSON number would round it to float64)."""
         if isinstance(z, float):
             return z
         import mpmath
@@ -67,8 +84,12 @@ class PeriodicOrbit(ResultMixin):
 
     def to_dict(self) -> dict:
         """The CLI's ``--json`` object: ``params``, ``period``, ``impacts``, ``state``,
-        ``multipliers`` (``[re, im]`` pairs), ``stable``, ``lle``, ``residual``,
-        ``iterations``, ``method``, ``precision``."""
+        ``multipliers`` (``[re, im]`` pairs), ``stable``, ``stability``, ``lle``, ``residual``,
+        ``iterations``, ``steps``, ``method``, ``precision``.
+
+        ``state.t`` is a number; ``state.x`` and ``state.v`` are JSON numbers in float64 and
+        decimal strings at ``mp:BITS`` (every digit of the working precision, which a JSON
+        number would round away): ``float()`` or ``mpmath.mpf()`` reads either."""
         return {
             "params": self.params.decimal(),
             "period": self.period,
@@ -76,9 +97,31 @@ class PeriodicOrbit(ResultMixin):
             "state": {"t": self.t, "x": self._num(self.x), "v": self._num(self.v)},
             "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
             "stable": self.stable,
+            "stability": self.stability,
             "lle": self.lle if math.isfinite(self.lle) else None,
             "residual": self.residual,
             "iterations": self.iterations,
+            "steps": [float(h) for h in self.steps],
             "method": self.method,
             "precision": self.precision,
         }
+
+
+def area_preserving(zeta, R, impacts: int) -> bool:
+    """``det M = R^(2n) exp(-2 zeta p T)`` is exactly 1 for every orbit: ``zeta = 0`` and
+    (``R = 1`` or ``n = 0``).  Then ``det M - 1`` is pure rounding (no Neimark-Sacker test)
+    and a complex pair of multipliers lies on the unit circle exactly."""
+    return zeta == 0 and (R == 1 or impacts == 0)
+
+
+def classify(multipliers: list, neutral: bool) -> str:
+    """``'stable'``, ``'unstable'`` or ``'elliptic'`` from the multipliers (largest modulus first).
+
+    With ``neutral`` (:func:`area_preserving`) ``det M = 1`` exactly, so the pair is
+    complex, on the unit circle, iff ``|tr M| < 2``: ``'elliptic'``; otherwise it is
+    ``mu, 1/mu`` with ``|mu| >= 1``: ``'unstable'``.  The decision rests on the trace, which
+    rounding moves by ``~eps``, never on ``|mu| - 1``, which is rounding alone."""
+    if neutral:
+        tr = sum(complex(m) for m in multipliers).real
+        return "elliptic" if abs(tr) < 2 else "unstable"
+    return "stable" if abs(multipliers[0]) < 1 else "unstable"
