@@ -362,9 +362,10 @@ def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order
                     ss, imps, _ = run_balls(params, periods, bits)
                     samples = [(n, t, x, v, x, v) for n, t, x, v in ss]
                     mimp = simp = list(imps)
+                    bar.update(periods)
                 else:
                     samples, mimp, simp = _run(params, kq, form, y0q, periods, bits, bar)
-            bar.update(periods)
+            bar.close()
             return CertifiedCoupledTrajectory(params, form, kq, y0q, periods, bits, samples, mimp, simp,
                                               time.perf_counter() - t0)
         except CertificationError as e:

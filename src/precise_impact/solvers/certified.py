@@ -608,7 +608,7 @@ def certify(params: Any = None, periods: int = 300, *, bits: int | None = None, 
             samples, impacts = _run(params, periods, bits, bar)
             res = CertifiedTrajectory(params, periods, bits, choice, samples, impacts, time.perf_counter() - t0)
             if choice.startswith("given") or res.max_log10_radius() <= log_target or 2 * bits > max_bits:
-                bar.update(periods)
+                bar.close()  # the run reported every period; show a throttled last one
                 return res
             choice += (f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, retried at "
                        f"{2 * bits}")
