@@ -131,6 +131,8 @@ def t_quantile(alpha: float, dof: float) -> float:
 
     Examples
     --------
+    >>> import math
+    >>> from precise_impact.analysis.lyapunov.attractors import t_quantile
     >>> round(t_quantile(0.05, math.inf), 4), round(t_quantile(0.05, 10), 4)
     (1.96, 2.2281)
     """
