@@ -198,7 +198,7 @@ def _one(args):
 
         pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w), float(params.R)]])
         starts = np.array([[float(params.t0), float(params.x0), float(params.v0)]])
-        st, l1, _, imps, bsums, xt, _ = lle_batch_serial(pars, starts, periods, transient, min(10, periods), 10**7,
+        st, l1, _, imps, bsums, _, xt, _ = lle_batch_serial(pars, starts, periods, transient, min(10, periods), 10**7,
                                                          periods)
         if st[0] == STATUS_OK:
             T = 2 * math.pi / float(params.eta)

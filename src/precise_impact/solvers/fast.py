@@ -401,8 +401,8 @@ def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb,
 
 
 @numba.njit(**JIT)
-def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_impacts, block_sums, xs_tail,
-              vs_tail):
+def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_impacts, block_sums, block_impacts,
+              xs_tail, vs_tail):
     """Both Lyapunov exponents of one orbit: tangent flow ``Phi``, saltation at every impact,
     Gram-Schmidt QR every ``QR_EVERY`` samples (and at block ends); the tangent basis starts
     at the identity at ``t0`` and is never restarted (the transient's logs are discarded,
@@ -410,8 +410,8 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
 
     Returns ``(status, log1, log2, impacts, x, v)`` summed over the ``periods`` measured
     periods (``impacts``: those in the measured periods); ``block_sums[j]`` gets the
-    first-exponent logs of block ``j`` (``blocks`` equal blocks, for batch means), and
-    ``xs_tail, vs_tail`` the stroboscopic samples of the last ``len(xs_tail)`` periods.
+    first-exponent logs of block ``j`` (``blocks`` equal blocks, for batch means),
+    ``block_impacts[j]`` the impacts in block ``j``, and ``xs_tail, vs_tail`` the stroboscopic samples of the last ``len(xs_tail)`` periods.
 
     Notes
     -----
@@ -434,6 +434,7 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
     per_block = max(1, periods // blocks)
     for j in range(blocks):
         block_sums[j] = 0.0
+        block_impacts[j] = 0
     k = 1
     while k <= total:
         st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(t, x, v, t0, T, 1, k, total, eta, zeta, a, xw, P, Q, w,
@@ -492,8 +493,11 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
         s00, s01, s10, s11 = compiled_saltation(tc, vc, eta, zeta, a, xw, R)
         W00, W01, W10, W11 = mul2(s00, s01, s10, s11, *mul2(F00, F01, F10, F11, W00, W01, W10, W11))
         n_imp += 1
-        if k > transient:
+        if k > transient:  # the impact lies before sample k: measured period k - transient
             n_meas += 1
+            j = (k - transient - 1) // per_block
+            if j < blocks:
+                block_impacts[j] += 1
         if n_imp >= max_impacts:
             return STATUS_BUDGET, log1, log2, n_meas, x, v
         t, x, v = tc, xw, -R * vc
@@ -541,10 +545,11 @@ def orbit_map(eta, zeta, a, xw, R, t0, x0, v0, periods):
     return STATUS_OK, xk, vk, c00, c01, c10, c11, n_imp
 
 
-def _batch(pars, starts, periods, transient, blocks, max_impacts, keep, status, log1, log2, imps, bsums, xt, vt, i):
+def _batch(pars, starts, periods, transient, blocks, max_impacts, keep, status, log1, log2, imps, bsums, bimps, xt, vt,
+           i):
     st, l1, l2, ni, _, _ = lle_orbit(pars[i, 0], pars[i, 1], pars[i, 2], pars[i, 3], pars[i, 4],
                                      starts[i, 0], starts[i, 1], starts[i, 2], periods, transient, blocks,
-                                     max_impacts, bsums[i], xt[i], vt[i])
+                                     max_impacts, bsums[i], bimps[i], xt[i], vt[i])
     status[i], log1[i], log2[i], imps[i] = st, l1, l2, ni
 
 
@@ -561,18 +566,20 @@ def _make_batch(parallel: bool):
         log2 = np.zeros(n)
         imps = np.zeros(n, np.int64)
         bsums = np.zeros((n, blocks))
+        bimps = np.zeros((n, blocks), np.int64)
         xt = np.zeros((n, keep))
         vt = np.zeros((n, keep))
         for i in rng(n):
             _batch_one(pars, starts, periods, transient, blocks, max_impacts, keep, status, log1, log2, imps,
-                       bsums, xt, vt, i)
-        return status, log1, log2, imps, bsums, xt, vt
+                       bsums, bimps, xt, vt, i)
+        return status, log1, log2, imps, bsums, bimps, xt, vt
 
     return numba.njit(parallel=parallel, cache=True, error_model="numpy")(run)
 
 
 #: ``lle_orbit`` for many orbits (one per row of ``pars`` = eta, zeta, a, x_w, R and of
-#: ``starts`` = t0, x0, v0): ``(status, log1, log2, impacts, block_sums, xs_tail, vs_tail)``.
+#: ``starts`` = t0, x0, v0): ``(status, log1, log2, impacts, block_sums, block_impacts, xs_tail,
+#: vs_tail)``.
 #: ``lle_batch`` runs the orbits on every core (numba threads), ``lle_batch_serial`` on one
 #: (inside a worker process of a sweep, which is already one per core).
 lle_batch = _make_batch(True)
@@ -734,7 +741,7 @@ def fast_lle(params, periods: int = 6000, transient: int = 1000, initial_conditi
     max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
     pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w), float(params.R)]] * n)
     starts = np.array([[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)])
-    status, log1, log2, imps, bsums, _, _ = lle_batch(pars, starts, periods, transient, blocks, max_impacts, 1)
+    status, log1, log2, imps, bsums, _, _, _ = lle_batch(pars, starts, periods, transient, blocks, max_impacts, 1)
     T = 2 * math.pi / float(params.eta)
     per_block = periods // blocks
     time_total = periods * T

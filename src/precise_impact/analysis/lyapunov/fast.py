@@ -93,8 +93,8 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     unsupported = not params.zeta < 1 or (params.zeta == 0 and params.eta == 1)
     start = time.perf_counter()
     if not unsupported:
-        status, log1, log2, imps, fine, xt, vt = lle_batch(pars, starts, per, transient, blocks * m, max_impacts,
-                                                           min(per, 3 * MAX_PERIOD))
+        status, log1, log2, imps, fine, fine_imps, xt, vt = lle_batch(pars, starts, per, transient, blocks * m,
+                                                                      max_impacts, min(per, 3 * MAX_PERIOD))
         bsums = fine.reshape(n, blocks, m).sum(axis=2)
     if unsupported or np.any(status != STATUS_OK):
         why = "zeta >= 1" if unsupported else "; ".join(sorted({STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}))
@@ -122,43 +122,11 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     )
     if attractors:
         bm = fine / ((per // (blocks * m)) * T)  # batch means per start, the finer blocks
-        rates = _impact_blocks(pars, starts, per, transient, blocks * m, max_impacts) if n > 1 else None
+        # impacts per period in the same finer blocks, counted by the engine on the same orbits
+        rates = list(fine_imps / (per // (blocks * m))) if n > 1 else None
         attribute(result, list(zip(xt, vt)), [(d["lle"], d["lambda2"], bm[i]) for i, d in enumerate(per_start)],
                   impact_blocks=rates, periods=[per] * n)
     return result
-
-
-def _impact_blocks(pars: np.ndarray, starts: np.ndarray, per: int, transient: int, blocks: int,
-                   max_impacts: int) -> list:
-    """Impacts per period of each start in the blocks of :func:`~precise_impact.solvers.fast.lle_orbit`.
-
-    The compiled LLE returns only each start's total, so the orbit is run again without
-    tangents (:func:`~precise_impact.solvers.fast.strobe`, the same flights from the same
-    start) and its impact times counted per block of ``per // blocks`` measured periods (the
-    attractors' impact-rate test).  An entry is ``None`` where the rerun fails.
-    """
-    from precise_impact.solvers.fast import STATUS_OK, strobe
-
-    out: list = []
-    m = transient + per
-    per_block = max(1, per // blocks)
-    for i in range(len(starts)):
-        T = 2 * math.pi / pars[i, 0]
-        cap = 4 * m + 64
-        while True:
-            xs, vs, ts = np.empty(m + 1), np.empty(m + 1), np.empty(m + 1)
-            it, iv = np.empty(cap), np.empty(cap)
-            st, k, _ = strobe(*pars[i], *starts[i], m, 1, max_impacts, it, iv, xs, vs, ts)
-            if k <= cap or st != STATUS_OK:
-                break
-            cap = 4 * k + 64
-        if st != STATUS_OK:
-            out.append(None)
-            continue
-        j = (np.floor((it[:k] - starts[i, 0]) / T).astype(np.int64) - transient) // per_block
-        j = j[(j >= 0) & (j < blocks)]
-        out.append(np.bincount(j, minlength=blocks)[:blocks] / per_block)
-    return out
 
 
 def fast_batch(points, periods: int = 2000, transient: int = 1000, segments: int = 10, max_period: int = 32,
@@ -249,8 +217,8 @@ def fast_batch_rows(rows: np.ndarray, fallback_points, periods: int = 2000, tran
     eta, zeta = rows[:, 0], rows[:, 1]
     ok_pts = np.flatnonzero((zeta < 1) & ~((zeta == 0) & (eta == 1)))  # underdamped, not the undamped resonance
     run = lle_batch if parallel else lle_batch_serial
-    status, log1, log2, imps, bsums, xt, vt = run(rows[ok_pts, :5], rows[ok_pts, 5:], periods, transient, blocks,
-                                                    max_impacts, keep)
+    status, log1, log2, imps, bsums, _, xt, vt = run(rows[ok_pts, :5], rows[ok_pts, 5:], periods, transient, blocks,
+                                                       max_impacts, keep)
     results: list = [None] * len(rows)
     per_block = periods // blocks
     for j, i in enumerate(ok_pts.tolist()):
