@@ -77,7 +77,8 @@ def test_near_simultaneous_impacts_refused_then_ordered():
 def test_pair_bad_input_one_line_exit_2():
     for argv, word in ((["--k", "-1", "--y0", "0.5", "0"], "k"), (["--k", "9", "--form", "paper", "--y0", "0.5", "0"], "k"),
                        (["--k", "0.1", "--y0", "3", "0"], "y0[0]"), (["--y0", "0.5", "0"], "y0"),
-                       (["--k", "0.1", "--form", "nonsense"], "form")):
+                       (["--k", "0.1", "--form", "nonsense"], "form"),
+                       (["--k", "0.1", "--target", "1e-40", "--y0", "0.5", "0"], "target")):
         r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", "--periods", "2", *argv],
                            capture_output=True, text=True, timeout=120)
         assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (argv, r.stderr)

@@ -119,7 +119,8 @@ def build_parser() -> argparse.ArgumentParser:
     ce.add_argument("--periods", default="300", metavar="N", help="forcing periods (default 300)")
     ce.add_argument("--bits", default=None, metavar="B",
                     help="working precision (default: chosen from --target and the measured radius growth)")
-    ce.add_argument("--target", default="1e-30", metavar="R", help="radius wanted at every sample (default 1e-30)")
+    ce.add_argument("--target", default=None, metavar="R",
+                    help="radius wanted at every sample, the single oscillator's automatic bits (default 1e-30)")
     ce.add_argument("--max-bits", dest="max_bits", default="8192", metavar="B",
                     help="bits are doubled after a failed proof up to this (default 8192)")
     ce.add_argument("--k", default=None, metavar="K",
@@ -360,19 +361,22 @@ def _cmd_certify(ns) -> int:
     if ns.k is not None:
         from precise_impact.models.coupled_certified import certify_coupled
 
+        if ns.target is not None:
+            raise ParameterError("target", ns.target, "only for the single oscillator (the pair takes --bits)")
         r = certify_coupled(params, ns.k, ns.form, ns.periods, y0=ns.y0, bits=256 if bits is None else bits,
                             max_bits=max_bits, progress=progress)
         lines = [f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, {len(r.master_impacts)} master and "
                  f"{len(r.slave_impacts)} slave impacts, at {r.bits} bits in {r.elapsed_s:.2f} s; largest radius "
-                 f"{r.max_radius():.2e}"]
+                 f"1e{r.max_log10_radius():.1f}"]
         names = "xvyw"
     else:
         if ns.y0 is not None:
             raise ParameterError("y0", " ".join(ns.y0), "only with --k (the coupled pair)")
-        r = certify(params, ns.periods, bits=bits, target_radius=ns.target, max_bits=max_bits, progress=progress)
+        r = certify(params, ns.periods, bits=bits, target_radius="1e-30" if ns.target is None else ns.target,
+                    max_bits=max_bits, progress=progress)
         lines = [f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits ({r.bits_choice}) "
                  f"in {r.elapsed_s:.2f} s",
-                 f"largest radius {r.max_radius():.2e}; radius growth {r.growth_digits_per_period():.3f} decimal "
+                 f"largest radius 1e{r.max_log10_radius():.1f}; radius growth {r.growth_digits_per_period():.3f} decimal "
                  f"digits per period"]
         names = "xv"
     d = r.to_dict()

@@ -45,6 +45,7 @@ from precise_impact.solvers.certified import (
     Flight,
     Isolator,
     ball_str,
+    check_certifiable,
     describe,
     exact_value,
     log10_abs,
@@ -316,6 +317,8 @@ def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order
     CertificationError
         No proof up to ``max_bits`` (an impact order that cannot be proven, a tangential
         contact, an impact on a sample time); the message names the time.
+    OptionalDependencyError
+        python-flint is not installed.
 
     References
     ----------
@@ -333,10 +336,7 @@ def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order
     max_bits = check_count(max_bits, "max_bits", MAX_BITS, minimum=MIN_BITS)
     bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
     y0q = check_y0(y0, params)
-    if not params.zeta < 1:
-        raise ParameterError("zeta", decimal_str(params.zeta), "0 <= zeta < 1 (underdamped) for the certified engine")
-    if (1 - params.eta**2) ** 2 + (2 * params.zeta * params.eta) ** 2 == 0:
-        raise ParameterError("zeta", "0", "zeta > 0 at eta = 1 (the undamped resonance has no steady state)")
+    check_certifiable(params)
     if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
         raise ParameterError("k", decimal_str(kq), "0 <= k <= 100 for the certified pair")
     if form == "paper":

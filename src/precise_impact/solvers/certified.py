@@ -40,7 +40,7 @@ from precise_impact.errors import IntegrationError, OptionalDependencyError, Par
 
 __all__ = ["certify", "CertifiedTrajectory", "CertificationError", "CertifiedSolver", "ball_str", "working_bits",
            "flow_matrix", "run_balls", "to_ball", "exact_value", "log10_abs", "MAX_BITS", "MIN_BITS", "Constants", "Flight",
-           "Isolator", "point", "upper", "lower", "describe"]
+           "Isolator", "point", "upper", "lower", "describe", "check_certifiable"]
 
 #: Bounds of the working precision (bits).
 MIN_BITS, MAX_BITS = 64, 16384
@@ -363,12 +363,6 @@ class _Engine:
         return samples, impacts
 
 
-def decimal(q: Fraction) -> str:
-    from precise_impact.core.params import decimal_str
-
-    return decimal_str(q)
-
-
 @dataclasses.dataclass
 class CertifiedTrajectory(ResultMixin):
     """A trajectory with proven enclosures (:func:`certify`).
@@ -506,17 +500,43 @@ def flow_matrix(c: "Constants", tau):
     return [[e * (cw + c.zw * sw), e * sw * c.iw], [-e * sw * c.iw, e * (cw - c.zw * sw)]]
 
 
-def run_balls(params: Params, periods: int, bits: int, start: tuple | None = None) -> tuple:
+def run_balls(params: Params, periods: int, bits: int, start: tuple | None = None, progress=None) -> tuple:
     """``(samples, impacts, constants)`` of one certified run at ``bits`` (the caller holds
-    :class:`working_bits`); ``start``: ``(x0, v0)`` balls at ``t0`` instead of the parameters'."""
+    :class:`working_bits`); ``start``: ``(x0, v0)`` balls at ``t0`` instead of the parameters';
+    ``progress``: a :class:`~precise_impact.io.progress.Progress` told each finished period."""
     eng = _Engine(params, bits)
-    samples, impacts = eng.run(periods, None, start)
+    samples, impacts = eng.run(periods, progress, start)
     return samples, impacts, eng.c
 
 
 def _run(params: Params, periods: int, bits: int, progress) -> tuple:
     with working_bits(bits):
-        return _Engine(params, bits).run(periods, progress)
+        return run_balls(params, periods, bits, progress=progress)[:2]
+
+
+def check_certifiable(params: Params) -> None:
+    """Refuse, before any work, a system the certified engines do not take (the closed-form
+    flight needs ``zeta < 1`` and a steady state), and a missing python-flint.
+
+    Parameters
+    ----------
+    params : Params
+        The system.
+
+    Raises
+    ------
+    ParameterError
+        ``zeta >= 1``, or ``zeta = 0`` at ``eta = 1``.
+    OptionalDependencyError
+        python-flint is not installed.
+    """
+    from precise_impact.core.params import decimal_str
+
+    if not params.zeta < 1:
+        raise ParameterError("zeta", decimal_str(params.zeta), "0 <= zeta < 1 (underdamped) for the certified engine")
+    if (1 - params.eta**2) ** 2 + (2 * params.zeta * params.eta) ** 2 == 0:
+        raise ParameterError("zeta", "0", "zeta > 0 at eta = 1 (the undamped resonance has no steady state)")
+    _flint()
 
 
 def certify(params: Any = None, periods: int = 300, *, bits: int | None = None, target_radius: Any = "1e-30",
@@ -579,13 +599,7 @@ def certify(params: Any = None, periods: int = 300, *, bits: int | None = None, 
     target = exact("target_radius", target_radius, 3000)
     if not Fraction(1, 10**3000) <= target <= Fraction(1, 1000):
         raise ParameterError("target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3")
-    if not params.zeta < 1:
-        raise ParameterError("zeta", str(params.zeta), "0 <= zeta < 1 (underdamped) for the certified engine")
-    if (1 - params.eta**2) ** 2 + (2 * params.zeta * params.eta) ** 2 == 0:
-        raise ParameterError("zeta", "0", "zeta > 0 at eta = 1 (the undamped resonance has no steady state)")
-    _flint()
-    if params.x0 > params.x_w:
-        raise ParameterError("x0", str(params.x0), f"x0 <= x_w = {decimal(params.x_w)}")
+    check_certifiable(params)  # (x0 <= x_w holds for every Params)
     choice = "given"
     log_target = math.log10(target.numerator) - math.log10(target.denominator)  # no underflow below 1e-308
     if bits is None:
