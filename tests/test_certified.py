@@ -247,3 +247,20 @@ def test_targets_below_the_float_range_are_met_not_underflowed():
     assert r.max_log10_radius() <= -400 and r.bits >= 1400  # 400 digits need >= 1329 bits
     assert r.max_radius() == 0.0  # the float view underflows, as documented
     assert 0.116 < r.growth_digits_per_period() < 0.5
+
+
+def test_contains_is_exact():
+    """CertifiedTrajectory.contains decides in rationals: the midpoint is in, a point two radii
+    away is out, whatever python-flint's (process-wide) precision is at the time."""
+    from precise_impact.solvers.certified import exact_value
+
+    r = certify(pi.Params.make(eta="0.74"), 5, bits=256)
+    _, _, bx, bv = r.samples[5]
+    mx, mv, rx = exact_value(bx.mid()), exact_value(bv.mid()), exact_value(bx.rad())
+    old = flint.ctx.prec
+    flint.ctx.prec = 53  # a careless caller elsewhere: must not matter
+    try:
+        assert r.contains(5, mx, mv) and r.contains(5, mx + rx, mv)
+        assert not r.contains(5, mx + 2 * rx, mv) and not r.contains(5, mx, mv + 1)
+    finally:
+        flint.ctx.prec = old

@@ -449,7 +449,9 @@ class CertifiedTrajectory(ResultMixin):
         from precise_impact.core.params import exact
 
         _, _, bx, bv = self.samples[k]
-        return bool(bx.contains(to_ball(exact("x", x, 10**6))) and bv.contains(to_ball(exact("v", v, 10**6))))
+        # exactly, in rationals: no rounding, and no dependence on python-flint's process-wide precision
+        return all(abs(exact(n, q, 10**6) - exact_value(b.mid())) <= exact_value(b.rad())
+                   for n, q, b in (("x", x, bx), ("v", v, bv)))
 
     def to_dict(self) -> dict:
         """The CLI's ``--json`` object: ``params``, ``periods``, ``bits``, ``bits_choice``,
