@@ -33,7 +33,7 @@ import mpmath
 
 import precise_impact as pi
 from precise_impact.io.figures import new_figure, save_figure
-from precise_impact.solvers.certified import exact_value
+from precise_impact.solvers.certified.single import exact_value
 
 OUT = Path(__file__).resolve().parent / "results"
 PERIODS = 300

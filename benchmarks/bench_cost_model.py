@@ -19,7 +19,7 @@ from pathlib import Path
 
 from precise_impact import Params, Precision
 from precise_impact.core.budget import estimate_cost
-from precise_impact.solvers.heyoka import HeyokaSolver
+from precise_impact.solvers.heyoka.single import HeyokaSolver
 
 OUT = Path(__file__).resolve().parent / "results"
 CASES = [("float64", 2000), ("longdouble", 500), ("float128", 100), ("mp:128", 100), ("mp:320", 40),

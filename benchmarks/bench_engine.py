@@ -22,7 +22,7 @@ import heyoka as hy
 
 from precise_impact import AnalyticalSolver, HeyokaSolver, Params
 from precise_impact.io.atomic import atomic_write
-from precise_impact.solvers.heyoka import INTEGRATORS
+from precise_impact.solvers.heyoka.single import INTEGRATORS
 
 OUT = Path(__file__).resolve().parent / "results"
 

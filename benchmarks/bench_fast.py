@@ -63,7 +63,7 @@ def main() -> None:
     import numpy as np
 
     from precise_impact import HeyokaSolver, Params, SweepSpec, lyapunov, run_sweep, simulate
-    from precise_impact.solvers.fast import FastSolver
+    from precise_impact.solvers.fast.single import FastSolver
 
     p = Params.make(eta="0.712")
     rows = {}

@@ -112,11 +112,11 @@ print("   installed:", ", ".join(f"{n} {v.strip()}" for n, v in pins))
 PY
 PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cacheprovider \
   --rootdir "$repo" -c "$repo/pyproject.toml" -q \
-  "$repo/tests/test_params.py" "$repo/tests/test_reference.py" "$repo/tests/test_analytical.py" \
-  "$repo/tests/test_variational.py" "$repo/tests/test_threads.py" "$repo/tests/test_reference_data.py" \
+  "$repo/tests/core/test_params.py" "$repo/tests/solvers/test_heyoka_reference.py" "$repo/tests/solvers/test_closed_form.py" \
+  "$repo/tests/analysis/test_variational.py" "$repo/tests/test_threads.py" "$repo/tests/verification/test_reference_data.py" \
   "$repo/tests/test_api.py" "$repo/tests/test_layering.py" "$repo/tests/test_packaging.py" \
-  "$repo/tests/test_sweep.py" "$repo/tests/test_workprecision.py" "$repo/tests/test_fast.py" \
-  "$repo/tests/test_coupled_fast.py" "$repo/tests/test_certified.py"
+  "$repo/tests/analysis/test_sweep.py" "$repo/tests/verification/test_workprecision.py" "$repo/tests/solvers/test_fast.py" \
+  "$repo/tests/solvers/test_coupled_fast.py" "$repo/tests/solvers/test_certified.py"
 took
 
 echo "== all checks passed in $((SECONDS - t_all)) s"

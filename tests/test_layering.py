@@ -39,7 +39,7 @@ LAYERS = {
 # Tests that check the internals of ONE module on purpose: file -> (that module, why).
 # Private names of that module only; every other import of the file must be public.
 INTERNALS_ALLOWED: dict[str, tuple[str, str]] = {
-    "test_grazing.py": (
+    "analysis/test_grazing.py": (
         "precise_impact.analysis.lyapunov.variational",
         "drives the variational integrator's impact recorder and grazing depth (_SaltationRecorder, "
         "_Depth) directly: a dropped impact and a 1e18-scaled tangent cannot be provoked through the API",
@@ -159,13 +159,13 @@ def test_tests_and_benchmarks_use_public_names(folder):
     if not folder.is_dir():
         pytest.skip(f"{folder} is not part of this installation")
     bad = []
-    for path in sorted(folder.glob("*.py")):
-        allowed = INTERNALS_ALLOWED.get(path.name, (None, ""))[0]
+    for path in sorted(folder.rglob("*.py")):
+        allowed = INTERNALS_ALLOWED.get(path.relative_to(folder).as_posix(), (None, ""))[0]
         tree = ast.parse(path.read_text(encoding="utf-8"))
         for mod, name in _private_uses(tree, path.stem):
             if allowed and _is_or_within(mod, allowed):
                 continue
-            bad.append(f"{path.name}: {mod}: {name}")
+            bad.append(f"{path.relative_to(folder)}: {mod}: {name}")
     assert not bad, "private names of precise_impact used:\n" + "\n".join(bad)
 
 

@@ -148,7 +148,7 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
     import numpy as np
 
     from precise_impact import HeyokaSolver, Params
-    from precise_impact.solvers.heyoka import CHUNK_PERIODS
+    from precise_impact.solvers.heyoka.single import CHUNK_PERIODS
 
     out = tmp_path / "long.npz"
     p = subprocess.Popen([sys.executable, "-m", "precise_impact", "simulate", "--periods", "40000",

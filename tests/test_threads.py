@@ -1,7 +1,7 @@
 """Thread safety: solves from several threads give the serial results bit for bit.
 
 A compiled heyoka integrator is mutable state (time, state, parameters, event
-callbacks).  Before the one integrator cache (``precise_impact.solvers.cache``)
+callbacks).  Before the one integrator cache (``precise_impact.solvers.heyoka.cache``)
 handed out private copies, 4 threads sharing one cached integrator raised in 13 of
 20 runs and silently returned different numbers in 2 of 20.  Here every run in a
 thread must equal its serial twin exactly (``np.array_equal``, no tolerance:

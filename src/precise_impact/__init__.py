@@ -43,11 +43,11 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.base import MODEL_ALIASES, MODELS, Solver, make_solver
 from precise_impact.solvers.simulate import simulate
-from precise_impact.solvers.heyoka import HeyokaSolver
-from precise_impact.solvers.analytical import AnalyticalSolver
-from precise_impact.solvers.certified import CertificationError, CertifiedSolver, CertifiedTrajectory, certify
-from precise_impact.models.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled
-from precise_impact.models.coupled_certified import CertifiedCoupledTrajectory, certify_coupled
+from precise_impact.solvers.heyoka.single import HeyokaSolver
+from precise_impact.solvers.closed_form import AnalyticalSolver
+from precise_impact.solvers.certified.single import CertificationError, CertifiedSolver, CertifiedTrajectory, certify
+from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled
+from precise_impact.solvers.certified.coupled import CertifiedCoupledTrajectory, certify_coupled
 from precise_impact.models.circuit.components import Components, nominal_components
 from precise_impact.models.circuit.effects.catalogue import EFFECTS
 from precise_impact.models.circuit.opamp import CircuitSolver

@@ -194,7 +194,7 @@ def _one(args):
     params, periods, transient, engine = args
     if engine == "fast" and params.zeta < 1:
         from precise_impact.analysis.lyapunov.result import means_stderr
-        from precise_impact.solvers.fast import STATUS_OK, lle_batch_serial
+        from precise_impact.solvers.fast.single import STATUS_OK, lle_batch_serial
 
         pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w), float(params.R)]])
         starts = np.array([[float(params.t0), float(params.x0), float(params.v0)]])
@@ -244,7 +244,7 @@ def bifurcation(
         A progress bar on stderr (:class:`~precise_impact.io.progress.Progress`):
         ``None`` shows it only when stderr is a terminal.
     engine : str, default ``'fast'``
-        ``'fast'``: the compiled closed form (:mod:`precise_impact.solvers.fast`; the
+        ``'fast'``: the compiled closed form (:mod:`precise_impact.solvers.fast.single`; the
         tangent basis runs on through the transient; a value it does not resolve, or
         ``zeta >= 1``, is computed by heyoka); ``'heyoka'``: one heyoka variational run
         per value.

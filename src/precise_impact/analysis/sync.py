@@ -35,7 +35,7 @@ import numpy as np
 
 from precise_impact.core.result import ResultMixin
 from precise_impact.io.figures import new_figure
-from precise_impact.models.coupled import CoupledTrajectory, check_form, check_k, simulate_coupled
+from precise_impact.solvers.heyoka.coupled import CoupledTrajectory, check_form, check_k, simulate_coupled
 from precise_impact.errors import ParameterError
 from precise_impact.solvers.base import check_engine
 from precise_impact.core.params import Params, check_count, decimal_str, exact
@@ -83,7 +83,7 @@ class SyncRun(ResultMixin):
     collapsed : bool
         ``|x - y|`` is exactly 0 at the end: the slave has become the master bit for
         bit.  In floating point this state is absorbing (on the diagonal every
-        coupling term is exactly 0, see :mod:`precise_impact.models.coupled`), so a run that a
+        coupling term is exactly 0, see :mod:`precise_impact.solvers.heyoka.coupled`), so a run that a
         fluctuation brings down to round-off stays synchronised for ever even
         slightly *below* the threshold, where a real (noisy) pair would desynchronise.
     """
@@ -300,7 +300,7 @@ def sync_scan(
     params : Params
         System and the master's initial condition (every run starts the master there).
     form : str
-        One of :data:`~precise_impact.models.coupled.COUPLED_FORMS`.
+        One of :data:`~precise_impact.solvers.heyoka.coupled.COUPLED_FORMS`.
     k_values : sequence of decimal strings / Fractions / numbers
         Couplings ``>= 0`` (exact; sorted ascending; no duplicates).
     periods : int, default 500
@@ -328,7 +328,7 @@ def sync_scan(
     precision : str, default ``'float64'``
         Precision of the coupled runs.
     engine : str or None, default ``None``
-        ``'fast'`` (compiled closed forms, :mod:`~precise_impact.models.coupled_fast`, and the
+        ``'fast'`` (compiled closed forms, :mod:`~precise_impact.solvers.fast.coupled`, and the
         LLE by ``method='fast'``), ``'heyoka'``, or ``None``: ``'fast'`` in float64, heyoka
         otherwise.
 
@@ -482,7 +482,7 @@ def plot_fig7(
     params : Params
         System and the master's initial condition.
     form : str
-        One of :data:`~precise_impact.models.coupled.COUPLED_FORMS`.
+        One of :data:`~precise_impact.solvers.heyoka.coupled.COUPLED_FORMS`.
     k_low, k_high : decimal
         Couplings of panels (a) and (b) (the paper: 0.031 and 0.032).
     periods : int

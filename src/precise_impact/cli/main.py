@@ -249,7 +249,7 @@ def _cmd_simulate(ns) -> int:
     from precise_impact.core.budget import check_cost, estimate_cost
     from precise_impact.core.precision import Precision
     from precise_impact.io.progress import Progress
-    from precise_impact.solvers.heyoka import HeyokaSolver
+    from precise_impact.solvers.heyoka.single import HeyokaSolver
 
     cost = estimate_cost(getattr(solver, "precision", None) or Precision.parse(ns.precision), periods, dense)
     check_cost(cost, _max_time(ns))
@@ -352,14 +352,14 @@ def _cmd_orbit(ns) -> int:
 
 def _cmd_certify(ns) -> int:
     from precise_impact.core.params import check_count
-    from precise_impact.solvers.certified import MAX_BITS, certify
+    from precise_impact.solvers.certified.single import MAX_BITS, certify
 
     params = _params_from(ns)
     max_bits = check_count(ns.max_bits, "max_bits", MAX_BITS, minimum=64)
     bits = None if ns.bits is None else check_count(ns.bits, "bits", max_bits, minimum=64)
     progress = None if ns.json else True
     if ns.k is not None:
-        from precise_impact.models.coupled_certified import certify_coupled
+        from precise_impact.solvers.certified.coupled import certify_coupled
 
         if ns.target is not None:
             raise ParameterError("target", ns.target, "only for the single oscillator (the pair takes --bits)")
@@ -461,7 +461,7 @@ def _cmd_bifurcation(ns) -> int:
 def _cmd_sync(ns) -> int:
     from pathlib import Path
 
-    from precise_impact.models.coupled import check_form, check_k
+    from precise_impact.solvers.heyoka.coupled import check_form, check_k
     from precise_impact.core.params import check_count, exact_grid
     from precise_impact.io.atomic import atomic_write
     from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan

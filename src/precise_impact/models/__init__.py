@@ -1,7 +1,7 @@
 """Models of the oscillator beyond the single mechanical one: coupled forms and circuits.
 
-* :mod:`precise_impact.models.coupled` — master-slave coupled oscillators (three forms);
-  :mod:`precise_impact.models.coupled_certified` — the pair certified (ball arithmetic).
+* :mod:`precise_impact.solvers.heyoka.coupled` — master-slave coupled oscillators (three forms);
+  :mod:`precise_impact.solvers.certified.coupled` — the pair certified (ball arithmetic).
 * :mod:`precise_impact.models.circuit` — the paper's electronic equivalent: component
   values, the op-amp network with effects, the switched-capacitor impact circuit, the
   coupled circuit and the ngspice netlist.
@@ -53,8 +53,8 @@ register_model("switched-capacitor", "the impact made by the circuit: comparator
 register_model("spice", "the Fig. 2 circuit as an ngspice netlist (float64; needs ngspice)", _spice)
 
 # The public names (after the registration, which needs none of them).
-from precise_impact.models.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled  # noqa: E402
-from precise_impact.models.coupled_certified import CertifiedCoupledTrajectory, certify_coupled  # noqa: E402
+from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled  # noqa: E402
+from precise_impact.solvers.certified.coupled import CertifiedCoupledTrajectory, certify_coupled  # noqa: E402
 from precise_impact.models.circuit.components import Components, nominal_components  # noqa: E402
 from precise_impact.models.circuit.effects.catalogue import EFFECTS  # noqa: E402
 from precise_impact.models.circuit.opamp import CircuitSolver  # noqa: E402

@@ -57,7 +57,7 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
             return simulate_coupled_circuit(design, scene.k, scene.periods, x0=scene.params.x0,
                                             v0=scene.params.v0, y0=y0, t0=scene.params.t0,
                                             per_period=scene.per_period, precision=P.name, actual=actual)
-        from precise_impact.models.coupled import simulate_coupled
+        from precise_impact.solvers.heyoka.coupled import simulate_coupled
 
         return simulate_coupled(scene.params, scene.k, scene.form, scene.periods, y0=y0,
                                 per_period=scene.per_period, precision=P.name)

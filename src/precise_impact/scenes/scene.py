@@ -165,7 +165,7 @@ def _build(data: Mapping, source: str) -> Scene:
         raise ParameterError("system.kind", kind, "'single' or 'coupled'")
     form = k = None
     if kind == "coupled":
-        from precise_impact.models.coupled import check_form, check_k
+        from precise_impact.solvers.heyoka.coupled import check_form, check_k
 
         form = check_form(system.get("form", "first-order"))
         k = check_k(system.get("k", "0.032"), "system.k")

@@ -29,7 +29,7 @@ __all__ = ["Solver", "MODELS", "MODEL_ALIASES", "register_model", "canonical_mod
            "check_engine"]
 
 #: Engines of the float64 jobs that offer both (sweep, bifurcation, coupled runs and sync):
-#: the compiled closed form (:mod:`precise_impact.solvers.fast`) or heyoka.
+#: the compiled closed form (:mod:`precise_impact.solvers.fast.single`) or heyoka.
 ENGINES = ("fast", "heyoka")
 
 

@@ -9,8 +9,8 @@ from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.solvers.analytical import AnalyticalSolver
-from precise_impact.solvers.heyoka import HeyokaSolver
+from precise_impact.solvers.closed_form import AnalyticalSolver
+from precise_impact.solvers.heyoka.single import HeyokaSolver
 from precise_impact.solvers.base import MODELS, Solver, make_solver, register_model
 
 __all__ = ["MODELS", "make_solver", "simulate"]
@@ -39,7 +39,7 @@ def _fast(prec: Precision, tol: Any, **options: Any) -> Solver:
         raise ParameterError("precision", prec.name, "'float64' for the fast model (heyoka for other precisions)")
     if tol is not None:
         raise ParameterError("tol", str(tol), "the fast model takes no tolerance (closed forms to float64 rounding)")
-    from precise_impact.solvers.fast import FastSolver  # numba is imported only when asked for
+    from precise_impact.solvers.fast.single import FastSolver  # numba is imported only when asked for
 
     return FastSolver(**options)
 
@@ -49,7 +49,7 @@ def _certified(prec: Precision, tol: Any, **options: Any) -> Solver:
         raise ParameterError("precision", prec.name, "'mp:BITS' for the certified model (ball arithmetic at BITS)")
     if tol is not None:
         raise ParameterError("tol", str(tol), "the certified model takes no tolerance (proven enclosures at BITS)")
-    from precise_impact.solvers.certified import CertifiedSolver  # python-flint is imported only when asked for
+    from precise_impact.solvers.certified.single import CertifiedSolver  # python-flint is imported only when asked for
 
     return CertifiedSolver(prec.bits, **options)
 

@@ -2,7 +2,7 @@
 
 The stored decimals of a reference (heyoka, ``mp:320``) have a *demonstrated* accuracy (two
 precisions agree).  The certificate adds a *proven* one: the certified engine
-(:func:`~precise_impact.solvers.certified.certify`) encloses every sample and impact of the
+(:func:`~precise_impact.solvers.certified.single.certify`) encloses every sample and impact of the
 same system in a ball, and for each stored decimal ``y`` the bound
 ``|y - truth| <= |y - mid| + rad`` (rounded up to 3 digits) is written down (``x_err``, ``v_err`` per sample; ``t_err``, ``v_err`` per impact).  The
 manifest lists the certificate with its checksum.  ``reference verify`` re-checks it: a fresh
@@ -35,7 +35,7 @@ def _up(q: Fraction) -> str:
 
 def _err(stored: str, ball) -> Fraction:
     """``|stored - mid| + rad`` exactly (an upper bound of ``|stored - truth|``)."""
-    from precise_impact.solvers.certified import exact_value
+    from precise_impact.solvers.certified.single import exact_value
 
     return abs(Fraction(stored) - exact_value(ball.mid())) + exact_value(ball.rad())
 
@@ -62,7 +62,7 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
         The certified run's impact count differs from the stored one (the reference is wrong).
     """
     from precise_impact.core.params import Params
-    from precise_impact.solvers.certified import certify
+    from precise_impact.solvers.certified.single import certify
 
     t0 = time.perf_counter()
     p = Params.make(**samples_json["params"])
@@ -138,7 +138,7 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
         Problems (empty: every stored bound holds).
     """
     from precise_impact.core.params import Params
-    from precise_impact.solvers.certified import certify
+    from precise_impact.solvers.certified.single import certify
 
     case_dir = Path(case_dir)
     data = json.loads((case_dir / "samples.json").read_text())

@@ -282,7 +282,7 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
 
 # ------------------------------------------------------------------ coupled
 def _gen_coupled(case: str, case_dir: Path, progress: bool) -> dict:
-    from precise_impact.models.coupled import simulate_coupled
+    from precise_impact.solvers.heyoka.coupled import simulate_coupled
 
     params = Params.make()
     arrays: dict[str, np.ndarray] = {}
@@ -564,7 +564,7 @@ def _recompute_single(case: str, case_dir: Path) -> list[str]:
 
 
 def _recompute_coupled(case: str, case_dir: Path) -> list[str]:
-    from precise_impact.models.coupled import simulate_coupled
+    from precise_impact.solvers.heyoka.coupled import simulate_coupled
 
     n = VERIFY_PERIODS
     problems = []

@@ -53,8 +53,8 @@ from precise_impact.core.params import Params
 from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
-from precise_impact.solvers.analytical import AnalyticalSolver
-from precise_impact.solvers.heyoka import HeyokaSolver
+from precise_impact.solvers.closed_form import AnalyticalSolver
+from precise_impact.solvers.heyoka.single import HeyokaSolver
 
 __all__ = [
     "CASES",

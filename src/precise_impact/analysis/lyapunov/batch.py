@@ -30,8 +30,8 @@ from precise_impact.core.clock import local_clock
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.analysis.periodicity import detect_period
-from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.solvers.events import ImpactRecorder
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
 from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count
@@ -55,7 +55,7 @@ def _depth(t: float, pr, i: int, amp: float) -> float:
 class _BatchSaltation:
     """Batch terminal-event callback: impact map + saltation matrix + QR on one lane.
 
-    Per lane: an :class:`~precise_impact.solvers.events.ImpactRecorder` (count and
+    Per lane: an :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder` (count and
     budget, no log) in ``lanes``, ``grazing`` contacts, ``log1``/``log2`` the logs of
     the in-callback QR since the last period boundary.
     """

@@ -2,7 +2,7 @@
 
 The same quantity as :mod:`~precise_impact.analysis.lyapunov.variational` (tangent flow,
 saltation matrix at every impact, QR every few periods), computed by
-:func:`precise_impact.solvers.fast.lle_batch`: the tangent flow between impacts is the
+:func:`precise_impact.solvers.fast.single.lle_batch`: the tangent flow between impacts is the
 exact 2x2 matrix of the linear system, so there is no variational ODE to integrate.  The
 starts run in parallel; the tangent basis is never restarted after the transient.  A
 start the engine does not resolve (tangential contact, chattering, sticking, ``zeta >=
@@ -85,7 +85,7 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     m = max(1, min(-(-TEST_BLOCKS // blocks), per // (TEST_BLOCK_PERIODS * blocks))) if attractors else 1
     while m > 1 and (per // (blocks * m)) * m != per // blocks:
         m -= 1
-    from precise_impact.solvers.fast import STATUS_OK, STATUS_TEXT, lle_batch
+    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT, lle_batch
 
     pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w),
                       float(params.R)]] * n)
@@ -205,7 +205,7 @@ def fast_batch_rows(rows: np.ndarray, fallback_points, periods: int = 2000, tran
         As :func:`fast_batch`.
     """
     from precise_impact.analysis.periodicity import detect_period
-    from precise_impact.solvers.fast import STATUS_OK, lle_batch, lle_batch_serial
+    from precise_impact.solvers.fast.single import STATUS_OK, lle_batch, lle_batch_serial
 
     periods = check_count(periods, "periods", minimum=1)
     transient = check_count(transient, "transient")

@@ -49,7 +49,7 @@ from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, exact
 from precise_impact.core.precision import Precision
 from precise_impact.io.progress import Progress
-from precise_impact.solvers.heyoka import build_integrator
+from precise_impact.solvers.heyoka.single import build_integrator
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 
 __all__ = ["two_trajectory_lle"]

@@ -52,7 +52,7 @@ velocity ``v- -> 0``.  Three things could go wrong and are prevented:
    leaves for the impacting chaotic attractor within 4 periods (impact speeds
    1.7e-8, 1.5e-4, 1.3e-2: Nordmark's square-root map amplifies the rounding-level
    kick) and the LLE comes out as +0.034 instead of -zeta.  As for the robust
-   analytical finder (:class:`~precise_impact.solvers.analytical.AnalyticalSolver`,
+   analytical finder (:class:`~precise_impact.solvers.closed_form.AnalyticalSolver`,
    ``stats["grazing"]``), an event whose excursion beyond the wall,
    ``depth = v-^2 / (2 |x''|)`` (``x'' < 0``: a maximum), is below the grazing
    depth ``delta(t)`` is a tangential *contact*: no reset, no saltation, counted
@@ -129,8 +129,8 @@ import numpy as np
 from precise_impact.core.clock import local_grid, period_float
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.io.progress import Progress
-from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.solvers.events import ImpactRecorder
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, MissedImpactError, ParameterError
 from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.impact import (
@@ -164,7 +164,7 @@ GUARD_FACTOR = 4
 class _SaltationRecorder(ImpactRecorder):
     """Terminal-event callback: impact map on the state, saltation matrix on the tangents.
 
-    Counts impacts against the budget with :class:`~precise_impact.solvers.events.ImpactRecorder`
+    Counts impacts against the budget with :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder`
     (no log: ``keep=False``).
 
     Deep-copied into the integrator by heyoka: read it back from

@@ -287,7 +287,7 @@ def brute_force_diagram(params: Params, parameter: str, start: float, stop: floa
         ``(values, x)``: ``x`` of shape ``(n, periods)`` (NaN where the fast engine
         handed over, chattering or sticking, and the value is skipped).
     """
-    from precise_impact.solvers.fast import FastSolver
+    from precise_impact.solvers.fast.single import FastSolver
 
     vals = np.linspace(start, stop, n)
     xs = np.full((n, periods), math.nan)

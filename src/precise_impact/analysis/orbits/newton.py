@@ -4,7 +4,7 @@ A period-``p`` orbit is a fixed point of ``P^p``, the map over ``p`` forcing per
 ``T = 2 pi / eta`` (stroboscopic time ``t0``).  Newton's iteration
 ``z <- z - (M - I)^-1 (P^p(z) - z)`` uses the exact Jacobian ``M`` of ``P^p``: the product
 of the closed-form flow matrices of the free flights and the saltation matrices of the
-impacts (:func:`precise_impact.solvers.fast.orbit_map`), so it converges quadratically
+impacts (:func:`precise_impact.solvers.fast.single.orbit_map`), so it converges quadratically
 to stable and unstable orbits alike, once it is near one with the same impact sequence.
 At the fixed point ``M`` is the monodromy matrix: its eigenvalues are the Floquet
 multipliers and ``ln |mu_max| / (p T)`` the orbit's exact largest Lyapunov exponent.
@@ -34,7 +34,7 @@ class ConvergenceError(IntegrationError):
 
 
 def _map(params: Params, z: np.ndarray, period: int):
-    from precise_impact.solvers.fast import STATUS_OK, STATUS_TEXT, orbit_map
+    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT, orbit_map
 
     f = float
     st, x, v, m00, m01, m10, m11, n = orbit_map(f(params.eta), f(params.zeta), f(params.a), f(params.x_w),
@@ -68,7 +68,7 @@ def _map_mp(params: Params, z: tuple, period: int, bits: int):
     from precise_impact.analysis.orbits.one_impact import flow_matrix
     from precise_impact.core.impact import oscillator_saltation
     from precise_impact.core.precision import Precision
-    from precise_impact.solvers.analytical import AnalyticalSolver
+    from precise_impact.solvers.closed_form import AnalyticalSolver
 
     P = Precision.parse(f"mp:{bits}")
     q = params.replace(x0=_fraction(z[0]), v0=_fraction(z[1]))
@@ -229,7 +229,7 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
     if z is None and g is not None:
         z = g
     elif z is None:
-        from precise_impact.solvers.fast import FastSolver
+        from precise_impact.solvers.fast.single import FastSolver
 
         tr = FastSolver().solve(params, transient)
         z = np.array([float(tr.x[-1]), float(tr.v[-1])])

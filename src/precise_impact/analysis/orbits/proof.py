@@ -7,7 +7,7 @@ For ``F(z) = P^p(z) - z`` on a box ``Z = z~ + [-r, r]^2`` the Krawczyk operator 
 with ``C`` an approximate inverse of ``M(z~) - I`` and ``M(Z)`` an enclosure of the Jacobian
 of ``P^p`` over the whole box.  If ``K(Z)`` lies in the interior of ``Z``, ``P^p`` has exactly
 one fixed point in ``Z`` (Krawczyk 1969; Moore).  Both ingredients come from the certified
-engine (:mod:`precise_impact.solvers.certified`): ``F(z~)`` from a run started at the point
+engine (:mod:`precise_impact.solvers.certified.single`): ``F(z~)`` from a run started at the point
 ``z~``, and ``M(Z)`` from a run started at the box -- every state of the box is followed, the
 engine proves the same impact sequence for all of them (each crossing isolated, transversal),
 and the product of the flow matrices ``Phi(t_i - t_{i-1})`` and the saltation matrices at the
@@ -87,7 +87,7 @@ def _mat_mul(A, B):
 def _jacobian(c, impacts, period):
     """``M``: flow and saltation matrices along the impacts (balls), from ``t0`` to ``t0 + p T``."""
     from precise_impact.core.impact import oscillator_saltation
-    from precise_impact.solvers.certified import flow_matrix
+    from precise_impact.solvers.certified.single import flow_matrix
 
     one, zero = c.eta * 0 + 1, c.eta * 0
     M = [[one, zero], [zero, one]]
@@ -153,7 +153,7 @@ def prove_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | N
            (validated Poincare maps).
     """
     from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.solvers.certified import ball_str, exact_value, to_ball, run_balls, working_bits
+    from precise_impact.solvers.certified.single import ball_str, exact_value, to_ball, run_balls, working_bits
 
     t_start = time.perf_counter()
     params = params_or_values(params, param_values)

@@ -249,13 +249,13 @@ def _refine_max(sys: ShootingSystem, vals, s, x, v, lo, hi) -> float:
 
 def from_orbit(system: ShootingSystem, params: Any, x: float, v: float, lam: float) -> np.ndarray:
     """Initial unknowns from a point ``(x, v)`` of an orbit at ``t0``: one period simulated
-    by the fast engine (:class:`~precise_impact.solvers.fast.FastSolver`) gives the impact
+    by the fast engine (:class:`~precise_impact.solvers.fast.single.FastSolver`) gives the impact
     times and velocities (``n = 0``: the point itself)."""
     if system.impacts == 0:
         return np.array([x, v], dtype=float)
     from fractions import Fraction
 
-    from precise_impact.solvers.fast import FastSolver
+    from precise_impact.solvers.fast.single import FastSolver
 
     q = params.replace(x0=Fraction(x), v0=Fraction(v), **{system.parameter: Fraction(lam)})
     tr = FastSolver().solve(q, system.period)

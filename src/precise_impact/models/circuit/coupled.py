@@ -26,8 +26,8 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.result import ResultMixin
-from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.solvers.events import ImpactRecorder
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
@@ -147,14 +147,14 @@ def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=
 
     See Also
     --------
-    precise_impact.models.coupled.simulate_coupled : the mechanical master-slave pair.
+    precise_impact.solvers.heyoka.coupled.simulate_coupled : the mechanical master-slave pair.
 
     References
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
            mechanical impact oscillator", Fig. 3 and eq. (15).
     """
-    from precise_impact.models.coupled import check_k
+    from precise_impact.solvers.heyoka.coupled import check_k
 
     P = Precision.parse(precision)
     k = check_k(k)

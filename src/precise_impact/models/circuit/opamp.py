@@ -18,8 +18,8 @@ from typing import Any, Mapping
 import mpmath
 import numpy as np
 
-from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.solvers.events import ImpactRecorder
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
@@ -54,7 +54,7 @@ def circuit_system(op: OpAmp):
 
 class _Impact(ImpactRecorder):
     """Comparator event callback: the mechanical impact law applied to ``V_q``
-    (recorded by :class:`~precise_impact.solvers.events.ImpactRecorder`)."""
+    (recorded by :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder`)."""
 
     def __init__(self, dynamic: bool) -> None:
         super().__init__()

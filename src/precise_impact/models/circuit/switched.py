@@ -37,8 +37,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.solvers.events import ImpactRecorder
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
@@ -72,7 +72,7 @@ def _system():
 class _Comparator(ImpactRecorder):
     """Trip event (``V_s`` falls through ``v_trip``): toggles at once, or stops for a delayed toggle.
 
-    The trip times are its :class:`~precise_impact.solvers.events.ImpactRecorder` log
+    The trip times are its :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder` log
     (``t``; no velocities: the switching is resolved by the solver), under the impact budget.
     """
 

@@ -1,8 +1,8 @@
 """The master-slave pair on the compiled closed-form engine (float64, numba).
 
 Between impacts both oscillators are linear.  The master is the single oscillator
-(:mod:`precise_impact.solvers.fast`); the difference ``e = y - x`` of the positions obeys,
-in every form of :mod:`~precise_impact.models.coupled` (subtract eq. (11) from the slave's
+(:mod:`precise_impact.solvers.fast.single`); the difference ``e = y - x`` of the positions obeys,
+in every form of :mod:`~precise_impact.solvers.heyoka.coupled` (subtract eq. (11) from the slave's
 equation; for 'first-order' eliminate ``y2``)::
 
     e'' + c1 e' + c0 e = 0,
@@ -14,15 +14,15 @@ otherwise the caller uses heyoka).  So the slave is ``y = x + e`` in closed form
 its velocity variable ``w`` follows from ``y' = x' + e'`` (``w = y' + k e`` for
 'first-order', where ``y1' = y2 + k (x - y1)``; ``w = y'`` otherwise).
 
-Impacts, as :class:`~precise_impact.models.coupled._CoupledImpact` applies them: the
+Impacts, as :class:`~precise_impact.solvers.heyoka.coupled._CoupledImpact` applies them: the
 master's (``x = x_w``, ``v > 0``) flips ``v`` (``y'`` is continuous, so ``e'`` jumps by
 ``v- - v+``); the slave's (``y = x_w``, ``y' > 0``) resets ``w`` by
-:func:`~precise_impact.models.coupled.slave_reset`; the other oscillator within a few
+:func:`~precise_impact.solvers.heyoka.coupled.slave_reset`; the other oscillator within a few
 ulps of the wall and moving into it (``_touch_tol``) impacts at the same instant, the
 master first (on the diagonal ``y = x`` every impact is simultaneous).
 
 Crossings cannot be missed, for either wall contact: each step is cleared by
-:func:`~precise_impact.solvers.fast.no_crossing` for the master's gap ``x - x_w`` (bounds
+:func:`~precise_impact.solvers.fast.single.no_crossing` for the master's gap ``x - x_w`` (bounds
 as the single engine) and for the slave's ``x + e - x_w`` (the same plus
 ``|e^(n)| <= A_e c0^(n/2)``, ``A_e`` the amplitude of ``e``, which only decays), or it is
 halved; a bracketed crossing with a proven positive slope is refined by safeguarded
@@ -38,7 +38,7 @@ import math
 import numba
 import numpy as np
 
-from precise_impact.solvers.fast import (
+from precise_impact.solvers.fast.single import (
     JIT,
     PHASE_ERROR,
     STATUS_BUDGET,
@@ -96,7 +96,7 @@ def _slave_yd(form, k, e, w_):
 
 @numba.njit(**JIT)
 def _slave_reset(form, R, k, x, xw, w_):
-    """:func:`~precise_impact.models.coupled.slave_reset` (compiled copy)."""
+    """:func:`~precise_impact.solvers.heyoka.coupled.slave_reset` (compiled copy)."""
     if form == 2:
         shift = k * (x - xw)
         return -R * (w_ - shift) + shift

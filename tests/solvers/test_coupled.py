@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, simulate
-from precise_impact.models.coupled import COUPLED_FORMS, simulate_coupled, slave_reset
+from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, simulate_coupled, slave_reset
 from precise_impact.analysis.sync import half_crossing, plot_fig7, plot_sync_fraction, sync_scan
 
 EPS = 2.0**-52
@@ -37,7 +37,7 @@ def test_reduction_algebra_is_exact():
     integrator (:func:`slave_rhs`) are those formulas."""
     import random
 
-    from precise_impact.models.coupled import slave_rhs
+    from precise_impact.solvers.heyoka.coupled import slave_rhs
 
     rng = random.Random(1)
     cos = lambda u: F(1, 3)  # any fixed forcing value; exact

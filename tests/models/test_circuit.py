@@ -17,7 +17,7 @@ from precise_impact.models.circuit.coupled import CIRCUIT_COUPLED_FORM, coupling
 from precise_impact.models.circuit.network import NETWORK_PARS, OpAmp
 from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.models.circuit.effects.tolerance import draw_components, e_series_round
-from precise_impact.models.coupled import simulate_coupled
+from precise_impact.solvers.heyoka.coupled import simulate_coupled
 
 
 def test_nominal_components_and_mapping_are_exact():

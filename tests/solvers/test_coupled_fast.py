@@ -19,7 +19,7 @@ import pytest
 
 from precise_impact import ParameterError, Params
 from precise_impact.analysis.sync import sync_scan
-from precise_impact.models.coupled import COUPLED_FORMS, simulate_coupled
+from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, simulate_coupled
 
 EPS = 2.0**-52
 

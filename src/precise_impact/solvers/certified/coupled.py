@@ -1,9 +1,9 @@
 """The master-slave pair certified: every sample and impact of both oscillators in a proven ball.
 
-Between impacts both oscillators are linear (:mod:`~precise_impact.models.coupled_fast` derives
+Between impacts both oscillators are linear (:mod:`~precise_impact.solvers.fast.coupled` derives
 it): the master is the single oscillator's closed-form flight
-(:class:`~precise_impact.solvers.certified.Flight`) and the difference ``e = y - x`` of the
-positions obeys, in every form of :mod:`~precise_impact.models.coupled`::
+(:class:`~precise_impact.solvers.certified.single.Flight`) and the difference ``e = y - x`` of the
+positions obeys, in every form of :mod:`~precise_impact.solvers.heyoka.coupled`::
 
     e'' + c1 e' + c0 e = 0,
     'first-order', 'reduced':  c1 = 2 zeta + 2 k,            c0 = 1 + 2 zeta k + k^2
@@ -13,14 +13,14 @@ whose flow is ``e^(-alpha tau) [[cos + (alpha/omega) sin, sin/omega], [-(c0/omeg
 cos - (alpha/omega) sin]]`` (``alpha = c1/2``, ``omega = sqrt(c0 - alpha^2)``, arguments
 ``omega tau``).  Both are evaluated in ball arithmetic from the exact rationals.
 
-Impacts, as :func:`~precise_impact.models.coupled.simulate_coupled` applies them: the master's
+Impacts, as :func:`~precise_impact.solvers.heyoka.coupled.simulate_coupled` applies them: the master's
 (``x = x_w``, ``x' > 0``) flips ``x'`` (``y'`` is continuous, so ``e'`` jumps); the slave's
 (``y = x_w``, ``y' > 0``) resets the slave's velocity variable by
-:func:`~precise_impact.models.coupled.slave_reset`.  Each oscillator's wall gap (``x - x_w``,
-``x + e - x_w``) is searched with the one :class:`~precise_impact.solvers.certified.Isolator`
+:func:`~precise_impact.solvers.heyoka.coupled.slave_reset`.  Each oscillator's wall gap (``x - x_w``,
+``x + e - x_w``) is searched with the one :class:`~precise_impact.solvers.certified.single.Isolator`
 (no earlier crossing proven, the crossing isolated and narrowed by interval Newton), the
 earlier of the two crossings taken; when their balls overlap the order cannot be proven and
-the run stops with :class:`~precise_impact.solvers.certified.CertificationError` naming the time
+the run stops with :class:`~precise_impact.solvers.certified.single.CertificationError` naming the time
 (never a guess).  A start on the diagonal (``y0`` omitted) stays on it exactly in every form
 (every coupling term is 0 and the two impacts coincide), so the slave *is* the master: that run
 is the single oscillator's certified run, copied.
@@ -36,8 +36,8 @@ from typing import Any, Sequence
 from precise_impact.core.params import check_count, decimal_str, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
-from precise_impact.models.coupled import check_form, check_k, check_y0, slave_reset
-from precise_impact.solvers.certified import (
+from precise_impact.solvers.heyoka.coupled import check_form, check_k, check_y0, slave_reset
+from precise_impact.solvers.certified.single import (
     MAX_BITS,
     MIN_BITS,
     CertificationError,
@@ -124,7 +124,7 @@ class CertifiedCoupledTrajectory(ResultMixin):
     params : Params
         The system and the master's start (exact).
     form : str
-        One of :data:`~precise_impact.models.coupled.COUPLED_FORMS`.
+        One of :data:`~precise_impact.solvers.heyoka.coupled.COUPLED_FORMS`.
     k : Fraction
         The coupling, exact.
     y0 : tuple of Fraction or None
@@ -290,7 +290,7 @@ def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order
         (always for 'first-order' and 'reduced'; ``k`` up to about 3.4 for 'paper' at
         zeta = 0.05).
     form : str, default ``'first-order'``
-        ``'first-order'``, ``'paper'`` or ``'reduced'`` (:mod:`~precise_impact.models.coupled`).
+        ``'first-order'``, ``'paper'`` or ``'reduced'`` (:mod:`~precise_impact.solvers.heyoka.coupled`).
     periods : int, default 100
         Forcing periods (``1 <= periods <= 100000``).
     y0 : pair or None, default ``None``

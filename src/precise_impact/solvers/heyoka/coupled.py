@@ -66,8 +66,8 @@ import numpy as np
 
 from precise_impact.core.result import ResultMixin
 from precise_impact.solvers.base import check_engine
-from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.solvers.events import ImpactRecorder
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str, exact
@@ -165,7 +165,7 @@ class _CoupledImpact:
     would leave the other oscillator a round-off *beyond* the wall after this
     event, where heyoka (which detects sign changes) could miss its impact.
 
-    The impacts it applies go to two :class:`~precise_impact.solvers.events.ImpactRecorder`
+    The impacts it applies go to two :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder`
     logs, ``master`` (``t, v_before, v_after``) and ``slave`` (``t, w_before, w_after``
     and the master's position in ``aux``); the budget covers both.  heyoka deep-copies
     the callback: read results from ``ta.t_events[i].callback``.
@@ -220,7 +220,7 @@ def build_coupled_integrator(form: str, precision: Precision):
 
     State ``(x, v, y, w)``; runtime parameters ``COUPLED_PARAMS`` =
     ``(eta, zeta, a, R, x_w, k)``; events ``[master, slave]``.  Returns a private
-    copy (:class:`~precise_impact.solvers.cache.IntegratorCache`).
+    copy (:class:`~precise_impact.solvers.heyoka.cache.IntegratorCache`).
     """
     import heyoka as hy
 
@@ -430,7 +430,7 @@ def simulate_coupled(
         Budget over both oscillators; exceeding it raises :class:`BudgetExceededError`.
     engine : str, default ``'heyoka'``
         ``'heyoka'`` (Taylor integration, any precision) or ``'fast'`` (float64 closed
-        forms, :mod:`~precise_impact.models.coupled_fast`, ~50x faster; a run it does not
+        forms, :mod:`~precise_impact.solvers.fast.coupled`, ~50x faster; a run it does not
         resolve, a tangential contact or chattering, is integrated by heyoka and
         ``stats['engine']`` says so).
 
@@ -571,8 +571,8 @@ def _fast_run(params: Params, kq: Fraction, form: str, y0q: tuple, periods: int,
               start: tuple, m0: list, s0: list, max_impacts: int) -> tuple[CoupledTrajectory | None, str | None]:
     """:func:`simulate_coupled` on the compiled engine: ``(trajectory, None)``, or ``(None, why)``
     when the engine does not resolve the run (the caller integrates it with heyoka)."""
-    from precise_impact.models.coupled_fast import FORM_IDS, STATUS_UNSUPPORTED, coupled_strobe, error_coefficients
-    from precise_impact.solvers.fast import STATUS_BUDGET, STATUS_OK, STATUS_TEXT
+    from precise_impact.solvers.fast.coupled import FORM_IDS, STATUS_UNSUPPORTED, coupled_strobe, error_coefficients
+    from precise_impact.solvers.fast.single import STATUS_BUDGET, STATUS_OK, STATUS_TEXT
 
     f = float
     c1, c0 = error_coefficients(form, f(params.zeta), f(kq))

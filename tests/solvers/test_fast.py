@@ -23,7 +23,7 @@ numba = pytest.importorskip("numba", reason="the fast engine needs numba (pip in
 
 from precise_impact import Params, simulate  # noqa: E402
 from precise_impact.core.impact import oscillator_saltation  # noqa: E402
-from precise_impact.solvers.fast import FastSolver, compiled_saltation, fast_lle  # noqa: E402
+from precise_impact.solvers.fast.single import FastSolver, compiled_saltation, fast_lle  # noqa: E402
 
 EPS = np.finfo(float).eps
 

@@ -15,7 +15,7 @@ import precise_impact as pi
 from precise_impact.verification.reference import shipped_root
 
 flint = pytest.importorskip("flint", reason="python-flint: pip install python-flint")
-from precise_impact.solvers.certified import CertificationError, certify  # noqa: E402
+from precise_impact.solvers.certified.single import CertificationError, certify  # noqa: E402
 
 
 def _exact(s):
@@ -57,7 +57,7 @@ def test_a_grazing_impact_missed_by_the_papers_scan_is_found_and_proven():
     ~1e-3 time units: the paper's scan (steps of 1e-3 T) misses the crossing, the certified
     engine proves it (a crossing isolated, v- > 0) -- as the robust finder, the fast engine and
     heyoka also find."""
-    from precise_impact.solvers.analytical import AnalyticalSolver
+    from precise_impact.solvers.closed_form import AnalyticalSolver
 
     p = pi.Params.make(eta="0.7106874")
     ss = pi.steady_state(p)
@@ -252,7 +252,7 @@ def test_targets_below_the_float_range_are_met_not_underflowed():
 def test_contains_is_exact():
     """CertifiedTrajectory.contains decides in rationals: the midpoint is in, a point two radii
     away is out, whatever python-flint's (process-wide) precision is at the time."""
-    from precise_impact.solvers.certified import exact_value
+    from precise_impact.solvers.certified.single import exact_value
 
     r = certify(pi.Params.make(eta="0.74"), 5, bits=256)
     _, _, bx, bv = r.samples[5]

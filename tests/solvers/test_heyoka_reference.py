@@ -188,7 +188,7 @@ def test_saltation_matrix_against_finite_differences():
 def test_parameters_are_runtime_and_integrators_are_reused():
     """Changing eta, zeta, a, R, x_w reuses the solver's integrator; a second solver
     gets its own copy of the same compiled code (nothing recompiled, nothing shared)."""
-    from precise_impact.solvers.heyoka import INTEGRATORS
+    from precise_impact.solvers.heyoka.single import INTEGRATORS
 
     s = HeyokaSolver("float64")
     ta = s.integrator()

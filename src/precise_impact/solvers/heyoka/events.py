@@ -8,7 +8,7 @@ wants them) the impact times and the velocities before and after.  They are kept
 here, once; each callback applies its own law and calls :meth:`ImpactRecorder.record`.
 
 heyoka deep-copies an event callback into the integrator (and again into every copy
-of the integrator, see :mod:`precise_impact.solvers.cache`).  A recorder must
+of the integrator, see :mod:`precise_impact.solvers.heyoka.cache`).  A recorder must
 therefore be reached through the integrator that owns it,
 ``ta.t_events[i].callback``, never through the object handed to ``hy.t_event``:
 that one is a template no integration ever touches.

@@ -127,7 +127,7 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
 class Flight:
     """The closed-form flight of the single oscillator from ``(s, x_s, v_s)``, all balls,
     evaluated at ball or point times (also the master of the certified pair,
-    :mod:`precise_impact.models.coupled_certified`)."""
+    :mod:`precise_impact.solvers.certified.coupled`)."""
 
     def __init__(self, c: "Constants", s, xs, vs) -> None:
         self.c = c

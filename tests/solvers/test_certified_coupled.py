@@ -15,7 +15,7 @@ import precise_impact as pi
 flint = pytest.importorskip("flint", reason="python-flint: pip install python-flint")
 mpmath = pytest.importorskip("mpmath")
 
-from precise_impact.solvers.certified import CertificationError, exact_value  # noqa: E402
+from precise_impact.solvers.certified.single import CertificationError, exact_value  # noqa: E402
 
 
 def _mp(b):

@@ -596,7 +596,7 @@ class FastSolver:
         Impact budget of one solve.
     fallback : bool, default ``True``
         Rerun an orbit the engine does not resolve (a tangential contact, chattering or
-        sticking, ``zeta >= 1``) with :class:`~precise_impact.solvers.heyoka.HeyokaSolver`
+        sticking, ``zeta >= 1``) with :class:`~precise_impact.solvers.heyoka.single.HeyokaSolver`
         and say so in ``stats['engine']``; ``False`` raises
         :class:`~precise_impact.errors.IntegrationError` instead.
 
@@ -686,7 +686,7 @@ class FastSolver:
             why = STATUS_TEXT[st] + f" after sample {done} of {n}"
         if not self.fallback:
             raise IntegrationError(f"the fast engine does not resolve this orbit: {why}")
-        from precise_impact.solvers.heyoka import HeyokaSolver
+        from precise_impact.solvers.heyoka.single import HeyokaSolver
 
         traj = HeyokaSolver(self.precision, max_impacts=self.max_impacts).solve(params, periods, per_period=per_period)
         traj.model = "fast"

@@ -95,8 +95,8 @@ from precise_impact.core.impact import (
 from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.solvers.cache import IntegratorCache
-from precise_impact.solvers.events import ImpactRecorder
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 from precise_impact.core.flow import acceleration
 
 __all__ = ["HeyokaSolver", "build_integrator"]
@@ -112,7 +112,7 @@ _GUARD_BITS = 64
 
 class _ImpactRecorder(ImpactRecorder):
     """Terminal-event callback: applies the impact map and records the impact
-    (:class:`~precise_impact.solvers.events.ImpactRecorder`).
+    (:class:`~precise_impact.solvers.heyoka.events.ImpactRecorder`).
 
     heyoka deep-copies the callback into the integrator, so results are read back
     from ``ta.t_events[0].callback`` (the integrator's copy), never from the object
@@ -206,7 +206,7 @@ def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool 
     """A heyoka integrator for the oscillator, owned by the caller.
 
     Compiled once per ``(precision, tol, high_accuracy, compact_mode)`` and process
-    (:class:`~precise_impact.solvers.cache.IntegratorCache`); every call returns a
+    (:class:`~precise_impact.solvers.heyoka.cache.IntegratorCache`); every call returns a
     private copy, so callers may reset time, state, parameters and the callback
     freely and use copies from different threads.  The integrator's runtime
     parameters are ordered as ``RUNTIME_PARAMS`` = ``(eta, zeta, a, R, x_w)``.

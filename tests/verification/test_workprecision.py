@@ -7,7 +7,7 @@ import math
 import pytest
 
 from precise_impact import Params
-from precise_impact.solvers.heyoka import HeyokaSolver
+from precise_impact.solvers.heyoka.single import HeyokaSolver
 from precise_impact.verification.workprecision import predicted_bits, scipy_solve, work_precision
 
 TINY = {

@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.core.params import Params
 from precise_impact.core.precision import Precision
-from precise_impact.solvers.analytical import AnalyticalSolver
+from precise_impact.solvers.closed_form import AnalyticalSolver
 from precise_impact.core.flow import steady_state
 
 EPS64 = 2.0**-52
