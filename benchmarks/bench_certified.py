@@ -33,7 +33,6 @@ import mpmath
 
 import precise_impact as pi
 from precise_impact.io.figures import new_figure, save_figure
-from precise_impact.solvers.certified.single import exact_value
 
 OUT = Path(__file__).resolve().parent / "results"
 PERIODS = 300
@@ -52,8 +51,13 @@ def _timed(fn, rounds):
 
 def _disagreement(a, b):
     with mpmath.workprec(1024):
-        return [max(abs(mpmath.mpf(str(a.x[i])) - mpmath.mpf(str(b.x[i]))),
-                    abs(mpmath.mpf(str(a.v[i])) - mpmath.mpf(str(b.v[i])))) for i in range(len(a.x))]
+        return [
+            max(
+                abs(mpmath.mpf(str(a.x[i])) - mpmath.mpf(str(b.x[i]))),
+                abs(mpmath.mpf(str(a.v[i])) - mpmath.mpf(str(b.v[i]))),
+            )
+            for i in range(len(a.x))
+        ]
 
 
 def _slope(values):
@@ -73,8 +77,13 @@ def main() -> None:
     fixed = {}
     for bits in (256, r_auto.bits, 1024, 2048):
         t, r = _timed(lambda b=bits: pi.certify(p, PERIODS, bits=b), args.rounds)
-        fixed[bits] = {"seconds": t, "bits_used": r.bits, "log10_max_radius": r.max_log10_radius(),
-                       "impacts": len(r.impacts), "bits_choice": r.bits_choice}
+        fixed[bits] = {
+            "seconds": t,
+            "bits_used": r.bits,
+            "log10_max_radius": r.max_log10_radius(),
+            "impacts": len(r.impacts),
+            "bits_choice": r.bits_choice,
+        }
 
     lo = 160
     while True:
@@ -97,22 +106,45 @@ def main() -> None:
     # k = 0.02 is below the synchronisation threshold (~0.035): both chaotic, impacts apart.  (Above
     # it e decays like exp(-(zeta + k) t) and master and slave impacts come closer than 2^-bits:
     # the engine then doubles the bits, as it must.)
-    t_pair, pair = _timed(lambda: pi.certify_coupled(p, "0.02", "reduced", PERIODS, y0=("0.5", "0.1"), bits=512),
-                          args.rounds)
+    t_pair, pair = _timed(
+        lambda: pi.certify_coupled(p, "0.02", "reduced", PERIODS, y0=("0.5", "0.1"), bits=512),
+        args.rounds,
+    )
 
     res = {
-        "periods": PERIODS, "target_radius": TARGET,
-        "certified_auto": {"seconds": t_auto, "bits": r_auto.bits, "bits_choice": r_auto.bits_choice,
-                           "max_radius": r_auto.max_radius(), "impacts": len(r_auto.impacts)},
+        "periods": PERIODS,
+        "target_radius": TARGET,
+        "certified_auto": {
+            "seconds": t_auto,
+            "bits": r_auto.bits,
+            "bits_choice": r_auto.bits_choice,
+            "max_radius": r_auto.max_radius(),
+            "impacts": len(r_auto.impacts),
+        },
         "certified_fixed_bits": fixed,
-        "heyoka_demonstration": {"lo": f"mp:{lo}", "hi": f"mp:{lo + 64}", "seconds_lo": t_lo, "seconds_hi": t_hi,
-                                 "seconds_both": t_demo, "max_disagreement": max(float(d) for d in dis)},
+        "heyoka_demonstration": {
+            "lo": f"mp:{lo}",
+            "hi": f"mp:{lo + 64}",
+            "seconds_lo": t_lo,
+            "seconds_hi": t_hi,
+            "seconds_both": t_demo,
+            "max_disagreement": max(float(d) for d in dis),
+        },
         "ratio_demonstration_over_certified": t_demo / t_auto,
         "ratio_single_heyoka_run_over_certified": t_lo / t_auto,
-        "growth_digits_per_period": {"certified_radius": cert_growth, "true_lle": true_growth,
-                                     "heyoka_disagreement": heyoka_growth},
-        "pair": {"seconds": t_pair, "k": "0.02", "bits": pair.bits, "log10_max_radius": pair.max_log10_radius(),
-                 "master_impacts": len(pair.master_impacts), "slave_impacts": len(pair.slave_impacts)},
+        "growth_digits_per_period": {
+            "certified_radius": cert_growth,
+            "true_lle": true_growth,
+            "heyoka_disagreement": heyoka_growth,
+        },
+        "pair": {
+            "seconds": t_pair,
+            "k": "0.02",
+            "bits": pair.bits,
+            "log10_max_radius": pair.max_log10_radius(),
+            "master_impacts": len(pair.master_impacts),
+            "slave_impacts": len(pair.slave_impacts),
+        },
         "rounds": args.rounds,
         "versions": {"precise_impact": pi.__version__},
     }
@@ -121,21 +153,32 @@ def main() -> None:
 
     fig, axes = new_figure(figsize=(7, 4))
     ax = axes[0, 0]
-    ax.semilogy(range(1, PERIODS + 1), r_auto.radii()[1:], label=f"certified radius ({r_auto.bits} bits)")
-    ax.semilogy(range(1, PERIODS + 1), [float(d) for d in dis[1:]],
-                label=f"heyoka mp:{lo} vs mp:{lo + 64} disagreement")
+    ax.semilogy(
+        range(1, PERIODS + 1), r_auto.radii()[1:], label=f"certified radius ({r_auto.bits} bits)"
+    )
+    ax.semilogy(
+        range(1, PERIODS + 1),
+        [float(d) for d in dis[1:]],
+        label=f"heyoka mp:{lo} vs mp:{lo + 64} disagreement",
+    )
     r0 = r_auto.radii()[10]
-    ax.semilogy([10, PERIODS], [r0, r0 * 10 ** (true_growth * (PERIODS - 10))], "k--",
-                label=f"true sensitivity LLE T/ln 10 = {true_growth:.3f} digits/period")
+    ax.semilogy(
+        [10, PERIODS],
+        [r0, r0 * 10 ** (true_growth * (PERIODS - 10))],
+        "k--",
+        label=f"true sensitivity LLE T/ln 10 = {true_growth:.3f} digits/period",
+    )
     ax.set_xlabel("forcing period")
     ax.set_ylabel("radius / disagreement")
     ax.set_title("eta = 0.712: certified enclosure vs demonstrated accuracy")
     ax.legend(fontsize=8)
     save_figure(fig, OUT / "certified_growth.png", dpi=110)
 
-    rows = "\n".join(f"| certify, {b} bits{'' if v['bits_used'] == b else ' (no proof: retried at ' + str(v['bits_used']) + ')'}"
-                     f" | {v['seconds'] * 1e3:.0f} ms | 1e{v['log10_max_radius']:.1f} | {v['impacts']} |"
-                     for b, v in fixed.items())
+    rows = "\n".join(
+        f"| certify, {b} bits{'' if v['bits_used'] == b else ' (no proof: retried at ' + str(v['bits_used']) + ')'}"
+        f" | {v['seconds'] * 1e3:.0f} ms | 1e{v['log10_max_radius']:.1f} | {v['impacts']} |"
+        for b, v in fixed.items()
+    )
     md = f"""# Certified trajectories vs the heyoka run that demonstrates the same digits
 
 eta = 0.712 (chaotic), {PERIODS} periods, one run, medians of {args.rounds} after a warm-up.

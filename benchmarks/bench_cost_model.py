@@ -22,8 +22,14 @@ from precise_impact.core.budget import estimate_cost
 from precise_impact.solvers.heyoka.single import HeyokaSolver
 
 OUT = Path(__file__).resolve().parent / "results"
-CASES = [("float64", 2000), ("longdouble", 500), ("float128", 100), ("mp:128", 100), ("mp:320", 40),
-         ("mp:640", 10)]
+CASES = [
+    ("float64", 2000),
+    ("longdouble", 500),
+    ("float128", 100),
+    ("mp:128", 100),
+    ("mp:320", 40),
+    ("mp:640", 10),
+]
 
 
 def main() -> None:
@@ -44,17 +50,36 @@ def main() -> None:
                 times.append(time.perf_counter() - t)
             measured = statistics.median(times)
             est = estimate_cost(P, n, dense).seconds
-            rows.append({"precision": prec, "periods": n, "per_period": dense, "measured_s": measured,
-                         "estimate_s": est, "ratio": est / measured})
-            print(f"{prec:>10} {n:5d} periods x {dense:3d}: measured {measured:.4f} s, estimate {est:.4f} s,"
-                  f" ratio {est / measured:.2f}", flush=True)
+            rows.append(
+                {
+                    "precision": prec,
+                    "periods": n,
+                    "per_period": dense,
+                    "measured_s": measured,
+                    "estimate_s": est,
+                    "ratio": est / measured,
+                }
+            )
+            print(
+                f"{prec:>10} {n:5d} periods x {dense:3d}: measured {measured:.4f} s, estimate {est:.4f} s,"
+                f" ratio {est / measured:.2f}",
+                flush=True,
+            )
     OUT.mkdir(exist_ok=True)
     (OUT / "cost_model.json").write_text(json.dumps(rows, indent=1) + "\n")
-    lines = ["# Cost model (core/budget.py) against measured heyoka runs", "",
-             f"eta = 0.712 (chaotic), median of {args.rounds}, after compilation; ratio = estimate / measured.", "",
-             "| precision | periods | dense/period | measured s | estimate s | ratio |", "|---|---:|---:|---:|---:|---:|"]
-    lines += [f"| {r['precision']} | {r['periods']} | {r['per_period']} | {r['measured_s']:.4f} | "
-              f"{r['estimate_s']:.4f} | {r['ratio']:.2f} |" for r in rows]
+    lines = [
+        "# Cost model (core/budget.py) against measured heyoka runs",
+        "",
+        f"eta = 0.712 (chaotic), median of {args.rounds}, after compilation; ratio = estimate / measured.",
+        "",
+        "| precision | periods | dense/period | measured s | estimate s | ratio |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    lines += [
+        f"| {r['precision']} | {r['periods']} | {r['per_period']} | {r['measured_s']:.4f} | "
+        f"{r['estimate_s']:.4f} | {r['ratio']:.2f} |"
+        for r in rows
+    ]
     (OUT / "cost_model.md").write_text("\n".join(lines) + "\n")
 
 

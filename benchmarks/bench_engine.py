@@ -46,7 +46,11 @@ def compile_time(precision: str) -> dict:
         "import time; from precise_impact import HeyokaSolver; t = time.perf_counter(); "
         f"HeyokaSolver({precision!r}).integrator(); print(time.perf_counter() - t)"
     )
-    fresh = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
+    fresh = float(
+        subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        ).stdout
+    )
     INTEGRATORS.clear()
     hy.llvm_state.clear_memcache()
     t0 = time.perf_counter()
@@ -63,24 +67,48 @@ def main() -> int:
     cases = [
         ("heyoka", "float64", 200, rep, lambda: HeyokaSolver("float64").solve(p, 200)),
         ("heyoka", "longdouble", 200, rep, lambda: HeyokaSolver("longdouble").solve(p, 200)),
-        ("heyoka", "float128", 200, max(3, rep // 5), lambda: HeyokaSolver("float128").solve(p, 200)),
+        (
+            "heyoka",
+            "float128",
+            200,
+            max(3, rep // 5),
+            lambda: HeyokaSolver("float128").solve(p, 200),
+        ),
         ("heyoka", "mp:256", 300, 3, lambda: HeyokaSolver("mp:256").solve(p, 300)),
         ("analytical", "float64", 200, rep, lambda: AnalyticalSolver("robust").solve(p, 200)),
         ("analytical-paper", "float64", 200, 3, lambda: AnalyticalSolver("paper").solve(p, 200)),
-        ("analytical", "mp:200 (60 digits)", 200, 3, lambda: AnalyticalSolver("robust", "mpmath", 60).solve(p, 200)),
+        (
+            "analytical",
+            "mp:200 (60 digits)",
+            200,
+            3,
+            lambda: AnalyticalSolver("robust", "mpmath", 60).solve(p, 200),
+        ),
     ]
-    compile_s = {prec: compile_time(prec) for prec in ("float64", "longdouble", "float128", "mp:256")}
+    compile_s = {
+        prec: compile_time(prec) for prec in ("float64", "longdouble", "float128", "mp:256")
+    }
     rows = []
     for model, prec, periods, reps, fn in cases:
         t = median_time(fn, reps)
-        rows.append({"model": model, "precision": prec, "periods": periods, "median_s": t, "repeats": reps})
-        print(f"{model:17s} {prec:20s} {periods:4d} periods: {t * 1e3:10.3f} ms", file=sys.stderr, flush=True)
+        rows.append(
+            {"model": model, "precision": prec, "periods": periods, "median_s": t, "repeats": reps}
+        )
+        print(
+            f"{model:17s} {prec:20s} {periods:4d} periods: {t * 1e3:10.3f} ms",
+            file=sys.stderr,
+            flush=True,
+        )
     base = rows[0]["median_s"] / rows[0]["periods"]
     for r in rows:
         r["ratio_per_period_to_heyoka_float64"] = (r["median_s"] / r["periods"]) / base
     result = {
         "case": "eta=0.712 (chaotic) from rest, paper parameters",
-        "machine": {"python": platform.python_version(), "processor": platform.processor(), "heyoka": hy.__version__},
+        "machine": {
+            "python": platform.python_version(),
+            "processor": platform.processor(),
+            "heyoka": hy.__version__,
+        },
         "compile_s": compile_s,
         "runs": rows,
         "target": "heyoka float64, 200 periods after compilation: < 5 ms",
@@ -97,10 +125,19 @@ def main() -> int:
             f"| {r['model']} | {r['precision']} | {r['periods']} | {r['median_s'] * 1e3:.3f} ms | "
             f"{r['ratio_per_period_to_heyoka_float64']:.1f}x |"
         )
-    md += ["", "| precision | compile, fresh process | recompile, cleared caches |", "|---|---:|---:|"]
-    md += [f"| {k} | {v['fresh_process_s']:.3f} s | {v['recompile_s']:.3f} s |" for k, v in compile_s.items()]
+    md += [
+        "",
+        "| precision | compile, fresh process | recompile, cleared caches |",
+        "|---|---:|---:|",
+    ]
+    md += [
+        f"| {k} | {v['fresh_process_s']:.3f} s | {v['recompile_s']:.3f} s |"
+        for k, v in compile_s.items()
+    ]
     md.append("")
-    md.append(f"Target (heyoka float64, 200 periods < 5 ms): {'met' if result['target_met'] else 'MISSED'}.")
+    md.append(
+        f"Target (heyoka float64, 200 periods < 5 ms): {'met' if result['target_met'] else 'MISSED'}."
+    )
     atomic_write(OUT / "engine.md", lambda fh: fh.write("\n".join(md) + "\n"), binary=False)
     print("\n".join(md))
     return 0

@@ -50,8 +50,12 @@ def median_time(fn, rounds: int) -> float:
 
 def cli_time(args: list[str], env: dict | None = None) -> float:
     t = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "precise_impact", *args], check=True, capture_output=True,
-                   env=env or dict(os.environ))
+    subprocess.run(
+        [sys.executable, "-m", "precise_impact", *args],
+        check=True,
+        capture_output=True,
+        env=env or dict(os.environ),
+    )
     return time.perf_counter() - t
 
 
@@ -75,14 +79,23 @@ def main() -> None:
     }
     a = fast.solve(p, 50)
     b = hey.solve(p, 50)
-    rows["simulate 200 periods"]["max_diff_to_period_50"] = float(np.max(np.abs(np.asarray(a.x) - np.asarray(b.x, float))))
+    rows["simulate 200 periods"]["max_diff_to_period_50"] = float(
+        np.max(np.abs(np.asarray(a.x) - np.asarray(b.x, float)))
+    )
     print(rows, flush=True)
     lf = lyapunov(p, "fast", periods=24000, transient=1000)
     lv = lyapunov(p, "variational", periods=24000, transient=1000)
     rows["lle 4 x 6000 periods"] = {
-        "fast_s": median_time(lambda: lyapunov(p, "fast", periods=24000, transient=1000), args.rounds),
-        "heyoka_variational_s": median_time(lambda: lyapunov(p, "variational", periods=24000, transient=1000), 1),
-        "fast_lle": lf.lle, "fast_stderr": lf.stderr, "variational_lle": lv.lle, "variational_stderr": lv.stderr,
+        "fast_s": median_time(
+            lambda: lyapunov(p, "fast", periods=24000, transient=1000), args.rounds
+        ),
+        "heyoka_variational_s": median_time(
+            lambda: lyapunov(p, "variational", periods=24000, transient=1000), 1
+        ),
+        "fast_lle": lf.lle,
+        "fast_stderr": lf.stderr,
+        "variational_lle": lv.lle,
+        "variational_stderr": lv.stderr,
     }
     print(rows, flush=True)
     base = Params.make()
@@ -96,7 +109,9 @@ def main() -> None:
             runs.append((time.perf_counter() - t, r.stats["points_per_s"]))
         fast_map, fast_tiles_pps = sorted(runs)[1]
         t = time.perf_counter()
-        rd = run_sweep(spec, Path(tmp) / "fast_dask", workers=args.workers, dask="local", progress=False)
+        rd = run_sweep(
+            spec, Path(tmp) / "fast_dask", workers=args.workers, dask="local", progress=False
+        )
         dask_map = time.perf_counter() - t
         same = bool(np.array_equal(r.lle, rd.lle, equal_nan=True))
     # Steady state, one core, the same points for both engines, after warm-up (compilation
@@ -106,8 +121,11 @@ def main() -> None:
     from precise_impact.analysis.lyapunov.batch import batch_lle
     from precise_impact.analysis.lyapunov.fast import fast_batch
 
-    pts = [spec.point(i) for tile in range(0, spec.n_tiles, 20)
-           for i in range(tile * spec.tile_size, min(spec.n_points, (tile + 1) * spec.tile_size))]
+    pts = [
+        spec.point(i)
+        for tile in range(0, spec.n_tiles, 20)
+        for i in range(tile * spec.tile_size, min(spec.n_points, (tile + 1) * spec.tile_size))
+    ]
     fast_batch(pts[:2], periods=spec.periods, transient=spec.transient)
     batch_lle(pts[:4], periods=20, transient=10, batch_size=spec.batch_size)
     t = time.perf_counter()
@@ -119,13 +137,19 @@ def main() -> None:
     same_period = sum(a["period"] == b["period"] for a, b in zip(fr, hr))
     fast_pps = spec.n_points / fast_map
     rows["sweep 100 x 100 (2000 + 1000 periods)"] = {
-        "workers": args.workers, "fast_map_s": fast_map, "fast_points_per_s": fast_pps,
-        "fast_tiles_points_per_s": fast_tiles_pps, "sample_points": len(pts),
-        "fast_points_per_s_per_core": fast_core_pps, "heyoka_points_per_s_per_core": hey_core_pps,
+        "workers": args.workers,
+        "fast_map_s": fast_map,
+        "fast_points_per_s": fast_pps,
+        "fast_tiles_points_per_s": fast_tiles_pps,
+        "sample_points": len(pts),
+        "fast_points_per_s_per_core": fast_core_pps,
+        "heyoka_points_per_s_per_core": hey_core_pps,
         "same_period_detected": same_period,
         "heyoka_map_s_extrapolated": spec.n_points / (hey_core_pps * args.workers),
-        "fast_1000x1000_h_extrapolated": 1e6 / fast_tiles_pps / 3600, "complete": bool(r.complete),
-        "fast_dask_local_map_s": dask_map, "dask_equals_processes_bit_for_bit": same,
+        "fast_1000x1000_h_extrapolated": 1e6 / fast_tiles_pps / 3600,
+        "complete": bool(r.complete),
+        "fast_dask_local_map_s": dask_map,
+        "dask_equals_processes_bit_for_bit": same,
     }
     print(rows, flush=True)
     from precise_impact.analysis.sync import sync_scan
@@ -140,8 +164,12 @@ def main() -> None:
         "fast_s": median_time(lambda: scan("fast"), args.rounds),
         "heyoka_s": median_time(lambda: scan("heyoka"), 1),
     }
-    rows["sync scan"].update({f"{e}_fraction_synchronised": [float(f) for f in scans[e].fraction_synchronised]
-                              for e in scans})
+    rows["sync scan"].update(
+        {
+            f"{e}_fraction_synchronised": [float(f) for f in scans[e].fraction_synchronised]
+            for e in scans
+        }
+    )
     rows["sync scan"].update({f"{e}_k_star": [scans[e].k_star, scans[e].k_star_err] for e in scans})
     print(rows, flush=True)
     cache = tempfile.mkdtemp()
@@ -149,8 +177,12 @@ def main() -> None:
     lle_args = ["lle", "--periods", "24000", "--json"]
     rows["cli lle one-shot (fresh process)"] = {
         "fast_empty_cache_s": cli_time(lle_args + ["--method", "fast"], env_empty),
-        "fast_warm_cache_s": statistics.median([cli_time(lle_args + ["--method", "fast"]) for _ in range(3)]),
-        "variational_s": statistics.median([cli_time(lle_args + ["--method", "variational"]) for _ in range(2)]),
+        "fast_warm_cache_s": statistics.median(
+            [cli_time(lle_args + ["--method", "fast"]) for _ in range(3)]
+        ),
+        "variational_s": statistics.median(
+            [cli_time(lle_args + ["--method", "variational"]) for _ in range(2)]
+        ),
     }
     shutil.rmtree(cache, ignore_errors=True)
     print(rows, flush=True)
@@ -158,9 +190,12 @@ def main() -> None:
     (OUT / "fast.json").write_text(json.dumps(rows, indent=1) + "\n")
     s, l_, sw, sy, c = (rows[k] for k in rows)
     lines = [
-        "# Fast engine (compiled closed form) against heyoka, one run", "",
-        f"{os.cpu_count()} cores; medians after warm-up; ratio = heyoka time / fast time.", "",
-        "| job | heyoka | fast | ratio |", "|---|---:|---:|---:|",
+        "# Fast engine (compiled closed form) against heyoka, one run",
+        "",
+        f"{os.cpu_count()} cores; medians after warm-up; ratio = heyoka time / fast time.",
+        "",
+        "| job | heyoka | fast | ratio |",
+        "|---|---:|---:|---:|",
         f"| simulate 200 chaotic periods (reused solver) | {1e3 * s['heyoka_solver_s']:.2f} ms | "
         f"{1e3 * s['fast_s']:.3f} ms | {s['heyoka_solver_s'] / s['fast_s']:.0f}x |",
         f"| simulate 200 chaotic periods (public simulate()) | {1e3 * s['heyoka_simulate_s']:.2f} ms | "

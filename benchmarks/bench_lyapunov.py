@@ -49,10 +49,24 @@ def main() -> int:
         )
         print(rows[-1], file=sys.stderr)
     base_per_period = rows[0]["median_s"] / rows[0]["periods"]
-    for prec, periods, transient in (("longdouble", 2000, 100), ("float128", 400, 50), ("mp:128", 100, 20), ("mp:256", 100, 20)):
-        lyapunov(p, "variational", periods=4, transient=1, initial_conditions=1, precision=prec)  # compile
+    for prec, periods, transient in (
+        ("longdouble", 2000, 100),
+        ("float128", 400, 50),
+        ("mp:128", 100, 20),
+        ("mp:256", 100, 20),
+    ):
+        lyapunov(
+            p, "variational", periods=4, transient=1, initial_conditions=1, precision=prec
+        )  # compile
         t0 = time.perf_counter()
-        res = lyapunov(p, "variational", periods=periods, transient=transient, initial_conditions=1, precision=prec)
+        res = lyapunov(
+            p,
+            "variational",
+            periods=periods,
+            transient=transient,
+            initial_conditions=1,
+            precision=prec,
+        )
         el = time.perf_counter() - t0
         rows.append(
             {
@@ -67,28 +81,51 @@ def main() -> int:
         print(rows[-1], file=sys.stderr)
     n = 100 if args.quick else 400
     t0 = time.perf_counter()
-    bif = bifurcation(Params.make(), "0.68", "0.82", n, periods=2000, transient=1000, progress=False)
+    bif = bifurcation(
+        Params.make(), "0.68", "0.82", n, periods=2000, transient=1000, progress=False
+    )
     bif_s = time.perf_counter() - t0
     result = {
         "lle": rows,
-        "bifurcation": {"values": n, "periods": 2000, "transient": 1000, "workers": bif.workers, "wall_s": bif_s},
+        "bifurcation": {
+            "values": n,
+            "periods": 2000,
+            "transient": 1000,
+            "workers": bif.workers,
+            "wall_s": bif_s,
+        },
         "targets": {
-            "LLE +-0.0005 float64 < 0.5 s": rows[0]["median_s"] < 0.5 and rows[0]["stderr"] <= 0.0005,
-            "400-value bifurcation < 20 s on 2 cores": (n == 400 and bif_s < 20.0) if n == 400 else None,
+            "LLE +-0.0005 float64 < 0.5 s": rows[0]["median_s"] < 0.5
+            and rows[0]["stderr"] <= 0.0005,
+            "400-value bifurcation < 20 s on 2 cores": (n == 400 and bif_s < 20.0)
+            if n == 400
+            else None,
         },
         "cpus": os.cpu_count(),
     }
     OUT.mkdir(parents=True, exist_ok=True)
     text = json.dumps(result, indent=2)
     atomic_write(OUT / "lyapunov.json", lambda fh: fh.write(text), binary=False)
-    md = ["# Lyapunov benchmarks (eta = 0.712)", "", "| run | LLE | stderr | periods | time | per period vs float64 |", "|---|---:|---:|---:|---:|---:|"]
+    md = [
+        "# Lyapunov benchmarks (eta = 0.712)",
+        "",
+        "| run | LLE | stderr | periods | time | per period vs float64 |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
     for r in rows:
         md.append(
             f"| {r['what']} | {r['lle']:.5f} | {r['stderr']:.5f} | {r['periods']} | {r['median_s']:.3f} s | "
             f"{r.get('per_period_vs_float64', 1.0):.1f}x |"
         )
-    md += ["", f"Bifurcation diagram, {n} values x (1000 + 2000) periods with LLE, {bif.workers} workers: {bif_s:.1f} s", ""]
-    md += [f"- {k}: {'met' if v else ('MISSED' if v is not None else 'n/a (quick)')}" for k, v in result["targets"].items()]
+    md += [
+        "",
+        f"Bifurcation diagram, {n} values x (1000 + 2000) periods with LLE, {bif.workers} workers: {bif_s:.1f} s",
+        "",
+    ]
+    md += [
+        f"- {k}: {'met' if v else ('MISSED' if v is not None else 'n/a (quick)')}"
+        for k, v in result["targets"].items()
+    ]
     atomic_write(OUT / "lyapunov.md", lambda fh: fh.write("\n".join(md) + "\n"), binary=False)
     print("\n".join(md))
     return 0

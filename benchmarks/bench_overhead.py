@@ -103,8 +103,14 @@ def probe(src: Path | None, job: str, n: int) -> dict:
     env = dict(os.environ)
     if src is not None:
         env["PYTHONPATH"] = str(src)
-    r = subprocess.run([sys.executable, "-c", PROBE, job, str(n)], capture_output=True, text=True, env=env,
-                       cwd=tempfile.gettempdir(), check=True)
+    r = subprocess.run(
+        [sys.executable, "-c", PROBE, job, str(n)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=tempfile.gettempdir(),
+        check=True,
+    )
     return json.loads(r.stdout.strip().splitlines()[-1])
 
 
@@ -114,7 +120,10 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=5)
     ns = ap.parse_args()
     wt = Path(tempfile.mkdtemp()) / "baseline"
-    subprocess.run(["git", "-C", str(REPO), "worktree", "add", "-q", "--detach", str(wt), ns.baseline], check=True)
+    subprocess.run(
+        ["git", "-C", str(REPO), "worktree", "add", "-q", "--detach", str(wt), ns.baseline],
+        check=True,
+    )
     try:
         rows = []
         for job, n in (("simulate", 30), ("solve", 30), ("lle", 3)):
@@ -126,36 +135,65 @@ def main() -> None:
                 cur += c["times"]
                 checks = {"baseline": b["check"], "current": c["check"]}
             mb, mc = statistics.median(base), statistics.median(cur)
-            if job == "lle":  # per-chunk QR: the same estimate within its error bar, not the same bits
+            if (
+                job == "lle"
+            ):  # per-chunk QR: the same estimate within its error bar, not the same bits
                 (lb, sb), (lc, sc) = checks["baseline"], checks["current"]
                 same = abs(lb - lc) <= 2 * math.hypot(sb, sc)
             else:
                 same = checks["baseline"] == checks["current"]
-            floor = statistics.median(probe(None, "floor-" + ("lle" if job == "lle" else "simulate"), n)["times"])
-            rows.append({"job": job, "baseline_s": mb, "current_s": mc, "ratio": mb / mc, "checks": checks,
-                         "same_answer": same, "heyoka_alone_s": floor, "ratio_limit": mb / floor})
-            print(f"{job:9s} baseline {mb * 1e3:8.2f} ms   current {mc * 1e3:8.2f} ms   ratio {mb / mc:5.2f}x   "
-                  f"(same answer: {checks})")
+            floor = statistics.median(
+                probe(None, "floor-" + ("lle" if job == "lle" else "simulate"), n)["times"]
+            )
+            rows.append(
+                {
+                    "job": job,
+                    "baseline_s": mb,
+                    "current_s": mc,
+                    "ratio": mb / mc,
+                    "checks": checks,
+                    "same_answer": same,
+                    "heyoka_alone_s": floor,
+                    "ratio_limit": mb / floor,
+                }
+            )
+            print(
+                f"{job:9s} baseline {mb * 1e3:8.2f} ms   current {mc * 1e3:8.2f} ms   ratio {mb / mc:5.2f}x   "
+                f"(same answer: {checks})"
+            )
     finally:
-        subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(wt)], check=False)
+        subprocess.run(
+            ["git", "-C", str(REPO), "worktree", "remove", "--force", str(wt)], check=False
+        )
     OUT.mkdir(exist_ok=True)
-    (OUT / "overhead.json").write_text(json.dumps({"baseline": ns.baseline, "rows": rows}, indent=1) + "\n")
-    lines = [f"# Python overhead of the float64 heyoka path (baseline {ns.baseline} vs this tree)", "",
-             "Same interpreter and heyoka, interleaved runs in fresh processes, medians after compilation.", "",
-             "| job | baseline | current | ratio | same answer | heyoka alone | ratio if Python cost 0 |",
-             "|---|---:|---:|---:|:---:|---:|---:|"]
+    (OUT / "overhead.json").write_text(
+        json.dumps({"baseline": ns.baseline, "rows": rows}, indent=1) + "\n"
+    )
+    lines = [
+        f"# Python overhead of the float64 heyoka path (baseline {ns.baseline} vs this tree)",
+        "",
+        "Same interpreter and heyoka, interleaved runs in fresh processes, medians after compilation.",
+        "",
+        "| job | baseline | current | ratio | same answer | heyoka alone | ratio if Python cost 0 |",
+        "|---|---:|---:|---:|:---:|---:|---:|",
+    ]
     for r in rows:
-        lines.append(f"| {r['job']} | {r['baseline_s'] * 1e3:.2f} ms | {r['current_s'] * 1e3:.2f} ms | "
-                     f"{r['ratio']:.2f}x | {'yes' if r['same_answer'] else 'NO'} | "
-                     f"{r['heyoka_alone_s'] * 1e3:.2f} ms | {r['ratio_limit']:.2f}x |")
-    lines += ["", "simulate: `simulate(Params.make(eta='0.712'), 200, precision='float64')` (a new solver, "
-              "hence a private integrator copy, per call); solve: the same 200 periods with one reused "
-              "`HeyokaSolver('float64')`; lle: variational, 4 x 2000 periods after 500. "
-              "same answer: the last sample (simulate, solve) bit-identical, the LLE within twice the combined "
-              "error bar (the QR now runs every 8 periods and after each impact). heyoka alone: the same "
-              "equations, tolerance and output grid with a callback that only resets v (no contact rule, "
-              "budget, impact log or saltation, no guard): what the job costs if every Python line of the "
-              "package took no time, hence the largest ratio any removal of Python overhead can give."]
+        lines.append(
+            f"| {r['job']} | {r['baseline_s'] * 1e3:.2f} ms | {r['current_s'] * 1e3:.2f} ms | "
+            f"{r['ratio']:.2f}x | {'yes' if r['same_answer'] else 'NO'} | "
+            f"{r['heyoka_alone_s'] * 1e3:.2f} ms | {r['ratio_limit']:.2f}x |"
+        )
+    lines += [
+        "",
+        "simulate: `simulate(Params.make(eta='0.712'), 200, precision='float64')` (a new solver, "
+        "hence a private integrator copy, per call); solve: the same 200 periods with one reused "
+        "`HeyokaSolver('float64')`; lle: variational, 4 x 2000 periods after 500. "
+        "same answer: the last sample (simulate, solve) bit-identical, the LLE within twice the combined "
+        "error bar (the QR now runs every 8 periods and after each impact). heyoka alone: the same "
+        "equations, tolerance and output grid with a callback that only resets v (no contact rule, "
+        "budget, impact log or saltation, no guard): what the job costs if every Python line of the "
+        "package took no time, hence the largest ratio any removal of Python overhead can give.",
+    ]
     (OUT / "overhead.md").write_text("\n".join(lines) + "\n")
 
 

@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import ctypes
 import json
-import math
 import os
 import platform
 import re
@@ -58,15 +57,35 @@ def tmax_table(tmaxes, periods: int = 150) -> list[dict]:
         total = time.perf_counter() - t0
         ex, ev = np.abs(r.x - rx)[-30:].max(), np.abs(r.v - rv)[-30:].max()
         n = min(r.n_impacts, ref.n_impacts)
-        rows.append({
-            "tmax_s": tm, "ngspice_s": r.elapsed_s, "total_s": total, "points": r.stats["points"],
-            "err_x_last30": float(ex), "err_v_last30": float(ev), "err_last30": float(max(ex, ev)),
-            "impacts": r.n_impacts, "impacts_ref": ref.n_impacts,
-            "impact_dt_max": float(np.abs(r.impacts_t[:n] - np.asarray(ref.impacts_t[:n], float)).max()) if n else None,
-            "overshoot_max": float(np.abs(r.impacts_x - 2).max()) if r.n_impacts else None,
-            "restitution_dev_max": float(np.abs(-r.impacts_v_after / r.impacts_v_before - 1).max()) if r.n_impacts else None,
-        })
-        print(f"eta=0.74 TMAX={tm:g}: {r.elapsed_s:.2f} s, err {max(ex, ev):.2e}", file=sys.stderr, flush=True)
+        rows.append(
+            {
+                "tmax_s": tm,
+                "ngspice_s": r.elapsed_s,
+                "total_s": total,
+                "points": r.stats["points"],
+                "err_x_last30": float(ex),
+                "err_v_last30": float(ev),
+                "err_last30": float(max(ex, ev)),
+                "impacts": r.n_impacts,
+                "impacts_ref": ref.n_impacts,
+                "impact_dt_max": float(
+                    np.abs(r.impacts_t[:n] - np.asarray(ref.impacts_t[:n], float)).max()
+                )
+                if n
+                else None,
+                "overshoot_max": float(np.abs(r.impacts_x - 2).max()) if r.n_impacts else None,
+                "restitution_dev_max": float(
+                    np.abs(-r.impacts_v_after / r.impacts_v_before - 1).max()
+                )
+                if r.n_impacts
+                else None,
+            }
+        )
+        print(
+            f"eta=0.74 TMAX={tm:g}: {r.elapsed_s:.2f} s, err {max(ex, ev):.2e}",
+            file=sys.stderr,
+            flush=True,
+        )
     return rows
 
 
@@ -83,15 +102,27 @@ def predictability(tmaxes, periods: int = 150, threshold: float = 0.1) -> dict:
         r = run_spice(comp, None, periods, tm)
         d = np.abs(r.x - rx)
         bad = np.nonzero(d > threshold)[0]
-        rows.append({
-            "tmax_s": tm, "ngspice_s": r.elapsed_s,
-            "first_period_off": int(bad[0]) if len(bad) else None,
-            "err_first_10": float(d[:11].max()),
-        })
-        print(f"eta=0.712 TMAX={tm:g}: first period off {rows[-1]['first_period_off']}", file=sys.stderr, flush=True)
+        rows.append(
+            {
+                "tmax_s": tm,
+                "ngspice_s": r.elapsed_s,
+                "first_period_off": int(bad[0]) if len(bad) else None,
+                "err_first_10": float(d[:11].max()),
+            }
+        )
+        print(
+            f"eta=0.712 TMAX={tm:g}: first period off {rows[-1]['first_period_off']}",
+            file=sys.stderr,
+            flush=True,
+        )
     bad64 = np.nonzero(d64 > threshold)[0]
-    return {"periods": periods, "threshold": threshold, "reference": "heyoka float128", "rows": rows,
-            "heyoka_float64_first_period_off": int(bad64[0]) if len(bad64) else None}
+    return {
+        "periods": periods,
+        "threshold": threshold,
+        "reference": "heyoka float128",
+        "rows": rows,
+        "heyoka_float64_first_period_off": int(bad64[0]) if len(bad64) else None,
+    }
 
 
 # ====================================================================== pitfalls
@@ -102,9 +133,15 @@ def _ngspice(net: str, wd: Path, extra_args=()) -> tuple[np.ndarray | None, list
     if out.exists():
         out.unlink()
     t0 = time.perf_counter()
-    pr = subprocess.run(["ngspice", "-b", *extra_args, "c.cir"], cwd=wd, capture_output=True, text=True, timeout=900)
+    pr = subprocess.run(
+        ["ngspice", "-b", *extra_args, "c.cir"], cwd=wd, capture_output=True, text=True, timeout=900
+    )
     el = time.perf_counter() - t0
-    errs = [ln.strip() for ln in (pr.stdout + pr.stderr).splitlines() if re.search(r"error|too small|abort", ln, re.I)]
+    errs = [
+        ln.strip()
+        for ln in (pr.stdout + pr.stderr).splitlines()
+        if re.search(r"error|too small|abort", ln, re.I)
+    ]
     data = np.fromfile(out, sep=" ").reshape(-1, 5) if out.exists() else None
     return data, errs, el
 
@@ -146,11 +183,18 @@ def digital_variant(net: str, comparator_pole: bool) -> str:
 def s_switch_variant(net: str, two_nodes: bool, ron: str) -> str:
     """ngspice S switches (VSWITCH) instead of the module's B-source bridge."""
     net = re.sub(r"^(BU6A|BU6B|BU7A|BU7B) .*$\n", "", net, flags=re.M)
-    lines = [f".model swon sw vt=0.5 vh=0 ron={ron} roff=1e12", f".model swinv sw vt=-0.5 vh=0 ron={ron} roff=1e12"]
+    lines = [
+        f".model swon sw vt=0.5 vh=0 ron={ron} roff=1e12",
+        f".model swinv sw vt=-0.5 vh=0 ron={ron} roff=1e12",
+    ]
     if two_nodes:  # pair A from a separately generated complement with twice the lag
         tau = float(re.search(r"^CA1D pol 0 (\S+)", net, re.M).group(1))
-        lines += ["BA1DB 0 polb I = (1-V(ps))-V(polb)", f"CA1DB polb 0 {2 * tau!r} IC=1",
-                  "SU6A n2 ca polb 0 swon", "SU6B q cb polb 0 swon"]
+        lines += [
+            "BA1DB 0 polb I = (1-V(ps))-V(polb)",
+            f"CA1DB polb 0 {2 * tau!r} IC=1",
+            "SU6A n2 ca polb 0 swon",
+            "SU6B q cb polb 0 swon",
+        ]
     else:
         lines += ["SU6A n2 ca 0 pol swinv", "SU6B q cb 0 pol swinv"]
     lines += ["SU7A n2 cb pol 0 swon", "SU7B q ca pol 0 swon"]
@@ -159,7 +203,7 @@ def s_switch_variant(net: str, two_nodes: bool, ron: str) -> str:
 
 def _shared_library_run(net: str, wd: Path) -> np.ndarray | None:
     """Run ``net`` through libngspice (ctypes) in a subprocess; None without libngspice0."""
-    code = r'''
+    code = r"""
 import ctypes, re, sys, os
 from ctypes import CFUNCTYPE, c_int, c_char_p, c_void_p, c_bool
 lib = ctypes.CDLL("libngspice.so.0")
@@ -174,7 +218,7 @@ lib.ngSpice_Command(b"source c_noctl.cir")
 for line in ctrl.splitlines():
     if not line.startswith("quit"):
         lib.ngSpice_Command(line.encode())
-'''
+"""
     try:
         ctypes.CDLL("libngspice.so.0")
     except OSError:
@@ -184,7 +228,9 @@ for line in ctrl.splitlines():
     out = wd / OUTPUT_FILE
     if out.exists():
         out.unlink()
-    subprocess.run([sys.executable, "-c", code], cwd=wd, capture_output=True, text=True, timeout=900)
+    subprocess.run(
+        [sys.executable, "-c", code], cwd=wd, capture_output=True, text=True, timeout=900
+    )
     return np.fromfile(out, sep=" ").reshape(-1, 5) if out.exists() else None
 
 
@@ -196,9 +242,14 @@ def _raw_consistency(path: Path) -> dict:
     npts = int(re.search(r"No. Points:\s*(\d+)", hdr).group(1))
     nbytes = len(b) - i
     n = nbytes // (nv * 8)
-    a = np.frombuffer(b[i:i + n * nv * 8], dtype="<f8").reshape(n, nv)
-    return {"header_points": npts, "data_points": nbytes / (nv * 8), "nan_values": int(np.isnan(a).sum()),
-            "time_monotone": bool(np.all(np.diff(a[:, 0]) > 0)), "abs_max": float(np.nanmax(np.abs(a)))}
+    a = np.frombuffer(b[i : i + n * nv * 8], dtype="<f8").reshape(n, nv)
+    return {
+        "header_points": npts,
+        "data_points": nbytes / (nv * 8),
+        "nan_values": int(np.isnan(a).sum()),
+        "time_monotone": bool(np.all(np.diff(a[:, 0]) > 0)),
+        "abs_max": float(np.nanmax(np.abs(a))),
+    }
 
 
 def pitfalls(work: Path) -> dict:
@@ -211,12 +262,19 @@ def pitfalls(work: Path) -> dict:
     for tm in (1e-6, 10e-6, 100e-6):
         base = spice_netlist(comp, None, 20, tm)
         row = {"tmax_s": tm}
-        for tag, net in (("analog (module)", base), ("algebraic comparator -> bridge", digital_variant(base, False)),
-                         ("comparator with pole -> bridge", digital_variant(base, True))):
+        for tag, net in (
+            ("analog (module)", base),
+            ("algebraic comparator -> bridge", digital_variant(base, False)),
+            ("comparator with pole -> bridge", digital_variant(base, True)),
+        ):
             data, errs, _ = _ngspice(net, work / f"p1_{tag[:6]}_{tm:g}".replace(" ", "_"))
             _, x_at, _ = _toggles(data)
-            row[tag] = {"toggles": len(x_at), "overshoot_median": float(np.median(x_at - 2)),
-                        "overshoot_max": float(np.max(x_at - 2)), "errors": errs[:1]}
+            row[tag] = {
+                "toggles": len(x_at),
+                "overshoot_median": float(np.median(x_at - 2)),
+                "overshoot_max": float(np.max(x_at - 2)),
+                "errors": errs[:1],
+            }
         rows.append(row)
     res["digital_bridge"] = rows
 
@@ -227,18 +285,33 @@ def pitfalls(work: Path) -> dict:
             net = s_switch_variant(spice_netlist(comp, {"flipflop": {}}, 20, 10e-6), two, ron)
             data, errs, _ = _ngspice(net, work / f"p2_{ron}_{two}")
             _, _, ratio = _toggles(data)
-            rows.append({"ron": ron, "drive": "two nodes" if two else "one node", "toggles": len(ratio),
-                         "v_ratio_median": float(np.median(ratio)), "v_ratio_min": float(np.min(ratio)), "errors": errs[:1]})
+            rows.append(
+                {
+                    "ron": ron,
+                    "drive": "two nodes" if two else "one node",
+                    "toggles": len(ratio),
+                    "v_ratio_median": float(np.median(ratio)),
+                    "v_ratio_min": float(np.min(ratio)),
+                    "errors": errs[:1],
+                }
+            )
     res["two_drive_nodes"] = rows
 
     # 3. XSPICE flip-flop: batch vs shared library (and the analogue netlist in both)
     rows = []
     base = spice_netlist(comp, None, 20, 10e-6)
-    for tag, net in (("XSPICE digital toggle", digital_variant(base, True)), ("analog (module)", base)):
+    for tag, net in (
+        ("XSPICE digital toggle", digital_variant(base, True)),
+        ("analog (module)", base),
+    ):
         batch, _, _ = _ngspice(net, work / f"p3_batch_{tag[:6]}")
         shared = _shared_library_run(net, work / f"p3_shared_{tag[:6]}")
         tb, _, _ = _toggles(batch)
-        row = {"netlist": tag, "batch_toggles": len(tb), "batch_toggle_times_ms": [round(float(t) * 1e3, 6) for t in tb[:6]]}
+        row = {
+            "netlist": tag,
+            "batch_toggles": len(tb),
+            "batch_toggle_times_ms": [round(float(t) * 1e3, 6) for t in tb[:6]],
+        }
         if shared is None:
             row["shared"] = "skipped: libngspice0 not installed (apt-get install libngspice0)"
         else:
@@ -246,18 +319,29 @@ def pitfalls(work: Path) -> dict:
             row["shared_toggles"] = len(ts)
             row["shared_toggle_times_ms"] = [round(float(t) * 1e3, 6) for t in ts[:6]]
             n = min(len(tb), len(ts))
-            row["identical"] = bool(len(tb) == len(ts) and np.allclose(tb[:n], ts[:n], rtol=0, atol=1e-12))
+            row["identical"] = bool(
+                len(tb) == len(ts) and np.allclose(tb[:n], ts[:n], rtol=0, atol=1e-12)
+            )
         rows.append(row)
     res["batch_vs_shared"] = rows
 
     # 4. .options interp with -r: raw file consistency
     net = re.sub(r"\.control\n.*?\.endc\n", "", spice_netlist(comp, None, 20, 10e-6), flags=re.S)
     out = {}
-    for tag, n in (("interp", net.replace(".options method=gear", ".options method=gear interp")), ("no interp", net)):
+    for tag, n in (
+        ("interp", net.replace(".options method=gear", ".options method=gear interp")),
+        ("no interp", net),
+    ):
         wd = work / f"p4_{tag.replace(' ', '_')}"
         wd.mkdir(parents=True, exist_ok=True)
         (wd / "c.cir").write_text(n)
-        subprocess.run(["ngspice", "-b", "-r", "out.raw", "c.cir"], cwd=wd, capture_output=True, text=True, timeout=600)
+        subprocess.run(
+            ["ngspice", "-b", "-r", "out.raw", "c.cir"],
+            cwd=wd,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         out[tag] = _raw_consistency(wd / "out.raw")
     res["interp_raw"] = out
 
@@ -268,19 +352,32 @@ def pitfalls(work: Path) -> dict:
     # 6. trapezoidal vs gear with the 14 ns flip-flop delay, 60 periods (40 impacts expected)
     rows = []
     for method in ("trap", "gear"):
-        net = spice_netlist(comp, {"flipflop": {}}, 60, 10e-6).replace(".options method=gear", f".options method={method}")
+        net = spice_netlist(comp, {"flipflop": {}}, 60, 10e-6).replace(
+            ".options method=gear", f".options method={method}"
+        )
         data, errs, _ = _ngspice(net, work / f"p6_{method}")
         tc, _, _ = _toggles(data)
-        rows.append({"method": method, "toggles": len(tc), "pol_min": float(data[:, 3].min()),
-                     "pol_max": float(data[:, 3].max()), "errors": errs[:1]})
+        rows.append(
+            {
+                "method": method,
+                "toggles": len(tc),
+                "pol_min": float(data[:, 3].min()),
+                "pol_max": float(data[:, 3].max()),
+                "errors": errs[:1],
+            }
+        )
     ref = HeyokaSolver("float64").solve(p, 60)
     res["trap_ringing"] = {"impacts_ref": ref.n_impacts, "rows": rows}
 
     # 7. Schmitt trigger with positive feedback (0.01 V hysteresis: trip at x = 2.005)
     eff = {"comparator": {"delay": "0", "hysteresis": "0.01"}}
     mod = spice_netlist(comp, eff, 20, 10e-6)
-    pf = re.sub(r"^BU5 0 cmp I = .*$",
-                "BU5 0 cmp I = 0.5*(1+tanh((-2.005+0.01*V(cmp)-V(s))/1e-06)) - V(cmp)", mod, flags=re.M)
+    pf = re.sub(
+        r"^BU5 0 cmp I = .*$",
+        "BU5 0 cmp I = 0.5*(1+tanh((-2.005+0.01*V(cmp)-V(s))/1e-06)) - V(cmp)",
+        mod,
+        flags=re.M,
+    )
     rows = []
     for tag, net in (("set/reset cell (module)", mod), ("positive feedback", pf)):
         data, errs, _ = _ngspice(net, work / f"p7_{tag[:8].replace(' ', '_').replace('/', '_')}")
@@ -288,15 +385,30 @@ def pitfalls(work: Path) -> dict:
         tc, _, _ = _toggles(data)
         # deepest penetration around each reversal (accepted points up to 1 us after it)
         peaks = [float(-s[(t <= tt + 1e-6) & (t > tt - 1e-3)].min()) for tt in tc]
-        rows.append({"comparator": tag, "toggles": len(tc), "x_peak_min": min(peaks), "x_peak_max": max(peaks), "errors": errs[:1]})
+        rows.append(
+            {
+                "comparator": tag,
+                "toggles": len(tc),
+                "x_peak_min": min(peaks),
+                "x_peak_max": max(peaks),
+                "errors": errs[:1],
+            }
+        )
     res["schmitt"] = {"threshold_x": 2.005, "rows": rows}
 
     # 8. saturating op-amps as algebraic tanh B-sources
     net = spice_netlist(comp, None, 5, 10e-6)
-    net = re.sub(r"^EU(\d) (\w+) 0 0 (\w+) 1000000000.0$",
-                 lambda m: f"BU{m.group(1)} {m.group(2)} 0 V = 13.5*tanh(1e9*(-V({m.group(3)}))/13.5)", net, flags=re.M)
+    net = re.sub(
+        r"^EU(\d) (\w+) 0 0 (\w+) 1000000000.0$",
+        lambda m: f"BU{m.group(1)} {m.group(2)} 0 V = 13.5*tanh(1e9*(-V({m.group(3)}))/13.5)",
+        net,
+        flags=re.M,
+    )
     data, errs, _ = _ngspice(net, work / "p8")
-    res["algebraic_saturation"] = {"errors": errs[:2], "last_time_s": float(data[-1, 0]) if data is not None and len(data) else None}
+    res["algebraic_saturation"] = {
+        "errors": errs[:2],
+        "last_time_s": float(data[-1, 0]) if data is not None and len(data) else None,
+    }
     return res
 
 
@@ -304,67 +416,134 @@ def pitfalls(work: Path) -> dict:
 def markdown(result: dict) -> str:
     md = ["# ngspice backend: error and wall time against TMAX", ""]
     m = result["machine"]
-    md.append(f"ngspice {m['ngspice']}, Python {m['python']}, {m['cpus']} CPUs; ideal parts "
-              "(nominal_components of Params.make(eta=...)), `method=gear`, other ngspice options default.")
-    md += ["", "## eta = 0.74 (period 3), 150 periods from rest", "",
-           "Error: largest |x - x_ref| and |v - v_ref| over the last 30 stroboscopic samples "
-           "(reference heyoka float64).  `ngspice` is the subprocess wall time, `total` adds "
-           "netlist writing and reading the `wrdata` text.", "",
-           "| TMAX | ngspice | total | accepted points | error x | error v | impacts (ref) | max abs(x - x_w) at reversal |",
-           "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    md.append(
+        f"ngspice {m['ngspice']}, Python {m['python']}, {m['cpus']} CPUs; ideal parts "
+        "(nominal_components of Params.make(eta=...)), `method=gear`, other ngspice options default."
+    )
+    md += [
+        "",
+        "## eta = 0.74 (period 3), 150 periods from rest",
+        "",
+        "Error: largest |x - x_ref| and |v - v_ref| over the last 30 stroboscopic samples "
+        "(reference heyoka float64).  `ngspice` is the subprocess wall time, `total` adds "
+        "netlist writing and reading the `wrdata` text.",
+        "",
+        "| TMAX | ngspice | total | accepted points | error x | error v | impacts (ref) | max abs(x - x_w) at reversal |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
     for r in result["tmax_074"]:
-        md.append(f"| {r['tmax_s'] * 1e6:g} us | {r['ngspice_s']:.2f} s | {r['total_s']:.2f} s | {r['points']} | "
-                  f"{r['err_x_last30']:.2e} | {r['err_v_last30']:.2e} | {r['impacts']} ({r['impacts_ref']}) | "
-                  f"{r['overshoot_max']:.1e} |")
+        md.append(
+            f"| {r['tmax_s'] * 1e6:g} us | {r['ngspice_s']:.2f} s | {r['total_s']:.2f} s | {r['points']} | "
+            f"{r['err_x_last30']:.2e} | {r['err_v_last30']:.2e} | {r['impacts']} ({r['impacts_ref']}) | "
+            f"{r['overshoot_max']:.1e} |"
+        )
     pr = result["predictability_0712"]
-    md += ["", f"## eta = 0.712 (chaotic): predictability over {pr['periods']} periods", "",
-           f"First period k with |x_k - x_ref,k| > {pr['threshold']} (reference {pr['reference']}; "
-           f"heyoka float64 itself leaves float128 by > 0.1 at period {pr['heyoka_float64_first_period_off']}).", "",
-           "| TMAX | ngspice | first period off | max error, periods 0-10 |", "|---:|---:|---:|---:|"]
+    md += [
+        "",
+        f"## eta = 0.712 (chaotic): predictability over {pr['periods']} periods",
+        "",
+        f"First period k with |x_k - x_ref,k| > {pr['threshold']} (reference {pr['reference']}; "
+        f"heyoka float64 itself leaves float128 by > 0.1 at period {pr['heyoka_float64_first_period_off']}).",
+        "",
+        "| TMAX | ngspice | first period off | max error, periods 0-10 |",
+        "|---:|---:|---:|---:|",
+    ]
     for r in pr["rows"]:
         k = r["first_period_off"] if r["first_period_off"] is not None else f"> {pr['periods']}"
-        md.append(f"| {r['tmax_s'] * 1e6:g} us | {r['ngspice_s']:.2f} s | {k} | {r['err_first_10']:.1e} |")
+        md.append(
+            f"| {r['tmax_s'] * 1e6:g} us | {r['ngspice_s']:.2f} s | {k} | {r['err_first_10']:.1e} |"
+        )
     pf = result.get("pitfalls")
     if pf:
-        md += ["", "## Pitfalls (ngspice 39.3), re-measured", "",
-               "### 1. Comparator straight into an XSPICE digital bridge (20 periods, eta = 0.74; 13 impacts expected)", "",
-               "| TMAX | netlist | toggles | median x - x_w at reversal | max |", "|---:|---|---:|---:|---:|"]
+        md += [
+            "",
+            "## Pitfalls (ngspice 39.3), re-measured",
+            "",
+            "### 1. Comparator straight into an XSPICE digital bridge (20 periods, eta = 0.74; 13 impacts expected)",
+            "",
+            "| TMAX | netlist | toggles | median x - x_w at reversal | max |",
+            "|---:|---|---:|---:|---:|",
+        ]
         for row in pf["digital_bridge"]:
             for tag, v in row.items():
                 if tag == "tmax_s":
                     continue
-                md.append(f"| {row['tmax_s'] * 1e6:g} us | {tag} | {v['toggles']} | {v['overshoot_median']:.1e} | {v['overshoot_max']:.1e} |")
-        md += ["", "### 2. Switch pairs driven from one node vs two nodes (ngspice S switches, flip-flop delay 14 ns)", "",
-               "`|v+/v-|` per impact (1 = no loss).", "",
-               "| R_on | drive | toggles | median | min |", "|---:|---|---:|---:|---:|"]
+                md.append(
+                    f"| {row['tmax_s'] * 1e6:g} us | {tag} | {v['toggles']} | {v['overshoot_median']:.1e} | {v['overshoot_max']:.1e} |"
+                )
+        md += [
+            "",
+            "### 2. Switch pairs driven from one node vs two nodes (ngspice S switches, flip-flop delay 14 ns)",
+            "",
+            "`|v+/v-|` per impact (1 = no loss).",
+            "",
+            "| R_on | drive | toggles | median | min |",
+            "|---:|---|---:|---:|---:|",
+        ]
         for r in pf["two_drive_nodes"]:
-            md.append(f"| {r['ron']} Ohm | {r['drive']} | {r['toggles']} | {r['v_ratio_median']:.4f} | {r['v_ratio_min']:.4f} |")
-        md += ["", "### 3. Batch (`ngspice -b`) vs shared library (libngspice via ctypes), 20 periods, TMAX = 10 us", ""]
+            md.append(
+                f"| {r['ron']} Ohm | {r['drive']} | {r['toggles']} | {r['v_ratio_median']:.4f} | {r['v_ratio_min']:.4f} |"
+            )
+        md += [
+            "",
+            "### 3. Batch (`ngspice -b`) vs shared library (libngspice via ctypes), 20 periods, TMAX = 10 us",
+            "",
+        ]
         for r in pf["batch_vs_shared"]:
             if "shared_toggles" in r:
-                md.append(f"* {r['netlist']}: batch {r['batch_toggles']} toggles, shared {r['shared_toggles']}; "
-                          f"identical: {r['identical']}.  First toggle times [ms]: batch {r['batch_toggle_times_ms']}, "
-                          f"shared {r['shared_toggle_times_ms']}")
+                md.append(
+                    f"* {r['netlist']}: batch {r['batch_toggles']} toggles, shared {r['shared_toggles']}; "
+                    f"identical: {r['identical']}.  First toggle times [ms]: batch {r['batch_toggle_times_ms']}, "
+                    f"shared {r['shared_toggle_times_ms']}"
+                )
             else:
-                md.append(f"* {r['netlist']}: batch {r['batch_toggles']} toggles; shared: {r['shared']}")
+                md.append(
+                    f"* {r['netlist']}: batch {r['batch_toggles']} toggles; shared: {r['shared']}"
+                )
         ir = pf["interp_raw"]
-        md += ["", "### 4. `.options interp` with `-r` (binary raw file)", "",
-               "| options | header points | data points (bytes / 8 / vars) | NaN values | time monotone |", "|---|---:|---:|---:|---|"]
+        md += [
+            "",
+            "### 4. `.options interp` with `-r` (binary raw file)",
+            "",
+            "| options | header points | data points (bytes / 8 / vars) | NaN values | time monotone |",
+            "|---|---:|---:|---:|---|",
+        ]
         for k, v in ir.items():
-            md.append(f"| {k} | {v['header_points']} | {v['data_points']:.1f} | {v['nan_values']} | {v['time_monotone']} |")
-        md += ["", f"### 5. `uic`: first written time point {pf['uic_first_time_s']:.3g} s (no t = 0 row)", "",
-               "### 6. Trapezoidal ringing (flip-flop delay 14 ns, 60 periods, "
-               f"{pf['trap_ringing']['impacts_ref']} impacts in the reference)", "",
-               "| method | toggles | min pol | max pol |", "|---|---:|---:|---:|"]
+            md.append(
+                f"| {k} | {v['header_points']} | {v['data_points']:.1f} | {v['nan_values']} | {v['time_monotone']} |"
+            )
+        md += [
+            "",
+            f"### 5. `uic`: first written time point {pf['uic_first_time_s']:.3g} s (no t = 0 row)",
+            "",
+            "### 6. Trapezoidal ringing (flip-flop delay 14 ns, 60 periods, "
+            f"{pf['trap_ringing']['impacts_ref']} impacts in the reference)",
+            "",
+            "| method | toggles | min pol | max pol |",
+            "|---|---:|---:|---:|",
+        ]
         for r in pf["trap_ringing"]["rows"]:
-            md.append(f"| {r['method']} | {r['toggles']} | {r['pol_min']:.3f} | {r['pol_max']:.3f} |")
-        md += ["", f"### 7. Hysteresis 0.01 V (trip threshold x = {pf['schmitt']['threshold_x']}), 20 periods", "",
-               "| comparator | toggles | deepest x around each reversal: min | max |", "|---|---:|---:|---:|"]
+            md.append(
+                f"| {r['method']} | {r['toggles']} | {r['pol_min']:.3f} | {r['pol_max']:.3f} |"
+            )
+        md += [
+            "",
+            f"### 7. Hysteresis 0.01 V (trip threshold x = {pf['schmitt']['threshold_x']}), 20 periods",
+            "",
+            "| comparator | toggles | deepest x around each reversal: min | max |",
+            "|---|---:|---:|---:|",
+        ]
         for r in pf["schmitt"]["rows"]:
-            md.append(f"| {r['comparator']} | {r['toggles']} | {r['x_peak_min']:.5f} | {r['x_peak_max']:.5f} |")
+            md.append(
+                f"| {r['comparator']} | {r['toggles']} | {r['x_peak_min']:.5f} | {r['x_peak_max']:.5f} |"
+            )
         a = pf["algebraic_saturation"]
-        md += ["", "### 8. Op-amps as algebraic `13.5 tanh(1e9 (V+ - V-)/13.5)` B-sources", "",
-               f"ngspice: {'; '.join(a['errors']) or 'no error'} (last time point {a['last_time_s']} s of 0.042 s)."]
+        md += [
+            "",
+            "### 8. Op-amps as algebraic `13.5 tanh(1e9 (V+ - V-)/13.5)` B-sources",
+            "",
+            f"ngspice: {'; '.join(a['errors']) or 'no error'} (last time point {a['last_time_s']} s of 0.042 s).",
+        ]
     return "\n".join(md) + "\n"
 
 
@@ -380,8 +559,12 @@ def main() -> int:
     ver = subprocess.run(["ngspice", "-v"], capture_output=True, text=True).stdout
     m = re.search(r"ngspice-(\S+)", ver)
     result = {
-        "machine": {"python": platform.python_version(), "cpus": os.cpu_count(), "ngspice": m.group(1) if m else "?",
-                    "processor": platform.processor()},
+        "machine": {
+            "python": platform.python_version(),
+            "cpus": os.cpu_count(),
+            "ngspice": m.group(1) if m else "?",
+            "processor": platform.processor(),
+        },
         "tmax_074": tmax_table(tmaxes),
         "predictability_0712": predictability(tmaxes),
     }

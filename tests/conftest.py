@@ -25,16 +25,20 @@ CHECKOUT = Path(__file__).resolve().parents[1]
 
 
 def pytest_report_header(config):
-    return [f"precise_impact {precise_impact.__version__} from {Path(precise_impact.__file__).parent}",
-            f"heyoka {heyoka.__version__}, quad precision: {'yes' if HAVE_QUAD else 'no'}"]
+    return [
+        f"precise_impact {precise_impact.__version__} from {Path(precise_impact.__file__).parent}",
+        f"heyoka {heyoka.__version__}, quad precision: {'yes' if HAVE_QUAD else 'no'}",
+    ]
 
 
 def pytest_sessionstart(session):
     if os.environ.get("PRECISE_IMPACT_TEST_INSTALLED") == "1":
         where = Path(precise_impact.__file__).resolve()
         if CHECKOUT in where.parents:
-            raise pytest.UsageError(f"PRECISE_IMPACT_TEST_INSTALLED=1 but precise_impact was imported from the "
-                                    f"checkout ({where}), not from the installed wheel")
+            raise pytest.UsageError(
+                f"PRECISE_IMPACT_TEST_INSTALLED=1 but precise_impact was imported from the "
+                f"checkout ({where}), not from the installed wheel"
+            )
 
 
 def pytest_collection_modifyitems(config, items):

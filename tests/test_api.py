@@ -17,15 +17,30 @@ import pytest
 
 import precise_impact as pi
 
-SUBPACKAGES = ("core", "solvers", "models", "models.circuit", "analysis", "scenes", "verification", "io", "cli")
+SUBPACKAGES = (
+    "core",
+    "solvers",
+    "models",
+    "models.circuit",
+    "analysis",
+    "scenes",
+    "verification",
+    "io",
+    "cli",
+)
 
 
 def test_every_public_name_resolves_and_is_documented():
     missing = [n for n in pi.__all__ if not hasattr(pi, n)]
     assert not missing
-    undocumented = [n for n in pi.__all__
-                    if not n.isupper() and n != "__version__"
-                    and callable(getattr(pi, n)) and not (inspect.getdoc(getattr(pi, n)) or "").strip()]
+    undocumented = [
+        n
+        for n in pi.__all__
+        if not n.isupper()
+        and n != "__version__"
+        and callable(getattr(pi, n))
+        and not (inspect.getdoc(getattr(pi, n)) or "").strip()
+    ]
     assert not undocumented, undocumented
 
 
@@ -35,21 +50,35 @@ def test_subpackages_have_a_docstring_and_all(sub):
     assert (mod.__doc__ or "").strip(), sub
     assert isinstance(getattr(mod, "__all__", None), (list, tuple)), sub
     for name in mod.__all__:
-        assert hasattr(mod, name) or importlib.util.find_spec(f"precise_impact.{sub}.{name}"), (sub, name)
+        assert hasattr(mod, name) or importlib.util.find_spec(f"precise_impact.{sub}.{name}"), (
+            sub,
+            name,
+        )
 
 
 def test_models_is_read_only_and_aliases_resolve():
     assert isinstance(pi.MODELS, types.MappingProxyType)
     with pytest.raises(TypeError):
         pi.MODELS["mine"] = "no"  # type: ignore[index]
-    assert set(pi.MODELS) == {"heyoka", "analytical", "analytical-paper", "fast", "certified", "circuit", "switched-capacitor", "spice"}
+    assert set(pi.MODELS) == {
+        "heyoka",
+        "analytical",
+        "analytical-paper",
+        "fast",
+        "certified",
+        "circuit",
+        "switched-capacitor",
+        "spice",
+    }
     assert isinstance(pi.make_solver("mechanical"), pi.HeyokaSolver)
     with pytest.raises(pi.ParameterError) as e:
         pi.make_solver("nonsense")
     assert e.value.name == "model" and "mechanical (= heyoka)" in str(e.value)
 
 
-@pytest.mark.parametrize("model", ["heyoka", "analytical", "analytical-paper", "circuit", "switched-capacitor", "spice"])
+@pytest.mark.parametrize(
+    "model", ["heyoka", "analytical", "analytical-paper", "circuit", "switched-capacitor", "spice"]
+)
 def test_every_model_is_a_solver_and_simulates(model):
     """Each model behind the one protocol, on the period-3 orbit (eta = 0.74): every model
     stays within 1e-3 of the mechanical reference over 3 periods (the ideal circuit models
@@ -88,19 +117,34 @@ ROUND_TRIPPED_ELSEWHERE = {
 def results(tmp_path_factory):
     """One small instance of every public result type, keyed by class name (about 6 s)."""
     tiny = {  # work precision on 10 periods, three heyoka tolerances and the closed form (~3 s)
-        "cases": {"periodic": {"eta": "0.74", "periods": 10}, "chaotic": {"eta": "0.712", "periods": 10}},
-        "heyoka": {"float64": ["1e-5", "1e-9", None]}, "heyoka_mp": [], "analytical_paper": [],
-        "analytical_robust": True, "analytical_mp_dps": [], "scipy": {}, "spice_tmax": [],
-        "chaos_N": [10, 40, 80], "certify_N": 40, "budget_s": 0.5, "circuit": False,
+        "cases": {
+            "periodic": {"eta": "0.74", "periods": 10},
+            "chaotic": {"eta": "0.712", "periods": 10},
+        },
+        "heyoka": {"float64": ["1e-5", "1e-9", None]},
+        "heyoka_mp": [],
+        "analytical_paper": [],
+        "analytical_robust": True,
+        "analytical_mp_dps": [],
+        "scipy": {},
+        "spice_tmax": [],
+        "chaos_N": [10, 40, 80],
+        "certify_N": 40,
+        "budget_s": 0.5,
+        "circuit": False,
     }
     p = pi.Params.make(eta="0.74")
-    spec = pi.SweepSpec.make(pi.Params.make(), [("eta", "0.70", "0.72", 2)], periods=20, transient=5, tile_size=2)
+    spec = pi.SweepSpec.make(
+        pi.Params.make(), [("eta", "0.70", "0.72", 2)], periods=20, transient=5, tile_size=2
+    )
     made = [
         pi.simulate(p, 2, precision="mp:128"),
         pi.lyapunov(p, periods=40, transient=10, initial_conditions=1, segments=2),
         pi.simulate_coupled(p, "0.05", "first-order", 5, y0=("0.5", "0")),
         pi.simulate_coupled_circuit(pi.nominal_components(p), "0.05", 3),
-        pi.sync_scan(p, "first-order", ["0.05"], periods=20, ensemble=2, lle_periods=0, per_period=4),
+        pi.sync_scan(
+            p, "first-order", ["0.05"], periods=20, ensemble=2, lle_periods=0, per_period=4
+        ),
         pi.bifurcation(p, "0.70", "0.72", 2, periods=20, transient=5, workers=1, progress=False),
         pi.run_sweep(spec, tmp_path_factory.mktemp("sweep"), workers=1, progress=False),
         pi.accuracy_table(periods=3, etas=("0.74",), progress=False),
@@ -109,15 +153,25 @@ def results(tmp_path_factory):
         pi.find_orbit(pi.Params.make(eta="0.74"), 3),
     ]
     cont = pi.continue_orbit(pi.Params.make(R="0.8", eta="1"), "eta", "1", "0.95", 1, max_points=40)
-    made += [cont, cont.branches[0], cont.bifurcations[0], pi.certify(p, 3, bits=128),
-             pi.certify_coupled(p, "0.1", "reduced", 3, y0=("0.5", "0.1"), bits=128),
-             pi.prove_orbit(pi.Params.make(eta="0.70"), 1, guess=("102/53", "49/265"), impacts=0)]
+    made += [
+        cont,
+        cont.branches[0],
+        cont.bifurcations[0],
+        pi.certify(p, 3, bits=128),
+        pi.certify_coupled(p, "0.1", "reduced", 3, y0=("0.5", "0.1"), bits=128),
+        pi.prove_orbit(pi.Params.make(eta="0.70"), 1, guess=("102/53", "49/265"), impacts=0),
+    ]
     return {type(r).__name__: r for r in made}
 
 
 def _public_result_types():
-    return {n for n in pi.__all__ if isinstance(getattr(pi, n), type) and issubclass(getattr(pi, n), pi.ResultMixin)
-            and getattr(pi, n) is not pi.ResultMixin}
+    return {
+        n
+        for n in pi.__all__
+        if isinstance(getattr(pi, n), type)
+        and issubclass(getattr(pi, n), pi.ResultMixin)
+        and getattr(pi, n) is not pi.ResultMixin
+    }
 
 
 def test_every_public_result_type_is_covered(results):
@@ -131,7 +185,9 @@ def test_results_round_trip_through_json(name, results, tmp_path):
     r = results[name]
     assert type(r) is getattr(pi, name)
     d = _roundtrip(r, tmp_path)
-    if type(r).to_dict is pi.ResultMixin.to_dict:  # Trajectory-like results lay out their samples themselves
+    if (
+        type(r).to_dict is pi.ResultMixin.to_dict
+    ):  # Trajectory-like results lay out their samples themselves
         assert set(d) == {f.name for f in dataclasses.fields(r)}
     if name == "LyapunovResult":
         assert d["method"] == "variational" and d["stats"]["impacts"] > 0
@@ -146,12 +202,21 @@ def test_results_round_trip_through_json(name, results, tmp_path):
 
 def test_array_results_save_npz_that_loads_back(results, tmp_path):
     """Results with arrays also save ``.npz``: the arrays come back bit for bit."""
-    for name in ("Trajectory", "BifurcationResult", "SweepResult", "LyapunovResult", "CoupledTrajectory"):
+    for name in (
+        "Trajectory",
+        "BifurcationResult",
+        "SweepResult",
+        "LyapunovResult",
+        "CoupledTrajectory",
+    ):
         r = results[name]
         path = r.save(tmp_path / f"{name}.npz")
         with np.load(path) as z:
-            arrays = {f.name: getattr(r, f.name) for f in dataclasses.fields(r)
-                      if isinstance(getattr(r, f.name), np.ndarray) and getattr(r, f.name).dtype != object}
+            arrays = {
+                f.name: getattr(r, f.name)
+                for f in dataclasses.fields(r)
+                if isinstance(getattr(r, f.name), np.ndarray) and getattr(r, f.name).dtype != object
+            }
             for key, a in arrays.items():
                 if key in z.files:
                     assert np.array_equal(z[key], a, equal_nan=True), (name, key)
@@ -165,22 +230,32 @@ def test_array_results_save_npz_that_loads_back(results, tmp_path):
 
 
 def test_dict_style_access_is_kept_for_one_release():
-    ly = pi.lyapunov(pi.Params.make(eta="0.74"), periods=20, transient=5, initial_conditions=1, segments=2)
+    ly = pi.lyapunov(
+        pi.Params.make(eta="0.74"), periods=20, transient=5, initial_conditions=1, segments=2
+    )
     assert ly["lle"] == ly.lle
     with pytest.raises(KeyError):
         ly["no_such_field"]
 
 
 def _cli(*args, env=None):
-    return subprocess.run([sys.executable, "-m", "precise_impact", *args], capture_output=True, text=True,
-                          env=env, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "precise_impact", *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
 
 
 def test_version_is_written_once():
     from importlib import metadata
 
     r = _cli("--version")
-    assert r.returncode == 0 and r.stdout.strip() == f"precise-impact {metadata.version('precise_impact')}"
+    assert (
+        r.returncode == 0
+        and r.stdout.strip() == f"precise-impact {metadata.version('precise_impact')}"
+    )
     assert pi.__version__ == metadata.version("precise_impact")
 
 
@@ -194,10 +269,12 @@ def test_missing_ngspice_is_one_line_and_exit_2(tmp_path):
 
 def test_missing_dask_is_one_line_and_exit_2(tmp_path):
     """A Python without the dask extra: hide the package with a sitecustomize-free -c wrapper."""
-    code = ("import sys; sys.modules['dask'] = None; sys.modules['distributed'] = None; "
-            "from precise_impact.cli.main import main; "
-            f"sys.exit(main(['sweep', '--axis', 'eta', '0.70', '0.72', '2', '--periods', '2', '--transient', '1', "
-            f"'--dask', 'local', '--out', {str(tmp_path / 'sw')!r}]))")
+    code = (
+        "import sys; sys.modules['dask'] = None; sys.modules['distributed'] = None; "
+        "from precise_impact.cli.main import main; "
+        f"sys.exit(main(['sweep', '--axis', 'eta', '0.70', '0.72', '2', '--periods', '2', '--transient', '1', "
+        f"'--dask', 'local', '--out', {str(tmp_path / 'sw')!r}]))"
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
@@ -227,7 +304,7 @@ import matplotlib
 matplotlib.use("svg")
 import precise_impact as pi
 from precise_impact.analysis.sync import plot_fig7
-plot_fig7(pi.Params.make(), "first-order", "0.031", "0.032", 4, {str(tmp_path / 'f7.png')!r}, per_period=4)
+plot_fig7(pi.Params.make(), "first-order", "0.031", "0.032", 4, {str(tmp_path / "f7.png")!r}, per_period=4)
 pi.accuracy_table
 r = pi.BifurcationResult
 print(matplotlib.get_backend())
@@ -247,9 +324,11 @@ def test_output_files_respect_the_umask(tmp_path):
 
 
 def test_missing_scipy_is_one_line_and_exit_2_before_any_work(tmp_path):
-    code = ("import sys; sys.modules['scipy'] = None; sys.modules['scipy.integrate'] = None; "
-            "from precise_impact.cli.main import main; "
-            f"sys.exit(main(['bench', 'work-precision', '--quick', '--out', {str(tmp_path / 'wp')!r}]))")
+    code = (
+        "import sys; sys.modules['scipy'] = None; sys.modules['scipy.integrate'] = None; "
+        "from precise_impact.cli.main import main; "
+        f"sys.exit(main(['bench', 'work-precision', '--quick', '--out', {str(tmp_path / 'wp')!r}]))"
+    )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr

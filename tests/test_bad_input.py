@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from fractions import Fraction
 
 import mpmath
@@ -54,11 +53,22 @@ def test_validator_accepts_exactly_the_documented_ranges(zeta, eta, R, x0, x_w):
         with pytest.raises(ParameterError) as e:
             Params.make(zeta=zeta, eta=eta, R=R, x0=x0, x_w=x_w)
         # the first violated rule, in the documented order, is the one named
-        first = [n for n, bad in (("zeta", zeta < 0), ("eta", eta <= 0), ("R", not 0 <= R <= 1), ("x0", x0 > x_w)) if bad][0]
+        first = [
+            n
+            for n, bad in (
+                ("zeta", zeta < 0),
+                ("eta", eta <= 0),
+                ("R", not 0 <= R <= 1),
+                ("x0", x0 > x_w),
+            )
+            if bad
+        ][0]
         assert e.value.name == first
 
 
-@pytest.mark.parametrize("spec", ["float32", "mp", "mp:", "mp:63", "mp:-5", "mp:1e3", "quad128", "", "FLOAT", None, 64])
+@pytest.mark.parametrize(
+    "spec", ["float32", "mp", "mp:", "mp:63", "mp:-5", "mp:1e3", "quad128", "", "FLOAT", None, 64]
+)
 def test_unknown_precisions(spec):
     with pytest.raises(ParameterError) as e:
         Precision.parse(spec)

@@ -50,10 +50,43 @@ TIME_BOUND = 60.0
 HOSTILE = st.one_of(
     st.text(max_size=30),
     st.floats(allow_nan=True, allow_infinity=True),
-    st.sampled_from([None, [], {}, (), object(), b"1", True, False, -1, 0, 10**30, 2**64, -(10**400),
-                     "1e400", "1e-400", "nan", "inf", "-0", "9" * 700, "1e999999999", "mp:0", "mp:100000",
-                     Fraction(1, 3), Fraction(-7, 2), np.float64("nan"), np.float64(1e308), np.int64(-5),
-                     np.float32(0.5), complex(1, 1), "0x10", " 0.7 ", "1_000", "٣"]),
+    st.sampled_from(
+        [
+            None,
+            [],
+            {},
+            (),
+            object(),
+            b"1",
+            True,
+            False,
+            -1,
+            0,
+            10**30,
+            2**64,
+            -(10**400),
+            "1e400",
+            "1e-400",
+            "nan",
+            "inf",
+            "-0",
+            "9" * 700,
+            "1e999999999",
+            "mp:0",
+            "mp:100000",
+            Fraction(1, 3),
+            Fraction(-7, 2),
+            np.float64("nan"),
+            np.float64(1e308),
+            np.int64(-5),
+            np.float32(0.5),
+            complex(1, 1),
+            "0x10",
+            " 0.7 ",
+            "1_000",
+            "٣",
+        ]
+    ),
 )
 
 ETA = dict(params=Params.make())
@@ -72,14 +105,23 @@ def _call_lyapunov(**kw):
 
 
 def _call_bifurcation(**kw):
-    base = dict(eta_min="0.7", eta_max="0.72", n=2, periods=5, transient=5, workers=1, progress=False)
+    base = dict(
+        eta_min="0.7", eta_max="0.72", n=2, periods=5, transient=5, workers=1, progress=False
+    )
     base.update(kw)
     return bifurcation(base.pop("params", Params.make()), **base)
 
 
 def _call_sync(**kw):
-    base = dict(form="first-order", k_values=["0.05"], periods=5, ensemble=1, lle_periods=10,
-                lle_transient=5, per_period=2)
+    base = dict(
+        form="first-order",
+        k_values=["0.05"],
+        periods=5,
+        ensemble=1,
+        lle_periods=10,
+        lle_transient=5,
+        per_period=2,
+    )
     base.update(kw)
     return sync_scan(base.pop("params", Params.make()), **base)
 
@@ -99,7 +141,9 @@ def _call_coupled(**kw):
 def _call_solver(**kw):
     base = dict(model="heyoka", precision="float64", tol=None)
     base.update(kw)
-    return make_solver(base.pop("model"), base.pop("precision"), base.pop("tol")).solve(Params.make(), 2)
+    return make_solver(base.pop("model"), base.pop("precision"), base.pop("tol")).solve(
+        Params.make(), 2
+    )
 
 
 def _call_orbit(**kw):
@@ -121,7 +165,9 @@ def _call_one_impact(**kw):
 def _call_continue(**kw):
     from precise_impact import continue_orbit
 
-    base = dict(parameter="eta", start="1", stop="0.99", period=1, max_points=4, doublings=0, transient=200)
+    base = dict(
+        parameter="eta", start="1", stop="0.99", period=1, max_points=4, doublings=0, transient=200
+    )
     base.update(kw)
     return continue_orbit(base.pop("params", Params.make(R="0.8")), **base)
 
@@ -152,36 +198,111 @@ def _call_prove(**kw):
 
 #: (callable, the arguments to fuzz); each call with valid defaults takes milliseconds.
 ENTRY_POINTS = {
-    "Params.make": (lambda **kw: Params.make(**kw), ["eta", "zeta", "a", "x_w", "R", "x0", "v0", "t0"]),
-    "simulate": (_call_simulate, ["params", "periods", "per_period", "precision", "tol", "model", "eta", "zeta",
-                                  "a", "x_w", "R", "x0", "v0", "t0"]),
+    "Params.make": (
+        lambda **kw: Params.make(**kw),
+        ["eta", "zeta", "a", "x_w", "R", "x0", "v0", "t0"],
+    ),
+    "simulate": (
+        _call_simulate,
+        [
+            "params",
+            "periods",
+            "per_period",
+            "precision",
+            "tol",
+            "model",
+            "eta",
+            "zeta",
+            "a",
+            "x_w",
+            "R",
+            "x0",
+            "v0",
+            "t0",
+        ],
+    ),
     "make_solver": (_call_solver, ["model", "precision", "tol"]),
     "lyapunov": (_call_lyapunov, ["params", "method", "periods", "transient", "precision"]),
-    "bifurcation": (_call_bifurcation, ["params", "eta_min", "eta_max", "n", "periods", "transient", "workers"]),
-    "sync_scan": (_call_sync, ["params", "form", "k_values", "periods", "ensemble", "seed", "tail", "threshold",
-                               "per_period", "spread", "lle_periods", "lle_transient", "precision", "engine"]),
-    "SweepSpec.make": (_call_sweep_spec, ["base", "axes", "periods", "transient", "tile_size", "batch_size",
-                                          "max_work"]),
-    "simulate_coupled": (_call_coupled, ["params", "k", "form", "periods", "per_period", "precision",
-                                         "max_impacts", "engine"]),
-    "nominal_components": (lambda **kw: nominal_components(kw.pop("params", Params.make()), **kw),
-                           ["params", "R", "C", "V_unit"]),
+    "bifurcation": (
+        _call_bifurcation,
+        ["params", "eta_min", "eta_max", "n", "periods", "transient", "workers"],
+    ),
+    "sync_scan": (
+        _call_sync,
+        [
+            "params",
+            "form",
+            "k_values",
+            "periods",
+            "ensemble",
+            "seed",
+            "tail",
+            "threshold",
+            "per_period",
+            "spread",
+            "lle_periods",
+            "lle_transient",
+            "precision",
+            "engine",
+        ],
+    ),
+    "SweepSpec.make": (
+        _call_sweep_spec,
+        ["base", "axes", "periods", "transient", "tile_size", "batch_size", "max_work"],
+    ),
+    "simulate_coupled": (
+        _call_coupled,
+        ["params", "k", "form", "periods", "per_period", "precision", "max_impacts", "engine"],
+    ),
+    "nominal_components": (
+        lambda **kw: nominal_components(kw.pop("params", Params.make()), **kw),
+        ["params", "R", "C", "V_unit"],
+    ),
     "steady_state": (lambda **kw: steady_state(kw.get("params", Params.make())), ["params"]),
-    "grazing_frequencies": (lambda **kw: grazing_frequencies(kw.pop("params", Params.make()), **kw),
-                            ["params", "dps"]),
-    "find_orbit": (_call_orbit, ["params", "period", "guess", "transient", "impacts", "max_iterations",
-                                 "precision"]),
+    "grazing_frequencies": (
+        lambda **kw: grazing_frequencies(kw.pop("params", Params.make()), **kw),
+        ["params", "dps"],
+    ),
+    "find_orbit": (
+        _call_orbit,
+        ["params", "period", "guess", "transient", "impacts", "max_iterations", "precision"],
+    ),
     "one_impact_orbits": (_call_one_impact, ["params", "dps", "grid"]),
     "certify": (_call_certify, ["params", "periods", "bits", "target_radius", "max_bits"]),
-    "certify_coupled": (_call_certify_coupled, ["params", "k", "form", "periods", "y0", "bits", "max_bits"]),
-    "prove_orbit": (_call_prove, ["params", "period", "guess", "impacts", "bits", "radius", "transient"]),
-    "continue_orbit": (_call_continue, ["params", "parameter", "start", "stop", "period", "impacts", "guess",
-                                        "transient", "max_points", "doublings", "virtual"]),
+    "certify_coupled": (
+        _call_certify_coupled,
+        ["params", "k", "form", "periods", "y0", "bits", "max_bits"],
+    ),
+    "prove_orbit": (
+        _call_prove,
+        ["params", "period", "guess", "impacts", "bits", "radius", "transient"],
+    ),
+    "continue_orbit": (
+        _call_continue,
+        [
+            "params",
+            "parameter",
+            "start",
+            "stop",
+            "period",
+            "impacts",
+            "guess",
+            "transient",
+            "max_points",
+            "doublings",
+            "virtual",
+        ],
+    ),
 }
 #: Outcomes that are answers, not failures, for some entry points: Newton may not reach an
 #: orbit (ConvergenceError) or meet a tangential contact on the way (IntegrationError).
-ANSWERS = {"find_orbit": (IntegrationError,), "continue_orbit": (IntegrationError,), "certify": (IntegrationError,), "certify_coupled": (IntegrationError,),
-           "prove_orbit": (IntegrationError,)}
+ANSWERS = {
+    "find_orbit": (IntegrationError,),
+    "continue_orbit": (IntegrationError,),
+    "certify": (IntegrationError,),
+    "certify_coupled": (IntegrationError,),
+    "prove_orbit": (IntegrationError,),
+}
 CASES = [(name, arg) for name, (_, args) in ENTRY_POINTS.items() for arg in args]
 
 
@@ -200,7 +321,11 @@ def _names_argument(err: ParameterError, arg: str) -> bool:
 
 
 @pytest.mark.parametrize("entry,arg", CASES, ids=[f"{e}-{a}" for e, a in CASES])
-@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=EXAMPLES,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
 @given(value=HOSTILE)
 def test_fuzz_public_functions(entry, arg, value):
     fn, _ = ENTRY_POINTS[entry]
@@ -218,19 +343,43 @@ def test_fuzz_public_functions(entry, arg, value):
     assert time.perf_counter() - t0 < TIME_BOUND  # a hang guard, not a speed claim
 
 
-@pytest.mark.parametrize("value", [np.float64(0.712), np.float32(0.75), np.int64(1), np.int32(2),
-                                   Fraction(89, 125), "0.712", 0.712, 1])
+@pytest.mark.parametrize(
+    "value",
+    [
+        np.float64(0.712),
+        np.float32(0.75),
+        np.int64(1),
+        np.int32(2),
+        Fraction(89, 125),
+        "0.712",
+        0.712,
+        1,
+    ],
+)
 def test_numpy_scalars_and_exact_values_are_parameters(value):
     """A value a user would pass is taken; a binary float as its shortest round-trip decimal
     (np.float64(0.712) is the 0.712 the user typed, not 0.71199999999999996625...)."""
     p = Params.make(eta=value)
-    expect = Fraction(repr(float(value))) if isinstance(value, (float, np.floating)) else Fraction(value)
+    expect = (
+        Fraction(repr(float(value))) if isinstance(value, (float, np.floating)) else Fraction(value)
+    )
     assert p.eta == expect
     assert math.isfinite(float(p.eta))
 
 
-@pytest.mark.parametrize("entry", ["simulate", "lyapunov", "bifurcation", "sync_scan", "simulate_coupled",
-                                   "nominal_components", "steady_state", "grazing_frequencies"])
+@pytest.mark.parametrize(
+    "entry",
+    [
+        "simulate",
+        "lyapunov",
+        "bifurcation",
+        "sync_scan",
+        "simulate_coupled",
+        "nominal_components",
+        "steady_state",
+        "grazing_frequencies",
+    ],
+)
 def test_plain_mappings_are_parameter_sets(entry):
     fn, _ = ENTRY_POINTS[entry]
     fn(params={"eta": "0.712", "x_w": np.float64(2.0)})
@@ -256,9 +405,19 @@ def test_params_are_validated_however_they_were_built():
 
 # --- scene files ------------------------------------------------------------------
 SCENE_KEYS = [
-    ("parameters", "eta"), ("parameters", "zeta"), ("parameters", "a"), ("parameters", "x_w"),
-    ("parameters", "R"), ("parameters", "x0"), ("model", "precision"), ("model", "tol"), ("model", "name"),
-    ("duration", "periods"), ("outputs", "per_period"), ("system", "kind"), ("components", "R"),
+    ("parameters", "eta"),
+    ("parameters", "zeta"),
+    ("parameters", "a"),
+    ("parameters", "x_w"),
+    ("parameters", "R"),
+    ("parameters", "x0"),
+    ("model", "precision"),
+    ("model", "tol"),
+    ("model", "name"),
+    ("duration", "periods"),
+    ("outputs", "per_period"),
+    ("system", "kind"),
+    ("components", "R"),
     ("components", "C"),
 ]
 
@@ -280,13 +439,32 @@ SCENE_VALUES = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True),
     st.integers(min_value=-(10**20), max_value=10**20),
     st.booleans(),
-    st.sampled_from(["1e999 ohm", "1e-999 ohm", "1e400 ohm", "1e999 F", "1e9999999 ohm", "0 ohm", "-5 nF",
-                     "10 kohm", "100 nF", "mp:99999", "float128", "1e-300", "spice"]),
+    st.sampled_from(
+        [
+            "1e999 ohm",
+            "1e-999 ohm",
+            "1e400 ohm",
+            "1e999 F",
+            "1e9999999 ohm",
+            "0 ohm",
+            "-5 nF",
+            "10 kohm",
+            "100 nF",
+            "mp:99999",
+            "float128",
+            "1e-300",
+            "spice",
+        ]
+    ),
 )
 
 
 @pytest.mark.parametrize("section,key", SCENE_KEYS, ids=[f"{s}.{k}" for s, k in SCENE_KEYS])
-@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=EXAMPLES,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
 @given(value=SCENE_VALUES)
 def test_fuzz_scene_values(tmp_path_factory, section, key, value):
     base = {
@@ -299,7 +477,8 @@ def test_fuzz_scene_values(tmp_path_factory, section, key, value):
     }
     base[section][key] = _toml_value(value)
     text = 'name = "fuzz"\n' + "".join(
-        f"[{sec}]\n" + "".join(f"{k} = {v}\n" for k, v in kv.items()) for sec, kv in base.items())
+        f"[{sec}]\n" + "".join(f"{k} = {v}\n" for k, v in kv.items()) for sec, kv in base.items()
+    )
     path = tmp_path_factory.mktemp("scene") / "fuzz.toml"
     path.write_text(text, encoding="utf-8")
     t0 = time.perf_counter()
@@ -308,7 +487,12 @@ def test_fuzz_scene_values(tmp_path_factory, section, key, value):
         run_scene(scene, max_time=60)
     except ParameterError as e:
         # the key, or a relation naming it (x0 <= x_w), or a whole-scene budget
-        assert key in e.name or key in str(e) or e.name in ("scene", "max_time", "periods"), (section, key, value, str(e))
+        assert key in e.name or key in str(e) or e.name in ("scene", "max_time", "periods"), (
+            section,
+            key,
+            value,
+            str(e),
+        )
     except (BudgetExceededError, OptionalDependencyError):
         pass
     assert time.perf_counter() - t0 < TIME_BOUND
@@ -321,7 +505,22 @@ def test_fuzz_long_run():
     import sys
 
     env = dict(os.environ, PRECISE_IMPACT_FUZZ_EXAMPLES=str(20 * EXAMPLES))
-    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", __file__,
-                        os.path.join(os.path.dirname(__file__), "test_reliability.py"), "-k", "fuzz and not long_run"],
-                       env=env, capture_output=True, text=True, timeout=5400)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            __file__,
+            os.path.join(os.path.dirname(__file__), "test_reliability.py"),
+            "-k",
+            "fuzz and not long_run",
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=5400,
+    )
     assert r.returncode == 0, r.stdout[-3000:]

@@ -25,7 +25,9 @@ TESTS = Path(__file__).resolve().parent
 BENCHMARKS = TESTS.parent / "benchmarks"
 
 LAYERS = {
-    "errors": 1, "io": 1, "version": 1,
+    "errors": 1,
+    "io": 1,
+    "version": 1,
     "core": 2,
     "solvers": 3,
     "models": 4,
@@ -33,7 +35,8 @@ LAYERS = {
     "scenes": 6,
     "verification": 7,
     "testing": 8,
-    "cli": 9, "__main__": 9,
+    "cli": 9,
+    "__main__": 9,
 }
 
 # Tests that check the internals of ONE module on purpose: file -> (that module, why).
@@ -86,7 +89,9 @@ def _package_files():
 
 
 def test_every_subpackage_has_a_layer():
-    tops = {p.relative_to(PKG).parts[0].removesuffix(".py") for p in _package_files()} - {"__init__"}
+    tops = {p.relative_to(PKG).parts[0].removesuffix(".py") for p in _package_files()} - {
+        "__init__"
+    }
     assert tops <= set(LAYERS), f"modules outside the layer map: {sorted(tops - set(LAYERS))}"
 
 
@@ -133,8 +138,13 @@ def _private_uses(tree: ast.AST, modname: str, is_pkg: bool = False) -> list[tup
         if isinstance(node, ast.Import):
             for a in node.names:
                 if a.name.split(".")[0] == "precise_impact":
-                    bound[a.asname or a.name.split(".")[0]] = a.name if a.asname else "precise_impact"
-        elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "precise_impact":
+                    bound[a.asname or a.name.split(".")[0]] = (
+                        a.name if a.asname else "precise_impact"
+                    )
+        elif (
+            isinstance(node, ast.ImportFrom)
+            and (node.module or "").split(".")[0] == "precise_impact"
+        ):
             for a in node.names:
                 bound[a.asname or a.name] = f"{node.module}.{a.name}"
     for mod, names in _imports(tree, modname, is_pkg):
@@ -143,7 +153,11 @@ def _private_uses(tree: ast.AST, modname: str, is_pkg: bool = False) -> list[tup
         found += [(mod, n) for n in _private(names)]
         found += [(mod, mod) for p in mod.split(".")[1:] if _private([p])]
     for node in ast.walk(tree):
-        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in bound:
+        if (
+            isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Name)
+            and node.value.id in bound
+        ):
             if _private([node.attr]):
                 found.append((bound[node.value.id], node.attr))
     return found
@@ -176,23 +190,35 @@ def test_the_internals_whitelist_is_needed():
         if not path.exists():
             pytest.skip(f"{path} is not part of this installation")
         uses = _private_uses(ast.parse(path.read_text(encoding="utf-8")), path.stem)
-        assert any(_is_or_within(m, module) for m, _ in uses), f"{name} no longer needs its exception"
+        assert any(_is_or_within(m, module) for m, _ in uses), (
+            f"{name} no longer needs its exception"
+        )
         assert len(why) > 20, name
 
 
 def test_the_private_name_checker_catches_each_way_in():
-    code = ("import precise_impact as pi\n"
-            "from precise_impact.solvers import heyoka as h\n"
-            "from precise_impact.core.params import _helper\n"
-            "from precise_impact._old import thing\n"
-            "h._CACHE.clear(); pi.__version__; pi.Params\n")
+    code = (
+        "import precise_impact as pi\n"
+        "from precise_impact.solvers import heyoka as h\n"
+        "from precise_impact.core.params import _helper\n"
+        "from precise_impact._old import thing\n"
+        "h._CACHE.clear(); pi.__version__; pi.Params\n"
+    )
     uses = _private_uses(ast.parse(code), "t")
-    assert sorted(uses) == sorted([("precise_impact.core.params", "_helper"), ("precise_impact._old", "precise_impact._old"),
-                                   ("precise_impact.solvers.heyoka", "_CACHE")])
+    assert sorted(uses) == sorted(
+        [
+            ("precise_impact.core.params", "_helper"),
+            ("precise_impact._old", "precise_impact._old"),
+            ("precise_impact.solvers.heyoka", "_CACHE"),
+        ]
+    )
 
 
 def test_the_checker_sees_an_upward_import(tmp_path):
     """The layering check must be able to fail: a core module importing analysis is caught."""
     tree = ast.parse("from precise_impact.analysis.lyapunov import lyapunov\n")
     found = [(m, _layer(m)) for m, _ in _imports(tree, "precise_impact.core.flow", False)]
-    assert found == [("precise_impact.analysis.lyapunov", 5)] and _layer("precise_impact.core.flow") == 2
+    assert (
+        found == [("precise_impact.analysis.lyapunov", 5)]
+        and _layer("precise_impact.core.flow") == 2
+    )

@@ -62,8 +62,11 @@ def test_requires_python_is_true():
     """Modules importing tomllib (3.11+) without a fallback need requires-python to exclude 3.10."""
     spec = SpecifierSet(PROJECT["requires-python"])
     src = Path(precise_impact.__file__).parent
-    unguarded = [p.relative_to(src).as_posix() for p in src.rglob("*.py")
-                 if re.search(r"^import tomllib|^from tomllib", p.read_text(encoding="utf-8"), re.M)]
+    unguarded = [
+        p.relative_to(src).as_posix()
+        for p in src.rglob("*.py")
+        if re.search(r"^import tomllib|^from tomllib", p.read_text(encoding="utf-8"), re.M)
+    ]
     if unguarded:
         assert not spec.contains("3.10"), (unguarded, str(spec))
     assert spec.contains(".".join(map(str, sys.version_info[:2])))
@@ -123,7 +126,10 @@ def test_progress_close_shows_a_throttled_last_count(monkeypatch):
     for i in range(1, 5):  # a resumed/partial run stops at 4 of 10
         bar.update(i)
     bar.close()
-    assert [line.split(" (")[0] for line in err.getvalue().splitlines()] == ["  tiles: 1/10", "  tiles: 4/10"]
+    assert [line.split(" (")[0] for line in err.getvalue().splitlines()] == [
+        "  tiles: 1/10",
+        "  tiles: 4/10",
+    ]
 
 
 def test_citation_names_the_same_version():

@@ -13,7 +13,6 @@ import sys
 import time
 
 import pytest
-
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -22,8 +21,13 @@ TIME_BOUND = 60  # seconds: the review's bound for every case
 
 def cli(*args, timeout=TIME_BOUND):
     t = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "precise_impact", *args], capture_output=True, text=True,
-                       timeout=timeout, stdin=subprocess.DEVNULL)
+    r = subprocess.run(
+        [sys.executable, "-m", "precise_impact", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        stdin=subprocess.DEVNULL,
+    )
     return r, time.perf_counter() - t
 
 
@@ -34,31 +38,75 @@ def one_line_refusal(r, name):
     assert name in lines[0], lines[0]
 
 
-@pytest.mark.parametrize("args,name", [
-    (["accuracy", "--periods", "0"], "periods"),
-    (["sweep", "--dask", "local", "--workers", "0", "--axis", "eta", "0.7", "0.72", "2", "--out", "{tmp}/s"], "workers"),
-    (["sweep", "--axis", "eta", "0.6", "0.8", "1000000", "--axis", "x_w", "1", "3", "1000000", "--out", "{tmp}/s"],
-     "max_work"),
-    (["sweep", "--axis", "x_w", "-1e-3", "2", "3", "--out", "{tmp}/s"], "x0"),  # parsed; x0 = 0 > x_w = -0.001
-    (["sync", "--k", "0.02", "0.05", "100000000"], "1 <= n <= 1000000"),
-    (["sync", "--ensemble", "0"], "1 <= ensemble <= 10000"),
-    (["sync", "--ensemble", "100000"], "1 <= ensemble <= 10000"),
-    (["compare", "fig5-chaotic-ideal", "--models", "circuit", "--periods", "1000000"], "periods"),
-    (["run", "{tmp}/bad.toml"], "UTF-8"),
-    (["run", "{tmp}/dir.toml"], "regular .toml file"),
-    (["run", "{tmp}/zero.toml"], "regular .toml file"),
-    (["simulate", "--periods", "2", "--out", "{tmp}/existing.csv"], "--force"),
-    (["simulate", "--periods", "2", "--out", "{tmp}/x.csv"], "not a directory"),
-    (["simulate", "--periods", "2", "--out", "{tmp}/existing.csv/sub.csv"], "is a file"),
-    (["bifurcation", "--eta", "0.7", "0.72", "2", "--out", "{tmp}/existing.csv"], "existing file"),
-    # cost estimates before any work (core/budget.py)
-    (["simulate", "--periods", "10000000", "--dense", "10000"], "half this machine's memory"),
-    (["simulate", "--periods", "100000", "--precision", "mp:2048"], "max_time"),
-    (["lle", "--periods", "100000000"], "max_time"),
-    (["simulate", "--periods", "5", "--max-time", "0"], "1 <= max_time <= 604800"),
-    (["run", "{tmp}/huge.toml"], "half this machine's memory"),
-    (["run", "{tmp}/long.toml"], "max_time"),
-])
+@pytest.mark.parametrize(
+    "args,name",
+    [
+        (["accuracy", "--periods", "0"], "periods"),
+        (
+            [
+                "sweep",
+                "--dask",
+                "local",
+                "--workers",
+                "0",
+                "--axis",
+                "eta",
+                "0.7",
+                "0.72",
+                "2",
+                "--out",
+                "{tmp}/s",
+            ],
+            "workers",
+        ),
+        (
+            [
+                "sweep",
+                "--axis",
+                "eta",
+                "0.6",
+                "0.8",
+                "1000000",
+                "--axis",
+                "x_w",
+                "1",
+                "3",
+                "1000000",
+                "--out",
+                "{tmp}/s",
+            ],
+            "max_work",
+        ),
+        (
+            ["sweep", "--axis", "x_w", "-1e-3", "2", "3", "--out", "{tmp}/s"],
+            "x0",
+        ),  # parsed; x0 = 0 > x_w = -0.001
+        (["sync", "--k", "0.02", "0.05", "100000000"], "1 <= n <= 1000000"),
+        (["sync", "--ensemble", "0"], "1 <= ensemble <= 10000"),
+        (["sync", "--ensemble", "100000"], "1 <= ensemble <= 10000"),
+        (
+            ["compare", "fig5-chaotic-ideal", "--models", "circuit", "--periods", "1000000"],
+            "periods",
+        ),
+        (["run", "{tmp}/bad.toml"], "UTF-8"),
+        (["run", "{tmp}/dir.toml"], "regular .toml file"),
+        (["run", "{tmp}/zero.toml"], "regular .toml file"),
+        (["simulate", "--periods", "2", "--out", "{tmp}/existing.csv"], "--force"),
+        (["simulate", "--periods", "2", "--out", "{tmp}/x.csv"], "not a directory"),
+        (["simulate", "--periods", "2", "--out", "{tmp}/existing.csv/sub.csv"], "is a file"),
+        (
+            ["bifurcation", "--eta", "0.7", "0.72", "2", "--out", "{tmp}/existing.csv"],
+            "existing file",
+        ),
+        # cost estimates before any work (core/budget.py)
+        (["simulate", "--periods", "10000000", "--dense", "10000"], "half this machine's memory"),
+        (["simulate", "--periods", "100000", "--precision", "mp:2048"], "max_time"),
+        (["lle", "--periods", "100000000"], "max_time"),
+        (["simulate", "--periods", "5", "--max-time", "0"], "1 <= max_time <= 604800"),
+        (["run", "{tmp}/huge.toml"], "half this machine's memory"),
+        (["run", "{tmp}/long.toml"], "max_time"),
+    ],
+)
 def test_each_class_of_hostile_input_is_refused_cleanly(tmp_path, args, name):
     (tmp_path / "bad.toml").write_bytes(b"\xff\xfe not utf-8")
     (tmp_path / "dir.toml").mkdir()
@@ -66,8 +114,12 @@ def test_each_class_of_hostile_input_is_refused_cleanly(tmp_path, args, name):
     (tmp_path / "existing.csv").write_text("keep me\n")
     (tmp_path / "x.csv").mkdir()
     # the review's case: 1e7 periods x 1e4 samples per period; and 1e7 periods at mp:1024
-    (tmp_path / "huge.toml").write_text('[system]\nkind = "single"\n[model]\nname = "heyoka"\n[duration]\nperiods = 10000000\n[outputs]\nper_period = 10000\n')
-    (tmp_path / "long.toml").write_text('[system]\nkind = "single"\n[model]\nname = "heyoka"\nprecision = "mp:1024"\n[duration]\nperiods = 100000\n')
+    (tmp_path / "huge.toml").write_text(
+        '[system]\nkind = "single"\n[model]\nname = "heyoka"\n[duration]\nperiods = 10000000\n[outputs]\nper_period = 10000\n'
+    )
+    (tmp_path / "long.toml").write_text(
+        '[system]\nkind = "single"\n[model]\nname = "heyoka"\nprecision = "mp:1024"\n[duration]\nperiods = 100000\n'
+    )
     r, took = cli(*[a.replace("{tmp}", str(tmp_path)) for a in args])
     one_line_refusal(r, name)
     assert took < TIME_BOUND
@@ -77,7 +129,9 @@ def test_each_class_of_hostile_input_is_refused_cleanly(tmp_path, args, name):
 def test_elastic_bounce_into_the_wall_is_a_budget_with_one_line():
     """R = 1 with the force always into the wall (x_w = -1.5 < -a): recognised at the first
     short flight (tests/test_chattering.py), exit 3 with one line, not a 10^6-impact run."""
-    r, took = cli("simulate", "--x_w", "-1.5", "--R", "1", "--x0", "-1.6", "--v0", "0", "--periods", "100")
+    r, took = cli(
+        "simulate", "--x_w", "-1.5", "--R", "1", "--x0", "-1.6", "--v0", "0", "--periods", "100"
+    )
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 3 and len(lines) == 1 and "not Zeno" in lines[0], r.stderr[-500:]
     assert took < TIME_BOUND
@@ -92,29 +146,61 @@ def test_force_overwrites(tmp_path):
 
 def test_unreachable_scheduler_is_one_line(tmp_path):
     pytest.importorskip("distributed", reason="Dask is an optional extra; CI installs it")
-    r, took = cli("sweep", "--scheduler", "tcp://127.0.0.1:9", "--axis", "eta", "0.7", "0.72", "2",
-                  "--out", str(tmp_path / "s"))
+    r, took = cli(
+        "sweep",
+        "--scheduler",
+        "tcp://127.0.0.1:9",
+        "--axis",
+        "eta",
+        "0.7",
+        "0.72",
+        "2",
+        "--out",
+        str(tmp_path / "s"),
+    )
     one_line_refusal(r, "scheduler")
     assert took < 30
 
 
 # --- fuzzing: arbitrary text for every parameter flag --------------------------------------
-PARAM_FLAGS = ["--eta", "--zeta", "--a", "--x_w", "--R", "--x0", "--v0", "--t0", "--tol", "--periods",
-               "--precision"]
+PARAM_FLAGS = [
+    "--eta",
+    "--zeta",
+    "--a",
+    "--x_w",
+    "--R",
+    "--x0",
+    "--v0",
+    "--t0",
+    "--tol",
+    "--periods",
+    "--precision",
+]
 
 
-@settings(max_examples=int(os.environ.get("PRECISE_IMPACT_FUZZ_EXAMPLES", "25")), deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(flag=st.sampled_from(PARAM_FLAGS),
-       value=st.one_of(st.text(min_size=0, max_size=40),
-                       st.from_regex(r"-?[0-9]{1,6}(\.[0-9]{0,6})?([eE][-+]?[0-9]{1,12})?", fullmatch=True),
-                       st.sampled_from(["nan", "inf", "-0", "1e400", "9" * 600, "mp:0", "mp:999999", "1/0"])))
+@settings(
+    max_examples=int(os.environ.get("PRECISE_IMPACT_FUZZ_EXAMPLES", "25")),
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    flag=st.sampled_from(PARAM_FLAGS),
+    value=st.one_of(
+        st.text(min_size=0, max_size=40),
+        st.from_regex(r"-?[0-9]{1,6}(\.[0-9]{0,6})?([eE][-+]?[0-9]{1,12})?", fullmatch=True),
+        st.sampled_from(["nan", "inf", "-0", "1e400", "9" * 600, "mp:0", "mp:999999", "1/0"]),
+    ),
+)
 def test_fuzz_parameter_flags(flag, value):
     """Whatever text a flag gets: exit 0 (a legal value, 1 period), 2 (one line naming the flag's
     parameter) or 3 (a budget), never a traceback, within the bound."""
     if "\x00" in value:
         value = value.replace("\x00", "")
-    args = ["simulate", "--periods", "1", flag, value] if flag != "--periods" else ["simulate", flag, value]
+    args = (
+        ["simulate", "--periods", "1", flag, value]
+        if flag != "--periods"
+        else ["simulate", flag, value]
+    )
     r, took = cli(*args)
     assert r.returncode in (0, 2, 3), (args, r.returncode, r.stderr[-800:])
     assert "Traceback" not in r.stderr, (args, r.stderr[-800:])
@@ -128,10 +214,23 @@ def test_a_long_run_stops_on_a_signal_with_exit_130(sig):
     """Ctrl-C or SIGTERM: one line, exit 130, within seconds (the run would take ~2 minutes)."""
     import signal
 
-    p = subprocess.Popen([sys.executable, "-m", "precise_impact", "simulate", "--periods", "20000",
-                          "--precision", "mp:256"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         # a default SIGINT disposition even when the test runner ignores it
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.default_int_handler))
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "simulate",
+            "--periods",
+            "20000",
+            "--precision",
+            "mp:256",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        # a default SIGINT disposition even when the test runner ignores it
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.default_int_handler),
+    )
     time.sleep(4)
     p.send_signal(getattr(signal, sig))
     out, err = p.communicate(timeout=TIME_BOUND)
@@ -151,9 +250,23 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
     from precise_impact.solvers.heyoka.single import CHUNK_PERIODS
 
     out = tmp_path / "long.npz"
-    p = subprocess.Popen([sys.executable, "-m", "precise_impact", "simulate", "--periods", "40000",
-                          "--precision", "mp:128", "--out", str(out)],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "simulate",
+            "--periods",
+            "40000",
+            "--precision",
+            "mp:128",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     part = tmp_path / "long.partial.npz"
     deadline = time.monotonic() + 40
     time.sleep(5)  # ~1.2 ms per period at 128 bits: a few chunks are finished by now
@@ -165,7 +278,11 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
     assert len(lines) == 1 and str(part) in lines[0] and "of 40000 periods" in lines[0], err[-500:]
     assert not out.exists()
     with np.load(part) as d:
-        x, v, meta = list(d["x_str"]), list(d["v_str"]), __import__("json").loads(str(d["meta_json"]))
+        x, v, meta = (
+            list(d["x_str"]),
+            list(d["v_str"]),
+            __import__("json").loads(str(d["meta_json"])),
+        )
     done = len(x) - 1
     assert done > 0 and done % CHUNK_PERIODS == 0 and done < 40000
     assert meta["partial"] == {"periods_done": done, "periods_asked": 40000}
@@ -180,7 +297,19 @@ def test_directory_outputs_are_not_overwritten_without_force(tmp_path):
     out = tmp_path / "bif"
     out.mkdir()
     (out / "keep.txt").write_text("mine\n")
-    args = ["bifurcation", "--eta", "0.70", "0.72", "2", "--periods", "5", "--transient", "5", "--out", str(out)]
+    args = [
+        "bifurcation",
+        "--eta",
+        "0.70",
+        "0.72",
+        "2",
+        "--periods",
+        "5",
+        "--transient",
+        "5",
+        "--out",
+        str(out),
+    ]
     r, _ = cli(*args)
     one_line_refusal(r, "--force")
     assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]

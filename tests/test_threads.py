@@ -71,7 +71,10 @@ def test_simulate_reuses_a_solver_per_thread_bit_identically():
     integrator), so the reuse leaves no state behind."""
     from precise_impact import simulate
 
-    fresh = {eta: _trajectory_key(HeyokaSolver("float64").solve(Params.make(eta=eta), 30)) for eta in ETAS}
+    fresh = {
+        eta: _trajectory_key(HeyokaSolver("float64").solve(Params.make(eta=eta), 30))
+        for eta in ETAS
+    }
 
     def run(eta):
         return _trajectory_key(simulate(Params.make(eta=eta), 30))
@@ -84,7 +87,9 @@ def test_simulate_reuses_a_solver_per_thread_bit_identically():
 
 def test_variational_lle_from_threads_is_bit_identical():
     def run(eta):
-        r = lyapunov(Params.make(eta=eta), periods=60, transient=20, initial_conditions=1, segments=2)
+        r = lyapunov(
+            Params.make(eta=eta), periods=60, transient=20, initial_conditions=1, segments=2
+        )
         return (np.array([r.lle, r.spectrum[0], r.spectrum[1], r.impacts]), r.running)
 
     serial = [run(eta) for eta in ETAS]
@@ -97,8 +102,18 @@ def test_batch_lle_from_threads_is_bit_identical():
 
     def run(points):
         rows = batch_lle(points, periods=60, transient=20, segments=2, batch_size=4)
-        return tuple(np.array([row["lle"], row["stderr"], row["lambda2"], row["period"], row["impacts_per_period"]])
-                     for row in rows)
+        return tuple(
+            np.array(
+                [
+                    row["lle"],
+                    row["stderr"],
+                    row["lambda2"],
+                    row["period"],
+                    row["impacts_per_period"],
+                ]
+            )
+            for row in rows
+        )
 
     serial = [run(g) for g in groups]
     threaded = _in_threads(run, groups)
@@ -114,13 +129,23 @@ def test_sweep_on_a_threaded_dask_worker_is_bit_identical(tmp_path):
     one process must equal the serial sweep bit for bit."""
     from dask.distributed import LocalCluster
 
-    spec = SweepSpec.make(Params.make(), [("eta", "0.70", "0.75", 4), ("x_w", "1.9", "2.1", 3)],
-                          periods=120, transient=60, tile_size=2)
+    spec = SweepSpec.make(
+        Params.make(),
+        [("eta", "0.70", "0.75", 4), ("x_w", "1.9", "2.1", 3)],
+        periods=120,
+        transient=60,
+        tile_size=2,
+    )
     run_sweep(spec, tmp_path / "serial", workers=1, progress=False)
     # processes=False: the worker's THREADS threads share this process (and the one
     # integrator cache) with each other and with the serial run above.
-    with LocalCluster(n_workers=1, threads_per_worker=THREADS, processes=False,
-                      protocol="tcp://", dashboard_address=None) as cluster:
+    with LocalCluster(
+        n_workers=1,
+        threads_per_worker=THREADS,
+        processes=False,
+        protocol="tcp://",
+        dashboard_address=None,
+    ) as cluster:
         s = run_sweep(spec, tmp_path / "threads", dask=cluster.scheduler_address, progress=False)
     assert s.complete
     a, b = load_sweep(tmp_path / "serial", spec), load_sweep(tmp_path / "threads", spec)

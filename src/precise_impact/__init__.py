@@ -23,7 +23,35 @@ The package is layered; each layer imports only the ones before it:
 The names below are the public API; everything else may change between releases.
 """
 
-from precise_impact.version import __version__
+from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
+from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, lyapunov
+from precise_impact.analysis.orbits import (
+    Bifurcation,
+    Branch,
+    ContinuationResult,
+    ConvergenceError,
+    PeriodicOrbit,
+    ProvenOrbit,
+    brute_force_diagram,
+    continue_orbit,
+    find_orbit,
+    one_impact_orbits,
+    prove_orbit,
+)
+from precise_impact.analysis.periodicity import detect_period
+from precise_impact.analysis.sweep import SweepResult, SweepSpec, load_sweep, run_sweep
+from precise_impact.analysis.sync import SyncResult, sync_scan
+from precise_impact.core.flow import SteadyState, acceleration, grazing_frequencies, steady_state
+from precise_impact.core.impact import (
+    impact_at_start,
+    oscillator_saltation,
+    reset_velocity,
+    saltation_matrix,
+)
+from precise_impact.core.params import PARAM_NAMES, RUNTIME_PARAMS, Params
+from precise_impact.core.precision import Precision
+from precise_impact.core.result import ResultMixin
+from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import (
     BudgetExceededError,
     IntegrationError,
@@ -35,78 +63,127 @@ from precise_impact.errors import (
     ReferenceDataError,
     SpiceError,
 )
-from precise_impact.core.params import PARAM_NAMES, RUNTIME_PARAMS, Params
-from precise_impact.core.precision import Precision
-from precise_impact.core.flow import SteadyState, acceleration, grazing_frequencies, steady_state
-from precise_impact.core.impact import impact_at_start, oscillator_saltation, reset_velocity, saltation_matrix
-from precise_impact.core.result import ResultMixin
-from precise_impact.core.trajectory import Trajectory
-from precise_impact.solvers.base import MODEL_ALIASES, MODELS, Solver, make_solver
-from precise_impact.solvers.simulate import simulate
-from precise_impact.solvers.heyoka.single import HeyokaSolver
-from precise_impact.solvers.closed_form import AnalyticalSolver
-from precise_impact.solvers.certified.single import CertificationError, CertifiedSolver, CertifiedTrajectory, certify
-from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled
-from precise_impact.solvers.certified.coupled import CertifiedCoupledTrajectory, certify_coupled
 from precise_impact.models.circuit.components import Components, nominal_components
+from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit
 from precise_impact.models.circuit.effects.catalogue import EFFECTS
 from precise_impact.models.circuit.opamp import CircuitSolver
-from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.models.circuit.spice import SpiceSolver
-from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit
-from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, lyapunov
-from precise_impact.analysis.periodicity import detect_period
-from precise_impact.analysis.orbits import (
-    Bifurcation,
-    Branch,
-    ContinuationResult,
-    ConvergenceError,
-    PeriodicOrbit,
-    brute_force_diagram,
-    continue_orbit,
-    find_orbit,
-    one_impact_orbits,
-    prove_orbit,
-    ProvenOrbit,
-)
-from precise_impact.analysis.sync import SyncResult, sync_scan
-from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
-from precise_impact.analysis.sweep import SweepResult, SweepSpec, load_sweep, run_sweep
-from precise_impact.scenes.scene import Scene, builtin_scenes, load_scene
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.scenes.run import run_scene
+from precise_impact.scenes.scene import Scene, builtin_scenes, load_scene
+from precise_impact.solvers.base import MODEL_ALIASES, MODELS, Solver, make_solver
+from precise_impact.solvers.certified.coupled import CertifiedCoupledTrajectory, certify_coupled
+from precise_impact.solvers.certified.single import (
+    CertificationError,
+    CertifiedSolver,
+    CertifiedTrajectory,
+    certify,
+)
+from precise_impact.solvers.closed_form import AnalyticalSolver
+from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled
+from precise_impact.solvers.heyoka.single import HeyokaSolver
+from precise_impact.solvers.simulate import simulate
 from precise_impact.verification.accuracy import AccuracyResult, accuracy_table
-from precise_impact.verification.scores import score
 from precise_impact.verification.compare import CompareResult, compare
 from precise_impact.verification.reference import generate as generate_reference
 from precise_impact.verification.reference import verify as verify_reference
-from precise_impact.verification.workprecision import WorkPrecisionResult, work_precision
 from precise_impact.verification.reproduce import ReproduceResult, reproduce
-
+from precise_impact.verification.scores import score
+from precise_impact.verification.workprecision import WorkPrecisionResult, work_precision
+from precise_impact.version import __version__
 
 __all__ = [
     # errors
-    "BudgetExceededError", "IntegrationError", "Interrupted", "MissedImpactError", "NgspiceNotFoundError", "OptionalDependencyError",
-    "ParameterError", "ReferenceDataError", "SpiceError",
+    "BudgetExceededError",
+    "IntegrationError",
+    "Interrupted",
+    "MissedImpactError",
+    "NgspiceNotFoundError",
+    "OptionalDependencyError",
+    "ParameterError",
+    "ReferenceDataError",
+    "SpiceError",
     # core
-    "PARAM_NAMES", "RUNTIME_PARAMS", "Params", "Precision", "SteadyState", "acceleration",
-    "grazing_frequencies", "steady_state", "impact_at_start", "oscillator_saltation", "reset_velocity",
-    "saltation_matrix", "ResultMixin", "Trajectory",
+    "PARAM_NAMES",
+    "RUNTIME_PARAMS",
+    "Params",
+    "Precision",
+    "SteadyState",
+    "acceleration",
+    "grazing_frequencies",
+    "steady_state",
+    "impact_at_start",
+    "oscillator_saltation",
+    "reset_velocity",
+    "saltation_matrix",
+    "ResultMixin",
+    "Trajectory",
     # solvers
-    "MODELS", "MODEL_ALIASES", "Solver", "make_solver", "simulate", "HeyokaSolver", "AnalyticalSolver",
-    "certify", "CertifiedTrajectory", "CertificationError", "CertifiedSolver",
+    "MODELS",
+    "MODEL_ALIASES",
+    "Solver",
+    "make_solver",
+    "simulate",
+    "HeyokaSolver",
+    "AnalyticalSolver",
+    "certify",
+    "CertifiedTrajectory",
+    "CertificationError",
+    "CertifiedSolver",
     # models
-    "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "certify_coupled", "CertifiedCoupledTrajectory", "Components", "nominal_components", "EFFECTS",
-    "CircuitSolver", "SwitchedCapacitorSolver", "SpiceSolver", "CoupledCircuitTrajectory",
+    "COUPLED_FORMS",
+    "CoupledTrajectory",
+    "simulate_coupled",
+    "certify_coupled",
+    "CertifiedCoupledTrajectory",
+    "Components",
+    "nominal_components",
+    "EFFECTS",
+    "CircuitSolver",
+    "SwitchedCapacitorSolver",
+    "SpiceSolver",
+    "CoupledCircuitTrajectory",
     "simulate_coupled_circuit",
     # analysis
-    "LYAPUNOV_METHODS", "LyapunovResult", "lyapunov", "detect_period", "SyncResult", "sync_scan",
-    "BifurcationResult", "bifurcation", "SweepSpec", "SweepResult", "load_sweep", "run_sweep",
-    "PeriodicOrbit", "find_orbit", "one_impact_orbits", "ConvergenceError", "continue_orbit", "Branch", "Bifurcation",
-    "ContinuationResult", "brute_force_diagram", "prove_orbit", "ProvenOrbit",
+    "LYAPUNOV_METHODS",
+    "LyapunovResult",
+    "lyapunov",
+    "detect_period",
+    "SyncResult",
+    "sync_scan",
+    "BifurcationResult",
+    "bifurcation",
+    "SweepSpec",
+    "SweepResult",
+    "load_sweep",
+    "run_sweep",
+    "PeriodicOrbit",
+    "find_orbit",
+    "one_impact_orbits",
+    "ConvergenceError",
+    "continue_orbit",
+    "Branch",
+    "Bifurcation",
+    "ContinuationResult",
+    "brute_force_diagram",
+    "prove_orbit",
+    "ProvenOrbit",
     # scenes
-    "Scene", "builtin_scenes", "load_scene", "run_scene",
+    "Scene",
+    "builtin_scenes",
+    "load_scene",
+    "run_scene",
     # verification
-    "AccuracyResult", "accuracy_table", "score", "CompareResult", "compare", "generate_reference",
-    "verify_reference", "WorkPrecisionResult", "work_precision", "ReproduceResult", "reproduce",
+    "AccuracyResult",
+    "accuracy_table",
+    "score",
+    "CompareResult",
+    "compare",
+    "generate_reference",
+    "verify_reference",
+    "WorkPrecisionResult",
+    "work_precision",
+    "ReproduceResult",
+    "reproduce",
     "__version__",
 ]

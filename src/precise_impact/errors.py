@@ -50,7 +50,9 @@ class OptionalDependencyError(RuntimeError):
         self.component = component
         self.install = install
         self.purpose = purpose
-        super().__init__(f"{purpose} needs {component}, which is not installed; install it with: {install}")
+        super().__init__(
+            f"{purpose} needs {component}, which is not installed; install it with: {install}"
+        )
 
 
 class MissedImpactError(RuntimeError):
@@ -72,7 +74,11 @@ class NgspiceNotFoundError(SpiceError, OptionalDependencyError):
 
     def __init__(self, message: str):
         RuntimeError.__init__(self, message)
-        self.component, self.install, self.purpose = "ngspice", "apt-get install ngspice", "the spice model"
+        self.component, self.install, self.purpose = (
+            "ngspice",
+            "apt-get install ngspice",
+            "the spice model",
+        )
 
 
 class ReferenceDataError(RuntimeError):

@@ -26,16 +26,23 @@ import dataclasses
 import json
 import math
 import os
+from collections.abc import Callable, Sequence
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import mpmath
 import numpy as np
 
 from precise_impact.errors import ReferenceDataError
 
-__all__ = ["ReferenceCase", "load_reference", "score_solver", "assert_stroboscopic_close", "SINGLE_CASES"]
+__all__ = [
+    "ReferenceCase",
+    "load_reference",
+    "score_solver",
+    "assert_stroboscopic_close",
+    "SINGLE_CASES",
+]
 
 #: Cases with stroboscopic samples usable by :func:`score_solver`.
 SINGLE_CASES = ("single-0.70", "single-0.712", "single-0.74")
@@ -93,7 +100,9 @@ class ReferenceCase:
         return len(self.t) - 1
 
 
-def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike | None = None) -> ReferenceCase:
+def load_reference(
+    case: str, *, as_float: bool = False, root: str | os.PathLike | None = None
+) -> ReferenceCase:
     """Load a single-oscillator reference case.
 
     Parameters
@@ -136,7 +145,9 @@ def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike
     # verdict on the solver being scored.
     problems = checksum_problems(d, case)
     if problems:
-        raise ReferenceDataError(f"reference data under {d} cannot be trusted: " + "; ".join(problems))
+        raise ReferenceDataError(
+            f"reference data under {d} cannot be trusted: " + "; ".join(problems)
+        )
     with open(d / "samples.json") as fh:
         data = json.load(fh)
     with open(d / "manifest.json") as fh:
@@ -145,6 +156,7 @@ def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike
     if as_float:
         conv: Callable[[str], Any] = float
     else:
+
         def conv(s: str) -> mpmath.mpf:
             with mpmath.workprec(_WORKPREC):
                 return mpmath.mpf(s)
@@ -152,7 +164,9 @@ def load_reference(case: str, *, as_float: bool = False, root: str | os.PathLike
     samples = data["samples"]
     px = pv = None
     cert_name = (manifest.get("proof") or {}).get("file")
-    if cert_name and cert_name in manifest.get("files", {}):  # checksummed above with the other files
+    if cert_name and cert_name in manifest.get(
+        "files", {}
+    ):  # checksummed above with the other files
         with open(d / cert_name) as fh:
             rows = {r["period"]: r for r in json.load(fh)["samples"]}
         up = lambda s: math.nextafter(float(s), math.inf)  # noqa: E731 - a float never below the decimal bound
@@ -177,7 +191,11 @@ def _to_mpf(value: Any) -> mpmath.mpf:
     """Exact mpmath value of a user number (float, numpy float, longdouble, heyoka real, str, Decimal)."""
     with mpmath.workprec(_WORKPREC):
         if isinstance(value, (float, np.float64, np.float32, int, np.integer)):
-            return mpmath.mpf(float(value)) if not isinstance(value, (int, np.integer)) else mpmath.mpf(int(value))
+            return (
+                mpmath.mpf(float(value))
+                if not isinstance(value, (int, np.integer))
+                else mpmath.mpf(int(value))
+            )
         if isinstance(value, np.longdouble):
             n, d = value.as_integer_ratio()
             return mpmath.mpf(n) / d
@@ -243,8 +261,14 @@ def score_solver(
     ref = load_reference(case, root=root)
     if periods is None:
         periods = ref.periods
-    if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) or not 1 <= periods <= ref.periods:
-        raise ValueError(f"periods must be an integer in 1..{ref.periods} for case {case!r}, got {periods!r}")
+    if (
+        isinstance(periods, bool)
+        or not isinstance(periods, (int, np.integer))
+        or not 1 <= periods <= ref.periods
+    ):
+        raise ValueError(
+            f"periods must be an integer in 1..{ref.periods} for case {case!r}, got {periods!r}"
+        )
     periods = int(periods)
     for name, tol in (("atol", atol), ("rtol", rtol)):
         if not (isinstance(tol, (int, float)) and tol >= 0 and np.isfinite(tol)):
@@ -268,10 +292,22 @@ def score_solver(
         x = v = None
     if x is None or len(x) != n or len(v) != n:
         got = "not a pair of sequences" if x is None else f"{len(x)} x and {len(v)} v samples"
-        result["shape_error"] = f"solver must return (x, v) with {n} samples each (k = 0..{periods}); got {got}"
+        result["shape_error"] = (
+            f"solver must return (x, v) with {n} samples each (k = 0..{periods}); got {got}"
+        )
         inf = np.full(n, np.inf)
-        result.update(error_x=inf, error_v=inf, abs_error_x=inf, abs_error_v=inf, max_error=np.inf,
-                      worst_period=0, worst_variable="x", passed=False, proven_error_x=inf, proven_error_v=inf)
+        result.update(
+            error_x=inf,
+            error_v=inf,
+            abs_error_x=inf,
+            abs_error_v=inf,
+            max_error=np.inf,
+            worst_period=0,
+            worst_variable="x",
+            passed=False,
+            proven_error_x=inf,
+            proven_error_v=inf,
+        )
         return result
     ex, ev, ax, av = (np.empty(n) for _ in range(4))
     result["solver_x"] = np.array([float(_to_mpf(y)) for y in x])
@@ -292,8 +328,16 @@ def score_solver(
     else:
         worst, var = kx, "x"
     mx = float(max(ex[kx], ev[kv]))
-    result.update(error_x=ex, error_v=ev, abs_error_x=ax, abs_error_v=av, max_error=mx,
-                  worst_period=worst, worst_variable=var, passed=bool(mx <= 1.0))
+    result.update(
+        error_x=ex,
+        error_v=ev,
+        abs_error_x=ax,
+        abs_error_v=av,
+        max_error=mx,
+        worst_period=worst,
+        worst_variable=var,
+        passed=bool(mx <= 1.0),
+    )
     if ref.proven_x_err is not None:
         # |y - truth| <= |y - y_ref| + |y_ref - truth|; the float sum rounded up by one ulp
         result["proven_error_x"] = np.nextafter(ax + np.array(ref.proven_x_err[:n]), np.inf)

@@ -24,7 +24,12 @@ def test_periodic_attractor_reports_the_floquet_lle(method):
     r = lyapunov(Params.make(R="0.8", eta="1"), method, periods=4000, transient=1000)
     assert r.stats["lle_source"] == "floquet"
     (g,) = r.stats["attractors"]
-    assert g["kind"] == "periodic" and g["period"] == 1 and g["impacts"] == 1 and g["starts"] == [0, 1, 2, 3]
+    assert (
+        g["kind"] == "periodic"
+        and g["period"] == 1
+        and g["impacts"] == 1
+        and g["starts"] == [0, 1, 2, 3]
+    )
     assert abs(r.lle - EXACT_1_1) <= 1e-12 and abs(r.lle - EXACT_1_1) <= 10 * r.stderr
     assert abs(sum(r.spectrum) - (2 * math.log(0.8) / (2 * math.pi) - 0.1)) <= 1e-12
     ft = r.stats["finite_time"]
@@ -36,7 +41,9 @@ def test_starts_on_different_attractors_are_not_averaged():
     non-impacting steady state (LLE exactly -zeta).  Both attractors are reported with their
     starts; lle is the attractor with the most starts (ties: the earliest start), and a warning
     says the starts split."""
-    r = lyapunov(Params.make(eta="0.7100"), "fast", periods=8 * 1500, transient=3000, initial_conditions=8)
+    r = lyapunov(
+        Params.make(eta="0.7100"), "fast", periods=8 * 1500, transient=3000, initial_conditions=8
+    )
     groups = r.stats["attractors"]
     assert {g["kind"] for g in groups} == {"periodic", "not periodic"}, groups
     assert sorted(j for g in groups for j in g["starts"]) == list(range(8))
@@ -58,7 +65,9 @@ def test_conservative_starts_on_a_torus_and_in_the_chaotic_sea_are_split(eta):
     mutual consistency: two groups, the headline is the three-start chaotic group's own mean
     (never the average), the per-start values are kept with their group id.  Tolerance: 4
     standard errors (Student t, ~19 degrees of freedom per start: two-sided 1e-3 is 3.9)."""
-    r = lyapunov(Params.make(zeta="0", eta=eta))  # the default: variational, 4 starts x 5000 periods
+    r = lyapunov(
+        Params.make(zeta="0", eta=eta)
+    )  # the default: variational, 4 starts x 5000 periods
     groups = r.stats["attractors"]
     assert [g["kind"] for g in groups] == ["not periodic"] * 2, groups
     ps = r.stats["per_start"]
@@ -71,8 +80,14 @@ def test_conservative_starts_on_a_torus_and_in_the_chaotic_sea_are_split(eta):
     (torus,), (sea,) = torus, sea
     assert abs(torus["lle"]) <= 4 * torus["stderr"]  # a torus: LLE 0
     assert sea["lle"] > 4 * sea["stderr"]  # chaos
-    assert r.stats["headline_attractor"] == sea["id"] and r.lle == sea["lle"] and r.stderr == sea["stderr"]
-    mean = sum(ps[j]["lle"] * ps[j]["periods"] for j in sea["starts"]) / sum(ps[j]["periods"] for j in sea["starts"])
+    assert (
+        r.stats["headline_attractor"] == sea["id"]
+        and r.lle == sea["lle"]
+        and r.stderr == sea["stderr"]
+    )
+    mean = sum(ps[j]["lle"] * ps[j]["periods"] for j in sea["starts"]) / sum(
+        ps[j]["periods"] for j in sea["starts"]
+    )
     assert abs(r.lle - mean) <= 1e-15
     assert "most" in r.stats["warning"] and "most starts" in r.stats["headline_rule"]
 
@@ -91,7 +106,10 @@ def test_finite_time_error_bar_covers_the_floquet_value(kw):
     assert ft["bias_bound"] > 0 and ft["stderr"] >= ft["bias_bound"]
     assert abs(ft["lle"] - r.lle) <= 3 * ft["stderr"], (ft["lle"], r.lle, ft)
     t = r.periods / r.initial_conditions * 2 * math.pi / float(Params.make(**kw).eta)
-    assert abs(ft["lle"] - r.lle) * t <= r.stats["attractors"][0]["bias_bound"] + 3 * ft["stderr_batch"] * t
+    assert (
+        abs(ft["lle"] - r.lle) * t
+        <= r.stats["attractors"][0]["bias_bound"] + 3 * ft["stderr_batch"] * t
+    )
 
 
 @pytest.mark.parametrize("method", ["variational", "fast", "two-trajectory"])
@@ -102,9 +120,28 @@ def test_cli_json_has_per_start_values_for_every_method(method):
     import subprocess
     import sys
 
-    out = subprocess.run([sys.executable, "-m", "precise_impact", "lle", "--zeta", "0", "--eta", "1.2",
-                          "--periods", "20000" if method != "two-trajectory" else "2000", "--transient", "1000",
-                          "--method", method, "--json"], capture_output=True, text=True, timeout=300)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "lle",
+            "--zeta",
+            "0",
+            "--eta",
+            "1.2",
+            "--periods",
+            "20000" if method != "two-trajectory" else "2000",
+            "--transient",
+            "1000",
+            "--method",
+            method,
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert out.returncode == 0, out.stderr
     obj = json.loads(out.stdout)
     ps, groups = obj["stats"]["per_start"], obj["stats"]["attractors"]
@@ -141,11 +178,20 @@ def test_chaotic_error_bars_cover_the_long_run_value_at_the_stated_rate():
     assert ref.stats["engine"] == "fast"
     z = []
     for i in range(100):
-        r = lyapunov(p.replace(x0=Fraction(i, 75) - 1), "fast", periods=20_000, transient=500, initial_conditions=4,
-                        segments=20)
+        r = lyapunov(
+            p.replace(x0=Fraction(i, 75) - 1),
+            "fast",
+            periods=20_000,
+            transient=500,
+            initial_conditions=4,
+            segments=20,
+        )
         z.append(abs(r.lle - ref.lle) / math.hypot(r.stderr, ref.stderr))
     z = np.array(z)
-    assert 0.52 <= float(np.mean(z < 1)) <= 0.82 and float(np.mean(z < 2)) >= 0.865, (np.mean(z < 1), np.mean(z < 2))
+    assert 0.52 <= float(np.mean(z < 1)) <= 0.82 and float(np.mean(z < 2)) >= 0.865, (
+        np.mean(z < 1),
+        np.mean(z < 2),
+    )
 
 
 def test_two_trajectory_reports_the_floquet_lle_on_a_periodic_attractor():
@@ -156,4 +202,7 @@ def test_two_trajectory_reports_the_floquet_lle_on_a_periodic_attractor():
     assert r.stats["lle_source"] == "floquet" and abs(r.lle - exact) < 1e-12
     assert abs(r.stats["finite_time"]["lle"] - exact) < 5 * r.stats["finite_time"]["stderr"]
     c = lyapunov(Params.make(), "two-trajectory", periods=500, transient=200)
-    assert c.stats["lle_source"] == "finite-time" and c.stats["attractors"][0]["kind"] == "not periodic"
+    assert (
+        c.stats["lle_source"] == "finite-time"
+        and c.stats["attractors"][0]["kind"] == "not periodic"
+    )

@@ -28,8 +28,18 @@ def test_grazing_frequency_closed_form_matches_amplitude_condition():
 
 def test_grid_is_exact_and_validated():
     grid = eta_grid("0.70", "0.74", 5)
-    assert grid == [Fraction(7, 10), Fraction(71, 100), Fraction(72, 100), Fraction(73, 100), Fraction(74, 100)]
-    for args, name in [(("0", "1", 3), "eta_min"), (("0.8", "0.7", 3), "eta_max"), (("0.7", "0.8", 0), "n")]:
+    assert grid == [
+        Fraction(7, 10),
+        Fraction(71, 100),
+        Fraction(72, 100),
+        Fraction(73, 100),
+        Fraction(74, 100),
+    ]
+    for args, name in [
+        (("0", "1", 3), "eta_min"),
+        (("0.8", "0.7", 3), "eta_max"),
+        (("0.7", "0.8", 0), "n"),
+    ]:
         with pytest.raises(ParameterError) as e:
             eta_grid(*args)
         assert e.value.name == name

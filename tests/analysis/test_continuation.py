@@ -22,8 +22,16 @@ EPS = 2.0**-52
 def nonimpacting():
     """The non-impacting orbit from eta = 0.6 to 1.3, through its virtual stretch."""
     ss = pi.steady_state(pi.Params.make(eta="0.6"))
-    return pi.continue_orbit(pi.Params.make(eta="0.6"), "eta", "0.6", "1.3", 1, guess=(ss.P, ss.eta * ss.Q),
-                             impacts=0, virtual=1)
+    return pi.continue_orbit(
+        pi.Params.make(eta="0.6"),
+        "eta",
+        "0.6",
+        "1.3",
+        1,
+        guess=(ss.P, ss.eta * ss.Q),
+        impacts=0,
+        virtual=1,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -46,12 +54,22 @@ def _only(res, kind, branch=0):
 def test_jacobian_of_the_shooting_system_is_exact():
     p = pi.Params.make(eta="0.74")
     o = pi.find_orbit(p, 3)
-    S = ShootingSystem({k: float(getattr(p, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")}, "eta", 3, o.impacts)
+    S = ShootingSystem(
+        {k: float(getattr(p, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")},
+        "eta",
+        3,
+        o.impacts,
+    )
     u = from_orbit(S, p, o.x, o.v, 0.74)
     G, J = S.residual(u, 0.74, jacobian=True)
     assert np.abs(G).max() < 1e-13  # the simulated orbit solves the impact-sequence system
     h = 1e-6
-    fd = np.column_stack([(S.residual(u + h * e, 0.74) - S.residual(u - h * e, 0.74)) / (2 * h) for e in np.eye(len(u))])
+    fd = np.column_stack(
+        [
+            (S.residual(u + h * e, 0.74) - S.residual(u - h * e, 0.74)) / (2 * h)
+            for e in np.eye(len(u))
+        ]
+    )
     # central differences: truncation h^2 |G'''| ~ 1e-11, rounding eps |G| / h ~ 1e-9
     assert np.abs(J - fd).max() < 1e-8 * (1 + np.abs(J).max())
     # its monodromy equals find_orbit's (the fast engine's orbit_map with the wall)
@@ -90,7 +108,9 @@ def test_period_doubling_located_and_confirmed(one_to_one):
     for d, stays in ((+2e-3, True), (-2e-3, False)):
         q = pi.Params.make(R="0.8", eta=Fraction(eta + d))
         o = pi.find_orbit(q, 1, guess=(pd.x[0], pd.v[0]))
-        tr = pi.simulate(q.replace(x0=Fraction(o.x) - Fraction(1, 10**6), v0=Fraction(o.v)), 3000, model="fast")
+        tr = pi.simulate(
+            q.replace(x0=Fraction(o.x) - Fraction(1, 10**6), v0=Fraction(o.v)), 3000, model="fast"
+        )
         dist = math.hypot(float(tr.x[-1]) - o.x, float(tr.v[-1]) - o.v)
         assert (dist < 1e-9) == stays, (d, dist)
 
@@ -102,7 +122,9 @@ def test_doubled_branch_is_a_true_period_2_orbit(one_to_one):
     k = int(np.argmax(b.admissible & (np.arange(len(b.values)) > 2)))
     eta = b.values[k]
     # an independent Newton (stroboscopic, the fast engine with the wall) from the branch's point
-    o = pi.find_orbit(pi.Params.make(R="0.8", eta=Fraction(eta)), 2, guess=(b.x[k, 0], b.v[k, 0]), impacts=2)
+    o = pi.find_orbit(
+        pi.Params.make(R="0.8", eta=Fraction(eta)), 2, guess=(b.x[k, 0], b.v[k, 0]), impacts=2
+    )
     assert abs(o.x - b.x[k, 0]) < 1e-11 and abs(o.v - b.v[k, 0]) < 1e-11
     assert abs(b.x[k, 0] - b.x[k, 1]) > 1e-4  # not the period-1 orbit counted twice
     mu = sorted(math.hypot(*m) for m in b.multipliers[k])
@@ -116,13 +138,19 @@ def test_grazing_of_period_3_located_by_tangency_and_confirmed(period3):
     # confirmation: just before, the orbit (Newton with the real wall) keeps 2 impacts; just
     # after, the continued orbit's point, simulated with the wall, meets a third impact
     d = 1e-5
-    before = pi.continue_orbit(pi.Params.make(eta="0.74"), "eta", "0.74", repr(eta - d), 3).branches[0]
-    after = pi.continue_orbit(pi.Params.make(eta="0.74"), "eta", "0.74", repr(eta + d), 3, virtual=1).branches[0]
+    before = pi.continue_orbit(
+        pi.Params.make(eta="0.74"), "eta", "0.74", repr(eta - d), 3
+    ).branches[0]
+    after = pi.continue_orbit(
+        pi.Params.make(eta="0.74"), "eta", "0.74", repr(eta + d), 3, virtual=1
+    ).branches[0]
     assert before.admissible[-1] and not after.admissible[-1]
     qb = pi.Params.make(eta=repr(eta - d))
     o = pi.find_orbit(qb, 3, guess=(before.x[-1, 0], before.v[-1, 0]))
     assert o.impacts == 2 and abs(o.x - before.x[-1, 0]) < 1e-11
-    qa = pi.Params.make(eta=repr(eta + d), x0=repr(float(after.x[-1, 0])), v0=repr(float(after.v[-1, 0])))
+    qa = pi.Params.make(
+        eta=repr(eta + d), x0=repr(float(after.x[-1, 0])), v0=repr(float(after.v[-1, 0]))
+    )
     tr = pi.simulate(qa, 3, model="fast")
     assert len(tr.impacts_t) == 3
 
@@ -132,7 +160,9 @@ def test_fold_of_the_one_to_one_orbits_against_the_closed_form():
     f = _only(res, "fold")
     assert min(abs(complex(*m) - 1) for m in f.multipliers) < 1e-10
     b = res.branches[0]
-    assert abs(b.values.max() - f.value) < 1e-3 and b.values[-1] == 0.6  # it turned back to the start
+    assert (
+        abs(b.values.max() - f.value) < 1e-3 and b.values[-1] == 0.6
+    )  # it turned back to the start
     # the closed-form 1:1 orbits: a pair just below the fold, none just above
     below = pi.one_impact_orbits(pi.Params.make(eta=Fraction(f.value - 1e-4)), dps=30)
     above = pi.one_impact_orbits(pi.Params.make(eta=Fraction(f.value + 1e-4)), dps=30)
@@ -148,28 +178,63 @@ def test_no_neimark_sacker_because_det_m_is_fixed(one_to_one):
         mu = b.multipliers[..., 0] + 1j * b.multipliers[..., 1]
         det = np.abs(mu[:, 0] * mu[:, 1])
         ok = b.admissible
-        assert np.allclose(det[ok], 0.8 ** (2 * b.impacts) * np.exp(-2 * 0.05 * b.period * T[ok]), rtol=1e-9)
+        assert np.allclose(
+            det[ok], 0.8 ** (2 * b.impacts) * np.exp(-2 * 0.05 * b.period * T[ok]), rtol=1e-9
+        )
     assert not any(x.type == "neimark-sacker" for x in one_to_one.bifurcations)
 
 
 def test_continue_cli_contract(tmp_path):
     out = tmp_path / "c"
-    r = subprocess.run([sys.executable, "-m", "precise_impact", "continue", "--param", "eta", "1", "0.95", "--R", "0.8",
-                        "--json", "--out", str(out), "--diagram", "20", "--doublings", "0"],
-                       capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "continue",
+            "--param",
+            "eta",
+            "1",
+            "0.95",
+            "--R",
+            "0.8",
+            "--json",
+            "--out",
+            str(out),
+            "--diagram",
+            "20",
+            "--doublings",
+            "0",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
     assert d["parameter"] == "eta" and d["branches"][0]["period"] == 1
     (pd,) = [b for b in d["bifurcations"] if b["type"] == "period-doubling"]
     assert abs(pd["eta"] - 0.96055686213853) < 1e-9
-    assert (out / "continuation.png").stat().st_size > 10_000 and json.loads((out / "continuation.json").read_text())
-    for argv, word in ((["--param", "x_w2", "1", "2"], "parameter"), (["--param", "R", "0.9", "1.2"], "R"),
-                       (["--param", "eta", "0.7", "0.8", "--eta", "0.7"], "eta"),
-                       (["--param", "eta", "0.7", "0.7"], "stop"), (["--param", "eta", "0.7", "0.8", "--period", "0"],
-                                                                     "period")):
-        r = subprocess.run([sys.executable, "-m", "precise_impact", "continue", *argv], capture_output=True, text=True,
-                           timeout=120)
-        assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (argv, r.stderr)
+    assert (out / "continuation.png").stat().st_size > 10_000 and json.loads(
+        (out / "continuation.json").read_text()
+    )
+    for argv, word in (
+        (["--param", "x_w2", "1", "2"], "parameter"),
+        (["--param", "R", "0.9", "1.2"], "R"),
+        (["--param", "eta", "0.7", "0.8", "--eta", "0.7"], "eta"),
+        (["--param", "eta", "0.7", "0.7"], "stop"),
+        (["--param", "eta", "0.7", "0.8", "--period", "0"], "period"),
+    ):
+        r = subprocess.run(
+            [sys.executable, "-m", "precise_impact", "continue", *argv],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (
+            argv,
+            r.stderr,
+        )
 
 
 def test_continuation_in_a_and_x_w_agree_by_scaling():
@@ -179,7 +244,9 @@ def test_continuation_in_a_and_x_w_agree_by_scaling():
     rx = pi.continue_orbit(pi.Params.make(eta="0.74"), "x_w", "2", "1.5", 3)
     ga, gx = _only(ra, "grazing"), _only(rx, "grazing")
     assert abs(2 / ga.value - gx.value) < 1e-12
-    assert np.allclose(sorted(m[0] for m in ga.multipliers), sorted(m[0] for m in gx.multipliers), atol=1e-10)
+    assert np.allclose(
+        sorted(m[0] for m in ga.multipliers), sorted(m[0] for m in gx.multipliers), atol=1e-10
+    )
 
 
 def test_continuation_in_R_lands_on_the_end_of_its_range():
@@ -196,17 +263,30 @@ def test_continuation_in_zeta_follows_the_closed_form():
     stops at steps <= 64 eps (1 + |y|) after quadratic convergence, so a point is the exact
     solution perturbed by the rounding of G (~100 eps over a flight of length T) times
     |G_u^-1| (~10 here): ~1e-13; 1e-10 is the bound asked, with room."""
-    res = pi.continue_orbit(pi.Params.make(R="0.8", eta="1"), "zeta", "0.05", "0.15", 1, doublings=0)
+    res = pi.continue_orbit(
+        pi.Params.make(R="0.8", eta="1"), "zeta", "0.05", "0.15", 1, doublings=0
+    )
     b = res.branches[0]
-    assert b.parameter == "zeta" and b.impacts == 1 and b.values.max() == 0.15 and b.values.min() == 0.05
+    assert (
+        b.parameter == "zeta"
+        and b.impacts == 1
+        and b.values.max() == 0.15
+        and b.values.min() == 0.05
+    )
     assert len(b.values) >= 10 and b.admissible.all()
     worst = 0.0
     for k, z in enumerate(b.values):
-        cf = pi.one_impact_orbits(pi.Params.make(R="0.8", eta="1", zeta=Fraction(float(z))), dps=30, grid=200)
+        cf = pi.one_impact_orbits(
+            pi.Params.make(R="0.8", eta="1", zeta=Fraction(float(z))), dps=30, grid=200
+        )
         best = min(max(abs(float(o.x) - b.x[k, 0]), abs(float(o.v) - b.v[k, 0])) for o in cf)
         worst = max(worst, best)
         # the closed-form multipliers are the branch's (|mu| the same to the same level)
         o = min(cf, key=lambda o: abs(float(o.x) - b.x[k, 0]))
-        assert np.allclose(sorted(abs(complex(m)) for m in o.multipliers),
-                           sorted(math.hypot(*m) for m in b.multipliers[k]), rtol=0, atol=1e-10)
+        assert np.allclose(
+            sorted(abs(complex(m)) for m in o.multipliers),
+            sorted(math.hypot(*m) for m in b.multipliers[k]),
+            rtol=0,
+            atol=1e-10,
+        )
     assert worst <= 1e-10, worst

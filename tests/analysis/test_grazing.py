@@ -44,10 +44,21 @@ import mpmath
 import numpy as np
 import pytest
 
-from precise_impact import AnalyticalSolver, HeyokaSolver, Params, Precision, oscillator_saltation, steady_state
+from precise_impact import (
+    AnalyticalSolver,
+    HeyokaSolver,
+    Params,
+    Precision,
+    oscillator_saltation,
+    steady_state,
+)
 from precise_impact.analysis.lyapunov import variational as var
 from precise_impact.analysis.lyapunov.batch import batch_lle
-from precise_impact.analysis.lyapunov.variational import MissedImpactError, build_variational_integrator, variational_spectrum
+from precise_impact.analysis.lyapunov.variational import (
+    MissedImpactError,
+    build_variational_integrator,
+    variational_spectrum,
+)
 from precise_impact.core.flow import acceleration, grazing_frequencies
 
 ZETA = 0.05
@@ -71,7 +82,9 @@ def position_error(P: Precision, p: Params, t: float) -> float:
 def graze_depth(P: Precision, p: Params, t: float) -> float:
     """The variational integrator's default grazing depth ``16 u (|x_w| + |a| + A_p (1 + eta |t|))``."""
     coef = float(var.grazing_depth_coefficient(P))
-    return coef * (abs(float(p.x_w)) + abs(float(p.a)) + var.steady_amplitude(p) * (1 + float(p.eta) * abs(t)))
+    return coef * (
+        abs(float(p.x_w)) + abs(float(p.a)) + var.steady_amplitude(p) * (1 + float(p.eta) * abs(t))
+    )
 
 
 def test_grazing_frequency_of_the_paper_parameters():
@@ -102,12 +115,16 @@ def segment_wise(p: Params, tr, backend: str, dps: int | None) -> tuple[float, i
         T = 2 * mpmath.pi / mpq(p.eta)
         t_end = P.to_mpf(tr.t[-1])
         for k, (tk, _, _) in enumerate(imps):
-            q = p.replace(x0=p.x_w, v0=P.to_fraction(tr.impacts_v_after[k]), t0=P.to_fraction(tr.impacts_t[k]))
+            q = p.replace(
+                x0=p.x_w, v0=P.to_fraction(tr.impacts_v_after[k]), t0=P.to_fraction(tr.impacts_t[k])
+            )
             t_next = imps[k + 1][0] if k + 1 < len(imps) else t_end
             a = an.solve(q, int(mpmath.ceil((t_next - tk) / T)) + 1)
             first = a.impacts_mpf()[:1]
             if k + 1 == len(imps):
-                assert not first or first[0][0] > t_end, "the robust finder found an impact after heyoka's last"
+                assert not first or first[0][0] > t_end, (
+                    "the robust finder found an impact after heyoka's last"
+                )
                 continue
             tn, vn, _ = imps[k + 1]
             assert first, f"heyoka impact at t = {float(tn)} (v- = {float(vn):.3g}) not confirmed"
@@ -180,8 +197,13 @@ def taylor_step_around(p: Params, ts, xs, vs, t_target, P: Precision) -> tuple:
         x, v = hy.make_vars("x", "v")
         rhs = acceleration(hy.time, x, v, hy.par[0], hy.par[1], hy.par[2], hy.cos)
         zero = P.from_fraction(Fraction(0))
-        ta = _SMOOTH[P.name] = hy.taylor_adaptive([(x, v), (v, rhs)], [zero, zero], pars=[zero] * 3,
-                                                  compact_mode=P.kind == "mp", **P.heyoka_kwargs)
+        ta = _SMOOTH[P.name] = hy.taylor_adaptive(
+            [(x, v), (v, rhs)],
+            [zero, zero],
+            pars=[zero] * 3,
+            compact_mode=P.kind == "mp",
+            **P.heyoka_kwargs,
+        )
     ta.pars[:] = P.array([P.from_fraction(q) for q in (p.eta, p.zeta, p.a)])
     ta.state[:] = P.array([P.from_fraction(xs), P.from_fraction(vs)])
     ta.time = P.from_fraction(ts)
@@ -196,7 +218,13 @@ def taylor_step_around(p: Params, ts, xs, vs, t_target, P: Precision) -> tuple:
     "precision, delta",
     # the smallest depths stay above the grazing depth 16 u (|x_w| + |a| + A_p (1 + eta t))
     # (~2e-14 in float64, ~2e-75 at 256 bits), below which an event is a contact by design
-    [("float64", "1e-8"), ("float64", "1e-11"), ("float64", "1e-13"), ("mp:256", "1e-30"), ("mp:256", "1e-60")],
+    [
+        ("float64", "1e-8"),
+        ("float64", "1e-11"),
+        ("float64", "1e-13"),
+        ("mp:256", "1e-30"),
+        ("mp:256", "1e-60"),
+    ],
 )
 def test_excursion_shorter_than_a_taylor_step_is_found(precision, delta):
     """x_w just below a maximum of a smooth arc: the event polynomial x - x_w has two
@@ -207,7 +235,14 @@ def test_excursion_shorter_than_a_taylor_step_is_found(precision, delta):
     P = Precision.parse(precision)
     p0 = Params.make(eta="0.74", x_w="5")
     n_found = 0
-    for ts in (Fraction(0), Fraction(1, 7), Fraction(3, 10), Fraction(5, 9), Fraction(9, 8), Fraction(3, 2)):
+    for ts in (
+        Fraction(0),
+        Fraction(1, 7),
+        Fraction(3, 10),
+        Fraction(5, 9),
+        Fraction(9, 8),
+        Fraction(3, 2),
+    ):
         xs, vs, t_max, x_max, cf = arc_from(p0, ts, P)
         with mpmath.workdps(100):
             xw = P.to_fraction(P.from_mpf(x_max - mpmath.mpf(delta)))  # representable wall
@@ -226,7 +261,9 @@ def test_excursion_shorter_than_a_taylor_step_is_found(precision, delta):
         with mpmath.workdps(100):
             assert abs(first[0] - t_in) <= tol, (float(ts), float(first[0]), float(t_in), tol)
             assert abs(first[1] - v_in) <= 2 * abs(mpmath.mpf(-1.2187)) * tol + 1e-3 * v_in
-        assert tr.n_impacts >= 2 and float(tr.impacts_t[1]) > float(t_out) + 1  # next arc, not the exit
+        assert (
+            tr.n_impacts >= 2 and float(tr.impacts_t[1]) > float(t_out) + 1
+        )  # next arc, not the exit
         n_found += 1
     assert n_found == 6
 
@@ -255,7 +292,11 @@ def test_rounding_level_excursion_is_a_contact():
     p = Params.make(eta="0.74", x_w=xw)
     graze_v = math.sqrt(2 * abs(float(acc)) * graze_depth(P, p, 2.3))
     h64 = HeyokaSolver("float64").solve(p, 1)
-    assert h64.n_impacts == 0 or float(h64.impacts_t[0]) > float(t_max) + 1 or float(h64.impacts_v_before[0]) <= graze_v
+    assert (
+        h64.n_impacts == 0
+        or float(h64.impacts_t[0]) > float(t_max) + 1
+        or float(h64.impacts_v_before[0]) <= graze_v
+    )
     a64 = AnalyticalSolver().solve(p, 1)
     assert a64.stats["grazing"] >= 1 and float(a64.impacts_t[0]) > float(t_max) + 1
     d = variational_spectrum(p, periods=1, transient=0, initial_conditions=1, segments=2).stats
@@ -350,7 +391,9 @@ def monodromy_lle(p: Params, dps: int = 100) -> tuple[mpmath.mpf, list]:
         imps = ref.impacts_mpf()
         for tc, vb, _ in imps:
             M = mpmath.expm(A * (tc - tp)) * M
-            S = oscillator_saltation(tc, vb, mpq(p.eta), mpq(p.zeta), mpq(p.a), mpq(p.x_w), mpq(p.R), mpmath.cos)
+            S = oscillator_saltation(
+                tc, vb, mpq(p.eta), mpq(p.zeta), mpq(p.a), mpq(p.x_w), mpq(p.R), mpmath.cos
+            )
             M = mpmath.matrix(S) * M
             tp = tc
         M = mpmath.expm(A * (T - tp)) * M
@@ -359,7 +402,13 @@ def monodromy_lle(p: Params, dps: int = 100) -> tuple[mpmath.mpf, list]:
 
 @pytest.mark.parametrize(
     "precision, delta",
-    [("float64", "1e-8"), ("float64", "1e-10"), ("float64", "1e-12"), ("mp:256", "1e-30"), ("mp:256", "1e-60")],
+    [
+        ("float64", "1e-8"),
+        ("float64", "1e-10"),
+        ("float64", "1e-12"),
+        ("mp:256", "1e-30"),
+        ("mp:256", "1e-60"),
+    ],
 )
 def test_huge_saltation_gives_the_monodromy_lle(precision, delta):
     """One near-grazing impact in the first period (wall ``delta`` below the first
@@ -379,8 +428,12 @@ def test_huge_saltation_gives_the_monodromy_lle(precision, delta):
         xw = P.to_fraction(P.from_mpf(x_max - mpmath.mpf(delta)))
     p = Params.make(eta="0.74", x_w=xw)
     lam_ref, imps = monodromy_lle(p)
-    assert len(imps) == 2 and abs(float(imps[0][1]) - math.sqrt(2 * 1.2187 * float(delta))) < 1e-2 * float(imps[0][1])
-    r = variational_spectrum(p, periods=1, transient=0, initial_conditions=1, segments=2, precision=precision)
+    assert len(imps) == 2 and abs(
+        float(imps[0][1]) - math.sqrt(2 * 1.2187 * float(delta))
+    ) < 1e-2 * float(imps[0][1])
+    r = variational_spectrum(
+        p, periods=1, transient=0, initial_conditions=1, segments=2, precision=precision
+    )
     d = r.stats
     T = 2 * math.pi / 0.74
     u, u64 = unit_roundoff(P), 2.0**-53
@@ -388,7 +441,9 @@ def test_huge_saltation_gives_the_monodromy_lle(precision, delta):
     assert abs(d["max_saltation"] / (2 * 1.2187 / float(imps[0][1])) - 1) < 1e-3
     tol = position_error(P, p, 2.3) / (2 * float(delta)) + 8 * u64 * abs(r.lle * T)
     assert abs(r.lle - float(lam_ref)) * T <= tol, (r.lle, float(lam_ref), tol)
-    assert abs(sum(r.spectrum) + 2 * ZETA) * T <= 8 * max(u, u64) * d["max_saltation"] * r.impacts + 8 * u64 * abs(r.lle * T)
+    assert abs(sum(r.spectrum) + 2 * ZETA) * T <= 8 * max(u, u64) * d[
+        "max_saltation"
+    ] * r.impacts + 8 * u64 * abs(r.lle * T)
 
 
 # ----------------------------------------------------------------------------- exact grazing
@@ -425,7 +480,9 @@ def test_exactly_grazing_orbit_lle_is_minus_zeta(precision, periods):
     T = 2 * math.pi / 0.70
     t = periods * T
     bound = math.log(1 + 2 * ZETA / math.sqrt(1 - ZETA**2)) / t
-    r = variational_spectrum(p, periods=periods, transient=0, initial_conditions=1, precision=precision)
+    r = variational_spectrum(
+        p, periods=periods, transient=0, initial_conditions=1, precision=precision
+    )
     d = r.stats
     delta = graze_depth(P, p, var.CHUNK * T)  # taken at the last clock value of a chunk
     v_graze = math.sqrt(2 * 0.70**2 * A * delta)
@@ -433,8 +490,9 @@ def test_exactly_grazing_orbit_lle_is_minus_zeta(precision, periods):
     assert abs(r.spectrum[0] + ZETA) <= bound and abs(r.spectrum[1] + ZETA) <= bound
     assert d["grazing"] >= 1 and 0 < d["max_contact_speed"] <= v_graze
     assert -delta <= d["max_overshoot"] <= 4 * delta
-    r0 = variational_spectrum(p, periods=periods, transient=0, initial_conditions=1, precision=precision,
-                              grazing_depth=0)
+    r0 = variational_spectrum(
+        p, periods=periods, transient=0, initial_conditions=1, precision=precision, grazing_depth=0
+    )
     raw = r0.stats
     assert raw["grazing"] == 0 and raw["max_saltation"] > 1e7 and r0.lle > 0.01
 
@@ -452,7 +510,9 @@ def test_exactly_grazing_orbit_solvers():
     h = HeyokaSolver().solve(p, 500)
     assert h.n_impacts == 0 and h.stats["grazing"] >= 1
     # both on the closed-form steady state at the end (transient ~ e^{-zeta t} gone)
-    assert abs(float(h.x[-1]) - float(a.x[-1])) < 1e-9 and abs(float(h.v[-1]) - float(a.v[-1])) < 1e-9
+    assert (
+        abs(float(h.x[-1]) - float(a.x[-1])) < 1e-9 and abs(float(h.v[-1]) - float(a.v[-1])) < 1e-9
+    )
 
 
 def test_batch_lle_grazing_orbit_and_near_grazing_lanes():
@@ -465,7 +525,11 @@ def test_batch_lle_grazing_orbit_and_near_grazing_lanes():
     res = batch_lle(pts, periods=2000, transient=0, batch_size=4)
     t = 2000 * 2 * math.pi / 0.70
     bound = math.log(1 + 2 * ZETA / math.sqrt(1 - ZETA**2)) / t
-    assert abs(res[0]["lle"] + ZETA) <= bound and res[0]["impacts_per_period"] == 0 and res[0]["grazing"] >= 1
+    assert (
+        abs(res[0]["lle"] + ZETA) <= bound
+        and res[0]["impacts_per_period"] == 0
+        and res[0]["grazing"] >= 1
+    )
     for r in res[1:]:
         assert math.isfinite(r["lle"]) and r["impacts_per_period"] > 0.5 and r["grazing"] == 0
         assert abs(r["lle"] + r["lambda2"] + 2 * ZETA) < 1e-12

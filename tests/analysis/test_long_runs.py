@@ -71,12 +71,23 @@ def chunked_run(p: Params, chunks: int, chunk_periods: int = 10_000, per_period:
         v_ok &= bool(len(ti) == 0 or (ti[0] > last_t and np.all(np.diff(ti) > 0)))
         if len(ti):
             last_t = ti[-1]
-        max_excess = max(max_excess, float(np.max(tr.dense_x)) - float(p.x_w), float(np.max(tr.x)) - float(p.x_w))
+        max_excess = max(
+            max_excess, float(np.max(tr.dense_x)) - float(p.x_w), float(np.max(tr.x)) - float(p.x_w)
+        )
         impacts.append(tr.n_impacts)
-        q = q.replace(x0=P.to_fraction(tr.x[-1]), v0=P.to_fraction(tr.v[-1]), t0=P.to_fraction(tr.t[-1]))
+        q = q.replace(
+            x0=P.to_fraction(tr.x[-1]), v0=P.to_fraction(tr.v[-1]), t0=P.to_fraction(tr.t[-1])
+        )
         del tr
-    return {"wall": np.array(wall), "prop": np.array(prop), "impacts": np.array(impacts), "steps": np.array(steps),
-            "max_excess": max_excess, "invariants": v_ok, "t_end": float(q.t0)}
+    return {
+        "wall": np.array(wall),
+        "prop": np.array(prop),
+        "impacts": np.array(impacts),
+        "steps": np.array(steps),
+        "max_excess": max_excess,
+        "invariants": v_ok,
+        "t_end": float(q.t0),
+    }
 
 
 def check_long_run(chunks: int, chunk_periods: int, slowdown: float, rss_growth_mb: float) -> dict:
@@ -158,12 +169,19 @@ def test_variational_1e6_periods():
     The local clock keeps |t| below one period, so nothing in the run depends on
     its length (time per period: module docstring)."""
     t0 = time.perf_counter()
-    r = variational_spectrum(Params.make(eta="0.712"), periods=1_000_000, transient=100, initial_conditions=1,
-                             segments=100)
+    r = variational_spectrum(
+        Params.make(eta="0.712"),
+        periods=1_000_000,
+        transient=100,
+        initial_conditions=1,
+        segments=100,
+    )
     d = r.stats
     elapsed = time.perf_counter() - t0
-    print(f"\nvariational 10^6 periods: {elapsed:.1f} s ({elapsed:.1f} us/period), LLE {r.lle:.5f} "
-          f"+- {r.stderr:.5f}, max per-period log {d['max_period_log']:.2f}")
+    print(
+        f"\nvariational 10^6 periods: {elapsed:.1f} s ({elapsed:.1f} us/period), LLE {r.lle:.5f} "
+        f"+- {r.stderr:.5f}, max per-period log {d['max_period_log']:.2f}"
+    )
     assert d["finite_logs"] and d["missed"] == 0
     assert abs(sum(r.spectrum) + 2 * ZETA) <= 1e-12
     assert abs(r.lle - 0.030) < 0.002

@@ -46,7 +46,9 @@ def test_closed_form_is_a_fixed_point_of_the_heyoka_map():
     (cf,) = one_impact_orbits(p, dps=60)
     q = p.replace(x0=str(cf.x), v0=str(cf.v))
     tr = simulate(q, 20, precision="mp:192")
-    assert abs(float(tr.x[-1]) - float(cf.x)) <= 1e-40 and abs(float(tr.v[-1]) - float(cf.v)) <= 1e-40
+    assert (
+        abs(float(tr.x[-1]) - float(cf.x)) <= 1e-40 and abs(float(tr.v[-1]) - float(cf.v)) <= 1e-40
+    )
     assert tr.n_impacts == 20
 
 
@@ -126,7 +128,16 @@ def test_orbits_serialise():
     with mpmath.workdps(50):
         assert abs(mpmath.mpf(d["state"]["x"]) - cf.x) <= mpmath.mpf(10) ** -45
     nw = find_orbit(Params.make(R="0.8", eta="1"), 1).to_dict()
-    assert set(nw) >= {"params", "period", "impacts", "state", "multipliers", "stable", "lle", "residual"}
+    assert set(nw) >= {
+        "params",
+        "period",
+        "impacts",
+        "state",
+        "multipliers",
+        "stable",
+        "lle",
+        "residual",
+    }
     assert isinstance(nw["state"]["x"], float) and len(nw["multipliers"]) == 2
 
 

@@ -32,7 +32,9 @@ def test_area_preserving_orbits_are_elliptic_without_neimark_sacker():
     and no Neimark-Sacker point may be reported."""
     p = Params.make(zeta="0", R="1", eta="1.3", t0="1")
     res = pi.continue_orbit(p, "eta", "1.3", "1.6", 1)
-    assert not any(b.type == "neimark-sacker" for b in res.bifurcations), [(b.type, b.value) for b in res.bifurcations]
+    assert not any(b.type == "neimark-sacker" for b in res.bifurcations), [
+        (b.type, b.value) for b in res.bifurcations
+    ]
     b = res.branches[0]
     assert b.values.max() == 1.6 and b.impacts == 1
     mu = b.multipliers[..., 0] + 1j * b.multipliers[..., 1]
@@ -47,7 +49,12 @@ def test_area_preserving_orbits_are_elliptic_without_neimark_sacker():
     assert set(d["stability"]) == {"elliptic"} and d["stable"] == [False] * len(b.values)
     # the same classification from Newton and from the closed form
     o = find_orbit(p, 1, guess=(b.x[0, 0], b.v[0, 0]))
-    assert o.stability == "elliptic" and not o.stable and o.lle == 0.0 and o.to_dict()["stability"] == "elliptic"
+    assert (
+        o.stability == "elliptic"
+        and not o.stable
+        and o.lle == 0.0
+        and o.to_dict()["stability"] == "elliptic"
+    )
     cf = one_impact_orbits(p, dps=30)
     assert cf and all(c.stability in ("elliptic", "unstable") for c in cf)
     assert any(c.stability == "elliptic" and abs(float(c.x) - o.x) < 1e-12 for c in cf)
@@ -76,7 +83,10 @@ def test_one_to_two_orbit_closed_form_equals_newton_and_heyoka():
     with mpmath.workdps(60):
         T = 2 * mpmath.pi / mpmath.mpf("0.9")
         det = cf.multipliers[0] * cf.multipliers[1]
-        assert abs(det - mpmath.mpf("0.64") * mpmath.exp(-2 * mpmath.mpf("0.05") * 2 * T)) < mpmath.mpf(10) ** -55
+        assert (
+            abs(det - mpmath.mpf("0.64") * mpmath.exp(-2 * mpmath.mpf("0.05") * 2 * T))
+            < mpmath.mpf(10) ** -55
+        )
     # auto seeding (impacts=1) finds the same orbit; an explicit guess elsewhere also converges to it
     auto = find_orbit(p, 2, impacts=1, seed="auto")
     assert abs(auto.x - nw.x) <= 1e-12
@@ -114,24 +124,47 @@ def test_multiprecision_newton_converges_quadratically():
 def test_orbit_cli_seed_and_json_state_types():
     """``--impacts 1`` seeds from the closed form; state.x, state.v are JSON numbers in float64
     (exact round trip) and decimal strings at mp:BITS (documented in --help)."""
-    base = [sys.executable, "-m", "precise_impact", "orbit", "--R", "0.8", "--eta", "0.9", "--period", "2"]
-    r = subprocess.run(base + ["--impacts", "1", "--json"], capture_output=True, text=True, timeout=120)
+    base = [
+        sys.executable,
+        "-m",
+        "precise_impact",
+        "orbit",
+        "--R",
+        "0.8",
+        "--eta",
+        "0.9",
+        "--period",
+        "2",
+    ]
+    r = subprocess.run(
+        base + ["--impacts", "1", "--json"], capture_output=True, text=True, timeout=120
+    )
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
     assert isinstance(d["state"]["x"], float) and isinstance(d["state"]["v"], float)
     assert d["impacts"] == 1 and d["stability"] == "stable"
     (cf,) = one_impact_orbits(Params.make(R="0.8", eta="0.9"), dps=30, period=2)
     assert abs(d["state"]["x"] - float(cf.x)) <= 1e-12
-    r = subprocess.run(base + ["--seed", "closed-form", "--precision", "mp:128", "--json"], capture_output=True,
-                       text=True, timeout=120)
+    r = subprocess.run(
+        base + ["--seed", "closed-form", "--precision", "mp:128", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
     m = json.loads(r.stdout)
     assert isinstance(m["state"]["x"], str) and isinstance(m["state"]["v"], str)
     (cf,) = one_impact_orbits(Params.make(R="0.8", eta="0.9"), dps=60, period=2)
     with mpmath.workdps(60):
         assert abs(mpmath.mpf(m["state"]["x"]) - cf.x) < mpmath.mpf(2) ** -120
-    h = subprocess.run([sys.executable, "-m", "precise_impact", "orbit", "--help"], capture_output=True, text=True,
-                       timeout=60)
+    h = subprocess.run(
+        [sys.executable, "-m", "precise_impact", "orbit", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert "decimal" in h.stdout and "closed-form" in h.stdout
-    r = subprocess.run(base[:-1] + ["3", "--seed", "closed-form"], capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        base[:-1] + ["3", "--seed", "closed-form"], capture_output=True, text=True, timeout=60
+    )
     assert r.returncode != 0 and "closed-form" in r.stderr

@@ -17,7 +17,9 @@ FIELDS = ("lle", "stderr", "lambda2", "period", "impacts_per_period")
 def small_spec(**kw):
     base = dict(periods=200, transient=100, tile_size=4)
     base.update(kw)
-    return SweepSpec.make(Params.make(), [("eta", "0.70", "0.75", 4), ("x_w", "1.9", "2.1", 3)], **base)
+    return SweepSpec.make(
+        Params.make(), [("eta", "0.70", "0.75", 4), ("x_w", "1.9", "2.1", 3)], **base
+    )
 
 
 def same(a, b):
@@ -114,6 +116,7 @@ def test_validation(axes, name):
 
 # --- sweep state that cannot lie (issue 12, item 5) ---------------------------------
 
+
 def _tiny_spec(**kw):
     base = dict(periods=60, transient=20, tile_size=2)
     base.update(kw)
@@ -124,7 +127,9 @@ def _tile(out, t):
     return out / "tiles" / f"tile_{t:05d}.npz"
 
 
-@pytest.mark.parametrize("damage", ["copy-other-tile", "truncate", "empty", "flip-bit", "foreign", "garbage"])
+@pytest.mark.parametrize(
+    "damage", ["copy-other-tile", "truncate", "empty", "flip-bit", "foreign", "garbage"]
+)
 def test_damaged_or_foreign_tile_is_recomputed_with_a_line(tmp_path, capsys, damage):
     spec = _tiny_spec()
     good = run_sweep(spec, tmp_path / "good", workers=1, progress=False)
@@ -183,7 +188,9 @@ def test_one_writer_per_out_directory(tmp_path):
     from precise_impact.io.lock import DirectoryLock
 
     spec = _tiny_spec()
-    with DirectoryLock(tmp_path, "out"):  # another writer holds it (a separate open file: flock conflicts)
+    with DirectoryLock(
+        tmp_path, "out"
+    ):  # another writer holds it (a separate open file: flock conflicts)
         with pytest.raises(ParameterError) as e:
             run_sweep(spec, tmp_path, workers=1, progress=False)
         assert e.value.name == "out" and f"pid {__import__('os').getpid()}" in str(e.value)
@@ -197,8 +204,10 @@ def test_lock_left_by_a_killed_process_is_stale(tmp_path):
 
     from precise_impact.io.lock import LOCK_NAME, DirectoryLock
 
-    code = ("import os,sys; from precise_impact.io.lock import DirectoryLock; "
-            f"DirectoryLock({str(tmp_path)!r}).acquire(); os.kill(os.getpid(), 9)")
+    code = (
+        "import os,sys; from precise_impact.io.lock import DirectoryLock; "
+        f"DirectoryLock({str(tmp_path)!r}).acquire(); os.kill(os.getpid(), 9)"
+    )
     assert subprocess.run([sys.executable, "-c", code]).returncode == -9
     assert (tmp_path / LOCK_NAME).read_text()  # the dead holder's record is still there
     lock = DirectoryLock(tmp_path).acquire()

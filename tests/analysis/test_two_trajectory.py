@@ -126,7 +126,12 @@ def test_float64_float128_consistent_error_bars():
     a = two_trajectory_lle(p, periods=1500, transient=200, precision="float64")
     b = two_trajectory_lle(p, periods=1500, transient=200, precision="float128")
     assert b.precision == "float128"
-    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.stderr, b.stderr), (a.lle, a.stderr, b.lle, b.stderr)
+    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.stderr, b.stderr), (
+        a.lle,
+        a.stderr,
+        b.lle,
+        b.stderr,
+    )
 
 
 # ------------------------------------------------------------- straddled impact
@@ -146,12 +151,16 @@ def _start_hitting_wall_at(p: Params, t1, v_hit) -> tuple[str, str]:
             return e * (A * c + B * s), e * ((-z * A + w * B) * c + (-z * B - w * A) * s)
 
         xp, vp = ss.at(t1)
-        M = mpmath.matrix([[hom(t1, 1, 0)[0], hom(t1, 0, 1)[0]], [hom(t1, 1, 0)[1], hom(t1, 0, 1)[1]]])
+        M = mpmath.matrix(
+            [[hom(t1, 1, 0)[0], hom(t1, 0, 1)[0]], [hom(t1, 1, 0)[1], hom(t1, 0, 1)[1]]]
+        )
         x_w = mpmath.mpf(p.x_w.numerator) / p.x_w.denominator
         A, B = mpmath.lu_solve(M, mpmath.matrix([x_w - xp, v_hit - vp]))
         # No earlier impact: clear of the wall until the final approach (the last
         # 0.5 time units, where x rises monotonically to x_w at v ~ v_hit).
-        xs = [ss.at(t)[0] + hom(t, A, B)[0] for t in mpmath.linspace(0, t1 - mpmath.mpf("0.5"), 2000)]
+        xs = [
+            ss.at(t)[0] + hom(t, A, B)[0] for t in mpmath.linspace(0, t1 - mpmath.mpf("0.5"), 2000)
+        ]
         assert max(xs) < 1.99
         x0, v0 = ss.at(0)[0] + hom(0, A, B)[0], ss.at(0)[1] + hom(0, A, B)[1]
         return mpmath.nstr(x0, 30), mpmath.nstr(v0, 30)
@@ -205,7 +214,12 @@ def test_progress_goes_to_stderr(capsys):
     assert out.out == ""
     lines = out.err.strip().splitlines()
     # throttled (io.progress: a line at most every 5 s off a terminal), first and last count shown
-    assert 2 <= len(lines) < 10 and "1/50" in lines[0] and "50/50" in lines[-1] and "lle ~" in lines[-1]
+    assert (
+        2 <= len(lines) < 10
+        and "1/50" in lines[0]
+        and "50/50" in lines[-1]
+        and "lle ~" in lines[-1]
+    )
     assert math.isfinite(r.lle)
 
 
@@ -245,7 +259,9 @@ def test_validation(kwargs, name):
 
 def test_validation_params_type():
     with pytest.raises(ParameterError) as exc:
-        two_trajectory_lle("eta = 0.712")  # a mapping {"eta": "0.712"} is accepted (as_params); text is not
+        two_trajectory_lle(
+            "eta = 0.712"
+        )  # a mapping {"eta": "0.712"} is accepted (as_params); text is not
     assert exc.value.name == "params"
 
 

@@ -25,8 +25,13 @@ def test_non_impacting_orbit_has_lle_minus_zeta(precision):
     attractors=False: the integrator's own estimate (else the exact Floquet value replaces it).
     """
     p = Params.make(eta="0.70")
-    r = variational_spectrum(p, periods=2000 if precision == "float64" else 300, transient=3000, precision=precision,
-                             attractors=False)
+    r = variational_spectrum(
+        p,
+        periods=2000 if precision == "float64" else 300,
+        transient=3000,
+        precision=precision,
+        attractors=False,
+    )
     assert "lle_source" not in r.stats
     assert r.impacts == 0
     t = r.periods / r.initial_conditions * 2 * math.pi / 0.7  # each orbit's own duration
@@ -73,7 +78,9 @@ def test_period3_lle_equals_floquet_multipliers():
         t_prev = t_start
         for tc, vb in imps:
             M = mpmath.expm(A * (tc - t_prev)) * M
-            S = oscillator_saltation(tc, vb, mpq(p.eta), mpq(p.zeta), mpq(p.a), mpq(p.x_w), mpq(p.R), mpmath.cos)
+            S = oscillator_saltation(
+                tc, vb, mpq(p.eta), mpq(p.zeta), mpq(p.a), mpq(p.x_w), mpq(p.R), mpmath.cos
+            )
             M = mpmath.matrix(S) * M
             t_prev = tc
         M = mpmath.expm(A * (t_start + 3 * T - t_prev)) * M
@@ -105,7 +112,9 @@ def test_contracting_impacting_orbits_stay_finite(eta):
 def test_contracting_non_impacting_after_10000_periods_is_finite():
     """attractors=False: the integrator's own estimate; its offset from -zeta is below
     ln(1 + 2 zeta / omega_d) / t = 8e-5 for 125 periods per start (as above); 1e-3 as before."""
-    r = variational_spectrum(Params.make(eta="0.70"), periods=500, transient=10000, attractors=False)
+    r = variational_spectrum(
+        Params.make(eta="0.70"), periods=500, transient=10000, attractors=False
+    )
     assert "lle_source" not in r.stats
     assert math.isfinite(r.lle) and abs(r.lle + 0.05) < 1e-3
 
@@ -135,7 +144,12 @@ def test_two_methods_agree_within_error_bars():
     p = Params.make(eta="0.712")
     a = lyapunov(p, "variational")
     b = lyapunov(p, "two-trajectory")
-    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.stderr, b.stderr), (a.lle, a.stderr, b.lle, b.stderr)
+    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.stderr, b.stderr), (
+        a.lle,
+        a.stderr,
+        b.lle,
+        b.stderr,
+    )
 
 
 def test_plastic_impacts_r0():

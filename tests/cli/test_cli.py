@@ -25,7 +25,16 @@ def test_simulate_json_contract():
     assert r.returncode == 0, r.stderr
     obj = json.loads(r.stdout)  # exactly one JSON object
     assert set(obj) == {"params", "model", "precision", "tol", "samples", "impacts", "elapsed_s"}
-    assert obj["params"] == {"zeta": "0.05", "a": "1", "eta": "0.74", "x_w": "2", "R": "1", "x0": "0", "v0": "0", "t0": "0"}
+    assert obj["params"] == {
+        "zeta": "0.05",
+        "a": "1",
+        "eta": "0.74",
+        "x_w": "2",
+        "R": "1",
+        "x0": "0",
+        "v0": "0",
+        "t0": "0",
+    }
     assert obj["model"] == "heyoka" and obj["precision"] == "float128"
     assert [s["period"] for s in obj["samples"]] == list(range(13))
     assert isinstance(obj["elapsed_s"], float)
@@ -72,7 +81,24 @@ def test_bad_input_exit_2_no_traceback(args, name):
 
 def test_out_files(tmp_path, capsys):
     npz, csv = tmp_path / "a.npz", tmp_path / "a.csv"
-    assert main(["simulate", "--eta", "0.74", "--periods", "6", "--precision", "mp:128", "--dense", "10", "--out", str(npz)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "--eta",
+                "0.74",
+                "--periods",
+                "6",
+                "--precision",
+                "mp:128",
+                "--dense",
+                "10",
+                "--out",
+                str(npz),
+            ]
+        )
+        == 0
+    )
     assert main(["simulate", "--eta", "0.74", "--periods", "6", "--out", str(csv)]) == 0
     d = np.load(npz)
     tr = simulate(Params.make(eta="0.74"), 6, precision="mp:128")
@@ -94,7 +120,11 @@ def test_accuracy_job(tmp_path):
     assert (tmp_path / "accuracy.png").stat().st_size > 10_000
     refs = [row for row in res["rows"] if row["role"] != "candidate"]
     assert len(refs) == 3 and all(row["max_error"] < 1e-40 for row in refs)
-    f64 = {row["eta"]: row["max_error"] for row in res["rows"] if row["model"] == "heyoka" and row["precision"] == "float64"}
+    f64 = {
+        row["eta"]: row["max_error"]
+        for row in res["rows"]
+        if row["model"] == "heyoka" and row["precision"] == "float64"
+    }
     assert f64["0.74"] < 1e-12
     fast = {row["eta"]: row["max_error"] for row in res["rows"] if row["model"] == "fast"}
     assert fast["0.74"] < 1e-12  # the compiled engine scored like every model: float64 accuracy
@@ -104,12 +134,29 @@ def test_lle_json_contract():
     r = run("lle", "--eta", "0.70", "--periods", "300", "--transient", "3000", "--json")
     assert r.returncode == 0, r.stderr
     obj = json.loads(r.stdout)
-    assert set(obj) == {"params", "method", "lle", "spectrum", "stderr", "periods", "impacts", "elapsed_s", "stats"}
+    assert set(obj) == {
+        "params",
+        "method",
+        "lle",
+        "spectrum",
+        "stderr",
+        "periods",
+        "impacts",
+        "elapsed_s",
+        "stats",
+    }
     assert obj["method"] == "variational" and obj["periods"] == 300 and obj["impacts"] == 0
     assert abs(obj["lle"] + 0.05) < 1e-3 and abs(sum(obj["spectrum"]) + 0.1) < 1e-12
 
 
-@pytest.mark.parametrize("args, name", [(["--method", "qr"], "method"), (["--transient", "-1"], "transient"), (["--periods", "0"], "periods")])
+@pytest.mark.parametrize(
+    "args, name",
+    [
+        (["--method", "qr"], "method"),
+        (["--transient", "-1"], "transient"),
+        (["--periods", "0"], "periods"),
+    ],
+)
 def test_lle_bad_input(args, name):
     r = run("lle", *args)
     assert r.returncode == 2 and r.stderr.startswith(f"precise-impact: error: {name} = ")
@@ -121,17 +168,34 @@ def test_orbit_json_contract():
     r = run("orbit", "--eta", "0.74", "--period", "3", "--json")
     assert r.returncode == 0, r.stderr
     obj = json.loads(r.stdout)
-    assert {"params", "period", "impacts", "state", "multipliers", "stable", "lle", "residual"} <= set(obj)
+    assert {
+        "params",
+        "period",
+        "impacts",
+        "state",
+        "multipliers",
+        "stable",
+        "lle",
+        "residual",
+    } <= set(obj)
     assert obj["period"] == 3 and obj["impacts"] == 2 and obj["stable"] is True
     assert set(obj["state"]) == {"t", "x", "v"} and all(len(m) == 2 for m in obj["multipliers"])
     assert obj["residual"] < 1e-13
 
 
-@pytest.mark.parametrize("args, name, code", [(["--period", "0"], "period", 2), (["--impacts", "-2"], "impacts", 2),
-                                              (["--guess", "9", "0"], "guess[0]", 2)])
+@pytest.mark.parametrize(
+    "args, name, code",
+    [
+        (["--period", "0"], "period", 2),
+        (["--impacts", "-2"], "impacts", 2),
+        (["--guess", "9", "0"], "guess[0]", 2),
+    ],
+)
 def test_orbit_bad_input(args, name, code):
     r = run("orbit", "--eta", "0.74", *args)
-    assert r.returncode == code and r.stderr.startswith(f"precise-impact: error: {name} = "), r.stderr
+    assert r.returncode == code and r.stderr.startswith(f"precise-impact: error: {name} = "), (
+        r.stderr
+    )
 
 
 def test_orbit_newton_failure_is_one_line_exit_3():
@@ -140,7 +204,19 @@ def test_orbit_newton_failure_is_one_line_exit_3():
 
 
 def test_bifurcation_cli(tmp_path):
-    r = run("bifurcation", "--eta", "0.70", "0.72", "3", "--periods", "100", "--transient", "200", "--out", str(tmp_path))
+    r = run(
+        "bifurcation",
+        "--eta",
+        "0.70",
+        "0.72",
+        "3",
+        "--periods",
+        "100",
+        "--transient",
+        "200",
+        "--out",
+        str(tmp_path),
+    )
     assert r.returncode == 0, r.stderr
     assert "grazing eta (closed form): 0.710687" in r.stdout
     assert (tmp_path / "bifurcation.png").exists() and (tmp_path / "bifurcation.npz").exists()
@@ -151,8 +227,22 @@ def test_bifurcation_cli(tmp_path):
 
 def test_sync_cli(tmp_path):
     """Coarse scan: k = 0 never synchronises, k = 0.08 always does; plots and JSON written."""
-    r = run("sync", "--form", "reduced", "--k", "0", "0.08", "2", "--periods", "300", "--ensemble", "3",
-            "--out", str(tmp_path), "--json")
+    r = run(
+        "sync",
+        "--form",
+        "reduced",
+        "--k",
+        "0",
+        "0.08",
+        "2",
+        "--periods",
+        "300",
+        "--ensemble",
+        "3",
+        "--out",
+        str(tmp_path),
+        "--json",
+    )
     assert r.returncode == 0, r.stderr
     obj = json.loads(r.stdout)
     assert obj["form"] == "reduced" and obj["k_values"] == ["0", "0.08"]
@@ -167,15 +257,34 @@ def test_sync_cli(tmp_path):
 
 
 def test_sweep_cli_resumes(tmp_path):
-    args = ("sweep", "--axis", "eta", "0.70", "0.74", "6", "--periods", "100", "--transient", "50",
-            "--tile", "3", "--out", str(tmp_path), "--json")
+    args = (
+        "sweep",
+        "--axis",
+        "eta",
+        "0.70",
+        "0.74",
+        "6",
+        "--periods",
+        "100",
+        "--transient",
+        "50",
+        "--tile",
+        "3",
+        "--out",
+        str(tmp_path),
+        "--json",
+    )
     r = run(*args)
     assert r.returncode == 0, r.stderr
     s = json.loads(r.stdout)
     assert s["tiles_computed"] == 2 and s["complete"]
     again = json.loads(run(*args).stdout)
     assert again["tiles_reused"] == 2 and again["tiles_computed"] == 0
-    assert (tmp_path / "sweep.csv").read_text().startswith("eta,lle,stderr,lambda2,period,impacts_per_period")
+    assert (
+        (tmp_path / "sweep.csv")
+        .read_text()
+        .startswith("eta,lle,stderr,lambda2,period,impacts_per_period")
+    )
     bad = run("sweep", "--axis", "R", "0", "2", "3", "--out", str(tmp_path / "b"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: R_max = ")
 

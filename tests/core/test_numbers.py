@@ -17,8 +17,28 @@ import pytest
 import precise_impact as pi
 from precise_impact.core.params import MAX_DIGITS, exact
 
-HOSTILE = ["1e308", "1e309", "1e400", "1e-320", "-1e308", "1e999999999", "-1e999999999", "1e-999999999",
-           "9" * 5000, "1" * 401, "nan", "inf", "-inf", "1/0", "0x10", "", "1e", "--", "1e-101", "1e101"]
+HOSTILE = [
+    "1e308",
+    "1e309",
+    "1e400",
+    "1e-320",
+    "-1e308",
+    "1e999999999",
+    "-1e999999999",
+    "1e-999999999",
+    "9" * 5000,
+    "1" * 401,
+    "nan",
+    "inf",
+    "-inf",
+    "1/0",
+    "0x10",
+    "",
+    "1e",
+    "--",
+    "1e-101",
+    "1e101",
+]
 
 
 @pytest.mark.parametrize("value", HOSTILE, ids=lambda v: v[:12] or "empty")
@@ -30,13 +50,28 @@ def test_hostile_numbers_are_refused_at_once(value):
     assert e.value.name == "eta" and len(str(e.value)) < 200
 
 
-@pytest.mark.parametrize("flag,value", [("--eta", "1e999999999"), ("--R", "1e999999999"), ("--zeta", "1e-999999999"),
-                                        ("--tol", "1e-999999999"), ("--tol", "1e-300"), ("--precision", "mp:100000"),
-                                        ("--x_w", "1e309"), ("--a", "9" * 5000), ("--t0", "-1e308")])
+@pytest.mark.parametrize(
+    "flag,value",
+    [
+        ("--eta", "1e999999999"),
+        ("--R", "1e999999999"),
+        ("--zeta", "1e-999999999"),
+        ("--tol", "1e-999999999"),
+        ("--tol", "1e-300"),
+        ("--precision", "mp:100000"),
+        ("--x_w", "1e309"),
+        ("--a", "9" * 5000),
+        ("--t0", "-1e308"),
+    ],
+)
 def test_cli_refuses_hostile_values_with_one_line(flag, value):
     t = time.perf_counter()
-    r = subprocess.run([sys.executable, "-m", "precise_impact", "simulate", flag, value, "--periods", "2"],
-                       capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [sys.executable, "-m", "precise_impact", "simulate", flag, value, "--periods", "2"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     name = flag.lstrip("-")
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
@@ -52,7 +87,9 @@ def test_the_range_is_inclusive_and_exact():
 
 
 def test_numpy_scalars_and_mappings_are_accepted():
-    assert pi.Params.make(eta=np.float64(0.712)).eta == Fraction(89, 125)  # the shortest round-trip decimal
+    assert pi.Params.make(eta=np.float64(0.712)).eta == Fraction(
+        89, 125
+    )  # the shortest round-trip decimal
     assert pi.Params.make(x_w=np.int32(3)).x_w == 3
     assert pi.simulate({"eta": "0.74"}, 2).params.eta == Fraction(37, 50)
     with pytest.raises(pi.ParameterError) as e:
@@ -94,9 +131,16 @@ def test_the_precision_reported_is_the_precision_used(bits):
     assert all(tr.precision.to_mpf(x)._mpf_[3] <= bits for x in tr.x)
 
 
-@pytest.mark.parametrize("name,edge,beyond", [("eta", "1000", "1000.001"), ("eta", "0.001", "0.000999"),
-                                              ("zeta", "1000", "1001"), ("a", "1e6", "1000001"),
-                                              ("t0", "1e9", "-1000000001")])
+@pytest.mark.parametrize(
+    "name,edge,beyond",
+    [
+        ("eta", "1000", "1000.001"),
+        ("eta", "0.001", "0.000999"),
+        ("zeta", "1000", "1001"),
+        ("a", "1e6", "1000001"),
+        ("t0", "1e9", "-1000000001"),
+    ],
+)
 def test_the_parameter_box_edges_run_and_beyond_is_refused(name, edge, beyond):
     """Legal values run (float64 overflowed at eta = 1e20 before the box existed: heyoka
     stopped with a non-finite state); the first value outside is refused by name."""

@@ -43,7 +43,13 @@ def test_every_rule_has_a_clear_error(values, name, phrase):
 
 
 @pytest.mark.parametrize(
-    "spec, phrase", [("float32", "'float64', 'longdouble'"), ("mp:32", "BITS >= 64"), ("mp:x", "mp:BITS"), (53, "mp:BITS")]
+    "spec, phrase",
+    [
+        ("float32", "'float64', 'longdouble'"),
+        ("mp:32", "BITS >= 64"),
+        ("mp:x", "mp:BITS"),
+        (53, "mp:BITS"),
+    ],
 )
 def test_precision_errors(spec, phrase):
     with pytest.raises(ParameterError) as e:
@@ -68,7 +74,16 @@ def test_bad_run_arguments_fail_before_work():
 
 def test_defaults_are_the_papers():
     p = Params.make()
-    assert p.decimal() == {"zeta": "0.05", "a": "1", "eta": "0.712", "x_w": "2", "R": "1", "x0": "0", "v0": "0", "t0": "0"}
+    assert p.decimal() == {
+        "zeta": "0.05",
+        "a": "1",
+        "eta": "0.712",
+        "x_w": "2",
+        "R": "1",
+        "x0": "0",
+        "v0": "0",
+        "t0": "0",
+    }
 
 
 def test_values_are_exact_decimals():
@@ -80,7 +95,9 @@ def test_values_are_exact_decimals():
     assert decimal_str(Fraction(1, 3)) == "1/3" and decimal_str(Fraction(-5, 4)) == "-1.25"
 
 
-@pytest.mark.parametrize("spec", ["float64", "longdouble", "float128", "mp:64", "mp:237", "mp:1000"])
+@pytest.mark.parametrize(
+    "spec", ["float64", "longdouble", "float128", "mp:64", "mp:237", "mp:1000"]
+)
 @given(num=st.integers(-(10**30), 10**30), den=st.integers(1, 10**30))
 def test_conversion_is_one_correct_rounding(spec, num, den):
     """from_fraction(q) is the nearest number of the precision: |x - q| <= ulp/2.
@@ -108,7 +125,9 @@ def test_multiprecision_pins_eta_to_1e70_at_237_bits():
     P = Precision.parse("mp:237")
     with mpmath.workprec(500):
         assert abs(P.to_mpf(P.from_decimal("0.712")) - mpmath.mpf(89) / 125) < mpmath.mpf("1e-70")
-        assert abs(P.to_mpf(P.from_decimal("0.712")) - mpmath.mpf(89) / 125) > 0  # not exact in binary
+        assert (
+            abs(P.to_mpf(P.from_decimal("0.712")) - mpmath.mpf(89) / 125) > 0
+        )  # not exact in binary
 
 
 def test_sample_times_are_correctly_rounded():

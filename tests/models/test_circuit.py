@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from fractions import Fraction
 
 import mpmath
@@ -10,14 +9,18 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, acceleration, simulate
-from precise_impact.verification.metrics import sample_errors
-from precise_impact.models.circuit.opamp import CircuitSolver, circuit_system
-from precise_impact.models.circuit.components import Components, dimensionless, nominal_components
-from precise_impact.models.circuit.coupled import CIRCUIT_COUPLED_FORM, coupling_resistors, simulate_coupled_circuit
-from precise_impact.models.circuit.network import NETWORK_PARS, OpAmp
-from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
+from precise_impact.models.circuit.components import dimensionless, nominal_components
+from precise_impact.models.circuit.coupled import (
+    CIRCUIT_COUPLED_FORM,
+    coupling_resistors,
+    simulate_coupled_circuit,
+)
 from precise_impact.models.circuit.effects.tolerance import draw_components, e_series_round
+from precise_impact.models.circuit.network import NETWORK_PARS, OpAmp
+from precise_impact.models.circuit.opamp import CircuitSolver, circuit_system
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.solvers.heyoka.coupled import simulate_coupled
+from precise_impact.verification.metrics import sample_errors
 
 
 def test_nominal_components_and_mapping_are_exact():
@@ -58,7 +61,9 @@ def test_ideal_network_is_the_mechanical_equation_and_the_printed_5b_is_not():
         for _ in range(5):
             x, v, tau = (mpmath.mpf(float(z)) for z in rng.uniform(-2, 2, 3))
             Vs, Vq, t = -x, v, tau / w  # x = -V_s, x' = V_q (omega R8 C1 = 1, V_unit = 1)
-            dVs, dVq = _rhs_at(list(zip(vars_, [e for _, e in rhs])), [Vs, Vq], pars[:-1], t)  # V_wall: event only
+            dVs, dVq = _rhs_at(
+                list(zip(vars_, [e for _, e in rhs])), [Vs, Vq], pars[:-1], t
+            )  # V_wall: event only
             # dx/dtau = -dV_s/dt / omega ; dv/dtau = dV_q/dt / omega
             assert abs(-dVs / w - v) < 1e-60
             acc = acceleration(tau, x, v, mpmath.mpf("0.712"), mpmath.mpf("0.05"), 1, mpmath.cos)
@@ -124,11 +129,15 @@ def test_delays_shift_the_impact_and_hysteresis_moves_the_wall():
     the reversal; hysteresis h moves the effective wall to x_w + h/2 (V_unit = 1 V)."""
     p = Params.make(eta="0.74")
     c = nominal_components(p)
-    d = SwitchedCapacitorSolver(effects={"comparator": {"delay": "1e-6"}}).solve(c, 60, per_period=400)
+    d = SwitchedCapacitorSolver(effects={"comparator": {"delay": "1e-6"}}).solve(
+        c, 60, per_period=400
+    )
     assert d.dense_x.max() > 2.0  # beyond the wall during the delay
     vmax = max(abs(float(v)) for v in d.dense_v)
     assert float(d.dense_x.max()) - 2.0 < vmax * 1e-6 * 1000 * 1.01  # v * delay * omega
-    h = SwitchedCapacitorSolver(effects={"comparator": {"hysteresis": "0.02"}}).solve(c, 60, per_period=400)
+    h = SwitchedCapacitorSolver(effects={"comparator": {"hysteresis": "0.02"}}).solve(
+        c, 60, per_period=400
+    )
     assert abs(float(h.dense_x.max()) - 2.01) < 2e-3
 
 
@@ -140,12 +149,16 @@ def test_effect_off_costs_nothing():
     assert abs(tr.stats["steps"] - ref.stats["steps"]) <= 0.02 * ref.stats["steps"]
 
 
-@pytest.mark.parametrize("effect", ["opamp_gain", "opamp_offset", "opamp_gbw", "opamp_saturation", "tolerance"])
+@pytest.mark.parametrize(
+    "effect", ["opamp_gain", "opamp_offset", "opamp_gbw", "opamp_saturation", "tolerance"]
+)
 def test_each_op_amp_effect_changes_the_result_boundedly(effect):
     p = Params.make(eta="0.74")
     c = nominal_components(p)
     ref = simulate(p, 60)
-    tr = CircuitSolver(effects={effect: {"v_sat": "1.9"} if effect == "opamp_saturation" else {}}).solve(c, 60)
+    tr = CircuitSolver(
+        effects={effect: {"v_sat": "1.9"} if effect == "opamp_saturation" else {}}
+    ).solve(c, 60)
     err = max(sample_errors(tr, ref))
     assert 1e-9 < err < 3, err
 
@@ -159,7 +172,10 @@ def test_dynamic_gbw_is_stiff_but_consistent_with_quasi_static():
     dyn = CircuitSolver(effects={"opamp_gbw": {"mode": "dynamic"}}).solve(c, 1)
     qs = CircuitSolver(effects={"opamp_gbw": {}}).solve(c, 1)
     assert dyn.stats["steps"] > 5000
-    assert abs(float(dyn.x[-1]) - float(qs.x[-1])) < 1e-3 and abs(float(dyn.v[-1]) - float(qs.v[-1])) < 1e-3
+    assert (
+        abs(float(dyn.x[-1]) - float(qs.x[-1])) < 1e-3
+        and abs(float(dyn.v[-1]) - float(qs.v[-1])) < 1e-3
+    )
 
 
 def test_tolerance_draws_are_seeded_and_within_tolerance():
@@ -171,7 +187,9 @@ def test_tolerance_draws_are_seeded_and_within_tolerance():
     for n in ("R1", "R6", "C1"):
         series, tol = ("E96", Fraction(1, 100)) if n.startswith("R") else ("E24", Fraction(5, 100))
         nominal = e_series_round(getattr(c, n), series)
-        assert abs(getattr(a, n) / nominal - 1) <= tol * (1 + Fraction(1, 10**5))  # 6-digit rounding
+        assert abs(getattr(a, n) / nominal - 1) <= tol * (
+            1 + Fraction(1, 10**5)
+        )  # 6-digit rounding
     assert e_series_round(Fraction(100000), "E96") == 100000
 
 

@@ -31,7 +31,8 @@ from precise_impact.models.circuit.spice import (
 )
 
 needs_ngspice = pytest.mark.skipif(
-    shutil.which("ngspice") is None, reason="ngspice not installed: apt-get install ngspice; CI installs it"
+    shutil.which("ngspice") is None,
+    reason="ngspice not installed: apt-get install ngspice; CI installs it",
 )
 
 P074 = Params.make(eta="0.74")
@@ -81,6 +82,7 @@ def test_initial_state_and_phase_are_the_requested_ones():
     res = run_spice(comp, None, 5, tmax=3e-6, x0="0.5", v0="-0.3", t0="1.3", dense=True)
     assert res.x[0] == 0.5 and res.v[0] == pytest.approx(-0.3, abs=1e-15)
     assert res.t[0] == pytest.approx(1.3, abs=1e-15)
+
     def value(pattern):
         return float(re.search(pattern, res.netlist).group(1))
 
@@ -149,8 +151,13 @@ def test_every_effect_runs_and_keeps_impacting():
     """Datasheet parts (every effect but tolerance) for 20 periods: ngspice succeeds,
     impacts happen, the wall overshoot grows with the delays but stays small."""
     eff = {
-        "opamp_gain": {}, "opamp_gbw": {}, "opamp_saturation": {}, "opamp_offset": {},
-        "comparator": {}, "flipflop": {}, "switch": DATASHEET_SWITCH,
+        "opamp_gain": {},
+        "opamp_gbw": {},
+        "opamp_saturation": {},
+        "opamp_offset": {},
+        "comparator": {},
+        "flipflop": {},
+        "switch": DATASHEET_SWITCH,
     }
     res = run_spice(COMP074, eff, 20, tmax=10e-6)
     assert res.n_impacts >= 10
@@ -210,8 +217,22 @@ def test_run_spice_refuses_bad_timeout():
 
 def test_netlist_is_fig2_with_one_drive_node():
     net = spice_netlist(COMP074, None, 7, 10e-6)
-    for el in ("R1 v3 n1", "R6 mq n1", "R7 s n1", "R2 n1 p", "R3 p n2", "R4 q n3", "R5 n3 mq", "R8 q n4",
-               "C1 n4 s", "C2 ca cb", "EU1 p 0 0 n1 1000000000.0", "EU2 q 0 0 n2", "EU3 mq 0 0 n3", "EU4 s 0 0 n4"):
+    for el in (
+        "R1 v3 n1",
+        "R6 mq n1",
+        "R7 s n1",
+        "R2 n1 p",
+        "R3 p n2",
+        "R4 q n3",
+        "R5 n3 mq",
+        "R8 q n4",
+        "C1 n4 s",
+        "C2 ca cb",
+        "EU1 p 0 0 n1 1000000000.0",
+        "EU2 q 0 0 n2",
+        "EU3 mq 0 0 n3",
+        "EU4 s 0 0 n4",
+    ):
         assert el in net, el
     sw = [ln for ln in net.splitlines() if re.match(r"BU[67][AB] ", ln)]
     assert len(sw) == 4
@@ -226,9 +247,15 @@ def test_netlist_is_fig2_with_one_drive_node():
 
 
 def test_netlist_maps_each_effect():
-    eff = {"opamp_gain": {"A0": "2e5"}, "opamp_gbw": {"gbw": "3e6"}, "opamp_saturation": {}, "opamp_offset": {},
-           "comparator": {"delay": "7e-9", "hysteresis": "0.01"}, "flipflop": {"delay": "14e-9"},
-           "switch": DATASHEET_SWITCH}
+    eff = {
+        "opamp_gain": {"A0": "2e5"},
+        "opamp_gbw": {"gbw": "3e6"},
+        "opamp_saturation": {},
+        "opamp_offset": {},
+        "comparator": {"delay": "7e-9", "hysteresis": "0.01"},
+        "flipflop": {"delay": "14e-9"},
+        "switch": DATASHEET_SWITCH,
+    }
     net = spice_netlist(COMP074, eff, 3, 10e-6)
     assert f"CU1P U1_o 0 {1 / (2 * math.pi * 3e6)!r}" in net  # pole: C = 1/(2 pi GBW)
     assert "/200000.0" in net  # DC gain A0
@@ -263,9 +290,13 @@ def test_draw_components_is_seeded_and_within_tolerance():
     assert a == draw_components(c, {"seed": 7})
     assert a != draw_components(c, {"seed": 8})
     for name in ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8"):
-        assert abs(getattr(a, name) / getattr(zero, name) - 1) <= Fraction(1, 100) + Fraction(1, 10**5)
+        assert abs(getattr(a, name) / getattr(zero, name) - 1) <= Fraction(1, 100) + Fraction(
+            1, 10**5
+        )
     for name in ("C1", "C2"):
-        assert abs(getattr(a, name) / getattr(zero, name) - 1) <= Fraction(5, 100) + Fraction(1, 10**5)
+        assert abs(getattr(a, name) / getattr(zero, name) - 1) <= Fraction(5, 100) + Fraction(
+            1, 10**5
+        )
     assert (a.V_A, a.Omega, a.V_wall, a.V_unit) == (c.V_A, c.Omega, c.V_wall, c.V_unit)
     with pytest.raises(ParameterError, match="effects.tolerance.seed"):
         draw_components(c, {"seed": -1})

@@ -11,10 +11,10 @@ from fractions import Fraction
 import pytest
 
 from precise_impact import ParameterError, Params, simulate
-from precise_impact.verification.metrics import sample_errors
+from precise_impact.cli.main import main
 from precise_impact.scenes.run import run_scene
 from precise_impact.scenes.scene import builtin_scenes, load_scene, parse_quantity
-from precise_impact.cli.main import main
+from precise_impact.verification.metrics import sample_errors
 
 BASE = """
 name = "t"
@@ -59,7 +59,11 @@ def test_quantities_with_units():
         ("[effects.switch]\nron = '160'\n", "circuit", "effects.switch"),
         ("[effects.opamp_gain]\nA0 = '1e5'\n", "mechanical", "effects.opamp_gain"),
         ("[effects.warp_drive]\n", "circuit", "effects.warp_drive"),
-        ("[effects.comparator]\nlatency = '1 ns'\n", "switched-capacitor", "effects.comparator.latency"),
+        (
+            "[effects.comparator]\nlatency = '1 ns'\n",
+            "switched-capacitor",
+            "effects.comparator.latency",
+        ),
         ("[components]\nC = '100 ohm'\n", "circuit", "components.C"),
         ("[components]\nR2 = '10001'\n", "circuit", "R2, R7, R3, C2, R8, C1"),
         ("[duration]\nperiods = -3\n", "mechanical", "duration.periods"),
@@ -72,7 +76,9 @@ def test_quantities_with_units():
 def test_scene_errors_name_the_key(tmp_path, extra, model, name):
     text = BASE.format(model=model or "mechanical")
     if extra.startswith("[model]"):
-        text = text.replace('[model]\nname = "mechanical"\n', "") + extra.replace("[model]\n", '[model]\nname = "mechanical"\n')
+        text = text.replace('[model]\nname = "mechanical"\n', "") + extra.replace(
+            "[model]\n", '[model]\nname = "mechanical"\n'
+        )
     else:
         text = text + extra if not extra.startswith("colour") else extra + text
     with pytest.raises(ParameterError) as e:
@@ -103,16 +109,33 @@ def test_run_models_of_one_scene_agree():
 
 
 def test_run_cli_json_and_files(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "precise_impact", "run", "fig6-period3-datasheet", "--json",
-                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "run",
+            "fig6-period3-datasheet",
+            "--json",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stderr
     obj = json.loads(r.stdout)
     assert obj["scene"] == "fig6-period3-datasheet" and obj["model"] == "switched-capacitor"
     assert obj["effects"] == ["comparator", "flipflop", "switch", "tolerance"]
     assert len(obj["samples"]) == 201 and obj["impacts"] and isinstance(obj["elapsed_s"], float)
     assert (tmp_path / "fig6-period3-datasheet_switched-capacitor.png").stat().st_size > 5000
-    r = subprocess.run([sys.executable, "-m", "precise_impact", "run", "fig7-k0.032-ideal", "--json"],
-                       capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [sys.executable, "-m", "precise_impact", "run", "fig7-k0.032-ideal", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     obj = json.loads(r.stdout)
     assert obj["k"] == "0.032" and "y" in obj["samples"][0]
 
@@ -130,8 +153,10 @@ def test_run_cli_bad_scene_exit_2(tmp_path, capsys):
     assert main(["run", "fig5-chaotic-ideal", "--model", "warp"]) == 2
 
 
-@pytest.mark.skipif(__import__("shutil").which("ngspice") is None,
-                    reason="ngspice not installed: apt-get install ngspice; CI installs it")
+@pytest.mark.skipif(
+    __import__("shutil").which("ngspice") is None,
+    reason="ngspice not installed: apt-get install ngspice; CI installs it",
+)
 def test_scene_on_ngspice_matches_the_reference():
     """fig6-period3-ideal on the real ngspice (TMAX 10 us): the period-3 steady state
     within 0.01 of heyoka (issue 4's bound; measured 2e-3 for 150 periods)."""

@@ -3,7 +3,6 @@ heyoka's multiprecision references (another method, another code), closed forms,
 Newton orbits, and constructed near-tangencies whose truth is known exactly."""
 
 import json
-import math
 import subprocess
 import sys
 import threading
@@ -43,7 +42,9 @@ def test_heyoka_mp_references_lie_within_their_stated_accuracy_of_the_proven_bal
             _, tk, bx, bv = r.samples[s["period"]]
             # the reference's sample time is t_k rounded to mp:320: |dt| <= 2^-319 t_k moves
             # the state by |f| dt < 1e-90, far below the accuracies compared here
-            assert abs(float(_exact(s["t"]).mid()) - float(tk.mid())) <= 1e-80 * (1 + float(tk.mid()))
+            assert abs(float(_exact(s["t"]).mid()) - float(tk.mid())) <= 1e-80 * (
+                1 + float(tk.mid())
+            )
             for ref, ball in ((s["x"], bx), (s["v"], bv)):
                 err = abs(_exact(ref) - ball) + ball.rad()
                 worst = max(worst, float(err.upper()))
@@ -65,7 +66,11 @@ def test_a_grazing_impact_missed_by_the_papers_scan_is_found_and_proven():
     paper = AnalyticalSolver(finder="paper", backend="float64").solve(q, 3)
     r = certify(q, 3, bits=256)
     assert paper.n_impacts == 0 and len(r.impacts) == 2
-    for other in (pi.simulate(q, 3), pi.simulate(q, 3, model="fast"), pi.simulate(q, 3, model="analytical")):
+    for other in (
+        pi.simulate(q, 3),
+        pi.simulate(q, 3, model="fast"),
+        pi.simulate(q, 3, model="analytical"),
+    ):
         assert other.n_impacts == 2
         for (t, vb, _), t2 in zip(r.impacts, other.impacts_t):
             assert abs(float(t.mid()) - float(t2)) < 1e-9  # float64 impact times, ~1e-12 apart
@@ -77,12 +82,16 @@ def test_a_near_tangency_beyond_the_precision_is_refused_then_resolved(sign, imp
     """x'' = -x from (-1, 0) peaks at exactly 1 at t = pi: with the wall at 1 +- 1e-200 there is
     no impact (+) or one at every return (-).  At 128 bits no proof is possible (an error naming
     the time, never a guess); doubling the bits resolves it either way."""
-    p = pi.Params.make(a="0", zeta="0", eta="0.5", x0="-1", v0="0", x_w=Fraction(1) + sign * Fraction(1, 10**200))
+    p = pi.Params.make(
+        a="0", zeta="0", eta="0.5", x0="-1", v0="0", x_w=Fraction(1) + sign * Fraction(1, 10**200)
+    )
     with pytest.raises(CertificationError, match=r"t = 3\.14159265358979"):
         certify(p, 1, bits=128, max_bits=128)
     r = certify(p, 1, bits=128, max_bits=4096)
     assert len(r.impacts) == impacts and "no proof at 128 bits" in r.bits_choice and r.bits > 128
-    if impacts:  # the wall 1e-200 below the peak: the crossing sqrt(2e-200) = 1.41e-100 before t = pi
+    if (
+        impacts
+    ):  # the wall 1e-200 below the peak: the crossing sqrt(2e-200) = 1.41e-100 before t = pi
         old = flint.ctx.prec
         flint.ctx.prec = 1024
         try:
@@ -104,8 +113,13 @@ def test_certified_model_and_threads():
     tr = pi.simulate(p, 30, model="certified", precision="mp:256")
     ref = pi.simulate(p, 30, precision="mp:256")
     assert tr.n_impacts == ref.n_impacts and tr.stats["max_radius"] < 1e-60
-    assert max(abs(a - b) for a, b in zip(tr.x, ref.x)) < 1e-60  # heyoka mp:256 vs the proven midpoints
-    serial = [certify(pi.Params.make(eta=e), 40, bits=b).to_dict() for e, b in (("0.712", 192), ("0.74", 320))] * 2
+    assert (
+        max(abs(a - b) for a, b in zip(tr.x, ref.x)) < 1e-60
+    )  # heyoka mp:256 vs the proven midpoints
+    serial = [
+        certify(pi.Params.make(eta=e), 40, bits=b).to_dict()
+        for e, b in (("0.712", 192), ("0.74", 320))
+    ] * 2
     out = [None] * 4
 
     def work(i):
@@ -141,7 +155,9 @@ def test_proven_non_impacting_orbit_is_the_closed_form():
     flint.ctx.prec = 512
     try:
         for (mid, rad), q in ((o.x, Fraction(102, 53)), (o.v, Fraction(49, 265))):
-            assert abs(_exact(mid) - _exact(q)) < _exact(rad)  # the closed form lies in the proven box
+            assert abs(_exact(mid) - _exact(q)) < _exact(
+                rad
+            )  # the closed form lies in the proven box
         # |mu| = exp(-zeta T) exactly: LLE = -zeta
         assert o.lle[0] <= -0.05 <= o.lle[1] and o.lle[1] - o.lle[0] < 1e-15
     finally:
@@ -158,19 +174,46 @@ def test_proven_unstable_orbit():
 
 
 def test_certify_cli_contract():
-    r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", "--eta", "0.712", "--periods", "5",
-                        "--bits", "128", "--json"], capture_output=True, text=True, timeout=120)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "certify",
+            "--eta",
+            "0.712",
+            "--periods",
+            "5",
+            "--bits",
+            "128",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
     assert d["bits"] == 128 and len(d["samples"]) == 6
     assert set(d["samples"][1]) == {"period", "t", "x", "v", "x_rad", "v_rad"}
     assert set(d["impacts"][0]) == {"t", "t_rad", "v_before", "v_after", "v_rad"}
     assert float(d["samples"][5]["x_rad"]) < 1e-30
-    for argv, word in ((["--bits", "20"], "bits"), (["--target", "1e-2"], "target_radius"),
-                       (["--periods", "0"], "periods"), (["--x0", "3"], "x0")):
-        r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", *argv], capture_output=True, text=True,
-                           timeout=120)
-        assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (argv, r.stderr)
+    for argv, word in (
+        (["--bits", "20"], "bits"),
+        (["--target", "1e-2"], "target_radius"),
+        (["--periods", "0"], "periods"),
+        (["--x0", "3"], "x0"),
+    ):
+        r = subprocess.run(
+            [sys.executable, "-m", "precise_impact", "certify", *argv],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (
+            argv,
+            r.stderr,
+        )
 
 
 def test_reference_certificates_hold_and_a_false_bound_is_caught(tmp_path):
@@ -178,14 +221,17 @@ def test_reference_certificates_hold_and_a_false_bound_is_caught(tmp_path):
     re-proves them.  A bound tightened below the stored value's true error is refused."""
     import shutil
 
-    from precise_impact.verification.certificate import CERTIFICATE, check_certificate
     from precise_impact.io.atomic import sha256_file
+    from precise_impact.verification.certificate import CERTIFICATE, check_certificate
     from precise_impact.verification.reference import verify
 
     for case in ("single-0.70", "single-0.712", "single-0.74"):
         m = json.loads((shipped_root() / case / "manifest.json").read_text())
-        assert CERTIFICATE in m["files"] and float(m["proof"]["max_proven_error"]) <= 2 * float(
-            m["accuracy"]["max_sample_disagreement"]) + 1e-80
+        assert (
+            CERTIFICATE in m["files"]
+            and float(m["proof"]["max_proven_error"])
+            <= 2 * float(m["accuracy"]["max_sample_disagreement"]) + 1e-80
+        )
     d = tmp_path / "single-0.74"
     shutil.copytree(shipped_root() / "single-0.74", d)
     assert check_certificate("single-0.74", d) == []
@@ -208,8 +254,13 @@ def test_fast_engine_scored_against_proven_balls():
     eps = 2.0**-52
     for k in range(1, 101):
         _, tk, bx, bv = r.samples[k]
-        bound = 4 * eps * float(tk.mid()) * 2.5 + float(bx.rad().mid())  # max |v| ~ 2.4 on this orbit
-        assert abs(float(tr.x[k]) - float(bx.mid())) <= bound and abs(float(tr.v[k]) - float(bv.mid())) <= bound
+        bound = 4 * eps * float(tk.mid()) * 2.5 + float(
+            bx.rad().mid()
+        )  # max |v| ~ 2.4 on this orbit
+        assert (
+            abs(float(tr.x[k]) - float(bx.mid())) <= bound
+            and abs(float(tr.v[k]) - float(bv.mid())) <= bound
+        )
 
 
 def test_users_scores_carry_proven_error_bounds():
@@ -231,11 +282,16 @@ def test_users_scores_carry_proven_error_bounds():
     try:
         for k in range(61):
             _, _, bx, bv = r.samples[k]
-            for y, ball, bound in ((s["solver_x"][k], bx, s["proven_error_x"][k]),
-                                   (s["solver_v"][k], bv, s["proven_error_v"][k])):
+            for y, ball, bound in (
+                (s["solver_x"][k], bx, s["proven_error_x"][k]),
+                (s["solver_v"][k], bv, s["proven_error_v"][k]),
+            ):
                 true_lower = abs(flint.arb(float(y)) - ball).lower()  # <= |y - truth|
                 assert float(true_lower) <= bound
-                assert bound <= s["abs_error_x" if ball is bx else "abs_error_v"][k] * (1 + 1e-12) + 1e-50
+                assert (
+                    bound
+                    <= s["abs_error_x" if ball is bx else "abs_error_v"][k] * (1 + 1e-12) + 1e-50
+                )
     finally:
         flint.ctx.prec = old
 

@@ -35,7 +35,9 @@ def test_pair_contains_heyoka_mp(form, k):
     y0 = ("0.5", "0.1")
     r = pi.certify_coupled(p, k, form, 60, y0=y0, bits=256)
     h = pi.simulate_coupled(p, k, form, 60, y0=y0, precision="mp:256")
-    assert len(r.master_impacts) == len(h.master_impacts_t) and len(r.slave_impacts) == len(h.slave_impacts_t)
+    assert len(r.master_impacts) == len(h.master_impacts_t) and len(r.slave_impacts) == len(
+        h.slave_impacts_t
+    )
     assert r.max_radius() < 1e-45
     with mpmath.workprec(600):
         for i, (_, _, *balls) in enumerate(r.samples):
@@ -51,8 +53,11 @@ def test_diagonal_is_the_single_oscillator_exactly():
     r = pi.certify_coupled(p, "0.3", "paper", 30, bits=192)
     s = pi.certify(p, 30, bits=192)
     assert len(r.master_impacts) == len(r.slave_impacts) == len(s.impacts) == 20
+
     def same(a, b):  # the same ball: midpoint and radius
-        return exact_value(a.mid()) == exact_value(b.mid()) and exact_value(a.rad()) == exact_value(b.rad())
+        return exact_value(a.mid()) == exact_value(b.mid()) and exact_value(a.rad()) == exact_value(
+            b.rad()
+        )
 
     for (_, t, x, v, y, w), (_, t2, x2, v2) in zip(r.samples, s.samples):
         assert same(x, x2) and same(y, x2) and same(v, v2) and same(w, v2)
@@ -64,7 +69,9 @@ def test_near_simultaneous_impacts_refused_then_ordered():
     doubling the bits (512: balls ~1e-149) orders every pair of impacts."""
     p = pi.Params.make(eta="0.712")
     y0 = (Fraction(1, 10**90), "0")
-    with pytest.raises(CertificationError, match=r"simultaneous master and slave impacts .* at t = 8\.24167"):
+    with pytest.raises(
+        CertificationError, match=r"simultaneous master and slave impacts .* at t = 8\.24167"
+    ):
         pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, bits=256, max_bits=256)
     r = pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, bits=256)
     assert r.bits == 512 and len(r.master_impacts) == len(r.slave_impacts) == 4
@@ -75,22 +82,75 @@ def test_near_simultaneous_impacts_refused_then_ordered():
 
 
 def test_pair_bad_input_one_line_exit_2():
-    for argv, word in ((["--k", "-1", "--y0", "0.5", "0"], "k"), (["--k", "9", "--form", "paper", "--y0", "0.5", "0"], "k"),
-                       (["--k", "0.1", "--y0", "3", "0"], "y0[0]"), (["--y0", "0.5", "0"], "y0"),
-                       (["--k", "0.1", "--form", "nonsense"], "form"),
-                       (["--k", "0.1", "--target", "1e-40", "--y0", "0.5", "0"], "target")):
-        r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", "--periods", "2", *argv],
-                           capture_output=True, text=True, timeout=120)
-        assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (argv, r.stderr)
+    for argv, word in (
+        (["--k", "-1", "--y0", "0.5", "0"], "k"),
+        (["--k", "9", "--form", "paper", "--y0", "0.5", "0"], "k"),
+        (["--k", "0.1", "--y0", "3", "0"], "y0[0]"),
+        (["--y0", "0.5", "0"], "y0"),
+        (["--k", "0.1", "--form", "nonsense"], "form"),
+        (["--k", "0.1", "--target", "1e-40", "--y0", "0.5", "0"], "target"),
+    ):
+        r = subprocess.run(
+            [sys.executable, "-m", "precise_impact", "certify", "--periods", "2", *argv],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and word in r.stderr, (
+            argv,
+            r.stderr,
+        )
 
 
 def test_pair_cli_json():
-    r = subprocess.run([sys.executable, "-m", "precise_impact", "certify", "--k", "0.1", "--form", "reduced", "--y0",
-                        "0.5", "0.1", "--periods", "4", "--bits", "128", "--json"], capture_output=True, text=True,
-                       timeout=120)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "certify",
+            "--k",
+            "0.1",
+            "--form",
+            "reduced",
+            "--y0",
+            "0.5",
+            "0.1",
+            "--periods",
+            "4",
+            "--bits",
+            "128",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
-    assert d["form"] == "reduced" and d["k"] == "0.1" and d["y0"] == ["0.5", "0.1"] and len(d["samples"]) == 5
-    assert set(d["samples"][1]) == {"period", "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}
-    assert d["slave_impacts"] and set(d["slave_impacts"][0]) == {"t", "t_rad", "before", "after", "rad"}
+    assert (
+        d["form"] == "reduced"
+        and d["k"] == "0.1"
+        and d["y0"] == ["0.5", "0.1"]
+        and len(d["samples"]) == 5
+    )
+    assert set(d["samples"][1]) == {
+        "period",
+        "t",
+        "x",
+        "v",
+        "y",
+        "w",
+        "x_rad",
+        "v_rad",
+        "y_rad",
+        "w_rad",
+    }
+    assert d["slave_impacts"] and set(d["slave_impacts"][0]) == {
+        "t",
+        "t_rad",
+        "before",
+        "after",
+        "rad",
+    }
     assert float(d["samples"][4]["y_rad"]) < 1e-25

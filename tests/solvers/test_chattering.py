@@ -216,7 +216,9 @@ def test_forced_chattering_sticks_and_releases(precision, R, forced_ref):
             ex = release_exact(P.to_mpf(t_s))
             d = P.to_mpf(t_r) - ex
             assert 0 <= d <= P.eps_float * ex, float(d / (P.eps_float * ex))
-        assert rel_t_err(P, ep["t_accumulation"], ref.precision.to_mpf(ep_ref["t_accumulation"])) <= 64
+        assert (
+            rel_t_err(P, ep["t_accumulation"], ref.precision.to_mpf(ep_ref["t_accumulation"])) <= 64
+        )
     # impact law and the invariant x <= x_w everywhere
     R_q = Fraction(R)
     for vb, va in zip(tr.impacts_v_before, tr.impacts_v_after):
@@ -278,7 +280,9 @@ def test_plastic_impact_with_force_pulling_away_leaves_the_wall(precision):
 
     p = Params.make(R="0", eta="0.712")
     tr = HeyokaSolver(precision).solve(p, 60)
-    an = (AnalyticalSolver() if precision == "float64" else AnalyticalSolver(backend="mpmath", dps=40)).solve(p, 60)
+    an = (
+        AnalyticalSolver() if precision == "float64" else AnalyticalSolver(backend="mpmath", dps=40)
+    ).solve(p, 60)
     assert tr.stats["sticking"] == [] and tr.stats["chattering"] == []
     assert tr.n_impacts == an.n_impacts == 43
     assert all(va == 0 for va in tr.impacts_v_after)
@@ -344,13 +348,20 @@ def test_wall_force_branches():
     assert not pushes_into_wall(mpmath.mpf("0.5"), Fraction(1), Fraction(1), Fraction(1))
     # exact zeros at t = 0 decided by the next derivative: G(0) = a - x_w
     assert pushes_into_wall(0, Fraction(1), Fraction(1), Fraction("0.5"))  # G(0) = 1/2 > 0
-    assert not pushes_into_wall(0, Fraction(1), Fraction(1), Fraction(1))  # G = 0, G'' = -eta^2 x_w < 0
+    assert not pushes_into_wall(
+        0, Fraction(1), Fraction(1), Fraction(1)
+    )  # G = 0, G'' = -eta^2 x_w < 0
     assert pushes_into_wall(0, Fraction(1), Fraction(-1), Fraction(-1))  # G = 0, G'' = eta^2 > 0
     assert pushes_into_wall(0, Fraction(1), Fraction(0), Fraction(0))  # G == 0: equilibrium, stays
     assert pushes_into_wall(mpmath.mpf(3), Fraction(1), Fraction(0), Fraction(0))
     assert release_time(mpmath.mpf(3), Fraction(1), Fraction(0), Fraction(0)) is None
     # generic helpers
-    assert wall_acceleration(Fraction(0), Fraction(1), Fraction(1, 2), Fraction(3), Fraction(1), lambda z: 1) == 2
+    assert (
+        wall_acceleration(
+            Fraction(0), Fraction(1), Fraction(1, 2), Fraction(3), Fraction(1), lambda z: 1
+        )
+        == 2
+    )
     assert chatter_accumulation_time(Fraction(1), Fraction(2), Fraction(1, 2), Fraction(4)) == 2
 
 
@@ -386,6 +397,7 @@ def test_budget_arguments_validated():
 
 # --- R = 1 with the force into the wall: an elastic bounce sequence, not Zeno --------
 
+
 def _elastic_wall(**kw):
     # a = 0: constant wall force g = -x_w = 1.5 into the wall; the mass starts 0.1 off it
     base = dict(x_w="-1.5", a="0", R="1", x0="-1.6", v0="0", eta="1", zeta="0.05")
@@ -412,7 +424,9 @@ def test_elastic_bounces_follow_the_adiabatic_law(periods):
     assert np.array_equal(np.asarray(tr.impacts_v_after, float), -vb)  # R = 1: exact reset
     g, zeta = 1.5, 0.05
     k = int(np.argmax(2 * vb / g <= 0.1))
-    n_law = g / (2 * vb[k]) * 3 / (2 * zeta) * math.expm1(2 * zeta * (periods * 2 * math.pi - t[k]) / 3)
+    n_law = (
+        g / (2 * vb[k]) * 3 / (2 * zeta) * math.expm1(2 * zeta * (periods * 2 * math.pi - t[k]) / 3)
+    )
     assert abs((len(t) - k) / n_law - 1) <= 1e-2, (len(t) - k, n_law)
     rate = np.polyfit(t[k:], np.log(vb[k:]), 1)[0]
     assert abs(rate / (-2 * zeta / 3) - 1) <= 1e-3, rate
@@ -425,10 +439,14 @@ def test_elastic_bounce_into_the_wall_is_recognised_within_the_budget(kw):
     the law above, refused in one message naming R = 1 and the predicted count, instead of
     running through the budget of 10^6 impacts (48 s in one case before)."""
     t0 = time.perf_counter()
-    with pytest.raises(BudgetExceededError, match=r"R = 1 .*not Zeno.*~\d.*e\+0[6-9] more impacts") as e:
+    with pytest.raises(
+        BudgetExceededError, match=r"R = 1 .*not Zeno.*~\d.*e\+0[6-9] more impacts"
+    ) as e:
         HeyokaSolver(max_impacts=10**6).solve(_elastic_wall(**kw), 100)
     assert "max_impacts = 1000000" in str(e.value)
-    assert time.perf_counter() - t0 < 30  # a hang guard (before: the whole budget), not a speed claim
+    assert (
+        time.perf_counter() - t0 < 30
+    )  # a hang guard (before: the whole budget), not a speed claim
 
 
 def test_elastic_bounces_within_the_budget_run_and_the_force_releases_them():

@@ -18,11 +18,11 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.flow import steady_state
 from precise_impact.core.params import Params
 from precise_impact.core.precision import Precision
+from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.solvers.closed_form import AnalyticalSolver
-from precise_impact.core.flow import steady_state
 
 EPS64 = 2.0**-52
 
@@ -100,7 +100,9 @@ def test_segments_continuous_and_samples_on_closed_form():
 def test_result_types_and_precision():
     p = Params.make(eta="0.74")
     tr = AnalyticalSolver().solve(p, 3, per_period=8)
-    assert tr.model == "analytical" and tr.precision == Precision.parse("float64") and tr.tol is None
+    assert (
+        tr.model == "analytical" and tr.precision == Precision.parse("float64") and tr.tol is None
+    )
     assert tr.x.dtype == np.float64 and len(tr.t) == 4 and len(tr.dense_t) == 3 * 8 + 1
     # the dense grid contains the samples
     np.testing.assert_array_equal(tr.dense_x[::8], tr.x)
@@ -253,7 +255,9 @@ def test_exact_grazing_is_a_tangency_not_an_impact():
     assert tr2.stats["grazing"] == 0 and tr2.impacts_t[0] > 3
 
 
-@settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(
     eta=st.fractions(min_value=Fraction(1, 2), max_value=Fraction(3, 2), max_denominator=1000),
     zeta=st.fractions(min_value=0, max_value=Fraction(1, 5), max_denominator=100),

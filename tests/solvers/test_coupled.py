@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, simulate
-from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, simulate_coupled, slave_reset
 from precise_impact.analysis.sync import half_crossing, plot_fig7, plot_sync_fraction, sync_scan
+from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, simulate_coupled, slave_reset
 
 EPS = 2.0**-52
 
@@ -67,7 +67,10 @@ def test_reduced_and_first_order_share_the_smooth_flow(k):
     """
     p = Params.make(x_w="1000")
     y, ydot = F(1, 2), F(3, 10)
-    runs = {f: simulate_coupled(p, k, f, 10, y0=equivalent_y0(f, p, k, y, ydot), per_period=20) for f in COUPLED_FORMS}
+    runs = {
+        f: simulate_coupled(p, k, f, 10, y0=equivalent_y0(f, p, k, y, ydot), per_period=20)
+        for f in COUPLED_FORMS
+    }
     a, b, c = runs["first-order"], runs["reduced"], runs["paper"]
     assert len(a.master_impacts_t) == len(a.slave_impacts_t) == len(b.slave_impacts_t) == 0
     scale = float(np.abs(b.dense_y).max())
@@ -92,7 +95,9 @@ def test_reduced_and_first_order_agree_with_impacts():
     p = Params.make(eta="0.712")
     k = F(5, 100)
     y, ydot = F(1, 2), F(3, 10)
-    a = simulate_coupled(p, k, "first-order", 10, y0=equivalent_y0("first-order", p, k, y, ydot), per_period=20)
+    a = simulate_coupled(
+        p, k, "first-order", 10, y0=equivalent_y0("first-order", p, k, y, ydot), per_period=20
+    )
     b = simulate_coupled(p, k, "reduced", 10, y0=(y, ydot), per_period=20)
     assert len(a.slave_impacts_t) == len(b.slave_impacts_t) >= 5
     assert np.abs(a.slave_impacts_t - b.slave_impacts_t).max() <= 1e-9
@@ -181,8 +186,12 @@ def test_reduced_slave_rule_maps_consistently():
     assert np.all(np.abs(y2a + R * y2b) <= 4 * EPS * scale)
     # exact rule on one set of recorded values (Fractions): slave_reset is the formula
     xq, wq = F(x[0]), F(wb[0])
-    assert slave_reset("reduced", xq, wq, F(4, 5), k, F(2)) == -F(4, 5) * wq + F(9, 5) * k * (xq - 2)
-    a = simulate_coupled(p, k, "first-order", 2, y0=equivalent_y0("first-order", p, k, F(1, 2), F(3, 10)))
+    assert slave_reset("reduced", xq, wq, F(4, 5), k, F(2)) == -F(4, 5) * wq + F(9, 5) * k * (
+        xq - 2
+    )
+    a = simulate_coupled(
+        p, k, "first-order", 2, y0=equivalent_y0("first-order", p, k, F(1, 2), F(3, 10))
+    )
     assert abs(a.slave_impacts_t[0] - b.slave_impacts_t[0]) <= 1e-12
     shift = kf * (a.slave_impacts_x[0] - 2)
     assert abs(a.slave_impacts_w_before[0] + shift - wb[0]) <= 1e-12
@@ -240,13 +249,24 @@ def test_threshold_from_coarse_scan_matches_lle(tmp_path):
     bias plus the grid half-width and the LLE's error.
     """
     p = Params.make()
-    r = sync_scan(p, "first-order", ["0.02", "0.03", "0.04", "0.05"], periods=500, ensemble=4, lle_periods=3000,
-                  lle_transient=200)
+    r = sync_scan(
+        p,
+        "first-order",
+        ["0.02", "0.03", "0.04", "0.05"],
+        periods=500,
+        ensemble=4,
+        lle_periods=3000,
+        lle_transient=200,
+    )
     assert 0.02 <= r.k_star <= 0.05, r.message
     assert r.fraction_synchronised[0] == 0 and r.fraction_synchronised[-1] == 1
     assert 0.028 <= r.lle <= 0.033
     bias = math.log(1 / 1e-8) / (500 * 2 * math.pi / 0.712)
-    assert r.lle - 2 * r.lle_stderr - r.k_star_err <= r.k_star <= r.lle + 2 * r.lle_stderr + r.k_star_err + bias
+    assert (
+        r.lle - 2 * r.lle_stderr - r.k_star_err
+        <= r.k_star
+        <= r.lle + 2 * r.lle_stderr + r.k_star_err + bias
+    )
     d = r.to_dict()
     json.dumps(d)
     assert d["k_values"] == ["0.02", "0.03", "0.04", "0.05"] and len(d["runs"]) == 4
@@ -267,7 +287,11 @@ def test_sync_scan_is_deterministic():
 
 def test_half_crossing():
     ks, err, msg = half_crossing([0.01, 0.02, 0.03], [0.0, 0.25, 0.75])
-    assert ks == pytest.approx(0.025) and err == pytest.approx(0.005) and "between k = 0.02 and 0.03" in msg
+    assert (
+        ks == pytest.approx(0.025)
+        and err == pytest.approx(0.005)
+        and "between k = 0.02 and 0.03" in msg
+    )
     ks, err, msg = half_crossing([0.01, 0.02], [0.0, 0.25])
     assert math.isnan(ks) and math.isnan(err) and "no crossing" in msg
     ks, err, msg = half_crossing([0.01, 0.02], [0.5, 1.0])
@@ -299,7 +323,11 @@ def test_plot_fig7(tmp_path):
         ({"y0": ("1",)}, "y0", "pair"),
         ({"y0": ("1", "nan")}, "y0[1]", "finite"),
         ({"precision": "float32"}, "precision", "float64"),
-        ({"params": "eta = 0.7"}, "params", "Params"),  # a mapping is accepted (as_params), text is not
+        (
+            {"params": "eta = 0.7"},
+            "params",
+            "Params",
+        ),  # a mapping is accepted (as_params), text is not
     ],
 )
 def test_simulate_coupled_validation(kwargs, name, phrase):

@@ -42,7 +42,9 @@ def test_smooth_flow_equals_heyoka(form, k):
 
 
 @pytest.mark.parametrize("form", COUPLED_FORMS)
-@pytest.mark.parametrize("k, y0", [("0.031", ("-1", "0.5")), ("0.05", ("1.5", "0.3")), ("0.2", ("0.7", "-1"))])
+@pytest.mark.parametrize(
+    "k, y0", [("0.031", ("-1", "0.5")), ("0.05", ("1.5", "0.3")), ("0.2", ("0.7", "-1"))]
+)
 def test_impacting_pair_equals_heyoka_until_chaos_separates_them(form, k, y0):
     """eta = 0.712 (chaotic master): two float64 methods differ by round-off that grows
     ~0.2 decimal digits per period (as for the single oscillator): <= 1e-15 x 10^(0.2 x 30)
@@ -66,7 +68,9 @@ def test_diagonal_start_stays_on_the_diagonal_bit_for_bit(form):
     """y0 = (x0, v0) and every coupling term exactly 0: e = 0 stays exactly 0, every impact
     is simultaneous, and the slave's samples are the master's."""
     tr = simulate_coupled(Params.make(eta="0.712"), "0.1", form, 200, engine="fast")
-    assert np.array_equal(tr.x, tr.y) and np.array_equal(tr.v if form != "first-order" else tr.v, tr.w)
+    assert np.array_equal(tr.x, tr.y) and np.array_equal(
+        tr.v if form != "first-order" else tr.v, tr.w
+    )
     assert len(tr.master_impacts_t) == len(tr.slave_impacts_t) == tr.stats["simultaneous"] > 0
 
 
@@ -81,11 +85,23 @@ def test_no_dense_sample_lies_beyond_the_wall():
         form = rng.choice(COUPLED_FORMS)
         k = F(rng.randint(0, 300), 1000)
         p = Params.make(eta=eta, x_w=xw, R=F(rng.randint(70, 100), 100))
-        tr = simulate_coupled(p, k, form, 60, y0=(F(rng.randint(-150, 100), 100), F(rng.randint(-100, 100), 100)),
-                              per_period=40, engine="fast")
+        tr = simulate_coupled(
+            p,
+            k,
+            form,
+            60,
+            y0=(F(rng.randint(-150, 100), 100), F(rng.randint(-100, 100), 100)),
+            per_period=40,
+            engine="fast",
+        )
         assert tr.stats["engine"] == "fast"
         tol = 1e-12 * max(1.0, float(xw))
-        assert tr.dense_x.max() <= float(xw) + tol and tr.dense_y.max() <= float(xw) + tol, (eta, xw, form, k)
+        assert tr.dense_x.max() <= float(xw) + tol and tr.dense_y.max() <= float(xw) + tol, (
+            eta,
+            xw,
+            form,
+            k,
+        )
 
 
 def test_sync_fractions_agree_with_heyoka_far_from_the_threshold():
@@ -103,7 +119,9 @@ def test_overdamped_difference_equation_falls_back_to_heyoka():
     """The printed (14a) with k = 10: e'' + 11.1 e' + 21 e = 0 is overdamped (c1^2/4 > c0):
     the closed form is the underdamped one, so heyoka integrates the run and says so."""
     tr = simulate_coupled(Params.make(eta="0.712"), "10", "paper", 5, y0=("1", "0"), engine="fast")
-    assert tr.stats["engine"].startswith("heyoka (fallback: ") and "underdamped" in tr.stats["engine"]
+    assert (
+        tr.stats["engine"].startswith("heyoka (fallback: ") and "underdamped" in tr.stats["engine"]
+    )
 
 
 def test_bad_engine_and_precision_are_named():

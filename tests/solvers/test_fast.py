@@ -19,7 +19,9 @@ import random
 import numpy as np
 import pytest
 
-numba = pytest.importorskip("numba", reason="the fast engine needs numba (pip install numba); CI installs it")
+numba = pytest.importorskip(
+    "numba", reason="the fast engine needs numba (pip install numba); CI installs it"
+)
 
 from precise_impact import Params, simulate  # noqa: E402
 from precise_impact.core.impact import oscillator_saltation  # noqa: E402
@@ -40,7 +42,10 @@ def test_period_three_orbit_agrees_with_heyoka_over_300_periods():
     err = np.max(np.abs(np.asarray(f.x) - np.array([float(x) for x in ref.x])))
     assert err <= bound, (err, bound)
     assert len(f.impacts_t) == len(ref.impacts_t) == len(h.impacts_t)
-    assert np.max(np.abs(np.asarray(f.impacts_t) - np.array([float(t) for t in ref.impacts_t]))) <= 4 * EPS * t_end
+    assert (
+        np.max(np.abs(np.asarray(f.impacts_t) - np.array([float(t) for t in ref.impacts_t])))
+        <= 4 * EPS * t_end
+    )
 
 
 def test_chaotic_orbit_agrees_with_heyoka_until_chaos_separates_them():
@@ -59,7 +64,13 @@ def test_compiled_saltation_is_the_core_one():
     rng = random.Random(1)
     for _ in range(50):
         t, vm = rng.uniform(0, 100), rng.uniform(1e-3, 2)
-        eta, zeta, a, xw, R = rng.uniform(0.2, 2), rng.uniform(0, 0.5), rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(0, 1)
+        eta, zeta, a, xw, R = (
+            rng.uniform(0.2, 2),
+            rng.uniform(0, 0.5),
+            rng.uniform(-2, 2),
+            rng.uniform(-2, 2),
+            rng.uniform(0, 1),
+        )
         core = oscillator_saltation(t, vm, eta, zeta, a, xw, R, math.cos)
         fast = compiled_saltation(t, vm, eta, zeta, a, xw, R)
         ref = [core[0][0], core[0][1], core[1][0], core[1][1]]
@@ -124,8 +135,13 @@ def test_missed_impact_audit_random_parameters(seed):
     R 0.6-1): the fast engine, the robust analytical finder and heyoka see the same
     impacts until chaos separates the orbits."""
     rng = random.Random(seed)
-    p = Params.make(eta=f"{rng.uniform(0.5, 1.2):.4f}", zeta=f"{rng.uniform(0.01, 0.3):.3f}",
-                    a=f"{rng.uniform(0.5, 2):.3f}", x_w=f"{rng.uniform(0.3, 2.5):.3f}", R=f"{rng.uniform(0.6, 1):.3f}")
+    p = Params.make(
+        eta=f"{rng.uniform(0.5, 1.2):.4f}",
+        zeta=f"{rng.uniform(0.01, 0.3):.3f}",
+        a=f"{rng.uniform(0.5, 2):.3f}",
+        x_w=f"{rng.uniform(0.3, 2.5):.3f}",
+        R=f"{rng.uniform(0.6, 1):.3f}",
+    )
     f = FastSolver(fallback=False).solve(p, 30)
     h = simulate(p, 30)
     an = simulate(p, 30, model="analytical")
@@ -181,10 +197,14 @@ def test_sweep_engines_agree_on_periods_and_impact_rates(tmp_path):
     axes = [("eta", "0.73", "0.75", 3)]
     res = {}
     for eng in ("fast", "heyoka"):
-        spec = SweepSpec.make(Params.make(), axes, periods=600, transient=400, tile_size=3, engine=eng)
+        spec = SweepSpec.make(
+            Params.make(), axes, periods=600, transient=400, tile_size=3, engine=eng
+        )
         res[eng] = run_sweep(spec, tmp_path / eng, workers=1, progress=False)
     f, h = res["fast"], res["heyoka"]
-    assert np.array_equal(f.period, h.period) and np.sum(f.period > 0) >= 2  # eta = 0.73: no period <= 32
+    assert (
+        np.array_equal(f.period, h.period) and np.sum(f.period > 0) >= 2
+    )  # eta = 0.73: no period <= 32
     per = f.period > 0
     assert np.allclose(f.impacts_per_period[per], h.impacts_per_period[per], atol=2 / 600)
     offset = 2.0 / (600 * 2 * math.pi / 0.75)
@@ -210,8 +230,13 @@ def test_no_dense_sample_lies_beyond_the_wall(seed):
     1000 dense samples per period would catch it.  Every sample stays within rounding
     (64 eps x scale) of the wall on the inside."""
     rng = random.Random(100 + seed)
-    p = Params.make(eta=f"{rng.uniform(0.5, 1.2):.4f}", zeta=f"{rng.uniform(0.01, 0.3):.3f}",
-                    a=f"{rng.uniform(0.5, 2):.3f}", x_w=f"{rng.uniform(0.3, 2.5):.3f}", R=f"{rng.uniform(0.6, 1):.3f}")
+    p = Params.make(
+        eta=f"{rng.uniform(0.5, 1.2):.4f}",
+        zeta=f"{rng.uniform(0.01, 0.3):.3f}",
+        a=f"{rng.uniform(0.5, 2):.3f}",
+        x_w=f"{rng.uniform(0.3, 2.5):.3f}",
+        R=f"{rng.uniform(0.6, 1):.3f}",
+    )
     tr = FastSolver(fallback=False).solve(p, 40, per_period=1000)
     scale = 1 + abs(float(p.x_w)) + abs(float(p.a))
     assert np.max(np.asarray(tr.dense_x) - float(p.x_w)) <= 64 * EPS * scale

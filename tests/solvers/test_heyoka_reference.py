@@ -16,7 +16,14 @@ from fractions import Fraction
 import mpmath
 import pytest
 
-from precise_impact import HeyokaSolver, Params, Precision, oscillator_saltation, simulate, steady_state
+from precise_impact import (
+    HeyokaSolver,
+    Params,
+    Precision,
+    oscillator_saltation,
+    simulate,
+    steady_state,
+)
 from precise_impact.verification.metrics import sample_errors
 
 
@@ -164,7 +171,14 @@ def test_saltation_matrix_against_finite_differences():
         tc, vm, _ = tr.impacts_mpf()[0]
         t1 = T
         S = oscillator_saltation(
-            tc, vm, mpq(base.eta), mpq(base.zeta), mpq(base.a), mpq(base.x_w), mpq(base.R), mpmath.cos
+            tc,
+            vm,
+            mpq(base.eta),
+            mpq(base.zeta),
+            mpq(base.a),
+            mpq(base.x_w),
+            mpq(base.R),
+            mpmath.cos,
         )
         S = mpmath.matrix(S)
         J = _fundamental(mpq(base.zeta), t1 - tc) * S * _fundamental(mpq(base.zeta), tc)
@@ -179,7 +193,12 @@ def test_saltation_matrix_against_finite_differences():
             fd[1, j] = (vp - vm_) / (2 * mpq(h))
         for i in range(2):
             for j in range(2):
-                assert abs(fd[i, j] - J[i, j]) <= mpmath.mpf("1e-40") * (1 + abs(J[i, j])), (i, j, fd, J)
+                assert abs(fd[i, j] - J[i, j]) <= mpmath.mpf("1e-40") * (1 + abs(J[i, j])), (
+                    i,
+                    j,
+                    fd,
+                    J,
+                )
         # determinant: R^2 times the smooth flow's exp(-2 zeta t)
         assert abs(mpmath.det(S) - mpq(base.R) ** 2) < mpmath.mpf("1e-70")
 

@@ -34,7 +34,9 @@ def mpq(q) -> mpmath.mpf:
 
 
 def analytical(precision: str) -> AnalyticalSolver:
-    return AnalyticalSolver() if precision == "float64" else AnalyticalSolver(backend="mpmath", dps=40)
+    return (
+        AnalyticalSolver() if precision == "float64" else AnalyticalSolver(backend="mpmath", dps=40)
+    )
 
 
 # --------------------------------------------------------------------------- on the wall
@@ -149,7 +151,9 @@ def test_start_on_wall_chatters_from_the_first_impact():
     assert float(tr.impacts_t[0]) == 1.0 and tr.v[0] == -0.05
     (ep, *_) = tr.stats["chattering"]
     assert ep["t_accumulation"] == tr.stats["sticking"][0][0]
-    assert 1.3 < ep["t_accumulation"] < 1.55  # ~ 1 + 2 R v0 / (g (1 - R)) = 1.42, g = cos(0.2) - 0.5
+    assert (
+        1.3 < ep["t_accumulation"] < 1.55
+    )  # ~ 1 + 2 R v0 / (g (1 - R)) = 1.42, g = cos(0.2) - 0.5
     assert ep["episode_impacts"] < 30
 
 
@@ -194,11 +198,19 @@ def coincide(solver, base: Params, k: int, periods: int):
     raise AssertionError("no run with an impact exactly on a sample found")
 
 
-SOLVERS = [(HeyokaSolver, p) for p in PRECISIONS + ["mp:256"]] + [(lambda _: AnalyticalSolver(), "float64")]
+SOLVERS = [(HeyokaSolver, p) for p in PRECISIONS + ["mp:256"]] + [
+    (lambda _: AnalyticalSolver(), "float64")
+]
 
 
-@pytest.mark.parametrize("k, periods", [(1, 2), (3, 5), (1, 1), (2, 2)], ids=["sample-1", "sample-3", "end-1", "end-2"])
-@pytest.mark.parametrize("make, precision", SOLVERS, ids=[f"{'analytical' if m is not HeyokaSolver else 'heyoka'}-{p}" for m, p in SOLVERS])
+@pytest.mark.parametrize(
+    "k, periods", [(1, 2), (3, 5), (1, 1), (2, 2)], ids=["sample-1", "sample-3", "end-1", "end-2"]
+)
+@pytest.mark.parametrize(
+    "make, precision",
+    SOLVERS,
+    ids=[f"{'analytical' if m is not HeyokaSolver else 'heyoka'}-{p}" for m, p in SOLVERS],
+)
 def test_impact_exactly_on_a_sample_is_right_continuous(make, precision, k, periods):
     """An impact at exactly a sample time (k < periods) or the end time (k = periods):
     the sample holds the post-impact state (x_w, v_after) bit for bit and the

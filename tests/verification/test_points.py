@@ -11,7 +11,11 @@ from fractions import Fraction
 import pytest
 
 import precise_impact as pi
-from precise_impact.verification.points import mechanical_points, model_grazing, model_period_doubling
+from precise_impact.verification.points import (
+    mechanical_points,
+    model_grazing,
+    model_period_doubling,
+)
 
 
 def _fast(params, periods, per_period):
@@ -33,22 +37,43 @@ def test_locators_find_known_points_of_a_shifted_system(zeta, R):
     own = mechanical_points(p)
     d = model_period_doubling(_fast, p, paper["period-doubling"], paper["pd_state"])
     # the +-1e-3 fits cancel the quadratic terms: the multipliers to ~1e-8, the point to ~1e-8
-    assert d["how"] == "root" and abs(d["eta"] - own["period-doubling"]) < 1e-7, (d["eta"], own["period-doubling"])
+    assert d["how"] == "root" and abs(d["eta"] - own["period-doubling"]) < 1e-7, (
+        d["eta"],
+        own["period-doubling"],
+    )
     if zeta != "0.05":
         assert abs(own["period-doubling"] - paper["period-doubling"]) > 1e-3  # really shifted
 
 
 def test_mechanical_period_doubling_is_a_multiplier_minus_one():
     m = mechanical_points(pi.Params.make())
-    o = pi.find_orbit(pi.Params.make(eta=Fraction(m["period-doubling"])), 1, guess=m["pd_state"], impacts=1)
+    o = pi.find_orbit(
+        pi.Params.make(eta=Fraction(m["period-doubling"])), 1, guess=m["pd_state"], impacts=1
+    )
     assert min(abs(mu + 1) for mu in o.multipliers) < 1e-10
 
 
 def test_compare_points_cli(tmp_path):
     out = tmp_path / "cmp"
-    r = subprocess.run([sys.executable, "-m", "precise_impact", "compare", "fig4-periodic-ideal", "--models",
-                        "heyoka,circuit", "--periods", "20", "--points", "--out", str(out)],
-                       capture_output=True, text=True, timeout=600)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "compare",
+            "fig4-periodic-ideal",
+            "--models",
+            "heyoka,circuit",
+            "--periods",
+            "20",
+            "--points",
+            "--out",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr
     assert "grazing eta" in r.stdout and "written:" in r.stdout
     d = json.loads((out / "scores.json").read_text())
@@ -56,7 +81,9 @@ def test_compare_points_cli(tmp_path):
     for m in ("heyoka", "circuit"):
         pts = d["models"][m]["points"]
         # the ideal circuit realises the mechanics: both shifts at the locators' resolution
-        assert abs(pts["grazing"]["shift"]) < 1e-8 and abs(pts["period-doubling"]["shift"]) < 1e-7, (m, pts)
+        assert (
+            abs(pts["grazing"]["shift"]) < 1e-8 and abs(pts["period-doubling"]["shift"]) < 1e-7
+        ), (m, pts)
     assert "## Bifurcation points along eta" in (out / "report.md").read_text()
     assert math.isfinite(d["models"]["circuit"]["points"]["period-doubling"]["fit_residual"])
 
@@ -74,8 +101,24 @@ def _switched_linear(scene):
     from precise_impact.models.circuit.effects.tolerance import actual_components
 
     c = actual_components(scene.design(), scene.effects)
-    g = {k: mpmath.mpf(getattr(c, k).numerator) / getattr(c, k).denominator
-         for k in ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2", "V_A", "V_wall", "V_unit")}
+    g = {
+        k: mpmath.mpf(getattr(c, k).numerator) / getattr(c, k).denominator
+        for k in (
+            "R1",
+            "R2",
+            "R3",
+            "R4",
+            "R5",
+            "R6",
+            "R7",
+            "R8",
+            "C1",
+            "C2",
+            "V_A",
+            "V_wall",
+            "V_unit",
+        )
+    }
     ron = Fraction(scene.effects["switch"]["ron"])
     ron = mpmath.mpf(ron.numerator) / ron.denominator
     k = 2 * ron * g["R2"] / g["R3"]
@@ -83,10 +126,21 @@ def _switched_linear(scene):
     G = 1 / (1 + k * rho / g["R6"])
     r8c1, r3c2 = g["R8"] * g["C1"], g["R3"] * g["C2"]
     # d/dt (V_s, V_C) = A (V_s, V_C) + b V3
-    A = mpmath.matrix([[-G * k / g["R7"] / r8c1, G / r8c1],
-                       [(-g["R2"] / g["R7"] + g["R2"] * rho / g["R6"] * G * k / g["R7"]) / r3c2,
-                        -g["R2"] * rho / g["R6"] * G / r3c2]])
-    b = mpmath.matrix([-G * k / g["R1"] / r8c1, (-g["R2"] / g["R1"] + g["R2"] * rho / g["R6"] * G * k / g["R1"]) / r3c2])
+    A = mpmath.matrix(
+        [
+            [-G * k / g["R7"] / r8c1, G / r8c1],
+            [
+                (-g["R2"] / g["R7"] + g["R2"] * rho / g["R6"] * G * k / g["R7"]) / r3c2,
+                -g["R2"] * rho / g["R6"] * G / r3c2,
+            ],
+        ]
+    )
+    b = mpmath.matrix(
+        [
+            -G * k / g["R1"] / r8c1,
+            (-g["R2"] / g["R1"] + g["R2"] * rho / g["R6"] * G * k / g["R1"]) / r3c2,
+        ]
+    )
 
     def amplitude(om):
         return abs(mpmath.lu_solve(1j * om * mpmath.eye(2) - A, b * g["V_A"])[0])
@@ -134,10 +188,22 @@ def test_datasheet_switched_capacitor_points_are_shifted_as_derived():
         a_eff = float(amplitude(mpmath.mpf("1e-9")))
         w = float(w)
     r_off = float(k / parts["R2"])  # 2 R_on / R3
-    eff = [mechanical_points(pi.Params.make(zeta=Fraction(zeta), a=Fraction(a_eff), x_w=Fraction(float(xw)), R=R))
-           ["period-doubling"] * w / omega_nominal for R in (Fraction(1), Fraction(1) - Fraction(r_off))]
-    band = abs(eff[0] - eff[1]) + (d["lost"][1] - d["lost"][0] if d["lost"] else 0.0) + d["resolution"]
-    assert d["how"] == "extrapolated" and d["shift"] < 0 and abs(d["shift"]) > 2 * band, (d, eff, band)
+    eff = [
+        mechanical_points(
+            pi.Params.make(zeta=Fraction(zeta), a=Fraction(a_eff), x_w=Fraction(float(xw)), R=R)
+        )["period-doubling"]
+        * w
+        / omega_nominal
+        for R in (Fraction(1), Fraction(1) - Fraction(r_off))
+    ]
+    band = (
+        abs(eff[0] - eff[1]) + (d["lost"][1] - d["lost"][0] if d["lost"] else 0.0) + d["resolution"]
+    )
+    assert d["how"] == "extrapolated" and d["shift"] < 0 and abs(d["shift"]) > 2 * band, (
+        d,
+        eff,
+        band,
+    )
     assert abs(d["model"] - eff[0]) <= band, (d["model"], eff, band)
     # the ideal switched-capacitor (its effects off, nominal parts): round-off, as the mechanics
     ideal = load_scene("fig4-periodic-ideal")

@@ -10,8 +10,8 @@ import pytest
 
 from precise_impact import Params, simulate
 from precise_impact.cli.main import main as cli_main
-from precise_impact.verification.reference import CASES, default_root, verify
 from precise_impact.testing import assert_stroboscopic_close, load_reference, score_solver
+from precise_impact.verification.reference import CASES, default_root, verify
 
 ROOT = default_root()
 
@@ -30,7 +30,15 @@ def test_shipped_data_is_small_and_complete():
     total = 0
     for case in CASES:
         manifest = json.loads((ROOT / case / "manifest.json").read_text())
-        assert {"params", "model", "precision", "tolerance", "versions", "accuracy", "files"} <= manifest.keys()
+        assert {
+            "params",
+            "model",
+            "precision",
+            "tolerance",
+            "versions",
+            "accuracy",
+            "files",
+        } <= manifest.keys()
         assert {"heyoka", "numpy", "mpmath", "python"} <= manifest["versions"].keys()
         total += sum(f["bytes"] for f in manifest["files"].values())
     assert total < 5 * 2**20
@@ -43,7 +51,9 @@ def test_tampered_copy_is_detected(tmp_path):
     p = copy / "single-0.74" / "samples.json"
     data = json.loads(p.read_text())
     x = data["samples"][5]["x"]
-    data["samples"][5]["x"] = x[:-3] + ("1" if x[-3] != "1" else "2") + x[-2:]  # one digit, far below float64
+    data["samples"][5]["x"] = (
+        x[:-3] + ("1" if x[-3] != "1" else "2") + x[-2:]
+    )  # one digit, far below float64
     p.write_text(json.dumps(data, indent=1) + "\n")
     problems = verify(copy, cases=["single-0.74"])
     assert problems and "checksum" in problems[0]
@@ -55,7 +65,7 @@ def test_tampered_copy_is_detected(tmp_path):
 
 def test_recomputation_catches_a_consistent_forgery(tmp_path):
     """Data changed *and* re-checksummed still fails the float128 recomputation."""
-    from precise_impact.verification.reference import write_manifest, read_manifest
+    from precise_impact.verification.reference import read_manifest, write_manifest
 
     copy = tmp_path / "ref"
     shutil.copytree(ROOT / "single-0.712", copy / "single-0.712")
@@ -64,7 +74,9 @@ def test_recomputation_catches_a_consistent_forgery(tmp_path):
     data["samples"][3]["v"] = "0.5"
     p.write_text(json.dumps(data, indent=1) + "\n")
     m = read_manifest(copy / "single-0.712")
-    write_manifest(copy / "single-0.712", list(m["files"]), {k: v for k, v in m.items() if k != "files"})
+    write_manifest(
+        copy / "single-0.712", list(m["files"]), {k: v for k, v in m.items() if k != "files"}
+    )
     problems = verify(copy, cases=["single-0.712"])
     assert problems and "period 3" in problems[0]
 
@@ -151,7 +163,9 @@ def test_a_damaged_reference_is_an_error_not_a_verdict(tmp_path):
     p = copy / "single-0.74" / "samples.json"
     p.write_text(p.read_text().replace('"x": "0', '"x": "1', 1))
     with pytest.raises(ReferenceDataError, match=r"samples\.json"):
-        assert_stroboscopic_close(heyoka_float64, "single-0.74", periods=30, atol=1e-6, rtol=1e-6, root=copy)
+        assert_stroboscopic_close(
+            heyoka_float64, "single-0.74", periods=30, atol=1e-6, rtol=1e-6, root=copy
+        )
     os.environ["PRECISE_IMPACT_REFERENCE"] = str(copy)
     try:
         with pytest.raises(ReferenceDataError, match="checksum mismatch"):

@@ -10,14 +10,12 @@ period 50 float64 within 1e-5 (the issue's bound for the ground truth; measured
 
 from __future__ import annotations
 
-from fractions import Fraction
-
 import mpmath
 import pytest
 
 from precise_impact import Params, simulate
-from precise_impact.models.circuit.opamp import CircuitSolver
 from precise_impact.models.circuit.components import nominal_components
+from precise_impact.models.circuit.opamp import CircuitSolver
 from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.testing import load_reference
 
@@ -43,7 +41,11 @@ def ref74():
         ("heyoka longdouble", lambda p, n: simulate(p, n, precision="longdouble"), 2.0**-63),
         ("analytical float64", lambda p, n: simulate(p, n, model="analytical"), 2.0**-52),
         ("circuit ideal", lambda p, n: CircuitSolver().solve(nominal_components(p), n), 2.0**-52),
-        ("switched-capacitor ideal", lambda p, n: SwitchedCapacitorSolver().solve(nominal_components(p), n), 2.0**-52),
+        (
+            "switched-capacitor ideal",
+            lambda p, n: SwitchedCapacitorSolver().solve(nominal_components(p), n),
+            2.0**-52,
+        ),
     ],
 )
 def test_periodic_models_stay_within_bounds(ref74, model, make, eps):

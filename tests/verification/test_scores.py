@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params
+from precise_impact.errors import ParameterError
+from precise_impact.solvers.simulate import simulate
 from precise_impact.verification.scores import (
     divergence_rate,
     predictability_horizon,
@@ -16,7 +17,6 @@ from precise_impact.verification.scores import (
     sliced_wasserstein,
     wasserstein_1d,
 )
-from precise_impact.solvers.simulate import simulate
 
 
 def test_sliced_wasserstein_of_a_cloud_with_itself_is_zero():
@@ -44,7 +44,9 @@ def test_predictability_horizon_of_an_exponential_separation():
     t = np.arange(0, 2000, 8.8)
     sep = s0 * np.exp(lam * t)
     for delta in (1e-6, 1e-3, 1e-1):
-        assert predictability_horizon(t, sep, delta) == pytest.approx(math.log(delta / s0) / lam, rel=1e-12)
+        assert predictability_horizon(t, sep, delta) == pytest.approx(
+            math.log(delta / s0) / lam, rel=1e-12
+        )
     assert predictability_horizon(t, sep, 1e300) == math.inf
 
 
@@ -95,7 +97,9 @@ def test_score_refuses_unknown_regime():
 def test_compare_writes_report_and_figures(tmp_path):
     from precise_impact.verification.compare import compare
 
-    res = compare("fig6-period3-ideal", ["circuit", "switched-capacitor"], out=tmp_path, progress=False)
+    res = compare(
+        "fig6-period3-ideal", ["circuit", "switched-capacitor"], out=tmp_path, progress=False
+    )
     assert res["regime"] == "periodic"
     for name in ("report.md", "scores.json", "phase_portraits.png", "separation.png"):
         assert (tmp_path / name).stat().st_size > 0

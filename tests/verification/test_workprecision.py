@@ -11,7 +11,10 @@ from precise_impact.solvers.heyoka.single import HeyokaSolver
 from precise_impact.verification.workprecision import predicted_bits, scipy_solve, work_precision
 
 TINY = {
-    "cases": {"periodic": {"eta": "0.74", "periods": 10}, "chaotic": {"eta": "0.712", "periods": 10}},
+    "cases": {
+        "periodic": {"eta": "0.74", "periods": 10},
+        "chaotic": {"eta": "0.712", "periods": 10},
+    },
     "heyoka": {"float64": ["1e-5", "1e-9", None]},
     "heyoka_mp": [],
     "analytical_paper": [],
@@ -36,7 +39,12 @@ def test_structure_and_outputs(tiny):
     res, out = tiny
     for key in ("references", "rows", "chaos_cost", "headlines", "notes"):
         assert key in res
-    for name in ("work_precision.json", "work_precision.csv", "work_precision.png", "chaos_cost.png"):
+    for name in (
+        "work_precision.json",
+        "work_precision.csv",
+        "work_precision.png",
+        "chaos_cost.png",
+    ):
         assert (out / name).stat().st_size > 0
     for r in res["rows"]:
         assert r["time_s"] > 0 and r["repeats"] >= 1 and math.isfinite(r["error"])

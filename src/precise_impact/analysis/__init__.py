@@ -7,11 +7,23 @@
 * :mod:`~precise_impact.analysis.sweep` — tiled, resumable parameter sweeps (processes or Dask).
 """
 
+from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
 from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, lyapunov
 from precise_impact.analysis.periodicity import detect_period
-from precise_impact.analysis.sync import SyncResult, sync_scan
-from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
 from precise_impact.analysis.sweep import SweepResult, SweepSpec, load_sweep, run_sweep
+from precise_impact.analysis.sync import SyncResult, sync_scan
 
-__all__ = ["LYAPUNOV_METHODS", "LyapunovResult", "lyapunov", "detect_period", "SyncResult", "sync_scan",
-           "BifurcationResult", "bifurcation", "SweepSpec", "SweepResult", "run_sweep", "load_sweep"]
+__all__ = [
+    "LYAPUNOV_METHODS",
+    "LyapunovResult",
+    "lyapunov",
+    "detect_period",
+    "SyncResult",
+    "sync_scan",
+    "BifurcationResult",
+    "bifurcation",
+    "SweepSpec",
+    "SweepResult",
+    "run_sweep",
+    "load_sweep",
+]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -16,18 +17,16 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
-import math
-
 import numpy as np
 
+from precise_impact.core.flow import grazing_frequencies
+from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
-from precise_impact.solvers.base import check_engine
-from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.io.progress import Progress
-from precise_impact.core.flow import grazing_frequencies
+from precise_impact.solvers.base import check_engine
 
 __all__ = ["BifurcationResult", "bifurcation", "eta_grid"]
 
@@ -134,7 +133,10 @@ class BifurcationResult(ResultMixin):
             The files under the keys ``'npz'`` and ``'png'``.
         """
         out = Path(out)
-        return {"npz": self.save(out / "bifurcation.npz"), "png": self.save(out / "bifurcation.png")}
+        return {
+            "npz": self.save(out / "bifurcation.npz"),
+            "png": self.save(out / "bifurcation.png"),
+        }
 
     def plot(self, path: str | os.PathLike) -> None:
         """Stroboscopic x against eta with the LLE beneath, saved as an image.
@@ -146,22 +148,41 @@ class BifurcationResult(ResultMixin):
             with matplotlib's object API (the user's backend is never changed).
         """
         eta = np.array([float(e) for e in self.eta])
-        fig, axes = new_figure(2, 1, figsize=(10, 7), layout="tight", sharex=True, gridspec_kw={"height_ratios": [3, 2]})
+        fig, axes = new_figure(
+            2,
+            1,
+            figsize=(10, 7),
+            layout="tight",
+            sharex=True,
+            gridspec_kw={"height_ratios": [3, 2]},
+        )
         ax1, ax2 = axes[:, 0]
         xs = np.repeat(eta, self.x.shape[1])
         ax1.plot(xs, self.x.ravel(), ",", color="k", alpha=0.5)
         ax1.axhline(float(self.params.x_w), color="tab:red", lw=0.8, label="wall x_w")
         ax1.set_ylabel("x at t0 + kT")
-        ax2.errorbar(eta, self.lle, yerr=self.lle_stderr, fmt="-", lw=0.8, color="tab:blue", ecolor="tab:gray")
+        ax2.errorbar(
+            eta,
+            self.lle,
+            yerr=self.lle_stderr,
+            fmt="-",
+            lw=0.8,
+            color="tab:blue",
+            ecolor="tab:gray",
+        )
         ax2.axhline(0, color="k", lw=0.6)
-        ax2.axhline(-float(self.params.zeta), color="tab:green", lw=0.6, ls="--", label="-zeta (no impacts)")
+        ax2.axhline(
+            -float(self.params.zeta), color="tab:green", lw=0.6, ls="--", label="-zeta (no impacts)"
+        )
         ax2.set_ylabel("LLE per unit time")
         ax2.set_xlabel("eta")
         for g in self.grazing:
             for ax in (ax1, ax2):
                 ax.axvline(g, color="tab:orange", ls=":", lw=1)
         if self.grazing:
-            ax1.plot([], [], color="tab:orange", ls=":", label=f"grazing eta = {self.grazing[0]:.5f}")
+            ax1.plot(
+                [], [], color="tab:orange", ls=":", label=f"grazing eta = {self.grazing[0]:.5f}"
+            )
         ax1.legend(loc="upper right", fontsize=8)
         ax2.legend(loc="lower right", fontsize=8)
         fig.suptitle(
@@ -196,10 +217,21 @@ def _one(args):
         from precise_impact.analysis.lyapunov.result import means_stderr
         from precise_impact.solvers.fast.single import STATUS_OK, lle_batch_serial
 
-        pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w), float(params.R)]])
+        pars = np.array(
+            [
+                [
+                    float(params.eta),
+                    float(params.zeta),
+                    float(params.a),
+                    float(params.x_w),
+                    float(params.R),
+                ]
+            ]
+        )
         starts = np.array([[float(params.t0), float(params.x0), float(params.v0)]])
-        st, l1, _, imps, bsums, _, xt, _ = lle_batch_serial(pars, starts, periods, transient, min(10, periods), 10**7,
-                                                         periods)
+        st, l1, _, imps, bsums, _, xt, _ = lle_batch_serial(
+            pars, starts, periods, transient, min(10, periods), 10**7, periods
+        )
         if st[0] == STATUS_OK:
             T = 2 * math.pi / float(params.eta)
             nb = min(10, periods)
@@ -208,7 +240,9 @@ def _one(args):
             return xt[0], float(l1[0] / (periods * T)), se, float(imps[0] / periods)
     from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
-    r = variational_spectrum(params, periods=periods, transient=transient, initial_conditions=1, segments=10)
+    r = variational_spectrum(
+        params, periods=periods, transient=transient, initial_conditions=1, segments=10
+    )
     return r.strobe_x, r.lle, r.stderr, r.impacts / r.periods
 
 
@@ -281,7 +315,9 @@ def bifurcation(
     if workers < 1:
         raise ParameterError("workers", workers, "an integer >= 1")
     check_engine(engine)
-    jobs = [(params.replace(eta=e), periods, transient, engine) for e in etas]  # validates every eta first
+    jobs = [
+        (params.replace(eta=e), periods, transient, engine) for e in etas
+    ]  # validates every eta first
     start = time.perf_counter()
     results: list[Any] = [None] * len(jobs)
     done = 0

@@ -19,21 +19,22 @@ import json
 import math
 import os
 import time
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
-from precise_impact.core.result import ResultMixin
-from precise_impact.io.figures import figure
-from precise_impact.errors import OptionalDependencyError, ParameterError
-from precise_impact.solvers.base import check_engine
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import OptionalDependencyError, ParameterError
 from precise_impact.io.atomic import atomic_write, write_json
+from precise_impact.io.figures import figure
 from precise_impact.io.lock import DirectoryLock
 from precise_impact.io.progress import Progress, say
+from precise_impact.solvers.base import check_engine
 
 __all__ = ["SWEEP_PARAMS", "SweepSpec", "SweepResult", "compute_tile", "run_sweep", "load_sweep"]
 
@@ -81,8 +82,17 @@ class SweepSpec:
     engine: str = "fast"
 
     @classmethod
-    def make(cls, base: Params, axes: Sequence[tuple[str, Any, Any, Any]], periods=2000, transient=1000,
-             tile_size=64, batch_size=None, max_work: int = MAX_WORK, engine: str = "fast") -> "SweepSpec":
+    def make(
+        cls,
+        base: Params,
+        axes: Sequence[tuple[str, Any, Any, Any]],
+        periods=2000,
+        transient=1000,
+        tile_size=64,
+        batch_size=None,
+        max_work: int = MAX_WORK,
+        engine: str = "fast",
+    ) -> SweepSpec:
         """Validate and build a sweep specification.
 
         Parameters
@@ -120,12 +130,13 @@ class SweepSpec:
             Bad axis name, range, count or a budget exceeded.
         """
         from precise_impact.analysis.lyapunov.batch import default_batch_size
-
         from precise_impact.core.params import as_params
 
         base = as_params(base, "base")
         if isinstance(axes, (str, bytes)) or not isinstance(axes, Sequence):
-            raise ParameterError("axes", type(axes).__name__, "a list of 1 or 2 axes (name, min, max, n)")
+            raise ParameterError(
+                "axes", type(axes).__name__, "a list of 1 or 2 axes (name, min, max, n)"
+            )
         if not 1 <= len(axes) <= 2:
             raise ParameterError("axes", len(axes), "a sweep has 1 or 2 axes")
         periods = check_count(periods, "periods", minimum=1)
@@ -138,9 +149,13 @@ class SweepSpec:
             points *= check_count(ax[3], "n", 1_000_000, minimum=1)
         work = points * (periods + transient)
         if work > max_work:
-            raise ParameterError("max_work", max_work, f"this sweep needs {points} points x {periods + transient} periods "
-                                 f"= {work:.3g} point-periods (~{work / 3000 / 60 / 3600:.3g} h at 60 points/s of "
-                                 f"3000 periods); raise the budget (--max-work) to at least {work}")
+            raise ParameterError(
+                "max_work",
+                max_work,
+                f"this sweep needs {points} points x {periods + transient} periods "
+                f"= {work:.3g} point-periods (~{work / 3000 / 60 / 3600:.3g} h at 60 points/s of "
+                f"3000 periods); raise the budget (--max-work) to at least {work}",
+            )
         built = []
         for name, lo, hi, n in axes:
             if name not in SWEEP_PARAMS:
@@ -151,17 +166,26 @@ class SweepSpec:
             else:
                 vals = exact_grid(lo, hi, n, name, minimum=minimum, strict=strict)
             if name == "R" and vals[-1] > 1:
-                raise ParameterError("R_max", decimal_str(vals[-1]), "restitution must satisfy R <= 1")
+                raise ParameterError(
+                    "R_max", decimal_str(vals[-1]), "restitution must satisfy R <= 1"
+                )
             built.append((name, tuple(vals)))
         if len(built) == 2 and built[0][0] == built[1][0]:
             raise ParameterError("axis", built[1][0], "the two axes must be different parameters")
         tile_size = check_count(tile_size, "tile_size", 100_000)
         if tile_size < 1:
             raise ParameterError("tile_size", tile_size, "an integer >= 1")
-        batch_size = default_batch_size() if batch_size is None else check_count(batch_size, "batch_size", 64)
+        batch_size = (
+            default_batch_size()
+            if batch_size is None
+            else check_count(batch_size, "batch_size", 64)
+        )
         check_engine(engine)
         spec = cls(base, tuple(built), periods, transient, tile_size, batch_size, engine)
-        for k in (0, spec.n_points - 1):  # every point valid (ranges are monotone): check the corners
+        for k in (
+            0,
+            spec.n_points - 1,
+        ):  # every point valid (ranges are monotone): check the corners
             spec.point(k)
         return spec
 
@@ -229,13 +253,19 @@ def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
     if spec.engine == "fast":
         from precise_impact.analysis.lyapunov.fast import fast_batch_rows
 
-        res = fast_batch_rows(spec.rows(lo, hi), lambda idx: [spec.point(lo + i) for i in idx],
-                              periods=spec.periods, transient=spec.transient)
+        res = fast_batch_rows(
+            spec.rows(lo, hi),
+            lambda idx: [spec.point(lo + i) for i in idx],
+            periods=spec.periods,
+            transient=spec.transient,
+        )
     else:
         from precise_impact.analysis.lyapunov.batch import batch_lle
 
         pts = [spec.point(k) for k in range(lo, hi)]
-        res = batch_lle(pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size)
+        res = batch_lle(
+            pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size
+        )
     out = {f: np.array([r[f] for r in res]) for f in _FIELDS}
     out["index"] = np.arange(lo, hi)
     return out
@@ -262,8 +292,11 @@ def _tile_checksum(digest: str, tile: int, arrays: dict[str, np.ndarray]) -> str
 
 def _write_tile(out: Path, spec: SweepSpec, tile: int, arrays: dict[str, np.ndarray]) -> None:
     data = {k: np.asarray(arrays[k]) for k in _TILE_KEYS}
-    data.update(digest=np.asarray(spec.digest), tile=np.asarray(tile),
-                checksum=np.asarray(_tile_checksum(spec.digest, tile, data)))
+    data.update(
+        digest=np.asarray(spec.digest),
+        tile=np.asarray(tile),
+        checksum=np.asarray(_tile_checksum(spec.digest, tile, data)),
+    )
     atomic_write(_tile_path(out, tile), lambda fh: np.savez(fh, **data), binary=True)
 
 
@@ -282,7 +315,11 @@ def _read_tile(out: Path, spec: SweepSpec, tile: int) -> tuple[dict | None, str 
         return None, "belongs to another sweep"
     lo = tile * spec.tile_size
     hi = min(spec.n_points, lo + spec.tile_size)
-    if data["tile"].shape != () or int(data["tile"]) != tile or not np.array_equal(data["index"], np.arange(lo, hi)):
+    if (
+        data["tile"].shape != ()
+        or int(data["tile"]) != tile
+        or not np.array_equal(data["index"], np.arange(lo, hi))
+    ):
         return None, "holds another tile's points"
     if any(data[f].shape != (hi - lo,) for f in _FIELDS):
         return None, "has arrays of the wrong length"
@@ -378,8 +415,12 @@ def _check_spec_file(spec: SweepSpec, out: Path) -> None:
         if old_digest == spec.digest:
             return
         if old is not None and old_digest is not None:
-            raise ParameterError("out", str(out), "a directory of this sweep or an empty one (it holds a different "
-                                 "sweep: sweep_spec.json); use another --out or delete it")
+            raise ParameterError(
+                "out",
+                str(out),
+                "a directory of this sweep or an empty one (it holds a different "
+                "sweep: sweep_spec.json); use another --out or delete it",
+            )
         # Damaged: the tiles carry their own identity; if any belongs to another sweep, refuse.
         for t in sorted(out.glob("tiles/tile_*.npz")):
             try:
@@ -388,8 +429,12 @@ def _check_spec_file(spec: SweepSpec, out: Path) -> None:
             except Exception:
                 continue
             if foreign:
-                raise ParameterError("out", str(out), "a directory of this sweep or an empty one (sweep_spec.json is "
-                                     f"damaged and {t.name} belongs to another sweep); use another --out")
+                raise ParameterError(
+                    "out",
+                    str(out),
+                    "a directory of this sweep or an empty one (sweep_spec.json is "
+                    f"damaged and {t.name} belongs to another sweep); use another --out",
+                )
         say(f"sweep: {spec_file} is damaged: rewriting it (the tiles carry their own identity)")
     write_json(spec_file, ident)
 
@@ -432,7 +477,9 @@ def _run_locked(spec, out, workers, dask, progress, max_tiles) -> SweepResult:
         "tiles_reused": len(done),
         "tiles_computed": count["n"],
         "elapsed_s": elapsed,
-        "points_per_s": count["n"] * spec.tile_size / elapsed if count["n"] and elapsed > 0 else None,
+        "points_per_s": count["n"] * spec.tile_size / elapsed
+        if count["n"] and elapsed > 0
+        else None,
         "workers": n_workers,
         "backend": "dask" if dask is not None else "processes",
     }
@@ -512,8 +559,11 @@ class SweepResult(ResultMixin):
         spec = self.spec
         if path.suffix == ".npz":
             axes = {f"axis{i}_{name}": v for i, (name, v) in enumerate(self.coordinates().items())}
-            npz = dict({f: getattr(self, f) for f in _FIELDS}, **axes,
-                       spec_json=np.asarray(json.dumps(spec.to_json_dict())))
+            npz = dict(
+                {f: getattr(self, f) for f in _FIELDS},
+                **axes,
+                spec_json=np.asarray(json.dumps(spec.to_json_dict())),
+            )
             atomic_write(path, lambda fh: np.savez_compressed(fh, **npz), binary=True)
             return path
         if path.suffix == ".csv":
@@ -522,8 +572,12 @@ class SweepResult(ResultMixin):
             for k in range(spec.n_points):
                 idx = np.unravel_index(k, spec.shape)
                 coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx)]
-                row = [repr(float(getattr(self, f)[idx])) if f != "period" else _int_or_nan(self.period[idx])
-                       for f in _FIELDS]
+                row = [
+                    repr(float(getattr(self, f)[idx]))
+                    if f != "period"
+                    else _int_or_nan(self.period[idx])
+                    for f in _FIELDS
+                ]
                 lines.append(",".join(coords + row))
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
@@ -537,21 +591,36 @@ def _int_or_nan(x: float) -> str:
     return str(int(x)) if math.isfinite(x) else "nan"
 
 
-def _run_dask(spec: SweepSpec, todo: list[int], dask: str, finished: Callable, workers: int | None) -> int:
+def _run_dask(
+    spec: SweepSpec, todo: list[int], dask: str, finished: Callable, workers: int | None
+) -> int:
     try:
-        from dask.distributed import Client, LocalCluster, as_completed as dask_as_completed
+        from dask.distributed import Client, LocalCluster
+        from dask.distributed import as_completed as dask_as_completed
     except ImportError:
-        raise OptionalDependencyError("dask", "pip install 'precise_impact[dask]'", "--dask") from None
+        raise OptionalDependencyError(
+            "dask", "pip install 'precise_impact[dask]'", "--dask"
+        ) from None
     if dask == "local":
-        n = check_count(workers, "workers", 1024, minimum=1) if workers is not None else (os.cpu_count() or 1)
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+        n = (
+            check_count(workers, "workers", 1024, minimum=1)
+            if workers is not None
+            else (os.cpu_count() or 1)
+        )
+        cluster = LocalCluster(
+            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
+        )
         client = Client(cluster)
     elif dask.startswith("tcp://"):
         cluster = None
         try:
             client = Client(dask, timeout=10)
         except (OSError, TimeoutError) as e:
-            raise ParameterError("scheduler", dask, f"a reachable Dask scheduler (none answered within 10 s: {type(e).__name__})") from None
+            raise ParameterError(
+                "scheduler",
+                dask,
+                f"a reachable Dask scheduler (none answered within 10 s: {type(e).__name__})",
+            ) from None
     else:
         raise ParameterError("dask", dask, "'local' or a scheduler address tcp://HOST:PORT")
     try:
@@ -576,9 +645,13 @@ def _gather(out: Path, spec: SweepSpec, stats: dict, strict: bool) -> SweepResul
         data, why = _read_tile(out, spec, t)
         if data is None:
             if strict:
-                raise ParameterError("out", str(out), f"a finished sweep (tile {t} of {spec.n_tiles} "
-                                     + ("is missing" if why is None else why)
-                                     + ": run run_sweep / precise-impact sweep again to finish it)")
+                raise ParameterError(
+                    "out",
+                    str(out),
+                    f"a finished sweep (tile {t} of {spec.n_tiles} "
+                    + ("is missing" if why is None else why)
+                    + ": run run_sweep / precise-impact sweep again to finish it)",
+                )
             continue
         for f in _FIELDS:
             arrays[f][data["index"]] = data[f]
@@ -655,8 +728,14 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
         lle = data["lle"]
         vmax = max(1e-6, float(np.nanmax(lle)))
         vmin = min(-1e-6, float(np.nanmin(lle)))
-        im = ax1.imshow(lle, origin="lower", aspect="auto", extent=ext, cmap="RdBu_r",
-                        norm=TwoSlopeNorm(vcenter=0.0, vmin=vmin, vmax=vmax))
+        im = ax1.imshow(
+            lle,
+            origin="lower",
+            aspect="auto",
+            extent=ext,
+            cmap="RdBu_r",
+            norm=TwoSlopeNorm(vcenter=0.0, vmin=vmin, vmax=vmax),
+        )
         fig.colorbar(im, ax=ax1, label="LLE per unit time")
         ax1.set_xlabel(n1)
         ax1.set_ylabel(n0)
@@ -665,11 +744,15 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
 
         cmap = matplotlib.colormaps["tab20"].with_extremes(bad="white")
         per = np.ma.masked_equal(data["period"], 0)  # no period <= 32 (chaotic / transient): white
-        im2 = ax2.imshow(per, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=0.5, vmax=20.5)
+        im2 = ax2.imshow(
+            per, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=0.5, vmax=20.5
+        )
         fig.colorbar(im2, ax=ax2, label="period (white: none <= 32)")
         ax2.set_xlabel(n1)
         ax2.set_title("detected period")
-    fig.suptitle(f"{spec.n_points} points, {spec.transient} transient + {spec.periods} periods each")
+    fig.suptitle(
+        f"{spec.n_points} points, {spec.transient} transient + {spec.periods} periods each"
+    )
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)

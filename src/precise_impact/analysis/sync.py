@@ -27,26 +27,41 @@ from __future__ import annotations
 import dataclasses
 import math
 import time as _time
+from collections.abc import Sequence
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
-from precise_impact.core.result import ResultMixin
-from precise_impact.io.figures import new_figure
-from precise_impact.solvers.heyoka.coupled import CoupledTrajectory, check_form, check_k, simulate_coupled
-from precise_impact.errors import ParameterError
-from precise_impact.solvers.base import check_engine
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import new_figure
 from precise_impact.io.progress import say
+from precise_impact.solvers.base import check_engine
+from precise_impact.solvers.heyoka.coupled import (
+    CoupledTrajectory,
+    check_form,
+    check_k,
+    simulate_coupled,
+)
 
 #: Most slave starts per coupling value (one stated range for the CLI and the API).
 MAX_ENSEMBLE = 10_000
 
-__all__ = ["MAX_ENSEMBLE", "SyncRun", "SyncResult", "sync_scan", "classify", "plot_fig7", "plot_sync_fraction", "ensemble_y0"]
+__all__ = [
+    "MAX_ENSEMBLE",
+    "SyncRun",
+    "SyncResult",
+    "sync_scan",
+    "classify",
+    "plot_fig7",
+    "plot_sync_fraction",
+    "ensemble_y0",
+]
 
 _PLOT_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
 
@@ -148,7 +163,9 @@ def classify(traj: CoupledTrajectory, tail: float, threshold: float) -> SyncRun:
     )
 
 
-def ensemble_y0(params: Params, ensemble: int, seed: int, spread: Fraction = Fraction(1)) -> list[tuple[Fraction, Fraction]]:
+def ensemble_y0(
+    params: Params, ensemble: int, seed: int, spread: Fraction = Fraction(1)
+) -> list[tuple[Fraction, Fraction]]:
     """Deterministic slave initial conditions around the master's ``(x0, v0)``.
 
     ``y0 = (x0 + spread u1, v0 + spread u2)`` with ``u`` on the grid ``j / 10**6``,
@@ -264,7 +281,11 @@ def half_crossing(k: Sequence[float], frac: Sequence[float]) -> tuple[float, flo
     if not k:
         return math.nan, math.nan, "no k values"
     if f[0] >= 0.5:
-        return math.nan, math.nan, f"no crossing in range: fraction >= 1/2 already at the lowest k = {k[0]:g}"
+        return (
+            math.nan,
+            math.nan,
+            f"no crossing in range: fraction >= 1/2 already at the lowest k = {k[0]:g}",
+        )
     for i in range(len(k) - 1):
         if f[i] < 0.5 <= f[i + 1]:
             ks = k[i] + (0.5 - f[i]) * (k[i + 1] - k[i]) / (f[i + 1] - f[i])
@@ -273,7 +294,11 @@ def half_crossing(k: Sequence[float], frac: Sequence[float]) -> tuple[float, flo
             if later:
                 msg += f"; not monotone: below 1/2 again at k = {', '.join(f'{k[j]:g}' for j in later)}"
             return ks, (k[i + 1] - k[i]) / 2, msg
-    return math.nan, math.nan, f"no crossing in range: fraction < 1/2 up to the highest k = {k[-1]:g}"
+    return (
+        math.nan,
+        math.nan,
+        f"no crossing in range: fraction < 1/2 up to the highest k = {k[-1]:g}",
+    )
 
 
 def sync_scan(
@@ -355,7 +380,11 @@ def sync_scan(
 
     params = as_params(params)
     form = check_form(form)
-    if isinstance(k_values, (str, bytes)) or not isinstance(k_values, Sequence) or len(k_values) == 0:
+    if (
+        isinstance(k_values, (str, bytes))
+        or not isinstance(k_values, Sequence)
+        or len(k_values) == 0
+    ):
         raise ParameterError("k_values", k_values, "a non-empty sequence of couplings k >= 0")
     ks = sorted(check_k(k, "k_values") for k in k_values)
     if len(set(ks)) != len(ks):
@@ -379,7 +408,11 @@ def sync_scan(
         raise ParameterError("spread", spread, "half-width of the initial-condition box, > 0")
     lle_periods = check_count(lle_periods, "lle_periods")
     if 0 < lle_periods < 4:  # the variational estimate runs 4 initial conditions
-        raise ParameterError("lle_periods", lle_periods, "0 (no LLE) or an integer with 4 <= lle_periods <= 100000000")
+        raise ParameterError(
+            "lle_periods",
+            lle_periods,
+            "0 (no LLE) or an integer with 4 <= lle_periods <= 100000000",
+        )
     lle_transient = check_count(lle_transient, "lle_transient")
     P = Precision.parse(precision)
     if engine is None:
@@ -394,21 +427,28 @@ def sync_scan(
         row = []
         t_k = _time.perf_counter()
         for y0 in y0s:
-            tr = simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period, precision=P, engine=engine)
+            tr = simulate_coupled(
+                params, k, form, periods, y0=y0, per_period=per_period, precision=P, engine=engine
+            )
             row.append(classify(tr, tail_f, thr_f))
         runs.append(row)
         if progress:
             ns = sum(r.synchronised for r in row)
             ni = sum(r.intermittent for r in row)
-            say(f"  sync {form} k={decimal_str(k)}: {ns}/{ensemble} synchronised, {ni} intermittent "
-                f"({_time.perf_counter() - t_k:.2f} s)", progress)
+            say(
+                f"  sync {form} k={decimal_str(k)}: {ns}/{ensemble} synchronised, {ni} intermittent "
+                f"({_time.perf_counter() - t_k:.2f} s)",
+                progress,
+            )
     fs = np.array([np.mean([r.synchronised for r in row]) for row in runs])
     fi = np.array([np.mean([r.intermittent for r in row]) for row in runs])
     fb = np.array([np.mean([r.burst for r in row]) for row in runs])
     fc = np.array([np.mean([r.collapsed for r in row]) for row in runs])
     mr = np.array(
         [
-            float(np.mean(finite)) if (finite := [r.rate for r in row if math.isfinite(r.rate)]) else math.nan
+            float(np.mean(finite))
+            if (finite := [r.rate for r in row if math.isfinite(r.rate)])
+            else math.nan
             for row in runs
         ]
     )
@@ -418,8 +458,12 @@ def sync_scan(
     if lle_periods > 0:
         from precise_impact.analysis.lyapunov import lyapunov
 
-        lr = lyapunov(params, "fast" if engine == "fast" else "variational", periods=lle_periods,
-                      transient=lle_transient)
+        lr = lyapunov(
+            params,
+            "fast" if engine == "fast" else "variational",
+            periods=lle_periods,
+            transient=lle_transient,
+        )
         lle, lle_se = float(lr.lle), float(lr.stderr)
     return SyncResult(
         params=params,
@@ -524,7 +568,9 @@ def plot_fig7(
         raise ParameterError("per_period", per_period, "an integer with 1 <= per_period <= 100000")
     if y0 is None:
         y0 = (params.x0 - Fraction(1, 2), params.v0 + Fraction(1, 2))
-    trajs = [simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period) for k in (kl, kh)]
+    trajs = [
+        simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period) for k in (kl, kh)
+    ]
     fig, axes = _figure(2, 1, (7.5, 6.0))
     for ax, tr, label in zip(axes[:, 0], trajs, ("a", "b")):
         t, d = tr.difference(dense=True)
@@ -535,7 +581,7 @@ def plot_fig7(
             ax.legend(loc="upper right", fontsize=8)
         zero = np.flatnonzero(~pos)
         note = ""
-        if len(zero) and zero[0] > 0 and not pos[zero[0]:].any():
+        if len(zero) and zero[0] > 0 and not pos[zero[0] :].any():
             note = f"  (|x - y| = 0 exactly from t = {t[zero[0]]:.0f})"
         ax.set_title(f"{label}) {form}, k = {decimal_str(tr.k)}{note}", fontsize=10)
         ax.set_ylabel("|x - y|")
@@ -566,18 +612,32 @@ def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
     ax = axes[0, 0]
     if math.isfinite(result.lle):
         se = result.lle_stderr if math.isfinite(result.lle_stderr) else 0.0
-        ax.axvspan(result.lle - se, result.lle + se, color="0.8", label=f"LLE = {result.lle:.4f} ± {se:.4f}")
+        ax.axvspan(
+            result.lle - se,
+            result.lle + se,
+            color="0.8",
+            label=f"LLE = {result.lle:.4f} ± {se:.4f}",
+        )
         ax.axvline(result.lle, color="0.4", lw=0.8)
     ax.plot(k, result.fraction_synchronised, "o-", color="C0", label="synchronised")
     ax.plot(k, result.fraction_intermittent, "s--", color="C1", ms=4, label="intermittent")
     if math.isfinite(result.k_star):
-        ax.errorbar([result.k_star], [0.5], xerr=[result.k_star_err], fmt="D", color="C3", capsize=3,
-                    label=f"k* = {result.k_star:.4f} ± {result.k_star_err:.4f}")
+        ax.errorbar(
+            [result.k_star],
+            [0.5],
+            xerr=[result.k_star_err],
+            fmt="D",
+            color="C3",
+            capsize=3,
+            label=f"k* = {result.k_star:.4f} ± {result.k_star_err:.4f}",
+        )
     ax.set_xlabel("coupling k")
     ax.set_ylabel(f"fraction of {result.ensemble} runs")
     ax.set_ylim(-0.05, 1.05)
-    ax.set_title(f"{result.form}: {result.periods} periods, tail {result.tail:g}, threshold {result.threshold:g}",
-                 fontsize=10)
+    ax.set_title(
+        f"{result.form}: {result.periods} periods, tail {result.tail:g}, threshold {result.threshold:g}",
+        fontsize=10,
+    )
     ax.legend(fontsize=8, loc="center right")
     ax.grid(True, lw=0.3)
     _save(fig, p, fmt)

@@ -15,18 +15,29 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub) -> argparse.ArgumentParser:
     """Add ``bench`` (with sub-subcommand ``work-precision``) to ``sub``."""
-    b = sub.add_parser("bench", help="benchmarks: error and wall time of every method (work-precision)")
+    b = sub.add_parser(
+        "bench", help="benchmarks: error and wall time of every method (work-precision)"
+    )
     bsub = b.add_subparsers(dest="bench_command", required=True)
     wp = bsub.add_parser(
         "work-precision",
         help="error vs wall time of heyoka, analytical, scipy solve_ivp and ngspice; the cost of chaos",
     )
-    wp.add_argument("--quick", action="store_true", help="fewer tolerances and methods (about a minute)")
-    wp.add_argument("--out", default=None, metavar="DIR",
-                    help="write work_precision.json/.csv/.png and chaos_cost.png into DIR")
+    wp.add_argument(
+        "--quick", action="store_true", help="fewer tolerances and methods (about a minute)"
+    )
+    wp.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="write work_precision.json/.csv/.png and chaos_cost.png into DIR",
+    )
     wp.add_argument("--json", action="store_true", help="print exactly one JSON object")
-    wp.add_argument("--force", action="store_true",
-                    help="write into an existing non-empty --out directory (files of the same name are replaced)")
+    wp.add_argument(
+        "--force",
+        action="store_true",
+        help="write into an existing non-empty --out directory (files of the same name are replaced)",
+    )
     return b
 
 

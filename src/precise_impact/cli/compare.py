@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import sys
 
-
 __all__ = ["add_parser", "run"]
 
 
@@ -19,12 +18,17 @@ def add_parser(sub):
     """Add ``compare`` to ``sub`` (the object returned by ``add_subparsers``)."""
     from precise_impact.scenes.scene import SCENE_MODELS
 
-    c = sub.add_parser("compare", help="score models of a scene against a demonstrated heyoka reference")
+    c = sub.add_parser(
+        "compare", help="score models of a scene against a demonstrated heyoka reference"
+    )
     c.add_argument("scene", help="built-in scene name or FILE.toml")
     c.add_argument("--models", required=True, help="comma-separated: " + ",".join(SCENE_MODELS))
     c.add_argument("--periods", default=None, help="forcing periods (default: the scene's)")
-    c.add_argument("--points", action="store_true",
-                   help="also score the grazing and period-doubling points along eta against the mechanics")
+    c.add_argument(
+        "--points",
+        action="store_true",
+        help="also score the grazing and period-doubling points along eta against the mechanics",
+    )
     c.add_argument("--json", action="store_true", help="print one JSON object")
     c.add_argument("--out", default=None, help="directory for report.md, scores.json and the PNGs")
     c.set_defaults(_run=run)
@@ -32,8 +36,8 @@ def add_parser(sub):
 
 
 def run(ns) -> int:
-    from precise_impact.verification.compare import check_models, compare, format_scores
     from precise_impact.core.params import check_count
+    from precise_impact.verification.compare import check_models, compare, format_scores
     from precise_impact.verification.metrics import max_reference_periods
 
     models = check_models(ns.models)
@@ -45,7 +49,9 @@ def run(ns) -> int:
         import heyoka
 
         heyoka.set_logger_level_error()
-    result = compare(ns.scene, models, out=ns.out, periods=periods, progress=not ns.json, points=ns.points)
+    result = compare(
+        ns.scene, models, out=ns.out, periods=periods, progress=not ns.json, points=ns.points
+    )
     if ns.json:
         json.dump(result.to_dict(), sys.stdout)
         sys.stdout.write("\n")

@@ -6,8 +6,9 @@ import argparse
 import json
 import re
 import sys
-from typing import Sequence
+from collections.abc import Sequence
 
+from precise_impact.analysis.sync import MAX_ENSEMBLE
 from precise_impact.errors import (
     BudgetExceededError,
     IntegrationError,
@@ -15,7 +16,6 @@ from precise_impact.errors import (
     OptionalDependencyError,
     ParameterError,
 )
-from precise_impact.analysis.sync import MAX_ENSEMBLE
 
 # Exit statuses: 0 ok, 2 bad input (argparse uses 2 as well), 3 a budget was hit,
 # 4 an I/O error during the run (finished files are complete: every write is atomic).
@@ -57,11 +57,28 @@ def _params_from(ns):
 
 def _add_orbit_flags(p: argparse.ArgumentParser, which: str) -> None:
     """``--period --impacts --guess --transient`` of the orbit commands (``which``: whose orbit)."""
-    p.add_argument("--period", default="1", metavar="P", help="forcing periods of the orbit (default 1)")
-    p.add_argument("--impacts", default=None, metavar="N", help=f"required impacts per orbit{which} (default: any)")
-    p.add_argument("--guess", nargs=2, default=None, metavar=("X", "V"),
-                   help=f"starting state at t0{which} (default: the state after --transient periods)")
-    p.add_argument("--transient", default="2000", metavar="N", help="periods run for the default guess (default 2000)")
+    p.add_argument(
+        "--period", default="1", metavar="P", help="forcing periods of the orbit (default 1)"
+    )
+    p.add_argument(
+        "--impacts",
+        default=None,
+        metavar="N",
+        help=f"required impacts per orbit{which} (default: any)",
+    )
+    p.add_argument(
+        "--guess",
+        nargs=2,
+        default=None,
+        metavar=("X", "V"),
+        help=f"starting state at t0{which} (default: the state after --transient periods)",
+    )
+    p.add_argument(
+        "--transient",
+        default="2000",
+        metavar="N",
+        help="periods run for the default guess (default 2000)",
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -79,153 +96,373 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="simulate one model and print samples and impacts")
     _add_param_flags(s)
     s.add_argument("--periods", default="200", metavar="N", help="forcing periods (default 200)")
-    s.add_argument("--model", default="heyoka", help="one of: " + ", ".join(MODELS) + " (default heyoka)")
     s.add_argument(
-        "--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS (default float64)"
+        "--model", default="heyoka", help="one of: " + ", ".join(MODELS) + " (default heyoka)"
     )
-    s.add_argument("--tol", default=None, metavar="T", help="heyoka tolerance (default: the precision's epsilon)")
-    s.add_argument("--dense", default="0", metavar="K", help="dense output points per period (saved with --out)")
-    s.add_argument("--out", default=None, metavar="FILE", help="write samples and impacts to FILE.npz, .csv or .json")
+    s.add_argument(
+        "--precision",
+        default="float64",
+        metavar="P",
+        help="float64, longdouble, float128 or mp:BITS (default float64)",
+    )
+    s.add_argument(
+        "--tol",
+        default=None,
+        metavar="T",
+        help="heyoka tolerance (default: the precision's epsilon)",
+    )
+    s.add_argument(
+        "--dense",
+        default="0",
+        metavar="K",
+        help="dense output points per period (saved with --out)",
+    )
+    s.add_argument(
+        "--out",
+        default=None,
+        metavar="FILE",
+        help="write samples and impacts to FILE.npz, .csv or .json",
+    )
     s.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     s.add_argument("--json", action="store_true", help="print one JSON object to stdout")
     _add_max_time(s)
 
-    ly = sub.add_parser("lle", help="largest Lyapunov exponent (variational with saltation, or two-trajectory)")
+    ly = sub.add_parser(
+        "lle", help="largest Lyapunov exponent (variational with saltation, or two-trajectory)"
+    )
     _add_param_flags(ly)
-    ly.add_argument("--periods", default="20000", metavar="N", help="measured forcing periods (default 20000)")
-    ly.add_argument("--transient", default="1000", metavar="N", help="discarded transient periods (default 1000)")
+    ly.add_argument(
+        "--periods", default="20000", metavar="N", help="measured forcing periods (default 20000)"
+    )
+    ly.add_argument(
+        "--transient",
+        default="1000",
+        metavar="N",
+        help="discarded transient periods (default 1000)",
+    )
     _add_max_time(ly)
-    ly.add_argument("--method", default="variational",
-                    help="variational, two-trajectory or fast (compiled closed form, float64) (default variational)")
-    ly.add_argument("--precision", default="float64", metavar="P", help="float64, longdouble, float128 or mp:BITS")
+    ly.add_argument(
+        "--method",
+        default="variational",
+        help="variational, two-trajectory or fast (compiled closed form, float64) (default variational)",
+    )
+    ly.add_argument(
+        "--precision",
+        default="float64",
+        metavar="P",
+        help="float64, longdouble, float128 or mp:BITS",
+    )
     ly.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
-    ob = sub.add_parser("orbit", help="a periodic orbit by Newton's method: its point, impacts, Floquet "
-                                      "multipliers, stability and exact LLE")
+    ob = sub.add_parser(
+        "orbit",
+        help="a periodic orbit by Newton's method: its point, impacts, Floquet "
+        "multipliers, stability and exact LLE",
+    )
     _add_param_flags(ob)
     _add_orbit_flags(ob, "")
-    ob.add_argument("--precision", default="float64", metavar="P", help="float64 or mp:BITS (Newton refined to that precision)")
-    ob.add_argument("--seed", default="auto", choices=("auto", "simulation", "closed-form"),
-                    help="where Newton starts without --guess: the closed-form orbit with one impact per P periods "
-                         "(closed-form), the state after --transient periods (simulation), or auto: the closed form "
-                         "when --impacts 1 is given and one exists, else the simulation (default auto)")
-    ob.add_argument("--json", action="store_true",
-                    help="print one JSON object to stdout (state.x and state.v: JSON numbers in float64, decimal "
-                         "strings with every digit at mp:BITS; stability: stable, unstable or elliptic)")
+    ob.add_argument(
+        "--precision",
+        default="float64",
+        metavar="P",
+        help="float64 or mp:BITS (Newton refined to that precision)",
+    )
+    ob.add_argument(
+        "--seed",
+        default="auto",
+        choices=("auto", "simulation", "closed-form"),
+        help="where Newton starts without --guess: the closed-form orbit with one impact per P periods "
+        "(closed-form), the state after --transient periods (simulation), or auto: the closed form "
+        "when --impacts 1 is given and one exists, else the simulation (default auto)",
+    )
+    ob.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object to stdout (state.x and state.v: JSON numbers in float64, decimal "
+        "strings with every digit at mp:BITS; stability: stable, unstable or elliptic)",
+    )
 
-    ce = sub.add_parser("certify", help="a certified trajectory: every sample and impact in a proven ball "
-                                        "(ball arithmetic, python-flint)")
+    ce = sub.add_parser(
+        "certify",
+        help="a certified trajectory: every sample and impact in a proven ball "
+        "(ball arithmetic, python-flint)",
+    )
     _add_param_flags(ce)
     ce.add_argument("--periods", default="300", metavar="N", help="forcing periods (default 300)")
-    ce.add_argument("--bits", default=None, metavar="B",
-                    help="working precision (default: chosen from --target and the measured radius growth)")
-    ce.add_argument("--target", default=None, metavar="R",
-                    help="radius wanted at every sample, the single oscillator's automatic bits (default 1e-30)")
-    ce.add_argument("--max-bits", dest="max_bits", default="8192", metavar="B",
-                    help="bits are doubled after a failed proof up to this (default 8192)")
-    ce.add_argument("--k", default=None, metavar="K",
-                    help="certify the master-slave pair with coupling K >= 0 (default: the single oscillator)")
-    ce.add_argument("--form", default="first-order", help="the pair's slave equation: first-order, paper or reduced")
-    ce.add_argument("--y0", nargs=2, default=None, metavar=("Y", "W"),
-                    help="the slave's start (position, velocity variable); default: on the master (the diagonal)")
+    ce.add_argument(
+        "--bits",
+        default=None,
+        metavar="B",
+        help="working precision (default: chosen from --target and the measured radius growth)",
+    )
+    ce.add_argument(
+        "--target",
+        default=None,
+        metavar="R",
+        help="radius wanted at every sample, the single oscillator's automatic bits (default 1e-30)",
+    )
+    ce.add_argument(
+        "--max-bits",
+        dest="max_bits",
+        default="8192",
+        metavar="B",
+        help="bits are doubled after a failed proof up to this (default 8192)",
+    )
+    ce.add_argument(
+        "--k",
+        default=None,
+        metavar="K",
+        help="certify the master-slave pair with coupling K >= 0 (default: the single oscillator)",
+    )
+    ce.add_argument(
+        "--form",
+        default="first-order",
+        help="the pair's slave equation: first-order, paper or reduced",
+    )
+    ce.add_argument(
+        "--y0",
+        nargs=2,
+        default=None,
+        metavar=("Y", "W"),
+        help="the slave's start (position, velocity variable); default: on the master (the diagonal)",
+    )
     ce.add_argument("--json", action="store_true", help="print one JSON object to stdout")
 
-    co = sub.add_parser("continue", help="continue a branch of periodic orbits in one parameter: stability, "
-                                         "grazing, period-doubling (with branch switching), fold")
-    co.add_argument("--param", nargs=3, required=True, metavar=("NAME", "FROM", "TO"),
-                    help="the continued parameter (eta, x_w, zeta, a or R) and its range")
+    co = sub.add_parser(
+        "continue",
+        help="continue a branch of periodic orbits in one parameter: stability, "
+        "grazing, period-doubling (with branch switching), fold",
+    )
+    co.add_argument(
+        "--param",
+        nargs=3,
+        required=True,
+        metavar=("NAME", "FROM", "TO"),
+        help="the continued parameter (eta, x_w, zeta, a or R) and its range",
+    )
     _add_param_flags(co)
     _add_orbit_flags(co, " of the starting orbit (at FROM)")
-    co.add_argument("--max-points", dest="max_points", default="400", metavar="N",
-                    help="points per branch at most (default 400)")
-    co.add_argument("--doublings", default="2", metavar="K", help="period-doubling branch switches followed (default 2)")
-    co.add_argument("--virtual", default="0.1", metavar="F",
-                    help="fraction of the range a branch may run on past grazing as a virtual orbit (default 0.1)")
-    co.add_argument("--diagram", default="200", metavar="N",
-                    help="values of the brute-force diagram drawn beneath the branches with --out (default 200; 0: none)")
+    co.add_argument(
+        "--max-points",
+        dest="max_points",
+        default="400",
+        metavar="N",
+        help="points per branch at most (default 400)",
+    )
+    co.add_argument(
+        "--doublings",
+        default="2",
+        metavar="K",
+        help="period-doubling branch switches followed (default 2)",
+    )
+    co.add_argument(
+        "--virtual",
+        default="0.1",
+        metavar="F",
+        help="fraction of the range a branch may run on past grazing as a virtual orbit (default 0.1)",
+    )
+    co.add_argument(
+        "--diagram",
+        default="200",
+        metavar="N",
+        help="values of the brute-force diagram drawn beneath the branches with --out (default 200; 0: none)",
+    )
     co.add_argument("--json", action="store_true", help="print one JSON object to stdout")
-    co.add_argument("--out", default=None, metavar="DIR", help="write continuation.json and continuation.png here")
+    co.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="write continuation.json and continuation.png here",
+    )
 
-    b = sub.add_parser("bifurcation", help="stroboscopic x against eta with the LLE beneath (PNG + NPZ)")
-    b.add_argument("--eta", nargs=3, required=True, metavar=("MIN", "MAX", "N"), help="eta grid: MIN MAX N")
+    b = sub.add_parser(
+        "bifurcation", help="stroboscopic x against eta with the LLE beneath (PNG + NPZ)"
+    )
+    b.add_argument(
+        "--eta", nargs=3, required=True, metavar=("MIN", "MAX", "N"), help="eta grid: MIN MAX N"
+    )
     g = b.add_argument_group("other system parameters (exact decimals)")
     for flag, dest, helptext in _PARAM_FLAGS:
         if dest != "eta":
             g.add_argument(flag, dest=dest, default=None, metavar="DEC", help=helptext)
-    b.add_argument("--periods", default="2000", metavar="P", help="measured periods per value (default 2000)")
-    b.add_argument("--transient", default="1000", metavar="T", help="transient periods per value (default 1000)")
-    b.add_argument("--workers", default=None, metavar="W", help="worker processes (default: all cores)")
-    b.add_argument("--out", required=True, metavar="DIR", help="write bifurcation.png and bifurcation.npz here")
+    b.add_argument(
+        "--periods", default="2000", metavar="P", help="measured periods per value (default 2000)"
+    )
+    b.add_argument(
+        "--transient",
+        default="1000",
+        metavar="T",
+        help="transient periods per value (default 1000)",
+    )
+    b.add_argument(
+        "--workers", default=None, metavar="W", help="worker processes (default: all cores)"
+    )
+    b.add_argument(
+        "--out", required=True, metavar="DIR", help="write bifurcation.png and bifurcation.npz here"
+    )
     _add_max_time(b)
 
-    sy = sub.add_parser("sync", help="master-slave synchronisation threshold against the LLE (paper Fig. 7)")
-    sy.add_argument("--form", default="first-order", help="first-order, paper or reduced (default first-order)")
-    sy.add_argument("--k", nargs=3, default=["0.02", "0.045", "6"], metavar=("MIN", "MAX", "N"),
-                    help="coupling grid (default 0.02 0.045 6)")
+    sy = sub.add_parser(
+        "sync", help="master-slave synchronisation threshold against the LLE (paper Fig. 7)"
+    )
+    sy.add_argument(
+        "--form", default="first-order", help="first-order, paper or reduced (default first-order)"
+    )
+    sy.add_argument(
+        "--k",
+        nargs=3,
+        default=["0.02", "0.045", "6"],
+        metavar=("MIN", "MAX", "N"),
+        help="coupling grid (default 0.02 0.045 6)",
+    )
     _add_param_flags(sy)
-    sy.add_argument("--periods", default="500", metavar="P", help="forcing periods per run (default 500, as the paper)")
-    sy.add_argument("--ensemble", default="8", metavar="M", help="slave initial conditions per k (default 8)")
-    sy.add_argument("--seed", default="0", metavar="S", help="seed of the initial conditions (default 0)")
-    sy.add_argument("--fig7", nargs=2, default=["0.031", "0.032"], metavar=("K1", "K2"),
-                    help="couplings of the Fig. 7 plot (default the paper's 0.031 0.032)")
-    sy.add_argument("--out", default="results", metavar="DIR", help="plots and JSON go here (default results)")
-    sy.add_argument("--engine", choices=("fast", "heyoka"), default="fast",
-                    help="fast (compiled closed forms, float64; default) or heyoka (Taylor integration)")
+    sy.add_argument(
+        "--periods",
+        default="500",
+        metavar="P",
+        help="forcing periods per run (default 500, as the paper)",
+    )
+    sy.add_argument(
+        "--ensemble", default="8", metavar="M", help="slave initial conditions per k (default 8)"
+    )
+    sy.add_argument(
+        "--seed", default="0", metavar="S", help="seed of the initial conditions (default 0)"
+    )
+    sy.add_argument(
+        "--fig7",
+        nargs=2,
+        default=["0.031", "0.032"],
+        metavar=("K1", "K2"),
+        help="couplings of the Fig. 7 plot (default the paper's 0.031 0.032)",
+    )
+    sy.add_argument(
+        "--out", default="results", metavar="DIR", help="plots and JSON go here (default results)"
+    )
+    sy.add_argument(
+        "--engine",
+        choices=("fast", "heyoka"),
+        default="fast",
+        help="fast (compiled closed forms, float64; default) or heyoka (Taylor integration)",
+    )
     sy.add_argument("--json", action="store_true", help="print one JSON object to stdout")
     _add_max_time(sy)
 
-    sw = sub.add_parser("sweep", help="LLE, period and impact rate on a 1-D or 2-D parameter grid (tiled, resumable)")
-    sw.add_argument("--axis", nargs=4, action="append", required=True, metavar=("NAME", "MIN", "MAX", "N"),
-                    help="a swept parameter (eta, x_w, zeta, a, R); give once or twice")
+    sw = sub.add_parser(
+        "sweep",
+        help="LLE, period and impact rate on a 1-D or 2-D parameter grid (tiled, resumable)",
+    )
+    sw.add_argument(
+        "--axis",
+        nargs=4,
+        action="append",
+        required=True,
+        metavar=("NAME", "MIN", "MAX", "N"),
+        help="a swept parameter (eta, x_w, zeta, a, R); give once or twice",
+    )
     _add_param_flags(sw)
-    sw.add_argument("--periods", default="2000", metavar="P", help="measured periods per point (default 2000)")
-    sw.add_argument("--transient", default="1000", metavar="T", help="transient periods per point (default 1000)")
+    sw.add_argument(
+        "--periods", default="2000", metavar="P", help="measured periods per point (default 2000)"
+    )
+    sw.add_argument(
+        "--transient",
+        default="1000",
+        metavar="T",
+        help="transient periods per point (default 1000)",
+    )
     sw.add_argument("--tile", default="64", metavar="K", help="points per tile (default 64)")
-    sw.add_argument("--engine", default="fast", choices=("fast", "heyoka"),
-                    help="fast (compiled closed form) or heyoka (SIMD batch variational) (default fast)")
-    sw.add_argument("--max-work", default=None, metavar="W",
-                    help="work budget in point-periods, points x (periods + transient) (default 1e10)")
-    sw.add_argument("--workers", default=None, metavar="W", help="local processes / Dask workers (default: all cores)")
+    sw.add_argument(
+        "--engine",
+        default="fast",
+        choices=("fast", "heyoka"),
+        help="fast (compiled closed form) or heyoka (SIMD batch variational) (default fast)",
+    )
+    sw.add_argument(
+        "--max-work",
+        default=None,
+        metavar="W",
+        help="work budget in point-periods, points x (periods + transient) (default 1e10)",
+    )
+    sw.add_argument(
+        "--workers",
+        default=None,
+        metavar="W",
+        help="local processes / Dask workers (default: all cores)",
+    )
     grp = sw.add_mutually_exclusive_group()
     grp.add_argument("--dask", choices=["local"], default=None, help="run on a Dask LocalCluster")
-    grp.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT", help="run on this Dask scheduler")
-    sw.add_argument("--out", required=True, metavar="DIR", help="tiles, sweep.npz, sweep.csv, sweep.png")
+    grp.add_argument(
+        "--scheduler", default=None, metavar="tcp://HOST:PORT", help="run on this Dask scheduler"
+    )
+    sw.add_argument(
+        "--out", required=True, metavar="DIR", help="tiles, sweep.npz, sweep.csv, sweep.png"
+    )
     sw.add_argument("--json", action="store_true", help="print the summary as one JSON object")
 
     sub.add_parser("scenes", help="list the built-in scenes, one line each")
     rn = sub.add_parser("run", help="run a scene (built-in name or FILE.toml)")
-    rn.add_argument("scene", help="built-in scene name (see: precise-impact scenes) or a .toml file")
+    rn.add_argument(
+        "scene", help="built-in scene name (see: precise-impact scenes) or a .toml file"
+    )
     rn.add_argument("--model", default=None, help="override the scene's model")
     rn.add_argument("--json", action="store_true", help="print one JSON object to stdout")
-    rn.add_argument("--out", default=None, metavar="DIR", help="write <scene>_<model>.json and .png here")
+    rn.add_argument(
+        "--out", default=None, metavar="DIR", help="write <scene>_<model>.json and .png here"
+    )
     _add_max_time(rn)
 
-    from precise_impact.cli import bench as _cli_bench, compare as _cli_compare, reference as _cli_reference
+    from precise_impact.cli import (
+        bench as _cli_bench,
+    )
+    from precise_impact.cli import (
+        compare as _cli_compare,
+    )
+    from precise_impact.cli import (
+        reference as _cli_reference,
+    )
 
     _cli_compare.add_parser(sub)
     _cli_reference.add_parser(sub)
     _cli_bench.add_parser(sub)
-    rp = sub.add_parser("reproduce", help="the main job: the paper's Figs. 4-7, LLE, sync thresholds, report.md")
-    rp.add_argument("--out", default="results", metavar="DIR", help="output directory (default results)")
+    rp = sub.add_parser(
+        "reproduce", help="the main job: the paper's Figs. 4-7, LLE, sync thresholds, report.md"
+    )
+    rp.add_argument(
+        "--out", default="results", metavar="DIR", help="output directory (default results)"
+    )
     rp.add_argument("--quick", action="store_true", help="shorter runs (about a minute)")
 
     a = sub.add_parser(
-        "accuracy", help="the paper's three frequencies: every model and precision against a demonstrated reference"
+        "accuracy",
+        help="the paper's three frequencies: every model and precision against a demonstrated reference",
     )
-    a.add_argument("--periods", default="100", metavar="N", help="forcing periods from rest (default 100)")
-    a.add_argument("--out", default=None, metavar="DIR", help="write accuracy.json and accuracy.png here")
+    a.add_argument(
+        "--periods", default="100", metavar="N", help="forcing periods from rest (default 100)"
+    )
+    a.add_argument(
+        "--out", default=None, metavar="DIR", help="write accuracy.json and accuracy.png here"
+    )
     a.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    for name, sp in sub.choices.items():  # every directory --out: no silent overwrite without --force
+    for (
+        name,
+        sp,
+    ) in sub.choices.items():  # every directory --out: no silent overwrite without --force
         opts = {o for a in sp._actions for o in a.option_strings}
         if "--out" in opts and "--force" not in opts and name != "sweep":
-            sp.add_argument("--force", action="store_true",
-                            help="write into an existing non-empty --out directory (files of the same name are replaced)")
+            sp.add_argument(
+                "--force",
+                action="store_true",
+                help="write into an existing non-empty --out directory (files of the same name are replaced)",
+            )
     return parser
 
 
 def _add_max_time(p) -> None:
-    p.add_argument("--max-time", default=None, metavar="S",
-                   help="time budget in seconds, checked against an estimate before any work (default 3600)")
+    p.add_argument(
+        "--max-time",
+        default=None,
+        metavar="S",
+        help="time budget in seconds, checked against an estimate before any work (default 3600)",
+    )
 
 
 def _max_time(ns) -> float:
@@ -251,12 +488,20 @@ def _cmd_simulate(ns) -> int:
     from precise_impact.io.progress import Progress
     from precise_impact.solvers.heyoka.single import HeyokaSolver
 
-    cost = estimate_cost(getattr(solver, "precision", None) or Precision.parse(ns.precision), periods, dense)
+    cost = estimate_cost(
+        getattr(solver, "precision", None) or Precision.parse(ns.precision), periods, dense
+    )
     check_cost(cost, _max_time(ns))
-    if isinstance(solver, HeyokaSolver):  # long runs: progress on stderr, a partial file on interrupt
-        bar = Progress(periods, "simulate periods", None if not ns.json and cost.seconds > 2 else False)
+    if isinstance(
+        solver, HeyokaSolver
+    ):  # long runs: progress on stderr, a partial file on interrupt
+        bar = Progress(
+            periods, "simulate periods", None if not ns.json and cost.seconds > 2 else False
+        )
         try:
-            traj = solver.solve(params, periods, per_period=dense, progress=lambda k, n: bar.update(k))
+            traj = solver.solve(
+                params, periods, per_period=dense, progress=lambda k, n: bar.update(k)
+            )
         except Interrupted as e:
             bar.close()
             if ns.out is not None and e.partial is not None:
@@ -275,7 +520,9 @@ def _cmd_simulate(ns) -> int:
         sys.stdout.write("\n")
     else:
         s = traj.precision.to_str
-        print(f"{traj.model} {traj.precision.name}: {periods} periods, {traj.n_impacts} impacts, {traj.elapsed_s:.4f} s")
+        print(
+            f"{traj.model} {traj.precision.name}: {periods} periods, {traj.n_impacts} impacts, {traj.elapsed_s:.4f} s"
+        )
         print(f"params: {', '.join(f'{k}={v}' for k, v in params.decimal().items())}")
         print(f"final state at t={s(traj.t[-1])}:\n  x = {s(traj.x[-1])}\n  v = {s(traj.v[-1])}")
         if ns.out is not None:
@@ -298,31 +545,52 @@ def _cmd_lle(ns) -> int:
     # four starting conditions; the variational equations cost about twice a trajectory
     # the compiled engine costs ~1/30 of heyoka's variational run (benchmarks/results/fast.md)
     factor = 2 / 30 if ns.method == "fast" else 2
-    check_cost(estimate_cost(Precision.parse(ns.precision), periods + transient, runs=4, factor=factor, stored=False),
-               _max_time(ns))
-    r = lyapunov(params, ns.method, periods=periods, transient=transient, precision=ns.precision, progress=not ns.json)
+    check_cost(
+        estimate_cost(
+            Precision.parse(ns.precision), periods + transient, runs=4, factor=factor, stored=False
+        ),
+        _max_time(ns),
+    )
+    r = lyapunov(
+        params,
+        ns.method,
+        periods=periods,
+        transient=transient,
+        precision=ns.precision,
+        progress=not ns.json,
+    )
     if ns.json:
         json.dump(r.to_dict(), sys.stdout)
         sys.stdout.write("\n")
     else:
-        spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
-        print(f"LLE = {r.lle:.6f} +- {r.stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
+        spec = (
+            "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
+        )
+        print(
+            f"LLE = {r.lle:.6f} +- {r.stderr:.6f} per unit time ({r.method}, {r.precision}){spec}"
+        )
         groups = r.stats.get("attractors", [])
         head = next((g for g in groups if g["id"] == r.stats.get("headline_attractor")), None)
         if r.stats.get("lle_source") == "floquet" and head is not None:
             ft = r.stats["finite_time"]
-            print(f"periodic attractor: period {head['period']}, {head['impacts']} impact(s); the LLE is its Floquet "
-                  f"value ln|mu_max| / (p T) (finite-time estimate {ft['lle']:.6f} +- {ft['stderr']:.2g}, "
-                  "1/t offset included)")
+            print(
+                f"periodic attractor: period {head['period']}, {head['impacts']} impact(s); the LLE is its Floquet "
+                f"value ln|mu_max| / (p T) (finite-time estimate {ft['lle']:.6f} +- {ft['stderr']:.2g}, "
+                "1/t offset included)"
+            )
         if "warning" in r.stats:
             print("warning: " + r.stats["warning"])
         if len(r.stats.get("per_start", [])) > 1:
             for j, s in enumerate(r.stats["per_start"]):
                 rate = s.get("impact_rate")
-                print(f"  start {j}: LLE {s['lle']:.6f} +- {s['stderr']:.2g}, "
-                      + (f"{rate:.4f} impacts/period, " if rate is not None and rate == rate else "")
-                      + f"attractor #{s.get('attractor')}")
-        print(f"{r.periods} periods after {r.transient} transient, {r.impacts} impacts, {r.elapsed_s:.3f} s")
+                print(
+                    f"  start {j}: LLE {s['lle']:.6f} +- {s['stderr']:.2g}, "
+                    + (f"{rate:.4f} impacts/period, " if rate is not None and rate == rate else "")
+                    + f"attractor #{s.get('attractor')}"
+                )
+        print(
+            f"{r.periods} periods after {r.transient} transient, {r.impacts} impacts, {r.elapsed_s:.3f} s"
+        )
     return 0
 
 
@@ -333,18 +601,32 @@ def _cmd_orbit(ns) -> int:
     params = _params_from(ns)
     period = check_count(ns.period, "period", 1000, minimum=1)
     impacts = None if ns.impacts is None else check_count(ns.impacts, "impacts", 10**6)
-    o = find_orbit(params, period, guess=ns.guess, impacts=impacts, transient=check_count(ns.transient, "transient"),
-                   precision=ns.precision, seed=ns.seed)
+    o = find_orbit(
+        params,
+        period,
+        guess=ns.guess,
+        impacts=impacts,
+        transient=check_count(ns.transient, "transient"),
+        precision=ns.precision,
+        seed=ns.seed,
+    )
     if ns.json:
         json.dump(o.to_dict(), sys.stdout)
         sys.stdout.write("\n")
         return 0
-    mus = ", ".join(f"{m.real:.12g}{m.imag:+.12g}i" if m.imag else f"{m.real:.12g}" for m in o.multipliers)
+    mus = ", ".join(
+        f"{m.real:.12g}{m.imag:+.12g}i" if m.imag else f"{m.real:.12g}" for m in o.multipliers
+    )
     st = o.to_dict()["state"]
-    print(f"period-{o.period} orbit with {o.impacts} impact(s): x = {st['x']}, v = {st['v']} at t = {o.t!r} "
-          f"({o.precision})")
-    kind = o.stability + (" (neutral: zeta = 0 and R = 1 make det M = 1, the pair on the unit circle)"
-                          if o.stability == "elliptic" else "")
+    print(
+        f"period-{o.period} orbit with {o.impacts} impact(s): x = {st['x']}, v = {st['v']} at t = {o.t!r} "
+        f"({o.precision})"
+    )
+    kind = o.stability + (
+        " (neutral: zeta = 0 and R = 1 make det M = 1, the pair on the unit circle)"
+        if o.stability == "elliptic"
+        else ""
+    )
     print(f"Floquet multipliers {mus}: {kind}; LLE = ln|mu_max| / (p T) = {o.lle:.10g}")
     print(f"residual |P^p(z) - z| = {o.residual:.3g} after {o.iterations} Newton iteration(s)")
     return 0
@@ -362,22 +644,42 @@ def _cmd_certify(ns) -> int:
         from precise_impact.solvers.certified.coupled import certify_coupled
 
         if ns.target is not None:
-            raise ParameterError("target", ns.target, "only for the single oscillator (the pair takes --bits)")
-        r = certify_coupled(params, ns.k, ns.form, ns.periods, y0=ns.y0, bits=256 if bits is None else bits,
-                            max_bits=max_bits, progress=progress)
-        lines = [f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, {len(r.master_impacts)} master and "
-                 f"{len(r.slave_impacts)} slave impacts, at {r.bits} bits in {r.elapsed_s:.2f} s; largest radius "
-                 f"1e{r.max_log10_radius():.1f}"]
+            raise ParameterError(
+                "target", ns.target, "only for the single oscillator (the pair takes --bits)"
+            )
+        r = certify_coupled(
+            params,
+            ns.k,
+            ns.form,
+            ns.periods,
+            y0=ns.y0,
+            bits=256 if bits is None else bits,
+            max_bits=max_bits,
+            progress=progress,
+        )
+        lines = [
+            f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, {len(r.master_impacts)} master and "
+            f"{len(r.slave_impacts)} slave impacts, at {r.bits} bits in {r.elapsed_s:.2f} s; largest radius "
+            f"1e{r.max_log10_radius():.1f}"
+        ]
         names = "xvyw"
     else:
         if ns.y0 is not None:
             raise ParameterError("y0", " ".join(ns.y0), "only with --k (the coupled pair)")
-        r = certify(params, ns.periods, bits=bits, target_radius="1e-30" if ns.target is None else ns.target,
-                    max_bits=max_bits, progress=progress)
-        lines = [f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits ({r.bits_choice}) "
-                 f"in {r.elapsed_s:.2f} s",
-                 f"largest radius 1e{r.max_log10_radius():.1f}; radius growth {r.growth_digits_per_period():.3f} decimal "
-                 f"digits per period"]
+        r = certify(
+            params,
+            ns.periods,
+            bits=bits,
+            target_radius="1e-30" if ns.target is None else ns.target,
+            max_bits=max_bits,
+            progress=progress,
+        )
+        lines = [
+            f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits ({r.bits_choice}) "
+            f"in {r.elapsed_s:.2f} s",
+            f"largest radius 1e{r.max_log10_radius():.1f}; radius growth {r.growth_digits_per_period():.3f} decimal "
+            f"digits per period",
+        ]
         names = "xv"
     d = r.to_dict()
     if ns.json:
@@ -397,18 +699,33 @@ def _cmd_continue(ns) -> int:
     name, lo, hi = ns.param
     fixed = {dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS}
     if name in fixed and fixed[name] is not None:
-        raise ParameterError(name, fixed[name], f"not given twice: --{name} is set by --param {name} FROM TO")
+        raise ParameterError(
+            name, fixed[name], f"not given twice: --{name} is set by --param {name} FROM TO"
+        )
     params = _params_from(ns)
     n_diagram = check_count(ns.diagram, "diagram", 5000)
-    res = continue_orbit(params, name, lo, hi, ns.period, impacts=None if ns.impacts is None else ns.impacts,
-                         guess=ns.guess, transient=ns.transient, max_points=ns.max_points, doublings=ns.doublings,
-                         virtual=ns.virtual, progress=None if ns.json else True)
+    res = continue_orbit(
+        params,
+        name,
+        lo,
+        hi,
+        ns.period,
+        impacts=None if ns.impacts is None else ns.impacts,
+        guess=ns.guess,
+        transient=ns.transient,
+        max_points=ns.max_points,
+        doublings=ns.doublings,
+        virtual=ns.virtual,
+        progress=None if ns.json else True,
+    )
     if ns.out is not None:
         from precise_impact.analysis.orbits.branch import brute_force_diagram
 
         diagram = None
         if n_diagram:
-            diagram = brute_force_diagram(res.params, name, float(res.start), float(res.stop), n_diagram)
+            diagram = brute_force_diagram(
+                res.params, name, float(res.start), float(res.stop), n_diagram
+            )
         files = res.save_all(ns.out, diagram=diagram)
         if not ns.json:
             print("wrote " + ", ".join(str(f) for f in files.values()))
@@ -419,17 +736,23 @@ def _cmd_continue(ns) -> int:
     for k, b in enumerate(res.branches):
         n_st = int(b.stable.sum())
         n_el = int((b.stability == "elliptic").sum())
-        print(f"branch {k}: period {b.period}, {b.impacts} impact(s), {len(b.values)} points, {name} "
-              f"{b.values.min():.10g} .. {b.values.max():.10g}, {n_st} stable, "
-              + (f"{n_el} elliptic (neutral), " if n_el else "") +
-              f"{int((~b.admissible).sum())} virtual ({b.origin}; {b.stop_reason})")
+        print(
+            f"branch {k}: period {b.period}, {b.impacts} impact(s), {len(b.values)} points, {name} "
+            f"{b.values.min():.10g} .. {b.values.max():.10g}, {n_st} stable, "
+            + (f"{n_el} elliptic (neutral), " if n_el else "")
+            + f"{int((~b.admissible).sum())} virtual ({b.origin}; {b.stop_reason})"
+        )
     if not res.bifurcations:
         print("no bifurcation in the range")
     for bif in res.bifurcations:
-        mus = ", ".join(f"{m[0]:.8g}{m[1]:+.3g}i" if m[1] else f"{m[0]:.8g}" for m in bif.multipliers)
+        mus = ", ".join(
+            f"{m[0]:.8g}{m[1]:+.3g}i" if m[1] else f"{m[0]:.8g}" for m in bif.multipliers
+        )
         where = "" if bif.admissible else " (virtual orbit)"
-        print(f"{bif.type} on branch {bif.branch} at {name} = {bif.value!r}{where}: multipliers {mus}"
-              + (f"; {bif.detail}" if bif.detail else ""))
+        print(
+            f"{bif.type} on branch {bif.branch} at {name} = {bif.value!r}{where}: multipliers {mus}"
+            + (f"; {bif.detail}" if bif.detail else "")
+        )
     return 0
 
 
@@ -437,7 +760,9 @@ def _cmd_bifurcation(ns) -> int:
     from precise_impact.analysis.bifurcation import bifurcation
     from precise_impact.core.params import Params, check_count
 
-    params = Params.make(**{dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS if dest != "eta"})
+    params = Params.make(
+        **{dest: getattr(ns, dest) for _, dest, _ in _PARAM_FLAGS if dest != "eta"}
+    )
     workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
     from precise_impact.core.budget import check_cost, estimate_cost
     from precise_impact.core.precision import Precision
@@ -445,26 +770,38 @@ def _cmd_bifurcation(ns) -> int:
     n = check_count(ns.eta[2], "n", 1_000_000, minimum=1)
     length = check_count(ns.periods, "periods") + check_count(ns.transient, "transient")
     # one variational run per value (x2), spread over the workers
-    check_cost(estimate_cost(Precision.parse("float64"), length, runs=n, factor=2, stored=False),
-               _max_time(ns) * (workers or __import__("os").cpu_count() or 1))
+    check_cost(
+        estimate_cost(Precision.parse("float64"), length, runs=n, factor=2, stored=False),
+        _max_time(ns) * (workers or __import__("os").cpu_count() or 1),
+    )
     res = bifurcation(
-        params, ns.eta[0], ns.eta[1], ns.eta[2], periods=ns.periods, transient=ns.transient, workers=workers,
+        params,
+        ns.eta[0],
+        ns.eta[1],
+        ns.eta[2],
+        periods=ns.periods,
+        transient=ns.transient,
+        workers=workers,
         progress=True,
     )
     files = res.save_all(ns.out)
-    print(f"{len(res.eta)} values of eta in {res.elapsed_s:.1f} s on {res.workers} worker(s); "
-          f"grazing eta (closed form): {', '.join(f'{g:.6f}' for g in res.grazing) or 'none in range'}")
-    print(f"LLE range: {res.lle.min():.4f} .. {res.lle.max():.4f}; written: {files['png']}, {files['npz']}")
+    print(
+        f"{len(res.eta)} values of eta in {res.elapsed_s:.1f} s on {res.workers} worker(s); "
+        f"grazing eta (closed form): {', '.join(f'{g:.6f}' for g in res.grazing) or 'none in range'}"
+    )
+    print(
+        f"LLE range: {res.lle.min():.4f} .. {res.lle.max():.4f}; written: {files['png']}, {files['npz']}"
+    )
     return 0
 
 
 def _cmd_sync(ns) -> int:
     from pathlib import Path
 
-    from precise_impact.solvers.heyoka.coupled import check_form, check_k
+    from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
     from precise_impact.core.params import check_count, exact_grid
     from precise_impact.io.atomic import atomic_write
-    from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
+    from precise_impact.solvers.heyoka.coupled import check_form, check_k
 
     params = _params_from(ns)
     form = check_form(ns.form)
@@ -477,10 +814,27 @@ def _cmd_sync(ns) -> int:
     from precise_impact.core.precision import Precision
 
     # master + slave (4 states, x4) for every k and ensemble member, plus the master's LLE
-    check_cost(estimate_cost(Precision.parse("float64"), periods, 20, runs=len(ks) * ensemble,
-                             factor=4 if ns.engine == "heyoka" else 4 / 5, stored=False), _max_time(ns))
-    res = sync_scan(params, form, ks, periods=periods, ensemble=ensemble, seed=seed, progress=not ns.json,
-                    engine=ns.engine)
+    check_cost(
+        estimate_cost(
+            Precision.parse("float64"),
+            periods,
+            20,
+            runs=len(ks) * ensemble,
+            factor=4 if ns.engine == "heyoka" else 4 / 5,
+            stored=False,
+        ),
+        _max_time(ns),
+    )
+    res = sync_scan(
+        params,
+        form,
+        ks,
+        periods=periods,
+        ensemble=ensemble,
+        seed=seed,
+        progress=not ns.json,
+        engine=ns.engine,
+    )
     out = Path(ns.out)
     stem = f"sync_{form}"
     text = json.dumps(res.to_dict(), indent=1)
@@ -493,20 +847,28 @@ def _cmd_sync(ns) -> int:
         json.dump(obj, sys.stdout)
         sys.stdout.write("\n")
         return 0
-    print(f"form {form}: {periods} periods, ensemble {ensemble}, sync = |x - y| < {res.threshold:g} over the last "
-          f"{res.tail:.0%} of the run")
+    print(
+        f"form {form}: {periods} periods, ensemble {ensemble}, sync = |x - y| < {res.threshold:g} over the last "
+        f"{res.tail:.0%} of the run"
+    )
     print(f"{'k':>8} {'synchronised':>12} {'intermittent':>12} {'rate + k':>9}")
-    for k, fs, fi, r in zip(res.k_values, res.fraction_synchronised, res.fraction_intermittent, res.mean_rate):
+    for k, fs, fi, r in zip(
+        res.k_values, res.fraction_synchronised, res.fraction_intermittent, res.mean_rate
+    ):
         print(f"{float(k):8.4f} {fs:12.3f} {fi:12.3f} {r + float(k):9.4f}")
     print(f"threshold k* = {res.k_star:.4f} +- {res.k_star_err:.4f} ({res.message})")
-    print(f"LLE ({'fast' if ns.engine == 'fast' else 'variational'}) = {res.lle:.4f} +- {res.lle_stderr:.4f}")
-    print(f"written: {out / (stem + '.json')}, {out / (stem + '_fraction.png')}, {out / (stem + '_fig7.png')}")
+    print(
+        f"LLE ({'fast' if ns.engine == 'fast' else 'variational'}) = {res.lle:.4f} +- {res.lle_stderr:.4f}"
+    )
+    print(
+        f"written: {out / (stem + '.json')}, {out / (stem + '_fraction.png')}, {out / (stem + '_fig7.png')}"
+    )
     return 0
 
 
 def _cmd_sweep(ns) -> int:
-    from precise_impact.core.params import check_count
     from precise_impact.analysis.sweep import SweepSpec, run_sweep
+    from precise_impact.core.params import check_count
 
     base = _params_from(ns)
     from precise_impact.analysis.sweep import MAX_WORK
@@ -517,21 +879,34 @@ def _cmd_sweep(ns) -> int:
 
         q = exact("max_work", ns.max_work, max_exponent=15)  # '1e12' is fine
         if q.denominator != 1 or not 1 <= q <= 10**15:
-            raise ParameterError("max_work", ns.max_work, "a whole number of point-periods, 1 <= max_work <= 1e15")
+            raise ParameterError(
+                "max_work", ns.max_work, "a whole number of point-periods, 1 <= max_work <= 1e15"
+            )
         max_work = int(q)
-    spec = SweepSpec.make(base, [tuple(a) for a in ns.axis], periods=ns.periods, transient=ns.transient,
-                          tile_size=ns.tile, max_work=max_work, engine=ns.engine)
+    spec = SweepSpec.make(
+        base,
+        [tuple(a) for a in ns.axis],
+        periods=ns.periods,
+        transient=ns.transient,
+        tile_size=ns.tile,
+        max_work=max_work,
+        engine=ns.engine,
+    )
     workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
     if ns.scheduler is not None and not ns.scheduler.startswith("tcp://"):
         raise ParameterError("scheduler", ns.scheduler, "a Dask scheduler address tcp://HOST:PORT")
-    res = run_sweep(spec, ns.out, workers=workers, dask=ns.dask or ns.scheduler, progress=not ns.json)
+    res = run_sweep(
+        spec, ns.out, workers=workers, dask=ns.dask or ns.scheduler, progress=not ns.json
+    )
     st = res.stats
     if ns.json:  # the run, not the grid (that is in sweep.npz / sweep.csv)
         json.dump(dict(st, complete=res.complete, **res.files), sys.stdout)
         sys.stdout.write("\n")
     else:
-        print(f"{spec.n_points} points in {spec.n_tiles} tiles: {st['tiles_computed']} computed, "
-              f"{st['tiles_reused']} reused, {st['elapsed_s']:.1f} s on {st['workers']} {st['backend']} worker(s)")
+        print(
+            f"{spec.n_points} points in {spec.n_tiles} tiles: {st['tiles_computed']} computed, "
+            f"{st['tiles_reused']} reused, {st['elapsed_s']:.1f} s on {st['workers']} {st['backend']} worker(s)"
+        )
         if res.files:
             print(f"written: {res.files['npz']}, {res.files['csv']}, {res.files['png']}")
     return 0
@@ -544,7 +919,9 @@ def _cmd_scenes(ns) -> int:
     for name, path in sorted(builtin_scenes().items()):
         sc = load_scene(path)
         extra = f" k={decimal_str(sc.k)} form={sc.form}" if sc.kind == "coupled" else ""
-        print(f"{name:28s} {sc.model:18s} eta={sc.params.decimal()['eta']:<6s}{extra}  {sc.description}")
+        print(
+            f"{name:28s} {sc.model:18s} eta={sc.params.decimal()['eta']:<6s}{extra}  {sc.description}"
+        )
     return 0
 
 
@@ -565,10 +942,19 @@ def _cmd_run(ns) -> int:
         sys.stdout.write("\n")
     else:
         last = obj["samples"][-1]
-        n_imp = len(obj["impacts"]) if isinstance(obj["impacts"], list) else sum(map(len, obj["impacts"].values()))
-        print(f"{scene.name}: model {obj['model']}, effects {', '.join(obj['effects']) or 'none'}, "
-              f"{len(obj['samples']) - 1} periods, {n_imp} impacts, {obj['elapsed_s']:.3f} s")
-        print(f"last sample: x = {last['x']}, v = {last['v']}" + (f", y = {last['y']}" if "y" in last else ""))
+        n_imp = (
+            len(obj["impacts"])
+            if isinstance(obj["impacts"], list)
+            else sum(map(len, obj["impacts"].values()))
+        )
+        print(
+            f"{scene.name}: model {obj['model']}, effects {', '.join(obj['effects']) or 'none'}, "
+            f"{len(obj['samples']) - 1} periods, {n_imp} impacts, {obj['elapsed_s']:.3f} s"
+        )
+        print(
+            f"last sample: x = {last['x']}, v = {last['v']}"
+            + (f", y = {last['y']}" if "y" in last else "")
+        )
         for f in files:
             print(f"written: {f}")
     return 0
@@ -580,11 +966,15 @@ def _cmd_reproduce(ns) -> int:
     res = reproduce(ns.out, quick=ns.quick, progress=True)
     print(f"report: {ns.out}/report.md ({res['elapsed_s']:.0f} s)")
     for fig, row in res["figures"].items():
-        print(f"Fig. {fig} eta={row['eta']}: " + ", ".join(
-            f"{n} {m['max_error_second_half']:.1e}" for n, m in row["models"].items()))
+        print(
+            f"Fig. {fig} eta={row['eta']}: "
+            + ", ".join(f"{n} {m['max_error_second_half']:.1e}" for n, m in row["models"].items())
+        )
     v = res["lle"]["variational"]
-    print(f"LLE(0.712) = {v[0]:.4f} +- {v[1]:.4f}; sync k*: " + ", ".join(
-        f"{f} {s['k_star']:.4f}" for f, s in res["sync"].items()))
+    print(
+        f"LLE(0.712) = {v[0]:.4f} +- {v[1]:.4f}; sync k*: "
+        + ", ".join(f"{f} {s['k_star']:.4f}" for f, s in res["sync"].items())
+    )
     return 0
 
 
@@ -607,8 +997,8 @@ def _cmd_reference(ns) -> int:
 
 
 def _cmd_accuracy(ns) -> int:
-    from precise_impact.verification.accuracy import accuracy_table, format_table
     from precise_impact.core.params import check_count
+    from precise_impact.verification.accuracy import accuracy_table, format_table
 
     periods = check_count(ns.periods, maximum=2000, minimum=1)
     result = accuracy_table(periods=periods, out=ns.out, progress=not ns.json)
@@ -631,10 +1021,23 @@ def _glue_negative_values(argv: list[str]) -> list[str]:
     i = 0
     while i < len(argv):
         a = argv[i]
-        if a.startswith("--") and "=" not in a and i + 1 < len(argv) and argv[i + 1].startswith("-"):
+        if (
+            a.startswith("--")
+            and "=" not in a
+            and i + 1 < len(argv)
+            and argv[i + 1].startswith("-")
+        ):
             nxt = argv[i + 1]
             plain = re.fullmatch(r"-\d+|-\d*\.\d+", nxt)  # argparse itself reads these as values
-            if not plain and len(nxt) > 1 and (nxt[1].isdigit() or nxt[1] == "." or nxt[1:].lower() in ("inf", "infinity", "nan")):
+            if (
+                not plain
+                and len(nxt) > 1
+                and (
+                    nxt[1].isdigit()
+                    or nxt[1] == "."
+                    or nxt[1:].lower() in ("inf", "infinity", "nan")
+                )
+            ):
                 out.append(f"{a}={nxt}")
                 i += 2
                 continue
@@ -679,7 +1082,9 @@ def _check_outputs(ns) -> None:
     if ns.command == "simulate":
         check_output_file(out, force=ns.force)
     else:  # a sweep and a reference dataset resume in their own directory (checked there)
-        check_output_dir(out, force=ns.command in ("sweep", "reference") or getattr(ns, "force", False))
+        check_output_dir(
+            out, force=ns.command in ("sweep", "reference") or getattr(ns, "force", False)
+        )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -710,24 +1115,37 @@ def main(argv: Sequence[str] | None = None) -> int:
             "bench": _cmd_bench,
             "accuracy": _cmd_accuracy,
         }[ns.command](ns)
-    except (ParameterError, OptionalDependencyError) as e:  # bad input, or a component this request needs
+    except (
+        ParameterError,
+        OptionalDependencyError,
+    ) as e:  # bad input, or a component this request needs
         print(f"precise-impact: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BudgetExceededError as e:
         print(f"precise-impact: budget exceeded: {e}", file=sys.stderr)
         return EXIT_BUDGET
     except IntegrationError as e:  # ConvergenceError (a Newton that found no orbit) says so
-        what = "no periodic orbit" if type(e).__name__ == "ConvergenceError" else "integration stopped"
+        what = (
+            "no periodic orbit" if type(e).__name__ == "ConvergenceError" else "integration stopped"
+        )
         print(f"precise-impact: {what}: {e}", file=sys.stderr)
         return EXIT_BUDGET
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()
         return 0
-    except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM: finished files (tiles, outputs) are complete
-        print(f"precise-impact: {getattr(e, 'kept', 'interrupted; finished results are kept')}", file=sys.stderr)
+    except (
+        KeyboardInterrupt
+    ) as e:  # Ctrl-C or SIGTERM: finished files (tiles, outputs) are complete
+        print(
+            f"precise-impact: {getattr(e, 'kept', 'interrupted; finished results are kept')}",
+            file=sys.stderr,
+        )
         return EXIT_INTERRUPTED
     except OSError as e:  # a full or read-only file system mid-run: one line, finished files intact
-        print(f"precise-impact: I/O error: {e.strerror or e}: {e.filename or ''}".rstrip(": "), file=sys.stderr)
+        print(
+            f"precise-impact: I/O error: {e.strerror or e}: {e.filename or ''}".rstrip(": "),
+            file=sys.stderr,
+        )
         return EXIT_IO
 
 

@@ -23,22 +23,49 @@ def add_parser(sub) -> argparse.ArgumentParser:
     """Add ``reference`` (with ``generate`` and ``verify``) to ``sub`` (from ``add_subparsers``)."""
     from precise_impact.verification.reference import CASES
 
-    p = sub.add_parser("reference", help="generate or verify the reference datasets (reference_data/)")
+    p = sub.add_parser(
+        "reference", help="generate or verify the reference datasets (reference_data/)"
+    )
     rsub = p.add_subparsers(dest="reference_command", metavar="{generate,verify}")
     rsub.required = True
-    g = rsub.add_parser("generate", help="generate datasets (skips cases whose manifest and checksums verify)")
+    g = rsub.add_parser(
+        "generate", help="generate datasets (skips cases whose manifest and checksums verify)"
+    )
     which = g.add_mutually_exclusive_group()
     which.add_argument(
-        "--case", action="append", metavar="NAME", choices=list(CASES),
+        "--case",
+        action="append",
+        metavar="NAME",
+        choices=list(CASES),
         help="case to generate (repeatable): " + ", ".join(CASES),
     )
     which.add_argument("--all", action="store_true", help="every case (the default)")
-    g.add_argument("--out", default=None, metavar="DIR", help="output directory (default: the checkout's reference_data/)")
-    g.add_argument("--force", action="store_true", help="regenerate cases that are already complete")
+    g.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="output directory (default: the checkout's reference_data/)",
+    )
+    g.add_argument(
+        "--force", action="store_true", help="regenerate cases that are already complete"
+    )
     g.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    v = rsub.add_parser("verify", help="check checksums and recompute a cheap subset; exit 1 on any problem")
-    v.add_argument("--root", default=None, metavar="DIR", help="dataset directory (default: the checkout's reference_data/)")
-    v.add_argument("--case", action="append", metavar="NAME", choices=list(CASES), help="only this case (repeatable)")
+    v = rsub.add_parser(
+        "verify", help="check checksums and recompute a cheap subset; exit 1 on any problem"
+    )
+    v.add_argument(
+        "--root",
+        default=None,
+        metavar="DIR",
+        help="dataset directory (default: the checkout's reference_data/)",
+    )
+    v.add_argument(
+        "--case",
+        action="append",
+        metavar="NAME",
+        choices=list(CASES),
+        help="only this case (repeatable)",
+    )
     v.add_argument("--no-recompute", action="store_true", help="checksums only")
     return p
 
@@ -49,7 +76,12 @@ def run(ns: argparse.Namespace) -> int:
 
     if ns.reference_command == "generate":
         out = Path(ns.out) if ns.out else default_root()
-        res = generate(None if ns.all or not ns.case else ns.case, out=out, progress=not ns.quiet, force=ns.force)
+        res = generate(
+            None if ns.all or not ns.case else ns.case,
+            out=out,
+            progress=not ns.quiet,
+            force=ns.force,
+        )
         for case, m in res.items():
             state = "up to date" if m.get("skipped") else "written"
             size = sum(f["bytes"] for f in m["files"].values())

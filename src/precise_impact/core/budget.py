@@ -68,8 +68,14 @@ def _per_period(precision) -> tuple[float, float, float]:
     return 1.2e-3 * max(1.0, bits / 128) ** 2.7, 2e-5, 3 * (120 + bits / 8)
 
 
-def estimate_cost(precision, periods: int, per_period: int = 0, runs: int = 1, factor: float = 1.0,
-                  stored: bool = True) -> Cost:
+def estimate_cost(
+    precision,
+    periods: int,
+    per_period: int = 0,
+    runs: int = 1,
+    factor: float = 1.0,
+    stored: bool = True,
+) -> Cost:
     """Estimated cost of ``runs`` heyoka runs of ``periods`` forcing periods.
 
     Parameters
@@ -97,8 +103,12 @@ def estimate_cost(precision, periods: int, per_period: int = 0, runs: int = 1, f
     t_period, t_sample, b_sample = _per_period(precision)
     samples = periods * max(per_period, 1) + 1
     seconds = runs * (periods * t_period * factor + samples * t_sample)
-    what = (f"{runs} x " if runs > 1 else "") + f"{periods} periods" + (
-        f" x {per_period} points" if per_period else "") + f" in {precision.name}"
+    what = (
+        (f"{runs} x " if runs > 1 else "")
+        + f"{periods} periods"
+        + (f" x {per_period} points" if per_period else "")
+        + f" in {precision.name}"
+    )
     return Cost(seconds, samples * b_sample if stored else 0.0, what)
 
 
@@ -109,7 +119,9 @@ def _memory() -> float | None:
         return None
 
 
-def check_cost(cost: Cost, max_time: float | None = DEFAULT_MAX_TIME, flag: str = "max_time") -> None:
+def check_cost(
+    cost: Cost, max_time: float | None = DEFAULT_MAX_TIME, flag: str = "max_time"
+) -> None:
     """Refuse a run whose estimate exceeds the time budget or half the machine's memory.
 
     Raises
@@ -119,11 +131,19 @@ def check_cost(cost: Cost, max_time: float | None = DEFAULT_MAX_TIME, flag: str 
     """
     mem = _memory()
     if mem is not None and cost.bytes > mem / 2:
-        raise ParameterError("periods", cost.what, f"a run whose samples fit in half this machine's memory "
-                             f"({_size(mem)}): {cost.describe()}; fewer periods or output points")
+        raise ParameterError(
+            "periods",
+            cost.what,
+            f"a run whose samples fit in half this machine's memory "
+            f"({_size(mem)}): {cost.describe()}; fewer periods or output points",
+        )
     if max_time is not None and cost.seconds > max_time:
-        raise ParameterError(flag, f"{max_time:g} s", f"a budget above the estimate ({cost.describe()}); "
-                             f"raise --{flag.replace('_', '-')} (at most {MAX_TIME:g} s) or ask for less")
+        raise ParameterError(
+            flag,
+            f"{max_time:g} s",
+            f"a budget above the estimate ({cost.describe()}); "
+            f"raise --{flag.replace('_', '-')} (at most {MAX_TIME:g} s) or ask for less",
+        )
 
 
 def parse_max_time(value) -> float:

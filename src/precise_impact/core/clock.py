@@ -42,7 +42,9 @@ def _man_exp(m: mpmath.mpf) -> tuple[int, int]:
     return (-man if sign else man), exp
 
 
-def sample_times(precision: Any, t0: Fraction, eta: Fraction, periods: int, per_period: int = 1) -> list:
+def sample_times(
+    precision: Any, t0: Fraction, eta: Fraction, periods: int, per_period: int = 1
+) -> list:
     """Times ``t0 + j T / per_period``, ``T = 2 pi / eta``, ``j = 0 .. periods * per_period``.
 
     Parameters
@@ -93,7 +95,9 @@ def _period_and_start(t0: Fraction, eta: Fraction) -> tuple[mpmath.mpf, mpmath.m
     return T, t0m - mpmath.floor(t0m / T) * T
 
 
-def local_clock(precision: Any, t0: Fraction, eta: Fraction, window: Fraction = Fraction(0)) -> tuple[Any, Any, Any]:
+def local_clock(
+    precision: Any, t0: Fraction, eta: Fraction, window: Fraction = Fraction(0)
+) -> tuple[Any, Any, Any]:
     """One forcing period ``[L0, L1]`` of the local clock, and ``window * T``.
 
     Parameters
@@ -148,7 +152,12 @@ def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> lis
         sets its clock back to ``[0]`` afterwards (the forcing is ``T``-periodic), so
         ``|t|`` stays below ``(periods + 1) T``.
     """
-    extra = GUARD_BITS + abs(t0).__ceil__().bit_length() + abs(eta).__ceil__().bit_length() + periods.bit_length()
+    extra = (
+        GUARD_BITS
+        + abs(t0).__ceil__().bit_length()
+        + abs(eta).__ceil__().bit_length()
+        + periods.bit_length()
+    )
     with mpmath.workprec(precision.bits + extra):
         T, s0 = _period_and_start(t0, eta)
         return [precision.from_mpf(s0 + k * T) for k in range(periods + 1)]

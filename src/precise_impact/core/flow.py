@@ -9,15 +9,18 @@ steady state of the non-impacting oscillator and the grazing frequency live here
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from fractions import Fraction
-from typing import Any, Callable
+from typing import Any
 
 import mpmath
 
 __all__ = ["acceleration", "SteadyState", "steady_state", "grazing_frequencies"]
 
 
-def acceleration(t: Any, x: Any, v: Any, eta: Any, zeta: Any, a: Any, cos: Callable[[Any], Any]) -> Any:
+def acceleration(
+    t: Any, x: Any, v: Any, eta: Any, zeta: Any, a: Any, cos: Callable[[Any], Any]
+) -> Any:
     """Right-hand side of ``v'`` in eq. (2a): ``a cos(eta t) - 2 zeta v - x``.
 
     Parameters
@@ -104,7 +107,9 @@ def steady_state(params) -> SteadyState:
         from precise_impact.errors import ParameterError
 
         raise ParameterError(
-            "zeta", "0", "zeta = 0 with eta = 1 is the undamped resonance: no bounded steady state; need zeta > 0"
+            "zeta",
+            "0",
+            "zeta = 0 with eta = 1 is the undamped resonance: no bounded steady state; need zeta > 0",
         )
     return SteadyState(P=a * (1 - eta**2) / d, Q=2 * zeta * eta * a / d, eta=eta)
 
@@ -132,7 +137,7 @@ def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
     from precise_impact.core.params import as_params, check_count
 
     params = as_params(params)
-    dps = check_count(dps, 'dps', 10_000, minimum=1)
+    dps = check_count(dps, "dps", 10_000, minimum=1)
     with mpmath.workdps(dps):
         z = mpmath.mpf(params.zeta.numerator) / params.zeta.denominator
         a = mpmath.mpf(params.a.numerator) / params.a.denominator

@@ -21,8 +21,9 @@ oscillator ``n = (1, 0)``, ``Dg = diag(1, -R)``, ``f = (v, acc)`` and
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 import mpmath
 
@@ -97,13 +98,18 @@ def saltation_matrix(
     dg_f = [sum(jac_reset[i][k] * f_minus[k] for k in range(n)) for i in range(n)]
     denom = sum(normal[k] * f_minus[k] for k in range(n))
     if denom == 0:
-        raise ZeroDivisionError("tangential (grazing) impact: n . f- = 0, saltation matrix undefined")
+        raise ZeroDivisionError(
+            "tangential (grazing) impact: n . f- = 0, saltation matrix undefined"
+        )
     return [
-        [jac_reset[i][j] + (f_plus[i] - dg_f[i]) * normal[j] / denom for j in range(n)] for i in range(n)
+        [jac_reset[i][j] + (f_plus[i] - dg_f[i]) * normal[j] / denom for j in range(n)]
+        for i in range(n)
     ]
 
 
-def oscillator_saltation(t: Any, v_minus: Any, eta: Any, zeta: Any, a: Any, x_w: Any, R: Any, cos) -> list[list[Any]]:
+def oscillator_saltation(
+    t: Any, v_minus: Any, eta: Any, zeta: Any, a: Any, x_w: Any, R: Any, cos
+) -> list[list[Any]]:
     """Saltation matrix of the single oscillator's impact at ``(t, x_w, v_minus)``.
 
     Built from :func:`saltation_matrix` with the flow :func:`~precise_impact.core.flow.acceleration`,
@@ -279,7 +285,7 @@ def chatter_accumulation_time(t_n: Any, v_n: Any, R: Any, g: Any) -> Any:
 GRAZING_SAFETY = 16
 
 
-def grazing_depth_coefficient(precision) -> "Fraction":
+def grazing_depth_coefficient(precision) -> Fraction:
     """``16 u``, ``u = 2^-bits``: the default grazing depth is this times ``|x_w| + |a| + A_p (1 + eta |t|)``."""
     from fractions import Fraction
 
@@ -293,8 +299,8 @@ def steady_amplitude(params) -> float:
     """
     import math
 
-    from precise_impact.errors import ParameterError
     from precise_impact.core.flow import steady_state
+    from precise_impact.errors import ParameterError
 
     try:
         return math.sqrt(float(steady_state(params).amplitude_squared))

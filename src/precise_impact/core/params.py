@@ -12,16 +12,33 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from decimal import Decimal, InvalidOperation
 from fractions import Fraction
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from precise_impact.errors import ParameterError
 
-__all__ = ["Params", "as_params", "params_or_values", "exact", "exact_grid", "check_count", "check_tol", "PARAM_NAMES",
-           "RUNTIME_PARAMS", "I_ETA", "I_ZETA", "I_A", "I_R", "I_XW", "MAX_DIGITS", "MAX_EXPONENT"]
+__all__ = [
+    "Params",
+    "as_params",
+    "params_or_values",
+    "exact",
+    "exact_grid",
+    "check_count",
+    "check_tol",
+    "PARAM_NAMES",
+    "RUNTIME_PARAMS",
+    "I_ETA",
+    "I_ZETA",
+    "I_A",
+    "I_R",
+    "I_XW",
+    "MAX_DIGITS",
+    "MAX_EXPONENT",
+]
 
 #: Order of the fields, also the order of the CLI flags and of ``--json`` output.
 PARAM_NAMES = ("zeta", "a", "eta", "x_w", "R", "x0", "v0", "t0")
@@ -106,7 +123,9 @@ def exact(name: str, value: Any, max_exponent: int = MAX_EXPONENT) -> Fraction:
     if isinstance(value, Fraction):
         q = value
     elif isinstance(value, int):
-        if value.bit_length() > 4 * max_exponent + 4:  # |value| > ~16^max_exponent: refuse before printing it
+        if (
+            value.bit_length() > 4 * max_exponent + 4
+        ):  # |value| > ~16^max_exponent: refuse before printing it
             raise ParameterError(name, f"<integer of {value.bit_length()} bits>", rng)
         q = Fraction(value)
     elif isinstance(value, float):
@@ -117,7 +136,9 @@ def exact(name: str, value: Any, max_exponent: int = MAX_EXPONENT) -> Fraction:
         q = _parse_decimal(name, value, max_exponent, rng)
     else:
         raise ParameterError(
-            name, value, f"expected a decimal string, int, Fraction or float, got {type(value).__name__}"
+            name,
+            value,
+            f"expected a decimal string, int, Fraction or float, got {type(value).__name__}",
         )
     if q != 0 and not (Fraction(1, 10**max_exponent) <= abs(q) <= 10**max_exponent):
         raise ParameterError(name, _short(value), rng)
@@ -129,7 +150,7 @@ def _short(value: Any) -> str:
     return s if len(s) <= 40 else s[:20] + "..." + s[-10:]
 
 
-def _parse_decimal(name: str, value: "str | Decimal", max_exponent: int, rng: str) -> Fraction:
+def _parse_decimal(name: str, value: str | Decimal, max_exponent: int, rng: str) -> Fraction:
     """A decimal string, ratio or Decimal -> Fraction, with sizes bounded before expansion."""
     if isinstance(value, Decimal):
         d = value
@@ -139,7 +160,10 @@ def _parse_decimal(name: str, value: "str | Decimal", max_exponent: int, rng: st
             raise ParameterError(name, _short(s), f"at most {MAX_DIGITS} characters")
         if "/" in s:
             num, _, den = s.partition("/")
-            a, b = _parse_decimal(name, num, max_exponent, rng), _parse_decimal(name, den, max_exponent, rng)
+            a, b = (
+                _parse_decimal(name, num, max_exponent, rng),
+                _parse_decimal(name, den, max_exponent, rng),
+            )
             if b == 0:
                 raise ParameterError(name, s, "a ratio p/q needs q != 0")
             return a / b
@@ -147,7 +171,9 @@ def _parse_decimal(name: str, value: "str | Decimal", max_exponent: int, rng: st
             d = Decimal(s)
         except (InvalidOperation, ValueError):
             raise ParameterError(
-                name, _short(value), "expected a decimal number such as '0.712' or a ratio such as '102/53'"
+                name,
+                _short(value),
+                "expected a decimal number such as '0.712' or a ratio such as '102/53'",
             ) from None
     if not d.is_finite():
         raise ParameterError(name, _short(value), "every value must be finite (no NaN or inf)")
@@ -173,8 +199,14 @@ def check_count(value: Any, name: str = "periods", maximum: int = 10**8, minimum
             value = int(s)
         except ValueError:
             raise ParameterError(name, value, rng) from None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or not minimum <= value <= maximum:
-        raise ParameterError(name, value if not isinstance(value, int) or value.bit_length() < 200 else "<huge>", rng)
+    if (
+        isinstance(value, (bool, np.bool_))
+        or not isinstance(value, (int, np.integer))
+        or not minimum <= value <= maximum
+    ):
+        raise ParameterError(
+            name, value if not isinstance(value, int) or value.bit_length() < 200 else "<huge>", rng
+        )
     return int(value)
 
 
@@ -188,7 +220,9 @@ def check_tol(tol: Any, name: str = "tol") -> Fraction | None:
     return q
 
 
-def exact_grid(lo: Any, hi: Any, n: Any, name: str, minimum: Fraction = Fraction(0), strict: bool = False) -> list[Fraction]:
+def exact_grid(
+    lo: Any, hi: Any, n: Any, name: str, minimum: Fraction = Fraction(0), strict: bool = False
+) -> list[Fraction]:
     """``n`` exact, evenly spaced values from ``lo`` to ``hi`` (both included).
 
     Errors name ``{name}_min``, ``{name}_max`` or ``n``; ``lo`` must be ``>= minimum``
@@ -197,10 +231,16 @@ def exact_grid(lo: Any, hi: Any, n: Any, name: str, minimum: Fraction = Fraction
     lo_q, hi_q = exact(f"{name}_min", lo), exact(f"{name}_max", hi)
     n = check_count(n, "n", 1_000_000, minimum=1)  # the number of {name} values
     if lo_q < minimum or (strict and lo_q == minimum):
-        raise ParameterError(f"{name}_min", decimal_str(lo_q), f"must be {'>' if strict else '>='} {decimal_str(minimum)}")
+        raise ParameterError(
+            f"{name}_min",
+            decimal_str(lo_q),
+            f"must be {'>' if strict else '>='} {decimal_str(minimum)}",
+        )
     if hi_q < lo_q or (hi_q == lo_q and n > 1):
         raise ParameterError(
-            f"{name}_max", decimal_str(hi_q), f"must be > {name}_min = {decimal_str(lo_q)} (or equal with n = 1)"
+            f"{name}_max",
+            decimal_str(hi_q),
+            f"must be > {name}_min = {decimal_str(lo_q)} (or equal with n = 1)",
         )
     if n == 1:
         return [lo_q]
@@ -272,7 +312,7 @@ class Params:
         self.validate()
 
     @classmethod
-    def make(cls, **values: Any) -> "Params":
+    def make(cls, **values: Any) -> Params:
         """Build and validate.  Unknown names are refused; missing ones take defaults.
 
         Parameters
@@ -295,7 +335,9 @@ class Params:
         unknown = sorted(set(values) - set(PARAM_NAMES))
         if unknown:
             raise ParameterError(
-                unknown[0], values[unknown[0]], f"unknown parameter; known: {', '.join(PARAM_NAMES)}"
+                unknown[0],
+                values[unknown[0]],
+                f"unknown parameter; known: {', '.join(PARAM_NAMES)}",
             )
         merged = {n: values[n] if values.get(n) is not None else _DEFAULTS[n] for n in PARAM_NAMES}
         return cls(**{n: exact(n, merged[n]) for n in PARAM_NAMES})
@@ -303,17 +345,26 @@ class Params:
     def validate(self) -> None:
         """Check every range; raise :class:`ParameterError` naming the first bad one."""
         if not 0 <= self.zeta <= ZETA_MAX:
-            raise ParameterError("zeta", decimal_str(self.zeta), f"damping ratio must satisfy 0 <= zeta <= {ZETA_MAX}")
+            raise ParameterError(
+                "zeta",
+                decimal_str(self.zeta),
+                f"damping ratio must satisfy 0 <= zeta <= {ZETA_MAX}",
+            )
         if not ETA_MIN <= self.eta <= ETA_MAX:
-            raise ParameterError("eta", decimal_str(self.eta),
-                                 f"forcing frequency ratio must satisfy {decimal_str(ETA_MIN)} <= eta <= {ETA_MAX}")
+            raise ParameterError(
+                "eta",
+                decimal_str(self.eta),
+                f"forcing frequency ratio must satisfy {decimal_str(ETA_MIN)} <= eta <= {ETA_MAX}",
+            )
         for n in ("a", "x_w", "x0", "v0"):
             if abs(getattr(self, n)) > STATE_MAX:
                 raise ParameterError(n, decimal_str(getattr(self, n)), f"|{n}| <= {STATE_MAX:.0e}")
         if abs(self.t0) > T0_MAX:
             raise ParameterError("t0", decimal_str(self.t0), f"|t0| <= {T0_MAX:.0e}")
         if not (0 <= self.R <= 1):
-            raise ParameterError("R", decimal_str(self.R), "restitution coefficient must satisfy 0 <= R <= 1")
+            raise ParameterError(
+                "R", decimal_str(self.R), "restitution coefficient must satisfy 0 <= R <= 1"
+            )
         if self.x0 > self.x_w:
             raise ParameterError(
                 "x0",
@@ -321,7 +372,7 @@ class Params:
                 f"the start must not lie inside the wall: x0 <= x_w = {decimal_str(self.x_w)}",
             )
 
-    def replace(self, **values: Any) -> "Params":
+    def replace(self, **values: Any) -> Params:
         """A copy with some fields changed (validated).
 
         Parameters
@@ -352,7 +403,7 @@ class Params:
         return "Params(" + ", ".join(f"{k}={v}" for k, v in self.decimal().items()) + ")"
 
     @classmethod
-    def from_mapping(cls, m: Mapping[str, Any]) -> "Params":
+    def from_mapping(cls, m: Mapping[str, Any]) -> Params:
         """Build from a mapping ``{name: value}`` (e.g. parsed JSON); see :meth:`make`.
 
         Parameters
@@ -375,7 +426,7 @@ class Params:
         return cls.make(**{str(k): v for k, v in m.items()})
 
 
-def as_params(value: Any, name: str = "params") -> "Params":
+def as_params(value: Any, name: str = "params") -> Params:
     """The one conversion of a user's ``params`` argument: a :class:`Params` (validated
     however it was built), a plain mapping ``{name: value}`` (:meth:`Params.from_mapping`),
     or a :class:`ParameterError` naming ``name``."""
@@ -387,7 +438,7 @@ def as_params(value: Any, name: str = "params") -> "Params":
     raise ParameterError(name, type(value).__name__, "a Params or a mapping {name: value}")
 
 
-def params_or_values(params: Any, param_values: Mapping[str, Any]) -> "Params":
+def params_or_values(params: Any, param_values: Mapping[str, Any]) -> Params:
     """``params`` (as :func:`as_params`) with ``param_values`` replaced, or, when ``params`` is
     ``None``, ``Params.make(**param_values)``: the calling convention of ``simulate`` and the
     orbit finders, written once."""

@@ -22,7 +22,9 @@ from precise_impact.errors import ParameterError
 
 __all__ = ["Precision", "PRECISION_HELP", "MAX_MP_BITS", "has_quad", "quad_or_mp"]
 
-PRECISION_HELP = "one of 'float64', 'longdouble', 'float128', or 'mp:BITS' with an integer 64 <= BITS <= 8192"
+PRECISION_HELP = (
+    "one of 'float64', 'longdouble', 'float128', or 'mp:BITS' with an integer 64 <= BITS <= 8192"
+)
 
 _LONGDOUBLE_BITS = np.finfo(np.longdouble).nmant + 1
 
@@ -46,7 +48,8 @@ def _real128() -> type:
     t = getattr(hy, "real128", None)
     if t is None:
         raise ParameterError(
-            "precision", "float128",
+            "precision",
+            "float128",
             "this heyoka build has no quad precision (heyoka.real128); use 'longdouble' or 'mp:113'",
         )
     return t
@@ -87,18 +90,21 @@ class Precision:
 
     # ----------------------------------------------------------------- parsing
     @staticmethod
-    def parse(spec: "str | Precision") -> "Precision":
+    def parse(spec: str | Precision) -> Precision:
         """Parse a precision string; raise :class:`ParameterError` if unknown."""
         if isinstance(spec, Precision):
             return spec
         if not isinstance(spec, str) or len(spec) > 40:
-            raise ParameterError("precision", spec if isinstance(spec, str) and len(spec) <= 40 else type(spec).__name__,
-                                 PRECISION_HELP)
+            raise ParameterError(
+                "precision",
+                spec if isinstance(spec, str) and len(spec) <= 40 else type(spec).__name__,
+                PRECISION_HELP,
+            )
         return Precision._parse(spec)
 
     @staticmethod
     @functools.lru_cache(maxsize=256)
-    def _parse(spec: str) -> "Precision":
+    def _parse(spec: str) -> Precision:
         s = spec.strip().lower()
         if s in ("float64", "double", "f64"):
             return Precision("float64", "float64", 53)
@@ -112,9 +118,15 @@ class Precision:
             except ValueError:
                 raise ParameterError("precision", spec, PRECISION_HELP) from None
             if bits < 64:
-                raise ParameterError("precision", spec, "multiprecision needs BITS >= 64 ('mp:BITS')")
+                raise ParameterError(
+                    "precision", spec, "multiprecision needs BITS >= 64 ('mp:BITS')"
+                )
             if bits > MAX_MP_BITS:
-                raise ParameterError("precision", spec, f"multiprecision needs 64 <= BITS <= {MAX_MP_BITS} ('mp:BITS')")
+                raise ParameterError(
+                    "precision",
+                    spec,
+                    f"multiprecision needs 64 <= BITS <= {MAX_MP_BITS} ('mp:BITS')",
+                )
             return Precision(f"mp:{bits}", "mp", bits)
         raise ParameterError("precision", spec, PRECISION_HELP)
 
@@ -150,7 +162,7 @@ class Precision:
         """Machine epsilon in this number type."""
         return self.from_fraction(self.eps_fraction)
 
-    def check_tol(self, tol: Any, name: str = "tol") -> "Fraction | None":
+    def check_tol(self, tol: Any, name: str = "tol") -> Fraction | None:
         """Validate an integrator tolerance for this precision: ``None`` or ``eps <= tol < 1``.
 
         ``None`` means the precision's epsilon (heyoka's default).  A tolerance below
@@ -160,8 +172,12 @@ class Precision:
 
         q = check_tol(tol, name)
         if q is not None and q < self.eps_fraction:
-            raise ParameterError(name, str(tol), f"{self.name} needs eps = 2^{1 - self.bits} "
-                                 f"(~{float(self.eps_fraction):.3g}) <= {name} < 1")
+            raise ParameterError(
+                name,
+                str(tol),
+                f"{self.name} needs eps = 2^{1 - self.bits} "
+                f"(~{float(self.eps_fraction):.3g}) <= {name} < 1",
+            )
         return q
 
     @property
@@ -194,7 +210,9 @@ class Precision:
     def from_fraction(self, q: Fraction) -> Any:
         """Round an exact rational to this precision once, to nearest."""
         q = Fraction(q)
-        return self._from_mpf_exact(_mk(libmp.from_rational(q.numerator, q.denominator, self.bits, "n")))
+        return self._from_mpf_exact(
+            _mk(libmp.from_rational(q.numerator, q.denominator, self.bits, "n"))
+        )
 
     def from_decimal(self, s: str) -> Any:
         """Round a decimal string to this precision once, to nearest."""

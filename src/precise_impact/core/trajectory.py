@@ -10,10 +10,10 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.core.result import ResultMixin
-from precise_impact.io.atomic import atomic_write, write_json
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
+from precise_impact.core.result import ResultMixin
+from precise_impact.io.atomic import atomic_write, write_json
 
 __all__ = ["Trajectory", "atomic_write"]
 
@@ -154,10 +154,16 @@ class Trajectory(ResultMixin):
         elif path.suffix == ".csv":
             lines = ["kind,index,t,x,v_or_v_before,v_after"]
             for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v)):
-                lines.append(f"sample,{k},{self.precision.to_str(t)},{self.precision.to_str(x)},{self.precision.to_str(v)},")
-            for i, (t, vb, va) in enumerate(zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after)):
+                lines.append(
+                    f"sample,{k},{self.precision.to_str(t)},{self.precision.to_str(x)},{self.precision.to_str(v)},"
+                )
+            for i, (t, vb, va) in enumerate(
+                zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after)
+            ):
                 p = self.precision
-                lines.append(f"impact,{i},{p.to_str(t)},{decimal_str(self.params.x_w)},{p.to_str(vb)},{p.to_str(va)}")
+                lines.append(
+                    f"impact,{i},{p.to_str(t)},{decimal_str(self.params.x_w)},{p.to_str(vb)},{p.to_str(va)}"
+                )
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
         elif path.suffix == ".json":

@@ -13,10 +13,18 @@ import hashlib
 import json
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
-__all__ = ["atomic_write", "write_json", "sha256_file", "current_umask", "check_output_file", "check_output_dir"]
+__all__ = [
+    "atomic_write",
+    "write_json",
+    "sha256_file",
+    "current_umask",
+    "check_output_file",
+    "check_output_dir",
+]
 
 
 def current_umask() -> int:
@@ -26,7 +34,9 @@ def current_umask() -> int:
     return mask
 
 
-def atomic_write(path: str | os.PathLike, writer: Callable[[Any], Any], binary: bool = True) -> None:
+def atomic_write(
+    path: str | os.PathLike, writer: Callable[[Any], Any], binary: bool = True
+) -> None:
     """Write ``path`` through ``writer(fh)`` atomically.
 
     Parameters
@@ -49,7 +59,7 @@ def atomic_write(path: str | os.PathLike, writer: Callable[[Any], Any], binary: 
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         os.fchmod(fd, 0o666 & ~current_umask())
-        with (os.fdopen(fd, "wb") if binary else os.fdopen(fd, "w", encoding="utf-8")) as fh:
+        with os.fdopen(fd, "wb") if binary else os.fdopen(fd, "w", encoding="utf-8") as fh:
             writer(fh)
             fh.flush()
             os.fsync(fh.fileno())
@@ -96,7 +106,9 @@ def check_output_file(path: str | os.PathLike, force: bool = False, name: str = 
     if path.is_dir():
         raise ParameterError(name, str(path), "a file path, not a directory")
     if path.exists() and not force:
-        raise ParameterError(name, str(path), "a path that does not exist yet (use --force to overwrite)")
+        raise ParameterError(
+            name, str(path), "a path that does not exist yet (use --force to overwrite)"
+        )
     base = _nearest_existing(path.parent)
     if not base.is_dir():
         raise ParameterError(name, str(path), f"a path under a directory ({base} is a file)")
@@ -122,8 +134,12 @@ def check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = T
         except OSError:
             first = None
         if first is not None:
-            raise ParameterError(name, str(path), f"a new or empty directory (it holds {first.name}, which this run "
-                                 "may replace): another --out, or --force to write into it")
+            raise ParameterError(
+                name,
+                str(path),
+                f"a new or empty directory (it holds {first.name}, which this run "
+                "may replace): another --out, or --force to write into it",
+            )
     base = _nearest_existing(path)
     if not base.is_dir():
         raise ParameterError(name, str(path), f"a directory path ({base} is a file)")

@@ -35,8 +35,13 @@ def figure(figsize: tuple[float, float] = (7.0, 4.5), layout: str | None = None)
     return fig
 
 
-def new_figure(nrows: int = 1, ncols: int = 1, figsize: tuple[float, float] = (7.0, 4.5),
-               layout: str | None = "constrained", **subplots_kw: Any):
+def new_figure(
+    nrows: int = 1,
+    ncols: int = 1,
+    figsize: tuple[float, float] = (7.0, 4.5),
+    layout: str | None = "constrained",
+    **subplots_kw: Any,
+):
     """A new figure and its axes, drawn by an Agg canvas of its own.
 
     Parameters

@@ -80,15 +80,24 @@ class DirectoryLock:
             return {}
 
     def _refuse(self, holder: dict):
-        who = (f"pid {holder.get('pid', '?')} on {holder.get('host', '?')} since {holder.get('since', '?')}"
-               if holder else "another process")
-        raise ParameterError(self.name, str(self.directory),
-                             f"a directory no other run is writing to (locked by {who}; wait for it to finish)")
+        who = (
+            f"pid {holder.get('pid', '?')} on {holder.get('host', '?')} since {holder.get('since', '?')}"
+            if holder
+            else "another process"
+        )
+        raise ParameterError(
+            self.name,
+            str(self.directory),
+            f"a directory no other run is writing to (locked by {who}; wait for it to finish)",
+        )
 
-    def acquire(self) -> "DirectoryLock":
+    def acquire(self) -> DirectoryLock:
         self.directory.mkdir(parents=True, exist_ok=True)
-        me = {"pid": os.getpid(), "host": socket.gethostname(),
-              "since": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+        me = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "since": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        }
         if fcntl is not None:
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
             try:
@@ -111,7 +120,11 @@ class DirectoryLock:
             except FileExistsError:
                 holder = self._holder()
                 pid = holder.get("pid")
-                if holder.get("host") == me["host"] and isinstance(pid, int) and not _pid_alive(pid):
+                if (
+                    holder.get("host") == me["host"]
+                    and isinstance(pid, int)
+                    and not _pid_alive(pid)
+                ):
                     self.stale = holder
                     self.path.unlink(missing_ok=True)
                     continue
@@ -133,7 +146,7 @@ class DirectoryLock:
         finally:
             os.close(fd)
 
-    def __enter__(self) -> "DirectoryLock":
+    def __enter__(self) -> DirectoryLock:
         return self.acquire()
 
     def __exit__(self, *exc) -> None:

@@ -82,11 +82,15 @@ class Progress:
     partial runs) so the last count is shown and a redrawn line is ended.
     """
 
-    def __init__(self, total: int, label: str, enabled: bool | None = True, interval: float | None = None) -> None:
+    def __init__(
+        self, total: int, label: str, enabled: bool | None = True, interval: float | None = None
+    ) -> None:
         self.total, self.label = int(total), label
         self.enabled = wanted(enabled)
         self.tty = _isatty()
-        self.interval = (TTY_INTERVAL if self.tty else LINE_INTERVAL) if interval is None else float(interval)
+        self.interval = (
+            (TTY_INTERVAL if self.tty else LINE_INTERVAL) if interval is None else float(interval)
+        )
         self.start = time.perf_counter()
         self._last = -float("inf")
         self._shown: int | None = None

@@ -20,9 +20,19 @@ from precise_impact.errors import ParameterError
 from precise_impact.solvers.base import register_model
 
 __all__ = [
-    "COUPLED_FORMS", "CoupledTrajectory", "simulate_coupled", "certify_coupled", "CertifiedCoupledTrajectory",
-    "Components", "nominal_components", "EFFECTS",
-    "CircuitSolver", "SwitchedCapacitorSolver", "SpiceSolver", "CoupledCircuitTrajectory", "simulate_coupled_circuit",
+    "COUPLED_FORMS",
+    "CoupledTrajectory",
+    "simulate_coupled",
+    "certify_coupled",
+    "CertifiedCoupledTrajectory",
+    "Components",
+    "nominal_components",
+    "EFFECTS",
+    "CircuitSolver",
+    "SwitchedCapacitorSolver",
+    "SpiceSolver",
+    "CoupledCircuitTrajectory",
+    "simulate_coupled_circuit",
 ]
 
 
@@ -42,22 +52,32 @@ def _spice(prec: Precision, tol: Any, **options: Any):
     from precise_impact.models.circuit.spice import SpiceSolver
 
     if prec.kind != "float64":
-        raise ParameterError("precision", prec.name, "the spice model runs in 'float64' (ngspice's arithmetic)")
+        raise ParameterError(
+            "precision", prec.name, "the spice model runs in 'float64' (ngspice's arithmetic)"
+        )
     if tol is not None:
         raise ParameterError("tol", str(tol), "the spice model takes no tolerance (use tmax)")
     return SpiceSolver(**options)
 
 
-register_model("circuit", "the op-amp network of Fig. 2 with the mechanical impact law (nominal parts)", _circuit)
-register_model("switched-capacitor", "the impact made by the circuit: comparator, flip-flop, switches", _switched)
+register_model(
+    "circuit",
+    "the op-amp network of Fig. 2 with the mechanical impact law (nominal parts)",
+    _circuit,
+)
+register_model(
+    "switched-capacitor",
+    "the impact made by the circuit: comparator, flip-flop, switches",
+    _switched,
+)
 register_model("spice", "the Fig. 2 circuit as an ngspice netlist (float64; needs ngspice)", _spice)
 
 # The public names (after the registration, which needs none of them).
-from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled  # noqa: E402
-from precise_impact.solvers.certified.coupled import CertifiedCoupledTrajectory, certify_coupled  # noqa: E402
 from precise_impact.models.circuit.components import Components, nominal_components  # noqa: E402
+from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit  # noqa: E402
 from precise_impact.models.circuit.effects.catalogue import EFFECTS  # noqa: E402
 from precise_impact.models.circuit.opamp import CircuitSolver  # noqa: E402
-from precise_impact.models.circuit.switched import SwitchedCapacitorSolver  # noqa: E402
 from precise_impact.models.circuit.spice import SpiceSolver  # noqa: E402
-from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit  # noqa: E402
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver  # noqa: E402
+from precise_impact.solvers.certified.coupled import CertifiedCoupledTrajectory, certify_coupled  # noqa: E402
+from precise_impact.solvers.heyoka.coupled import COUPLED_FORMS, CoupledTrajectory, simulate_coupled  # noqa: E402

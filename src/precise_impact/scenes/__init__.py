@@ -6,7 +6,7 @@
 The built-in scenes are the ``*.toml`` files of this package.
 """
 
-from precise_impact.scenes.scene import Scene, builtin_scenes, load_scene
 from precise_impact.scenes.run import run_scene
+from precise_impact.scenes.scene import Scene, builtin_scenes, load_scene
 
 __all__ = ["Scene", "builtin_scenes", "load_scene", "run_scene"]

@@ -7,10 +7,10 @@ import json
 from pathlib import Path
 from typing import Any
 
-from precise_impact.io.figures import figure
 from precise_impact.core.params import decimal_str
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import figure
 from precise_impact.scenes.scene import Scene
 
 __all__ = ["run_scene", "scene_json"]
@@ -43,24 +43,41 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
 
     # circuits and coupled systems integrate 2-4x the states of the mechanical model
     factor = 1.0 if scene.kind != "coupled" and scene.model in ("heyoka", "analytical") else 4.0
-    check_cost(estimate_cost(P, scene.periods, scene.per_period, factor=factor),
-               DEFAULT_MAX_TIME if max_time is None else max_time)
+    check_cost(
+        estimate_cost(P, scene.periods, scene.per_period, factor=factor),
+        DEFAULT_MAX_TIME if max_time is None else max_time,
+    )
     if scene.kind == "coupled":
         y0 = (scene.params.x0 + 1, scene.params.v0)  # the slave starts one unit away (paper Fig. 7)
         if scene.model == "circuit":
             from precise_impact.models.circuit.coupled import simulate_coupled_circuit
-
             from precise_impact.models.circuit.effects.tolerance import actual_components
 
             design = scene.design()
             actual = actual_components(design, scene.effects)
-            return simulate_coupled_circuit(design, scene.k, scene.periods, x0=scene.params.x0,
-                                            v0=scene.params.v0, y0=y0, t0=scene.params.t0,
-                                            per_period=scene.per_period, precision=P.name, actual=actual)
+            return simulate_coupled_circuit(
+                design,
+                scene.k,
+                scene.periods,
+                x0=scene.params.x0,
+                v0=scene.params.v0,
+                y0=y0,
+                t0=scene.params.t0,
+                per_period=scene.per_period,
+                precision=P.name,
+                actual=actual,
+            )
         from precise_impact.solvers.heyoka.coupled import simulate_coupled
 
-        return simulate_coupled(scene.params, scene.k, scene.form, scene.periods, y0=y0,
-                                per_period=scene.per_period, precision=P.name)
+        return simulate_coupled(
+            scene.params,
+            scene.k,
+            scene.form,
+            scene.periods,
+            y0=y0,
+            per_period=scene.per_period,
+            precision=P.name,
+        )
     if scene.model in ("heyoka", "analytical"):
         from precise_impact.solvers.base import make_solver
 
@@ -79,35 +96,68 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
 
         p = scene.params
         kw = {} if scene.tmax is None else {"tmax": float(scene.tmax)}
-        res = run_spice(scene.design(), scene.effects, scene.periods, x0=p.x0, v0=p.v0, t0=p.t0,
-                        dense=scene.per_period > 0, **kw)
+        res = run_spice(
+            scene.design(),
+            scene.effects,
+            scene.periods,
+            x0=p.x0,
+            v0=p.v0,
+            t0=p.t0,
+            dense=scene.per_period > 0,
+            **kw,
+        )
         return res.to_trajectory()
     p = scene.params
-    return s.solve(scene.design(), scene.periods, x0=p.x0, v0=p.v0, t0=p.t0, per_period=scene.per_period)
+    return s.solve(
+        scene.design(), scene.periods, x0=p.x0, v0=p.v0, t0=p.t0, per_period=scene.per_period
+    )
 
 
 def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]:
     """``{"scene", "model", "effects", "samples", "impacts", "elapsed_s", ...}``."""
     model = model or scene.model
-    effects = sorted(scene.with_model(model).effects) if model != scene.model else sorted(scene.effects)
+    effects = (
+        sorted(scene.with_model(model).effects) if model != scene.model else sorted(scene.effects)
+    )
     if isinstance(result, Trajectory):
         d = result.to_dict()
-        return {"scene": scene.name, "model": model, "effects": effects, "precision": d["precision"],
-                "params": d["params"], "samples": d["samples"], "impacts": d["impacts"], "elapsed_s": d["elapsed_s"]}
+        return {
+            "scene": scene.name,
+            "model": model,
+            "effects": effects,
+            "precision": d["precision"],
+            "params": d["params"],
+            "samples": d["samples"],
+            "impacts": d["impacts"],
+            "elapsed_s": d["elapsed_s"],
+        }
     P = result["precision"]
     s = P.to_str
     return {
-        "scene": scene.name, "model": model, "effects": effects, "precision": P.name,
-        "params": result["params"].decimal(), "form": scene.form if model != "circuit" else "paper",
+        "scene": scene.name,
+        "model": model,
+        "effects": effects,
+        "precision": P.name,
+        "params": result["params"].decimal(),
+        "form": scene.form if model != "circuit" else "paper",
         "k": decimal_str(scene.k),
-        "samples": [{"period": i, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
-                    for i, (t, x, v, y, w) in enumerate(zip(result["t"], result["x"], result["v"], result["y"], result["w"]))],
-        "impacts": {"master": [s(t) for t in result["master_impacts_t"]], "slave": [s(t) for t in result["slave_impacts_t"]]},
+        "samples": [
+            {"period": i, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
+            for i, (t, x, v, y, w) in enumerate(
+                zip(result["t"], result["x"], result["v"], result["y"], result["w"])
+            )
+        ],
+        "impacts": {
+            "master": [s(t) for t in result["master_impacts_t"]],
+            "slave": [s(t) for t in result["slave_impacts_t"]],
+        },
         "elapsed_s": result["elapsed_s"],
     }
 
 
-def save_scene_outputs(scene: Scene, result, out: str | Path, model: str | None = None) -> list[Path]:
+def save_scene_outputs(
+    scene: Scene, result, out: str | Path, model: str | None = None
+) -> list[Path]:
     """Write ``<scene>.json`` and a phase-portrait (or |x - y|) PNG into ``out``."""
     import numpy as np
 
@@ -134,7 +184,9 @@ def save_scene_outputs(scene: Scene, result, out: str | Path, model: str | None 
         ax.semilogy([P.to_float(t) for t in result["t"]], [max(v, 1e-300) for v in d])
         ax.set_xlabel("t (dimensionless)")
         ax.set_ylabel("|x - y| at t0 + kT")
-    ax.set_title(f"{scene.name}: {obj['model']}, effects: {', '.join(obj['effects']) or 'none'}", fontsize=9)
+    ax.set_title(
+        f"{scene.name}: {obj['model']}, effects: {', '.join(obj['effects']) or 'none'}", fontsize=9
+    )
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)

@@ -34,20 +34,31 @@ from __future__ import annotations
 import dataclasses
 import re
 import tomllib
+from collections.abc import Mapping
 from fractions import Fraction
 from importlib import resources
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
-from precise_impact.errors import ParameterError
 from precise_impact.core.params import PARAM_NAMES, Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
+from precise_impact.errors import ParameterError
 from precise_impact.solvers.base import MODEL_ALIASES
 
 __all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
 
 SCENE_MODELS = ("heyoka", "analytical", "circuit", "switched-capacitor", "spice")
-_TOP = {"name", "description", "system", "model", "parameters", "components", "effects", "duration", "outputs"}
+_TOP = {
+    "name",
+    "description",
+    "system",
+    "model",
+    "parameters",
+    "components",
+    "effects",
+    "duration",
+    "outputs",
+}
 _SECTIONS = {
     "system": {"kind", "form", "k"},
     "model": {"name", "precision", "tol", "tmax"},
@@ -55,11 +66,37 @@ _SECTIONS = {
     "outputs": {"per_period"},
     "components": {"R", "C", "V_unit", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2"},
 }
-_COMPONENT_UNIT = {"R": "ohm", "C": "F", "V_unit": "V", **{f"R{i}": "ohm" for i in range(1, 9)}, "C1": "F", "C2": "F"}
-_PREFIX = {"p": Fraction(1, 10**12), "n": Fraction(1, 10**9), "u": Fraction(1, 10**6), "µ": Fraction(1, 10**6),
-           "m": Fraction(1, 1000), "": Fraction(1), "k": Fraction(1000), "M": Fraction(10**6), "G": Fraction(10**9)}
-_UNIT_ALIASES = {"ohm": "ohm", "Ω": "ohm", "F": "F", "V": "V", "s": "s", "Hz": "Hz", "C": "C", "V/V": "V/V",
-                 "%": "%", "V/s": "V/s"}
+_COMPONENT_UNIT = {
+    "R": "ohm",
+    "C": "F",
+    "V_unit": "V",
+    **{f"R{i}": "ohm" for i in range(1, 9)},
+    "C1": "F",
+    "C2": "F",
+}
+_PREFIX = {
+    "p": Fraction(1, 10**12),
+    "n": Fraction(1, 10**9),
+    "u": Fraction(1, 10**6),
+    "µ": Fraction(1, 10**6),
+    "m": Fraction(1, 1000),
+    "": Fraction(1),
+    "k": Fraction(1000),
+    "M": Fraction(10**6),
+    "G": Fraction(10**9),
+}
+_UNIT_ALIASES = {
+    "ohm": "ohm",
+    "Ω": "ohm",
+    "F": "F",
+    "V": "V",
+    "s": "s",
+    "Hz": "Hz",
+    "C": "C",
+    "V/V": "V/V",
+    "%": "%",
+    "V/s": "V/s",
+}
 
 
 def parse_quantity(name: str, value: Any, unit: str) -> Fraction:
@@ -69,14 +106,20 @@ def parse_quantity(name: str, value: Any, unit: str) -> Fraction:
     unit (``"160 s"`` for an ohm value) raises :class:`ParameterError` naming ``name``.
     """
     if isinstance(value, str):
-        m = re.fullmatch(r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?(?:/[0-9]+)?)\s*([a-zA-Zµ%Ω/]*)\s*", value)
+        m = re.fullmatch(
+            r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?(?:/[0-9]+)?)\s*([a-zA-Zµ%Ω/]*)\s*", value
+        )
         if m and m.group(2):
             num, u = m.group(1), m.group(2)
             for p in sorted(_PREFIX, key=len, reverse=True):
-                base = u[len(p):] if p and u.startswith(p) else (u if not p else None)
+                base = u[len(p) :] if p and u.startswith(p) else (u if not p else None)
                 if base is not None and _UNIT_ALIASES.get(base) == unit:
                     return exact(name, num) * _PREFIX[p]
-            raise ParameterError(name, value, f"expected a value in {unit} (with an optional SI prefix p n u m k M G)")
+            raise ParameterError(
+                name,
+                value,
+                f"expected a value in {unit} (with an optional SI prefix p n u m k M G)",
+            )
     return exact(name, value)
 
 
@@ -100,13 +143,13 @@ class Scene:
     per_period: int
     source: str
 
-    def with_model(self, model: str) -> "Scene":
+    def with_model(self, model: str) -> Scene:
         """The same scene with another model (effects re-validated for it)."""
         data = dict(self._raw)
         data["model"] = dict(data.get("model", {}), name=model)
         return _build(data, self.source)
 
-    def fitted_to(self, model: str) -> tuple["Scene", list[str]]:
+    def fitted_to(self, model: str) -> tuple[Scene, list[str]]:
         """The same scene on ``model``, keeping only the effects that fit ``model``.
 
         Returns
@@ -132,8 +175,12 @@ class Scene:
         """Design components (nominal from the parameters, then overrides)."""
         from precise_impact.models.circuit.components import nominal_components
 
-        base = nominal_components(self.params, R=self.components.get("R", "10e3"), C=self.components.get("C", "100e-9"),
-                                  V_unit=self.components.get("V_unit", 1))
+        base = nominal_components(
+            self.params,
+            R=self.components.get("R", "10e3"),
+            C=self.components.get("C", "100e-9"),
+            V_unit=self.components.get("V_unit", 1),
+        )
         over = {n: v for n, v in self.components.items() if n not in ("R", "C", "V_unit")}
         return base.replace(**over) if over else base
 
@@ -141,8 +188,11 @@ class Scene:
 def _check_keys(section: str, table: Mapping, allowed: set) -> None:
     for key in table:
         if key not in allowed:
-            raise ParameterError(f"{section}.{key}" if section else key, table[key],
-                                 "unknown key; allowed: " + ", ".join(sorted(allowed)))
+            raise ParameterError(
+                f"{section}.{key}" if section else key,
+                table[key],
+                "unknown key; allowed: " + ", ".join(sorted(allowed)),
+            )
 
 
 def _build(data: Mapping, source: str) -> Scene:
@@ -170,15 +220,20 @@ def _build(data: Mapping, source: str) -> Scene:
         form = check_form(system.get("form", "first-order"))
         k = check_k(system.get("k", "0.032"), "system.k")
     elif "form" in system or "k" in system:
-        raise ParameterError("system.form" if "form" in system else "system.k", system.get("form", system.get("k")),
-                             "only for kind = 'coupled'")
+        raise ParameterError(
+            "system.form" if "form" in system else "system.k",
+            system.get("form", system.get("k")),
+            "only for kind = 'coupled'",
+        )
     model_t = data.get("model", {})
     model = model_t.get("name", "heyoka")
     model = MODEL_ALIASES.get(model, model) if isinstance(model, str) else model
     if model not in SCENE_MODELS:
         raise ParameterError("model.name", model, "one of " + ", ".join(SCENE_MODELS))
     if kind == "coupled" and model not in ("heyoka", "circuit"):
-        raise ParameterError("model.name", model, "coupled scenes run on 'heyoka' (alias 'mechanical') or 'circuit'")
+        raise ParameterError(
+            "model.name", model, "coupled scenes run on 'heyoka' (alias 'mechanical') or 'circuit'"
+        )
     precision = Precision.parse(str(model_t.get("precision", "float64")))
     tol = model_t.get("tol")
     precision.check_tol(tol, "model.tol")
@@ -197,7 +252,10 @@ def _build(data: Mapping, source: str) -> Scene:
         params = Params.make(**dict(pt))
     except ParameterError as e:
         raise ParameterError(f"parameters.{e.name}", e.value, e.allowed) from None
-    comps = {n: parse_quantity(f"components.{n}", v, _COMPONENT_UNIT[n]) for n, v in data.get("components", {}).items()}
+    comps = {
+        n: parse_quantity(f"components.{n}", v, _COMPONENT_UNIT[n])
+        for n, v in data.get("components", {}).items()
+    }
     for n, v in comps.items():
         if v <= 0:
             raise ParameterError(f"components.{n}", decimal_str(v), "must be > 0")
@@ -206,7 +264,11 @@ def _build(data: Mapping, source: str) -> Scene:
         raise ParameterError("effects", raw_eff, "a table of effect tables")
     if raw_eff and model in ("heyoka", "analytical"):
         first = next(iter(raw_eff))
-        raise ParameterError(f"effects.{first}", model, f"model '{model}' has no circuit effects; use circuit, switched-capacitor or spice")
+        raise ParameterError(
+            f"effects.{first}",
+            model,
+            f"model '{model}' has no circuit effects; use circuit, switched-capacitor or spice",
+        )
     eff_in = {}
     for en, settings in raw_eff.items():
         spec = EFFECTS.get(en)
@@ -216,7 +278,12 @@ def _build(data: Mapping, source: str) -> Scene:
         conv = {}
         for key, val in settings.items():
             st = spec.settings.get(key)
-            if st is not None and st.unit not in ("", "int") and isinstance(val, str) and re.search(r"[a-zA-Zµ%Ω]", val):
+            if (
+                st is not None
+                and st.unit not in ("", "int")
+                and isinstance(val, str)
+                and re.search(r"[a-zA-Zµ%Ω]", val)
+            ):
                 conv[key] = parse_quantity(f"effects.{en}.{key}", val, st.unit)
             else:
                 conv[key] = val
@@ -225,13 +292,33 @@ def _build(data: Mapping, source: str) -> Scene:
     if kind == "coupled" and model == "circuit":
         bad = sorted(set(effects) - {"tolerance"})
         if bad:
-            raise ParameterError(f"effects.{bad[0]}", "coupled circuit", "the coupled circuit model takes only 'tolerance'")
+            raise ParameterError(
+                f"effects.{bad[0]}",
+                "coupled circuit",
+                "the coupled circuit model takes only 'tolerance'",
+            )
     dur = data.get("duration", {})
     periods = check_count(dur.get("periods", 200), "duration.periods", 10**7)
-    per_period = check_count(data.get("outputs", {}).get("per_period", 0), "outputs.per_period", 10_000)
-    scene = Scene(name=name, description=str(data.get("description", "")), kind=kind, form=form, k=k, model=model,
-                  precision=precision, tol=tol, tmax=tmax, params=params, components=comps, effects=effects,
-                  periods=periods, per_period=per_period, source=source)
+    per_period = check_count(
+        data.get("outputs", {}).get("per_period", 0), "outputs.per_period", 10_000
+    )
+    scene = Scene(
+        name=name,
+        description=str(data.get("description", "")),
+        kind=kind,
+        form=form,
+        k=k,
+        model=model,
+        precision=precision,
+        tol=tol,
+        tmax=tmax,
+        params=params,
+        components=comps,
+        effects=effects,
+        periods=periods,
+        per_period=per_period,
+        source=source,
+    )
     scene._raw = data
     if model in ("circuit", "switched-capacitor", "spice"):
         from precise_impact.models.circuit.components import exact_omega
@@ -278,7 +365,11 @@ def load_scene(spec: str | Path) -> Scene:
     else:
         path = Path(spec)
         if path.suffix != ".toml" or not path.exists():
-            raise ParameterError("scene", spec, "a built-in scene name (precise-impact scenes) or an existing .toml file")
+            raise ParameterError(
+                "scene",
+                spec,
+                "a built-in scene name (precise-impact scenes) or an existing .toml file",
+            )
     return _build(_read_toml(path), str(path))
 
 
@@ -296,9 +387,13 @@ def _read_toml(path: Path) -> dict:
     except OSError as e:
         raise ParameterError("scene", str(path), f"a readable .toml file ({e.strerror})") from None
     if not stat.S_ISREG(st.st_mode):
-        raise ParameterError("scene", str(path), "a regular .toml file (this is a directory or a device)")
+        raise ParameterError(
+            "scene", str(path), "a regular .toml file (this is a directory or a device)"
+        )
     if st.st_size > MAX_SCENE_BYTES:
-        raise ParameterError("scene", str(path), f"a scene file of at most {MAX_SCENE_BYTES} bytes ({st.st_size})")
+        raise ParameterError(
+            "scene", str(path), f"a scene file of at most {MAX_SCENE_BYTES} bytes ({st.st_size})"
+        )
     try:
         with open(path, "rb") as fh:
             raw = fh.read(MAX_SCENE_BYTES + 1)

@@ -18,15 +18,24 @@ from __future__ import annotations
 import dataclasses
 import threading
 import types
-from typing import Any, Callable, Protocol, runtime_checkable
+from collections.abc import Callable
+from typing import Any, Protocol, runtime_checkable
 
 from precise_impact.core.params import Params
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import ParameterError
 
-__all__ = ["Solver", "MODELS", "MODEL_ALIASES", "register_model", "canonical_model", "make_solver", "ENGINES",
-           "check_engine"]
+__all__ = [
+    "Solver",
+    "MODELS",
+    "MODEL_ALIASES",
+    "register_model",
+    "canonical_model",
+    "make_solver",
+    "ENGINES",
+    "check_engine",
+]
 
 #: Engines of the float64 jobs that offer both (sweep, bifurcation, coupled runs and sync):
 #: the compiled closed form (:mod:`precise_impact.solvers.fast.single`) or heyoka.
@@ -39,8 +48,11 @@ def check_engine(engine: Any, precision: Precision | None = None) -> str:
     if not isinstance(engine, str) or engine not in ENGINES:
         raise ParameterError("engine", engine, "'fast' or 'heyoka'")
     if engine == "fast" and precision is not None and precision.kind != "float64":
-        raise ParameterError("precision", precision.name,
-                             "'float64' for engine='fast' (engine='heyoka' for other precisions)")
+        raise ParameterError(
+            "precision",
+            precision.name,
+            "'float64' for engine='fast' (engine='heyoka' for other precisions)",
+        )
     return engine
 
 
@@ -71,7 +83,9 @@ class Solver(Protocol):
     model_name: str
     precision: Precision
 
-    def solve(self, params: Params, periods: int, *, per_period: int = 0) -> Trajectory:  # pragma: no cover - protocol
+    def solve(
+        self, params: Params, periods: int, *, per_period: int = 0
+    ) -> Trajectory:  # pragma: no cover - protocol
         """Simulate ``periods`` forcing periods; see the class docstring.
 
         Parameters
@@ -144,7 +158,9 @@ def canonical_model(name: str) -> str:
     return name
 
 
-def make_solver(model: str = "heyoka", precision: str | Precision = "float64", tol: Any = None, **options: Any) -> Solver:
+def make_solver(
+    model: str = "heyoka", precision: str | Precision = "float64", tol: Any = None, **options: Any
+) -> Solver:
     """The solver object for ``model`` at ``precision``.
 
     Parameters

@@ -49,17 +49,17 @@ import contextlib
 import math
 import time
 from fractions import Fraction
-from typing import Any, Optional
+from typing import Any
 
 import mpmath
 from mpmath import libmp
 
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.core.flow import acceleration, steady_state
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.core.flow import acceleration, steady_state
+from precise_impact.errors import BudgetExceededError, ParameterError
 
 __all__ = ["AnalyticalSolver", "ClosedForm"]
 
@@ -236,7 +236,13 @@ class _Model:
         u = self.u
         at = abs(t)
         return (
-            _C * u * (self.abs_a * (1 + self.eta * at) + self.eta2 * self.Ap * (1 + self.eta * at) + hom * (2 + at))
+            _C
+            * u
+            * (
+                self.abs_a * (1 + self.eta * at)
+                + self.eta2 * self.Ap * (1 + self.eta * at)
+                + hom * (2 + at)
+            )
             + 2 * self.zeta * d1
             + d0
         )
@@ -384,11 +390,11 @@ class AnalyticalSolver:
         self,
         finder: str = "robust",
         backend: str = "float64",
-        dps: Optional[int] = None,
+        dps: int | None = None,
         scan_fraction: Any = Fraction(1, 1000),
         max_impacts: int = 10**6,
-        max_evals: Optional[int] = None,
-        bits: Optional[int] = None,
+        max_evals: int | None = None,
+        bits: int | None = None,
     ) -> None:
         if finder not in _FINDERS:
             raise ParameterError("finder", finder, "one of 'robust', 'paper'")
@@ -396,14 +402,22 @@ class AnalyticalSolver:
             raise ParameterError("backend", backend, "one of 'float64', 'mpmath'")
         if backend == "float64":
             if dps is not None:
-                raise ParameterError("dps", dps, "dps is only for backend='mpmath'; use None with float64")
+                raise ParameterError(
+                    "dps", dps, "dps is only for backend='mpmath'; use None with float64"
+                )
             if bits is not None:
-                raise ParameterError("bits", bits, "bits is only for backend='mpmath'; use None with float64")
+                raise ParameterError(
+                    "bits", bits, "bits is only for backend='mpmath'; use None with float64"
+                )
         else:
             if bits is not None:
                 if dps is not None:
                     raise ParameterError("dps", dps, "give dps or bits, not both")
-                if isinstance(bits, bool) or not isinstance(bits, int) or not (64 <= bits <= 100_000):
+                if (
+                    isinstance(bits, bool)
+                    or not isinstance(bits, int)
+                    or not (64 <= bits <= 100_000)
+                ):
                     raise ParameterError("bits", bits, "an integer with 64 <= bits <= 100000")
             else:
                 if dps is None:
@@ -444,10 +458,14 @@ class AnalyticalSolver:
     def check_params(params: Params) -> None:
         """Raise :class:`ParameterError` if the closed form does not apply."""
         if not isinstance(params, Params):
-            raise ParameterError("params", type(params).__name__, "a Params instance (Params.make(...))")
+            raise ParameterError(
+                "params", type(params).__name__, "a Params instance (Params.make(...))"
+            )
         if params.zeta >= 1:
             raise ParameterError(
-                "zeta", decimal_str(params.zeta), "the analytical solver needs an underdamped oscillator: 0 <= zeta < 1"
+                "zeta",
+                decimal_str(params.zeta),
+                "the analytical solver needs an underdamped oscillator: 0 <= zeta < 1",
             )
         if params.zeta == 0 and params.eta == 1:
             raise ParameterError(
@@ -505,7 +523,9 @@ class AnalyticalSolver:
         start = time.perf_counter()
         samples_prec = precision.sample_times(params.t0, params.eta, periods)
         dense_prec = (
-            precision.sample_times(params.t0, params.eta, periods, per_period) if per_period > 0 else None
+            precision.sample_times(params.t0, params.eta, periods, per_period)
+            if per_period > 0
+            else None
         )
         with ops.context():
             run = _Run(self, params, ops, precision, max_evals)
@@ -537,7 +557,9 @@ class AnalyticalSolver:
 class _Run:
     """One integration (state of the loops; everything inside the backend's context)."""
 
-    def __init__(self, solver: AnalyticalSolver, params: Params, ops, precision: Precision, max_evals: int):
+    def __init__(
+        self, solver: AnalyticalSolver, params: Params, ops, precision: Precision, max_evals: int
+    ):
         self.solver = solver
         self.params = params
         self.ops = ops
@@ -630,7 +652,9 @@ class _Run:
             "steps": self.n_steps,
             "grazing": self.n_grazing,
             "segments": n_segments,
-            "envelope_exit_t": None if self.envelope_exit_t is None else float(self.envelope_exit_t),
+            "envelope_exit_t": None
+            if self.envelope_exit_t is None
+            else float(self.envelope_exit_t),
         }
         return xs, vs, dxs, dvs, impacts, stats
 
@@ -700,7 +724,9 @@ class _Run:
                 if t2 >= t_end:
                     return None
                 if not t2 > t1:
-                    raise BudgetExceededError(f"analytical solver: no progress at t = {float(t1):.17g}")
+                    raise BudgetExceededError(
+                        f"analytical solver: no progress at t = {float(t1):.17g}"
+                    )
                 t1 = t2
                 continue
 
@@ -733,7 +759,9 @@ class _Run:
                     if t2 >= t_end:
                         return None
                     if not t2 > t1:
-                        raise BudgetExceededError(f"analytical solver: no progress at t = {float(t1):.17g}")
+                        raise BudgetExceededError(
+                            f"analytical solver: no progress at t = {float(t1):.17g}"
+                        )
                     self.n_steps += 1
                     t1 = t2
                     continue
@@ -753,7 +781,9 @@ class _Run:
                     if t2 >= t_end:
                         return None
                     if not t2 > t1:
-                        raise BudgetExceededError(f"analytical solver: no progress at t = {float(t1):.17g}")
+                        raise BudgetExceededError(
+                            f"analytical solver: no progress at t = {float(t1):.17g}"
+                        )
                     self.n_steps += 1
                     t1 = t2
                     continue

@@ -5,13 +5,13 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import ParameterError
+from precise_impact.solvers.base import MODELS, Solver, make_solver, register_model
 from precise_impact.solvers.closed_form import AnalyticalSolver
 from precise_impact.solvers.heyoka.single import HeyokaSolver
-from precise_impact.solvers.base import MODELS, Solver, make_solver, register_model
 
 __all__ = ["MODELS", "make_solver", "simulate"]
 
@@ -24,41 +24,77 @@ def _analytical(finder: str):
     def factory(prec: Precision, tol: Any, **options: Any) -> Solver:
         model = "analytical" if finder == "robust" else "analytical-paper"
         if tol is not None:
-            raise ParameterError("tol", str(tol), f"the {model} model takes no tolerance (it works to the precision's epsilon)")
+            raise ParameterError(
+                "tol",
+                str(tol),
+                f"the {model} model takes no tolerance (it works to the precision's epsilon)",
+            )
         if prec.kind == "float64":
             return AnalyticalSolver(finder=finder, backend="float64", **options)
         if prec.kind == "mp":
             return AnalyticalSolver(finder=finder, backend="mpmath", bits=prec.bits, **options)
-        raise ParameterError("precision", prec.name, f"the {model} model runs in 'float64' or 'mp:BITS'")
+        raise ParameterError(
+            "precision", prec.name, f"the {model} model runs in 'float64' or 'mp:BITS'"
+        )
 
     return factory
 
 
 def _fast(prec: Precision, tol: Any, **options: Any) -> Solver:
     if prec.kind != "float64":
-        raise ParameterError("precision", prec.name, "'float64' for the fast model (heyoka for other precisions)")
+        raise ParameterError(
+            "precision", prec.name, "'float64' for the fast model (heyoka for other precisions)"
+        )
     if tol is not None:
-        raise ParameterError("tol", str(tol), "the fast model takes no tolerance (closed forms to float64 rounding)")
-    from precise_impact.solvers.fast.single import FastSolver  # numba is imported only when asked for
+        raise ParameterError(
+            "tol", str(tol), "the fast model takes no tolerance (closed forms to float64 rounding)"
+        )
+    from precise_impact.solvers.fast.single import (
+        FastSolver,
+    )  # numba is imported only when asked for
 
     return FastSolver(**options)
 
 
 def _certified(prec: Precision, tol: Any, **options: Any) -> Solver:
     if prec.kind != "mp":
-        raise ParameterError("precision", prec.name, "'mp:BITS' for the certified model (ball arithmetic at BITS)")
+        raise ParameterError(
+            "precision", prec.name, "'mp:BITS' for the certified model (ball arithmetic at BITS)"
+        )
     if tol is not None:
-        raise ParameterError("tol", str(tol), "the certified model takes no tolerance (proven enclosures at BITS)")
-    from precise_impact.solvers.certified.single import CertifiedSolver  # python-flint is imported only when asked for
+        raise ParameterError(
+            "tol", str(tol), "the certified model takes no tolerance (proven enclosures at BITS)"
+        )
+    from precise_impact.solvers.certified.single import (
+        CertifiedSolver,
+    )  # python-flint is imported only when asked for
 
     return CertifiedSolver(prec.bits, **options)
 
 
-register_model("heyoka", "heyoka Taylor integrator with impact events (the mechanical reference)", _heyoka)
-register_model("analytical", "closed-form segments, robust impact finder (cannot miss a crossing)", _analytical("robust"))
-register_model("analytical-paper", "closed-form segments, the paper's 1e-3 T scan + bisection", _analytical("paper"))
-register_model("fast", "compiled closed form (numba, float64): cannot miss a crossing; heyoka for contacts", _fast)
-register_model("certified", "ball arithmetic on the closed form (python-flint, mp:BITS): proven enclosures", _certified)
+register_model(
+    "heyoka", "heyoka Taylor integrator with impact events (the mechanical reference)", _heyoka
+)
+register_model(
+    "analytical",
+    "closed-form segments, robust impact finder (cannot miss a crossing)",
+    _analytical("robust"),
+)
+register_model(
+    "analytical-paper",
+    "closed-form segments, the paper's 1e-3 T scan + bisection",
+    _analytical("paper"),
+)
+register_model(
+    "fast",
+    "compiled closed form (numba, float64): cannot miss a crossing; heyoka for contacts",
+    _fast,
+)
+register_model(
+    "certified",
+    "ball arithmetic on the closed form (python-flint, mp:BITS): proven enclosures",
+    _certified,
+)
 
 
 _PER_THREAD = threading.local()
@@ -80,7 +116,14 @@ def _solver(model: Any, precision: Any, tol: Any) -> Solver:
     new = make_solver(model, precision, tol)  # validates; cheap (no integrator yet)
     if type(new) is not HeyokaSolver:
         return new
-    key = (new.precision.name, new.tol_exact, new.high_accuracy, new.compact_mode, new.max_impacts, new.max_steps)
+    key = (
+        new.precision.name,
+        new.tol_exact,
+        new.high_accuracy,
+        new.compact_mode,
+        new.max_impacts,
+        new.max_steps,
+    )
     kept = _PER_THREAD.__dict__.setdefault("solvers", {})
     old = kept.get(key)
     if old is not None and not old.busy():

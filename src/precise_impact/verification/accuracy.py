@@ -9,24 +9,30 @@ its largest distance from the reference over the same samples.
 from __future__ import annotations
 
 import dataclasses
-
 import json
 import time
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
-
-from precise_impact.verification.metrics import reference_bits, sample_errors
-from precise_impact.core.result import ResultMixin
-from precise_impact.io.progress import say as _progress
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import has_quad
+from precise_impact.core.result import ResultMixin
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.progress import say as _progress
 from precise_impact.solvers.simulate import simulate
+from precise_impact.verification.metrics import reference_bits, sample_errors
 
-__all__ = ["PAPER_ETAS", "CANDIDATES", "AccuracyResult", "reference_bits", "sample_errors", "accuracy_table",
-           "format_table"]
+__all__ = [
+    "PAPER_ETAS",
+    "CANDIDATES",
+    "AccuracyResult",
+    "reference_bits",
+    "sample_errors",
+    "accuracy_table",
+    "format_table",
+]
 
 #: The paper's three regimes: periodic without impacts, chaotic, period-3.
 PAPER_ETAS = ("0.70", "0.712", "0.74")
@@ -40,6 +46,7 @@ CANDIDATES = (
     ("analytical-paper", "float64"),
     ("fast", "float64"),
 )
+
 
 def accuracy_table(
     periods: int = 100,
@@ -127,7 +134,9 @@ def accuracy_table(
 
 
 def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -> None:
-    fig, axes = new_figure(1, len(curves), figsize=(5 * len(curves), 4), layout="tight", sharey=True)
+    fig, axes = new_figure(
+        1, len(curves), figsize=(5 * len(curves), 4), layout="tight", sharey=True
+    )
     for ax, (eta, by_model) in zip(axes[0], curves.items()):
         for label, errs in by_model.items():
             ax.semilogy(range(len(errs)), [max(e, 1e-40) for e in errs], label=label)
@@ -136,7 +145,9 @@ def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -
         ax.grid(True, which="both", alpha=0.3)
     axes[0][0].set_ylabel("max(|x - x_ref|, |v - v_ref|) at t0 + kT")
     axes[0][-1].legend(fontsize=8)
-    fig.suptitle(f"Error against the multiprecision heyoka reference over {periods} periods (floor 1e-40)")
+    fig.suptitle(
+        f"Error against the multiprecision heyoka reference over {periods} periods (floor 1e-40)"
+    )
     save_figure(fig, path, fmt="png", dpi=110)
 
 

@@ -18,9 +18,16 @@ from decimal import ROUND_CEILING, Decimal, localcontext
 from fractions import Fraction
 from pathlib import Path
 
-__all__ = ["CERTIFICATE", "CERTIFICATE_BITS", "certificate_for", "add_certificate", "check_certificate"]
+__all__ = [
+    "CERTIFICATE",
+    "CERTIFICATE_BITS",
+    "certificate_for",
+    "add_certificate",
+    "check_certificate",
+]
 
 from precise_impact.verification.reference import CERTIFICATE_FILE as CERTIFICATE  # noqa: E402
+
 #: Working precision of the certificates: radii ~1e-70 after 300 chaotic periods, far below the
 #: references' own errors (1e-54 at eta = 0.712), in ~0.3 s per case.
 CERTIFICATE_BITS = 512
@@ -68,7 +75,9 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
     p = Params.make(**samples_json["params"])
     r = certify(p, samples_json["periods"], bits=bits, max_bits=bits)
     if len(r.impacts) != len(samples_json["impacts"]):
-        raise ValueError(f"the certified run has {len(r.impacts)} impacts, the reference {len(samples_json['impacts'])}")
+        raise ValueError(
+            f"the certified run has {len(r.impacts)} impacts, the reference {len(samples_json['impacts'])}"
+        )
     rows, worst = [], Fraction(0)
     for s in samples_json["samples"]:
         _, _, bx, bv = r.samples[s["period"]]
@@ -79,10 +88,17 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
     for row, (bt, _, va) in zip(samples_json["impacts"], r.impacts):
         et, ev = _err(row["t"], bt), _err(row["v_after"], va)
         imps.append({"t_err": _up(et), "v_err": _up(ev)})
-    return {"method": "certified engine (python-flint arb, closed-form flights, isolated impacts, interval Newton); "
-                      "err = |stored - mid| + rad, rounded up: a proven bound of |stored - truth|",
-            "bits": bits, "periods": samples_json["periods"], "impacts": len(r.impacts), "samples": rows,
-            "impact_errors": imps, "max_err": _up(worst), "elapsed_s": time.perf_counter() - t0}
+    return {
+        "method": "certified engine (python-flint arb, closed-form flights, isolated impacts, interval Newton); "
+        "err = |stored - mid| + rad, rounded up: a proven bound of |stored - truth|",
+        "bits": bits,
+        "periods": samples_json["periods"],
+        "impacts": len(r.impacts),
+        "samples": rows,
+        "impact_errors": imps,
+        "max_err": _up(worst),
+        "elapsed_s": time.perf_counter() - t0,
+    }
 
 
 def add_certificate(case_dir: str | Path, bits: int = CERTIFICATE_BITS) -> dict:
@@ -101,8 +117,8 @@ def add_certificate(case_dir: str | Path, bits: int = CERTIFICATE_BITS) -> dict:
     dict
         The updated manifest.
     """
-    from precise_impact.io.atomic import write_json
     from precise_impact.io.atomic import sha256_file as _sha256
+    from precise_impact.io.atomic import write_json
     from precise_impact.verification.reference import MANIFEST, _versions, read_manifest
 
     case_dir = Path(case_dir)
@@ -110,13 +126,20 @@ def add_certificate(case_dir: str | Path, bits: int = CERTIFICATE_BITS) -> dict:
     cert = certificate_for(data, bits)
     write_json(case_dir / CERTIFICATE, cert)
     m = read_manifest(case_dir)
-    m["files"][CERTIFICATE] = {"sha256": _sha256(case_dir / CERTIFICATE), "bytes": (case_dir / CERTIFICATE).stat().st_size}
+    m["files"][CERTIFICATE] = {
+        "sha256": _sha256(case_dir / CERTIFICATE),
+        "bytes": (case_dir / CERTIFICATE).stat().st_size,
+    }
     import datetime as _dt
 
-    m["proof"] = {"file": CERTIFICATE, "bits": bits, "max_proven_error": cert["max_err"],
-                  "method": "every stored sample and impact within a proven bound of the truth (ball arithmetic)",
-                  "versions": _versions(),
-                  "generated_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")}
+    m["proof"] = {
+        "file": CERTIFICATE,
+        "bits": bits,
+        "max_proven_error": cert["max_err"],
+        "method": "every stored sample and impact within a proven bound of the truth (ball arithmetic)",
+        "versions": _versions(),
+        "generated_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+    }
     write_json(case_dir / MANIFEST, m)
     return m
 
@@ -143,16 +166,28 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
     case_dir = Path(case_dir)
     data = json.loads((case_dir / "samples.json").read_text())
     cert = json.loads((case_dir / CERTIFICATE).read_text())
-    r = certify(Params.make(**data["params"]), data["periods"], bits=cert["bits"], max_bits=cert["bits"])
+    r = certify(
+        Params.make(**data["params"]), data["periods"], bits=cert["bits"], max_bits=cert["bits"]
+    )
     if len(r.impacts) != cert["impacts"] or len(r.impacts) != len(data["impacts"]):
-        return [f"{case}: the certified run has {len(r.impacts)} impacts, the certificate {cert['impacts']}"]
+        return [
+            f"{case}: the certified run has {len(r.impacts)} impacts, the certificate {cert['impacts']}"
+        ]
     for s, c in zip(data["samples"], cert["samples"]):
         _, _, bx, bv = r.samples[s["period"]]
         for name, ball in (("x", bx), ("v", bv)):
             if _err(s[name], ball) > Fraction(c[f"{name}_err"]):
-                return [f"{case}: stored {name} at period {s['period']} is not within its proven bound "
-                        f"{c[name + '_err']} of the freshly certified ball"]
-    for j, (row, c, (bt, _, va)) in enumerate(zip(data["impacts"], cert["impact_errors"], r.impacts)):
-        if _err(row["t"], bt) > Fraction(c["t_err"]) or _err(row["v_after"], va) > Fraction(c["v_err"]):
-            return [f"{case}: stored impact {j} is not within its proven bound of the freshly certified ball"]
+                return [
+                    f"{case}: stored {name} at period {s['period']} is not within its proven bound "
+                    f"{c[name + '_err']} of the freshly certified ball"
+                ]
+    for j, (row, c, (bt, _, va)) in enumerate(
+        zip(data["impacts"], cert["impact_errors"], r.impacts)
+    ):
+        if _err(row["t"], bt) > Fraction(c["t_err"]) or _err(row["v_after"], va) > Fraction(
+            c["v_err"]
+        ):
+            return [
+                f"{case}: stored impact {j} is not within its proven bound of the freshly certified ball"
+            ]
     return []

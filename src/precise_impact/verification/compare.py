@@ -24,25 +24,33 @@ import io
 import json
 import math
 import time
+from collections.abc import Sequence
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
-from precise_impact.core.result import ResultMixin
-from precise_impact.io.progress import say as _progress
-from precise_impact.io.figures import figure
-from precise_impact.verification.metrics import reference_bits, sample_errors
-from precise_impact.errors import ParameterError
-from precise_impact.solvers.base import MODEL_ALIASES
 from precise_impact.core.params import check_count, decimal_str
+from precise_impact.core.result import ResultMixin
 from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import figure
+from precise_impact.io.progress import say as _progress
 from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
+from precise_impact.solvers.base import MODEL_ALIASES
+from precise_impact.verification.metrics import reference_bits, sample_errors
 from precise_impact.verification.scores import detected_period, divergence_rate, score, separation
 
-__all__ = ["compare", "CompareResult", "check_models", "format_scores", "REF_PERTURBATION", "MODEL_PERTURBATION"]
+__all__ = [
+    "compare",
+    "CompareResult",
+    "check_models",
+    "format_scores",
+    "REF_PERTURBATION",
+    "MODEL_PERTURBATION",
+]
 
 #: x0 offset of the second reference (chaotic scenes): decorrelates within ~30 periods.
 REF_PERTURBATION = Fraction(1, 1000)
@@ -56,15 +64,15 @@ def check_models(models: str | Sequence[str]) -> list[str]:
         models = [m.strip() for m in models.split(",")]
     models = [MODEL_ALIASES.get(m, m) for m in models]
     if not models or any(not m for m in models):
-        raise ParameterError("models", ",".join(models), "a comma-separated list of " + ", ".join(SCENE_MODELS))
+        raise ParameterError(
+            "models", ",".join(models), "a comma-separated list of " + ", ".join(SCENE_MODELS)
+        )
     for m in models:
         if m not in SCENE_MODELS:
             raise ParameterError("models", m, "each one of " + ", ".join(SCENE_MODELS))
     if len(set(models)) != len(models):
         raise ParameterError("models", ",".join(models), "no model twice")
     return models
-
-
 
 
 def scene_for_model(scene: Scene, model: str) -> tuple[Scene, list[str]]:
@@ -79,7 +87,9 @@ def scene_for_model(scene: Scene, model: str) -> tuple[Scene, list[str]]:
 def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=None) -> Trajectory:
     from precise_impact.scenes.run import run_scene
 
-    sc = dataclasses.replace(scene_for_model(scene, model)[0], periods=periods, per_period=per_period)
+    sc = dataclasses.replace(
+        scene_for_model(scene, model)[0], periods=periods, per_period=per_period
+    )
     if params is not None:
         sc = dataclasses.replace(sc, params=params)
     tr = run_scene(sc)
@@ -88,9 +98,15 @@ def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=N
     return tr
 
 
-def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: str | Path | None = None,
-            periods: int | None = None, progress: bool | None = None, transient: int | None = None,
-            points: bool = False) -> CompareResult:
+def compare(
+    scene_name_or_path: str | Path,
+    models: Sequence[str] | str,
+    out: str | Path | None = None,
+    periods: int | None = None,
+    progress: bool | None = None,
+    transient: int | None = None,
+    points: bool = False,
+) -> CompareResult:
     """Score ``models`` on a scene against a demonstrated heyoka reference.
 
     Parameters
@@ -142,25 +158,42 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
     per_period = scene.per_period or 50
     k = periods // 5 if transient is None else int(transient)
     params = scene.params
-    dropped = {m: scene_for_model(scene, m)[1] for m in models}  # validates every model before any work
+    dropped = {
+        m: scene_for_model(scene, m)[1] for m in models
+    }  # validates every model before any work
 
     bits = reference_bits(periods)
     t0 = time.perf_counter()
     ref = make_solver("heyoka", f"mp:{bits}").solve(params, periods, per_period=per_period)
     check = make_solver("heyoka", f"mp:{bits + 64}").solve(params, periods)
     agree = sample_errors(ref, check)
-    ref_info = {"model": "heyoka (mechanical)", "precision": f"mp:{bits}", "check_precision": f"mp:{bits + 64}",
-                "agreement_max": float(max(agree)), "agreement_final": float(agree[-1]),
-                "impacts": ref.n_impacts, "elapsed_s": time.perf_counter() - t0}
-    _progress(f"reference heyoka mp:{bits} vs mp:{bits + 64}: agree to {max(agree):.1e} "
-              f"({ref_info['elapsed_s']:.1f} s)", progress)
+    ref_info = {
+        "model": "heyoka (mechanical)",
+        "precision": f"mp:{bits}",
+        "check_precision": f"mp:{bits + 64}",
+        "agreement_max": float(max(agree)),
+        "agreement_final": float(agree[-1]),
+        "impacts": ref.n_impacts,
+        "elapsed_s": time.perf_counter() - t0,
+    }
+    _progress(
+        f"reference heyoka mp:{bits} vs mp:{bits + 64}: agree to {max(agree):.1e} "
+        f"({ref_info['elapsed_s']:.1f} s)",
+        progress,
+    )
     period = detected_period(ref, k)
     regime = "periodic" if period > 0 else "chaotic"
 
     t0 = time.perf_counter()
     ly = lyapunov(params, "variational")
-    lle = {"lle": float(ly.lle), "stderr": float(ly.stderr), "periods": ly.periods, "transient": ly.transient,
-           "method": "variational (saltation), default run", "elapsed_s": time.perf_counter() - t0}
+    lle = {
+        "lle": float(ly.lle),
+        "stderr": float(ly.stderr),
+        "periods": ly.periods,
+        "transient": ly.transient,
+        "method": "variational (saltation), default run",
+        "elapsed_s": time.perf_counter() - t0,
+    }
     _progress(f"LLE (variational): {ly.lle:.4f} +- {ly.stderr:.4f}", progress)
 
     ref2 = None
@@ -174,9 +207,12 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
         from precise_impact.verification.points import mechanical_points
 
         mech = mechanical_points(params)
-        ref_info["points"] = {"grazing": mech["grazing"], "period-doubling": mech["period-doubling"],
-                              "method": "grazing: closed form; period-doubling of the stable 1:1 orbit: "
-                                        "continuation from eta = 1 (multiplier -1 located to rounding)"}
+        ref_info["points"] = {
+            "grazing": mech["grazing"],
+            "period-doubling": mech["period-doubling"],
+            "method": "grazing: closed form; period-doubling of the stable 1:1 orbit: "
+            "continuation from eta = 1 (multiplier -1 located to rounding)",
+        }
     results: dict[str, Any] = {}
     trajs: dict[str, Trajectory] = {}
     for m in models:
@@ -189,9 +225,14 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
             tr2 = _run_model(scene, m, periods, 0, params=pm)
             div = divergence_rate(*separation(tr2, tr))
             model_lle = div["rate"] if math.isfinite(div["rate"]) else None
-            extra = {"model_lle_method": f"finite-time divergence rate of the model against itself from x0 + "
-                                         f"{decimal_str(MODEL_PERTURBATION)}", "model_lle_fit": div}
-        sc = score(tr, ref, regime=regime, lle=lle["lle"], model_lle=model_lle, ref2=ref2, transient=k)
+            extra = {
+                "model_lle_method": f"finite-time divergence rate of the model against itself from x0 + "
+                f"{decimal_str(MODEL_PERTURBATION)}",
+                "model_lle_fit": div,
+            }
+        sc = score(
+            tr, ref, regime=regime, lle=lle["lle"], model_lle=model_lle, ref2=ref2, transient=k
+        )
         sc.update(extra)
         sc["effects_dropped"] = dropped[m]
         sc["effects"] = sorted(scene_for_model(scene, m)[0].effects)
@@ -202,9 +243,18 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
         results[m] = sc
         _progress(f"{m}: " + _one_line(sc), progress)
 
-    result = {"scene": scene.name, "description": scene.description, "params": params.decimal(),
-              "periods": periods, "transient_periods": k, "regime": regime, "reference_period": period,
-              "reference": ref_info, "lle": lle, "models": results}
+    result = {
+        "scene": scene.name,
+        "description": scene.description,
+        "params": params.decimal(),
+        "periods": periods,
+        "transient_periods": k,
+        "regime": regime,
+        "reference_period": period,
+        "reference": ref_info,
+        "lle": lle,
+        "models": results,
+    }
     if out is not None:
         out = Path(out)
         text = json.dumps(result, indent=2, default=_json_default)
@@ -213,7 +263,10 @@ def compare(scene_name_or_path: str | Path, models: Sequence[str] | str, out: st
         _plot_separation(scene, ref, check, trajs, lle["lle"], results, out / "separation.png")
         md = _report(result)
         atomic_write(out / "report.md", lambda fh: fh.write(md), binary=False)
-        result["files"] = [str(out / n) for n in ("report.md", "scores.json", "phase_portraits.png", "separation.png")]
+        result["files"] = [
+            str(out / n)
+            for n in ("report.md", "scores.json", "phase_portraits.png", "separation.png")
+        ]
     return CompareResult(**result)
 
 
@@ -265,12 +318,16 @@ def _json_default(o):
 def _one_line(sc: dict) -> str:
     if sc["regime"] == "periodic":
         im = sc["impacts"]
-        return (f"max state error {sc['max_state_error']:.2e}, impacts dt {im['max_dt']:.1e} dv {im['max_dv']:.1e} "
-                f"(unmatched {im['unmatched_model']}/{im['unmatched_reference']}), period {sc['period_model']}")
+        return (
+            f"max state error {sc['max_state_error']:.2e}, impacts dt {im['max_dt']:.1e} dv {im['max_dv']:.1e} "
+            f"(unmatched {im['unmatched_model']}/{im['unmatched_reference']}), period {sc['period_model']}"
+        )
     h = sc["horizons"]
-    return (f"horizon(1e-3) {h.get('0.001', math.nan):.1f}, rate {sc['divergence']['rate']:.4f}, "
-            f"SW {sc['sliced_wasserstein']:.3f} (floor {sc['sw_floor']:.3f}), "
-            f"impact-v W1 {sc['impact_v_wasserstein']:.3f} (floor {sc['impact_v_floor']:.3f})")
+    return (
+        f"horizon(1e-3) {h.get('0.001', math.nan):.1f}, rate {sc['divergence']['rate']:.4f}, "
+        f"SW {sc['sliced_wasserstein']:.3f} (floor {sc['sw_floor']:.3f}), "
+        f"impact-v W1 {sc['impact_v_wasserstein']:.3f} (floor {sc['impact_v_floor']:.3f})"
+    )
 
 
 def format_scores(result: CompareResult) -> str:
@@ -286,22 +343,32 @@ def format_scores(result: CompareResult) -> str:
     str
     """
     r = result["reference"]
-    lines = [f"scene {result['scene']}: {result['regime']} (reference period {result['reference_period']}), "
-             f"{result['periods']} periods, transient {result['transient_periods']}",
-             f"reference heyoka {r['precision']} agrees with {r['check_precision']} to {r['agreement_max']:.1e}; "
-             f"LLE {result['lle']['lle']:.4f} +- {result['lle']['stderr']:.4f}"]
+    lines = [
+        f"scene {result['scene']}: {result['regime']} (reference period {result['reference_period']}), "
+        f"{result['periods']} periods, transient {result['transient_periods']}",
+        f"reference heyoka {r['precision']} agrees with {r['check_precision']} to {r['agreement_max']:.1e}; "
+        f"LLE {result['lle']['lle']:.4f} +- {result['lle']['stderr']:.4f}",
+    ]
     for m, sc in result["models"].items():
         lines.append(f"  {m:<20} {_one_line(sc)}")
         if "points" in sc:
             g, d = sc["points"]["grazing"], sc["points"]["period-doubling"]
-            pd = "" if d is None else f", period-doubling eta {d['model']:.8g} ({d['shift']:+.2e}, {d['how']})"
+            pd = (
+                ""
+                if d is None
+                else f", period-doubling eta {d['model']:.8g} ({d['shift']:+.2e}, {d['how']})"
+            )
             lines.append(f"  {'':<20} grazing eta {g['model']:.8g} ({g['shift']:+.2e}){pd}")
     return "\n".join(lines)
 
 
 # ----------------------------------------------------------------- figures
 def _f(traj: Trajectory, a):
-    return np.vectorize(traj.precision.to_float, otypes=[float])(a) if a is not None and len(a) else np.zeros(0)
+    return (
+        np.vectorize(traj.precision.to_float, otypes=[float])(a)
+        if a is not None and len(a)
+        else np.zeros(0)
+    )
 
 
 def _save(fig, path: Path) -> None:
@@ -329,14 +396,23 @@ def _plot_portraits(scene: Scene, ref: Trajectory, trajs: dict, k: int, path: Pa
         ax.set_xlabel("x")
     axes[0].set_ylabel("x'")
     axes[0].legend(fontsize=7, loc="lower left")
-    fig.suptitle(f"{scene.name}: phase portraits after {k} transient periods (eta = {decimal_str(scene.params.eta)})",
-                 fontsize=10)
+    fig.suptitle(
+        f"{scene.name}: phase portraits after {k} transient periods (eta = {decimal_str(scene.params.eta)})",
+        fontsize=10,
+    )
     fig.tight_layout()
     _save(fig, path)
 
 
-def _plot_separation(scene: Scene, ref: Trajectory, check: Trajectory, trajs: dict, lam: float, results: dict,
-                     path: Path) -> None:
+def _plot_separation(
+    scene: Scene,
+    ref: Trajectory,
+    check: Trajectory,
+    trajs: dict,
+    lam: float,
+    results: dict,
+    path: Path,
+) -> None:
 
     fig = figure(figsize=(7.5, 4.5))
     ax = fig.subplots()
@@ -350,7 +426,13 @@ def _plot_separation(scene: Scene, ref: Trajectory, check: Trajectory, trajs: di
             i = int(np.argmin(np.abs(t - div["t_start"])))
             anchor = (t[i], sep[i])
     tc, sc = separation(check, ref)
-    ax.semilogy(tc, np.maximum(sc, floor), lw=0.8, color="0.5", label=f"{ref.precision.name} vs {check.precision.name}")
+    ax.semilogy(
+        tc,
+        np.maximum(sc, floor),
+        lw=0.8,
+        color="0.5",
+        label=f"{ref.precision.name} vs {check.precision.name}",
+    )
     if anchor is None:
         for m, tr in trajs.items():
             t, sep = separation(tr, ref)
@@ -362,10 +444,14 @@ def _plot_separation(scene: Scene, ref: Trajectory, check: Trajectory, trajs: di
         tt = tc
         line = anchor[1] * np.exp(lam * (tt - anchor[0]))
         ok = (line > floor) & (line < 1e3)
-        ax.semilogy(tt[ok], line[ok], "k--", lw=1, label=f"e^(lambda t), lambda = {lam:.4f} (variational)")
+        ax.semilogy(
+            tt[ok], line[ok], "k--", lw=1, label=f"e^(lambda t), lambda = {lam:.4f} (variational)"
+        )
     ax.set_xlabel("t (dimensionless)")
     ax.set_ylabel("max(|x - x_ref|, |v - v_ref|) at t0 + kT")
-    ax.set_title(f"{scene.name}: separation from the heyoka {ref.precision.name} reference", fontsize=9)
+    ax.set_title(
+        f"{scene.name}: separation from the heyoka {ref.precision.name} reference", fontsize=9
+    )
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     fig.tight_layout()
@@ -383,103 +469,172 @@ def _g(x, fmt=".3e") -> str:
 
 def _points_report(res: dict) -> list[str]:
     rp = res["reference"]["points"]
-    L = ["", "## Bifurcation points along eta", "",
-         f"Mechanics: grazing of the non-impacting orbit at eta = {rp['grazing']:.12g} (closed form); "
-         f"period-doubling of the 1:1 orbit at eta = {_g(rp['period-doubling'], '.12g')} (continuation).", "",
-         "| model | grazing eta | shift | resolution | period-doubling eta | shift | resolution | how |",
-         "|---|---:|---:|---:|---:|---:|---:|---|"]
+    L = [
+        "",
+        "## Bifurcation points along eta",
+        "",
+        f"Mechanics: grazing of the non-impacting orbit at eta = {rp['grazing']:.12g} (closed form); "
+        f"period-doubling of the 1:1 orbit at eta = {_g(rp['period-doubling'], '.12g')} (continuation).",
+        "",
+        "| model | grazing eta | shift | resolution | period-doubling eta | shift | resolution | how |",
+        "|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
     for m, s in res["models"].items():
         g, d = s["points"]["grazing"], s["points"]["period-doubling"]
-        dd = ("n/a",) * 4 if d is None else (f"{d['model']:.10g}", f"{d['shift']:+.3e}", f"{d['resolution']:.1e}",
-                                               d["how"] + (f" (orbit lost at eta {d['lost'][0]:.8g} .. {d['lost'][1]:.8g} "
-                                                           f"with det(A+I) = {d['test_at_last_valid']:.3g})"
-                                                           if d["how"] == "extrapolated" else ""))
-        L.append(f"| {m} | {g['model']:.10g} | {g['shift']:+.3e} | {g['resolution']:.1e} | " + " | ".join(dd) + " |")
-    L += ["", "How obtained (`precise_impact.verification.points`): the grazing point is the root of x_w - max x of "
-          "the model's own steady state, the period-doubling point the root of det(A + I) of the model's "
-          "stroboscopic map identified from its runs (A fitted, multipliers = eig A); both approached from the "
-          "valid side by a safeguarded secant.  *how* = root: the test function reached zero there; extrapolated: "
-          "the model's orbit was lost (it escaped) while the test function was still away from zero -- an "
-          "imperfect, discontinuity-induced bifurcation of the switching hardware -- and the eta given "
-          "extrapolates the smooth test function (resolution = the extrapolated distance).  The heyoka model "
-          "itself recovers both mechanical points to ~1e-9."]
+        dd = (
+            ("n/a",) * 4
+            if d is None
+            else (
+                f"{d['model']:.10g}",
+                f"{d['shift']:+.3e}",
+                f"{d['resolution']:.1e}",
+                d["how"]
+                + (
+                    f" (orbit lost at eta {d['lost'][0]:.8g} .. {d['lost'][1]:.8g} "
+                    f"with det(A+I) = {d['test_at_last_valid']:.3g})"
+                    if d["how"] == "extrapolated"
+                    else ""
+                ),
+            )
+        )
+        L.append(
+            f"| {m} | {g['model']:.10g} | {g['shift']:+.3e} | {g['resolution']:.1e} | "
+            + " | ".join(dd)
+            + " |"
+        )
+    L += [
+        "",
+        "How obtained (`precise_impact.verification.points`): the grazing point is the root of x_w - max x of "
+        "the model's own steady state, the period-doubling point the root of det(A + I) of the model's "
+        "stroboscopic map identified from its runs (A fitted, multipliers = eig A); both approached from the "
+        "valid side by a safeguarded secant.  *how* = root: the test function reached zero there; extrapolated: "
+        "the model's orbit was lost (it escaped) while the test function was still away from zero -- an "
+        "imperfect, discontinuity-induced bifurcation of the switching hardware -- and the eta given "
+        "extrapolates the smooth test function (resolution = the extrapolated distance).  The heyoka model "
+        "itself recovers both mechanical points to ~1e-9.",
+    ]
     return L
 
 
 def _report(res: dict) -> str:
     r, ly = res["reference"], res["lle"]
     p = ", ".join(f"{k} = {v}" for k, v in res["params"].items())
-    L = [f"# Model comparison: scene `{res['scene']}`", "", res.get("description", ""), "",
-         f"Parameters (exact decimals): {p}.  {res['periods']} forcing periods from the scene's initial "
-         f"condition; samples at t0 + kT, T = 2 pi / eta.  The first {res['transient_periods']} periods are the "
-         "transient (excluded from state errors, impact matching, periods and clouds).", "",
-         "## Reference", "",
-         f"heyoka Taylor integrator with impact events (the `mechanical` model) in {r['precision']} "
-         f"(MPFR); rerun in {r['check_precision']}.  Largest disagreement over all stroboscopic samples: "
-         f"**{r['agreement_max']:.2e}** (final sample {r['agreement_final']:.2e}) -- the reference's demonstrated "
-         f"accuracy.  Impacts: {r['impacts']}.  Time {r['elapsed_s']:.1f} s.", "",
-         f"Regime: **{res['regime']}** (reference period {res['reference_period']}: smallest p <= 32 with the "
-         "samples after the transient p-periodic to 1e-6 (1 + |x| + |v|); 0 = none).", "",
-         f"LLE: **{ly['lle']:.4f} +- {ly['stderr']:.4f}** per unit time ({ly['method']}: {ly['periods']} measured "
-         f"periods after {ly['transient']} transient, error bar by batch means; {ly['elapsed_s']:.1f} s).", ""]
+    L = [
+        f"# Model comparison: scene `{res['scene']}`",
+        "",
+        res.get("description", ""),
+        "",
+        f"Parameters (exact decimals): {p}.  {res['periods']} forcing periods from the scene's initial "
+        f"condition; samples at t0 + kT, T = 2 pi / eta.  The first {res['transient_periods']} periods are the "
+        "transient (excluded from state errors, impact matching, periods and clouds).",
+        "",
+        "## Reference",
+        "",
+        f"heyoka Taylor integrator with impact events (the `mechanical` model) in {r['precision']} "
+        f"(MPFR); rerun in {r['check_precision']}.  Largest disagreement over all stroboscopic samples: "
+        f"**{r['agreement_max']:.2e}** (final sample {r['agreement_final']:.2e}) -- the reference's demonstrated "
+        f"accuracy.  Impacts: {r['impacts']}.  Time {r['elapsed_s']:.1f} s.",
+        "",
+        f"Regime: **{res['regime']}** (reference period {res['reference_period']}: smallest p <= 32 with the "
+        "samples after the transient p-periodic to 1e-6 (1 + |x| + |v|); 0 = none).",
+        "",
+        f"LLE: **{ly['lle']:.4f} +- {ly['stderr']:.4f}** per unit time ({ly['method']}: {ly['periods']} measured "
+        f"periods after {ly['transient']} transient, error bar by batch means; {ly['elapsed_s']:.1f} s).",
+        "",
+    ]
     if "second_reference_x0" in r:
-        L += [f"Second reference (noise floor of the distribution distances): heyoka {r['precision']} from "
-              f"x0 = {r['second_reference_x0']}.", ""]
+        L += [
+            f"Second reference (noise floor of the distribution distances): heyoka {r['precision']} from "
+            f"x0 = {r['second_reference_x0']}.",
+            "",
+        ]
     L += ["## Scores", ""]
     if res["regime"] == "periodic":
-        L += ["| model | max state error | final state error | impacts (model/ref) | matched | unmatched model/ref "
-              "| max impact dt | max impact dv | period | time [s] |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        L += [
+            "| model | max state error | final state error | impacts (model/ref) | matched | unmatched model/ref "
+            "| max impact dt | max impact dv | period | time [s] |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        ]
         for m, s in res["models"].items():
             im = s["impacts"]
-            L.append(f"| {m} | {_g(s['max_state_error'])} | {_g(s['final_state_error'])} | {im['model_impacts']}/"
-                     f"{im['reference_impacts']} | {im['matched']} | {im['unmatched_model']}/{im['unmatched_reference']} "
-                     f"| {_g(im['max_dt'])} | {_g(im['max_dv'])} | {s['period_model']} | {s['elapsed_s']:.3f} |")
-        L += ["", "How obtained:", "",
-              "* *state error*: max(|x - x_ref|, |v - v_ref|) at every stroboscopic sample after the transient, the "
-              "difference taken exactly in mpmath (then rounded to float).",
-              "* *impacts*: each model impact after the transient is matched to the nearest reference impact in "
-              "time (within T/4; one model impact per reference impact); dt and dv = |v_before - v_before_ref| are "
-              "over matched pairs; unmatched counts are the impacts left over on each side.",
-              "* *period*: smallest p <= 32 such that the model's samples after the transient repeat after p "
-              "periods to 1e-6 (1 + |x| + |v|) (`precise_impact.analysis.periodicity.detect_period`)."]
+            L.append(
+                f"| {m} | {_g(s['max_state_error'])} | {_g(s['final_state_error'])} | {im['model_impacts']}/"
+                f"{im['reference_impacts']} | {im['matched']} | {im['unmatched_model']}/{im['unmatched_reference']} "
+                f"| {_g(im['max_dt'])} | {_g(im['max_dv'])} | {s['period_model']} | {s['elapsed_s']:.3f} |"
+            )
+        L += [
+            "",
+            "How obtained:",
+            "",
+            "* *state error*: max(|x - x_ref|, |v - v_ref|) at every stroboscopic sample after the transient, the "
+            "difference taken exactly in mpmath (then rounded to float).",
+            "* *impacts*: each model impact after the transient is matched to the nearest reference impact in "
+            "time (within T/4; one model impact per reference impact); dt and dv = |v_before - v_before_ref| are "
+            "over matched pairs; unmatched counts are the impacts left over on each side.",
+            "* *period*: smallest p <= 32 such that the model's samples after the transient repeat after p "
+            "periods to 1e-6 (1 + |x| + |v|) (`precise_impact.analysis.periodicity.detect_period`).",
+        ]
     else:
         deltas = list(next(iter(res["models"].values()))["horizons"])
-        L += ["| model | " + " | ".join(f"horizon d={d}" for d in deltas) + " | fitted rate | rate / LLE | "
-              "model LLE est. | LLE gap | sliced W (floor) | impact-v W1 (floor) | impacts/period (ref) | period | time [s] |",
-              "|---|" + "---:|" * (len(deltas) + 10)]
+        L += [
+            "| model | "
+            + " | ".join(f"horizon d={d}" for d in deltas)
+            + " | fitted rate | rate / LLE | "
+            "model LLE est. | LLE gap | sliced W (floor) | impact-v W1 (floor) | impacts/period (ref) | period | time [s] |",
+            "|---|" + "---:|" * (len(deltas) + 10),
+        ]
         for m, s in res["models"].items():
             d = s["divergence"]
-            L.append(f"| {m} | " + " | ".join(_g(s["horizons"][x], ".1f") for x in deltas)
-                     + f" | {_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')} | {_g(s['rate_over_lle'], '.3f')} "
-                     f"| {_g(s['lle_model'], '.4f')} | {_g(s['lle_gap'], '+.4f')} | {s['sliced_wasserstein']:.4f} "
-                     f"({s['sw_floor']:.4f}) | {s['impact_v_wasserstein']:.4f} ({s['impact_v_floor']:.4f}) | "
-                     f"{s['impacts_per_period_model']:.3f} ({s['impacts_per_period_reference']:.3f}) | "
-                     f"{s['period_model']} | {s['elapsed_s']:.3f} |")
-        L += ["", "How obtained:", "",
-              "* *separation* sep(t) = max(|x - x_ref|, |v - v_ref|) at the stroboscopic samples (exact differences).",
-              "* *horizon d*: first time (dimensionless) sep exceeds d, interpolated linearly in ln sep between the "
-              "two samples around the crossing; 'never' if it stays below.",
-              "* *fitted rate*: least-squares slope of ln sep against t over the samples with 1e-12 < sep < 1e-2 "
-              "before sep first reaches 1e-2 (error: standard error of the slope); *rate / LLE* divides by the "
-              "variational LLE above.",
-              f"* *model LLE est.*: the same fitted rate for the model against itself started from x0 + "
-              f"{decimal_str(MODEL_PERTURBATION)} (a finite-time estimate); *LLE gap* = model LLE est. - reference LLE.",
-              "* *sliced W*: sliced 1-Wasserstein distance between the (x, v) stroboscopic clouds after the transient "
-              "(256 projection directions, stratified random angles, exact 1-D distance from sorted samples); "
-              "*floor*: the same distance between the reference and the second reference (two samples of the "
-              "same attractor) -- a model distance near the floor is indistinguishable from sampling noise.",
-              "* *impact-v W1*: 1-D Wasserstein distance between the v_before values of the impacts after the "
-              "transient; floor as above."]
+            L.append(
+                f"| {m} | "
+                + " | ".join(_g(s["horizons"][x], ".1f") for x in deltas)
+                + f" | {_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')} | {_g(s['rate_over_lle'], '.3f')} "
+                f"| {_g(s['lle_model'], '.4f')} | {_g(s['lle_gap'], '+.4f')} | {s['sliced_wasserstein']:.4f} "
+                f"({s['sw_floor']:.4f}) | {s['impact_v_wasserstein']:.4f} ({s['impact_v_floor']:.4f}) | "
+                f"{s['impacts_per_period_model']:.3f} ({s['impacts_per_period_reference']:.3f}) | "
+                f"{s['period_model']} | {s['elapsed_s']:.3f} |"
+            )
+        L += [
+            "",
+            "How obtained:",
+            "",
+            "* *separation* sep(t) = max(|x - x_ref|, |v - v_ref|) at the stroboscopic samples (exact differences).",
+            "* *horizon d*: first time (dimensionless) sep exceeds d, interpolated linearly in ln sep between the "
+            "two samples around the crossing; 'never' if it stays below.",
+            "* *fitted rate*: least-squares slope of ln sep against t over the samples with 1e-12 < sep < 1e-2 "
+            "before sep first reaches 1e-2 (error: standard error of the slope); *rate / LLE* divides by the "
+            "variational LLE above.",
+            f"* *model LLE est.*: the same fitted rate for the model against itself started from x0 + "
+            f"{decimal_str(MODEL_PERTURBATION)} (a finite-time estimate); *LLE gap* = model LLE est. - reference LLE.",
+            "* *sliced W*: sliced 1-Wasserstein distance between the (x, v) stroboscopic clouds after the transient "
+            "(256 projection directions, stratified random angles, exact 1-D distance from sorted samples); "
+            "*floor*: the same distance between the reference and the second reference (two samples of the "
+            "same attractor) -- a model distance near the floor is indistinguishable from sampling noise.",
+            "* *impact-v W1*: 1-D Wasserstein distance between the v_before values of the impacts after the "
+            "transient; floor as above.",
+        ]
     if "points" in r:
         L += _points_report(res)
-    L += ["", "Effects per model (the scene's effects that do not fit a model are dropped for it):", ""]
+    L += [
+        "",
+        "Effects per model (the scene's effects that do not fit a model are dropped for it):",
+        "",
+    ]
     for m, s in res["models"].items():
-        L.append(f"* {m}: {', '.join(s['effects']) or 'none'}"
-                 + (f" (dropped: {', '.join(s['effects_dropped'])})" if s["effects_dropped"] else ""))
-    L += ["", "## Figures", "",
-          "* `phase_portraits.png`: phase portraits (dense output, "
-          "after the transient) with the stroboscopic samples, one panel per model, the reference first.",
-          "* `separation.png`: sep(t) on a log scale for each model, the reference's own mp-vs-mp disagreement, "
-          f"and the line e^(lambda t) with lambda = {ly['lle']:.4f} (variational LLE).", "",
-          "Numbers are also in `scores.json`.", ""]
+        L.append(
+            f"* {m}: {', '.join(s['effects']) or 'none'}"
+            + (f" (dropped: {', '.join(s['effects_dropped'])})" if s["effects_dropped"] else "")
+        )
+    L += [
+        "",
+        "## Figures",
+        "",
+        "* `phase_portraits.png`: phase portraits (dense output, "
+        "after the transient) with the stroboscopic samples, one panel per model, the reference first.",
+        "* `separation.png`: sep(t) on a log scale for each model, the reference's own mp-vs-mp disagreement, "
+        f"and the line e^(lambda t) with lambda = {ly['lle']:.4f} (variational LLE).",
+        "",
+        "Numbers are also in `scores.json`.",
+        "",
+    ]
     return "\n".join(L)

@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from fractions import Fraction
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -71,8 +72,17 @@ def mechanical_points(params: Params) -> dict:
     stable = [o for o in one_impact_orbits(p1, dps=30) if o.stable]
     pd = state = None
     if stable:
-        res = continue_orbit(p1, "eta", "1", "0.5", 1, guess=(float(stable[0].x), float(stable[0].v)), impacts=1, doublings=0,
-                             virtual=0)
+        res = continue_orbit(
+            p1,
+            "eta",
+            "1",
+            "0.5",
+            1,
+            guess=(float(stable[0].x), float(stable[0].v)),
+            impacts=1,
+            doublings=0,
+            virtual=0,
+        )
         found = [b for b in res.bifurcations if b.type == "period-doubling" and b.admissible]
         if found:
             pd, state = found[0].value, (found[0].x[0], found[0].v[0])
@@ -82,9 +92,12 @@ def mechanical_points(params: Params) -> dict:
 def _peak(tr) -> float:
     """Largest x of the last forcing period of the dense output: a cubic fit through 7 samples."""
     n = DENSE
-    t, x = np.asarray(tr.dense_t[-n - 1:], dtype=float), np.asarray(tr.dense_x[-n - 1:], dtype=float)
+    t, x = (
+        np.asarray(tr.dense_t[-n - 1 :], dtype=float),
+        np.asarray(tr.dense_x[-n - 1 :], dtype=float),
+    )
     k = int(np.clip(np.argmax(x), 3, len(x) - 4))
-    tt, xx = t[k - 3:k + 4] - t[k], x[k - 3:k + 4]
+    tt, xx = t[k - 3 : k + 4] - t[k], x[k - 3 : k + 4]
     c = np.polyfit(tt, xx, 3)
     roots = np.roots(np.polyder(c))
     best = float(x[k])
@@ -94,8 +107,14 @@ def _peak(tr) -> float:
     return best
 
 
-def _approach(evaluate: Callable[[float, tuple], tuple], eta: float, direction: float, state: tuple,
-              max_evaluations: int, reference: Callable[[float], tuple] | None = None) -> dict:
+def _approach(
+    evaluate: Callable[[float, tuple], tuple],
+    eta: float,
+    direction: float,
+    state: tuple,
+    max_evaluations: int,
+    reference: Callable[[float], tuple] | None = None,
+) -> dict:
     """The root of a smooth test function, approached from its valid side.
 
     ``evaluate(eta, state) -> (value, valid, end_state)``: ``value > 0`` on the valid side
@@ -145,8 +164,14 @@ def _approach(evaluate: Callable[[float, tuple], tuple], eta: float, direction: 
             root = e2 - g2 * (e2 - e1) / (g2 - g1) if g2 != g1 else e2
             resolution = abs(root - e2)
             if resolution < 1e-9:
-                return {"eta": root, "resolution": resolution, "evaluations": ev, "values": pts, "how": "root",
-                        "lost": None}
+                return {
+                    "eta": root,
+                    "resolution": resolution,
+                    "evaluations": ev,
+                    "values": pts,
+                    "how": "root",
+                    "lost": None,
+                }
             target = e2 + 0.9 * (root - e2)
         else:
             target = last + direction * 0.01
@@ -157,7 +182,14 @@ def _approach(evaluate: Callable[[float, tuple], tuple], eta: float, direction: 
         eta = target
     if len(pts) < 2:
         raise IntegrationError("the model's orbit was not found on the near side of the point")
-    out = {"eta": root, "resolution": resolution, "evaluations": ev, "values": pts, "how": "root", "lost": None}
+    out = {
+        "eta": root,
+        "resolution": resolution,
+        "evaluations": ev,
+        "values": pts,
+        "how": "root",
+        "lost": None,
+    }
     if bad is not None:
         out["lost"] = [min(pts[-1][0], bad), max(pts[-1][0], bad)]
         if pts[-1][1] > 1e-3 * pts[0][1]:  # lost while the test function was far from zero
@@ -165,7 +197,9 @@ def _approach(evaluate: Callable[[float, tuple], tuple], eta: float, direction: 
     return out
 
 
-def model_grazing(run: Callable[..., Any], params: Params, eta_mech: float, max_evaluations: int = 24) -> dict:
+def model_grazing(
+    run: Callable[..., Any], params: Params, eta_mech: float, max_evaluations: int = 24
+) -> dict:
     """The eta at which the model's non-impacting steady state touches the wall.
 
     Parameters
@@ -195,19 +229,25 @@ def model_grazing(run: Callable[..., Any], params: Params, eta_mech: float, max_
         return float(ss.P), float(ss.eta * ss.Q)
 
     def margin(eta: float, state: tuple):
-        q = params.replace(eta=Fraction(eta), x0=Fraction(state[0]), v0=Fraction(state[1]), t0=Fraction(0))
+        q = params.replace(
+            eta=Fraction(eta), x0=Fraction(state[0]), v0=Fraction(state[1]), t0=Fraction(0)
+        )
         tr = run(q, SETTLE_PERIODS + 1, DENSE)
         T = 2 * math.pi / eta
         late = any(t > (SETTLE_PERIODS // 2) * T for t in np.asarray(tr.impacts_t, dtype=float))
         return xw - _peak(tr), not late, (float(tr.x[-1]), float(tr.v[-1]))
 
-    return _approach(margin, eta_mech - 0.03, 1.0, mechanics(eta_mech - 0.03), max_evaluations, mechanics)
+    return _approach(
+        margin, eta_mech - 0.03, 1.0, mechanics(eta_mech - 0.03), max_evaluations, mechanics
+    )
 
 
 def _monodromy(run: Callable[..., Any], params: Params, eta: float, state: tuple) -> tuple:
     """The model's fitted stroboscopic Jacobian at its 1:1 orbit near ``state``: ``(A, residual,
     settled, end_state)``."""
-    q = params.replace(eta=Fraction(eta), x0=Fraction(state[0]), v0=Fraction(state[1]), t0=Fraction(0))
+    q = params.replace(
+        eta=Fraction(eta), x0=Fraction(state[0]), v0=Fraction(state[1]), t0=Fraction(0)
+    )
     tr = run(q, 150, 0)
     x0, v0 = float(tr.x[-1]), float(tr.v[-1])
     steps = np.hypot(np.diff(np.asarray(tr.x, dtype=float)), np.diff(np.asarray(tr.v, dtype=float)))
@@ -215,7 +255,10 @@ def _monodromy(run: Callable[..., Any], params: Params, eta: float, state: tuple
     # switching model's stroboscopic map can hold a 1e-5 period-2 cycle of its delays and hysteresis)
     settled = bool(steps[-1] <= max(steps[-21], 0.1 * PERTURBATION))
     fits, resid = [], 0.0
-    for sign in (1, -1):  # +-: the map's quadratic terms bias the two fits oppositely, the mean is O(d^2)
+    for sign in (
+        1,
+        -1,
+    ):  # +-: the map's quadratic terms bias the two fits oppositely, the mean is O(d^2)
         xs = min(x0, float(params.x_w) - PERTURBATION) + sign * PERTURBATION
         tr = run(q.replace(x0=Fraction(xs), v0=Fraction(v0)), 60, 0)
         z = np.column_stack([np.asarray(tr.x, dtype=float), np.asarray(tr.v, dtype=float)])
@@ -226,8 +269,13 @@ def _monodromy(run: Callable[..., Any], params: Params, eta: float, state: tuple
     return 0.5 * (fits[0] + fits[1]), resid, settled, (x0, v0)
 
 
-def model_period_doubling(run: Callable[..., Any], params: Params, eta_mech: float, state: tuple,
-                          max_evaluations: int = 24) -> dict:
+def model_period_doubling(
+    run: Callable[..., Any],
+    params: Params,
+    eta_mech: float,
+    state: tuple,
+    max_evaluations: int = 24,
+) -> dict:
     """The eta at which the model's 1:1 orbit has a multiplier -1.
 
     Parameters
@@ -304,14 +352,29 @@ def point_scores(scene: Any, model: str, mechanics: dict | None = None) -> dict:
         return run_scene(sc, max_time=600)
 
     g = model_grazing(run, scene.params, mech["grazing"])
-    out = {"grazing": {"mechanics": mech["grazing"], "model": g["eta"], "shift": g["eta"] - mech["grazing"],
-                       "resolution": g["resolution"], "evaluations": g["evaluations"], "how": g["how"],
-                       "lost": g["lost"]},
-           "period-doubling": None}
+    out = {
+        "grazing": {
+            "mechanics": mech["grazing"],
+            "model": g["eta"],
+            "shift": g["eta"] - mech["grazing"],
+            "resolution": g["resolution"],
+            "evaluations": g["evaluations"],
+            "how": g["how"],
+            "lost": g["lost"],
+        },
+        "period-doubling": None,
+    }
     if mech["period-doubling"] is not None:
         d = model_period_doubling(run, scene.params, mech["period-doubling"], mech["pd_state"])
-        out["period-doubling"] = {"mechanics": mech["period-doubling"], "model": d["eta"],
-                                  "shift": d["eta"] - mech["period-doubling"], "resolution": d["resolution"],
-                                  "evaluations": 3 * d["evaluations"], "fit_residual": d["fit_residual"],
-                                  "how": d["how"], "lost": d["lost"], "test_at_last_valid": d["values"][-1][1]}
+        out["period-doubling"] = {
+            "mechanics": mech["period-doubling"],
+            "model": d["eta"],
+            "shift": d["eta"] - mech["period-doubling"],
+            "resolution": d["resolution"],
+            "evaluations": 3 * d["evaluations"],
+            "fit_residual": d["fit_residual"],
+            "how": d["how"],
+            "lost": d["lost"],
+            "test_at_last_valid": d["values"][-1][1],
+        }
     return out

@@ -27,24 +27,29 @@ Cases (:data:`CASES`):
 from __future__ import annotations
 
 import datetime as _dt
-import os
 import json
 import math
+import os
 import platform
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import mpmath
 import numpy as np
 
-from precise_impact.io.progress import say as _log
-from precise_impact.verification.metrics import DIGITS_LOST_PER_PERIOD, reference_bits, sample_errors
-from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision, quad_or_mp
+from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write, sha256_file, write_json
+from precise_impact.io.progress import say as _log
 from precise_impact.solvers.simulate import simulate
+from precise_impact.verification.metrics import (
+    DIGITS_LOST_PER_PERIOD,
+    reference_bits,
+    sample_errors,
+)
 
 __all__ = [
     "CASES",
@@ -141,9 +146,10 @@ def write_manifest(case_dir: Path, files: Sequence[str], manifest: dict) -> dict
     manifest = dict(manifest)
     manifest["format_version"] = FORMAT_VERSION
     manifest["versions"] = _versions()
-    manifest["generated_utc"] = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    manifest["generated_utc"] = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     manifest["files"] = {
-        name: {"sha256": _sha256(case_dir / name), "bytes": (case_dir / name).stat().st_size} for name in files
+        name: {"sha256": _sha256(case_dir / name), "bytes": (case_dir / name).stat().st_size}
+        for name in files
     }
     _write_json(case_dir / MANIFEST, manifest)
     return manifest
@@ -182,8 +188,6 @@ def checksum_problems(case_dir: Path, case: str) -> list[str]:
     return problems
 
 
-
-
 # ------------------------------------------------------------------ single cases
 def _impact_dicts(traj) -> list[dict]:
     s = traj.precision.to_str
@@ -213,7 +217,10 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
     check = simulate(params, SINGLE_PERIODS, precision=f"mp:{bits + 64}")
     errs = sample_errors(ref, check)
     imp_dis = _impact_disagreement(ref, check)
-    _log(f"  {case}: mp:{bits} vs mp:{bits + 64}: max {max(errs):.2e} ({time.perf_counter() - t0:.1f} s)", progress)
+    _log(
+        f"  {case}: mp:{bits} vs mp:{bits + 64}: max {max(errs):.2e} ({time.perf_counter() - t0:.1f} s)",
+        progress,
+    )
     s = P.to_str
     samples = {
         "case": case,
@@ -224,7 +231,8 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
         "periods": SINGLE_PERIODS,
         "sample_times": "t0 + k 2 pi / eta, k = 0..periods (each correctly rounded to the precision)",
         "samples": [
-            {"period": k, "t": s(t), "x": s(x), "v": s(v)} for k, (t, x, v) in enumerate(zip(ref.t, ref.x, ref.v))
+            {"period": k, "t": s(t), "x": s(x), "v": s(v)}
+            for k, (t, x, v) in enumerate(zip(ref.t, ref.x, ref.v))
         ],
         "impacts": _impact_dicts(ref),
         # disagreement with the +64-bit run at each sample: the demonstrated error bound
@@ -288,8 +296,12 @@ def _gen_coupled(case: str, case_dir: Path, progress: bool) -> dict:
     arrays: dict[str, np.ndarray] = {}
     acc: dict[str, Any] = {}
     for k in COUPLED_KS:
-        a = simulate_coupled(params, k, "first-order", COUPLED_PERIODS, y0=COUPLED_Y0, precision="float64")
-        b = simulate_coupled(params, k, "first-order", COUPLED_PERIODS, y0=COUPLED_Y0, precision="float128")
+        a = simulate_coupled(
+            params, k, "first-order", COUPLED_PERIODS, y0=COUPLED_Y0, precision="float64"
+        )
+        b = simulate_coupled(
+            params, k, "first-order", COUPLED_PERIODS, y0=COUPLED_Y0, precision="float128"
+        )
         tag = k.replace(".", "p")
         xa, ya = a._f(a.x), a._f(a.y)
         _, d = a.difference()
@@ -361,14 +373,23 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
                     "impacts": int(var.impacts),
                     "initial_conditions": int(var.initial_conditions),
                 },
-                "two_trajectory": {"lle": repr(float(two.lle)), "stderr": repr(float(two.stderr)), "impacts": int(two.impacts)},
+                "two_trajectory": {
+                    "lle": repr(float(two.lle)),
+                    "stderr": repr(float(two.stderr)),
+                    "impacts": int(two.impacts),
+                },
                 "difference": f"{diff:.3e}",
                 "combined_stderr": f"{comb:.3e}",
                 "methods_agree_within_3_sigma": bool(diff <= 3 * comb + 1e-12),
             }
         )
-        _log(f"  {case}: eta={eta}: {var.lle:.5f} +- {var.stderr:.5f} (two-traj {two.lle:.5f} +- {two.stderr:.5f})", progress)
-    _write_json(case_dir / "lle.json", {"case": case, "units": "per unit dimensionless time", "rows": rows})
+        _log(
+            f"  {case}: eta={eta}: {var.lle:.5f} +- {var.stderr:.5f} (two-traj {two.lle:.5f} +- {two.stderr:.5f})",
+            progress,
+        )
+    _write_json(
+        case_dir / "lle.json", {"case": case, "units": "per unit dimensionless time", "rows": rows}
+    )
     return write_manifest(
         case_dir,
         ["lle.json"],
@@ -397,7 +418,9 @@ def _gen_bifurcation(case: str, case_dir: Path, progress: bool) -> dict:
 
     params = Params.make()
     lo, hi, n = BIF_RANGE
-    r = bifurcation(params, lo, hi, n, periods=BIF_PERIODS, transient=BIF_TRANSIENT, progress=progress)
+    r = bifurcation(
+        params, lo, hi, n, periods=BIF_PERIODS, transient=BIF_TRANSIENT, progress=progress
+    )
     _write_npz(
         case_dir / "bifurcation.npz",
         eta_str=np.array([decimal_str(e) for e in r.eta]),
@@ -521,7 +544,10 @@ def single_tolerance(period: int, precision: Precision, stored_disagreement: flo
     (:data:`~precise_impact.verification.accuracy.DIGITS_LOST_PER_PERIOD` decimal digits per period), plus the
     stored reference's own demonstrated disagreement.
     """
-    return 1e4 * precision.eps_float * 10 ** (1.5 * DIGITS_LOST_PER_PERIOD * period) + stored_disagreement
+    return (
+        1e4 * precision.eps_float * 10 ** (1.5 * DIGITS_LOST_PER_PERIOD * period)
+        + stored_disagreement
+    )
 
 
 def _recompute_single(case: str, case_dir: Path) -> list[str]:
@@ -554,11 +580,15 @@ def _recompute_single(case: str, case_dir: Path) -> list[str]:
             )
         else:
             for j, ((t, vb, va), row) in enumerate(zip(traj.impacts_mpf(), stored_imp)):
-                err = float(max(abs(t - mpmath.mpf(row["t"])), abs(va - mpmath.mpf(row["v_after"]))))
+                err = float(
+                    max(abs(t - mpmath.mpf(row["t"])), abs(va - mpmath.mpf(row["v_after"])))
+                )
                 # impact times are ill-conditioned near grazing: 1e3 x the sample tolerance
                 tol = 1e3 * single_tolerance(n, P, stored)
                 if not err <= tol:
-                    problems.append(f"{case}: impact {j} differs from stored by {err:.3e} > {tol:.3e}")
+                    problems.append(
+                        f"{case}: impact {j} differs from stored by {err:.3e} > {tol:.3e}"
+                    )
                     break
     return problems
 
@@ -571,13 +601,17 @@ def _recompute_coupled(case: str, case_dir: Path) -> list[str]:
     with np.load(case_dir / "coupled.npz") as z:
         for k in COUPLED_KS:
             tag = k.replace(".", "p")
-            tr = simulate_coupled(Params.make(), k, "first-order", n, y0=COUPLED_Y0, precision=quad_or_mp())
+            tr = simulate_coupled(
+                Params.make(), k, "first-order", n, y0=COUPLED_Y0, precision=quad_or_mp()
+            )
             dev = max(
                 float(np.max(np.abs(tr._f(tr.x) - z[f"x_k{tag}"][: n + 1]))),
                 float(np.max(np.abs(tr._f(tr.y) - z[f"y_k{tag}"][: n + 1]))),
             )
             if not dev <= 1e-9:
-                problems.append(f"{case}: k={k}: recomputed first {n} periods differ from stored by {dev:.3e} > 1e-9")
+                problems.append(
+                    f"{case}: k={k}: recomputed first {n} periods differ from stored by {dev:.3e} > 1e-9"
+                )
     return problems
 
 
@@ -589,7 +623,9 @@ def _sanity(case: str, case_dir: Path) -> list[str]:
         if [r["eta"] for r in rows] != list(LLE_ETAS):
             problems.append(f"{case}: rows are not eta = {', '.join(LLE_ETAS)}")
         for r in rows:
-            if not all(math.isfinite(float(r[m]["lle"])) for m in ("variational", "two_trajectory")):
+            if not all(
+                math.isfinite(float(r[m]["lle"])) for m in ("variational", "two_trajectory")
+            ):
                 problems.append(f"{case}: non-finite LLE at eta = {r['eta']}")
     elif case == "bifurcation":
         with np.load(case_dir / "bifurcation.npz") as z:
@@ -598,7 +634,9 @@ def _sanity(case: str, case_dir: Path) -> list[str]:
     return problems
 
 
-def verify(root: str | Path | None = None, cases: Sequence[str] | str | None = None, recompute: bool = True) -> list[str]:
+def verify(
+    root: str | Path | None = None, cases: Sequence[str] | str | None = None, recompute: bool = True
+) -> list[str]:
     """Check the datasets under ``root``; return a list of problems (empty = ok).
 
     Parameters
@@ -627,7 +665,9 @@ def verify(root: str | Path | None = None, cases: Sequence[str] | str | None = N
     if importlib.util.find_spec("flint") is None:  # the proofs need python-flint (a dependency)
         from precise_impact.errors import OptionalDependencyError
 
-        raise OptionalDependencyError("python-flint", "re-checking the references' proofs", "pip install python-flint")
+        raise OptionalDependencyError(
+            "python-flint", "re-checking the references' proofs", "pip install python-flint"
+        )
     for case in _check_cases(cases):
         case_dir = root / case
         p = checksum_problems(case_dir, case)

@@ -11,7 +11,6 @@ synchronisation threshold of each coupled form with Fig. 7-like plots; and write
 from __future__ import annotations
 
 import dataclasses
-
 import io
 import math
 import shutil
@@ -21,19 +20,21 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.core.result import ResultMixin
-from precise_impact.io.progress import say as _say
-from precise_impact.io.figures import figure as new_fig
-from precise_impact.verification.metrics import reference_bits, sample_errors
 from precise_impact.core.params import Params
+from precise_impact.core.result import ResultMixin
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import figure as new_fig
+from precise_impact.io.progress import say as _say
+from precise_impact.verification.metrics import reference_bits, sample_errors
 
 __all__ = ["reproduce"]
 
-FIGS = (("4", "0.70", "periodic, no impacts after the transient"), ("5", "0.712", "chaotic"), ("6", "0.74", "period 3"))
-
-
+FIGS = (
+    ("4", "0.70", "periodic, no impacts after the transient"),
+    ("5", "0.712", "chaotic"),
+    ("6", "0.74", "period 3"),
+)
 
 
 def _floats(tr: Trajectory, dense: bool):
@@ -87,7 +88,9 @@ class ReproduceResult(ResultMixin):
     elapsed_s: float
 
 
-def reproduce(out: str | Path = "results", quick: bool = False, progress: bool | None = None) -> ReproduceResult:
+def reproduce(
+    out: str | Path = "results", quick: bool = False, progress: bool | None = None
+) -> ReproduceResult:
     """Run the main job: the paper's figures and tables, side by side with ours.
 
     Parameters
@@ -111,13 +114,13 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool |
            mechanical impact oscillator" (Figs. 4-7).
     """
 
-    from precise_impact.models.circuit.opamp import CircuitSolver
-    from precise_impact.models.circuit.components import nominal_components
-    from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
     from precise_impact.analysis.lyapunov import lyapunov
+    from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
+    from precise_impact.models.circuit.components import nominal_components
+    from precise_impact.models.circuit.opamp import CircuitSolver
+    from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
     from precise_impact.scenes.scene import load_scene
     from precise_impact.solvers.simulate import simulate
-    from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -133,23 +136,41 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool |
         demonstrated = max(sample_errors(ref, chk))
         dense = simulate(p, periods, per_period=60)
         design = nominal_components(p)
-        ds = load_scene(f"fig{fig}-{'periodic' if fig == '4' else 'chaotic' if fig == '5' else 'period3'}-datasheet")
+        ds = load_scene(
+            f"fig{fig}-{'periodic' if fig == '4' else 'chaotic' if fig == '5' else 'period3'}-datasheet"
+        )
         models = {
             "mechanical float64": dense,
             "circuit (ideal)": CircuitSolver().solve(design, periods, per_period=60),
-            "switched-capacitor (datasheet)": SwitchedCapacitorSolver(effects=ds.effects).solve(ds.design(), periods, per_period=60),
+            "switched-capacitor (datasheet)": SwitchedCapacitorSolver(effects=ds.effects).solve(
+                ds.design(), periods, per_period=60
+            ),
         }
         if spice:
             from precise_impact.models.circuit.spice import run_spice
 
-            models["ngspice (TMAX 10 us)"] = run_spice(design, {}, periods, tmax=10e-6, dense=True).to_trajectory()
-        row = {"eta": eta, "regime": regime, "reference": f"heyoka mp:{bits}", "demonstrated": demonstrated,
-               "check": f"heyoka mp:{bits + 64}", "models": {}}
+            models["ngspice (TMAX 10 us)"] = run_spice(
+                design, {}, periods, tmax=10e-6, dense=True
+            ).to_trajectory()
+        row = {
+            "eta": eta,
+            "regime": regime,
+            "reference": f"heyoka mp:{bits}",
+            "demonstrated": demonstrated,
+            "check": f"heyoka mp:{bits + 64}",
+            "models": {},
+        }
         for name, tr in models.items():
             errs = sample_errors(tr, ref)
-            tail = errs[3 * len(errs) // 4:]  # after the transient (eta = 0.70: chaotic for ~75 periods)
-            row["models"][name] = {"max_error_second_half": max(tail), "horizon_0.1": _horizon(errs),
-                                   "impacts": tr.n_impacts, "elapsed_s": tr.elapsed_s}
+            tail = errs[
+                3 * len(errs) // 4 :
+            ]  # after the transient (eta = 0.70: chaotic for ~75 periods)
+            row["models"][name] = {
+                "max_error_second_half": max(tail),
+                "horizon_0.1": _horizon(errs),
+                "impacts": tr.n_impacts,
+                "elapsed_s": tr.elapsed_s,
+            }
         res["figures"][fig] = row
         # side-by-side phase portraits (paper Figs. 4-6)
         fig_ = new_fig(figsize=(4 * len(models), 3.8))
@@ -165,15 +186,23 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool |
         fig_.suptitle(f"Fig. {fig}: eta = {eta} ({regime}), second half of {periods} periods")
         fig_.tight_layout()
         _save_png(fig_, out / f"fig{fig}_phase_portraits.png")
-        _say(f"Fig. {fig} (eta = {eta}): reference agreement {demonstrated:.1e}; "
-             + ", ".join(f"{n}: {m['max_error_second_half']:.2e}" for n, m in row["models"].items()), progress)
+        _say(
+            f"Fig. {fig} (eta = {eta}): reference agreement {demonstrated:.1e}; "
+            + ", ".join(f"{n}: {m['max_error_second_half']:.2e}" for n, m in row["models"].items()),
+            progress,
+        )
     # LLE, two methods
     p = Params.make(eta="0.712")
     lle_v = lyapunov(p, "variational")
     lle_t = lyapunov(p, "two-trajectory")
-    res["lle"] = {"variational": [lle_v.lle, lle_v.stderr, lle_v.periods],
-                  "two-trajectory": [lle_t.lle, lle_t.stderr, lle_t.periods]}
-    _say(f"LLE: variational {lle_v.lle:.4f} +- {lle_v.stderr:.4f}, two-trajectory {lle_t.lle:.4f} +- {lle_t.stderr:.4f}", progress)
+    res["lle"] = {
+        "variational": [lle_v.lle, lle_v.stderr, lle_v.periods],
+        "two-trajectory": [lle_t.lle, lle_t.stderr, lle_t.periods],
+    }
+    _say(
+        f"LLE: variational {lle_v.lle:.4f} +- {lle_v.stderr:.4f}, two-trajectory {lle_t.lle:.4f} +- {lle_t.stderr:.4f}",
+        progress,
+    )
     # synchronisation thresholds per coupled form
     sp = 300 if quick else 500
     ens = 4 if quick else 8
@@ -182,9 +211,14 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool |
     for form in ("first-order", "reduced", "paper"):
         ks_form = ks + (["0.055", "0.060", "0.065"] if form == "paper" else [])
         sr = sync_scan(p, form, ks_form, periods=sp, ensemble=ens, lle_periods=0)
-        res["sync"][form] = {"k_star": sr.k_star, "k_star_err": sr.k_star_err, "message": sr.message,
-                             "k": [float(k) for k in sr.k_values], "fraction": [float(f) for f in sr.fraction_synchronised],
-                             "intermittent": [float(f) for f in sr.fraction_intermittent]}
+        res["sync"][form] = {
+            "k_star": sr.k_star,
+            "k_star_err": sr.k_star_err,
+            "message": sr.message,
+            "k": [float(k) for k in sr.k_values],
+            "fraction": [float(f) for f in sr.fraction_synchronised],
+            "intermittent": [float(f) for f in sr.fraction_intermittent],
+        }
         sr.lle, sr.lle_stderr = lle_v.lle, lle_v.stderr
         plot_sync_fraction(sr, out / f"sync_fraction_{form}.png")
         plot_fig7(p, form, "0.031", "0.032", sp, out / f"fig7_{form}.png")
@@ -197,42 +231,67 @@ def reproduce(out: str | Path = "results", quick: bool = False, progress: bool |
 
 
 def _report_md(res: dict) -> str:
-    L = ["# precise_impact: the paper's figures reproduced", "",
-         f"{'Quick run' if res['quick'] else 'Full run'}; {res['periods']} forcing periods per figure from rest; "
-         f"ngspice {'used' if res['ngspice'] else 'not installed (apt-get install ngspice)'}; "
-         f"{res['elapsed_s']:.0f} s in all.", "",
-         "## Figs. 4-6: models against the demonstrated reference", "",
-         "Reference: heyoka's Taylor integrator in multiprecision; its accuracy is demonstrated by a second run "
-         "with 64 more bits (the largest disagreement over all stroboscopic samples is given). Error: the largest "
-         "max(|dx|, |dv|) at the stroboscopic samples t0 + kT over the last quarter of the run; horizon: the first "
-         "period where it exceeds 0.1 (chaotic divergence).", ""]
+    L = [
+        "# precise_impact: the paper's figures reproduced",
+        "",
+        f"{'Quick run' if res['quick'] else 'Full run'}; {res['periods']} forcing periods per figure from rest; "
+        f"ngspice {'used' if res['ngspice'] else 'not installed (apt-get install ngspice)'}; "
+        f"{res['elapsed_s']:.0f} s in all.",
+        "",
+        "## Figs. 4-6: models against the demonstrated reference",
+        "",
+        "Reference: heyoka's Taylor integrator in multiprecision; its accuracy is demonstrated by a second run "
+        "with 64 more bits (the largest disagreement over all stroboscopic samples is given). Error: the largest "
+        "max(|dx|, |dv|) at the stroboscopic samples t0 + kT over the last quarter of the run; horizon: the first "
+        "period where it exceeds 0.1 (chaotic divergence).",
+        "",
+    ]
     for fig, row in res["figures"].items():
         L.append(f"### Fig. {fig}: eta = {row['eta']} ({row['regime']})")
         L.append("")
-        L.append(f"Reference {row['reference']}, agreement with {row['check']}: {row['demonstrated']:.1e}. "
-                 f"Phase portraits: `fig{fig}_phase_portraits.png`.")
+        L.append(
+            f"Reference {row['reference']}, agreement with {row['check']}: {row['demonstrated']:.1e}. "
+            f"Phase portraits: `fig{fig}_phase_portraits.png`."
+        )
         L.append("")
         L.append("| model | error (last quarter) | horizon (err > 0.1) | impacts | time [s] |")
         L.append("|---|---:|---:|---:|---:|")
         for n, m in row["models"].items():
             hz = "never" if m["horizon_0.1"] is None else f"period {m['horizon_0.1']}"
-            L.append(f"| {n} | {m['max_error_second_half']:.2e} | {hz} | {m['impacts']} | {m['elapsed_s']:.3f} |")
+            L.append(
+                f"| {n} | {m['max_error_second_half']:.2e} | {hz} | {m['impacts']} | {m['elapsed_s']:.3f} |"
+            )
         L.append("")
     v, t = res["lle"]["variational"], res["lle"]["two-trajectory"]
-    L += ["## Largest Lyapunov exponent at eta = 0.712", "",
-          f"- variational equations with the impact's saltation matrix: **{v[0]:.4f} +- {v[1]:.4f}** per unit time "
-          f"({v[2]} periods over 4 orbits; error bar: batch means of 20 segments)",
-          f"- two nearby trajectories (Benettin): **{t[0]:.4f} +- {t[1]:.4f}** ({t[2]} periods)",
-          "- the paper: ~0.03, and 0.031 < LLE < 0.032 from its synchronisation experiment", "",
-          "## Synchronisation threshold of each coupled form (Fig. 7)", "",
-          "A run is synchronised if |x - y| < 1e-8 at every dense sample of the last 10 %; k* is where the "
-          "synchronised fraction crosses 1/2 (linear interpolation), +- half the bracketing grid step. Fig. 7-like "
-          "plots: `fig7_<form>.png`; fractions: `sync_fraction_<form>.png`.", "",
-          "| form | k* | note |", "|---|---:|---|"]
+    L += [
+        "## Largest Lyapunov exponent at eta = 0.712",
+        "",
+        f"- variational equations with the impact's saltation matrix: **{v[0]:.4f} +- {v[1]:.4f}** per unit time "
+        f"({v[2]} periods over 4 orbits; error bar: batch means of 20 segments)",
+        f"- two nearby trajectories (Benettin): **{t[0]:.4f} +- {t[1]:.4f}** ({t[2]} periods)",
+        "- the paper: ~0.03, and 0.031 < LLE < 0.032 from its synchronisation experiment",
+        "",
+        "## Synchronisation threshold of each coupled form (Fig. 7)",
+        "",
+        "A run is synchronised if |x - y| < 1e-8 at every dense sample of the last 10 %; k* is where the "
+        "synchronised fraction crosses 1/2 (linear interpolation), +- half the bracketing grid step. Fig. 7-like "
+        "plots: `fig7_<form>.png`; fractions: `sync_fraction_<form>.png`.",
+        "",
+        "| form | k* | note |",
+        "|---|---:|---|",
+    ]
     for form, s in res["sync"].items():
-        ks = "n/a" if s["k_star"] is None or (isinstance(s["k_star"], float) and math.isnan(s["k_star"])) else f"{s['k_star']:.4f} +- {s['k_star_err']:.4f}"
+        ks = (
+            "n/a"
+            if s["k_star"] is None or (isinstance(s["k_star"], float) and math.isnan(s["k_star"]))
+            else f"{s['k_star']:.4f} +- {s['k_star_err']:.4f}"
+        )
         L.append(f"| {form} | {ks} | {s['message']} |")
-    L += ["", "`first-order` = eqs. (11)-(12); `reduced` = the exact second-order form of (12); `paper` = the "
-          "printed eq. (14a), which the Fig. 3 circuit with eq. (15) realises. Finite runs bias k* above the LLE "
-          "(a run must shrink |x - y| by ~1e8 within its length).", ""]
+    L += [
+        "",
+        "`first-order` = eqs. (11)-(12); `reduced` = the exact second-order form of (12); `paper` = the "
+        "printed eq. (14a), which the Fig. 3 circuit with eq. (15) realises. Finite runs bias k* above the LLE "
+        "(a run must shrink |x - y| by ~1e8 within its length).",
+        "",
+    ]
     return "\n".join(L)

@@ -20,14 +20,15 @@ arrays; :func:`score` puts them together for two trajectories.
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from precise_impact.analysis.periodicity import detect_period
-from precise_impact.verification.metrics import sample_errors
-from precise_impact.errors import ParameterError
 from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import ParameterError
+from precise_impact.verification.metrics import sample_errors
 
 __all__ = [
     "DEFAULT_DELTAS",
@@ -105,7 +106,9 @@ def sliced_wasserstein(p: np.ndarray, q: np.ndarray, n_proj: int = 256, seed: in
     if q.ndim == 1:
         q = q[:, None]
     if p.shape[1] != q.shape[1]:
-        raise ParameterError("clouds", f"{p.shape} vs {q.shape}", "two clouds of the same dimension")
+        raise ParameterError(
+            "clouds", f"{p.shape} vs {q.shape}", "two clouds of the same dimension"
+        )
     dirs = _directions(p.shape[1], n_proj, seed)
     pp, qq = p @ dirs.T, q @ dirs.T
     return float(np.mean([wasserstein_1d(pp[:, j], qq[:, j]) for j in range(dirs.shape[0])]))
@@ -140,7 +143,9 @@ def predictability_horizon(t: Sequence[float], sep: Sequence[float], delta: floa
     return float(t[i - 1] + f * (t[i] - t[i - 1]))
 
 
-def divergence_rate(t: Sequence[float], sep: Sequence[float], lo: float = 1e-12, hi: float = 1e-2) -> dict[str, Any]:
+def divergence_rate(
+    t: Sequence[float], sep: Sequence[float], lo: float = 1e-12, hi: float = 1e-2
+) -> dict[str, Any]:
     """Least-squares slope of ``ln sep`` against ``t`` over the growth window ``lo < sep < hi``.
 
     The window runs from the start up to the first sample with ``sep >= hi`` (after
@@ -153,7 +158,13 @@ def divergence_rate(t: Sequence[float], sep: Sequence[float], lo: float = 1e-12,
     stop = np.nonzero(sep >= hi)[0]
     end = int(stop[0]) if len(stop) else len(sep)
     idx = np.nonzero((sep[:end] > lo) & (sep[:end] < hi))[0]
-    out = {"rate": math.nan, "stderr": math.nan, "t_start": math.nan, "t_end": math.nan, "points": int(len(idx))}
+    out = {
+        "rate": math.nan,
+        "stderr": math.nan,
+        "t_start": math.nan,
+        "t_end": math.nan,
+        "points": int(len(idx)),
+    }
     if len(idx) < 3:
         return out
     tt, yy = t[idx], np.log(sep[idx])
@@ -161,13 +172,19 @@ def divergence_rate(t: Sequence[float], sep: Sequence[float], lo: float = 1e-12,
     coef, *_ = np.linalg.lstsq(A, yy, rcond=None)
     resid = yy - A @ coef
     dof = len(tt) - 2
-    se = math.sqrt(float(resid @ resid) / dof / float(np.sum((tt - tt.mean()) ** 2))) if dof > 0 else math.nan
+    se = (
+        math.sqrt(float(resid @ resid) / dof / float(np.sum((tt - tt.mean()) ** 2)))
+        if dof > 0
+        else math.nan
+    )
     out.update(rate=float(coef[0]), stderr=se, t_start=float(tt[0]), t_end=float(tt[-1]))
     return out
 
 
 # ----------------------------------------------------------------- periodic
-def match_impacts(model: Trajectory, ref: Trajectory, t_from: float = -math.inf, window: float | None = None) -> dict[str, Any]:
+def match_impacts(
+    model: Trajectory, ref: Trajectory, t_from: float = -math.inf, window: float | None = None
+) -> dict[str, Any]:
     """Match each model impact (at ``t >= t_from``) to the nearest reference impact in time.
 
     A model impact is *matched* if its nearest reference impact lies within
@@ -181,13 +198,25 @@ def match_impacts(model: Trajectory, ref: Trajectory, t_from: float = -math.inf,
     tm_all, tr_all = fm["impacts_t"], fr["impacts_t"]
     im = np.nonzero(tm_all >= t_from)[0]
     ir = np.nonzero(tr_all >= t_from)[0]
-    res: dict[str, Any] = {"model_impacts": int(len(im)), "reference_impacts": int(len(ir)), "matched": 0,
-                           "unmatched_model": int(len(im)), "unmatched_reference": int(len(ir)),
-                           "max_dt": math.nan, "rms_dt": math.nan, "max_dv": math.nan, "rms_dv": math.nan}
+    res: dict[str, Any] = {
+        "model_impacts": int(len(im)),
+        "reference_impacts": int(len(ir)),
+        "matched": 0,
+        "unmatched_model": int(len(im)),
+        "unmatched_reference": int(len(ir)),
+        "max_dt": math.nan,
+        "rms_dt": math.nan,
+        "max_dv": math.nan,
+        "rms_dv": math.nan,
+    }
     if len(im) == 0 or len(ir) == 0:
         return res
     tm, tr = tm_all[im], tr_all[ir]
-    j = np.clip(np.searchsorted(tr, tm), 1, len(tr) - 1) if len(tr) > 1 else np.zeros(len(tm), dtype=int)
+    j = (
+        np.clip(np.searchsorted(tr, tm), 1, len(tr) - 1)
+        if len(tr) > 1
+        else np.zeros(len(tm), dtype=int)
+    )
     if len(tr) > 1:
         j = np.where(np.abs(tr[j - 1] - tm) <= np.abs(tr[j] - tm), j - 1, j)
     d = np.abs(tr[j] - tm)
@@ -207,10 +236,15 @@ def match_impacts(model: Trajectory, ref: Trajectory, t_from: float = -math.inf,
     res["dv_pairs"] = int(len(dv))
     if len(dv) == 0:
         dv = np.array([math.nan])
-    res.update(matched=len(pairs), unmatched_model=int(len(im) - len(pairs)),
-               unmatched_reference=int(len(ir) - len(pairs)),
-               max_dt=float(np.max(dt)), rms_dt=float(np.sqrt(np.mean(dt ** 2))),
-               max_dv=float(np.max(dv)), rms_dv=float(np.sqrt(np.mean(dv ** 2))))
+    res.update(
+        matched=len(pairs),
+        unmatched_model=int(len(im) - len(pairs)),
+        unmatched_reference=int(len(ir) - len(pairs)),
+        max_dt=float(np.max(dt)),
+        rms_dt=float(np.sqrt(np.mean(dt**2))),
+        max_dv=float(np.max(dv)),
+        rms_dv=float(np.sqrt(np.mean(dv**2))),
+    )
     return res
 
 
@@ -219,14 +253,22 @@ def sample_diff(a, b, ia, ib, ta: Trajectory, tb: Trajectory) -> list[float]:
     import mpmath
 
     with mpmath.workprec(max(ta.precision.bits, tb.precision.bits) + 16):
-        return [math.nan if a[i] is None or b[j] is None else
-                float(abs(ta.precision.to_mpf(a[i]) - tb.precision.to_mpf(b[j]))) for i, j in zip(ia, ib)]
+        return [
+            math.nan
+            if a[i] is None or b[j] is None
+            else float(abs(ta.precision.to_mpf(a[i]) - tb.precision.to_mpf(b[j])))
+            for i, j in zip(ia, ib)
+        ]
 
 
-def detected_period(traj: Trajectory, transient: int = 0, max_period: int = 32, rtol: float = 1e-6) -> int:
+def detected_period(
+    traj: Trajectory, transient: int = 0, max_period: int = 32, rtol: float = 1e-6
+) -> int:
     """Smallest p <= ``max_period`` with p-periodic stroboscopic samples after ``transient``; 0 if none."""
     f = _f64(traj)
-    return int(detect_period(f["x"][transient:], f["v"][transient:], max_period=max_period, rtol=rtol))
+    return int(
+        detect_period(f["x"][transient:], f["v"][transient:], max_period=max_period, rtol=rtol)
+    )
 
 
 def _transient(traj: Trajectory, transient: int | None) -> int:
@@ -237,8 +279,13 @@ def _transient(traj: Trajectory, transient: int | None) -> int:
     return k
 
 
-def periodic_scores(model: Trajectory, ref: Trajectory, transient: int | None = None, max_period: int = 32,
-                    rtol: float = 1e-6) -> dict[str, Any]:
+def periodic_scores(
+    model: Trajectory,
+    ref: Trajectory,
+    transient: int | None = None,
+    max_period: int = 32,
+    rtol: float = 1e-6,
+) -> dict[str, Any]:
     """Largest state error after ``transient`` periods, impact errors matched one by one, periods."""
     k = _transient(ref, transient)
     errs = sample_errors(model, ref)
@@ -265,9 +312,17 @@ def _impact_v(traj: Trajectory, t_from: float) -> np.ndarray:
     return v[np.isfinite(v)]
 
 
-def chaotic_scores(model: Trajectory, ref: Trajectory, ref2: Trajectory | None = None, transient: int | None = None,
-                   deltas: Sequence[float] = DEFAULT_DELTAS, lle: float | None = None, model_lle: float | None = None,
-                   n_proj: int = 256, seed: int = 0) -> dict[str, Any]:
+def chaotic_scores(
+    model: Trajectory,
+    ref: Trajectory,
+    ref2: Trajectory | None = None,
+    transient: int | None = None,
+    deltas: Sequence[float] = DEFAULT_DELTAS,
+    lle: float | None = None,
+    model_lle: float | None = None,
+    n_proj: int = 256,
+    seed: int = 0,
+) -> dict[str, Any]:
     """Predictability horizons, fitted divergence rate, attractor and impact-velocity distances, LLE gap.
 
     ``ref2`` (a second reference, e.g. from a perturbed initial condition) gives the
@@ -299,7 +354,9 @@ def chaotic_scores(model: Trajectory, ref: Trajectory, ref2: Trajectory | None =
     if ref2 is not None:
         c2 = _cloud(ref2, k)
         out["sw_floor_two_references"] = sliced_wasserstein(cr, c2, n_proj, seed)
-        out["impact_v_floor_two_references"] = wasserstein_1d(_impact_v(ref, tk), _impact_v(ref2, tk))
+        out["impact_v_floor_two_references"] = wasserstein_1d(
+            _impact_v(ref, tk), _impact_v(ref2, tk)
+        )
     out["sw_floor"] = out.get("sw_floor_two_references", out["sw_floor_halves"])
     out["impact_v_floor"] = out.get("impact_v_floor_two_references", out["impact_v_floor_halves"])
     return out
@@ -318,10 +375,20 @@ def _rate(traj: Trajectory, t_from: float) -> float:
 
 
 # ----------------------------------------------------------------- together
-def score(model_traj: Trajectory, ref_traj: Trajectory, regime: str = "auto", lle: float | None = None,
-          model_lle: float | None = None, ref2: Trajectory | None = None, transient: int | None = None,
-          deltas: Sequence[float] = DEFAULT_DELTAS, max_period: int = 32, rtol: float = 1e-6,
-          n_proj: int = 256, seed: int = 0) -> dict[str, Any]:
+def score(
+    model_traj: Trajectory,
+    ref_traj: Trajectory,
+    regime: str = "auto",
+    lle: float | None = None,
+    model_lle: float | None = None,
+    ref2: Trajectory | None = None,
+    transient: int | None = None,
+    deltas: Sequence[float] = DEFAULT_DELTAS,
+    max_period: int = 32,
+    rtol: float = 1e-6,
+    n_proj: int = 256,
+    seed: int = 0,
+) -> dict[str, Any]:
     """Every score of ``model_traj`` against ``ref_traj``.
 
     Parameters
@@ -370,13 +437,20 @@ def score(model_traj: Trajectory, ref_traj: Trajectory, regime: str = "auto", ll
     k = _transient(ref_traj, transient)
     if regime == "auto":
         regime = "periodic" if detected_period(ref_traj, k, max_period, rtol) > 0 else "chaotic"
-    out: dict[str, Any] = {"model": model_traj.model, "precision": model_traj.precision.name,
-                           "reference": f"{ref_traj.model} {ref_traj.precision.name}", "regime": regime,
-                           "periods": min(model_traj.periods, ref_traj.periods), "elapsed_s": model_traj.elapsed_s}
+    out: dict[str, Any] = {
+        "model": model_traj.model,
+        "precision": model_traj.precision.name,
+        "reference": f"{ref_traj.model} {ref_traj.precision.name}",
+        "regime": regime,
+        "periods": min(model_traj.periods, ref_traj.periods),
+        "elapsed_s": model_traj.elapsed_s,
+    }
     if regime == "periodic":
         out.update(periodic_scores(model_traj, ref_traj, k, max_period, rtol))
     else:
-        out.update(chaotic_scores(model_traj, ref_traj, ref2, k, deltas, lle, model_lle, n_proj, seed))
+        out.update(
+            chaotic_scores(model_traj, ref_traj, ref2, k, deltas, lle, model_lle, n_proj, seed)
+        )
         out["period_model"] = detected_period(model_traj, k, max_period, rtol)
         out["period_reference"] = detected_period(ref_traj, k, max_period, rtol)
     return out

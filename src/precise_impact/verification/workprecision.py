@@ -30,31 +30,31 @@ its run time, beside the prediction
 
 from __future__ import annotations
 
-import dataclasses
-
 import csv
+import dataclasses
 import io
 import json
 import math
 import shutil
 import statistics
 import time
+from collections.abc import Callable
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import mpmath
 import numpy as np
 
-from precise_impact.core.result import ResultMixin
-from precise_impact.io.progress import say as _progress
-from precise_impact.verification.metrics import reference_bits
 from precise_impact.core.params import Params
+from precise_impact.core.result import ResultMixin
 from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.progress import say as _progress
 from precise_impact.solvers.closed_form import AnalyticalSolver
 from precise_impact.solvers.heyoka.single import HeyokaSolver
+from precise_impact.verification.metrics import reference_bits
 
 __all__ = [
     "CASES",
@@ -80,12 +80,12 @@ CASES = {
 }
 
 
-def predicted_bits(N: int, eta: float = 0.712, lam: float = LAMBDA, margin: float = MARGIN_DIGITS) -> float:
+def predicted_bits(
+    N: int, eta: float = 0.712, lam: float = LAMBDA, margin: float = MARGIN_DIGITS
+) -> float:
     """Bits needed to keep 15 digits after N periods: ``(15 + N T lam / ln 10 + margin) log2 10``."""
     T = 2 * math.pi / eta
     return (15 + N * T * lam / math.log(10) + margin) * math.log2(10)
-
-
 
 
 # --------------------------------------------------------------------------- scipy
@@ -100,8 +100,14 @@ class ScipyResult:
         self.nfev = nfev
 
 
-def scipy_solve(params: Params, periods: int, method: str = "DOP853", rtol: float = 1e-10,
-                atol: float | None = None, max_impacts: int = 100_000) -> ScipyResult:
+def scipy_solve(
+    params: Params,
+    periods: int,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float | None = None,
+    max_impacts: int = 100_000,
+) -> ScipyResult:
     """The oscillator with ``scipy.integrate.solve_ivp``: terminal events and restarts.
 
     Event ``x - x_w`` (direction +1, terminal); at an event the state is set to
@@ -111,7 +117,9 @@ def scipy_solve(params: Params, periods: int, method: str = "DOP853", rtol: floa
     try:
         from scipy.integrate import solve_ivp
     except ImportError:
-        raise OptionalDependencyError("scipy", "pip install 'precise_impact[bench]'", "scipy_solve") from None
+        raise OptionalDependencyError(
+            "scipy", "pip install 'precise_impact[bench]'", "scipy_solve"
+        ) from None
 
     eta, zeta, a = float(params.eta), float(params.zeta), float(params.a)
     xw, R = float(params.x_w), float(params.R)
@@ -143,16 +151,25 @@ def scipy_solve(params: Params, periods: int, method: str = "DOP853", rtol: floa
     kw = {"jac": jac} if method in ("Radau", "BDF", "LSODA") else {}
     while t < t_end:
         t_eval = ts[filled:][ts[filled:] > t]
-        sol = solve_ivp(rhs, (t, t_end), y, method=method, rtol=rtol, atol=atol, events=wall,
-                        t_eval=t_eval, **kw)
+        sol = solve_ivp(
+            rhs,
+            (t, t_end),
+            y,
+            method=method,
+            rtol=rtol,
+            atol=atol,
+            events=wall,
+            t_eval=t_eval,
+            **kw,
+        )
         nfev += sol.nfev
         if sol.status == -1:
             raise RuntimeError(f"solve_ivp {method} failed: {sol.message}")
         n = len(sol.t)
         if n:
             ys = np.asarray(sol.y)
-            xs[filled:filled + n] = ys[0]
-            vs[filled:filled + n] = ys[1]
+            xs[filled : filled + n] = ys[0]
+            vs[filled : filled + n] = ys[1]
         filled += n
         if sol.status == 1 and len(sol.t_events[0]):
             te = float(sol.t_events[0][0])
@@ -233,7 +250,11 @@ def _config(quick: bool) -> dict[str, Any]:
             "analytical_paper": [Fraction(1, 100), Fraction(1, 1000)],
             "analytical_robust": True,
             "analytical_mp_dps": [30],
-            "scipy": {"DOP853": [1e-6, 1e-8, 1e-10, 1e-12, 1e-13], "Radau": [1e-6, 1e-9], "LSODA": [1e-6, 1e-9]},
+            "scipy": {
+                "DOP853": [1e-6, 1e-8, 1e-10, 1e-12, 1e-13],
+                "Radau": [1e-6, 1e-9],
+                "LSODA": [1e-6, 1e-9],
+            },
             "spice_tmax": ["30e-6"],
             "chaos_N": [50, 100, 200],
             "certify_N": 300,
@@ -287,7 +308,9 @@ def _row(case, family, method, setting, errs, elapsed, repeats, compile_s=None, 
     return r
 
 
-def _case_rows(case: str, spec: dict, cfg: dict, progress: bool, notes: list[str]) -> tuple[list, dict]:
+def _case_rows(
+    case: str, spec: dict, cfg: dict, progress: bool, notes: list[str]
+) -> tuple[list, dict]:
     params = Params.make(eta=spec["eta"])
     periods = spec["periods"]
     bits = reference_bits(periods)
@@ -296,8 +319,13 @@ def _case_rows(case: str, spec: dict, cfg: dict, progress: bool, notes: list[str
     check = HeyokaSolver(f"mp:{bits + 64}").solve(params, periods)
     rs = _ref_states(ref)
     agreement = max(_errors(check, rs, bits + 64))
-    reference = {"precision": f"mp:{bits}", "check": f"mp:{bits + 64}", "agreement": agreement,
-                 "time_s": time.perf_counter() - t0, "impacts": ref.n_impacts}
+    reference = {
+        "precision": f"mp:{bits}",
+        "check": f"mp:{bits + 64}",
+        "agreement": agreement,
+        "time_s": time.perf_counter() - t0,
+        "impacts": ref.n_impacts,
+    }
     _progress(f"[{case}] reference mp:{bits} vs mp:{bits + 64}: agree to {agreement:.1e}", progress)
     budget = cfg["budget_s"]
     rows: list[dict] = []
@@ -305,7 +333,10 @@ def _case_rows(case: str, spec: dict, cfg: dict, progress: bool, notes: list[str
     def add(r):
         rows.append(r)
         hz = "" if r["horizon"] is None else f", horizon {r['horizon']}"
-        _progress(f"[{case}] {r['method']} {r['setting']}: error {r['error']:.2e}{hz}, {r['time_s']:.4f} s", progress)
+        _progress(
+            f"[{case}] {r['method']} {r['setting']}: error {r['error']:.2e}{hz}, {r['time_s']:.4f} s",
+            progress,
+        )
 
     # heyoka fixed precisions and mp
     hey = [(p, tol) for p, tols in cfg["heyoka"].items() for tol in tols]
@@ -318,25 +349,67 @@ def _case_rows(case: str, spec: dict, cfg: dict, progress: bool, notes: list[str
         traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
         fam = "heyoka mp" if prec.startswith("mp:") else f"heyoka {prec}"
         tol_s = "eps" if tol is None else tol
-        add(_row(case, fam, f"heyoka {prec}", f"tol={tol_s}", _errors(traj, rs, bits), el, n, compile_s,
-                 tol=None if tol is None else float(tol), impacts=traj.n_impacts))
+        add(
+            _row(
+                case,
+                fam,
+                f"heyoka {prec}",
+                f"tol={tol_s}",
+                _errors(traj, rs, bits),
+                el,
+                n,
+                compile_s,
+                tol=None if tol is None else float(tol),
+                impacts=traj.n_impacts,
+            )
+        )
 
     # analytical
     for sf in cfg["analytical_paper"]:
         solver = AnalyticalSolver(finder="paper", backend="float64", scan_fraction=sf)
         traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
-        add(_row(case, "analytical paper float64", "analytical paper float64", f"scan={sf}",
-                 _errors(traj, rs, bits), el, n, impacts=traj.n_impacts))
+        add(
+            _row(
+                case,
+                "analytical paper float64",
+                "analytical paper float64",
+                f"scan={sf}",
+                _errors(traj, rs, bits),
+                el,
+                n,
+                impacts=traj.n_impacts,
+            )
+        )
     if cfg["analytical_robust"]:
         solver = AnalyticalSolver(finder="robust", backend="float64")
         traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
-        add(_row(case, "analytical robust float64", "analytical robust float64", "robust",
-                 _errors(traj, rs, bits), el, n, impacts=traj.n_impacts))
+        add(
+            _row(
+                case,
+                "analytical robust float64",
+                "analytical robust float64",
+                "robust",
+                _errors(traj, rs, bits),
+                el,
+                n,
+                impacts=traj.n_impacts,
+            )
+        )
     for dps in cfg["analytical_mp_dps"]:
         solver = AnalyticalSolver(finder="robust", backend="mpmath", dps=dps)
         traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
-        add(_row(case, "analytical robust mpmath", "analytical robust mpmath", f"dps={dps}",
-                 _errors(traj, rs, bits), el, n, impacts=traj.n_impacts))
+        add(
+            _row(
+                case,
+                "analytical robust mpmath",
+                "analytical robust mpmath",
+                f"dps={dps}",
+                _errors(traj, rs, bits),
+                el,
+                n,
+                impacts=traj.n_impacts,
+            )
+        )
 
     # scipy
     if cfg["scipy"]:
@@ -347,9 +420,21 @@ def _case_rows(case: str, spec: dict, cfg: dict, progress: bool, notes: list[str
                 except RuntimeError as exc:
                     notes.append(f"{case}: scipy {method} rtol={rtol:g} failed: {exc}")
                     continue
-                add(_row(case, f"scipy {method}", f"scipy {method}", f"rtol={rtol:g}",
-                         _errors(res, rs, bits), el, n, rtol=rtol, atol=rtol * 1e-3,
-                         impacts=len(res.impacts_t), nfev=res.nfev))
+                add(
+                    _row(
+                        case,
+                        f"scipy {method}",
+                        f"scipy {method}",
+                        f"rtol={rtol:g}",
+                        _errors(res, rs, bits),
+                        el,
+                        n,
+                        rtol=rtol,
+                        atol=rtol * 1e-3,
+                        impacts=len(res.impacts_t),
+                        nfev=res.nfev,
+                    )
+                )
 
     # ngspice
     if cfg["spice_tmax"]:
@@ -360,8 +445,19 @@ def _case_rows(case: str, spec: dict, cfg: dict, progress: bool, notes: list[str
             comps = nominal_components(params)
             for tmax in cfg["spice_tmax"]:
                 res, el, n = _timed(lambda: run_spice(comps, {}, periods, tmax=tmax), budget)
-                add(_row(case, "ngspice", "ngspice", f"tmax={float(tmax) * 1e6:g}us", _errors(res, rs, bits),
-                         el, n, ngspice_s=res.elapsed_s, impacts=len(res.impacts_t)))
+                add(
+                    _row(
+                        case,
+                        "ngspice",
+                        "ngspice",
+                        f"tmax={float(tmax) * 1e6:g}us",
+                        _errors(res, rs, bits),
+                        el,
+                        n,
+                        ngspice_s=res.elapsed_s,
+                        impacts=len(res.impacts_t),
+                    )
+                )
         elif not any("ngspice" in s for s in notes):
             notes.append("ngspice not on PATH: circuit-simulator rows skipped")
     return rows, reference
@@ -409,8 +505,16 @@ def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]
         solver.solve(params, N)
         el = time.perf_counter() - t0
         pred = predicted_bits(N)
-        rows.append({"N": N, "bits": chosen, "agreement": diff_at, "time_s": el, "predicted_bits": pred,
-                     "predicted_bits_64": 64 * math.ceil(pred / 64)})
+        rows.append(
+            {
+                "N": N,
+                "bits": chosen,
+                "agreement": diff_at,
+                "time_s": el,
+                "predicted_bits": pred,
+                "predicted_bits_64": 64 * math.ceil(pred / 64),
+            }
+        )
         _progress(f"[chaos] N={N}: mp:{chosen} (predicted {pred:.0f} bits), {el:.2f} s", progress)
     # Certification of certify_N periods: predicted precision and +64 bits, agreement <= 1e-15.
     bc = 64 * math.ceil(predicted_bits(certify_N) / 64)
@@ -422,22 +526,35 @@ def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]
         _, xc, vc = c.state_mpf(certify_N)
         agree = float(max(abs(xa - xc), abs(va - vc)))
     cert_s = time.perf_counter() - t0
-    _progress(f"[chaos] certify {certify_N} periods: mp:{bc} vs mp:{bc + 64} agree to {agree:.1e}, "
-              f"{cert_s:.2f} s", progress)
+    _progress(
+        f"[chaos] certify {certify_N} periods: mp:{bc} vs mp:{bc + 64} agree to {agree:.1e}, "
+        f"{cert_s:.2f} s",
+        progress,
+    )
     return {
         "lambda": LAMBDA,
         "margin_digits": MARGIN_DIGITS,
         "target": CHAOS_TARGET,
         "reference_precision": f"mp:{top}",
         "rows": rows,
-        "certify": {"periods": certify_N, "precision": f"mp:{bc}", "check": f"mp:{bc + 64}",
-                    "agreement": agree, "certified": agree <= CHAOS_TARGET, "time_s": cert_s,
-                    "target_s": 10.0},
+        "certify": {
+            "periods": certify_N,
+            "precision": f"mp:{bc}",
+            "check": f"mp:{bc + 64}",
+            "agreement": agree,
+            "certified": agree <= CHAOS_TARGET,
+            "time_s": cert_s,
+            "target_s": 10.0,
+        },
     }
 
 
 def _time_at_error(rows: list[dict], family: str, target: float) -> float | None:
-    pts = sorted((math.log10(max(r["error"], 1e-300)), math.log10(r["time_s"])) for r in rows if r["family"] == family)
+    pts = sorted(
+        (math.log10(max(r["error"], 1e-300)), math.log10(r["time_s"]))
+        for r in rows
+        if r["family"] == family
+    )
     if len(pts) < 2:
         return None
     le = math.log10(target)
@@ -460,8 +577,8 @@ def _headlines(rows: list[dict], cfg: dict, progress: bool) -> dict[str, Any]:
         "heyoka_vs_dop853_target": 100.0,
     }
     if cfg.get("circuit"):
-        from precise_impact.models.circuit.opamp import CircuitSolver
         from precise_impact.models.circuit.components import nominal_components
+        from precise_impact.models.circuit.opamp import CircuitSolver
 
         spec = cfg["cases"]["periodic"]
         p = Params.make(eta=spec["eta"])
@@ -470,14 +587,25 @@ def _headlines(rows: list[dict], cfg: dict, progress: bool) -> dict[str, Any]:
         hs = HeyokaSolver("float64")
         _, tc, nc = _timed(lambda: cs.solve(comps, spec["periods"]), cfg["budget_s"])
         _, tm, nm = _timed(lambda: hs.solve(p, spec["periods"]), cfg["budget_s"])
-        out.update({"circuit_time_s": tc, "mechanical_time_s": tm, "circuit_vs_mechanical": tc / tm,
-                    "circuit_vs_mechanical_target": "within 10% (0.9..1.1)"})
+        out.update(
+            {
+                "circuit_time_s": tc,
+                "mechanical_time_s": tm,
+                "circuit_vs_mechanical": tc / tm,
+                "circuit_vs_mechanical_target": "within 10% (0.9..1.1)",
+            }
+        )
         _progress(f"circuit {tc:.4f} s vs mechanical {tm:.4f} s: ratio {tc / tm:.2f}", progress)
     return out
 
 
-def work_precision(quick: bool = False, out: str | Path | None = None, progress: bool | None = None,
-                   *, config: dict[str, Any] | None = None) -> WorkPrecisionResult:
+def work_precision(
+    quick: bool = False,
+    out: str | Path | None = None,
+    progress: bool | None = None,
+    *,
+    config: dict[str, Any] | None = None,
+) -> WorkPrecisionResult:
     """Measure error and wall time of every method on the periodic and chaotic cases.
 
     Parameters
@@ -507,7 +635,9 @@ def work_precision(quick: bool = False, out: str | Path | None = None, progress:
     if config:
         cfg.update(config)
     if cfg["scipy"] and not _have_scipy():  # refuse before any work, not after it
-        raise OptionalDependencyError("scipy", "pip install 'precise_impact[bench]'", "the work-precision benchmark")
+        raise OptionalDependencyError(
+            "scipy", "pip install 'precise_impact[bench]'", "the work-precision benchmark"
+        )
     t_start = time.perf_counter()
     notes: list[str] = [
         "scipy solve_ivp: atol = rtol * 1e-3; terminal event on x - x_w (direction +1), restart with v -> -R v",
@@ -520,7 +650,9 @@ def work_precision(quick: bool = False, out: str | Path | None = None, progress:
         r, ref = _case_rows(case, spec, cfg, progress, notes)
         rows += r
         references[case] = {"eta": spec["eta"], "periods": spec["periods"], **ref}
-    chaos = _chaos_cost(list(cfg["chaos_N"]), cfg["certify_N"], progress) if cfg["chaos_N"] else None
+    chaos = (
+        _chaos_cost(list(cfg["chaos_N"]), cfg["certify_N"], progress) if cfg["chaos_N"] else None
+    )
     headlines = _headlines(rows, cfg, progress)
     result = {
         "quick": quick,
@@ -574,8 +706,21 @@ class WorkPrecisionResult(ResultMixin):
 
 # --------------------------------------------------------------------------- outputs
 
-CSV_FIELDS = ["case", "family", "method", "setting", "error", "max_error", "final_error", "horizon", "time_s",
-              "repeats", "compile_s", "impacts", "note"]
+CSV_FIELDS = [
+    "case",
+    "family",
+    "method",
+    "setting",
+    "error",
+    "max_error",
+    "final_error",
+    "horizon",
+    "time_s",
+    "repeats",
+    "compile_s",
+    "impacts",
+    "note",
+]
 
 
 def write_outputs(result: dict[str, Any], out: Path) -> None:
@@ -606,15 +751,24 @@ def _plot_wp(result: dict[str, Any], path: Path) -> None:
             pts = sorted((r["time_s"], max(r["error"], 1e-40)) for r in rows if r["family"] == fam)
             ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=fam, ms=4)
         ref = result["references"][case]
-        ax.axhline(max(ref["agreement"], 1e-40), color="k", ls=":", lw=0.8,
-                   label=f"reference agreement ({ref['precision']} vs {ref['check']})")
-        what = "max error over samples" if case == "periodic" else f"error at period {ref['periods']}"
+        ax.axhline(
+            max(ref["agreement"], 1e-40),
+            color="k",
+            ls=":",
+            lw=0.8,
+            label=f"reference agreement ({ref['precision']} vs {ref['check']})",
+        )
+        what = (
+            "max error over samples" if case == "periodic" else f"error at period {ref['periods']}"
+        )
         ax.set_title(f"{case}: eta = {ref['eta']}, {ref['periods']} periods")
         ax.set_xlabel("wall time [s] (median)")
         ax.set_ylabel(what + " (floor 1e-40)")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
-    fig.suptitle("Work-precision: error against the demonstrated multiprecision reference vs wall time")
+    fig.suptitle(
+        "Work-precision: error against the demonstrated multiprecision reference vs wall time"
+    )
     fig.tight_layout()
     _save(fig, path)
 
@@ -625,12 +779,19 @@ def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
     fig, axes = new_figure(figsize=(7, 4.5), layout="tight")
     ax = axes[0, 0]
     ax.plot(N, [r["bits"] for r in rows], "o-", label="measured: smallest mp:64k reaching 1e-15")
-    ax.plot(N, [r["predicted_bits"] for r in rows], "s--", label="predicted (15 + N T lambda/ln10 + margin) log2 10")
+    ax.plot(
+        N,
+        [r["predicted_bits"] for r in rows],
+        "s--",
+        label="predicted (15 + N T lambda/ln10 + margin) log2 10",
+    )
     ax.set_xlabel("chaotic periods N (eta = 0.712)")
     ax.set_ylabel("bits")
     ax.grid(True, alpha=0.3)
     ax2 = ax.twinx()
-    ax2.semilogy(N, [r["time_s"] for r in rows], "^:", color="C3", label="time at that precision [s]")
+    ax2.semilogy(
+        N, [r["time_s"] for r in rows], "^:", color="C3", label="time at that precision [s]"
+    )
     ax2.set_ylabel("wall time [s]")
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
@@ -644,35 +805,54 @@ def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
 def format_table(result: dict[str, Any]) -> str:
     lines = []
     for case, ref in result["references"].items():
-        lines.append(f"{case}: eta={ref['eta']}, {ref['periods']} periods; reference {ref['precision']} vs "
-                     f"{ref['check']} agree to {ref['agreement']:.1e}")
-        lines.append(f"  {'method':<28} {'setting':<14} {'error':>9} {'horizon':>7} {'time [s]':>10} "
-                     f"{'compile':>8} {'rep':>3}")
+        lines.append(
+            f"{case}: eta={ref['eta']}, {ref['periods']} periods; reference {ref['precision']} vs "
+            f"{ref['check']} agree to {ref['agreement']:.1e}"
+        )
+        lines.append(
+            f"  {'method':<28} {'setting':<14} {'error':>9} {'horizon':>7} {'time [s]':>10} "
+            f"{'compile':>8} {'rep':>3}"
+        )
         for r in result["rows"]:
             if r["case"] != case:
                 continue
             hz = "-" if r["horizon"] is None else str(r["horizon"])
             cs = "" if r["compile_s"] is None else f"{r['compile_s']:.3f}"
-            lines.append(f"  {r['method']:<28} {r['setting']:<14} {r['error']:>9.2e} {hz:>7} "
-                         f"{r['time_s']:>10.5f} {cs:>8} {r['repeats']:>3}")
+            lines.append(
+                f"  {r['method']:<28} {r['setting']:<14} {r['error']:>9.2e} {hz:>7} "
+                f"{r['time_s']:>10.5f} {cs:>8} {r['repeats']:>3}"
+            )
     ch = result.get("chaos_cost")
     if ch:
-        lines.append(f"What chaos costs (eta=0.712, target {ch['target']:g}, reference {ch['reference_precision']}):")
+        lines.append(
+            f"What chaos costs (eta=0.712, target {ch['target']:g}, reference {ch['reference_precision']}):"
+        )
         lines.append(f"  {'N':>4} {'bits':>5} {'predicted':>9} {'time [s]':>9}")
         for r in ch["rows"]:
-            lines.append(f"  {r['N']:>4} {r['bits']:>5} {r['predicted_bits']:>9.0f} {r['time_s']:>9.3f}")
+            lines.append(
+                f"  {r['N']:>4} {r['bits']:>5} {r['predicted_bits']:>9.0f} {r['time_s']:>9.3f}"
+            )
         c = ch["certify"]
-        lines.append(f"  certify {c['periods']} periods: {c['precision']} vs {c['check']} agree to "
-                     f"{c['agreement']:.1e} in {c['time_s']:.2f} s (target < {c['target_s']:g} s)")
+        lines.append(
+            f"  certify {c['periods']} periods: {c['precision']} vs {c['check']} agree to "
+            f"{c['agreement']:.1e} in {c['time_s']:.2f} s (target < {c['target_s']:g} s)"
+        )
     h = result["headlines"]
     r = h.get("heyoka_vs_dop853")
     lines.append("Headlines:")
-    lines.append(f"  heyoka float64 vs scipy DOP853 at error {h['error_target']:g} (periodic): "
-                 + ("n/a (error not bracketed by both curves)" if r is None else
-                    f"{r:.0f}x ({h['scipy_dop853_time_s']:.4f} s vs {h['heyoka_float64_time_s']:.5f} s)"))
+    lines.append(
+        f"  heyoka float64 vs scipy DOP853 at error {h['error_target']:g} (periodic): "
+        + (
+            "n/a (error not bracketed by both curves)"
+            if r is None
+            else f"{r:.0f}x ({h['scipy_dop853_time_s']:.4f} s vs {h['heyoka_float64_time_s']:.5f} s)"
+        )
+    )
     if "circuit_vs_mechanical" in h:
-        lines.append(f"  ideal circuit vs mechanical (heyoka float64): {h['circuit_vs_mechanical']:.2f}x "
-                     f"({h['circuit_time_s']:.5f} s vs {h['mechanical_time_s']:.5f} s)")
+        lines.append(
+            f"  ideal circuit vs mechanical (heyoka float64): {h['circuit_vs_mechanical']:.2f}x "
+            f"({h['circuit_time_s']:.5f} s vs {h['mechanical_time_s']:.5f} s)"
+        )
     for n in result["notes"]:
         lines.append(f"  note: {n}")
     return "\n".join(lines)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from precise_impact.errors import ParameterError
-from precise_impact.core.params import Params
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
+from precise_impact.core.params import Params
+from precise_impact.errors import ParameterError
 
 __all__ = ["LYAPUNOV_METHODS", "lyapunov", "LyapunovResult", "block_stderr"]
 

@@ -69,11 +69,21 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-__all__ = ["attribute", "MAX_PERIOD", "SPLIT_ALPHA", "TEST_BLOCKS", "TEST_BLOCK_PERIODS", "t_quantile", "tails_separated", "periodic_bias_bound"]
+__all__ = [
+    "attribute",
+    "MAX_PERIOD",
+    "SPLIT_ALPHA",
+    "TEST_BLOCKS",
+    "TEST_BLOCK_PERIODS",
+    "t_quantile",
+    "tails_separated",
+    "periodic_bias_bound",
+]
 
 #: Longest period looked for (as the sweeps).
 MAX_PERIOD = 32
@@ -136,10 +146,14 @@ def t_quantile(alpha: float, dof: float) -> float:
     >>> round(t_quantile(0.05, math.inf), 4), round(t_quantile(0.05, 10), 4)
     (1.96, 2.2281)
     """
-    return _t_quantile_cached(float(alpha), round(float(dof), 6) if math.isfinite(dof) else math.inf)
+    return _t_quantile_cached(
+        float(alpha), round(float(dof), 6) if math.isfinite(dof) else math.inf
+    )
 
 
-def _welch(d: float, s1: float, n1: int, s2: float, n2: int, alpha: float) -> tuple[float, float] | None:
+def _welch(
+    d: float, s1: float, n1: int, s2: float, n2: int, alpha: float
+) -> tuple[float, float] | None:
     """``(|d| / sqrt(s1^2 + s2^2), K)`` of a Welch test, or ``None`` when it is not available."""
     if not (math.isfinite(d) and math.isfinite(s1) and math.isfinite(s2)) or n1 < 2 or n2 < 2:
         return None
@@ -203,14 +217,18 @@ def periodic_bias_bound(orbit: Any) -> float:
     cond = 0.0
     rem = 0.0
     for r in range(per):
-        st, xr, vr, a00, a01, a10, a11, _ = orbit_map(*sys, t0, x, v, r)  # r periods from the first point
+        st, xr, vr, a00, a01, a10, a11, _ = orbit_map(
+            *sys, t0, x, v, r
+        )  # r periods from the first point
         if st != STATUS_OK:
             return math.nan
         if r:
             sv = np.linalg.svd(np.array([[a00, a01], [a10, a11]]), compute_uv=False)
             with np.errstate(divide="ignore"):
                 rem = max(rem, float(np.max(np.abs(np.log(sv) - lam * r * T))))
-        st, _, _, m00, m01, m10, m11, _ = orbit_map(*sys, t0, xr, vr, per)  # the monodromy at that point
+        st, _, _, m00, m01, m10, m11, _ = orbit_map(
+            *sys, t0, xr, vr, per
+        )  # the monodromy at that point
         if st != STATUS_OK:
             return math.nan
         _, V = np.linalg.eig(np.array([[m00, m01], [m10, m11]]))
@@ -223,9 +241,15 @@ def _weighted(values: Sequence[float], weights: Sequence[float]) -> float:
     return float(np.sum(np.asarray(values, float) * w) / np.sum(w))
 
 
-def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_start: Sequence[tuple],
-              precision: str = "float64", impact_blocks: Sequence[Any] | None = None,
-              periods: Sequence[int] | None = None, alpha: float = SPLIT_ALPHA) -> Any:
+def attribute(
+    result: Any,
+    tails: Sequence[tuple[np.ndarray, np.ndarray]],
+    per_start: Sequence[tuple],
+    precision: str = "float64",
+    impact_blocks: Sequence[Any] | None = None,
+    periods: Sequence[int] | None = None,
+    alpha: float = SPLIT_ALPHA,
+) -> Any:
     """Group the starts of ``result`` by attractor; put the headline attractor's LLE in place.
 
     Parameters
@@ -295,13 +319,23 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
         if ib is not None:
             ib = np.asarray(ib, float).ravel()
             rate = float(np.mean(ib))
-            rate_se = math.hypot(means_stderr(ib) if len(ib) > 1 else math.nan, 1.0 / max(periods[j], 1))
+            rate_se = math.hypot(
+                means_stderr(ib) if len(ib) > 1 else math.nan, 1.0 / max(periods[j], 1)
+            )
         else:
             rate = result.impacts / max(sum(periods), 1) if n == 1 else math.nan
             rate_se = math.nan
-        starts.append({"lle": float(per_start[j][0]), "stderr": means_stderr(blocks[j]), "impact_rate": rate,
-                       "impact_rate_stderr": rate_se, "periods": periods[j], "_nb": len(blocks[j]),
-                       "_nr": 0 if ib is None else len(ib)})
+        starts.append(
+            {
+                "lle": float(per_start[j][0]),
+                "stderr": means_stderr(blocks[j]),
+                "impact_rate": rate,
+                "impact_rate_stderr": rate_se,
+                "periods": periods[j],
+                "_nb": len(blocks[j]),
+                "_nr": 0 if ib is None else len(ib),
+            }
+        )
     # ---- periodic starts: Newton, grouped by orbit
     groups: list[dict] = []
     loose: list[int] = []
@@ -312,21 +346,45 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
         if p > 0:
             cycle = np.column_stack([xs[-p:], vs[-p:]])
             tol = 1e-6 * (1 + float(np.max(np.abs(cycle))))
-            known = next((g for g in groups if g["kind"] == "periodic" and g["period"] == p
-                          and _same_cycle(g["_cycle"], cycle, tol)), None)
+            known = next(
+                (
+                    g
+                    for g in groups
+                    if g["kind"] == "periodic"
+                    and g["period"] == p
+                    and _same_cycle(g["_cycle"], cycle, tol)
+                ),
+                None,
+            )
             if known is not None:  # an orbit already refined: no second Newton run
                 known["starts"].append(j)
                 continue
             try:
-                orbit = find_orbit(params, p, guess=(float(xs[-1]), float(vs[-1])), precision=precision)
-            except IntegrationError:  # Newton did not settle (e.g. a contact on the way): not claimed
+                orbit = find_orbit(
+                    params, p, guess=(float(xs[-1]), float(vs[-1])), precision=precision
+                )
+            except (
+                IntegrationError
+            ):  # Newton did not settle (e.g. a contact on the way): not claimed
                 orbit = None
         if orbit is None:
             loose.append(j)
             continue
-        groups.append({"kind": "periodic", "starts": [j], "period": p, "impacts": orbit.impacts,
-                       "multipliers": [[float(complex(m).real), float(complex(m).imag)] for m in orbit.multipliers],
-                       "floquet_lle": orbit.lle, "residual": orbit.residual, "_orbit": orbit, "_cycle": cycle})
+        groups.append(
+            {
+                "kind": "periodic",
+                "starts": [j],
+                "period": p,
+                "impacts": orbit.impacts,
+                "multipliers": [
+                    [float(complex(m).real), float(complex(m).imag)] for m in orbit.multipliers
+                ],
+                "floquet_lle": orbit.lle,
+                "residual": orbit.residual,
+                "_orbit": orbit,
+                "_cycle": cycle,
+            }
+        )
     # ---- non-periodic starts: split by LLE, impact rate and tails (module docstring, *Grouping*)
     tests = []
     level = alpha / max(1, len(loose) * (len(loose) - 1) // 2)  # Bonferroni over the pairs
@@ -339,8 +397,14 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
         if w is not None:
             rec["lle_z"], rec["lle_k"] = w
             ok &= w[0] <= w[1]
-        w = _welch(a["impact_rate"] - b["impact_rate"], a["impact_rate_stderr"], a["_nr"],
-                   b["impact_rate_stderr"], b["_nr"], level)
+        w = _welch(
+            a["impact_rate"] - b["impact_rate"],
+            a["impact_rate_stderr"],
+            a["_nr"],
+            b["impact_rate_stderr"],
+            b["_nr"],
+            level,
+        )
         if w is not None:
             rec["rate_z"], rec["rate_k"] = w
             ok &= w[0] <= w[1]
@@ -348,7 +412,9 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
         if len(ta) >= 2 and len(tb) >= 2:
             sep, dist = tails_separated(ta, tb)
             rec["tail_distance"], rec["tails_separated"] = dist, sep
-            if "lle_z" not in rec and "rate_z" not in rec:  # the tails decide only without error bars
+            if (
+                "lle_z" not in rec and "rate_z" not in rec
+            ):  # the tails decide only without error bars
                 ok &= not sep
         rec["same"] = bool(ok)
         tests.append(rec)
@@ -369,7 +435,9 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
         g["lle"] = _weighted([starts[j]["lle"] for j in st], [dur[j] for j in st])
         g["stderr"] = means_stderr(np.concatenate([blocks[j] for j in st]))
         rates = [starts[j]["impact_rate"] for j in st]
-        g["impact_rate"] = _weighted(rates, [periods[j] for j in st]) if all(map(math.isfinite, rates)) else None
+        g["impact_rate"] = (
+            _weighted(rates, [periods[j] for j in st]) if all(map(math.isfinite, rates)) else None
+        )
         for j in st:
             starts[j]["attractor"] = i
     if len(groups) == 1:  # every start on one attractor: the run's own batch-means error
@@ -384,7 +452,9 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
             res = 1e-12 / (o.period * T)
             for j in st:
                 starts[j]["stderr_batch"] = starts[j]["stderr"]
-                starts[j]["stderr"] = math.sqrt(starts[j]["stderr"] ** 2 + (B / dur[j]) ** 2 + res**2)
+                starts[j]["stderr"] = math.sqrt(
+                    starts[j]["stderr"] ** 2 + (B / dur[j]) ** 2 + res**2
+                )
             bias = B * len(st) / sum(dur[j] for j in st)  # the weighted mean of B / t_j
             g["stderr_batch"] = g["stderr"]
             g["stderr"] = math.sqrt(g["stderr"] ** 2 + bias**2 + res**2)
@@ -393,21 +463,32 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
     head = max(groups, key=lambda g: (len(g["starts"]), -min(g["starts"])))
     st = head["starts"]
     lam2 = [per_start[j][1] for j in st]
-    finite = {"lle": head["lle"], "stderr": head["stderr"], "stderr_batch": head.get("stderr_batch", head["stderr"]),
-              "bias_bound": None, "resolution": 0.0,
-              "spectrum": None if result.spectrum is None else (head["lle"], _weighted(lam2, [dur[j] for j in st])),
-              "starts": list(st),
-              "note": "batch-means standard error of the headline attractor's starts; the O(1/t) end effect of the "
-                      "never-restarted tangent basis is not included (far below it off periodic orbits)"}
+    finite = {
+        "lle": head["lle"],
+        "stderr": head["stderr"],
+        "stderr_batch": head.get("stderr_batch", head["stderr"]),
+        "bias_bound": None,
+        "resolution": 0.0,
+        "spectrum": None
+        if result.spectrum is None
+        else (head["lle"], _weighted(lam2, [dur[j] for j in st])),
+        "starts": list(st),
+        "note": "batch-means standard error of the headline attractor's starts; the O(1/t) end effect of the "
+        "never-restarted tangent basis is not included (far below it off periodic orbits)",
+    }
     if len(groups) == 1:  # one attractor: the estimate as it was
         finite.update(lle=result.lle, spectrum=result.spectrum)
     if head["kind"] == "periodic":
         bias, res = head["_ft"]
-        finite.update(bias_bound=bias, resolution=res, stderr=head["stderr"],
-                      note="sqrt(stderr_batch^2 + bias_bound^2 + resolution^2): bias_bound bounds the O(1/t) "
-                           "finite-time offset on this periodic orbit (ln cond of the monodromy's eigenvectors "
-                           "and the partial-orbit factor, over the starts' durations), resolution is the float64 "
-                           "resolution 1e-12 / (p T) of the Floquet value")
+        finite.update(
+            bias_bound=bias,
+            resolution=res,
+            stderr=head["stderr"],
+            note="sqrt(stderr_batch^2 + bias_bound^2 + resolution^2): bias_bound bounds the O(1/t) "
+            "finite-time offset on this periodic orbit (ln cond of the monodromy's eigenvectors "
+            "and the partial-orbit factor, over the starts' durations), resolution is the float64 "
+            "resolution 1e-12 / (p T) of the Floquet value",
+        )
         o = head["_orbit"]
         mu = [abs(complex(m)) for m in o.multipliers]
         pT = o.period * T
@@ -429,24 +510,38 @@ def attribute(result: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], per_s
     old = result.stats.get("per_start")
     rows = []
     for j, s in enumerate(starts):
-        row = dict(old[j]) if isinstance(old, list) and j < len(old) and isinstance(old[j], dict) else {}
+        row = (
+            dict(old[j])
+            if isinstance(old, list) and j < len(old) and isinstance(old[j], dict)
+            else {}
+        )
         row.update({k: v for k, v in s.items() if not k.startswith("_")})
         row.setdefault("lambda2", float(per_start[j][1]))
         rows.append(row)
     result.stats["per_start"] = rows
     result.stats["attractors"] = groups
     result.stats["headline_attractor"] = head["id"]
-    result.stats["headline_rule"] = ("the attractor with the most starts (ties: the one with the earliest start); "
-                                     "never an average over attractors")
+    result.stats["headline_rule"] = (
+        "the attractor with the most starts (ties: the one with the earliest start); "
+        "never an average over attractors"
+    )
     result.stats["lle_source"] = source
     result.stats["finite_time"] = finite
     if tests:
         result.stats["split_tests"] = tests
     if len(groups) > 1:
-        desc = "; ".join(f"#{g['id']} starts {g['starts']} " + (
-            f"period {g['period']} LLE {g['floquet_lle']:.6g}" if g["kind"] == "periodic"
-            else f"not periodic LLE {g['lle']:.6g} +- {g['stderr']:.2g}") for g in groups)
-        result.stats["warning"] = (f"the {n} starts end on {len(groups)} attractors ({desc}); lle is attractor "
-                                   f"#{head['id']}'s ({len(st)} of {n} starts, the most; ties: the earliest start), "
-                                   "not an average")
+        desc = "; ".join(
+            f"#{g['id']} starts {g['starts']} "
+            + (
+                f"period {g['period']} LLE {g['floquet_lle']:.6g}"
+                if g["kind"] == "periodic"
+                else f"not periodic LLE {g['lle']:.6g} +- {g['stderr']:.2g}"
+            )
+            for g in groups
+        )
+        result.stats["warning"] = (
+            f"the {n} starts end on {len(groups)} attractors ({desc}); lle is attractor "
+            f"#{head['id']}'s ({len(st)} of {n} starts, the most; ties: the earliest start), "
+            "not an average"
+        )
     return result

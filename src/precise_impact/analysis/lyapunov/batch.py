@@ -22,28 +22,45 @@ maximum (a maximum beyond the wall by more than 4 grazing depths is a missed imp
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
-from precise_impact.core.clock import local_clock
-from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.analysis.lyapunov.result import means_stderr
+from precise_impact.analysis.lyapunov.variational import GUARD_FACTOR, MissedImpactError
 from precise_impact.analysis.periodicity import detect_period
+from precise_impact.core.clock import local_clock
+from precise_impact.core.flow import acceleration
+from precise_impact.core.impact import (
+    GRAZING_SAFETY,
+    grazing_depth,
+    impact_at_start,
+    is_contact,
+    oscillator_saltation,
+    reset_velocity,
+    steady_amplitude,
+)
+from precise_impact.core.linalg import gram_schmidt2
+from precise_impact.core.params import (
+    I_A,
+    I_ETA,
+    I_R,
+    I_XW,
+    I_ZETA,
+    RUNTIME_PARAMS,
+    Params,
+    check_count,
+)
+from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
-from precise_impact.core.impact import impact_at_start, is_contact, oscillator_saltation, reset_velocity
-from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count
-from precise_impact.core.flow import acceleration
-from precise_impact.core.impact import GRAZING_SAFETY, grazing_depth, steady_amplitude
-from precise_impact.analysis.lyapunov.variational import GUARD_FACTOR, MissedImpactError
 
 __all__ = ["batch_lle", "detect_period", "default_batch_size"]
 
 
-
-_COEF64 = GRAZING_SAFETY * 2.0**-53  # grazing_depth_coefficient(float64), exactly (a power of two times 16)
+_COEF64 = (
+    GRAZING_SAFETY * 2.0**-53
+)  # grazing_depth_coefficient(float64), exactly (a power of two times 16)
 
 
 def _depth(t: float, pr, i: int, amp: float) -> float:
@@ -65,7 +82,9 @@ class _BatchSaltation:
 
     def reset(self, batch_size: int, max_impacts: int, amp: np.ndarray) -> None:
         self.amp = np.asarray(amp, dtype=float)
-        self.lanes = [ImpactRecorder(keep=False, max_impacts=max_impacts) for _ in range(batch_size)]
+        self.lanes = [
+            ImpactRecorder(keep=False, max_impacts=max_impacts) for _ in range(batch_size)
+        ]
         self.grazing = np.zeros(batch_size, dtype=np.int64)
         self.log1 = np.zeros(batch_size)
         self.log2 = np.zeros(batch_size)
@@ -148,8 +167,14 @@ def _integrator(batch_size: int):
         p = {name: hy.par[i] for i, name in enumerate(RUNTIME_PARAMS)}
         rhs = acceleration(hy.time, x, v, p["eta"], p["zeta"], p["a"], hy.cos)
         vsys = hy.var_ode_sys([(x, v), (v, rhs)], hy.var_args.vars, order=1)
-        ev = hy.t_event_batch(x - p["x_w"], callback=_BatchSaltation(batch_size), direction=hy.event_direction.positive)
-        guard = hy.nt_event_batch(v, callback=_BatchGuard(batch_size), direction=hy.event_direction.negative)
+        ev = hy.t_event_batch(
+            x - p["x_w"],
+            callback=_BatchSaltation(batch_size),
+            direction=hy.event_direction.positive,
+        )
+        guard = hy.nt_event_batch(
+            v, callback=_BatchGuard(batch_size), direction=hy.event_direction.negative
+        )
         ta = hy.taylor_adaptive_batch(
             vsys,
             np.zeros((6, batch_size)),
@@ -215,7 +240,17 @@ def batch_lle(
     out: list[dict] = []
     for lo in range(0, len(points), B):
         group = points[lo : lo + B]
-        out.extend(_run_group(group + [group[0]] * (B - len(group)), B, periods, transient, segments, max_period, max_impacts)[: len(group)])
+        out.extend(
+            _run_group(
+                group + [group[0]] * (B - len(group)),
+                B,
+                periods,
+                transient,
+                segments,
+                max_period,
+                max_impacts,
+            )[: len(group)]
+        )
     return out
 
 
@@ -254,9 +289,13 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
     for k in range(1, total + 1):
         ta.propagate_until(L1)
         if rec.exceeded:
-            raise BudgetExceededError(f"impact budget max_impacts={max_impacts} exhausted in a batch lane")
+            raise BudgetExceededError(
+                f"impact budget max_impacts={max_impacts} exhausted in a batch lane"
+            )
         if any(r[0] != hy.taylor_outcome.time_limit for r in ta.propagate_res):
-            raise IntegrationError(f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}")
+            raise IntegrationError(
+                f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}"
+            )
         if grd.first_miss is not None:
             i, t_m, over = grd.first_miss
             raise MissedImpactError(

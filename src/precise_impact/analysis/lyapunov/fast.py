@@ -18,7 +18,12 @@ from fractions import Fraction
 
 import numpy as np
 
-from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, TEST_BLOCK_PERIODS, TEST_BLOCKS, attribute
+from precise_impact.analysis.lyapunov.attractors import (
+    MAX_PERIOD,
+    TEST_BLOCK_PERIODS,
+    TEST_BLOCKS,
+    attribute,
+)
 from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import ParameterError
@@ -26,9 +31,17 @@ from precise_impact.errors import ParameterError
 __all__ = ["fast_spectrum", "fast_batch", "fast_batch_rows", "point_rows", "ROW_FIELDS"]
 
 
-def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_conditions: int = 4,
-                  segments: int = 20, precision: str = "float64", max_impacts: int = 10**8,
-                  progress: bool = False, attractors: bool = True) -> LyapunovResult:
+def fast_spectrum(
+    params,
+    periods: int = 20000,
+    transient: int = 1000,
+    initial_conditions: int = 4,
+    segments: int = 20,
+    precision: str = "float64",
+    max_impacts: int = 10**8,
+    progress: bool = False,
+    attractors: bool = True,
+) -> LyapunovResult:
     """Both Lyapunov exponents from the compiled engine.
 
     Parameters
@@ -70,7 +83,9 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     """
     params = as_params(params)
     if precision not in ("float64",):
-        raise ParameterError("precision", precision, "'float64' for method 'fast' (other precisions: 'variational')")
+        raise ParameterError(
+            "precision", precision, "'float64' for method 'fast' (other precisions: 'variational')"
+        )
     n = check_count(initial_conditions, "initial_conditions", 1000, minimum=1)
     periods = check_count(periods, "periods", minimum=n)
     transient = check_count(transient, "transient")
@@ -82,26 +97,53 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     # TEST_BLOCKS per start of >= TEST_BLOCK_PERIODS periods, summed back into ``blocks`` for
     # the error bar (m is chosen so that the summed blocks are exactly the ``per // blocks``
     # periods of the plain run: the same blocks, to rounding)
-    m = max(1, min(-(-TEST_BLOCKS // blocks), per // (TEST_BLOCK_PERIODS * blocks))) if attractors else 1
+    m = (
+        max(1, min(-(-TEST_BLOCKS // blocks), per // (TEST_BLOCK_PERIODS * blocks)))
+        if attractors
+        else 1
+    )
     while m > 1 and (per // (blocks * m)) * m != per // blocks:
         m -= 1
     from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT, lle_batch
 
-    pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w),
-                      float(params.R)]] * n)
-    starts = np.array([[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)])
+    pars = np.array(
+        [
+            [
+                float(params.eta),
+                float(params.zeta),
+                float(params.a),
+                float(params.x_w),
+                float(params.R),
+            ]
+        ]
+        * n
+    )
+    starts = np.array(
+        [[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)]
+    )
     unsupported = not params.zeta < 1 or (params.zeta == 0 and params.eta == 1)
     start = time.perf_counter()
     if not unsupported:
-        status, log1, log2, imps, fine, fine_imps, xt, vt = lle_batch(pars, starts, per, transient, blocks * m,
-                                                                      max_impacts, min(per, 3 * MAX_PERIOD))
+        status, log1, log2, imps, fine, fine_imps, xt, vt = lle_batch(
+            pars, starts, per, transient, blocks * m, max_impacts, min(per, 3 * MAX_PERIOD)
+        )
         bsums = fine.reshape(n, blocks, m).sum(axis=2)
     if unsupported or np.any(status != STATUS_OK):
-        why = "zeta >= 1" if unsupported else "; ".join(sorted({STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}))
+        why = (
+            "zeta >= 1"
+            if unsupported
+            else "; ".join(sorted({STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}))
+        )
         from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
-        r = variational_spectrum(params, periods=per * n, transient=transient, initial_conditions=n,
-                                 segments=segments, max_impacts=max_impacts)
+        r = variational_spectrum(
+            params,
+            periods=per * n,
+            transient=transient,
+            initial_conditions=n,
+            segments=segments,
+            max_impacts=max_impacts,
+        )
         r.stats["engine"] = f"heyoka variational (fallback: {why})"
         return r
     elapsed = time.perf_counter() - start
@@ -111,26 +153,56 @@ def fast_spectrum(params, periods: int = 20000, transient: int = 1000, initial_c
     block_means = (bsums / (per_block * T)).ravel()
     lam1, lam2 = float(log1.sum() / time_total), float(log2.sum() / time_total)
     running = np.cumsum(bsums.sum(axis=0)) / (np.arange(1, blocks + 1) * per_block * T * n)
-    per_start = [{"lle": float(log1[i] / (per * T)), "lambda2": float(log2[i] / (per * T)), "impacts": int(imps[i]),
-                  "status": STATUS_TEXT[int(status[i])]} for i in range(n)]
+    per_start = [
+        {
+            "lle": float(log1[i] / (per * T)),
+            "lambda2": float(log2[i] / (per * T)),
+            "impacts": int(imps[i]),
+            "status": STATUS_TEXT[int(status[i])],
+        }
+        for i in range(n)
+    ]
     result = LyapunovResult(
-        params=params, method="fast", precision="float64", lle=lam1, spectrum=(lam1, lam2),
+        params=params,
+        method="fast",
+        precision="float64",
+        lle=lam1,
+        spectrum=(lam1, lam2),
         stderr=means_stderr(block_means),
-        periods=per * n, transient=transient, impacts=int(imps.sum()), running=running, segments=block_means,
-        elapsed_s=elapsed, initial_conditions=n, strobe_x=xt[0], strobe_v=vt[0],
+        periods=per * n,
+        transient=transient,
+        impacts=int(imps.sum()),
+        running=running,
+        segments=block_means,
+        elapsed_s=elapsed,
+        initial_conditions=n,
+        strobe_x=xt[0],
+        strobe_v=vt[0],
         stats={"engine": "fast", "per_start": per_start},
     )
     if attractors:
         bm = fine / ((per // (blocks * m)) * T)  # batch means per start, the finer blocks
         # impacts per period in the same finer blocks, counted by the engine on the same orbits
         rates = list(fine_imps / (per // (blocks * m))) if n > 1 else None
-        attribute(result, list(zip(xt, vt)), [(d["lle"], d["lambda2"], bm[i]) for i, d in enumerate(per_start)],
-                  impact_blocks=rates, periods=[per] * n)
+        attribute(
+            result,
+            list(zip(xt, vt)),
+            [(d["lle"], d["lambda2"], bm[i]) for i, d in enumerate(per_start)],
+            impact_blocks=rates,
+            periods=[per] * n,
+        )
     return result
 
 
-def fast_batch(points, periods: int = 2000, transient: int = 1000, segments: int = 10, max_period: int = 32,
-               max_impacts: int = 10**7, parallel: bool = False) -> list[dict]:
+def fast_batch(
+    points,
+    periods: int = 2000,
+    transient: int = 1000,
+    segments: int = 10,
+    max_period: int = 32,
+    max_impacts: int = 10**7,
+    parallel: bool = False,
+) -> list[dict]:
     """:func:`~precise_impact.analysis.lyapunov.batch.batch_lle` on the compiled engine.
 
     Parameters
@@ -160,8 +232,16 @@ def fast_batch(points, periods: int = 2000, transient: int = 1000, segments: int
         ``batch_lle`` instead).
     """
     points = [as_params(p, "points") for p in points]
-    return fast_batch_rows(point_rows(points), lambda idx: [points[i] for i in idx], periods, transient, segments,
-                           max_period, max_impacts, parallel)
+    return fast_batch_rows(
+        point_rows(points),
+        lambda idx: [points[i] for i in idx],
+        periods,
+        transient,
+        segments,
+        max_period,
+        max_impacts,
+        parallel,
+    )
 
 
 def point_rows(points) -> np.ndarray:
@@ -176,16 +256,25 @@ def point_rows(points) -> np.ndarray:
     numpy.ndarray
         Shape ``(len(points), 8)``.
     """
-    return np.array([[float(getattr(p, n)) for n in ROW_FIELDS] for p in points]).reshape(-1, len(ROW_FIELDS))
+    return np.array([[float(getattr(p, n)) for n in ROW_FIELDS] for p in points]).reshape(
+        -1, len(ROW_FIELDS)
+    )
 
 
 #: The columns of :func:`point_rows` (and of :meth:`~precise_impact.SweepSpec.rows`).
 ROW_FIELDS = ("eta", "zeta", "a", "x_w", "R", "t0", "x0", "v0")
 
 
-def fast_batch_rows(rows: np.ndarray, fallback_points, periods: int = 2000, transient: int = 1000,
-                    segments: int = 10, max_period: int = 32, max_impacts: int = 10**7,
-                    parallel: bool = False) -> list[dict]:
+def fast_batch_rows(
+    rows: np.ndarray,
+    fallback_points,
+    periods: int = 2000,
+    transient: int = 1000,
+    segments: int = 10,
+    max_period: int = 32,
+    max_impacts: int = 10**7,
+    parallel: bool = False,
+) -> list[dict]:
     """:func:`fast_batch` on float rows (a sweep's tile: no exact parameters per point).
 
     Parameters
@@ -215,10 +304,13 @@ def fast_batch_rows(rows: np.ndarray, fallback_points, periods: int = 2000, tran
     blocks = min(segments, periods)
     rows = np.asarray(rows, dtype=float).reshape(-1, len(ROW_FIELDS))
     eta, zeta = rows[:, 0], rows[:, 1]
-    ok_pts = np.flatnonzero((zeta < 1) & ~((zeta == 0) & (eta == 1)))  # underdamped, not the undamped resonance
+    ok_pts = np.flatnonzero(
+        (zeta < 1) & ~((zeta == 0) & (eta == 1))
+    )  # underdamped, not the undamped resonance
     run = lle_batch if parallel else lle_batch_serial
-    status, log1, log2, imps, bsums, _, xt, vt = run(rows[ok_pts, :5], rows[ok_pts, 5:], periods, transient, blocks,
-                                                       max_impacts, keep)
+    status, log1, log2, imps, bsums, _, xt, vt = run(
+        rows[ok_pts, :5], rows[ok_pts, 5:], periods, transient, blocks, max_impacts, keep
+    )
     results: list = [None] * len(rows)
     per_block = periods // blocks
     for j, i in enumerate(ok_pts.tolist()):
@@ -241,7 +333,16 @@ def fast_batch_rows(rows: np.ndarray, fallback_points, periods: int = 2000, tran
     if rest:
         from precise_impact.analysis.lyapunov.batch import batch_lle
 
-        for i, r in zip(rest, batch_lle(fallback_points(rest), periods=periods, transient=transient,
-                                        segments=max(2, segments), max_period=max_period, max_impacts=max_impacts)):
+        for i, r in zip(
+            rest,
+            batch_lle(
+                fallback_points(rest),
+                periods=periods,
+                transient=transient,
+                segments=max(2, segments),
+                max_period=max_period,
+                max_impacts=max_impacts,
+            ),
+        ):
             results[i] = dict(r, engine="heyoka")
     return results

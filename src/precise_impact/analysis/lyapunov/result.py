@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
-from precise_impact.core.result import ResultMixin, to_jsonable
 from precise_impact.core.params import Params
+from precise_impact.core.result import ResultMixin, to_jsonable
 
 __all__ = ["LyapunovResult", "block_stderr", "means_stderr"]
 
@@ -74,7 +74,9 @@ class LyapunovResult(ResultMixin):
             "method": self.method,
             "lle": self.lle,
             # JSON has no infinity: a -inf exponent (plastic impacts, R = 0) is null
-            "spectrum": [v if math.isfinite(v) else None for v in self.spectrum] if self.spectrum is not None else None,
+            "spectrum": [v if math.isfinite(v) else None for v in self.spectrum]
+            if self.spectrum is not None
+            else None,
             "stderr": self.stderr,
             "periods": self.periods,
             "impacts": self.impacts,
@@ -90,7 +92,9 @@ def means_stderr(blocks: Sequence[float]) -> float:
     return float(np.std(b, ddof=1) / math.sqrt(len(b))) if len(b) > 1 else math.nan
 
 
-def block_stderr(log_growth: Sequence[float], dt: Sequence[float], n_blocks: int) -> tuple[np.ndarray, float]:
+def block_stderr(
+    log_growth: Sequence[float], dt: Sequence[float], n_blocks: int
+) -> tuple[np.ndarray, float]:
     """Split per-period log-growths into ``n_blocks`` contiguous blocks.
 
     Returns the per-block exponent estimates and the standard error of their mean,

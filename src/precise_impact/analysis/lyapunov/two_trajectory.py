@@ -43,14 +43,14 @@ from typing import Any
 import mpmath
 import numpy as np
 
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 from precise_impact.core.clock import local_clock
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, exact
 from precise_impact.core.precision import Precision
+from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.heyoka.single import build_integrator
-from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 
 __all__ = ["two_trajectory_lle"]
 
@@ -75,7 +75,11 @@ def _check_int(name: str, value: Any, minimum: int, maximum: int) -> int:
             value = int(value.strip())
         except ValueError:
             raise ParameterError(name, value, allowed) from None
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not minimum <= value <= maximum:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, np.integer))
+        or not minimum <= value <= maximum
+    ):
         raise ParameterError(name, value, allowed)
     return int(value)
 
@@ -179,7 +183,9 @@ class _Orbit:
                 f"t={P.to_str(self.ta.time)} (chattering/Zeno sequence?)"
             )
         if outcome != hy.taylor_outcome.time_limit:
-            raise RuntimeError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(self.ta.time)}")
+            raise RuntimeError(
+                f"heyoka stopped early with outcome {outcome} at t={P.to_str(self.ta.time)}"
+            )
 
     def propagate_until(self, t: Any, P: Precision) -> None:
         res = self.ta.propagate_until(t)
@@ -197,7 +203,9 @@ class _Orbit:
         while self.count == n and self.ta.time < t_limit:
             outcome, _ = self.ta.step(max_delta_t=t_limit - self.ta.time)
             if outcome == hy.taylor_outcome.err_nf_state:
-                raise RuntimeError(f"heyoka step failed with outcome {outcome} at t={P.to_str(self.ta.time)}")
+                raise RuntimeError(
+                    f"heyoka step failed with outcome {outcome} at t={P.to_str(self.ta.time)}"
+                )
             if self.rec.exceeded:
                 self._check(hy.taylor_outcome.time_limit, P)
 
@@ -482,12 +490,23 @@ def two_trajectory_lle(
         running=running,
         segments=blocks,
         elapsed_s=elapsed,
-        stats=dict(straddles=straddles, grazing_misses=grazing_misses, collapses=collapses, flips=flips[0], d0=d0q),
+        stats=dict(
+            straddles=straddles,
+            grazing_misses=grazing_misses,
+            collapses=collapses,
+            flips=flips[0],
+            d0=d0q,
+        ),
     )
     if attractors:
         from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
 
-        tail = strobe[-3 * MAX_PERIOD:]
-        attribute(result, [(tail[:, 0], tail[:, 1])], [(result.lle, math.nan, blocks)],
-                  P.name if P.kind in ("float64", "mp") else "float64", periods=[periods])
+        tail = strobe[-3 * MAX_PERIOD :]
+        attribute(
+            result,
+            [(tail[:, 0], tail[:, 1])],
+            [(result.lle, math.nan, blocks)],
+            P.name if P.kind in ("float64", "mp") else "float64",
+            periods=[periods],
+        )
     return result

@@ -126,12 +126,15 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.attractors import (
+    MAX_PERIOD,
+    TEST_BLOCK_PERIODS,
+    TEST_BLOCKS,
+    attribute,
+)
+from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr, means_stderr
 from precise_impact.core.clock import local_grid, period_float
-from precise_impact.core.linalg import gram_schmidt2
-from precise_impact.io.progress import Progress
-from precise_impact.solvers.heyoka.cache import IntegratorCache
-from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.errors import BudgetExceededError, IntegrationError, MissedImpactError, ParameterError
+from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.impact import (
     grazing_depth_coefficient,
@@ -141,11 +144,28 @@ from precise_impact.core.impact import (
     reset_velocity,
     steady_amplitude,
 )
-from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count, exact
+from precise_impact.core.linalg import gram_schmidt2
+from precise_impact.core.params import (
+    I_A,
+    I_ETA,
+    I_R,
+    I_XW,
+    I_ZETA,
+    RUNTIME_PARAMS,
+    Params,
+    check_count,
+    exact,
+)
 from precise_impact.core.precision import Precision
-from precise_impact.core.flow import acceleration
-from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, TEST_BLOCK_PERIODS, TEST_BLOCKS, attribute
-from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr, means_stderr
+from precise_impact.errors import (
+    BudgetExceededError,
+    IntegrationError,
+    MissedImpactError,
+    ParameterError,
+)
+from precise_impact.io.progress import Progress
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 
 __all__ = [
     "variational_spectrum",
@@ -195,7 +215,11 @@ class _SaltationRecorder(ImpactRecorder):
         self.t_depth = 0.0  # the clock value the grazing depth is taken at (set per orbit)
         self.sqrt, self.ln, self.cos = sqrt, log, cos
         # float64: the parameters as Python floats, read once
-        self.f64 = None if pars is None or sqrt is not math.sqrt else [float(pars[i]) for i in range(len(pars))]
+        self.f64 = (
+            None
+            if pars is None or sqrt is not math.sqrt
+            else [float(pars[i]) for i in range(len(pars))]
+        )
         self.qr_t: list = []
         self.qr_log1: list = []
         self.qr_log2: list = []
@@ -229,7 +253,12 @@ class _SaltationRecorder(ImpactRecorder):
         (s00, s01), (s10, s11) = S
         # Renormalise at once (module docstring, 1. and 2.): the logs carry the growth.
         q0, q1, u0, u1, r11, r22 = gram_schmidt2(
-            s00 * p00 + s01 * p10, s10 * p00 + s11 * p10, s00 * p01 + s01 * p11, s10 * p01 + s11 * p11, self.sqrt)
+            s00 * p00 + s01 * p10,
+            s10 * p00 + s11 * p10,
+            s00 * p01 + s01 * p11,
+            s10 * p01 + s11 * p11,
+            self.sqrt,
+        )
         va = reset_velocity(vb, R)
         if f is not None:
             st[:] = (x_w, va, q0, u0, q1, u1)
@@ -307,8 +336,18 @@ def build_variational_integrator(precision: Precision, tol: Any = None):
         rhs = acceleration(hy.time, x, v, p["eta"], p["zeta"], p["a"], hy.cos)
         vsys = hy.var_ode_sys([(x, v), (v, rhs)], hy.var_args.vars, order=1)
         kw = precision.heyoka_kwargs
-        ev = hy.t_event(x - p["x_w"], callback=_SaltationRecorder(), direction=hy.event_direction.positive, fp_type=kw["fp_type"])
-        guard = hy.nt_event(v, callback=_MaximumGuard(), direction=hy.event_direction.negative, fp_type=kw["fp_type"])
+        ev = hy.t_event(
+            x - p["x_w"],
+            callback=_SaltationRecorder(),
+            direction=hy.event_direction.positive,
+            fp_type=kw["fp_type"],
+        )
+        guard = hy.nt_event(
+            v,
+            callback=_MaximumGuard(),
+            direction=hy.event_direction.negative,
+            fp_type=kw["fp_type"],
+        )
         zero = precision.from_fraction(Fraction(0))
         extra = {"tol": tol} if tol is not None else {}
         ta = hy.taylor_adaptive(
@@ -358,7 +397,18 @@ def _state_logs(rows, sqrt, log) -> tuple[list, list]:
 CHUNK = 8
 
 
-def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, progress, label: str, check_guard: bool):
+def _one_orbit(
+    ta,
+    rec,
+    guard,
+    P,
+    params: Params,
+    transient: int,
+    periods: int,
+    progress,
+    label: str,
+    check_guard: bool,
+):
     """Transient, then ``periods`` measured periods; returns per-period logs and samples.
 
     Integrated ``CHUNK`` periods per ``propagate_grid`` call on the local clock
@@ -391,7 +441,9 @@ def _one_orbit(ta, rec, guard, P, params: Params, transient: int, periods: int, 
         res = ta.propagate_grid(g)
         oc = res[0]
         if rec.exceeded:
-            raise BudgetExceededError(f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}")
+            raise BudgetExceededError(
+                f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}"
+            )
         if oc != hy.taylor_outcome.time_limit:
             raise IntegrationError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
         if check_guard and guard.missed:
@@ -572,13 +624,21 @@ def variational_spectrum(
     periods = check_count(periods, "periods")
     n_ic = check_count(initial_conditions, "initial_conditions", 1000)
     if n_ic < 1:
-        raise ParameterError("initial_conditions", initial_conditions, "an integer with 1 <= initial_conditions <= 1000")
+        raise ParameterError(
+            "initial_conditions",
+            initial_conditions,
+            "an integer with 1 <= initial_conditions <= 1000",
+        )
     if periods < n_ic:
-        raise ParameterError("periods", periods, f"an integer >= initial_conditions = {n_ic} (>= 1 period per orbit)")
+        raise ParameterError(
+            "periods", periods, f"an integer >= initial_conditions = {n_ic} (>= 1 period per orbit)"
+        )
     transient = check_count(transient, "transient")
     segments = check_count(segments, "segments", 10**6)
     if segments < 2:
-        raise ParameterError("segments", segments, "an integer >= 2 (the error bar needs independent blocks)")
+        raise ParameterError(
+            "segments", segments, "an integer >= 2 (the error bar needs independent blocks)"
+        )
     q = P.check_tol(tol)
     tol = None if q is None else P.from_fraction(q)
     depth = _depth_for(P, grazing_depth, params)
@@ -595,16 +655,26 @@ def variational_spectrum(
     L1, L2, DT, blocks, tails, rates, test_blocks = [], [], [], [], [], [], []
     impacts = 0
     strobe = None
-    diag = {"impacts": 0, "grazing": 0, "min_impact_speed": math.inf, "max_contact_speed": 0.0, "max_saltation": 0.0,
-            "maxima": 0, "max_overshoot": -math.inf, "missed": 0}
+    diag = {
+        "impacts": 0,
+        "grazing": 0,
+        "min_impact_speed": math.inf,
+        "max_contact_speed": 0.0,
+        "max_saltation": 0.0,
+        "maxima": 0,
+        "max_overshoot": -math.inf,
+        "missed": 0,
+    }
     for j, (ic, n) in enumerate(zip(ics, per_orbit)):
         rec.reset(max_impacts, depth, *fns, pars=ta.pars)
         grd.reset(depth, rec.f64)
         label = f" (orbit {j + 1}/{n_ic})" if n_ic > 1 else ""
-        l1, l2, dt, sx, sv, imp, ni = _one_orbit(ta, rec, grd, P, ic, transient, n, progress, label, guard)
+        l1, l2, dt, sx, sv, imp, ni = _one_orbit(
+            ta, rec, grd, P, ic, transient, n, progress, label, guard
+        )
         if strobe is None:
             strobe = (sx, sv)
-        tails.append((sx[-3 * MAX_PERIOD:], sv[-3 * MAX_PERIOD:]))
+        tails.append((sx[-3 * MAX_PERIOD :], sv[-3 * MAX_PERIOD :]))
         L1.append(l1)
         L2.append(l2)
         DT.append(dt)
@@ -650,8 +720,16 @@ def variational_spectrum(
         stats=diag,
     )
     if attractors:
-        per_start = [(float(np.sum(a) / np.sum(d)), float(np.sum(b) / np.sum(d)), blk)
-                     for a, b, d, blk in zip(L1, L2, DT, test_blocks)]
-        attribute(result, tails, per_start, P.name if P.kind in ("float64", "mp") else "float64",
-                  impact_blocks=rates, periods=per_orbit)
+        per_start = [
+            (float(np.sum(a) / np.sum(d)), float(np.sum(b) / np.sum(d)), blk)
+            for a, b, d, blk in zip(L1, L2, DT, test_blocks)
+        ]
+        attribute(
+            result,
+            tails,
+            per_start,
+            P.name if P.kind in ("float64", "mp") else "float64",
+            impact_blocks=rates,
+            periods=per_orbit,
+        )
     return result

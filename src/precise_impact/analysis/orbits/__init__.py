@@ -13,12 +13,28 @@ multipliers, and continuation of branches with their bifurcations.
   stability proven (Krawczyk on the certified engine).
 """
 
-from precise_impact.analysis.orbits.branch import Bifurcation, Branch, ContinuationResult, brute_force_diagram
+from precise_impact.analysis.orbits.branch import (
+    Bifurcation,
+    Branch,
+    ContinuationResult,
+    brute_force_diagram,
+)
 from precise_impact.analysis.orbits.continuation import continue_orbit
 from precise_impact.analysis.orbits.newton import ConvergenceError, find_orbit
 from precise_impact.analysis.orbits.one_impact import one_impact_orbits
 from precise_impact.analysis.orbits.proof import ProvenOrbit, prove_orbit
 from precise_impact.analysis.orbits.result import PeriodicOrbit
 
-__all__ = ["find_orbit", "one_impact_orbits", "PeriodicOrbit", "ConvergenceError", "continue_orbit", "Branch",
-           "Bifurcation", "ContinuationResult", "brute_force_diagram", "prove_orbit", "ProvenOrbit"]
+__all__ = [
+    "find_orbit",
+    "one_impact_orbits",
+    "PeriodicOrbit",
+    "ConvergenceError",
+    "continue_orbit",
+    "Branch",
+    "Bifurcation",
+    "ContinuationResult",
+    "brute_force_diagram",
+    "prove_orbit",
+    "ProvenOrbit",
+]

@@ -70,16 +70,26 @@ class Branch(ResultMixin):
             self.stability = np.where(np.asarray(self.stable, dtype=bool), "stable", "unstable")
 
     @classmethod
-    def from_points(cls, parameter: str, period: int, impacts: int, origin: str, pts: list, reason: str) -> "Branch":
-        return cls(parameter=parameter, period=period, impacts=impacts, origin=origin,
-                   values=np.array([p.lam for p in pts]),
-                   x=np.array([p.states[:, 0] for p in pts]).reshape(len(pts), period),
-                   v=np.array([p.states[:, 1] for p in pts]).reshape(len(pts), period),
-                   multipliers=np.array([[[m.real, m.imag] for m in p.mu] for p in pts]).reshape(len(pts), 2, 2),
-                   stable=np.array([p.stability == "stable" for p in pts], dtype=bool),
-                   admissible=np.array([p.admissible for p in pts]),
-                   lle=np.array([p.lle for p in pts]), stop_reason=reason,
-                   stability=np.array([p.stability for p in pts], dtype=object))
+    def from_points(
+        cls, parameter: str, period: int, impacts: int, origin: str, pts: list, reason: str
+    ) -> Branch:
+        return cls(
+            parameter=parameter,
+            period=period,
+            impacts=impacts,
+            origin=origin,
+            values=np.array([p.lam for p in pts]),
+            x=np.array([p.states[:, 0] for p in pts]).reshape(len(pts), period),
+            v=np.array([p.states[:, 1] for p in pts]).reshape(len(pts), period),
+            multipliers=np.array([[[m.real, m.imag] for m in p.mu] for p in pts]).reshape(
+                len(pts), 2, 2
+            ),
+            stable=np.array([p.stability == "stable" for p in pts], dtype=bool),
+            admissible=np.array([p.admissible for p in pts]),
+            lle=np.array([p.lle for p in pts]),
+            stop_reason=reason,
+            stability=np.array([p.stability for p in pts], dtype=object),
+        )
 
 
 @dataclasses.dataclass
@@ -127,7 +137,11 @@ class Bifurcation(ResultMixin):
     def to_dict(self) -> dict[str, Any]:
         """``{"type", NAME: value, "parameter", "value", ...}`` (NAME the continued parameter)."""
         d = super().to_dict()
-        return {"type": self.type, self.parameter: self.value, **{k: v for k, v in d.items() if k != "type"}}
+        return {
+            "type": self.type,
+            self.parameter: self.value,
+            **{k: v for k, v in d.items() if k != "type"},
+        }
 
 
 @dataclasses.dataclass
@@ -161,9 +175,15 @@ class ContinuationResult(ResultMixin):
     def to_dict(self) -> dict[str, Any]:
         """The CLI's ``--json`` object: ``params``, ``parameter``, ``from``, ``to``, ``branches``
         (each with its points) and ``bifurcations`` (``[{"type", NAME: value, ...}]``)."""
-        return {"params": self.params.decimal(), "parameter": self.parameter, "from": decimal_str(self.start),
-                "to": decimal_str(self.stop), "branches": [b.to_dict() for b in self.branches],
-                "bifurcations": [b.to_dict() for b in self.bifurcations], "elapsed_s": self.elapsed_s}
+        return {
+            "params": self.params.decimal(),
+            "parameter": self.parameter,
+            "from": decimal_str(self.start),
+            "to": decimal_str(self.stop),
+            "branches": [b.to_dict() for b in self.branches],
+            "bifurcations": [b.to_dict() for b in self.bifurcations],
+            "elapsed_s": self.elapsed_s,
+        }
 
     def plot(self, path: str | os.PathLike, diagram: tuple | None = None) -> Path:
         """Stroboscopic ``x`` of every branch (stable solid, unstable dashed, virtual dotted
@@ -185,22 +205,43 @@ class ContinuationResult(ResultMixin):
         """
         from precise_impact.io.figures import new_figure, save_figure
 
-        fig, axes = new_figure(2, 1, figsize=(10, 7.5), layout="tight", sharex=True,
-                               gridspec_kw={"height_ratios": [3, 2]})
+        fig, axes = new_figure(
+            2,
+            1,
+            figsize=(10, 7.5),
+            layout="tight",
+            sharex=True,
+            gridspec_kw={"height_ratios": [3, 2]},
+        )
         ax1, ax2 = axes[:, 0]
         if diagram is not None:
             vals, xs = diagram
-            ax1.plot(np.repeat(vals, xs.shape[1]), xs.ravel(), ",", color="0.55", alpha=0.6, zorder=0)
+            ax1.plot(
+                np.repeat(vals, xs.shape[1]), xs.ravel(), ",", color="0.55", alpha=0.6, zorder=0
+            )
             ax1.plot([], [], ".", color="0.55", label="brute force (simulated attractors)")
-        colors = ["tab:blue", "tab:purple", "tab:brown", "tab:cyan", "tab:olive", "tab:pink", "tab:green", "tab:gray"]
+        colors = [
+            "tab:blue",
+            "tab:purple",
+            "tab:brown",
+            "tab:cyan",
+            "tab:olive",
+            "tab:pink",
+            "tab:green",
+            "tab:gray",
+        ]
         for k, b in enumerate(self.branches):
             c = colors[k % len(colors)]
             elliptic = np.asarray(b.stability) == "elliptic"
             kind = np.where(~b.admissible, 2, np.where(b.stable, 0, np.where(elliptic, 3, 1)))
             for lo, hi in _runs(kind):
                 sl = slice(lo, min(hi + 1, len(kind)))
-                style = {0: dict(ls="-", lw=1.6, color=c), 1: dict(ls="--", lw=1.2, color=c),
-                         2: dict(ls=":", lw=0.9, color="0.6"), 3: dict(ls="-.", lw=1.2, color=c)}[int(kind[lo])]
+                style = {
+                    0: dict(ls="-", lw=1.6, color=c),
+                    1: dict(ls="--", lw=1.2, color=c),
+                    2: dict(ls=":", lw=0.9, color="0.6"),
+                    3: dict(ls="-.", lw=1.2, color=c),
+                }[int(kind[lo])]
                 for j in range(b.period):
                     ax1.plot(b.values[sl], b.x[sl, j], **style)
                 ax2.plot(b.values[sl], b.lle[sl], **style)
@@ -210,15 +251,28 @@ class ContinuationResult(ResultMixin):
         if any(np.any(np.asarray(b.stability) == "elliptic") for b in self.branches):
             ax1.plot([], [], "k-.", label="elliptic (neutral: zeta = 0, R = 1)")
         ax1.plot([], [], ":", color="0.6", label="virtual (past grazing)")
-        marks = {"grazing": ("o", "tab:orange"), "period-doubling": ("s", "tab:red"), "fold": ("^", "tab:green"),
-                 "branch-point": ("v", "tab:olive"), "neimark-sacker": ("D", "tab:pink")}
+        marks = {
+            "grazing": ("o", "tab:orange"),
+            "period-doubling": ("s", "tab:red"),
+            "fold": ("^", "tab:green"),
+            "branch-point": ("v", "tab:olive"),
+            "neimark-sacker": ("D", "tab:pink"),
+        }
         seen = set()
         for bif in self.bifurcations:
             m, c = marks[bif.type]
             lab = bif.type if bif.type not in seen else None
             seen.add(bif.type)
-            ax1.plot([bif.value] * len(bif.x), bif.x, m, color=c, ms=6, mfc=c if bif.admissible else "none", label=lab,
-                     zorder=5)
+            ax1.plot(
+                [bif.value] * len(bif.x),
+                bif.x,
+                m,
+                color=c,
+                ms=6,
+                mfc=c if bif.admissible else "none",
+                label=lab,
+                zorder=5,
+            )
         xw = float(self.params.x_w) if self.parameter != "x_w" else None
         if xw is not None:
             ax1.axhline(xw, color="tab:red", lw=0.7)
@@ -228,9 +282,12 @@ class ContinuationResult(ResultMixin):
         ax2.set_ylabel("LLE = ln|mu_max| / (pT)")
         ax2.set_xlabel(self.parameter)
         p = self.params
-        fig.suptitle(f"Continuation in {self.parameter} from {decimal_str(self.start)} to {decimal_str(self.stop)} "
-                     f"(zeta={decimal_str(p.zeta)}, a={decimal_str(p.a)}, x_w={decimal_str(p.x_w)}, "
-                     f"R={decimal_str(p.R)}, eta={decimal_str(p.eta)})", fontsize=10)
+        fig.suptitle(
+            f"Continuation in {self.parameter} from {decimal_str(self.start)} to {decimal_str(self.stop)} "
+            f"(zeta={decimal_str(p.zeta)}, a={decimal_str(p.a)}, x_w={decimal_str(p.x_w)}, "
+            f"R={decimal_str(p.R)}, eta={decimal_str(p.eta)})",
+            fontsize=10,
+        )
         return save_figure(fig, path, fmt="png", dpi=120)
 
     def save_all(self, out: str | os.PathLike, diagram: tuple | None = None) -> dict[str, Path]:
@@ -264,8 +321,15 @@ def _runs(kind: np.ndarray):
             lo = i
 
 
-def brute_force_diagram(params: Params, parameter: str, start: float, stop: float, n: int = 200,
-                        periods: int = 64, transient: int = 1000) -> tuple:
+def brute_force_diagram(
+    params: Params,
+    parameter: str,
+    start: float,
+    stop: float,
+    n: int = 200,
+    periods: int = 64,
+    transient: int = 1000,
+) -> tuple:
     """Stroboscopic ``x`` of the simulated attractor at ``n`` values of ``parameter``.
 
     Parameters
@@ -296,8 +360,9 @@ def brute_force_diagram(params: Params, parameter: str, start: float, stop: floa
         q = params.replace(**{parameter: Fraction(float(lam))})
         try:
             tr = solver.solve(q, transient + periods, per_period=1)
-        except Exception:  # chattering/sticking without the heyoka fallback: left out of the picture
+        except (
+            Exception
+        ):  # chattering/sticking without the heyoka fallback: left out of the picture
             continue
         xs[i] = np.asarray(tr.x[-periods:], dtype=float)
     return vals, xs
-

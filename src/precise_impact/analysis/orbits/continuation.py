@@ -32,8 +32,8 @@ from __future__ import annotations
 
 import math
 import time
-from fractions import Fraction
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -137,14 +137,23 @@ class _Point:
         # det M in closed form (exact up to one rounding of exp): never rounding noise of either sign
         det_exact = R ** (2 * system.impacts) * math.exp(-2 * zeta * system.period * T)
         ns = (det_exact - 1) if complex_pair and not neutral else math.nan
-        self.tests = {"graze_interior": gi, "graze_impact": gv, "period-doubling": 1 + tr + det,
-                      "fold": 1 - tr + det, "neimark-sacker": ns}
+        self.tests = {
+            "graze_interior": gi,
+            "graze_impact": gv,
+            "period-doubling": 1 + tr + det,
+            "fold": 1 - tr + det,
+            "neimark-sacker": ns,
+        }
         self.admissible = bool(gi >= 0 and gv >= 0)
         self.stability = classify(self.mu, neutral)
         if self.stability == "elliptic":
             self.lle = 0.0  # |mu| = 1 exactly (det M = 1, complex pair)
         else:
-            self.lle = math.log(abs(self.mu[0])) / (system.period * T) if abs(self.mu[0]) > 0 else -math.inf
+            self.lle = (
+                math.log(abs(self.mu[0])) / (system.period * T)
+                if abs(self.mu[0]) > 0
+                else -math.inf
+            )
 
 
 def _sign_change(a: float, b: float) -> bool:
@@ -192,7 +201,9 @@ def _is_root(z: _Point, test: str) -> bool:
     are 2x2 determinants of ``M +- I``: rounding leaves ``~eps (1 + |tr M| + |det M|)``, and
     a regula falsi that converged leaves little more; a pole leaves them huge."""
     M = z.M
-    scale = 1 + abs(float(np.trace(M))) + abs(float(np.linalg.det(M))) + float(np.max(np.abs(M))) ** 2
+    scale = (
+        1 + abs(float(np.trace(M))) + abs(float(np.linalg.det(M))) + float(np.max(np.abs(M))) ** 2
+    )
     return abs(z.tests[test]) <= 1e-8 * scale and float(np.max(np.abs(M))) < 1e8
 
 
@@ -202,8 +213,16 @@ _GRAZING_DETAIL = {
 }
 
 
-def _trace(curve: _Curve, start: _Point, lo: float, hi: float, max_points: int, progress, done: list,
-           virtual: float = 0.1):
+def _trace(
+    curve: _Curve,
+    start: _Point,
+    lo: float,
+    hi: float,
+    max_points: int,
+    progress,
+    done: list,
+    virtual: float = 0.1,
+):
     """Continue from ``start`` along ``start.tau`` until ``lam`` leaves ``[lo, hi]``, or the
     orbit has stayed virtual over ``virtual`` of the range; the points and why it stopped."""
     system = curve.s
@@ -285,7 +304,7 @@ def _switch(system: ShootingSystem, pd: _Point):
         y, _ = curve.correct(base + delta * tau0, tau0, base, delta)
         if y is None or not _ordered(double, y):
             continue
-        first, second = y[:2 * n], y[2 * n:4 * n] - np.tile([pT, 0.0], n)
+        first, second = y[: 2 * n], y[2 * n : 4 * n] - np.tile([pT, 0.0], n)
         if float(np.max(np.abs(first - second))) < 1e-6 * (1 + float(np.max(np.abs(u2)))):
             continue  # Newton fell back onto the doubled period-p orbit
         tau = curve.tangent(y, tau0)
@@ -297,10 +316,22 @@ def _switch(system: ShootingSystem, pd: _Point):
     return None, None
 
 
-def continue_orbit(params: Any = None, parameter: str = "eta", start: Any = None, stop: Any = None, period: int = 1,
-                   *, impacts: int | None = None, guess: Sequence[Any] | None = None, transient: int = 2000,
-                   max_points: int = 400, doublings: int = 2, virtual: Any = "0.1", progress: bool | None = None,
-                   **param_values: Any) -> ContinuationResult:
+def continue_orbit(
+    params: Any = None,
+    parameter: str = "eta",
+    start: Any = None,
+    stop: Any = None,
+    period: int = 1,
+    *,
+    impacts: int | None = None,
+    guess: Sequence[Any] | None = None,
+    transient: int = 2000,
+    max_points: int = 400,
+    doublings: int = 2,
+    virtual: Any = "0.1",
+    progress: bool | None = None,
+    **param_values: Any,
+) -> ContinuationResult:
     """A branch of periodic orbits continued in one parameter, with its bifurcations.
 
     Parameters
@@ -372,20 +403,27 @@ def continue_orbit(params: Any = None, parameter: str = "eta", start: Any = None
     if parameter not in CONTINUABLE:
         raise ParameterError("parameter", parameter, "one of " + ", ".join(CONTINUABLE))
     if start is None or stop is None:
-        raise ParameterError("start" if start is None else "stop", "None", f"a decimal value of {parameter}")
+        raise ParameterError(
+            "start" if start is None else "stop", "None", f"a decimal value of {parameter}"
+        )
     fields = {k: getattr(params, k) for k in params.decimal()}
 
     def _at(name, value):
         try:
             return Params.make(**{**fields, parameter: value})
         except ParameterError as e:
-            raise ParameterError(name, value if isinstance(value, str) else repr(value),
-                                 f"a value of {parameter} the system allows ({e})") from None
+            raise ParameterError(
+                name,
+                value if isinstance(value, str) else repr(value),
+                f"a value of {parameter} the system allows ({e})",
+            ) from None
 
     p_start = _at("start", start)
     lam0, lam1 = getattr(p_start, parameter), getattr(_at("stop", stop), parameter)
     if lam0 == lam1:
-        raise ParameterError("stop", str(stop), f"a value of {parameter} other than start = {start}")
+        raise ParameterError(
+            "stop", str(stop), f"a value of {parameter} other than start = {start}"
+        )
     period = check_count(period, "period", 64, minimum=1)
     max_points = check_count(max_points, "max_points", 100_000, minimum=1)
     doublings = check_count(doublings, "doublings", 8)
@@ -393,7 +431,9 @@ def continue_orbit(params: Any = None, parameter: str = "eta", start: Any = None
 
     vq = exact("virtual", virtual)
     if not 0 <= vq <= 10:
-        raise ParameterError("virtual", str(virtual), "0 <= virtual <= 10 (a fraction of the range)")
+        raise ParameterError(
+            "virtual", str(virtual), "0 <= virtual <= 10 (a fraction of the range)"
+        )
     virtual = float(vq)
     for name, q in (("start", lam0), ("stop", lam1)):
         if parameter == "zeta" and not q < 1:
@@ -401,7 +441,9 @@ def continue_orbit(params: Any = None, parameter: str = "eta", start: Any = None
         if parameter == "R" and not q > 0:
             raise ParameterError(name, str(q), "0 < R <= 1 for continuation")
     if not p_start.zeta < 1:
-        raise ParameterError("zeta", str(p_start.zeta), "0 <= zeta < 1 (underdamped) for continuation")
+        raise ParameterError(
+            "zeta", str(p_start.zeta), "0 <= zeta < 1 (underdamped) for continuation"
+        )
 
     orbit = find_orbit(p_start, period, guess=guess, transient=transient, impacts=impacts)
     base = {k: float(getattr(p_start, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")}
@@ -423,10 +465,14 @@ def continue_orbit(params: Any = None, parameter: str = "eta", start: Any = None
     first = _Point(system, y0, tau0)
     sts = first.states
     for q in range(1, period):
-        if period % q == 0 and np.allclose(sts[q:], sts[:-q], rtol=0, atol=1e-8 * (1 + np.abs(sts).max())):
+        if period % q == 0 and np.allclose(
+            sts[q:], sts[:-q], rtol=0, atol=1e-8 * (1 + np.abs(sts).max())
+        ):
             from precise_impact.analysis.orbits.newton import ConvergenceError
 
-            raise ConvergenceError(f"the orbit found has period {q}, a divisor of {period}: continue it with period {q}")
+            raise ConvergenceError(
+                f"the orbit found has period {q}, a divisor of {period}: continue it with period {q}"
+            )
 
     bar = Progress(max_points * (1 + doublings), f"continuation in {parameter}", enabled=progress)
     done = [0]
@@ -437,7 +483,9 @@ def continue_orbit(params: Any = None, parameter: str = "eta", start: Any = None
         cv, pt, origin, depth = queue.pop(0)
         pts, reason = _trace(cv, pt, lo, hi, max_points, bar, done, virtual)
         k = len(branches)
-        branches.append(Branch.from_points(parameter, cv.s.period, cv.s.impacts, origin, pts, reason))
+        branches.append(
+            Branch.from_points(parameter, cv.s.period, cv.s.impacts, origin, pts, reason)
+        )
         for a, b in zip(pts[:-1], pts[1:]):
             for test in _TESTS:
                 if not _sign_change(a.tests[test], b.tests[test]):
@@ -451,20 +499,54 @@ def continue_orbit(params: Any = None, parameter: str = "eta", start: Any = None
                     kind, detail = "grazing", _GRAZING_DETAIL[test]
                 elif test == "fold" and (a.tau[-1] < 0) == (b.tau[-1] < 0):
                     kind, detail = "branch-point", "a multiplier +1 without a turn in the parameter"
-                bif = Bifurcation(type=kind, parameter=parameter, value=z.lam, branch=k, period=cv.s.period,
-                                  impacts=cv.s.impacts, x=z.states[:, 0].tolist(), v=z.states[:, 1].tolist(),
-                                  multipliers=[[m.real, m.imag] for m in z.mu],
-                                  admissible=bool(min(z.tests["graze_interior"], z.tests["graze_impact"]) >= -1e-9),
-                                  test=float(z.tests[test]), detail=detail)
-                if kind == "period-doubling" and bif.admissible and depth < doublings and cv.s.impacts > 0:
+                bif = Bifurcation(
+                    type=kind,
+                    parameter=parameter,
+                    value=z.lam,
+                    branch=k,
+                    period=cv.s.period,
+                    impacts=cv.s.impacts,
+                    x=z.states[:, 0].tolist(),
+                    v=z.states[:, 1].tolist(),
+                    multipliers=[[m.real, m.imag] for m in z.mu],
+                    admissible=bool(
+                        min(z.tests["graze_interior"], z.tests["graze_impact"]) >= -1e-9
+                    ),
+                    test=float(z.tests[test]),
+                    detail=detail,
+                )
+                if (
+                    kind == "period-doubling"
+                    and bif.admissible
+                    and depth < doublings
+                    and cv.s.impacts > 0
+                ):
                     c2, p2 = _switch(cv.s, z)
                     if p2 is not None:
-                        bif.detail = f"switched to the period-{2 * cv.s.period} branch {k + 1 + len(queue)}"
-                        queue.append((c2, p2, f"period-doubling of branch {k} at {parameter} = {z.lam:.12g}", depth + 1))
+                        bif.detail = (
+                            f"switched to the period-{2 * cv.s.period} branch {k + 1 + len(queue)}"
+                        )
+                        queue.append(
+                            (
+                                c2,
+                                p2,
+                                f"period-doubling of branch {k} at {parameter} = {z.lam:.12g}",
+                                depth + 1,
+                            )
+                        )
                     else:
-                        bif.detail = "branch switching failed (no doubled orbit found near the point)"
+                        bif.detail = (
+                            "branch switching failed (no doubled orbit found near the point)"
+                        )
                 bifs.append(bif)
     bar.update(bar.total)
     bifs.sort(key=lambda b: (b.branch, b.value if lam1 > lam0 else -b.value))
-    return ContinuationResult(params=p_start, parameter=parameter, start=lam0, stop=lam1, branches=branches,
-                              bifurcations=bifs, elapsed_s=time.perf_counter() - t_start)
+    return ContinuationResult(
+        params=p_start,
+        parameter=parameter,
+        start=lam0,
+        stop=lam1,
+        branches=branches,
+        bifurcations=bifs,
+        elapsed_s=time.perf_counter() - t_start,
+    )

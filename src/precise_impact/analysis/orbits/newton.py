@@ -13,7 +13,8 @@ multipliers and ``ln |mu_max| / (p T)`` the orbit's exact largest Lyapunov expon
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -37,11 +38,22 @@ def _map(params: Params, z: np.ndarray, period: int):
     from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT, orbit_map
 
     f = float
-    st, x, v, m00, m01, m10, m11, n = orbit_map(f(params.eta), f(params.zeta), f(params.a), f(params.x_w),
-                                                f(params.R), f(params.t0), f(z[0]), f(z[1]), period)
+    st, x, v, m00, m01, m10, m11, n = orbit_map(
+        f(params.eta),
+        f(params.zeta),
+        f(params.a),
+        f(params.x_w),
+        f(params.R),
+        f(params.t0),
+        f(z[0]),
+        f(z[1]),
+        period,
+    )
     if st != STATUS_OK:
-        raise IntegrationError(f"the orbit map cannot be evaluated from (x, v) = ({z[0]!r}, {z[1]!r}): "
-                               f"{STATUS_TEXT[int(st)]}")
+        raise IntegrationError(
+            f"the orbit map cannot be evaluated from (x, v) = ({z[0]!r}, {z[1]!r}): "
+            f"{STATUS_TEXT[int(st)]}"
+        )
     return np.array([x, v]), np.array([[m00, m01], [m10, m11]]), int(n)
 
 
@@ -73,13 +85,19 @@ def _map_mp(params: Params, z: tuple, period: int, bits: int):
     P = Precision.parse(f"mp:{bits}")
     q = params.replace(x0=_fraction(z[0]), v0=_fraction(z[1]))
     tr = AnalyticalSolver(finder="robust", backend="mpmath", bits=bits).solve(q, period)
-    eta, zeta, a, xw, R, t0 = (_mpq(getattr(params, n)) for n in ("eta", "zeta", "a", "x_w", "R", "t0"))
+    eta, zeta, a, xw, R, t0 = (
+        _mpq(getattr(params, n)) for n in ("eta", "zeta", "a", "x_w", "R", "t0")
+    )
     w = mpmath.sqrt(1 - zeta * zeta)
     M = mpmath.eye(2)
     t_prev = t0
     for ti, vb in zip(tr.impacts_t, tr.impacts_v_before):
         ti, vb = P.to_mpf(ti), P.to_mpf(vb)
-        M = mpmath.matrix(oscillator_saltation(ti, vb, eta, zeta, a, xw, R, mpmath.cos)) * flow_matrix(ti - t_prev, zeta, w) * M
+        M = (
+            mpmath.matrix(oscillator_saltation(ti, vb, eta, zeta, a, xw, R, mpmath.cos))
+            * flow_matrix(ti - t_prev, zeta, w)
+            * M
+        )
         t_prev = ti
     M = flow_matrix(P.to_mpf(tr.t[-1]) - t_prev, zeta, w) * M
     return (P.to_mpf(tr.x[-1]), P.to_mpf(tr.v[-1])), M, len(tr.impacts_t)
@@ -100,11 +118,15 @@ def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations
             z = z + dz
             size = max(abs(dz[0]), abs(dz[1]))
             steps.append(size)
-            if size <= tiny * (1 + max(abs(z[0]), abs(z[1]))) or (size >= last and last < mpmath.mpf(2) ** (-bits // 2)):
+            if size <= tiny * (1 + max(abs(z[0]), abs(z[1]))) or (
+                size >= last and last < mpmath.mpf(2) ** (-bits // 2)
+            ):
                 break
             last = size
         else:
-            raise ConvergenceError(f"no convergence in {max_iterations} multiprecision Newton iterations")
+            raise ConvergenceError(
+                f"no convergence in {max_iterations} multiprecision Newton iterations"
+            )
         fz, M, n = _map_mp(params, (z[0], z[1]), period, bits)
         residual = max(abs(fz[0] - z[0]), abs(fz[1] - z[1]))
         mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
@@ -130,9 +152,18 @@ def _closed_form_seed(params: Params, period: int, near: np.ndarray | None):
     return np.array([float(best.x), float(best.v)])
 
 
-def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | None = None, transient: int = 2000,
-               impacts: int | None = None, max_iterations: int = 50, precision: str = "float64",
-               seed: str = "simulation", **param_values: Any) -> PeriodicOrbit:
+def find_orbit(
+    params: Any = None,
+    period: int = 1,
+    *,
+    guess: Sequence[Any] | None = None,
+    transient: int = 2000,
+    impacts: int | None = None,
+    max_iterations: int = 50,
+    precision: str = "float64",
+    seed: str = "simulation",
+    **param_values: Any,
+) -> PeriodicOrbit:
     """A periodic orbit of the stroboscopic map (stable or unstable) by Newton's method.
 
     Parameters
@@ -206,26 +237,36 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
     if seed not in ("simulation", "closed-form", "auto"):
         raise ParameterError("seed", seed, "'simulation', 'closed-form' or 'auto'")
     if seed == "closed-form" and impacts not in (None, 1):
-        raise ParameterError("impacts", str(impacts), "None or 1 with seed='closed-form' (one impact per orbit)")
+        raise ParameterError(
+            "impacts", str(impacts), "None or 1 with seed='closed-form' (one impact per orbit)"
+        )
     from precise_impact.core.precision import Precision
 
     Pq = Precision.parse(precision)
     if Pq.kind not in ("float64", "mp") or (Pq.kind == "mp" and Pq.bits > MAX_BITS):
-        raise ParameterError("precision", precision, f"'float64' or 'mp:BITS' with BITS <= {MAX_BITS}")
+        raise ParameterError(
+            "precision", precision, f"'float64' or 'mp:BITS' with BITS <= {MAX_BITS}"
+        )
     if not params.zeta < 1:
-        raise ParameterError("zeta", str(params.zeta), "0 <= zeta < 1 (underdamped) for the orbit finder")
+        raise ParameterError(
+            "zeta", str(params.zeta), "0 <= zeta < 1 (underdamped) for the orbit finder"
+        )
     g = None
     if guess is not None:
         if isinstance(guess, (str, bytes)) or not isinstance(guess, Sequence) or len(guess) != 2:
             raise ParameterError("guess", guess, "a pair (x, v) or None")
         g = np.array([float(exact("guess[0]", guess[0])), float(exact("guess[1]", guess[1]))])
         if g[0] > float(params.x_w):
-            raise ParameterError("guess[0]", str(guess[0]), f"a position <= x_w = {float(params.x_w)!r}")
+            raise ParameterError(
+                "guess[0]", str(guess[0]), f"a position <= x_w = {float(params.x_w)!r}"
+            )
     z = None
     if seed == "closed-form" or (seed == "auto" and g is None and impacts == 1):
         z = _closed_form_seed(params, period, g)
         if z is None and seed == "closed-form":
-            raise ConvergenceError(f"no admissible closed-form orbit with one impact per {period} period(s) here")
+            raise ConvergenceError(
+                f"no admissible closed-form orbit with one impact per {period} period(s) here"
+            )
     if z is None and g is not None:
         z = g
     elif z is None:
@@ -243,7 +284,9 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
         try:
             dz = np.linalg.solve(J, -F)
         except np.linalg.LinAlgError:
-            raise ConvergenceError(f"M - I is singular at (x, v) = ({z[0]!r}, {z[1]!r}): a multiplier +1 (fold)")
+            raise ConvergenceError(
+                f"M - I is singular at (x, v) = ({z[0]!r}, {z[1]!r}): a multiplier +1 (fold)"
+            )
         z = z + dz
         if z[0] > float(params.x_w):  # a step beyond the wall: back to it
             z[0] = float(params.x_w)
@@ -253,28 +296,59 @@ def find_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | No
             break
         last = size
     else:
-        raise ConvergenceError(f"no convergence in {max_iterations} Newton iterations (last step {last:.3g}) "
-                               f"from the guess; try another guess, period or impacts")
+        raise ConvergenceError(
+            f"no convergence in {max_iterations} Newton iterations (last step {last:.3g}) "
+            f"from the guess; try another guess, period or impacts"
+        )
     fz, M, n = _map(params, z, period)
     residual = float(np.max(np.abs(fz - z)))
     if residual > 1e-6 * (1 + float(np.max(np.abs(z)))):
         raise ConvergenceError(f"Newton stopped at residual {residual:.3g}: not a periodic orbit")
     if impacts is not None and n != impacts:
-        raise ConvergenceError(f"converged to a period-{period} orbit with {n} impacts, not {impacts}")
+        raise ConvergenceError(
+            f"converged to a period-{period} orbit with {n} impacts, not {impacts}"
+        )
     if Pq.kind == "mp":  # refine the float64 orbit to the working precision (quadratic convergence)
-        x, v, mu, lle, res, n_mp, it_mp, steps_mp = _newton_mp(params, (z[0], z[1]), period, Pq.bits, max_iterations)
+        x, v, mu, lle, res, n_mp, it_mp, steps_mp = _newton_mp(
+            params, (z[0], z[1]), period, Pq.bits, max_iterations
+        )
         if n_mp != n:
-            raise ConvergenceError(f"the multiprecision refinement found {n_mp} impacts, float64 {n}")
+            raise ConvergenceError(
+                f"the multiprecision refinement found {n_mp} impacts, float64 {n}"
+            )
         kind = classify(mu, area_preserving(params.zeta, params.R, n))
-        return PeriodicOrbit(params=params, period=period, impacts=n, t=float(params.t0), x=x, v=v,
-                             multipliers=mu, stable=kind == "stable", lle=0.0 if kind == "elliptic" else lle,
-                             residual=res, iterations=it + it_mp, precision=Pq.name, stability=kind,
-                             steps=steps + steps_mp)
+        return PeriodicOrbit(
+            params=params,
+            period=period,
+            impacts=n,
+            t=float(params.t0),
+            x=x,
+            v=v,
+            multipliers=mu,
+            stable=kind == "stable",
+            lle=0.0 if kind == "elliptic" else lle,
+            residual=res,
+            iterations=it + it_mp,
+            precision=Pq.name,
+            stability=kind,
+            steps=steps + steps_mp,
+        )
     mu = sorted(np.linalg.eigvals(M).tolist(), key=lambda m: -abs(m))
     T = 2 * math.pi / float(params.eta)
     lle = math.log(abs(mu[0])) / (period * T) if abs(mu[0]) > 0 else -math.inf
     kind = classify(mu, area_preserving(params.zeta, params.R, n))
-    return PeriodicOrbit(params=params, period=period, impacts=n, t=float(params.t0), x=float(z[0]), v=float(z[1]),
-                         multipliers=[complex(m) for m in mu], stable=kind == "stable",
-                         lle=0.0 if kind == "elliptic" else lle, residual=residual, iterations=it, stability=kind,
-                         steps=steps)
+    return PeriodicOrbit(
+        params=params,
+        period=period,
+        impacts=n,
+        t=float(params.t0),
+        x=float(z[0]),
+        v=float(z[1]),
+        multipliers=[complex(m) for m in mu],
+        stable=kind == "stable",
+        lle=0.0 if kind == "elliptic" else lle,
+        residual=residual,
+        iterations=it,
+        stability=kind,
+        steps=steps,
+    )

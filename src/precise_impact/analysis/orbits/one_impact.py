@@ -35,7 +35,6 @@ the stroboscopic map are the other ``n - 1`` points of the same orbit.
 
 from __future__ import annotations
 
-import math
 from fractions import Fraction
 from typing import Any
 
@@ -67,8 +66,9 @@ def flow_matrix(tau, zeta, w) -> mpmath.matrix:
     return mpmath.matrix([[p00, p01], [p10, p11]])
 
 
-def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, *, period: int = 1,
-                      **param_values: Any) -> list[PeriodicOrbit]:
+def one_impact_orbits(
+    params: Any = None, dps: int = 50, grid: int = 2000, *, period: int = 1, **param_values: Any
+) -> list[PeriodicOrbit]:
     """Every 1:1 (or 1:n) impacting orbit of ``params``, in closed form (module docstring).
 
     Parameters
@@ -104,7 +104,9 @@ def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, *, pe
     grid = check_count(grid, "grid", 10**6, minimum=10)
     n = check_count(period, "period", 1000, minimum=1)
     if not (0 <= params.zeta < 1) or not (0 < params.R <= 1):
-        raise ParameterError("params", params.decimal(), "0 <= zeta < 1 and 0 < R <= 1 for the closed form")
+        raise ParameterError(
+            "params", params.decimal(), "0 <= zeta < 1 and 0 < R <= 1 for the closed form"
+        )
     ss = steady_state(params)
     out = []
     with mpmath.workdps(dps):
@@ -151,9 +153,22 @@ def one_impact_orbits(params: Any = None, dps: int = 50, grid: int = 2000, *, pe
             mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
             kind = classify(mu, area_preserving(params.zeta, params.R, 1))
             lle = 0.0 if kind == "elliptic" else float(mpmath.log(abs(mu[0])) / nT)
-            out.append(PeriodicOrbit(
-                params=params, period=n, impacts=1, t=float(t0), x=x0, v=v0, multipliers=list(mu),
-                stable=kind == "stable", lle=lle, residual=0.0, iterations=0, method="closed form",
-                precision=f"mp:{mpmath.mp.prec}", stability=kind,
-            ))
+            out.append(
+                PeriodicOrbit(
+                    params=params,
+                    period=n,
+                    impacts=1,
+                    t=float(t0),
+                    x=x0,
+                    v=v0,
+                    multipliers=list(mu),
+                    stable=kind == "stable",
+                    lle=lle,
+                    residual=0.0,
+                    iterations=0,
+                    method="closed form",
+                    precision=f"mp:{mpmath.mp.prec}",
+                    stability=kind,
+                )
+            )
     return out

@@ -25,8 +25,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Sequence
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.core.result import ResultMixin
@@ -103,8 +104,17 @@ def _final(samples):
     return samples[-1][2], samples[-1][3]
 
 
-def prove_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | None = None, impacts: int | None = None,
-                bits: int = 256, radius: Any = None, transient: int = 2000, **param_values: Any) -> ProvenOrbit:
+def prove_orbit(
+    params: Any = None,
+    period: int = 1,
+    *,
+    guess: Sequence[Any] | None = None,
+    impacts: int | None = None,
+    bits: int = 256,
+    radius: Any = None,
+    transient: int = 2000,
+    **param_values: Any,
+) -> ProvenOrbit:
     """Prove a periodic orbit of the stroboscopic map: existence and local uniqueness in a small
     box (Krawczyk), its multipliers enclosed, stability proven when they are.
 
@@ -153,7 +163,13 @@ def prove_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | N
            (validated Poincare maps).
     """
     from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.solvers.certified.single import ball_str, exact_value, to_ball, run_balls, working_bits
+    from precise_impact.solvers.certified.single import (
+        ball_str,
+        exact_value,
+        run_balls,
+        to_ball,
+        working_bits,
+    )
 
     t_start = time.perf_counter()
     params = params_or_values(params, param_values)
@@ -181,23 +197,42 @@ def prove_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | N
         fx, fv = _final(samples)
         F = [fx - z[0], fv - z[1]]
         Mz = _jacobian(c, imps, period)
-        a, b, cc, d = (flint.arb(Mz[0][0].mid()) - 1, flint.arb(Mz[0][1].mid()), flint.arb(Mz[1][0].mid()),
-                       flint.arb(Mz[1][1].mid()) - 1)
+        a, b, cc, d = (
+            flint.arb(Mz[0][0].mid()) - 1,
+            flint.arb(Mz[0][1].mid()),
+            flint.arb(Mz[1][0].mid()),
+            flint.arb(Mz[1][1].mid()) - 1,
+        )
         det = a * d - b * cc
-        C = [[flint.arb((d / det).mid()), flint.arb((-b / det).mid())],
-             [flint.arb((-cc / det).mid()), flint.arb((a / det).mid())]]
+        C = [
+            [flint.arb((d / det).mid()), flint.arb((-b / det).mid())],
+            [flint.arb((-cc / det).mid()), flint.arb((a / det).mid())],
+        ]
         rb = to_ball(r)
         box = [z[0] + flint.arb(0, rb.mid()), z[1] + flint.arb(0, rb.mid())]
         bs, bimps, c = run_balls(params, period, bits, start=(box[0], box[1]))
         if len(bimps) != len(imps):  # pragma: no cover - the engine proves the sequence or raises
-            raise ParameterError("radius", str(radius), "a box small enough for one impact sequence")
+            raise ParameterError(
+                "radius", str(radius), "a box small enough for one impact sequence"
+            )
         MZ = _jacobian(c, bimps, period)
         one = flint.arb(1)
-        B = [[(one if i == j else 0) - (C[i][0] * (MZ[0][j] - (1 if j == 0 else 0))
-                                        + C[i][1] * (MZ[1][j] - (1 if j == 1 else 0))) for j in range(2)]
-             for i in range(2)]
+        B = [
+            [
+                (one if i == j else 0)
+                - (
+                    C[i][0] * (MZ[0][j] - (1 if j == 0 else 0))
+                    + C[i][1] * (MZ[1][j] - (1 if j == 1 else 0))
+                )
+                for j in range(2)
+            ]
+            for i in range(2)
+        ]
         dZ = [box[0] - z[0], box[1] - z[1]]
-        K = [z[i] - (C[i][0] * F[0] + C[i][1] * F[1]) + B[i][0] * dZ[0] + B[i][1] * dZ[1] for i in range(2)]
+        K = [
+            z[i] - (C[i][0] * F[0] + C[i][1] * F[1]) + B[i][0] * dZ[0] + B[i][1] * dZ[1]
+            for i in range(2)
+        ]
         proven = all(box[i].contains_interior(K[i]) for i in range(2))
         contraction = max(float(exact_value(abs(K[i] - z[i]).upper())) for i in range(2)) / float(r)
         tr = MZ[0][0] + MZ[1][1]
@@ -211,15 +246,36 @@ def prove_orbit(params: Any = None, period: int = 1, *, guess: Sequence[Any] | N
             au = abs(m).upper()
             ups.append(au)
             lows.append(abs(m).lower())
-            mult.append({"re": re_m, "im": im_m, "rad": max(re_r, im_r, key=float),
-                         "abs_upper": ball_str(flint.arb(au), 12)[0]})
+            mult.append(
+                {
+                    "re": re_m,
+                    "im": im_m,
+                    "rad": max(re_r, im_r, key=float),
+                    "abs_upper": ball_str(flint.arb(au), 12)[0],
+                }
+            )
         unit = flint.arb(1)
-        stable = True if all(u < unit for u in ups) else (False if any(lo > unit for lo in lows) else None)
+        stable = (
+            True
+            if all(u < unit for u in ups)
+            else (False if any(lo > unit for lo in lows) else None)
+        )
         pT = period * c.T
         big = max(range(2), key=lambda i: float(exact_value(ups[i])))
         lle = ((flint.arb(lows[big]).log() / pT), (flint.arb(ups[big]).log() / pT))
         lle = (float(exact_value(lle[0].lower())), float(exact_value(lle[1].upper())))
         xs, vs = ball_str(box[0]), ball_str(box[1])
-    return ProvenOrbit(params=params, period=period, impacts=len(imps), bits=bits, x=xs, v=vs, proven=bool(proven),
-                       contraction=contraction, multipliers=mult, stable=stable, lle=lle,
-                       elapsed_s=time.perf_counter() - t_start)
+    return ProvenOrbit(
+        params=params,
+        period=period,
+        impacts=len(imps),
+        bits=bits,
+        x=xs,
+        v=vs,
+        proven=bool(proven),
+        contraction=contraction,
+        multipliers=mult,
+        stable=stable,
+        lle=lle,
+        elapsed_s=time.perf_counter() - t_start,
+    )

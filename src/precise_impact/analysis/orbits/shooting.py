@@ -119,9 +119,9 @@ class ShootingSystem:
                 fs = Ph @ self.field(vals, ti, xw, vi)
                 rows = (2 * i, 2 * i + 1)
                 for r, k, sc in ((rows[0], 0, 1.0), (rows[1], 1, -R)):
-                    J[r, 2 * i] += -sc * fs[k]          # start time
-                    J[r, 2 * i + 1] += sc * Ph[k, 1]    # start velocity
-                    J[r, 2 * j] += sc * fe[k]           # end time
+                    J[r, 2 * i] += -sc * fs[k]  # start time
+                    J[r, 2 * i + 1] += sc * Ph[k, 1]  # start velocity
+                    J[r, 2 * j] += sc * fe[k]  # end time
                 J[rows[1], 2 * j + 1] += -1.0
         return (G, J) if jacobian else G
 
@@ -133,7 +133,9 @@ class ShootingSystem:
         h = 6e-6 * (1 + abs(lam))
         try:
             return (self.residual(u, lam + h) - self.residual(u, lam - h)) / (2 * h)
-        except ValueError:  # at an end of the parameter's range (R = 1, zeta = 0): one-sided, also O(h^2)
+        except (
+            ValueError
+        ):  # at an end of the parameter's range (R = 1, zeta = 0): one-sided, also O(h^2)
             for s in (-1.0, 1.0):
                 try:
                     g0, g1, g2 = (self.residual(u, lam + s * k * h) for k in (0, 1, 2))
@@ -208,8 +210,15 @@ class ShootingSystem:
             vmin = math.inf
         else:
             cyc, pT = self._cycle(u, vals)
-            flights = [(cyc[i][0], xw, cyc[i][1], cyc[(i + 1) % len(cyc)][0] + (pT if i + 1 == len(cyc) else 0.0))
-                       for i in range(len(cyc))]
+            flights = [
+                (
+                    cyc[i][0],
+                    xw,
+                    cyc[i][1],
+                    cyc[(i + 1) % len(cyc)][0] + (pT if i + 1 == len(cyc) else 0.0),
+                )
+                for i in range(len(cyc))
+            ]
             vmin = min(c[2] for c in cyc)
         step = 0.2 / max(1.0, eta)
         best = -math.inf
@@ -262,7 +271,9 @@ def from_orbit(system: ShootingSystem, params: Any, x: float, v: float, lam: flo
     ts = [float(t) for t in tr.impacts_t]
     vb = [float(w) for w in tr.impacts_v_before]
     if len(ts) != system.impacts:
-        raise ValueError(f"the orbit has {len(ts)} impacts per {system.period} period(s), not {system.impacts}")
+        raise ValueError(
+            f"the orbit has {len(ts)} impacts per {system.period} period(s), not {system.impacts}"
+        )
     u = np.empty(system.size)
     for i, (t, w) in enumerate(zip(ts, vb)):
         u[2 * i], u[2 * i + 1] = t, -system.values(lam)[4] * w

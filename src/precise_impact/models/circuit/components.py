@@ -31,16 +31,36 @@ from typing import Any
 
 import mpmath
 
-from precise_impact.errors import ParameterError
 from precise_impact.core.params import Params, decimal_str, exact
+from precise_impact.errors import ParameterError
 
 __all__ = [
-    "design_and_start", "Components", "nominal_components", "dimensionless", "exact_omega", "to_mechanical", "to_circuit", "COMPONENT_UNITS"]
+    "design_and_start",
+    "Components",
+    "nominal_components",
+    "dimensionless",
+    "exact_omega",
+    "to_mechanical",
+    "to_circuit",
+    "COMPONENT_UNITS",
+]
 
 #: Each component and its SI unit.
 COMPONENT_UNITS = {
-    "R1": "ohm", "R2": "ohm", "R3": "ohm", "R4": "ohm", "R5": "ohm", "R6": "ohm", "R7": "ohm", "R8": "ohm",
-    "C1": "F", "C2": "F", "V_A": "V", "Omega": "rad/s", "V_wall": "V", "V_unit": "V",
+    "R1": "ohm",
+    "R2": "ohm",
+    "R3": "ohm",
+    "R4": "ohm",
+    "R5": "ohm",
+    "R6": "ohm",
+    "R7": "ohm",
+    "R8": "ohm",
+    "C1": "F",
+    "C2": "F",
+    "V_A": "V",
+    "Omega": "rad/s",
+    "V_wall": "V",
+    "V_unit": "V",
 }
 
 
@@ -69,10 +89,14 @@ class Components:
     V_unit: Fraction = Fraction(1)
 
     @classmethod
-    def make(cls, **values: Any) -> "Components":
+    def make(cls, **values: Any) -> Components:
         unknown = sorted(set(values) - set(COMPONENT_UNITS))
         if unknown:
-            raise ParameterError(unknown[0], values[unknown[0]], "unknown component; known: " + ", ".join(COMPONENT_UNITS))
+            raise ParameterError(
+                unknown[0],
+                values[unknown[0]],
+                "unknown component; known: " + ", ".join(COMPONENT_UNITS),
+            )
         missing = [n for n in COMPONENT_UNITS if n not in values and n != "V_unit"]
         if missing:
             raise ParameterError(missing[0], None, "component value missing")
@@ -81,12 +105,16 @@ class Components:
             if COMPONENT_UNITS[n] in ("ohm", "F") and v <= 0:
                 raise ParameterError(n, decimal_str(v), f"a {COMPONENT_UNITS[n]} value must be > 0")
         if q.get("Omega", 1) <= 0:
-            raise ParameterError("Omega", decimal_str(q["Omega"]), "forcing angular frequency must be > 0 rad/s")
+            raise ParameterError(
+                "Omega", decimal_str(q["Omega"]), "forcing angular frequency must be > 0 rad/s"
+            )
         if q.get("V_unit", 1) <= 0:
-            raise ParameterError("V_unit", decimal_str(q["V_unit"]), "volts per unit displacement must be > 0")
+            raise ParameterError(
+                "V_unit", decimal_str(q["V_unit"]), "volts per unit displacement must be > 0"
+            )
         return cls(**q)
 
-    def replace(self, **values: Any) -> "Components":
+    def replace(self, **values: Any) -> Components:
         d = dataclasses.asdict(self)
         d.update(values)
         return Components.make(**d)
@@ -134,14 +162,16 @@ def exact_omega(comp: Components) -> Fraction:
     w2 = comp.omega_squared
     if not OMEGA_RANGE[0] ** 2 <= w2 <= OMEGA_RANGE[1] ** 2:
         raise ParameterError(
-            "R2, R7, R3, C2, R8, C1", f"omega = {float(w2) ** 0.5:.3g} rad/s",
+            "R2, R7, R3, C2, R8, C1",
+            f"omega = {float(w2) ** 0.5:.3g} rad/s",
             f"a design with {OMEGA_RANGE[0]:g} <= omega = sqrt(R2/(R7 R3 C2 R8 C1)) <= {OMEGA_RANGE[1]:g} rad/s "
             "(beyond it the circuit's time and voltage scales leave float64)",
         )
     root = _isqrt_fraction(w2)
     if root is None:
         raise ParameterError(
-            "R2, R7, R3, C2, R8, C1", decimal_str(w2),
+            "R2, R7, R3, C2, R8, C1",
+            decimal_str(w2),
             "omega^2 = R2/(R7 R3 C2 R8 C1) must be a rational square for an exact mapping (design values)",
         )
     return root
@@ -164,7 +194,9 @@ def _isqrt_fraction(q: Fraction) -> Fraction | None:
     return None
 
 
-def nominal_components(params: Params, R: Any = "10e3", C: Any = "100e-9", V_unit: Any = 1) -> Components:
+def nominal_components(
+    params: Params, R: Any = "10e3", C: Any = "100e-9", V_unit: Any = 1
+) -> Components:
     """Ideal-design component values realising ``params`` (paper's design rules).
 
     ``R1 = R2 = R3 = R4 = R5 = R7 = R8 = R``, ``C1 = C2 = C`` (so ``omega = 1/(R C)``,
@@ -209,12 +241,27 @@ def nominal_components(params: Params, R: Any = "10e3", C: Any = "100e-9", V_uni
     w = 1 / (r * c)
     try:
         return Components.make(
-            R1=r, R2=r, R3=r, R4=r, R5=r, R6=r / (2 * params.zeta), R7=r, R8=r, C1=c, C2=c,
-            V_A=params.a * vu, Omega=params.eta * w, V_wall=-params.x_w * vu, V_unit=vu,
+            R1=r,
+            R2=r,
+            R3=r,
+            R4=r,
+            R5=r,
+            R6=r / (2 * params.zeta),
+            R7=r,
+            R8=r,
+            C1=c,
+            C2=c,
+            V_A=params.a * vu,
+            Omega=params.eta * w,
+            V_wall=-params.x_w * vu,
+            V_unit=vu,
         )
     except ParameterError as e:  # a derived value out of range: name what the caller gave
-        raise ParameterError("R, C, V_unit", f"{decimal_str(r)}, {decimal_str(c)}, {decimal_str(vu)}",
-                             f"values whose derived component {e.name} is in range ({e.allowed})") from None
+        raise ParameterError(
+            "R, C, V_unit",
+            f"{decimal_str(r)}, {decimal_str(c)}, {decimal_str(vu)}",
+            f"values whose derived component {e.name} is in range ({e.allowed})",
+        ) from None
 
 
 def to_mechanical(comp: Components, t: Any, V_s: Any, V_q: Any, omega: Any):
@@ -244,7 +291,7 @@ def _num(q: Fraction, like: Any):
     return float(q)
 
 
-def design_and_start(system: "Params | Components", x0: Any = None, v0: Any = None, t0: Any = None):
+def design_and_start(system: Params | Components, x0: Any = None, v0: Any = None, t0: Any = None):
     """``(design, x0, v0, t0)`` for a circuit solve, from parameters or from components.
 
     This is what lets the circuit models implement the :class:`~precise_impact.solvers.base.Solver`

@@ -18,25 +18,29 @@ mechanical impact law on each oscillator's ``V_q``.
 from __future__ import annotations
 
 import dataclasses
-
 import time as _time
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
-from precise_impact.core.result import ResultMixin
-from precise_impact.solvers.heyoka.cache import IntegratorCache
-from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.errors import BudgetExceededError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
-from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import BudgetExceededError
 from precise_impact.models.circuit.components import Components, dimensionless
 from precise_impact.models.circuit.network import NETWORK_PARS
+from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 
-__all__ = ["coupling_resistors", "simulate_coupled_circuit", "CoupledCircuitTrajectory", "CIRCUIT_COUPLED_FORM"]
+__all__ = [
+    "coupling_resistors",
+    "simulate_coupled_circuit",
+    "CoupledCircuitTrajectory",
+    "CIRCUIT_COUPLED_FORM",
+]
 
 #: The coupled form the Fig. 3 circuit realises.
 CIRCUIT_COUPLED_FORM = "paper"
@@ -46,7 +50,9 @@ _I = {n: i for i, n in enumerate(PARS)}
 _MAX_IMPACTS = 10**7
 
 
-def coupling_resistors(design: Components, k: Fraction, zeta: Fraction) -> tuple[Fraction, Fraction]:
+def coupling_resistors(
+    design: Components, k: Fraction, zeta: Fraction
+) -> tuple[Fraction, Fraction]:
     """Eq. (15): ``R31 = R3 / (2k)``, ``R32 = R3 / (k (1 + 2 zeta))`` (k > 0)."""
     return design.R3 / (2 * k), design.R3 / (k * (1 + 2 * zeta))
 
@@ -96,19 +102,46 @@ def _build(P: Precision):
         ]
         kw = P.heyoka_kwargs
         evs = [
-            hy.t_event(Vs1 - p["V_wall"], callback=_Impact(0, 1), direction=hy.event_direction.negative, fp_type=kw["fp_type"]),
-            hy.t_event(Vs2 - p["V_wall"], callback=_Impact(2, 3), direction=hy.event_direction.negative, fp_type=kw["fp_type"]),
+            hy.t_event(
+                Vs1 - p["V_wall"],
+                callback=_Impact(0, 1),
+                direction=hy.event_direction.negative,
+                fp_type=kw["fp_type"],
+            ),
+            hy.t_event(
+                Vs2 - p["V_wall"],
+                callback=_Impact(2, 3),
+                direction=hy.event_direction.negative,
+                fp_type=kw["fp_type"],
+            ),
         ]
         zero = P.from_fraction(Fraction(0))
-        ta = hy.taylor_adaptive(rhs, [zero] * 4, pars=[zero] * len(PARS), t_events=evs, compact_mode=P.kind == "mp", **kw)
+        ta = hy.taylor_adaptive(
+            rhs,
+            [zero] * 4,
+            pars=[zero] * len(PARS),
+            t_events=evs,
+            compact_mode=P.kind == "mp",
+            **kw,
+        )
         return ta
 
     return _INTEGRATORS.get(P.name, compile_)
 
 
-def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=0, y0=(0, 0), t0=0,
-                             per_period: int = 0, precision: str = "float64", zeta: Fraction | None = None,
-                             actual: Components | None = None) -> "CoupledCircuitTrajectory":
+def simulate_coupled_circuit(
+    design: Components,
+    k: Any,
+    periods: int,
+    x0=0,
+    v0=0,
+    y0=(0, 0),
+    t0=0,
+    per_period: int = 0,
+    precision: str = "float64",
+    zeta: Fraction | None = None,
+    actual: Components | None = None,
+) -> CoupledCircuitTrajectory:
     """Simulate the paper's Fig. 3 circuit: two coupled op-amp oscillators.
 
     Parameters
@@ -161,9 +194,13 @@ def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=
     periods = check_count(periods, "periods")
     per_period = check_count(per_period, "per_period", 100_000)
     params = dimensionless(design, x0=x0, v0=v0, t0=t0)
-    Params.make(**{**params.decimal(), "x0": y0[0], "v0": y0[1]})  # slave start validated like the master's
+    Params.make(
+        **{**params.decimal(), "x0": y0[0], "v0": y0[1]}
+    )  # slave start validated like the master's
     zeta = params.zeta if zeta is None else zeta
-    R31, R32 = coupling_resistors(design, k, zeta) if k > 0 else (Fraction(10) ** 30, Fraction(10) ** 30)
+    R31, R32 = (
+        coupling_resistors(design, k, zeta) if k > 0 else (Fraction(10) ** 30, Fraction(10) ** 30)
+    )
     omega = design_omega(design)
     rc, vu = design.R8 * design.C1, design.V_unit
     conv = P.from_fraction
@@ -189,20 +226,22 @@ def simulate_coupled_circuit(design: Components, k: Any, periods: int, x0=0, v0=
     st = np.asarray(res[-1])
     om, rcv, vuv = conv(omega), conv(rc), conv(vu)
     scale = om * rcv * vuv
-    return CoupledCircuitTrajectory(**{
-        "t": P.array([om * t for t in grid])[::step],
-        "x": P.array([-s / vuv for s in st[:, 0]])[::step],
-        "v": P.array([q / scale for q in st[:, 1]])[::step],
-        "y": P.array([-s / vuv for s in st[:, 2]])[::step],
-        "w": P.array([q / scale for q in st[:, 3]])[::step],
-        "master_impacts_t": P.array([om * t for t in ta.t_events[0].callback.t]),
-        "slave_impacts_t": P.array([om * t for t in ta.t_events[1].callback.t]),
-        "elapsed_s": elapsed,
-        "precision": P,
-        "params": params,
-        "R31": R31,
-        "R32": R32,
-    })
+    return CoupledCircuitTrajectory(
+        **{
+            "t": P.array([om * t for t in grid])[::step],
+            "x": P.array([-s / vuv for s in st[:, 0]])[::step],
+            "v": P.array([q / scale for q in st[:, 1]])[::step],
+            "y": P.array([-s / vuv for s in st[:, 2]])[::step],
+            "w": P.array([q / scale for q in st[:, 3]])[::step],
+            "master_impacts_t": P.array([om * t for t in ta.t_events[0].callback.t]),
+            "slave_impacts_t": P.array([om * t for t in ta.t_events[1].callback.t]),
+            "elapsed_s": elapsed,
+            "precision": P,
+            "params": params,
+            "R31": R31,
+            "R32": R32,
+        }
+    )
 
 
 @dataclasses.dataclass

@@ -34,15 +34,35 @@ its closed-loop time constant ``tau = N / (2 pi GBW)`` to first order,
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from fractions import Fraction
-from typing import Any, Mapping
+from typing import Any
 
-from precise_impact.models.circuit.effects import opamp_gain, opamp_gbw, opamp_offset, opamp_saturation
+from precise_impact.models.circuit.effects import (
+    opamp_gain,
+    opamp_gbw,
+    opamp_offset,
+    opamp_saturation,
+)
 
 __all__ = ["NETWORK_PARS", "OpAmp", "inverting", "integrator", "network_rhs", "opamp_from_effects"]
 
 #: heyoka runtime parameters of the circuit models, in this order.
-NETWORK_PARS = ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2", "V_A", "Omega", "V_wall")
+NETWORK_PARS = (
+    "R1",
+    "R2",
+    "R3",
+    "R4",
+    "R5",
+    "R6",
+    "R7",
+    "R8",
+    "C1",
+    "C2",
+    "V_A",
+    "Omega",
+    "V_wall",
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,7 +116,11 @@ def inverting(hy, inputs, Rf, op: OpAmp, target_rate=None, unclamped=None):
     (:mod:`precise_impact.models.circuit.effects`), in the order offset, finite gain, gain-bandwidth, saturation.
     ``target_rate`` (d/dt of the ideal output) enables the quasi-static GBW lag.
     """
-    ideal = -Rf * hy.sum([v / r for v, r in inputs]) if len(inputs) > 1 else -Rf * inputs[0][0] / inputs[0][1]
+    ideal = (
+        -Rf * hy.sum([v / r for v, r in inputs])
+        if len(inputs) > 1
+        else -Rf * inputs[0][0] / inputs[0][1]
+    )
     if op.ideal:
         return ideal
     N = 1 + Rf * hy.sum([1 / r for _, r in inputs]) if len(inputs) > 1 else 1 + Rf / inputs[0][1]
@@ -149,7 +173,11 @@ def network_rhs(hy, p: dict, V_s, V_q, op: OpAmp, V_q_of=None):
         dVq = (g / p["R1"]) * V3 - (g * p["R5"] / (p["R4"] * p["R6"])) * V_q + (g / p["R7"]) * V_s
         V_mq = -(p["R5"] / p["R4"]) * V_q
         V_p = -p["R2"] * (V3 / p["R1"] + V_mq / p["R6"] + V_s / p["R7"])
-        return -V_q / (p["R8"] * p["C1"]), dVq, {"V_p": V_p, "V_mq": V_mq, "V3": V3, "unclamped": []}
+        return (
+            -V_q / (p["R8"] * p["C1"]),
+            dVq,
+            {"V_p": V_p, "V_mq": V_mq, "V3": V3, "unclamped": []},
+        )
     rate3 = -p["V_A"] * p["Omega"] * hy.sin(p["Omega"] * hy.time)
     qs = op.gbw is not None and op.gbw_mode == "quasi-static"
     # ideal rates for the quasi-static lag (first order in tau, so ideal rates suffice)
@@ -158,12 +186,24 @@ def network_rhs(hy, p: dict, V_s, V_q, op: OpAmp, V_q_of=None):
     Vp_ideal = -p["R2"] * (V3 / p["R1"] + Vmq_ideal / p["R6"] + V_s / p["R7"])
     Vq_rate_ideal = -Vp_ideal / (p["R3"] * p["C2"])
     unclamped: list = []
-    V_mq = inverting(hy, [(V_q, p["R4"])], p["R5"], op, target_rate=-(p["R5"] / p["R4"]) * Vq_rate_ideal if qs else None,
-                     unclamped=unclamped)
+    V_mq = inverting(
+        hy,
+        [(V_q, p["R4"])],
+        p["R5"],
+        op,
+        target_rate=-(p["R5"] / p["R4"]) * Vq_rate_ideal if qs else None,
+        unclamped=unclamped,
+    )
     Vmq_rate_ideal = -(p["R5"] / p["R4"]) * Vq_rate_ideal
-    Vp_rate_ideal = -p["R2"] * (rate3 / p["R1"] + Vmq_rate_ideal / p["R6"] + Vs_rate_ideal / p["R7"])
+    Vp_rate_ideal = -p["R2"] * (
+        rate3 / p["R1"] + Vmq_rate_ideal / p["R6"] + Vs_rate_ideal / p["R7"]
+    )
     V_p = inverting(
-        hy, [(V3, p["R1"]), (V_mq, p["R6"]), (V_s, p["R7"])], p["R2"], op, target_rate=Vp_rate_ideal if qs else None,
+        hy,
+        [(V3, p["R1"]), (V_mq, p["R6"]), (V_s, p["R7"])],
+        p["R2"],
+        op,
+        target_rate=Vp_rate_ideal if qs else None,
         unclamped=unclamped,
     )
     dVs = integrator(hy, V_q, p["R8"], p["C1"], V_s, op, in_rate=Vq_rate_ideal if qs else None)
@@ -173,4 +213,6 @@ def network_rhs(hy, p: dict, V_s, V_q, op: OpAmp, V_q_of=None):
 
 def dynamic_network(hy, p: dict, op: OpAmp):
     """Dynamic-GBW network (:func:`~precise_impact.models.circuit.effects.opamp_gbw.dynamic_network`)."""
-    return opamp_gbw.dynamic_network(hy, p, _num(op.gain()), _num(op.gbw), 0.0 if op.v_os is None else _num(op.v_os))
+    return opamp_gbw.dynamic_network(
+        hy, p, _num(op.gain()), _num(op.gbw), 0.0 if op.v_os is None else _num(op.v_os)
+    )

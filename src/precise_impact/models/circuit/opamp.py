@@ -12,23 +12,38 @@ an experimenter reads the real circuit.
 from __future__ import annotations
 
 import time as _time
+from collections.abc import Mapping
 from fractions import Fraction
-from typing import Any, Mapping
+from typing import Any
 
 import mpmath
 import numpy as np
 
-from precise_impact.solvers.heyoka.cache import IntegratorCache
-from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.errors import BudgetExceededError, IntegrationError
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.models.circuit.components import Components, design_and_start, dimensionless, exact_omega as dimensionless_omega
+from precise_impact.errors import BudgetExceededError, IntegrationError
+from precise_impact.models.circuit.components import (
+    Components,
+    design_and_start,
+    dimensionless,
+)
+from precise_impact.models.circuit.components import (
+    exact_omega as dimensionless_omega,
+)
 from precise_impact.models.circuit.effects.catalogue import validate_effects
-from precise_impact.models.circuit.network import NETWORK_PARS, OpAmp, dynamic_network, network_rhs, opamp_from_effects, saturation_events
 from precise_impact.models.circuit.effects.tolerance import actual_components
+from precise_impact.models.circuit.network import (
+    NETWORK_PARS,
+    OpAmp,
+    dynamic_network,
+    network_rhs,
+    opamp_from_effects,
+    saturation_events,
+)
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 
 __all__ = ["CircuitSolver", "circuit_system", "design_omega"]
 
@@ -36,6 +51,7 @@ __all__ = ["CircuitSolver", "circuit_system", "design_omega"]
 def design_omega(design: Components) -> Fraction:
     """The design's natural angular frequency, exact (the mapping needs it rational)."""
     return dimensionless_omega(design)
+
 
 _IDX = {n: i for i, n in enumerate(NETWORK_PARS)}
 
@@ -86,16 +102,35 @@ def _build(precision: Precision, tol, op: OpAmp):
     def compile_():
         vars_, rhs = circuit_system(op)
         kw = precision.heyoka_kwargs
-        ev = hy.t_event(vars_[0] - hy.par[_IDX["V_wall"]], callback=_Impact(op.dynamic),
-                        direction=hy.event_direction.negative, fp_type=kw["fp_type"])
+        ev = hy.t_event(
+            vars_[0] - hy.par[_IDX["V_wall"]],
+            callback=_Impact(op.dynamic),
+            direction=hy.event_direction.negative,
+            fp_type=kw["fp_type"],
+        )
         sat = []
         if not op.dynamic and op.v_sat is not None:
-            _, _, alg = network_rhs(hy, {n: hy.par[i] for i, n in enumerate(NETWORK_PARS)}, vars_[0], vars_[1], op)
-            sat = saturation_events(hy, op, alg["unclamped"], kw["fp_type"], precision.from_fraction(Fraction(1, 10**12)))
+            _, _, alg = network_rhs(
+                hy, {n: hy.par[i] for i, n in enumerate(NETWORK_PARS)}, vars_[0], vars_[1], op
+            )
+            sat = saturation_events(
+                hy,
+                op,
+                alg["unclamped"],
+                kw["fp_type"],
+                precision.from_fraction(Fraction(1, 10**12)),
+            )
         zero = precision.from_fraction(Fraction(0))
         extra = {"tol": tol} if tol is not None else {}
-        ta = hy.taylor_adaptive(rhs, [zero] * len(vars_), pars=[zero] * len(NETWORK_PARS), t_events=[ev] + sat,
-                                compact_mode=precision.kind == "mp" or op.dynamic, **extra, **kw)
+        ta = hy.taylor_adaptive(
+            rhs,
+            [zero] * len(vars_),
+            pars=[zero] * len(NETWORK_PARS),
+            t_events=[ev] + sat,
+            compact_mode=precision.kind == "mp" or op.dynamic,
+            **extra,
+            **kw,
+        )
         return ta
 
     return _INTEGRATORS.get(key, compile_)
@@ -116,8 +151,13 @@ class CircuitSolver:
 
     model_name = "circuit"
 
-    def __init__(self, precision: str | Precision = "float64", tol: Any = None,
-                 effects: Mapping[str, Mapping[str, Any]] | None = None, max_impacts: int = 10**6) -> None:
+    def __init__(
+        self,
+        precision: str | Precision = "float64",
+        tol: Any = None,
+        effects: Mapping[str, Mapping[str, Any]] | None = None,
+        max_impacts: int = 10**6,
+    ) -> None:
         self.precision = Precision.parse(precision)
         self.effects = validate_effects(effects, "circuit")
         self.op = opamp_from_effects(self.effects)
@@ -129,8 +169,16 @@ class CircuitSolver:
         """The components simulated: ``design``, or its tolerance draw if that effect is on."""
         return actual_components(design, self.effects)
 
-    def solve(self, params: Params | Components, periods: int, *, per_period: int = 0,
-              x0: Any = None, v0: Any = None, t0: Any = None) -> Trajectory:
+    def solve(
+        self,
+        params: Params | Components,
+        periods: int,
+        *,
+        per_period: int = 0,
+        x0: Any = None,
+        v0: Any = None,
+        t0: Any = None,
+    ) -> Trajectory:
         """Simulate ``periods`` forcing periods; samples at ``t0 + k 2 pi / Omega`` (seconds).
 
         ``x0, v0, t0`` are dimensionless (mapped through the design components).
@@ -174,8 +222,17 @@ class CircuitSolver:
         if self.op.dynamic:
             # consistent op-amp states: ideal stage outputs, virtual grounds at 0
             with mpmath.workprec(P.bits + 32):
-                om_t0 = mpmath.mpf(comp.Omega.numerator) / comp.Omega.denominator * t0s.numerator / t0s.denominator
-                V3 = Fraction(mpmath.nstr(comp.V_A.numerator * mpmath.cos(om_t0) / comp.V_A.denominator, P.digits + 5))
+                om_t0 = (
+                    mpmath.mpf(comp.Omega.numerator)
+                    / comp.Omega.denominator
+                    * t0s.numerator
+                    / t0s.denominator
+                )
+                V3 = Fraction(
+                    mpmath.nstr(
+                        comp.V_A.numerator * mpmath.cos(om_t0) / comp.V_A.denominator, P.digits + 5
+                    )
+                )
             Vmq0 = -(comp.R5 / comp.R4) * Vq0
             Vp0 = -comp.R2 * (V3 / comp.R1 + Vmq0 / comp.R6 + Vs0 / comp.R7)
             state += [Vp0, Vmq0, -Vs0, -Vq0]
@@ -205,12 +262,24 @@ class CircuitSolver:
         imp_t = P.array([om * t for t in rec.t])
         imp_vb = P.array([vb / (om * rcv * vuv) for vb in rec.v_before])
         imp_va = P.array([va / (om * rcv * vuv) for va in rec.v_after])
-        traj = Trajectory(params=params, model=self.model_name, precision=P,
-                          tol=self.tol if self.tol is not None else P.eps,
-                          t=tau[::step], x=x[::step], v=v[::step],
-                          impacts_t=imp_t, impacts_v_before=imp_vb, impacts_v_after=imp_va,
-                          elapsed_s=elapsed, stats={"steps": int(res[3]), "effects": sorted(self.effects),
-                                                    "components": comp.decimal()})
+        traj = Trajectory(
+            params=params,
+            model=self.model_name,
+            precision=P,
+            tol=self.tol if self.tol is not None else P.eps,
+            t=tau[::step],
+            x=x[::step],
+            v=v[::step],
+            impacts_t=imp_t,
+            impacts_v_before=imp_vb,
+            impacts_v_after=imp_va,
+            elapsed_s=elapsed,
+            stats={
+                "steps": int(res[3]),
+                "effects": sorted(self.effects),
+                "components": comp.decimal(),
+            },
+        )
         if per_period > 0:
             traj.dense_t, traj.dense_x, traj.dense_v = tau, x, v
         return traj

@@ -207,18 +207,25 @@ import shutil
 import subprocess
 import tempfile
 import time as _time
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import mpmath
 import numpy as np
 
-from precise_impact.models.circuit.components import Components, to_circuit, to_mechanical
-from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
-from precise_impact.models.circuit.effects.tolerance import E24, E96, actual_components, draw_components, e_series_round  # the one implementation
-from precise_impact.errors import NgspiceNotFoundError, ParameterError, SpiceError
 from precise_impact.core.params import check_count, decimal_str, exact
 from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import NgspiceNotFoundError, ParameterError, SpiceError
+from precise_impact.models.circuit.components import Components, to_circuit, to_mechanical
+from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
+from precise_impact.models.circuit.effects.tolerance import (
+    E24,
+    E96,
+    actual_components,
+    draw_components,
+    e_series_round,
+)  # the one implementation
 
 __all__ = [
     "SpiceSolver",
@@ -277,7 +284,9 @@ def _f(x: Any) -> str:
 
 def _check_inputs(components, effects, periods, tmax, x0, v0, t0):
     if not isinstance(components, Components):
-        raise ParameterError("components", type(components).__name__, "a Components (see nominal_components)")
+        raise ParameterError(
+            "components", type(components).__name__, "a Components (see nominal_components)"
+        )
     eff = validate_effects(effects, "spice")
     periods = check_count(periods, "periods", 10**6)
     if periods < 1:
@@ -288,10 +297,16 @@ def _check_inputs(components, effects, periods, tmax, x0, v0, t0):
     x0q, v0q, t0q = exact("x0", x0), exact("v0", v0), exact("t0", t0)
     x_w = -components.V_wall / components.V_unit
     if x0q > x_w:
-        raise ParameterError("x0", decimal_str(x0q), f"the start must not lie inside the wall: x0 <= x_w = {decimal_str(x_w)}")
+        raise ParameterError(
+            "x0",
+            decimal_str(x0q),
+            f"the start must not lie inside the wall: x0 <= x_w = {decimal_str(x_w)}",
+        )
     period_s = 2 * math.pi / float(components.Omega)
     if float(tm) > period_s:
-        raise ParameterError("tmax", decimal_str(tm), f"TMAX must not exceed one forcing period ({period_s:.6g} s)")
+        raise ParameterError(
+            "tmax", decimal_str(tm), f"TMAX must not exceed one forcing period ({period_s:.6g} s)"
+        )
     return eff, periods, tm, x0q, v0q, t0q
 
 
@@ -302,8 +317,15 @@ def _timing(eff: dict, comp: Components | None = None) -> dict:
     (10 time constants of the slowest closed loop; U1's noise gain
     ``1 + R2 (1/R1 + 1/R6 + 1/R7)`` is the largest).
     """
-    out = {"tau_c": IDEAL_TAU, "hysteresis": 0.0, "tau_ff": IDEAL_TAU, "ron": IDEAL_RON, "bbm": 0.0,
-           "charge_injection": 0.0, "slew": None}
+    out = {
+        "tau_c": IDEAL_TAU,
+        "hysteresis": 0.0,
+        "tau_ff": IDEAL_TAU,
+        "ron": IDEAL_RON,
+        "bbm": 0.0,
+        "charge_injection": 0.0,
+        "slew": None,
+    }
     if "comparator" in eff:
         d = float(eff["comparator"]["delay"])
         out["tau_c"] = d / math.log(2) if d > 0 else IDEAL_TAU
@@ -330,13 +352,17 @@ def _timing(eff: dict, comp: Components | None = None) -> dict:
     if gbw is not None:
         noise_gain = 2.0
         if comp is not None:
-            noise_gain = max(noise_gain, float(1 + comp.R2 * (1 / comp.R1 + 1 / comp.R6 + 1 / comp.R7)))
+            noise_gain = max(
+                noise_gain, float(1 + comp.R2 * (1 / comp.R1 + 1 / comp.R6 + 1 / comp.R7))
+            )
         settle += 10 * noise_gain / (2 * math.pi * gbw)
     out["settle"] = settle
     return out
 
 
-def _opamp(name: str, out: str, inn: str, eff: dict, ic_out: float, slew: float | None = None) -> list[str]:
+def _opamp(
+    name: str, out: str, inn: str, eff: dict, ic_out: float, slew: float | None = None
+) -> list[str]:
     """Lines of one op-amp (inverting input ``inn``, output ``out``)."""
     lines = []
     gain = float(eff["opamp_gain"]["A0"]) if "opamp_gain" in eff else IDEAL_OPAMP_GAIN
@@ -366,7 +392,9 @@ def _opamp(name: str, out: str, inn: str, eff: dict, ic_out: float, slew: float 
         k = slew / (2 * math.pi * gbw_used)
         drive = f"{_f(k)}*tanh(({drive})/{_f(k)})"
     if sat is not None:
-        drive += (f" - {_f(_CLAMP_G)}*(softplus(V({node})-{_f(sat)}) - softplus(-V({node})-{_f(sat)}))")
+        drive += (
+            f" - {_f(_CLAMP_G)}*(softplus(V({node})-{_f(sat)}) - softplus(-V({node})-{_f(sat)}))"
+        )
     lines.append(f"B{name}G 0 {node} I = {drive}")
     lines.append(f"C{name}P {node} 0 {_f(1 / (2 * math.pi * gbw_used))} IC={_f(ic_out)}")
     lines.append(f"E{name} {out} 0 {node} 0 1")
@@ -436,22 +464,50 @@ def spice_netlist(
     for k, v in (options or {}).items():
         if not isinstance(k, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", k):
             raise ParameterError("options", k, "an ngspice option name")
-        if v is not None and (isinstance(v, bool) or not re.fullmatch(r"[A-Za-z0-9_.+\-]+", str(v))):
-            raise ParameterError(f"options.{k}", v, "a number or a word (no spaces), or None for a flag")
+        if v is not None and (
+            isinstance(v, bool) or not re.fullmatch(r"[A-Za-z0-9_.+\-]+", str(v))
+        ):
+            raise ParameterError(
+                f"options.{k}", v, "a number or a word (no spaces), or None for a flag"
+            )
         opts[k] = v
     if not re.fullmatch(r"[A-Za-z0-9_.\-]+", output_file):
-        raise ParameterError("output_file", output_file, "a plain file name (letters, digits, _ . -)")
+        raise ParameterError(
+            "output_file", output_file, "a plain file name (letters, digits, _ . -)"
+        )
 
     comp = actual_components(components, eff)
-    c = {n: float(getattr(comp, n)) for n in ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2", "V_A", "Omega", "V_wall", "V_unit")}
+    c = {
+        n: float(getattr(comp, n))
+        for n in (
+            "R1",
+            "R2",
+            "R3",
+            "R4",
+            "R5",
+            "R6",
+            "R7",
+            "R8",
+            "C1",
+            "C2",
+            "V_A",
+            "Omega",
+            "V_wall",
+            "V_unit",
+        )
+    }
     omega = float(components.omega())
     eta = float(components.Omega) / omega
     period_s = 2 * math.pi / c["Omega"]
     _, vs0, vq0 = to_circuit(components, 0.0, float(x0q), float(v0q), omega)
     with mpmath.workdps(40):  # eta t0 = Omega t0 / omega, rounded once
-        phi = float(mpmath.mpf(components.Omega.numerator) / components.Omega.denominator
-
-                    * mpmath.mpf(t0q.numerator) / t0q.denominator / components.omega(40))
+        phi = float(
+            mpmath.mpf(components.Omega.numerator)
+            / components.Omega.denominator
+            * mpmath.mpf(t0q.numerator)
+            / t0q.denominator
+            / components.omega(40)
+        )
     vmq0 = -c["R5"] / c["R4"] * vq0
     vp0 = -c["R2"] * (c["V_A"] * math.cos(phi) / c["R1"] + vmq0 / c["R6"] + vs0 / c["R7"])
     vu = c["V_unit"]
@@ -465,7 +521,9 @@ def spice_netlist(
     L: list[str] = []
     a = L.append
     a("* precise_impact: electronic impact oscillator (Denysenko, Balcerzak, Dabrowski, Fig. 2)")
-    a(f"* generated by precise_impact.models.circuit.spice; effects: {', '.join(sorted(eff)) or 'none (ideal parts)'}")
+    a(
+        f"* generated by precise_impact.models.circuit.spice; effects: {', '.join(sorted(eff)) or 'none (ideal parts)'}"
+    )
     a("* design: " + ", ".join(f"{k}={v}" for k, v in components.decimal().items()))
     if "tolerance" in eff:
         a("* drawn:  " + ", ".join(f"{k}={v}" for k, v in comp.decimal().items()))
@@ -495,15 +553,21 @@ def spice_netlist(
     a("* ---- U5 comparator: cmp -> 1 when V_s < V_wall (x > x_w); smooth, output pole tau_c")
     w = _f(COMPARATOR_WIDTH * vu)
     if hyst:
-        a("* hysteresis as a gated set/reset cell (no positive feedback: one solution at any step size)")
-        a(f"BU5 0 cmp I = 0.5*(1+tanh(({_f(c['V_wall'] - hyst / 2)}-V(s))/{w}))*(1-V(cmp))"
-          f" - 0.5*(1+tanh((V(s)-{_f(c['V_wall'] + hyst / 2)})/{w}))*V(cmp)")
+        a(
+            "* hysteresis as a gated set/reset cell (no positive feedback: one solution at any step size)"
+        )
+        a(
+            f"BU5 0 cmp I = 0.5*(1+tanh(({_f(c['V_wall'] - hyst / 2)}-V(s))/{w}))*(1-V(cmp))"
+            f" - 0.5*(1+tanh((V(s)-{_f(c['V_wall'] + hyst / 2)})/{w}))*V(cmp)"
+        )
     else:
         a(f"BU5 0 cmp I = 0.5*(1+tanh(({_f(c['V_wall'])}-V(s))/{w})) - V(cmp)")
     a(f"CU5 cmp 0 {_f(tau_c)} IC={_f(cmp0)}")
     a("* ---- A1 toggle flip-flop: master-slave gated track/hold cells, clock = cmp")
     a(f".func lreg(v) = 0.5*(1+tanh((v-0.5)/{_LATCH_W}))")
-    a("* non-overlapping clocks: master tracks NOT ps while cmp < 0.4, slave tracks m while cmp > 0.6")
+    a(
+        "* non-overlapping clocks: master tracks NOT ps while cmp < 0.4, slave tracks m while cmp > 0.6"
+    )
     a(f"BA1M 0 m I = 0.5*(1+tanh(({_CLK_LO}-V(cmp))/{_EN_W}))*(1-lreg(V(ps))-V(m))")
     a(f"CA1M m 0 {_f(_LATCH_TAU)} IC=1")
     a(f"BA1S 0 ps I = 0.5*(1+tanh((V(cmp)-{_CLK_HI})/{_EN_W}))*(V(m)-V(ps))")
@@ -513,12 +577,18 @@ def spice_netlist(
     a(f"CA1D pol 0 {_f(tau_ff)} IC=0")
     a("* ---- U6/U7 analogue switches, all driven from the one node pol")
     lon, lmid, loff = math.log(ron), math.log(c["R3"]), math.log(SWITCH_ROFF)
-    a(f".func lnr(u) = u > 0 ? {_f(lmid)}-{_f(lmid - lon)}*tanh(u) : {_f(lmid)}+{_f(loff - lmid)}*tanh(-u)")
+    a(
+        f".func lnr(u) = u > 0 ? {_f(lmid)}-{_f(lmid - lon)}*tanh(u) : {_f(lmid)}+{_f(loff - lmid)}*tanh(-u)"
+    )
     if bbm > 0:
-        a("* break-before-make: pold = pol lagged by bbm/ln2; a pair conducts only when pol and pold agree")
+        a(
+            "* break-before-make: pold = pol lagged by bbm/ln2; a pair conducts only when pol and pold agree"
+        )
         a("BBM 0 pold I = V(pol)-V(pold)")
         a(f"CBM pold 0 {_f(bbm / math.log(2))} IC=0")
-        a(f"* parasitic {_PARASITIC_C:g} F on U2's input and C2's terminals: the open-loop gap has time constants")
+        a(
+            f"* parasitic {_PARASITIC_C:g} F on U2's input and C2's terminals: the open-loop gap has time constants"
+        )
         a(f"CPN2 n2 0 {_f(_PARASITIC_C)}")
         a(f"CPCA ca 0 {_f(_PARASITIC_C)}")
         a(f"CPCB cb 0 {_f(_PARASITIC_C)}")
@@ -542,7 +612,9 @@ def spice_netlist(
     pts = " ".join(f"{_f(k * period_s)} 0" for k in range(periods + 1))
     a("VBRK brk 0 PWL(" + pts + ")")
     a("")
-    a(f".ic V(s)={_f(vs0)} V(q)={_f(vq0)} V(mq)={_f(vmq0)} V(p)={_f(vp0)} V(ca)=0 V(cb)={_f(vq0)} V(cmp)={_f(cmp0)} V(pol)=0 V(ps)=0 V(m)=1")
+    a(
+        f".ic V(s)={_f(vs0)} V(q)={_f(vq0)} V(mq)={_f(vmq0)} V(p)={_f(vp0)} V(ca)=0 V(cb)={_f(vq0)} V(cmp)={_f(cmp0)} V(pol)=0 V(ps)=0 V(m)=1"
+    )
     a(".options " + " ".join(k if v is None else f"{k}={v}" for k, v in opts.items()))
     tstop = periods * period_s
     a(f".tran {_f(min(float(tm), period_s / 100))} {_f(tstop)} 0 {_f(tm)} uic")
@@ -566,7 +638,7 @@ def _wrap(text: str, width: int = 1000) -> str:
             if cut <= 0:
                 break
             out.append(line[:cut])
-            line = "+ " + line[cut + 1:]
+            line = "+ " + line[cut + 1 :]
         out.append(line)
     return "\n".join(out)
 
@@ -643,18 +715,30 @@ class SpiceResult:
 
         ``params`` defaults to ``dimensionless(components)`` (needs a rational omega).
         """
-        from precise_impact.models.circuit.components import dimensionless
         from precise_impact.core.precision import Precision
         from precise_impact.core.trajectory import Trajectory
+        from precise_impact.models.circuit.components import dimensionless
 
         if params is None:
-            params = dimensionless(self.components, x0=self.stats["x0"], v0=self.stats["v0"], t0=self.stats["t0"])
+            params = dimensionless(
+                self.components, x0=self.stats["x0"], v0=self.stats["v0"], t0=self.stats["t0"]
+            )
         return Trajectory(
-            params=params, model="spice", precision=Precision.parse("float64"), tol=None,
-            t=self.t, x=self.x, v=self.v, impacts_t=self.impacts_t,
-            impacts_v_before=self.impacts_v_before, impacts_v_after=self.impacts_v_after,
-            dense_t=self.dense_t, dense_x=self.dense_x, dense_v=self.dense_v,
-            elapsed_s=self.elapsed_s, stats=dict(self.stats),
+            params=params,
+            model="spice",
+            precision=Precision.parse("float64"),
+            tol=None,
+            t=self.t,
+            x=self.x,
+            v=self.v,
+            impacts_t=self.impacts_t,
+            impacts_v_before=self.impacts_v_before,
+            impacts_v_after=self.impacts_v_after,
+            dense_t=self.dense_t,
+            dense_x=self.dense_x,
+            dense_v=self.dense_v,
+            elapsed_s=self.elapsed_s,
+            stats=dict(self.stats),
         )
 
 
@@ -733,18 +817,26 @@ def run_spice(
     """
     netlist = spice_netlist(components, effects, periods, tmax, x0, v0, t0, options=options)
     eff, periods, tm, x0q, v0q, t0q = _check_inputs(components, effects, periods, tmax, x0, v0, t0)
-    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not (timeout > 0 and math.isfinite(timeout)):
+    if (
+        isinstance(timeout, bool)
+        or not isinstance(timeout, (int, float))
+        or not (timeout > 0 and math.isfinite(timeout))
+    ):
         raise ParameterError("timeout", timeout, "seconds > 0")
     exe = _find_ngspice(executable)
     if workdir is None:
         with tempfile.TemporaryDirectory(prefix="precise_impact_spice_") as tmp:
-            return _run(exe, netlist, Path(tmp), components, eff, periods, tm, x0q, v0q, t0q, timeout, dense)
+            return _run(
+                exe, netlist, Path(tmp), components, eff, periods, tm, x0q, v0q, t0q, timeout, dense
+            )
     wd = Path(workdir)
     wd.mkdir(parents=True, exist_ok=True)
     return _run(exe, netlist, wd, components, eff, periods, tm, x0q, v0q, t0q, timeout, dense)
 
 
-def _run(exe, netlist, wd: Path, components, eff, periods, tm, x0q, v0q, t0q, timeout, dense) -> SpiceResult:
+def _run(
+    exe, netlist, wd: Path, components, eff, periods, tm, x0q, v0q, t0q, timeout, dense
+) -> SpiceResult:
     cir = wd / "circuit.cir"
     out = wd / OUTPUT_FILE
     log = wd / "ngspice.log"
@@ -753,19 +845,29 @@ def _run(exe, netlist, wd: Path, components, eff, periods, tm, x0q, v0q, t0q, ti
         out.unlink()
     t_start = _time.perf_counter()
     try:
-        proc = subprocess.run([exe, "-b", cir.name], cwd=wd, capture_output=True, text=True, timeout=timeout)
+        proc = subprocess.run(
+            [exe, "-b", cir.name], cwd=wd, capture_output=True, text=True, timeout=timeout
+        )
     except subprocess.TimeoutExpired as e:
-        raise SpiceError(f"ngspice did not finish within timeout={timeout} s (TMAX={float(tm)!r} s, {periods} periods)") from e
+        raise SpiceError(
+            f"ngspice did not finish within timeout={timeout} s (TMAX={float(tm)!r} s, {periods} periods)"
+        ) from e
     elapsed = _time.perf_counter() - t_start
     log.write_text(proc.stdout + "\n---- stderr ----\n" + proc.stderr)
-    errors = [ln for ln in (proc.stdout + proc.stderr).splitlines() if re.search(r"\berror\b|too small|aborted", ln, re.I)]
+    errors = [
+        ln
+        for ln in (proc.stdout + proc.stderr).splitlines()
+        if re.search(r"\berror\b|too small|aborted", ln, re.I)
+    ]
     if proc.returncode != 0 or not out.exists() or errors:
         tail = "\n".join((proc.stdout + proc.stderr).strip().splitlines()[-15:])
         raise SpiceError(f"ngspice failed (exit {proc.returncode}); log tail:\n{tail}")
     t_parse = _time.perf_counter()
     raw = np.fromfile(out, sep=" ")
     if raw.size == 0 or raw.size % 5:
-        raise SpiceError(f"ngspice output {out} unreadable ({raw.size} numbers, expected a multiple of 5)")
+        raise SpiceError(
+            f"ngspice output {out} unreadable ({raw.size} numbers, expected a multiple of 5)"
+        )
     data = raw.reshape(-1, 5)
     ts, vs, vq, pol, cmp_ = data.T
     parse_s = _time.perf_counter() - t_parse
@@ -821,8 +923,12 @@ def _run(exe, netlist, wd: Path, components, eff, periods, tm, x0q, v0q, t0q, ti
         ja = int(np.searchsorted(ts, t_imp[n] + settle, side="left"))
         ja = min(max(ja, int(i) + 1), len(ts) - 2)
         va.append(_extrapolate(ts, vq, ja, ja + 1, t_imp[n]))
-    _, _, v_b = to_mechanical(components, 0.0, np.zeros(len(vb)), np.asarray(vb, dtype=float), omega)
-    _, _, v_a = to_mechanical(components, 0.0, np.zeros(len(va)), np.asarray(va, dtype=float), omega)
+    _, _, v_b = to_mechanical(
+        components, 0.0, np.zeros(len(vb)), np.asarray(vb, dtype=float), omega
+    )
+    _, _, v_a = to_mechanical(
+        components, 0.0, np.zeros(len(va)), np.asarray(va, dtype=float), omega
+    )
 
     version = ""
     m = re.search(r"ngspice-(\S+)", proc.stdout + proc.stderr)
@@ -885,16 +991,29 @@ class SpiceSolver:
 
     model_name = "spice"
 
-    def __init__(self, effects: Mapping[str, Mapping[str, Any]] | None = None, tmax: Any = 10e-6,
-                 timeout: float = 600, executable: str | None = None) -> None:
+    def __init__(
+        self,
+        effects: Mapping[str, Mapping[str, Any]] | None = None,
+        tmax: Any = 10e-6,
+        timeout: float = 600,
+        executable: str | None = None,
+    ) -> None:
         from precise_impact.core.precision import Precision
 
         self.precision = Precision.parse("float64")
         self.effects = validate_effects(effects, "spice")
         self.tmax, self.timeout, self.executable = tmax, timeout, executable
 
-    def solve(self, params, periods: int, *, per_period: int = 0,
-              x0: Any = None, v0: Any = None, t0: Any = None) -> Trajectory:
+    def solve(
+        self,
+        params,
+        periods: int,
+        *,
+        per_period: int = 0,
+        x0: Any = None,
+        v0: Any = None,
+        t0: Any = None,
+    ) -> Trajectory:
         """Run ngspice for ``periods`` forcing periods; returns a float64 :class:`~precise_impact.Trajectory`.
 
         Parameters
@@ -926,6 +1045,16 @@ class SpiceSolver:
         from precise_impact.models.circuit.components import design_and_start
 
         design, x0, v0, t0 = design_and_start(params, x0, v0, t0)
-        res = run_spice(design, self.effects, periods, tmax=self.tmax, x0=x0, v0=v0, t0=t0,
-                        timeout=self.timeout, dense=per_period > 0, executable=self.executable)
+        res = run_spice(
+            design,
+            self.effects,
+            periods,
+            tmax=self.tmax,
+            x0=x0,
+            v0=v0,
+            t0=t0,
+            timeout=self.timeout,
+            dense=per_period > 0,
+            executable=self.executable,
+        )
         return res.to_trajectory()

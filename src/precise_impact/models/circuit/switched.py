@@ -32,23 +32,24 @@ the ideal impact with R = 1.  The effects (each off unless a scene switches it o
 from __future__ import annotations
 
 import time as _time
+from collections.abc import Mapping
 from fractions import Fraction
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
-from precise_impact.solvers.heyoka.cache import IntegratorCache
-from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.models.circuit.components import Components, design_and_start, dimensionless
-from precise_impact.models.circuit.effects.catalogue import validate_effects
-from precise_impact.models.circuit.network import NETWORK_PARS
 from precise_impact.models.circuit.effects import comparator, flipflop, switch
+from precise_impact.models.circuit.effects.catalogue import validate_effects
 from precise_impact.models.circuit.effects.tolerance import actual_components
+from precise_impact.models.circuit.network import NETWORK_PARS
+from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 
 __all__ = ["SwitchedCapacitorSolver"]
 
@@ -66,7 +67,12 @@ def _system():
     k = switch.coupling(p["ron"], p["R2"], p["R3"])
     V_q = switch.vq(p["pol"], V_C, V3, V_s, k, p["R1"], p["R6"], p["R7"], rho)
     V_p = -p["R2"] * (V3 / p["R1"] - rho * V_q / p["R6"] + V_s / p["R7"])
-    return (V_s, V_C), [(V_s, -V_q / (p["R8"] * p["C1"])), (V_C, p["pol"] * V_p / (p["R3"] * p["C2"]))], V_q, V_p
+    return (
+        (V_s, V_C),
+        [(V_s, -V_q / (p["R8"] * p["C1"])), (V_C, p["pol"] * V_p / (p["R3"] * p["C2"]))],
+        V_q,
+        V_p,
+    )
 
 
 class _Comparator(ImpactRecorder):
@@ -114,7 +120,9 @@ class _Rearm:
         return True
 
 
-_INTEGRATORS = IntegratorCache("switched-capacitor")  # compiled once; every caller gets its own copy
+_INTEGRATORS = IntegratorCache(
+    "switched-capacitor"
+)  # compiled once; every caller gets its own copy
 
 
 def _build(P: Precision, tol):
@@ -125,14 +133,29 @@ def _build(P: Precision, tol):
     def compile_():
         (V_s, V_C), rhs, _, _ = _system()
         kw = P.heyoka_kwargs
-        trip = hy.t_event(V_s - hy.par[_I["v_trip"]], callback=_Comparator(), direction=hy.event_direction.negative,
-                          fp_type=kw["fp_type"])
-        rearm = hy.t_event(V_s - hy.par[_I["v_rearm"]], callback=_Rearm(0), direction=hy.event_direction.positive,
-                           fp_type=kw["fp_type"])
+        trip = hy.t_event(
+            V_s - hy.par[_I["v_trip"]],
+            callback=_Comparator(),
+            direction=hy.event_direction.negative,
+            fp_type=kw["fp_type"],
+        )
+        rearm = hy.t_event(
+            V_s - hy.par[_I["v_rearm"]],
+            callback=_Rearm(0),
+            direction=hy.event_direction.positive,
+            fp_type=kw["fp_type"],
+        )
         zero = P.from_fraction(Fraction(0))
         extra = {"tol": tol} if tol is not None else {}
-        ta = hy.taylor_adaptive(rhs, [zero, zero], pars=[zero] * len(PARS), t_events=[trip, rearm],
-                                compact_mode=P.kind == "mp", **extra, **kw)
+        ta = hy.taylor_adaptive(
+            rhs,
+            [zero, zero],
+            pars=[zero] * len(PARS),
+            t_events=[trip, rearm],
+            compact_mode=P.kind == "mp",
+            **extra,
+            **kw,
+        )
         return ta
 
     return _INTEGRATORS.get(key, compile_)
@@ -153,8 +176,13 @@ class SwitchedCapacitorSolver:
 
     model_name = "switched-capacitor"
 
-    def __init__(self, precision: str | Precision = "float64", tol: Any = None,
-                 effects: Mapping[str, Mapping[str, Any]] | None = None, max_impacts: int = 10**6) -> None:
+    def __init__(
+        self,
+        precision: str | Precision = "float64",
+        tol: Any = None,
+        effects: Mapping[str, Mapping[str, Any]] | None = None,
+        max_impacts: int = 10**6,
+    ) -> None:
         self.precision = Precision.parse(precision)
         self.effects = validate_effects(effects, "switched-capacitor")
         q = self.precision.check_tol(tol)
@@ -165,11 +193,21 @@ class SwitchedCapacitorSolver:
         self.bbm = sw.get("bbm", Fraction(0))
         self.q_inj = sw.get("charge_injection", Fraction(0))
         self.slew = sw.get("slew_rate", Fraction(13 * 10**6))
-        self.delay = comparator.delay(self.effects.get("comparator")) + flipflop.delay(self.effects.get("flipflop"))
+        self.delay = comparator.delay(self.effects.get("comparator")) + flipflop.delay(
+            self.effects.get("flipflop")
+        )
         self.hyst = self.effects.get("comparator", {}).get("hysteresis", Fraction(0))
 
-    def solve(self, params: Params | Components, periods: int, *, per_period: int = 0,
-              x0: Any = None, v0: Any = None, t0: Any = None) -> Trajectory:
+    def solve(
+        self,
+        params: Params | Components,
+        periods: int,
+        *,
+        per_period: int = 0,
+        x0: Any = None,
+        v0: Any = None,
+        t0: Any = None,
+    ) -> Trajectory:
         """Simulate; samples at ``t0 + k 2 pi / Omega``, mapped to the dimensionless system.
 
         Impacts are recorded when the switches reconnect C2 (the velocity jump):
@@ -208,7 +246,9 @@ class SwitchedCapacitorSolver:
         conv = P.from_fraction
         ta = _build(P, self.tol)
         pars = [getattr(comp, n) for n in NETWORK_PARS] + [
-            Fraction(1), self.ron, *comparator.thresholds(comp.V_wall, self.effects.get("comparator"))
+            Fraction(1),
+            self.ron,
+            *comparator.thresholds(comp.V_wall, self.effects.get("comparator")),
         ]
         ta.pars[:] = P.array([conv(q) for q in pars])
         # initial state: V_s, and V_C such that V_q (with pol = +1) equals the mapped v0
@@ -221,8 +261,17 @@ class SwitchedCapacitorSolver:
         import mpmath
 
         with mpmath.workprec(P.bits + 32):
-            c = mpmath.cos(mpmath.mpf(comp.Omega.numerator) / comp.Omega.denominator * t0s.numerator / t0s.denominator)
-            V3 = Fraction(mpmath.nstr(c * comp.V_A.numerator / comp.V_A.denominator, P.digits + 5)) if k else Fraction(0)
+            c = mpmath.cos(
+                mpmath.mpf(comp.Omega.numerator)
+                / comp.Omega.denominator
+                * t0s.numerator
+                / t0s.denominator
+            )
+            V3 = (
+                Fraction(mpmath.nstr(c * comp.V_A.numerator / comp.V_A.denominator, P.digits + 5))
+                if k
+                else Fraction(0)
+            )
         VC0 = -(Vq0 * (1 + k * rho / comp.R6) - k * (V3 / comp.R1 + Vs0 / comp.R7))
         ta.time = conv(t0s)
         ta.state[:] = P.array([conv(Vs0), conv(VC0)])
@@ -231,7 +280,11 @@ class SwitchedCapacitorSolver:
         cmp_ = ta.t_events[0].callback
         cmp_.reset(immediate, self.max_impacts, rearm_at_flip=self.hyst == 0)
         if Vs0 <= pars[_I["v_trip"]]:
-            raise ParameterError("x0", str(params.x0), "the start must be outside the comparator threshold (x0 < x_w)")
+            raise ParameterError(
+                "x0",
+                str(params.x0),
+                "the start must be outside the comparator threshold (x0 < x_w)",
+            )
         step = max(per_period, 1)
         grid = P.sample_times(t0s, comp.Omega, periods, step)
         vq_fn = self._vq_function(P, comp)
@@ -250,14 +303,16 @@ class SwitchedCapacitorSolver:
                 else:
                     oc = hy.taylor_outcome.time_limit
                 if cmp_.exceeded:
-                    raise BudgetExceededError(f"impact budget max_impacts={self.max_impacts} exhausted")
+                    raise BudgetExceededError(
+                        f"impact budget max_impacts={self.max_impacts} exhausted"
+                    )
                 if cmp_.pending:
                     cmp_.pending = False
                     pending_at = ta.time + sw["delay"]
                     continue
                 if immediate and cmp_.count > switches.count:
                     # fast path: the callback flipped pol at the trip instant
-                    for tt in cmp_.t[switches.count:]:
+                    for tt in cmp_.t[switches.count :]:
                         switches.log(tt)
                 if pending_at is not None and ta.time == pending_at:
                     vb, va = self._switch(ta, sw, vq_fn)
@@ -267,7 +322,9 @@ class SwitchedCapacitorSolver:
                 if oc != hy.taylor_outcome.time_limit and not (int(oc) < 0):
                     raise IntegrationError(f"heyoka stopped early: {oc}")
                 break
-            samples.append((ta.time, ta.state[0], vq_fn(ta.time, ta.state[0], ta.state[1], ta.pars[_I["pol"]])))
+            samples.append(
+                (ta.time, ta.state[0], vq_fn(ta.time, ta.state[0], ta.state[1], ta.pars[_I["pol"]]))
+            )
         elapsed = _time.perf_counter() - start
         om, rcv, vuv = conv(omega), conv(rc), conv(vu)
         tau = P.array([om * s[0] for s in samples])
@@ -283,13 +340,24 @@ class SwitchedCapacitorSolver:
             else:
                 imp_vb.append(vb / (om * rcv * vuv))
                 imp_va.append(va / (om * rcv * vuv))
-        traj = Trajectory(params=params, model=self.model_name, precision=P,
-                          tol=self.tol if self.tol is not None else P.eps,
-                          t=tau[::step], x=x[::step], v=v[::step],
-                          impacts_t=P.array(imp_t), impacts_v_before=P.array(imp_vb), impacts_v_after=P.array(imp_va),
-                          elapsed_s=elapsed,
-                          stats={"effects": sorted(self.effects), "components": comp.decimal(),
-                                 "comparator_trips": cmp_.count})
+        traj = Trajectory(
+            params=params,
+            model=self.model_name,
+            precision=P,
+            tol=self.tol if self.tol is not None else P.eps,
+            t=tau[::step],
+            x=x[::step],
+            v=v[::step],
+            impacts_t=P.array(imp_t),
+            impacts_v_before=P.array(imp_vb),
+            impacts_v_after=P.array(imp_va),
+            elapsed_s=elapsed,
+            stats={
+                "effects": sorted(self.effects),
+                "components": comp.decimal(),
+                "comparator_trips": cmp_.count,
+            },
+        )
         if per_period > 0:
             traj.dense_t, traj.dense_x, traj.dense_v = tau, x, v
         return traj
@@ -313,8 +381,14 @@ class SwitchedCapacitorSolver:
         """The constants of :meth:`_switch` in the working precision (each rounded once)."""
         conv = P.from_fraction
         c = {n: conv(getattr(comp, n)) for n in ("R1", "R2", "R6", "R7", "V_A", "Omega")}
-        c.update(delay=conv(self.delay), bbm=conv(self.bbm), rho=conv(comp.R5 / comp.R4), slew=conv(self.slew),
-                 rc=conv(comp.R8 * comp.C1), dq=conv(switch.injected_voltage(self.q_inj, comp.C2)) if self.q_inj != 0 else None)
+        c.update(
+            delay=conv(self.delay),
+            bbm=conv(self.bbm),
+            rho=conv(comp.R5 / comp.R4),
+            slew=conv(self.slew),
+            rc=conv(comp.R8 * comp.C1),
+            dq=conv(switch.injected_voltage(self.q_inj, comp.C2)) if self.q_inj != 0 else None,
+        )
         return c
 
     def _switch(self, ta, c: dict, vq_fn):

@@ -30,13 +30,13 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Sequence
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 from precise_impact.core.params import check_count, decimal_str, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
-from precise_impact.solvers.heyoka.coupled import check_form, check_k, check_y0, slave_reset
 from precise_impact.solvers.certified.single import (
     MAX_BITS,
     MIN_BITS,
@@ -55,6 +55,7 @@ from precise_impact.solvers.certified.single import (
     upper,
     working_bits,
 )
+from precise_impact.solvers.heyoka.coupled import check_form, check_k, check_y0, slave_reset
 
 __all__ = ["certify_coupled", "CertifiedCoupledTrajectory"]
 
@@ -89,7 +90,9 @@ class _ErrorFlow:
 class _Pair:
     """Master flight and error flow from one anchor; the two wall gaps."""
 
-    def __init__(self, c: Constants, consts: tuple, s, x, v, e, ep, master: Flight | None = None) -> None:
+    def __init__(
+        self, c: Constants, consts: tuple, s, x, v, e, ep, master: Flight | None = None
+    ) -> None:
         self.c = c
         # the master's flight goes on unchanged through a slave impact (no re-anchoring, no wrapping)
         self.m = Flight(c, s, x, v) if master is None else master
@@ -177,14 +180,25 @@ class CertifiedCoupledTrajectory(ResultMixin):
             out = []
             for t, b, a in lst:
                 (tm, tr), (bm, br), (am, ar) = ball_str(t), ball_str(b), ball_str(a)
-                out.append({"t": tm, "t_rad": tr, "before": bm, "after": am, "rad": max(br, ar, key=float)})
+                out.append(
+                    {"t": tm, "t_rad": tr, "before": bm, "after": am, "rad": max(br, ar, key=float)}
+                )
             return out
 
-        return {"params": self.params.decimal(), "form": self.form, "k": decimal_str(self.k),
-                "y0": None if self.y0 is None else [decimal_str(q) for q in self.y0], "periods": self.periods,
-                "bits": self.bits, "samples": rows, "master_impacts": imps(self.master_impacts),
-                "slave_impacts": imps(self.slave_impacts), "max_radius": self.max_radius(), "max_log10_radius": self.max_log10_radius(),
-                "elapsed_s": self.elapsed_s}
+        return {
+            "params": self.params.decimal(),
+            "form": self.form,
+            "k": decimal_str(self.k),
+            "y0": None if self.y0 is None else [decimal_str(q) for q in self.y0],
+            "periods": self.periods,
+            "bits": self.bits,
+            "samples": rows,
+            "master_impacts": imps(self.master_impacts),
+            "slave_impacts": imps(self.slave_impacts),
+            "max_radius": self.max_radius(),
+            "max_log10_radius": self.max_log10_radius(),
+            "elapsed_s": self.elapsed_s,
+        }
 
 
 def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress) -> tuple:
@@ -198,7 +212,9 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
     al = c1 / 2
     om2 = c0 - al * al
     if not om2 > 0:  # pragma: no cover - refused by certify_coupled before any work
-        raise CertificationError(f"e'' + c1 e' + c0 e = 0 is not proven underdamped (c0 - c1^2/4 in {om2})")
+        raise CertificationError(
+            f"e'' + c1 e' + c0 e = 0 is not proven underdamped (c0 - c1^2/4 in {om2})"
+        )
     consts = (al, om2.sqrt(), c0)
     fo = form == "first-order"
     x0, v0 = to_ball(params.x0), to_ball(params.v0)
@@ -232,20 +248,32 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
                 a = b
                 continue
             if hm is not None and hs is not None and hm.overlaps(hs):
-                raise CertificationError(describe(hm.union(hs), "simultaneous master and slave impacts whose "
-                                                                "order cannot be proven") + f" at {bits} bits")
+                raise CertificationError(
+                    describe(
+                        hm.union(hs),
+                        "simultaneous master and slave impacts whose order cannot be proven",
+                    )
+                    + f" at {bits} bits"
+                )
             master = hs is None or (hm is not None and hm < hs)
             hit = hm if master else hs
             while True:  # apply the impact; the other oscillator may impact before this one departs
                 if hit.overlaps(tk):
-                    raise CertificationError(describe(hit, "an impact on a sample time") + f" at {bits} bits")
+                    raise CertificationError(
+                        describe(hit, "an impact on a sample time") + f" at {bits} bits"
+                    )
                 x, v, e, ep = pair.state(hit)
                 if master:
                     va = -c.R * v
                     mimp.append((hit, v, va))
                     yd = v + ep  # y' is continuous through the master's impact
                     pair = _Pair(c, consts, hit, c.xw, va, e, yd - va)
-                    gap, bound, other, obound = pair.master_gap, pair.master_bound(), pair.slave_gap, pair.slave_bound()
+                    gap, bound, other, obound = (
+                        pair.master_gap,
+                        pair.master_bound(),
+                        pair.slave_gap,
+                        pair.slave_bound(),
+                    )
                 else:
                     wb = w_of(e, v + ep)
                     wa = slave_reset(form, x, wb, c.R, k, c.xw)
@@ -253,16 +281,25 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
                     e_at = c.xw - x  # the slave is on the wall
                     yd = wa - k * e_at if fo else wa
                     pair = _Pair(c, consts, hit, x, v, e_at, yd - v, master=pair.m)
-                    gap, bound, other, obound = pair.slave_gap, pair.slave_bound(), pair.master_gap, pair.master_bound()
+                    gap, bound, other, obound = (
+                        pair.slave_gap,
+                        pair.slave_bound(),
+                        pair.master_gap,
+                        pair.master_bound(),
+                    )
                 d = iso.depart(gap, bound, hit)  # this one's gap < 0 proven on (impact, d]
                 stop = d if d < end else end
                 nxt = iso.first_crossing(other, obound, point(hit.lower()), stop, check_start=True)
                 if nxt is None:
                     break
                 if nxt.overlaps(hit) or not nxt > hit:
-                    raise CertificationError(describe(hit.union(nxt), "simultaneous master and slave impacts "
-                                                                      "whose order cannot be proven")
-                                             + f" at {bits} bits")
+                    raise CertificationError(
+                        describe(
+                            hit.union(nxt),
+                            "simultaneous master and slave impacts whose order cannot be proven",
+                        )
+                        + f" at {bits} bits"
+                    )
                 master, hit = not master, nxt
             a = d if d < end else end
             if not (a < end):
@@ -275,9 +312,18 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
     return samples, mimp, simp
 
 
-def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order", periods: int = 100, *,
-                    y0: Sequence[Any] | None = None, bits: int = 256, max_bits: int = 4096,
-                    progress: bool | None = None, **param_values: Any) -> CertifiedCoupledTrajectory:
+def certify_coupled(
+    params: Any = None,
+    k: Any = "0.1",
+    form: str = "first-order",
+    periods: int = 100,
+    *,
+    y0: Sequence[Any] | None = None,
+    bits: int = 256,
+    max_bits: int = 4096,
+    progress: bool | None = None,
+    **param_values: Any,
+) -> CertifiedCoupledTrajectory:
     """The master-slave pair certified: every sample and impact of both oscillators in a proven ball.
 
     Parameters
@@ -344,15 +390,24 @@ def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order
     else:
         c1, c0 = 2 * params.zeta + 2 * kq, 1 + 2 * params.zeta * kq + kq * kq
     if not c0 > c1 * c1 / 4:
-        raise ParameterError("k", decimal_str(kq), f"a coupling with c0 > c1^2/4 (underdamped error equation) for "
-                                                   f"the '{form}' form")
+        raise ParameterError(
+            "k",
+            decimal_str(kq),
+            f"a coupling with c0 > c1^2/4 (underdamped error equation) for the '{form}' form",
+        )
     if y0q is not None:
         if not params.x0 < params.x_w:
-            raise ParameterError("x0", decimal_str(params.x0), f"x0 < x_w = {decimal_str(params.x_w)} for the "
-                                                               "certified pair off the diagonal")
+            raise ParameterError(
+                "x0",
+                decimal_str(params.x0),
+                f"x0 < x_w = {decimal_str(params.x_w)} for the certified pair off the diagonal",
+            )
         if not y0q[0] < params.x_w:
-            raise ParameterError("y0[0]", decimal_str(y0q[0]), f"y0[0] < x_w = {decimal_str(params.x_w)} for the "
-                                                                "certified pair")
+            raise ParameterError(
+                "y0[0]",
+                decimal_str(y0q[0]),
+                f"y0[0] < x_w = {decimal_str(params.x_w)} for the certified pair",
+            )
     bar = Progress(periods, "certified periods (pair)", enabled=progress)
     while True:
         t0 = time.perf_counter()
@@ -366,8 +421,9 @@ def certify_coupled(params: Any = None, k: Any = "0.1", form: str = "first-order
                 else:
                     samples, mimp, simp = _run(params, kq, form, y0q, periods, bits, bar)
             bar.close()
-            return CertifiedCoupledTrajectory(params, form, kq, y0q, periods, bits, samples, mimp, simp,
-                                              time.perf_counter() - t0)
+            return CertifiedCoupledTrajectory(
+                params, form, kq, y0q, periods, bits, samples, mimp, simp, time.perf_counter() - t0
+            )
         except CertificationError as e:
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None

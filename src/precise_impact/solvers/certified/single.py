@@ -38,9 +38,29 @@ from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import IntegrationError, OptionalDependencyError, ParameterError
 
-__all__ = ["certify", "CertifiedTrajectory", "CertificationError", "CertifiedSolver", "ball_str", "working_bits",
-           "flow_matrix", "run_balls", "to_ball", "exact_value", "log10_abs", "MAX_BITS", "MIN_BITS", "Constants", "Flight",
-           "Isolator", "point", "upper", "lower", "describe", "check_certifiable"]
+__all__ = [
+    "certify",
+    "CertifiedTrajectory",
+    "CertificationError",
+    "CertifiedSolver",
+    "ball_str",
+    "working_bits",
+    "flow_matrix",
+    "run_balls",
+    "to_ball",
+    "exact_value",
+    "log10_abs",
+    "MAX_BITS",
+    "MIN_BITS",
+    "Constants",
+    "Flight",
+    "Isolator",
+    "point",
+    "upper",
+    "lower",
+    "describe",
+    "check_certifiable",
+]
 
 #: Bounds of the working precision (bits).
 MIN_BITS, MAX_BITS = 64, 16384
@@ -59,8 +79,9 @@ def _flint():
     try:
         import flint
     except ImportError as e:  # pragma: no cover - CI installs it
-        raise OptionalDependencyError("python-flint", "certified trajectories (ball arithmetic)",
-                                      "pip install python-flint") from e
+        raise OptionalDependencyError(
+            "python-flint", "certified trajectories (ball arithmetic)", "pip install python-flint"
+        ) from e
     return flint
 
 
@@ -110,7 +131,11 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
             digits = 40
         else:
             scale = max(abs(mid), rad)
-            digits = max(3, int(math.ceil(math.log10(float(scale / rad)) if scale / rad < 10**300 else 300)) + 3)
+            digits = max(
+                3,
+                int(math.ceil(math.log10(float(scale / rad)) if scale / rad < 10**300 else 300))
+                + 3,
+            )
     with localcontext() as ctx:
         ctx.prec = digits
         dm = Decimal(mid.numerator) / Decimal(mid.denominator)  # rounded to `digits`
@@ -129,7 +154,7 @@ class Flight:
     evaluated at ball or point times (also the master of the certified pair,
     :mod:`precise_impact.solvers.certified.coupled`)."""
 
-    def __init__(self, c: "Constants", s, xs, vs) -> None:
+    def __init__(self, c: Constants, s, xs, vs) -> None:
         self.c = c
         self.s = s
         cs, ss = c.phase(s)
@@ -238,8 +263,10 @@ class Isolator:
         if check_start:
             ga, _ = gap(a)
             if not ga < 0:
-                raise CertificationError(describe(a, "a wall contact cannot be excluded") + f" (gap {ga}) "
-                                         f"at {self.bits} bits")
+                raise CertificationError(
+                    describe(a, "a wall contact cannot be excluded") + f" (gap {ga}) "
+                    f"at {self.bits} bits"
+                )
         h = b - a
         m = point((a + b) / 2)
         gm, vm = gap(m)
@@ -256,8 +283,10 @@ class Isolator:
             if gb > 0:
                 return self.newton(gap, a, b)
         if depth > self.max_depth:
-            raise CertificationError(describe(_interval(a, b), "a crossing cannot be separated from a graze")
-                                     + f" with gap in {gap(_interval(a, b))[0]} at {self.bits} bits")
+            raise CertificationError(
+                describe(_interval(a, b), "a crossing cannot be separated from a graze")
+                + f" with gap in {gap(_interval(a, b))[0]} at {self.bits} bits"
+            )
         r = self.first_crossing(gap, A, a, m, depth + 1)
         return r if r is not None else self.first_crossing(gap, A, m, b, depth + 1)
 
@@ -282,8 +311,10 @@ class Isolator:
         the scan may go on, with ``g < 0`` proven from the impact to it."""
         _, v = gap(s)
         if not v < 0:
-            raise CertificationError(describe(s, "a tangential or sticking impact (velocity after it not "
-                                                 "proven < 0)") + f", {v}, at {self.bits} bits")
+            raise CertificationError(
+                describe(s, "a tangential or sticking impact (velocity after it not proven < 0)")
+                + f", {v}, at {self.bits} bits"
+            )
         h = point(-v.upper() / (4 * A))  # g' stays < 0 for a quarter of |g'+| / A
         while True:
             b = point(upper(s) + h)
@@ -295,8 +326,10 @@ class Isolator:
                     return b
             h = point(h / 2)
             if h < s.rad() * 4 or h.is_zero():
-                raise CertificationError(describe(s, "an impact whose departure cannot be proven")
-                                         + f" at {self.bits} bits")
+                raise CertificationError(
+                    describe(s, "an impact whose departure cannot be proven")
+                    + f" at {self.bits} bits"
+                )
 
 
 class _Engine:
@@ -320,7 +353,9 @@ class _Engine:
         fl = Flight(c, s, x0, v0)
         if start is not None:
             if not x0 < c.xw:
-                raise CertificationError(f"the start box x in {x0} is not proven below the wall x_w")
+                raise CertificationError(
+                    f"the start box x in {x0} is not proven below the wall x_w"
+                )
             a = s
         elif p.x0 == p.x_w:
             if p.v0 > 0:
@@ -345,7 +380,9 @@ class _Engine:
                     a = b
                     continue
                 if hit.overlaps(tk):
-                    raise CertificationError(describe(hit, "an impact on a sample time") + f" at {self.bits} bits")
+                    raise CertificationError(
+                        describe(hit, "an impact on a sample time") + f" at {self.bits} bits"
+                    )
                 _, vb = fl.at(hit)
                 va = -c.R * vb
                 impacts.append((hit, vb, va))
@@ -407,7 +444,9 @@ class CertifiedTrajectory(ResultMixin):
     def radii(self) -> list[float]:
         """``max(rad x, rad v)`` per sample (floats, rounded up; a radius below 1e-308 underflows
         to 0.0: :meth:`log10_radii` never does)."""
-        return [float(exact_value(max(s[2].rad(), s[3].rad()))) * (1 + 2**-50) for s in self.samples]
+        return [
+            float(exact_value(max(s[2].rad(), s[3].rad()))) * (1 + 2**-50) for s in self.samples
+        ]
 
     def log10_radii(self) -> list[float]:
         """``log10 max(rad x, rad v)`` per sample (``-inf`` for an exact point), at any magnitude."""
@@ -450,8 +489,10 @@ class CertifiedTrajectory(ResultMixin):
 
         _, _, bx, bv = self.samples[k]
         # exactly, in rationals: no rounding, and no dependence on python-flint's process-wide precision
-        return all(abs(exact(n, q, 10**6) - exact_value(b.mid())) <= exact_value(b.rad())
-                   for n, q, b in (("x", x, bx), ("v", v, bv)))
+        return all(
+            abs(exact(n, q, 10**6) - exact_value(b.mid())) <= exact_value(b.rad())
+            for n, q, b in (("x", x, bx), ("v", v, bv))
+        )
 
     def to_dict(self) -> dict:
         """The CLI's ``--json`` object: ``params``, ``periods``, ``bits``, ``bits_choice``,
@@ -470,11 +511,27 @@ class CertifiedTrajectory(ResultMixin):
             tm, tr = ball_str(t)
             bm, br = ball_str(vb)
             am, ar = ball_str(va)
-            imps.append({"t": tm, "t_rad": tr, "v_before": bm, "v_after": am, "v_rad": max(br, ar, key=float)})
-        return {"params": self.params.decimal(), "periods": self.periods, "bits": self.bits,
-                "bits_choice": self.bits_choice, "samples": out, "impacts": imps, "max_radius": self.max_radius(),
-                "max_log10_radius": self.max_log10_radius(),
-                "growth_digits_per_period": self.growth_digits_per_period(), "elapsed_s": self.elapsed_s}
+            imps.append(
+                {
+                    "t": tm,
+                    "t_rad": tr,
+                    "v_before": bm,
+                    "v_after": am,
+                    "v_rad": max(br, ar, key=float),
+                }
+            )
+        return {
+            "params": self.params.decimal(),
+            "periods": self.periods,
+            "bits": self.bits,
+            "bits_choice": self.bits_choice,
+            "samples": out,
+            "impacts": imps,
+            "max_radius": self.max_radius(),
+            "max_log10_radius": self.max_log10_radius(),
+            "growth_digits_per_period": self.growth_digits_per_period(),
+            "elapsed_s": self.elapsed_s,
+        }
 
 
 class working_bits:
@@ -495,14 +552,16 @@ class working_bits:
         _LOCK.release()
 
 
-def flow_matrix(c: "Constants", tau):
+def flow_matrix(c: Constants, tau):
     """The homogeneous (and tangent) flow ``Phi(tau)`` of a flight as a 2x2 list of balls."""
     e = (-c.zeta * tau).exp()
     sw, cw = (c.w * tau).sin_cos()
     return [[e * (cw + c.zw * sw), e * sw * c.iw], [-e * sw * c.iw, e * (cw - c.zw * sw)]]
 
 
-def run_balls(params: Params, periods: int, bits: int, start: tuple | None = None, progress=None) -> tuple:
+def run_balls(
+    params: Params, periods: int, bits: int, start: tuple | None = None, progress=None
+) -> tuple:
     """``(samples, impacts, constants)`` of one certified run at ``bits`` (the caller holds
     :class:`working_bits`); ``start``: ``(x0, v0)`` balls at ``t0`` instead of the parameters';
     ``progress``: a :class:`~precise_impact.io.progress.Progress` told each finished period."""
@@ -535,14 +594,26 @@ def check_certifiable(params: Params) -> None:
     from precise_impact.core.params import decimal_str
 
     if not params.zeta < 1:
-        raise ParameterError("zeta", decimal_str(params.zeta), "0 <= zeta < 1 (underdamped) for the certified engine")
+        raise ParameterError(
+            "zeta", decimal_str(params.zeta), "0 <= zeta < 1 (underdamped) for the certified engine"
+        )
     if (1 - params.eta**2) ** 2 + (2 * params.zeta * params.eta) ** 2 == 0:
-        raise ParameterError("zeta", "0", "zeta > 0 at eta = 1 (the undamped resonance has no steady state)")
+        raise ParameterError(
+            "zeta", "0", "zeta > 0 at eta = 1 (the undamped resonance has no steady state)"
+        )
     _flint()
 
 
-def certify(params: Any = None, periods: int = 300, *, bits: int | None = None, target_radius: Any = "1e-30",
-            max_bits: int = 8192, progress: bool | None = None, **param_values: Any) -> CertifiedTrajectory:
+def certify(
+    params: Any = None,
+    periods: int = 300,
+    *,
+    bits: int | None = None,
+    target_radius: Any = "1e-30",
+    max_bits: int = 8192,
+    progress: bool | None = None,
+    **param_values: Any,
+) -> CertifiedTrajectory:
     """A certified trajectory: every stroboscopic sample and impact enclosed in a proven ball.
 
     Parameters
@@ -600,34 +671,53 @@ def certify(params: Any = None, periods: int = 300, *, bits: int | None = None, 
         bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
     target = exact("target_radius", target_radius, 3000)
     if not Fraction(1, 10**3000) <= target <= Fraction(1, 1000):
-        raise ParameterError("target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3")
+        raise ParameterError(
+            "target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3"
+        )
     check_certifiable(params)  # (x0 <= x_w holds for every Params)
     choice = "given"
-    log_target = math.log10(target.numerator) - math.log10(target.denominator)  # no underflow below 1e-308
+    log_target = math.log10(target.numerator) - math.log10(
+        target.denominator
+    )  # no underflow below 1e-308
     if bits is None:
         n_pilot = min(periods, 40)
-        pilot = CertifiedTrajectory(params, n_pilot, 128, "pilot", *_run(params, n_pilot, 128, None), 0.0)
+        pilot = CertifiedTrajectory(
+            params, n_pilot, 128, "pilot", *_run(params, n_pilot, 128, None), 0.0
+        )
         g = max(pilot.growth_digits_per_period(), 0.0)
         r_pilot = max(pilot.log10_radii()[-1], -300.0)
         # radius ~ 10^(r_pilot + g (N - n_pilot) - 0.30103 (bits - 128)); two digits to spare
         need = r_pilot + g * (periods - n_pilot) - log_target + 2
         bits = int(64 * math.ceil(max(128, 128 + need / 0.30103) / 64))
-        choice = (f"automatic: radius growth {g:.3f} digits/period (pilot of {n_pilot} periods at 128 bits) "
-                  f"-> {bits} bits for radius 1e{log_target:.0f} after {periods} periods")
+        choice = (
+            f"automatic: radius growth {g:.3f} digits/period (pilot of {n_pilot} periods at 128 bits) "
+            f"-> {bits} bits for radius 1e{log_target:.0f} after {periods} periods"
+        )
         if bits > max_bits:
-            raise ParameterError("target_radius", str(target_radius),
-                                 f"a target reachable within max_bits = {max_bits} (needs ~{bits} bits)")
+            raise ParameterError(
+                "target_radius",
+                str(target_radius),
+                f"a target reachable within max_bits = {max_bits} (needs ~{bits} bits)",
+            )
     bar = Progress(periods, "certified periods", enabled=progress)
     while True:
         t0 = time.perf_counter()
         try:
             samples, impacts = _run(params, periods, bits, bar)
-            res = CertifiedTrajectory(params, periods, bits, choice, samples, impacts, time.perf_counter() - t0)
-            if choice.startswith("given") or res.max_log10_radius() <= log_target or 2 * bits > max_bits:
+            res = CertifiedTrajectory(
+                params, periods, bits, choice, samples, impacts, time.perf_counter() - t0
+            )
+            if (
+                choice.startswith("given")
+                or res.max_log10_radius() <= log_target
+                or 2 * bits > max_bits
+            ):
                 bar.close()  # the run reported every period; show a throttled last one
                 return res
-            choice += (f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, retried at "
-                       f"{2 * bits}")
+            choice += (
+                f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, retried at "
+                f"{2 * bits}"
+            )
         except CertificationError as e:
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
@@ -677,18 +767,31 @@ class CertifiedSolver:
         from precise_impact.core.trajectory import Trajectory
 
         if per_period:
-            raise ParameterError("per_period", str(per_period), "0 for the certified model (no dense output)")
+            raise ParameterError(
+                "per_period", str(per_period), "0 for the certified model (no dense output)"
+            )
         r = certify(params, periods, bits=self.bits, max_bits=self.bits)
         P = self.precision
         mid = lambda b: P.from_fraction(exact_value(b.mid()))  # noqa: E731
         rad = lambda b: float(exact_value(b.rad())) * (1 + 2**-50)  # noqa: E731
         return Trajectory(
-            params=params, model=self.model_name, precision=P, tol=None,
-            t=P.array([mid(s[1]) for s in r.samples]), x=P.array([mid(s[2]) for s in r.samples]),
+            params=params,
+            model=self.model_name,
+            precision=P,
+            tol=None,
+            t=P.array([mid(s[1]) for s in r.samples]),
+            x=P.array([mid(s[2]) for s in r.samples]),
             v=P.array([mid(s[3]) for s in r.samples]),
-            impacts_t=P.array([mid(i[0]) for i in r.impacts]), impacts_v_before=P.array([mid(i[1]) for i in r.impacts]),
-            impacts_v_after=P.array([mid(i[2]) for i in r.impacts]), elapsed_s=r.elapsed_s,
-            stats={"certified": True, "bits": self.bits, "x_rad": [rad(s[2]) for s in r.samples],
-                   "v_rad": [rad(s[3]) for s in r.samples], "max_radius": r.max_radius(),
-                   "max_log10_radius": r.max_log10_radius()},
+            impacts_t=P.array([mid(i[0]) for i in r.impacts]),
+            impacts_v_before=P.array([mid(i[1]) for i in r.impacts]),
+            impacts_v_after=P.array([mid(i[2]) for i in r.impacts]),
+            elapsed_s=r.elapsed_s,
+            stats={
+                "certified": True,
+                "bits": self.bits,
+                "x_rad": [rad(s[2]) for s in r.samples],
+                "v_rad": [rad(s[3]) for s in r.samples],
+                "max_radius": r.max_radius(),
+                "max_log10_radius": r.max_log10_radius(),
+            },
         )

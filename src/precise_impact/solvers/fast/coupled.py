@@ -115,7 +115,9 @@ def _state(tau, t, eta, zeta, w, P, Q, y0, u0, al, wd, c0, e0, ep0):
 
 
 @numba.njit(**JIT)
-def _cflight(t0, x0, v0, e0, ep0, t1, eta, zeta, a, xw, P, Q, w, S, al, wd, c0, err_scale, h_max, touch):
+def _cflight(
+    t0, x0, v0, e0, ep0, t1, eta, zeta, a, xw, P, Q, w, S, al, wd, c0, err_scale, h_max, touch
+):
     """The pair from the anchor ``(x0, v0, e0, e'0)`` at ``t0`` to the first impact in
     ``(t0, t1]`` or to ``t1``.  Returns ``(status, hit, t, x, v, e, e')``: ``hit`` 0 (none:
     the state at ``t1``), 1 master, 2 slave, 3 both; the state just before the impact."""
@@ -176,7 +178,9 @@ def _cflight(t0, x0, v0, e0, ep0, t1, eta, zeta, a, xw, P, Q, w, S, al, wd, c0, 
                 for _ in range(100):
                     if not (a_ < tr < b_):
                         tr = 0.5 * (a_ + b_)
-                    xr, vr, er, epr, _c = _state(tr - t0, tr, eta, zeta, w, P, Q, y0, u0, al, wd, c0, e0, ep0)
+                    xr, vr, er, epr, _c = _state(
+                        tr - t0, tr, eta, zeta, w, P, Q, y0, u0, al, wd, c0, e0, ep0
+                    )
                     g = xr - xw if which == 1 else (xr - xw) + er
                     gp = vr if which == 1 else vr + epr
                     if g > 0.0:
@@ -191,7 +195,9 @@ def _cflight(t0, x0, v0, e0, ep0, t1, eta, zeta, a, xw, P, Q, w, S, al, wd, c0, 
                     tr = tn
                 if tr < tc:
                     tc, hit = tr, which
-            xc, vc, ec, epc, _c = _state(tc - t0, tc, eta, zeta, w, P, Q, y0, u0, al, wd, c0, e0, ep0)
+            xc, vc, ec, epc, _c = _state(
+                tc - t0, tc, eta, zeta, w, P, Q, y0, u0, al, wd, c0, e0, ep0
+            )
             # the other oscillator at the wall (within a few ulps, or within the evaluation
             # error of its gap: at t ~ 500 the rounded forcing phase alone gives 1e-13) and
             # moving into it: both
@@ -209,8 +215,32 @@ def _cflight(t0, x0, v0, e0, ep0, t1, eta, zeta, a, xw, P, Q, w, S, al, wd, c0, 
 
 
 @numba.njit(**JIT)
-def coupled_strobe(eta, zeta, a, xw, R, k, form, c1, c0, t0, x0, v0, y0, w0, n, step, max_impacts, xs, vs, ys, ws,
-                   ts, m_imp, s_imp):
+def coupled_strobe(
+    eta,
+    zeta,
+    a,
+    xw,
+    R,
+    k,
+    form,
+    c1,
+    c0,
+    t0,
+    x0,
+    v0,
+    y0,
+    w0,
+    n,
+    step,
+    max_impacts,
+    xs,
+    vs,
+    ys,
+    ws,
+    ts,
+    m_imp,
+    s_imp,
+):
     """Samples at ``t0 + k (2 pi / eta) / step`` (``k = 0..n``) of the pair, and every impact.
 
     ``xs, vs, ys, ws, ts`` (length ``n + 1``) are filled; ``m_imp`` rows ``(t, v-, v+)`` and
@@ -237,8 +267,28 @@ def coupled_strobe(eta, zeta, a, xw, R, k, form, c1, c0, t0, x0, v0, y0, w0, n, 
     for kk in range(1, n + 1):
         t1 = sample_time(t0, T, step, kk)
         while True:
-            st, hit, tc, xc, vc, ec, epc = _cflight(t, x, v, e, ep, t1, eta, zeta, a, xw, P, Q, w, S, al, wd, c0,
-                                                    err_scale, h_max, touch)
+            st, hit, tc, xc, vc, ec, epc = _cflight(
+                t,
+                x,
+                v,
+                e,
+                ep,
+                t1,
+                eta,
+                zeta,
+                a,
+                xw,
+                P,
+                Q,
+                w,
+                S,
+                al,
+                wd,
+                c0,
+                err_scale,
+                h_max,
+                touch,
+            )
             if st != STATUS_OK:
                 return st, nm, ns, nb, kk - 1
             if hit == 0:

@@ -48,7 +48,18 @@ STATUS_SLOW_IMPACT = 2  # an impact slower than v_floor (chattering / sticking):
 STATUS_BUDGET = 3  # max_impacts exhausted
 STATUS_NONFINITE = 4
 
-__all__ = ["FastSolver", "fast_lle", "compiled_saltation", "strobe", "lle_orbit", "orbit_map", "lle_batch", "lle_batch_serial", "STATUS_TEXT", "STATUS_OK"]
+__all__ = [
+    "FastSolver",
+    "fast_lle",
+    "compiled_saltation",
+    "strobe",
+    "lle_orbit",
+    "orbit_map",
+    "lle_batch",
+    "lle_batch_serial",
+    "STATUS_TEXT",
+    "STATUS_OK",
+]
 
 STATUS_TEXT = {
     STATUS_OK: "ok",
@@ -87,7 +98,12 @@ def phi(tau, zeta, w):
 @numba.njit(**JIT)
 def mul2(a00, a01, a10, a11, b00, b01, b10, b11):
     """The 2x2 product ``A B`` (entries row by row)."""
-    return a00 * b00 + a01 * b10, a00 * b01 + a01 * b11, a10 * b00 + a11 * b10, a10 * b01 + a11 * b11
+    return (
+        a00 * b00 + a01 * b10,
+        a00 * b01 + a01 * b11,
+        a10 * b00 + a11 * b10,
+        a10 * b01 + a11 * b11,
+    )
 
 
 @numba.njit(**JIT)
@@ -190,7 +206,9 @@ def sample_time(tb, T, step, k):
 
 
 @numba.njit(**JIT)
-def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf):
+def _flight(
+    t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf
+):
     """A free flight from ``(x0, v0)`` at ``t0`` (the anchor) to the first upward crossing of
     ``x = x_w``, recording the samples ``k, k + 1, ...`` (times :func:`sample_time`) on the way.
 
@@ -214,7 +232,14 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
     ns = 0
     ts = sample_time(tb, T, step, k)
     while ts <= t0 and k <= k_last and ns < n_buf:  # a sample at the anchor itself
-        buf[ns, 0], buf[ns, 1], buf[ns, 2], buf[ns, 3], buf[ns, 4], buf[ns, 5] = x0, v0, 1.0, 0.0, 0.0, 1.0
+        buf[ns, 0], buf[ns, 1], buf[ns, 2], buf[ns, 3], buf[ns, 4], buf[ns, 5] = (
+            x0,
+            v0,
+            1.0,
+            0.0,
+            0.0,
+            1.0,
+        )
         ns += 1
         k += 1
         ts = sample_time(tb, T, step, k)
@@ -254,8 +279,14 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
             lev = -1
         # the state at hi: a cached step from lo, or from the anchor
         if lev >= 0:
-            f00, f01, f10, f11, ch, sh = (steps[lev, 0], steps[lev, 1], steps[lev, 2], steps[lev, 3],
-                                          steps[lev, 4], steps[lev, 5])
+            f00, f01, f10, f11, ch, sh = (
+                steps[lev, 0],
+                steps[lev, 1],
+                steps[lev, 2],
+                steps[lev, 3],
+                steps[lev, 4],
+                steps[lev, 5],
+            )
             yh, uh = f00 * yl + f01 * ul, f10 * yl + f11 * ul
             ch_, sh_ = cl * ch - sl * sh, sl * ch + cl * sh
             G00, G01 = f00 * F00 + f01 * F10, f00 * F01 + f01 * F11
@@ -327,8 +358,12 @@ def _flight(t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, er
                         # are O(step^2), below rounding): v' = x'', Phi' = A Phi
                         d = tn - tc
                         gp += (-eta * eta * xpc - 2.0 * zeta * uc - yc) * d
-                        p00, p01, p10, p11 = (p00 + d * p10, p01 + d * p11,
-                                              p10 - d * (p00 + 2.0 * zeta * p10), p11 - d * (p01 + 2.0 * zeta * p11))
+                        p00, p01, p10, p11 = (
+                            p00 + d * p10,
+                            p01 + d * p11,
+                            p10 - d * (p00 + 2.0 * zeta * p10),
+                            p11 - d * (p01 + 2.0 * zeta * p11),
+                        )
                         tc = tn
                     break
                 tc = tn
@@ -378,8 +413,9 @@ def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb,
     cap = imp_t.shape[0]
     k = 1
     while k <= n:
-        st, ns, hit, tc, vc, _, _, _, _ = _flight(t, x, v, t0, T, step, k, n, eta, zeta, a, xw, P, Q, w, S,
-                                                  err_scale, h_max, steps, buf)
+        st, ns, hit, tc, vc, _, _, _, _ = _flight(
+            t, x, v, t0, T, step, k, n, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf
+        )
         for i in range(ns):
             xs[k], vs[k], ts[k] = buf[i, 0], buf[i, 1], sample_time(t0, T, step, k)
             k += 1
@@ -401,8 +437,24 @@ def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb,
 
 
 @numba.njit(**JIT)
-def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_impacts, block_sums, block_impacts,
-              xs_tail, vs_tail):
+def lle_orbit(
+    eta,
+    zeta,
+    a,
+    xw,
+    R,
+    t0,
+    x0,
+    v0,
+    periods,
+    transient,
+    blocks,
+    max_impacts,
+    block_sums,
+    block_impacts,
+    xs_tail,
+    vs_tail,
+):
     """Both Lyapunov exponents of one orbit: tangent flow ``Phi``, saltation at every impact,
     Gram-Schmidt QR every ``QR_EVERY`` samples (and at block ends); the tangent basis starts
     at the identity at ``t0`` and is never restarted (the transient's logs are discarded,
@@ -423,7 +475,12 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
     T = 2.0 * math.pi / eta
     buf = np.empty((FLIGHT_SAMPLES, 6))
     t, x, v = t0, x0, v0
-    W00, W01, W10, W11 = 1.0, 0.0, 0.0, 1.0  # the basis at the anchor: columns (W00, W10), (W01, W11)
+    W00, W01, W10, W11 = (
+        1.0,
+        0.0,
+        0.0,
+        1.0,
+    )  # the basis at the anchor: columns (W00, W10), (W01, W11)
     c00, c01, c10, c11 = 1.0, 0.0, 0.0, 1.0  # the basis at the last sample
     log1 = 0.0
     log2 = 0.0
@@ -437,8 +494,9 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
         block_impacts[j] = 0
     k = 1
     while k <= total:
-        st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(t, x, v, t0, T, 1, k, total, eta, zeta, a, xw, P, Q, w,
-                                                          S, err_scale, h_max, steps, buf)
+        st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(
+            t, x, v, t0, T, 1, k, total, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf
+        )
         for i in range(ns):
             xk, vk = buf[i, 0], buf[i, 1]
             p00, p01, p10, p11 = buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
@@ -454,8 +512,13 @@ def lle_orbit(eta, zeta, a, xw, R, t0, x0, v0, periods, transient, blocks, max_i
             # upper-triangular factors are the sums of their logs, so fewer QRs give the
             # same exponents and block sums.
             km = k - transient
-            if ((km % QR_EVERY == 0) or km == 0 or (km > 0 and km % per_block == 0) or k == total
-                    or abs(c00) + abs(c10) + abs(c01) + abs(c11) > 1e150):
+            if (
+                (km % QR_EVERY == 0)
+                or km == 0
+                or (km > 0 and km % per_block == 0)
+                or k == total
+                or abs(c00) + abs(c10) + abs(c01) + abs(c11) > 1e150
+            ):
                 r11 = math.sqrt(c00 * c00 + c10 * c10)
                 q0, q1 = c00 / r11, c10 / r11
                 proj = q0 * c01 + q1 * c11
@@ -523,8 +586,28 @@ def orbit_map(eta, zeta, a, xw, R, t0, x0, v0, periods):
     k = 1
     xk, vk = x0, v0
     while k <= periods:
-        st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(t, x, v, t0, T, 1, k, periods, eta, zeta, a, xw, P, Q, w,
-                                                          S, err_scale, h_max, steps, buf)
+        st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(
+            t,
+            x,
+            v,
+            t0,
+            T,
+            1,
+            k,
+            periods,
+            eta,
+            zeta,
+            a,
+            xw,
+            P,
+            Q,
+            w,
+            S,
+            err_scale,
+            h_max,
+            steps,
+            buf,
+        )
         for i in range(ns):
             xk, vk = buf[i, 0], buf[i, 1]
             p00, p01, p10, p11 = buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
@@ -545,11 +628,42 @@ def orbit_map(eta, zeta, a, xw, R, t0, x0, v0, periods):
     return STATUS_OK, xk, vk, c00, c01, c10, c11, n_imp
 
 
-def _batch(pars, starts, periods, transient, blocks, max_impacts, keep, status, log1, log2, imps, bsums, bimps, xt, vt,
-           i):
-    st, l1, l2, ni, _, _ = lle_orbit(pars[i, 0], pars[i, 1], pars[i, 2], pars[i, 3], pars[i, 4],
-                                     starts[i, 0], starts[i, 1], starts[i, 2], periods, transient, blocks,
-                                     max_impacts, bsums[i], bimps[i], xt[i], vt[i])
+def _batch(
+    pars,
+    starts,
+    periods,
+    transient,
+    blocks,
+    max_impacts,
+    keep,
+    status,
+    log1,
+    log2,
+    imps,
+    bsums,
+    bimps,
+    xt,
+    vt,
+    i,
+):
+    st, l1, l2, ni, _, _ = lle_orbit(
+        pars[i, 0],
+        pars[i, 1],
+        pars[i, 2],
+        pars[i, 3],
+        pars[i, 4],
+        starts[i, 0],
+        starts[i, 1],
+        starts[i, 2],
+        periods,
+        transient,
+        blocks,
+        max_impacts,
+        bsums[i],
+        bimps[i],
+        xt[i],
+        vt[i],
+    )
     status[i], log1[i], log2[i], imps[i] = st, l1, l2, ni
 
 
@@ -570,8 +684,24 @@ def _make_batch(parallel: bool):
         xt = np.zeros((n, keep))
         vt = np.zeros((n, keep))
         for i in rng(n):
-            _batch_one(pars, starts, periods, transient, blocks, max_impacts, keep, status, log1, log2, imps,
-                       bsums, bimps, xt, vt, i)
+            _batch_one(
+                pars,
+                starts,
+                periods,
+                transient,
+                blocks,
+                max_impacts,
+                keep,
+                status,
+                log1,
+                log2,
+                imps,
+                bsums,
+                bimps,
+                xt,
+                vt,
+                i,
+            )
         return status, log1, log2, imps, bsums, bimps, xt, vt
 
     return numba.njit(parallel=parallel, cache=True, error_model="numpy")(run)
@@ -657,7 +787,10 @@ class FastSolver:
         if why is None:
             step = max(per_period, 1)
             n = periods * step
-            p = [float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0", "x0", "v0")]
+            p = [
+                float(getattr(params, k))
+                for k in ("eta", "zeta", "a", "x_w", "R", "t0", "x0", "v0")
+            ]
             cap = min(self.max_impacts, 4 * periods + 64)
             start = time.perf_counter()
             while True:
@@ -669,17 +802,30 @@ class FastSolver:
                 cap = min(self.max_impacts, 4 * n_imp + 64)
             elapsed = time.perf_counter() - start
             if st == STATUS_BUDGET:
-                raise BudgetExceededError(f"impact budget max_impacts={self.max_impacts} exhausted at "
-                                          f"sample {done} of {n}; raise max_impacts or ask for a shorter run")
+                raise BudgetExceededError(
+                    f"impact budget max_impacts={self.max_impacts} exhausted at "
+                    f"sample {done} of {n}; raise max_impacts or ask for a shorter run"
+                )
             if st == STATUS_NONFINITE:
-                raise IntegrationError(f"the fast engine met a non-finite state after sample {done} of {n}")
+                raise IntegrationError(
+                    f"the fast engine met a non-finite state after sample {done} of {n}"
+                )
             if st == STATUS_OK:
                 it, iv = it[:n_imp], iv[:n_imp]
-                traj = Trajectory(params=params, model="fast", precision=self.precision, tol=self.precision.eps,
-                                  t=ts[::step].copy(), x=xs[::step].copy(), v=vs[::step].copy(),
-                                  impacts_t=it.copy(), impacts_v_before=iv.copy(),
-                                  impacts_v_after=-float(params.R) * iv, elapsed_s=elapsed,
-                                  stats={"engine": "fast", "impacts": int(n_imp)})
+                traj = Trajectory(
+                    params=params,
+                    model="fast",
+                    precision=self.precision,
+                    tol=self.precision.eps,
+                    t=ts[::step].copy(),
+                    x=xs[::step].copy(),
+                    v=vs[::step].copy(),
+                    impacts_t=it.copy(),
+                    impacts_v_before=iv.copy(),
+                    impacts_v_after=-float(params.R) * iv,
+                    elapsed_s=elapsed,
+                    stats={"engine": "fast", "impacts": int(n_imp)},
+                )
                 if per_period > 0:
                     traj.dense_t, traj.dense_x, traj.dense_v = ts, xs, vs
                 return traj
@@ -688,14 +834,22 @@ class FastSolver:
             raise IntegrationError(f"the fast engine does not resolve this orbit: {why}")
         from precise_impact.solvers.heyoka.single import HeyokaSolver
 
-        traj = HeyokaSolver(self.precision, max_impacts=self.max_impacts).solve(params, periods, per_period=per_period)
+        traj = HeyokaSolver(self.precision, max_impacts=self.max_impacts).solve(
+            params, periods, per_period=per_period
+        )
         traj.model = "fast"
         traj.stats["engine"] = f"heyoka (fallback: {why})"
         return traj
 
 
-def fast_lle(params, periods: int = 6000, transient: int = 1000, initial_conditions: int = 4, blocks: int = 20,
-             max_impacts: int = 10**8):
+def fast_lle(
+    params,
+    periods: int = 6000,
+    transient: int = 1000,
+    initial_conditions: int = 4,
+    blocks: int = 20,
+    max_impacts: int = 10**8,
+):
     """Both Lyapunov exponents from the compiled engine, per start and combined.
 
     Parameters
@@ -739,14 +893,36 @@ def fast_lle(params, periods: int = 6000, transient: int = 1000, initial_conditi
     if blocks > periods:
         blocks = periods
     max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
-    pars = np.array([[float(params.eta), float(params.zeta), float(params.a), float(params.x_w), float(params.R)]] * n)
-    starts = np.array([[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)])
-    status, log1, log2, imps, bsums, _, _, _ = lle_batch(pars, starts, periods, transient, blocks, max_impacts, 1)
+    pars = np.array(
+        [
+            [
+                float(params.eta),
+                float(params.zeta),
+                float(params.a),
+                float(params.x_w),
+                float(params.R),
+            ]
+        ]
+        * n
+    )
+    starts = np.array(
+        [[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)]
+    )
+    status, log1, log2, imps, bsums, _, _, _ = lle_batch(
+        pars, starts, periods, transient, blocks, max_impacts, 1
+    )
     T = 2 * math.pi / float(params.eta)
     per_block = periods // blocks
     time_total = periods * T
-    per = [{"lle": float(log1[i] / time_total), "lambda2": float(log2[i] / time_total), "impacts": int(imps[i]),
-            "status": STATUS_TEXT[int(status[i])]} for i in range(n)]
+    per = [
+        {
+            "lle": float(log1[i] / time_total),
+            "lambda2": float(log2[i] / time_total),
+            "impacts": int(imps[i]),
+            "status": STATUS_TEXT[int(status[i])],
+        }
+        for i in range(n)
+    ]
     ok = [i for i in range(n) if status[i] == STATUS_OK]
     bm = (bsums[ok] / (per_block * T)).ravel() if ok else np.array([])
     return {

@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import copy
 import threading
-from typing import Any, Callable, Hashable
+from collections.abc import Callable, Hashable
+from typing import Any
 
 __all__ = ["IntegratorCache"]
 

@@ -59,20 +59,21 @@ from __future__ import annotations
 
 import dataclasses
 import time as _time
+from collections.abc import Sequence
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
-from precise_impact.core.result import ResultMixin
-from precise_impact.solvers.base import check_engine
-from precise_impact.solvers.heyoka.cache import IntegratorCache
-from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
+from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
-from precise_impact.core.flow import acceleration
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
+from precise_impact.solvers.base import check_engine
+from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.events import ImpactRecorder
 
 __all__ = [
     "COUPLED_FORMS",
@@ -95,7 +96,9 @@ _IDX = {name: i for i, name in enumerate(COUPLED_PARAMS)}
 
 
 # ------------------------------------------------------------------ the equations
-def slave_rhs(form: str, t: Any, x: Any, v: Any, y: Any, w: Any, eta: Any, zeta: Any, a: Any, k: Any, cos) -> tuple:
+def slave_rhs(
+    form: str, t: Any, x: Any, v: Any, y: Any, w: Any, eta: Any, zeta: Any, a: Any, k: Any, cos
+) -> tuple:
     """``(y', w')`` of the slave in ``form``'s own variables (generic number type).
 
     The uncoupled part is :func:`~precise_impact.core.flow.acceleration` evaluated first, the
@@ -343,7 +346,9 @@ class CoupledTrajectory(ResultMixin):
         """
         if dense:
             if self.dense_t is None:
-                raise ParameterError("dense", True, "this trajectory has no dense output (per_period = 0)")
+                raise ParameterError(
+                    "dense", True, "this trajectory has no dense output (per_period = 0)"
+                )
             t, x, y = self.dense_t, self.dense_x, self.dense_y
         else:
             t, x, y = self.t, self.x, self.y
@@ -364,12 +369,17 @@ class CoupledTrajectory(ResultMixin):
             ],
             "master_impacts": [
                 {"t": s(t), "v_before": s(b), "v_after": s(a)}
-                for t, b, a in zip(self.master_impacts_t, self.master_impacts_v_before, self.master_impacts_v_after)
+                for t, b, a in zip(
+                    self.master_impacts_t, self.master_impacts_v_before, self.master_impacts_v_after
+                )
             ],
             "slave_impacts": [
                 {"t": s(t), "w_before": s(b), "w_after": s(a), "x": s(x)}
                 for t, b, a, x in zip(
-                    self.slave_impacts_t, self.slave_impacts_w_before, self.slave_impacts_w_after, self.slave_impacts_x
+                    self.slave_impacts_t,
+                    self.slave_impacts_w_before,
+                    self.slave_impacts_w_after,
+                    self.slave_impacts_x,
                 )
             ],
             "elapsed_s": self.elapsed_s,
@@ -387,7 +397,9 @@ def check_y0(y0: Any, params: Params) -> tuple[Fraction, Fraction] | None:
     yp, yv = exact("y0[0]", y0[0]), exact("y0[1]", y0[1])
     if yp > params.x_w:
         raise ParameterError(
-            "y0[0]", decimal_str(yp), f"the slave must not start inside the wall: y0[0] <= x_w = {decimal_str(params.x_w)}"
+            "y0[0]",
+            decimal_str(yp),
+            f"the slave must not start inside the wall: y0[0] <= x_w = {decimal_str(params.x_w)}",
         )
     return yp, yv
 
@@ -492,8 +504,9 @@ def simulate_coupled(
     step = max(per_period, 1)
     fallback = None
     if engine == "fast":
-        traj, fallback = _fast_run(params, kq, form, y0q, periods, step, per_period, (x0, v0, yp, yv), m0, s0,
-                                   max_impacts)
+        traj, fallback = _fast_run(
+            params, kq, form, y0q, periods, step, per_period, (x0, v0, yp, yv), m0, s0, max_impacts
+        )
         if traj is not None:
             return traj
 
@@ -521,7 +534,9 @@ def simulate_coupled(
             "(chattering/Zeno sequence?); raise max_impacts or check the parameters"
         )
     if outcome != hy.taylor_outcome.time_limit:
-        raise IntegrationError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}")
+        raise IntegrationError(
+            f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}"
+        )
 
     def conv_exact(rows):
         return [tuple(conv(c) if isinstance(c, Fraction) else c for c in r) for r in rows]
@@ -557,8 +572,11 @@ def simulate_coupled(
         slave_impacts_w_after=col(slave, 2),
         slave_impacts_x=col(slave, 3),
         elapsed_s=elapsed,
-        stats={"steps": int(n_steps), "simultaneous": int(simultaneous),
-               "engine": "heyoka" if fallback is None else f"heyoka (fallback: {fallback})"},
+        stats={
+            "steps": int(n_steps),
+            "simultaneous": int(simultaneous),
+            "engine": "heyoka" if fallback is None else f"heyoka (fallback: {fallback})",
+        },
     )
     if per_period > 0:
         traj.dense_t = grid
@@ -567,11 +585,27 @@ def simulate_coupled(
     return traj
 
 
-def _fast_run(params: Params, kq: Fraction, form: str, y0q: tuple, periods: int, step: int, per_period: int,
-              start: tuple, m0: list, s0: list, max_impacts: int) -> tuple[CoupledTrajectory | None, str | None]:
+def _fast_run(
+    params: Params,
+    kq: Fraction,
+    form: str,
+    y0q: tuple,
+    periods: int,
+    step: int,
+    per_period: int,
+    start: tuple,
+    m0: list,
+    s0: list,
+    max_impacts: int,
+) -> tuple[CoupledTrajectory | None, str | None]:
     """:func:`simulate_coupled` on the compiled engine: ``(trajectory, None)``, or ``(None, why)``
     when the engine does not resolve the run (the caller integrates it with heyoka)."""
-    from precise_impact.solvers.fast.coupled import FORM_IDS, STATUS_UNSUPPORTED, coupled_strobe, error_coefficients
+    from precise_impact.solvers.fast.coupled import (
+        FORM_IDS,
+        STATUS_UNSUPPORTED,
+        coupled_strobe,
+        error_coefficients,
+    )
     from precise_impact.solvers.fast.single import STATUS_BUDGET, STATUS_OK, STATUS_TEXT
 
     f = float
@@ -584,18 +618,39 @@ def _fast_run(params: Params, kq: Fraction, form: str, y0q: tuple, periods: int,
     while True:
         m_imp, s_imp = np.empty((cap, 3)), np.empty((cap, 4))
         st, nm, ns, nb, _done = coupled_strobe(
-            f(params.eta), f(params.zeta), f(params.a), f(params.x_w), f(params.R), f(kq), FORM_IDS[form], c1, c0,
-            f(params.t0), *(f(q) for q in start), n, step, max(budget, 1), *cols, m_imp, s_imp)
+            f(params.eta),
+            f(params.zeta),
+            f(params.a),
+            f(params.x_w),
+            f(params.R),
+            f(kq),
+            FORM_IDS[form],
+            c1,
+            c0,
+            f(params.t0),
+            *(f(q) for q in start),
+            n,
+            step,
+            max(budget, 1),
+            *cols,
+            m_imp,
+            s_imp,
+        )
         if nm <= cap and ns <= cap:
             break
         cap = 2 * max(nm, ns)
     elapsed = _time.perf_counter() - start_t
     if st == STATUS_BUDGET or budget < 1:
-        raise BudgetExceededError(f"impact budget max_impacts={max_impacts} exhausted (chattering/Zeno sequence?); "
-                                  "raise max_impacts or check the parameters")
+        raise BudgetExceededError(
+            f"impact budget max_impacts={max_impacts} exhausted (chattering/Zeno sequence?); "
+            "raise max_impacts or check the parameters"
+        )
     if st != STATUS_OK:
-        why = ("the slave's difference equation is not underdamped" if st == STATUS_UNSUPPORTED
-               else STATUS_TEXT[int(st)])
+        why = (
+            "the slave's difference equation is not underdamped"
+            if st == STATUS_UNSUPPORTED
+            else STATUS_TEXT[int(st)]
+        )
         return None, why
     ts, xs, vs, ys, ws = cols[4], cols[0], cols[1], cols[2], cols[3]
     m = np.array([[f(c) for c in r] for r in m0]).reshape(-1, 3)
@@ -604,11 +659,25 @@ def _fast_run(params: Params, kq: Fraction, form: str, y0q: tuple, periods: int,
     sl = np.concatenate([sl, s_imp[:ns]])
     P = Precision.parse("float64")
     traj = CoupledTrajectory(
-        params=params, form=form, k=kq, y0=y0q, precision=P,
-        t=ts[::step].copy(), x=xs[::step].copy(), v=vs[::step].copy(), y=ys[::step].copy(), w=ws[::step].copy(),
-        master_impacts_t=m[:, 0].copy(), master_impacts_v_before=m[:, 1].copy(), master_impacts_v_after=m[:, 2].copy(),
-        slave_impacts_t=sl[:, 0].copy(), slave_impacts_w_before=sl[:, 1].copy(), slave_impacts_w_after=sl[:, 2].copy(),
-        slave_impacts_x=sl[:, 3].copy(), elapsed_s=elapsed, stats={"simultaneous": int(nb), "engine": "fast"},
+        params=params,
+        form=form,
+        k=kq,
+        y0=y0q,
+        precision=P,
+        t=ts[::step].copy(),
+        x=xs[::step].copy(),
+        v=vs[::step].copy(),
+        y=ys[::step].copy(),
+        w=ws[::step].copy(),
+        master_impacts_t=m[:, 0].copy(),
+        master_impacts_v_before=m[:, 1].copy(),
+        master_impacts_v_after=m[:, 2].copy(),
+        slave_impacts_t=sl[:, 0].copy(),
+        slave_impacts_w_before=sl[:, 1].copy(),
+        slave_impacts_w_after=sl[:, 2].copy(),
+        slave_impacts_x=sl[:, 3].copy(),
+        elapsed_s=elapsed,
+        stats={"simultaneous": int(nb), "engine": "fast"},
     )
     if per_period > 0:
         traj.dense_t, traj.dense_x, traj.dense_v, traj.dense_y, traj.dense_w = ts, xs, vs, ys, ws

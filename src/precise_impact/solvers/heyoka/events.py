@@ -165,4 +165,8 @@ class ImpactRecorder:
         -------
         tuple of numpy.ndarray
         """
-        return precision.array(self.t), precision.array(self.v_before), precision.array(self.v_after)
+        return (
+            precision.array(self.t),
+            precision.array(self.v_before),
+            precision.array(self.v_after),
+        )

@@ -76,28 +76,37 @@ from fractions import Fraction
 from typing import Any
 
 import mpmath
-from mpmath import libmp
 import numpy as np
+from mpmath import libmp
 
-from precise_impact.errors import BudgetExceededError, IntegrationError, Interrupted, ParameterError
+from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import (
     GrazingDepth,
-    grazing_depth_coefficient,
-    is_contact,
-    steady_amplitude,
     chatter_accumulation_time,
+    grazing_depth_coefficient,
     impact_at_start,
+    is_contact,
     pushes_into_wall,
     release_time,
     reset_velocity,
+    steady_amplitude,
     wall_acceleration,
 )
-from precise_impact.core.params import I_A, I_ETA, I_R, I_XW, I_ZETA, RUNTIME_PARAMS, Params, check_count
+from precise_impact.core.params import (
+    I_A,
+    I_ETA,
+    I_R,
+    I_XW,
+    I_ZETA,
+    RUNTIME_PARAMS,
+    Params,
+    check_count,
+)
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import BudgetExceededError, IntegrationError, Interrupted, ParameterError
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.core.flow import acceleration
 
 __all__ = ["HeyokaSolver", "build_integrator"]
 
@@ -142,7 +151,7 @@ class _ImpactRecorder(ImpactRecorder):
         """Events discarded at the instant the mass was put at rest (charged to the budget)."""
         return self.charged
 
-    def reset(self, max_impacts: int, watch: "_ZenoWatch | None" = None) -> None:
+    def reset(self, max_impacts: int, watch: _ZenoWatch | None = None) -> None:
         self.reset_log(max_impacts)
         self.watch = watch
         self.stop_reason: str | None = None
@@ -150,7 +159,9 @@ class _ImpactRecorder(ImpactRecorder):
         self.spurious_v = 0.0
         self.depth = None  # a GrazingDepth enables the contact rule (set by HeyokaSolver.solve)
         self.cos = np.cos
-        self.f64 = None  # float64: the runtime parameters as Python floats (set by HeyokaSolver.solve)
+        self.f64 = (
+            None  # float64: the runtime parameters as Python floats (set by HeyokaSolver.solve)
+        )
         self.grazing = 0
 
     def __call__(self, ta, d_sgn) -> bool:
@@ -202,7 +213,9 @@ class _ImpactRecorder(ImpactRecorder):
 INTEGRATORS = IntegratorCache("oscillator")
 
 
-def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool = False, compact_mode: bool = False):
+def build_integrator(
+    precision: Precision, tol: Any = None, high_accuracy: bool = False, compact_mode: bool = False
+):
     """A heyoka integrator for the oscillator, owned by the caller.
 
     Compiled once per ``(precision, tol, high_accuracy, compact_mode)`` and process
@@ -211,7 +224,12 @@ def build_integrator(precision: Precision, tol: Any = None, high_accuracy: bool 
     freely and use copies from different threads.  The integrator's runtime
     parameters are ordered as ``RUNTIME_PARAMS`` = ``(eta, zeta, a, R, x_w)``.
     """
-    key = (precision.name, None if tol is None else precision.to_str(tol), high_accuracy, compact_mode)
+    key = (
+        precision.name,
+        None if tol is None else precision.to_str(tol),
+        high_accuracy,
+        compact_mode,
+    )
 
     def compile_():
         import heyoka as hy
@@ -256,7 +274,9 @@ def _extra_bits(tm: mpmath.mpf) -> int:
 
 def _round_up(P: Precision, m: mpmath.mpf) -> Any:
     """The smallest number of precision ``P`` that is ``>= m`` (one directed rounding)."""
-    return P._from_mpf_exact(mpmath.mp.make_mpf(libmp.normalize(*m._mpf_, P.bits, libmp.round_ceiling)))
+    return P._from_mpf_exact(
+        mpmath.mp.make_mpf(libmp.normalize(*m._mpf_, P.bits, libmp.round_ceiling))
+    )
 
 
 class _Wall:
@@ -435,8 +455,13 @@ class _ZenoWatch:
             k = int(np.argmax(stop)) if stop.any() else len(s)
             total += float(np.sum(rate[:k])) * h
             if k < len(s):
-                what = ("the end of the run" if s[k] >= t_end else
-                        f"the release at t ~ {s[k]:.6g}" if g[k] <= 0 else f"rest on the wall at t ~ {s[k]:.6g}")
+                what = (
+                    "the end of the run"
+                    if s[k] >= t_end
+                    else f"the release at t ~ {s[k]:.6g}"
+                    if g[k] <= 0
+                    else f"rest on the wall at t ~ {s[k]:.6g}"
+                )
                 return total, what
             if total > 1e18:
                 return math.inf, "the end of the run"
@@ -483,7 +508,9 @@ class _ZenoWatch:
         P = self.P
         tm, vm = P.to_mpf(t), P.to_mpf(vb)
         with mpmath.workprec(self._prec(tm)):
-            gm = wall_acceleration(tm, _mpq(p.eta), _mpq(p.zeta), _mpq(p.a), _mpq(p.x_w), mpmath.cos)
+            gm = wall_acceleration(
+                tm, _mpq(p.eta), _mpq(p.zeta), _mpq(p.a), _mpq(p.x_w), mpmath.cos
+            )
             F = chatter_accumulation_time(tm, vm, _mpq(self.R), gm)
             noise = self.tol_factor * self.tol_f * max(1.0, abs(tf))
             est, err, converged = self._richardson(F, noise)
@@ -557,7 +584,9 @@ def _below_wall(P: Precision, x_w: Fraction) -> Any:
     with mpmath.workprec(P.bits + _GUARD_BITS):
         m = P.to_mpf(P.from_fraction(x_w))
         m = m - mpmath.mpf(P.eps_fraction.numerator) / P.eps_fraction.denominator * max(1, abs(m))
-        return P._from_mpf_exact(mpmath.mp.make_mpf(libmp.normalize(*m._mpf_, P.bits, libmp.round_floor)))
+        return P._from_mpf_exact(
+            mpmath.mp.make_mpf(libmp.normalize(*m._mpf_, P.bits, libmp.round_floor))
+        )
 
 
 def _pad_time(P: Precision, grid: list, eta: Fraction, per_period: int) -> Any:
@@ -661,13 +690,21 @@ class HeyokaSolver:
         self.tol_exact = self.precision.check_tol(tol)
         self.tol = None if self.tol_exact is None else self.precision.from_fraction(self.tol_exact)
         if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
-            raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")
-        if max_steps is not None and (isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1):
-            raise ParameterError("max_steps", max_steps, "step budget must be None or an integer >= 1")
+            raise ParameterError(
+                "max_impacts", max_impacts, "impact budget must be an integer >= 1"
+            )
+        if max_steps is not None and (
+            isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1
+        ):
+            raise ParameterError(
+                "max_steps", max_steps, "step budget must be None or an integer >= 1"
+            )
         self.high_accuracy = bool(high_accuracy)
         # Multiprecision Taylor orders are high (~90 at 256 bits); unrolled code
         # then takes minutes to compile, compact mode a fraction of a second.
-        self.compact_mode = (self.precision.kind == "mp") if compact_mode is None else bool(compact_mode)
+        self.compact_mode = (
+            (self.precision.kind == "mp") if compact_mode is None else bool(compact_mode)
+        )
         self.max_impacts = max_impacts
         self.max_steps = max_steps
         self._ta = None
@@ -691,7 +728,9 @@ class HeyokaSolver:
         objects run in parallel.
         """
         if self._ta is None:
-            self._ta = build_integrator(self.precision, self.tol, self.high_accuracy, self.compact_mode)
+            self._ta = build_integrator(
+                self.precision, self.tol, self.high_accuracy, self.compact_mode
+            )
         return self._ta
 
     def busy(self) -> bool:
@@ -723,7 +762,9 @@ class HeyokaSolver:
         ta.reset_cooldowns()
         return ta, rec
 
-    def solve(self, params: Params, periods: int, per_period: int = 0, *, progress: Any = None) -> Trajectory:
+    def solve(
+        self, params: Params, periods: int, per_period: int = 0, *, progress: Any = None
+    ) -> Trajectory:
         """Integrate ``periods`` forcing periods (see :meth:`_solve`); thread-safe.
 
         Parameters
@@ -769,7 +810,9 @@ class HeyokaSolver:
         with self._lock:
             return self._solve(params, periods, per_period, progress)
 
-    def _solve(self, params: Params, periods: int, per_period: int = 0, progress: Any = None) -> Trajectory:
+    def _solve(
+        self, params: Params, periods: int, per_period: int = 0, progress: Any = None
+    ) -> Trajectory:
         """Integrate ``periods`` forcing periods from ``(params.x0, params.v0)`` at ``params.t0``.
 
         Returns stroboscopic samples at ``t0 + k T`` (``k = 0..periods``), every
@@ -792,13 +835,17 @@ class HeyokaSolver:
         run_grid = grid + [_pad_time(P, grid, params.eta, step)]
         max_steps = self.step_budget(periods)
         ta, rec = self._prepare(params)
-        watch = _ZenoWatch(P, params, self.tol_exact if self.tol_exact is not None else P.eps_fraction, run_grid)
+        watch = _ZenoWatch(
+            P, params, self.tol_exact if self.tol_exact is not None else P.eps_fraction, run_grid
+        )
         rec.watch = watch
         watch.max_impacts = rec.max_impacts
         watch.budget_left = lambda: rec.max_impacts - rec.count - rec.charged
         if params.x0 == params.x_w:
             rec.contact_t = ta.time  # a start on the wall
-        rec.spurious_v = math.sqrt(P.eps_float) * max(1.0, abs(float(params.a)), abs(float(params.x_w)))
+        rec.spurious_v = math.sqrt(P.eps_float) * max(
+            1.0, abs(float(params.a)), abs(float(params.x_w))
+        )
         coef, amp = grazing_depth_coefficient(P), Fraction(steady_amplitude(params))
         if P.kind == "float64":
             rec.depth, rec.cos = GrazingDepth(float(coef), float(amp)), math.cos
@@ -811,25 +858,57 @@ class HeyokaSolver:
         if progress is not None:
             live["progress"] = lambda i: progress(min(i, n_out - 1) // step, periods)
         try:
-            xs, vs, stats = self._run(ta, rec, watch, params, run_grid, max_steps, n_out, chunk, live)
+            xs, vs, stats = self._run(
+                ta, rec, watch, params, run_grid, max_steps, n_out, chunk, live
+            )
         except KeyboardInterrupt as e:
             done = (min(live["done"], n_out) - 1) // step * step + 1  # whole periods only
             if done < 1 + step:
                 raise
             xs, vs = live["xs"][:done], live["vs"][:done]
             stats = {"partial": True, "periods_done": (done - 1) // step, "periods_asked": periods}
-            part = self._trajectory(params, grid[:done], xs, vs, rec, stats, step, per_period,
-                                    _time.perf_counter() - t_start)
-            raise Interrupted(f"interrupted after {(done - 1) // step} of {periods} periods", part) from e
+            part = self._trajectory(
+                params,
+                grid[:done],
+                xs,
+                vs,
+                rec,
+                stats,
+                step,
+                per_period,
+                _time.perf_counter() - t_start,
+            )
+            raise Interrupted(
+                f"interrupted after {(done - 1) // step} of {periods} periods", part
+            ) from e
         finally:
             rec.watch = None  # leave a plain recorder behind for the next solve
             rec.depth = rec.f64 = None
         stats["grazing"] = rec.grazing
-        return self._trajectory(params, grid, xs[:n_out], vs[:n_out], rec, stats, step, per_period,
-                                _time.perf_counter() - t_start)
+        return self._trajectory(
+            params,
+            grid,
+            xs[:n_out],
+            vs[:n_out],
+            rec,
+            stats,
+            step,
+            per_period,
+            _time.perf_counter() - t_start,
+        )
 
-    def _trajectory(self, params: Params, grid: list, xs: list, vs: list, rec, stats: dict, step: int,
-                    per_period: int, elapsed: float) -> Trajectory:
+    def _trajectory(
+        self,
+        params: Params,
+        grid: list,
+        xs: list,
+        vs: list,
+        rec,
+        stats: dict,
+        step: int,
+        per_period: int,
+        elapsed: float,
+    ) -> Trajectory:
         """Trim the impacts to ``[t0, grid[-1]]``, make the samples right-continuous, wrap."""
         P = self.precision
         n_out, t_end = len(grid), grid[-1]
@@ -867,8 +946,18 @@ class HeyokaSolver:
             traj.dense_t, traj.dense_x, traj.dense_v = grid_arr, xs, vs
         return traj
 
-    def _run(self, ta, rec: _ImpactRecorder, watch: _ZenoWatch, params: Params, grid: list, max_steps: int,
-             n_out: int, chunk: int, live: dict):
+    def _run(
+        self,
+        ta,
+        rec: _ImpactRecorder,
+        watch: _ZenoWatch,
+        params: Params,
+        grid: list,
+        max_steps: int,
+        n_out: int,
+        chunk: int,
+        live: dict,
+    ):
         """Free flights (heyoka) alternating with sticking phases (closed form).
 
         ``grid[:n_out]`` are the output times, ``grid[n_out:]`` the padding; a budget
@@ -922,7 +1011,9 @@ class HeyokaSolver:
                 continue
             # ---- free flight over the remaining output times
             if grid[i] < t_cur:
-                raise RuntimeError(f"internal error: output time {P.to_str(grid[i])} before t={P.to_str(t_cur)}")
+                raise RuntimeError(
+                    f"internal error: output time {P.to_str(grid[i])} before t={P.to_str(t_cur)}"
+                )
             prepend = not (grid[i] == t_cur)  # propagate_grid must start at the current time
             remaining = max_steps - steps
             if remaining < 1 and i >= n_out:
@@ -941,11 +1032,15 @@ class HeyokaSolver:
             # chunks end at output times k * chunk (fixed positions); a run of up to
             # CHUNK_PERIODS periods (+ the padding) stays one call
             stop = n if n <= chunk + 2 else min(n, (i // chunk + 1) * chunk + 1)
-            res = ta.propagate_grid(P.array(([t_cur] if prepend else []) + grid[i:stop]), max_steps=remaining)
+            res = ta.propagate_grid(
+                P.array(([t_cur] if prepend else []) + grid[i:stop]), max_steps=remaining
+            )
             outcome, n_steps, states = res[0], res[3], res[-1]
             steps += int(n_steps)
             i_first = i
-            rows = states.tolist() if P.kind == "float64" else states  # Python floats: exact for float64
+            rows = (
+                states.tolist() if P.kind == "float64" else states
+            )  # Python floats: exact for float64
             for row in rows[1:] if prepend else rows:
                 xs[i], vs[i] = row[0], row[1]
                 i += 1
@@ -980,7 +1075,9 @@ class HeyokaSolver:
                 rest_on_wall(t_inf)
                 watch.clear_run()
                 continue
-            raise IntegrationError(f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}")
+            raise IntegrationError(
+                f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}"
+            )
 
         live["done"] = i
         stats = {

@@ -12,5 +12,14 @@ The catalogue (names, settings, units, defaults, datasheet sources) is
 An effect that is off is never called, so it adds nothing to the compiled system.
 """
 
-__all__ = ["catalogue", "comparator", "flipflop", "opamp_gain", "opamp_gbw", "opamp_offset", "opamp_saturation",
-           "switch", "tolerance"]
+__all__ = [
+    "catalogue",
+    "comparator",
+    "flipflop",
+    "opamp_gain",
+    "opamp_gbw",
+    "opamp_offset",
+    "opamp_saturation",
+    "switch",
+    "tolerance",
+]

@@ -7,8 +7,8 @@ the crossing.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from fractions import Fraction
-from typing import Mapping
 
 
 def thresholds(V_wall: Fraction, settings: Mapping | None) -> tuple[Fraction, Fraction]:

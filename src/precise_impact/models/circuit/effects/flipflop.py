@@ -5,8 +5,8 @@ It adds its propagation delay between the comparator's edge and the switch comma
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from fractions import Fraction
-from typing import Mapping
 
 
 def delay(settings: Mapping | None) -> Fraction:

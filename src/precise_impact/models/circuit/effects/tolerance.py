@@ -7,27 +7,144 @@ and the ngspice netlist all draw their parts here.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from decimal import Decimal
 from fractions import Fraction
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
-from precise_impact.errors import ParameterError
 from precise_impact.core.params import decimal_str, exact
+from precise_impact.errors import ParameterError
 from precise_impact.models.circuit.components import Components
 from precise_impact.models.circuit.effects.catalogue import validate_effects
 
 __all__ = ["actual_components", "E24", "E96", "e_series_round", "draw_components"]
 
 # IEC 60063 value tables
-E24 = (10, 11, 12, 13, 15, 16, 18, 20, 22, 24, 27, 30, 33, 36, 39, 43, 47, 51, 56, 62, 68, 75, 82, 91)
+E24 = (
+    10,
+    11,
+    12,
+    13,
+    15,
+    16,
+    18,
+    20,
+    22,
+    24,
+    27,
+    30,
+    33,
+    36,
+    39,
+    43,
+    47,
+    51,
+    56,
+    62,
+    68,
+    75,
+    82,
+    91,
+)
 E96 = (
-    100, 102, 105, 107, 110, 113, 115, 118, 121, 124, 127, 130, 133, 137, 140, 143, 147, 150, 154, 158,
-    162, 165, 169, 174, 178, 182, 187, 191, 196, 200, 205, 210, 215, 221, 226, 232, 237, 243, 249, 255,
-    261, 267, 274, 280, 287, 294, 301, 309, 316, 324, 332, 340, 348, 357, 365, 374, 383, 392, 402, 412,
-    422, 432, 442, 453, 464, 475, 487, 499, 511, 523, 536, 549, 562, 576, 590, 604, 619, 634, 649, 665,
-    681, 698, 715, 732, 750, 768, 787, 806, 825, 845, 866, 887, 909, 931, 953, 976,
+    100,
+    102,
+    105,
+    107,
+    110,
+    113,
+    115,
+    118,
+    121,
+    124,
+    127,
+    130,
+    133,
+    137,
+    140,
+    143,
+    147,
+    150,
+    154,
+    158,
+    162,
+    165,
+    169,
+    174,
+    178,
+    182,
+    187,
+    191,
+    196,
+    200,
+    205,
+    210,
+    215,
+    221,
+    226,
+    232,
+    237,
+    243,
+    249,
+    255,
+    261,
+    267,
+    274,
+    280,
+    287,
+    294,
+    301,
+    309,
+    316,
+    324,
+    332,
+    340,
+    348,
+    357,
+    365,
+    374,
+    383,
+    392,
+    402,
+    412,
+    422,
+    432,
+    442,
+    453,
+    464,
+    475,
+    487,
+    499,
+    511,
+    523,
+    536,
+    549,
+    562,
+    576,
+    590,
+    604,
+    619,
+    634,
+    649,
+    665,
+    681,
+    698,
+    715,
+    732,
+    750,
+    768,
+    787,
+    806,
+    825,
+    845,
+    866,
+    887,
+    909,
+    931,
+    953,
+    976,
 )
 _SERIES = {"E24": (E24, 10), "E96": (E96, 100)}
 _RESISTORS = ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8")
@@ -56,7 +173,9 @@ def e_series_round(value: Any, series: str = "E96") -> Fraction:
     return best
 
 
-def draw_components(components: Components, settings: Mapping[str, Any] | None = None) -> Components:
+def draw_components(
+    components: Components, settings: Mapping[str, Any] | None = None
+) -> Components:
     """Realised part values: E-series nominal, then a seeded draw within tolerance.
 
     Keywords (``settings``, the ``tolerance`` effect's table; missing keys take the
