@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Test what users install.  Builds the wheel from the files git knows (tracked, or new and
 # not ignored: no stale build/ directory can leak into it), checks that every file of the
-# package (data/reference/** at any depth, scenes/*.toml, py.typed) is in it, installs it
+# package (the top-level reference_data/** as precise_impact/data/reference/, scenes/*.toml,
+# py.typed) is in it, installs it
 # non-editable with the extras [test,dask,bench,docs] into a fresh venv outside the
 # checkout and, from a directory outside the checkout, runs:
 #   precise-impact --version, precise-impact reference verify, the README's testing example
@@ -42,12 +43,16 @@ fi
 "$vpy" -m pip wheel -q --no-deps -w "$work/dist" "$work/src"
 wheel=$(ls "$work/dist"/precise_impact-*.whl)
 echo "   $(basename "$wheel"): $(du -k "$wheel" | cut -f1) KiB"
-"$vpy" - "$wheel" "$work/src/src" <<'PY'
+"$vpy" - "$wheel" "$work/src" <<'PY'
 import pathlib, sys, zipfile
-wheel, src = sys.argv[1], pathlib.Path(sys.argv[2])
+wheel, top = sys.argv[1], pathlib.Path(sys.argv[2])
 names = set(zipfile.ZipFile(wheel).namelist())
-want = {p.relative_to(src).as_posix() for p in (src / "precise_impact").rglob("*")
-        if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc"}
+def files(root, prefix):
+    return {prefix + p.relative_to(root).as_posix() for p in root.rglob("*")
+            if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc"}
+# the package's sources, and the repository's one copy of the reference datasets (reference_data/),
+# which the wheel installs as precise_impact/data/reference/
+want = files(top / "src" / "precise_impact", "precise_impact/") | files(top / "reference_data", "precise_impact/data/reference/")
 missing = sorted(want - names)
 if missing:
     sys.exit("files of the package missing from the wheel:\n  " + "\n  ".join(missing))

@@ -137,3 +137,18 @@ def test_citation_names_the_same_version():
     cff = (CHECKOUT / "CITATION.cff").read_text(encoding="utf-8")
     stated = re.findall(r"^version:\s*['\"]?([^'\"\s]+)", cff, re.M)
     assert stated == [PROJECT["version"]]
+
+
+def test_the_wheel_lists_every_package_and_ships_reference_data():
+    """pyproject lists the packages by hand (the data package maps the top-level reference_data/):
+    the list must be exactly the packages under src/ plus that one, or a new subpackage would be
+    left out of the wheel."""
+    src = CHECKOUT / "src"
+    if not src.is_dir():
+        pytest.skip("not a checkout")
+    found = {p.parent.relative_to(src).as_posix().replace("/", ".") for p in src.rglob("__init__.py")}
+    listed = set(PYPROJECT["tool"]["setuptools"]["packages"])
+    assert listed == found | {"precise_impact.data.reference"}
+    assert PYPROJECT["tool"]["setuptools"]["package-dir"]["precise_impact.data.reference"] == "reference_data"
+    assert (CHECKOUT / "reference_data" / "single-0.712" / "manifest.json").is_file()
+    assert not (src / "precise_impact" / "data").exists(), "one copy of the datasets, at the top level"

@@ -100,10 +100,18 @@ REFERENCE_ENV = "PRECISE_IMPACT_REFERENCE"
 
 
 def shipped_root() -> Path:
-    """The datasets shipped inside the installed package (``precise_impact/data/reference``)."""
+    """The shipped datasets: ``precise_impact/data/reference`` in the installed package.
+
+    The repository keeps one copy, at its top level (``reference_data/``), which the wheel
+    installs as that package directory; an editable checkout reads it in place.
+    """
     from importlib import resources
 
-    return Path(str(resources.files("precise_impact") / "data" / "reference"))
+    packaged = Path(str(resources.files("precise_impact") / "data" / "reference"))
+    if packaged.is_dir():
+        return packaged
+    checkout = Path(__file__).resolve().parents[3] / "reference_data"
+    return checkout if checkout.is_dir() else packaged
 
 
 def default_root() -> Path:
