@@ -16,6 +16,7 @@ from fractions import Fraction
 
 import mpmath
 import numpy as np
+import pytest
 
 import precise_impact as pi
 from precise_impact import Params, simulate
@@ -168,3 +169,14 @@ def test_orbit_cli_seed_and_json_state_types():
         base[:-1] + ["3", "--seed", "closed-form"], capture_output=True, text=True, timeout=60
     )
     assert r.returncode != 0 and "closed-form" in r.stderr
+
+
+def test_prove_orbit_refuses_a_box_below_the_working_precision():
+    """Found by the API fuzzer: radius = 1e-400 at 128 bits ended in a float division by zero;
+    a box narrower than 2^32 ulps of its centre is refused before work, naming radius."""
+    from precise_impact import prove_orbit
+    from precise_impact.errors import ParameterError
+
+    with pytest.raises(ParameterError) as e:
+        prove_orbit(eta="0.74", radius="1e-400", bits=128)
+    assert e.value.name == "radius" and "2^-96" in str(e.value)

@@ -223,3 +223,19 @@ def test_component_validation():
     with pytest.raises(ParameterError) as e:
         SwitchedCapacitorSolver(effects={"comparator": {"delay": "-1"}})
     assert e.value.name == "effects.comparator.delay"
+
+
+@pytest.mark.parametrize(
+    "R, zeta, names",
+    [("1e-11", "0.05", "R"), ("10e3", "2.6245623987117068e-98", "zeta"), ("1e14", "0.05", "R")],
+)
+def test_designs_outside_the_integrable_range_are_refused_naming_the_input(R, zeta, names):
+    """Found by the scene fuzzer: R = 1e-11 ohm (omega = 1e18 rad/s: Taylor coefficients ~omega^20
+    overflow float64, heyoka stopped with a NaN step) and zeta = 2.6e-98 (R6 = R/(2 zeta) out of
+    range, refused without naming zeta) are refused before work, naming what the caller gave."""
+    from precise_impact import Params, nominal_components
+    from precise_impact.errors import ParameterError
+
+    with pytest.raises(ParameterError) as e:
+        nominal_components(Params.make(eta="0.712", zeta=zeta), R=R)
+    assert names in e.value.name.split(", ") or names in str(e.value)

@@ -176,8 +176,14 @@ def prove_orbit(
     period = check_count(period, "period", 1000, minimum=1)
     bits = check_count(bits, "bits", 4096, minimum=128)
     r = Fraction(1, 2 ** (bits // 2)) if radius is None else exact("radius", radius, 3000)
-    if not 0 < r <= Fraction(1, 1000):
-        raise ParameterError("radius", str(radius), "0 < radius <= 1e-3")
+    # a box narrower than ~2^32 ulps of its centre cannot contain the rounding of the Newton
+    # point and of F at the working precision: refused instead of attempted (radius = 1e-400 at
+    # 128 bits used to end in a float division by zero)
+    r_min = Fraction(1, 2 ** (bits - 32))
+    if not r_min <= r <= Fraction(1, 1000):
+        raise ParameterError(
+            "radius", str(radius), f"2^-{bits - 32} <= radius <= 1e-3 at bits={bits}"
+        )
     o = find_orbit(params, period, guess=guess, impacts=impacts, transient=transient)
     import flint
 
@@ -234,7 +240,7 @@ def prove_orbit(
             for i in range(2)
         ]
         proven = all(box[i].contains_interior(K[i]) for i in range(2))
-        contraction = max(float(exact_value(abs(K[i] - z[i]).upper())) for i in range(2)) / float(r)
+        contraction = float(max(exact_value(abs(K[i] - z[i]).upper()) for i in range(2)) / r)
         tr = MZ[0][0] + MZ[1][1]
         dt = MZ[0][0] * MZ[1][1] - MZ[0][1] * MZ[1][0]
         disc = flint.acb(tr * tr - 4 * dt).sqrt()

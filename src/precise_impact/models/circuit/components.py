@@ -177,11 +177,13 @@ def exact_omega(comp: Components) -> Fraction:
     return root
 
 
-#: The circuit's natural angular frequency ``omega = 1/(R C)`` a design may have, rad/s:
-#: every real RC (1 ohm .. 1 Gohm, 1 fF .. 1 F) lies well inside; outside, products such
-#: as ``omega^2 V`` in the circuit equations overflow float64 (measured: R = 2e-79 ohm
-#: with C = 100 nF stopped heyoka with a non-finite state).
-OMEGA_RANGE = (1e-12, 1e18)
+#: The circuit's natural angular frequency ``omega = 1/(R C)`` a design may have, rad/s.  The
+#: circuit models integrate in seconds, so the k-th Taylor coefficient of a state scales as
+#: omega^k: with float64's range (1e+-308) and heyoka's orders (~20 at float64 tolerances)
+#: |log10 omega| must stay below ~15.  1e-6 .. 1e9 rad/s (0.16 uHz .. 160 MHz) holds every lumped
+#: analog design with margin (measured: omega = 1e18, R = 1e-11 ohm with C = 100 nF, stopped
+#: heyoka with a NaN step; R = 2e-79 ohm overflowed omega^2 V).
+OMEGA_RANGE = (1e-6, 1e9)
 
 
 def _isqrt_fraction(q: Fraction) -> Fraction | None:
@@ -239,6 +241,12 @@ def nominal_components(
     if params.zeta == 0:
         raise ParameterError("zeta", "0", "the circuit realises zeta > 0 (R6 = R2 / (2 zeta))")
     w = 1 / (r * c)
+    if not OMEGA_RANGE[0] <= w <= OMEGA_RANGE[1]:
+        raise ParameterError(
+            "R, C",
+            f"{decimal_str(r)}, {decimal_str(c)}",
+            f"{OMEGA_RANGE[0]:g} <= omega = 1/(R C) <= {OMEGA_RANGE[1]:g} rad/s",
+        )
     try:
         return Components.make(
             R1=r,
@@ -257,8 +265,10 @@ def nominal_components(
             V_unit=vu,
         )
     except ParameterError as e:  # a derived value out of range: name what the caller gave
+        # the system parameter a derived component also depends on (R6 = R / (2 zeta), ...)
+        param = {"R6": ", zeta", "Omega": ", eta", "V_A": ", a", "V_wall": ", x_w"}.get(e.name, "")
         raise ParameterError(
-            "R, C, V_unit",
+            "R, C, V_unit" + param,
             f"{decimal_str(r)}, {decimal_str(c)}, {decimal_str(vu)}",
             f"values whose derived component {e.name} is in range ({e.allowed})",
         ) from None
