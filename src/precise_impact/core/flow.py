@@ -15,6 +15,8 @@ from typing import Any
 
 import mpmath
 
+from precise_impact.core.flight import steady_coefficients
+
 __all__ = ["acceleration", "SteadyState", "steady_state", "grazing_frequencies"]
 
 
@@ -102,8 +104,7 @@ def steady_state(params) -> SteadyState:
 
     params = as_params(params)
     eta, zeta, a = params.eta, params.zeta, params.a
-    d = (1 - eta**2) ** 2 + (2 * zeta * eta) ** 2
-    if d == 0:
+    if (1 - eta**2) ** 2 + (2 * zeta * eta) ** 2 == 0:
         from precise_impact.errors import ParameterError
 
         raise ParameterError(
@@ -111,7 +112,8 @@ def steady_state(params) -> SteadyState:
             "0",
             "zeta = 0 with eta = 1 is the undamped resonance: no bounded steady state; need zeta > 0",
         )
-    return SteadyState(P=a * (1 - eta**2) / d, Q=2 * zeta * eta * a / d, eta=eta)
+    P, Q = steady_coefficients(eta, zeta, a)
+    return SteadyState(P=P, Q=Q, eta=eta)
 
 
 def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:

@@ -45,15 +45,14 @@ Conventions
 
 from __future__ import annotations
 
-import contextlib
 import math
 import time
 from fractions import Fraction
 from typing import Any
 
 import mpmath
-from mpmath import libmp
 
+from precise_impact.core import flight
 from precise_impact.core.flow import acceleration, steady_state
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import Params, check_count, decimal_str, exact
@@ -72,28 +71,8 @@ _BACKENDS = ("float64", "mpmath")
 
 
 # --------------------------------------------------------------------------- backends
-class _Float64Ops:
-    """Scalar float64 arithmetic through :mod:`math` (fast)."""
-
-    name = "float64"
-    exp = staticmethod(math.exp)
-    sqrt = staticmethod(math.sqrt)
-    cos = staticmethod(math.cos)
-    pi = math.pi
-
-    def __init__(self) -> None:
-        self.u = 2.0**-53  # unit roundoff
-
-    @staticmethod
-    def cos_sin(x: float) -> tuple[float, float]:
-        return math.cos(x), math.sin(x)
-
-    def context(self):
-        return contextlib.nullcontext()
-
-    @staticmethod
-    def num(q: Fraction) -> float:
-        return float(q)  # correctly rounded
+class _Float64Ops(flight.FloatOps):
+    """Scalar float64 arithmetic through :mod:`math` (:class:`precise_impact.core.flight.FloatOps`)."""
 
     @staticmethod
     def from_precision(precision: Precision, x: Any) -> float:
@@ -104,36 +83,8 @@ class _Float64Ops:
         return float(x)
 
 
-class _MpmathOps:
-    """mpmath arithmetic at ``dps`` decimal digits (every method runs inside :meth:`context`)."""
-
-    name = "mpmath"
-    exp = staticmethod(mpmath.exp)
-    sqrt = staticmethod(mpmath.sqrt)
-    cos = staticmethod(mpmath.cos)
-    cos_sin = staticmethod(mpmath.cos_sin)
-
-    def __init__(self, dps: int | None = None, bits: int | None = None) -> None:
-        if bits is not None:
-            self.prec, self.dps = bits, mpmath.libmp.prec_to_dps(bits)
-        else:
-            with mpmath.workdps(dps):
-                self.prec = mpmath.mp.prec
-            self.dps = dps
-        with mpmath.workprec(self.prec):
-            self.u = mpmath.ldexp(mpmath.mpf(1), -self.prec)
-
-    @property
-    def pi(self):
-        return +mpmath.pi
-
-    def context(self):
-        return mpmath.workprec(self.prec)
-
-    def num(self, q: Fraction) -> mpmath.mpf:
-        q = Fraction(q)
-        # One correct rounding of the exact rational at the working precision.
-        return mpmath.mp.make_mpf(libmp.from_rational(q.numerator, q.denominator, self.prec, "n"))
+class _MpmathOps(flight.MpmathOps):
+    """mpmath at ``dps`` digits or ``bits`` (every method runs inside :meth:`context`)."""
 
     @staticmethod
     def from_precision(precision: Precision, x: Any) -> mpmath.mpf:
@@ -146,14 +97,15 @@ class _MpmathOps:
 
 # --------------------------------------------------------------------------- model
 class _Segment:
-    """Coefficients of the closed form on one segment between impacts."""
+    """One flight between impacts: its anchor, its homogeneous start ``(y, u)`` and the amplitude
+    ``E`` bounding the homogeneous part and every derivative (:mod:`precise_impact.core.flight`)."""
 
-    __slots__ = ("t_s", "x_s", "v_s", "A", "B", "A1", "B1", "E", "after_impact")
+    __slots__ = ("t_s", "x_s", "v_s", "y", "u", "E", "after_impact")
 
-    def __init__(self, t_s, x_s, v_s, A, B, A1, B1, E):
+    def __init__(self, t_s, x_s, v_s, y, u, E):
         self.after_impact = False
         self.t_s, self.x_s, self.v_s = t_s, x_s, v_s
-        self.A, self.B, self.A1, self.B1, self.E = A, B, A1, B1, E
+        self.y, self.u, self.E = y, u, E
 
 
 class _Model:
@@ -166,8 +118,7 @@ class _Model:
         self.eta, self.zeta, self.a = num(params.eta), num(params.zeta), num(params.a)
         self.x_w, self.R = num(params.x_w), num(params.R)
         self.P, self.Q = num(ss.P), num(ss.Q)
-        self.wd = num(1 - params.zeta**2)
-        self.wd = ops.sqrt(self.wd)
+        self.wd = ops.sqrt(num(1 - params.zeta**2))
         u = ops.u
         self.u = u
         self.infl = 1 + _C * u  # inflation factor that turns a computed bound into a safe one
@@ -177,33 +128,20 @@ class _Model:
         self.abs_xw = abs(self.x_w)
         self.abs_a = abs(self.a)
         self.one = num(Fraction(1))
-        self.cos_sin = ops.cos_sin
-        self.exp = ops.exp
 
     # -- closed form --------------------------------------------------------------
     def segment(self, t_s, x_s, v_s) -> _Segment:
-        c, s = self.cos_sin(self.eta * t_s)
-        xp = self.P * c + self.Q * s
-        vp = self.eta * (self.Q * c - self.P * s)
-        A = x_s - xp
-        B = (v_s - vp + self.zeta * A) / self.wd
-        # Coefficients of the derivative: d/ds [e^{-zeta s}(A cos + B sin)]
-        A1 = self.wd * B - self.zeta * A
-        B1 = -(self.zeta * B + self.wd * A)
-        E = self.ops.sqrt(A * A + B * B) * self.infl
-        return _Segment(t_s, x_s, v_s, A, B, A1, B1, E)
+        y, u = flight.homogeneous_start(t_s, x_s, v_s, self.P, self.Q, self.eta, self.ops)
+        E = flight.homogeneous_amplitudes(y, u, self.zeta, self.wd, self.ops)[0] * self.infl
+        return _Segment(t_s, x_s, v_s, y, u, E)
 
     def state(self, seg: _Segment, t):
         """``(x, v, exp(-zeta (t - t_s)))`` from the segment's closed form."""
         if t == seg.t_s:
             return seg.x_s, seg.v_s, self.one
-        c, s = self.cos_sin(self.eta * t)
-        ds = t - seg.t_s
-        dec = self.exp(-self.zeta * ds)
-        cw, sw = self.cos_sin(self.wd * ds)
-        x = self.P * c + self.Q * s + dec * (seg.A * cw + seg.B * sw)
-        v = self.eta * (self.Q * c - self.P * s) + dec * (seg.A1 * cw + seg.B1 * sw)
-        return x, v, dec
+        (p00, p01, p10, p11), dec = flight.flow_and_decay(t - seg.t_s, self.zeta, self.wd, self.ops)
+        xp, vp = flight.forced_response(t, self.P, self.Q, self.eta, self.ops)
+        return xp + (p00 * seg.y + p01 * seg.u), vp + (p10 * seg.y + p11 * seg.u), dec
 
     def accel(self, t, x, v):
         """``x''`` from eq. (2a), via :func:`~precise_impact.core.flow.acceleration`."""

@@ -41,6 +41,7 @@ from typing import Any
 import mpmath
 
 from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
+from precise_impact.core import flight
 from precise_impact.core.flow import steady_state
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import check_count, params_or_values
@@ -54,9 +55,9 @@ def _q(f: Fraction) -> mpmath.mpf:
 
 
 def _phi(tau, zeta, w):
-    e = mpmath.exp(-zeta * tau)
-    c, s = mpmath.cos(w * tau), mpmath.sin(w * tau)
-    return e * (c + zeta * s / w), e * s / w, -e * s / w, e * (c - zeta * s / w)
+    """``Phi(tau)`` in mpmath at the current working precision
+    (:func:`precise_impact.core.flight.flow_matrix`)."""
+    return flight.flow_matrix(tau, zeta, w, flight.MPMATH)
 
 
 def flow_matrix(tau, zeta, w) -> mpmath.matrix:
@@ -114,7 +115,7 @@ def one_impact_orbits(
         P, Q = _q(ss.P), _q(ss.Q)
         T = 2 * mpmath.pi / eta
         nT = n * T
-        w = mpmath.sqrt(1 - zeta * zeta)
+        w = flight.damped_frequency(zeta, flight.MPMATH)
         p00, p01, p10, p11 = _phi(nT, zeta, w)
         C1 = p01 * p10 * R - (1 + p11 * R) * (p00 - 1)
         C2 = p01 * (1 + R)

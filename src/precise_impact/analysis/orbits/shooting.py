@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core import flight
+
 __all__ = ["ShootingSystem", "CONTINUABLE"]
 
 #: Parameters a branch can be continued in.
@@ -60,28 +62,20 @@ class ShootingSystem:
         den = (1 - eta * eta) ** 2 + (2 * zeta * eta) ** 2
         if not (0 <= zeta < 1) or den == 0 or eta <= 0 or not 0 < R <= 1:
             raise ValueError(f"outside the system's range: eta={eta!r}, zeta={zeta!r}, R={R!r}")
-        P, Q = a * (1 - eta * eta) / den, 2 * zeta * eta * a / den
-        return eta, zeta, a, xw, R, P, Q, math.sqrt(1 - zeta * zeta)
+        P, Q = flight.steady_coefficients(eta, zeta, a)
+        return eta, zeta, a, xw, R, P, Q, flight.damped_frequency(zeta, flight.FLOAT)
 
     @staticmethod
     def phi(tau, zeta, w):
         """The homogeneous flow matrix ``Phi(tau)`` (also the tangent flow of a flight)."""
-        e = np.exp(-zeta * tau)
-        c, s = np.cos(w * tau), np.sin(w * tau)
-        return np.array([[e * (c + zeta * s / w), e * s / w], [-e * s / w, e * (c - zeta * s / w)]])
+        return np.array(flight.flow_matrix(tau, zeta, w, flight.NUMPY)).reshape(2, 2)
 
     def flow(self, vals, s, x, v, t):
         """State at time(s) ``t`` of the flight from ``(s, x, v)`` (no wall)."""
         eta, zeta, a, xw, R, P, Q, w = vals
-        cs, ss = math.cos(eta * s), math.sin(eta * s)
-        hx, hv = x - (P * cs + Q * ss), v - eta * (Q * cs - P * ss)
-        tau = np.asarray(t, dtype=float) - s
-        e = np.exp(-zeta * tau)
-        c, sn = np.cos(w * tau), np.sin(w * tau)
-        ct, st = np.cos(eta * np.asarray(t, dtype=float)), np.sin(eta * np.asarray(t, dtype=float))
-        xt = P * ct + Q * st + e * ((c + zeta * sn / w) * hx + sn / w * hv)
-        vt = eta * (Q * ct - P * st) + e * (-sn / w * hx + (c - zeta * sn / w) * hv)
-        return xt, vt
+        return flight.Flight(P, Q, eta, zeta, w, flight.NUMPY, s, x, v).at(
+            np.asarray(t, dtype=float)
+        )
 
     @staticmethod
     def field(vals, t, x, v):

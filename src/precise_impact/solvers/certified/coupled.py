@@ -34,6 +34,7 @@ from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
+from precise_impact.core import flight
 from precise_impact.core.params import check_count, decimal_str, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
@@ -61,29 +62,25 @@ __all__ = ["certify_coupled", "CertifiedCoupledTrajectory"]
 
 
 class _ErrorFlow:
-    """``e'' + c1 e' + c0 e = 0`` from ``(e0, e0')`` at the anchor ``s`` (balls)."""
+    """``e'' + c1 e' + c0 e = 0`` from ``(e0, e0')`` at the anchor ``s`` (balls): the damped flow
+    of :mod:`precise_impact.core.flight` with ``alpha = c1 / 2``."""
 
     def __init__(self, al, om, c0, s, e0, ep0) -> None:
         self.al, self.om, self.c0, self.s, self.e0, self.ep0 = al, om, c0, s, e0, ep0
         self._bound = None
 
     def at(self, t):
-        tau = t - self.s
-        ex = (-self.al * tau).exp()
-        sn, cs = (self.om * tau).sin_cos()
-        so = sn / self.om
-        e = ex * ((cs + self.al * so) * self.e0 + so * self.ep0)
-        ep = ex * (-self.c0 * so * self.e0 + (cs - self.al * so) * self.ep0)
-        return e, ep
+        p00, p01, p10, p11 = flight.flow_matrix(t - self.s, self.al, self.om, flight.ARB, self.c0)
+        return p00 * self.e0 + p01 * self.ep0, p10 * self.e0 + p11 * self.ep0
 
     def second_bound(self):
-        """A proven bound of ``|e''| = |c1 e' + c0 e|`` for ``tau >= 0`` (``e^(-alpha tau) <= 1``,
-        ``|sin| <= 1``, ``|cos| <= 1``)."""
+        """A proven bound of ``|e''| = |c1 e' + c0 e|`` for ``tau >= 0`` (the upper end of
+        :func:`precise_impact.core.flight.second_derivative_bound` on the amplitudes)."""
         if self._bound is None:
-            a0, a1, io = abs(self.e0), abs(self.ep0), 1 / self.om
-            be = a0 * (1 + self.al * io) + a1 * io
-            bep = a0 * self.c0 * io + a1 * (1 + self.al * io)
-            self._bound = (2 * self.al * bep + self.c0 * be).upper()
+            ae, aep = flight.homogeneous_amplitudes(
+                self.e0, self.ep0, self.al, self.om, flight.ARB, self.c0
+            )
+            self._bound = flight.second_derivative_bound(ae, aep, self.al, self.c0).upper()
         return self._bound
 
 

@@ -34,6 +34,8 @@ import time
 from fractions import Fraction
 from typing import Any
 
+from precise_impact.core import flight
+from precise_impact.core.flow import steady_state
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import IntegrationError, OptionalDependencyError, ParameterError
@@ -149,29 +151,17 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
     return str(dm), str(dr).replace("E", "e")
 
 
-class Flight:
+class Flight(flight.Flight):
     """The closed-form flight of the single oscillator from ``(s, x_s, v_s)``, all balls,
     evaluated at ball or point times (also the master of the certified pair,
-    :mod:`precise_impact.solvers.certified.coupled`)."""
+    :mod:`precise_impact.solvers.certified.coupled`): :class:`precise_impact.core.flight.Flight`
+    in ball arithmetic."""
+
+    __slots__ = ("c",)
 
     def __init__(self, c: Constants, s, xs, vs) -> None:
+        super().__init__(c.P, c.Q, c.eta, c.zeta, c.w, flight.ARB, s, xs, vs)
         self.c = c
-        self.s = s
-        cs, ss = c.phase(s)
-        self.hx = xs - (c.P * cs + c.Q * ss)
-        self.hv = vs - c.eta * (c.Q * cs - c.P * ss)
-        self._amax = None
-
-    def at(self, t):
-        """``(x, v)`` at ``t`` (balls)."""
-        c = self.c
-        st, ct = (c.eta * t).sin_cos()
-        tau = t - self.s
-        e = (-c.zeta * tau).exp()
-        sw, cw = (c.w * tau).sin_cos()
-        x = c.P * ct + c.Q * st + e * ((cw + c.zw * sw) * self.hx + sw * c.iw * self.hv)
-        v = c.eta * (c.Q * ct - c.P * st) + e * (-sw * c.iw * self.hx + (cw - c.zw * sw) * self.hv)
-        return x, v
 
     def gap(self, t):
         """``(x - x_w, x')`` at ``t``: the wall gap :class:`Isolator` works on."""
@@ -179,16 +169,9 @@ class Flight:
         return x - self.c.xw, v
 
     def acceleration_bound(self):
-        """A proven bound of ``|x''|`` on the flight (``tau >= 0``): ``|a| + 2 zeta B_v + B_x`` with
-        ``B_x, B_v`` bounds of ``|x|, |v|`` from the closed form (``e^(-zeta tau) <= 1``)."""
-        if self._amax is None:
-            c = self.c
-            amp = (c.P * c.P + c.Q * c.Q).sqrt()
-            hx, hv = abs(self.hx), abs(self.hv)
-            bx = amp + hx * (1 + c.zw) + hv * c.iw
-            bv = c.eta * amp + hx * c.iw + hv * (1 + c.zw)
-            self._amax = (abs(c.a) + 2 * c.zeta * bv + bx).upper()
-        return self._amax
+        """A proven bound of ``|x''|`` on the flight (``tau >= 0``): the upper end of the ball
+        :meth:`precise_impact.core.flight.Flight.acceleration_bound`."""
+        return super().acceleration_bound().upper()
 
 
 class Constants:
@@ -196,22 +179,15 @@ class Constants:
     the flight (``P, Q`` of the steady state, ``omega_d = sqrt(1 - zeta^2)``, ``T``)."""
 
     def __init__(self, params: Params, bits: int) -> None:
-        from precise_impact.core.flow import steady_state
-
         flint = _flint()
         ss = steady_state(params)
         self.eta, self.zeta, self.a = to_ball(params.eta), to_ball(params.zeta), to_ball(params.a)
         self.xw, self.R = to_ball(params.x_w), to_ball(params.R)
         self.P, self.Q = to_ball(ss.P), to_ball(ss.Q)
-        self.w = (1 - self.zeta * self.zeta).sqrt()
-        self.zw, self.iw = self.zeta / self.w, 1 / self.w
+        self.w = flight.damped_frequency(self.zeta, flight.ARB)
         self.T = 2 * flint.arb.pi() / self.eta
         self.t0 = to_ball(params.t0)
         self.bits = bits
-
-    def phase(self, t):
-        st, ct = (self.eta * t).sin_cos()
-        return ct, st
 
 
 def point(x):
@@ -554,9 +530,8 @@ class working_bits:
 
 def flow_matrix(c: Constants, tau):
     """The homogeneous (and tangent) flow ``Phi(tau)`` of a flight as a 2x2 list of balls."""
-    e = (-c.zeta * tau).exp()
-    sw, cw = (c.w * tau).sin_cos()
-    return [[e * (cw + c.zw * sw), e * sw * c.iw], [-e * sw * c.iw, e * (cw - c.zw * sw)]]
+    p00, p01, p10, p11 = flight.flow_matrix(tau, c.zeta, c.w, flight.ARB)
+    return [[p00, p01], [p10, p11]]
 
 
 def run_balls(
