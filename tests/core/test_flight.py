@@ -148,7 +148,7 @@ def test_the_numba_copies_are_the_core_formulas():
     """solvers/fast keeps compiled copies (numba cannot call the generic Python): the flow
     matrix is the same expression (equal to the last bit); the steady-state coefficients are
     computed with a different association (4 zeta^2 eta^2): within 4 ulps."""
-    from precise_impact.solvers.fast.single import coefficients, phi, phi_damped
+    from precise_impact.solvers.fast.crossing import coefficients, phi, phi_damped
 
     for _ in range(200):
         tau, alpha = RNG.uniform(0, 40), RNG.uniform(0, 0.9)
@@ -164,3 +164,27 @@ def test_the_numba_copies_are_the_core_formulas():
         P, Q = flight.steady_coefficients(eta, alpha, a)
         assert abs(Pf - P) <= 4 * EPS * abs(P) and abs(Qf - Q) <= 4 * EPS * abs(Q)
         assert wf == flight.damped_frequency(alpha, flight.FLOAT)
+
+
+def test_the_compiled_bounds_and_gap_are_the_core_ones():
+    """crossing.flight_bounds' amplitude is core.flight.homogeneous_amplitudes (c0 = 1: y and y'
+    share it, within 2 ulps of the differently associated core expression), its |x''| bound is
+    the core Flight.acceleration_bound, and crossing.gap is the core Flight's x - x_w, x'
+    (same terms; a few ulps of the largest term apart)."""
+    from precise_impact.solvers.fast.crossing import flight_bounds, gap
+
+    for _ in range(200):
+        eta, zeta, a = RNG.uniform(0.1, 3), RNG.uniform(0, 0.9), RNG.uniform(-2, 2)
+        s, x, v, xw = (RNG.uniform(-2, 30) for _ in range(4))
+        t = s + RNG.uniform(0, 30)  # flights run forward: the homogeneous part decays
+        P, Q = flight.steady_coefficients(eta, zeta, a)
+        w = flight.damped_frequency(zeta, flight.FLOAT)
+        f = flight.Flight(P, Q, eta, zeta, w, flight.FLOAT, s, x, v)
+        ay, au = flight.homogeneous_amplitudes(f.y, f.u, zeta, w, flight.FLOAT)
+        A, M, _, _ = flight_bounds(f.y, f.u, zeta, w, eta, math.sqrt(P * P + Q * Q))
+        assert abs(A - ay) <= 2 * EPS * ay and abs(ay - au) <= 8 * EPS * ay
+        assert abs(M - f.acceleration_bound()) <= 8 * EPS * M
+        g, gp = gap(t, s, eta, zeta, w, P, Q, f.y, f.u, xw, False, 0.0, 1.0, 1.0, 0.0, 0.0)[:2]
+        xt, vt = f.at(t)
+        scale = abs(P) + abs(Q) + abs(f.y) + abs(f.u) + abs(xw)
+        assert abs(g - (xt - xw)) <= 8 * EPS * scale and abs(gp - vt) <= 8 * EPS * scale

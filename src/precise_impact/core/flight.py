@@ -237,7 +237,7 @@ class Flight:
 
     def at(self, t: Any) -> tuple[Any, Any]:
         """``(x, v)`` at ``t``."""
-        p00, p01, p10, p11 = self.flow(t)
+        (p00, p01, p10, p11), _ = flow_and_decay(t - self.s, self.zeta, self.wd, self.ops)
         xp, vp = forced_response(t, self.P, self.Q, self.eta, self.ops)
         return xp + (p00 * self.y + p01 * self.u), vp + (p10 * self.y + p11 * self.u)
 

@@ -38,19 +38,22 @@ import math
 import numba
 import numpy as np
 
-from precise_impact.solvers.fast.single import (
+from precise_impact.solvers.fast.crossing import (
     JIT,
     PHASE_ERROR,
+    coefficients,
+    flight_bounds,
+    no_crossing,
+    phi,
+    phi_damped,
+    refine_crossing,
+)
+from precise_impact.solvers.fast.single import (
     STATUS_BUDGET,
     STATUS_CONTACT,
     STATUS_NONFINITE,
     STATUS_OK,
     STATUS_SLOW_IMPACT,
-    coefficients,
-    newton_start,
-    no_crossing,
-    phi,
-    phi_damped,
     sample_time,
 )
 
@@ -123,13 +126,7 @@ def _cflight(
     the state at ``t1``), 1 master, 2 slave, 3 both; the state just before the impact."""
     cl, sl = math.cos(eta * t0), math.sin(eta * t0)
     y0, u0 = x0 - (P * cl + Q * sl), v0 - eta * (Q * cl - P * sl)
-    ay = math.sqrt(y0 * y0 + ((u0 + zeta * y0) / w) ** 2)
-    av = math.sqrt(u0 * u0 + ((y0 + zeta * u0) / w) ** 2)
-    My = ay + 2.0 * zeta * av
-    Jy = 2.0 * zeta * My + av
-    M = My + eta * eta * S
-    J = Jy + eta * eta * eta * S
-    J4 = 2.0 * zeta * Jy + My + eta * eta * eta * eta * S
+    ay, M, J, J4 = flight_bounds(y0, u0, zeta, w, eta, S)
     Ae = math.sqrt(e0 * e0 + ((ep0 + al * e0) / wd) ** 2)  # amplitude of e (decays)
     Ms, Js, J4s = M + Ae * c0, J + Ae * c0 * math.sqrt(c0), J4 + Ae * c0 * c0
     # evaluation errors of the gaps: the terms and the rounded forcing phase (eps eta |t|)
@@ -173,26 +170,29 @@ def _cflight(
                     g_lo, gp_lo, g_hi, gp_hi = gm_lo, v, gm_hi, vh
                 else:
                     g_lo, gp_lo, g_hi, gp_hi = gs_lo, v + ep, gs_hi, vh + eph
-                a_, b_ = lo, hi
-                tr = lo + newton_start(g_lo, gp_lo, g_hi, gp_hi, h)
-                for _ in range(100):
-                    if not (a_ < tr < b_):
-                        tr = 0.5 * (a_ + b_)
-                    xr, vr, er, epr, _c = _state(
-                        tr - t0, tr, eta, zeta, w, P, Q, y0, u0, al, wd, c0, e0, ep0
-                    )
-                    g = xr - xw if which == 1 else (xr - xw) + er
-                    gp = vr if which == 1 else vr + epr
-                    if g > 0.0:
-                        b_ = tr
-                    else:
-                        a_ = tr
-                    tn = tr - g / gp
-                    if abs(tn - tr) <= 4e-16 * abs(tr) or b_ - a_ <= 4e-16 * abs(tr):
-                        if a_ <= tn <= b_:
-                            tr = tn
-                        break
-                    tr = tn
+                tr = refine_crossing(
+                    lo,
+                    hi,
+                    g_lo,
+                    gp_lo,
+                    g_hi,
+                    gp_hi,
+                    t0,
+                    eta,
+                    zeta,
+                    w,
+                    P,
+                    Q,
+                    y0,
+                    u0,
+                    xw,
+                    which == 2,
+                    al,
+                    wd,
+                    c0,
+                    e0,
+                    ep0,
+                )[0]
                 if tr < tc:
                     tc, hit = tr, which
             xc, vc, ec, epc, _c = _state(

@@ -42,6 +42,18 @@ import math
 import numba
 import numpy as np
 
+from precise_impact.solvers.fast.crossing import (
+    JIT,
+    PHASE_ERROR,
+    STEP_LEVELS,
+    coefficients,
+    flight_bounds,
+    mul2,
+    no_crossing,
+    phi,
+    refine_crossing,
+)
+
 STATUS_OK = 0
 STATUS_CONTACT = 1  # a tangential contact (rounding-level excursion): rerun with heyoka
 STATUS_SLOW_IMPACT = 2  # an impact slower than v_floor (chattering / sticking): rerun with heyoka
@@ -69,42 +81,6 @@ STATUS_TEXT = {
     STATUS_NONFINITE: "non-finite state",
 }
 
-JIT = dict(cache=True, fastmath=False, error_model="numpy")
-
-
-@numba.njit(**JIT)
-def coefficients(eta, zeta, a):
-    """``(P, Q, w)``: particular solution ``P cos + Q sin`` and the damped frequency."""
-    d = (1.0 - eta * eta) ** 2 + 4.0 * zeta * zeta * eta * eta
-    return a * (1.0 - eta * eta) / d, 2.0 * zeta * eta * a / d, math.sqrt(1.0 - zeta * zeta)
-
-
-@numba.njit(**JIT)
-def phi_damped(tau, alpha, wd, c0):
-    """The 2x2 flow of ``e'' + 2 alpha e' + c0 e = 0`` over ``tau`` in ``(e, e')``, underdamped
-    (``wd = sqrt(c0 - alpha^2) > 0``); also the tangent flow."""
-    e = math.exp(-alpha * tau)
-    c, s = math.cos(wd * tau), math.sin(wd * tau)
-    sw = s / wd
-    return e * (c + alpha * sw), e * sw, -c0 * e * sw, e * (c - alpha * sw)
-
-
-@numba.njit(**JIT)
-def phi(tau, zeta, w):
-    """The 2x2 flow of ``y'' + 2 zeta y' + y = 0`` over ``tau`` (also the tangent flow)."""
-    return phi_damped(tau, zeta, w, 1.0)
-
-
-@numba.njit(**JIT)
-def mul2(a00, a01, a10, a11, b00, b01, b10, b11):
-    """The 2x2 product ``A B`` (entries row by row)."""
-    return (
-        a00 * b00 + a01 * b10,
-        a00 * b01 + a01 * b11,
-        a10 * b00 + a11 * b10,
-        a10 * b01 + a11 * b11,
-    )
-
 
 @numba.njit(**JIT)
 def compiled_saltation(t, vm, eta, zeta, a, xw, R):
@@ -115,88 +91,12 @@ def compiled_saltation(t, vm, eta, zeta, a, xw, R):
     return -R, 0.0, (ap + R * am) / vm, -R
 
 
-#: ``cos``/``sin(eta t)`` are evaluated at ``eta t`` rounded (relative error ``eps / 2``): an
-#: absolute phase error ``eps eta |t| / 2`` and a gap error up to ``sqrt(P^2 + Q^2)`` times
-#: that; bounded with a factor 8 to spare as ``PHASE_ERROR sqrt(P^2 + Q^2) eta |t|``.
-PHASE_ERROR = 4.0 * 2.220446049250313e-16
-
 #: Samples between two QRs of the tangent basis in :func:`lle_orbit` (the basis grows or
 #: shrinks by at most ~e^2 per period between impacts; large growth forces a QR at once).
 QR_EVERY = 4
 
-#: Cached step sizes: ``h_max / 2^k``, ``k = 0..STEP_LEVELS - 1`` (halving and doubling stay on them).
-STEP_LEVELS = 40
-
 #: Samples one flight records at most before it returns (the caller re-anchors there).
 FLIGHT_SAMPLES = 16
-
-
-@numba.njit(**JIT)
-def no_crossing(g_lo, gp_lo, acc_lo, g_hi, gp_hi, h, J, J4, err, exact_start):
-    """Proof that ``g = x - x_w`` stays below ``-err`` on ``(lo, lo + h]`` (no crossing).
-
-    ``g_lo, gp_lo, acc_lo``: ``g, g', g''`` at ``lo``; ``g_hi, gp_hi`` at ``lo + h``; ``J``,
-    ``J4`` bounds on ``|g'''|``, ``|g''''|`` over the flight; ``err`` the evaluation error of
-    ``g``; ``exact_start``: ``g_lo`` is exact (the flight's start, on or below the wall).
-    Proof 0 (moving away): ``g' <= g'(lo) + g''(lo) s + J s^2/2 < 0`` on the whole step (the
-    bound is convex in ``s``: its ends suffice), so no upward crossing, wherever ``g`` is
-    (a state a rounding error beyond the wall and moving away, left by an impact of the
-    other oscillator of a coupled pair, is cleared here).
-    Proof 1 (Taylor from lo): ``g(lo + s) <= q(s) = g + g' s + g'' s^2/2 + J s^3/6``, whose
-    maximum on ``[0, h]`` is at an end or at the smaller root of ``q'`` (``q'`` is convex).
-    Proof 2 (both ends): the cubic Hermite interpolant ``H`` of ``g, g'`` at ``lo`` and
-    ``lo + h``, with ``|g - H| <= max|g''''| s^2 (h - s)^2 / 24 <= J4 h^4 / 384``.
-    ``err`` bounds the evaluation error of ``g'`` as well (same scale).
-    """
-    if gp_lo < -err and gp_lo + h * (acc_lo + 0.5 * h * J) < -err:
-        return True
-    q_end = g_lo + h * (gp_lo + h * (0.5 * acc_lo + h * J / 6.0))
-    q_max = q_end
-    disc = acc_lo * acc_lo - 2.0 * J * gp_lo
-    if disc >= 0.0 and J > 0.0:
-        sm = (-acc_lo - math.sqrt(disc)) / J
-        if 0.0 < sm < h:
-            q_max = max(q_max, g_lo + sm * (gp_lo + sm * (0.5 * acc_lo + sm * J / 6.0)))
-    start_ok = (g_lo < -err) or (exact_start and g_lo <= 0.0 and gp_lo < 0.0 and q_end < 0.0)
-    if start_ok and q_max < -err:
-        return True
-    if not (g_lo < -err and g_hi < -err):
-        return False
-    c2, c3 = _hermite(g_lo, gp_lo, g_hi, gp_hi, h)
-    h_max_val = max(g_lo, g_hi)
-    # H'(s) = gp_lo + 2 c2 s + 3 c3 s^2 = 0
-    if c3 != 0.0:
-        d2 = c2 * c2 - 3.0 * c3 * gp_lo
-        if d2 >= 0.0:
-            r = math.sqrt(d2)
-            for sc in ((-c2 - r) / (3.0 * c3), (-c2 + r) / (3.0 * c3)):
-                if 0.0 < sc < h:
-                    h_max_val = max(h_max_val, g_lo + sc * (gp_lo + sc * (c2 + sc * c3)))
-    elif c2 != 0.0:
-        sc = -gp_lo / (2.0 * c2)
-        if 0.0 < sc < h:
-            h_max_val = max(h_max_val, g_lo + sc * (gp_lo + sc * c2))
-    return h_max_val + J4 * h * h * h * h / 384.0 < -err
-
-
-@numba.njit(**JIT)
-def _hermite(g_lo, gp_lo, g_hi, gp_hi, h):
-    """``(c2, c3)`` of the cubic Hermite interpolant ``H(s) = g_lo + gp_lo s + c2 s^2 + c3 s^3``."""
-    dg = (g_hi - g_lo) / h
-    return (3.0 * dg - 2.0 * gp_lo - gp_hi) / h, (gp_lo + gp_hi - 2.0 * dg) / (h * h)
-
-
-@numba.njit(**JIT)
-def newton_start(g_lo, gp_lo, g_hi, gp_hi, h):
-    """Offset in ``[0, h]`` of the root of the Hermite cubic of a bracketed crossing (a few
-    Newton steps on the polynomial from the secant's root): the closed-form Newton's start."""
-    c2, c3 = _hermite(g_lo, gp_lo, g_hi, gp_hi, h)
-    sr = -g_lo / (g_hi - g_lo) * h
-    for _ in range(4):
-        hd = gp_lo + sr * (2.0 * c2 + 3.0 * sr * c3)
-        if hd > 0.0:
-            sr = min(max(sr - (g_lo + sr * (gp_lo + sr * (c2 + sr * c3))) / hd, 0.0), h)
-    return sr
 
 
 @numba.njit(**JIT)
@@ -250,14 +150,8 @@ def _flight(
     y0, u0 = x0 - (P * cl + Q * sl), v0 - eta * (Q * cl - P * sl)  # minus the particular solution
     yl, ul = y0, u0  # homogeneous state at lo
     F00, F01, F10, F11 = 1.0, 0.0, 0.0, 1.0  # Phi(lo - t0)
-    # amplitudes of y and y' (they only decay): |y''| = |2 zeta y' + y| <= 2 zeta Av + Ay
-    ay = math.sqrt(y0 * y0 + ((u0 + zeta * y0) / w) ** 2)
-    av = math.sqrt(u0 * u0 + ((y0 + zeta * u0) / w) ** 2)
-    My = ay + 2.0 * zeta * av  # |y''| on the whole flight
-    Jy = 2.0 * zeta * My + av  # |y'''| (y''' = -2 zeta y'' - y')
-    M = My + eta * eta * S  # |x''|
-    J = Jy + eta * eta * eta * S  # |x'''| (x_p''' = -eta^2 x_p')
-    J4 = 2.0 * zeta * Jy + My + eta * eta * eta * eta * S  # |x''''|
+    # amplitudes of y and y' (they only decay) and derivative bounds over the whole flight
+    ay, M, J, J4 = flight_bounds(y0, u0, zeta, w, eta, S)
     # rounding error of g = x - x_w evaluated from the anchor: the terms, and the forcing
     # phase eta t rounded (an absolute error eps eta |t| in cos and sin) up to the flight's
     # last possible sample
@@ -330,42 +224,40 @@ def _flight(
         if g_hi > err and gp_lo - M * h > 0.0 and g_lo < 0.0:
             # a sign change and g' > 0 on [lo, hi]: exactly one root; safeguarded Newton on
             # the closed form from the root of the Hermite cubic
-            sr = newton_start(g_lo, gp_lo, g_hi, gp_hi, h)
-            a_, b_ = lo, hi
-            tc = lo + sr
-            p00, p01, p10, p11, gp = 1.0, 0.0, 0.0, 1.0, gp_lo
-            for _ in range(100):
-                if not (a_ < tc < b_):
-                    tc = 0.5 * (a_ + b_)
-                p00, p01, p10, p11 = phi(tc - t0, zeta, w)
-                cc, sc_ = math.cos(eta * tc), math.sin(eta * tc)
-                yc, uc = p00 * y0 + p01 * u0, p10 * y0 + p11 * u0
-                xpc = P * cc + Q * sc_
-                g = xpc + yc - xw
-                gp = eta * (Q * cc - P * sc_) + uc
-                if g > 0.0:
-                    b_ = tc
-                else:
-                    a_ = tc
-                step_n = g / gp
-                tn = tc - step_n
-                # stop once the step is at rounding level (measured: stopping earlier, on
-                # Newton's error bound M step^2 / (2 g') < eps |t|, made the samples 5x less
-                # accurate against mp:128 than heyoka float64; this way 0.75x)
-                if abs(step_n) <= 4e-16 * abs(tc) or b_ - a_ <= 4e-16 * abs(tc):
-                    if a_ <= tn <= b_:
-                        # v and the flow matrix at tn to first order from tc (the next terms
-                        # are O(step^2), below rounding): v' = x'', Phi' = A Phi
-                        d = tn - tc
-                        gp += (-eta * eta * xpc - 2.0 * zeta * uc - yc) * d
-                        p00, p01, p10, p11 = (
-                            p00 + d * p10,
-                            p01 + d * p11,
-                            p10 - d * (p00 + 2.0 * zeta * p10),
-                            p11 - d * (p01 + 2.0 * zeta * p11),
-                        )
-                        tc = tn
-                    break
+            tn, tc, gp, acc, p00, p01, p10, p11 = refine_crossing(
+                lo,
+                hi,
+                g_lo,
+                gp_lo,
+                g_hi,
+                gp_hi,
+                t0,
+                eta,
+                zeta,
+                w,
+                P,
+                Q,
+                y0,
+                u0,
+                xw,
+                False,
+                0.0,
+                1.0,
+                1.0,
+                0.0,
+                0.0,
+            )
+            if tn != tc:
+                # v and the flow matrix at tn to first order from tc (the next terms are
+                # O(step^2), below rounding): v' = x'', Phi' = A Phi
+                d = tn - tc
+                gp += acc * d
+                p00, p01, p10, p11 = (
+                    p00 + d * p10,
+                    p01 + d * p11,
+                    p10 - d * (p00 + 2.0 * zeta * p10),
+                    p11 - d * (p01 + 2.0 * zeta * p11),
+                )
                 tc = tn
             return STATUS_OK, ns, True, tc, gp, p00, p01, p10, p11
         if h <= h_min:
