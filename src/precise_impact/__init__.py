@@ -24,7 +24,13 @@ The names below are the public API; everything else may change between releases.
 """
 
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
-from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, lyapunov
+from precise_impact.analysis.lyapunov import (
+    LYAPUNOV_METHODS,
+    Attractor,
+    LyapunovResult,
+    StartEstimate,
+    lyapunov,
+)
 from precise_impact.analysis.orbits import (
     Bifurcation,
     Branch,
@@ -147,6 +153,8 @@ __all__ = [
     # analysis
     "LYAPUNOV_METHODS",
     "LyapunovResult",
+    "Attractor",
+    "StartEstimate",
     "lyapunov",
     "detect_period",
     "SyncResult",

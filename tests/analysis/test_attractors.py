@@ -34,6 +34,15 @@ def test_periodic_attractor_reports_the_floquet_lle(method):
     assert abs(sum(r.spectrum) - (2 * math.log(0.8) / (2 * math.pi) - 0.1)) <= 1e-12
     ft = r.stats["finite_time"]
     assert abs(ft["lle"] - EXACT_1_1) > 1e-7  # the finite-time value is not the answer
+    # the typed view says the same as stats
+    (a,) = r.attractors
+    assert r.lle_source == "floquet" and r.headline_attractor == a
+    assert (a.kind, a.period, a.n_impacts, a.starts) == ("periodic", 1, 1, (0, 1, 2, 3))
+    assert a.floquet_lle == r.lle and len(a.multipliers) == 2
+    assert max(math.log(abs(m)) for m in a.multipliers) / (2 * math.pi) == pytest.approx(
+        EXACT_1_1, abs=1e-12
+    )
+    assert len(r.per_start) == 4 and all(s.attractor == 0 for s in r.per_start)
 
 
 def test_starts_on_different_attractors_are_not_averaged():
@@ -54,6 +63,15 @@ def test_starts_on_different_attractors_are_not_averaged():
     assert r.stats["headline_attractor"] == head["id"]
     assert r.lle == (head["floquet_lle"] if head["kind"] == "periodic" else head["lle"])
     assert "attractors" in r.stats["warning"]
+    kinds = {a.kind: a for a in r.attractors}
+    assert set(kinds) == {"periodic", "not periodic"}
+    assert kinds["periodic"].floquet_lle == per["floquet_lle"]
+    assert (
+        kinds["not periodic"].lle_stderr == cha["stderr"] and r.headline_attractor.id == head["id"]
+    )
+    assert [s.attractor for s in r.per_start] == [
+        next(g["id"] for g in groups if j in g["starts"]) for j in range(8)
+    ]
 
 
 @pytest.mark.parametrize("eta", ["0.9", "1.2"])

@@ -8,7 +8,13 @@
 """
 
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
-from precise_impact.analysis.lyapunov import LYAPUNOV_METHODS, LyapunovResult, lyapunov
+from precise_impact.analysis.lyapunov import (
+    LYAPUNOV_METHODS,
+    Attractor,
+    LyapunovResult,
+    StartEstimate,
+    lyapunov,
+)
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.analysis.sweep import SweepResult, SweepSpec, load_sweep, run_sweep
 from precise_impact.analysis.sync import SyncResult, sync_scan
@@ -16,6 +22,8 @@ from precise_impact.analysis.sync import SyncResult, sync_scan
 __all__ = [
     "LYAPUNOV_METHODS",
     "LyapunovResult",
+    "Attractor",
+    "StartEstimate",
     "lyapunov",
     "detect_period",
     "SyncResult",

@@ -4,11 +4,23 @@ from __future__ import annotations
 
 from typing import Any
 
-from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
+from precise_impact.analysis.lyapunov.result import (
+    Attractor,
+    LyapunovResult,
+    StartEstimate,
+    block_stderr,
+)
 from precise_impact.core.params import Params
 from precise_impact.errors import ParameterError
 
-__all__ = ["LYAPUNOV_METHODS", "lyapunov", "LyapunovResult", "block_stderr"]
+__all__ = [
+    "LYAPUNOV_METHODS",
+    "Attractor",
+    "StartEstimate",
+    "lyapunov",
+    "LyapunovResult",
+    "block_stderr",
+]
 
 LYAPUNOV_METHODS = ("variational", "two-trajectory", "fast")
 

@@ -300,9 +300,6 @@ def attribute(
     .. [2] B. L. Welch, Biometrika 34 (1947) 28-35 (unequal-variance comparison of means).
     """
     from precise_impact.analysis.lyapunov.result import means_stderr
-    from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.analysis.periodicity import detect_period
-    from precise_impact.errors import IntegrationError
 
     params = result.params
     T = 2 * math.pi / float(params.eta)
@@ -312,7 +309,42 @@ def attribute(
     periods = [int(k) for k in periods]
     dur = [k * T for k in periods]
     blocks = [np.asarray(ps[2], float).ravel() for ps in per_start]
-    # ---- per start: LLE, its batch-means error, impact rate and its error
+    starts = _per_start(result, per_start, blocks, periods, impact_blocks)
+    groups, loose = _periodic_groups(params, tails, precision)
+    free, tests = _split_loose(starts, tails, loose, alpha)
+    groups = sorted(groups + free, key=lambda g: min(g["starts"]))
+    for i, g in enumerate(groups):
+        g["id"] = i
+        g["starts"].sort()
+        st = g["starts"]
+        g["lle"] = _weighted([starts[j]["lle"] for j in st], [dur[j] for j in st])
+        g["stderr"] = means_stderr(np.concatenate([blocks[j] for j in st]))
+        rates = [starts[j]["impact_rate"] for j in st]
+        g["impact_rate"] = (
+            _weighted(rates, [periods[j] for j in st]) if all(map(math.isfinite, rates)) else None
+        )
+        for j in st:
+            starts[j]["attractor"] = i
+    if len(groups) == 1:  # every start on one attractor: the run's own batch-means error
+        groups[0]["stderr"] = result.stderr
+    _periodic_error_bars(groups, starts, dur, T)
+    head, finite, source = _headline(result, groups, per_start, dur, T)
+    _record(result, groups, starts, per_start, head, finite, source, tests)
+    return result
+
+
+def _per_start(
+    result: Any,
+    per_start: Sequence[tuple],
+    blocks: list[np.ndarray],
+    periods: list[int],
+    impact_blocks: Sequence[Any] | None,
+) -> list[dict]:
+    """Step 1 of :func:`attribute`: each start's LLE, its batch-means error, impact rate and
+    the rate's error (floor ``1 / N``: an integer count over ``N`` periods)."""
+    from precise_impact.analysis.lyapunov.result import means_stderr
+
+    n = len(blocks)
     starts = []
     for j in range(n):
         ib = None if impact_blocks is None else impact_blocks[j]
@@ -336,7 +368,18 @@ def attribute(
                 "_nr": 0 if ib is None else len(ib),
             }
         )
-    # ---- periodic starts: Newton, grouped by orbit
+    return starts
+
+
+def _periodic_groups(
+    params: Any, tails: Sequence[tuple[np.ndarray, np.ndarray]], precision: str
+) -> tuple[list[dict], list[int]]:
+    """Step 2: starts whose tails are periodic, refined by Newton and grouped by orbit (one
+    Newton run per orbit); the others are returned as ``loose`` indices."""
+    from precise_impact.analysis.orbits.newton import find_orbit
+    from precise_impact.analysis.periodicity import detect_period
+    from precise_impact.errors import IntegrationError
+
     groups: list[dict] = []
     loose: list[int] = []
     for j, (xs, vs) in enumerate(tails):
@@ -347,13 +390,7 @@ def attribute(
             cycle = np.column_stack([xs[-p:], vs[-p:]])
             tol = 1e-6 * (1 + float(np.max(np.abs(cycle))))
             known = next(
-                (
-                    g
-                    for g in groups
-                    if g["kind"] == "periodic"
-                    and g["period"] == p
-                    and _same_cycle(g["_cycle"], cycle, tol)
-                ),
+                (g for g in groups if g["period"] == p and _same_cycle(g["_cycle"], cycle, tol)),
                 None,
             )
             if known is not None:  # an orbit already refined: no second Newton run
@@ -363,9 +400,7 @@ def attribute(
                 orbit = find_orbit(
                     params, p, guess=(float(xs[-1]), float(vs[-1])), precision=precision
                 )
-            except (
-                IntegrationError
-            ):  # Newton did not settle (e.g. a contact on the way): not claimed
+            except IntegrationError:  # Newton did not settle (e.g. a contact): not claimed
                 orbit = None
         if orbit is None:
             loose.append(j)
@@ -385,81 +420,96 @@ def attribute(
                 "_cycle": cycle,
             }
         )
-    # ---- non-periodic starts: split by LLE, impact rate and tails (module docstring, *Grouping*)
-    tests = []
-    level = alpha / max(1, len(loose) * (len(loose) - 1) // 2)  # Bonferroni over the pairs
+    return groups, loose
 
-    def consistent(j: int, k: int) -> bool:
-        a, b = starts[j], starts[k]
-        rec: dict = {"starts": [j, k]}
-        ok = True
-        w = _welch(a["lle"] - b["lle"], a["stderr"], a["_nb"], b["stderr"], b["_nb"], level)
-        if w is not None:
-            rec["lle_z"], rec["lle_k"] = w
-            ok &= w[0] <= w[1]
-        w = _welch(
-            a["impact_rate"] - b["impact_rate"],
-            a["impact_rate_stderr"],
-            a["_nr"],
-            b["impact_rate_stderr"],
-            b["_nr"],
-            level,
-        )
-        if w is not None:
-            rec["rate_z"], rec["rate_k"] = w
-            ok &= w[0] <= w[1]
-        ta, tb = (np.column_stack([np.asarray(c, float) for c in tails[i]]) for i in (j, k))
-        if len(ta) >= 2 and len(tb) >= 2:
-            sep, dist = tails_separated(ta, tb)
-            rec["tail_distance"], rec["tails_separated"] = dist, sep
-            if (
-                "lle_z" not in rec and "rate_z" not in rec
-            ):  # the tails decide only without error bars
-                ok &= not sep
-        rec["same"] = bool(ok)
-        tests.append(rec)
-        return bool(ok)
 
+def _consistent(
+    starts: list[dict],
+    tails: Sequence[tuple[np.ndarray, np.ndarray]],
+    j: int,
+    k: int,
+    level: float,
+) -> dict:
+    """The tests between two non-periodic starts (module docstring, *Grouping*); the record
+    has ``same`` = whether every available test found them consistent."""
+    a, b = starts[j], starts[k]
+    rec: dict = {"starts": [j, k]}
+    ok = True
+    w = _welch(a["lle"] - b["lle"], a["stderr"], a["_nb"], b["stderr"], b["_nb"], level)
+    if w is not None:
+        rec["lle_z"], rec["lle_k"] = w
+        ok &= w[0] <= w[1]
+    w = _welch(
+        a["impact_rate"] - b["impact_rate"],
+        a["impact_rate_stderr"],
+        a["_nr"],
+        b["impact_rate_stderr"],
+        b["_nr"],
+        level,
+    )
+    if w is not None:
+        rec["rate_z"], rec["rate_k"] = w
+        ok &= w[0] <= w[1]
+    ta, tb = (np.column_stack([np.asarray(c, float) for c in tails[i]]) for i in (j, k))
+    if len(ta) >= 2 and len(tb) >= 2:
+        sep, dist = tails_separated(ta, tb)
+        rec["tail_distance"], rec["tails_separated"] = dist, sep
+        if "lle_z" not in rec and "rate_z" not in rec:  # the tails decide only without bars
+            ok &= not sep
+    rec["same"] = bool(ok)
+    return rec
+
+
+def _split_loose(
+    starts: list[dict],
+    tails: Sequence[tuple[np.ndarray, np.ndarray]],
+    loose: list[int],
+    alpha: float,
+) -> tuple[list[dict], list[dict]]:
+    """Step 3: non-periodic starts split into attractors; a start joins the first group every
+    member of which it is consistent with (Bonferroni over the pairs), else starts a group."""
+    tests: list[dict] = []
+    level = alpha / max(1, len(loose) * (len(loose) - 1) // 2)
     free: list[dict] = []
+
+    def same(j: int, k: int) -> bool:
+        tests.append(_consistent(starts, tails, j, k, level))
+        return tests[-1]["same"]
+
     for j in loose:
-        g = next((g for g in free if all(consistent(j, k) for k in g["starts"])), None)
+        g = next((g for g in free if all(same(j, k) for k in g["starts"])), None)
         if g is None:
             free.append({"kind": "not periodic", "starts": [j]})
         else:
             g["starts"].append(j)
-    groups = sorted(groups + free, key=lambda g: min(g["starts"]))
-    for i, g in enumerate(groups):
-        g["id"] = i
-        g["starts"].sort()
-        st = g["starts"]
-        g["lle"] = _weighted([starts[j]["lle"] for j in st], [dur[j] for j in st])
-        g["stderr"] = means_stderr(np.concatenate([blocks[j] for j in st]))
-        rates = [starts[j]["impact_rate"] for j in st]
-        g["impact_rate"] = (
-            _weighted(rates, [periods[j] for j in st]) if all(map(math.isfinite, rates)) else None
-        )
-        for j in st:
-            starts[j]["attractor"] = i
-    if len(groups) == 1:  # every start on one attractor: the run's own batch-means error
-        groups[0]["stderr"] = result.stderr
-    # ---- finite-time error bars: the 1/t offset on a periodic orbit
+    return free, tests
+
+
+def _periodic_error_bars(groups: list[dict], starts: list[dict], dur: list[float], T: float):
+    """Step 4: on a periodic orbit the finite-time error bar adds the ``O(1/t)`` offset bound
+    and the float64 resolution of the Floquet value (module docstring)."""
     for g in groups:
+        if g["kind"] != "periodic":
+            continue
         st = g["starts"]
-        if g["kind"] == "periodic":
-            o = g["_orbit"]
-            B = periodic_bias_bound(o)
-            g["bias_bound"] = B
-            res = 1e-12 / (o.period * T)
-            for j in st:
-                starts[j]["stderr_batch"] = starts[j]["stderr"]
-                starts[j]["stderr"] = math.sqrt(
-                    starts[j]["stderr"] ** 2 + (B / dur[j]) ** 2 + res**2
-                )
-            bias = B * len(st) / sum(dur[j] for j in st)  # the weighted mean of B / t_j
-            g["stderr_batch"] = g["stderr"]
-            g["stderr"] = math.sqrt(g["stderr"] ** 2 + bias**2 + res**2)
-            g["_ft"] = (bias, res)
-    # ---- the headline: the group with the most starts (ties: the earliest start)
+        o = g["_orbit"]
+        B = periodic_bias_bound(o)
+        g["bias_bound"] = B
+        res = 1e-12 / (o.period * T)
+        for j in st:
+            starts[j]["stderr_batch"] = starts[j]["stderr"]
+            starts[j]["stderr"] = math.sqrt(starts[j]["stderr"] ** 2 + (B / dur[j]) ** 2 + res**2)
+        bias = B * len(st) / sum(dur[j] for j in st)  # the weighted mean of B / t_j
+        g["stderr_batch"] = g["stderr"]
+        g["stderr"] = math.sqrt(g["stderr"] ** 2 + bias**2 + res**2)
+        g["_ft"] = (bias, res)
+
+
+def _headline(
+    result: Any, groups: list[dict], per_start: Sequence[tuple], dur: list[float], T: float
+) -> tuple[dict, dict, str]:
+    """Step 5: the headline attractor (most starts; ties: the earliest start) and its values
+    put in ``result`` (Floquet values on a periodic orbit, never an average over attractors)."""
     head = max(groups, key=lambda g: (len(g["starts"]), -min(g["starts"])))
     st = head["starts"]
     lam2 = [per_start[j][1] for j in st]
@@ -473,8 +523,9 @@ def attribute(
         if result.spectrum is None
         else (head["lle"], _weighted(lam2, [dur[j] for j in st])),
         "starts": list(st),
-        "note": "batch-means standard error of the headline attractor's starts; the O(1/t) end effect of the "
-        "never-restarted tangent basis is not included (far below it off periodic orbits)",
+        "note": "batch-means standard error of the headline attractor's starts; the O(1/t) "
+        "end effect of the never-restarted tangent basis is not included (far below it off "
+        "periodic orbits)",
     }
     if len(groups) == 1:  # one attractor: the estimate as it was
         finite.update(lle=result.lle, spectrum=result.spectrum)
@@ -484,10 +535,10 @@ def attribute(
             bias_bound=bias,
             resolution=res,
             stderr=head["stderr"],
-            note="sqrt(stderr_batch^2 + bias_bound^2 + resolution^2): bias_bound bounds the O(1/t) "
-            "finite-time offset on this periodic orbit (ln cond of the monodromy's eigenvectors "
-            "and the partial-orbit factor, over the starts' durations), resolution is the float64 "
-            "resolution 1e-12 / (p T) of the Floquet value",
+            note="sqrt(stderr_batch^2 + bias_bound^2 + resolution^2): bias_bound bounds the "
+            "O(1/t) finite-time offset on this periodic orbit (ln cond of the monodromy's "
+            "eigenvectors and the partial-orbit factor, over the starts' durations), resolution "
+            "is the float64 resolution 1e-12 / (p T) of the Floquet value",
         )
         o = head["_orbit"]
         mu = [abs(complex(m)) for m in o.multipliers]
@@ -496,14 +547,27 @@ def attribute(
         if result.spectrum is not None:
             result.spectrum = (o.lle, math.log(mu[1]) / pT if mu[1] > 0 else -math.inf)
         result.stderr = 1e-12 / pT
-        source = "floquet"
-    else:
-        if len(groups) > 1:  # the headline attractor alone, never an average over attractors
-            result.lle = head["lle"]
-            if result.spectrum is not None:
-                result.spectrum = finite["spectrum"]
-            result.stderr = head["stderr"]
-        source = "finite-time"
+        return head, finite, "floquet"
+    if len(groups) > 1:  # the headline attractor alone, never an average over attractors
+        result.lle = head["lle"]
+        if result.spectrum is not None:
+            result.spectrum = finite["spectrum"]
+        result.stderr = head["stderr"]
+    return head, finite, "finite-time"
+
+
+def _record(
+    result: Any,
+    groups: list[dict],
+    starts: list[dict],
+    per_start: Sequence[tuple],
+    head: dict,
+    finite: dict,
+    source: str,
+    tests: list[dict],
+) -> None:
+    """Step 6: the attractors, per-start values, headline and warning into ``result.stats``."""
+    n = len(starts)
     for g in groups:
         for k in ("_orbit", "_cycle", "_ft"):
             g.pop(k, None)
@@ -541,7 +605,6 @@ def attribute(
         )
         result.stats["warning"] = (
             f"the {n} starts end on {len(groups)} attractors ({desc}); lle is attractor "
-            f"#{head['id']}'s ({len(st)} of {n} starts, the most; ties: the earliest start), "
-            "not an average"
+            f"#{head['id']}'s ({len(head['starts'])} of {n} starts, the most; ties: the "
+            "earliest start), not an average"
         )
-    return result

@@ -11,7 +11,96 @@ import numpy as np
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin, to_jsonable
 
-__all__ = ["LyapunovResult", "block_stderr", "means_stderr"]
+__all__ = ["Attractor", "LyapunovResult", "StartEstimate", "block_stderr", "means_stderr"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Attractor:
+    """One attractor the starts of a Lyapunov estimate ended on (typed view of
+    ``stats['attractors']``; :func:`~precise_impact.analysis.lyapunov.attractors.attribute`).
+
+    Attributes
+    ----------
+    id : int
+        Index in :attr:`LyapunovResult.attractors`.
+    kind : str
+        ``'periodic'`` (Newton-refined, Floquet LLE) or ``'not periodic'``.
+    starts : tuple[int, ...]
+        The starts that ended on it.
+    lle, lle_stderr : float
+        Finite-time LLE over its starts and its error bar.
+    impact_rate : float or None
+        Impacts per forcing period.
+    period, n_impacts : int or None
+        Forcing periods and impacts per cycle of a periodic orbit.
+    floquet_lle : float or None
+        ``ln |mu_max| / (p T)`` of a periodic orbit.
+    multipliers : tuple[complex, ...]
+        Floquet multipliers of a periodic orbit (empty otherwise).
+    """
+
+    id: int
+    kind: str
+    starts: tuple[int, ...]
+    lle: float
+    lle_stderr: float
+    impact_rate: float | None = None
+    period: int | None = None
+    n_impacts: int | None = None
+    floquet_lle: float | None = None
+    multipliers: tuple[complex, ...] = ()
+
+    @classmethod
+    def from_stats(cls, g: dict) -> Attractor:
+        """From one entry of ``stats['attractors']``."""
+        return cls(
+            id=int(g["id"]),
+            kind=str(g["kind"]),
+            starts=tuple(int(j) for j in g["starts"]),
+            lle=float(g["lle"]),
+            lle_stderr=float(g["stderr"]),
+            impact_rate=None if g.get("impact_rate") is None else float(g["impact_rate"]),
+            period=g.get("period"),
+            n_impacts=g.get("impacts"),
+            floquet_lle=g.get("floquet_lle"),
+            multipliers=tuple(complex(re, im) for re, im in g.get("multipliers", ())),
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class StartEstimate:
+    """One start's own estimate (typed view of ``stats['per_start']``).
+
+    Attributes
+    ----------
+    lle, lle_stderr : float
+        The start's finite-time LLE and its batch-means error bar.
+    impact_rate, impact_rate_stderr : float
+        Impacts per period and its error bar (``nan`` where not measured).
+    periods : int
+        Measured periods of this start.
+    attractor : int or None
+        The :attr:`Attractor.id` it ended on.
+    """
+
+    lle: float
+    lle_stderr: float
+    impact_rate: float
+    impact_rate_stderr: float
+    periods: int
+    attractor: int | None
+
+    @classmethod
+    def from_stats(cls, row: dict) -> StartEstimate:
+        """From one entry of ``stats['per_start']``."""
+        return cls(
+            lle=float(row.get("lle", math.nan)),
+            lle_stderr=float(row.get("stderr", math.nan)),
+            impact_rate=float(row.get("impact_rate", math.nan)),
+            impact_rate_stderr=float(row.get("impact_rate_stderr", math.nan)),
+            periods=int(row.get("periods", 0)),
+            attractor=row.get("attractor"),
+        )
 
 
 @dataclasses.dataclass
@@ -66,6 +155,28 @@ class LyapunovResult(ResultMixin):
     strobe_x: np.ndarray | None = None
     strobe_v: np.ndarray | None = None
     stats: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def attractors(self) -> tuple[Attractor, ...]:
+        """The attractors the starts ended on (empty when not attributed)."""
+        return tuple(Attractor.from_stats(g) for g in self.stats.get("attractors", ()))
+
+    @property
+    def per_start(self) -> tuple[StartEstimate, ...]:
+        """Each start's own estimate (empty when not recorded)."""
+        rows = self.stats.get("per_start", ())
+        return tuple(StartEstimate.from_stats(r) for r in rows if isinstance(r, dict))
+
+    @property
+    def lle_source(self) -> str | None:
+        """``'floquet'`` (a periodic orbit's exact value) or ``'finite-time'``."""
+        return self.stats.get("lle_source")
+
+    @property
+    def headline_attractor(self) -> Attractor | None:
+        """The attractor whose values are :attr:`lle` and :attr:`spectrum`."""
+        i = self.stats.get("headline_attractor")
+        return None if i is None else self.attractors[int(i)]
 
     def to_dict(self) -> dict:
         """The ``precise-impact lle --json`` object."""
