@@ -157,7 +157,7 @@ class Flight(flight.Flight):
     :mod:`precise_impact.solvers.certified.coupled`): :class:`precise_impact.core.flight.Flight`
     in ball arithmetic."""
 
-    __slots__ = ("c",)
+    __slots__ = {"c": "The system's constants in balls (:class:`Constants`)."}
 
     def __init__(self, c: Constants, s, xs, vs) -> None:
         super().__init__(c.P, c.Q, c.eta, c.zeta, c.w, flight.ARB, s, xs, vs)
