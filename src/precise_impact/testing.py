@@ -326,9 +326,7 @@ def _check_score_options(ref: Any, case: str, periods: Any, atol: Any, rtol: Any
     return periods
 
 
-def _shape_failure(
-    result: dict[str, Any], n: int, periods: int, x: list | None, v: list | None
-) -> dict[str, Any]:
+def _shape_failure(result: dict[str, Any], n: int, periods: int, x: Any, v: Any) -> dict[str, Any]:
     """``result`` completed for a solver that returned the wrong shape: every error ``inf``."""
     got = "not a pair of sequences" if x is None else f"{len(x)} x and {len(v)} v samples"
     result["shape_error"] = (
@@ -350,7 +348,7 @@ def _shape_failure(
     return result
 
 
-def _scaled_errors(ref: Any, x: list, v: list, n: int, atol: float, rtol: float):
+def _scaled_errors(ref: Any, x: Sequence[Any], v: Sequence[Any], n: int, atol: float, rtol: float):
     """Scaled and absolute errors of the samples against the reference: ``ex, ev, ax, av``."""
     ex, ev, ax, av = (np.empty(n) for _ in range(4))
     with mpmath.workprec(_WORKPREC):
