@@ -259,22 +259,7 @@ def score_solver(
         The reference is missing or damaged (never turned into a verdict).
     """
     ref = load_reference(case, root=root)
-    if periods is None:
-        periods = ref.periods
-    if (
-        isinstance(periods, bool)
-        or not isinstance(periods, (int, np.integer))
-        or not 1 <= periods <= ref.periods
-    ):
-        raise ValueError(
-            f"periods must be an integer in 1..{ref.periods} for case {case!r}, got {periods!r}"
-        )
-    periods = int(periods)
-    for name, tol in (("atol", atol), ("rtol", rtol)):
-        if not (isinstance(tol, (int, float)) and tol >= 0 and np.isfinite(tol)):
-            raise ValueError(f"{name} must be a finite number >= 0, got {tol!r}")
-    if atol == 0 and rtol == 0:
-        raise ValueError("atol and rtol cannot both be 0")
+    periods = _check_score_options(ref, case, periods, atol, rtol)
     out = solver(dict(ref.params), periods)
     n = periods + 1
     result: dict[str, Any] = {
@@ -291,37 +276,10 @@ def score_solver(
     except (TypeError, ValueError):
         x = v = None
     if x is None or len(x) != n or len(v) != n:
-        got = "not a pair of sequences" if x is None else f"{len(x)} x and {len(v)} v samples"
-        result["shape_error"] = (
-            f"solver must return (x, v) with {n} samples each (k = 0..{periods}); got {got}"
-        )
-        inf = np.full(n, np.inf)
-        result.update(
-            error_x=inf,
-            error_v=inf,
-            abs_error_x=inf,
-            abs_error_v=inf,
-            max_error=np.inf,
-            worst_period=0,
-            worst_variable="x",
-            passed=False,
-            proven_error_x=inf,
-            proven_error_v=inf,
-        )
-        return result
-    ex, ev, ax, av = (np.empty(n) for _ in range(4))
+        return _shape_failure(result, n, periods, x, v)
     result["solver_x"] = np.array([float(_to_mpf(y)) for y in x])
     result["solver_v"] = np.array([float(_to_mpf(y)) for y in v])
-    with mpmath.workprec(_WORKPREC):
-        for k in range(n):
-            for y, yr, e, a in ((x[k], ref.x[k], ex, ax), (v[k], ref.v[k], ev, av)):
-                ym = _to_mpf(y)
-                if not mpmath.isfinite(ym):
-                    a[k] = e[k] = np.inf
-                    continue
-                d = abs(ym - yr)
-                a[k] = float(d)
-                e[k] = float(d / (atol + rtol * abs(yr)))
+    ex, ev, ax, av = _scaled_errors(ref, x, v, n, atol, rtol)
     kx, kv = int(np.argmax(ex)), int(np.argmax(ev))
     if ev[kv] > ex[kx]:
         worst, var = kv, "v"
@@ -345,6 +303,65 @@ def score_solver(
     else:
         result["proven_error_x"] = result["proven_error_v"] = None
     return result
+
+
+def _check_score_options(ref: Any, case: str, periods: Any, atol: Any, rtol: Any) -> int:
+    """``periods`` (``None``: all stored) and the tolerances checked; the periods to compare."""
+    if periods is None:
+        periods = ref.periods
+    if (
+        isinstance(periods, bool)
+        or not isinstance(periods, (int, np.integer))
+        or not 1 <= periods <= ref.periods
+    ):
+        raise ValueError(
+            f"periods must be an integer in 1..{ref.periods} for case {case!r}, got {periods!r}"
+        )
+    periods = int(periods)
+    for name, tol in (("atol", atol), ("rtol", rtol)):
+        if not (isinstance(tol, (int, float)) and tol >= 0 and np.isfinite(tol)):
+            raise ValueError(f"{name} must be a finite number >= 0, got {tol!r}")
+    if atol == 0 and rtol == 0:
+        raise ValueError("atol and rtol cannot both be 0")
+    return periods
+
+
+def _shape_failure(result: dict[str, Any], n: int, periods: int, x: Any, v: Any) -> dict[str, Any]:
+    """``result`` completed for a solver that returned the wrong shape: every error ``inf``."""
+    got = "not a pair of sequences" if x is None else f"{len(x)} x and {len(v)} v samples"
+    result["shape_error"] = (
+        f"solver must return (x, v) with {n} samples each (k = 0..{periods}); got {got}"
+    )
+    inf = np.full(n, np.inf)
+    result.update(
+        error_x=inf,
+        error_v=inf,
+        abs_error_x=inf,
+        abs_error_v=inf,
+        max_error=np.inf,
+        worst_period=0,
+        worst_variable="x",
+        passed=False,
+        proven_error_x=inf,
+        proven_error_v=inf,
+    )
+    return result
+
+
+def _scaled_errors(ref: Any, x: Sequence[Any], v: Sequence[Any], n: int, atol: float, rtol: float):
+    """Scaled and absolute errors of the samples against the reference: ``ex, ev, ax, av``."""
+    ex, ev, ax, av = (np.empty(n) for _ in range(4))
+    with mpmath.workprec(_WORKPREC):
+        for k in range(n):
+            for y, yr, e, a in ((x[k], ref.x[k], ex, ax), (v[k], ref.v[k], ev, av)):
+                ym = _to_mpf(y)
+                if not mpmath.isfinite(ym):
+                    a[k] = e[k] = np.inf
+                    continue
+                d = abs(ym - yr)
+                a[k] = float(d)
+                e[k] = float(d / (atol + rtol * abs(yr)))
+    return ex, ev, ax, av
 
 
 def assert_stroboscopic_close(

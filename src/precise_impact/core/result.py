@@ -31,6 +31,17 @@ __all__ = ["ResultMixin", "to_jsonable"]
 
 def to_jsonable(obj: Any) -> Any:
     """``obj`` in plain JSON types (see the module docstring); non-finite floats become ``None``."""
+    out = _leaf_jsonable(obj)
+    if out is not _NOT_A_LEAF:
+        return out
+    return _container_jsonable(obj)
+
+
+_NOT_A_LEAF = object()
+
+
+def _leaf_jsonable(obj: Any) -> Any:
+    """``obj`` as one JSON value if it is a scalar-like leaf, else the ``_NOT_A_LEAF`` marker."""
     from precise_impact.core.params import Params, decimal_str
     from precise_impact.core.precision import Precision
 
@@ -48,6 +59,11 @@ def to_jsonable(obj: Any) -> Any:
         return obj.to_dict()
     if isinstance(obj, Path):
         return str(obj)
+    return _NOT_A_LEAF
+
+
+def _container_jsonable(obj: Any) -> Any:
+    """Numpy values, containers and dataclasses converted element by element; else ``str(obj)``."""
     if isinstance(obj, np.generic):
         return to_jsonable(obj.item())
     if isinstance(obj, np.ndarray):

@@ -196,8 +196,7 @@ def _check_keys(section: str, table: Mapping, allowed: set) -> None:
 
 
 def _build(data: Mapping, source: str) -> Scene:
-    from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
-
+    """The scene of a parsed TOML table, every section validated in turn."""
     if not isinstance(data, Mapping):
         raise ParameterError("scene", source, "a TOML table")
     _check_keys("", data, _TOP)
@@ -209,94 +208,11 @@ def _build(data: Mapping, source: str) -> Scene:
     name = data.get("name", Path(source).stem)
     if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", name):
         raise ParameterError("name", name, "letters, digits, '_', '.', '-'")
-    system = data.get("system", {})
-    kind = system.get("kind", "single")
-    if kind not in ("single", "coupled"):
-        raise ParameterError("system.kind", kind, "'single' or 'coupled'")
-    form = k = None
-    if kind == "coupled":
-        from precise_impact.solvers.heyoka.coupled import check_form, check_k
-
-        form = check_form(system.get("form", "first-order"))
-        k = check_k(system.get("k", "0.032"), "system.k")
-    elif "form" in system or "k" in system:
-        raise ParameterError(
-            "system.form" if "form" in system else "system.k",
-            system.get("form", system.get("k")),
-            "only for kind = 'coupled'",
-        )
-    model_t = data.get("model", {})
-    model = model_t.get("name", "heyoka")
-    model = MODEL_ALIASES.get(model, model) if isinstance(model, str) else model
-    if model not in SCENE_MODELS:
-        raise ParameterError("model.name", model, "one of " + ", ".join(SCENE_MODELS))
-    if kind == "coupled" and model not in ("heyoka", "circuit"):
-        raise ParameterError(
-            "model.name", model, "coupled scenes run on 'heyoka' (alias 'mechanical') or 'circuit'"
-        )
-    precision = Precision.parse(str(model_t.get("precision", "float64")))
-    tol = model_t.get("tol")
-    precision.check_tol(tol, "model.tol")
-    tmax = None
-    if "tmax" in model_t:
-        if model != "spice":
-            raise ParameterError("model.tmax", model_t["tmax"], "only for model 'spice'")
-        tmax = parse_quantity("model.tmax", model_t["tmax"], "s")
-        if not 0 < tmax <= Fraction(1, 1000):
-            raise ParameterError("model.tmax", decimal_str(tmax), "0 < tmax <= 1 ms")
-    pt = data.get("parameters", {})
-    if not isinstance(pt, Mapping):
-        raise ParameterError("parameters", pt, "a table")
-    _check_keys("parameters", pt, set(PARAM_NAMES))
-    try:
-        params = Params.make(**dict(pt))
-    except ParameterError as e:
-        raise ParameterError(f"parameters.{e.name}", e.value, e.allowed) from None
-    comps = {
-        n: parse_quantity(f"components.{n}", v, _COMPONENT_UNIT[n])
-        for n, v in data.get("components", {}).items()
-    }
-    for n, v in comps.items():
-        if v <= 0:
-            raise ParameterError(f"components.{n}", decimal_str(v), "must be > 0")
-    raw_eff = data.get("effects", {})
-    if not isinstance(raw_eff, Mapping):
-        raise ParameterError("effects", raw_eff, "a table of effect tables")
-    if raw_eff and model in ("heyoka", "analytical"):
-        first = next(iter(raw_eff))
-        raise ParameterError(
-            f"effects.{first}",
-            model,
-            f"model '{model}' has no circuit effects; use circuit, switched-capacitor or spice",
-        )
-    eff_in = {}
-    for en, settings in raw_eff.items():
-        spec = EFFECTS.get(en)
-        if spec is None or not isinstance(settings, Mapping):
-            eff_in[en] = settings
-            continue
-        conv = {}
-        for key, val in settings.items():
-            st = spec.settings.get(key)
-            if (
-                st is not None
-                and st.unit not in ("", "int")
-                and isinstance(val, str)
-                and re.search(r"[a-zA-Zµ%Ω]", val)
-            ):
-                conv[key] = parse_quantity(f"effects.{en}.{key}", val, st.unit)
-            else:
-                conv[key] = val
-        eff_in[en] = conv
-    effects = validate_effects(eff_in, model) if model not in ("heyoka", "analytical") else {}
-    if kind == "coupled" and model == "circuit":
-        bad = sorted(set(effects) - {"tolerance"})
-        if bad:
-            raise ParameterError(
-                f"effects.{bad[0]}",
-                "coupled circuit",
-                "the coupled circuit model takes only 'tolerance'",
-            )
+    kind, form, k = _system_section(data.get("system", {}))
+    model, precision, tol, tmax = _model_section(data.get("model", {}), kind)
+    params = _parameters_section(data)
+    comps = _components_section(data)
+    effects = _effects_section(data, model, kind)
     dur = data.get("duration", {})
     periods = check_count(dur.get("periods", 200), "duration.periods", 10**7)
     per_period = check_count(
@@ -325,6 +241,123 @@ def _build(data: Mapping, source: str) -> Scene:
 
         exact_omega(scene.design())  # the design must map exactly onto the dimensionless system
     return scene
+
+
+def _system_section(system: Mapping):
+    """``[system]``: the kind, and for a coupled scene its form and coupling ``k``."""
+    kind = system.get("kind", "single")
+    if kind not in ("single", "coupled"):
+        raise ParameterError("system.kind", kind, "'single' or 'coupled'")
+    form = k = None
+    if kind == "coupled":
+        from precise_impact.solvers.heyoka.coupled import check_form, check_k
+
+        form = check_form(system.get("form", "first-order"))
+        k = check_k(system.get("k", "0.032"), "system.k")
+    elif "form" in system or "k" in system:
+        raise ParameterError(
+            "system.form" if "form" in system else "system.k",
+            system.get("form", system.get("k")),
+            "only for kind = 'coupled'",
+        )
+    return kind, form, k
+
+
+def _model_section(model_t: Mapping, kind: str):
+    """``[model]``: the model's name, precision, tolerance and (spice) ``tmax``."""
+    model = model_t.get("name", "heyoka")
+    model = MODEL_ALIASES.get(model, model) if isinstance(model, str) else model
+    if model not in SCENE_MODELS:
+        raise ParameterError("model.name", model, "one of " + ", ".join(SCENE_MODELS))
+    if kind == "coupled" and model not in ("heyoka", "circuit"):
+        raise ParameterError(
+            "model.name", model, "coupled scenes run on 'heyoka' (alias 'mechanical') or 'circuit'"
+        )
+    precision = Precision.parse(str(model_t.get("precision", "float64")))
+    tol = model_t.get("tol")
+    precision.check_tol(tol, "model.tol")
+    tmax = None
+    if "tmax" in model_t:
+        if model != "spice":
+            raise ParameterError("model.tmax", model_t["tmax"], "only for model 'spice'")
+        tmax = parse_quantity("model.tmax", model_t["tmax"], "s")
+        if not 0 < tmax <= Fraction(1, 1000):
+            raise ParameterError("model.tmax", decimal_str(tmax), "0 < tmax <= 1 ms")
+    return model, precision, tol, tmax
+
+
+def _parameters_section(data: Mapping) -> Params:
+    """``[parameters]``: the exact system parameters."""
+    pt = data.get("parameters", {})
+    if not isinstance(pt, Mapping):
+        raise ParameterError("parameters", pt, "a table")
+    _check_keys("parameters", pt, set(PARAM_NAMES))
+    try:
+        return Params.make(**dict(pt))
+    except ParameterError as e:
+        raise ParameterError(f"parameters.{e.name}", e.value, e.allowed) from None
+
+
+def _components_section(data: Mapping) -> dict[str, Fraction]:
+    """``[components]``: the component values (with units), each positive."""
+    comps = {
+        n: parse_quantity(f"components.{n}", v, _COMPONENT_UNIT[n])
+        for n, v in data.get("components", {}).items()
+    }
+    for n, v in comps.items():
+        if v <= 0:
+            raise ParameterError(f"components.{n}", decimal_str(v), "must be > 0")
+    return comps
+
+
+def _effects_section(data: Mapping, model: str, kind: str) -> dict:
+    """``[effects]``: the circuit effects, quantities with units parsed, validated for ``model``."""
+    from precise_impact.models.circuit.effects.catalogue import validate_effects
+
+    raw_eff = data.get("effects", {})
+    if not isinstance(raw_eff, Mapping):
+        raise ParameterError("effects", raw_eff, "a table of effect tables")
+    if raw_eff and model in ("heyoka", "analytical"):
+        first = next(iter(raw_eff))
+        raise ParameterError(
+            f"effects.{first}",
+            model,
+            f"model '{model}' has no circuit effects; use circuit, switched-capacitor or spice",
+        )
+    eff_in = {en: _effect_quantities(en, settings) for en, settings in raw_eff.items()}
+    effects = validate_effects(eff_in, model) if model not in ("heyoka", "analytical") else {}
+    if kind == "coupled" and model == "circuit":
+        bad = sorted(set(effects) - {"tolerance"})
+        if bad:
+            raise ParameterError(
+                f"effects.{bad[0]}",
+                "coupled circuit",
+                "the coupled circuit model takes only 'tolerance'",
+            )
+    return effects
+
+
+def _effect_quantities(en: str, settings: Any) -> Any:
+    """One effect's settings with quantities given with units (``'10 ns'``) parsed; an unknown
+    effect or a non-table unchanged (the catalogue refuses it)."""
+    from precise_impact.models.circuit.effects.catalogue import EFFECTS
+
+    spec = EFFECTS.get(en)
+    if spec is None or not isinstance(settings, Mapping):
+        return settings
+    conv = {}
+    for key, val in settings.items():
+        st = spec.settings.get(key)
+        if (
+            st is not None
+            and st.unit not in ("", "int")
+            and isinstance(val, str)
+            and re.search(r"[a-zA-Zµ%Ω]", val)
+        ):
+            conv[key] = parse_quantity(f"effects.{en}.{key}", val, st.unit)
+        else:
+            conv[key] = val
+    return conv
 
 
 def builtin_scenes() -> dict[str, Path]:

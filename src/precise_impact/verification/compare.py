@@ -145,9 +145,6 @@ def compare(
     OptionalDependencyError
         A model needs a component that is not installed (e.g. ngspice).
     """
-    from precise_impact.analysis.lyapunov import lyapunov
-    from precise_impact.solvers.simulate import make_solver
-
     models = check_models(models)
     scene = load_scene(scene_name_or_path)
     if scene.kind != "single":
@@ -163,77 +160,24 @@ def compare(
     }  # validates every model before any work
 
     bits = reference_bits(periods)
-    t0 = time.perf_counter()
-    ref = make_solver("heyoka", f"mp:{bits}").solve(params, periods, per_period=per_period)
-    check = make_solver("heyoka", f"mp:{bits + 64}").solve(params, periods)
-    agree = sample_errors(ref, check)
-    ref_info = {
-        "model": "heyoka (mechanical)",
-        "precision": f"mp:{bits}",
-        "check_precision": f"mp:{bits + 64}",
-        "agreement_max": float(max(agree)),
-        "agreement_final": float(agree[-1]),
-        "impacts": ref.n_impacts,
-        "elapsed_s": time.perf_counter() - t0,
-    }
-    _progress(
-        f"reference heyoka mp:{bits} vs mp:{bits + 64}: agree to {max(agree):.1e} "
-        f"({ref_info['elapsed_s']:.1f} s)",
-        progress,
-    )
+    ref, check, ref_info = _reference(params, periods, per_period, bits, progress)
     period = detected_period(ref, k)
     regime = "periodic" if period > 0 else "chaotic"
-
-    t0 = time.perf_counter()
-    ly = lyapunov(params, "variational")
-    lle = {
-        "lle": float(ly.lle),
-        "stderr": float(ly.stderr),
-        "periods": ly.periods,
-        "transient": ly.transient,
-        "method": "variational (saltation), default run",
-        "elapsed_s": time.perf_counter() - t0,
-    }
-    _progress(f"LLE (variational): {ly.lle:.4f} +- {ly.stderr:.4f}", progress)
-
+    lle = _reference_lle(params, progress)
     ref2 = None
     if regime == "chaotic":
+        from precise_impact.solvers.simulate import make_solver
+
         p2 = params.replace(x0=params.x0 + REF_PERTURBATION)
         ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, periods)
         ref_info["second_reference_x0"] = decimal_str(p2.x0)
-
-    mech = None
-    if points:
-        from precise_impact.verification.points import mechanical_points
-
-        mech = mechanical_points(params)
-        ref_info["points"] = {
-            "grazing": mech["grazing"],
-            "period-doubling": mech["period-doubling"],
-            "method": "grazing: closed form; period-doubling of the stable 1:1 orbit: "
-            "continuation from eta = 1 (multiplier -1 located to rounding)",
-        }
+    mech = _mechanical_points(params, ref_info) if points else None
     results: dict[str, Any] = {}
     trajs: dict[str, Trajectory] = {}
     for m in models:
         tr = _run_model(scene, m, periods, per_period)
         trajs[m] = tr
-        model_lle = None
-        extra = {}
-        if regime == "chaotic":
-            pm = params.replace(x0=params.x0 + MODEL_PERTURBATION)
-            tr2 = _run_model(scene, m, periods, 0, params=pm)
-            div = divergence_rate(*separation(tr2, tr))
-            model_lle = div["rate"] if math.isfinite(div["rate"]) else None
-            extra = {
-                "model_lle_method": f"finite-time divergence rate of the model against itself from x0 + "
-                f"{decimal_str(MODEL_PERTURBATION)}",
-                "model_lle_fit": div,
-            }
-        sc = score(
-            tr, ref, regime=regime, lle=lle["lle"], model_lle=model_lle, ref2=ref2, transient=k
-        )
-        sc.update(extra)
+        sc = _score_model(scene, m, tr, periods, regime, ref, ref2, lle, k)
         sc["effects_dropped"] = dropped[m]
         sc["effects"] = sorted(scene_for_model(scene, m)[0].effects)
         if mech is not None:
@@ -256,18 +200,116 @@ def compare(
         "models": results,
     }
     if out is not None:
-        out = Path(out)
-        text = json.dumps(result, indent=2, default=_json_default)
-        atomic_write(out / "scores.json", lambda fh: fh.write(text), binary=False)
-        _plot_portraits(scene, ref, trajs, k, out / "phase_portraits.png")
-        _plot_separation(scene, ref, check, trajs, lle["lle"], results, out / "separation.png")
-        md = _report(result)
-        atomic_write(out / "report.md", lambda fh: fh.write(md), binary=False)
-        result["files"] = [
-            str(out / n)
-            for n in ("report.md", "scores.json", "phase_portraits.png", "separation.png")
-        ]
+        _write_outputs(Path(out), result, scene, ref, check, trajs)
     return CompareResult(**result)
+
+
+def _reference(params: Any, periods: int, per_period: int, bits: int, progress: bool | None):
+    """The heyoka reference at ``bits``, its check at ``bits + 64``, and how they agree."""
+    from precise_impact.solvers.simulate import make_solver
+
+    t0 = time.perf_counter()
+    ref = make_solver("heyoka", f"mp:{bits}").solve(params, periods, per_period=per_period)
+    check = make_solver("heyoka", f"mp:{bits + 64}").solve(params, periods)
+    agree = sample_errors(ref, check)
+    ref_info = {
+        "model": "heyoka (mechanical)",
+        "precision": f"mp:{bits}",
+        "check_precision": f"mp:{bits + 64}",
+        "agreement_max": float(max(agree)),
+        "agreement_final": float(agree[-1]),
+        "impacts": ref.n_impacts,
+        "elapsed_s": time.perf_counter() - t0,
+    }
+    _progress(
+        f"reference heyoka mp:{bits} vs mp:{bits + 64}: agree to {max(agree):.1e} "
+        f"({ref_info['elapsed_s']:.1f} s)",
+        progress,
+    )
+    return ref, check, ref_info
+
+
+def _reference_lle(params: Any, progress: bool | None) -> dict[str, Any]:
+    """The reference LLE (variational, default run) with its error bar and cost."""
+    from precise_impact.analysis.lyapunov import lyapunov
+
+    t0 = time.perf_counter()
+    ly = lyapunov(params, "variational")
+    lle = {
+        "lle": float(ly.lle),
+        "stderr": float(ly.stderr),
+        "periods": ly.periods,
+        "transient": ly.transient,
+        "method": "variational (saltation), default run",
+        "elapsed_s": time.perf_counter() - t0,
+    }
+    _progress(f"LLE (variational): {ly.lle:.4f} +- {ly.stderr:.4f}", progress)
+    return lle
+
+
+def _mechanical_points(params: Any, ref_info: dict[str, Any]) -> dict[str, Any]:
+    """The mechanics' grazing and period-doubling points, also recorded in ``ref_info``."""
+    from precise_impact.verification.points import mechanical_points
+
+    mech = mechanical_points(params)
+    ref_info["points"] = {
+        "grazing": mech["grazing"],
+        "period-doubling": mech["period-doubling"],
+        "method": "grazing: closed form; period-doubling of the stable 1:1 orbit: "
+        "continuation from eta = 1 (multiplier -1 located to rounding)",
+    }
+    return mech
+
+
+def _score_model(
+    scene: Scene,
+    m: str,
+    tr: Trajectory,
+    periods: int,
+    regime: str,
+    ref: Trajectory,
+    ref2: Trajectory | None,
+    lle: dict[str, Any],
+    k: int,
+) -> dict[str, Any]:
+    """The scores of model ``m``'s run ``tr``, with its own divergence rate when chaotic."""
+    params = scene.params
+    model_lle = None
+    extra = {}
+    if regime == "chaotic":
+        pm = params.replace(x0=params.x0 + MODEL_PERTURBATION)
+        tr2 = _run_model(scene, m, periods, 0, params=pm)
+        div = divergence_rate(*separation(tr2, tr))
+        model_lle = div["rate"] if math.isfinite(div["rate"]) else None
+        extra = {
+            "model_lle_method": f"finite-time divergence rate of the model against itself from x0 + "
+            f"{decimal_str(MODEL_PERTURBATION)}",
+            "model_lle_fit": div,
+        }
+    sc = score(tr, ref, regime=regime, lle=lle["lle"], model_lle=model_lle, ref2=ref2, transient=k)
+    sc.update(extra)
+    return sc
+
+
+def _write_outputs(
+    out: Path,
+    result: dict[str, Any],
+    scene: Scene,
+    ref: Trajectory,
+    check: Trajectory,
+    trajs: dict[str, Trajectory],
+) -> None:
+    """``scores.json``, the two figures and ``report.md`` in ``out``; their paths in ``result``."""
+    k, lle, results = result["transient_periods"], result["lle"], result["models"]
+    text = json.dumps(result, indent=2, default=_json_default)
+    atomic_write(out / "scores.json", lambda fh: fh.write(text), binary=False)
+    _plot_portraits(scene, ref, trajs, k, out / "phase_portraits.png")
+    _plot_separation(scene, ref, check, trajs, lle["lle"], results, out / "separation.png")
+    md = _report(result)
+    atomic_write(out / "report.md", lambda fh: fh.write(md), binary=False)
+    result["files"] = [
+        str(out / n) for n in ("report.md", "scores.json", "phase_portraits.png", "separation.png")
+    ]
 
 
 @dataclasses.dataclass
@@ -517,6 +559,19 @@ def _points_report(res: dict) -> list[str]:
 
 
 def _report(res: dict) -> str:
+    """``report.md``: how the reference was made, every model's scores and how they were obtained."""
+    L = _report_header(res)
+    L += ["## Scores", ""]
+    if res["regime"] == "periodic":
+        L += _periodic_scores(res)
+    else:
+        L += _chaotic_scores(res)
+    L += _report_footer(res)
+    return "\n".join(L)
+
+
+def _report_header(res: dict) -> list[str]:
+    """The report's title, parameters, reference and LLE sections."""
     r, ly = res["reference"], res["lle"]
     p = ", ".join(f"{k} = {v}" for k, v in res["params"].items())
     L = [
@@ -548,71 +603,85 @@ def _report(res: dict) -> str:
             f"x0 = {r['second_reference_x0']}.",
             "",
         ]
-    L += ["## Scores", ""]
-    if res["regime"] == "periodic":
-        L += [
-            "| model | max state error | final state error | impacts (model/ref) | matched | unmatched model/ref "
-            "| max impact dt | max impact dv | period | time [s] |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
-        ]
-        for m, s in res["models"].items():
-            im = s["impacts"]
-            L.append(
-                f"| {m} | {_g(s['max_state_error'])} | {_g(s['final_state_error'])} | {im['model_impacts']}/"
-                f"{im['reference_impacts']} | {im['matched']} | {im['unmatched_model']}/{im['unmatched_reference']} "
-                f"| {_g(im['max_dt'])} | {_g(im['max_dv'])} | {s['period_model']} | {s['elapsed_s']:.3f} |"
-            )
-        L += [
-            "",
-            "How obtained:",
-            "",
-            "* *state error*: max(|x - x_ref|, |v - v_ref|) at every stroboscopic sample after the transient, the "
-            "difference taken exactly in mpmath (then rounded to float).",
-            "* *impacts*: each model impact after the transient is matched to the nearest reference impact in "
-            "time (within T/4; one model impact per reference impact); dt and dv = |v_before - v_before_ref| are "
-            "over matched pairs; unmatched counts are the impacts left over on each side.",
-            "* *period*: smallest p <= 32 such that the model's samples after the transient repeat after p "
-            "periods to 1e-6 (1 + |x| + |v|) (`precise_impact.analysis.periodicity.detect_period`).",
-        ]
-    else:
-        deltas = list(next(iter(res["models"].values()))["horizons"])
-        L += [
-            "| model | "
-            + " | ".join(f"horizon d={d}" for d in deltas)
-            + " | fitted rate | rate / LLE | "
-            "model LLE est. | LLE gap | sliced W (floor) | impact-v W1 (floor) | impacts/period (ref) | period | time [s] |",
-            "|---|" + "---:|" * (len(deltas) + 10),
-        ]
-        for m, s in res["models"].items():
-            d = s["divergence"]
-            L.append(
-                f"| {m} | "
-                + " | ".join(_g(s["horizons"][x], ".1f") for x in deltas)
-                + f" | {_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')} | {_g(s['rate_over_lle'], '.3f')} "
-                f"| {_g(s['lle_model'], '.4f')} | {_g(s['lle_gap'], '+.4f')} | {s['sliced_wasserstein']:.4f} "
-                f"({s['sw_floor']:.4f}) | {s['impact_v_wasserstein']:.4f} ({s['impact_v_floor']:.4f}) | "
-                f"{s['impacts_per_period_model']:.3f} ({s['impacts_per_period_reference']:.3f}) | "
-                f"{s['period_model']} | {s['elapsed_s']:.3f} |"
-            )
-        L += [
-            "",
-            "How obtained:",
-            "",
-            "* *separation* sep(t) = max(|x - x_ref|, |v - v_ref|) at the stroboscopic samples (exact differences).",
-            "* *horizon d*: first time (dimensionless) sep exceeds d, interpolated linearly in ln sep between the "
-            "two samples around the crossing; 'never' if it stays below.",
-            "* *fitted rate*: least-squares slope of ln sep against t over the samples with 1e-12 < sep < 1e-2 "
-            "before sep first reaches 1e-2 (error: standard error of the slope); *rate / LLE* divides by the "
-            "variational LLE above.",
-            f"* *model LLE est.*: the same fitted rate for the model against itself started from x0 + "
-            f"{decimal_str(MODEL_PERTURBATION)} (a finite-time estimate); *LLE gap* = model LLE est. - reference LLE.",
-            "* *sliced W*: sliced 1-Wasserstein distance between the (x, v) stroboscopic clouds after the transient "
-            "(256 projection directions, stratified random angles, exact 1-D distance from sorted samples); "
-            "*floor*: the same distance between the reference and the second reference (two samples of the "
-            "same attractor) -- a model distance near the floor is indistinguishable from sampling noise.",
-            "* *impact-v W1*: 1-D Wasserstein distance between the v_before values of the impacts after the "
-            "transient; floor as above.",
-        ]
+    return L
+
+
+def _periodic_scores(res: dict) -> list[str]:
+    """The scores table of a periodic scene and how its columns were obtained."""
+    L = [
+        "| model | max state error | final state error | impacts (model/ref) | matched | unmatched model/ref "
+        "| max impact dt | max impact dv | period | time [s] |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for m, s in res["models"].items():
+        im = s["impacts"]
+        L.append(
+            f"| {m} | {_g(s['max_state_error'])} | {_g(s['final_state_error'])} | {im['model_impacts']}/"
+            f"{im['reference_impacts']} | {im['matched']} | {im['unmatched_model']}/{im['unmatched_reference']} "
+            f"| {_g(im['max_dt'])} | {_g(im['max_dv'])} | {s['period_model']} | {s['elapsed_s']:.3f} |"
+        )
+    L += [
+        "",
+        "How obtained:",
+        "",
+        "* *state error*: max(|x - x_ref|, |v - v_ref|) at every stroboscopic sample after the transient, the "
+        "difference taken exactly in mpmath (then rounded to float).",
+        "* *impacts*: each model impact after the transient is matched to the nearest reference impact in "
+        "time (within T/4; one model impact per reference impact); dt and dv = |v_before - v_before_ref| are "
+        "over matched pairs; unmatched counts are the impacts left over on each side.",
+        "* *period*: smallest p <= 32 such that the model's samples after the transient repeat after p "
+        "periods to 1e-6 (1 + |x| + |v|) (`precise_impact.analysis.periodicity.detect_period`).",
+    ]
+    return L
+
+
+def _chaotic_scores(res: dict) -> list[str]:
+    """The scores table of a chaotic scene and how its columns were obtained."""
+    deltas = list(next(iter(res["models"].values()))["horizons"])
+    L = [
+        "| model | "
+        + " | ".join(f"horizon d={d}" for d in deltas)
+        + " | fitted rate | rate / LLE | "
+        "model LLE est. | LLE gap | sliced W (floor) | impact-v W1 (floor) | impacts/period (ref) | period | time [s] |",
+        "|---|" + "---:|" * (len(deltas) + 10),
+    ]
+    for m, s in res["models"].items():
+        d = s["divergence"]
+        L.append(
+            f"| {m} | "
+            + " | ".join(_g(s["horizons"][x], ".1f") for x in deltas)
+            + f" | {_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')} | {_g(s['rate_over_lle'], '.3f')} "
+            f"| {_g(s['lle_model'], '.4f')} | {_g(s['lle_gap'], '+.4f')} | {s['sliced_wasserstein']:.4f} "
+            f"({s['sw_floor']:.4f}) | {s['impact_v_wasserstein']:.4f} ({s['impact_v_floor']:.4f}) | "
+            f"{s['impacts_per_period_model']:.3f} ({s['impacts_per_period_reference']:.3f}) | "
+            f"{s['period_model']} | {s['elapsed_s']:.3f} |"
+        )
+    L += [
+        "",
+        "How obtained:",
+        "",
+        "* *separation* sep(t) = max(|x - x_ref|, |v - v_ref|) at the stroboscopic samples (exact differences).",
+        "* *horizon d*: first time (dimensionless) sep exceeds d, interpolated linearly in ln sep between the "
+        "two samples around the crossing; 'never' if it stays below.",
+        "* *fitted rate*: least-squares slope of ln sep against t over the samples with 1e-12 < sep < 1e-2 "
+        "before sep first reaches 1e-2 (error: standard error of the slope); *rate / LLE* divides by the "
+        "variational LLE above.",
+        f"* *model LLE est.*: the same fitted rate for the model against itself started from x0 + "
+        f"{decimal_str(MODEL_PERTURBATION)} (a finite-time estimate); *LLE gap* = model LLE est. - reference LLE.",
+        "* *sliced W*: sliced 1-Wasserstein distance between the (x, v) stroboscopic clouds after the transient "
+        "(256 projection directions, stratified random angles, exact 1-D distance from sorted samples); "
+        "*floor*: the same distance between the reference and the second reference (two samples of the "
+        "same attractor) -- a model distance near the floor is indistinguishable from sampling noise.",
+        "* *impact-v W1*: 1-D Wasserstein distance between the v_before values of the impacts after the "
+        "transient; floor as above.",
+    ]
+    return L
+
+
+def _report_footer(res: dict) -> list[str]:
+    """The grazing/period-doubling points (if scored), each model's effects and the figures."""
+    r, ly = res["reference"], res["lle"]
+    L: list[str] = []
     if "points" in r:
         L += _points_report(res)
     L += [
@@ -637,4 +706,4 @@ def _report(res: dict) -> str:
         "Numbers are also in `scores.json`.",
         "",
     ]
-    return "\n".join(L)
+    return L

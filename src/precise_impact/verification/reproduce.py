@@ -114,14 +114,6 @@ def reproduce(
            mechanical impact oscillator" (Figs. 4-7).
     """
 
-    from precise_impact.analysis.lyapunov import lyapunov
-    from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
-    from precise_impact.models.circuit.components import nominal_components
-    from precise_impact.models.circuit.opamp import CircuitSolver
-    from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
-    from precise_impact.scenes.scene import load_scene
-    from precise_impact.solvers.simulate import simulate
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t_all = time.perf_counter()
@@ -129,73 +121,114 @@ def reproduce(
     spice = shutil.which("ngspice") is not None
     res: dict[str, Any] = {"quick": quick, "periods": periods, "ngspice": spice, "figures": {}}
     for fig, eta, regime in FIGS:
-        p = Params.make(eta=eta)
-        bits = reference_bits(periods)
-        ref = simulate(p, periods, precision=f"mp:{bits}")
-        chk = simulate(p, periods, precision=f"mp:{bits + 64}")
-        demonstrated = max(sample_errors(ref, chk))
-        dense = simulate(p, periods, per_period=60)
-        design = nominal_components(p)
-        ds = load_scene(
-            f"fig{fig}-{'periodic' if fig == '4' else 'chaotic' if fig == '5' else 'period3'}-datasheet"
-        )
-        models = {
-            "mechanical float64": dense,
-            "circuit (ideal)": CircuitSolver().solve(design, periods, per_period=60),
-            "switched-capacitor (datasheet)": SwitchedCapacitorSolver(effects=ds.effects).solve(
-                ds.design(), periods, per_period=60
-            ),
-        }
-        if spice:
-            from precise_impact.models.circuit.spice import run_spice
-
-            models["ngspice (TMAX 10 us)"] = run_spice(
-                design, {}, periods, tmax=10e-6, dense=True
-            ).to_trajectory()
-        row = {
-            "eta": eta,
-            "regime": regime,
-            "reference": f"heyoka mp:{bits}",
-            "demonstrated": demonstrated,
-            "check": f"heyoka mp:{bits + 64}",
-            "models": {},
-        }
-        for name, tr in models.items():
-            errs = sample_errors(tr, ref)
-            tail = errs[
-                3 * len(errs) // 4 :
-            ]  # after the transient (eta = 0.70: chaotic for ~75 periods)
-            row["models"][name] = {
-                "max_error_second_half": max(tail),
-                "horizon_0.1": _horizon(errs),
-                "impacts": tr.n_impacts,
-                "elapsed_s": tr.elapsed_s,
-            }
-        res["figures"][fig] = row
-        # side-by-side phase portraits (paper Figs. 4-6)
-        fig_ = new_fig(figsize=(4 * len(models), 3.8))
-        axes = fig_.subplots(1, len(models), sharex=True, sharey=True)
-        for ax, (name, tr) in zip(np.atleast_1d(axes), models.items()):
-            xs, vs = _floats(tr, True)
-            half = len(xs) // 2
-            ax.plot(xs[half:], vs[half:], lw=0.4)
-            ax.axvline(2.0, color="tab:red", lw=0.8)
-            ax.set_title(name, fontsize=9)
-            ax.set_xlabel("x")
-        np.atleast_1d(axes)[0].set_ylabel("x'")
-        fig_.suptitle(f"Fig. {fig}: eta = {eta} ({regime}), second half of {periods} periods")
-        fig_.tight_layout()
-        _save_png(fig_, out / f"fig{fig}_phase_portraits.png")
-        _say(
-            f"Fig. {fig} (eta = {eta}): reference agreement {demonstrated:.1e}; "
-            + ", ".join(f"{n}: {m['max_error_second_half']:.2e}" for n, m in row["models"].items()),
-            progress,
-        )
-    # LLE, two methods
+        res["figures"][fig] = _figure(fig, eta, regime, periods, spice, out, progress)
     p = Params.make(eta="0.712")
+    res["lle"], lle_v = _lle_two_methods(p, progress)
+    res["sync"] = _sync_thresholds(p, quick, lle_v, out, progress)
+    res["elapsed_s"] = time.perf_counter() - t_all
+    result = ReproduceResult(**res)
+    result.save(out / "report.json")  # report.json is result.to_dict()
+    atomic_write(out / "report.md", lambda fh: fh.write(_report_md(res)), binary=False)
+    return result
+
+
+def _figure(
+    fig: str, eta: str, regime: str, periods: int, spice: bool, out: Path, progress: bool | None
+) -> dict[str, Any]:
+    """One of Figs. 4-6: the reference, every model's errors against it, the phase portraits."""
+    from precise_impact.solvers.simulate import simulate
+
+    p = Params.make(eta=eta)
+    bits = reference_bits(periods)
+    ref = simulate(p, periods, precision=f"mp:{bits}")
+    chk = simulate(p, periods, precision=f"mp:{bits + 64}")
+    demonstrated = max(sample_errors(ref, chk))
+    models = _figure_models(fig, p, periods, spice)
+    row = {
+        "eta": eta,
+        "regime": regime,
+        "reference": f"heyoka mp:{bits}",
+        "demonstrated": demonstrated,
+        "check": f"heyoka mp:{bits + 64}",
+        "models": {},
+    }
+    for name, tr in models.items():
+        errs = sample_errors(tr, ref)
+        tail = errs[
+            3 * len(errs) // 4 :
+        ]  # after the transient (eta = 0.70: chaotic for ~75 periods)
+        row["models"][name] = {
+            "max_error_second_half": max(tail),
+            "horizon_0.1": _horizon(errs),
+            "impacts": tr.n_impacts,
+            "elapsed_s": tr.elapsed_s,
+        }
+    _plot_portraits(fig, eta, regime, periods, models, out)
+    _say(
+        f"Fig. {fig} (eta = {eta}): reference agreement {demonstrated:.1e}; "
+        + ", ".join(f"{n}: {m['max_error_second_half']:.2e}" for n, m in row["models"].items()),
+        progress,
+    )
+    return row
+
+
+def _figure_models(fig: str, p: Params, periods: int, spice: bool) -> dict[str, Trajectory]:
+    """The models' runs of one figure: mechanical float64, ideal circuit, switched-capacitor,
+    ngspice (where installed)."""
+    from precise_impact.models.circuit.components import nominal_components
+    from precise_impact.models.circuit.opamp import CircuitSolver
+    from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
+    from precise_impact.scenes.scene import load_scene
+    from precise_impact.solvers.simulate import simulate
+
+    dense = simulate(p, periods, per_period=60)
+    design = nominal_components(p)
+    ds = load_scene(
+        f"fig{fig}-{'periodic' if fig == '4' else 'chaotic' if fig == '5' else 'period3'}-datasheet"
+    )
+    models = {
+        "mechanical float64": dense,
+        "circuit (ideal)": CircuitSolver().solve(design, periods, per_period=60),
+        "switched-capacitor (datasheet)": SwitchedCapacitorSolver(effects=ds.effects).solve(
+            ds.design(), periods, per_period=60
+        ),
+    }
+    if spice:
+        from precise_impact.models.circuit.spice import run_spice
+
+        models["ngspice (TMAX 10 us)"] = run_spice(
+            design, {}, periods, tmax=10e-6, dense=True
+        ).to_trajectory()
+    return models
+
+
+def _plot_portraits(
+    fig: str, eta: str, regime: str, periods: int, models: dict[str, Trajectory], out: Path
+) -> None:
+    """Side-by-side phase portraits of the models (paper Figs. 4-6), second half of the run."""
+    fig_ = new_fig(figsize=(4 * len(models), 3.8))
+    axes = fig_.subplots(1, len(models), sharex=True, sharey=True)
+    for ax, (name, tr) in zip(np.atleast_1d(axes), models.items()):
+        xs, vs = _floats(tr, True)
+        half = len(xs) // 2
+        ax.plot(xs[half:], vs[half:], lw=0.4)
+        ax.axvline(2.0, color="tab:red", lw=0.8)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("x")
+    np.atleast_1d(axes)[0].set_ylabel("x'")
+    fig_.suptitle(f"Fig. {fig}: eta = {eta} ({regime}), second half of {periods} periods")
+    fig_.tight_layout()
+    _save_png(fig_, out / f"fig{fig}_phase_portraits.png")
+
+
+def _lle_two_methods(p: Params, progress: bool | None):
+    """The LLE by the variational equations and by two trajectories: the report's entry and the
+    variational result."""
+    from precise_impact.analysis.lyapunov import lyapunov
+
     lle_v = lyapunov(p, "variational")
     lle_t = lyapunov(p, "two-trajectory")
-    res["lle"] = {
+    entry = {
         "variational": [lle_v.lle, lle_v.stderr, lle_v.periods],
         "two-trajectory": [lle_t.lle, lle_t.stderr, lle_t.periods],
     }
@@ -203,15 +236,23 @@ def reproduce(
         f"LLE: variational {lle_v.lle:.4f} +- {lle_v.stderr:.4f}, two-trajectory {lle_t.lle:.4f} +- {lle_t.stderr:.4f}",
         progress,
     )
-    # synchronisation thresholds per coupled form
+    return entry, lle_v
+
+
+def _sync_thresholds(
+    p: Params, quick: bool, lle_v: Any, out: Path, progress: bool | None
+) -> dict[str, Any]:
+    """The synchronisation threshold of each coupled form, with its Fig. 7 and fraction plots."""
+    from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
+
     sp = 300 if quick else 500
     ens = 4 if quick else 8
     ks = [f"{0.02 + 0.005 * i:.3f}" for i in range(7)]
-    res["sync"] = {}
+    sync: dict[str, Any] = {}
     for form in ("first-order", "reduced", "paper"):
         ks_form = ks + (["0.055", "0.060", "0.065"] if form == "paper" else [])
         sr = sync_scan(p, form, ks_form, periods=sp, ensemble=ens, lle_periods=0)
-        res["sync"][form] = {
+        sync[form] = {
             "k_star": sr.k_star,
             "k_star_err": sr.k_star_err,
             "message": sr.message,
@@ -223,11 +264,7 @@ def reproduce(
         plot_sync_fraction(sr, out / f"sync_fraction_{form}.png")
         plot_fig7(p, form, "0.031", "0.032", sp, out / f"fig7_{form}.png")
         _say(f"sync {form}: k* = {sr.k_star:.4f} +- {sr.k_star_err:.4f}", progress)
-    res["elapsed_s"] = time.perf_counter() - t_all
-    result = ReproduceResult(**res)
-    result.save(out / "report.json")  # report.json is result.to_dict()
-    atomic_write(out / "report.md", lambda fh: fh.write(_report_md(res)), binary=False)
-    return result
+    return sync
 
 
 def _report_md(res: dict) -> str:

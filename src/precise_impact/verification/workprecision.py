@@ -308,9 +308,28 @@ def _row(case, family, method, setting, errs, elapsed, repeats, compile_s=None, 
     return r
 
 
+@dataclasses.dataclass
+class _CaseRun:
+    """What every method row of one case needs: the system, the reference, the budget, the sink."""
+
+    case: str
+    params: Params
+    periods: int
+    bits: int
+    rs: Any
+    budget: float
+    add: Callable[[dict], None]
+
+    def row(self, family, method, setting, traj, el, n, compile_s=None, **extra) -> None:
+        """Score ``traj`` against the reference and add the row."""
+        errs = _errors(traj, self.rs, self.bits)
+        self.add(_row(self.case, family, method, setting, errs, el, n, compile_s, **extra))
+
+
 def _case_rows(
     case: str, spec: dict, cfg: dict, progress: bool, notes: list[str]
 ) -> tuple[list, dict]:
+    """One case's reference and its rows: heyoka, analytical, scipy and ngspice settings."""
     params = Params.make(eta=spec["eta"])
     periods = spec["periods"]
     bits = reference_bits(periods)
@@ -327,7 +346,6 @@ def _case_rows(
         "impacts": ref.n_impacts,
     }
     _progress(f"[{case}] reference mp:{bits} vs mp:{bits + 64}: agree to {agreement:.1e}", progress)
-    budget = cfg["budget_s"]
     rows: list[dict] = []
 
     def add(r):
@@ -338,7 +356,16 @@ def _case_rows(
             progress,
         )
 
-    # heyoka fixed precisions and mp
+    run = _CaseRun(case, params, periods, bits, rs, cfg["budget_s"], add)
+    _heyoka_rows(run, cfg)
+    _analytical_rows(run, cfg)
+    _scipy_rows(run, cfg, notes)
+    _spice_rows(run, cfg, notes)
+    return rows, reference
+
+
+def _heyoka_rows(run: _CaseRun, cfg: dict) -> None:
+    """heyoka in its fixed precisions (each tolerance) and in multiprecision."""
     hey = [(p, tol) for p, tols in cfg["heyoka"].items() for tol in tols]
     hey += [(f"mp:{b}", None) for b in cfg["heyoka_mp"]]
     for prec, tol in hey:
@@ -346,121 +373,91 @@ def _case_rows(
         c0 = time.perf_counter()
         solver.integrator()
         compile_s = time.perf_counter() - c0
-        traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
+        traj, el, n = _timed(lambda: solver.solve(run.params, run.periods), run.budget)
         fam = "heyoka mp" if prec.startswith("mp:") else f"heyoka {prec}"
         tol_s = "eps" if tol is None else tol
-        add(
-            _row(
-                case,
-                fam,
-                f"heyoka {prec}",
-                f"tol={tol_s}",
-                _errors(traj, rs, bits),
-                el,
-                n,
-                compile_s,
-                tol=None if tol is None else float(tol),
-                impacts=traj.n_impacts,
-            )
+        run.row(
+            fam,
+            f"heyoka {prec}",
+            f"tol={tol_s}",
+            traj,
+            el,
+            n,
+            compile_s,
+            tol=None if tol is None else float(tol),
+            impacts=traj.n_impacts,
         )
 
-    # analytical
-    for sf in cfg["analytical_paper"]:
-        solver = AnalyticalSolver(finder="paper", backend="float64", scan_fraction=sf)
-        traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
-        add(
-            _row(
-                case,
-                "analytical paper float64",
-                "analytical paper float64",
-                f"scan={sf}",
-                _errors(traj, rs, bits),
-                el,
-                n,
-                impacts=traj.n_impacts,
-            )
-        )
+
+def _analytical_rows(run: _CaseRun, cfg: dict) -> None:
+    """The closed-form solver: the paper's finder (each scan fraction), the robust one, mpmath."""
+    settings = [
+        (dict(finder="paper", backend="float64", scan_fraction=sf), "paper float64", f"scan={sf}")
+        for sf in cfg["analytical_paper"]
+    ]
     if cfg["analytical_robust"]:
-        solver = AnalyticalSolver(finder="robust", backend="float64")
-        traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
-        add(
-            _row(
-                case,
-                "analytical robust float64",
-                "analytical robust float64",
-                "robust",
-                _errors(traj, rs, bits),
+        settings.append((dict(finder="robust", backend="float64"), "robust float64", "robust"))
+    settings += [
+        (dict(finder="robust", backend="mpmath", dps=dps), "robust mpmath", f"dps={dps}")
+        for dps in cfg["analytical_mp_dps"]
+    ]
+    for kwargs, name, setting in settings:
+        solver = AnalyticalSolver(**kwargs)
+        traj, el, n = _timed(lambda: solver.solve(run.params, run.periods), run.budget)
+        name = f"analytical {name}"
+        run.row(name, name, setting, traj, el, n, impacts=traj.n_impacts)
+
+
+def _scipy_rows(run: _CaseRun, cfg: dict, notes: list[str]) -> None:
+    """scipy's integrators with event location, each at its relative tolerances."""
+    if not cfg["scipy"]:
+        return
+    for method, rtols in cfg["scipy"].items():
+        for rtol in rtols:
+            try:
+                res, el, n = _timed(
+                    lambda: scipy_solve(run.params, run.periods, method, rtol), run.budget
+                )
+            except RuntimeError as exc:
+                notes.append(f"{run.case}: scipy {method} rtol={rtol:g} failed: {exc}")
+                continue
+            run.row(
+                f"scipy {method}",
+                f"scipy {method}",
+                f"rtol={rtol:g}",
+                res,
                 el,
                 n,
-                impacts=traj.n_impacts,
+                rtol=rtol,
+                atol=rtol * 1e-3,
+                impacts=len(res.impacts_t),
+                nfev=res.nfev,
             )
-        )
-    for dps in cfg["analytical_mp_dps"]:
-        solver = AnalyticalSolver(finder="robust", backend="mpmath", dps=dps)
-        traj, el, n = _timed(lambda: solver.solve(params, periods), budget)
-        add(
-            _row(
-                case,
-                "analytical robust mpmath",
-                "analytical robust mpmath",
-                f"dps={dps}",
-                _errors(traj, rs, bits),
+
+
+def _spice_rows(run: _CaseRun, cfg: dict, notes: list[str]) -> None:
+    """ngspice on the nominal circuit at each maximum time step (a note if it is not installed)."""
+    if not cfg["spice_tmax"]:
+        return
+    if shutil.which("ngspice"):
+        from precise_impact.models.circuit.components import nominal_components
+        from precise_impact.models.circuit.spice import run_spice
+
+        comps = nominal_components(run.params)
+        for tmax in cfg["spice_tmax"]:
+            res, el, n = _timed(lambda: run_spice(comps, {}, run.periods, tmax=tmax), run.budget)
+            run.row(
+                "ngspice",
+                "ngspice",
+                f"tmax={float(tmax) * 1e6:g}us",
+                res,
                 el,
                 n,
-                impacts=traj.n_impacts,
+                ngspice_s=res.elapsed_s,
+                impacts=len(res.impacts_t),
             )
-        )
-
-    # scipy
-    if cfg["scipy"]:
-        for method, rtols in cfg["scipy"].items():
-            for rtol in rtols:
-                try:
-                    res, el, n = _timed(lambda: scipy_solve(params, periods, method, rtol), budget)
-                except RuntimeError as exc:
-                    notes.append(f"{case}: scipy {method} rtol={rtol:g} failed: {exc}")
-                    continue
-                add(
-                    _row(
-                        case,
-                        f"scipy {method}",
-                        f"scipy {method}",
-                        f"rtol={rtol:g}",
-                        _errors(res, rs, bits),
-                        el,
-                        n,
-                        rtol=rtol,
-                        atol=rtol * 1e-3,
-                        impacts=len(res.impacts_t),
-                        nfev=res.nfev,
-                    )
-                )
-
-    # ngspice
-    if cfg["spice_tmax"]:
-        if shutil.which("ngspice"):
-            from precise_impact.models.circuit.components import nominal_components
-            from precise_impact.models.circuit.spice import run_spice
-
-            comps = nominal_components(params)
-            for tmax in cfg["spice_tmax"]:
-                res, el, n = _timed(lambda: run_spice(comps, {}, periods, tmax=tmax), budget)
-                add(
-                    _row(
-                        case,
-                        "ngspice",
-                        "ngspice",
-                        f"tmax={float(tmax) * 1e6:g}us",
-                        _errors(res, rs, bits),
-                        el,
-                        n,
-                        ngspice_s=res.elapsed_s,
-                        impacts=len(res.impacts_t),
-                    )
-                )
-        elif not any("ngspice" in s for s in notes):
-            notes.append("ngspice not on PATH: circuit-simulator rows skipped")
-    return rows, reference
+    elif not any("ngspice" in s for s in notes):
+        notes.append("ngspice not on PATH: circuit-simulator rows skipped")
 
 
 def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]:

@@ -240,12 +240,9 @@ def _trace(
         pred = p.y + ds * p.tau
         if not lo <= pred[-1] <= hi:  # the step would leave the range: land on its end instead
             bound = hi if pred[-1] > hi else lo
-            guess = p.y + (bound - p.lam) / (pred[-1] - p.lam) * (pred - p.y)
-            guess[-1] = bound
-            ye, _ = curve.correct(guess, p.tau, p.y, 0.0, fixed_lam=True)
-            if ye is not None and _ordered(system, ye):
-                te = curve.tangent(ye, p.tau)
-                pts.append(_Point(system, ye, te if te is not None else p.tau))
+            end = _end_point(curve, p, pred, bound)
+            if end is not None:
+                pts.append(end)
                 reason = f"reached {system.parameter} = {bound:.12g}"
                 break
             ds *= 0.5
@@ -253,10 +250,7 @@ def _trace(
                 reason = f"step size below 1e-9 at {system.parameter} = {p.lam:.12g} (no orbit at the range's end)"
                 break
             continue
-        y, it = curve.correct(pred, p.tau, p.y, ds)
-        tau = None
-        if y is not None and _ordered(system, y):
-            tau = curve.tangent(y, p.tau)
+        y, it, tau = _corrected(curve, p, pred, ds)
         if tau is None or tau @ p.tau < 0.9:
             ds *= 0.5
             if ds < 1e-9 * (1 + abs(p.lam)):
@@ -265,13 +259,9 @@ def _trace(
             continue
         if not lo <= y[-1] <= hi:
             bound = hi if y[-1] > hi else lo
-            f = (bound - p.lam) / (y[-1] - p.lam)
-            guess = p.y + f * (y - p.y)
-            guess[-1] = bound
-            ye, _ = curve.correct(guess, p.tau, p.y, 0.0, fixed_lam=True)
-            if ye is not None and _ordered(system, ye):
-                te = curve.tangent(ye, p.tau)
-                pts.append(_Point(system, ye, te if te is not None else p.tau))
+            end = _end_point(curve, p, y, bound)
+            if end is not None:
+                pts.append(end)
             reason = f"reached {system.parameter} = {bound:.12g}"
             break
         pts.append(_Point(system, y, tau))
@@ -284,6 +274,27 @@ def _trace(
             progress.update(min(done[0], progress.total), f"{system.parameter} = {y[-1]:.6g}")
         ds = min(ds * (1.6 if it <= 3 else 1.0 if it <= 6 else 0.5), ds_cap(tau))
     return pts, reason
+
+
+def _end_point(curve: _Curve, p: _Point, y, bound: float) -> _Point | None:
+    """The branch point at ``lam = bound`` between ``p`` and ``y`` (``None``: not found there)."""
+    system = curve.s
+    guess = p.y + (bound - p.lam) / (y[-1] - p.lam) * (y - p.y)
+    guess[-1] = bound
+    ye, _ = curve.correct(guess, p.tau, p.y, 0.0, fixed_lam=True)
+    if ye is None or not _ordered(system, ye):
+        return None
+    te = curve.tangent(ye, p.tau)
+    return _Point(system, ye, te if te is not None else p.tau)
+
+
+def _corrected(curve: _Curve, p: _Point, pred, ds: float):
+    """The prediction corrected onto the branch: point, Newton iterations, tangent (or ``None``)."""
+    y, it = curve.correct(pred, p.tau, p.y, ds)
+    tau = None
+    if y is not None and _ordered(curve.s, y):
+        tau = curve.tangent(y, p.tau)
+    return y, it, tau
 
 
 def _switch(system: ShootingSystem, pd: _Point):
@@ -400,6 +411,60 @@ def continue_orbit(
 
     t_start = time.perf_counter()
     params = params_or_values(params, param_values)
+    p_start, lam0, lam1 = _check_range(params, parameter, start, stop)
+    period = check_count(period, "period", 64, minimum=1)
+    max_points = check_count(max_points, "max_points", 100_000, minimum=1)
+    doublings = check_count(doublings, "doublings", 8)
+    virtual = _check_virtual(virtual)
+    _check_ends(parameter, p_start, lam0, lam1)
+
+    orbit = find_orbit(p_start, period, guess=guess, transient=transient, impacts=impacts)
+    lo, hi = sorted((float(lam0), float(lam1)))
+    curve, first = _first_point(p_start, parameter, period, orbit, lam0, lam1)
+
+    bar = Progress(max_points * (1 + doublings), f"continuation in {parameter}", enabled=progress)
+    done = [0]
+    branches: list[Branch] = []
+    bifs: list[Bifurcation] = []
+    queue = [(curve, first, "start", 0)]
+    while queue:
+        cv, pt, origin, depth = queue.pop(0)
+        pts, reason = _trace(cv, pt, lo, hi, max_points, bar, done, virtual)
+        k = len(branches)
+        branches.append(
+            Branch.from_points(parameter, cv.s.period, cv.s.impacts, origin, pts, reason)
+        )
+        for a, b in zip(pts[:-1], pts[1:]):
+            for test in _TESTS:
+                if not _sign_change(a.tests[test], b.tests[test]):
+                    continue
+                found = _bifurcation(cv, a, b, test, parameter, k)
+                if found is None:
+                    continue
+                bif, z = found
+                if (
+                    bif.type == "period-doubling"
+                    and bif.admissible
+                    and depth < doublings
+                    and cv.s.impacts > 0
+                ):
+                    _switch_into(queue, cv, z, bif, k, parameter, depth)
+                bifs.append(bif)
+    bar.update(bar.total)
+    bifs.sort(key=lambda b: (b.branch, b.value if lam1 > lam0 else -b.value))
+    return ContinuationResult(
+        params=p_start,
+        parameter=parameter,
+        start=lam0,
+        stop=lam1,
+        branches=branches,
+        bifurcations=bifs,
+        elapsed_s=time.perf_counter() - t_start,
+    )
+
+
+def _check_range(params: Params, parameter: str, start: Any, stop: Any):
+    """The parameter and its range checked: the system at ``start``, ``lam0`` and ``lam1``."""
     if parameter not in CONTINUABLE:
         raise ParameterError("parameter", parameter, "one of " + ", ".join(CONTINUABLE))
     if start is None or stop is None:
@@ -424,9 +489,11 @@ def continue_orbit(
         raise ParameterError(
             "stop", str(stop), f"a value of {parameter} other than start = {start}"
         )
-    period = check_count(period, "period", 64, minimum=1)
-    max_points = check_count(max_points, "max_points", 100_000, minimum=1)
-    doublings = check_count(doublings, "doublings", 8)
+    return p_start, lam0, lam1
+
+
+def _check_virtual(virtual: Any) -> float:
+    """``virtual`` checked (``0 <= virtual <= 10``) and as a float."""
     from precise_impact.core.params import exact
 
     vq = exact("virtual", virtual)
@@ -434,7 +501,11 @@ def continue_orbit(
         raise ParameterError(
             "virtual", str(virtual), "0 <= virtual <= 10 (a fraction of the range)"
         )
-    virtual = float(vq)
+    return float(vq)
+
+
+def _check_ends(parameter: str, p_start: Params, lam0: Any, lam1: Any) -> None:
+    """Both ends of the range and the starting system underdamped, with ``R > 0``."""
     for name, q in (("start", lam0), ("stop", lam1)):
         if parameter == "zeta" and not q < 1:
             raise ParameterError(name, str(q), "0 <= zeta < 1 (underdamped) for continuation")
@@ -445,16 +516,17 @@ def continue_orbit(
             "zeta", str(p_start.zeta), "0 <= zeta < 1 (underdamped) for continuation"
         )
 
-    orbit = find_orbit(p_start, period, guess=guess, transient=transient, impacts=impacts)
+
+def _first_point(p_start: Params, parameter: str, period: int, orbit: Any, lam0: Any, lam1: Any):
+    """The branch through ``orbit`` and its first point, the tangent pointing towards ``lam1``."""
+    from precise_impact.analysis.orbits.newton import ConvergenceError
+
     base = {k: float(getattr(p_start, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")}
-    lo, hi = sorted((float(lam0), float(lam1)))
     system = ShootingSystem(base, parameter, period, orbit.impacts)
     u0 = from_orbit(system, p_start, orbit.x, orbit.v, float(lam0))
     curve = _Curve(system)
     y0, _ = curve.correct(np.append(u0, float(lam0)), None, None, 0.0, fixed_lam=True)
     if y0 is None:
-        from precise_impact.analysis.orbits.newton import ConvergenceError
-
         raise ConvergenceError("the impact-sequence system did not converge at the starting orbit")
     G, Gu = system.residual(y0[:-1], y0[-1], jacobian=True)
     t_u = np.linalg.solve(Gu, -system.parameter_derivative(y0[:-1], y0[-1]))
@@ -468,85 +540,55 @@ def continue_orbit(
         if period % q == 0 and np.allclose(
             sts[q:], sts[:-q], rtol=0, atol=1e-8 * (1 + np.abs(sts).max())
         ):
-            from precise_impact.analysis.orbits.newton import ConvergenceError
-
             raise ConvergenceError(
                 f"the orbit found has period {q}, a divisor of {period}: continue it with period {q}"
             )
+    return curve, first
 
-    bar = Progress(max_points * (1 + doublings), f"continuation in {parameter}", enabled=progress)
-    done = [0]
-    branches: list[Branch] = []
-    bifs: list[Bifurcation] = []
-    queue = [(curve, first, "start", 0)]
-    while queue:
-        cv, pt, origin, depth = queue.pop(0)
-        pts, reason = _trace(cv, pt, lo, hi, max_points, bar, done, virtual)
-        k = len(branches)
-        branches.append(
-            Branch.from_points(parameter, cv.s.period, cv.s.impacts, origin, pts, reason)
-        )
-        for a, b in zip(pts[:-1], pts[1:]):
-            for test in _TESTS:
-                if not _sign_change(a.tests[test], b.tests[test]):
-                    continue
-                z = _locate(cv, a, b, test)
-                if not test.startswith("graze") and not _is_root(z, test):
-                    continue  # a pole, not a root: the saltation matrix's 1 / v^- at a grazing impact
-                kind = test
-                detail = ""
-                if test.startswith("graze"):
-                    kind, detail = "grazing", _GRAZING_DETAIL[test]
-                elif test == "fold" and (a.tau[-1] < 0) == (b.tau[-1] < 0):
-                    kind, detail = "branch-point", "a multiplier +1 without a turn in the parameter"
-                bif = Bifurcation(
-                    type=kind,
-                    parameter=parameter,
-                    value=z.lam,
-                    branch=k,
-                    period=cv.s.period,
-                    impacts=cv.s.impacts,
-                    x=z.states[:, 0].tolist(),
-                    v=z.states[:, 1].tolist(),
-                    multipliers=[[m.real, m.imag] for m in z.mu],
-                    admissible=bool(
-                        min(z.tests["graze_interior"], z.tests["graze_impact"]) >= -1e-9
-                    ),
-                    test=float(z.tests[test]),
-                    detail=detail,
-                )
-                if (
-                    kind == "period-doubling"
-                    and bif.admissible
-                    and depth < doublings
-                    and cv.s.impacts > 0
-                ):
-                    c2, p2 = _switch(cv.s, z)
-                    if p2 is not None:
-                        bif.detail = (
-                            f"switched to the period-{2 * cv.s.period} branch {k + 1 + len(queue)}"
-                        )
-                        queue.append(
-                            (
-                                c2,
-                                p2,
-                                f"period-doubling of branch {k} at {parameter} = {z.lam:.12g}",
-                                depth + 1,
-                            )
-                        )
-                    else:
-                        bif.detail = (
-                            "branch switching failed (no doubled orbit found near the point)"
-                        )
-                bifs.append(bif)
-    bar.update(bar.total)
-    bifs.sort(key=lambda b: (b.branch, b.value if lam1 > lam0 else -b.value))
-    return ContinuationResult(
-        params=p_start,
+
+def _bifurcation(cv: _Curve, a: _Point, b: _Point, test: str, parameter: str, k: int):
+    """The bifurcation where ``test`` changes sign between ``a`` and ``b`` and its point, or
+    ``None`` when the sign change is a pole."""
+    z = _locate(cv, a, b, test)
+    if not test.startswith("graze") and not _is_root(z, test):
+        return None  # a pole, not a root: the saltation matrix's 1 / v^- at a grazing impact
+    kind = test
+    detail = ""
+    if test.startswith("graze"):
+        kind, detail = "grazing", _GRAZING_DETAIL[test]
+    elif test == "fold" and (a.tau[-1] < 0) == (b.tau[-1] < 0):
+        kind, detail = "branch-point", "a multiplier +1 without a turn in the parameter"
+    bif = Bifurcation(
+        type=kind,
         parameter=parameter,
-        start=lam0,
-        stop=lam1,
-        branches=branches,
-        bifurcations=bifs,
-        elapsed_s=time.perf_counter() - t_start,
+        value=z.lam,
+        branch=k,
+        period=cv.s.period,
+        impacts=cv.s.impacts,
+        x=z.states[:, 0].tolist(),
+        v=z.states[:, 1].tolist(),
+        multipliers=[[m.real, m.imag] for m in z.mu],
+        admissible=bool(min(z.tests["graze_interior"], z.tests["graze_impact"]) >= -1e-9),
+        test=float(z.tests[test]),
+        detail=detail,
     )
+    return bif, z
+
+
+def _switch_into(
+    queue: list, cv: _Curve, z: _Point, bif: Bifurcation, k: int, parameter: str, depth: int
+) -> None:
+    """Queue the doubled branch born at the period-doubling point ``z``; say so in ``bif``."""
+    c2, p2 = _switch(cv.s, z)
+    if p2 is not None:
+        bif.detail = f"switched to the period-{2 * cv.s.period} branch {k + 1 + len(queue)}"
+        queue.append(
+            (
+                c2,
+                p2,
+                f"period-doubling of branch {k} at {parameter} = {z.lam:.12g}",
+                depth + 1,
+            )
+        )
+    else:
+        bif.detail = "branch switching failed (no doubled orbit found near the point)"

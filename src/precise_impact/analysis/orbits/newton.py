@@ -229,6 +229,53 @@ def find_orbit(
            multipliers of impacting orbits).
     """
     params = params_or_values(params, param_values)
+    period, transient, max_iterations, impacts, Pq = _check_options(
+        params, period, transient, max_iterations, impacts, seed, precision
+    )
+    g = _parse_guess(params, guess)
+    z = _seed(params, period, g, seed, impacts, transient)
+    z, it, steps = _newton_float(params, z, period, max_iterations)
+    fz, M, n = _map(params, z, period)
+    residual = float(np.max(np.abs(fz - z)))
+    if residual > 1e-6 * (1 + float(np.max(np.abs(z)))):
+        raise ConvergenceError(f"Newton stopped at residual {residual:.3g}: not a periodic orbit")
+    if impacts is not None and n != impacts:
+        raise ConvergenceError(
+            f"converged to a period-{period} orbit with {n} impacts, not {impacts}"
+        )
+    if Pq.kind == "mp":  # refine the float64 orbit to the working precision (quadratic convergence)
+        return _refined_orbit(params, period, z, n, Pq, max_iterations, it, steps)
+    mu = sorted(np.linalg.eigvals(M).tolist(), key=lambda m: -abs(m))
+    T = 2 * math.pi / float(params.eta)
+    lle = math.log(abs(mu[0])) / (period * T) if abs(mu[0]) > 0 else -math.inf
+    kind = classify(mu, area_preserving(params.zeta, params.R, n))
+    return PeriodicOrbit(
+        params=params,
+        period=period,
+        impacts=n,
+        t=float(params.t0),
+        x=float(z[0]),
+        v=float(z[1]),
+        multipliers=[complex(m) for m in mu],
+        stable=kind == "stable",
+        lle=0.0 if kind == "elliptic" else lle,
+        residual=residual,
+        iterations=it,
+        stability=kind,
+        steps=steps,
+    )
+
+
+def _check_options(
+    params: Params,
+    period: Any,
+    transient: Any,
+    max_iterations: Any,
+    impacts: Any,
+    seed: str,
+    precision: str,
+):
+    """The counts, ``seed`` and ``precision`` of :func:`find_orbit` checked (``ParameterError``)."""
     period = check_count(period, "period", 1000, minimum=1)
     transient = check_count(transient, "transient")
     max_iterations = check_count(max_iterations, "max_iterations", 10_000, minimum=1)
@@ -251,15 +298,32 @@ def find_orbit(
         raise ParameterError(
             "zeta", str(params.zeta), "0 <= zeta < 1 (underdamped) for the orbit finder"
         )
-    g = None
-    if guess is not None:
-        if isinstance(guess, (str, bytes)) or not isinstance(guess, Sequence) or len(guess) != 2:
-            raise ParameterError("guess", guess, "a pair (x, v) or None")
-        g = np.array([float(exact("guess[0]", guess[0])), float(exact("guess[1]", guess[1]))])
-        if g[0] > float(params.x_w):
-            raise ParameterError(
-                "guess[0]", str(guess[0]), f"a position <= x_w = {float(params.x_w)!r}"
-            )
+    return period, transient, max_iterations, impacts, Pq
+
+
+def _parse_guess(params: Params, guess: Sequence[Any] | None) -> np.ndarray | None:
+    """The guess ``(x, v)`` as a float64 array (``None``: none), checked to lie left of the wall."""
+    if guess is None:
+        return None
+    if isinstance(guess, (str, bytes)) or not isinstance(guess, Sequence) or len(guess) != 2:
+        raise ParameterError("guess", guess, "a pair (x, v) or None")
+    g = np.array([float(exact("guess[0]", guess[0])), float(exact("guess[1]", guess[1]))])
+    if g[0] > float(params.x_w):
+        raise ParameterError(
+            "guess[0]", str(guess[0]), f"a position <= x_w = {float(params.x_w)!r}"
+        )
+    return g
+
+
+def _seed(
+    params: Params,
+    period: int,
+    g: np.ndarray | None,
+    seed: str,
+    impacts: int | None,
+    transient: int,
+) -> np.ndarray:
+    """Where Newton starts: the closed-form orbit, the guess, or the state after the transient."""
     z = None
     if seed == "closed-form" or (seed == "auto" and g is None and impacts == 1):
         z = _closed_form_seed(params, period, g)
@@ -274,6 +338,13 @@ def find_orbit(
 
         tr = FastSolver().solve(params, transient)
         z = np.array([float(tr.x[-1]), float(tr.v[-1])])
+    return z
+
+
+def _newton_float(
+    params: Params, z: np.ndarray, period: int, max_iterations: int
+) -> tuple[np.ndarray, int, list]:
+    """Float64 Newton on ``P^p(z) - z`` from ``z``: the last iterate, the iterations, the steps."""
     last = math.inf
     it = 0
     steps: list = []
@@ -300,55 +371,39 @@ def find_orbit(
             f"no convergence in {max_iterations} Newton iterations (last step {last:.3g}) "
             f"from the guess; try another guess, period or impacts"
         )
-    fz, M, n = _map(params, z, period)
-    residual = float(np.max(np.abs(fz - z)))
-    if residual > 1e-6 * (1 + float(np.max(np.abs(z)))):
-        raise ConvergenceError(f"Newton stopped at residual {residual:.3g}: not a periodic orbit")
-    if impacts is not None and n != impacts:
-        raise ConvergenceError(
-            f"converged to a period-{period} orbit with {n} impacts, not {impacts}"
-        )
-    if Pq.kind == "mp":  # refine the float64 orbit to the working precision (quadratic convergence)
-        x, v, mu, lle, res, n_mp, it_mp, steps_mp = _newton_mp(
-            params, (z[0], z[1]), period, Pq.bits, max_iterations
-        )
-        if n_mp != n:
-            raise ConvergenceError(
-                f"the multiprecision refinement found {n_mp} impacts, float64 {n}"
-            )
-        kind = classify(mu, area_preserving(params.zeta, params.R, n))
-        return PeriodicOrbit(
-            params=params,
-            period=period,
-            impacts=n,
-            t=float(params.t0),
-            x=x,
-            v=v,
-            multipliers=mu,
-            stable=kind == "stable",
-            lle=0.0 if kind == "elliptic" else lle,
-            residual=res,
-            iterations=it + it_mp,
-            precision=Pq.name,
-            stability=kind,
-            steps=steps + steps_mp,
-        )
-    mu = sorted(np.linalg.eigvals(M).tolist(), key=lambda m: -abs(m))
-    T = 2 * math.pi / float(params.eta)
-    lle = math.log(abs(mu[0])) / (period * T) if abs(mu[0]) > 0 else -math.inf
+    return z, it, steps
+
+
+def _refined_orbit(
+    params: Params,
+    period: int,
+    z: np.ndarray,
+    n: int,
+    Pq: Any,
+    max_iterations: int,
+    it: int,
+    steps: list,
+) -> PeriodicOrbit:
+    """The float64 orbit ``z`` refined by multiprecision Newton to ``Pq.bits``, as the result."""
+    x, v, mu, lle, res, n_mp, it_mp, steps_mp = _newton_mp(
+        params, (z[0], z[1]), period, Pq.bits, max_iterations
+    )
+    if n_mp != n:
+        raise ConvergenceError(f"the multiprecision refinement found {n_mp} impacts, float64 {n}")
     kind = classify(mu, area_preserving(params.zeta, params.R, n))
     return PeriodicOrbit(
         params=params,
         period=period,
         impacts=n,
         t=float(params.t0),
-        x=float(z[0]),
-        v=float(z[1]),
-        multipliers=[complex(m) for m in mu],
+        x=x,
+        v=v,
+        multipliers=mu,
         stable=kind == "stable",
         lle=0.0 if kind == "elliptic" else lle,
-        residual=residual,
-        iterations=it,
+        residual=res,
+        iterations=it + it_mp,
+        precision=Pq.name,
         stability=kind,
-        steps=steps,
+        steps=steps + steps_mp,
     )

@@ -163,118 +163,25 @@ def prove_orbit(
            (validated Poincare maps).
     """
     from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.solvers.certified.single import (
-        ball_str,
-        exact_value,
-        run_balls,
-        to_ball,
-        working_bits,
-    )
+    from precise_impact.solvers.certified.single import ball_str, working_bits
 
     t_start = time.perf_counter()
     params = params_or_values(params, param_values)
     period = check_count(period, "period", 1000, minimum=1)
     bits = check_count(bits, "bits", 4096, minimum=128)
-    r = Fraction(1, 2 ** (bits // 2)) if radius is None else exact("radius", radius, 3000)
-    # a box narrower than ~2^32 ulps of its centre cannot contain the rounding of the Newton
-    # point and of F at the working precision: refused instead of attempted (radius = 1e-400 at
-    # 128 bits used to end in a float division by zero)
-    r_min = Fraction(1, 2 ** (bits - 32))
-    if not r_min <= r <= Fraction(1, 1000):
-        raise ParameterError(
-            "radius", str(radius), f"2^-{bits - 32} <= radius <= 1e-3 at bits={bits}"
-        )
+    r = _box_radius(radius, bits)
     o = find_orbit(params, period, guess=guess, impacts=impacts, transient=transient)
-    import flint
 
     with working_bits(bits):
-        z = [to_ball(Fraction(o.x)), to_ball(Fraction(o.v))]
-        # Newton on point runs: quadratic from float64 to the working precision
-        for _ in range(int(math.log2(bits / 50)) + 3):
-            samples, imps, c = run_balls(params, period, bits, start=(z[0], z[1]))
-            fx, fv = _final(samples)
-            M = _jacobian(c, imps, period)
-            F = [fx - z[0], fv - z[1]]
-            a, b, cc, d = M[0][0] - 1, M[0][1], M[1][0], M[1][1] - 1
-            det = a * d - b * cc
-            dz = [(d * F[0] - b * F[1]) / det, (-cc * F[0] + a * F[1]) / det]
-            z = [flint.arb((z[i] - dz[i]).mid()) for i in range(2)]
-        samples, imps, c = run_balls(params, period, bits, start=(z[0], z[1]))
-        fx, fv = _final(samples)
-        F = [fx - z[0], fv - z[1]]
-        Mz = _jacobian(c, imps, period)
-        a, b, cc, d = (
-            flint.arb(Mz[0][0].mid()) - 1,
-            flint.arb(Mz[0][1].mid()),
-            flint.arb(Mz[1][0].mid()),
-            flint.arb(Mz[1][1].mid()) - 1,
-        )
-        det = a * d - b * cc
-        C = [
-            [flint.arb((d / det).mid()), flint.arb((-b / det).mid())],
-            [flint.arb((-cc / det).mid()), flint.arb((a / det).mid())],
-        ]
-        rb = to_ball(r)
-        box = [z[0] + flint.arb(0, rb.mid()), z[1] + flint.arb(0, rb.mid())]
-        bs, bimps, c = run_balls(params, period, bits, start=(box[0], box[1]))
-        if len(bimps) != len(imps):  # pragma: no cover - the engine proves the sequence or raises
-            raise ParameterError(
-                "radius", str(radius), "a box small enough for one impact sequence"
-            )
-        MZ = _jacobian(c, bimps, period)
-        one = flint.arb(1)
-        B = [
-            [
-                (one if i == j else 0)
-                - (
-                    C[i][0] * (MZ[0][j] - (1 if j == 0 else 0))
-                    + C[i][1] * (MZ[1][j] - (1 if j == 1 else 0))
-                )
-                for j in range(2)
-            ]
-            for i in range(2)
-        ]
-        dZ = [box[0] - z[0], box[1] - z[1]]
-        K = [
-            z[i] - (C[i][0] * F[0] + C[i][1] * F[1]) + B[i][0] * dZ[0] + B[i][1] * dZ[1]
-            for i in range(2)
-        ]
-        proven = all(box[i].contains_interior(K[i]) for i in range(2))
-        contraction = float(max(exact_value(abs(K[i] - z[i]).upper()) for i in range(2)) / r)
-        tr = MZ[0][0] + MZ[1][1]
-        dt = MZ[0][0] * MZ[1][1] - MZ[0][1] * MZ[1][0]
-        disc = flint.acb(tr * tr - 4 * dt).sqrt()
-        mus = [(flint.acb(tr) + disc) / 2, (flint.acb(tr) - disc) / 2]
-        mult, ups, lows = [], [], []
-        for m in mus:
-            re_m, re_r = ball_str(m.real)
-            im_m, im_r = ball_str(m.imag)
-            au = abs(m).upper()
-            ups.append(au)
-            lows.append(abs(m).lower())
-            mult.append(
-                {
-                    "re": re_m,
-                    "im": im_m,
-                    "rad": max(re_r, im_r, key=float),
-                    "abs_upper": ball_str(flint.arb(au), 12)[0],
-                }
-            )
-        unit = flint.arb(1)
-        stable = (
-            True
-            if all(u < unit for u in ups)
-            else (False if any(lo > unit for lo in lows) else None)
-        )
-        pT = period * c.T
-        big = max(range(2), key=lambda i: float(exact_value(ups[i])))
-        lle = ((flint.arb(lows[big]).log() / pT), (flint.arb(ups[big]).log() / pT))
-        lle = (float(exact_value(lle[0].lower())), float(exact_value(lle[1].upper())))
+        z = _refine_centre(params, period, bits, o.x, o.v)
+        box, n_impacts, proven, contraction, MZ, c = _krawczyk(params, period, bits, z, r, radius)
+        mult, ups, lows = _multipliers(MZ)
+        stable, lle = _stability_and_lle(ups, lows, period * c.T)
         xs, vs = ball_str(box[0]), ball_str(box[1])
     return ProvenOrbit(
         params=params,
         period=period,
-        impacts=len(imps),
+        impacts=n_impacts,
         bits=bits,
         x=xs,
         v=vs,
@@ -285,3 +192,129 @@ def prove_orbit(
         lle=lle,
         elapsed_s=time.perf_counter() - t_start,
     )
+
+
+def _box_radius(radius: Any, bits: int) -> Fraction:
+    """The box half-width ``r`` (default ``2^(-bits/2)``), refused outside its usable range."""
+    r = Fraction(1, 2 ** (bits // 2)) if radius is None else exact("radius", radius, 3000)
+    # a box narrower than ~2^32 ulps of its centre cannot contain the rounding of the Newton
+    # point and of F at the working precision: refused instead of attempted (radius = 1e-400 at
+    # 128 bits used to end in a float division by zero)
+    r_min = Fraction(1, 2 ** (bits - 32))
+    if not r_min <= r <= Fraction(1, 1000):
+        raise ParameterError(
+            "radius", str(radius), f"2^-{bits - 32} <= radius <= 1e-3 at bits={bits}"
+        )
+    return r
+
+
+def _refine_centre(params: Params, period: int, bits: int, x: float, v: float) -> list:
+    """The float64 orbit ``(x, v)`` refined by Newton on point runs to the working precision."""
+    import flint
+
+    from precise_impact.solvers.certified.single import run_balls, to_ball
+
+    z = [to_ball(Fraction(x)), to_ball(Fraction(v))]
+    # Newton on point runs: quadratic from float64 to the working precision
+    for _ in range(int(math.log2(bits / 50)) + 3):
+        samples, imps, c = run_balls(params, period, bits, start=(z[0], z[1]))
+        fx, fv = _final(samples)
+        M = _jacobian(c, imps, period)
+        F = [fx - z[0], fv - z[1]]
+        a, b, cc, d = M[0][0] - 1, M[0][1], M[1][0], M[1][1] - 1
+        det = a * d - b * cc
+        dz = [(d * F[0] - b * F[1]) / det, (-cc * F[0] + a * F[1]) / det]
+        z = [flint.arb((z[i] - dz[i]).mid()) for i in range(2)]
+    return z
+
+
+def _krawczyk(params: Params, period: int, bits: int, z: list, r: Fraction, radius: Any):
+    """Krawczyk test on ``z + [-r, r]^2``: box, impacts, proven, contraction, ``M(Z)``, system."""
+    import flint
+
+    from precise_impact.solvers.certified.single import exact_value, run_balls, to_ball
+
+    samples, imps, c = run_balls(params, period, bits, start=(z[0], z[1]))
+    fx, fv = _final(samples)
+    F = [fx - z[0], fv - z[1]]
+    Mz = _jacobian(c, imps, period)
+    a, b, cc, d = (
+        flint.arb(Mz[0][0].mid()) - 1,
+        flint.arb(Mz[0][1].mid()),
+        flint.arb(Mz[1][0].mid()),
+        flint.arb(Mz[1][1].mid()) - 1,
+    )
+    det = a * d - b * cc
+    C = [
+        [flint.arb((d / det).mid()), flint.arb((-b / det).mid())],
+        [flint.arb((-cc / det).mid()), flint.arb((a / det).mid())],
+    ]
+    rb = to_ball(r)
+    box = [z[0] + flint.arb(0, rb.mid()), z[1] + flint.arb(0, rb.mid())]
+    bs, bimps, c = run_balls(params, period, bits, start=(box[0], box[1]))
+    if len(bimps) != len(imps):  # pragma: no cover - the engine proves the sequence or raises
+        raise ParameterError("radius", str(radius), "a box small enough for one impact sequence")
+    MZ = _jacobian(c, bimps, period)
+    one = flint.arb(1)
+    B = [
+        [
+            (one if i == j else 0)
+            - (
+                C[i][0] * (MZ[0][j] - (1 if j == 0 else 0))
+                + C[i][1] * (MZ[1][j] - (1 if j == 1 else 0))
+            )
+            for j in range(2)
+        ]
+        for i in range(2)
+    ]
+    dZ = [box[0] - z[0], box[1] - z[1]]
+    K = [
+        z[i] - (C[i][0] * F[0] + C[i][1] * F[1]) + B[i][0] * dZ[0] + B[i][1] * dZ[1]
+        for i in range(2)
+    ]
+    proven = all(box[i].contains_interior(K[i]) for i in range(2))
+    contraction = float(max(exact_value(abs(K[i] - z[i]).upper()) for i in range(2)) / r)
+    return box, len(imps), proven, contraction, MZ, c
+
+
+def _multipliers(MZ: list) -> tuple[list, list, list]:
+    """The two multipliers of ``MZ`` enclosed: their records, ``|mu|`` upper and lower bounds."""
+    import flint
+
+    from precise_impact.solvers.certified.single import ball_str
+
+    tr = MZ[0][0] + MZ[1][1]
+    dt = MZ[0][0] * MZ[1][1] - MZ[0][1] * MZ[1][0]
+    disc = flint.acb(tr * tr - 4 * dt).sqrt()
+    mus = [(flint.acb(tr) + disc) / 2, (flint.acb(tr) - disc) / 2]
+    mult, ups, lows = [], [], []
+    for m in mus:
+        re_m, re_r = ball_str(m.real)
+        im_m, im_r = ball_str(m.imag)
+        au = abs(m).upper()
+        ups.append(au)
+        lows.append(abs(m).lower())
+        mult.append(
+            {
+                "re": re_m,
+                "im": im_m,
+                "rad": max(re_r, im_r, key=float),
+                "abs_upper": ball_str(flint.arb(au), 12)[0],
+            }
+        )
+    return mult, ups, lows
+
+
+def _stability_and_lle(ups: list, lows: list, pT: Any) -> tuple[bool | None, tuple[float, float]]:
+    """Stability (``None``: undecided) and the LLE interval from the multipliers' moduli."""
+    import flint
+
+    from precise_impact.solvers.certified.single import exact_value
+
+    unit = flint.arb(1)
+    stable = (
+        True if all(u < unit for u in ups) else (False if any(lo > unit for lo in lows) else None)
+    )
+    big = max(range(2), key=lambda i: float(exact_value(ups[i])))
+    lle = ((flint.arb(lows[big]).log() / pT), (flint.arb(ups[big]).log() / pT))
+    return stable, (float(exact_value(lle[0].lower())), float(exact_value(lle[1].upper())))

@@ -460,17 +460,7 @@ def spice_netlist(
     would set).
     """
     eff, periods, tm, x0q, v0q, t0q = _check_inputs(components, effects, periods, tmax, x0, v0, t0)
-    opts = dict(DEFAULT_OPTIONS)
-    for k, v in (options or {}).items():
-        if not isinstance(k, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", k):
-            raise ParameterError("options", k, "an ngspice option name")
-        if v is not None and (
-            isinstance(v, bool) or not re.fullmatch(r"[A-Za-z0-9_.+\-]+", str(v))
-        ):
-            raise ParameterError(
-                f"options.{k}", v, "a number or a word (no spaces), or None for a flag"
-            )
-        opts[k] = v
+    opts = _netlist_options(options)
     if not re.fullmatch(r"[A-Za-z0-9_.\-]+", output_file):
         raise ParameterError(
             "output_file", output_file, "a plain file name (letters, digits, _ . -)"
@@ -496,6 +486,35 @@ def spice_netlist(
             "V_unit",
         )
     }
+    ic = _initial_values(components, c, x0q, v0q, t0q)
+    tm_ = _timing(eff)
+    L = _netlist_header(components, comp, eff, ic)
+    L += _analogue_section(c, eff, ic, tm_["slew"])
+    L += _comparator_section(c, tm_, ic["cmp0"])
+    L += _switch_section(c, tm_)
+    L += _analysis_section(periods, tm, ic, opts, output_file)
+    return _wrap("\n".join(L)) + "\n"
+
+
+def _netlist_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """``.options`` of the netlist: :data:`DEFAULT_OPTIONS` with ``options`` checked and merged."""
+    opts = dict(DEFAULT_OPTIONS)
+    for k, v in (options or {}).items():
+        if not isinstance(k, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", k):
+            raise ParameterError("options", k, "an ngspice option name")
+        if v is not None and (
+            isinstance(v, bool) or not re.fullmatch(r"[A-Za-z0-9_.+\-]+", str(v))
+        ):
+            raise ParameterError(
+                f"options.{k}", v, "a number or a word (no spaces), or None for a flag"
+            )
+        opts[k] = v
+    return opts
+
+
+def _initial_values(components: Components, c: dict, x0q, v0q, t0q) -> dict[str, float]:
+    """Time scales, the source phase and the node voltages at the start (``omega``, ``eta``,
+    ``period_s``, ``phi``, ``vs0``, ``vq0``, ``vmq0``, ``vp0``, ``cmp0``)."""
     omega = float(components.omega())
     eta = float(components.Omega) / omega
     period_s = 2 * math.pi / c["Omega"]
@@ -510,14 +529,23 @@ def spice_netlist(
         )
     vmq0 = -c["R5"] / c["R4"] * vq0
     vp0 = -c["R2"] * (c["V_A"] * math.cos(phi) / c["R1"] + vmq0 / c["R6"] + vs0 / c["R7"])
-    vu = c["V_unit"]
-
-    tm_ = _timing(eff)
-    tau_c, hyst, tau_ff = tm_["tau_c"], tm_["hysteresis"], tm_["tau_ff"]
-    ron, bbm, qinj, slew = tm_["ron"], tm_["bbm"], tm_["charge_injection"], tm_["slew"]
     x0f = float(x0q)
     cmp0 = 1.0 if x0f >= float(-components.V_wall / components.V_unit) and float(v0q) > 0 else 0.0
+    return {
+        "omega": omega,
+        "eta": eta,
+        "period_s": period_s,
+        "phi": phi,
+        "vs0": vs0,
+        "vq0": vq0,
+        "vmq0": vmq0,
+        "vp0": vp0,
+        "cmp0": cmp0,
+    }
 
+
+def _netlist_header(components: Components, comp: Components, eff: dict, ic: dict) -> list[str]:
+    """The comment header (effects, design and drawn values, time scales) and ``softplus``."""
     L: list[str] = []
     a = L.append
     a("* precise_impact: electronic impact oscillator (Denysenko, Balcerzak, Dabrowski, Fig. 2)")
@@ -527,9 +555,17 @@ def spice_netlist(
     a("* design: " + ", ".join(f"{k}={v}" for k, v in components.decimal().items()))
     if "tolerance" in eff:
         a("* drawn:  " + ", ".join(f"{k}={v}" for k, v in comp.decimal().items()))
-    a(f"* omega = {omega!r} rad/s, eta = {eta!r}, period = {period_s!r} s")
+    a(f"* omega = {ic['omega']!r} rad/s, eta = {ic['eta']!r}, period = {ic['period_s']!r} s")
     a("")
     a(f".func softplus(x) = max(x,0) + ln(1+exp(-abs(x)*{_f(_CLAMP_K)}))/{_f(_CLAMP_K)}")
+    return L
+
+
+def _analogue_section(c: dict, eff: dict, ic: dict, slew) -> list[str]:
+    """The forcing source V3 and the op-amp stages U1 (sum), U2 and U4 (integrators), U3."""
+    phi, vs0, vq0, vmq0, vp0 = ic["phi"], ic["vs0"], ic["vq0"], ic["vmq0"], ic["vp0"]
+    L: list[str] = []
+    a = L.append
     a("* ---- forcing source V3 = V_A cos(Omega t + eta t0)")
     a(f"B3 v3 0 V = {_f(c['V_A'])}*cos({_f(c['Omega'])}*time + {_f(phi)})")
     a("* ---- U1 summing amplifier: V_p = -R2 (V3/R1 + V_mq/R6 + V_s/R7)")
@@ -550,6 +586,15 @@ def spice_netlist(
     a(f"R8 q n4 {_f(c['R8'])}")
     a(f"C1 n4 s {_f(c['C1'])} IC={_f(-vs0)}")
     L += _opamp("U4", "s", "n4", eff, vs0)
+    return L
+
+
+def _comparator_section(c: dict, tm_: dict, cmp0: float) -> list[str]:
+    """U5 (the comparator, with hysteresis if set) and A1 (the toggle flip-flop driving pol)."""
+    tau_c, hyst, tau_ff = tm_["tau_c"], tm_["hysteresis"], tm_["tau_ff"]
+    vu = c["V_unit"]
+    L: list[str] = []
+    a = L.append
     a("* ---- U5 comparator: cmp -> 1 when V_s < V_wall (x > x_w); smooth, output pole tau_c")
     w = _f(COMPARATOR_WIDTH * vu)
     if hyst:
@@ -575,6 +620,15 @@ def spice_netlist(
     a("* flip-flop output pol = ps through the lag tau_ff (clock-to-output delay)")
     a("BA1D 0 pol I = V(ps)-V(pol)")
     a(f"CA1D pol 0 {_f(tau_ff)} IC=0")
+    return L
+
+
+def _switch_section(c: dict, tm_: dict) -> list[str]:
+    """U6/U7, the analogue switches driven from pol: on-resistance, break-before-make with its
+    parasitic capacitances, charge injection."""
+    ron, bbm, qinj = tm_["ron"], tm_["bbm"], tm_["charge_injection"]
+    L: list[str] = []
+    a = L.append
     a("* ---- U6/U7 analogue switches, all driven from the one node pol")
     lon, lmid, loff = math.log(ron), math.log(c["R3"]), math.log(SWITCH_ROFF)
     a(
@@ -608,6 +662,21 @@ def spice_netlist(
         a("BINJD 0 pinj I = V(pol)-V(pinj)")
         a(f"CINJD pinj 0 {_f(tau_inj)} IC=0")
         a(f"BINJ 0 n2 I = {_f(qinj)}*abs(V(pol)-V(pinj))/{_f(tau_inj)}")
+    return L
+
+
+def _analysis_section(periods: int, tm, ic: dict, opts: dict, output_file: str) -> list[str]:
+    """Breakpoints at the sample times, ``.ic``, ``.options``, ``.tran`` and the control block."""
+    period_s, vs0, vq0, vmq0, vp0, cmp0 = (
+        ic["period_s"],
+        ic["vs0"],
+        ic["vq0"],
+        ic["vmq0"],
+        ic["vp0"],
+        ic["cmp0"],
+    )
+    L: list[str] = []
+    a = L.append
     a("* ---- breakpoints at the stroboscopic sample times k 2 pi/Omega")
     pts = " ".join(f"{_f(k * period_s)} 0" for k in range(periods + 1))
     a("VBRK brk 0 PWL(" + pts + ")")
@@ -626,7 +695,7 @@ def spice_netlist(
     a("quit 0")
     a(".endc")
     a(".end")
-    return _wrap("\n".join(L)) + "\n"
+    return L
 
 
 def _wrap(text: str, width: int = 1000) -> str:
@@ -837,31 +906,8 @@ def run_spice(
 def _run(
     exe, netlist, wd: Path, components, eff, periods, tm, x0q, v0q, t0q, timeout, dense
 ) -> SpiceResult:
-    cir = wd / "circuit.cir"
-    out = wd / OUTPUT_FILE
-    log = wd / "ngspice.log"
-    cir.write_text(netlist)
-    if out.exists():
-        out.unlink()
-    t_start = _time.perf_counter()
-    try:
-        proc = subprocess.run(
-            [exe, "-b", cir.name], cwd=wd, capture_output=True, text=True, timeout=timeout
-        )
-    except subprocess.TimeoutExpired as e:
-        raise SpiceError(
-            f"ngspice did not finish within timeout={timeout} s (TMAX={float(tm)!r} s, {periods} periods)"
-        ) from e
-    elapsed = _time.perf_counter() - t_start
-    log.write_text(proc.stdout + "\n---- stderr ----\n" + proc.stderr)
-    errors = [
-        ln
-        for ln in (proc.stdout + proc.stderr).splitlines()
-        if re.search(r"\berror\b|too small|aborted", ln, re.I)
-    ]
-    if proc.returncode != 0 or not out.exists() or errors:
-        tail = "\n".join((proc.stdout + proc.stderr).strip().splitlines()[-15:])
-        raise SpiceError(f"ngspice failed (exit {proc.returncode}); log tail:\n{tail}")
+    """Run ngspice on ``netlist`` in ``wd`` and map its output to the mechanical system."""
+    proc, out, elapsed = _execute(exe, netlist, wd, periods, tm, timeout)
     t_parse = _time.perf_counter()
     raw = np.fromfile(out, sep=" ")
     if raw.size == 0 or raw.size % 5:
@@ -875,24 +921,7 @@ def _run(
     omega = float(components.omega())
     period_s = 2 * math.pi / float(components.Omega)
     t0f = float(t0q)
-    # --- stroboscopic samples: a time point sits on every breakpoint
-    tk = np.arange(periods + 1) * period_s
-    idx = np.clip(np.searchsorted(ts, tk), 0, len(ts) - 1)
-    idx[0] = 0
-    # prefer the last point at that time (right-continuous if duplicated)
-    hit = np.abs(ts[idx] - tk)
-    alt = np.clip(idx - 1, 0, len(ts) - 1)
-    use_alt = np.abs(ts[alt] - tk) < hit
-    idx = np.where(use_alt, alt, idx)
-    while True:
-        nxt = np.clip(idx + 1, 0, len(ts) - 1)
-        same = (nxt != idx) & (ts[nxt] == ts[idx])
-        if not same.any():
-            break
-        idx = np.where(same, nxt, idx)
-    off = np.abs(ts[idx] - tk)
-    off[0] = 0.0
-    interpolated = int(np.sum(off > 1e-12 * period_s))
+    tk, idx, off, interpolated = _sample_points(ts, periods, period_s)
     vs_k, vq_k = vs[idx].copy(), vq[idx].copy()
     if interpolated:
         vs_k = np.interp(tk, ts, vs)
@@ -901,34 +930,7 @@ def _run(
     # sample 0 is the initial condition written into the netlist.
     _, vs_k[0], vq_k[0] = to_circuit(components, 0.0, float(x0q), float(v0q), omega)
     tau_k, x_k, v_k = to_mechanical(components, tk, vs_k, vq_k, omega)
-
-    # --- impacts: pol crossing 1/2
-    s = pol - 0.5
-    cross = np.nonzero((s[:-1] < 0) != (s[1:] < 0))[0]
-    frac = s[cross] / (s[cross] - s[cross + 1])
-    t_imp = ts[cross] + frac * (ts[cross + 1] - ts[cross])
-    vs_imp = vs[cross] + frac * (vs[cross + 1] - vs[cross])
-    _, x_imp, _ = to_mechanical(components, t_imp, vs_imp, np.zeros_like(vs_imp), omega)
-    rises = np.nonzero((cmp_[:-1] < 0.5) & (cmp_[1:] >= 0.5))[0]
-    settle = _timing(eff, components)["settle"]
-    vb, va = [], []
-    for n, i in enumerate(cross):
-        # before: the last two points before the comparator output rose through 1/2,
-        # extrapolated to the crossing time; after: two points >= settle after it,
-        # extrapolated back (the free flight is smooth there)
-        j = rises[rises <= i]
-        jb = int(j[-1]) if len(j) else int(i)
-        k0 = max(jb - 1, 0)
-        vb.append(_extrapolate(ts, vq, k0, jb, t_imp[n]))
-        ja = int(np.searchsorted(ts, t_imp[n] + settle, side="left"))
-        ja = min(max(ja, int(i) + 1), len(ts) - 2)
-        va.append(_extrapolate(ts, vq, ja, ja + 1, t_imp[n]))
-    _, _, v_b = to_mechanical(
-        components, 0.0, np.zeros(len(vb)), np.asarray(vb, dtype=float), omega
-    )
-    _, _, v_a = to_mechanical(
-        components, 0.0, np.zeros(len(va)), np.asarray(va, dtype=float), omega
-    )
+    t_imp, x_imp, v_b, v_a = _impacts(components, eff, omega, ts, vs, vq, pol, cmp_)
 
     version = ""
     m = re.search(r"ngspice-(\S+)", proc.stdout + proc.stderr)
@@ -965,6 +967,92 @@ def _run(
         dt, dx, dv = to_mechanical(components, ts, vs, vq, omega)
         res.dense_t, res.dense_x, res.dense_v = dt + t0f, dx, dv
     return res
+
+
+def _execute(exe, netlist, wd: Path, periods, tm, timeout):
+    """Write the netlist, run ngspice in batch mode and check it: the process, the output file
+    and the run time."""
+    cir = wd / "circuit.cir"
+    out = wd / OUTPUT_FILE
+    log = wd / "ngspice.log"
+    cir.write_text(netlist)
+    if out.exists():
+        out.unlink()
+    t_start = _time.perf_counter()
+    try:
+        proc = subprocess.run(
+            [exe, "-b", cir.name], cwd=wd, capture_output=True, text=True, timeout=timeout
+        )
+    except subprocess.TimeoutExpired as e:
+        raise SpiceError(
+            f"ngspice did not finish within timeout={timeout} s (TMAX={float(tm)!r} s, {periods} periods)"
+        ) from e
+    elapsed = _time.perf_counter() - t_start
+    log.write_text(proc.stdout + "\n---- stderr ----\n" + proc.stderr)
+    errors = [
+        ln
+        for ln in (proc.stdout + proc.stderr).splitlines()
+        if re.search(r"\berror\b|too small|aborted", ln, re.I)
+    ]
+    if proc.returncode != 0 or not out.exists() or errors:
+        tail = "\n".join((proc.stdout + proc.stderr).strip().splitlines()[-15:])
+        raise SpiceError(f"ngspice failed (exit {proc.returncode}); log tail:\n{tail}")
+    return proc, out, elapsed
+
+
+def _sample_points(ts, periods: int, period_s: float):
+    """The output points at the stroboscopic times ``k period_s`` (a time point sits on every
+    breakpoint): the times, their indices, the offsets and how many are off the grid."""
+    tk = np.arange(periods + 1) * period_s
+    idx = np.clip(np.searchsorted(ts, tk), 0, len(ts) - 1)
+    idx[0] = 0
+    # prefer the last point at that time (right-continuous if duplicated)
+    hit = np.abs(ts[idx] - tk)
+    alt = np.clip(idx - 1, 0, len(ts) - 1)
+    use_alt = np.abs(ts[alt] - tk) < hit
+    idx = np.where(use_alt, alt, idx)
+    while True:
+        nxt = np.clip(idx + 1, 0, len(ts) - 1)
+        same = (nxt != idx) & (ts[nxt] == ts[idx])
+        if not same.any():
+            break
+        idx = np.where(same, nxt, idx)
+    off = np.abs(ts[idx] - tk)
+    off[0] = 0.0
+    interpolated = int(np.sum(off > 1e-12 * period_s))
+    return tk, idx, off, interpolated
+
+
+def _impacts(components, eff, omega: float, ts, vs, vq, pol, cmp_):
+    """The impacts (pol crossing 1/2): times [s], positions and the mechanical velocities
+    before and after."""
+    s = pol - 0.5
+    cross = np.nonzero((s[:-1] < 0) != (s[1:] < 0))[0]
+    frac = s[cross] / (s[cross] - s[cross + 1])
+    t_imp = ts[cross] + frac * (ts[cross + 1] - ts[cross])
+    vs_imp = vs[cross] + frac * (vs[cross + 1] - vs[cross])
+    _, x_imp, _ = to_mechanical(components, t_imp, vs_imp, np.zeros_like(vs_imp), omega)
+    rises = np.nonzero((cmp_[:-1] < 0.5) & (cmp_[1:] >= 0.5))[0]
+    settle = _timing(eff, components)["settle"]
+    vb, va = [], []
+    for n, i in enumerate(cross):
+        # before: the last two points before the comparator output rose through 1/2,
+        # extrapolated to the crossing time; after: two points >= settle after it,
+        # extrapolated back (the free flight is smooth there)
+        j = rises[rises <= i]
+        jb = int(j[-1]) if len(j) else int(i)
+        k0 = max(jb - 1, 0)
+        vb.append(_extrapolate(ts, vq, k0, jb, t_imp[n]))
+        ja = int(np.searchsorted(ts, t_imp[n] + settle, side="left"))
+        ja = min(max(ja, int(i) + 1), len(ts) - 2)
+        va.append(_extrapolate(ts, vq, ja, ja + 1, t_imp[n]))
+    _, _, v_b = to_mechanical(
+        components, 0.0, np.zeros(len(vb)), np.asarray(vb, dtype=float), omega
+    )
+    _, _, v_a = to_mechanical(
+        components, 0.0, np.zeros(len(va)), np.asarray(va, dtype=float), omega
+    )
+    return t_imp, x_imp, v_b, v_a
 
 
 class SpiceSolver:

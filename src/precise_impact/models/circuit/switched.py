@@ -243,15 +243,39 @@ class SwitchedCapacitorSolver:
         comp = actual_components(design, self.effects)
         omega = design_omega(design)
         rc, vu = design.R8 * design.C1, design.V_unit
-        conv = P.from_fraction
         ta = _build(P, self.tol)
         pars = [getattr(comp, n) for n in NETWORK_PARS] + [
             Fraction(1),
             self.ron,
             *comparator.thresholds(comp.V_wall, self.effects.get("comparator")),
         ]
-        ta.pars[:] = P.array([conv(q) for q in pars])
-        # initial state: V_s, and V_C such that V_q (with pol = +1) equals the mapped v0
+        ta.pars[:] = P.array([P.from_fraction(q) for q in pars])
+        t0s, Vs0 = self._set_initial_state(ta, P, comp, params, omega, rc, vu)
+        immediate = self.delay == 0 and self.bbm == 0 and self.q_inj == 0
+        cmp_ = ta.t_events[0].callback
+        cmp_.reset(immediate, self.max_impacts, rearm_at_flip=self.hyst == 0)
+        if Vs0 <= pars[_I["v_trip"]]:
+            raise ParameterError(
+                "x0",
+                str(params.x0),
+                "the start must be outside the comparator threshold (x0 < x_w)",
+            )
+        step = max(per_period, 1)
+        grid = P.sample_times(t0s, comp.Omega, periods, step)
+        vq_fn = self._vq_function(P, comp)
+        sw = self._switch_constants(P, comp)  # converted once per solve, not per switching
+        start = _time.perf_counter()
+        samples, switches = self._propagate(ta, grid, cmp_, immediate, sw, vq_fn)
+        elapsed = _time.perf_counter() - start
+        scales = (omega, rc, vu)
+        return self._trajectory(
+            P, params, comp, samples, switches, scales, step, per_period, elapsed, cmp_.count
+        )
+
+    def _set_initial_state(self, ta, P, comp, params, omega, rc, vu):
+        """Time and state of ``ta`` at the start: ``V_s`` and ``V_C`` such that ``V_q`` (with
+        ``pol = +1``) equals the mapped ``v0``; returns the start time and ``V_s``."""
+        conv = P.from_fraction
         Vs0 = -params.x0 * vu
         Vq0 = params.v0 * omega * rc * vu
         t0s = params.t0 / omega
@@ -276,25 +300,16 @@ class SwitchedCapacitorSolver:
         ta.time = conv(t0s)
         ta.state[:] = P.array([conv(Vs0), conv(VC0)])
         ta.reset_cooldowns()
-        immediate = self.delay == 0 and self.bbm == 0 and self.q_inj == 0
-        cmp_ = ta.t_events[0].callback
-        cmp_.reset(immediate, self.max_impacts, rearm_at_flip=self.hyst == 0)
-        if Vs0 <= pars[_I["v_trip"]]:
-            raise ParameterError(
-                "x0",
-                str(params.x0),
-                "the start must be outside the comparator threshold (x0 < x_w)",
-            )
-        step = max(per_period, 1)
-        grid = P.sample_times(t0s, comp.Omega, periods, step)
-        vq_fn = self._vq_function(P, comp)
-        sw = self._switch_constants(P, comp)  # converted once per solve, not per switching
+        return t0s, Vs0
+
+    def _propagate(self, ta, grid, cmp_, immediate: bool, sw: dict, vq_fn):
+        """Integrate through the sample times, switching where the comparator trips: the samples
+        ``(t, V_s, V_q)`` and the recorded reconnections of C2."""
+        import heyoka as hy
+
         samples = []
         switches = ImpactRecorder(max_impacts=self.max_impacts)  # the reconnections of C2
         pending_at = None
-        start = _time.perf_counter()
-        import heyoka as hy
-
         for target in grid:
             while True:
                 stop = target if pending_at is None or pending_at > target else pending_at
@@ -325,7 +340,14 @@ class SwitchedCapacitorSolver:
             samples.append(
                 (ta.time, ta.state[0], vq_fn(ta.time, ta.state[0], ta.state[1], ta.pars[_I["pol"]]))
             )
-        elapsed = _time.perf_counter() - start
+        return samples, switches
+
+    def _trajectory(
+        self, P, params, comp, samples, switches, scales, step, per_period, elapsed, trips
+    ) -> Trajectory:
+        """The samples and reconnections mapped to the dimensionless system, as a trajectory."""
+        omega, rc, vu = scales
+        conv = P.from_fraction
         om, rcv, vuv = conv(omega), conv(rc), conv(vu)
         tau = P.array([om * s[0] for s in samples])
         x = P.array([-s[1] / vuv for s in samples])
@@ -355,7 +377,7 @@ class SwitchedCapacitorSolver:
             stats={
                 "effects": sorted(self.effects),
                 "components": comp.decimal(),
-                "comparator_trips": cmp_.count,
+                "comparator_trips": trips,
             },
         )
         if per_period > 0:
