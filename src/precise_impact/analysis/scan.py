@@ -39,6 +39,7 @@ __all__ = [
     "NpzTileStore",
     "ScanRun",
     "check_axis",
+    "check_workers",
     "deprecated_keyword",
     "resolve_model",
     "run_scan",
@@ -265,7 +266,8 @@ class ScanRun:
     backend: str
 
 
-def _check_workers(workers: Any) -> int:
+def check_workers(workers: Any) -> int:
+    """``workers`` worker processes (``None``: ``os.cpu_count()``), checked in 1 .. 1024."""
     n = workers if workers is not None else (os.cpu_count() or 1)
     n = check_count(n, "workers", 1024)
     if n < 1:
@@ -388,7 +390,7 @@ def run_scan(
     if dask is not None:
         n_workers, backend = _run_dask(job, bounds, todo, dask, finished, workers), "dask"
     else:
-        n_workers = _check_workers(workers)
+        n_workers = check_workers(workers)
         if executor == "serial" or (executor is None and (n_workers == 1 or len(todo) <= 1)):
             backend = "serial"
             for t in todo:
@@ -439,7 +441,7 @@ def _run_dask(job, bounds, todo, dask: str, finished, workers) -> int:
             "dask", "pip install 'precise_impact[dask]'", "--dask"
         ) from None
     if dask == "local":
-        n = _check_workers(workers)
+        n = check_workers(workers)
         cluster = LocalCluster(
             n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
         )
