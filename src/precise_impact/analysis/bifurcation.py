@@ -8,7 +8,6 @@ both the stroboscopic points and the LLE; the values go through the scan runner
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import math
 import os
@@ -19,7 +18,13 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.analysis.scan import check_axis, deprecated_keyword, resolve_model, run_scan
+from precise_impact.analysis.scan import (
+    PointJob,
+    check_axis,
+    deprecated_keyword,
+    resolve_model,
+    run_scan,
+)
 from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
@@ -343,7 +348,7 @@ def bifurcation(
         (params.replace(eta=e), periods, transient, model) for e in etas
     ]  # validates every eta first
     run = run_scan(
-        functools.partial(_many, jobs),
+        PointJob(_one, jobs),
         len(jobs),
         max(1, len(jobs) // (workers * 8)),
         workers=workers,
@@ -366,8 +371,3 @@ def bifurcation(
         elapsed_s=run.elapsed_s,
         workers=workers,
     )
-
-
-def _many(jobs: list, lo: int, hi: int) -> list:
-    """The runner's job: values ``lo .. hi - 1`` of the grid."""
-    return [_one(j) for j in jobs[lo:hi]]

@@ -37,12 +37,14 @@ __all__ = [
     "EXECUTORS",
     "Grid",
     "NpzTileStore",
+    "PointJob",
     "ScanRun",
     "check_axis",
     "check_workers",
     "deprecated_keyword",
     "resolve_model",
     "run_scan",
+    "tile_bounds",
 ]
 
 #: How the tiles run: in this process, in local worker processes, or on Dask.
@@ -137,6 +139,26 @@ class Grid:
     def tiles(self, tile_size: int) -> list[tuple[int, int]]:
         """``[(lo, hi), ...]``: the flat points of each tile of ``tile_size``."""
         return tile_bounds(self.size, tile_size)
+
+
+@dataclasses.dataclass(frozen=True)
+class PointJob:
+    """A tile job from a per-point function: ``PointJob(fn, points)(lo, hi)`` is
+    ``[fn(p) for p in points[lo:hi]]`` (picklable when ``fn`` and the points are).
+
+    Attributes
+    ----------
+    fn : callable
+        The per-point computation (a module-level function).
+    points : sequence
+        Its argument at each flat point of the grid.
+    """
+
+    fn: Callable[[Any], Any]
+    points: Sequence
+
+    def __call__(self, lo: int, hi: int) -> list:
+        return [self.fn(p) for p in self.points[lo:hi]]
 
 
 def tile_bounds(n_points: int, tile_size: int) -> list[tuple[int, int]]:

@@ -46,7 +46,10 @@ def check_progress(progress: Any, name: str = "progress") -> ProgressArg:
     :class:`ParameterError` naming ``name``."""
     if progress is None or callable(progress):
         return progress
-    if isinstance(progress, bool) or type(progress).__name__ == "bool_":  # numpy bools too
+    kind = type(progress)
+    if isinstance(progress, bool) or (
+        kind.__module__ == "numpy" and kind.__name__ in ("bool", "bool_")
+    ):
         return bool(progress)
     raise ParameterError(name, progress, "True, False, None or a callable(done, total)")
 
