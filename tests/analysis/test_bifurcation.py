@@ -51,8 +51,8 @@ def test_bifurcation_parallel_equals_serial_and_files(tmp_path):
     test_variational), positive in the chaotic band; PNG and NPZ written."""
     p = Params.make()
     kw = dict(periods=300, transient=1500, progress=False)
-    a = bifurcation(p, "0.70", "0.72", 3, workers=1, **kw)
-    b = bifurcation(p, "0.70", "0.72", 3, workers=2, **kw)
+    a = bifurcation(p, ("eta", "0.70", "0.72", 3), workers=1, **kw)
+    b = bifurcation(p, ("eta", "0.70", "0.72", 3), workers=2, **kw)
     assert np.array_equal(a.x, b.x) and np.array_equal(a.lle, b.lle)
     t = 300 * 2 * np.pi / 0.70
     assert abs(a.lle[0] + 0.05) <= np.log(1 + 0.1 / np.sqrt(1 - 0.0025)) / t
@@ -63,3 +63,40 @@ def test_bifurcation_parallel_equals_serial_and_files(tmp_path):
     d = np.load(files["npz"])
     assert list(d["eta_str"]) == ["0.7", "0.71", "0.72"] and d["x"].shape == (3, 300)
     assert files["png"].stat().st_size > 20_000
+
+
+def test_axis_tuple_model_and_progress():
+    """The eta axis tuple and model= give the numbers of the old (eta_min, eta_max, n)
+    and engine= forms bit for bit (those warn); a callable progress counts the values."""
+    p = Params.make()
+    seen = []
+    kw = dict(periods=60, transient=60, workers=1)
+    new = bifurcation(
+        p,
+        ("eta", "0.73", "0.75", 3),
+        model="heyoka",
+        progress=lambda d, n: seen.append((d, n)),
+        **kw,
+    )
+    assert seen == [(1, 3), (2, 3), (3, 3)] and new.eta == eta_grid("0.73", "0.75", 3)
+    with pytest.warns(DeprecationWarning) as w:
+        old = bifurcation(p, "0.73", "0.75", 3, engine="heyoka", progress=False, **kw)
+    assert {str(m.message).split(";")[-1].strip() for m in w} == {
+        "use model=",
+        "use an axis tuple ('eta', start, stop, n)",
+    }
+    with pytest.warns(DeprecationWarning):
+        by_keyword = bifurcation(
+            p, eta_min="0.73", eta_max="0.75", n=3, model="heyoka", progress=False, **kw
+        )
+    for r in (old, by_keyword):
+        assert np.array_equal(r.x, new.x) and np.array_equal(r.lle, new.lle)
+    for args, extra, name in [
+        ((("x_w", "1", "2", 3),), {}, "axis"),
+        ((("eta", "0.7", "0.8", 3), "0.9"), {}, "eta_max"),
+        ((("eta", "0.7", "0.8", 3),), {"model": "gpu"}, "model"),
+        ((("eta", "0.7", "0.8", 3),), {"progress": "yes"}, "progress"),
+    ]:
+        with pytest.raises(ParameterError) as e:
+            bifurcation(p, *args, **extra)
+        assert e.value.name == name

@@ -214,3 +214,58 @@ def test_lock_left_by_a_killed_process_is_stale(tmp_path):
     assert lock.stale is not None and lock.stale["pid"] != __import__("os").getpid()
     lock.release()
     assert DirectoryLock(tmp_path).acquire().stale is None  # a clean release is not stale
+
+
+# --- one scan runner (issue 23, item 5): the on-disk format and the vocabulary ------------
+
+
+def test_tiles_in_the_documented_format_load_and_resume(tmp_path):
+    """Tiles written by an independent writer of the documented format (as runs before
+    the scan runner wrote them) are read by load_sweep and reused by run_sweep."""
+    import hashlib
+
+    spec = _tiny_spec()
+    keys = FIELDS + ("index",)
+    rng = np.random.default_rng(3)
+    for t in range(spec.n_tiles):
+        idx = np.arange(t * spec.tile_size, min(spec.n_points, (t + 1) * spec.tile_size))
+        data = {f: rng.uniform(0, 1, size=len(idx)) for f in FIELDS}
+        data["index"] = idx
+        h = hashlib.sha256(f"{spec.digest}:{t}".encode())
+        for key in keys:
+            a = np.ascontiguousarray(data[key])
+            h.update(f"{key}:{a.dtype.str}:{a.shape}".encode())
+            h.update(a.tobytes())
+        _tile(tmp_path, t).parent.mkdir(parents=True, exist_ok=True)
+        np.savez(
+            _tile(tmp_path, t),
+            **data,
+            digest=np.asarray(spec.digest),
+            tile=np.asarray(t),
+            checksum=np.asarray(h.hexdigest()),
+        )
+        if t == 0:
+            first = data
+    loaded = load_sweep(tmp_path, spec)
+    assert loaded.complete and np.array_equal(loaded.lle.ravel()[:2], first["lle"])
+    again = run_sweep(spec, tmp_path, workers=1, progress=False)
+    assert again.stats["tiles_reused"] == spec.n_tiles and again.stats["tiles_computed"] == 0
+    assert same(again, loaded)
+
+
+def test_model_keyword_and_progress_callable(tmp_path):
+    """model= is engine= (which warns and keeps the same identity); a callable progress
+    counts the tiles of a resumed run on from the finished ones."""
+    with pytest.warns(DeprecationWarning, match="model="):
+        old = _tiny_spec(engine="heyoka")
+    new = _tiny_spec(model="heyoka")
+    assert old == new and new.model == "heyoka" and old.digest == new.digest
+    assert _tiny_spec().model == "fast"
+    with pytest.raises(ParameterError) as e:
+        _tiny_spec(model="gpu")
+    assert e.value.name == "model"
+    spec = _tiny_spec()
+    run_sweep(spec, tmp_path, workers=1, progress=False, max_tiles=1)
+    seen = []
+    res = run_sweep(spec, tmp_path, workers=1, progress=lambda d, n: seen.append((d, n)))
+    assert res.complete and seen == [(2, 2)]

@@ -1,8 +1,8 @@
 """Bifurcation diagram over eta with the largest Lyapunov exponent beneath.
 
-Each eta value is one variational run (:func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`)
-that yields both the stroboscopic points and the LLE; the values are spread over
-worker processes (each compiles its integrator once), with a progress bar on stderr.
+Each eta value is one run of the fast engine (or one heyoka variational run) that yields
+both the stroboscopic points and the LLE; the values go through the scan runner
+(:func:`~precise_impact.analysis.scan.run_scan`: worker processes, progress on stderr).
 """
 
 from __future__ import annotations
@@ -11,22 +11,27 @@ import dataclasses
 import json
 import math
 import os
-import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Sequence
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.scan import (
+    PointJob,
+    check_axis,
+    deprecated_keyword,
+    resolve_model,
+    run_scan,
+)
 from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
-from precise_impact.io.progress import Progress
-from precise_impact.solvers.base import check_engine
+from precise_impact.io.progress import ProgressArg, check_progress
 
 __all__ = ["BifurcationResult", "bifurcation", "eta_grid"]
 
@@ -185,9 +190,10 @@ class BifurcationResult(ResultMixin):
             )
         ax1.legend(loc="upper right", fontsize=8)
         ax2.legend(loc="lower right", fontsize=8)
+        q = self.params
         fig.suptitle(
-            f"Bifurcation diagram and LLE (zeta={decimal_str(self.params.zeta)}, a={decimal_str(self.params.a)}, "
-            f"x_w={decimal_str(self.params.x_w)}, R={decimal_str(self.params.R)}; "
+            f"Bifurcation diagram and LLE (zeta={decimal_str(q.zeta)}, a={decimal_str(q.a)}, "
+            f"x_w={decimal_str(q.x_w)}, R={decimal_str(q.R)}; "
             f"{self.transient} transient + {self.periods} periods)"
         )
         save_figure(fig, path, fmt="png", dpi=120)
@@ -246,16 +252,38 @@ def _one(args):
     return r.strobe_x, r.lle, r.stderr, r.impacts / r.periods
 
 
+def _eta_axis(axis: Any, eta_max: Any, n: Any, eta_min: Any) -> list[Fraction]:
+    """The eta grid from an axis tuple ``('eta', start, stop, n)`` or the deprecated
+    ``(eta_min, eta_max, n)`` (a :class:`DeprecationWarning` naming the axis tuple)."""
+    if eta_min is not None:
+        if axis is not None:
+            raise ParameterError("eta_min", eta_min, "not given with an axis")
+        axis = eta_min
+    if isinstance(axis, (str, bytes)) or not isinstance(axis, Sequence):
+        deprecated_keyword(
+            "(eta_min, eta_max, n)", "an axis tuple ('eta', start, stop, n)", "bifurcation", 4
+        )
+        return eta_grid(axis, eta_max, n)
+    for name, value in (("eta_max", eta_max), ("n", n)):
+        if value is not None:
+            raise ParameterError(name, value, "not given with an axis tuple")
+    _, lo, hi, count = check_axis(axis, "eta")
+    return eta_grid(lo, hi, count)
+
+
 def bifurcation(
     params: Params,
-    eta_min: Any,
-    eta_max: Any,
-    n: int,
+    axis: Any = None,
+    eta_max: Any = None,
+    n: int | None = None,
     periods: int = 2000,
     transient: int = 1000,
     workers: int | None = None,
-    progress: bool | None = None,
-    engine: str = "fast",
+    progress: ProgressArg = None,
+    engine: str | None = None,
+    *,
+    model: str | None = None,
+    eta_min: Any = None,
 ) -> BifurcationResult:
     """Stroboscopic x and the LLE for ``n`` values of eta.
 
@@ -263,10 +291,10 @@ def bifurcation(
     ----------
     params : Params
         Every parameter but eta (and the initial condition of each run).
-    eta_min, eta_max : decimal
-        Ends of the grid (both included; exact decimals).
-    n : int
-        Number of values (:func:`eta_grid`: exact, evenly spaced).
+    axis : tuple ``('eta', start, stop, n)``
+        The grid (:func:`eta_grid`: exact, evenly spaced, both ends included).  The
+        deprecated form ``bifurcation(params, eta_min, eta_max, n, ...)`` (positional or
+        by keyword) still works with a :class:`DeprecationWarning`.
     periods : int, default 2000
         Measured periods per value (stroboscopic points and LLE).
     transient : int, default 1000
@@ -274,14 +302,14 @@ def bifurcation(
     workers : int or None, default ``None``
         Worker processes; ``None`` uses all cores (``os.cpu_count()``), 1 runs in
         this process.
-    progress : bool or None, default ``None``
-        A progress bar on stderr (:class:`~precise_impact.io.progress.Progress`):
-        ``None`` shows it only when stderr is a terminal.
-    engine : str, default ``'fast'``
+    progress : bool, None or callable, default ``None``
+        :data:`~precise_impact.io.progress.ProgressArg`: a progress bar on stderr
+        (``None``: only when stderr is a terminal) or ``progress(done, total)``.
+    model : str, default ``'fast'``
         ``'fast'``: the compiled closed form (:mod:`precise_impact.solvers.fast.single`; the
         tangent basis runs on through the transient; a value it does not resolve, or
         ``zeta >= 1``, is computed by heyoka); ``'heyoka'``: one heyoka variational run
-        per value.
+        per value.  ``engine=`` is its deprecated spelling.
 
     Returns
     -------
@@ -304,7 +332,7 @@ def bifurcation(
     from precise_impact.core.params import as_params
 
     params = as_params(params)
-    etas = eta_grid(eta_min, eta_max, n)
+    etas = _eta_axis(axis, eta_max, n, eta_min)
     periods = check_count(periods, "periods")
     if periods < 1:
         raise ParameterError("periods", periods, "an integer >= 1")
@@ -314,36 +342,20 @@ def bifurcation(
     workers = check_count(workers, "workers", 1024)
     if workers < 1:
         raise ParameterError("workers", workers, "an integer >= 1")
-    check_engine(engine)
+    model = resolve_model(model, engine, "bifurcation")
+    progress = check_progress(progress)
     jobs = [
-        (params.replace(eta=e), periods, transient, engine) for e in etas
+        (params.replace(eta=e), periods, transient, model) for e in etas
     ]  # validates every eta first
-    start = time.perf_counter()
-    results: list[Any] = [None] * len(jobs)
-    done = 0
-    bar = Progress(len(jobs), "bifurcation", progress)
-
-    def tick():
-        bar.update(done)
-
-    if workers == 1:
-        for i, job in enumerate(jobs):
-            results[i] = _one(job)
-            done += 1
-            tick()
-    else:
-        chunks = max(1, len(jobs) // (workers * 8))
-        with ProcessPoolExecutor(max_workers=workers) as ex:
-            futs = {}
-            for lo in range(0, len(jobs), chunks):
-                futs[ex.submit(_many, jobs[lo : lo + chunks])] = lo
-            for f in as_completed(futs):
-                lo = futs[f]
-                for j, r in enumerate(f.result()):
-                    results[lo + j] = r
-                done += len(f.result())
-                tick()
-    elapsed = time.perf_counter() - start
+    run = run_scan(
+        PointJob(_one, jobs),
+        len(jobs),
+        max(1, len(jobs) // (workers * 8)),
+        workers=workers,
+        progress=progress,
+        label="bifurcation",
+    )
+    results = [r for tile in run.values for r in tile]
     lo_f, hi_f = float(etas[0]), float(etas[-1])
     graz = [float(g) for g in grazing_frequencies(params) if lo_f <= float(g) <= hi_f]
     return BifurcationResult(
@@ -356,10 +368,6 @@ def bifurcation(
         grazing=graz,
         periods=periods,
         transient=transient,
-        elapsed_s=elapsed,
+        elapsed_s=run.elapsed_s,
         workers=workers,
     )
-
-
-def _many(jobs):
-    return [_one(j) for j in jobs]

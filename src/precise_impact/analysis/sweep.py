@@ -1,12 +1,13 @@
 """Parameter sweeps at scale: LLE, period and impact rate on a 1-D or 2-D grid.
 
-The grid is cut into *tiles* of consecutive points (row-major order).  Each tile is
-computed by :func:`compute_tile` (SIMD batch variational integration,
-:mod:`precise_impact.analysis.lyapunov.batch`) in a worker process, or on a Dask cluster, and written
-atomically to ``OUT/tiles/tile_NNNNN.npz`` as soon as it is done.  A rerun with the
-same specification skips finished tiles, so an interrupted sweep resumes where it
-stopped and yields the same numbers bit for bit.  The assembled table is written as
-``sweep.npz`` and ``sweep.csv`` with heat maps (2-D) or curves (1-D).
+The grid is cut into *tiles* of consecutive points (row-major order); each tile is
+computed by :func:`compute_tile` (the fast engine's batch or heyoka's SIMD batch
+variational integration) through the scan runner
+(:func:`~precise_impact.analysis.scan.run_scan`: processes or Dask) and written atomically
+to ``OUT/tiles/tile_NNNNN.npz`` as soon as it is done.  A rerun with the same
+specification skips finished tiles, so an interrupted sweep resumes where it stopped and
+yields the same numbers bit for bit.  The assembled table is written as ``sweep.npz`` and
+``sweep.csv`` with heat maps (2-D) or curves (1-D).
 """
 
 from __future__ import annotations
@@ -18,23 +19,21 @@ import io
 import json
 import math
 import os
-import time
-from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Sequence
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.scan import Grid, NpzTileStore, resolve_model, run_scan
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import OptionalDependencyError, ParameterError
+from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write, write_json
 from precise_impact.io.figures import figure
 from precise_impact.io.lock import DirectoryLock
-from precise_impact.io.progress import Progress, say
-from precise_impact.solvers.base import check_engine
+from precise_impact.io.progress import say
 
 __all__ = ["SWEEP_PARAMS", "SweepSpec", "SweepResult", "compute_tile", "run_sweep", "load_sweep"]
 
@@ -68,9 +67,10 @@ class SweepSpec:
         SIMD lanes per batch integrator (part of the identity: results are computed
         group by group; used by the heyoka engine).
     engine : str
-        ``'fast'`` (the compiled closed form, :func:`~precise_impact.analysis.lyapunov.fast.fast_batch`;
-        a point it does not resolve is computed by heyoka) or ``'heyoka'`` (SIMD batch
-        variational integration, :func:`~precise_impact.analysis.lyapunov.batch.batch_lle`).
+        The model (also :attr:`model`): ``'fast'`` (the compiled closed form,
+        :func:`~precise_impact.analysis.lyapunov.fast.fast_batch`; a point it does not
+        resolve is computed by heyoka) or ``'heyoka'`` (SIMD batch variational
+        integration, :func:`~precise_impact.analysis.lyapunov.batch.batch_lle`).
     """
 
     base: Params
@@ -91,7 +91,9 @@ class SweepSpec:
         tile_size=64,
         batch_size=None,
         max_work: int = MAX_WORK,
-        engine: str = "fast",
+        model: str | None = None,
+        *,
+        engine: str | None = None,
     ) -> SweepSpec:
         """Validate and build a sweep specification.
 
@@ -115,9 +117,11 @@ class SweepSpec:
             Budget on grid points x (periods + transient), checked before any grid is
             built, so a 10^6 x 10^6 request is refused at once with the figure and the
             way to raise the budget.
-        engine : str, default ``'fast'``
+        model : str or None, default ``None`` (``'fast'``)
             ``'fast'`` (compiled closed form, ~30x heyoka's points per second) or
             ``'heyoka'``.
+        engine : str or None, default ``None``
+            Deprecated spelling of ``model`` (a :class:`DeprecationWarning`).
 
         Returns
         -------
@@ -180,8 +184,8 @@ class SweepSpec:
             if batch_size is None
             else check_count(batch_size, "batch_size", 64)
         )
-        check_engine(engine)
-        spec = cls(base, tuple(built), periods, transient, tile_size, batch_size, engine)
+        model = resolve_model(model, engine, "SweepSpec.make")
+        spec = cls(base, tuple(built), periods, transient, tile_size, batch_size, model)
         for k in (
             0,
             spec.n_points - 1,
@@ -190,12 +194,22 @@ class SweepSpec:
         return spec
 
     @property
+    def model(self) -> str:
+        """The engine (``'fast'`` or ``'heyoka'``); stored as ``engine`` in the tiles' identity."""
+        return self.engine
+
+    @property
+    def grid(self) -> Grid:
+        """The sweep's grid (:class:`~precise_impact.analysis.scan.Grid`)."""
+        return Grid(self.axes)
+
+    @property
     def shape(self) -> tuple[int, ...]:
-        return tuple(len(v) for _, v in self.axes)
+        return self.grid.shape
 
     @property
     def n_points(self) -> int:
-        return math.prod(self.shape)
+        return self.grid.size
 
     @property
     def n_tiles(self) -> int:
@@ -203,8 +217,7 @@ class SweepSpec:
 
     def point(self, k: int) -> Params:
         """The parameters of flat point ``k`` (row-major)."""
-        idx = np.unravel_index(k, self.shape)
-        return self.base.replace(**{name: vals[i] for (name, vals), i in zip(self.axes, idx)})
+        return self.base.replace(**self.grid.point(k))
 
     def rows(self, lo: int, hi: int) -> np.ndarray:
         """Flat points ``lo .. hi - 1`` as float rows (columns
@@ -217,7 +230,7 @@ class SweepSpec:
         out = np.empty((hi - lo, len(ROW_FIELDS)))
         out[:] = [row[n] for n in ROW_FIELDS]
         idx = np.unravel_index(np.arange(lo, hi), self.shape)
-        for (name, vals), ix in zip(self.axes, idx):
+        for (name, vals), ix in zip(self.axes, idx, strict=True):
             out[:, ROW_FIELDS.index(name)] = np.array([float(v) for v in vals])[ix]
         return out
 
@@ -271,77 +284,14 @@ def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
     return out
 
 
-def _tile_path(out: Path, tile: int) -> Path:
-    return out / "tiles" / f"tile_{tile:05d}.npz"
+def _store(out: Path, spec: SweepSpec) -> NpzTileStore:
+    """The sweep's tiles on disk (``OUT/tiles/tile_NNNNN.npz``, checked against ``spec``)."""
+    return NpzTileStore(out, spec.digest, _FIELDS, spec.n_points, spec.tile_size)
 
 
-_TILE_KEYS = _FIELDS + ("index",)
-
-
-def _tile_checksum(digest: str, tile: int, arrays: dict[str, np.ndarray]) -> str:
-    """SHA-256 over the tile's identity (sweep digest, tile number) and every array's
-    dtype, shape and bytes: a tile copied onto another tile's path, or a flipped bit
-    anywhere in it, no longer matches."""
-    h = hashlib.sha256(f"{digest}:{tile}".encode())
-    for key in _TILE_KEYS:
-        a = np.ascontiguousarray(arrays[key])
-        h.update(f"{key}:{a.dtype.str}:{a.shape}".encode())
-        h.update(a.tobytes())
-    return h.hexdigest()
-
-
-def _write_tile(out: Path, spec: SweepSpec, tile: int, arrays: dict[str, np.ndarray]) -> None:
-    data = {k: np.asarray(arrays[k]) for k in _TILE_KEYS}
-    data.update(
-        digest=np.asarray(spec.digest),
-        tile=np.asarray(tile),
-        checksum=np.asarray(_tile_checksum(spec.digest, tile, data)),
-    )
-    atomic_write(_tile_path(out, tile), lambda fh: np.savez(fh, **data), binary=True)
-
-
-def _read_tile(out: Path, spec: SweepSpec, tile: int) -> tuple[dict | None, str | None]:
-    """``(arrays, None)`` for a verified tile; ``(None, why)`` for a missing, damaged or
-    foreign one (``why`` is ``None`` when the file is simply absent)."""
-    path = _tile_path(out, tile)
-    if not path.exists():
-        return None, None
-    try:
-        with np.load(path, allow_pickle=False) as d:
-            data = {k: d[k] for k in _TILE_KEYS + ("digest", "tile", "checksum")}
-    except Exception as e:  # truncated, empty, not a zip, missing keys, bad header ...
-        return None, f"unreadable ({type(e).__name__})"
-    if str(data["digest"]) != spec.digest:
-        return None, "belongs to another sweep"
-    lo = tile * spec.tile_size
-    hi = min(spec.n_points, lo + spec.tile_size)
-    if (
-        data["tile"].shape != ()
-        or int(data["tile"]) != tile
-        or not np.array_equal(data["index"], np.arange(lo, hi))
-    ):
-        return None, "holds another tile's points"
-    if any(data[f].shape != (hi - lo,) for f in _FIELDS):
-        return None, "has arrays of the wrong length"
-    if str(data["checksum"]) != _tile_checksum(spec.digest, tile, data):
-        return None, "fails its checksum"
-    return {k: data[k] for k in _TILE_KEYS}, None
-
-
-def _finished(out: Path, spec: SweepSpec, say: Callable[[str], None]) -> set[int]:
-    """The tiles that verify; every damaged or foreign tile is named (it will be recomputed)."""
-    done = set()
-    for t in range(spec.n_tiles):
-        arrays, why = _read_tile(out, spec, t)
-        if arrays is not None:
-            done.add(t)
-        elif why is not None:
-            say(f"sweep: {_tile_path(out, t)} {why}: recomputing it")
-    return done
-
-
-def _tiles_task(spec: SweepSpec, tiles: list[int]) -> list[tuple[int, dict]]:
-    return [(t, compute_tile(spec, t)) for t in tiles]
+def _tile_job(spec: SweepSpec, lo: int, hi: int) -> dict[str, np.ndarray]:
+    """The runner's job: the tile that starts at flat point ``lo``."""
+    return compute_tile(spec, lo // spec.tile_size)
 
 
 def run_sweep(
@@ -441,47 +391,28 @@ def _check_spec_file(spec: SweepSpec, out: Path) -> None:
 
 def _run_locked(spec, out, workers, dask, progress, max_tiles) -> SweepResult:
     _check_spec_file(spec, out)
-    done = _finished(out, spec, say)
-    todo = [t for t in range(spec.n_tiles) if t not in done]
-    if max_tiles is not None:
-        todo = todo[:max_tiles]
-    start = time.perf_counter()
-    count = {"n": 0}
-    bar = Progress(spec.n_tiles, "sweep tiles", progress)
-
-    def finished(t: int, arrays: dict) -> None:
-        _write_tile(out, spec, t, arrays)
-        count["n"] += 1
-        rate = count["n"] * spec.tile_size / max(time.perf_counter() - start, 1e-9)
-        bar.update(len(done) + count["n"], f"~{rate:.1f} points/s")
-
-    if dask is not None:
-        n_workers = _run_dask(spec, todo, dask, finished, workers)
-    else:
-        n_workers = workers if workers is not None else (os.cpu_count() or 1)
-        n_workers = check_count(n_workers, "workers", 1024)
-        if n_workers < 1:
-            raise ParameterError("workers", n_workers, "an integer >= 1")
-        if n_workers == 1 or len(todo) <= 1:
-            for t in todo:
-                finished(t, compute_tile(spec, t))
-        else:
-            with ProcessPoolExecutor(max_workers=n_workers) as ex:
-                futs = {ex.submit(compute_tile, spec, t): t for t in todo}
-                for f in as_completed(futs):
-                    finished(futs[f], f.result())
-    bar.close()
-    elapsed = time.perf_counter() - start
+    run = run_scan(
+        functools.partial(_tile_job, spec),
+        spec.n_points,
+        spec.tile_size,
+        workers=workers,
+        dask=dask,
+        store=_store(out, spec),
+        max_tiles=max_tiles,
+        progress=progress,
+        label="sweep tiles",
+        unit="tiles",
+        say=say,
+    )
+    n, elapsed = run.tiles_computed, run.elapsed_s
     stats = {
         "tiles_total": spec.n_tiles,
-        "tiles_reused": len(done),
-        "tiles_computed": count["n"],
+        "tiles_reused": run.tiles_reused,
+        "tiles_computed": n,
         "elapsed_s": elapsed,
-        "points_per_s": count["n"] * spec.tile_size / elapsed
-        if count["n"] and elapsed > 0
-        else None,
-        "workers": n_workers,
-        "backend": "dask" if dask is not None else "processes",
+        "points_per_s": n * spec.tile_size / elapsed if n and elapsed > 0 else None,
+        "workers": run.workers,
+        "backend": "dask" if run.backend == "dask" else "processes",
     }
     result = _gather(out, spec, stats, strict=False)
     if result.complete:  # every tile verified just now: only then the assembled files
@@ -571,7 +502,7 @@ class SweepResult(ResultMixin):
             lines = [",".join(names + list(_FIELDS))]
             for k in range(spec.n_points):
                 idx = np.unravel_index(k, spec.shape)
-                coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx)]
+                coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx, strict=True)]
                 row = [
                     repr(float(getattr(self, f)[idx]))
                     if f != "period"
@@ -591,58 +522,13 @@ def _int_or_nan(x: float) -> str:
     return str(int(x)) if math.isfinite(x) else "nan"
 
 
-def _run_dask(
-    spec: SweepSpec, todo: list[int], dask: str, finished: Callable, workers: int | None
-) -> int:
-    try:
-        from dask.distributed import Client, LocalCluster
-        from dask.distributed import as_completed as dask_as_completed
-    except ImportError:
-        raise OptionalDependencyError(
-            "dask", "pip install 'precise_impact[dask]'", "--dask"
-        ) from None
-    if dask == "local":
-        n = (
-            check_count(workers, "workers", 1024, minimum=1)
-            if workers is not None
-            else (os.cpu_count() or 1)
-        )
-        cluster = LocalCluster(
-            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
-        )
-        client = Client(cluster)
-    elif dask.startswith("tcp://"):
-        cluster = None
-        try:
-            client = Client(dask, timeout=10)
-        except (OSError, TimeoutError) as e:
-            raise ParameterError(
-                "scheduler",
-                dask,
-                f"a reachable Dask scheduler (none answered within 10 s: {type(e).__name__})",
-            ) from None
-    else:
-        raise ParameterError("dask", dask, "'local' or a scheduler address tcp://HOST:PORT")
-    try:
-        n_workers = len(client.scheduler_info()["workers"])
-        futs = client.map(compute_tile, [spec] * len(todo), todo, pure=False)
-        tile_of = {f.key: t for f, t in zip(futs, todo)}
-        for f in dask_as_completed(futs):
-            finished(tile_of[f.key], f.result())
-            f.release()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    return n_workers
-
-
 def _gather(out: Path, spec: SweepSpec, stats: dict, strict: bool) -> SweepResult:
     """The verified tiles in ``out`` as a :class:`SweepResult` (NaN where a tile is missing)."""
     arrays = {f: np.full(spec.n_points, np.nan) for f in _FIELDS}
     found = 0
+    store = _store(out, spec)
     for t in range(spec.n_tiles):
-        data, why = _read_tile(out, spec, t)
+        data, why = store.read(t)
         if data is None:
             if strict:
                 raise ParameterError(

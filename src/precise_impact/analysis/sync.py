@@ -25,6 +25,7 @@ Tresser, Phys. Rev. Lett. 70 (1993) 279; Heagy, Platt & Hammel, Phys. Rev. E 49
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time as _time
 from collections.abc import Sequence
@@ -34,14 +35,14 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.core.params import Params, check_count, decimal_str, exact
+from precise_impact.analysis.scan import check_axis, check_workers, resolve_model, run_scan
+from precise_impact.core.params import Params, check_count, decimal_str, exact, exact_grid
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure
-from precise_impact.io.progress import say
-from precise_impact.solvers.base import check_engine
+from precise_impact.io.progress import ProgressArg, check_progress, say, wanted
 from precise_impact.solvers.heyoka.coupled import (
     CoupledTrajectory,
     check_form,
@@ -301,6 +302,23 @@ def half_crossing(k: Sequence[float], frac: Sequence[float]) -> tuple[float, flo
     )
 
 
+def _sync_rows(
+    params, ks, form, periods, y0s, per_period, P, engine, tail, threshold, lo, hi
+) -> list[tuple[list[SyncRun], float]]:
+    """The runner's job: the ensemble at ``ks[lo:hi]``, each row with its wall time."""
+    out = []
+    for k in ks[lo:hi]:
+        t_k = _time.perf_counter()
+        row = []
+        for y0 in y0s:
+            tr = simulate_coupled(
+                params, k, form, periods, y0=y0, per_period=per_period, precision=P, engine=engine
+            )
+            row.append(classify(tr, tail, threshold))
+        out.append((row, _time.perf_counter() - t_k))
+    return out
+
+
 def sync_scan(
     params: Params,
     form: str,
@@ -310,13 +328,16 @@ def sync_scan(
     seed: int = 0,
     tail: float = 0.1,
     threshold: float = 1e-8,
-    progress: bool = False,
+    progress: ProgressArg = False,
     per_period: int = 20,
     spread: Any = 1,
     lle_periods: int = 20000,
     lle_transient: int = 1000,
     precision: str | Precision = "float64",
     engine: str | None = None,
+    *,
+    model: str | None = None,
+    workers: int | None = 1,
 ) -> SyncResult:
     """Fraction of synchronised master-slave runs against the coupling ``k``.
 
@@ -326,8 +347,9 @@ def sync_scan(
         System and the master's initial condition (every run starts the master there).
     form : str
         One of :data:`~precise_impact.solvers.heyoka.coupled.COUPLED_FORMS`.
-    k_values : sequence of decimal strings / Fractions / numbers
-        Couplings ``>= 0`` (exact; sorted ascending; no duplicates).
+    k_values : sequence of decimals, or an axis tuple ``('k', start, stop, n)``
+        Couplings ``>= 0`` (exact; sorted ascending; no duplicates), or ``n`` evenly
+        spaced exact values from ``start`` to ``stop`` (both included).
     periods : int, default 500
         Forcing periods per run (the paper's Fig. 7); ``>= 1``.
     ensemble : int, default 8
@@ -339,8 +361,9 @@ def sync_scan(
         stay below ``threshold`` (at least one period).
     threshold : float, default 1e-8
         ``|x - y|`` below which the pair counts as synchronised; ``> 0``.
-    progress : bool, default ``False``
-        One line per ``k`` on stderr.
+    progress : bool, None or callable, default ``False``
+        :data:`~precise_impact.io.progress.ProgressArg`: one line per ``k`` on stderr
+        (``None``: only on a terminal), or ``progress(k_done, k_total)``.
     per_period : int, default 20
         Dense samples per period checked in the tail (stroboscopic ones included); ``>= 1``.
     spread : decimal, default 1
@@ -353,9 +376,14 @@ def sync_scan(
     precision : str, default ``'float64'``
         Precision of the coupled runs.
     engine : str or None, default ``None``
+        Deprecated spelling of ``model`` (a :class:`DeprecationWarning`).
+    model : str or None, default ``None``
         ``'fast'`` (compiled closed forms, :mod:`~precise_impact.solvers.fast.coupled`, and the
         LLE by ``method='fast'``), ``'heyoka'``, or ``None``: ``'fast'`` in float64, heyoka
         otherwise.
+    workers : int or None, default 1
+        Worker processes over the k-grid (``None``: every core); the numbers do not
+        depend on it.
 
     Returns
     -------
@@ -380,6 +408,14 @@ def sync_scan(
 
     params = as_params(params)
     form = check_form(form)
+    if (
+        not isinstance(k_values, (str, bytes))
+        and isinstance(k_values, Sequence)
+        and len(k_values) == 4
+        and k_values[0] == "k"
+    ):
+        _, lo, hi, n = check_axis(k_values, "k", "k_values")
+        k_values = exact_grid(lo, hi, n, "k")
     if (
         isinstance(k_values, (str, bytes))
         or not isinstance(k_values, Sequence)
@@ -415,31 +451,37 @@ def sync_scan(
         )
     lle_transient = check_count(lle_transient, "lle_transient")
     P = Precision.parse(precision)
+    engine = resolve_model(model, engine, "sync_scan", default=None, precision=P)
     if engine is None:
         engine = "fast" if P.kind == "float64" else "heyoka"
-    check_engine(engine, P)
+    progress = check_progress(progress)
+    workers = check_workers(workers)
 
     start = _time.perf_counter()
     y0s = ensemble_y0(params, ensemble, seed, sq)
     tail_f, thr_f = float(tq), float(thr)
-    runs: list[list[SyncRun]] = []
-    for k in ks:
-        row = []
-        t_k = _time.perf_counter()
-        for y0 in y0s:
-            tr = simulate_coupled(
-                params, k, form, periods, y0=y0, per_period=per_period, precision=P, engine=engine
-            )
-            row.append(classify(tr, tail_f, thr_f))
-        runs.append(row)
-        if progress:
-            ns = sum(r.synchronised for r in row)
-            ni = sum(r.intermittent for r in row)
-            say(
-                f"  sync {form} k={decimal_str(k)}: {ns}/{ensemble} synchronised, {ni} intermittent "
-                f"({_time.perf_counter() - t_k:.2f} s)",
-                progress,
-            )
+
+    def report(i: int, rows: list) -> None:  # one line per k, as each finishes
+        row, seconds = rows[0]
+        ns = sum(r.synchronised for r in row)
+        ni = sum(r.intermittent for r in row)
+        say(
+            f"  sync {form} k={decimal_str(ks[i])}: {ns}/{ensemble} synchronised, "
+            f"{ni} intermittent ({seconds:.2f} s)",
+            progress,
+        )
+
+    job = functools.partial(
+        _sync_rows, params, ks, form, periods, y0s, per_period, P, engine, tail_f, thr_f
+    )
+    run = run_scan(
+        job,
+        len(ks),
+        workers=workers,
+        progress=progress if callable(progress) else False,
+        on_tile=report if wanted(progress) else None,
+    )
+    runs: list[list[SyncRun]] = [row for tile in run.values for row, _ in tile]
     fs = np.array([np.mean([r.synchronised for r in row]) for row in runs])
     fi = np.array([np.mean([r.intermittent for r in row]) for row in runs])
     fb = np.array([np.mean([r.burst for r in row]) for row in runs])

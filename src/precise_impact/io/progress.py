@@ -1,11 +1,13 @@
 """Progress reporting: the one place long jobs talk to the user while they run.
 
 Everything goes to standard error, never to standard output (which stays clean for
-``--json`` and for piping).  Each job takes ``progress``:
+``--json`` and for piping).  Each job takes ``progress`` with one meaning
+(:data:`ProgressArg`, checked by :func:`check_progress`):
 
 * ``True``: report (asked for explicitly, e.g. by the command line);
 * ``False``: silent;
-* ``None``: report only when standard error is a terminal (silent in logs, pipes and CI).
+* ``None``: report only when standard error is a terminal (silent in logs, pipes and CI);
+* a callable ``progress(done, total)``: called at every update instead of printing.
 
 On a terminal :class:`Progress` redraws one line in place (``\\r``) at most every
 0.2 s; elsewhere it writes whole lines at most every 5 s, so a log stays short.  The
@@ -16,8 +18,16 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
+from typing import Any
 
-__all__ = ["say", "Progress", "wanted"]
+from precise_impact.errors import ParameterError
+
+__all__ = ["say", "Progress", "ProgressArg", "check_progress", "wanted"]
+
+#: What every ``progress=`` argument takes: a bool, ``None`` (only on a terminal) or a
+#: callable ``(done, total)``.
+ProgressArg = bool | None | Callable[[int, int], Any]
 
 #: Least seconds between two redraws on a terminal, and between two lines elsewhere.
 TTY_INTERVAL = 0.2
@@ -31,30 +41,46 @@ def _isatty() -> bool:
         return False
 
 
-def wanted(enabled: bool | None) -> bool:
-    """Whether to report: ``enabled`` itself, or for ``None`` whether stderr is a terminal.
+def check_progress(progress: Any, name: str = "progress") -> ProgressArg:
+    """``progress`` if it is a :data:`ProgressArg` (numpy bools as bool), else a
+    :class:`ParameterError` naming ``name``."""
+    if progress is None or callable(progress):
+        return progress
+    kind = type(progress)
+    if isinstance(progress, bool) or (
+        kind.__module__ == "numpy" and kind.__name__ in ("bool", "bool_")
+    ):
+        return bool(progress)
+    raise ParameterError(name, progress, "True, False, None or a callable(done, total)")
+
+
+def wanted(enabled: ProgressArg) -> bool:
+    """Whether to print on stderr: ``enabled`` itself, for ``None`` whether stderr is a
+    terminal, for a callable no (it is called instead).
 
     Parameters
     ----------
-    enabled : bool or None
-        ``True`` / ``False``, or ``None`` for "only on a terminal".
+    enabled : bool, None or callable
+        ``True`` / ``False``, ``None`` for "only on a terminal", or a callback.
 
     Returns
     -------
     bool
     """
-    return _isatty() if enabled is None else bool(enabled)
+    if enabled is None:
+        return _isatty()
+    return False if callable(enabled) else bool(enabled)
 
 
-def say(msg: str, enabled: bool | None = True) -> None:
+def say(msg: str, enabled: ProgressArg = True) -> None:
     """Print ``msg`` as one line on stderr.
 
     Parameters
     ----------
     msg : str
         The line (without newline).
-    enabled : bool or None, default ``True``
-        ``False`` prints nothing; ``None`` prints only when stderr is a terminal.
+    enabled : bool, None or callable, default ``True``
+        ``False`` or a callable prints nothing; ``None`` prints only when stderr is a terminal.
     """
     if wanted(enabled):
         print(msg, file=sys.stderr, flush=True)
@@ -69,8 +95,10 @@ class Progress:
         Number of items.
     label : str
         What is counted (printed before the count).
-    enabled : bool or None, default ``True``
-        ``False`` prints nothing; ``None`` reports only when stderr is a terminal.
+    enabled : bool, None or callable, default ``True``
+        ``False`` prints nothing; ``None`` reports only when stderr is a terminal; a
+        callable is called as ``enabled(done, total)`` at every :meth:`update` (no
+        throttling, nothing printed).
     interval : float or None, default ``None``
         Least seconds between two reports; ``None``: :data:`TTY_INTERVAL` on a terminal
         (one line redrawn in place), :data:`LINE_INTERVAL` elsewhere (one line each).
@@ -83,10 +111,11 @@ class Progress:
     """
 
     def __init__(
-        self, total: int, label: str, enabled: bool | None = True, interval: float | None = None
+        self, total: int, label: str, enabled: ProgressArg = True, interval: float | None = None
     ) -> None:
         self.total, self.label = int(total), label
-        self.enabled = wanted(enabled)
+        self.callback = enabled if callable(enabled) else None
+        self.enabled = self.callback is not None or wanted(enabled)
         self.tty = _isatty()
         self.interval = (
             (TTY_INTERVAL if self.tty else LINE_INTERVAL) if interval is None else float(interval)
@@ -102,7 +131,8 @@ class Progress:
         if self.tty:
             width = 30
             filled = int(width * done / self.total) if self.total > 0 else width
-            return f"  {self.label} [{'#' * filled}{'.' * (width - filled)}] {done}/{self.total}  {now - self.start:.1f} s{tail}"
+            bar = "#" * filled + "." * (width - filled)
+            return f"  {self.label} [{bar}] {done}/{self.total}  {now - self.start:.1f} s{tail}"
         return f"  {self.label}: {done}/{self.total} ({now - self.start:.1f} s){tail}"
 
     def _emit(self, done: int, extra: str, now: float, final: bool) -> None:
@@ -115,7 +145,7 @@ class Progress:
         self._last, self._shown, self._pending = now, done, None
 
     def update(self, done: int, extra: str = "") -> None:
-        """Report ``done`` items finished: shown if due, and always at the first call and at ``total``.
+        """Report ``done`` items finished: shown if due, always at the first call and at ``total``.
 
         Parameters
         ----------
@@ -126,6 +156,9 @@ class Progress:
         """
         if not self.enabled:
             return
+        if self.callback is not None:
+            self.callback(done, self.total)
+            return
         now = time.perf_counter()
         final = done >= self.total
         if final or now - self._last >= self.interval:
@@ -135,7 +168,7 @@ class Progress:
 
     def close(self) -> None:
         """Show the last count if it was throttled away, and end a line redrawn in place."""
-        if not self.enabled:
+        if not self.enabled or self.callback is not None:
             return
         if self._pending is not None:
             self._emit(*self._pending, time.perf_counter(), final=True)

@@ -1,8 +1,10 @@
-"""Result types of continuation: a branch, a located bifurcation, and the whole run."""
+"""Result types of continuation (a branch, a located bifurcation, the whole run) and the
+brute-force diagram drawn beneath them (simulated attractors through the scan runner)."""
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 from fractions import Fraction
@@ -11,8 +13,18 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.core.params import Params, decimal_str
+from precise_impact.analysis.scan import (
+    check_axis,
+    check_workers,
+    deprecated_keyword,
+    resolve_model,
+    run_scan,
+)
+from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ParameterError
+from precise_impact.io.progress import ProgressArg
+from precise_impact.solvers.base import make_solver
 
 __all__ = ["Branch", "Bifurcation", "ContinuationResult"]
 
@@ -283,7 +295,8 @@ class ContinuationResult(ResultMixin):
         ax2.set_xlabel(self.parameter)
         p = self.params
         fig.suptitle(
-            f"Continuation in {self.parameter} from {decimal_str(self.start)} to {decimal_str(self.stop)} "
+            f"Continuation in {self.parameter} from {decimal_str(self.start)} "
+            f"to {decimal_str(self.stop)} "
             f"(zeta={decimal_str(p.zeta)}, a={decimal_str(p.a)}, x_w={decimal_str(p.x_w)}, "
             f"R={decimal_str(p.R)}, eta={decimal_str(p.eta)})",
             fontsize=10,
@@ -291,7 +304,7 @@ class ContinuationResult(ResultMixin):
         return save_figure(fig, path, fmt="png", dpi=120)
 
     def save_all(self, out: str | os.PathLike, diagram: tuple | None = None) -> dict[str, Path]:
-        """``continuation.json`` and ``continuation.png`` (with the brute-force diagram beneath) in ``out``.
+        """Write ``continuation.json`` and ``continuation.png`` (over a diagram) in ``out``.
 
         Parameters
         ----------
@@ -323,46 +336,84 @@ def _runs(kind: np.ndarray):
 
 def brute_force_diagram(
     params: Params,
-    parameter: str,
-    start: float,
-    stop: float,
-    n: int = 200,
+    parameter: Any,
+    start: float | None = None,
+    stop: float | None = None,
+    n: int | None = None,
     periods: int = 64,
     transient: int = 1000,
+    *,
+    model: str | None = None,
+    engine: str | None = None,
+    workers: int | None = 1,
+    progress: ProgressArg = False,
 ) -> tuple:
-    """Stroboscopic ``x`` of the simulated attractor at ``n`` values of ``parameter``.
+    """Stroboscopic ``x`` of the simulated attractor at ``n`` values of a parameter.
 
     Parameters
     ----------
     params : Params
-        The system (``parameter`` replaced by each value; every run starts at its ``(x0, v0)``).
-    parameter : str
-        The varied parameter.
-    start, stop : float
-        Range (both included).
-    n : int, default 200
-        Values.
+        The system (the parameter replaced by each value; every run starts at its ``(x0, v0)``).
+    parameter : tuple ``(name, start, stop, n)``
+        The axis: the varied parameter, its range (both included; the values are
+        ``numpy.linspace`` of the ends in float64) and the number of values.  The
+        deprecated form ``(params, name, start, stop, n=200)`` still works with a
+        :class:`DeprecationWarning`.
     periods, transient : int, default 64, 1000
         Recorded and discarded periods per value.
+    model : str, default ``'fast'``
+        ``'fast'`` (the compiled closed form without its heyoka fallback) or
+        ``'heyoka'``; ``engine=`` is its deprecated spelling.
+    workers : int or None, default 1
+        Worker processes (``None``: every core).
+    progress : bool, None or callable, default ``False``
+        :data:`~precise_impact.io.progress.ProgressArg`.
 
     Returns
     -------
     tuple
-        ``(values, x)``: ``x`` of shape ``(n, periods)`` (NaN where the fast engine
-        handed over, chattering or sticking, and the value is skipped).
+        ``(values, x)``: ``x`` of shape ``(n, periods)`` (NaN where the run fails,
+        e.g. chattering or sticking without a fallback, and the value is skipped).
     """
-    from precise_impact.solvers.fast.single import FastSolver
+    if isinstance(parameter, str):
+        deprecated_keyword(
+            "(parameter, start, stop, n)",
+            "an axis tuple (name, start, stop, n)",
+            "brute_force_diagram",
+        )
+        name, lo, hi, count = parameter, start, stop, 200 if n is None else n
+    else:
+        for key, value in (("start", start), ("stop", stop), ("n", n)):
+            if value is not None:
+                raise ParameterError(key, value, "not given with an axis tuple")
+        name, lo, hi, count = check_axis(parameter, what="parameter")
+        lo, hi = float(exact(f"{name}_min", lo)), float(exact(f"{name}_max", hi))
+    model = resolve_model(model, engine, "brute_force_diagram")
+    count = check_count(count, "n", 1_000_000, minimum=1)
+    vals = np.linspace(lo, hi, count)
+    job = functools.partial(_diagram_tile, params, name, vals, periods, transient, model)
+    workers = check_workers(workers)
+    tile = max(1, count // (workers * 8))
+    run = run_scan(
+        job, count, tile, workers=workers, progress=progress, label="brute-force diagram"
+    )
+    return vals, np.concatenate(run.values)
 
-    vals = np.linspace(start, stop, n)
-    xs = np.full((n, periods), math.nan)
-    solver = FastSolver(fallback=False)
-    for i, lam in enumerate(vals):
-        q = params.replace(**{parameter: Fraction(float(lam))})
+
+def _diagram_tile(params, parameter, vals, periods, transient, model, lo, hi) -> np.ndarray:
+    """The runner's job: the diagram's rows ``lo .. hi - 1``."""
+    if model == "fast":
+        from precise_impact.solvers.fast.single import FastSolver
+
+        solver = FastSolver(fallback=False)
+    else:
+        solver = make_solver("heyoka")
+    xs = np.full((hi - lo, periods), math.nan)
+    for i in range(lo, hi):
+        q = params.replace(**{parameter: Fraction(float(vals[i]))})
         try:
             tr = solver.solve(q, transient + periods, per_period=1)
-        except (
-            Exception
-        ):  # chattering/sticking without the heyoka fallback: left out of the picture
+        except Exception:  # chattering/sticking without a fallback: left out of the picture
             continue
-        xs[i] = np.asarray(tr.x[-periods:], dtype=float)
-    return vals, xs
+        xs[i - lo] = np.asarray(tr.x[-periods:], dtype=float)
+    return xs

@@ -1,0 +1,494 @@
+"""One parameter-scan runner: a grid, a per-point job, an executor, tiles with resume, progress.
+
+The grid's flat points (row-major) are cut into *tiles* of consecutive points; a
+picklable ``job(lo, hi)`` computes the points ``lo .. hi - 1`` of one tile.  Tiles run
+in this process, in local worker processes or on a Dask cluster; with a store
+(:class:`NpzTileStore`) each finished tile is written atomically at once, so an
+interrupted scan (Ctrl-C, SIGTERM) keeps its finished tiles and a rerun computes only
+the others, bit for bit the same.  :func:`~precise_impact.analysis.sweep.run_sweep`,
+:func:`~precise_impact.analysis.bifurcation.bifurcation`,
+:func:`~precise_impact.analysis.orbits.branch.brute_force_diagram` and the k-grid of
+:func:`~precise_impact.analysis.sync.sync_scan` all run through :func:`run_scan`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+import os
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.core.params import check_count
+from precise_impact.core.precision import Precision
+from precise_impact.errors import OptionalDependencyError, ParameterError
+from precise_impact.io.atomic import atomic_write
+from precise_impact.io.progress import Progress, ProgressArg, check_progress
+from precise_impact.solvers.base import ENGINES
+
+__all__ = [
+    "EXECUTORS",
+    "Grid",
+    "NpzTileStore",
+    "PointJob",
+    "ScanRun",
+    "check_axis",
+    "check_workers",
+    "deprecated_keyword",
+    "resolve_model",
+    "run_scan",
+    "tile_bounds",
+]
+
+#: How the tiles run: in this process, in local worker processes, or on Dask.
+EXECUTORS = ("serial", "processes", "dask")
+
+
+# ------------------------------------------------------------------ vocabulary
+def deprecated_keyword(old: str, new: str, where: str, stacklevel: int = 3) -> None:
+    """Warn that keyword (or form) ``old`` of ``where`` is deprecated in favour of ``new``."""
+    warnings.warn(
+        f"{where}: {old} is deprecated and will be removed in the next release; use {new}",
+        DeprecationWarning,
+        stacklevel=stacklevel,
+    )
+
+
+def resolve_model(
+    model: Any,
+    engine: Any,
+    where: str,
+    default: str | None = "fast",
+    precision: Precision | None = None,
+) -> str | None:
+    """The engine a scan uses: ``model`` (``'fast'`` / ``'heyoka'``), or the deprecated
+    ``engine`` with a :class:`DeprecationWarning` naming ``model=``.
+
+    ``None`` for both gives ``default``.  A bad value raises a :class:`ParameterError`
+    naming the keyword it came in; with ``precision``, ``'fast'`` needs float64.
+    """
+    name = "model"
+    if engine is not None:
+        deprecated_keyword("engine=", "model=", where, stacklevel=4)
+        if model is not None and model != engine:
+            raise ParameterError("engine", engine, f"not given with model = {model!r}")
+        model, name = engine, "engine"
+    if model is None:
+        if default is None:
+            return None
+        model = default
+    if not isinstance(model, str) or model not in ENGINES:
+        raise ParameterError(name, model, "'fast' or 'heyoka'")
+    if model == "fast" and precision is not None and precision.kind != "float64":
+        raise ParameterError(
+            "precision",
+            precision.name,
+            f"'float64' for {name}='fast' ({name}='heyoka' for other precisions)",
+        )
+    return model
+
+
+def check_axis(axis: Any, name: str | None = None, what: str = "axis") -> tuple:
+    """``axis`` as a tuple ``(name, start, stop, n)``; ``name`` (if given) must match.
+
+    The values are validated where the grid is built (exact decimals, ranges).
+    """
+    if isinstance(axis, (str, bytes)) or not isinstance(axis, Sequence) or len(axis) != 4:
+        raise ParameterError(what, axis, "an axis tuple (name, start, stop, n)")
+    if not isinstance(axis[0], str) or (name is not None and axis[0] != name):
+        raise ParameterError(what, axis[0], f"the parameter {name!r}" if name else "a name")
+    return tuple(axis)
+
+
+# ------------------------------------------------------------------ the grid
+@dataclasses.dataclass(frozen=True)
+class Grid:
+    """A row-major grid: ``axes`` is a tuple of ``(name, values)``.
+
+    Attributes
+    ----------
+    axes : tuple of (str, tuple)
+        Each axis' name and its values (any type; exact Fractions for parameters).
+    """
+
+    axes: tuple
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(v) for _, v in self.axes)
+
+    @property
+    def size(self) -> int:
+        return math.prod(self.shape)
+
+    def index(self, k: int) -> tuple[int, ...]:
+        """The multi-index of flat point ``k``."""
+        return tuple(int(i) for i in np.unravel_index(k, self.shape))
+
+    def point(self, k: int) -> dict[str, Any]:
+        """``{name: value}`` of flat point ``k``."""
+        return {name: vals[i] for (name, vals), i in zip(self.axes, self.index(k), strict=True)}
+
+    def tiles(self, tile_size: int) -> list[tuple[int, int]]:
+        """``[(lo, hi), ...]``: the flat points of each tile of ``tile_size``."""
+        return tile_bounds(self.size, tile_size)
+
+
+@dataclasses.dataclass(frozen=True)
+class PointJob:
+    """A tile job from a per-point function: ``PointJob(fn, points)(lo, hi)`` is
+    ``[fn(p) for p in points[lo:hi]]`` (picklable when ``fn`` and the points are).
+
+    Attributes
+    ----------
+    fn : callable
+        The per-point computation (a module-level function).
+    points : sequence
+        Its argument at each flat point of the grid.
+    """
+
+    fn: Callable[[Any], Any]
+    points: Sequence
+
+    def __call__(self, lo: int, hi: int) -> list:
+        return [self.fn(p) for p in self.points[lo:hi]]
+
+
+def tile_bounds(n_points: int, tile_size: int) -> list[tuple[int, int]]:
+    """``[(lo, hi), ...]``: consecutive tiles of ``tile_size`` points (the last one shorter)."""
+    return [(lo, min(n_points, lo + tile_size)) for lo in range(0, n_points, tile_size)]
+
+
+# ------------------------------------------------------------------ the on-disk tiles
+class NpzTileStore:
+    """Finished tiles as ``DIRECTORY/tiles/tile_NNNNN.npz`` (the sweep's format).
+
+    Each file holds the tile's ``fields`` (one value per point), ``index`` (its flat
+    points), the scan's ``digest``, the tile number and a SHA-256 ``checksum`` over
+    them: a missing, damaged, foreign or misplaced file is never taken.
+
+    Parameters
+    ----------
+    directory : pathlib.Path
+        The scan's directory.
+    digest : str
+        The scan's identity (a hash of everything that determines its numbers).
+    fields : tuple of str
+        The arrays of a tile.
+    n_points, tile_size : int
+        The grid's size and the points per tile.
+    """
+
+    def __init__(
+        self, directory: Path, digest: str, fields: tuple, n_points: int, tile_size: int
+    ) -> None:
+        self.directory, self.digest, self.fields = Path(directory), digest, tuple(fields)
+        self.n_points, self.tile_size = n_points, tile_size
+        self.keys = self.fields + ("index",)
+
+    @property
+    def n_tiles(self) -> int:
+        return -(-self.n_points // self.tile_size)
+
+    def path(self, tile: int) -> Path:
+        return self.directory / "tiles" / f"tile_{tile:05d}.npz"
+
+    def checksum(self, tile: int, arrays: dict[str, np.ndarray]) -> str:
+        """SHA-256 over the tile's identity (digest, tile number) and every array's dtype,
+        shape and bytes: a tile copied onto another's path, or a flipped bit, fails it."""
+        h = hashlib.sha256(f"{self.digest}:{tile}".encode())
+        for key in self.keys:
+            a = np.ascontiguousarray(arrays[key])
+            h.update(f"{key}:{a.dtype.str}:{a.shape}".encode())
+            h.update(a.tobytes())
+        return h.hexdigest()
+
+    def write(self, tile: int, arrays: dict[str, np.ndarray]) -> None:
+        """Write one finished tile atomically."""
+        data = {k: np.asarray(arrays[k]) for k in self.keys}
+        data.update(
+            digest=np.asarray(self.digest),
+            tile=np.asarray(tile),
+            checksum=np.asarray(self.checksum(tile, data)),
+        )
+        atomic_write(self.path(tile), lambda fh: np.savez(fh, **data), binary=True)
+
+    def read(self, tile: int) -> tuple[dict | None, str | None]:
+        """``(arrays, None)`` for a verified tile; ``(None, why)`` for a missing, damaged
+        or foreign one (``why`` is ``None`` when the file is simply absent)."""
+        path = self.path(tile)
+        if not path.exists():
+            return None, None
+        try:
+            with np.load(path, allow_pickle=False) as d:
+                data = {k: d[k] for k in self.keys + ("digest", "tile", "checksum")}
+        except Exception as e:  # truncated, empty, not a zip, missing keys, bad header ...
+            return None, f"unreadable ({type(e).__name__})"
+        if str(data["digest"]) != self.digest:
+            return None, "belongs to another sweep"
+        lo = tile * self.tile_size
+        hi = min(self.n_points, lo + self.tile_size)
+        if (
+            data["tile"].shape != ()
+            or int(data["tile"]) != tile
+            or not np.array_equal(data["index"], np.arange(lo, hi))
+        ):
+            return None, "holds another tile's points"
+        if any(data[f].shape != (hi - lo,) for f in self.fields):
+            return None, "has arrays of the wrong length"
+        if str(data["checksum"]) != self.checksum(tile, data):
+            return None, "fails its checksum"
+        return {k: data[k] for k in self.keys}, None
+
+    def finished(self, say: Callable[[str], None]) -> set[int]:
+        """The tiles that verify; every damaged or foreign tile is named (it is recomputed)."""
+        done = set()
+        for t in range(self.n_tiles):
+            arrays, why = self.read(t)
+            if arrays is not None:
+                done.add(t)
+            elif why is not None:
+                say(f"sweep: {self.path(t)} {why}: recomputing it")
+        return done
+
+
+# ------------------------------------------------------------------ the runner
+@dataclasses.dataclass
+class ScanRun:
+    """What :func:`run_scan` did.
+
+    Attributes
+    ----------
+    values : list
+        Per tile: the job's result computed by this call (``None`` for a tile reused
+        from the store, not run, or written to a store: read those from the store).
+    tiles_total, tiles_reused, tiles_computed : int
+        Tiles of the grid; found finished in the store; computed by this call.
+    elapsed_s : float
+        Wall time of the computation.
+    workers : int
+        Worker processes (Dask: the cluster's workers; serial: the workers asked for).
+    backend : str
+        The executor that ran: one of :data:`EXECUTORS`.
+    """
+
+    values: list
+    tiles_total: int
+    tiles_reused: int
+    tiles_computed: int
+    elapsed_s: float
+    workers: int
+    backend: str
+
+
+def check_workers(workers: Any) -> int:
+    """``workers`` worker processes (``None``: ``os.cpu_count()``), checked in 1 .. 1024."""
+    n = workers if workers is not None else (os.cpu_count() or 1)
+    n = check_count(n, "workers", 1024)
+    if n < 1:
+        raise ParameterError("workers", n, "an integer >= 1")
+    return n
+
+
+def run_scan(
+    job: Callable[[int, int], Any],
+    n_points: int,
+    tile_size: int = 1,
+    *,
+    executor: str | None = None,
+    workers: int | None = 1,
+    dask: str | None = None,
+    store: NpzTileStore | None = None,
+    max_tiles: int | None = None,
+    progress: ProgressArg = None,
+    label: str = "scan",
+    unit: str = "points",
+    say: Callable[[str], None] | None = None,
+    on_tile: Callable[[int, Any], None] | None = None,
+) -> ScanRun:
+    """Run ``job(lo, hi)`` on every unfinished tile of a grid of ``n_points``.
+
+    Parameters
+    ----------
+    job : callable ``(lo, hi) -> value``
+        Computes the flat points ``lo .. hi - 1`` (picklable for processes and Dask:
+        a module-level function, a ``functools.partial`` of one, or a dataclass).
+    n_points : int
+        Points of the grid (row-major, :class:`Grid`).
+    tile_size : int, default 1
+        Points per tile: the unit of work, of checkpoint (with ``store``) and of resume.
+    executor : None or one of :data:`EXECUTORS`, default ``None``
+        ``None`` picks: Dask with ``dask``, else processes when ``workers > 1`` and more
+        than one tile is left, else serial.  ``'processes'`` uses a pool even for one
+        worker; ``'dask'`` without ``dask`` is a local cluster.
+    workers : int or None, default 1
+        Local worker processes (``None``: ``os.cpu_count()``); 1, or at most one tile
+        to run, runs in this process.  With ``dask='local'``: the cluster's workers.
+    dask : None, ``'local'`` or ``'tcp://HOST:PORT'``
+        Run the tiles on a Dask ``LocalCluster`` (single-threaded worker processes) or
+        on the scheduler at that address (``pip install 'precise_impact[dask]'``).
+    store : NpzTileStore or None, default ``None``
+        Write each finished tile there at once and skip the tiles it already holds
+        (``values`` then stays ``None``: read the tiles from the store).
+    max_tiles : int or None, default ``None``
+        Compute at most this many unfinished tiles (a partial run).
+    progress : bool, None or callable, default ``None``
+        :data:`~precise_impact.io.progress.ProgressArg`: a throttled line on stderr
+        (``None``: only on a terminal) or ``progress(done, total)`` per finished tile.
+    label : str, default ``'scan'``
+        What the progress line names.
+    unit : ``'points'`` or ``'tiles'``, default ``'points'``
+        What the progress counts (tiles also show the rate in points per second).
+    say : callable or None
+        Where a damaged tile of the store is named (default: a line on stderr).
+    on_tile : callable or None
+        Called as ``on_tile(tile, value)`` in this process as each tile finishes (in
+        completion order; e.g. a per-tile report).
+
+    Returns
+    -------
+    ScanRun
+        The values of the computed tiles and the run's figures.
+
+    Raises
+    ------
+    ParameterError
+        Bad ``workers``, ``dask``, ``tile_size`` or ``progress``, before any work.
+    OptionalDependencyError
+        ``dask`` is asked for and Dask is not installed.
+    KeyboardInterrupt
+        Ctrl-C (or SIGTERM through the CLI): the pending tiles are cancelled, every tile
+        finished before is kept (written to ``store``), then the interrupt propagates.
+    """
+    from precise_impact.io.progress import say as _say
+
+    progress = check_progress(progress)
+    tile_size = check_count(tile_size, "tile_size", 10**9, minimum=1)
+    if unit not in ("points", "tiles"):
+        raise ParameterError("unit", unit, "'points' or 'tiles'")
+    if executor is not None and executor not in EXECUTORS:
+        raise ParameterError("executor", executor, "one of " + ", ".join(EXECUTORS))
+    if executor == "dask" and dask is None:
+        dask = "local"
+    if executor in ("serial", "processes") and dask is not None:
+        raise ParameterError("dask", dask, f"not given with executor = {executor!r}")
+    if dask is not None and not (
+        isinstance(dask, str) and (dask == "local" or dask.startswith("tcp://"))
+    ):
+        raise ParameterError("dask", dask, "'local' or a scheduler address tcp://HOST:PORT")
+    bounds = tile_bounds(n_points, tile_size)
+    done = store.finished(say or _say) if store is not None else set()
+    todo = [t for t in range(len(bounds)) if t not in done]
+    if max_tiles is not None:
+        todo = todo[: check_count(max_tiles, "max_tiles", 10**9)]
+    values: list[Any] = [None] * len(bounds)
+    start = time.perf_counter()
+    count = {"tiles": 0, "points": sum(hi - lo for t, (lo, hi) in enumerate(bounds) if t in done)}
+    total = len(bounds) if unit == "tiles" else n_points
+    bar = Progress(total, label, progress)
+
+    def finished(t: int, value: Any) -> None:
+        if store is not None:
+            store.write(t, value)
+        else:
+            values[t] = value
+        if on_tile is not None:
+            on_tile(t, value)
+        count["tiles"] += 1
+        count["points"] += bounds[t][1] - bounds[t][0]
+        if unit == "tiles":
+            rate = count["tiles"] * tile_size / max(time.perf_counter() - start, 1e-9)
+            bar.update(len(done) + count["tiles"], f"~{rate:.1f} points/s")
+        else:
+            bar.update(count["points"])
+
+    if dask is not None:
+        n_workers, backend = _run_dask(job, bounds, todo, dask, finished, workers), "dask"
+    else:
+        n_workers = check_workers(workers)
+        if executor == "serial" or (executor is None and (n_workers == 1 or len(todo) <= 1)):
+            backend = "serial"
+            for t in todo:
+                finished(t, job(*bounds[t]))
+        else:
+            backend = "processes"
+            _run_processes(job, bounds, todo, n_workers, finished)
+    bar.close()
+    return ScanRun(
+        values=values,
+        tiles_total=len(bounds),
+        tiles_reused=len(done),
+        tiles_computed=count["tiles"],
+        elapsed_s=time.perf_counter() - start,
+        workers=n_workers,
+        backend=backend,
+    )
+
+
+def _run_processes(job, bounds, todo, n_workers, finished) -> None:
+    """Tiles on a local process pool; on an interrupt the pending ones are cancelled and
+    every one finished by then is handed to ``finished`` before the interrupt goes on."""
+    ex = ProcessPoolExecutor(max_workers=n_workers)
+    futs: dict[Future, int] = {}
+    handled: set[int] = set()
+    try:
+        futs = {ex.submit(job, *bounds[t]): t for t in todo}
+        for f in as_completed(futs):
+            finished(futs[f], f.result())
+            handled.add(futs[f])
+    except BaseException:
+        ex.shutdown(wait=True, cancel_futures=True)
+        for f, t in futs.items():  # keep what finished while the pool wound down
+            if t not in handled and f.done() and not f.cancelled() and f.exception() is None:
+                finished(t, f.result())
+        raise
+    ex.shutdown(wait=True)
+
+
+def _run_dask(job, bounds, todo, dask: str, finished, workers) -> int:
+    """Tiles on a Dask cluster (``'local'``: a ``LocalCluster`` of ``workers``
+    single-threaded processes); returns the cluster's worker count."""
+    try:
+        from dask.distributed import Client, LocalCluster
+        from dask.distributed import as_completed as dask_as_completed
+    except ImportError:
+        raise OptionalDependencyError(
+            "dask", "pip install 'precise_impact[dask]'", "--dask"
+        ) from None
+    if dask == "local":
+        n = check_workers(workers)
+        cluster = LocalCluster(
+            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None
+        )
+        client = Client(cluster)
+    else:
+        cluster = None
+        try:
+            client = Client(dask, timeout=10)
+        except (OSError, TimeoutError) as e:
+            raise ParameterError(
+                "scheduler",
+                dask,
+                f"a reachable Dask scheduler (none answered within 10 s: {type(e).__name__})",
+            ) from None
+    try:
+        n_workers = len(client.scheduler_info()["workers"])
+        los = [bounds[t][0] for t in todo]
+        his = [bounds[t][1] for t in todo]
+        futs = client.map(job, los, his, pure=False)
+        tile_of = {f.key: t for f, t in zip(futs, todo, strict=True)}
+        for f in dask_as_completed(futs):
+            finished(tile_of[f.key], f.result())
+            f.release()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return n_workers
