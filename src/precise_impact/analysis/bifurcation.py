@@ -1,8 +1,7 @@
 """Bifurcation diagram over eta with the largest Lyapunov exponent beneath.
 
-Each eta value is one variational run (:func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`)
-that yields both the stroboscopic points and the LLE; the values are spread over
-worker processes (each compiles its integrator once), with a progress bar on stderr.
+One variational run per eta value gives both the stroboscopic points and the LLE; the values
+are spread over worker processes.
 """
 
 from __future__ import annotations
