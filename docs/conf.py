@@ -48,3 +48,14 @@ exclude_patterns = ["_build"]
 html_theme = "alabaster"
 html_static_path: list[str] = []
 nitpicky = False
+
+
+def _skip_undocumented_slots(app, what, name, obj, skip, options):
+    # ``__slots__`` entries (tuples here, no docstrings of their own) are not API.
+    if repr(obj) in ("SLOTS_ATTR", "SLOTSATTR") or type(obj).__name__ == "member_descriptor":
+        return True
+    return None
+
+
+def setup(app):
+    app.connect("autodoc-skip-member", _skip_undocumented_slots)

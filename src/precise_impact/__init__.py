@@ -2,25 +2,9 @@
 
     x'' + 2 zeta x' + x = a cos(eta t)  for x < x_w,    x'(t+) = -R x'(t-)  at x = x_w
 
-and its electronic equivalent (Denysenko, Balcerzak & Dabrowski).  Reference
-trajectories whose accuracy is demonstrated, every model's distance from them,
-Lyapunov exponents, synchronisation, bifurcation diagrams, sweeps and what
-accuracy costs in time.
-
-The package is layered; each layer imports only the ones before it:
-
-* :mod:`precise_impact.errors`, :mod:`precise_impact.io` — error types; atomic writes, figures, progress.
-* :mod:`precise_impact.core` — exact parameters, precisions, the flow, the impact map, results.
-* :mod:`precise_impact.solvers` — the Solver protocol and model registry, heyoka, closed form.
-* :mod:`precise_impact.models` — coupled oscillators, the circuit models, ngspice.
-* :mod:`precise_impact.analysis` — Lyapunov exponents, periods, sync, bifurcation, sweeps.
-* :mod:`precise_impact.scenes` — TOML scenes.
-* :mod:`precise_impact.verification` — metrics, accuracy, scores, compare, reference datasets,
-  work-precision, the main job.
-* :mod:`precise_impact.testing` — accuracy regression tests for other people's solvers.
-* :mod:`precise_impact.cli` — the ``precise-impact`` command.
-
-The names below are the public API; everything else may change between releases.
+and its electronic equivalent (Denysenko, Balcerzak & Dabrowski): references with demonstrated
+or proven accuracy, Lyapunov exponents, periodic orbits, model scores and their cost.  The
+names below are the public API; the layering is described in ``docs/design.rst``.
 """
 
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation

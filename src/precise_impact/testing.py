@@ -4,20 +4,10 @@ Example::
 
     from precise_impact.testing import assert_stroboscopic_close
 
-    def my_solver(params, periods):
-        # params: {"zeta": "0.05", "a": "1", "eta": "0.74", "x_w": "2", "R": "1",
-        #          "x0": "0", "v0": "0", "t0": "0"} (exact decimal strings)
-        # return x, v at t0 + k 2 pi / eta, k = 0..periods (periods + 1 values each)
-        ...
-
-    def test_my_solver():
+    def test_my_solver():   # my_solver(params, periods) -> x, v at t0 + k 2 pi / eta
         assert_stroboscopic_close(my_solver, "single-0.74", periods=30, atol=1e-6, rtol=1e-6)
 
-Errors are scipy-style: ``|y - y_ref| / (atol + rtol |y_ref|)`` for ``y`` in ``x``
-and ``v`` at every stroboscopic sample, computed exactly (mpmath); the check passes
-when every error is ``<= 1``.  The stored reference is a multiprecision run whose
-accuracy is demonstrated by a second run at +64 bits (see each case's
-``manifest.json``), far below any tolerance a float64 or float128 solver can meet.
+Errors are scipy-style, ``|y - y_ref| / (atol + rtol |y_ref|) <= 1``, computed exactly.
 """
 
 from __future__ import annotations

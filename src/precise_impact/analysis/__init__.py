@@ -1,11 +1,4 @@
-"""What the trajectories mean: Lyapunov exponents, periods, synchronisation, bifurcation, sweeps.
-
-* :mod:`~precise_impact.analysis.lyapunov` — variational (saltation) and two-trajectory LLE.
-* :mod:`~precise_impact.analysis.periodicity` — period detection of stroboscopic sequences.
-* :mod:`~precise_impact.analysis.sync` — master-slave synchronisation threshold, Fig. 7.
-* :mod:`~precise_impact.analysis.bifurcation` — diagram with the LLE over eta.
-* :mod:`~precise_impact.analysis.sweep` — tiled, resumable parameter sweeps (processes or Dask).
-"""
+"""What the trajectories mean: Lyapunov exponents, periods, orbits, synchronisation, scans."""
 
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
 from precise_impact.analysis.lyapunov import (

@@ -1,8 +1,8 @@
 """Bifurcation diagram over eta with the largest Lyapunov exponent beneath.
 
-Each eta value is one run of the fast engine (or one heyoka variational run) that yields
-both the stroboscopic points and the LLE; the values go through the scan runner
-(:func:`~precise_impact.analysis.scan.run_scan`: worker processes, progress on stderr).
+One run per eta value (the fast engine, or a heyoka variational run) gives both the
+stroboscopic points and the LLE; the values go through the scan runner
+(:func:`~precise_impact.analysis.scan.run_scan`).
 """
 
 from __future__ import annotations

@@ -1,8 +1,4 @@
-"""Periods of stroboscopic sequences: the one home of period detection.
-
-Used by the batch Lyapunov code (each sweep point's period), by the scores (a
-model's detected period against the reference's) and by the reports.
-"""
+"""Periods of stroboscopic sequences: the one home of period detection."""
 
 from __future__ import annotations
 

@@ -1,13 +1,8 @@
 """Parameter sweeps at scale: LLE, period and impact rate on a 1-D or 2-D grid.
 
-The grid is cut into *tiles* of consecutive points (row-major order); each tile is
-computed by :func:`compute_tile` (the fast engine's batch or heyoka's SIMD batch
-variational integration) through the scan runner
-(:func:`~precise_impact.analysis.scan.run_scan`: processes or Dask) and written atomically
-to ``OUT/tiles/tile_NNNNN.npz`` as soon as it is done.  A rerun with the same
-specification skips finished tiles, so an interrupted sweep resumes where it stopped and
-yields the same numbers bit for bit.  The assembled table is written as ``sweep.npz`` and
-``sweep.csv`` with heat maps (2-D) or curves (1-D).
+The grid is cut into tiles computed through the scan runner
+(:func:`~precise_impact.analysis.scan.run_scan`: processes or Dask) and written atomically, so
+an interrupted sweep resumes and gives the same numbers bit for bit.
 """
 
 from __future__ import annotations

@@ -1,25 +1,8 @@
 """Complete synchronisation of master-slave impact oscillators and its coupling threshold.
 
-For diagonal coupling (eq. 10, ``D = I``) the transverse perturbation ``e = y - x``
-of the first-order system (12) obeys, between impacts, ``e' = (A - k I) e`` with
-``A`` the oscillator's own (linear) flow, and at impacts the same saltation
-matrices as the master: every exponent of ``e`` is the master's shifted by
-``-k``.  The synchronous state is therefore linearly stable iff
-``k > lambda_max`` (Pikovsky, Rosenblum & Kurths, *Synchronization*, 2001,
-sec. 13.1; Fujisaka & Yamada, Prog. Theor. Phys. 69 (1983) 32) -- the
-criterion ``k1 + k2 > LLE`` the paper uses to read the LLE off Fig. 7
-(``k = 0.031`` not synchronised, ``0.032`` synchronised, ``LLE ~ 0.03``).  For the
-printed eq. (14a) the coupling is not ``k I`` in the first-order variables, so its
-threshold need not equal the LLE.
-
-:func:`sync_scan` measures the fraction of synchronised runs against ``k``;
-near the threshold the finite-time transverse exponent fluctuates about
-``lambda_max - k`` and ``|x - y|`` shows on-off intermittency (Platt, Spiegel &
-Tresser, Phys. Rev. Lett. 70 (1993) 279; Heagy, Platt & Hammel, Phys. Rev. E 49
-(1994) 1140), which the scan records.  Note the finite-time bias: from an
-``O(1)`` start a run of length ``T_run`` reaches ``threshold`` only if
-``k - lambda_max >~ ln(1/threshold) / T_run`` (``~0.004`` for 500 periods and
-``1e-8``), so the half-crossing ``k*`` lies a little *above* ``lambda_max``.
+For diagonal coupling the synchronous state is stable iff ``k > lambda_max`` (Pikovsky,
+Rosenblum & Kurths, *Synchronization*, 2001, sec. 13.1); :func:`sync_scan` measures the
+synchronised fraction against ``k`` and records on-off intermittency (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

@@ -1,8 +1,4 @@
-"""``precise-impact bench work-precision [--quick] [--out DIR] [--json]``.
-
-``add_parser(sub)`` adds the ``bench`` subcommand to the main parser's
-subparsers; ``run(ns)`` executes it and returns the exit status.
-"""
+"""``precise-impact bench work-precision [--quick] [--out DIR] [--json]``."""
 
 from __future__ import annotations
 

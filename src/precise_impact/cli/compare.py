@@ -1,10 +1,4 @@
-"""``precise-impact compare SCENE --models m1,m2 [--periods N] [--json] [--out DIR]``.
-
-``add_parser(sub)`` adds the subcommand to an argparse sub-parser collection;
-``run(ns)`` runs it and returns the exit status.  Bad input raises
-:class:`~precise_impact.errors.ParameterError` (naming ``models``, ``periods``,
-``scene``) before any work.
-"""
+"""``precise-impact compare SCENE --models m1,m2 [--periods N] [--json] [--out DIR]``."""
 
 from __future__ import annotations
 

@@ -1,9 +1,4 @@
-"""``precise-impact reference generate|verify``: the reference datasets from the command line.
-
-``add_parser(sub)`` adds the ``reference`` command to an argparse sub-parser set;
-``run(ns)`` executes it and returns the exit status (0 ok; 1 verification found a
-problem; 2 bad input); :func:`precise_impact.cli.main.main` dispatches to it.
-"""
+"""``precise-impact reference generate|verify``: the reference datasets from the command line."""
 
 from __future__ import annotations
 

@@ -1,19 +1,7 @@
 """What a run will cost, estimated before any work, and the budgets it is checked against.
 
-One home for the cost model of the heyoka reference (the most expensive solver) and for
-the refusal a too-large request gets.  The per-period and per-sample costs below were
-measured on the development machine (2 cores, heyoka 7.13, eta = 0.712, chaotic, with
-impacts: ``benchmarks/results/cost_model.md``) and are deliberately rounded *up*; an
-estimate is right to within a factor of about 2-3 on comparable hardware, which is all a
-budget needs: it tells a request of minutes from one of days before the first step.
-
-* time per forcing period: float64 1e-5 s, longdouble 6e-5 s, float128 6e-4 s,
-  ``mp:B`` 1.2e-3 s x (B / 128)^2.7 (Taylor order and step count grow ~ B, each mp
-  operation ~ B^0.7-1 at these sizes; measured 1.2 ms at 128 bits, 8.2 ms at 320,
-  246 ms at 1024);
-* time per output sample: 1e-6 s float64, 1.2e-5 s longdouble, 2e-5 s float128 and mp;
-* memory per output sample (t, x, v as Python lists while the run is assembled, then
-  arrays): 200 bytes in the fixed-size types, ``3 (120 + B / 8)`` bytes in ``mp:B`` (mpmath objects).
+A too-large request is refused before the first step.  The cost model (measured, rounded up) is
+in ``benchmarks/results/cost_model.md`` and ``docs/numerics.rst``.
 """
 
 from __future__ import annotations

@@ -1,22 +1,8 @@
 """The forcing clock: sample times and the local (periodic) clock, each rounded once.
 
-The forcing ``a cos(eta t)`` has period ``T = 2 pi / eta``.  Every time the package
-puts on that clock is computed from exact rationals (``t0``, ``eta``) and ``pi`` in
-mpmath with guard bits and rounded *once* to the working precision, so that no
-``k eps`` drift accumulates over many periods:
-
-* :func:`sample_times` - the stroboscopic/dense output times ``t0 + j T / n``;
-* :func:`local_clock` - one forcing period ``[L0, L1]`` with ``L0 = fl(t0 mod T)``,
-  on which the Lyapunov integrations run every period, setting the clock back to
-  ``L0`` after each one (``|t|`` never grows, so neither does the rounding error of
-  ``cos(eta t)``);
-* :func:`local_grid` - several periods of that clock, for integrations that set it
-  back after a few periods rather than after every one;
-* :func:`period_float` - ``T`` as a Python float (per-period bookkeeping).
-
-Written once here; :meth:`Precision.sample_times
-<precise_impact.core.precision.Precision.sample_times>` is this module's
-:func:`sample_times`.
+Times are computed from exact rationals and ``pi`` with guard bits and rounded once to the
+working precision, so no ``k eps`` drift accumulates; the local clock keeps ``|t|`` small in
+long Lyapunov runs.
 """
 
 from __future__ import annotations

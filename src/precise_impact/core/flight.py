@@ -1,12 +1,8 @@
 """The closed-form flight between impacts, written once for every arithmetic.
 
-Between impacts ``x'' + 2 zeta x' + x = a cos(eta t)`` is linear: the motion is the steady
-state ``x_p = P cos(eta t) + Q sin(eta t)`` plus a damped homogeneous part carried by the
-flow matrix ``Phi(tau)`` of ``y'' + 2 alpha y' + c0 y = 0`` (also the tangent flow).  Every
-engine evaluates these formulas through an *ops* namespace (``exp, sqrt, cos_sin, num``):
-:data:`FLOAT` (math), :class:`MpmathOps`, :data:`NUMPY` and :data:`ARB` (python-flint balls);
-the numba copies in :mod:`precise_impact.solvers.fast` are pinned to these by tests.
-Reference: the paper's eq. (2a); the derivation is in ``docs/numerics.rst``.
+Steady state ``x_p = P cos(eta t) + Q sin(eta t)`` plus the damped flow ``Phi(tau)``, evaluated
+through an ops namespace (:data:`FLOAT`, :class:`MpmathOps`, :data:`NUMPY`, :data:`ARB`); the
+numba copies are pinned to it by tests.  Reference: the paper's eq. (2a); ``docs/numerics.rst``.
 """
 
 from __future__ import annotations

@@ -1,22 +1,8 @@
 """The impact: eq. (2b) and its saltation matrix, written once for every model and precision.
 
-At ``x = x_w`` with ``v > 0`` the velocity is reset, ``v+ = -R v-`` (the position is
-kept).  The reset is discontinuous, so a perturbation of the state just before the
-impact is *not* mapped by the Jacobian of the reset alone: the perturbed orbit hits
-the wall at a slightly different time.  The saltation matrix (Aizerman & Gantmakher
-1958; Müller 1995; di Bernardo et al., *Piecewise-smooth Dynamical Systems*, 2008,
-sec. 2.5) accounts for that:
-
-``S = Dg + (f+ - Dg f-) n^T / (n^T f-)``
-
-with ``g`` the reset map, ``Dg`` its Jacobian, ``f-``/``f+`` the vector fields just
-before/after, and ``n`` the gradient of the event function ``h = x - x_w``.  For the
-oscillator ``n = (1, 0)``, ``Dg = diag(1, -R)``, ``f = (v, acc)`` and
-
-``S = [[-R, 0], [(acc+ + R acc-) / v-, -R]]``,  ``det S = R^2``.
-
-(For the smooth flow (2a) ``acc+ + R acc- = (1 + R)(a cos(eta t) - x_w)``.)  Note the
-``1/v-``: near grazing (``v- -> 0``) the saltation matrix blows up.
+``v+ = -R v-`` at ``x = x_w``; the saltation matrix ``[[-R, 0], [(acc+ + R acc-) / v-, -R]]``
+maps perturbations across it (di Bernardo et al., *Piecewise-smooth Dynamical Systems*, 2008,
+sec. 2.5).
 """
 
 from __future__ import annotations

@@ -1,8 +1,6 @@
 """The one QR of the tangent space: modified Gram-Schmidt on the 2x2 tangent matrix.
 
-Used by every Lyapunov computation (the variational renormalisation each period, the
-in-callback QR after each saltation, and the SIMD batch lanes), so the three give the
-same bits for the same numbers.
+Shared by every Lyapunov computation, so they give the same bits for the same numbers.
 """
 
 from __future__ import annotations

@@ -1,11 +1,7 @@
 """System parameters as exact rationals, written once for every model and precision.
 
-The paper's parameters are decimal numbers (``eta = 0.712``).  ``0.712`` rounded to
-float64 is a *different* dynamical system, and in the chaotic regime the difference
-is amplified by about 0.12 decimal digits per forcing period.  Every parameter is
-therefore stored as an exact :class:`fractions.Fraction` built from its decimal
-string and is rounded *once*, correctly, into each working precision
-(:meth:`precise_impact.Precision.from_fraction`).
+``0.712`` rounded to float64 is a different system (chaos amplifies the difference), so each
+parameter is a :class:`fractions.Fraction` rounded once, correctly, into each precision.
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
 """Floating-point precisions: float64, longdouble, float128 and heyoka ``real`` (MPFR).
 
-A :class:`Precision` converts exact rationals into its number type with a single
-correct rounding (through :func:`mpmath.libmp.from_rational`, never through
-float64), converts its numbers back to exact :mod:`mpmath` values, and prints them
-with enough significant digits to round-trip.
+A :class:`Precision` rounds exact rationals once into its number type, converts back to exact
+:mod:`mpmath` values and prints round-trip digits.
 """
 
 from __future__ import annotations

@@ -1,16 +1,4 @@
-"""One base for result types: ``to_dict()`` (JSON-ready) and ``save(path)`` (atomic).
-
-Every public function returns a dataclass that mixes in :class:`ResultMixin`:
-:class:`~precise_impact.Trajectory`, :class:`~precise_impact.LyapunovResult`, the
-sync, bifurcation, sweep, accuracy and compare results.  ``to_dict()`` turns a result
-into plain JSON types (exact parameters as decimal strings, numbers of the float
-precisions as floats, numbers of the other precisions as round-trip decimal strings,
-arrays as lists); ``save(path)`` writes that dictionary as JSON, or the arrays as
-``.npz``, atomically.
-
-Results that replaced the plain dictionaries of 0.1.0 also accept ``result["key"]``
-for one release (the same value as ``result.key``).
-"""
+"""One base for result types: ``to_dict()`` (JSON-ready) and ``save(path)`` (atomic)."""
 
 from __future__ import annotations
 

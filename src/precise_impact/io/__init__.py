@@ -1,4 +1,4 @@
-"""Generic input/output: atomic writes, one writer per directory, figures without pyplot, progress on stderr.
+"""Generic input/output: atomic writes, one writer per directory, figures, progress.
 
 Imports nothing from the package but :mod:`precise_impact.errors`, so every layer may use it.
 """

@@ -1,10 +1,6 @@
 """Atomic file writes: a reader never sees a half-written file.
 
-Every file the package writes (trajectories, reports, plots, reference datasets,
-sweep tiles) goes through :func:`atomic_write`: the content is written to a
-temporary file in the target directory, flushed and fsync'ed, given the mode an
-ordinary ``open()`` would give (``0o666`` less the umask, not ``mkstemp``'s
-``0o600``), then renamed over the target in one step.
+Temporary file in the target directory, fsync, the umask's mode, one rename.
 """
 
 from __future__ import annotations

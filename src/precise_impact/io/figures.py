@@ -1,9 +1,6 @@
 """Figures without pyplot: the one place the package makes and saves plots.
 
-Figures are :class:`matplotlib.figure.Figure` objects with their own Agg canvas.
-Nothing here touches pyplot's global state or calls ``matplotlib.use``, so making
-or saving a plot never changes the backend of the user's session (a notebook keeps
-its inline backend, a GUI session its windows).
+Agg canvases only, so a plot never changes the backend of the user's session.
 """
 
 from __future__ import annotations

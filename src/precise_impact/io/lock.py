@@ -1,15 +1,6 @@
 """One writer per output directory: an advisory lock file that cannot go stale.
 
-:class:`DirectoryLock` holds an exclusive ``flock`` on ``DIR/.precise_impact.lock``.  The
-kernel releases the lock when the holder exits, however it exits (``kill -9``, a crash,
-a lost SSH session), so a lock file left behind by a dead process is *stale by
-construction*: the next writer simply acquires it, and says so.  A live holder makes
-the next writer fail at once with one line naming the directory and the holder (its
-PID, host and start time, written into the file for that message), before any work.
-
-On a system without ``fcntl`` (Windows) the lock falls back to an exclusively created
-file with the holder's PID; a file whose PID no longer runs on this host is taken over
-as stale.
+An exclusive ``flock`` the kernel releases when the holder dies; a live holder is named.
 """
 
 from __future__ import annotations

@@ -1,17 +1,7 @@
-"""Progress reporting: the one place long jobs talk to the user while they run.
+"""Progress reporting on standard error: the one place long jobs talk while they run.
 
-Everything goes to standard error, never to standard output (which stays clean for
-``--json`` and for piping).  Each job takes ``progress`` with one meaning
-(:data:`ProgressArg`, checked by :func:`check_progress`):
-
-* ``True``: report (asked for explicitly, e.g. by the command line);
-* ``False``: silent;
-* ``None``: report only when standard error is a terminal (silent in logs, pipes and CI);
-* a callable ``progress(done, total)``: called at every update instead of printing.
-
-On a terminal :class:`Progress` redraws one line in place (``\\r``) at most every
-0.2 s; elsewhere it writes whole lines at most every 5 s, so a log stays short.  The
-first and the last count are always shown.  :func:`say` prints one line.
+``progress=True`` reports, ``False`` is silent, ``None`` reports only on a terminal, a callable
+``progress(done, total)`` is called instead of printing (:data:`ProgressArg`); always on stderr.
 """
 
 from __future__ import annotations

@@ -1,14 +1,7 @@
-"""Models of the oscillator beyond the single mechanical one: coupled forms and circuits.
+"""Models beyond the single mechanical oscillator: the paper's circuits.
 
-* :mod:`precise_impact.solvers.heyoka.coupled` — master-slave coupled oscillators (three forms);
-  :mod:`precise_impact.solvers.certified.coupled` — the pair certified (ball arithmetic).
-* :mod:`precise_impact.models.circuit` — the paper's electronic equivalent: component
-  values, the op-amp network with effects, the switched-capacitor impact circuit, the
-  coupled circuit and the ngspice netlist.
-
-Importing this package registers the circuit models with the model registry of
-:mod:`precise_impact.solvers.base` (``circuit``, ``switched-capacitor``, ``spice``), so
-:func:`~precise_impact.simulate` and :func:`~precise_impact.make_solver` reach them by name.
+Importing this package registers ``circuit``, ``switched-capacitor`` and ``spice`` with the
+model registry of :mod:`precise_impact.solvers.base`.
 """
 
 from __future__ import annotations

@@ -1,10 +1,4 @@
-"""Scenes: TOML descriptions of one simulation (system, model, effects, parameters, precision, duration).
-
-* :mod:`~precise_impact.scenes.scene` — :class:`Scene`, :func:`load_scene`, :func:`builtin_scenes`.
-* :mod:`~precise_impact.scenes.run` — :func:`run_scene` on the scene's model or another one.
-
-The built-in scenes are the ``*.toml`` files of this package.
-"""
+"""Scenes: TOML descriptions of one simulation; the built-in ones are this package's ``*.toml``."""
 
 from precise_impact.scenes.run import run_scene
 from precise_impact.scenes.scene import Scene, builtin_scenes, load_scene

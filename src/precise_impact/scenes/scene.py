@@ -1,32 +1,7 @@
 """Scenes: declarative TOML descriptions of one simulation, validated before any work.
 
-A scene names the system (single, or coupled with its form and k), the model
-(mechanical, analytical, circuit, switched-capacitor, spice), the dimensionless
-parameters, optional component values, the effects switched on with their
-settings, the precision and tolerance, the duration and the outputs::
-
-    name = "fig6-period3-datasheet"
-    description = "eta = 0.74, period-3 orbit, datasheet parts"
-    [system]
-    kind = "single"                 # or "coupled" (then: form = "first-order" | "paper" | "reduced", k = "0.032")
-    [model]
-    name = "switched-capacitor"
-    precision = "float64"           # float64 | longdouble | float128 | mp:BITS
-    # tol = "1e-12"
-    [parameters]                    # exact decimals (strings or numbers)
-    eta = "0.74"
-    [components]                    # optional, SI units; quantities may carry their unit
-    R = "10 kohm"                   # design resistance (R1..R5, R7, R8); R6 = R2 / (2 zeta)
-    C = "100 nF"
-    [effects.switch]
-    ron = "160 ohm"
-    [duration]
-    periods = 200
-    [outputs]
-    per_period = 0                  # dense points per period
-
-Unknown keys, wrong units, out-of-range values and effects that do not fit the
-model are refused with an error naming the key (``effects.switch.ron`` ...).
+Unknown keys, wrong units, out-of-range values and effects that do not fit the model are
+refused with an error naming the key (format: ``docs/design.rst``).
 """
 
 from __future__ import annotations

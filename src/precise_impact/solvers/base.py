@@ -1,16 +1,7 @@
 """The Solver protocol and the model registry: one name per model, one way to make it.
 
-Every model of the oscillator — the heyoka reference, the closed form, the op-amp
-circuit, the switched-capacitor circuit, ngspice — is a :class:`Solver`: an object
-with a ``precision`` and ``solve(params, periods, *, per_period=0) -> Trajectory``.
-:func:`make_solver` builds one by name; :data:`MODELS` lists the names.
-
-The registry is filled from two layers.  This layer registers its own solvers
-(``heyoka``, ``analytical``, ``analytical-paper``, in :mod:`precise_impact.solvers.simulate`);
-the models layer registers the circuit models when :mod:`precise_impact.models` is
-imported (a downward import: ``models`` calls :func:`register_model`, ``solvers`` never
-imports ``models``).  Importing :mod:`precise_impact` imports both, so every model is
-reachable from any entry point.
+Every model is a :class:`Solver` (``solve(params, periods, *, per_period=0) -> Trajectory``);
+:func:`make_solver` builds one by name, :data:`MODELS` lists them.
 """
 
 from __future__ import annotations

@@ -1,46 +1,8 @@
 """Closed-form (analytical) solver of the impact oscillator, eq. (2) of the paper.
 
-Between two impacts the flow (2a) is linear, so the motion is known exactly::
-
-    x(t) = x_p(t) + exp(-zeta s) (A cos(wd s) + B sin(wd s)),   s = t - t_s,  wd = sqrt(1 - zeta^2)
-
-with ``x_p(t) = P cos(eta t) + Q sin(eta t)`` the steady state of
-:func:`~precise_impact.core.flow.steady_state` and ``A``, ``B`` fixed by the state
-``(x_s, v_s)`` at the segment start ``t_s``.  The only numerical task left is to
-find the impact times: the first upward crossing of ``x = x_w`` after ``t_s``.  At
-each impact the velocity is reset with :func:`~precise_impact.core.impact.reset_velocity`
-(eq. 2b) and a new segment starts on the wall.
-
-Two impact finders are provided:
-
-``"paper"``
-    The scheme of the paper's "Numerical verification" section, reproduced
-    faithfully as a baseline: from the segment start, evaluate ``x`` every
-    ``Delta = scan_fraction * T`` (``T = 2 pi / eta``); when ``x(t + Delta) > x_w``,
-    bisect ``[t, t + Delta]`` to working precision.  It misses every excursion
-    beyond the wall that starts and ends between two scan points (grazing
-    impacts).
-
-``"robust"``
-    Certified stepping that provably does not miss the first upward crossing
-    (see :class:`AnalyticalSolver` for the argument and for what is done at
-    exact grazing).
-
-Conventions
------------
-
-* Samples and dense output are *right-continuous*: an output time that coincides
-  exactly with an impact time records the state **after** the reset (as heyoka
-  does when a terminal event lands on a grid point).  The same holds at ``t0``
-  when the start is on the wall moving into it (:func:`~precise_impact.core.impact.impact_at_start`).
-
-* Each impact is recorded as ``(t, v_before, v_after)``; the position is exactly
-  ``x_w`` at an impact.
-
-* A contact in which the orbit does not go beyond the wall by more than a few
-  rounding margins (a tangential, "grazing" contact, impact velocity at rounding
-  level) is *not* an impact for the robust finder; such contacts are counted in
-  ``stats["grazing"]``.
+Exact segments between impacts in float64 or mpmath; impact finders ``"paper"`` (the paper's
+scan + bisection, a baseline that misses grazing impacts) and ``"robust"`` (cannot miss the
+first crossing; ``docs/numerics.rst``).
 """
 
 from __future__ import annotations

@@ -1,9 +1,6 @@
 """The paper's three frequencies: every model and precision against a demonstrated reference.
 
-For each eta the reference is heyoka in multiprecision at two precisions
-(``bits`` and ``bits + 64``); their largest disagreement over all stroboscopic
-samples is the reference's *demonstrated* accuracy.  Each candidate's error is
-its largest distance from the reference over the same samples.
+The reference's accuracy is demonstrated by two multiprecision runs (``bits``, ``bits + 64``).
 """
 
 from __future__ import annotations

@@ -1,13 +1,6 @@
 """Proofs for the shipped single-oscillator references: a ``certificate.json`` beside each case.
 
-The stored decimals of a reference (heyoka, ``mp:320``) have a *demonstrated* accuracy (two
-precisions agree).  The certificate adds a *proven* one: the certified engine
-(:func:`~precise_impact.solvers.certified.single.certify`) encloses every sample and impact of the
-same system in a ball, and for each stored decimal ``y`` the bound
-``|y - truth| <= |y - mid| + rad`` (rounded up to 3 digits) is written down (``x_err``, ``v_err`` per sample; ``t_err``, ``v_err`` per impact).  The
-manifest lists the certificate with its checksum.  ``reference verify`` re-checks it: a fresh
-certified run at the stored bits must give balls that lie inside ``[y - err, y + err]`` for
-every stored ``y`` -- so the stored bounds hold for the numbers a user's own machine proves.
+A proven bound ``|y - truth|`` for every stored decimal, re-proven by ``reference verify``.
 """
 
 from __future__ import annotations

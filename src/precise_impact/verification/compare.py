@@ -1,20 +1,7 @@
 """Compare models of one scene against a demonstrated reference; Markdown report + figures.
 
-``compare(scene, models)`` runs
-
-1. the reference: heyoka (the ``mechanical`` model) in multiprecision at
-   ``reference_bits(periods)`` bits, and again with 64 more bits; their largest
-   disagreement over the stroboscopic samples is the reference's *demonstrated*
-   accuracy;
-2. for chaotic scenes, a second reference from the initial condition perturbed by
-   ``x0 + 1e-3`` (the sampling noise floor of the attractor distances), and for
-   each model a second model run from ``x0 + 1e-9`` (the model's finite-time
-   divergence rate, reported as its LLE estimate);
-3. the reference LLE from ``lyapunov(params, 'variational')`` (default run);
-4. every model, scored by :func:`precise_impact.verification.scores.score`.
-
-With ``out`` it writes ``report.md``, ``scores.json``, ``phase_portraits.png`` and
-``separation.png`` (all atomically).
+Runs the reference (and a perturbed one for chaotic scenes), its LLE and every model, scored
+by :func:`precise_impact.verification.scores.score` (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

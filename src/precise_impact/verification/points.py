@@ -1,27 +1,7 @@
-"""Bifurcation-point scores: where a model puts the grazing and period-doubling points along
-eta, against the mechanics.
+"""Bifurcation-point scores: where a model puts the grazing and period-doubling points along eta.
 
-Trajectories of a chaotic scene decorrelate after ~100 periods; the parameter values at which
-the dynamics change do not.  Two points are scored, each measured on the model as a black box
-(its own simulations) and located as the root of a smooth function, never by bisection on
-behaviour:
-
-* **grazing** of the non-impacting orbit: ``g(eta) = x_w - max x`` of the model's steady
-  state (each run starts from the model's state at the previous eta and runs until the
-  transient is below 1e-10; the maximum of the last period is refined by a cubic through
-  its dense samples); approached from the non-impacting side by a safeguarded secant
-  (each step 0.9 of the predicted distance, halved back if the model impacts).  Mechanics: the closed form
-  (:func:`~precise_impact.core.flow.grazing_frequencies`).
-* **period-doubling** of the 1:1 impacting orbit: the model's Floquet multipliers at eta,
-  identified from its own stroboscopic map: a run settles on the orbit, two runs from points
-  ``PERTURBATION = 1e-3`` either side of it give sequences ``z_k``, and the least-squares
-  affine maps ``z_{k+1} = A z_k + b`` (their mean: the quadratic terms cancel) have the
-  multipliers as the eigenvalues of ``A`` (the fits' residual is reported).  The root of ``det(A + I) = (1 + mu_1)
-  (1 + mu_2)`` by the same safeguarded secant from the stable side.  Mechanics: the continued branch
-  (:func:`~precise_impact.analysis.orbits.continuation.continue_orbit`).
-
-The mechanical model scored this way (``heyoka``) recovers both points to ~1e-9: the
-method's own resolution (``tests/test_points.py``).
+Unlike trajectories, these do not decorrelate after ~100 periods; each point is the root of a
+smooth function measured on the model as a black box (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

@@ -1,27 +1,7 @@
 """Reference datasets for the paper's cases, with demonstrated accuracy and checksums.
 
-Every case lives in ``<root>/<case>/``: data files (JSON with decimal strings for
-high-precision numbers, ``.npz`` for float64 arrays) and ``manifest.json`` with the
-exact decimal parameters, model, precision, tolerance, package versions, the
-*demonstrated* accuracy (which two runs agreed, and to what) and the sha256 of every
-data file.  The manifest is written last, so a case with a manifest whose checksums
-verify is complete; :func:`generate` skips such cases (resume).
-
-Cases (:data:`CASES`):
-
-* ``single-0.70``, ``single-0.712``, ``single-0.74``: heyoka in ``mp:BITS``
-  (``BITS = reference_bits(300)``) from rest over 300 periods: stroboscopic samples
-  and every impact as decimal strings with the precision's round-trip digits;
-  demonstrated by a second run at ``BITS + 64`` (largest disagreement stored);
-  plus ``dense.npz``: float64 dense output (50 points per period, last 50 periods).
-* ``coupled-fig7``: the master-slave pair (first-order form) at k = 0.031 and 0.032,
-  500 periods, slave start ``(-1/2, 1/2)`` (as ``plot_fig7``), float64 samples of
-  x, y and ``|x - y|``; checked against the same runs in float128 (only the periods
-  over which the two agree are demonstrated; see the manifest).
-* ``lle``: variational LLE with error bar and the two-trajectory estimate at the
-  paper's three frequencies.
-* ``bifurcation``: LLE, error bar, impacts per period and the last stroboscopic x
-  values over 141 values of eta in [0.68, 0.82] (500 transient + 500 periods).
+Each case directory holds its data and a ``manifest.json`` (exact parameters, versions,
+demonstrated accuracy, sha256), written last so a verified manifest means a complete case.
 """
 
 from __future__ import annotations

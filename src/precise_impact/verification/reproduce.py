@@ -1,11 +1,6 @@
 """The main job: the paper's Figs. 4-7 equivalents, the LLE and the synchronisation thresholds.
 
-``precise-impact reproduce [--out DIR] [--quick]`` runs, for eta = 0.70, 0.712, 0.74,
-the demonstrated reference (heyoka in two multiprecision precisions), the ideal
-circuit model, the switched-capacitor model with datasheet parts and ngspice
-(where installed), side by side; the LLE by two methods with error bars; the
-synchronisation threshold of each coupled form with Fig. 7-like plots; and writes
-``report.md`` stating every number and how it was obtained.
+``precise-impact reproduce [--out DIR] [--quick]`` writes ``report.md`` stating every number.
 """
 
 from __future__ import annotations

@@ -1,20 +1,7 @@
 """How far a model is from the reference: scores on :class:`Trajectory` objects.
 
-The reference is heyoka at a *demonstrated* precision (two multiprecision runs
-agreeing, see :mod:`precise_impact.verification.compare`).  Two families of scores:
-
-* periodic regimes -- the largest state error at the stroboscopic samples after a
-  transient, impact times and velocities matched impact by impact (each model impact
-  to the nearest reference impact in time), and the detected period;
-* chaotic regimes -- the predictability horizon (first time the separation exceeds
-  delta), the fitted divergence rate (least-squares slope of ``ln sep`` against t
-  while ``1e-12 < sep < 1e-2``) next to the LLE, the sliced Wasserstein distance
-  between the stroboscopic Poincare clouds with its sampling noise floor, the 1-D
-  Wasserstein distance between the impact-velocity distributions and the LLE gap.
-
-The array-level functions (:func:`wasserstein_1d`, :func:`sliced_wasserstein`,
-:func:`predictability_horizon`, :func:`divergence_rate`) work on plain float
-arrays; :func:`score` puts them together for two trajectories.
+Periodic regimes: state, impact and period errors; chaotic regimes: predictability horizon,
+divergence rate, Wasserstein distances between Poincare clouds and impact velocities.
 """
 
 from __future__ import annotations

@@ -1,31 +1,7 @@
 """Work-precision: every method's error against a demonstrated reference, and its cost.
 
-Two cases, both from rest with the paper's parameters:
-
-* ``periodic``: eta = 0.74 (period 3), 50 periods; error = largest
-  ``max(|dx|, |dv|)`` over the stroboscopic samples ``k = 0..50``.
-* ``chaotic``: eta = 0.712, 50 periods; error at period 50, plus the
-  predictability horizon (first period whose error exceeds 1e-3, ``None`` if
-  none within the run).
-
-The reference is heyoka in multiprecision at ``bits`` and ``bits + 64``
-(:func:`~precise_impact.verification.accuracy.reference_bits`); their largest disagreement is reported as
-``reference.agreement``.  Wall times are the median of repeated runs after one
-warm-up run (runs longer than a few seconds are timed once, after the warm-up
-when it is cheap enough; ``repeats`` says how many); heyoka's compile time is
-measured separately (the first ``integrator()`` call) and not included.
-
-Methods: heyoka (float64, longdouble, float128 over a tolerance sweep; mp at a few
-precisions), the analytical solver (paper finder at scan fractions 1/100,
-1/1000, 1/10000 and the robust finder, float64; mpmath at two digit counts),
-scipy ``solve_ivp`` (DOP853, Radau, LSODA; terminal event on ``x - x_w`` with
-direction +1 and a restart with ``v -> -R v``; ``atol = rtol * 1e-3``), and
-ngspice (ideal parts) when installed.
-
-"What chaos costs": for each N, the smallest ``mp:64k`` precision whose state at
-period N agrees with the highest-precision run of the sweep to <= 1e-15, with
-its run time, beside the prediction
-``(15 + N T lambda / ln 10 + margin) log2(10)`` bits.
+heyoka, the closed form, scipy ``solve_ivp`` and ngspice on a periodic and a chaotic case, and
+what chaos costs in bits (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

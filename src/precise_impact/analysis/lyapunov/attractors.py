@@ -1,68 +1,9 @@
 """Which attractor each start of a Lyapunov estimate ended on, and the exact LLE of periodic ones.
 
-A finite-time estimate on a periodic attractor converges like ``1/t`` (the transient of the
-tangent basis), a bias no batch-means error bar sees: at zeta = 0.05, R = 0.8, eta = 1 the
-variational method's 20 000 periods gave -0.0854322 +- 1.8e-5 for an orbit whose LLE is
-exactly ``ln R / T - zeta`` = -0.0855144 (4.5 standard errors off).  And starts that end on
-different attractors were averaged into one number.  Here each start's last stroboscopic
-samples are examined (:func:`~precise_impact.analysis.periodicity.detect_period`); a periodic
-start is refined by Newton (:func:`~precise_impact.analysis.orbits.newton.find_orbit`) into an
-orbit whose Floquet multipliers give the exact LLE ``ln |mu_max| / (p T)``.
-
-Grouping
---------
-Periodic starts are grouped by orbit (the same period and the same cycle of points).  The
-others are split into distinct attractors as well (a conservative system, ``zeta = 0``,
-``R = 1``, has quasi-periodic tori with LLE 0 beside a chaotic sea: measured at eta = 0.9,
-per-start LLEs 0.0204, 0.0186, 0.0191 and 0.00007 had been averaged into 0.0145 +- 0.0020).
-Two non-periodic starts are on the same attractor unless one of these tests says otherwise:
-
-* *LLE*: ``|l_j - l_k| <= K sqrt(s_j^2 + s_k^2)``, ``s`` each start's batch-means standard
-  error (its own blocks);
-* *impact rate* (when per-block impact counts are given): the same test on the impacts per
-  period, whose standard error has the floor ``1 / N`` (an integer count over ``N`` periods
-  is off the long-run rate times ``N`` by up to one impact even on a torus);
-* *tails*, only when neither error bar is available (fewer than two blocks): the two tails
-  of stroboscopic samples are separated by single linkage at their own resolution (the
-  smallest distance between a point of one and a point of the other exceeds the largest
-  nearest-neighbour distance within either).  Otherwise the distance is only reported
-  (``stats['split_tests']``): the 96 samples of a tail are too few on a conservative
-  system, where a chaotic orbit sticks to an island for hundreds of periods -- measured at
-  zeta = 0, eta = 1.2 (40 runs of 8 starts x 2500 periods) the tails separated chaotic
-  starts whose LLEs and impact rates agreed in 7 runs.
-
-``K`` is the two-sided Student-t quantile at level ``SPLIT_ALPHA / pairs`` (Bonferroni over
-the ``n (n - 1) / 2`` pairs of non-periodic starts; :data:`SPLIT_ALPHA` = 1e-3) for the
-Welch-Satterthwaite degrees of freedom of the two error bars (each from up to
-:data:`TEST_BLOCKS` = 20 blocks of its start; 4 starts, 19 + 19 degrees of freedom: ``K`` =
-4.1): the starts of one ergodic attractor are split by one test with probability at most
-~1e-3.  Measured with 5 blocks per start and no Bonferroni: one false split of the chaotic
-attractor at eta = 0.712 in 40 runs of 8 starts.  A start joins the first group every member
-of which it is consistent with, else starts a group.
-
-The headline (``lle``, ``spectrum``, ``stderr``) is the group with the most starts (ties: the
-group of the earliest start), never an average over groups; ``stats['headline_attractor']``
-names it and ``stats['warning']`` says when the starts split.
-
-Finite-time error bar on a periodic orbit
------------------------------------------
-The finite-time estimate of a start on a periodic orbit with monodromy ``M = V D V^-1``
-(over ``p`` periods) is ``lambda + B / t``: the logs summed over ``N = n p + r`` periods are
-``ln |Phi_r M^n w|`` for the unit tangent ``w`` the transient left, and
-``|mu|^n / cond(V) <= |M^n w| <= cond(V) |mu|^n`` (``w`` along the dominant eigenvector for
-real multipliers, any ``w`` for a complex pair), so
-``|B| <= max_c ln cond(V_c) + max_r max_i |ln sigma_i(Phi_r) - lambda r T|`` over the cycle
-points ``c`` and the remainders ``0 <= r < p`` (``Phi_r``: ``r`` periods of the orbit,
-``sigma_i`` its singular values).  Measured ``B`` against the bound: 0.39 <= 2.60 (R = 0.8,
-eta = 1), 0.18 <= 1.14 + remainder (period 3, eta = 0.74), 0.26 <= 2.03 (eta = 0.8).  The
-finite-time standard error in ``stats['finite_time']['stderr']`` is
-``sqrt(batch^2 + (B_max / t)^2 + res^2)`` with ``res = 1e-12 / (p T)`` the float64
-resolution of the Floquet value it is compared with (on a converged orbit with real
-multipliers the batch-means error alone was 8e-19 at eta = 0.995, 148 "standard errors"
-from a Floquet value that is itself only good to ~1e-13).  On a non-periodic attractor the
-tangent basis is never restarted, so its ``O(1/t)`` end effect is far below the
-``O(1/sqrt(t))`` batch-means error and not added (``stats['finite_time']['bias_bound']``
-is ``None``).
+Starts on different attractors are never averaged: periodic starts are grouped by their
+Newton-refined orbit (exact LLE ``ln |mu_max| / (p T)``), the others split by Student-t tests on
+their LLEs and impact rates.  The tests and the finite-time error bar on a periodic orbit are
+derived in ``docs/numerics.rst`` (Lyapunov exponents).
 """
 
 from __future__ import annotations

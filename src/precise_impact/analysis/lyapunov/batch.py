@@ -1,22 +1,8 @@
 """SIMD batch variational LLE (float64): many parameter points in one heyoka batch integrator.
 
-The same flow (:func:`~precise_impact.core.flow.acceleration`), impact map and saltation
-matrix (:mod:`precise_impact.core.impact`) as :mod:`precise_impact.analysis.lyapunov.variational`, integrated by
-``taylor_adaptive_batch`` so that ``batch_size`` parameter points advance together in
-SIMD lanes; each lane keeps its own step size, events and period boundaries.  Used
-by parameter sweeps, where per-point Python overhead would otherwise dominate.
-
-The hard cases are treated exactly as in :mod:`precise_impact.analysis.lyapunov.variational` (see its module
-docstring): the tangents are re-orthonormalised right after every impact (the
-saltation matrix's ``1/v-`` never accumulates, and heyoka's cooldown
-``10 eps max|state| / v-`` does not see large tangent entries), an event whose
-excursion beyond the wall is below the grazing depth
-``16 u (|x_w| + |a| + A_p (1 + eta |t|))`` (``u = 2^-53``, ``A_p`` the lane's steady
-amplitude) is a tangential contact and not an impact, every period runs on the
-lane's local clock ``[L0, L1]``
-(``L0 = fl(t0 mod T)``), and a non-terminal event on ``v`` checks ``x`` at every
-maximum (a maximum beyond the wall by more than 4 grazing depths is a missed impact:
-:class:`~precise_impact.errors.MissedImpactError`).
+The flow, impact map and saltation matrix of :mod:`~precise_impact.analysis.lyapunov.variational`
+in ``taylor_adaptive_batch`` lanes (each with its own steps, events and periods), so that sweeps
+pay no per-point Python overhead; the hard cases are treated as there (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

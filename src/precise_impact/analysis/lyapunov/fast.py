@@ -1,13 +1,8 @@
 """Lyapunov spectrum on the compiled closed-form engine (float64, every core).
 
-The same quantity as :mod:`~precise_impact.analysis.lyapunov.variational` (tangent flow,
-saltation matrix at every impact, QR every few periods), computed by
-:func:`precise_impact.solvers.fast.single.lle_batch`: the tangent flow between impacts is the
-exact 2x2 matrix of the linear system, so there is no variational ODE to integrate.  The
-starts run in parallel; the tangent basis is never restarted after the transient.  A
-start the engine does not resolve (tangential contact, chattering, sticking, ``zeta >=
-1``) makes the whole estimate fall back to the heyoka variational method, said in
-``stats['engine']``.
+The variational method's quantity with the exact 2x2 tangent flow between impacts (no ODE to
+integrate); a start the engine does not resolve sends the estimate to heyoka
+(``stats['engine']`` says so).
 """
 
 from __future__ import annotations

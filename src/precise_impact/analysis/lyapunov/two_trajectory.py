@@ -1,34 +1,8 @@
 """Largest Lyapunov exponent from two nearby trajectories (Benettin's method).
 
-A fiducial and a perturbed trajectory are integrated side by side with the heyoka
-reference integrator (the same compiled code as :class:`~precise_impact.HeyokaSolver`,
-impacts as terminal events).  Once per forcing period the separation is measured,
-its logarithmic growth accumulated, and the perturbed state pulled back to the
-initial distance along the separation (Benettin, Galgani, Giorgilli & Strelcyn,
-Meccanica 15 (1980) 9-20, part 2, sec. 2).
-
-Two details matter for an impact oscillator integrated to ``eps`` accuracy:
-
-*Impacts straddling a period boundary.*  The impact map makes the velocity jump
-by ``(1 + R) v``; when a boundary falls between the impact of one trajectory and
-that of the other (they hit the wall ``O(d0 / v)`` apart in time), the Euclidean
-distance in ``(x, v)`` is ``O(v)`` instead of ``O(d0)`` and says nothing about the
-divergence of the orbits.  Separations are measured only when both trajectories
-have had the same number of impacts since the last rescaling (:func:`_synchronise`).
-
-*A local clock.*  heyoka evaluates the forcing ``cos(eta t)`` at the start of each
-step with ``t`` rounded to the working precision, an absolute error of
-``eps |t|/2``.  The two trajectories take (slightly) different adaptive steps, so
-these roundings do not cancel in their difference: measured in float64 with
-absolute time, the separation picks up noise of about ``0.3 eps t`` per period
-(``1e-11`` at ``t = 1.8e5``), which at ``d0 = 1e-12`` turned the non-impacting
-``LLE = -0.05`` into ``+0.32``.  The forcing is ``T``-periodic, so every period is
-integrated on the same local interval ``[L0, L1]`` (``L0 = t0 mod T``) and the
-clock is set back by one period afterwards: the time-rounding noise stays at
-``eps T`` for the whole run (measured: per-period log-growth noise ``~5e-16/d0``,
-independent of the run length).  The iterated map is the exact stroboscopic map
-of the oscillator with period ``fl(L1) - fl(L0)``, i.e. ``eta`` perturbed by at
-most a relative ``eps``; the rounding of ``eta`` itself is of the same size.
+Fiducial and perturbed orbits on the heyoka reference integrator, renormalised every period,
+measured only when both have had the same impacts, on a local periodic clock (Benettin et al.,
+Meccanica 15 (1980) 9-20; details in ``docs/numerics.rst``).
 """
 
 from __future__ import annotations

@@ -1,31 +1,8 @@
-"""Pseudo-arclength continuation of periodic orbits, with grazing, period-doubling, fold
-and Neimark-Sacker detection and branch switching at period-doubling points.
+"""Pseudo-arclength continuation of periodic orbits with their bifurcations.
 
-The branch is the curve ``G(u, lam) = 0`` of the impact-sequence system
-(:class:`~precise_impact.analysis.orbits.shooting.ShootingSystem`) in
-``y = (u, lam)``.  Each step predicts along the unit tangent ``tau`` (the null vector of
-``[G_u  G_lam]``) and corrects by Newton on ``G = 0``, ``tau . (y - y_k) = ds``, so folds
-are passed.  Between consecutive points the test functions are watched:
-
-* grazing: ``x_w - max x`` over the flights' interior maxima, and the lowest arrival
-  velocity ``v^-`` (the tangency conditions: an interior maximum on the wall, an impact at
-  zero velocity);
-* period-doubling: ``det(M + I)`` (a multiplier at ``-1``);
-* fold: ``det(M - I)`` with the parameter turning (``branch-point`` if it does not);
-* Neimark-Sacker: ``det M - 1`` with complex multipliers.  Here ``det M = R^(2n)
-  exp(-2 zeta p T)`` (saltation ``R^2``, flow ``exp(-2 zeta t)``), and the test evaluates
-  that closed form rather than the rounded determinant: it is negative for ``zeta > 0`` or
-  ``R < 1``, so no point is reported.  With ``zeta = 0`` and ``R = 1`` (or ``n = 0``) it is
-  identically zero: the map preserves area, the computed ``det M - 1`` would be rounding
-  noise of either sign, and it is not watched at all.  A complex pair then lies on the unit
-  circle exactly: the orbit is ``'elliptic'`` (neutral; :attr:`Branch.stability`), decided
-  by ``|tr M| < 2``, not by the rounding of ``|mu|``.
-
-A sign change is located by the Illinois variant of regula falsi on the arclength (each
-trial point corrected onto the branch), to the precision at which the test function is
-evaluated.  At an admissible period-doubling point the doubled system (``2p`` periods,
-``2n`` impacts) has a pitchfork; its new branch starts along the null vector of ``G_u``
-and is continued in turn.
+Follows the impact-sequence system (:mod:`~precise_impact.analysis.orbits.shooting`) through
+folds and past grazing; locates grazing, period-doubling (with branch switching), fold and
+Neimark-Sacker points by regula falsi on test functions (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

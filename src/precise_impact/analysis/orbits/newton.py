@@ -1,13 +1,8 @@
 """Periodic orbits of the stroboscopic map by Newton's method, with Floquet multipliers.
 
-A period-``p`` orbit is a fixed point of ``P^p``, the map over ``p`` forcing periods
-``T = 2 pi / eta`` (stroboscopic time ``t0``).  Newton's iteration
-``z <- z - (M - I)^-1 (P^p(z) - z)`` uses the exact Jacobian ``M`` of ``P^p``: the product
-of the closed-form flow matrices of the free flights and the saltation matrices of the
-impacts (:func:`precise_impact.solvers.fast.single.orbit_map`), so it converges quadratically
-to stable and unstable orbits alike, once it is near one with the same impact sequence.
-At the fixed point ``M`` is the monodromy matrix: its eigenvalues are the Floquet
-multipliers and ``ln |mu_max| / (p T)`` the orbit's exact largest Lyapunov exponent.
+The exact Jacobian (closed-form flow and saltation matrices) gives quadratic convergence to
+stable and unstable orbits alike; at the fixed point it is the monodromy matrix, whose
+eigenvalues give the exact LLE ``ln |mu_max| / (p T)``.
 """
 
 from __future__ import annotations

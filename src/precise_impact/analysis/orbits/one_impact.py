@@ -1,36 +1,7 @@
 """The 1:1 and 1:n impacting orbits in closed form: one impact per n forcing periods.
 
-Derivation.  Between impacts ``x = x_p + y`` with the steady state
-``x_p = P cos(eta t) + Q sin(eta t)`` (:func:`~precise_impact.core.flow.steady_state`) and
-``(y, y')`` carried by the homogeneous flow ``Phi(tau)``.  A T-periodic orbit
-(``T = 2 pi / eta``) that hits the wall once per period at ``t*`` with speed ``v > 0``
-leaves it with ``(x_w, -R v)`` and, one period later, arrives with ``(x_w, v)``; ``x_p``
-is T-periodic, so with ``X = x_p(t*)``, ``V = x_p'(t*)`` and ``a = x_w - X``::
-
-    Phi(T) (a, -R v - V) = (a, v - V).
-
-The first row gives ``v = ((phi00 - 1) a - phi01 V) / (phi01 R)``; putting it into the
-second leaves one equation linear in ``a`` and ``V``::
-
-    C1 a + C2 V = 0,   C1 = phi01 phi10 R - (1 + phi11 R)(phi00 - 1),   C2 = phi01 (1 + R),
-
-i.e. ``A_c cos(eta t*) + A_s sin(eta t*) = C1 x_w`` with ``A_c = C1 P - C2 eta Q``,
-``A_s = C1 Q + C2 eta P``: two phases ``eta t* = psi +- acos(C1 x_w / rho)`` (``rho``,
-``psi`` the polar form of ``(A_c, A_s)``).  A candidate is an orbit when ``v > 0`` and the
-free flight stays below the wall for the whole period (checked on a fine grid).  Its
-monodromy matrix is ``S Phi(T)`` (``S`` the saltation matrix at ``(t*, v)``), so the
-Floquet multipliers follow in closed form; when they are complex,
-``|mu|^2 = det = R^2 exp(-2 zeta T)`` and the LLE is ``ln R / T - zeta`` exactly.
-
-1:n orbits (``period = n``: one impact per ``n`` forcing periods, the flight lasting
-``n T``).  ``x_p`` is T-periodic, hence ``nT``-periodic, so the derivation is the same with
-``Phi(nT)`` in place of ``Phi(T)``: the same two phases ``eta t* = psi +- acos(C1 x_w / rho)``
-(``t*`` modulo ``T``: shifting the impact by whole forcing periods gives the same orbit
-seen from another of its ``n`` stroboscopic points), ``v`` from the first row, admissible
-when ``v > 0`` and the flight stays below the wall for all of ``n T``.  Monodromy
-``S Phi(nT)``; ``|mu|^2 = R^2 exp(-2 zeta n T)`` for a complex pair.  The returned point
-is the orbit's state at ``t0`` (``t0 - t*`` reduced modulo ``n T``); its images under
-the stroboscopic map are the other ``n - 1`` points of the same orbit.
+The impact phase solves ``A_c cos(eta t*) + A_s sin(eta t*) = C1 x_w`` (two candidates, kept
+when admissible); the multipliers follow in closed form (derivation: ``docs/numerics.rst``).
 """
 
 from __future__ import annotations

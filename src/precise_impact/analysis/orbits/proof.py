@@ -1,23 +1,7 @@
 """Proven periodic orbits: a Krawczyk test on the stroboscopic map with impacts.
 
-For ``F(z) = P^p(z) - z`` on a box ``Z = z~ + [-r, r]^2`` the Krawczyk operator is
-
-    K(Z) = z~ - C F(z~) + (I - C (M(Z) - I)) (Z - z~),
-
-with ``C`` an approximate inverse of ``M(z~) - I`` and ``M(Z)`` an enclosure of the Jacobian
-of ``P^p`` over the whole box.  If ``K(Z)`` lies in the interior of ``Z``, ``P^p`` has exactly
-one fixed point in ``Z`` (Krawczyk 1969; Moore).  Both ingredients come from the certified
-engine (:mod:`precise_impact.solvers.certified.single`): ``F(z~)`` from a run started at the point
-``z~``, and ``M(Z)`` from a run started at the box -- every state of the box is followed, the
-engine proves the same impact sequence for all of them (each crossing isolated, transversal),
-and the product of the flow matrices ``Phi(t_i - t_{i-1})`` and the saltation matrices at the
-impact-time and velocity balls (:func:`~precise_impact.core.impact.oscillator_saltation`,
-evaluated in ball arithmetic) encloses every member's Jacobian.  The multipliers are then
-enclosed by the eigenvalues of that matrix (complex balls); the orbit is proven stable when
-both lie inside the unit disc.
-
-The centre ``z~`` is a float64 Newton orbit (:func:`~precise_impact.analysis.orbits.newton.find_orbit`)
-refined by Newton steps on point runs of the certified engine to the working precision.
+The certified engine encloses ``P^p`` at the centre and its Jacobian over the box; existence,
+local uniqueness and enclosed Floquet multipliers follow (Krawczyk 1969; Moore).
 """
 
 from __future__ import annotations

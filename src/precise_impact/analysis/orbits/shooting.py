@@ -1,22 +1,8 @@
 """Periodic orbits as impact sequences: the shooting system that continuation solves.
 
-A period-``p`` orbit with ``n >= 1`` impacts is the cycle of its impacts: times
-``t_1 < ... < t_n < t_1 + p T`` and velocities ``v_i <= 0`` just after them (``x = x_w``
-there).  Flight ``i`` is the closed-form solution of the linear oscillator from
-``(t_i, x_w, v_i)``; the system asks it to reach the wall again at ``t_{i+1}`` and to leave
-with ``v_{i+1} = -R v^-(t_{i+1})``::
-
-    G_{2i-1} = x(t_{i+1}) - x_w = 0,      G_{2i} = -R v(t_{i+1}) - v_{i+1} = 0,
-
-with ``t_{n+1} = t_1 + p T`` and ``v_{n+1} = v_1``.  ``2n`` equations in ``2n`` unknowns,
-its Jacobian exact (closed-form flow matrices, the vector field at the ends).  The wall
-is consulted nowhere else, so the system stays smooth through a grazing, where the
-physical orbit changes its impact count: the orbit is *admissible* (physical) while every
-flight stays below the wall and arrives with ``v^- > 0``, and :meth:`ShootingSystem.grazing_tests`
-measures both margins, whose zeros are the grazing bifurcations (tangency, located as
-roots of smooth functions).  ``n = 0`` (a non-impacting orbit) shoots the state at ``t0``
-over ``p T`` instead.  This is the multi-segment formulation of COCO's hybrid toolbox and
-TC-HAT, written for this oscillator.
+``2n`` equations in the impact times and velocities with an exact Jacobian, smooth through
+grazing (the multi-segment formulation of COCO's hybrid toolbox and TC-HAT); derivation in
+``docs/numerics.rst``.
 """
 
 from __future__ import annotations

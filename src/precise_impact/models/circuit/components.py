@@ -1,26 +1,7 @@
 """Component values of the circuit (paper Fig. 2) and the mapping to the dimensionless system.
 
-Written once: every circuit-level model (the op-amp network equations, the
-switched-capacitor impact, the ngspice netlist) takes a :class:`Components` and
-uses :func:`dimensionless` / :func:`state_to_mechanical` to compare with the
-mechanical reference.
-
-The network (paper eqs. 3-4, with the inverter U3 made explicit):
-
-* U1, summing amplifier: ``V_p = -R2 (V3/R1 + V_mq/R6 + V_s/R7)``;
-* U2, integrator with C2 (the capacitor the switches reverse): ``V_q' = -V_p / (R3 C2)``;
-* U3, inverter: ``V_mq = -(R5/R4) V_q`` (the paper's ``V_{-q}``);
-* U4, integrator with C1: ``V_s' = -V_q / (R8 C1)``;
-* source ``V3 = V_A cos(Omega t)``; comparator U5 compares ``V_s`` with ``V_wall``.
-
-Substituting (3) into (4a) gives ``V_q' = +R2/(R3 C2) (V3/R1 - V_q/R6 + V_s/R7)``
-for R4 = R5: the printed eq. (5b) (and hence (7)) carries a sign slip ("-R2/(R3 C2)");
-with the printed sign the network would have negative damping and negative
-stiffness (tested in tests/test_circuit.py).  With ``x = -V_s / V_unit``:
-
-``omega^2 = R2 / (R7 R3 C2 R8 C1)``, ``2 zeta omega = R2 R5 / (R4 R6 R3 C2)``,
-``a = V_A R7 / (R1 V_unit)``, ``eta = Omega / omega``, ``x_w = -V_wall / V_unit``,
-``tau = omega t``, ``x = -V_s / V_unit``, ``x' = V_q / (omega R8 C1 V_unit)``.
+Written once for every circuit model.  The printed eq. (5b) carries a sign slip; the mapping is
+derived in ``docs/circuit.rst``.
 """
 
 from __future__ import annotations

@@ -1,18 +1,7 @@
 """The coupled circuit of Fig. 3: two networks, difference amplifiers U15/U16, R31 and R32.
 
-U15 outputs ``V_s2 - V_s1`` (``x - y``) and U16 ``V_q1 - V_q2`` (``x' - y'``), both
-unamplified (R23..R30 equal); they enter the slave's summing amplifier through
-R31 and R32 with (paper eq. 15) ``R3/R31 = 2k`` and ``R3/R32 = k(1 + 2 zeta)``.
-Repeating the derivation of the single circuit, the slave obeys
-
-``y'' + 2 zeta y' + y + (R2/R32)(y' - x') + (R2/R31)(y - x) = a cos(eta tau)``,
-
-i.e. with eq. (15): ``k(1 + 2 zeta)(y' - x') + 2k(y - x)``, which is the printed
-eq. (14a) (the ``'paper'`` coupled form), *not* the reduction of eqs. (12) (the
-``'reduced'`` form, gains ``2k`` and ``k(2 zeta + k)``).  The circuit therefore
-synchronises at the threshold of the printed form (tests/test_circuit.py checks
-the equivalence to round-off).  Op-amps are ideal here; impacts follow the
-mechanical impact law on each oscillator's ``V_q``.
+With the paper's eq. (15) resistors it realises the printed eq. (14a) (the ``'paper'`` form),
+not the reduction of eqs. (12); ``docs/circuit.rst``.
 """
 
 from __future__ import annotations

@@ -1,12 +1,6 @@
-"""The circuit model: the op-amp network (:mod:`precise_impact.models.circuit.network`) with the mechanical impact law.
+"""The ``circuit`` model: the op-amp network with the mechanical impact law applied to ``V_q``.
 
-State in volts and seconds (``V_s``, ``V_q``, plus op-amp states in dynamic-GBW
-mode); the wall is the comparator threshold ``V_s = V_wall`` crossed downwards; the
-impact applies :func:`precise_impact.core.impact.reset_velocity` to ``V_q`` (a linear
-image of the velocity).  Results are mapped to the dimensionless system with
-:func:`~precise_impact.models.circuit.components.to_mechanical` through the *design* components (the nominal
-ones a scene starts from), so a circuit with drawn tolerances is read out the way
-an experimenter reads the real circuit.
+Results are read out through the design components, as an experimenter reads the circuit.
 """
 
 from __future__ import annotations

@@ -1,32 +1,7 @@
-"""The switched-capacitor model: the impact made by the circuit itself.
+"""The ``switched-capacitor`` model: the impact made by the circuit itself.
 
-Comparator U5 sees ``V_s`` fall through the wall voltage, flip-flop A1 toggles,
-and the analog switches U6/U7 reconnect C2 with reversed polarity, which reverses
-the output ``V_q`` of integrator U2.  States: ``V_s`` (U4 output) and ``V_C`` (the
-voltage of C2 across its own terminals); the switch polarity ``pol = +-1`` is a
-heyoka runtime parameter the event callback flips.  U2's output follows
-algebraically from KCL at its virtual ground, with the two conducting switches
-(``2 R_on``) in series with C2:
-
-``V_q = -pol V_C - (2 R_on / R3) V_p``, ``V_p = -R2 (V3/R1 - rho V_q/R6 + V_s/R7)``
-(``rho = R5/R4``), solved for ``V_q``:
-``V_q (1 + 2 R_on R2 rho / (R3 R6)) = -pol V_C + (2 R_on R2 / R3)(V3/R1 + V_s/R7)``,
-``dV_C/dt = pol V_p / (R3 C2)``, ``dV_s/dt = -V_q / (R8 C1)``.
-
-With ``R_on = 0``: ``V_q = -pol V_C`` and flipping ``pol`` gives exactly ``V_q -> -V_q``:
-the ideal impact with R = 1.  The effects (each off unless a scene switches it on):
-
-* ``comparator``: trips when ``V_s`` falls to ``V_wall - h/2``, re-arms when it rises
-  above ``V_wall + h/2`` (hysteresis ``h``); the toggle happens ``delay`` later;
-* ``flipflop``: adds its clock-to-output ``delay``;
-* ``switch``: ``ron`` as above (about ``2 R_on / R3`` of extra damping in
-  ``2 zeta`` units: 0.032 for 160 ohm and R3 = 10 kOhm, a third of the paper's
-  0.1; scaling every impedance up reduces it); ``bbm``: for this interval both
-  switch pairs are open, C2 floats (``V_C`` frozen) and U2, without feedback, slews
-  its output at ``slew_rate`` towards the rail opposite to ``V_p`` while U4 keeps
-  integrating it (closed form: ``V_q`` linear, ``V_s`` quadratic in time; the
-  op-amp's recovery slew after reconnection is neglected); ``charge_injection``:
-  the charge ``Q`` moved onto C2 at each reconnection, ``V_C += Q / C2``.
+Comparator U5, flip-flop A1 and switches U6/U7 reverse C2; with every effect off this is the
+ideal impact (R = 1) exactly (``docs/circuit.rst``).
 """
 
 from __future__ import annotations

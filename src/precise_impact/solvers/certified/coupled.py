@@ -1,29 +1,7 @@
 """The master-slave pair certified: every sample and impact of both oscillators in a proven ball.
 
-Between impacts both oscillators are linear (:mod:`~precise_impact.solvers.fast.coupled` derives
-it): the master is the single oscillator's closed-form flight
-(:class:`~precise_impact.solvers.certified.single.Flight`) and the difference ``e = y - x`` of the
-positions obeys, in every form of :mod:`~precise_impact.solvers.heyoka.coupled`::
-
-    e'' + c1 e' + c0 e = 0,
-    'first-order', 'reduced':  c1 = 2 zeta + 2 k,            c0 = 1 + 2 zeta k + k^2
-    'paper':                   c1 = 2 zeta + k (1 + 2 zeta), c0 = 1 + 2 k
-
-whose flow is ``e^(-alpha tau) [[cos + (alpha/omega) sin, sin/omega], [-(c0/omega) sin,
-cos - (alpha/omega) sin]]`` (``alpha = c1/2``, ``omega = sqrt(c0 - alpha^2)``, arguments
-``omega tau``).  Both are evaluated in ball arithmetic from the exact rationals.
-
-Impacts, as :func:`~precise_impact.solvers.heyoka.coupled.simulate_coupled` applies them: the master's
-(``x = x_w``, ``x' > 0``) flips ``x'`` (``y'`` is continuous, so ``e'`` jumps); the slave's
-(``y = x_w``, ``y' > 0``) resets the slave's velocity variable by
-:func:`~precise_impact.solvers.heyoka.coupled.slave_reset`.  Each oscillator's wall gap (``x - x_w``,
-``x + e - x_w``) is searched with the one :class:`~precise_impact.solvers.certified.single.Isolator`
-(no earlier crossing proven, the crossing isolated and narrowed by interval Newton), the
-earlier of the two crossings taken; when their balls overlap the order cannot be proven and
-the run stops with :class:`~precise_impact.solvers.certified.single.CertificationError` naming the time
-(never a guess).  A start on the diagonal (``y0`` omitted) stays on it exactly in every form
-(every coupling term is 0 and the two impacts coincide), so the slave *is* the master: that run
-is the single oscillator's certified run, copied.
+The master's flight and the difference ``e = y - x`` (a damped linear oscillator) in ball
+arithmetic; an impact order that cannot be proven stops the run (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

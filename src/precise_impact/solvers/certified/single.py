@@ -1,28 +1,8 @@
 """Certified trajectories: every sample and impact enclosed in a ball proven to contain the truth.
 
-Between impacts the oscillator is linear, so the flight from ``(s, x_s, v_s)`` is a closed form
-(the steady state ``x_p = P cos(eta t) + Q sin(eta t)`` plus a damped homogeneous part).  This
-engine evaluates it in ball arithmetic (python-flint's ``arb``: midpoint-radius intervals with
-rigorous rounding), from the exact rational parameters, so an enclosure of ``x(t), v(t)`` is
-proven, not estimated.  The impacts are *isolated*:
-
-* **no earlier crossing**: time is scanned in intervals ``I = m + [-h/2, h/2]``; a second-order
-  Taylor enclosure ``x(I) in x(m) + |v(m)| h/2 + A h^2/8`` with ``A`` a proven bound of
-  ``|x''|`` over the flight (:meth:`Flight.acceleration_bound`) shows ``x < x_w`` on ``I``, or
-  ``I`` is bisected;
-* **one crossing**: on a sub-interval where ``v > 0`` is proven and ``x - x_w`` changes sign
-  (proven at its ends), the crossing is unique;
-* **interval Newton** ``N(J) = m - (x(m) - x_w) / v(J)`` narrows it to the working precision;
-* the **reset** ``v+ = -R v-`` is applied to the balls, and the next flight starts from the
-  ball of the impact time at ``x = x_w`` exactly.
-
-Where a proof is impossible at the working precision -- a crossing that cannot be separated
-from a graze, a tangential or sticking impact, an impact on a sample time -- it raises
-:class:`CertificationError` naming the time and the ball (never a guess); :func:`certify`
-then retries at twice the bits up to ``max_bits``.
-
-python-flint's working precision is one process-wide setting: certified runs hold a lock, so
-threads take turns (each run's numbers are those of its own bits).
+The closed-form flight in python-flint ``arb`` balls; impacts isolated (no earlier crossing,
+one crossing) and narrowed by interval Newton; where no proof is possible it stops or doubles
+the bits, never guesses (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

@@ -1,34 +1,7 @@
 """The master-slave pair on the compiled closed-form engine (float64, numba).
 
-Between impacts both oscillators are linear.  The master is the single oscillator
-(:mod:`precise_impact.solvers.fast.single`); the difference ``e = y - x`` of the positions obeys,
-in every form of :mod:`~precise_impact.solvers.heyoka.coupled` (subtract eq. (11) from the slave's
-equation; for 'first-order' eliminate ``y2``)::
-
-    e'' + c1 e' + c0 e = 0,
-    'first-order', 'reduced':  c1 = 2 zeta + 2 k,        c0 = 1 + 2 zeta k + k^2
-    'paper':                   c1 = 2 zeta + k (1 + 2 zeta), c0 = 1 + 2 k
-
-a damped linear oscillator with the exact flow ``Phi_e`` (underdamped, ``c0 > c1^2 / 4``;
-otherwise the caller uses heyoka).  So the slave is ``y = x + e`` in closed form too, and
-its velocity variable ``w`` follows from ``y' = x' + e'`` (``w = y' + k e`` for
-'first-order', where ``y1' = y2 + k (x - y1)``; ``w = y'`` otherwise).
-
-Impacts, as :class:`~precise_impact.solvers.heyoka.coupled._CoupledImpact` applies them: the
-master's (``x = x_w``, ``v > 0``) flips ``v`` (``y'`` is continuous, so ``e'`` jumps by
-``v- - v+``); the slave's (``y = x_w``, ``y' > 0``) resets ``w`` by
-:func:`~precise_impact.solvers.heyoka.coupled.slave_reset`; the other oscillator within a few
-ulps of the wall and moving into it (``_touch_tol``) impacts at the same instant, the
-master first (on the diagonal ``y = x`` every impact is simultaneous).
-
-Crossings cannot be missed, for either wall contact: each step is cleared by
-:func:`~precise_impact.solvers.fast.single.no_crossing` for the master's gap ``x - x_w`` (bounds
-as the single engine) and for the slave's ``x + e - x_w`` (the same plus
-``|e^(n)| <= A_e c0^(n/2)``, ``A_e`` the amplitude of ``e``, which only decays), or it is
-halved; a bracketed crossing with a proven positive slope is refined by safeguarded
-Newton; the earlier of two crossings is taken.  Tangential contacts (``STATUS_CONTACT``),
-impacts slower than the speed floor (chattering) and an exhausted budget stop the run with
-their status, as in the single engine.
+The slave is the master plus the closed-form difference ``e = y - x``; both walls are searched
+with the single engine's proofs (``docs/numerics.rst``).
 """
 
 from __future__ import annotations

@@ -1,10 +1,7 @@
-"""The fast engine's crossing kit (numba, float64): flight kernels, derivative bounds, the
-no-crossing proofs and the one safeguarded Newton, shared by the single oscillator
-(:mod:`.single`) and the master-slave pair (:mod:`.coupled`).
+"""The fast engine's crossing kit (numba, float64): flight kernels, bounds, proofs, Newton.
 
-These are compiled copies of :mod:`precise_impact.core.flight` (numba cannot call its generic
-Python); ``tests/core/test_flight.py`` pins each to the core formula.  The proofs are derived
-in ``docs/numerics.rst``.
+Compiled copies of :mod:`precise_impact.core.flight` (``tests/core/test_flight.py`` pins them)
+shared by the single oscillator and the pair; the proofs are in ``docs/numerics.rst``.
 """
 
 from __future__ import annotations

@@ -1,38 +1,8 @@
 """The fast engine: compiled closed forms (float64, numba) for the single oscillator.
 
-Between impacts ``x'' + 2 zeta x' + x = a cos(eta t)`` is linear: with the particular
-solution ``x_p = P cos(eta t) + Q sin(eta t)`` and ``y = x - x_p``, ``(y, y')`` evolves by
-the exact 2x2 matrix
-
-    Phi(tau) = exp(-zeta tau) [[c + zeta s / w, s / w], [-s / w, c - zeta s / w]],
-    w = sqrt(1 - zeta^2), c = cos(w tau), s = sin(w tau),
-
-which is also the flow of the variational equation.  At an impact (``x = x_w``, ``v > 0``)
-``v -> -R v`` and a tangent vector is multiplied by the saltation matrix
-``[[-R, 0], [(acc+ + R acc-) / v-, -R]]`` (the compiled copy of
-:func:`~precise_impact.core.impact.oscillator_saltation`; ``tests/test_fast.py`` checks
-they agree).
-
-Impact detection cannot miss a crossing: a step ``[lo, lo + h]`` is cleared by a proof
-(:func:`no_crossing`) that uses bounds on the derivatives of the gap ``g = x - x_w`` over
-the whole free flight (``|y^(n)|`` from the homogeneous amplitudes ``A_y``, ``A_v``, which
-only decay, plus ``eta^n sqrt(P^2 + Q^2)``) and ``err``, a bound on the evaluation error of
-``g`` (the terms, and the forcing phase ``eta t`` rounded: ``eps eta |t|``): the slope stays
-negative, or the Taylor polynomial from ``lo`` stays below ``-err``, or the Hermite
-interpolant of both ends does.  Otherwise the step is halved, and a sign change is refined
-by safeguarded Newton (started at the Hermite cubic's root) once ``g' > 0`` is proven on
-the bracket (a unique root).  Steps are ``h_max / 2^k`` (a quarter of the shorter of the
-forcing and natural periods), whose flow matrices are computed once; a flight records up to
-``FLIGHT_SAMPLES`` samples on the way, each evaluated from the flight's start (so the
-chained steps only serve the proofs, with their error bound grown by the chain length).
-:func:`lle_orbit` keeps the tangent basis at the flight's start and takes its QR every
-``QR_EVERY`` samples.  An interval shorter than ``h_min`` that can be neither
-cleared nor bracketed holds at most a rounding-level excursion beyond the wall: a
-tangential contact, which this engine does not resolve; it stops with ``STATUS_CONTACT``
-and the caller reruns the orbit with heyoka (which applies the contact rule).  Likewise
-chattering and sticking (an impact slower than ``v_floor``: ``STATUS_SLOW_IMPACT``) and
-an exhausted impact budget (``STATUS_BUDGET``).  ``0 <= zeta < 1`` (underdamped);
-other systems are refused by the Python wrapper before any work.
+The exact 2x2 flow (also the tangent flow) between impacts and a crossing search that cannot
+miss an impact; what it does not resolve returns a status and goes to heyoka
+(``docs/numerics.rst``).
 """
 
 from __future__ import annotations

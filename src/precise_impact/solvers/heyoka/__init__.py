@@ -1,10 +1,4 @@
-"""heyoka's Taylor integrators: the reference engine in every precision.
-
-* :mod:`~precise_impact.solvers.heyoka.single` — :class:`HeyokaSolver`, the single oscillator.
-* :mod:`~precise_impact.solvers.heyoka.coupled` — the master-slave pair (:func:`simulate_coupled`).
-* :mod:`~precise_impact.solvers.heyoka.cache` — compiled integrators, a private copy per caller.
-* :mod:`~precise_impact.solvers.heyoka.events` — the one impact recorder of every heyoka engine.
-"""
+"""heyoka's Taylor integrators: the reference engine in every precision."""
 
 from precise_impact.solvers.heyoka.single import HeyokaSolver
 

@@ -1,17 +1,7 @@
 """The one cache of compiled heyoka integrators.
 
-A compiled ``taylor_adaptive`` is mutable state (time, state, parameters, event
-callbacks): sharing one across threads gives wrong numbers without an error.  The
-cache therefore keeps each compiled integrator as a *template* that is never
-integrated, and hands every caller its own ``copy.deepcopy`` of it.  heyoka's
-copy keeps the JIT-compiled code (no recompilation: ~0.7 ms for the float64
-oscillator against ~200 ms to compile) and deep-copies the event callbacks, so
-a copy shares nothing with the template or with other copies.
-
-Every module that compiles an integrator (the reference solver, the variational
-and batch Lyapunov integrators, the coupled forms, the circuit models) owns one
-:class:`IntegratorCache` instance; the compile function and the key are theirs,
-the locking and copying are written here once.
+An integrator is mutable state, so every caller gets its own deep copy of a compiled template
+(no recompilation); the concurrency rules are in ``docs/design.rst``.
 """
 
 from __future__ import annotations

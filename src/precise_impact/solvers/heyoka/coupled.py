@@ -1,58 +1,8 @@
-"""Two identical impact oscillators with master-slave (unidirectional) coupling, eqs. (11)-(14).
+"""Two identical impact oscillators with master-slave coupling, the paper's eqs. (10)-(15).
 
-The master ``x`` obeys eq. (11) (the single oscillator, unaffected by the slave);
-the slave ``y`` is pulled towards it with coupling ``k >= 0`` (``k1 = 0, k2 = k`` in
-eq. 10).  Three forms of the slave are offered, each with its own impact rule:
-
-``'first-order'`` -- eqs. (12a-c) as written, state ``(y1, y2)``::
-
-    y1' = y2 + k (x1 - y1)
-    y2' = -2 zeta y2 - y1 + a cos(eta t) + k (x2 - y2)
-    impact at y1 = x_w (upward):  y2+ = -R y2-
-
-``'paper'`` -- eqs. (14a-b) as printed, state ``(y, y')``::
-
-    y'' + 2 zeta y' + y + k (1 + 2 zeta)(y' - x') + 2 k (y - x) = a cos(eta t)
-    impact at y = x_w:  y'+ = -R y'-
-
-``'reduced'`` -- the second-order equation that (12) actually reduces to, state
-``(y, y')`` with ``y = y1``.  Derivation: (12a) gives ``y2 = y' - k (x - y)``;
-between impacts ``x1' = x2 = x'``, so differentiating,
-``y2' = y'' - k (x' - y')``.  Substituting both into (12b)::
-
-    y'' - k (x' - y') = -2 zeta (y' - k (x - y)) - y + a cos(eta t) + k (x' - y' + k (x - y))
-
-    y'' + 2 zeta y' + y + 2 k (y' - x') + k (2 zeta + k)(y - x) = a cos(eta t).
-
-The printed (14a) has the coefficients the other way round and altered: velocity
-coupling ``k (1 + 2 zeta)`` instead of ``2 k`` and position coupling ``2 k``
-instead of ``k (2 zeta + k)``; it is therefore *not* equivalent to (12) (for
-``k = 0.1``, ``zeta = 0.05`` the velocity gain is 0.11 instead of 0.2, the
-position gain 0.2 instead of 0.02).  The impact rule in these variables: at
-``y = x_w``, ``y' = y2 + k (x - x_w)`` and (12c) flips ``y2``, hence::
-
-    y'+ = -R y'- + (1 + R) k (x - x_w).
-
-(The reduced slave equation contains ``x'``, which jumps at every *master*
-impact, ``x'+ = -R x'-``: ``y''`` is discontinuous there, ``y`` and ``y'`` stay
-continuous, just as ``y1`` and ``y2`` do in (12).  The integrator stops at every
-master impact, so this kink is resolved exactly.)
-
-On the diagonal ``y = x, y' = x'`` (``y1 = x1, y2 = x2``) every coupling term is
-exactly zero and both impact rules coincide with the master's, so identical
-starts stay identical in all three forms -- bit for bit here: the slave
-right-hand side is the master's expression plus the coupling term, evaluated in
-the same order, and a simultaneous master/slave impact is applied to both at
-once (see :class:`_CoupledImpact`).
-
-Integration: heyoka's Taylor integrator (state ``x, v, y, w``) with two terminal
-events, ``x - x_w`` and ``y - x_w`` (positive direction).  ``eta, zeta, a, R, x_w``
-and ``k`` are runtime parameters (a new ``k`` does not recompile); one compiled
-integrator is cached per (form, precision).
-
-References: the paper's eqs. (10)-(15); Pecora & Carroll, Phys. Rev. Lett. 64
-(1990) 821 (master-slave synchronisation); Pikovsky, Rosenblum & Kurths,
-*Synchronization* (2001), ch. 13 (diagonal coupling, threshold ``k > lambda_max``).
+Three slave forms: ``'first-order'`` (eqs. 12 as written), ``'paper'`` (eq. 14a as printed) and
+``'reduced'`` (what eqs. 12 reduce to; derivation in ``docs/numerics.rst``).  References: Pecora &
+Carroll, Phys. Rev. Lett. 64 (1990) 821; Pikovsky, Rosenblum & Kurths (2001), ch. 13.
 """
 
 from __future__ import annotations

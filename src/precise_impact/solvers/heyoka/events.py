@@ -1,17 +1,7 @@
 """The one impact recorder of every heyoka event callback.
 
-Every compiled integrator of the package (the reference solver, the variational and
-batch Lyapunov integrators, the coupled oscillators, the op-amp, switched-capacitor
-and coupled circuits) applies an impact law in a terminal-event callback and has to
-keep the same books: the impacts so far, an impact budget, and (where the caller
-wants them) the impact times and the velocities before and after.  They are kept
-here, once; each callback applies its own law and calls :meth:`ImpactRecorder.record`.
-
-heyoka deep-copies an event callback into the integrator (and again into every copy
-of the integrator, see :mod:`precise_impact.solvers.heyoka.cache`).  A recorder must
-therefore be reached through the integrator that owns it,
-``ta.t_events[i].callback``, never through the object handed to ``hy.t_event``:
-that one is a template no integration ever touches.
+Reach a recorder through its integrator (``ta.t_events[i].callback``): heyoka deep-copies
+callbacks (``docs/design.rst``).
 """
 
 from __future__ import annotations

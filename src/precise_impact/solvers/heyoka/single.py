@@ -1,69 +1,8 @@
 """Ground truth: heyoka's adaptive Taylor integrator with event detection.
 
-The flow is :func:`precise_impact.core.flow.acceleration` built from heyoka
-expressions; the impact is a terminal event on ``x - x_w`` (positive direction)
-whose callback applies :func:`precise_impact.core.impact.reset_velocity`.  Every
-parameter a sweep varies (``eta, zeta, a, R, x_w``) is a heyoka runtime parameter,
-so changing it does not recompile; compiled integrators are cached per
-(precision, tolerance, mode) and reused within a process.
-
-Chattering and sticking (``R < 1``)
------------------------------------
-Near the wall with the net force pushing into it, a mass with ``R < 1`` makes
-infinitely many impacts in finite time (a Zeno sequence, *chattering*; Budd &
-Dux 1994): each flight is ``R`` times the previous one.  An event-driven
-integrator cannot follow it to the end - heyoka's event cooldown (the interval
-after an event in which the same event is not looked for, ~ ``10 eps / |v|``)
-eventually exceeds the flight time (``~ 2 R v / g``) and the next impact is missed
-(measured in float64: at impact speeds ~ 3e-8 the mass went through the wall).
-:class:`HeyokaSolver` therefore
-
-1. watches every impact (:class:`_ZenoWatch`): once the impact speeds shrink by
-   ``~R`` per impact with a net force ``g = a cos(eta t) - x_w > 0`` into the wall
-   and flights short against the forcing, it extrapolates the accumulation time
-   ``t_inf`` from the recorded impacts - the constant-force limit
-   ``t_n + 2 R v_n / (g (1 - R))`` (:func:`~precise_impact.core.impact.chatter_accumulation_time`)
-   has a relative error ``O(flight)``, i.e. an error that is a power series in
-   ``R^n``, which Richardson extrapolation in ``n`` removes term by term - and
-   stops when that extrapolation has converged to working precision (or,
-   whatever happens, before the impact speed falls to where heyoka could miss an
-   impact);
-2. jumps to ``t_inf`` and puts the mass at rest on the wall, ``(x_w, 0)``
-   (sticking; di Bernardo et al. 2008), for as long as the wall force pushes into
-   the wall;
-3. releases it at the closed-form zero of ``a cos(eta t) - x_w`` where that force
-   turns negative (:func:`~precise_impact.core.impact.release_time`, evaluated in
-   mpmath with guard bits and rounded up to the working precision), and resumes
-   free flight from ``(x_w, 0)``.
-
-A plastic impact (``R = 0``) and a start at rest on the wall go straight to the
-sticking decision.  Samples inside a sticking interval are ``(x_w, 0)``.
-
-``R = 1`` with the force into the wall is *not* Zeno: the bounce's action
-``J = (2/3) v^3 / g`` decays like ``exp(-2 zeta t)``, so impact speeds fall like
-``exp(-2 zeta t / 3)`` and the impact rate grows like ``exp(2 zeta t / 3)`` without the
-impacts ever accumulating (``tests/test_chattering.py`` checks both laws against heyoka to
-1e-3).  The model follows every bounce; once the speed is below the floor above the mass
-is taken to be at rest.  At the first short flight :meth:`_ZenoWatch.elastic_bounces`
-predicts how many impacts remain until the force releases the mass, the speed reaches the
-floor, or the run ends; a prediction over the impact budget stops the run at once with
-:class:`~precise_impact.errors.BudgetExceededError` saying so (before: the whole budget
-of 10^6 impacts was spent first).
-
-Event-detection details handled here
-------------------------------------
-* A fresh propagation that starts exactly on the wall (a root of ``x - x_w`` at
-  the very start of the first step) made heyoka miss the *next* root in that
-  step - measured: from ``x = x_w = 0.5``, ``v = -0.05`` under a force into the
-  wall the mass went through the wall - or report a spurious one.  Free flights
-  that leave the wall therefore start ``eps max(1, |x_w|)`` below it (a
-  rounding-level perturbation); outputs at that instant get the exact state.
-* heyoka does not detect an event at the very end of the last step, and at an
-  output time equal to an event time it returned the pre-impact state in
-  longdouble and multiprecision.  The solver integrates one output spacing past
-  the end (then discards it) and writes the post-impact state at every output
-  time equal to an impact time, so samples are right-continuous in every
-  precision.
+The flow of :func:`~precise_impact.core.flow.acceleration` with the impact as a terminal event;
+chattering is extrapolated to its accumulation time and sticking resolved in closed form
+(Budd & Dux 1994; di Bernardo et al. 2008).  Event-detection details: ``docs/numerics.rst``.
 """
 
 from __future__ import annotations

@@ -1,30 +1,7 @@
 """The catalogue of effects: physical non-idealities a scene may switch on.
 
-Each effect is declared once here (name, the models it fits, its settings with
-unit, default, allowed range and the datasheet figure the default comes from).
-Op-amp effects fit the op-amp network models ('circuit', 'spice'); the impact
-circuit's effects (comparator, flip-flop, switch) fit the models that contain it
-('switched-capacitor', 'spice').  The equations each effect contributes live in its own module under
-:mod:`precise_impact.models.circuit.effects` (called by :mod:`precise_impact.models.circuit.network` for the op-amp network and
-:mod:`precise_impact.models.circuit.switched` for the impact circuit; :mod:`precise_impact.models.circuit.spice` maps them to netlist elements); an effect that is off contributes no
-term, state or event, so a scene with no effects is the ideal model exactly.
-
-Datasheet typicals (typicals, not guaranteed values):
-
-* op-amps U1-U4: the paper does not name them; defaults are TL072 typicals
-  (TI TL07x datasheet, SLOS080: A_VD = 200 V/mV, GBW = 3 MHz, V_IO = 3 mV,
-  output swing +-13.5 V at +-15 V supplies, slew rate 13 V/us).
-
-* comparator U5, LT1394: propagation delay 7 ns typ (Linear Technology LT1394
-  datasheet); no built-in hysteresis (hysteresis default 0 V).
-
-* flip-flop A1, 74HC74-class: t_pd ~ 14 ns typ at 4.5-6 V (NXP/TI 74HC74 datasheets).
-* switches U6/U7, ADG5233-class: R_on ~ 160 ohm typ and charge injection ~ 1 pC
-  (figures quoted in issue 4 for the ADG5233); break-before-make 25 ns typ is the
-  ADG433's t_D (ADG431/432/433 datasheet rev. C), used as a stand-in of the same
-  family and order.
-
-* component tolerances: resistors 1 % (E96), capacitors 5 % (E24).
+Each effect is declared once (models it fits, settings with unit, default, range and the
+datasheet the default comes from: TL072, LT1394, 74HC74, ADG5233; ``docs/circuit.rst``).
 """
 
 from __future__ import annotations

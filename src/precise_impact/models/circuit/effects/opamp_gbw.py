@@ -1,11 +1,7 @@
 """Single-pole op-amps: ``A(s) = A0 / (1 + s / w_a)``, ``w_a = 2 pi GBW / A0`` (TL072: 3 MHz).
 
-``quasi-static`` (default): each stage lags its ideal output by its closed-loop time
-constant ``tau = N / (2 pi GBW)`` to first order, ``V_o ~ V_ideal - tau dV_ideal/dt``
-(the singular-perturbation reduction; integrators: noise gain ~1 at crossover).
-``dynamic``: every op-amp output becomes a state (:func:`dynamic_network`), which is
-stiff: the closed-loop poles near ``2 pi GBW / N`` are ~1e5 times faster than the
-signal, measured ~2700x more Taylor steps (benchmarks/results/circuit.md).
+``quasi-static`` (default) lags each stage by its closed-loop time constant; ``dynamic`` makes
+every output a state (stiff).
 """
 
 from __future__ import annotations

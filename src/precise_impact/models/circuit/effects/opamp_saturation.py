@@ -1,11 +1,6 @@
 """Output saturation at ``+-v_sat`` (TL072 at +-15 V supplies: +-13.5 V typ).
 
-Clips the algebraic stages (U1, U3) with heyoka's ``select``; because heyoka picks
-the branch of ``select`` once per Taylor step, :func:`events` adds terminal events
-that end a step exactly where an unclipped output meets a rail.  The integrators
-(U2, U4) are not clipped in the ODE models (for the paper's parameters they stay far
-inside the rails; a clipped integrator loses its virtual ground, which the ngspice
-netlist models) and the dynamic-GBW mode does not clip.
+Clips the algebraic stages U1 and U3, with terminal events at the kinks.
 """
 
 from __future__ import annotations

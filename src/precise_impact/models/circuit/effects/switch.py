@@ -1,14 +1,4 @@
-"""Analog switches U6/U7 reversing C2 (ADG5233-class).
-
-* ``ron``: two conducting switches in series with C2.  KCL at U2's virtual ground
-  gives ``V_q = -pol V_C - (2 R_on / R3) V_p`` with ``V_p = -R2 (V3/R1 - rho V_q/R6 + V_s/R7)``,
-  solved for ``V_q`` in :func:`vq` (about ``2 R_on / R3`` of extra damping in
-  ``2 zeta`` units).
-* ``bbm``: for this interval both pairs are open: C2 floats (``V_C`` frozen) and U2,
-  without feedback, slews at ``slew_rate`` towards the rail opposite to ``V_p``
-  while U4 integrates it (:func:`break_before_make`, closed form).
-* ``charge_injection``: ``V_C += Q / C2`` at each reconnection.
-"""
+"""Analog switches U6/U7 reversing C2 (ADG5233-class): ``ron``, ``bbm``, ``charge_injection``."""
 
 from __future__ import annotations
 
