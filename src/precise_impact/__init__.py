@@ -59,7 +59,9 @@ from precise_impact.errors import (
     MissedImpactError,
     NgspiceNotFoundError,
     OptionalDependencyError,
+    OverBudgetError,
     ParameterError,
+    PreciseImpactError,
     ReferenceDataError,
     SpiceError,
 )
@@ -100,7 +102,9 @@ __all__ = [
     "MissedImpactError",
     "NgspiceNotFoundError",
     "OptionalDependencyError",
+    "OverBudgetError",
     "ParameterError",
+    "PreciseImpactError",
     "ReferenceDataError",
     "SpiceError",
     # core

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
@@ -256,6 +257,7 @@ def bifurcation(
     workers: int | None = None,
     progress: bool | None = None,
     engine: str = "fast",
+    max_time: Any = None,
 ) -> BifurcationResult:
     """Stroboscopic x and the LLE for ``n`` values of eta.
 
@@ -282,6 +284,11 @@ def bifurcation(
         tangent basis runs on through the transient; a value it does not resolve, or
         ``zeta >= 1``, is computed by heyoka); ``'heyoka'``: one heyoka variational run
         per value.
+    max_time : decimal or None, default ``None``
+        Time budget in seconds per worker (``1 <= max_time <= 604800``): the estimated
+        cost of the runs (:func:`~precise_impact.core.budget.estimate_cost`, job
+        ``'bifurcation'``, priced as heyoka runs) is checked against ``max_time x workers``
+        before any work (:class:`~precise_impact.errors.OverBudgetError`); ``None``: no budget.
 
     Returns
     -------
@@ -315,6 +322,9 @@ def bifurcation(
     if workers < 1:
         raise ParameterError("workers", workers, "an integer >= 1")
     check_engine(engine)
+    enforce_max_time(
+        max_time, "bifurcation", scale=workers, periods=periods, transient=transient, runs=len(etas)
+    )
     jobs = [
         (params.replace(eta=e), periods, transient, engine) for e in etas
     ]  # validates every eta first

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
@@ -317,6 +318,7 @@ def sync_scan(
     lle_transient: int = 1000,
     precision: str | Precision = "float64",
     engine: str | None = None,
+    max_time: Any = None,
 ) -> SyncResult:
     """Fraction of synchronised master-slave runs against the coupling ``k``.
 
@@ -356,6 +358,11 @@ def sync_scan(
         ``'fast'`` (compiled closed forms, :mod:`~precise_impact.solvers.fast.coupled`, and the
         LLE by ``method='fast'``), ``'heyoka'``, or ``None``: ``'fast'`` in float64, heyoka
         otherwise.
+    max_time : decimal or None, default ``None``
+        Time budget in seconds (``1 <= max_time <= 604800``): the estimated cost of the
+        coupled runs (:func:`~precise_impact.core.budget.estimate_cost`, job ``'sync'``) is
+        checked against it before any work (:class:`~precise_impact.errors.OverBudgetError`);
+        ``None``: no budget.
 
     Returns
     -------
@@ -418,6 +425,15 @@ def sync_scan(
     if engine is None:
         engine = "fast" if P.kind == "float64" else "heyoka"
     check_engine(engine, P)
+    enforce_max_time(
+        max_time,
+        "sync",
+        periods=periods,
+        per_period=per_period,
+        precision=P,
+        model=engine,
+        runs=len(ks) * ensemble,
+    )
 
     start = _time.perf_counter()
     y0s = ensemble_y0(params, ensemble, seed, sq)
