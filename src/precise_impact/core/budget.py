@@ -155,8 +155,9 @@ def estimate_cost(
     Examples
     --------
     >>> from precise_impact.core.budget import estimate_cost
-    >>> estimate_cost("lle", periods=20000, transient=1000).seconds  # 4 starts x 2 x 21000 x 1e-5 s
-    1.68
+    >>> c = estimate_cost("lle", periods=20000, transient=1000)  # 4 x (2 x 21000 x 1e-5 s + samples)
+    >>> round(c.seconds, 3), c.what
+    (1.764, '4 x 21000 periods in float64')
     """
     from precise_impact.core.precision import Precision
 
