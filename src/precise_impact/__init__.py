@@ -49,7 +49,9 @@ from precise_impact.errors import (
     MissedImpactError,
     NgspiceNotFoundError,
     OptionalDependencyError,
+    OverBudgetError,
     ParameterError,
+    PreciseImpactError,
     ReferenceDataError,
     SpiceError,
 )
@@ -90,7 +92,9 @@ __all__ = [
     "MissedImpactError",
     "NgspiceNotFoundError",
     "OptionalDependencyError",
+    "OverBudgetError",
     "ParameterError",
+    "PreciseImpactError",
     "ReferenceDataError",
     "SpiceError",
     # core

@@ -1,9 +1,37 @@
-"""Error types raised by precise_impact."""
+"""Error types raised by precise_impact, all under one base class :class:`PreciseImpactError`.
+
+One home for every error a caller may catch, so ``except PreciseImpactError`` catches what the
+package raises and the CLI maps errors to exit statuses by type.  Each concrete error also
+derives from the builtin it refines (``ValueError`` for bad input, ``RuntimeError`` for a run
+that could not finish), so code written against those keeps working.  :class:`Interrupted` is
+the one exception here that is not an error: it is a ``KeyboardInterrupt`` (not an
+``Exception``), so that ``except Exception`` never swallows Ctrl-C.
+"""
 
 from __future__ import annotations
 
+__all__ = [
+    "PreciseImpactError",
+    "ParameterError",
+    "BudgetExceededError",
+    "OverBudgetError",
+    "OptionalDependencyError",
+    "MissedImpactError",
+    "SpiceError",
+    "NgspiceNotFoundError",
+    "ReferenceDataError",
+    "IntegrationError",
+    "CertificationError",
+    "ConvergenceError",
+    "Interrupted",
+]
 
-class ParameterError(ValueError):
+
+class PreciseImpactError(Exception):
+    """Base class of every error precise_impact raises (``except PreciseImpactError``)."""
+
+
+class ParameterError(PreciseImpactError, ValueError):
     """Bad input: names the parameter and the allowed range.
 
     Raised before any work starts.  The CLI turns it into a one-line message on
@@ -26,11 +54,21 @@ class ParameterError(ValueError):
         super().__init__(f"{name} = {value!r} is not allowed: {allowed}")
 
 
-class BudgetExceededError(RuntimeError):
+class BudgetExceededError(PreciseImpactError, RuntimeError):
     """An integration hit its impact or step budget (e.g. a Zeno impact sequence)."""
 
 
-class OptionalDependencyError(RuntimeError):
+class OverBudgetError(ParameterError, BudgetExceededError):
+    """A request whose estimated cost exceeds its budget, refused before any work.
+
+    Raised by :func:`~precise_impact.core.budget.check_cost` (time over ``max_time``, or
+    samples over half the machine's memory).  Both a :class:`ParameterError` (ask for less,
+    or raise ``max_time``: the CLI exits with status 2, like any bad input) and a
+    :class:`BudgetExceededError` (a budget stopped it).
+    """
+
+
+class OptionalDependencyError(PreciseImpactError, RuntimeError):
     """An optional component a request needs is not installed.
 
     The CLI prints the message as one line and exits with status 2 (bad input:
@@ -55,11 +93,11 @@ class OptionalDependencyError(RuntimeError):
         )
 
 
-class MissedImpactError(RuntimeError):
+class MissedImpactError(PreciseImpactError, RuntimeError):
     """The guard found a maximum of ``x`` beyond the wall that no impact event caught."""
 
 
-class SpiceError(RuntimeError):
+class SpiceError(PreciseImpactError, RuntimeError):
     """ngspice failed, timed out, or wrote no usable output (message has its log tail)."""
 
 
@@ -81,7 +119,7 @@ class NgspiceNotFoundError(SpiceError, OptionalDependencyError):
         )
 
 
-class ReferenceDataError(RuntimeError):
+class ReferenceDataError(PreciseImpactError, RuntimeError):
     """A reference dataset is missing, damaged or changed since it was generated.
 
     Raised by every loader before any scoring: a damaged reference is never turned into a
@@ -89,11 +127,25 @@ class ReferenceDataError(RuntimeError):
     """
 
 
-class IntegrationError(RuntimeError):
-    """The integrator could not continue (heyoka stopped with a non-finite state or an error outcome).
+class IntegrationError(PreciseImpactError, RuntimeError):
+    """The integrator could not continue (heyoka stopped: a non-finite state or an error outcome).
 
     Inside the documented parameter box this does not happen; the CLI reports it as one
     line with exit status 3, like an exhausted budget, and keeps what was finished.
+    """
+
+
+class CertificationError(IntegrationError):
+    """No proof at this precision: the message names the time and the ball.
+
+    Raised by the certified engines (:mod:`precise_impact.solvers.certified`).
+    """
+
+
+class ConvergenceError(IntegrationError):
+    """Newton's iteration did not reach a periodic orbit (the message says how far it got).
+
+    Raised by :func:`~precise_impact.analysis.orbits.find_orbit` and the continuation.
     """
 
 

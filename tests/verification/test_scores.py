@@ -114,13 +114,13 @@ def test_compare_writes_report_and_figures(tmp_path):
 def test_compare_and_cli_refuse_bad_models():
     import argparse
 
-    from precise_impact.cli.compare import add_parser, run
+    from precise_impact.cli.commands.compare import register, run
     from precise_impact.verification.compare import compare
 
     with pytest.raises(ParameterError, match="models"):
         compare("fig6-period3-ideal", ["circuit", "nonsense"])
     parser = argparse.ArgumentParser()
-    add_parser(parser.add_subparsers(dest="command"))
+    register(parser.add_subparsers(dest="command"))
     ns = parser.parse_args(["compare", "fig6-period3-ideal", "--models", "circuit,,spicy"])
     with pytest.raises(ParameterError, match="models"):
         run(ns)

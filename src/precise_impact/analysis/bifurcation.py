@@ -25,6 +25,7 @@ from precise_impact.analysis.scan import (
     resolve_model,
     run_scan,
 )
+from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
@@ -284,6 +285,7 @@ def bifurcation(
     *,
     model: str | None = None,
     eta_min: Any = None,
+    max_time: Any = None,
 ) -> BifurcationResult:
     """Stroboscopic x and the LLE for ``n`` values of eta.
 
@@ -309,7 +311,16 @@ def bifurcation(
         ``'fast'``: the compiled closed form (:mod:`precise_impact.solvers.fast.single`; the
         tangent basis runs on through the transient; a value it does not resolve, or
         ``zeta >= 1``, is computed by heyoka); ``'heyoka'``: one heyoka variational run
-        per value.  ``engine=`` is its deprecated spelling.
+        per value.
+    eta_min, eta_max, n : decimal, decimal, int
+        Deprecated: the old range form, ``axis=('eta', eta_min, eta_max, n)`` instead.
+    engine : str
+        Deprecated spelling of ``model=``.
+    max_time : decimal or None, default ``None``
+        Time budget in seconds per worker (``1 <= max_time <= 604800``): the estimated
+        cost of the runs (:func:`~precise_impact.core.budget.estimate_cost`, job
+        ``'bifurcation'``, priced as heyoka runs) is checked against ``max_time x workers``
+        before any work (:class:`~precise_impact.errors.OverBudgetError`); ``None``: no budget.
 
     Returns
     -------
@@ -344,6 +355,9 @@ def bifurcation(
         raise ParameterError("workers", workers, "an integer >= 1")
     model = resolve_model(model, engine, "bifurcation")
     progress = check_progress(progress)
+    enforce_max_time(
+        max_time, "bifurcation", scale=workers, periods=periods, transient=transient, runs=len(etas)
+    )
     jobs = [
         (params.replace(eta=e), periods, transient, model) for e in etas
     ]  # validates every eta first

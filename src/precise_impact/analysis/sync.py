@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.scan import check_axis, check_workers, resolve_model, run_scan
+from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.params import Params, check_count, decimal_str, exact, exact_grid
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
@@ -321,6 +322,7 @@ def sync_scan(
     *,
     model: str | None = None,
     workers: int | None = 1,
+    max_time: Any = None,
 ) -> SyncResult:
     """Fraction of synchronised master-slave runs against the coupling ``k``.
 
@@ -367,6 +369,11 @@ def sync_scan(
     workers : int or None, default 1
         Worker processes over the k-grid (``None``: every core); the numbers do not
         depend on it.
+    max_time : decimal or None, default ``None``
+        Time budget in seconds (``1 <= max_time <= 604800``): the estimated cost of the
+        coupled runs (:func:`~precise_impact.core.budget.estimate_cost`, job ``'sync'``) is
+        checked against it before any work (:class:`~precise_impact.errors.OverBudgetError`);
+        ``None``: no budget.
 
     Returns
     -------
@@ -439,6 +446,15 @@ def sync_scan(
         engine = "fast" if P.kind == "float64" else "heyoka"
     progress = check_progress(progress)
     workers = check_workers(workers)
+    enforce_max_time(
+        max_time,
+        "sync",
+        periods=periods,
+        per_period=per_period,
+        precision=P,
+        model=engine,
+        runs=len(ks) * ensemble,
+    )
 
     start = _time.perf_counter()
     y0s = ensemble_y0(params, ensemble, seed, sq)

@@ -2,16 +2,30 @@
 
 A too-large request is refused before the first step.  The cost model (measured, rounded up) is
 in ``benchmarks/results/cost_model.md`` and ``docs/numerics.rst``.
+:func:`estimate_cost` prices a whole job; the API functions take ``max_time=`` and refuse through
+:func:`enforce_max_time`; the CLI's ``--max-time`` passes through to them.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
+import warnings
+from typing import Any
 
-from precise_impact.errors import ParameterError
+from precise_impact.errors import OverBudgetError, ParameterError
 
-__all__ = ["Cost", "estimate_cost", "check_cost", "DEFAULT_MAX_TIME", "MAX_TIME"]
+__all__ = [
+    "Cost",
+    "JOBS",
+    "estimate_cost",
+    "run_cost",
+    "check_cost",
+    "enforce_max_time",
+    "parse_max_time",
+    "DEFAULT_MAX_TIME",
+    "MAX_TIME",
+]
 
 #: Default time budget of one CLI run or scene, seconds (raise it with ``--max-time``).
 DEFAULT_MAX_TIME = 3600.0
@@ -56,7 +70,116 @@ def _per_period(precision) -> tuple[float, float, float]:
     return 1.2e-3 * max(1.0, bits / 128) ** 2.7, 2e-5, 3 * (120 + bits / 8)
 
 
+#: The jobs :func:`estimate_cost` prices.
+JOBS = ("simulate", "scene", "lle", "bifurcation", "sync")
+
+
 def estimate_cost(
+    job: Any,
+    *args: Any,
+    periods: int = 0,
+    transient: int = 0,
+    per_period: int = 0,
+    precision: Any = "float64",
+    model: str | None = None,
+    runs: int | None = None,
+    coupled: bool = False,
+    **kwargs: Any,
+) -> Cost:
+    """Estimated cost of one job of the API or the CLI, before any work.
+
+    Parameters
+    ----------
+    job : str
+        One of :data:`JOBS`: ``'simulate'`` (one trajectory, samples kept),
+        ``'scene'`` (:func:`~precise_impact.scenes.run.run_scene`: circuit and coupled
+        systems integrate 2-4x the states, factor 4), ``'lle'`` (``runs`` starting
+        conditions, default 4, variational: factor 2; ``model='fast'``: 2/30, the compiled
+        engine's measured cost relative to heyoka), ``'bifurcation'`` (``runs`` values of
+        eta, one variational run each: factor 2), ``'sync'`` (``runs`` = couplings x
+        ensemble master-slave runs of 4 states: factor 4 in heyoka, 4/5 with
+        ``model='fast'``).
+    *args
+        Deprecated: the 0.x low-level form ``estimate_cost(precision, periods, ...)``,
+        now :func:`run_cost` (a ``DeprecationWarning``).
+    periods : int, default 0
+        Measured forcing periods per run.
+    transient : int, default 0
+        Discarded periods per run (priced like measured ones).
+    per_period : int, default 0
+        Output points per period (0: one stroboscopic sample).
+    precision : str or Precision, default ``'float64'``
+        Working precision of the runs.
+    model : str or None, default ``None``
+        The engine or method where it changes the cost (``'fast'``, ``'heyoka'``,
+        ``'variational'``, ...; for ``'scene'`` the scene's model).
+    runs : int or None, default ``None``
+        Independent runs (starting conditions, values of eta, couplings x ensemble);
+        ``None``: the job's default (4 starting conditions for ``'lle'``, else 1).
+    coupled : bool, default ``False``
+        For ``'scene'``: the scene is a coupled (master-slave) system.
+    **kwargs
+        Deprecated low-level keywords (``factor``, ``stored``), with ``*args``.
+
+    Returns
+    -------
+    Cost
+        Seconds and bytes, with a one-line description for the refusal message.
+
+    Raises
+    ------
+    ParameterError
+        ``job`` is not one of :data:`JOBS`.
+
+    See Also
+    --------
+    run_cost : The cost of plain heyoka runs that every job is priced from.
+    check_cost : Refuse a cost over a budget.
+
+    Examples
+    --------
+    >>> from precise_impact.core.budget import estimate_cost
+    >>> c = estimate_cost("lle", periods=20000, transient=1000)  # 4 x (2 x 21000 x 1e-5 s + samples)
+    >>> round(c.seconds, 3), c.what
+    (1.764, '4 x 21000 periods in float64')
+    """
+    from precise_impact.core.precision import Precision
+
+    if isinstance(job, Precision):  # the 0.x signature (precision, periods, per_period, ...)
+        warnings.warn(
+            "estimate_cost(precision, periods, ...) is deprecated: use run_cost(precision, "
+            "periods, ...) for plain runs, or estimate_cost(job, ...) for a job",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return run_cost(job, *args, **kwargs)
+    if args or kwargs:
+        raise TypeError(f"estimate_cost(job, ...) takes keywords only, not {args or kwargs}")
+    P = Precision.parse(precision)
+    length = periods + transient
+    n = 1 if runs is None else runs
+    if job == "simulate":
+        return run_cost(P, length, per_period)
+    if job == "scene":
+        # circuits and coupled systems integrate 2-4x the states of the mechanical model
+        factor = 1.0 if not coupled and model in (None, "heyoka", "analytical") else 4.0
+        return run_cost(P, length, per_period, factor=factor)
+    if job == "lle":
+        # four starting conditions; the variational equations cost about twice a trajectory;
+        # the compiled engine ~1/30 of heyoka's variational run (benchmarks/results/fast.md)
+        factor = 2 / 30 if model == "fast" else 2
+        return run_cost(P, length, runs=4 if runs is None else runs, factor=factor, stored=False)
+    if job == "bifurcation":
+        # one variational run per value (x2)
+        return run_cost(P, length, runs=n, factor=2, stored=False)
+    if job == "sync":
+        # master + slave (4 states, x4) for every k and ensemble member
+        factor = 4 if model == "heyoka" else 4 / 5
+        return run_cost(P, length, per_period, runs=n, factor=factor, stored=False)
+    raise ParameterError("job", job, "one of " + ", ".join(JOBS))
+
+
+def run_cost(
     precision,
     periods: int,
     per_period: int = 0,
@@ -87,6 +210,10 @@ def estimate_cost(
     -------
     Cost
         Seconds and bytes (the samples of one run are held at a time).
+
+    See Also
+    --------
+    estimate_cost : A whole job priced from these runs.
     """
     t_period, t_sample, b_sample = _per_period(precision)
     samples = periods * max(per_period, 1) + 1
@@ -114,19 +241,20 @@ def check_cost(
 
     Raises
     ------
-    ParameterError
-        Naming ``flag`` (time) or ``periods`` (memory), with the estimate; before any work.
+    OverBudgetError
+        A :class:`~precise_impact.errors.ParameterError` naming ``flag`` (time) or ``periods``
+        (memory), with the estimate; before any work.
     """
     mem = _memory()
     if mem is not None and cost.bytes > mem / 2:
-        raise ParameterError(
+        raise OverBudgetError(
             "periods",
             cost.what,
             f"a run whose samples fit in half this machine's memory "
             f"({_size(mem)}): {cost.describe()}; fewer periods or output points",
         )
     if max_time is not None and cost.seconds > max_time:
-        raise ParameterError(
+        raise OverBudgetError(
             flag,
             f"{max_time:g} s",
             f"a budget above the estimate ({cost.describe()}); "
@@ -142,3 +270,29 @@ def parse_max_time(value) -> float:
     if not 1 <= q <= MAX_TIME:
         raise ParameterError("max_time", value, f"seconds with 1 <= max_time <= {MAX_TIME:g}")
     return float(q)
+
+
+def enforce_max_time(max_time: Any, job: str, scale: float = 1.0, **job_args: Any) -> None:
+    """The API's ``max_time=``: refuse ``job`` before any work when its estimate is over it.
+
+    Parameters
+    ----------
+    max_time : decimal or None
+        Seconds, ``1 <= max_time <=`` :data:`MAX_TIME`; ``None``: no budget (nothing checked).
+    job : str
+        One of :data:`JOBS`.
+    scale : float, default 1.0
+        The budget is ``max_time * scale`` (the worker processes of a parallel job).
+    **job_args
+        The job's size, as :func:`estimate_cost` takes it.
+
+    Raises
+    ------
+    OverBudgetError
+        Naming ``max_time`` (or ``periods`` for memory), with the estimate.
+    ParameterError
+        ``max_time`` out of range.
+    """
+    if max_time is None:
+        return
+    check_cost(estimate_cost(job, **job_args), parse_max_time(max_time) * scale)

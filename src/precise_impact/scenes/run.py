@@ -41,12 +41,15 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
     P = scene.precision
     from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, estimate_cost
 
-    # circuits and coupled systems integrate 2-4x the states of the mechanical model
-    factor = 1.0 if scene.kind != "coupled" and scene.model in ("heyoka", "analytical") else 4.0
-    check_cost(
-        estimate_cost(P, scene.periods, scene.per_period, factor=factor),
-        DEFAULT_MAX_TIME if max_time is None else max_time,
+    cost = estimate_cost(
+        "scene",
+        periods=scene.periods,
+        per_period=scene.per_period,
+        precision=P,
+        model=scene.model,
+        coupled=scene.kind == "coupled",
     )
+    check_cost(cost, DEFAULT_MAX_TIME if max_time is None else max_time)
     if scene.kind == "coupled":
         y0 = (scene.params.x0 + 1, scene.params.v0)  # the slave starts one unit away (paper Fig. 7)
         if scene.model == "circuit":

@@ -5,6 +5,7 @@ from __future__ import annotations
 import threading
 from typing import Any
 
+from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
@@ -142,6 +143,7 @@ def simulate(
     precision: str | Precision = "float64",
     tol: Any = None,
     per_period: int = 0,
+    max_time: Any = None,
     **param_values: Any,
 ) -> Trajectory:
     """Simulate the impact oscillator with any model.
@@ -162,6 +164,10 @@ def simulate(
         heyoka's tolerance.
     per_period : int, default 0
         Dense output points per period.
+    max_time : decimal or None, default ``None``
+        Time budget in seconds (``1 <= max_time <= 604800``): the run's estimated cost
+        (:func:`~precise_impact.core.budget.estimate_cost`) is checked against it before
+        any work (:class:`~precise_impact.errors.OverBudgetError`); ``None``: no budget.
     **param_values
         Parameter values (exact decimals) replacing those of ``params``.
 
@@ -174,6 +180,9 @@ def simulate(
     ------
     ParameterError
         Bad input, before any work.
+    OverBudgetError
+        The estimated cost is over ``max_time`` (a ``ParameterError`` and a
+        ``BudgetExceededError``), before any work.
     BudgetExceededError
         An impact or step budget was exhausted (e.g. a Zeno impact sequence).
 
@@ -187,4 +196,10 @@ def simulate(
     params = params_or_values(params, param_values)  # a Params (validated), a mapping, or None
     periods = check_count(periods, "periods")
     solver = _solver(model, precision, tol)
+    if max_time is not None:
+        per_period = check_count(per_period, "per_period", 100_000)
+        prec = getattr(solver, "precision", None) or precision
+        enforce_max_time(
+            max_time, "simulate", periods=periods, per_period=per_period, precision=prec
+        )
     return solver.solve(params, periods, per_period=per_period)

@@ -10,7 +10,8 @@ from precise_impact.analysis.lyapunov.result import (
     StartEstimate,
     block_stderr,
 )
-from precise_impact.core.params import Params
+from precise_impact.core.budget import enforce_max_time
+from precise_impact.core.params import Params, check_count
 from precise_impact.errors import ParameterError
 
 __all__ = [
@@ -25,7 +26,9 @@ __all__ = [
 LYAPUNOV_METHODS = ("variational", "two-trajectory", "fast")
 
 
-def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> LyapunovResult:
+def lyapunov(
+    params: Params, method: str = "variational", *, max_time: Any = None, **kwargs: Any
+) -> LyapunovResult:
     """Largest Lyapunov exponent (and, variationally, the spectrum) of the impact oscillator.
 
     Parameters
@@ -40,6 +43,11 @@ def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> Lyap
         :func:`~precise_impact.analysis.lyapunov.two_trajectory.two_trajectory_lle`) or
         ``'fast'`` (the same spectrum as ``'variational'`` from the compiled closed-form
         engine, float64, every core: :func:`~precise_impact.analysis.lyapunov.fast.fast_spectrum`).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds (``1 <= max_time <= 604800``): the estimated cost of the
+        runs (:func:`~precise_impact.core.budget.estimate_cost`, job ``'lle'``) is checked
+        against it before any work (:class:`~precise_impact.errors.OverBudgetError`);
+        ``None``: no budget.
     **kwargs
         Passed on to that method; every keyword and its default is documented there
         (common to all: ``periods=20000``, ``transient=1000``, ``precision='float64'``,
@@ -63,6 +71,8 @@ def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> Lyap
     ------
     ParameterError
         ``method`` is not one of :data:`LYAPUNOV_METHODS`, or a keyword is out of range.
+    OverBudgetError
+        The estimated cost is over ``max_time``, before any work.
 
     References
     ----------
@@ -80,6 +90,19 @@ def lyapunov(params: Params, method: str = "variational", **kwargs: Any) -> Lyap
     from precise_impact.core.params import as_params
 
     params = as_params(params)
+    if method not in LYAPUNOV_METHODS:
+        raise ParameterError("method", method, "one of " + ", ".join(LYAPUNOV_METHODS))
+    if max_time is not None:
+        starts = kwargs.get("initial_conditions")
+        enforce_max_time(
+            max_time,
+            "lle",
+            periods=check_count(kwargs.get("periods", 20000)),
+            transient=check_count(kwargs.get("transient", 1000), "transient"),
+            precision=kwargs.get("precision", "float64"),
+            model=method,
+            runs=None if starts is None else check_count(starts, "initial_conditions"),
+        )
     if method == "variational":
         from precise_impact.analysis.lyapunov.variational import variational_spectrum
 

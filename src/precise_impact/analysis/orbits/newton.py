@@ -15,7 +15,7 @@ import numpy as np
 
 from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
 from precise_impact.core.params import Params, check_count, exact, params_or_values
-from precise_impact.errors import IntegrationError, ParameterError
+from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
 
 __all__ = ["find_orbit", "ConvergenceError"]
 
@@ -23,10 +23,6 @@ _EPS = 2.0**-52
 
 #: Largest multiprecision of the Newton refinement (each step runs the mpmath closed forms).
 MAX_BITS = 2048
-
-
-class ConvergenceError(IntegrationError):
-    """Newton's iteration did not reach a periodic orbit (the message says how far it got)."""
 
 
 def _map(params: Params, z: np.ndarray, period: int):

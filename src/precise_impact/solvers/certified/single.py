@@ -18,7 +18,7 @@ from precise_impact.core import flight
 from precise_impact.core.flow import steady_state
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import IntegrationError, OptionalDependencyError, ParameterError
+from precise_impact.errors import CertificationError, OptionalDependencyError, ParameterError
 
 __all__ = [
     "certify",
@@ -51,10 +51,6 @@ MIN_BITS, MAX_BITS = 64, 16384
 #: beyond the bits' own limit is never needed).
 _MAX_DEPTH_EXTRA = 40
 _LOCK = threading.RLock()
-
-
-class CertificationError(IntegrationError):
-    """No proof at this precision: the message names the time and the ball."""
 
 
 def _flint():

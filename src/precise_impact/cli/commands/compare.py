@@ -2,46 +2,48 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 
-__all__ = ["add_parser", "run"]
+import heyoka
+
+from precise_impact.cli.args import add_json, add_out, add_periods
+from precise_impact.core.params import check_count
+from precise_impact.scenes.scene import SCENE_MODELS
+from precise_impact.verification.compare import check_models, compare, format_scores
+from precise_impact.verification.metrics import max_reference_periods
+
+__all__ = ["register", "run"]
 
 
-def add_parser(sub):
+def register(sub) -> argparse.ArgumentParser:
     """Add ``compare`` to ``sub`` (the object returned by ``add_subparsers``)."""
-    from precise_impact.scenes.scene import SCENE_MODELS
-
     c = sub.add_parser(
         "compare", help="score models of a scene against a demonstrated heyoka reference"
     )
     c.add_argument("scene", help="built-in scene name or FILE.toml")
     c.add_argument("--models", required=True, help="comma-separated: " + ",".join(SCENE_MODELS))
-    c.add_argument("--periods", default=None, help="forcing periods (default: the scene's)")
+    add_periods(c, None, "forcing periods", metavar=None, default_text="default: the scene's")
     c.add_argument(
         "--points",
         action="store_true",
         help="also score the grazing and period-doubling points along eta against the mechanics",
     )
-    c.add_argument("--json", action="store_true", help="print one JSON object")
-    c.add_argument("--out", default=None, help="directory for report.md, scores.json and the PNGs")
-    c.set_defaults(_run=run)
+    add_json(c, "print one JSON object")
+    add_out(c, "dir", "directory for report.md, scores.json and the PNGs")
+    c.set_defaults(run=run)
     return c
 
 
-def run(ns) -> int:
-    from precise_impact.core.params import check_count
-    from precise_impact.verification.compare import check_models, compare, format_scores
-    from precise_impact.verification.metrics import max_reference_periods
-
+def run(ns: argparse.Namespace) -> int:
+    """Run ``compare``; returns the exit status."""
     models = check_models(ns.models)
     periods = None
     if ns.periods is not None:
         # a demonstrated chaotic reference needs mp:BITS <= MAX_MP_BITS
         periods = check_count(ns.periods, "periods", max_reference_periods(), minimum=1)
     if ns.json:
-        import heyoka
-
         heyoka.set_logger_level_error()
     result = compare(
         ns.scene, models, out=ns.out, periods=periods, progress=not ns.json, points=ns.points

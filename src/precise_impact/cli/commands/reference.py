@@ -6,18 +6,18 @@ import argparse
 import sys
 from pathlib import Path
 
+from precise_impact.cli.args import add_out
 from precise_impact.errors import ParameterError
+from precise_impact.verification.reference import CASES, default_root, generate, verify
 
-__all__ = ["add_parser", "run"]
+__all__ = ["register", "run"]
 
 EXIT_MISMATCH = 1
 EXIT_BAD_INPUT = 2
 
 
-def add_parser(sub) -> argparse.ArgumentParser:
+def register(sub) -> argparse.ArgumentParser:
     """Add ``reference`` (with ``generate`` and ``verify``) to ``sub`` (from ``add_subparsers``)."""
-    from precise_impact.verification.reference import CASES
-
     p = sub.add_parser(
         "reference", help="generate or verify the reference datasets (reference_data/)"
     )
@@ -35,12 +35,8 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="case to generate (repeatable): " + ", ".join(CASES),
     )
     which.add_argument("--all", action="store_true", help="every case (the default)")
-    g.add_argument(
-        "--out",
-        default=None,
-        metavar="DIR",
-        help="output directory (default: the checkout's reference_data/)",
-    )
+    # generation resumes in its directory (complete cases are skipped); --force regenerates
+    add_out(g, "resume", "output directory (default: the checkout's reference_data/)")
     g.add_argument(
         "--force", action="store_true", help="regenerate cases that are already complete"
     )
@@ -62,13 +58,12 @@ def add_parser(sub) -> argparse.ArgumentParser:
         help="only this case (repeatable)",
     )
     v.add_argument("--no-recompute", action="store_true", help="checksums only")
+    p.set_defaults(run=run)
     return p
 
 
 def run(ns: argparse.Namespace) -> int:
     """Execute a parsed ``reference`` command; return the exit status."""
-    from precise_impact.verification.reference import default_root, generate, verify
-
     if ns.reference_command == "generate":
         out = Path(ns.out) if ns.out else default_root()
         res = generate(

@@ -1,0 +1,59 @@
+"""``precise-impact run``: run a scene (built-in name or FILE.toml) on its model or another."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from precise_impact.cli.args import add_json, add_max_time, add_out, max_time
+from precise_impact.errors import ParameterError
+from precise_impact.scenes.run import run_scene, save_scene_outputs, scene_json
+from precise_impact.scenes.scene import SCENE_MODELS, load_scene
+
+
+def register(sub) -> argparse.ArgumentParser:
+    """Add ``run`` to ``sub``."""
+    rn = sub.add_parser("run", help="run a scene (built-in name or FILE.toml)")
+    rn.add_argument(
+        "scene", help="built-in scene name (see: precise-impact scenes) or a .toml file"
+    )
+    rn.add_argument("--model", default=None, help="override the scene's model")
+    add_json(rn)
+    add_out(rn, "dir", "write <scene>_<model>.json and .png here")
+    add_max_time(rn)
+    rn.set_defaults(run=run)
+    return rn
+
+
+def run(ns: argparse.Namespace) -> int:
+    """Run ``run``; returns the exit status."""
+    scene = load_scene(ns.scene)
+    if ns.model is not None and ns.model not in SCENE_MODELS:
+        raise ParameterError("model", ns.model, "one of " + ", ".join(SCENE_MODELS))
+    if ns.model is not None:
+        scene = scene.with_model(ns.model)  # validated before any work
+    result = run_scene(scene, max_time=max_time(ns))
+    obj = scene_json(scene, result)
+    files = save_scene_outputs(scene, result, ns.out) if ns.out is not None else []
+    if ns.json:
+        json.dump(obj, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    last = obj["samples"][-1]
+    n_imp = (
+        len(obj["impacts"])
+        if isinstance(obj["impacts"], list)
+        else sum(map(len, obj["impacts"].values()))
+    )
+    print(
+        f"{scene.name}: model {obj['model']}, effects {', '.join(obj['effects']) or 'none'}, "
+        f"{len(obj['samples']) - 1} periods, {n_imp} impacts, {obj['elapsed_s']:.3f} s"
+    )
+    print(
+        f"last sample: x = {last['x']}, v = {last['v']}"
+        + (f", y = {last['y']}" if "y" in last else "")
+    )
+    for f in files:
+        print(f"written: {f}")
+    return 0

@@ -1,0 +1,108 @@
+"""``precise-impact simulate``: one model's stroboscopic samples and impacts."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from precise_impact.cli.args import (
+    add_json,
+    add_max_time,
+    add_out,
+    add_param_flags,
+    add_periods,
+    add_precision,
+    max_time,
+    params_from,
+)
+from precise_impact.core.budget import check_cost, estimate_cost
+from precise_impact.core.params import check_count
+from precise_impact.core.precision import Precision
+from precise_impact.errors import Interrupted, ParameterError
+from precise_impact.io.progress import Progress
+from precise_impact.solvers.heyoka.single import HeyokaSolver
+from precise_impact.solvers.simulate import MODELS, make_solver
+
+
+def register(sub) -> argparse.ArgumentParser:
+    """Add ``simulate`` to ``sub`` (the object ``add_subparsers`` returns)."""
+    s = sub.add_parser("simulate", help="simulate one model and print samples and impacts")
+    add_param_flags(s)
+    add_periods(s, "200", "forcing periods")
+    s.add_argument(
+        "--model", default="heyoka", help="one of: " + ", ".join(MODELS) + " (default heyoka)"
+    )
+    add_precision(s, "float64, longdouble, float128 or mp:BITS (default float64)")
+    s.add_argument(
+        "--tol",
+        default=None,
+        metavar="T",
+        help="heyoka tolerance (default: the precision's epsilon)",
+    )
+    s.add_argument(
+        "--dense",
+        default="0",
+        metavar="K",
+        help="dense output points per period (saved with --out)",
+    )
+    add_out(s, "file", "write samples and impacts to FILE.npz, .csv or .json")
+    add_json(s)
+    add_max_time(s)
+    s.set_defaults(run=run)
+    return s
+
+
+def run(ns: argparse.Namespace) -> int:
+    """Run ``simulate``; returns the exit status."""
+    params = params_from(ns)
+    periods = check_count(ns.periods)
+    dense = check_count(ns.dense, "dense", 100_000)
+    if ns.out is not None and Path(ns.out).suffix not in (".npz", ".csv", ".json"):
+        raise ParameterError("out", ns.out, "output file must end in .npz, .csv or .json")
+    solver = make_solver(ns.model, ns.precision, ns.tol)
+    cost = estimate_cost(
+        "simulate",
+        periods=periods,
+        per_period=dense,
+        precision=getattr(solver, "precision", None) or Precision.parse(ns.precision),
+    )
+    check_cost(cost, max_time(ns))
+    if isinstance(
+        solver, HeyokaSolver
+    ):  # long runs: progress on stderr, a partial file on interrupt
+        bar = Progress(
+            periods, "simulate periods", None if not ns.json and cost.seconds > 2 else False
+        )
+        try:
+            traj = solver.solve(
+                params, periods, per_period=dense, progress=lambda k, n: bar.update(k)
+            )
+        except Interrupted as e:
+            bar.close()
+            if ns.out is not None and e.partial is not None:
+                part = Path(ns.out)
+                part = part.with_name(part.stem + ".partial" + part.suffix)
+                e.partial.save(part)
+                e.kept = f"{e}; the finished periods are in {part}"
+            raise
+        bar.close()
+    else:
+        traj = solver.solve(params, periods, per_period=dense)
+    if ns.out is not None:
+        traj.save(ns.out)
+    if ns.json:
+        json.dump(traj.to_dict(), sys.stdout)
+        sys.stdout.write("\n")
+        return 0
+    s = traj.precision.to_str
+    print(
+        f"{traj.model} {traj.precision.name}: {periods} periods, {traj.n_impacts} impacts, "
+        f"{traj.elapsed_s:.4f} s"
+    )
+    print(f"params: {', '.join(f'{k}={v}' for k, v in params.decimal().items())}")
+    print(f"final state at t={s(traj.t[-1])}:\n  x = {s(traj.x[-1])}\n  v = {s(traj.v[-1])}")
+    if ns.out is not None:
+        print(f"written: {ns.out}")
+    return 0
