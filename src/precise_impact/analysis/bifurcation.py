@@ -297,6 +297,9 @@ def bifurcation(
         The grid (:func:`eta_grid`: exact, evenly spaced, both ends included).  The
         deprecated form ``bifurcation(params, eta_min, eta_max, n, ...)`` (positional or
         by keyword) still works with a :class:`DeprecationWarning`.
+    eta_max, n : decimal, int
+        Deprecated: the old range form ``(eta_min, eta_max, n)``; use
+        ``axis=('eta', eta_min, eta_max, n)``.
     periods : int, default 2000
         Measured periods per value (stroboscopic points and LLE).
     transient : int, default 1000
@@ -307,15 +310,15 @@ def bifurcation(
     progress : bool, None or callable, default ``None``
         :data:`~precise_impact.io.progress.ProgressArg`: a progress bar on stderr
         (``None``: only when stderr is a terminal) or ``progress(done, total)``.
+    engine : str
+        Deprecated spelling of ``model=``.
     model : str, default ``'fast'``
         ``'fast'``: the compiled closed form (:mod:`precise_impact.solvers.fast.single`; the
         tangent basis runs on through the transient; a value it does not resolve, or
         ``zeta >= 1``, is computed by heyoka); ``'heyoka'``: one heyoka variational run
         per value.
-    eta_min, eta_max, n : decimal, decimal, int
-        Deprecated: the old range form, ``axis=('eta', eta_min, eta_max, n)`` instead.
-    engine : str
-        Deprecated spelling of ``model=``.
+    eta_min : decimal
+        Deprecated, with ``eta_max`` and ``n``.
     max_time : decimal or None, default ``None``
         Time budget in seconds per worker (``1 <= max_time <= 604800``): the estimated
         cost of the runs (:func:`~precise_impact.core.budget.estimate_cost`, job
