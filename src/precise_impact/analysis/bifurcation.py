@@ -255,15 +255,13 @@ def _one(args):
 def _eta_axis(axis: Any, eta_max: Any, n: Any, eta_min: Any) -> list[Fraction]:
     """The eta grid from an axis tuple ``('eta', start, stop, n)`` or the deprecated
     ``(eta_min, eta_max, n)`` (a :class:`DeprecationWarning` naming the axis tuple)."""
-    if eta_min is not None:
-        if axis is not None:
-            raise ParameterError("eta_min", eta_min, "not given with an axis")
-        axis = eta_min
-    if isinstance(axis, (str, bytes)) or not isinstance(axis, Sequence):
+    if eta_min is not None and axis is not None:
+        raise ParameterError("eta_min", eta_min, "not given with an axis")
+    if eta_min is not None or isinstance(axis, (str, bytes)) or not isinstance(axis, Sequence):
         deprecated_keyword(
             "(eta_min, eta_max, n)", "an axis tuple ('eta', start, stop, n)", "bifurcation", 4
         )
-        return eta_grid(axis, eta_max, n)
+        return eta_grid(axis if eta_min is None else eta_min, eta_max, n)
     for name, value in (("eta_max", eta_max), ("n", n)):
         if value is not None:
             raise ParameterError(name, value, "not given with an axis tuple")
@@ -295,6 +293,8 @@ def bifurcation(
         The grid (:func:`eta_grid`: exact, evenly spaced, both ends included).  The
         deprecated form ``bifurcation(params, eta_min, eta_max, n, ...)`` (positional or
         by keyword) still works with a :class:`DeprecationWarning`.
+    eta_max, n : optional
+        The deprecated form's upper end and count.
     periods : int, default 2000
         Measured periods per value (stroboscopic points and LLE).
     transient : int, default 1000
@@ -305,11 +305,15 @@ def bifurcation(
     progress : bool, None or callable, default ``None``
         :data:`~precise_impact.io.progress.ProgressArg`: a progress bar on stderr
         (``None``: only when stderr is a terminal) or ``progress(done, total)``.
+    engine : str or None, default ``None``
+        Deprecated spelling of ``model`` (a :class:`DeprecationWarning`).
     model : str, default ``'fast'``
         ``'fast'``: the compiled closed form (:mod:`precise_impact.solvers.fast.single`; the
         tangent basis runs on through the transient; a value it does not resolve, or
         ``zeta >= 1``, is computed by heyoka); ``'heyoka'``: one heyoka variational run
-        per value.  ``engine=`` is its deprecated spelling.
+        per value.
+    eta_min : optional
+        The deprecated form's lower end, by keyword.
 
     Returns
     -------
