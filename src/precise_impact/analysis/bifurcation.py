@@ -256,15 +256,13 @@ def _one(args):
 def _eta_axis(axis: Any, eta_max: Any, n: Any, eta_min: Any) -> list[Fraction]:
     """The eta grid from an axis tuple ``('eta', start, stop, n)`` or the deprecated
     ``(eta_min, eta_max, n)`` (a :class:`DeprecationWarning` naming the axis tuple)."""
-    if eta_min is not None:
-        if axis is not None:
-            raise ParameterError("eta_min", eta_min, "not given with an axis")
-        axis = eta_min
-    if isinstance(axis, (str, bytes)) or not isinstance(axis, Sequence):
+    if eta_min is not None and axis is not None:
+        raise ParameterError("eta_min", eta_min, "not given with an axis")
+    if eta_min is not None or isinstance(axis, (str, bytes)) or not isinstance(axis, Sequence):
         deprecated_keyword(
             "(eta_min, eta_max, n)", "an axis tuple ('eta', start, stop, n)", "bifurcation", 4
         )
-        return eta_grid(axis, eta_max, n)
+        return eta_grid(axis if eta_min is None else eta_min, eta_max, n)
     for name, value in (("eta_max", eta_max), ("n", n)):
         if value is not None:
             raise ParameterError(name, value, "not given with an axis tuple")

@@ -435,7 +435,7 @@ def run_scan(
 def _run_processes(job, bounds, todo, n_workers, finished) -> None:
     """Tiles on a local process pool; on an interrupt the pending ones are cancelled and
     every one finished by then is handed to ``finished`` before the interrupt goes on."""
-    ex = ProcessPoolExecutor(max_workers=n_workers)
+    ex = ProcessPoolExecutor(max_workers=min(n_workers, len(todo)))  # no idle processes
     futs: dict[Future, int] = {}
     handled: set[int] = set()
     try:

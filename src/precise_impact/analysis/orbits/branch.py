@@ -359,11 +359,15 @@ def brute_force_diagram(
         ``numpy.linspace`` of the ends in float64) and the number of values.  The
         deprecated form ``(params, name, start, stop, n=200)`` still works with a
         :class:`DeprecationWarning`.
+    start, stop, n : optional
+        The deprecated form's range (floats) and count (default 200).
     periods, transient : int, default 64, 1000
         Recorded and discarded periods per value.
     model : str, default ``'fast'``
         ``'fast'`` (the compiled closed form without its heyoka fallback) or
-        ``'heyoka'``; ``engine=`` is its deprecated spelling.
+        ``'heyoka'``.
+    engine : str or None, default ``None``
+        Deprecated spelling of ``model`` (a :class:`DeprecationWarning`).
     workers : int or None, default 1
         Worker processes (``None``: every core).
     progress : bool, None or callable, default ``False``
