@@ -2,7 +2,7 @@
 
 The same quantity as :mod:`~precise_impact.analysis.lyapunov.variational` (tangent flow,
 saltation matrix at every impact, QR every few periods), computed by
-:func:`precise_impact.solvers.fast.single.lle_batch`: the tangent flow between impacts is the
+:func:`precise_impact.solvers.fast.lle.lle_batch`: the tangent flow between impacts is the
 exact 2x2 matrix of the linear system, so there is no variational ODE to integrate.  The
 starts run in parallel; the tangent basis is never restarted after the transient.  A
 start the engine does not resolve (tangential contact, chattering, sticking, ``zeta >=
@@ -104,7 +104,8 @@ def fast_spectrum(
     )
     while m > 1 and (per // (blocks * m)) * m != per // blocks:
         m -= 1
-    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT, lle_batch
+    from precise_impact.solvers.fast.lle import lle_batch
+    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT
 
     pars = np.array(
         [
@@ -294,7 +295,8 @@ def fast_batch_rows(
         As :func:`fast_batch`.
     """
     from precise_impact.analysis.periodicity import detect_period
-    from precise_impact.solvers.fast.single import STATUS_OK, lle_batch, lle_batch_serial
+    from precise_impact.solvers.fast.lle import lle_batch, lle_batch_serial
+    from precise_impact.solvers.fast.single import STATUS_OK
 
     periods = check_count(periods, "periods", minimum=1)
     transient = check_count(transient, "transient")
