@@ -5,9 +5,7 @@ it): the master is the single oscillator's closed-form flight
 (:class:`~precise_impact.solvers.certified.single.Flight`) and the difference ``e = y - x`` of the
 positions obeys, in every form of :mod:`~precise_impact.solvers.heyoka.coupled`::
 
-    e'' + c1 e' + c0 e = 0,
-    'first-order', 'reduced':  c1 = 2 zeta + 2 k,            c0 = 1 + 2 zeta k + k^2
-    'paper':                   c1 = 2 zeta + k (1 + 2 zeta), c0 = 1 + 2 k
+    e'' + c1 e' + c0 e = 0   (c1, c0: :func:`~precise_impact.core.coupling.error_coefficients`)
 
 whose flow is ``e^(-alpha tau) [[cos + (alpha/omega) sin, sin/omega], [-(c0/omega) sin,
 cos - (alpha/omega) sin]]`` (``alpha = c1/2``, ``omega = sqrt(c0 - alpha^2)``, arguments
@@ -16,7 +14,7 @@ cos - (alpha/omega) sin]]`` (``alpha = c1/2``, ``omega = sqrt(c0 - alpha^2)``, a
 Impacts, as :func:`~precise_impact.solvers.heyoka.coupled.simulate_coupled` applies them: the master's
 (``x = x_w``, ``x' > 0``) flips ``x'`` (``y'`` is continuous, so ``e'`` jumps); the slave's
 (``y = x_w``, ``y' > 0``) resets the slave's velocity variable by
-:func:`~precise_impact.solvers.heyoka.coupled.slave_reset`.  Each oscillator's wall gap (``x - x_w``,
+:func:`~precise_impact.core.coupling.slave_reset`.  Each oscillator's wall gap (``x - x_w``,
 ``x + e - x_w``) is searched with the one :class:`~precise_impact.solvers.certified.single.Isolator`
 (no earlier crossing proven, the crossing isolated and narrowed by interval Newton), the
 earlier of the two crossings taken; when their balls overlap the order cannot be proven and
@@ -35,6 +33,15 @@ from fractions import Fraction
 from typing import Any
 
 from precise_impact.core import flight
+from precise_impact.core.coupling import (
+    check_form,
+    check_k,
+    check_y0,
+    error_coefficients,
+    slave_derivative,
+    slave_reset,
+    slave_velocity,
+)
 from precise_impact.core.params import check_count, decimal_str, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
@@ -56,7 +63,6 @@ from precise_impact.solvers.certified.single import (
     upper,
     working_bits,
 )
-from precise_impact.solvers.heyoka.coupled import check_form, check_k, check_y0, slave_reset
 
 __all__ = ["certify_coupled", "CertifiedCoupledTrajectory"]
 
@@ -202,10 +208,7 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
     c = Constants(params, bits)
     iso = Isolator(bits)
     k = to_ball(kq)
-    if form == "paper":
-        c1, c0 = 2 * c.zeta + k * (1 + 2 * c.zeta), 1 + 2 * k
-    else:
-        c1, c0 = 2 * c.zeta + 2 * k, 1 + 2 * c.zeta * k + k * k
+    c1, c0 = error_coefficients(form, c.zeta, k)
     al = c1 / 2
     om2 = c0 - al * al
     if not om2 > 0:  # pragma: no cover - refused by certify_coupled before any work
@@ -213,16 +216,12 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
             f"e'' + c1 e' + c0 e = 0 is not proven underdamped (c0 - c1^2/4 in {om2})"
         )
     consts = (al, om2.sqrt(), c0)
-    fo = form == "first-order"
     x0, v0 = to_ball(params.x0), to_ball(params.v0)
     yp, yv = to_ball(y0q[0]), to_ball(y0q[1])
     e0 = yp - x0
-    ep0 = (yv - k * e0 if fo else yv) - v0  # y' = w - k e ('first-order'), w otherwise
+    ep0 = slave_derivative(form, k, e0, yv) - v0
     s = c.t0
     pair = _Pair(c, consts, s, x0, v0, e0, ep0)
-
-    def w_of(e, yd):
-        return yd + k * e if fo else yd
 
     samples = [(0, s, x0, v0, yp, yv)]
     mimp: list = []
@@ -272,11 +271,11 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
                         pair.slave_bound(),
                     )
                 else:
-                    wb = w_of(e, v + ep)
+                    wb = slave_velocity(form, k, e, v + ep)
                     wa = slave_reset(form, x, wb, c.R, k, c.xw)
                     simp.append((hit, wb, wa))
                     e_at = c.xw - x  # the slave is on the wall
-                    yd = wa - k * e_at if fo else wa
+                    yd = slave_derivative(form, k, e_at, wa)
                     pair = _Pair(c, consts, hit, x, v, e_at, yd - v, master=pair.m)
                     gap, bound, other, obound = (
                         pair.slave_gap,
@@ -302,7 +301,7 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
             if not (a < end):
                 break  # both gaps < 0 proven up to the sample
         x, v, e, ep = pair.state(tk)
-        samples.append((n, tk, x, v, x + e, w_of(e, v + ep)))
+        samples.append((n, tk, x, v, x + e, slave_velocity(form, k, e, v + ep)))
         a = end
         if progress is not None:
             progress.update(n)
@@ -382,10 +381,7 @@ def certify_coupled(
     check_certifiable(params)
     if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
         raise ParameterError("k", decimal_str(kq), "0 <= k <= 100 for the certified pair")
-    if form == "paper":
-        c1, c0 = 2 * params.zeta + kq * (1 + 2 * params.zeta), 1 + 2 * kq
-    else:
-        c1, c0 = 2 * params.zeta + 2 * kq, 1 + 2 * params.zeta * kq + kq * kq
+    c1, c0 = error_coefficients(form, params.zeta, kq)
     if not c0 > c1 * c1 / 4:
         raise ParameterError(
             "k",

@@ -5,9 +5,7 @@ Between impacts both oscillators are linear.  The master is the single oscillato
 in every form of :mod:`~precise_impact.solvers.heyoka.coupled` (subtract eq. (11) from the slave's
 equation; for 'first-order' eliminate ``y2``)::
 
-    e'' + c1 e' + c0 e = 0,
-    'first-order', 'reduced':  c1 = 2 zeta + 2 k,        c0 = 1 + 2 zeta k + k^2
-    'paper':                   c1 = 2 zeta + k (1 + 2 zeta), c0 = 1 + 2 k
+    e'' + c1 e' + c0 e = 0   (c1, c0: :func:`~precise_impact.core.coupling.error_coefficients`)
 
 a damped linear oscillator with the exact flow ``Phi_e`` (underdamped, ``c0 > c1^2 / 4``;
 otherwise the caller uses heyoka).  So the slave is ``y = x + e`` in closed form too, and
@@ -17,7 +15,7 @@ its velocity variable ``w`` follows from ``y' = x' + e'`` (``w = y' + k e`` for
 Impacts, as :class:`~precise_impact.solvers.heyoka.coupled._CoupledImpact` applies them: the
 master's (``x = x_w``, ``v > 0``) flips ``v`` (``y'`` is continuous, so ``e'`` jumps by
 ``v- - v+``); the slave's (``y = x_w``, ``y' > 0``) resets ``w`` by
-:func:`~precise_impact.solvers.heyoka.coupled.slave_reset`; the other oscillator within a few
+:func:`~precise_impact.core.coupling.slave_reset`; the other oscillator within a few
 ulps of the wall and moving into it (``_touch_tol``) impacts at the same instant, the
 master first (on the diagonal ``y = x`` every impact is simultaneous).
 
@@ -38,6 +36,7 @@ import math
 import numba
 import numpy as np
 
+from precise_impact.core.coupling import FORM_IDS, error_coefficients
 from precise_impact.solvers.fast.crossing import (
     JIT,
     PHASE_ERROR,
@@ -57,49 +56,36 @@ from precise_impact.solvers.fast.single import (
     sample_time,
 )
 
-__all__ = ["FORM_IDS", "error_coefficients", "coupled_strobe", "STATUS_UNSUPPORTED"]
-
-#: The forms the engine knows, by number (the compiled code's ``form`` argument).
-FORM_IDS = {"first-order": 0, "paper": 1, "reduced": 2}
+__all__ = [
+    "FORM_IDS",
+    "error_coefficients",
+    "coupled_strobe",
+    "compiled_slave_velocity",
+    "compiled_slave_derivative",
+    "compiled_slave_reset",
+    "STATUS_UNSUPPORTED",
+]
 
 #: ``e'' + c1 e' + c0 e = 0`` is not underdamped (``c0 <= c1^2 / 4``): heyoka's job.
 STATUS_UNSUPPORTED = 5
 
 
-def error_coefficients(form: str, zeta: float, k: float) -> tuple[float, float]:
-    """``(c1, c0)`` of ``e'' + c1 e' + c0 e = 0`` for ``form`` (module docstring).
-
-    Parameters
-    ----------
-    form : str
-        ``'first-order'``, ``'paper'`` or ``'reduced'``.
-    zeta, k : float
-        Damping ratio and coupling.
-
-    Returns
-    -------
-    tuple of float
-    """
-    if form == "paper":
-        return 2 * zeta + k * (1 + 2 * zeta), 1 + 2 * k
-    return 2 * zeta + 2 * k, 1 + 2 * zeta * k + k * k
-
-
 @numba.njit(**JIT)
-def _slave_w(form, k, e, yd):
-    """The slave's velocity variable from ``e = y - x`` and ``y'``."""
+def compiled_slave_velocity(form, k, e, yd):
+    """:func:`~precise_impact.core.coupling.slave_velocity` (compiled copy, ``form`` a
+    :data:`~precise_impact.core.coupling.FORM_IDS` number)."""
     return yd + k * e if form == 0 else yd
 
 
 @numba.njit(**JIT)
-def _slave_yd(form, k, e, w_):
-    """``y'`` from ``e = y - x`` and the slave's velocity variable."""
+def compiled_slave_derivative(form, k, e, w_):
+    """:func:`~precise_impact.core.coupling.slave_derivative` (compiled copy)."""
     return w_ - k * e if form == 0 else w_
 
 
 @numba.njit(**JIT)
-def _slave_reset(form, R, k, x, xw, w_):
-    """:func:`~precise_impact.solvers.heyoka.coupled.slave_reset` (compiled copy)."""
+def compiled_slave_reset(form, R, k, x, xw, w_):
+    """:func:`~precise_impact.core.coupling.slave_reset` (compiled copy)."""
     if form == 2:
         shift = k * (x - xw)
         return -R * (w_ - shift) + shift
@@ -260,7 +246,7 @@ def coupled_strobe(
     touch = 64.0 * 2.220446049250313e-16 * (1.0 + abs(xw))
     T = 2.0 * math.pi / eta
     t, x, v = t0, x0, v0
-    e, ep = y0 - x0, _slave_yd(form, k, y0 - x0, w0) - v0
+    e, ep = y0 - x0, compiled_slave_derivative(form, k, y0 - x0, w0) - v0
     xs[0], vs[0], ys[0], ws[0], ts[0] = x0, v0, y0, w0, t0
     nm = ns = nb = 0
     cap_m, cap_s = m_imp.shape[0], s_imp.shape[0]
@@ -308,12 +294,12 @@ def coupled_strobe(
                 if yd < v_floor:
                     return STATUS_SLOW_IMPACT, nm, ns, nb, kk - 1
                 ec = xw - xc
-                wb = _slave_w(form, k, ec, yd)
-                wa = _slave_reset(form, R, k, xc, xw, wb)
+                wb = compiled_slave_velocity(form, k, ec, yd)
+                wa = compiled_slave_reset(form, R, k, xc, xw, wb)
                 if ns < cap_s:
                     s_imp[ns, 0], s_imp[ns, 1], s_imp[ns, 2], s_imp[ns, 3] = tc, wb, wa, xc
                 ns += 1
-                yd = _slave_yd(form, k, ec, wa)
+                yd = compiled_slave_derivative(form, k, ec, wa)
             if hit == 3:
                 nb += 1
             if nm + ns >= max_impacts:
@@ -322,5 +308,11 @@ def coupled_strobe(
             if tc >= t1:
                 break
         y = x + e
-        xs[kk], vs[kk], ys[kk], ws[kk], ts[kk] = x, v, y, _slave_w(form, k, e, v + ep), t1
+        xs[kk], vs[kk], ys[kk], ws[kk], ts[kk] = (
+            x,
+            v,
+            y,
+            compiled_slave_velocity(form, k, e, v + ep),
+            t1,
+        )
     return STATUS_OK, nm, ns, nb, n

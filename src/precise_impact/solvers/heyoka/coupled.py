@@ -65,9 +65,20 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.coupling import (
+    COUPLED_FORMS,
+    FORM_IDS,
+    check_form,
+    check_k,
+    check_y0,
+    error_coefficients,
+    slave_position_rate,
+    slave_reset,
+    slave_rhs,
+)
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import impact_at_start, reset_velocity
-from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str, exact
+from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
@@ -87,67 +98,9 @@ __all__ = [
     "check_y0",
 ]
 
-#: The slave equations offered (see the module docstring).
-COUPLED_FORMS = ("first-order", "paper", "reduced")
-
 #: Runtime parameters of the coupled integrator: the single oscillator's, then k.
 COUPLED_PARAMS = RUNTIME_PARAMS + ("k",)
 _IDX = {name: i for i, name in enumerate(COUPLED_PARAMS)}
-
-
-# ------------------------------------------------------------------ the equations
-def slave_rhs(
-    form: str, t: Any, x: Any, v: Any, y: Any, w: Any, eta: Any, zeta: Any, a: Any, k: Any, cos
-) -> tuple:
-    """``(y', w')`` of the slave in ``form``'s own variables (generic number type).
-
-    The uncoupled part is :func:`~precise_impact.core.flow.acceleration` evaluated first, the
-    coupling added last, so that on the diagonal (coupling exactly 0) the slave's
-    arithmetic is the master's, operation by operation.
-    """
-    acc = acceleration(t, y, w, eta, zeta, a, cos)
-    if form == "first-order":
-        return w + k * (x - y), acc + k * (v - w)
-    if form == "paper":
-        return w, acc + k * (1 + 2 * zeta) * (v - w) + 2 * k * (x - y)
-    if form == "reduced":
-        return w, acc + 2 * k * (v - w) + k * (2 * zeta + k) * (x - y)
-    raise ParameterError("form", form, "one of " + ", ".join(COUPLED_FORMS))
-
-
-def slave_position_rate(form: str, x: Any, y: Any, w: Any, k: Any) -> Any:
-    """``dy/dt`` of the slave (``w + k (x - y)`` for 'first-order', ``w`` otherwise)."""
-    if form == "first-order":
-        return w + k * (x - y)
-    return w
-
-
-def slave_reset(form: str, x: Any, w_minus: Any, R: Any, k: Any, x_w: Any) -> Any:
-    """Slave velocity variable after its impact at ``y = x_w`` (master at ``x``).
-
-    'first-order' flips ``y2`` (12c), 'paper' flips ``y'`` (14b), both by
-    :func:`~precise_impact.core.impact.reset_velocity`.  'reduced' converts to ``y2 = y' - k (x - x_w)``,
-    flips ``y2`` with the same function and converts back, i.e.
-    ``y'+ = -R y'- + (1 + R) k (x - x_w)``.
-    """
-    if form == "reduced":
-        shift = k * (x - x_w)
-        return reset_velocity(w_minus - shift, R) + shift
-    return reset_velocity(w_minus, R)
-
-
-def check_form(form: Any) -> str:
-    if not isinstance(form, str) or form not in COUPLED_FORMS:
-        raise ParameterError("form", form, "one of " + ", ".join(repr(f) for f in COUPLED_FORMS))
-    return form
-
-
-def check_k(k: Any, name: str = "k") -> Fraction:
-    """Exact coupling from a decimal string / Fraction / number; must be finite and >= 0."""
-    q = exact(name, k)
-    if q < 0:
-        raise ParameterError(name, decimal_str(q), "coupling must be finite and >= 0")
-    return q
 
 
 # ------------------------------------------------------------------ the callback
@@ -388,22 +341,6 @@ class CoupledTrajectory(ResultMixin):
 
 
 # ------------------------------------------------------------------ the driver
-def check_y0(y0: Any, params: Params) -> tuple[Fraction, Fraction] | None:
-    """The slave's start ``(position, velocity variable)``, exact, position ``<= x_w``; ``None`` stays ``None``."""
-    if y0 is None:
-        return None
-    if isinstance(y0, (str, bytes)) or not isinstance(y0, Sequence) or len(y0) != 2:
-        raise ParameterError("y0", y0, "a pair (slave position, slave velocity variable) or None")
-    yp, yv = exact("y0[0]", y0[0]), exact("y0[1]", y0[1])
-    if yp > params.x_w:
-        raise ParameterError(
-            "y0[0]",
-            decimal_str(yp),
-            f"the slave must not start inside the wall: y0[0] <= x_w = {decimal_str(params.x_w)}",
-        )
-    return yp, yv
-
-
 def simulate_coupled(
     params: Params,
     k: Any,
@@ -600,12 +537,7 @@ def _fast_run(
 ) -> tuple[CoupledTrajectory | None, str | None]:
     """:func:`simulate_coupled` on the compiled engine: ``(trajectory, None)``, or ``(None, why)``
     when the engine does not resolve the run (the caller integrates it with heyoka)."""
-    from precise_impact.solvers.fast.coupled import (
-        FORM_IDS,
-        STATUS_UNSUPPORTED,
-        coupled_strobe,
-        error_coefficients,
-    )
+    from precise_impact.solvers.fast.coupled import STATUS_UNSUPPORTED, coupled_strobe
     from precise_impact.solvers.fast.single import STATUS_BUDGET, STATUS_OK, STATUS_TEXT
 
     f = float
