@@ -428,7 +428,7 @@ def sync_scan(
         t_k = _time.perf_counter()
         for y0 in y0s:
             tr = simulate_coupled(
-                params, k, form, periods, y0=y0, per_period=per_period, precision=P, engine=engine
+                params, k, form, periods, y0=y0, per_period=per_period, precision=P, model=engine
             )
             row.append(classify(tr, tail_f, thr_f))
         runs.append(row)

@@ -32,6 +32,8 @@ from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
+import numpy as np
+
 from precise_impact.core import flight
 from precise_impact.core.coupling import (
     check_form,
@@ -42,7 +44,8 @@ from precise_impact.core.coupling import (
     slave_reset,
     slave_velocity,
 )
-from precise_impact.core.params import check_count, decimal_str, params_or_values
+from precise_impact.core.params import Params, check_count, decimal_str, params_or_values
+from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.solvers.certified.single import (
@@ -64,7 +67,7 @@ from precise_impact.solvers.certified.single import (
     working_bits,
 )
 
-__all__ = ["certify_coupled", "CertifiedCoupledTrajectory"]
+__all__ = ["certify_coupled", "CertifiedCoupledTrajectory", "CertifiedCoupledSolver"]
 
 
 class _ErrorFlow:
@@ -158,6 +161,50 @@ class CertifiedCoupledTrajectory(ResultMixin):
     master_impacts: list
     slave_impacts: list
     elapsed_s: float
+
+    @property
+    def precision(self) -> Precision:
+        """The working precision ``mp:bits`` (of the midpoints below)."""
+        return Precision.parse(f"mp:{self.bits}")
+
+    def _mids(self, rows: list, i: int) -> np.ndarray:
+        P = self.precision
+        return P.array([P.from_fraction(exact_value(r[i].mid())) for r in rows])
+
+    @property
+    def t(self) -> np.ndarray:
+        """Sample times, the balls' midpoints in :attr:`precision` (as every pair model's ``t``)."""
+        return self._mids(self.samples, 1)
+
+    @property
+    def x(self) -> np.ndarray:
+        """The master's position at the samples (midpoints)."""
+        return self._mids(self.samples, 2)
+
+    @property
+    def v(self) -> np.ndarray:
+        """The master's velocity at the samples (midpoints)."""
+        return self._mids(self.samples, 3)
+
+    @property
+    def y(self) -> np.ndarray:
+        """The slave's position at the samples (midpoints)."""
+        return self._mids(self.samples, 4)
+
+    @property
+    def w(self) -> np.ndarray:
+        """The slave's velocity variable at the samples (midpoints)."""
+        return self._mids(self.samples, 5)
+
+    @property
+    def master_impacts_t(self) -> np.ndarray:
+        """The master's impact times (midpoints)."""
+        return self._mids(self.master_impacts, 0)
+
+    @property
+    def slave_impacts_t(self) -> np.ndarray:
+        """The slave's impact times (midpoints)."""
+        return self._mids(self.slave_impacts, 0)
 
     def max_radius(self) -> float:
         """The largest radius of any sample coordinate (a float rounded up; 0.0 below 1e-308)."""
@@ -421,3 +468,52 @@ def certify_coupled(
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
             bits *= 2
+
+
+class CertifiedCoupledSolver:
+    """The certified pair as a coupled model (``model='certified'``, ``precision='mp:BITS'``).
+
+    :meth:`solve` returns the :class:`CertifiedCoupledTrajectory` itself: the balls, and the
+    midpoints as ``t, x, v, y, w``, ``master_impacts_t``, ``slave_impacts_t``.  No dense
+    output (``per_period`` must be 0).
+
+    Parameters
+    ----------
+    bits : int
+        Working precision (``MIN_BITS <= bits <= MAX_BITS``); no retry at more bits.
+    progress : bool or None, default ``None``
+        As :func:`certify_coupled`.
+    """
+
+    model_name = "certified"
+
+    def __init__(self, bits: int, progress: bool | None = None) -> None:
+        self.bits = check_count(bits, "bits", MAX_BITS, minimum=MIN_BITS)
+        self.precision = Precision.parse(f"mp:{self.bits}")
+        self.progress = progress
+
+    def solve(
+        self,
+        params: Params,
+        k: Any,
+        periods: int,
+        *,
+        form: str = "first-order",
+        y0: Any = None,
+        per_period: int = 0,
+    ) -> CertifiedCoupledTrajectory:
+        """Certify the pair for ``periods`` periods at the solver's bits (:func:`certify_coupled`)."""
+        if per_period:
+            raise ParameterError(
+                "per_period", str(per_period), "0 for the certified model (no dense output)"
+            )
+        return certify_coupled(
+            params,
+            k,
+            form,
+            periods,
+            y0=y0,
+            bits=self.bits,
+            max_bits=self.bits,
+            progress=self.progress,
+        )

@@ -32,11 +32,17 @@ their status, as in the single engine.
 from __future__ import annotations
 
 import math
+import time as _time
+from typing import Any
 
 import numba
 import numpy as np
 
 from precise_impact.core.coupling import FORM_IDS, error_coefficients
+from precise_impact.core.params import Params
+from precise_impact.core.precision import Precision
+from precise_impact.errors import BudgetExceededError
+from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
 from precise_impact.solvers.fast.crossing import (
     JIT,
     PHASE_ERROR,
@@ -53,10 +59,19 @@ from precise_impact.solvers.fast.single import (
     STATUS_NONFINITE,
     STATUS_OK,
     STATUS_SLOW_IMPACT,
+    STATUS_TEXT,
     sample_time,
+)
+from precise_impact.solvers.heyoka.coupled import (
+    CoupledTrajectory,
+    HeyokaCoupledSolver,
+    check_inputs,
+    check_max_impacts,
+    coupled_start,
 )
 
 __all__ = [
+    "FastCoupledSolver",
     "FORM_IDS",
     "error_coefficients",
     "coupled_strobe",
@@ -316,3 +331,128 @@ def coupled_strobe(
             t1,
         )
     return STATUS_OK, nm, ns, nb, n
+
+
+class FastCoupledSolver:
+    """The pair on the compiled closed forms (coupled model ``'fast'``, float64).
+
+    Parameters
+    ----------
+    max_impacts : int, default ``10**7``
+        Budget over both oscillators.
+    fallback : bool, default ``True``
+        A run the engine does not resolve (a tangential contact, chattering, an error
+        equation that is not underdamped) is integrated by
+        :class:`~precise_impact.solvers.heyoka.coupled.HeyokaCoupledSolver` and
+        ``stats['engine']`` says so; ``False`` raises
+        :class:`~precise_impact.solvers.base.Unresolved` (an ``IntegrationError``) instead.
+    """
+
+    model_name = "fast"
+
+    def __init__(self, max_impacts: int = 10**7, fallback: bool = True) -> None:
+        self.max_impacts = check_max_impacts(max_impacts)
+        self.fallback = bool(fallback)
+        self.precision = Precision.parse("float64")
+
+    def solve(
+        self,
+        params: Params,
+        k: Any,
+        periods: int,
+        *,
+        form: str = "first-order",
+        y0: Any = None,
+        per_period: int = 0,
+    ) -> CoupledTrajectory:
+        """The pair for ``periods`` forcing periods (:func:`~precise_impact.simulate_coupled`)."""
+        heyoka = HeyokaCoupledSolver(self.precision, self.max_impacts).solve
+        run = with_fallback(self._solve, heyoka if self.fallback else None, note_fallback("heyoka"))
+        return run(params, k, periods, form=form, y0=y0, per_period=per_period)
+
+    def _solve(
+        self, params: Params, k: Any, periods: int, *, form: str, y0: Any, per_period: int
+    ) -> CoupledTrajectory:
+        kq, form, periods, per_period, y0q = check_inputs(params, k, form, periods, per_period, y0)
+        start_state, m0, s0 = coupled_start(params, kq, form, y0q)
+        step = max(per_period, 1)
+        f = float
+        c1, c0 = error_coefficients(form, f(params.zeta), f(kq))
+        n = periods * step
+        cols = [np.empty(n + 1) for _ in range(5)]
+        budget = self.max_impacts - len(m0) - len(s0)
+        cap = 64 + 4 * periods
+        start_t = _time.perf_counter()
+        while True:
+            m_imp, s_imp = np.empty((cap, 3)), np.empty((cap, 4))
+            st, nm, ns, nb, _done = coupled_strobe(
+                f(params.eta),
+                f(params.zeta),
+                f(params.a),
+                f(params.x_w),
+                f(params.R),
+                f(kq),
+                FORM_IDS[form],
+                c1,
+                c0,
+                f(params.t0),
+                *(f(q) for q in start_state),
+                n,
+                step,
+                max(budget, 1),
+                *cols,
+                m_imp,
+                s_imp,
+            )
+            if nm <= cap and ns <= cap:
+                break
+            cap = 2 * max(nm, ns)
+        elapsed = _time.perf_counter() - start_t
+        if st == STATUS_BUDGET or budget < 1:
+            raise BudgetExceededError(
+                f"impact budget max_impacts={self.max_impacts} exhausted (chattering/Zeno sequence?); "
+                "raise max_impacts or check the parameters"
+            )
+        if st != STATUS_OK:
+            why = (
+                "the slave's difference equation is not underdamped"
+                if st == STATUS_UNSUPPORTED
+                else STATUS_TEXT[int(st)]
+            )
+            raise Unresolved("fast", why)
+        ts, xs, vs, ys, ws = cols[4], cols[0], cols[1], cols[2], cols[3]
+        m = np.array([[f(c) for c in r] for r in m0]).reshape(-1, 3)
+        sl = np.array([[f(c) for c in r] for r in s0]).reshape(-1, 4)
+        m = np.concatenate([m, m_imp[:nm]])
+        sl = np.concatenate([sl, s_imp[:ns]])
+        P = Precision.parse("float64")
+        traj = CoupledTrajectory(
+            params=params,
+            form=form,
+            k=kq,
+            y0=y0q,
+            precision=P,
+            t=ts[::step].copy(),
+            x=xs[::step].copy(),
+            v=vs[::step].copy(),
+            y=ys[::step].copy(),
+            w=ws[::step].copy(),
+            master_impacts_t=m[:, 0].copy(),
+            master_impacts_v_before=m[:, 1].copy(),
+            master_impacts_v_after=m[:, 2].copy(),
+            slave_impacts_t=sl[:, 0].copy(),
+            slave_impacts_w_before=sl[:, 1].copy(),
+            slave_impacts_w_after=sl[:, 2].copy(),
+            slave_impacts_x=sl[:, 3].copy(),
+            elapsed_s=elapsed,
+            stats={"simultaneous": int(nb), "engine": "fast"},
+        )
+        if per_period > 0:
+            traj.dense_t, traj.dense_x, traj.dense_v, traj.dense_y, traj.dense_w = (
+                ts,
+                xs,
+                vs,
+                ys,
+                ws,
+            )
+        return traj

@@ -438,71 +438,78 @@ class FastSolver:
         Trajectory
             ``model = 'fast'``; ``stats['engine']`` is ``'fast'`` or the fallback's reason.
         """
-        import time
-
         from precise_impact.core.params import as_params, check_count
-        from precise_impact.core.trajectory import Trajectory
-        from precise_impact.errors import BudgetExceededError, IntegrationError
+        from precise_impact.solvers.base import note_fallback, with_fallback
 
         params = as_params(params)
         periods = check_count(periods, "periods")
         per_period = check_count(per_period, "per_period", 100_000)
-        why = self._unsupported(params)
-        if why is None:
-            step = max(per_period, 1)
-            n = periods * step
-            p = [
-                float(getattr(params, k))
-                for k in ("eta", "zeta", "a", "x_w", "R", "t0", "x0", "v0")
-            ]
-            cap = min(self.max_impacts, 4 * periods + 64)
-            start = time.perf_counter()
-            while True:
-                xs, vs, ts = np.empty(n + 1), np.empty(n + 1), np.empty(n + 1)
-                it, iv = np.empty(cap), np.empty(cap)
-                st, n_imp, done = strobe(*p, n, step, self.max_impacts, it, iv, xs, vs, ts)
-                if n_imp <= cap or st == STATUS_BUDGET:
-                    break
-                cap = min(self.max_impacts, 4 * n_imp + 64)
-            elapsed = time.perf_counter() - start
-            if st == STATUS_BUDGET:
-                raise BudgetExceededError(
-                    f"impact budget max_impacts={self.max_impacts} exhausted at "
-                    f"sample {done} of {n}; raise max_impacts or ask for a shorter run"
-                )
-            if st == STATUS_NONFINITE:
-                raise IntegrationError(
-                    f"the fast engine met a non-finite state after sample {done} of {n}"
-                )
-            if st == STATUS_OK:
-                it, iv = it[:n_imp], iv[:n_imp]
-                traj = Trajectory(
-                    params=params,
-                    model="fast",
-                    precision=self.precision,
-                    tol=self.precision.eps,
-                    t=ts[::step].copy(),
-                    x=xs[::step].copy(),
-                    v=vs[::step].copy(),
-                    impacts_t=it.copy(),
-                    impacts_v_before=iv.copy(),
-                    impacts_v_after=-float(params.R) * iv,
-                    elapsed_s=elapsed,
-                    stats={"engine": "fast", "impacts": int(n_imp)},
-                )
-                if per_period > 0:
-                    traj.dense_t, traj.dense_x, traj.dense_v = ts, xs, vs
-                return traj
-            why = STATUS_TEXT[st] + f" after sample {done} of {n}"
-        if not self.fallback:
-            raise IntegrationError(f"the fast engine does not resolve this orbit: {why}")
+        run = with_fallback(
+            self._solve, self._solve_heyoka if self.fallback else None, note_fallback("heyoka")
+        )
+        return run(params, periods, per_period)
+
+    def _solve_heyoka(self, params, periods: int, per_period: int):
         from precise_impact.solvers.heyoka.single import HeyokaSolver
 
         traj = HeyokaSolver(self.precision, max_impacts=self.max_impacts).solve(
             params, periods, per_period=per_period
         )
         traj.model = "fast"
-        traj.stats["engine"] = f"heyoka (fallback: {why})"
+        return traj
+
+    def _solve(self, params, periods: int, per_period: int):
+        """The compiled run, or :class:`~precise_impact.solvers.base.Unresolved`."""
+        import time
+
+        from precise_impact.core.trajectory import Trajectory
+        from precise_impact.errors import BudgetExceededError, IntegrationError
+        from precise_impact.solvers.base import Unresolved
+
+        why = self._unsupported(params)
+        if why is not None:
+            raise Unresolved("fast", why)
+        step = max(per_period, 1)
+        n = periods * step
+        p = [float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0", "x0", "v0")]
+        cap = min(self.max_impacts, 4 * periods + 64)
+        start = time.perf_counter()
+        while True:
+            xs, vs, ts = np.empty(n + 1), np.empty(n + 1), np.empty(n + 1)
+            it, iv = np.empty(cap), np.empty(cap)
+            st, n_imp, done = strobe(*p, n, step, self.max_impacts, it, iv, xs, vs, ts)
+            if n_imp <= cap or st == STATUS_BUDGET:
+                break
+            cap = min(self.max_impacts, 4 * n_imp + 64)
+        elapsed = time.perf_counter() - start
+        if st == STATUS_BUDGET:
+            raise BudgetExceededError(
+                f"impact budget max_impacts={self.max_impacts} exhausted at "
+                f"sample {done} of {n}; raise max_impacts or ask for a shorter run"
+            )
+        if st == STATUS_NONFINITE:
+            raise IntegrationError(
+                f"the fast engine met a non-finite state after sample {done} of {n}"
+            )
+        if st != STATUS_OK:
+            raise Unresolved("fast", STATUS_TEXT[st] + f" after sample {done} of {n}")
+        it, iv = it[:n_imp], iv[:n_imp]
+        traj = Trajectory(
+            params=params,
+            model="fast",
+            precision=self.precision,
+            tol=self.precision.eps,
+            t=ts[::step].copy(),
+            x=xs[::step].copy(),
+            v=vs[::step].copy(),
+            impacts_t=it.copy(),
+            impacts_v_before=iv.copy(),
+            impacts_v_after=-float(params.R) * iv,
+            elapsed_s=elapsed,
+            stats={"engine": "fast", "impacts": int(n_imp)},
+        )
+        if per_period > 0:
+            traj.dense_t, traj.dense_x, traj.dense_v = ts, xs, vs
         return traj
 
 

@@ -427,7 +427,7 @@ def integrate_orbit(
     ta.reset_cooldowns()
     sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
     period = period_float(params.eta)
-    grids = {}
+    grids: dict[int, Any] = {}
 
     def advance(k):
         """``k <= CHUNK`` periods from ``L0``; the grid states (rows ``1..k``)."""
