@@ -37,10 +37,16 @@ other systems are refused by the Python wrapper before any work.
 from __future__ import annotations
 
 import math
+import time
 
 import numba
 import numpy as np
 
+from precise_impact.core.params import as_params, check_count
+from precise_impact.core.precision import Precision
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import BudgetExceededError, IntegrationError
+from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
 from precise_impact.solvers.fast.crossing import (
     JIT,
     PHASE_ERROR,
@@ -67,6 +73,9 @@ __all__ = [
     "STATUS_TEXT",
     "STATUS_OK",
 ]
+
+#: How a result the heyoka fallback computed says so (``stats['engine']``).
+_HEYOKA_FALLBACK = note_fallback("heyoka")
 
 STATUS_TEXT = {
     STATUS_OK: "ok",
@@ -405,9 +414,6 @@ class FastSolver:
     model_name = "fast"
 
     def __init__(self, max_impacts: int = 10**6, fallback: bool = True) -> None:
-        from precise_impact.core.params import check_count
-        from precise_impact.core.precision import Precision
-
         self.max_impacts = check_count(max_impacts, "max_impacts", 10**9, minimum=1)
         self.fallback = bool(fallback)
         self.precision = Precision.parse("float64")
@@ -438,14 +444,11 @@ class FastSolver:
         Trajectory
             ``model = 'fast'``; ``stats['engine']`` is ``'fast'`` or the fallback's reason.
         """
-        from precise_impact.core.params import as_params, check_count
-        from precise_impact.solvers.base import note_fallback, with_fallback
-
         params = as_params(params)
         periods = check_count(periods, "periods")
         per_period = check_count(per_period, "per_period", 100_000)
         run = with_fallback(
-            self._solve, self._solve_heyoka if self.fallback else None, note_fallback("heyoka")
+            self._solve, self._solve_heyoka if self.fallback else None, _HEYOKA_FALLBACK
         )
         return run(params, periods, per_period)
 
@@ -460,12 +463,6 @@ class FastSolver:
 
     def _solve(self, params, periods: int, per_period: int):
         """The compiled run, or :class:`~precise_impact.solvers.base.Unresolved`."""
-        import time
-
-        from precise_impact.core.trajectory import Trajectory
-        from precise_impact.errors import BudgetExceededError, IntegrationError
-        from precise_impact.solvers.base import Unresolved
-
         why = self._unsupported(params)
         if why is not None:
             raise Unresolved("fast", why)
