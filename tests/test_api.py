@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import precise_impact as pi
+from precise_impact.solvers.base import model_capabilities
 
 SUBPACKAGES = (
     "core",
@@ -76,19 +77,21 @@ def test_models_is_read_only_and_aliases_resolve():
     assert e.value.name == "model" and "mechanical (= heyoka)" in str(e.value)
 
 
-@pytest.mark.parametrize(
-    "model", ["heyoka", "analytical", "analytical-paper", "circuit", "switched-capacitor", "spice"]
-)
+@pytest.mark.parametrize("model", sorted(pi.MODELS))
 def test_every_model_is_a_solver_and_simulates(model):
-    """Each model behind the one protocol, on the period-3 orbit (eta = 0.74): every model
+    """Each model of the registry behind the one protocol, in its first declared precision
+    (float64, or mp:128 for 'certified'), on the period-3 orbit (eta = 0.74): every model
     stays within 1e-3 of the mechanical reference over 3 periods (the ideal circuit models
-    are exact to round-off, ngspice at TMAX = 10 us to ~1e-3, measured 2e-4)."""
+    are exact to round-off, ngspice at TMAX = 10 us to ~1e-3, measured 2e-4).  The full
+    contract in every declared precision: tests/solvers/test_contract.py."""
     if model == "spice" and shutil.which("ngspice") is None:
         pytest.skip("ngspice is not installed (apt-get install ngspice); CI installs it")
-    solver = pi.make_solver(model)
+    kind = model_capabilities(model).precisions[0]
+    prec = "mp:128" if kind == "mp" else kind
+    solver = pi.make_solver(model, prec)
     assert isinstance(solver, pi.Solver)
     p = pi.Params.make(eta="0.74")
-    tr = pi.simulate(p, 3, model=model)
+    tr = pi.simulate(p, 3, model=model, precision=prec)
     ref = pi.simulate(p, 3)
     assert isinstance(tr, pi.Trajectory) and len(tr.t) == 4
     x = np.asarray(tr.x, dtype=float)

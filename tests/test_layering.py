@@ -43,7 +43,7 @@ LAYERS = {
 # Private names of that module only; every other import of the file must be public.
 INTERNALS_ALLOWED: dict[str, tuple[str, str]] = {
     "analysis/test_grazing.py": (
-        "precise_impact.analysis.lyapunov.variational",
+        "precise_impact.solvers.heyoka.variational",
         "drives the variational integrator's impact recorder and grazing depth (_SaltationRecorder, "
         "_Depth) directly: a dropped impact and a 1e18-scaled tangent cannot be provoked through the API",
     ),
@@ -212,6 +212,69 @@ def test_the_private_name_checker_catches_each_way_in():
             ("precise_impact.solvers.heyoka", "_CACHE"),
         ]
     )
+
+
+#: The engines' libraries: only ``solvers/`` (and ``models/``, which builds its circuit
+#: integrators) may import them; ``analysis/`` holds algorithms that call the engines.
+ENGINE_LIBRARIES = ("heyoka", "numba", "llvmlite")
+#: Attributes of an engine library that ``analysis/`` may read: versions, for a result's identity.
+ENGINE_READ_ONLY = {"__version__"}
+
+
+def _engine_uses(tree: ast.AST) -> list[str]:
+    """Every use of an engine library in ``tree`` other than reading its ``__version__``.
+
+    An import binds a name; each reference to that name must be ``name.__version__``.
+    ``from heyoka import ...`` is always a use (it takes the engine's objects).
+    """
+    bound, found = {}, []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.split(".")[0] in ENGINE_LIBRARIES:
+                    bound[a.asname or a.name.split(".")[0]] = a.name
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            if (node.module or "").split(".")[0] in ENGINE_LIBRARIES:
+                found.append(f"from {node.module} import {', '.join(a.name for a in node.names)}")
+    ok = set()
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Name)
+            and node.value.id in bound
+            and node.attr in ENGINE_READ_ONLY
+        ):
+            ok.add(id(node.value))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name) and node.id in bound and id(node) not in ok:
+            found.append(f"{bound[node.id]} ({node.id} at line {node.lineno})")
+    return found
+
+
+def test_analysis_builds_no_integrator_or_compiled_kernel():
+    """``analysis/`` keeps the algorithms; heyoka integrators and numba kernels are built in
+    ``solvers/`` (issue 23: engines filed by arithmetic).  Reading a version is allowed."""
+    bad = []
+    for path in _package_files():
+        name = _module_name(path)
+        if name.split(".")[:2] != ["precise_impact", "analysis"]:
+            continue
+        bad += [f"{name}: {u}" for u in _engine_uses(ast.parse(path.read_text(encoding="utf-8")))]
+    assert not bad, "analysis/ uses an engine library:\n" + "\n".join(bad)
+
+
+def test_the_engine_checker_sees_each_way_in():
+    code = (
+        "import heyoka as hy\n"
+        "import numba\n"
+        "from numba import njit\n"
+        "v = hy.__version__\n"
+        "ta = hy.taylor_adaptive([], [])\n"
+        "k = numba.__version__\n"
+    )
+    uses = _engine_uses(ast.parse(code))
+    assert uses == ["from numba import njit", "heyoka (hy at line 5)"], uses
+    assert _engine_uses(ast.parse("import heyoka\nx = heyoka.__version__\n")) == []
 
 
 def test_the_checker_sees_an_upward_import(tmp_path):

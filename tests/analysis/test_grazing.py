@@ -52,7 +52,7 @@ from precise_impact import (
     oscillator_saltation,
     steady_state,
 )
-from precise_impact.analysis.lyapunov import variational as var
+from precise_impact.solvers.heyoka import variational as var
 from precise_impact.analysis.lyapunov.batch import batch_lle
 from precise_impact.analysis.lyapunov.variational import (
     MissedImpactError,

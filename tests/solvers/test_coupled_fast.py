@@ -33,7 +33,7 @@ def test_smooth_flow_equals_heyoka(form, k):
     (measured <= 30 eps) over 50 periods, for every form: the coefficients c1, c0 of the
     difference equation are right."""
     p = Params.make(x_w="1000")
-    a = simulate_coupled(p, k, form, 50, y0=("0.5", "0.3"), per_period=8, engine="fast")
+    a = simulate_coupled(p, k, form, 50, y0=("0.5", "0.3"), per_period=8, model="fast")
     b = simulate_coupled(p, k, form, 50, y0=("0.5", "0.3"), per_period=8)
     assert a.stats["engine"] == "fast" and len(a.master_impacts_t) == len(a.slave_impacts_t) == 0
     scale = max(1.0, float(np.abs(b.dense_y).max()))
@@ -53,7 +53,7 @@ def test_impacting_pair_equals_heyoka_until_chaos_separates_them(form, k, y0):
     simultaneous may differ: heyoka's window is 64 eps (1 + |x_w|), the engine's also
     covers the evaluation error of the gap, ~1e-13 at t ~ 500.)"""
     p = Params.make(eta="0.712")
-    a = simulate_coupled(p, k, form, 30, y0=y0, per_period=4, engine="fast")
+    a = simulate_coupled(p, k, form, 30, y0=y0, per_period=4, model="fast")
     b = simulate_coupled(p, k, form, 30, y0=y0, per_period=4)
     assert a.stats["engine"] == "fast"
     for u, v in ((a.dense_x, b.dense_x), (a.dense_y, b.dense_y)):
@@ -67,7 +67,7 @@ def test_impacting_pair_equals_heyoka_until_chaos_separates_them(form, k, y0):
 def test_diagonal_start_stays_on_the_diagonal_bit_for_bit(form):
     """y0 = (x0, v0) and every coupling term exactly 0: e = 0 stays exactly 0, every impact
     is simultaneous, and the slave's samples are the master's."""
-    tr = simulate_coupled(Params.make(eta="0.712"), "0.1", form, 200, engine="fast")
+    tr = simulate_coupled(Params.make(eta="0.712"), "0.1", form, 200, model="fast")
     assert np.array_equal(tr.x, tr.y) and np.array_equal(
         tr.v if form != "first-order" else tr.v, tr.w
     )
@@ -92,7 +92,7 @@ def test_no_dense_sample_lies_beyond_the_wall():
             60,
             y0=(F(rng.randint(-150, 100), 100), F(rng.randint(-100, 100), 100)),
             per_period=40,
-            engine="fast",
+            model="fast",
         )
         assert tr.stats["engine"] == "fast"
         tol = 1e-12 * max(1.0, float(xw))
@@ -118,7 +118,7 @@ def test_sync_fractions_agree_with_heyoka_far_from_the_threshold():
 def test_overdamped_difference_equation_falls_back_to_heyoka():
     """The printed (14a) with k = 10: e'' + 11.1 e' + 21 e = 0 is overdamped (c1^2/4 > c0):
     the closed form is the underdamped one, so heyoka integrates the run and says so."""
-    tr = simulate_coupled(Params.make(eta="0.712"), "10", "paper", 5, y0=("1", "0"), engine="fast")
+    tr = simulate_coupled(Params.make(eta="0.712"), "10", "paper", 5, y0=("1", "0"), model="fast")
     assert (
         tr.stats["engine"].startswith("heyoka (fallback: ") and "underdamped" in tr.stats["engine"]
     )
@@ -127,9 +127,9 @@ def test_overdamped_difference_equation_falls_back_to_heyoka():
 def test_bad_engine_and_precision_are_named():
     p = Params.make()
     with pytest.raises(ParameterError, match="engine"):
-        simulate_coupled(p, "0.1", engine="spice")
+        simulate_coupled(p, "0.1", engine="spice")  # the old spelling: still checked
     with pytest.raises(ParameterError, match="precision"):
-        simulate_coupled(p, "0.1", engine="fast", precision="mp:128")
+        simulate_coupled(p, "0.1", model="fast", precision="mp:128")
     with pytest.raises(ParameterError, match="engine"):
         sync_scan(p, "first-order", ["0.1"], engine="gpu", lle_periods=0)
-    assert math.isfinite(simulate_coupled(p, "0.1", periods=2, engine="fast").x[-1])
+    assert math.isfinite(simulate_coupled(p, "0.1", periods=2, model="fast").x[-1])

@@ -25,7 +25,8 @@ numba = pytest.importorskip(
 
 from precise_impact import Params, simulate  # noqa: E402
 from precise_impact.core.impact import oscillator_saltation  # noqa: E402
-from precise_impact.solvers.fast.single import FastSolver, compiled_saltation, fast_lle  # noqa: E402
+from precise_impact.solvers.fast.lle import fast_lle  # noqa: E402
+from precise_impact.solvers.fast.single import FastSolver, compiled_saltation  # noqa: E402
 
 EPS = np.finfo(float).eps
 

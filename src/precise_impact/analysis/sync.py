@@ -296,7 +296,7 @@ def _sync_rows(
         row = []
         for y0 in y0s:
             tr = simulate_coupled(
-                params, k, form, periods, y0=y0, per_period=per_period, precision=P, engine=engine
+                params, k, form, periods, y0=y0, per_period=per_period, precision=P, model=engine
             )
             row.append(classify(tr, tail, threshold))
         out.append((row, _time.perf_counter() - t_k))

@@ -9,8 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from precise_impact.core.precision import Precision
-from precise_impact.errors import ParameterError
-from precise_impact.solvers.base import register_model
+from precise_impact.solvers.base import PRECISION_KINDS, Capabilities, register_model
 
 __all__ = [
     "COUPLED_FORMS",
@@ -44,12 +43,6 @@ def _switched(prec: Precision, tol: Any, **options: Any):
 def _spice(prec: Precision, tol: Any, **options: Any):
     from precise_impact.models.circuit.spice import SpiceSolver
 
-    if prec.kind != "float64":
-        raise ParameterError(
-            "precision", prec.name, "the spice model runs in 'float64' (ngspice's arithmetic)"
-        )
-    if tol is not None:
-        raise ParameterError("tol", str(tol), "the spice model takes no tolerance (use tmax)")
     return SpiceSolver(**options)
 
 
@@ -57,13 +50,20 @@ register_model(
     "circuit",
     "the op-amp network of Fig. 2 with the mechanical impact law (nominal parts)",
     _circuit,
+    Capabilities(PRECISION_KINDS, tolerance=True),
 )
 register_model(
     "switched-capacitor",
     "the impact made by the circuit: comparator, flip-flop, switches",
     _switched,
+    Capabilities(PRECISION_KINDS, tolerance=True),
 )
-register_model("spice", "the Fig. 2 circuit as an ngspice netlist (float64; needs ngspice)", _spice)
+register_model(
+    "spice",
+    "the Fig. 2 circuit as an ngspice netlist (float64; needs ngspice)",
+    _spice,
+    Capabilities(("float64",), tolerance=False, note="ngspice's arithmetic; use tmax"),
+)
 
 # The public names (after the registration, which needs none of them).
 from precise_impact.models.circuit.components import Components, nominal_components  # noqa: E402

@@ -15,6 +15,7 @@ from typing import Any
 import mpmath
 
 from precise_impact.core import flight
+from precise_impact.core.crossing import safeguarded_newton
 from precise_impact.core.flow import acceleration, steady_state
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import Params, check_count, decimal_str, exact
@@ -695,38 +696,14 @@ class _Run:
             )
 
     def refine(self, seg: _Segment, lo, f_lo, v_lo, hi):
-        """Root of the increasing ``f`` in ``[lo, hi]`` (``f(lo) <= 0 < f(hi)`` up to rounding)."""
+        """Root of the increasing ``f`` in ``[lo, hi]`` (``f(lo) <= 0 < f(hi)`` up to rounding):
+        :func:`~precise_impact.core.crossing.safeguarded_newton` on ``f = x - x_w``, ``f' = v``."""
         x_w = self.m.x_w
-        if f_lo >= 0:
-            return lo, v_lo
-        tol = self.root_tol_rel * max(abs(hi), 1)
-        t = lo - f_lo / v_lo if v_lo > 0 else (lo + hi) / 2
-        for _ in range(self.max_iter):
-            if not (lo < t < hi):
-                t = (lo + hi) / 2
-                if not (lo < t < hi):
-                    break
+
+        def gap(t):
             x, v, _ = self.feval(seg, t)
-            f = x - x_w
-            if f == 0:
-                return t, v
-            if f > 0:
-                hi = t
-            else:
-                lo = t
-            if v > 0:
-                step = -f / v
-                t_new = t + step
-                if abs(step) <= tol and lo <= t_new <= hi:
-                    _, v_new, _ = self.feval(seg, t_new)
-                    return t_new, v_new
-                # Newton must shrink the bracket fast; otherwise bisect.
-                if lo < t_new < hi and abs(step) < (hi - lo) / 2:
-                    t = t_new
-                    continue
-            t = (lo + hi) / 2
-            if hi - lo <= tol:
-                break
-        t = (lo + hi) / 2
-        _, v, _ = self.feval(seg, t)
+            return x - x_w, v
+
+        tol = self.root_tol_rel * max(abs(hi), 1)
+        t, (_, v) = safeguarded_newton(gap, lo, hi, f_lo, v_lo, tol, self.max_iter)
         return t, v

@@ -1,20 +1,43 @@
-"""One entry point for every model: ``simulate(params, periods, model=..., precision=...)``."""
+"""One entry point for every model: ``simulate(params, periods, model=..., precision=...)`` for
+the single oscillator and ``simulate_coupled(params, k, ..., model=...)`` for the pair.
+
+The solvers' own models are registered here, each with its :class:`Capabilities`
+(the circuit models register in :mod:`precise_impact.models`).
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import threading
+import warnings
 from typing import Any
 
 from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.errors import ParameterError
-from precise_impact.solvers.base import MODELS, Solver, make_solver, register_model
+from precise_impact.solvers.base import (
+    COUPLED_MODELS,
+    MODELS,
+    PRECISION_KINDS,
+    Capabilities,
+    Solver,
+    check_engine,
+    make_coupled_solver,
+    make_solver,
+    register_coupled_model,
+    register_model,
+)
 from precise_impact.solvers.closed_form import AnalyticalSolver
+from precise_impact.solvers.heyoka.coupled import (
+    CoupledTrajectory,
+    HeyokaCoupledSolver,
+    check_inputs,
+    check_max_impacts,
+)
 from precise_impact.solvers.heyoka.single import HeyokaSolver
 
-__all__ = ["MODELS", "make_solver", "simulate"]
+__all__ = ["MODELS", "make_solver", "simulate", "COUPLED_MODELS", "simulate_coupled"]
 
 
 def _heyoka(prec: Precision, tol: Any, **options: Any) -> Solver:
@@ -23,33 +46,14 @@ def _heyoka(prec: Precision, tol: Any, **options: Any) -> Solver:
 
 def _analytical(finder: str):
     def factory(prec: Precision, tol: Any, **options: Any) -> Solver:
-        model = "analytical" if finder == "robust" else "analytical-paper"
-        if tol is not None:
-            raise ParameterError(
-                "tol",
-                str(tol),
-                f"the {model} model takes no tolerance (it works to the precision's epsilon)",
-            )
         if prec.kind == "float64":
             return AnalyticalSolver(finder=finder, backend="float64", **options)
-        if prec.kind == "mp":
-            return AnalyticalSolver(finder=finder, backend="mpmath", bits=prec.bits, **options)
-        raise ParameterError(
-            "precision", prec.name, f"the {model} model runs in 'float64' or 'mp:BITS'"
-        )
+        return AnalyticalSolver(finder=finder, backend="mpmath", bits=prec.bits, **options)
 
     return factory
 
 
 def _fast(prec: Precision, tol: Any, **options: Any) -> Solver:
-    if prec.kind != "float64":
-        raise ParameterError(
-            "precision", prec.name, "'float64' for the fast model (heyoka for other precisions)"
-        )
-    if tol is not None:
-        raise ParameterError(
-            "tol", str(tol), "the fast model takes no tolerance (closed forms to float64 rounding)"
-        )
     from precise_impact.solvers.fast.single import (
         FastSolver,
     )  # numba is imported only when asked for
@@ -58,14 +62,6 @@ def _fast(prec: Precision, tol: Any, **options: Any) -> Solver:
 
 
 def _certified(prec: Precision, tol: Any, **options: Any) -> Solver:
-    if prec.kind != "mp":
-        raise ParameterError(
-            "precision", prec.name, "'mp:BITS' for the certified model (ball arithmetic at BITS)"
-        )
-    if tol is not None:
-        raise ParameterError(
-            "tol", str(tol), "the certified model takes no tolerance (proven enclosures at BITS)"
-        )
     from precise_impact.solvers.certified.single import (
         CertifiedSolver,
     )  # python-flint is imported only when asked for
@@ -73,28 +69,83 @@ def _certified(prec: Precision, tol: Any, **options: Any) -> Solver:
     return CertifiedSolver(prec.bits, **options)
 
 
+#: What each arithmetic takes (shared by the single and the coupled models of an engine).
+HEYOKA = Capabilities(PRECISION_KINDS, tolerance=True)
+CLOSED_FORM = Capabilities(
+    ("float64", "mp"), tolerance=False, note="it works to the precision's epsilon"
+)
+FAST = Capabilities(
+    ("float64",),
+    tolerance=False,
+    note="closed forms to float64 rounding; heyoka for other precisions",
+)
+CERTIFIED = Capabilities(("mp",), tolerance=False, note="proven enclosures at BITS")
+
 register_model(
-    "heyoka", "heyoka Taylor integrator with impact events (the mechanical reference)", _heyoka
+    "heyoka",
+    "heyoka Taylor integrator with impact events (the mechanical reference)",
+    _heyoka,
+    HEYOKA,
 )
 register_model(
     "analytical",
     "closed-form segments, robust impact finder (cannot miss a crossing)",
     _analytical("robust"),
+    CLOSED_FORM,
 )
 register_model(
     "analytical-paper",
     "closed-form segments, the paper's 1e-3 T scan + bisection",
     _analytical("paper"),
+    CLOSED_FORM,
 )
 register_model(
     "fast",
     "compiled closed form (numba, float64): cannot miss a crossing; heyoka for contacts",
     _fast,
+    FAST,
 )
 register_model(
     "certified",
     "ball arithmetic on the closed form (python-flint, mp:BITS): proven enclosures",
     _certified,
+    CERTIFIED,
+)
+
+
+def _coupled_heyoka(prec: Precision, tol: Any, **options: Any):
+    return HeyokaCoupledSolver(prec, **options)
+
+
+def _coupled_fast(prec: Precision, tol: Any, **options: Any):
+    from precise_impact.solvers.fast.coupled import FastCoupledSolver  # numba only when asked for
+
+    return FastCoupledSolver(**options)
+
+
+def _coupled_certified(prec: Precision, tol: Any, **options: Any):
+    from precise_impact.solvers.certified.coupled import CertifiedCoupledSolver  # python-flint
+
+    return CertifiedCoupledSolver(prec.bits, **options)
+
+
+register_coupled_model(
+    "heyoka",
+    "heyoka Taylor integrator of the pair, both walls as events (every precision)",
+    _coupled_heyoka,
+    dataclasses.replace(HEYOKA, tolerance=False, note="the pair runs at the precision's epsilon"),
+)
+register_coupled_model(
+    "fast",
+    "compiled closed forms of the pair (numba, float64); heyoka for contacts",
+    _coupled_fast,
+    FAST,
+)
+register_coupled_model(
+    "certified",
+    "the pair in ball arithmetic (python-flint, mp:BITS): proven enclosures",
+    _coupled_certified,
+    CERTIFIED,
 )
 
 
@@ -203,3 +254,102 @@ def simulate(
             max_time, "simulate", periods=periods, per_period=per_period, precision=prec
         )
     return solver.solve(params, periods, per_period=per_period)
+
+
+def simulate_coupled(
+    params: Params,
+    k: Any,
+    form: str = "first-order",
+    periods: int = 500,
+    y0: Any = None,
+    per_period: int = 0,
+    precision: str | Precision = "float64",
+    max_impacts: int | None = None,
+    engine: str | None = None,
+    *,
+    model: str = "heyoka",
+) -> CoupledTrajectory:
+    """Integrate the master-slave pair (11) + slave ``form`` for ``periods`` forcing periods.
+
+    Parameters
+    ----------
+    params : Params
+        System parameters (the paper's: zeta = 0.05, a = 1, x_w = 2, R = 1,
+        eta = 0.712 chaotic) and the master's initial state ``(x0, v0)`` at ``t0``.
+    k : decimal string / Fraction / int / float
+        Coupling ``k >= 0``, converted exactly (:func:`~precise_impact.core.params.exact`; a float is
+        read as its shortest round-trip decimal).
+    form : str, default ``'first-order'``
+        One of :data:`COUPLED_FORMS`: eqs. (12) as written, (14a) as printed, or the
+        correct second-order reduction of (12) (module docstring).
+    periods : int, default 500
+        Forcing periods ``T = 2 pi / eta`` (the paper's Fig. 7 uses 500).
+    y0 : pair or None, default ``None``
+        Slave ``(position, velocity variable)`` in ``form``'s own variables
+        (``(y1, y2)`` or ``(y, y')``), each exact; position ``<= x_w``.  ``None``
+        starts the slave on the master, ``(x0, v0)`` -- the diagonal.
+    per_period : int, default 0
+        Dense samples per period (``0 <= per_period <= 100000``) for plotting.
+    precision : str, default ``'float64'``
+        ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp:BITS'``.
+    max_impacts : int or None, default ``None``
+        Budget over both oscillators (``None``: the model's, ``10**7`` for heyoka and fast;
+        the certified and circuit models take none); exceeding it raises
+        :class:`BudgetExceededError`.
+    engine : str or None, default ``None``
+        Deprecated spelling of ``model`` (``'fast'`` or ``'heyoka'``).
+    model : str, default ``'heyoka'``
+        One of :data:`~precise_impact.solvers.base.COUPLED_MODELS`: ``'heyoka'`` (Taylor
+        integration, any precision), ``'fast'`` (float64 closed forms,
+        :mod:`~precise_impact.solvers.fast.coupled`, ~50x faster; a run it does not resolve,
+        a tangential contact or chattering, is integrated by heyoka and ``stats['engine']``
+        says so), ``'certified'`` (``'mp:BITS'``, balls:
+        :class:`~precise_impact.solvers.certified.coupled.CertifiedCoupledTrajectory`) or
+        ``'circuit'`` (the Fig. 3 op-amp pair of the nominal design, ``form='paper'``).
+        Its precisions and forms are checked before any work.
+
+    Returns
+    -------
+    CoupledTrajectory
+        Stroboscopic (and dense, if asked for) samples of master ``(x, v)`` and slave
+        ``(y, w)``, both oscillators' impacts; ``difference()`` gives ``|x - y|``.  (The
+        certified and circuit models return their own result types, with the same ``t, x,
+        v, y, w``, ``master_impacts_t`` and ``slave_impacts_t``.)
+
+    Raises
+    ------
+    ParameterError
+        Every input is validated before any work; a bad value is named with its
+        allowed range.
+    BudgetExceededError
+        More than ``max_impacts`` impacts.
+
+    Notes
+    -----
+    A start on the wall moving into it is an impact at ``t0`` (applied before the
+    first sample).
+
+    References
+    ----------
+    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
+           mechanical impact oscillator", eqs. (11)-(14) and Fig. 7.
+    .. [2] F. Biscani, D. Izzo, MNRAS 504 (2021) 2614 (heyoka's Taylor method and
+           event detection).
+    """
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
+    check_inputs(params, k, form, periods, per_period, y0)
+    P = Precision.parse(precision)
+    options = {}
+    if max_impacts is not None:
+        options["max_impacts"] = check_max_impacts(max_impacts)
+    if engine is not None:
+        warnings.warn(
+            "simulate_coupled(engine=...) is deprecated; use model=... (the same names)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        model = check_engine(engine)
+    solver = make_coupled_solver(model, P, None, form, **options)
+    return solver.solve(params, k, periods, form=form, y0=y0, per_period=per_period)

@@ -1,8 +1,8 @@
 """Lyapunov spectrum on the compiled closed-form engine (float64, every core).
 
 The variational method's quantity with the exact 2x2 tangent flow between impacts (no ODE to
-integrate); a start the engine does not resolve sends the estimate to heyoka
-(``stats['engine']`` says so).
+integrate), computed by :func:`precise_impact.solvers.fast.lle.lle_batch`; a start the engine
+does not resolve sends the estimate to heyoka (``stats['engine']`` says so).
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from precise_impact.analysis.lyapunov.attractors import (
 from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import ParameterError
+from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
 
 __all__ = ["fast_spectrum", "fast_batch", "fast_batch_rows", "point_rows", "ROW_FIELDS"]
 
@@ -99,7 +100,8 @@ def fast_spectrum(
     )
     while m > 1 and (per // (blocks * m)) * m != per // blocks:
         m -= 1
-    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT, lle_batch
+    from precise_impact.solvers.fast.lle import lle_batch
+    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT
 
     pars = np.array(
         [
@@ -116,22 +118,34 @@ def fast_spectrum(
     starts = np.array(
         [[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)]
     )
-    unsupported = not params.zeta < 1 or (params.zeta == 0 and params.eta == 1)
-    start = time.perf_counter()
-    if not unsupported:
+
+    def compiled() -> LyapunovResult:
+        if not params.zeta < 1 or (params.zeta == 0 and params.eta == 1):
+            raise Unresolved("fast", "zeta >= 1")
+        start = time.perf_counter()
         status, log1, log2, imps, fine, fine_imps, xt, vt = lle_batch(
             pars, starts, per, transient, blocks * m, max_impacts, min(per, 3 * MAX_PERIOD)
         )
-        bsums = fine.reshape(n, blocks, m).sum(axis=2)
-    if unsupported or np.any(status != STATUS_OK):
-        why = (
-            "zeta >= 1"
-            if unsupported
-            else "; ".join(sorted({STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}))
+        if np.any(status != STATUS_OK):
+            bad = {STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}
+            raise Unresolved("fast", "; ".join(sorted(bad)))
+        elapsed = time.perf_counter() - start
+        return _fast_result(
+            params,
+            per,
+            n,
+            blocks,
+            m,
+            transient,
+            attractors,
+            elapsed,
+            (status, log1, log2, imps, fine, fine_imps, xt, vt),
         )
+
+    def variational() -> LyapunovResult:
         from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
-        r = variational_spectrum(
+        return variational_spectrum(
             params,
             periods=per * n,
             transient=transient,
@@ -139,9 +153,16 @@ def fast_spectrum(
             segments=segments,
             max_impacts=max_impacts,
         )
-        r.stats["engine"] = f"heyoka variational (fallback: {why})"
-        return r
-    elapsed = time.perf_counter() - start
+
+    return with_fallback(compiled, variational, note_fallback("heyoka variational"))()
+
+
+def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out) -> LyapunovResult:
+    """The :class:`LyapunovResult` of a resolved compiled run (``out``: ``lle_batch``'s arrays)."""
+    from precise_impact.solvers.fast.single import STATUS_TEXT
+
+    status, log1, log2, imps, fine, fine_imps, xt, vt = out
+    bsums = fine.reshape(n, blocks, m).sum(axis=2)
     T = 2 * math.pi / float(params.eta)
     time_total = per * T * n
     per_block = per // blocks
@@ -289,7 +310,8 @@ def fast_batch_rows(
         As :func:`fast_batch`.
     """
     from precise_impact.analysis.periodicity import detect_period
-    from precise_impact.solvers.fast.single import STATUS_OK, lle_batch, lle_batch_serial
+    from precise_impact.solvers.fast.lle import lle_batch, lle_batch_serial
+    from precise_impact.solvers.fast.single import STATUS_OK
 
     periods = check_count(periods, "periods", minimum=1)
     transient = check_count(transient, "transient")
@@ -303,41 +325,43 @@ def fast_batch_rows(
         (zeta < 1) & ~((zeta == 0) & (eta == 1))
     )  # underdamped, not the undamped resonance
     run = lle_batch if parallel else lle_batch_serial
-    status, log1, log2, imps, bsums, _, xt, vt = run(
-        rows[ok_pts, :5], rows[ok_pts, 5:], periods, transient, blocks, max_impacts, keep
-    )
-    results: list = [None] * len(rows)
-    per_block = periods // blocks
-    for j, i in enumerate(ok_pts.tolist()):
-        if status[j] != STATUS_OK:
-            continue
-        T = 2 * math.pi / eta[i]
-        bm = bsums[j] / (per_block * T)
-        results[i] = {
-            "lle": float(log1[j] / (periods * T)),
-            "lambda2": float(log2[j] / (periods * T)),
-            "stderr": means_stderr(bm),
-            "period": detect_period(xt[j], vt[j], max_period),
-            "impacts_per_period": float(imps[j] / periods),
-            "x_last": float(xt[j][-1]),
-            "v_last": float(vt[j][-1]),
-            "grazing": 0,
-            "engine": "fast",
-        }
-    rest = [i for i, r in enumerate(results) if r is None]
-    if rest:
+
+    def compiled() -> list:
+        status, log1, log2, imps, bsums, _, xt, vt = run(
+            rows[ok_pts, :5], rows[ok_pts, 5:], periods, transient, blocks, max_impacts, keep
+        )
+        results: list = [None] * len(rows)
+        per_block = periods // blocks
+        for j, i in enumerate(ok_pts.tolist()):
+            if status[j] != STATUS_OK:
+                continue
+            T = 2 * math.pi / eta[i]
+            bm = bsums[j] / (per_block * T)
+            results[i] = {
+                "lle": float(log1[j] / (periods * T)),
+                "lambda2": float(log2[j] / (periods * T)),
+                "stderr": means_stderr(bm),
+                "period": detect_period(xt[j], vt[j], max_period),
+                "impacts_per_period": float(imps[j] / periods),
+                "x_last": float(xt[j][-1]),
+                "v_last": float(vt[j][-1]),
+                "grazing": 0,
+                "engine": "fast",
+            }
+        if any(r is None for r in results):
+            raise Unresolved("fast", "points the compiled engine does not resolve", results)
+        return results
+
+    def variational(indices) -> list:
         from precise_impact.analysis.lyapunov.batch import batch_lle
 
-        for i, r in zip(
-            rest,
-            batch_lle(
-                fallback_points(rest),
-                periods=periods,
-                transient=transient,
-                segments=max(2, segments),
-                max_period=max_period,
-                max_impacts=max_impacts,
-            ),
-        ):
-            results[i] = dict(r, engine="heyoka")
-    return results
+        return batch_lle(
+            fallback_points(indices),
+            periods=periods,
+            transient=transient,
+            segments=max(2, segments),
+            max_period=max_period,
+            max_impacts=max_impacts,
+        )
+
+    return with_fallback(compiled, variational, lambda r, why: dict(r, engine="heyoka"))()

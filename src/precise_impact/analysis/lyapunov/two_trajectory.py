@@ -19,12 +19,11 @@ import numpy as np
 
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 from precise_impact.core.clock import local_clock
-from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, exact
 from precise_impact.core.precision import Precision
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import ParameterError
 from precise_impact.io.progress import Progress
-from precise_impact.solvers.heyoka.single import build_integrator
+from precise_impact.solvers.heyoka.single import OrbitStepper, build_integrator
 
 __all__ = ["two_trajectory_lle"]
 
@@ -133,68 +132,7 @@ class _Arith:
 
 
 # ------------------------------------------------------------- integration
-class _Orbit:
-    """One heyoka integrator and its impact recorder (the integrator's own copy)."""
-
-    def __init__(self, ta) -> None:
-        self.ta = ta
-        self.rec = ta.t_events[0].callback
-
-    @property
-    def count(self) -> int:
-        """Impacts since the recorder was last reset."""
-        return self.rec.count
-
-    def clear(self) -> None:
-        self.rec.reset(_IMPACT_BUDGET)
-
-    def _check(self, outcome, P: Precision) -> None:
-        import heyoka as hy
-
-        if self.rec.exceeded:
-            raise BudgetExceededError(
-                f"more than {_IMPACT_BUDGET} impacts within one forcing period at "
-                f"t={P.to_str(self.ta.time)} (chattering/Zeno sequence?)"
-            )
-        if outcome != hy.taylor_outcome.time_limit:
-            raise RuntimeError(
-                f"heyoka stopped early with outcome {outcome} at t={P.to_str(self.ta.time)}"
-            )
-
-    def propagate_until(self, t: Any, P: Precision) -> None:
-        res = self.ta.propagate_until(t)
-        self._check(res[0], P)
-
-    def step_to_impact(self, t_limit: Any, P: Precision) -> None:
-        """Step until the next impact (inclusive) or ``t_limit``, whichever first.
-
-        heyoka's ``step`` always stops at a terminal event, so after the loop the
-        state is the post-impact state at the impact instant.
-        """
-        import heyoka as hy
-
-        n = self.count
-        while self.count == n and self.ta.time < t_limit:
-            outcome, _ = self.ta.step(max_delta_t=t_limit - self.ta.time)
-            if outcome == hy.taylor_outcome.err_nf_state:
-                raise RuntimeError(
-                    f"heyoka step failed with outcome {outcome} at t={P.to_str(self.ta.time)}"
-                )
-            if self.rec.exceeded:
-                self._check(hy.taylor_outcome.time_limit, P)
-
-    def set_state(self, x: Any, v: Any, x_w: Any, R: Any) -> None:
-        """Place the orbit at ``(x, v)`` at its current time; a start on the wall moving
-        into it is an impact (recorded, as in ``HeyokaSolver``)."""
-        if x == x_w and v > 0:
-            vb, v = v, reset_velocity(v, R)
-            self.rec.log(self.ta.time, vb, v)
-        self.ta.state[0] = x
-        self.ta.state[1] = v
-        self.ta.reset_cooldowns()
-
-
-def _synchronise(fid: _Orbit, per: _Orbit, t_limit: Any, P: Precision) -> bool:
+def _synchronise(fid: OrbitStepper, per: OrbitStepper, t_limit: Any, P: Precision) -> bool:
     """Bring both orbits to one time at which they have had equally many impacts.
 
     Called at a period boundary where the impact counts differ: one orbit has hit
@@ -374,7 +312,7 @@ def two_trajectory_lle(
     ta = copy.deepcopy(build_integrator(P, compact_mode=(P.kind == "mp")))
     ta.pars[:] = P.array([conv(getattr(params, n)) for n in RUNTIME_PARAMS])
     ta.time = L0
-    fid = _Orbit(ta)
+    fid = OrbitStepper(ta, _IMPACT_BUDGET)
     fid.clear()
     fid.set_state(conv(params.x0), conv(params.v0), x_w, R)
     for _ in range(transient):
@@ -383,7 +321,7 @@ def two_trajectory_lle(
         fid.clear()
 
     # ---- perturbed orbit: a deep copy (own callback copy, no recompilation)
-    per = _Orbit(copy.deepcopy(fid.ta))
+    per = OrbitStepper(copy.deepcopy(fid.ta), _IMPACT_BUDGET)
     fid.clear()
     per.clear()
 

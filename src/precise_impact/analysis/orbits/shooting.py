@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core import flight
+from precise_impact.core.crossing import safeguarded_newton
 
 __all__ = ["ShootingSystem", "CONTINUABLE"]
 
@@ -218,21 +219,15 @@ class ShootingSystem:
 
 
 def _refine_max(sys: ShootingSystem, vals, s, x, v, lo, hi) -> float:
-    """The zero of ``v`` in ``[lo, hi]`` (``v(lo) > 0 >= v(hi)``): Newton safeguarded by bisection."""
-    t = 0.5 * (lo + hi)
-    for _ in range(60):
+    """The zero of ``v`` in ``[lo, hi]`` (``v(lo) > 0 >= v(hi)``): the one safeguarded Newton
+    (:func:`~precise_impact.core.crossing.safeguarded_newton`) on ``f = -v``, ``f' = -x''``."""
+
+    def minus_v(t):
         xt, vt = sys.flow(vals, s, x, v, t)
-        if vt > 0:
-            lo = t
-        else:
-            hi = t
-        acc = sys.field(vals, float(t), float(xt), float(vt))[1]
-        tn = t - vt / acc if acc < 0 else 0.5 * (lo + hi)
-        if not lo <= tn <= hi:
-            tn = 0.5 * (lo + hi)
-        if abs(tn - t) <= 4e-16 * (1 + abs(t)) or hi - lo <= 4e-16 * (1 + abs(t)):
-            return float(tn)
-        t = tn
+        return -vt, -sys.field(vals, float(t), float(xt), float(vt))[1]
+
+    f_lo, df_lo = minus_v(lo)
+    t, _ = safeguarded_newton(minus_v, lo, hi, f_lo, df_lo, 4e-16 * (1 + abs(hi)), 60)
     return float(t)
 
 

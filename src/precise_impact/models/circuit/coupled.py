@@ -21,6 +21,7 @@ from precise_impact.errors import BudgetExceededError
 from precise_impact.models.circuit.components import Components, dimensionless
 from precise_impact.models.circuit.network import NETWORK_PARS
 from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.solvers.base import PRECISION_KINDS, Capabilities, register_coupled_model
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
 
@@ -264,3 +265,72 @@ class CoupledCircuitTrajectory(ResultMixin):
     params: Params
     R31: Fraction
     R32: Fraction
+
+
+class CircuitCoupledSolver:
+    """The Fig. 3 op-amp pair as a coupled model (``model='circuit'``, ``form='paper'``).
+
+    The nominal design realising ``params``
+    (:func:`~precise_impact.models.circuit.components.nominal_components`) simulated by
+    :func:`simulate_coupled_circuit`; the slave starts at ``y0`` (``None``: the master's start).
+
+    Parameters
+    ----------
+    precision : Precision
+        Working precision.
+    """
+
+    model_name = "circuit"
+
+    def __init__(self, precision: Precision) -> None:
+        self.precision = precision
+
+    def solve(
+        self,
+        params: Params,
+        k: Any,
+        periods: int,
+        *,
+        form: str = CIRCUIT_COUPLED_FORM,
+        y0: Any = None,
+        per_period: int = 0,
+    ) -> CoupledCircuitTrajectory:
+        """Simulate the circuit pair (:func:`~precise_impact.simulate_coupled`)."""
+        from precise_impact.core.params import decimal_str
+        from precise_impact.errors import ParameterError
+        from precise_impact.models.circuit.components import nominal_components
+
+        if form != CIRCUIT_COUPLED_FORM:
+            raise ParameterError("form", form, f"{CIRCUIT_COUPLED_FORM!r} for the circuit model")
+        if params.R != 1:
+            raise ParameterError(
+                "R", decimal_str(params.R), "1 for the circuit pair (its comparators' impact law)"
+            )
+        return simulate_coupled_circuit(
+            nominal_components(params),
+            k,
+            periods,
+            x0=params.x0,
+            v0=params.v0,
+            y0=(params.x0, params.v0) if y0 is None else y0,
+            t0=params.t0,
+            per_period=per_period,
+            precision=self.precision.name,
+        )
+
+
+def _coupled_circuit(prec: Precision, tol: Any, **options: Any) -> CircuitCoupledSolver:
+    return CircuitCoupledSolver(prec, **options)
+
+
+register_coupled_model(
+    "circuit",
+    "the Fig. 3 op-amp pair of the nominal design ('paper' form, R = 1)",
+    _coupled_circuit,
+    Capabilities(
+        PRECISION_KINDS,
+        tolerance=False,
+        forms=(CIRCUIT_COUPLED_FORM,),
+        note="the circuit integrates at the precision's epsilon",
+    ),
+)

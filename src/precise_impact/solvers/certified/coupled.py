@@ -12,8 +12,20 @@ from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
+import numpy as np
+
 from precise_impact.core import flight
-from precise_impact.core.params import check_count, decimal_str, params_or_values
+from precise_impact.core.coupling import (
+    check_form,
+    check_k,
+    check_y0,
+    error_coefficients,
+    slave_derivative,
+    slave_reset,
+    slave_velocity,
+)
+from precise_impact.core.params import Params, check_count, decimal_str, params_or_values
+from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.solvers.certified.single import (
@@ -34,9 +46,8 @@ from precise_impact.solvers.certified.single import (
     upper,
     working_bits,
 )
-from precise_impact.solvers.heyoka.coupled import check_form, check_k, check_y0, slave_reset
 
-__all__ = ["certify_coupled", "CertifiedCoupledTrajectory"]
+__all__ = ["certify_coupled", "CertifiedCoupledTrajectory", "CertifiedCoupledSolver"]
 
 
 class _ErrorFlow:
@@ -131,6 +142,50 @@ class CertifiedCoupledTrajectory(ResultMixin):
     slave_impacts: list
     elapsed_s: float
 
+    @property
+    def precision(self) -> Precision:
+        """The working precision ``mp:bits`` (of the midpoints below)."""
+        return Precision.parse(f"mp:{self.bits}")
+
+    def _mids(self, rows: list, i: int) -> np.ndarray:
+        P = self.precision
+        return P.array([P.from_fraction(exact_value(r[i].mid())) for r in rows])
+
+    @property
+    def t(self) -> np.ndarray:
+        """Sample times, the balls' midpoints in :attr:`precision` (as every pair model's ``t``)."""
+        return self._mids(self.samples, 1)
+
+    @property
+    def x(self) -> np.ndarray:
+        """The master's position at the samples (midpoints)."""
+        return self._mids(self.samples, 2)
+
+    @property
+    def v(self) -> np.ndarray:
+        """The master's velocity at the samples (midpoints)."""
+        return self._mids(self.samples, 3)
+
+    @property
+    def y(self) -> np.ndarray:
+        """The slave's position at the samples (midpoints)."""
+        return self._mids(self.samples, 4)
+
+    @property
+    def w(self) -> np.ndarray:
+        """The slave's velocity variable at the samples (midpoints)."""
+        return self._mids(self.samples, 5)
+
+    @property
+    def master_impacts_t(self) -> np.ndarray:
+        """The master's impact times (midpoints)."""
+        return self._mids(self.master_impacts, 0)
+
+    @property
+    def slave_impacts_t(self) -> np.ndarray:
+        """The slave's impact times (midpoints)."""
+        return self._mids(self.slave_impacts, 0)
+
     def max_radius(self) -> float:
         """The largest radius of any sample coordinate (a float rounded up; 0.0 below 1e-308)."""
         return max(float(exact_value(b.rad())) for s in self.samples for b in s[2:]) * (1 + 2**-50)
@@ -180,10 +235,7 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
     c = Constants(params, bits)
     iso = Isolator(bits)
     k = to_ball(kq)
-    if form == "paper":
-        c1, c0 = 2 * c.zeta + k * (1 + 2 * c.zeta), 1 + 2 * k
-    else:
-        c1, c0 = 2 * c.zeta + 2 * k, 1 + 2 * c.zeta * k + k * k
+    c1, c0 = error_coefficients(form, c.zeta, k)
     al = c1 / 2
     om2 = c0 - al * al
     if not om2 > 0:  # pragma: no cover - refused by certify_coupled before any work
@@ -191,16 +243,12 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
             f"e'' + c1 e' + c0 e = 0 is not proven underdamped (c0 - c1^2/4 in {om2})"
         )
     consts = (al, om2.sqrt(), c0)
-    fo = form == "first-order"
     x0, v0 = to_ball(params.x0), to_ball(params.v0)
     yp, yv = to_ball(y0q[0]), to_ball(y0q[1])
     e0 = yp - x0
-    ep0 = (yv - k * e0 if fo else yv) - v0  # y' = w - k e ('first-order'), w otherwise
+    ep0 = slave_derivative(form, k, e0, yv) - v0
     s = c.t0
     pair = _Pair(c, consts, s, x0, v0, e0, ep0)
-
-    def w_of(e, yd):
-        return yd + k * e if fo else yd
 
     samples = [(0, s, x0, v0, yp, yv)]
     mimp: list = []
@@ -250,11 +298,11 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
                         pair.slave_bound(),
                     )
                 else:
-                    wb = w_of(e, v + ep)
+                    wb = slave_velocity(form, k, e, v + ep)
                     wa = slave_reset(form, x, wb, c.R, k, c.xw)
                     simp.append((hit, wb, wa))
                     e_at = c.xw - x  # the slave is on the wall
-                    yd = wa - k * e_at if fo else wa
+                    yd = slave_derivative(form, k, e_at, wa)
                     pair = _Pair(c, consts, hit, x, v, e_at, yd - v, master=pair.m)
                     gap, bound, other, obound = (
                         pair.slave_gap,
@@ -280,7 +328,7 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
             if not (a < end):
                 break  # both gaps < 0 proven up to the sample
         x, v, e, ep = pair.state(tk)
-        samples.append((n, tk, x, v, x + e, w_of(e, v + ep)))
+        samples.append((n, tk, x, v, x + e, slave_velocity(form, k, e, v + ep)))
         a = end
         if progress is not None:
             progress.update(n)
@@ -360,10 +408,7 @@ def certify_coupled(
     check_certifiable(params)
     if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
         raise ParameterError("k", decimal_str(kq), "0 <= k <= 100 for the certified pair")
-    if form == "paper":
-        c1, c0 = 2 * params.zeta + kq * (1 + 2 * params.zeta), 1 + 2 * kq
-    else:
-        c1, c0 = 2 * params.zeta + 2 * kq, 1 + 2 * params.zeta * kq + kq * kq
+    c1, c0 = error_coefficients(form, params.zeta, kq)
     if not c0 > c1 * c1 / 4:
         raise ParameterError(
             "k",
@@ -403,3 +448,52 @@ def certify_coupled(
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
             bits *= 2
+
+
+class CertifiedCoupledSolver:
+    """The certified pair as a coupled model (``model='certified'``, ``precision='mp:BITS'``).
+
+    :meth:`solve` returns the :class:`CertifiedCoupledTrajectory` itself: the balls, and the
+    midpoints as ``t, x, v, y, w``, ``master_impacts_t``, ``slave_impacts_t``.  No dense
+    output (``per_period`` must be 0).
+
+    Parameters
+    ----------
+    bits : int
+        Working precision (``MIN_BITS <= bits <= MAX_BITS``); no retry at more bits.
+    progress : bool or None, default ``None``
+        As :func:`certify_coupled`.
+    """
+
+    model_name = "certified"
+
+    def __init__(self, bits: int, progress: bool | None = None) -> None:
+        self.bits = check_count(bits, "bits", MAX_BITS, minimum=MIN_BITS)
+        self.precision = Precision.parse(f"mp:{self.bits}")
+        self.progress = progress
+
+    def solve(
+        self,
+        params: Params,
+        k: Any,
+        periods: int,
+        *,
+        form: str = "first-order",
+        y0: Any = None,
+        per_period: int = 0,
+    ) -> CertifiedCoupledTrajectory:
+        """Certify the pair for ``periods`` periods at the solver's bits (:func:`certify_coupled`)."""
+        if per_period:
+            raise ParameterError(
+                "per_period", str(per_period), "0 for the certified model (no dense output)"
+            )
+        return certify_coupled(
+            params,
+            k,
+            form,
+            periods,
+            y0=y0,
+            bits=self.bits,
+            max_bits=self.bits,
+            progress=self.progress,
+        )

@@ -1,6 +1,7 @@
 """The fast engine: the closed-form flight compiled with numba (float64).
 
-* :mod:`~precise_impact.solvers.fast.single` — :class:`FastSolver` and the LLE kernels.
+* :mod:`~precise_impact.solvers.fast.single` — :class:`FastSolver`, the flight and the orbit map.
+* :mod:`~precise_impact.solvers.fast.lle` — the compiled LLE kernels.
 * :mod:`~precise_impact.solvers.fast.coupled` — the master-slave pair.
 """
 

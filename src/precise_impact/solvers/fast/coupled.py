@@ -7,10 +7,17 @@ with the single engine's proofs (``docs/numerics.rst``).
 from __future__ import annotations
 
 import math
+import time as _time
+from typing import Any
 
 import numba
 import numpy as np
 
+from precise_impact.core.coupling import FORM_IDS, error_coefficients
+from precise_impact.core.params import Params
+from precise_impact.core.precision import Precision
+from precise_impact.errors import BudgetExceededError
+from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
 from precise_impact.solvers.fast.crossing import (
     JIT,
     PHASE_ERROR,
@@ -27,52 +34,48 @@ from precise_impact.solvers.fast.single import (
     STATUS_NONFINITE,
     STATUS_OK,
     STATUS_SLOW_IMPACT,
+    STATUS_TEXT,
     sample_time,
 )
+from precise_impact.solvers.heyoka.coupled import (
+    CoupledTrajectory,
+    HeyokaCoupledSolver,
+    check_inputs,
+    check_max_impacts,
+    coupled_start,
+)
 
-__all__ = ["FORM_IDS", "error_coefficients", "coupled_strobe", "STATUS_UNSUPPORTED"]
-
-#: The forms the engine knows, by number (the compiled code's ``form`` argument).
-FORM_IDS = {"first-order": 0, "paper": 1, "reduced": 2}
+__all__ = [
+    "FastCoupledSolver",
+    "FORM_IDS",
+    "error_coefficients",
+    "coupled_strobe",
+    "compiled_slave_velocity",
+    "compiled_slave_derivative",
+    "compiled_slave_reset",
+    "STATUS_UNSUPPORTED",
+]
 
 #: ``e'' + c1 e' + c0 e = 0`` is not underdamped (``c0 <= c1^2 / 4``): heyoka's job.
 STATUS_UNSUPPORTED = 5
 
 
-def error_coefficients(form: str, zeta: float, k: float) -> tuple[float, float]:
-    """``(c1, c0)`` of ``e'' + c1 e' + c0 e = 0`` for ``form`` (module docstring).
-
-    Parameters
-    ----------
-    form : str
-        ``'first-order'``, ``'paper'`` or ``'reduced'``.
-    zeta, k : float
-        Damping ratio and coupling.
-
-    Returns
-    -------
-    tuple of float
-    """
-    if form == "paper":
-        return 2 * zeta + k * (1 + 2 * zeta), 1 + 2 * k
-    return 2 * zeta + 2 * k, 1 + 2 * zeta * k + k * k
-
-
 @numba.njit(**JIT)
-def _slave_w(form, k, e, yd):
-    """The slave's velocity variable from ``e = y - x`` and ``y'``."""
+def compiled_slave_velocity(form, k, e, yd):
+    """:func:`~precise_impact.core.coupling.slave_velocity` (compiled copy, ``form`` a
+    :data:`~precise_impact.core.coupling.FORM_IDS` number)."""
     return yd + k * e if form == 0 else yd
 
 
 @numba.njit(**JIT)
-def _slave_yd(form, k, e, w_):
-    """``y'`` from ``e = y - x`` and the slave's velocity variable."""
+def compiled_slave_derivative(form, k, e, w_):
+    """:func:`~precise_impact.core.coupling.slave_derivative` (compiled copy)."""
     return w_ - k * e if form == 0 else w_
 
 
 @numba.njit(**JIT)
-def _slave_reset(form, R, k, x, xw, w_):
-    """:func:`~precise_impact.solvers.heyoka.coupled.slave_reset` (compiled copy)."""
+def compiled_slave_reset(form, R, k, x, xw, w_):
+    """:func:`~precise_impact.core.coupling.slave_reset` (compiled copy)."""
     if form == 2:
         shift = k * (x - xw)
         return -R * (w_ - shift) + shift
@@ -233,7 +236,7 @@ def coupled_strobe(
     touch = 64.0 * 2.220446049250313e-16 * (1.0 + abs(xw))
     T = 2.0 * math.pi / eta
     t, x, v = t0, x0, v0
-    e, ep = y0 - x0, _slave_yd(form, k, y0 - x0, w0) - v0
+    e, ep = y0 - x0, compiled_slave_derivative(form, k, y0 - x0, w0) - v0
     xs[0], vs[0], ys[0], ws[0], ts[0] = x0, v0, y0, w0, t0
     nm = ns = nb = 0
     cap_m, cap_s = m_imp.shape[0], s_imp.shape[0]
@@ -281,12 +284,12 @@ def coupled_strobe(
                 if yd < v_floor:
                     return STATUS_SLOW_IMPACT, nm, ns, nb, kk - 1
                 ec = xw - xc
-                wb = _slave_w(form, k, ec, yd)
-                wa = _slave_reset(form, R, k, xc, xw, wb)
+                wb = compiled_slave_velocity(form, k, ec, yd)
+                wa = compiled_slave_reset(form, R, k, xc, xw, wb)
                 if ns < cap_s:
                     s_imp[ns, 0], s_imp[ns, 1], s_imp[ns, 2], s_imp[ns, 3] = tc, wb, wa, xc
                 ns += 1
-                yd = _slave_yd(form, k, ec, wa)
+                yd = compiled_slave_derivative(form, k, ec, wa)
             if hit == 3:
                 nb += 1
             if nm + ns >= max_impacts:
@@ -295,5 +298,136 @@ def coupled_strobe(
             if tc >= t1:
                 break
         y = x + e
-        xs[kk], vs[kk], ys[kk], ws[kk], ts[kk] = x, v, y, _slave_w(form, k, e, v + ep), t1
+        xs[kk], vs[kk], ys[kk], ws[kk], ts[kk] = (
+            x,
+            v,
+            y,
+            compiled_slave_velocity(form, k, e, v + ep),
+            t1,
+        )
     return STATUS_OK, nm, ns, nb, n
+
+
+class FastCoupledSolver:
+    """The pair on the compiled closed forms (coupled model ``'fast'``, float64).
+
+    Parameters
+    ----------
+    max_impacts : int, default ``10**7``
+        Budget over both oscillators.
+    fallback : bool, default ``True``
+        A run the engine does not resolve (a tangential contact, chattering, an error
+        equation that is not underdamped) is integrated by
+        :class:`~precise_impact.solvers.heyoka.coupled.HeyokaCoupledSolver` and
+        ``stats['engine']`` says so; ``False`` raises
+        :class:`~precise_impact.solvers.base.Unresolved` (an ``IntegrationError``) instead.
+    """
+
+    model_name = "fast"
+
+    def __init__(self, max_impacts: int = 10**7, fallback: bool = True) -> None:
+        self.max_impacts = check_max_impacts(max_impacts)
+        self.fallback = bool(fallback)
+        self.precision = Precision.parse("float64")
+
+    def solve(
+        self,
+        params: Params,
+        k: Any,
+        periods: int,
+        *,
+        form: str = "first-order",
+        y0: Any = None,
+        per_period: int = 0,
+    ) -> CoupledTrajectory:
+        """The pair for ``periods`` forcing periods (:func:`~precise_impact.simulate_coupled`)."""
+        heyoka = HeyokaCoupledSolver(self.precision, self.max_impacts).solve
+        run = with_fallback(self._solve, heyoka if self.fallback else None, note_fallback("heyoka"))
+        return run(params, k, periods, form=form, y0=y0, per_period=per_period)
+
+    def _solve(
+        self, params: Params, k: Any, periods: int, *, form: str, y0: Any, per_period: int
+    ) -> CoupledTrajectory:
+        kq, form, periods, per_period, y0q = check_inputs(params, k, form, periods, per_period, y0)
+        start_state, m0, s0 = coupled_start(params, kq, form, y0q)
+        step = max(per_period, 1)
+        f = float
+        c1, c0 = error_coefficients(form, f(params.zeta), f(kq))
+        n = periods * step
+        cols = [np.empty(n + 1) for _ in range(5)]
+        budget = self.max_impacts - len(m0) - len(s0)
+        cap = 64 + 4 * periods
+        start_t = _time.perf_counter()
+        while True:
+            m_imp, s_imp = np.empty((cap, 3)), np.empty((cap, 4))
+            st, nm, ns, nb, _done = coupled_strobe(
+                f(params.eta),
+                f(params.zeta),
+                f(params.a),
+                f(params.x_w),
+                f(params.R),
+                f(kq),
+                FORM_IDS[form],
+                c1,
+                c0,
+                f(params.t0),
+                *(f(q) for q in start_state),
+                n,
+                step,
+                max(budget, 1),
+                *cols,
+                m_imp,
+                s_imp,
+            )
+            if nm <= cap and ns <= cap:
+                break
+            cap = 2 * max(nm, ns)
+        elapsed = _time.perf_counter() - start_t
+        if st == STATUS_BUDGET or budget < 1:
+            raise BudgetExceededError(
+                f"impact budget max_impacts={self.max_impacts} exhausted (chattering/Zeno sequence?); "
+                "raise max_impacts or check the parameters"
+            )
+        if st != STATUS_OK:
+            why = (
+                "the slave's difference equation is not underdamped"
+                if st == STATUS_UNSUPPORTED
+                else STATUS_TEXT[int(st)]
+            )
+            raise Unresolved("fast", why)
+        ts, xs, vs, ys, ws = cols[4], cols[0], cols[1], cols[2], cols[3]
+        m = np.array([[f(c) for c in r] for r in m0]).reshape(-1, 3)
+        sl = np.array([[f(c) for c in r] for r in s0]).reshape(-1, 4)
+        m = np.concatenate([m, m_imp[:nm]])
+        sl = np.concatenate([sl, s_imp[:ns]])
+        P = Precision.parse("float64")
+        traj = CoupledTrajectory(
+            params=params,
+            form=form,
+            k=kq,
+            y0=y0q,
+            precision=P,
+            t=ts[::step].copy(),
+            x=xs[::step].copy(),
+            v=vs[::step].copy(),
+            y=ys[::step].copy(),
+            w=ws[::step].copy(),
+            master_impacts_t=m[:, 0].copy(),
+            master_impacts_v_before=m[:, 1].copy(),
+            master_impacts_v_after=m[:, 2].copy(),
+            slave_impacts_t=sl[:, 0].copy(),
+            slave_impacts_w_before=sl[:, 1].copy(),
+            slave_impacts_w_after=sl[:, 2].copy(),
+            slave_impacts_x=sl[:, 3].copy(),
+            elapsed_s=elapsed,
+            stats={"simultaneous": int(nb), "engine": "fast"},
+        )
+        if per_period > 0:
+            traj.dense_t, traj.dense_x, traj.dense_v, traj.dense_y, traj.dense_w = (
+                ts,
+                xs,
+                vs,
+                ys,
+                ws,
+            )
+        return traj

@@ -8,10 +8,16 @@ miss an impact; what it does not resolve returns a status and goes to heyoka
 from __future__ import annotations
 
 import math
+import time
 
 import numba
 import numpy as np
 
+from precise_impact.core.params import as_params, check_count
+from precise_impact.core.precision import Precision
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import BudgetExceededError, IntegrationError
+from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
 from precise_impact.solvers.fast.crossing import (
     JIT,
     PHASE_ERROR,
@@ -32,16 +38,15 @@ STATUS_NONFINITE = 4
 
 __all__ = [
     "FastSolver",
-    "fast_lle",
     "compiled_saltation",
     "strobe",
-    "lle_orbit",
     "orbit_map",
-    "lle_batch",
-    "lle_batch_serial",
     "STATUS_TEXT",
     "STATUS_OK",
 ]
+
+#: How a result the heyoka fallback computed says so (``stats['engine']``).
+_HEYOKA_FALLBACK = note_fallback("heyoka")
 
 STATUS_TEXT = {
     STATUS_OK: "ok",
@@ -60,10 +65,6 @@ def compiled_saltation(t, vm, eta, zeta, a, xw, R):
     ap = f + 2.0 * zeta * R * vm
     return -R, 0.0, (ap + R * am) / vm, -R
 
-
-#: Samples between two QRs of the tangent basis in :func:`lle_orbit` (the basis grows or
-#: shrinks by at most ~e^2 per period between impacts; large growth forces a QR at once).
-QR_EVERY = 4
 
 #: Samples one flight records at most before it returns (the caller re-anchors there).
 FLIGHT_SAMPLES = 16
@@ -299,137 +300,6 @@ def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb,
 
 
 @numba.njit(**JIT)
-def lle_orbit(
-    eta,
-    zeta,
-    a,
-    xw,
-    R,
-    t0,
-    x0,
-    v0,
-    periods,
-    transient,
-    blocks,
-    max_impacts,
-    block_sums,
-    block_impacts,
-    xs_tail,
-    vs_tail,
-):
-    """Both Lyapunov exponents of one orbit: tangent flow ``Phi``, saltation at every impact,
-    Gram-Schmidt QR every ``QR_EVERY`` samples (and at block ends); the tangent basis starts
-    at the identity at ``t0`` and is never restarted (the transient's logs are discarded,
-    not its basis).
-
-    Returns ``(status, log1, log2, impacts, x, v)`` summed over the ``periods`` measured
-    periods (``impacts``: those in the measured periods); ``block_sums[j]`` gets the
-    first-exponent logs of block ``j`` (``blocks`` equal blocks, for batch means),
-    ``block_impacts[j]`` the impacts in block ``j``, and ``xs_tail, vs_tail`` the stroboscopic samples of the last ``len(xs_tail)`` periods.
-
-    Notes
-    -----
-    The tangent basis is kept at the flight's anchor, ``W``: at a sample the basis is
-    ``w = Phi W``.  A QR ``w = q r`` there replaces ``W`` by ``W r^-1`` (so that
-    ``Phi W = q``); at an impact the basis becomes ``S Phi W`` and the new anchor's ``W``.
-    """
-    P, Q, w, S, err_scale, h_max, v_floor, steps = _setup(eta, zeta, a, xw)
-    T = 2.0 * math.pi / eta
-    buf = np.empty((FLIGHT_SAMPLES, 6))
-    t, x, v = t0, x0, v0
-    W00, W01, W10, W11 = (
-        1.0,
-        0.0,
-        0.0,
-        1.0,
-    )  # the basis at the anchor: columns (W00, W10), (W01, W11)
-    c00, c01, c10, c11 = 1.0, 0.0, 0.0, 1.0  # the basis at the last sample
-    log1 = 0.0
-    log2 = 0.0
-    n_imp = 0
-    n_meas = 0
-    total = transient + periods
-    keep = xs_tail.shape[0]
-    per_block = max(1, periods // blocks)
-    for j in range(blocks):
-        block_sums[j] = 0.0
-        block_impacts[j] = 0
-    k = 1
-    while k <= total:
-        st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(
-            t, x, v, t0, T, 1, k, total, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf
-        )
-        for i in range(ns):
-            xk, vk = buf[i, 0], buf[i, 1]
-            p00, p01, p10, p11 = buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
-            c00, c01, c10, c11 = mul2(p00, p01, p10, p11, W00, W01, W10, W11)
-            jt = k - (total - keep) - 1
-            if jt >= 0:
-                xs_tail[jt], vs_tail[jt] = xk, vk
-            if not (math.isfinite(xk) and math.isfinite(vk)):
-                return STATUS_NONFINITE, log1, log2, n_meas, xk, vk
-            # Gram-Schmidt QR of the basis (core.linalg.gram_schmidt2) every QR_EVERY samples,
-            # at the end of the transient and of every block, and whenever the basis has
-            # grown large (saltations at slow impacts): the logs of a product of
-            # upper-triangular factors are the sums of their logs, so fewer QRs give the
-            # same exponents and block sums.
-            km = k - transient
-            if (
-                (km % QR_EVERY == 0)
-                or km == 0
-                or (km > 0 and km % per_block == 0)
-                or k == total
-                or abs(c00) + abs(c10) + abs(c01) + abs(c11) > 1e150
-            ):
-                r11 = math.sqrt(c00 * c00 + c10 * c10)
-                q0, q1 = c00 / r11, c10 / r11
-                proj = q0 * c01 + q1 * c11
-                d0, d1 = c01 - proj * q0, c11 - proj * q1
-                r22 = math.sqrt(d0 * d0 + d1 * d1)
-                if not math.isfinite(r11):
-                    return STATUS_NONFINITE, log1, log2, n_meas, xk, vk
-                # W <- W r^-1: first column / r11, second (column - proj * new first) / r22
-                W00, W10 = W00 / r11, W10 / r11
-                if r22 > 0.0:
-                    u0, u1 = d0 / r22, d1 / r22
-                    W01, W11 = (W01 - proj * W00) / r22, (W11 - proj * W10) / r22
-                else:  # a plastic impact collapsed the basis: re-seed (-q1, q0), W = Phi^-1 of it
-                    u0, u1 = -q1, q0
-                    det = p00 * p11 - p01 * p10
-                    W01, W11 = (p11 * u0 - p01 * u1) / det, (p00 * u1 - p10 * u0) / det
-                c00, c10, c01, c11 = q0, q1, u0, u1
-                if k > transient:
-                    l1 = math.log(r11)
-                    log1 += l1
-                    log2 += math.log(r22) if r22 > 0.0 else -math.inf
-                    j = (k - transient - 1) // per_block
-                    if j < blocks:
-                        block_sums[j] += l1
-            k += 1
-        if st != STATUS_OK:
-            return st, log1, log2, n_meas, x, v
-        if not hit:  # re-anchor at the last sample
-            t, x, v = sample_time(t0, T, 1, k - 1), buf[ns - 1, 0], buf[ns - 1, 1]
-            W00, W01, W10, W11 = c00, c01, c10, c11
-            continue
-        if vc < v_floor:
-            return STATUS_SLOW_IMPACT, log1, log2, n_meas, x, v
-        # the basis just before the impact, then through the saltation matrix
-        s00, s01, s10, s11 = compiled_saltation(tc, vc, eta, zeta, a, xw, R)
-        W00, W01, W10, W11 = mul2(s00, s01, s10, s11, *mul2(F00, F01, F10, F11, W00, W01, W10, W11))
-        n_imp += 1
-        if k > transient:  # the impact lies before sample k: measured period k - transient
-            n_meas += 1
-            j = (k - transient - 1) // per_block
-            if j < blocks:
-                block_impacts[j] += 1
-        if n_imp >= max_impacts:
-            return STATUS_BUDGET, log1, log2, n_meas, x, v
-        t, x, v = tc, xw, -R * vc
-    return STATUS_OK, log1, log2, n_meas, x, v
-
-
-@numba.njit(**JIT)
 def orbit_map(eta, zeta, a, xw, R, t0, x0, v0, periods):
     """The ``periods``-fold stroboscopic map from ``(x0, v0)`` at ``t0`` and its Jacobian.
 
@@ -490,94 +360,6 @@ def orbit_map(eta, zeta, a, xw, R, t0, x0, v0, periods):
     return STATUS_OK, xk, vk, c00, c01, c10, c11, n_imp
 
 
-def _batch(
-    pars,
-    starts,
-    periods,
-    transient,
-    blocks,
-    max_impacts,
-    keep,
-    status,
-    log1,
-    log2,
-    imps,
-    bsums,
-    bimps,
-    xt,
-    vt,
-    i,
-):
-    st, l1, l2, ni, _, _ = lle_orbit(
-        pars[i, 0],
-        pars[i, 1],
-        pars[i, 2],
-        pars[i, 3],
-        pars[i, 4],
-        starts[i, 0],
-        starts[i, 1],
-        starts[i, 2],
-        periods,
-        transient,
-        blocks,
-        max_impacts,
-        bsums[i],
-        bimps[i],
-        xt[i],
-        vt[i],
-    )
-    status[i], log1[i], log2[i], imps[i] = st, l1, l2, ni
-
-
-_batch_one = numba.njit(**JIT)(_batch)
-
-
-def _make_batch(parallel: bool):
-    rng = numba.prange if parallel else range
-
-    def run(pars, starts, periods, transient, blocks, max_impacts, keep):
-        n = pars.shape[0]
-        status = np.zeros(n, np.int64)
-        log1 = np.zeros(n)
-        log2 = np.zeros(n)
-        imps = np.zeros(n, np.int64)
-        bsums = np.zeros((n, blocks))
-        bimps = np.zeros((n, blocks), np.int64)
-        xt = np.zeros((n, keep))
-        vt = np.zeros((n, keep))
-        for i in rng(n):
-            _batch_one(
-                pars,
-                starts,
-                periods,
-                transient,
-                blocks,
-                max_impacts,
-                keep,
-                status,
-                log1,
-                log2,
-                imps,
-                bsums,
-                bimps,
-                xt,
-                vt,
-                i,
-            )
-        return status, log1, log2, imps, bsums, bimps, xt, vt
-
-    return numba.njit(parallel=parallel, cache=True, error_model="numpy")(run)
-
-
-#: ``lle_orbit`` for many orbits (one per row of ``pars`` = eta, zeta, a, x_w, R and of
-#: ``starts`` = t0, x0, v0): ``(status, log1, log2, impacts, block_sums, block_impacts, xs_tail,
-#: vs_tail)``.
-#: ``lle_batch`` runs the orbits on every core (numba threads), ``lle_batch_serial`` on one
-#: (inside a worker process of a sweep, which is already one per core).
-lle_batch = _make_batch(True)
-lle_batch_serial = _make_batch(False)
-
-
 # --------------------------------------------------------------------------- the solver
 class FastSolver:
     """Solver protocol on the compiled closed-form engine (``model = 'fast'``, float64).
@@ -603,9 +385,6 @@ class FastSolver:
     model_name = "fast"
 
     def __init__(self, max_impacts: int = 10**6, fallback: bool = True) -> None:
-        from precise_impact.core.params import check_count
-        from precise_impact.core.precision import Precision
-
         self.max_impacts = check_count(max_impacts, "max_impacts", 10**9, minimum=1)
         self.fallback = bool(fallback)
         self.precision = Precision.parse("float64")
@@ -636,162 +415,79 @@ class FastSolver:
         Trajectory
             ``model = 'fast'``; ``stats['engine']`` is ``'fast'`` or the fallback's reason.
         """
-        import time
-
-        from precise_impact.core.params import as_params, check_count
-        from precise_impact.core.trajectory import Trajectory
-        from precise_impact.errors import BudgetExceededError, IntegrationError
-
         params = as_params(params)
         periods = check_count(periods, "periods")
         per_period = check_count(per_period, "per_period", 100_000)
-        why = self._unsupported(params)
-        if why is None:
-            step = max(per_period, 1)
-            n = periods * step
-            p = [
-                float(getattr(params, k))
-                for k in ("eta", "zeta", "a", "x_w", "R", "t0", "x0", "v0")
-            ]
-            cap = min(self.max_impacts, 4 * periods + 64)
-            start = time.perf_counter()
-            while True:
-                xs, vs, ts = np.empty(n + 1), np.empty(n + 1), np.empty(n + 1)
-                it, iv = np.empty(cap), np.empty(cap)
-                st, n_imp, done = strobe(*p, n, step, self.max_impacts, it, iv, xs, vs, ts)
-                if n_imp <= cap or st == STATUS_BUDGET:
-                    break
-                cap = min(self.max_impacts, 4 * n_imp + 64)
-            elapsed = time.perf_counter() - start
-            if st == STATUS_BUDGET:
-                raise BudgetExceededError(
-                    f"impact budget max_impacts={self.max_impacts} exhausted at "
-                    f"sample {done} of {n}; raise max_impacts or ask for a shorter run"
-                )
-            if st == STATUS_NONFINITE:
-                raise IntegrationError(
-                    f"the fast engine met a non-finite state after sample {done} of {n}"
-                )
-            if st == STATUS_OK:
-                it, iv = it[:n_imp], iv[:n_imp]
-                traj = Trajectory(
-                    params=params,
-                    model="fast",
-                    precision=self.precision,
-                    tol=self.precision.eps,
-                    t=ts[::step].copy(),
-                    x=xs[::step].copy(),
-                    v=vs[::step].copy(),
-                    impacts_t=it.copy(),
-                    impacts_v_before=iv.copy(),
-                    impacts_v_after=-float(params.R) * iv,
-                    elapsed_s=elapsed,
-                    stats={"engine": "fast", "impacts": int(n_imp)},
-                )
-                if per_period > 0:
-                    traj.dense_t, traj.dense_x, traj.dense_v = ts, xs, vs
-                return traj
-            why = STATUS_TEXT[st] + f" after sample {done} of {n}"
-        if not self.fallback:
-            raise IntegrationError(f"the fast engine does not resolve this orbit: {why}")
+        run = with_fallback(
+            self._solve, self._solve_heyoka if self.fallback else None, _HEYOKA_FALLBACK
+        )
+        return run(params, periods, per_period)
+
+    def _solve_heyoka(self, params, periods: int, per_period: int):
         from precise_impact.solvers.heyoka.single import HeyokaSolver
 
         traj = HeyokaSolver(self.precision, max_impacts=self.max_impacts).solve(
             params, periods, per_period=per_period
         )
         traj.model = "fast"
-        traj.stats["engine"] = f"heyoka (fallback: {why})"
+        return traj
+
+    def _solve(self, params, periods: int, per_period: int):
+        """The compiled run, or :class:`~precise_impact.solvers.base.Unresolved`."""
+        why = self._unsupported(params)
+        if why is not None:
+            raise Unresolved("fast", why)
+        step = max(per_period, 1)
+        n = periods * step
+        p = [float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0", "x0", "v0")]
+        cap = min(self.max_impacts, 4 * periods + 64)
+        start = time.perf_counter()
+        while True:
+            xs, vs, ts = np.empty(n + 1), np.empty(n + 1), np.empty(n + 1)
+            it, iv = np.empty(cap), np.empty(cap)
+            st, n_imp, done = strobe(*p, n, step, self.max_impacts, it, iv, xs, vs, ts)
+            if n_imp <= cap or st == STATUS_BUDGET:
+                break
+            cap = min(self.max_impacts, 4 * n_imp + 64)
+        elapsed = time.perf_counter() - start
+        if st == STATUS_BUDGET:
+            raise BudgetExceededError(
+                f"impact budget max_impacts={self.max_impacts} exhausted at "
+                f"sample {done} of {n}; raise max_impacts or ask for a shorter run"
+            )
+        if st == STATUS_NONFINITE:
+            raise IntegrationError(
+                f"the fast engine met a non-finite state after sample {done} of {n}"
+            )
+        if st != STATUS_OK:
+            raise Unresolved("fast", STATUS_TEXT[st] + f" after sample {done} of {n}")
+        it, iv = it[:n_imp], iv[:n_imp]
+        traj = Trajectory(
+            params=params,
+            model="fast",
+            precision=self.precision,
+            tol=self.precision.eps,
+            t=ts[::step].copy(),
+            x=xs[::step].copy(),
+            v=vs[::step].copy(),
+            impacts_t=it.copy(),
+            impacts_v_before=iv.copy(),
+            impacts_v_after=-float(params.R) * iv,
+            elapsed_s=elapsed,
+            stats={"engine": "fast", "impacts": int(n_imp)},
+        )
+        if per_period > 0:
+            traj.dense_t, traj.dense_x, traj.dense_v = ts, xs, vs
         return traj
 
 
-def fast_lle(
-    params,
-    periods: int = 6000,
-    transient: int = 1000,
-    initial_conditions: int = 4,
-    blocks: int = 20,
-    max_impacts: int = 10**8,
-):
-    """Both Lyapunov exponents from the compiled engine, per start and combined.
+#: The LLE kernels moved to :mod:`precise_impact.solvers.fast.lle`; importable from here too.
+_MOVED_TO_LLE = ("lle_orbit", "lle_batch", "lle_batch_serial", "fast_lle", "QR_EVERY")
 
-    Parameters
-    ----------
-    params : Params or mapping
-        System; the starts are ``(x0, v0 + j/4)``, ``j = 0..initial_conditions-1`` (as the
-        variational method).
-    periods : int, default 6000
-        Measured forcing periods per start.
-    transient : int, default 1000
-        Discarded periods per start (the tangent basis is *not* restarted after them).
-    initial_conditions : int, default 4
-        Starts, run in parallel.
-    blocks : int, default 20
-        Batch means per start for the standard error.
-    max_impacts : int, default ``10**8``
-        Impact budget per start.
 
-    Returns
-    -------
-    dict
-        ``lle``, ``lambda2`` (per unit time, means over the starts), ``stderr`` (batch
-        means over all blocks of all starts), ``per_start`` (a list of dicts), ``impacts``
-        (in the measured periods),
-        ``status`` (per start: ``'ok'`` or the reason the engine stopped).
+def __getattr__(name: str):
+    if name in _MOVED_TO_LLE:
+        from precise_impact.solvers.fast import lle
 
-    References
-    ----------
-    .. [1] G. Benettin, L. Galgani, A. Giorgilli, J.-M. Strelcyn, Meccanica 15 (1980) 9-30.
-    .. [2] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices).
-    """
-    from fractions import Fraction
-
-    from precise_impact.core.params import as_params, check_count
-
-    params = as_params(params)
-    periods = check_count(periods, "periods", minimum=1)
-    transient = check_count(transient, "transient")
-    n = check_count(initial_conditions, "initial_conditions", 1000, minimum=1)
-    blocks = check_count(blocks, "blocks", 10_000, minimum=1)
-    if blocks > periods:
-        blocks = periods
-    max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
-    pars = np.array(
-        [
-            [
-                float(params.eta),
-                float(params.zeta),
-                float(params.a),
-                float(params.x_w),
-                float(params.R),
-            ]
-        ]
-        * n
-    )
-    starts = np.array(
-        [[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)]
-    )
-    status, log1, log2, imps, bsums, _, _, _ = lle_batch(
-        pars, starts, periods, transient, blocks, max_impacts, 1
-    )
-    T = 2 * math.pi / float(params.eta)
-    per_block = periods // blocks
-    time_total = periods * T
-    per = [
-        {
-            "lle": float(log1[i] / time_total),
-            "lambda2": float(log2[i] / time_total),
-            "impacts": int(imps[i]),
-            "status": STATUS_TEXT[int(status[i])],
-        }
-        for i in range(n)
-    ]
-    ok = [i for i in range(n) if status[i] == STATUS_OK]
-    bm = (bsums[ok] / (per_block * T)).ravel() if ok else np.array([])
-    return {
-        "lle": float(np.mean([per[i]["lle"] for i in ok])) if ok else math.nan,
-        "lambda2": float(np.mean([per[i]["lambda2"] for i in ok])) if ok else math.nan,
-        "stderr": float(np.std(bm, ddof=1) / math.sqrt(len(bm))) if len(bm) > 1 else math.nan,
-        "per_start": per,
-        "impacts": int(imps.sum()),
-        "status": [p["status"] for p in per],
-    }
+        return getattr(lle, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

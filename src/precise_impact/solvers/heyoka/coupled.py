@@ -9,26 +9,34 @@ from __future__ import annotations
 
 import dataclasses
 import time as _time
-from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from precise_impact.core.coupling import (
+    COUPLED_FORMS,
+    check_form,
+    check_k,
+    check_y0,
+    slave_position_rate,
+    slave_reset,
+    slave_rhs,
+)
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import impact_at_start, reset_velocity
-from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str, exact
+from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
-from precise_impact.solvers.base import check_engine
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
 
 __all__ = [
     "COUPLED_FORMS",
     "CoupledTrajectory",
-    "simulate_coupled",
+    "simulate_coupled",  # noqa: F822 - the registry entry point, by __getattr__ below
+    "HeyokaCoupledSolver",
     "slave_rhs",
     "slave_position_rate",
     "slave_reset",
@@ -37,67 +45,9 @@ __all__ = [
     "check_y0",
 ]
 
-#: The slave equations offered (see the module docstring).
-COUPLED_FORMS = ("first-order", "paper", "reduced")
-
 #: Runtime parameters of the coupled integrator: the single oscillator's, then k.
 COUPLED_PARAMS = RUNTIME_PARAMS + ("k",)
 _IDX = {name: i for i, name in enumerate(COUPLED_PARAMS)}
-
-
-# ------------------------------------------------------------------ the equations
-def slave_rhs(
-    form: str, t: Any, x: Any, v: Any, y: Any, w: Any, eta: Any, zeta: Any, a: Any, k: Any, cos
-) -> tuple:
-    """``(y', w')`` of the slave in ``form``'s own variables (generic number type).
-
-    The uncoupled part is :func:`~precise_impact.core.flow.acceleration` evaluated first, the
-    coupling added last, so that on the diagonal (coupling exactly 0) the slave's
-    arithmetic is the master's, operation by operation.
-    """
-    acc = acceleration(t, y, w, eta, zeta, a, cos)
-    if form == "first-order":
-        return w + k * (x - y), acc + k * (v - w)
-    if form == "paper":
-        return w, acc + k * (1 + 2 * zeta) * (v - w) + 2 * k * (x - y)
-    if form == "reduced":
-        return w, acc + 2 * k * (v - w) + k * (2 * zeta + k) * (x - y)
-    raise ParameterError("form", form, "one of " + ", ".join(COUPLED_FORMS))
-
-
-def slave_position_rate(form: str, x: Any, y: Any, w: Any, k: Any) -> Any:
-    """``dy/dt`` of the slave (``w + k (x - y)`` for 'first-order', ``w`` otherwise)."""
-    if form == "first-order":
-        return w + k * (x - y)
-    return w
-
-
-def slave_reset(form: str, x: Any, w_minus: Any, R: Any, k: Any, x_w: Any) -> Any:
-    """Slave velocity variable after its impact at ``y = x_w`` (master at ``x``).
-
-    'first-order' flips ``y2`` (12c), 'paper' flips ``y'`` (14b), both by
-    :func:`~precise_impact.core.impact.reset_velocity`.  'reduced' converts to ``y2 = y' - k (x - x_w)``,
-    flips ``y2`` with the same function and converts back, i.e.
-    ``y'+ = -R y'- + (1 + R) k (x - x_w)``.
-    """
-    if form == "reduced":
-        shift = k * (x - x_w)
-        return reset_velocity(w_minus - shift, R) + shift
-    return reset_velocity(w_minus, R)
-
-
-def check_form(form: Any) -> str:
-    if not isinstance(form, str) or form not in COUPLED_FORMS:
-        raise ParameterError("form", form, "one of " + ", ".join(repr(f) for f in COUPLED_FORMS))
-    return form
-
-
-def check_k(k: Any, name: str = "k") -> Fraction:
-    """Exact coupling from a decimal string / Fraction / number; must be finite and >= 0."""
-    q = exact(name, k)
-    if q < 0:
-        raise ParameterError(name, decimal_str(q), "coupling must be finite and >= 0")
-    return q
 
 
 # ------------------------------------------------------------------ the callback
@@ -338,106 +288,22 @@ class CoupledTrajectory(ResultMixin):
 
 
 # ------------------------------------------------------------------ the driver
-def check_y0(y0: Any, params: Params) -> tuple[Fraction, Fraction] | None:
-    """The slave's start ``(position, velocity variable)``, exact, position ``<= x_w``; ``None`` stays ``None``."""
-    if y0 is None:
-        return None
-    if isinstance(y0, (str, bytes)) or not isinstance(y0, Sequence) or len(y0) != 2:
-        raise ParameterError("y0", y0, "a pair (slave position, slave velocity variable) or None")
-    yp, yv = exact("y0[0]", y0[0]), exact("y0[1]", y0[1])
-    if yp > params.x_w:
-        raise ParameterError(
-            "y0[0]",
-            decimal_str(yp),
-            f"the slave must not start inside the wall: y0[0] <= x_w = {decimal_str(params.x_w)}",
-        )
-    return yp, yv
-
-
-def simulate_coupled(
-    params: Params,
-    k: Any,
-    form: str = "first-order",
-    periods: int = 500,
-    y0: Sequence[Any] | None = None,
-    per_period: int = 0,
-    precision: str | Precision = "float64",
-    max_impacts: int = 10**7,
-    engine: str = "heyoka",
-) -> CoupledTrajectory:
-    """Integrate the master-slave pair (11) + slave ``form`` for ``periods`` forcing periods.
-
-    Parameters
-    ----------
-    params : Params
-        System parameters (the paper's: zeta = 0.05, a = 1, x_w = 2, R = 1,
-        eta = 0.712 chaotic) and the master's initial state ``(x0, v0)`` at ``t0``.
-    k : decimal string / Fraction / int / float
-        Coupling ``k >= 0``, converted exactly (:func:`~precise_impact.core.params.exact`; a float is
-        read as its shortest round-trip decimal).
-    form : str, default ``'first-order'``
-        One of :data:`COUPLED_FORMS`: eqs. (12) as written, (14a) as printed, or the
-        correct second-order reduction of (12) (module docstring).
-    periods : int, default 500
-        Forcing periods ``T = 2 pi / eta`` (the paper's Fig. 7 uses 500).
-    y0 : pair or None, default ``None``
-        Slave ``(position, velocity variable)`` in ``form``'s own variables
-        (``(y1, y2)`` or ``(y, y')``), each exact; position ``<= x_w``.  ``None``
-        starts the slave on the master, ``(x0, v0)`` -- the diagonal.
-    per_period : int, default 0
-        Dense samples per period (``0 <= per_period <= 100000``) for plotting.
-    precision : str, default ``'float64'``
-        ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp:BITS'``.
-    max_impacts : int, default ``10**7``
-        Budget over both oscillators; exceeding it raises :class:`BudgetExceededError`.
-    engine : str, default ``'heyoka'``
-        ``'heyoka'`` (Taylor integration, any precision) or ``'fast'`` (float64 closed
-        forms, :mod:`~precise_impact.solvers.fast.coupled`, ~50x faster; a run it does not
-        resolve, a tangential contact or chattering, is integrated by heyoka and
-        ``stats['engine']`` says so).
-
-    Returns
-    -------
-    CoupledTrajectory
-        Stroboscopic (and dense, if asked for) samples of master ``(x, v)`` and slave
-        ``(y, w)``, both oscillators' impacts; ``difference()`` gives ``|x - y|``.
-
-    Raises
-    ------
-    ParameterError
-        Every input is validated before any work; a bad value is named with its
-        allowed range.
-    BudgetExceededError
-        More than ``max_impacts`` impacts.
-
-    Notes
-    -----
-    A start on the wall moving into it is an impact at ``t0`` (applied before the
-    first sample).
-
-    References
-    ----------
-    .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
-           mechanical impact oscillator", eqs. (11)-(14) and Fig. 7.
-    .. [2] F. Biscani, D. Izzo, MNRAS 504 (2021) 2614 (heyoka's Taylor method and
-           event detection).
-    """
-    from precise_impact.core.params import as_params
-
-    params = as_params(params)
+def check_inputs(
+    params: Params, k: Any, form: Any, periods: Any, per_period: Any, y0: Any
+) -> tuple[Fraction, str, int, int, tuple[Fraction, Fraction]]:
+    """The pair's inputs validated (before any work): ``(k, form, periods, per_period, y0)``,
+    exact; ``y0 = None`` becomes the master's start (the diagonal)."""
     kq = check_k(k)
     form = check_form(form)
     periods = check_count(periods, "periods")
     per_period = check_count(per_period, "per_period", 100_000)
     y0q = check_y0(y0, params)
-    P = Precision.parse(precision)
-    if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
-        raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")
-    check_engine(engine, P)
-    if y0q is None:
-        y0q = (params.x0, params.v0)
+    return kq, form, periods, per_period, (params.x0, params.v0) if y0q is None else y0q
 
-    # Initial state, exact; a start on the wall moving into it is an impact at t0.
+
+def coupled_start(params: Params, kq: Fraction, form: str, y0q: tuple) -> tuple:
+    """The exact state at ``t0`` after the impacts a start on the wall moving into it makes:
+    ``((x0, v0, y, w), master impact rows, slave impact rows)``."""
     x0, v0 = params.x0, params.v0
     yp, yv = y0q
     m0: list = []
@@ -450,188 +316,130 @@ def simulate_coupled(
         wa = slave_reset(form, x0, yv, params.R, kq, params.x_w)
         s0.append((params.t0, yv, wa, x0))
         yv = wa
+    return (x0, v0, yp, yv), m0, s0
 
-    step = max(per_period, 1)
-    fallback = None
-    if engine == "fast":
-        traj, fallback = _fast_run(
-            params, kq, form, y0q, periods, step, per_period, (x0, v0, yp, yv), m0, s0, max_impacts
+
+def check_max_impacts(max_impacts: Any) -> int:
+    """The impact budget over both oscillators: an integer ``>= 1``."""
+    if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 1:
+        raise ParameterError("max_impacts", max_impacts, "impact budget must be an integer >= 1")
+    return max_impacts
+
+
+class HeyokaCoupledSolver:
+    """The pair on heyoka's Taylor integrator (coupled model ``'heyoka'``, every precision).
+
+    Parameters
+    ----------
+    precision : Precision
+        Working precision.
+    max_impacts : int, default ``10**7``
+        Budget over both oscillators; exceeding it raises :class:`BudgetExceededError`.
+    """
+
+    model_name = "heyoka"
+
+    def __init__(self, precision: Precision, max_impacts: int = 10**7) -> None:
+        self.precision = precision
+        self.max_impacts = check_max_impacts(max_impacts)
+
+    def solve(
+        self,
+        params: Params,
+        k: Any,
+        periods: int,
+        *,
+        form: str = "first-order",
+        y0: Any = None,
+        per_period: int = 0,
+    ) -> CoupledTrajectory:
+        """The pair for ``periods`` forcing periods (:func:`~precise_impact.simulate_coupled`)."""
+        kq, form, periods, per_period, y0q = check_inputs(params, k, form, periods, per_period, y0)
+        (x0, v0, yp, yv), m0, s0 = coupled_start(params, kq, form, y0q)
+        step = max(per_period, 1)
+        P = self.precision
+        ta = build_coupled_integrator(form, P)
+        conv = P.from_fraction
+        ta.pars[:] = P.array([conv(getattr(params, n)) for n in RUNTIME_PARAMS] + [conv(kq)])
+        ta.time = conv(params.t0)
+        ta.state[:] = P.array([conv(x0), conv(v0), conv(yp), conv(yv)])
+        touch = _touch_tol(P, params.x_w)
+        recs = [ta.t_events[0].callback, ta.t_events[1].callback]
+        for r in recs:
+            r.reset(self.max_impacts, touch)
+        ta.reset_cooldowns()
+
+        grid = P.array(P.sample_times(params.t0, params.eta, periods, step))
+        import heyoka as hy
+
+        start = _time.perf_counter()
+        res = ta.propagate_grid(grid)
+        elapsed = _time.perf_counter() - start
+        outcome, n_steps, states = res[0], res[3], np.asarray(res[-1])
+        if any(r.exceeded for r in recs):
+            raise BudgetExceededError(
+                f"impact budget max_impacts={self.max_impacts} exhausted at t={P.to_str(ta.time)} "
+                "(chattering/Zeno sequence?); raise max_impacts or check the parameters"
+            )
+        if outcome != hy.taylor_outcome.time_limit:
+            raise IntegrationError(
+                f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}"
+            )
+
+        def conv_exact(rows):
+            return [tuple(conv(c) if isinstance(c, Fraction) else c for c in r) for r in rows]
+
+        def merged(attr):
+            rows = [row for r in recs for row in getattr(r, attr).rows()]
+            rows.sort(key=lambda row: row[0])
+            return rows
+
+        master = conv_exact(m0) + merged("master")
+        slave = conv_exact(s0) + merged("slave")
+        simultaneous = sum((r.slave if r.role == "master" else r.master).count for r in recs)
+
+        def col(rows, i):
+            return P.array([row[i] for row in rows])
+
+        traj = CoupledTrajectory(
+            params=params,
+            form=form,
+            k=kq,
+            y0=y0q,
+            precision=P,
+            t=grid[::step].copy(),
+            x=states[::step, 0].copy(),
+            v=states[::step, 1].copy(),
+            y=states[::step, 2].copy(),
+            w=states[::step, 3].copy(),
+            master_impacts_t=col(master, 0),
+            master_impacts_v_before=col(master, 1),
+            master_impacts_v_after=col(master, 2),
+            slave_impacts_t=col(slave, 0),
+            slave_impacts_w_before=col(slave, 1),
+            slave_impacts_w_after=col(slave, 2),
+            slave_impacts_x=col(slave, 3),
+            elapsed_s=elapsed,
+            stats={
+                "steps": int(n_steps),
+                "simultaneous": int(simultaneous),
+                "engine": "heyoka",
+            },
         )
-        if traj is not None:
-            return traj
-
-    ta = build_coupled_integrator(form, P)
-    conv = P.from_fraction
-    ta.pars[:] = P.array([conv(getattr(params, n)) for n in RUNTIME_PARAMS] + [conv(kq)])
-    ta.time = conv(params.t0)
-    ta.state[:] = P.array([conv(x0), conv(v0), conv(yp), conv(yv)])
-    touch = _touch_tol(P, params.x_w)
-    recs = [ta.t_events[0].callback, ta.t_events[1].callback]
-    for r in recs:
-        r.reset(max_impacts, touch)
-    ta.reset_cooldowns()
-
-    grid = P.array(P.sample_times(params.t0, params.eta, periods, step))
-    import heyoka as hy
-
-    start = _time.perf_counter()
-    res = ta.propagate_grid(grid)
-    elapsed = _time.perf_counter() - start
-    outcome, n_steps, states = res[0], res[3], np.asarray(res[-1])
-    if any(r.exceeded for r in recs):
-        raise BudgetExceededError(
-            f"impact budget max_impacts={max_impacts} exhausted at t={P.to_str(ta.time)} "
-            "(chattering/Zeno sequence?); raise max_impacts or check the parameters"
-        )
-    if outcome != hy.taylor_outcome.time_limit:
-        raise IntegrationError(
-            f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}"
-        )
-
-    def conv_exact(rows):
-        return [tuple(conv(c) if isinstance(c, Fraction) else c for c in r) for r in rows]
-
-    def merged(attr):
-        rows = [row for r in recs for row in getattr(r, attr).rows()]
-        rows.sort(key=lambda row: row[0])
-        return rows
-
-    master = conv_exact(m0) + merged("master")
-    slave = conv_exact(s0) + merged("slave")
-    simultaneous = sum((r.slave if r.role == "master" else r.master).count for r in recs)
-
-    def col(rows, i):
-        return P.array([row[i] for row in rows])
-
-    traj = CoupledTrajectory(
-        params=params,
-        form=form,
-        k=kq,
-        y0=y0q,
-        precision=P,
-        t=grid[::step].copy(),
-        x=states[::step, 0].copy(),
-        v=states[::step, 1].copy(),
-        y=states[::step, 2].copy(),
-        w=states[::step, 3].copy(),
-        master_impacts_t=col(master, 0),
-        master_impacts_v_before=col(master, 1),
-        master_impacts_v_after=col(master, 2),
-        slave_impacts_t=col(slave, 0),
-        slave_impacts_w_before=col(slave, 1),
-        slave_impacts_w_after=col(slave, 2),
-        slave_impacts_x=col(slave, 3),
-        elapsed_s=elapsed,
-        stats={
-            "steps": int(n_steps),
-            "simultaneous": int(simultaneous),
-            "engine": "heyoka" if fallback is None else f"heyoka (fallback: {fallback})",
-        },
-    )
-    if per_period > 0:
-        traj.dense_t = grid
-        traj.dense_x, traj.dense_v = states[:, 0].copy(), states[:, 1].copy()
-        traj.dense_y, traj.dense_w = states[:, 2].copy(), states[:, 3].copy()
-    return traj
+        if per_period > 0:
+            traj.dense_t = grid
+            traj.dense_x, traj.dense_v = states[:, 0].copy(), states[:, 1].copy()
+            traj.dense_y, traj.dense_w = states[:, 2].copy(), states[:, 3].copy()
+        return traj
 
 
-def _fast_run(
-    params: Params,
-    kq: Fraction,
-    form: str,
-    y0q: tuple,
-    periods: int,
-    step: int,
-    per_period: int,
-    start: tuple,
-    m0: list,
-    s0: list,
-    max_impacts: int,
-) -> tuple[CoupledTrajectory | None, str | None]:
-    """:func:`simulate_coupled` on the compiled engine: ``(trajectory, None)``, or ``(None, why)``
-    when the engine does not resolve the run (the caller integrates it with heyoka)."""
-    from precise_impact.solvers.fast.coupled import (
-        FORM_IDS,
-        STATUS_UNSUPPORTED,
-        coupled_strobe,
-        error_coefficients,
-    )
-    from precise_impact.solvers.fast.single import STATUS_BUDGET, STATUS_OK, STATUS_TEXT
+def __getattr__(name: str):
+    # simulate_coupled is the registry's entry point (solvers/simulate.py), over every model
+    if name == "simulate_coupled":
+        from precise_impact.solvers.simulate import simulate_coupled
 
-    f = float
-    c1, c0 = error_coefficients(form, f(params.zeta), f(kq))
-    n = periods * step
-    cols = [np.empty(n + 1) for _ in range(5)]
-    budget = max_impacts - len(m0) - len(s0)
-    cap = 64 + 4 * periods
-    start_t = _time.perf_counter()
-    while True:
-        m_imp, s_imp = np.empty((cap, 3)), np.empty((cap, 4))
-        st, nm, ns, nb, _done = coupled_strobe(
-            f(params.eta),
-            f(params.zeta),
-            f(params.a),
-            f(params.x_w),
-            f(params.R),
-            f(kq),
-            FORM_IDS[form],
-            c1,
-            c0,
-            f(params.t0),
-            *(f(q) for q in start),
-            n,
-            step,
-            max(budget, 1),
-            *cols,
-            m_imp,
-            s_imp,
-        )
-        if nm <= cap and ns <= cap:
-            break
-        cap = 2 * max(nm, ns)
-    elapsed = _time.perf_counter() - start_t
-    if st == STATUS_BUDGET or budget < 1:
-        raise BudgetExceededError(
-            f"impact budget max_impacts={max_impacts} exhausted (chattering/Zeno sequence?); "
-            "raise max_impacts or check the parameters"
-        )
-    if st != STATUS_OK:
-        why = (
-            "the slave's difference equation is not underdamped"
-            if st == STATUS_UNSUPPORTED
-            else STATUS_TEXT[int(st)]
-        )
-        return None, why
-    ts, xs, vs, ys, ws = cols[4], cols[0], cols[1], cols[2], cols[3]
-    m = np.array([[f(c) for c in r] for r in m0]).reshape(-1, 3)
-    sl = np.array([[f(c) for c in r] for r in s0]).reshape(-1, 4)
-    m = np.concatenate([m, m_imp[:nm]])
-    sl = np.concatenate([sl, s_imp[:ns]])
-    P = Precision.parse("float64")
-    traj = CoupledTrajectory(
-        params=params,
-        form=form,
-        k=kq,
-        y0=y0q,
-        precision=P,
-        t=ts[::step].copy(),
-        x=xs[::step].copy(),
-        v=vs[::step].copy(),
-        y=ys[::step].copy(),
-        w=ws[::step].copy(),
-        master_impacts_t=m[:, 0].copy(),
-        master_impacts_v_before=m[:, 1].copy(),
-        master_impacts_v_after=m[:, 2].copy(),
-        slave_impacts_t=sl[:, 0].copy(),
-        slave_impacts_w_before=sl[:, 1].copy(),
-        slave_impacts_w_after=sl[:, 2].copy(),
-        slave_impacts_x=sl[:, 3].copy(),
-        elapsed_s=elapsed,
-        stats={"simultaneous": int(nb), "engine": "fast"},
-    )
-    if per_period > 0:
-        traj.dense_t, traj.dense_x, traj.dense_v, traj.dense_y, traj.dense_w = ts, xs, vs, ys, ws
-    return traj, None
+        return simulate_coupled
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # 0.1.0 name, kept for one release.

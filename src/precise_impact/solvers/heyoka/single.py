@@ -47,7 +47,7 @@ from precise_impact.errors import BudgetExceededError, IntegrationError, Interru
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
 
-__all__ = ["HeyokaSolver", "build_integrator"]
+__all__ = ["HeyokaSolver", "build_integrator", "OrbitStepper"]
 
 
 #: Forcing periods per ``propagate_grid`` call (progress, interrupt and partial results
@@ -1034,3 +1034,70 @@ class HeyokaSolver:
             f"step budget max_steps={max_steps} exhausted at t={self.precision.to_str(ta.time)} "
             f"after {steps} heyoka steps; raise max_steps or check the parameters"
         )
+
+
+class OrbitStepper:
+    """One heyoka integrator of :func:`build_integrator` and its impact recorder, driven
+    impact by impact (the two-trajectory Lyapunov method's orbits).
+
+    ``budget`` impacts at most between two :meth:`clear` calls (more raises
+    :class:`~precise_impact.errors.BudgetExceededError`).
+    """
+
+    def __init__(self, ta, budget: int) -> None:
+        self.ta = ta
+        self.rec = ta.t_events[0].callback
+        self.budget = budget
+
+    @property
+    def count(self) -> int:
+        """Impacts since the recorder was last reset."""
+        return self.rec.count
+
+    def clear(self) -> None:
+        self.rec.reset(self.budget)
+
+    def _check(self, outcome, P: Precision) -> None:
+        import heyoka as hy
+
+        if self.rec.exceeded:
+            raise BudgetExceededError(
+                f"more than {self.budget} impacts within one forcing period at "
+                f"t={P.to_str(self.ta.time)} (chattering/Zeno sequence?)"
+            )
+        if outcome != hy.taylor_outcome.time_limit:
+            raise RuntimeError(
+                f"heyoka stopped early with outcome {outcome} at t={P.to_str(self.ta.time)}"
+            )
+
+    def propagate_until(self, t: Any, P: Precision) -> None:
+        res = self.ta.propagate_until(t)
+        self._check(res[0], P)
+
+    def step_to_impact(self, t_limit: Any, P: Precision) -> None:
+        """Step until the next impact (inclusive) or ``t_limit``, whichever first.
+
+        heyoka's ``step`` always stops at a terminal event, so after the loop the
+        state is the post-impact state at the impact instant.
+        """
+        import heyoka as hy
+
+        n = self.count
+        while self.count == n and self.ta.time < t_limit:
+            outcome, _ = self.ta.step(max_delta_t=t_limit - self.ta.time)
+            if outcome == hy.taylor_outcome.err_nf_state:
+                raise RuntimeError(
+                    f"heyoka step failed with outcome {outcome} at t={P.to_str(self.ta.time)}"
+                )
+            if self.rec.exceeded:
+                self._check(hy.taylor_outcome.time_limit, P)
+
+    def set_state(self, x: Any, v: Any, x_w: Any, R: Any) -> None:
+        """Place the orbit at ``(x, v)`` at its current time; a start on the wall moving
+        into it is an impact (recorded, as in ``HeyokaSolver``)."""
+        if x == x_w and v > 0:
+            vb, v = v, reset_velocity(v, R)
+            self.rec.log(self.ta.time, vb, v)
+        self.ta.state[0] = x
+        self.ta.state[1] = v
+        self.ta.reset_cooldowns()

@@ -1,0 +1,349 @@
+"""The compiled LLE kernels of the fast engine (float64, numba): tangent flow and QR.
+
+Between impacts the tangent flow is the exact flow matrix ``Phi`` of the flight
+(:func:`~precise_impact.solvers.fast.single._flight` records it at every sample); at an
+impact the tangent basis goes through the saltation matrix
+(:func:`~precise_impact.solvers.fast.single.compiled_saltation`), and a Gram-Schmidt QR
+every ``QR_EVERY`` samples accumulates the logs (Benettin et al., Meccanica 15 (1980)
+9-30; Müller, Chaos Solitons Fractals 5 (1995) 1671).  The estimators (ensembles, error
+bars, attractors) are :mod:`precise_impact.analysis.lyapunov.fast`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from precise_impact.solvers.fast.crossing import JIT, mul2
+from precise_impact.solvers.fast.single import (
+    FLIGHT_SAMPLES,
+    STATUS_BUDGET,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    STATUS_SLOW_IMPACT,
+    STATUS_TEXT,
+    _flight,
+    _setup,
+    compiled_saltation,
+    sample_time,
+)
+
+__all__ = ["lle_orbit", "lle_batch", "lle_batch_serial", "fast_lle", "QR_EVERY"]
+
+#: Samples between two QRs of the tangent basis in :func:`lle_orbit` (the basis grows or
+#: shrinks by at most ~e^2 per period between impacts; large growth forces a QR at once).
+QR_EVERY = 4
+
+
+@numba.njit(**JIT)
+def lle_orbit(
+    eta,
+    zeta,
+    a,
+    xw,
+    R,
+    t0,
+    x0,
+    v0,
+    periods,
+    transient,
+    blocks,
+    max_impacts,
+    block_sums,
+    block_impacts,
+    xs_tail,
+    vs_tail,
+):
+    """Both Lyapunov exponents of one orbit: tangent flow ``Phi``, saltation at every impact,
+    Gram-Schmidt QR every ``QR_EVERY`` samples (and at block ends); the tangent basis starts
+    at the identity at ``t0`` and is never restarted (the transient's logs are discarded,
+    not its basis).
+
+    Returns ``(status, log1, log2, impacts, x, v)`` summed over the ``periods`` measured
+    periods (``impacts``: those in the measured periods); ``block_sums[j]`` gets the
+    first-exponent logs of block ``j`` (``blocks`` equal blocks, for batch means),
+    ``block_impacts[j]`` the impacts in block ``j``, and ``xs_tail, vs_tail`` the stroboscopic samples of the last ``len(xs_tail)`` periods.
+
+    Notes
+    -----
+    The tangent basis is kept at the flight's anchor, ``W``: at a sample the basis is
+    ``w = Phi W``.  A QR ``w = q r`` there replaces ``W`` by ``W r^-1`` (so that
+    ``Phi W = q``); at an impact the basis becomes ``S Phi W`` and the new anchor's ``W``.
+    """
+    P, Q, w, S, err_scale, h_max, v_floor, steps = _setup(eta, zeta, a, xw)
+    T = 2.0 * math.pi / eta
+    buf = np.empty((FLIGHT_SAMPLES, 6))
+    t, x, v = t0, x0, v0
+    W00, W01, W10, W11 = (
+        1.0,
+        0.0,
+        0.0,
+        1.0,
+    )  # the basis at the anchor: columns (W00, W10), (W01, W11)
+    c00, c01, c10, c11 = 1.0, 0.0, 0.0, 1.0  # the basis at the last sample
+    log1 = 0.0
+    log2 = 0.0
+    n_imp = 0
+    n_meas = 0
+    total = transient + periods
+    keep = xs_tail.shape[0]
+    per_block = max(1, periods // blocks)
+    for j in range(blocks):
+        block_sums[j] = 0.0
+        block_impacts[j] = 0
+    k = 1
+    while k <= total:
+        st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(
+            t, x, v, t0, T, 1, k, total, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf
+        )
+        for i in range(ns):
+            xk, vk = buf[i, 0], buf[i, 1]
+            p00, p01, p10, p11 = buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
+            c00, c01, c10, c11 = mul2(p00, p01, p10, p11, W00, W01, W10, W11)
+            jt = k - (total - keep) - 1
+            if jt >= 0:
+                xs_tail[jt], vs_tail[jt] = xk, vk
+            if not (math.isfinite(xk) and math.isfinite(vk)):
+                return STATUS_NONFINITE, log1, log2, n_meas, xk, vk
+            # Gram-Schmidt QR of the basis (core.linalg.gram_schmidt2) every QR_EVERY samples,
+            # at the end of the transient and of every block, and whenever the basis has
+            # grown large (saltations at slow impacts): the logs of a product of
+            # upper-triangular factors are the sums of their logs, so fewer QRs give the
+            # same exponents and block sums.
+            km = k - transient
+            if (
+                (km % QR_EVERY == 0)
+                or km == 0
+                or (km > 0 and km % per_block == 0)
+                or k == total
+                or abs(c00) + abs(c10) + abs(c01) + abs(c11) > 1e150
+            ):
+                r11 = math.sqrt(c00 * c00 + c10 * c10)
+                q0, q1 = c00 / r11, c10 / r11
+                proj = q0 * c01 + q1 * c11
+                d0, d1 = c01 - proj * q0, c11 - proj * q1
+                r22 = math.sqrt(d0 * d0 + d1 * d1)
+                if not math.isfinite(r11):
+                    return STATUS_NONFINITE, log1, log2, n_meas, xk, vk
+                # W <- W r^-1: first column / r11, second (column - proj * new first) / r22
+                W00, W10 = W00 / r11, W10 / r11
+                if r22 > 0.0:
+                    u0, u1 = d0 / r22, d1 / r22
+                    W01, W11 = (W01 - proj * W00) / r22, (W11 - proj * W10) / r22
+                else:  # a plastic impact collapsed the basis: re-seed (-q1, q0), W = Phi^-1 of it
+                    u0, u1 = -q1, q0
+                    det = p00 * p11 - p01 * p10
+                    W01, W11 = (p11 * u0 - p01 * u1) / det, (p00 * u1 - p10 * u0) / det
+                c00, c10, c01, c11 = q0, q1, u0, u1
+                if k > transient:
+                    l1 = math.log(r11)
+                    log1 += l1
+                    log2 += math.log(r22) if r22 > 0.0 else -math.inf
+                    j = (k - transient - 1) // per_block
+                    if j < blocks:
+                        block_sums[j] += l1
+            k += 1
+        if st != STATUS_OK:
+            return st, log1, log2, n_meas, x, v
+        if not hit:  # re-anchor at the last sample
+            t, x, v = sample_time(t0, T, 1, k - 1), buf[ns - 1, 0], buf[ns - 1, 1]
+            W00, W01, W10, W11 = c00, c01, c10, c11
+            continue
+        if vc < v_floor:
+            return STATUS_SLOW_IMPACT, log1, log2, n_meas, x, v
+        # the basis just before the impact, then through the saltation matrix
+        s00, s01, s10, s11 = compiled_saltation(tc, vc, eta, zeta, a, xw, R)
+        W00, W01, W10, W11 = mul2(s00, s01, s10, s11, *mul2(F00, F01, F10, F11, W00, W01, W10, W11))
+        n_imp += 1
+        if k > transient:  # the impact lies before sample k: measured period k - transient
+            n_meas += 1
+            j = (k - transient - 1) // per_block
+            if j < blocks:
+                block_impacts[j] += 1
+        if n_imp >= max_impacts:
+            return STATUS_BUDGET, log1, log2, n_meas, x, v
+        t, x, v = tc, xw, -R * vc
+    return STATUS_OK, log1, log2, n_meas, x, v
+
+
+def _batch(
+    pars,
+    starts,
+    periods,
+    transient,
+    blocks,
+    max_impacts,
+    keep,
+    status,
+    log1,
+    log2,
+    imps,
+    bsums,
+    bimps,
+    xt,
+    vt,
+    i,
+):
+    st, l1, l2, ni, _, _ = lle_orbit(
+        pars[i, 0],
+        pars[i, 1],
+        pars[i, 2],
+        pars[i, 3],
+        pars[i, 4],
+        starts[i, 0],
+        starts[i, 1],
+        starts[i, 2],
+        periods,
+        transient,
+        blocks,
+        max_impacts,
+        bsums[i],
+        bimps[i],
+        xt[i],
+        vt[i],
+    )
+    status[i], log1[i], log2[i], imps[i] = st, l1, l2, ni
+
+
+_batch_one = numba.njit(**JIT)(_batch)
+
+
+def _make_batch(parallel: bool):
+    rng = numba.prange if parallel else range
+
+    def run(pars, starts, periods, transient, blocks, max_impacts, keep):
+        n = pars.shape[0]
+        status = np.zeros(n, np.int64)
+        log1 = np.zeros(n)
+        log2 = np.zeros(n)
+        imps = np.zeros(n, np.int64)
+        bsums = np.zeros((n, blocks))
+        bimps = np.zeros((n, blocks), np.int64)
+        xt = np.zeros((n, keep))
+        vt = np.zeros((n, keep))
+        for i in rng(n):
+            _batch_one(
+                pars,
+                starts,
+                periods,
+                transient,
+                blocks,
+                max_impacts,
+                keep,
+                status,
+                log1,
+                log2,
+                imps,
+                bsums,
+                bimps,
+                xt,
+                vt,
+                i,
+            )
+        return status, log1, log2, imps, bsums, bimps, xt, vt
+
+    return numba.njit(parallel=parallel, cache=True, error_model="numpy")(run)
+
+
+#: ``lle_orbit`` for many orbits (one per row of ``pars`` = eta, zeta, a, x_w, R and of
+#: ``starts`` = t0, x0, v0): ``(status, log1, log2, impacts, block_sums, block_impacts, xs_tail,
+#: vs_tail)``.
+#: ``lle_batch`` runs the orbits on every core (numba threads), ``lle_batch_serial`` on one
+#: (inside a worker process of a sweep, which is already one per core).
+lle_batch = _make_batch(True)
+lle_batch_serial = _make_batch(False)
+
+
+def fast_lle(
+    params,
+    periods: int = 6000,
+    transient: int = 1000,
+    initial_conditions: int = 4,
+    blocks: int = 20,
+    max_impacts: int = 10**8,
+):
+    """Both Lyapunov exponents from the compiled engine, per start and combined.
+
+    Parameters
+    ----------
+    params : Params or mapping
+        System; the starts are ``(x0, v0 + j/4)``, ``j = 0..initial_conditions-1`` (as the
+        variational method).
+    periods : int, default 6000
+        Measured forcing periods per start.
+    transient : int, default 1000
+        Discarded periods per start (the tangent basis is *not* restarted after them).
+    initial_conditions : int, default 4
+        Starts, run in parallel.
+    blocks : int, default 20
+        Batch means per start for the standard error.
+    max_impacts : int, default ``10**8``
+        Impact budget per start.
+
+    Returns
+    -------
+    dict
+        ``lle``, ``lambda2`` (per unit time, means over the starts), ``stderr`` (batch
+        means over all blocks of all starts), ``per_start`` (a list of dicts), ``impacts``
+        (in the measured periods),
+        ``status`` (per start: ``'ok'`` or the reason the engine stopped).
+
+    References
+    ----------
+    .. [1] G. Benettin, L. Galgani, A. Giorgilli, J.-M. Strelcyn, Meccanica 15 (1980) 9-30.
+    .. [2] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices).
+    """
+    from fractions import Fraction
+
+    from precise_impact.core.params import as_params, check_count
+
+    params = as_params(params)
+    periods = check_count(periods, "periods", minimum=1)
+    transient = check_count(transient, "transient")
+    n = check_count(initial_conditions, "initial_conditions", 1000, minimum=1)
+    blocks = check_count(blocks, "blocks", 10_000, minimum=1)
+    if blocks > periods:
+        blocks = periods
+    max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
+    pars = np.array(
+        [
+            [
+                float(params.eta),
+                float(params.zeta),
+                float(params.a),
+                float(params.x_w),
+                float(params.R),
+            ]
+        ]
+        * n
+    )
+    starts = np.array(
+        [[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)]
+    )
+    status, log1, log2, imps, bsums, _, _, _ = lle_batch(
+        pars, starts, periods, transient, blocks, max_impacts, 1
+    )
+    T = 2 * math.pi / float(params.eta)
+    per_block = periods // blocks
+    time_total = periods * T
+    per = [
+        {
+            "lle": float(log1[i] / time_total),
+            "lambda2": float(log2[i] / time_total),
+            "impacts": int(imps[i]),
+            "status": STATUS_TEXT[int(status[i])],
+        }
+        for i in range(n)
+    ]
+    ok = [i for i in range(n) if status[i] == STATUS_OK]
+    bm = (bsums[ok] / (per_block * T)).ravel() if ok else np.array([])
+    return {
+        "lle": float(np.mean([per[i]["lle"] for i in ok])) if ok else math.nan,
+        "lambda2": float(np.mean([per[i]["lambda2"] for i in ok])) if ok else math.nan,
+        "stderr": float(np.std(bm, ddof=1) / math.sqrt(len(bm))) if len(bm) > 1 else math.nan,
+        "per_start": per,
+        "impacts": int(imps.sum()),
+        "status": [p["status"] for p in per],
+    }
