@@ -27,12 +27,8 @@ from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure
 from precise_impact.io.progress import ProgressArg, check_progress, say, wanted
-from precise_impact.solvers.heyoka.coupled import (
-    CoupledTrajectory,
-    check_form,
-    check_k,
-    simulate_coupled,
-)
+from precise_impact.solvers.heyoka.coupled import CoupledTrajectory, check_form, check_k
+from precise_impact.solvers.simulate import simulate_coupled
 
 #: Most slave starts per coupling value (one stated range for the CLI and the API).
 MAX_ENSEMBLE = 10_000
