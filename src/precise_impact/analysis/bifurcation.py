@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.analysis.scan import (
     PointJob,
     check_axis,
@@ -33,6 +34,7 @@ from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.io.progress import ProgressArg, check_progress
+from precise_impact.solvers.base import Unresolved, with_fallback
 
 __all__ = ["BifurcationResult", "bifurcation", "eta_grid"]
 
@@ -218,39 +220,55 @@ def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:
     return exact_grid(eta_min, eta_max, n, "eta", strict=True)
 
 
-def _one(args):
-    params, periods, transient, engine = args
-    if engine == "fast" and params.zeta < 1:
-        from precise_impact.analysis.lyapunov.result import means_stderr
-        from precise_impact.solvers.fast.single import STATUS_OK, lle_batch_serial
+def _fast_point(params: Params, periods: int, transient: int) -> tuple:
+    """One eta value on the fast engine: strobe x, LLE, its error bar, impacts per period."""
+    if not params.zeta < 1:
+        raise Unresolved("fast", "zeta >= 1 (the closed form is underdamped only)")
+    # numba is imported on first use, not with the package (0.3 s of import time)
+    from precise_impact.solvers.fast.lle import lle_batch_serial
+    from precise_impact.solvers.fast.single import STATUS_OK
 
-        pars = np.array(
+    pars = np.array(
+        [
             [
-                [
-                    float(params.eta),
-                    float(params.zeta),
-                    float(params.a),
-                    float(params.x_w),
-                    float(params.R),
-                ]
+                float(params.eta),
+                float(params.zeta),
+                float(params.a),
+                float(params.x_w),
+                float(params.R),
             ]
-        )
-        starts = np.array([[float(params.t0), float(params.x0), float(params.v0)]])
-        st, l1, _, imps, bsums, _, xt, _ = lle_batch_serial(
-            pars, starts, periods, transient, min(10, periods), 10**7, periods
-        )
-        if st[0] == STATUS_OK:
-            T = 2 * math.pi / float(params.eta)
-            nb = min(10, periods)
-            bm = bsums[0] / ((periods // nb) * T)
-            se = means_stderr(bm)
-            return xt[0], float(l1[0] / (periods * T)), se, float(imps[0] / periods)
+        ]
+    )
+    starts = np.array([[float(params.t0), float(params.x0), float(params.v0)]])
+    st, l1, _, imps, bsums, _, xt, _ = lle_batch_serial(
+        pars, starts, periods, transient, min(10, periods), 10**7, periods
+    )
+    if st[0] != STATUS_OK:
+        raise Unresolved("fast", f"status {int(st[0])}")
+    T = 2 * math.pi / float(params.eta)
+    nb = min(10, periods)
+    bm = bsums[0] / ((periods // nb) * T)
+    return xt[0], float(l1[0] / (periods * T)), means_stderr(bm), float(imps[0] / periods)
+
+
+def _heyoka_point(params: Params, periods: int, transient: int) -> tuple:
+    """One eta value by the heyoka variational method (the same four values)."""
+    # heyoka is imported on first use, not with the package
     from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
     r = variational_spectrum(
         params, periods=periods, transient=transient, initial_conditions=1, segments=10
     )
     return r.strobe_x, r.lle, r.stderr, r.impacts / r.periods
+
+
+#: Each model's point job; the fast one hands what it does not resolve to heyoka.
+_POINT = {"fast": with_fallback(_fast_point, _heyoka_point), "heyoka": _heyoka_point}
+
+
+def _one(args):
+    params, periods, transient, model = args
+    return _POINT[model](params, periods, transient)
 
 
 def _eta_axis(axis: Any, eta_max: Any, n: Any, eta_min: Any) -> list[Fraction]:
