@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+from collections.abc import Callable
 from fractions import Fraction
 from typing import Any
 
@@ -42,11 +43,12 @@ class FloatOps:
     """Scalar float64 through :mod:`math` (correctly rounded conversions of exact rationals)."""
 
     name = "float64"
-    exp = staticmethod(math.exp)
-    sqrt = staticmethod(math.sqrt)
-    cos = staticmethod(math.cos)
-    sin = staticmethod(math.sin)
-    pi = math.pi
+    # typed as any callable: the subclasses put numpy's, mpmath's or python-flint's here
+    exp: Callable[..., Any] = staticmethod(math.exp)
+    sqrt: Callable[..., Any] = staticmethod(math.sqrt)
+    cos: Callable[..., Any] = staticmethod(math.cos)
+    sin: Callable[..., Any] = staticmethod(math.sin)
+    pi: Any = math.pi
     u = 2.0**-53  # unit roundoff
 
     @staticmethod

@@ -130,8 +130,11 @@ class Solver(Protocol):
         may take further keyword-only options (the circuit models: ``x0, v0, t0``).
     """
 
-    model_name: str
-    precision: Precision
+    @property
+    def model_name(self) -> str: ...
+
+    @property
+    def precision(self) -> Precision: ...
 
     def solve(
         self, params: Params, periods: int, *, per_period: int = 0
@@ -275,8 +278,11 @@ class CoupledSolver(Protocol):
         ``slave_impacts_t``.  Inputs are validated by :func:`~precise_impact.simulate_coupled`.
     """
 
-    model_name: str
-    precision: Precision
+    @property
+    def model_name(self) -> str: ...
+
+    @property
+    def precision(self) -> Precision: ...
 
     def solve(
         self,

@@ -340,8 +340,12 @@ class AnalyticalSolver:
         self.scan_fraction = sf
         self.max_impacts = max_impacts
         self.max_evals = max_evals
-        self._ops = _Float64Ops() if backend == "float64" else _MpmathOps(dps, bits)
-        self.dps = None if backend == "float64" else self._ops.dps
+        self._ops: _Float64Ops | _MpmathOps
+        if backend == "float64":
+            self._ops, self.dps = _Float64Ops(), None
+        else:
+            mp_ops = _MpmathOps(dps, bits)
+            self._ops, self.dps = mp_ops, mp_ops.dps
 
     # ------------------------------------------------------------------ public API
     @property
@@ -351,9 +355,9 @@ class AnalyticalSolver:
     @property
     def precision(self) -> Precision:
         """Precision of the returned Trajectory's state values: the bits mpmath really works with."""
-        if self.backend == "float64":
-            return Precision.parse("float64")
-        return Precision.parse(f"mp:{self._ops.prec}")
+        if isinstance(self._ops, _MpmathOps):
+            return Precision.parse(f"mp:{self._ops.prec}")
+        return Precision.parse("float64")
 
     @staticmethod
     def check_params(params: Params) -> None:

@@ -82,7 +82,8 @@ class _Pair:
         self.c = c
         # the master's flight goes on unchanged through a slave impact (no re-anchoring, no wrapping)
         self.m = Flight(c, s, x, v) if master is None else master
-        self.e = _ErrorFlow(*consts, s, e, ep)
+        al, om, c0 = consts
+        self.e = _ErrorFlow(al, om, c0, s, e, ep)
 
     def state(self, t):
         x, v = self.m.at(t)

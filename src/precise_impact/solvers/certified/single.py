@@ -521,7 +521,7 @@ def run_balls(
     return samples, impacts, eng.c
 
 
-def _run(params: Params, periods: int, bits: int, progress) -> tuple:
+def _run(params: Params, periods: int, bits: int, progress) -> tuple[list, list]:
     with working_bits(bits):
         return run_balls(params, periods, bits, progress=progress)[:2]
 

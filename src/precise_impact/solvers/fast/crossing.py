@@ -7,10 +7,11 @@ shared by the single oscillator and the pair; the proofs are in ``docs/numerics.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 
-JIT = dict(cache=True, fastmath=False, error_model="numpy")
+JIT: dict[str, Any] = dict(cache=True, fastmath=False, error_model="numpy")
 
 __all__ = [
     "JIT",

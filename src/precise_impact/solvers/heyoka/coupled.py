@@ -250,6 +250,7 @@ class CoupledTrajectory(ResultMixin):
                     "dense", True, "this trajectory has no dense output (per_period = 0)"
                 )
             t, x, y = self.dense_t, self.dense_x, self.dense_y
+            assert x is not None and y is not None  # set together with dense_t
         else:
             t, x, y = self.t, self.x, self.y
         return self._f(t), np.abs(self._f(x - y))

@@ -11,6 +11,7 @@ import bisect
 import math
 import threading
 import time as _time
+from collections.abc import Callable
 from fractions import Fraction
 from typing import Any
 
@@ -318,7 +319,7 @@ class _ZenoWatch:
         self.result: dict | None = None
         self.refusal: str | None = None
         #: Set by the solver: impacts left in the budget (a callable) and the budget.
-        self.budget_left = None
+        self.budget_left: Callable[[], int] | None = None
         self.max_impacts = None
         self.clear_run()
 
@@ -493,6 +494,7 @@ class _ZenoWatch:
         speed floor stopped the watch (error ~ ``v_floor * flight``).
         """
         P, z = self.P, self.result
+        assert z is not None  # called only after the watch stopped (result set)
         x_w = P.from_fraction(self.params.x_w)
         zero = P.from_fraction(Fraction(0))
         if z["g"] is None:  # R = 1 at the floor: taken to be at rest
@@ -866,15 +868,15 @@ class HeyokaSolver:
             stats["chattering"] = [z for z in stats["chattering"] if z["t_last_impact"] <= t_end]
             stats["sticking"] = [st for st in stats["sticking"] if st[0] <= t_end]
         grid_arr = P.array(grid)
-        xs, vs = P.array(xs), P.array(vs)
+        x_arr, v_arr = P.array(xs), P.array(vs)
         traj = Trajectory(
             params=params,
             model=self.model_name,
             precision=P,
             tol=self.tol if self.tol is not None else P.eps,
             t=grid_arr[::step],
-            x=xs[::step].copy(),
-            v=vs[::step].copy(),
+            x=x_arr[::step].copy(),
+            v=v_arr[::step].copy(),
             impacts_t=P.array(imp_t),
             impacts_v_before=P.array(imp_vb),
             impacts_v_after=P.array(imp_va),
@@ -882,7 +884,7 @@ class HeyokaSolver:
             stats=stats,
         )
         if per_period > 0:
-            traj.dense_t, traj.dense_x, traj.dense_v = grid_arr, xs, vs
+            traj.dense_t, traj.dense_x, traj.dense_v = grid_arr, x_arr, v_arr
         return traj
 
     def _run(
@@ -1002,6 +1004,7 @@ class HeyokaSolver:
             if rec.stop_reason == "rest":
                 continue
             if rec.stop_reason == "chatter":
+                assert watch.result is not None  # the watch stopped: its result is set
                 z = dict(watch.result)
                 t_inf = z["t_accumulation"]
                 while i < n and grid[i] < t_inf:
