@@ -5,6 +5,7 @@
 # py.typed) is in it, installs it
 # non-editable with the extras [test,dask,bench,docs] into a fresh venv outside the
 # checkout and, from a directory outside the checkout, runs:
+#   ruff check, ruff format --check and mypy on the sources (zero findings),
 #   precise-impact --version, precise-impact reference verify, the README's testing example
 #   (the code block itself, read from README.md), the whole test suite against the installed
 #   package (pyproject's pytest settings: markers, -m 'not slow'), and the documentation
@@ -63,6 +64,12 @@ took
 
 step "installing it (non-editable) with [test,dask,bench,docs]"
 "$vpy" -m pip install -q "${wheel}[test,dask,bench,docs]"
+took
+
+step "static checks: ruff check, ruff format --check, mypy (pinned by the [lint] extra; zero findings)"
+"$vpy" -m pip install -q "${wheel}[lint]"
+(cd "$work/src" && "$work/venv/bin/ruff" check --no-cache . && "$work/venv/bin/ruff" format --check --no-cache . \
+  && "$work/venv/bin/mypy" --no-incremental)
 took
 
 mkdir -p "$work/run" && cd "$work/run"   # outside the checkout: nothing is imported from src/

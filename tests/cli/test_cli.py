@@ -139,13 +139,16 @@ def test_lle_json_contract():
         "method",
         "lle",
         "spectrum",
-        "stderr",
+        "lle_stderr",
         "periods",
-        "impacts",
+        "n_impacts",
         "elapsed_s",
         "stats",
+        "stderr",  # the 0.2 names, kept for one release beside the new ones
+        "impacts",
     }
-    assert obj["method"] == "variational" and obj["periods"] == 300 and obj["impacts"] == 0
+    assert obj["method"] == "variational" and obj["periods"] == 300 and obj["n_impacts"] == 0
+    assert obj["stderr"] == obj["lle_stderr"] and obj["impacts"] == obj["n_impacts"]
     assert abs(obj["lle"] + 0.05) < 1e-3 and abs(sum(obj["spectrum"]) + 0.1) < 1e-12
 
 

@@ -35,3 +35,22 @@ def test_old_spelling_warns_at_the_callers_line_and_converts():
 def test_both_spellings_are_refused():
     with pytest.raises(ParameterError, match="not both"):
         _f("mp:256", 448)
+
+
+def test_renamed_attribute_reads_and_writes_the_new_one_with_a_warning():
+    import dataclasses
+
+    from precise_impact.core.compat import RenamedAttribute
+
+    @dataclasses.dataclass
+    class R:
+        n_impacts: int
+        impacts = RenamedAttribute("n_impacts")
+
+    r = R(3)
+    assert [f.name for f in dataclasses.fields(R)] == ["n_impacts"]  # not a field
+    with pytest.warns(DeprecationWarning, match=r"R: impacts is deprecated, use n_impacts"):
+        assert r.impacts == 3
+    with pytest.warns(DeprecationWarning):
+        r.impacts = 5
+    assert r.n_impacts == 5

@@ -259,7 +259,7 @@ def _heyoka_point(params: Params, periods: int, transient: int) -> tuple:
     r = variational_spectrum(
         params, periods=periods, transient=transient, initial_conditions=1, segments=10
     )
-    return r.strobe_x, r.lle, r.stderr, r.impacts / r.periods
+    return r.strobe_x, r.lle, r.lle_stderr, r.n_impacts / r.periods
 
 
 #: Each model's point job; the fast one hands what it does not resolve to heyoka.

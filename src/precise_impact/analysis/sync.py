@@ -501,7 +501,7 @@ def sync_scan(
             periods=lle_periods,
             transient=lle_transient,
         )
-        lle, lle_se = float(lr.lle), float(lr.stderr)
+        lle, lle_se = float(lr.lle), float(lr.lle_stderr)
     return SyncResult(
         params=params,
         form=form,

@@ -14,7 +14,7 @@ from typing import Any
 
 from precise_impact.errors import ParameterError
 
-__all__ = ["UNSET", "renamed", "warn_renamed"]
+__all__ = ["UNSET", "RenamedAttribute", "renamed", "warn_renamed"]
 
 
 class _Unset:
@@ -31,9 +31,9 @@ UNSET: Any = _Unset()
 
 
 def warn_renamed(old: str, new: str, where: str, stacklevel: int = 3) -> None:
-    """Emit the one :class:`DeprecationWarning` text for ``where(old=...)`` renamed ``new=``."""
+    """Emit the one :class:`DeprecationWarning` text for ``where``'s ``old`` renamed ``new``."""
     warnings.warn(
-        f"{where}: {old}= is deprecated, use {new}= (the old spelling is removed in the next "
+        f"{where}: {old} is deprecated, use {new} (the old spelling is removed in the next "
         "release)",
         DeprecationWarning,
         stacklevel=stacklevel,
@@ -82,5 +82,41 @@ def renamed(
         return default if new_value is UNSET else new_value
     if new_value is not UNSET:
         raise ParameterError(old, old_value, f"not both {new}= and the deprecated {old}= ({where})")
-    warn_renamed(old, new, where, stacklevel=4)
+    warn_renamed(f"{old}=", f"{new}=", where, stacklevel=4)
     return old_value if convert is None else convert(old_value)
+
+
+class RenamedAttribute:
+    """A result attribute's old name: reads and writes go to the new one, with one warning.
+
+    Examples
+    --------
+    >>> import dataclasses, warnings
+    >>> from precise_impact.core.compat import RenamedAttribute
+    >>> @dataclasses.dataclass
+    ... class R:
+    ...     n_impacts: int
+    ...     impacts = RenamedAttribute("n_impacts")
+    >>> with warnings.catch_warnings(record=True):
+    ...     warnings.simplefilter("always")
+    ...     R(3).impacts
+    3
+    """
+
+    def __init__(self, new: str) -> None:
+        self.new = new
+        self.old = ""
+        self.where = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.old, self.where = name, owner.__name__
+
+    def __get__(self, obj: Any, objtype: Any = None) -> Any:
+        if obj is None:
+            return self
+        warn_renamed(self.old, self.new, self.where)
+        return getattr(obj, self.new)
+
+    def __set__(self, obj: Any, value: Any) -> None:
+        warn_renamed(self.old, self.new, self.where)
+        setattr(obj, self.new, value)

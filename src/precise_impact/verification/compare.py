@@ -224,13 +224,13 @@ def _reference_lle(params: Any, progress: bool | None) -> dict[str, Any]:
     ly = lyapunov(params, "variational")
     lle = {
         "lle": float(ly.lle),
-        "stderr": float(ly.stderr),
+        "stderr": float(ly.lle_stderr),
         "periods": ly.periods,
         "transient": ly.transient,
         "method": "variational (saltation), default run",
         "elapsed_s": time.perf_counter() - t0,
     }
-    _progress(f"LLE (variational): {ly.lle:.4f} +- {ly.stderr:.4f}", progress)
+    _progress(f"LLE (variational): {ly.lle:.4f} +- {ly.lle_stderr:.4f}", progress)
     return lle
 
 

@@ -350,21 +350,21 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
         var = lyapunov(p, "variational", periods=LLE_PERIODS, transient=LLE_TRANSIENT)
         two = lyapunov(p, "two-trajectory", periods=LLE_PERIODS, transient=LLE_TRANSIENT)
         diff = abs(var.lle - two.lle)
-        comb = math.hypot(var.stderr, two.stderr)
+        comb = math.hypot(var.lle_stderr, two.lle_stderr)
         rows.append(
             {
                 "eta": eta,
                 "variational": {
                     "lle": repr(float(var.lle)),
-                    "stderr": repr(float(var.stderr)),
+                    "stderr": repr(float(var.lle_stderr)),
                     "spectrum": [repr(float(s)) for s in var.spectrum] if var.spectrum else None,
-                    "impacts": int(var.impacts),
+                    "impacts": int(var.n_impacts),
                     "initial_conditions": int(var.initial_conditions),
                 },
                 "two_trajectory": {
                     "lle": repr(float(two.lle)),
-                    "stderr": repr(float(two.stderr)),
-                    "impacts": int(two.impacts),
+                    "stderr": repr(float(two.lle_stderr)),
+                    "impacts": int(two.n_impacts),
                 },
                 "difference": f"{diff:.3e}",
                 "combined_stderr": f"{comb:.3e}",
@@ -372,7 +372,7 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
             }
         )
         _log(
-            f"  {case}: eta={eta}: {var.lle:.5f} +- {var.stderr:.5f} (two-traj {two.lle:.5f} +- {two.stderr:.5f})",
+            f"  {case}: eta={eta}: {var.lle:.5f} +- {var.lle_stderr:.5f} (two-traj {two.lle:.5f} +- {two.lle_stderr:.5f})",
             progress,
         )
     _write_json(

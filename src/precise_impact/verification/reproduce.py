@@ -224,11 +224,11 @@ def _lle_two_methods(p: Params, progress: bool | None):
     lle_v = lyapunov(p, "variational")
     lle_t = lyapunov(p, "two-trajectory")
     entry = {
-        "variational": [lle_v.lle, lle_v.stderr, lle_v.periods],
-        "two-trajectory": [lle_t.lle, lle_t.stderr, lle_t.periods],
+        "variational": [lle_v.lle, lle_v.lle_stderr, lle_v.periods],
+        "two-trajectory": [lle_t.lle, lle_t.lle_stderr, lle_t.periods],
     }
     _say(
-        f"LLE: variational {lle_v.lle:.4f} +- {lle_v.stderr:.4f}, two-trajectory {lle_t.lle:.4f} +- {lle_t.stderr:.4f}",
+        f"LLE: variational {lle_v.lle:.4f} +- {lle_v.lle_stderr:.4f}, two-trajectory {lle_t.lle:.4f} +- {lle_t.lle_stderr:.4f}",
         progress,
     )
     return entry, lle_v
@@ -255,7 +255,7 @@ def _sync_thresholds(
             "fraction": [float(f) for f in sr.fraction_synchronised],
             "intermittent": [float(f) for f in sr.fraction_intermittent],
         }
-        sr.lle, sr.lle_stderr = lle_v.lle, lle_v.stderr
+        sr.lle, sr.lle_stderr = lle_v.lle, lle_v.lle_stderr
         plot_sync_fraction(sr, out / f"sync_fraction_{form}.png")
         plot_fig7(p, form, "0.031", "0.032", sp, out / f"fig7_{form}.png")
         _say(f"sync {form}: k* = {sr.k_star:.4f} +- {sr.k_star_err:.4f}", progress)

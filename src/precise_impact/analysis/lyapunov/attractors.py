@@ -206,7 +206,7 @@ def attribute(
     impact_blocks : sequence of arrays or None, default ``None``
         Each start's impacts per period in each block (the impact-rate test and its error
         bar); an entry may be ``None``.  ``None``: no impact-rate test, and the per-start
-        rate is ``result.impacts`` shared out by measured periods (only meaningful for one start).
+        rate is ``result.n_impacts`` shared out by measured periods (only meaningful for one start).
     periods : sequence of int or None, default ``None``
         Each start's measured periods; ``None``: ``result.periods`` shared out evenly.
     alpha : float, default :data:`SPLIT_ALPHA`
@@ -267,7 +267,7 @@ def attribute(
         for j in st:
             starts[j]["attractor"] = i
     if len(groups) == 1:  # every start on one attractor: the run's own batch-means error
-        groups[0]["stderr"] = result.stderr
+        groups[0]["stderr"] = result.lle_stderr
     _periodic_error_bars(groups, starts, dur, T)
     head, finite, source = _headline(result, groups, per_start, dur, T)
     _record(result, groups, starts, per_start, head, finite, source, tests)
@@ -296,7 +296,7 @@ def _per_start(
                 means_stderr(ib) if len(ib) > 1 else math.nan, 1.0 / max(periods[j], 1)
             )
         else:
-            rate = result.impacts / max(sum(periods), 1) if n == 1 else math.nan
+            rate = result.n_impacts / max(sum(periods), 1) if n == 1 else math.nan
             rate_se = math.nan
         starts.append(
             {
@@ -487,13 +487,13 @@ def _headline(
         result.lle = o.lle
         if result.spectrum is not None:
             result.spectrum = (o.lle, math.log(mu[1]) / pT if mu[1] > 0 else -math.inf)
-        result.stderr = 1e-12 / pT
+        result.lle_stderr = 1e-12 / pT
         return head, finite, "floquet"
     if len(groups) > 1:  # the headline attractor alone, never an average over attractors
         result.lle = head["lle"]
         if result.spectrum is not None:
             result.spectrum = finite["spectrum"]
-        result.stderr = head["stderr"]
+        result.lle_stderr = head["stderr"]
     return head, finite, "finite-time"
 
 

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from precise_impact.core.compat import RenamedAttribute
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin, to_jsonable
 
@@ -117,12 +118,13 @@ class LyapunovResult(ResultMixin):
         Largest exponent (per unit time tau, the unit of the coupling k in eqs. 10-12).
     spectrum : tuple[float, float] or None
         Both exponents (variational method only).
-    stderr : float
-        Standard error from independent segments (see :func:`block_stderr`).
+    lle_stderr : float
+        Standard error of ``lle`` from independent segments (see :func:`block_stderr`);
+        ``stderr`` is its deprecated name.
     periods, transient : int
         Measured periods and discarded transient periods.
-    impacts : int
-        Impacts during the measured periods.
+    n_impacts : int
+        Impacts during the measured periods; ``impacts`` is its deprecated name.
     running : numpy.ndarray
         Running estimate of the LLE after each measured period (convergence record).
     segments : numpy.ndarray
@@ -144,10 +146,10 @@ class LyapunovResult(ResultMixin):
     precision: str
     lle: float
     spectrum: tuple[float, float] | None
-    stderr: float
+    lle_stderr: float
     periods: int
     transient: int
-    impacts: int
+    n_impacts: int
     running: np.ndarray
     segments: np.ndarray
     elapsed_s: float
@@ -155,6 +157,10 @@ class LyapunovResult(ResultMixin):
     strobe_x: np.ndarray | None = None
     strobe_v: np.ndarray | None = None
     stats: dict = dataclasses.field(default_factory=dict)
+
+    #: Deprecated names (one release): ``lle_stderr`` and ``n_impacts``.
+    stderr = RenamedAttribute("lle_stderr")
+    impacts = RenamedAttribute("n_impacts")
 
     @property
     def attractors(self) -> tuple[Attractor, ...]:
@@ -188,9 +194,12 @@ class LyapunovResult(ResultMixin):
             "spectrum": [v if math.isfinite(v) else None for v in self.spectrum]
             if self.spectrum is not None
             else None,
-            "stderr": self.stderr,
+            "lle_stderr": self.lle_stderr,
             "periods": self.periods,
-            "impacts": self.impacts,
+            "n_impacts": self.n_impacts,
+            # the 0.2 keys, kept for one release beside the new ones
+            "stderr": self.lle_stderr,
+            "impacts": self.n_impacts,
             "elapsed_s": self.elapsed_s,
             "stats": to_jsonable(self.stats),
         }

@@ -64,7 +64,7 @@ def run(ns: argparse.Namespace) -> int:
         sys.stdout.write("\n")
         return 0
     spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
-    print(f"LLE = {r.lle:.6f} +- {r.stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
+    print(f"LLE = {r.lle:.6f} +- {r.lle_stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
     groups = r.stats.get("attractors", [])
     head = next((g for g in groups if g["id"] == r.stats.get("headline_attractor")), None)
     if r.stats.get("lle_source") == "floquet" and head is not None:
@@ -85,7 +85,7 @@ def run(ns: argparse.Namespace) -> int:
                 + f"attractor #{s.get('attractor')}"
             )
     print(
-        f"{r.periods} periods after {r.transient} transient, {r.impacts} impacts, "
+        f"{r.periods} periods after {r.transient} transient, {r.n_impacts} impacts, "
         f"{r.elapsed_s:.3f} s"
     )
     return 0
