@@ -80,7 +80,8 @@ def position_error(P: Precision, p: Params, t: float) -> float:
 
 
 def graze_depth(P: Precision, p: Params, t: float) -> float:
-    """The variational integrator's default grazing depth ``16 u (|x_w| + |a| + A_p (1 + eta |t|))``."""
+    """The variational integrator's default grazing depth ``16 u (|x_w| + |a| + A_p (1 + eta
+    |t|))``."""
     coef = float(var.grazing_depth_coefficient(P))
     return coef * (
         abs(float(p.x_w)) + abs(float(p.a)) + var.steady_amplitude(p) * (1 + float(p.eta) * abs(t))
@@ -88,7 +89,8 @@ def graze_depth(P: Precision, p: Params, t: float) -> float:
 
 
 def test_grazing_frequency_of_the_paper_parameters():
-    """The brief's grazing frequency: steady amplitude a / sqrt((1-eta^2)^2 + (2 zeta eta)^2) = x_w."""
+    """The brief's grazing frequency: steady amplitude a / sqrt((1-eta^2)^2 + (2 zeta eta)^2) =
+    x_w."""
     lo, hi = grazing_frequencies(Params.make())
     assert abs(lo - mpmath.mpf("0.71069")) < 1e-5
     with mpmath.workdps(30):
@@ -175,7 +177,8 @@ def arc_from(p0: Params, ts: Fraction, P: Precision):
 
 
 def bisect(f, lo, hi, iters: int = 400):
-    """Root of ``f`` in ``[lo, hi]`` with ``f(lo) < 0 < f(hi)`` (bisection at the current precision)."""
+    """Root of ``f`` in ``[lo, hi]`` with ``f(lo) < 0 < f(hi)`` (bisection at the current
+    precision)."""
     assert f(lo) < 0 < f(hi)
     for _ in range(iters):
         mid = (lo + hi) / 2

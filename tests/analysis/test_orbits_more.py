@@ -88,7 +88,8 @@ def test_one_to_two_orbit_closed_form_equals_newton_and_heyoka():
             abs(det - mpmath.mpf("0.64") * mpmath.exp(-2 * mpmath.mpf("0.05") * 2 * T))
             < mpmath.mpf(10) ** -55
         )
-    # auto seeding (impacts=1) finds the same orbit; an explicit guess elsewhere also converges to it
+    # auto seeding (impacts=1) finds the same orbit; an explicit guess elsewhere also converges to
+    # it
     auto = find_orbit(p, 2, impacts=1, seed="auto")
     assert abs(auto.x - nw.x) <= 1e-12
     q = p.replace(x0=mpmath.nstr(cf.x, 60), v0=mpmath.nstr(cf.v, 60))

@@ -1,4 +1,5 @@
-"""Work-precision benchmark (precise_impact.verification.workprecision): a tiny run's structure and sanity."""
+"""Work-precision benchmark (precise_impact.verification.workprecision): a tiny run's structure and
+sanity."""
 
 from __future__ import annotations
 

@@ -123,7 +123,8 @@ class Trajectory(ResultMixin):
         }
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write ``.npz`` (decimal strings for every number, plus float64 copies), ``.csv`` or ``.json``.
+        """Write ``.npz`` (decimal strings for every number, plus float64 copies), ``.csv`` or
+        ``.json``.
 
         ``.json`` is :meth:`to_dict` (the CLI's ``--json`` object).  The file is
         written atomically (temporary file + rename).

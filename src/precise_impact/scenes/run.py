@@ -25,7 +25,8 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
         A loaded scene (:func:`~precise_impact.scenes.scene.load_scene`).
     model : str or None, default ``None``
         Another model to run the scene on (effects re-validated for it).
-    max_time : float or None, default ``None`` (:data:`~precise_impact.core.budget.DEFAULT_MAX_TIME`)
+    max_time : float or None, default ``None``
+    (:data:`~precise_impact.core.budget.DEFAULT_MAX_TIME`)
         Time budget in seconds: the scene's estimated cost
         (:func:`~precise_impact.core.budget.estimate_cost`) is checked against it before
         any work (:class:`~precise_impact.errors.ParameterError` naming ``max_time``, or

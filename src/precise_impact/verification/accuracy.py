@@ -181,9 +181,10 @@ def format_table(result: AccuracyResult) -> str:
     str
     """
     lines = [
-        f"Errors over {result['periods']} periods from rest against heyoka mp:{result['reference_bits']} "
-        "(max over stroboscopic samples of max(|dx|, |dv|))",
-        f"{'eta':>6}  {'model':<17} {'precision':<11} {'max error':>10} {'at end':>10} {'impacts':>7} {'time [s]':>9}",
+        f"Errors over {result['periods']} periods from rest against heyoka "
+        f"mp:{result['reference_bits']} (max over stroboscopic samples of max(|dx|, |dv|))",
+        f"{'eta':>6}  {'model':<17} {'precision':<11} {'max error':>10} {'at end':>10} "
+        f"{'impacts':>7} {'time [s]':>9}",
     ]
     for r in result["rows"]:
         tag = "  <- reference: disagreement with +64 bits" if r["role"] != "candidate" else ""

@@ -232,7 +232,8 @@ def _monodromy(run: Callable[..., Any], params: Params, eta: float, state: tuple
     x0, v0 = float(tr.x[-1]), float(tr.v[-1])
     steps = np.hypot(np.diff(np.asarray(tr.x, dtype=float)), np.diff(np.asarray(tr.v, dtype=float)))
     # not escaping: |mu| <= 1 over the last 20 periods, or within the model's noise floor (a
-    # switching model's stroboscopic map can hold a 1e-5 period-2 cycle of its delays and hysteresis)
+    # switching model's stroboscopic map can hold a 1e-5 period-2 cycle of its delays and
+    # hysteresis)
     settled = bool(steps[-1] <= max(steps[-21], 0.1 * PERTURBATION))
     fits, resid = [], 0.0
     for sign in (

@@ -59,7 +59,8 @@ CASES = {
 def predicted_bits(
     N: int, eta: float = 0.712, lam: float = LAMBDA, margin: float = MARGIN_DIGITS
 ) -> float:
-    """Bits needed to keep 15 digits after N periods: ``(15 + N T lam / ln 10 + margin) log2 10``."""
+    """Bits needed to keep 15 digits after N periods: ``(15 + N T lam / ln 10 + margin) log2
+    10``."""
     T = 2 * math.pi / eta
     return (15 + N * T * lam / math.log(10) + margin) * math.log2(10)
 
@@ -328,7 +329,8 @@ def _case_rows(
         rows.append(r)
         hz = "" if r["horizon"] is None else f", horizon {r['horizon']}"
         _progress(
-            f"[{case}] {r['method']} {r['setting']}: error {r['error']:.2e}{hz}, {r['time_s']:.4f} s",
+            f"[{case}] {r['method']} {r['setting']}: error {r['error']:.2e}{hz}, {r['time_s']:.4f} "
+            "s",
             progress,
         )
 
@@ -613,7 +615,8 @@ def work_precision(
         )
     t_start = time.perf_counter()
     notes: list[str] = [
-        "scipy solve_ivp: atol = rtol * 1e-3; terminal event on x - x_w (direction +1), restart with v -> -R v",
+        "scipy solve_ivp: atol = rtol * 1e-3; terminal event on x - x_w (direction +1), restart "
+        "with v -> -R v",
         "times: median of repeats after one warm-up (repeats column); heyoka compile time separate",
         "periodic error: max over stroboscopic samples; chaotic error: at the last period",
     ]
@@ -644,7 +647,8 @@ def work_precision(
 
 @dataclasses.dataclass
 class WorkPrecisionResult(ResultMixin):
-    """Error against the demonstrated reference versus wall time, per method (:func:`work_precision`).
+    """Error against the demonstrated reference versus wall time, per method
+    (:func:`work_precision`).
 
     Attributes
     ----------
@@ -798,7 +802,8 @@ def format_table(result: dict[str, Any]) -> str:
     ch = result.get("chaos_cost")
     if ch:
         lines.append(
-            f"What chaos costs (eta=0.712, target {ch['target']:g}, reference {ch['reference_precision']}):"
+            f"What chaos costs (eta=0.712, target {ch['target']:g}, reference "
+            f"{ch['reference_precision']}):"
         )
         lines.append(f"  {'N':>4} {'bits':>5} {'predicted':>9} {'time [s]':>9}")
         for r in ch["rows"]:
@@ -818,7 +823,8 @@ def format_table(result: dict[str, Any]) -> str:
         + (
             "n/a (error not bracketed by both curves)"
             if r is None
-            else f"{r:.0f}x ({h['scipy_dop853_time_s']:.4f} s vs {h['heyoka_float64_time_s']:.5f} s)"
+            else f"{r:.0f}x ({h['scipy_dop853_time_s']:.4f} s "
+            f"vs {h['heyoka_float64_time_s']:.5f} s)"
         )
     )
     if "circuit_vs_mechanical" in h:

@@ -173,8 +173,8 @@ def find_orbit(
     max_iterations : int, default 50
         Newton iterations at most.
     precision : str, default ``'float64'``
-        ``'float64'`` (the compiled closed forms) or ``'mp:BITS'`` (``BITS <= 2048``): the float64 orbit refined
-        by Newton in multiprecision, the map evaluated by the robust analytical solver
+        ``'float64'`` (the compiled closed forms) or ``'mp:BITS'`` (``BITS <= 2048``): the float64
+        orbit refined by Newton in multiprecision, the map evaluated by the robust analytical solver
         (mpmath) and its Jacobian by the closed-form flow and saltation matrices;
         quadratic convergence to the working precision.
     seed : str, default ``'simulation'``
