@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import re
 import sys
+import tomllib
 from importlib import metadata
 from pathlib import Path
 
@@ -15,11 +16,6 @@ from packaging.specifiers import SpecifierSet
 
 import precise_impact
 from precise_impact.io import progress as prog
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - requires-python is >= 3.11; kept so the test itself reports that
-    tomllib = pytest.importorskip("tomli")
 
 CHECKOUT = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((CHECKOUT / "pyproject.toml").read_text(encoding="utf-8"))

@@ -98,7 +98,7 @@ def accuracy_table(
                 "final_error": sample_errors(ref, check)[-1],
                 "impacts": ref.n_impacts,
                 "elapsed_s": ref.elapsed_s,
-                "role": "reference (error = disagreement with mp:%d)" % (bits + 64),
+                "role": f"reference (error = disagreement with mp:{bits + 64})",
             }
         )
         curves[eta] = {}
@@ -134,7 +134,7 @@ def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -
     fig, axes = new_figure(
         1, len(curves), figsize=(5 * len(curves), 4), layout="tight", sharey=True
     )
-    for ax, (eta, by_model) in zip(axes[0], curves.items()):
+    for ax, (eta, by_model) in zip(axes[0], curves.items(), strict=True):
         for label, errs in by_model.items():
             ax.semilogy(range(len(errs)), [max(e, 1e-40) for e in errs], label=label)
         ax.set_title(f"eta = {eta}")

@@ -416,7 +416,7 @@ def _plot_portraits(scene: Scene, ref: Trajectory, trajs: dict, k: int, path: Pa
     panels = [("reference: heyoka " + ref.precision.name, ref)] + [(m, t) for m, t in trajs.items()]
     fig = figure(figsize=(4.2 * len(panels), 4))
     axes = fig.subplots(1, len(panels), sharex=True, sharey=True, squeeze=False)[0]
-    for ax, (label, tr) in zip(axes, panels):
+    for ax, (label, tr) in zip(axes, panels, strict=True):
         with np.errstate(invalid="ignore"):
             f = tr.as_float64()
         tk = f["t"][k]
@@ -469,7 +469,7 @@ def _plot_separation(
         label=f"{ref.precision.name} vs {check.precision.name}",
     )
     if anchor is None:
-        for m, tr in trajs.items():
+        for tr in trajs.values():
             t, sep = separation(tr, ref)
             pos = np.nonzero(sep > 0)[0]
             if len(pos):
@@ -586,8 +586,8 @@ def _report_header(res: dict) -> list[str]:
         f"heyoka Taylor integrator with impact events (the `mechanical` model) in {r['precision']} "
         f"(MPFR); rerun in {r['check_precision']}.  Largest disagreement over all stroboscopic "
         f"samples: **{r['agreement_max']:.2e}** (final sample {r['agreement_final']:.2e}) -- the "
-        f"reference's demonstrated accuracy.  Impacts: {r['impacts']}.  Time {r['elapsed_s']:.1f} "
-        "s.",
+        f"reference's demonstrated accuracy.  Impacts: {r['impacts']}.  "
+        f"Time {r['elapsed_s']:.1f} s.",
         "",
         f"Regime: **{res['regime']}** (reference period {res['reference_period']}: smallest p <= "
         "32 with the samples after the transient p-periodic to 1e-6 (1 + |x| + |v|); 0 = none).",

@@ -182,7 +182,9 @@ def _impact_dicts(traj) -> list[dict]:
     s = traj.precision.to_str
     return [
         {"t": s(t), "v_before": s(vb), "v_after": s(va)}
-        for t, vb, va in zip(traj.impacts_t, traj.impacts_v_before, traj.impacts_v_after)
+        for t, vb, va in zip(
+            traj.impacts_t, traj.impacts_v_before, traj.impacts_v_after, strict=True
+        )
     ]
 
 
@@ -191,7 +193,7 @@ def _impact_disagreement(a, b) -> float | None:
         return None
     with mpmath.workprec(max(a.precision.bits, b.precision.bits) + 16):
         worst = mpmath.mpf(0)
-        for (t1, b1, a1), (t2, b2, a2) in zip(a.impacts_mpf(), b.impacts_mpf()):
+        for (t1, b1, a1), (t2, b2, a2) in zip(a.impacts_mpf(), b.impacts_mpf(), strict=True):
             worst = max(worst, abs(t1 - t2), abs(b1 - b2), abs(a1 - a2))
         return float(worst)
 
@@ -224,7 +226,7 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
         ),
         "samples": [
             {"period": k, "t": s(t), "x": s(x), "v": s(v)}
-            for k, (t, x, v) in enumerate(zip(ref.t, ref.x, ref.v))
+            for k, (t, x, v) in enumerate(zip(ref.t, ref.x, ref.v, strict=True))
         ],
         "impacts": _impact_dicts(ref),
         # disagreement with the +64-bit run at each sample: the demonstrated error bound
@@ -589,7 +591,9 @@ def _recompute_single(case: str, case_dir: Path) -> list[str]:
                 f"{len(stored_imp)} stored"
             )
         else:
-            for j, ((t, vb, va), row) in enumerate(zip(traj.impacts_mpf(), stored_imp)):
+            for j, ((t, _vb, va), row) in enumerate(
+                zip(traj.impacts_mpf(), stored_imp, strict=True)
+            ):
                 err = float(
                     max(abs(t - mpmath.mpf(row["t"])), abs(va - mpmath.mpf(row["v_after"])))
                 )
@@ -620,8 +624,8 @@ def _recompute_coupled(case: str, case_dir: Path) -> list[str]:
             )
             if not dev <= 1e-9:
                 problems.append(
-                    f"{case}: k={k}: recomputed first {n} periods differ from stored by {dev:.3e} "
-                    "> 1e-9"
+                    f"{case}: k={k}: recomputed first {n} periods differ from stored by "
+                    f"{dev:.3e} > 1e-9"
                 )
     return problems
 
