@@ -134,7 +134,7 @@ def main() -> None:
     t = time.perf_counter()
     hr = batch_lle(pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size)
     hey_core_pps = len(pts) / (time.perf_counter() - t)
-    same_period = sum(a["period"] == b["period"] for a, b in zip(fr, hr))
+    same_period = sum(a["period"] == b["period"] for a, b in zip(fr, hr, strict=True))
     fast_pps = spec.n_points / fast_map
     rows["sweep 100 x 100 (2000 + 1000 periods)"] = {
         "workers": args.workers,

@@ -175,8 +175,8 @@ def main() -> None:
         "Same interpreter and heyoka, interleaved runs in fresh processes, medians after "
         "compilation.",
         "",
-        "| job | baseline | current | ratio | same answer | heyoka alone | ratio if Python cost 0 "
-        "|",
+        "| job | baseline | current | ratio | same answer | heyoka alone | "
+        "ratio if Python cost 0 |",
         "|---|---:|---:|---:|:---:|---:|---:|",
     ]
     for r in rows:

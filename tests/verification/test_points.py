@@ -91,11 +91,12 @@ def test_compare_points_cli(tmp_path):
 def _switched_linear(scene):
     """The datasheet switched-capacitor model between switchings, from its equations
     (models/circuit/switched.py): with 2 R_on in series with C2,
-    ``V_q = G (-pol V_C + k (V3/R1 + V_s/R7))``, ``G = 1 / (1 + k rho / R6)``, ``k = 2 R_on R2 /
-    R3``, ``V_p = -R2 (V3/R1 - rho V_q/R6 + V_s/R7)``, ``V_s' = -V_q / (R8 C1)``, ``V_C' = pol V_p
-    / (R3 C2)``, on the parts the tolerance draw realises.  Returns ``(amplitude(Omega), A,
-    parts)``: the steady-state amplitude of ``V_s`` at forcing ``Omega`` (a linear system: exact, no
-    simulation; pol = +-1 give the same V_s) and the homogeneous matrix."""
+    ``V_q = G (-pol V_C + k (V3/R1 + V_s/R7))``, ``G = 1 / (1 + k rho / R6)``,
+    ``k = 2 R_on R2 / R3``, ``V_p = -R2 (V3/R1 - rho V_q/R6 + V_s/R7)``,
+    ``V_s' = -V_q / (R8 C1)``, ``V_C' = pol V_p / (R3 C2)``, on the parts the tolerance draw
+    realises.  Returns ``(amplitude(Omega), A, parts)``: the steady-state amplitude of ``V_s``
+    at forcing ``Omega`` (a linear system: exact, no simulation; pol = +-1 give the same V_s)
+    and the homogeneous matrix."""
     import mpmath
 
     from precise_impact.models.circuit.effects.tolerance import actual_components

@@ -610,7 +610,7 @@ def plot_fig7(
         simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period) for k in (kl, kh)
     ]
     fig, axes = _figure(2, 1, (7.5, 6.0))
-    for ax, tr, label in zip(axes[:, 0], trajs, ("a", "b")):
+    for ax, tr, label in zip(axes[:, 0], trajs, ("a", "b"), strict=True):
         t, d = tr.difference(dense=True)
         pos = d > 0
         ax.semilogy(t[pos], d[pos], lw=0.6, color="C0")

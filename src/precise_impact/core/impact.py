@@ -273,8 +273,8 @@ GRAZING_SAFETY = 16
 
 
 def grazing_depth_coefficient(precision) -> Fraction:
-    """``16 u``, ``u = 2^-bits``: the default grazing depth is this times ``|x_w| + |a| + A_p (1 +
-    eta |t|)``."""
+    """``16 u``, ``u = 2^-bits``: the default grazing depth is this times
+    ``|x_w| + |a| + A_p (1 + eta |t|)``."""
     from fractions import Fraction
 
     return Fraction(GRAZING_SAFETY, 2**precision.bits)

@@ -79,7 +79,7 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
         worst = max(worst, ex, ev)
         rows.append({"period": s["period"], "x_err": _up(ex), "v_err": _up(ev)})
     imps = []
-    for row, (bt, _, va) in zip(samples_json["impacts"], r.impacts):
+    for row, (bt, _, va) in zip(samples_json["impacts"], r.impacts, strict=True):
         et, ev = _err(row["t"], bt), _err(row["v_after"], va)
         imps.append({"t_err": _up(et), "v_err": _up(ev)})
     return {
@@ -172,7 +172,7 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
             f"{case}: the certified run has {len(r.impacts)} impacts, the certificate "
             f"{cert['impacts']}"
         ]
-    for s, c in zip(data["samples"], cert["samples"]):
+    for s, c in zip(data["samples"], cert["samples"], strict=True):
         _, _, bx, bv = r.samples[s["period"]]
         for name, ball in (("x", bx), ("v", bv)):
             if _err(s[name], ball) > Fraction(c[f"{name}_err"]):
@@ -181,7 +181,7 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
                     f"{c[name + '_err']} of the freshly certified ball"
                 ]
     for j, (row, c, (bt, _, va)) in enumerate(
-        zip(data["impacts"], cert["impact_errors"], r.impacts)
+        zip(data["impacts"], cert["impact_errors"], r.impacts, strict=True)
     ):
         if _err(row["t"], bt) > Fraction(c["t_err"]) or _err(row["v_after"], va) > Fraction(
             c["v_err"]

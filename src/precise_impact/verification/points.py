@@ -124,7 +124,7 @@ def _approach(
         if reference is not None:
             if pts:
                 r_new, r_old = reference(eta), reference(pts[-1][0])
-                start = tuple(n + (e - o) for n, e, o in zip(r_new, ends[-1], r_old))
+                start = tuple(n + (e - o) for n, e, o in zip(r_new, ends[-1], r_old, strict=True))
             else:
                 start = reference(eta)
         value, valid, end = evaluate(eta, start)

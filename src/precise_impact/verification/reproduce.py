@@ -203,7 +203,7 @@ def _plot_portraits(
     """Side-by-side phase portraits of the models (paper Figs. 4-6), second half of the run."""
     fig_ = new_fig(figsize=(4 * len(models), 3.8))
     axes = fig_.subplots(1, len(models), sharex=True, sharey=True)
-    for ax, (name, tr) in zip(np.atleast_1d(axes), models.items()):
+    for ax, (name, tr) in zip(np.atleast_1d(axes), models.items(), strict=True):
         xs, vs = _floats(tr, True)
         half = len(xs) // 2
         ax.plot(xs[half:], vs[half:], lw=0.4)

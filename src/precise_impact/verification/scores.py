@@ -245,7 +245,7 @@ def sample_diff(a, b, ia, ib, ta: Trajectory, tb: Trajectory) -> list[float]:
             math.nan
             if a[i] is None or b[j] is None
             else float(abs(ta.precision.to_mpf(a[i]) - tb.precision.to_mpf(b[j])))
-            for i, j in zip(ia, ib)
+            for i, j in zip(ia, ib, strict=True)
         ]
 
 

@@ -425,7 +425,7 @@ def continue_orbit(
         branches.append(
             Branch.from_points(parameter, cv.s.period, cv.s.impacts, origin, pts, reason)
         )
-        for a, b in zip(pts[:-1], pts[1:]):
+        for a, b in zip(pts[:-1], pts[1:], strict=True):
             for test in _TESTS:
                 if not _sign_change(a.tests[test], b.tests[test]):
                     continue
@@ -532,8 +532,8 @@ def _first_point(p_start: Params, parameter: str, period: int, orbit: Any, lam0:
             sts[q:], sts[:-q], rtol=0, atol=1e-8 * (1 + np.abs(sts).max())
         ):
             raise ConvergenceError(
-                f"the orbit found has period {q}, a divisor of {period}: continue it with period "
-                f"{q}"
+                f"the orbit found has period {q}, a divisor of {period}: continue it "
+                f"with period {q}"
             )
     return curve, first
 

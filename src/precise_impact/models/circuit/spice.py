@@ -422,8 +422,8 @@ def _comparator_section(c: dict, tm_: dict, cmp0: float) -> list[str]:
     a("* ---- A1 toggle flip-flop: master-slave gated track/hold cells, clock = cmp")
     a(f".func lreg(v) = 0.5*(1+tanh((v-0.5)/{_LATCH_W}))")
     a(
-        "* non-overlapping clocks: master tracks NOT ps while cmp < 0.4, slave tracks m while cmp "
-        "> 0.6"
+        "* non-overlapping clocks: master tracks NOT ps while cmp < 0.4, slave tracks m "
+        "while cmp > 0.6"
     )
     a(f"BA1M 0 m I = 0.5*(1+tanh(({_CLK_LO}-V(cmp))/{_EN_W}))*(1-lreg(V(ps))-V(m))")
     a(f"CA1M m 0 {_f(_LATCH_TAU)} IC=1")
