@@ -95,14 +95,16 @@ def main() -> int:
         "|---|---:|---:|---:|",
     ]
     md += [
-        f"| {r['run']} | {r['periods']} | {r['median_s'] * 1e3:.3f} ms | {r['per_period_vs_mechanical']:.2f}x |"
+        f"| {r['run']} | {r['periods']} | {r['median_s'] * 1e3:.3f} ms | "
+        f"{r['per_period_vs_mechanical']:.2f}x |"
         for r in table
     ]
     md += [
         "",
         f"Taylor steps per period: mechanical {steps_mech:.1f}, dynamic GBW {steps_dyn:.0f} "
         f"({steps_dyn / steps_mech:.0f}x: the closed-loop op-amp poles near GBW / noise gain).",
-        f"Ideal circuit overhead over the mechanical model: {100 * res['no_effect_overhead']:+.1f} % (target within 10 %).",
+        f"Ideal circuit overhead over the mechanical model: {100 * res['no_effect_overhead']:+.1f} "
+        "% (target within 10 %).",
     ]
     atomic_write(OUT / "circuit.md", lambda fh: fh.write("\n".join(md) + "\n"), binary=False)
     print("\n".join(md))

@@ -61,8 +61,8 @@ def main() -> None:
                 }
             )
             print(
-                f"{prec:>10} {n:5d} periods x {dense:3d}: measured {measured:.4f} s, estimate {est:.4f} s,"
-                f" ratio {est / measured:.2f}",
+                f"{prec:>10} {n:5d} periods x {dense:3d}: measured {measured:.4f} s, estimate "
+                f"{est:.4f} s, ratio {est / measured:.2f}",
                 flush=True,
             )
     OUT.mkdir(exist_ok=True)
@@ -70,7 +70,8 @@ def main() -> None:
     lines = [
         "# Cost model (core/budget.py) against measured heyoka runs",
         "",
-        f"eta = 0.712 (chaotic), median of {args.rounds}, after compilation; ratio = estimate / measured.",
+        f"eta = 0.712 (chaotic), median of {args.rounds}, after compilation; ratio = estimate / "
+        "measured.",
         "",
         "| precision | periods | dense/period | measured s | estimate s | ratio |",
         "|---|---:|---:|---:|---:|---:|",

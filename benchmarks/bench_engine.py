@@ -136,7 +136,8 @@ def main() -> int:
     ]
     md.append("")
     md.append(
-        f"Target (heyoka float64, 200 periods < 5 ms): {'met' if result['target_met'] else 'MISSED'}."
+        "Target (heyoka float64, 200 periods < 5 ms): "
+        f"{'met' if result['target_met'] else 'MISSED'}."
     )
     atomic_write(OUT / "engine.md", lambda fh: fh.write("\n".join(md) + "\n"), binary=False)
     print("\n".join(md))

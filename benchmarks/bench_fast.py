@@ -134,7 +134,7 @@ def main() -> None:
     t = time.perf_counter()
     hr = batch_lle(pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size)
     hey_core_pps = len(pts) / (time.perf_counter() - t)
-    same_period = sum(a["period"] == b["period"] for a, b in zip(fr, hr))
+    same_period = sum(a["period"] == b["period"] for a, b in zip(fr, hr, strict=True))
     fast_pps = spec.n_points / fast_map
     rows["sweep 100 x 100 (2000 + 1000 periods)"] = {
         "workers": args.workers,
@@ -198,36 +198,40 @@ def main() -> None:
         "|---|---:|---:|---:|",
         f"| simulate 200 chaotic periods (reused solver) | {1e3 * s['heyoka_solver_s']:.2f} ms | "
         f"{1e3 * s['fast_s']:.3f} ms | {s['heyoka_solver_s'] / s['fast_s']:.0f}x |",
-        f"| simulate 200 chaotic periods (public simulate()) | {1e3 * s['heyoka_simulate_s']:.2f} ms | "
-        f"{1e3 * s['fast_s']:.3f} ms | {s['heyoka_simulate_s'] / s['fast_s']:.0f}x |",
-        f"| lle 4 x 6000 periods at eta = 0.712 | {l_['heyoka_variational_s']:.2f} s | {1e3 * l_['fast_s']:.1f} ms | "
-        f"{l_['heyoka_variational_s'] / l_['fast_s']:.0f}x |",
-        f"| sweep points/s per core, steady state, the same {sw['sample_points']} points (8 tiles) of the map | "
-        f"{sw['heyoka_points_per_s_per_core']:.1f} | {sw['fast_points_per_s_per_core']:.0f} | "
+        f"| simulate 200 chaotic periods (public simulate()) | {1e3 * s['heyoka_simulate_s']:.2f} "
+        f"ms | {1e3 * s['fast_s']:.3f} ms | {s['heyoka_simulate_s'] / s['fast_s']:.0f}x |",
+        f"| lle 4 x 6000 periods at eta = 0.712 | {l_['heyoka_variational_s']:.2f} s | "
+        f"{1e3 * l_['fast_s']:.1f} ms | {l_['heyoka_variational_s'] / l_['fast_s']:.0f}x |",
+        f"| sweep points/s per core, steady state, the same {sw['sample_points']} points (8 tiles) "
+        f"of the map | {sw['heyoka_points_per_s_per_core']:.1f} | "
+        f"{sw['fast_points_per_s_per_core']:.0f} | "
         f"{sw['fast_points_per_s_per_core'] / sw['heyoka_points_per_s_per_core']:.0f}x |",
-        f"| the 100 x 100 map, {sw['workers']} workers: fast end to end (start-up, tiles, sweep.npz/csv/png) "
-        f"and over the tiles; heyoka extrapolated from its steady state | "
-        f"{sw['heyoka_map_s_extrapolated']:.0f} s | {sw['fast_map_s']:.1f} s ({sw['fast_points_per_s']:.0f} points/s), "
-        f"tiles {sw['fast_tiles_points_per_s']:.0f} points/s | "
-        f"{sw['heyoka_map_s_extrapolated'] / sw['fast_map_s']:.0f}x |",
-        f"| sync scan: 6 k x 8 starts x 500 periods (first-order, 20 samples per period) | {sy['heyoka_s']:.2f} s | "
-        f"{sy['fast_s']:.2f} s | {sy['heyoka_s'] / sy['fast_s']:.0f}x |",
+        f"| the 100 x 100 map, {sw['workers']} workers: fast end to end (start-up, tiles, "
+        "sweep.npz/csv/png) and over the tiles; heyoka extrapolated from its steady state | "
+        f"{sw['heyoka_map_s_extrapolated']:.0f} s | {sw['fast_map_s']:.1f} s "
+        f"({sw['fast_points_per_s']:.0f} points/s), tiles {sw['fast_tiles_points_per_s']:.0f} "
+        f"points/s | {sw['heyoka_map_s_extrapolated'] / sw['fast_map_s']:.0f}x |",
+        "| sync scan: 6 k x 8 starts x 500 periods (first-order, 20 samples per period) | "
+        f"{sy['heyoka_s']:.2f} s | {sy['fast_s']:.2f} s | {sy['heyoka_s'] / sy['fast_s']:.0f}x |",
         f"| cold one-shot `lle` CLI (fresh process) | {c['variational_s']:.2f} s | "
-        f"{c['fast_warm_cache_s']:.2f} s ({c['fast_empty_cache_s']:.1f} s with an empty compile cache) | "
-        f"{c['variational_s'] / c['fast_warm_cache_s']:.1f}x |",
+        f"{c['fast_warm_cache_s']:.2f} s ({c['fast_empty_cache_s']:.1f} s with an empty compile "
+        f"cache) | {c['variational_s'] / c['fast_warm_cache_s']:.1f}x |",
         "",
-        f"* simulate: fast and heyoka agree to {s['max_diff_to_period_50']:.1e} up to period 50 (chaos).",
-        f"* lle: fast {l_['fast_lle']:.5f} +- {l_['fast_stderr']:.5f}, variational {l_['variational_lle']:.5f} +- "
-        f"{l_['variational_stderr']:.5f}.",
+        f"* simulate: fast and heyoka agree to {s['max_diff_to_period_50']:.1e} up to period 50 "
+        "(chaos).",
+        f"* lle: fast {l_['fast_lle']:.5f} +- {l_['fast_stderr']:.5f}, variational "
+        f"{l_['variational_lle']:.5f} +- {l_['variational_stderr']:.5f}.",
         f"* sweep: the README's 100 x 100 map in {sw['fast_map_s']:.1f} s with the fast engine on "
-        f"{sw['workers']} worker processes, {sw['fast_dask_local_map_s']:.1f} s on a Dask LocalCluster "
-        f"(bit-identical: {sw['dask_equals_processes_bit_for_bit']}); on the {sw['sample_points']} sample points "
-        f"both engines detect the same period at {sw['same_period_detected']}; a 1000 x 1000 map extrapolated to "
+        f"{sw['workers']} worker processes, {sw['fast_dask_local_map_s']:.1f} s on a Dask "
+        f"LocalCluster (bit-identical: {sw['dask_equals_processes_bit_for_bit']}); on the "
+        f"{sw['sample_points']} sample points both engines detect the same period at "
+        f"{sw['same_period_detected']}; a 1000 x 1000 map extrapolated to "
         f"{sw['fast_1000x1000_h_extrapolated']:.1f} h on these cores.",
         f"* sync: synchronised fractions fast {sy['fast_fraction_synchronised']}, heyoka "
-        f"{sy['heyoka_fraction_synchronised']}; k* fast {sy['fast_k_star'][0]:.4f} +- {sy['fast_k_star'][1]:.4f}, "
-        f"heyoka {sy['heyoka_k_star'][0]:.4f} +- {sy['heyoka_k_star'][1]:.4f} (runs near the threshold are "
-        "intermittent and chaotic: individual outcomes differ, the statistics agree).",
+        f"{sy['heyoka_fraction_synchronised']}; k* fast {sy['fast_k_star'][0]:.4f} +- "
+        f"{sy['fast_k_star'][1]:.4f}, heyoka {sy['heyoka_k_star'][0]:.4f} +- "
+        f"{sy['heyoka_k_star'][1]:.4f} (runs near the threshold are intermittent and chaotic: "
+        "individual outcomes differ, the statistics agree).",
     ]
     (OUT / "fast.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

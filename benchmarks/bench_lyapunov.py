@@ -114,12 +114,13 @@ def main() -> int:
     ]
     for r in rows:
         md.append(
-            f"| {r['what']} | {r['lle']:.5f} | {r['stderr']:.5f} | {r['periods']} | {r['median_s']:.3f} s | "
-            f"{r.get('per_period_vs_float64', 1.0):.1f}x |"
+            f"| {r['what']} | {r['lle']:.5f} | {r['stderr']:.5f} | {r['periods']} | "
+            f"{r['median_s']:.3f} s | {r.get('per_period_vs_float64', 1.0):.1f}x |"
         )
     md += [
         "",
-        f"Bifurcation diagram, {n} values x (1000 + 2000) periods with LLE, {bif.workers} workers: {bif_s:.1f} s",
+        f"Bifurcation diagram, {n} values x (1000 + 2000) periods with LLE, {bif.workers} workers: "
+        f"{bif_s:.1f} s",
         "",
     ]
     md += [

@@ -158,8 +158,8 @@ def main() -> None:
                 }
             )
             print(
-                f"{job:9s} baseline {mb * 1e3:8.2f} ms   current {mc * 1e3:8.2f} ms   ratio {mb / mc:5.2f}x   "
-                f"(same answer: {checks})"
+                f"{job:9s} baseline {mb * 1e3:8.2f} ms   current {mc * 1e3:8.2f} ms   ratio "
+                f"{mb / mc:5.2f}x   (same answer: {checks})"
             )
     finally:
         subprocess.run(
@@ -172,9 +172,11 @@ def main() -> None:
     lines = [
         f"# Python overhead of the float64 heyoka path (baseline {ns.baseline} vs this tree)",
         "",
-        "Same interpreter and heyoka, interleaved runs in fresh processes, medians after compilation.",
+        "Same interpreter and heyoka, interleaved runs in fresh processes, medians after "
+        "compilation.",
         "",
-        "| job | baseline | current | ratio | same answer | heyoka alone | ratio if Python cost 0 |",
+        "| job | baseline | current | ratio | same answer | heyoka alone | "
+        "ratio if Python cost 0 |",
         "|---|---:|---:|---:|:---:|---:|---:|",
     ]
     for r in rows:
@@ -188,11 +190,12 @@ def main() -> None:
         "simulate: `simulate(Params.make(eta='0.712'), 200, precision='float64')` (a new solver, "
         "hence a private integrator copy, per call); solve: the same 200 periods with one reused "
         "`HeyokaSolver('float64')`; lle: variational, 4 x 2000 periods after 500. "
-        "same answer: the last sample (simulate, solve) bit-identical, the LLE within twice the combined "
-        "error bar (the QR now runs every 8 periods and after each impact). heyoka alone: the same "
-        "equations, tolerance and output grid with a callback that only resets v (no contact rule, "
-        "budget, impact log or saltation, no guard): what the job costs if every Python line of the "
-        "package took no time, hence the largest ratio any removal of Python overhead can give.",
+        "same answer: the last sample (simulate, solve) bit-identical, the LLE within twice the "
+        "combined error bar (the QR now runs every 8 periods and after each impact). heyoka "
+        "alone: the same equations, tolerance and output grid with a callback that only resets v "
+        "(no contact rule, budget, impact log or saltation, no guard): what the job costs if "
+        "every Python line of the package took no time, hence the largest ratio any removal of "
+        "Python overhead can give.",
     ]
     (OUT / "overhead.md").write_text("\n".join(lines) + "\n")
 

@@ -159,7 +159,8 @@ def _toggles(data: np.ndarray):
 
 
 _A1 = re.compile(r"^(BA1M|CA1M|BA1S|CA1S|BA1D|CA1D) .*$\n", re.M)
-_DIGITAL = """* XSPICE digital toggle (pitfall experiment): comparator -> adc_bridge -> d_tff -> dac_bridge
+_DIGITAL = """* XSPICE digital toggle (pitfall experiment):
+* comparator -> adc_bridge -> d_tff -> dac_bridge
 AADC [cmp] [dclk] adcb
 .model adcb adc_bridge(in_low=0.4 in_high=0.6)
 AONE one pullup
@@ -418,7 +419,8 @@ def markdown(result: dict) -> str:
     m = result["machine"]
     md.append(
         f"ngspice {m['ngspice']}, Python {m['python']}, {m['cpus']} CPUs; ideal parts "
-        "(nominal_components of Params.make(eta=...)), `method=gear`, other ngspice options default."
+        "(nominal_components of Params.make(eta=...)), `method=gear`, other ngspice options "
+        "default."
     )
     md += [
         "",
@@ -428,14 +430,15 @@ def markdown(result: dict) -> str:
         "(reference heyoka float64).  `ngspice` is the subprocess wall time, `total` adds "
         "netlist writing and reading the `wrdata` text.",
         "",
-        "| TMAX | ngspice | total | accepted points | error x | error v | impacts (ref) | max abs(x - x_w) at reversal |",
+        "| TMAX | ngspice | total | accepted points | error x | error v | impacts (ref) | max "
+        "abs(x - x_w) at reversal |",
         "|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in result["tmax_074"]:
         md.append(
-            f"| {r['tmax_s'] * 1e6:g} us | {r['ngspice_s']:.2f} s | {r['total_s']:.2f} s | {r['points']} | "
-            f"{r['err_x_last30']:.2e} | {r['err_v_last30']:.2e} | {r['impacts']} ({r['impacts_ref']}) | "
-            f"{r['overshoot_max']:.1e} |"
+            f"| {r['tmax_s'] * 1e6:g} us | {r['ngspice_s']:.2f} s | {r['total_s']:.2f} s | "
+            f"{r['points']} | {r['err_x_last30']:.2e} | {r['err_v_last30']:.2e} | {r['impacts']} "
+            f"({r['impacts_ref']}) | {r['overshoot_max']:.1e} |"
         )
     pr = result["predictability_0712"]
     md += [
@@ -443,7 +446,8 @@ def markdown(result: dict) -> str:
         f"## eta = 0.712 (chaotic): predictability over {pr['periods']} periods",
         "",
         f"First period k with |x_k - x_ref,k| > {pr['threshold']} (reference {pr['reference']}; "
-        f"heyoka float64 itself leaves float128 by > 0.1 at period {pr['heyoka_float64_first_period_off']}).",
+        "heyoka float64 itself leaves float128 by > 0.1 at period "
+        f"{pr['heyoka_float64_first_period_off']}).",
         "",
         "| TMAX | ngspice | first period off | max error, periods 0-10 |",
         "|---:|---:|---:|---:|",
@@ -459,7 +463,8 @@ def markdown(result: dict) -> str:
             "",
             "## Pitfalls (ngspice 39.3), re-measured",
             "",
-            "### 1. Comparator straight into an XSPICE digital bridge (20 periods, eta = 0.74; 13 impacts expected)",
+            "### 1. Comparator straight into an XSPICE digital bridge (20 periods, eta = 0.74; 13 "
+            "impacts expected)",
             "",
             "| TMAX | netlist | toggles | median x - x_w at reversal | max |",
             "|---:|---|---:|---:|---:|",
@@ -469,11 +474,13 @@ def markdown(result: dict) -> str:
                 if tag == "tmax_s":
                     continue
                 md.append(
-                    f"| {row['tmax_s'] * 1e6:g} us | {tag} | {v['toggles']} | {v['overshoot_median']:.1e} | {v['overshoot_max']:.1e} |"
+                    f"| {row['tmax_s'] * 1e6:g} us | {tag} | {v['toggles']} | "
+                    f"{v['overshoot_median']:.1e} | {v['overshoot_max']:.1e} |"
                 )
         md += [
             "",
-            "### 2. Switch pairs driven from one node vs two nodes (ngspice S switches, flip-flop delay 14 ns)",
+            "### 2. Switch pairs driven from one node vs two nodes (ngspice S switches, flip-flop "
+            "delay 14 ns)",
             "",
             "`|v+/v-|` per impact (1 = no loss).",
             "",
@@ -482,19 +489,22 @@ def markdown(result: dict) -> str:
         ]
         for r in pf["two_drive_nodes"]:
             md.append(
-                f"| {r['ron']} Ohm | {r['drive']} | {r['toggles']} | {r['v_ratio_median']:.4f} | {r['v_ratio_min']:.4f} |"
+                f"| {r['ron']} Ohm | {r['drive']} | {r['toggles']} | {r['v_ratio_median']:.4f} | "
+                f"{r['v_ratio_min']:.4f} |"
             )
         md += [
             "",
-            "### 3. Batch (`ngspice -b`) vs shared library (libngspice via ctypes), 20 periods, TMAX = 10 us",
+            "### 3. Batch (`ngspice -b`) vs shared library (libngspice via ctypes), 20 periods, "
+            "TMAX = 10 us",
             "",
         ]
         for r in pf["batch_vs_shared"]:
             if "shared_toggles" in r:
                 md.append(
-                    f"* {r['netlist']}: batch {r['batch_toggles']} toggles, shared {r['shared_toggles']}; "
-                    f"identical: {r['identical']}.  First toggle times [ms]: batch {r['batch_toggle_times_ms']}, "
-                    f"shared {r['shared_toggle_times_ms']}"
+                    f"* {r['netlist']}: batch {r['batch_toggles']} toggles, shared "
+                    f"{r['shared_toggles']}; identical: {r['identical']}.  First toggle times "
+                    f"[ms]: batch {r['batch_toggle_times_ms']}, shared "
+                    f"{r['shared_toggle_times_ms']}"
                 )
             else:
                 md.append(
@@ -505,12 +515,14 @@ def markdown(result: dict) -> str:
             "",
             "### 4. `.options interp` with `-r` (binary raw file)",
             "",
-            "| options | header points | data points (bytes / 8 / vars) | NaN values | time monotone |",
+            "| options | header points | data points (bytes / 8 / vars) | NaN values | time "
+            "monotone |",
             "|---|---:|---:|---:|---|",
         ]
         for k, v in ir.items():
             md.append(
-                f"| {k} | {v['header_points']} | {v['data_points']:.1f} | {v['nan_values']} | {v['time_monotone']} |"
+                f"| {k} | {v['header_points']} | {v['data_points']:.1f} | {v['nan_values']} | "
+                f"{v['time_monotone']} |"
             )
         md += [
             "",
@@ -528,21 +540,24 @@ def markdown(result: dict) -> str:
             )
         md += [
             "",
-            f"### 7. Hysteresis 0.01 V (trip threshold x = {pf['schmitt']['threshold_x']}), 20 periods",
+            f"### 7. Hysteresis 0.01 V (trip threshold x = {pf['schmitt']['threshold_x']}), 20 "
+            "periods",
             "",
             "| comparator | toggles | deepest x around each reversal: min | max |",
             "|---|---:|---:|---:|",
         ]
         for r in pf["schmitt"]["rows"]:
             md.append(
-                f"| {r['comparator']} | {r['toggles']} | {r['x_peak_min']:.5f} | {r['x_peak_max']:.5f} |"
+                f"| {r['comparator']} | {r['toggles']} | {r['x_peak_min']:.5f} | "
+                f"{r['x_peak_max']:.5f} |"
             )
         a = pf["algebraic_saturation"]
         md += [
             "",
             "### 8. Op-amps as algebraic `13.5 tanh(1e9 (V+ - V-)/13.5)` B-sources",
             "",
-            f"ngspice: {'; '.join(a['errors']) or 'no error'} (last time point {a['last_time_s']} s of 0.042 s).",
+            f"ngspice: {'; '.join(a['errors']) or 'no error'} (last time point {a['last_time_s']} "
+            "s of 0.042 s).",
         ]
     return "\n".join(md) + "\n"
 

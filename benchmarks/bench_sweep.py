@@ -108,11 +108,13 @@ def main() -> int:
     ]
     for name, r in rows.items():
         md.append(
-            f"| {name} | {r['points']} | {r['wall_s']:.1f} s | {r['points_per_s']:.1f} | {r['points_per_s'] / base:.1f}x |"
+            f"| {name} | {r['points']} | {r['wall_s']:.1f} s | {r['points_per_s']:.1f} | "
+            f"{r['points_per_s'] / base:.1f}x |"
         )
     md += [
         "",
-        f"Peak RSS: driver {mem['driver_peak_rss_MiB']:.0f} MiB, largest worker {mem['largest_child_peak_rss_MiB']:.0f} MiB.",
+        f"Peak RSS: driver {mem['driver_peak_rss_MiB']:.0f} MiB, largest worker "
+        f"{mem['largest_child_peak_rss_MiB']:.0f} MiB.",
     ]
     atomic_write(OUT / "sweep.md", lambda fh: fh.write("\n".join(md) + "\n"), binary=False)
     print("\n".join(md))

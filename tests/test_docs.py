@@ -12,10 +12,10 @@ import inspect
 
 import pytest
 
-numpydoc_validate = pytest.importorskip("numpydoc.validate")
-
 import precise_impact
 import precise_impact.testing
+
+numpydoc_validate = pytest.importorskip("numpydoc.validate")
 
 CHECKS = {"SS01", "PR01", "PR02", "PR03", "PR10", "RT01"}
 

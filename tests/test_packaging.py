@@ -1,10 +1,12 @@
-"""Packaging claims that must stay true: Python and dependency floors, the version, progress on stderr."""
+"""Packaging claims that must stay true: Python and dependency floors, the version, progress on
+stderr."""
 
 from __future__ import annotations
 
 import io
 import re
 import sys
+import tomllib
 from importlib import metadata
 from pathlib import Path
 
@@ -14,11 +16,6 @@ from packaging.specifiers import SpecifierSet
 
 import precise_impact
 from precise_impact.io import progress as prog
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - requires-python is >= 3.11; kept so the test itself reports that
-    tomllib = pytest.importorskip("tomli")
 
 CHECKOUT = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((CHECKOUT / "pyproject.toml").read_text(encoding="utf-8"))
@@ -146,9 +143,16 @@ def test_the_wheel_lists_every_package_and_ships_reference_data():
     src = CHECKOUT / "src"
     if not src.is_dir():
         pytest.skip("not a checkout")
-    found = {p.parent.relative_to(src).as_posix().replace("/", ".") for p in src.rglob("__init__.py")}
+    found = {
+        p.parent.relative_to(src).as_posix().replace("/", ".") for p in src.rglob("__init__.py")
+    }
     listed = set(PYPROJECT["tool"]["setuptools"]["packages"])
     assert listed == found | {"precise_impact.data.reference"}
-    assert PYPROJECT["tool"]["setuptools"]["package-dir"]["precise_impact.data.reference"] == "reference_data"
+    assert (
+        PYPROJECT["tool"]["setuptools"]["package-dir"]["precise_impact.data.reference"]
+        == "reference_data"
+    )
     assert (CHECKOUT / "reference_data" / "single-0.712" / "manifest.json").is_file()
-    assert not (src / "precise_impact" / "data").exists(), "one copy of the datasets, at the top level"
+    assert not (src / "precise_impact" / "data").exists(), (
+        "one copy of the datasets, at the top level"
+    )

@@ -115,10 +115,12 @@ def test_each_class_of_hostile_input_is_refused_cleanly(tmp_path, args, name):
     (tmp_path / "x.csv").mkdir()
     # the review's case: 1e7 periods x 1e4 samples per period; and 1e7 periods at mp:1024
     (tmp_path / "huge.toml").write_text(
-        '[system]\nkind = "single"\n[model]\nname = "heyoka"\n[duration]\nperiods = 10000000\n[outputs]\nper_period = 10000\n'
+        '[system]\nkind = "single"\n[model]\nname = "heyoka"\n'
+        "[duration]\nperiods = 10000000\n[outputs]\nper_period = 10000\n"
     )
     (tmp_path / "long.toml").write_text(
-        '[system]\nkind = "single"\n[model]\nname = "heyoka"\nprecision = "mp:1024"\n[duration]\nperiods = 100000\n'
+        '[system]\nkind = "single"\n[model]\nname = "heyoka"\nprecision = "mp:1024"\n'
+        "[duration]\nperiods = 100000\n"
     )
     r, took = cli(*[a.replace("{tmp}", str(tmp_path)) for a in args])
     one_line_refusal(r, name)

@@ -40,7 +40,7 @@ def _trajectory_key(tr):
 
 
 def _same(a, b) -> bool:
-    return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b))
+    return len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
 
 
 def test_heyoka_solve_from_threads_is_bit_identical():
@@ -49,7 +49,7 @@ def test_heyoka_solve_from_threads_is_bit_identical():
 
     serial = [run(eta) for eta in ETAS]
     threaded = _in_threads(run, ETAS)
-    bad = [eta for eta, s, t in zip(ETAS, serial, threaded) if not _same(s, t)]
+    bad = [eta for eta, s, t in zip(ETAS, serial, threaded, strict=True) if not _same(s, t)]
     assert not bad, f"threaded solves differ from serial ones at eta = {bad}"
 
 
@@ -62,7 +62,7 @@ def test_one_solver_object_shared_by_threads_is_bit_identical():
 
     serial = [run(eta) for eta in ETAS]
     threaded = _in_threads(run, ETAS)
-    assert all(_same(s, t) for s, t in zip(serial, threaded))
+    assert all(_same(s, t) for s, t in zip(serial, threaded, strict=True))
 
 
 def test_simulate_reuses_a_solver_per_thread_bit_identically():
@@ -82,7 +82,7 @@ def test_simulate_reuses_a_solver_per_thread_bit_identically():
     order = ETAS + ETAS[::-1]
     assert all(_same(run(eta), fresh[eta]) for eta in order)
     threaded = _in_threads(run, order)
-    assert all(_same(t, fresh[eta]) for t, eta in zip(threaded, order))
+    assert all(_same(t, fresh[eta]) for t, eta in zip(threaded, order, strict=True))
 
 
 def test_variational_lle_from_threads_is_bit_identical():
@@ -94,7 +94,7 @@ def test_variational_lle_from_threads_is_bit_identical():
 
     serial = [run(eta) for eta in ETAS]
     threaded = _in_threads(run, ETAS)
-    assert all(_same(s, t) for s, t in zip(serial, threaded))
+    assert all(_same(s, t) for s, t in zip(serial, threaded, strict=True))
 
 
 def test_batch_lle_from_threads_is_bit_identical():
@@ -117,7 +117,7 @@ def test_batch_lle_from_threads_is_bit_identical():
 
     serial = [run(g) for g in groups]
     threaded = _in_threads(run, groups)
-    assert all(_same(s, t) for s, t in zip(serial, threaded))
+    assert all(_same(s, t) for s, t in zip(serial, threaded, strict=True))
 
 
 @pytest.mark.skipif(

@@ -129,7 +129,8 @@ def load_reference(
     d = _root(root) / case
     if not d.is_dir():
         raise ReferenceDataError(
-            f"reference case {case!r} not found under {d.parent} (run `precise-impact reference generate`)"
+            f"reference case {case!r} not found under {d.parent} (run `precise-impact reference "
+            "generate`)"
         )
     # The checksums first: a damaged reference must be an error naming the file, never a
     # verdict on the solver being scored.
@@ -178,7 +179,8 @@ def load_reference(
 
 
 def _to_mpf(value: Any) -> mpmath.mpf:
-    """Exact mpmath value of a user number (float, numpy float, longdouble, heyoka real, str, Decimal)."""
+    """Exact mpmath value of a user number (float, numpy float, longdouble, heyoka real, str,
+    Decimal)."""
     with mpmath.workprec(_WORKPREC):
         if isinstance(value, (float, np.float64, np.float32, int, np.integer)):
             return (
@@ -415,9 +417,9 @@ def assert_stroboscopic_close(
             f"solver differs from reference {case!r} (params {ref.params}):\n"
             f"  first failure at period {first}: solver {var} = {r['solver_' + var][first]:.17g}, "
             f"reference {var} = {yref:.17g}, |diff| = {absd:.3e}, "
-            f"scaled error |diff|/(atol + rtol*|ref|) = {got_err:.3e} > 1 (atol={atol:g}, rtol={rtol:g})\n"
-            f"  {n_bad} of {len(e)} samples fail; worst: period {r['worst_period']} ({r['worst_variable']}), "
-            f"scaled error {r['max_error']:.3e}\n"
+            f"scaled error |diff|/(atol + rtol*|ref|) = {got_err:.3e} > 1 (atol={atol:g}, "
+            f"rtol={rtol:g})\n  {n_bad} of {len(e)} samples fail; worst: period "
+            f"{r['worst_period']} ({r['worst_variable']}), scaled error {r['max_error']:.3e}\n"
             f"  reference accuracy (demonstrated): {ref.accuracy:.1e}"
         )
     return r

@@ -1,4 +1,5 @@
-"""The installed version, read once from the package metadata (written once, in ``pyproject.toml``)."""
+"""The installed version, read once from the package metadata (written once, in
+``pyproject.toml``)."""
 
 from importlib import metadata as _metadata
 

@@ -214,7 +214,8 @@ def test_chaotic_error_bars_cover_the_long_run_value_at_the_stated_rate():
 
 def test_two_trajectory_reports_the_floquet_lle_on_a_periodic_attractor():
     """The two-trajectory method's single fiducial orbit is identified as the other methods'
-    starts are: on the 1:1 orbit (R = 0.8, eta = 1) the exact ln R / T - zeta, on chaos its estimate."""
+    starts are: on the 1:1 orbit (R = 0.8, eta = 1) the exact ln R / T - zeta, on chaos its
+    estimate."""
     r = lyapunov(Params.make(R="0.8", eta="1"), "two-trajectory", periods=1000, transient=500)
     exact = math.log(0.8) / (2 * math.pi) - 0.05
     assert r.stats["lle_source"] == "floquet" and abs(r.lle - exact) < 1e-12

@@ -36,7 +36,8 @@ def nonimpacting():
 
 @pytest.fixture(scope="module")
 def one_to_one():
-    """The 1:1 orbit at R = 0.8 from eta = 1 down to 0.93: a period-doubling point and its doubled branch."""
+    """The 1:1 orbit at R = 0.8 from eta = 1 down to 0.93: a period-doubling point and its doubled
+    branch."""
     return pi.continue_orbit(pi.Params.make(R="0.8", eta="1"), "eta", "1", "0.93", 1)
 
 
@@ -82,7 +83,7 @@ def test_grazing_of_the_nonimpacting_orbit_is_the_closed_form(nonimpacting):
     got = sorted(b.value for b in nonimpacting.bifurcations if b.type == "grazing")
     assert len(got) == 2 and all(b.type == "grazing" for b in nonimpacting.bifurcations)
     # x_w - amplitude is evaluated to ~4 eps x_w; |d amplitude / d eta| > 1 at both points
-    for g, e in zip(got, exact):
+    for g, e in zip(got, exact, strict=True):
         assert abs(g - e) <= 64 * EPS * e
     b = nonimpacting.branches[0]
     assert b.stable.all() and b.values.min() == 0.6 and b.values.max() == 1.3
@@ -171,7 +172,8 @@ def test_fold_of_the_one_to_one_orbits_against_the_closed_form():
 
 
 def test_no_neimark_sacker_because_det_m_is_fixed(one_to_one):
-    """det M = R^(2n) exp(-2 zeta p T) along every branch (saltation det R^2, flow det e^(-2 zeta t)),
+    """det M = R^(2n) exp(-2 zeta p T) along every branch (saltation det R^2, flow det
+    e^(-2 zeta t)),
     so |mu1 mu2| < 1 and a complex pair can never reach the unit circle when zeta > 0."""
     for b in one_to_one.branches:
         T = 2 * math.pi / b.values

@@ -52,7 +52,6 @@ from precise_impact import (
     oscillator_saltation,
     steady_state,
 )
-from precise_impact.solvers.heyoka import variational as var
 from precise_impact.analysis.lyapunov.batch import batch_lle
 from precise_impact.analysis.lyapunov.variational import (
     MissedImpactError,
@@ -60,6 +59,7 @@ from precise_impact.analysis.lyapunov.variational import (
     variational_spectrum,
 )
 from precise_impact.core.flow import acceleration, grazing_frequencies
+from precise_impact.solvers.heyoka import variational as var
 
 ZETA = 0.05
 
@@ -80,7 +80,8 @@ def position_error(P: Precision, p: Params, t: float) -> float:
 
 
 def graze_depth(P: Precision, p: Params, t: float) -> float:
-    """The variational integrator's default grazing depth ``16 u (|x_w| + |a| + A_p (1 + eta |t|))``."""
+    """The variational integrator's default grazing depth
+    ``16 u (|x_w| + |a| + A_p (1 + eta |t|))``."""
     coef = float(var.grazing_depth_coefficient(P))
     return coef * (
         abs(float(p.x_w)) + abs(float(p.a)) + var.steady_amplitude(p) * (1 + float(p.eta) * abs(t))
@@ -88,7 +89,8 @@ def graze_depth(P: Precision, p: Params, t: float) -> float:
 
 
 def test_grazing_frequency_of_the_paper_parameters():
-    """The brief's grazing frequency: steady amplitude a / sqrt((1-eta^2)^2 + (2 zeta eta)^2) = x_w."""
+    """The brief's grazing frequency: steady amplitude a / sqrt((1-eta^2)^2 + (2 zeta eta)^2) =
+    x_w."""
     lo, hi = grazing_frequencies(Params.make())
     assert abs(lo - mpmath.mpf("0.71069")) < 1e-5
     with mpmath.workdps(30):
@@ -175,7 +177,8 @@ def arc_from(p0: Params, ts: Fraction, P: Precision):
 
 
 def bisect(f, lo, hi, iters: int = 400):
-    """Root of ``f`` in ``[lo, hi]`` with ``f(lo) < 0 < f(hi)`` (bisection at the current precision)."""
+    """Root of ``f`` in ``[lo, hi]`` with ``f(lo) < 0 < f(hi)`` (bisection at the current
+    precision)."""
     assert f(lo) < 0 < f(hi)
     for _ in range(iters):
         mid = (lo + hi) / 2
@@ -249,8 +252,8 @@ def test_excursion_shorter_than_a_taylor_step_is_found(precision, delta):
             depth = x_max - mpq(xw)
             assert depth > 0
             width = mpmath.sqrt(2 * depth / mpmath.mpf("1.2187"))  # |x''| at the maximum: 1.2187
-            t_in = bisect(lambda t: cf.x(t) - mpq(xw), t_max - 2 * width, t_max)
-            t_out = bisect(lambda t: mpq(xw) - cf.x(t), t_max, t_max + 2 * width)
+            t_in = bisect(lambda t, cf=cf, xw=xw: cf.x(t) - mpq(xw), t_max - 2 * width, t_max)
+            t_out = bisect(lambda t, cf=cf, xw=xw: mpq(xw) - cf.x(t), t_max, t_max + 2 * width)
             v_in = cf.v(t_in)
         t_a, t_b = taylor_step_around(p0, ts, xs, vs, t_max, P)
         assert t_a < t_in and t_out < t_b and (t_b - t_a) > 1000 * (t_out - t_in)

@@ -111,9 +111,10 @@ def check_long_run(chunks: int, chunk_periods: int, slowdown: float, rss_growth_
     periods = chunks * chunk_periods
     print(
         f"\n{periods} periods: {1e6 * r['wall'].sum() / periods:.1f} us/period wall, "
-        f"{1e6 * r['prop'].sum() / periods:.1f} us/period heyoka; last/first 10%: wall {ratio_wall:.2f}, "
-        f"heyoka {ratio_prop:.2f}; impacts {r['impacts'].sum()}; peak RSS growth {growth:.1f} MB; "
-        f"tracemalloc peak per chunk {traced_peak / 2**20:.1f} MB; max x - x_w {r['max_excess']:.3g}"
+        f"{1e6 * r['prop'].sum() / periods:.1f} us/period heyoka; last/first 10%: wall "
+        f"{ratio_wall:.2f}, heyoka {ratio_prop:.2f}; impacts {r['impacts'].sum()}; peak RSS growth "
+        f"{growth:.1f} MB; tracemalloc peak per chunk {traced_peak / 2**20:.1f} MB; max x - x_w "
+        f"{r['max_excess']:.3g}"
     )
     assert r["invariants"]
     assert r["max_excess"] <= 0.0

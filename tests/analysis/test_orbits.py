@@ -35,7 +35,7 @@ def test_one_impact_orbit_closed_form_equals_newton():
     assert round(exact, 7) == -0.0855144
     mu_cf = sorted((complex(m) for m in cf.multipliers), key=lambda m: m.imag)
     mu_nw = sorted(nw.multipliers, key=lambda m: m.imag)
-    assert all(abs(a - b) <= 1e-12 for a, b in zip(mu_cf, mu_nw))
+    assert all(abs(a - b) <= 1e-12 for a, b in zip(mu_cf, mu_nw, strict=True))
     assert nw.residual <= 64 * EPS * (1 + abs(nw.x) + abs(nw.v))
 
 
@@ -156,7 +156,7 @@ def test_multiprecision_newton_reaches_the_closed_form_to_1e_40():
         assert abs(o.x - cf.x) <= mpmath.mpf(10) ** -40 and abs(o.v - cf.v) <= mpmath.mpf(10) ** -40
         mu_o = sorted(o.multipliers, key=lambda m: mpmath.im(m))
         mu_c = sorted(cf.multipliers, key=lambda m: mpmath.im(m))
-        assert all(abs(a - b) <= mpmath.mpf(10) ** -40 for a, b in zip(mu_o, mu_c))
+        assert all(abs(a - b) <= mpmath.mpf(10) ** -40 for a, b in zip(mu_o, mu_c, strict=True))
 
 
 def test_multiprecision_period_three_orbit_has_a_working_precision_residual():

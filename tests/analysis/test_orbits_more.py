@@ -79,7 +79,7 @@ def test_one_to_two_orbit_closed_form_equals_newton_and_heyoka():
     assert abs(nw.x - float(cf.x)) <= 1e-12 and abs(nw.v - float(cf.v)) <= 1e-12
     mu_cf = sorted((complex(m) for m in cf.multipliers), key=lambda m: (m.imag, m.real))
     mu_nw = sorted(nw.multipliers, key=lambda m: (m.imag, m.real))
-    assert all(abs(a - b) <= 1e-12 for a, b in zip(mu_cf, mu_nw))
+    assert all(abs(a - b) <= 1e-12 for a, b in zip(mu_cf, mu_nw, strict=True))
     # det M = R^2 exp(-2 zeta 2 T): the closed form to its 60 digits
     with mpmath.workdps(60):
         T = 2 * mpmath.pi / mpmath.mpf("0.9")
@@ -88,7 +88,8 @@ def test_one_to_two_orbit_closed_form_equals_newton_and_heyoka():
             abs(det - mpmath.mpf("0.64") * mpmath.exp(-2 * mpmath.mpf("0.05") * 2 * T))
             < mpmath.mpf(10) ** -55
         )
-    # auto seeding (impacts=1) finds the same orbit; an explicit guess elsewhere also converges to it
+    # auto seeding (impacts=1) finds the same orbit; an explicit guess elsewhere also converges to
+    # it
     auto = find_orbit(p, 2, impacts=1, seed="auto")
     assert abs(auto.x - nw.x) <= 1e-12
     q = p.replace(x0=mpmath.nstr(cf.x, 60), v0=mpmath.nstr(cf.v, 60))
@@ -114,7 +115,9 @@ def test_multiprecision_newton_converges_quadratically():
     mp_steps = o.steps[1:]  # the first is float64 Newton's
     assert 3 <= len(mp_steps) <= math.ceil(math.log2(512 / 50)) + 3, o.steps
     floor = 2.0**-504
-    pairs = [(a, b) for a, b in zip(mp_steps[:-1], mp_steps[1:]) if a <= 1e-20 and b > floor]
+    pairs = [
+        (a, b) for a, b in zip(mp_steps[:-1], mp_steps[1:], strict=True) if a <= 1e-20 and b > floor
+    ]
     assert len(pairs) >= 2, mp_steps
     for a, b in pairs:
         assert b <= 1e3 * a * a, (a, b)

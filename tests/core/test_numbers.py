@@ -1,4 +1,5 @@
-"""One number parser, bounded before any arithmetic; every public entry validates; precisions reported as used.
+"""One number parser, bounded before any arithmetic; every public entry validates; precisions
+reported as used.
 
 Each hostile value of the reliability review must end at once with exit status 2 and
 one line naming the parameter and the allowed range (no traceback, no hang).

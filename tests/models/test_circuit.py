@@ -62,7 +62,7 @@ def test_ideal_network_is_the_mechanical_equation_and_the_printed_5b_is_not():
             x, v, tau = (mpmath.mpf(float(z)) for z in rng.uniform(-2, 2, 3))
             Vs, Vq, t = -x, v, tau / w  # x = -V_s, x' = V_q (omega R8 C1 = 1, V_unit = 1)
             dVs, dVq = _rhs_at(
-                list(zip(vars_, [e for _, e in rhs])), [Vs, Vq], pars[:-1], t
+                list(zip(vars_, [e for _, e in rhs], strict=True)), [Vs, Vq], pars[:-1], t
             )  # V_wall: event only
             # dx/dtau = -dV_s/dt / omega ; dv/dtau = dV_q/dt / omega
             assert abs(-dVs / w - v) < 1e-60
@@ -205,9 +205,11 @@ def test_coupled_circuit_realises_the_printed_14a():
     m = simulate_coupled(p, "0.05", "paper", 40, y0=("0.5", "0"), precision="mp:200")
     P = m.precision
     with mpmath.workprec(250):
-        assert max(abs(P.to_mpf(a) - P.to_mpf(b)) for a, b in zip(r["y"], m.y)) < 1e-50
+        assert max(abs(P.to_mpf(a) - P.to_mpf(b)) for a, b in zip(r["y"], m.y, strict=True)) < 1e-50
         red = simulate_coupled(p, "0.05", "reduced", 40, y0=("0.5", "0"), precision="mp:200")
-        assert max(abs(P.to_mpf(a) - P.to_mpf(b)) for a, b in zip(r["y"], red.y)) > 1e-3
+        assert (
+            max(abs(P.to_mpf(a) - P.to_mpf(b)) for a, b in zip(r["y"], red.y, strict=True)) > 1e-3
+        )
 
 
 def test_component_validation():

@@ -91,11 +91,12 @@ def test_compare_points_cli(tmp_path):
 def _switched_linear(scene):
     """The datasheet switched-capacitor model between switchings, from its equations
     (models/circuit/switched.py): with 2 R_on in series with C2,
-    ``V_q = G (-pol V_C + k (V3/R1 + V_s/R7))``, ``G = 1 / (1 + k rho / R6)``, ``k = 2 R_on R2 / R3``,
-    ``V_p = -R2 (V3/R1 - rho V_q/R6 + V_s/R7)``, ``V_s' = -V_q / (R8 C1)``, ``V_C' = pol V_p / (R3 C2)``,
-    on the parts the tolerance draw realises.  Returns ``(amplitude(Omega), A, parts)``: the
-    steady-state amplitude of ``V_s`` at forcing ``Omega`` (a linear system: exact, no
-    simulation; pol = +-1 give the same V_s) and the homogeneous matrix."""
+    ``V_q = G (-pol V_C + k (V3/R1 + V_s/R7))``, ``G = 1 / (1 + k rho / R6)``,
+    ``k = 2 R_on R2 / R3``, ``V_p = -R2 (V3/R1 - rho V_q/R6 + V_s/R7)``,
+    ``V_s' = -V_q / (R8 C1)``, ``V_C' = pol V_p / (R3 C2)``, on the parts the tolerance draw
+    realises.  Returns ``(amplitude(Omega), A, parts)``: the steady-state amplitude of ``V_s``
+    at forcing ``Omega`` (a linear system: exact, no simulation; pol = +-1 give the same V_s)
+    and the homogeneous matrix."""
     import mpmath
 
     from precise_impact.models.circuit.effects.tolerance import actual_components
@@ -159,8 +160,9 @@ def test_datasheet_switched_capacitor_points_are_shifted_as_derived():
     * period-doubling: the mechanics with the model's effective oscillator (omega_eff^2 = det A,
       2 zeta_eff omega_eff = -tr A, a_eff the static gain) and R = 1 predicts the point; what it
       leaves out is the impact law: flipping pol gives V_q+ = -V_q- + 2 G k (V3/R1 + V_s/R7), a
-      restitution off 1 by up to k / R2 = 2 R_on / R3 (0.032).  The band is the mechanical point's shift over that
-      range of R, plus the extrapolation's reach (the bracket in which the orbit was lost);
+      restitution off 1 by up to k / R2 = 2 R_on / R3 (0.032).  The band is the mechanical point's
+      shift over that range of R, plus the extrapolation's reach (the bracket in which the orbit
+      was lost);
     * the ideal circuit (R_on = 0, no delays, nominal parts): both shifts at round-off
       (tests/test_compare_points_cli; here the switched-capacitor model on the ideal scene)."""
     import mpmath

@@ -57,7 +57,8 @@ def test_periodic_models_stay_within_bounds(ref74, model, make, eps):
 
 
 def test_reference_still_reproduces(ref74):
-    """The stored reference against a fresh heyoka mp run at its own precision (first 40 periods)."""
+    """The stored reference against a fresh heyoka mp run at its own precision (first 40
+    periods)."""
     p = Params.make(**ref74.params)
     tr = simulate(p, 40, precision=ref74.precision)
     assert max(errors(tr, ref74, stop=41)) <= 1e-60

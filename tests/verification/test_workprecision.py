@@ -1,4 +1,5 @@
-"""Work-precision benchmark (precise_impact.verification.workprecision): a tiny run's structure and sanity."""
+"""Work-precision benchmark (precise_impact.verification.workprecision): a tiny run's structure and
+sanity."""
 
 from __future__ import annotations
 
@@ -75,7 +76,7 @@ def test_chaos_cost_bits_increase(tiny):
     bits = [r["bits"] for r in rows]
     assert bits == sorted(bits) and bits[-1] > bits[0]
     pred = [r["predicted_bits"] for r in rows]
-    assert all(b < c for b, c in zip(pred, pred[1:]))
+    assert all(b < c for b, c in zip(pred, pred[1:], strict=False))
     assert predicted_bits(300) > predicted_bits(50)
     assert res["chaos_cost"]["certify"]["certified"]
 

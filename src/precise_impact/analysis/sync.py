@@ -79,8 +79,8 @@ class SyncRun(ResultMixin):
     collapsed : bool
         ``|x - y|`` is exactly 0 at the end: the slave has become the master bit for
         bit.  In floating point this state is absorbing (on the diagonal every
-        coupling term is exactly 0, see :mod:`precise_impact.solvers.heyoka.coupled`), so a run that a
-        fluctuation brings down to round-off stays synchronised for ever even
+        coupling term is exactly 0, see :mod:`precise_impact.solvers.heyoka.coupled`), so a run
+        that a fluctuation brings down to round-off stays synchronised for ever even
         slightly *below* the threshold, where a real (noisy) pair would desynchronise.
     """
 
@@ -273,7 +273,8 @@ def half_crossing(k: Sequence[float], frac: Sequence[float]) -> tuple[float, flo
             msg = f"fraction crosses 1/2 between k = {k[i]:g} and {k[i + 1]:g}"
             later = [j for j in range(i + 1, len(k)) if f[j] < 0.5]
             if later:
-                msg += f"; not monotone: below 1/2 again at k = {', '.join(f'{k[j]:g}' for j in later)}"
+                again = ", ".join(f"{k[j]:g}" for j in later)
+                msg += f"; not monotone: below 1/2 again at k = {again}"
             return ks, (k[i + 1] - k[i]) / 2, msg
     return (
         math.nan,
@@ -609,7 +610,7 @@ def plot_fig7(
         simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period) for k in (kl, kh)
     ]
     fig, axes = _figure(2, 1, (7.5, 6.0))
-    for ax, tr, label in zip(axes[:, 0], trajs, ("a", "b")):
+    for ax, tr, label in zip(axes[:, 0], trajs, ("a", "b"), strict=True):
         t, d = tr.difference(dense=True)
         pos = d > 0
         ax.semilogy(t[pos], d[pos], lw=0.6, color="C0")
@@ -672,7 +673,8 @@ def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
     ax.set_ylabel(f"fraction of {result.ensemble} runs")
     ax.set_ylim(-0.05, 1.05)
     ax.set_title(
-        f"{result.form}: {result.periods} periods, tail {result.tail:g}, threshold {result.threshold:g}",
+        f"{result.form}: {result.periods} periods, tail {result.tail:g}, threshold "
+        f"{result.threshold:g}",
         fontsize=10,
     )
     ax.legend(fontsize=8, loc="center right")

@@ -139,7 +139,8 @@ def estimate_cost(
     Examples
     --------
     >>> from precise_impact.core.budget import estimate_cost
-    >>> c = estimate_cost("lle", periods=20000, transient=1000)  # 4 x (2 x 21000 x 1e-5 s + samples)
+    >>> # 4 x (2 x 21000 x 1e-5 s + samples)
+    >>> c = estimate_cost("lle", periods=20000, transient=1000)
     >>> round(c.seconds, 3), c.what
     (1.764, '4 x 21000 periods in float64')
     """

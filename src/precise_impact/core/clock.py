@@ -75,7 +75,8 @@ def sample_times(
 
 
 def _period_and_start(t0: Fraction, eta: Fraction) -> tuple[mpmath.mpf, mpmath.mpf]:
-    """``T = 2 pi / eta`` and ``s0 = t0 mod T`` at mpmath's current precision (the caller's guard bits)."""
+    """``T = 2 pi / eta`` and ``s0 = t0 mod T`` at mpmath's current precision (the caller's guard
+    bits)."""
     T = 2 * mpmath.pi / _mpq(eta)
     t0m = _mpq(t0)
     return T, t0m - mpmath.floor(t0m / T) * T

@@ -110,7 +110,8 @@ def steady_state(params) -> SteadyState:
         raise ParameterError(
             "zeta",
             "0",
-            "zeta = 0 with eta = 1 is the undamped resonance: no bounded steady state; need zeta > 0",
+            "zeta = 0 with eta = 1 is the undamped resonance: no bounded steady state; "
+            "need zeta > 0",
         )
     P, Q = steady_coefficients(eta, zeta, a)
     return SteadyState(P=P, Q=Q, eta=eta)

@@ -98,8 +98,9 @@ def oscillator_saltation(
 ) -> list[list[Any]]:
     """Saltation matrix of the single oscillator's impact at ``(t, x_w, v_minus)``.
 
-    Built from :func:`saltation_matrix` with the flow :func:`~precise_impact.core.flow.acceleration`,
-    so the two are never out of step.  Its determinant is ``R^2``.
+    Built from :func:`saltation_matrix` with the flow
+    :func:`~precise_impact.core.flow.acceleration`, so the two are never out of step.  Its
+    determinant is ``R^2``.
 
     Parameters
     ----------
@@ -272,7 +273,8 @@ GRAZING_SAFETY = 16
 
 
 def grazing_depth_coefficient(precision) -> Fraction:
-    """``16 u``, ``u = 2^-bits``: the default grazing depth is this times ``|x_w| + |a| + A_p (1 + eta |t|)``."""
+    """``16 u``, ``u = 2^-bits``: the default grazing depth is this times
+    ``|x_w| + |a| + A_p (1 + eta |t|)``."""
     from fractions import Fraction
 
     return Fraction(GRAZING_SAFETY, 2**precision.bits)

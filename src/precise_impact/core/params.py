@@ -180,7 +180,8 @@ def _parse_decimal(name: str, value: str | Decimal, max_exponent: int, rng: str)
 
 
 def check_count(value: Any, name: str = "periods", maximum: int = 10**8, minimum: int = 0) -> int:
-    """Validate a count (periods, points per period ...) given as int, numpy integer or integer string.
+    """Validate a count (periods, points per period ...) given as int, numpy integer or integer
+    string.
 
     Raises :class:`ParameterError` naming ``name`` and the one range
     ``minimum <= name <= maximum`` for anything else (the string's length is bounded
@@ -207,7 +208,8 @@ def check_count(value: Any, name: str = "periods", maximum: int = 10**8, minimum
 
 
 def check_tol(tol: Any, name: str = "tol") -> Fraction | None:
-    """Validate an integrator tolerance: ``None`` (the precision's epsilon) or exact ``0 < tol < 1``."""
+    """Validate an integrator tolerance: ``None`` (the precision's epsilon) or exact
+    ``0 < tol < 1``."""
     if tol is None:
         return None
     q = exact(name, tol, max_exponent=3000)  # mp:8192's epsilon is ~1e-2466

@@ -48,7 +48,8 @@ def _real128() -> type:
         raise ParameterError(
             "precision",
             "float128",
-            "this heyoka build has no quad precision (heyoka.real128); use 'longdouble' or 'mp:113'",
+            "this heyoka build has no quad precision (heyoka.real128); use 'longdouble' or "
+            "'mp:113'",
         )
     return t
 
@@ -61,7 +62,8 @@ def has_quad() -> bool:
 
 
 def quad_or_mp() -> str:
-    """``'float128'`` where heyoka has quad precision, else ``'mp:113'`` (the same 113-bit significand, in MPFR).
+    """``'float128'`` where heyoka has quad precision, else ``'mp:113'`` (the same 113-bit
+    significand, in MPFR).
 
     For checks that want "about 34 digits" and must run on every platform.
     """

@@ -68,14 +68,16 @@ def _container_jsonable(obj: Any) -> Any:
 
 
 class ResultMixin:
-    """``to_dict()``, ``save(path)`` and (for one release) ``result["field"]`` for dataclass results."""
+    """``to_dict()``, ``save(path)`` and (for one release) ``result["field"]`` for dataclass
+    results."""
 
     def to_dict(self) -> dict[str, Any]:
         """The result as plain JSON types (``json.dumps(result.to_dict())`` always works)."""
         return {f.name: to_jsonable(getattr(self, f.name)) for f in dataclasses.fields(self)}  # type: ignore[arg-type]
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write the result atomically: ``.json`` (:meth:`to_dict`) or ``.npz`` (its arrays and scalars).
+        """Write the result atomically: ``.json`` (:meth:`to_dict`) or ``.npz`` (its arrays and
+        scalars).
 
         Returns
         -------

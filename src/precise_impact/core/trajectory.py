@@ -79,7 +79,9 @@ class Trajectory(ResultMixin):
         P = self.precision
         return [
             (P.to_mpf(t), P.to_mpf(vb), P.to_mpf(va))
-            for t, vb, va in zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after)
+            for t, vb, va in zip(
+                self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True
+            )
         ]
 
     def as_float64(self) -> dict[str, np.ndarray]:
@@ -113,17 +115,20 @@ class Trajectory(ResultMixin):
             "tol": s(self.tol) if self.tol is not None else None,
             "samples": [
                 {"period": k, "t": s(t), "x": s(x), "v": s(v)}
-                for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v))
+                for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True))
             ],
             "impacts": [
                 {"t": s(t), "v_before": s(vb), "v_after": s(va)}
-                for t, vb, va in zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after)
+                for t, vb, va in zip(
+                    self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True
+                )
             ],
             "elapsed_s": self.elapsed_s,
         }
 
     def save(self, path: str | os.PathLike) -> Path:
-        """Write ``.npz`` (decimal strings for every number, plus float64 copies), ``.csv`` or ``.json``.
+        """Write ``.npz`` (decimal strings for every number, plus float64 copies), ``.csv`` or
+        ``.json``.
 
         ``.json`` is :meth:`to_dict` (the CLI's ``--json`` object).  The file is
         written atomically (temporary file + rename).
@@ -153,12 +158,12 @@ class Trajectory(ResultMixin):
             atomic_write(path, write, binary=True)
         elif path.suffix == ".csv":
             lines = ["kind,index,t,x,v_or_v_before,v_after"]
-            for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v)):
+            for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True)):
                 lines.append(
                     f"sample,{k},{self.precision.to_str(t)},{self.precision.to_str(x)},{self.precision.to_str(v)},"
                 )
             for i, (t, vb, va) in enumerate(
-                zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after)
+                zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)
             ):
                 p = self.precision
                 lines.append(

@@ -72,7 +72,8 @@ class DirectoryLock:
 
     def _refuse(self, holder: dict):
         who = (
-            f"pid {holder.get('pid', '?')} on {holder.get('host', '?')} since {holder.get('since', '?')}"
+            f"pid {holder.get('pid', '?')} on {holder.get('host', '?')} since "
+            f"{holder.get('since', '?')}"
             if holder
             else "another process"
         )

@@ -25,8 +25,9 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
         A loaded scene (:func:`~precise_impact.scenes.scene.load_scene`).
     model : str or None, default ``None``
         Another model to run the scene on (effects re-validated for it).
-    max_time : float or None, default ``None`` (:data:`~precise_impact.core.budget.DEFAULT_MAX_TIME`)
-        Time budget in seconds: the scene's estimated cost
+    max_time : float or None, default ``None``
+        Time budget in seconds (``None``: :data:`~precise_impact.core.budget.DEFAULT_MAX_TIME`):
+        the scene's estimated cost
         (:func:`~precise_impact.core.budget.estimate_cost`) is checked against it before
         any work (:class:`~precise_impact.errors.ParameterError` naming ``max_time``, or
         ``periods`` when the samples would not fit in half the machine's memory).
@@ -147,7 +148,7 @@ def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]
         "samples": [
             {"period": i, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
             for i, (t, x, v, y, w) in enumerate(
-                zip(result["t"], result["x"], result["v"], result["y"], result["w"])
+                zip(result["t"], result["x"], result["v"], result["y"], result["w"], strict=True)
             )
         ],
         "impacts": {
@@ -183,7 +184,10 @@ def save_scene_outputs(
         ax.legend(fontsize=8)
     else:
         P = result["precision"]
-        d = [abs(P.to_float(x) - P.to_float(y)) for x, y in zip(result["x"], result["y"])]
+        d = [
+            abs(P.to_float(x) - P.to_float(y))
+            for x, y in zip(result["x"], result["y"], strict=True)
+        ]
         ax.semilogy([P.to_float(t) for t in result["t"]], [max(v, 1e-300) for v in d])
         ax.set_xlabel("t (dimensionless)")
         ax.set_ylabel("|x - y| at t0 + kT")

@@ -98,7 +98,7 @@ def accuracy_table(
                 "final_error": sample_errors(ref, check)[-1],
                 "impacts": ref.n_impacts,
                 "elapsed_s": ref.elapsed_s,
-                "role": "reference (error = disagreement with mp:%d)" % (bits + 64),
+                "role": f"reference (error = disagreement with mp:{bits + 64})",
             }
         )
         curves[eta] = {}
@@ -134,7 +134,7 @@ def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -
     fig, axes = new_figure(
         1, len(curves), figsize=(5 * len(curves), 4), layout="tight", sharey=True
     )
-    for ax, (eta, by_model) in zip(axes[0], curves.items()):
+    for ax, (eta, by_model) in zip(axes[0], curves.items(), strict=True):
         for label, errs in by_model.items():
             ax.semilogy(range(len(errs)), [max(e, 1e-40) for e in errs], label=label)
         ax.set_title(f"eta = {eta}")
@@ -181,9 +181,10 @@ def format_table(result: AccuracyResult) -> str:
     str
     """
     lines = [
-        f"Errors over {result['periods']} periods from rest against heyoka mp:{result['reference_bits']} "
-        "(max over stroboscopic samples of max(|dx|, |dv|))",
-        f"{'eta':>6}  {'model':<17} {'precision':<11} {'max error':>10} {'at end':>10} {'impacts':>7} {'time [s]':>9}",
+        f"Errors over {result['periods']} periods from rest against heyoka "
+        f"mp:{result['reference_bits']} (max over stroboscopic samples of max(|dx|, |dv|))",
+        f"{'eta':>6}  {'model':<17} {'precision':<11} {'max error':>10} {'at end':>10} "
+        f"{'impacts':>7} {'time [s]':>9}",
     ]
     for r in result["rows"]:
         tag = "  <- reference: disagreement with +64 bits" if r["role"] != "candidate" else ""

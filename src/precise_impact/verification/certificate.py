@@ -69,7 +69,8 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
     r = certify(p, samples_json["periods"], bits=bits, max_bits=bits)
     if len(r.impacts) != len(samples_json["impacts"]):
         raise ValueError(
-            f"the certified run has {len(r.impacts)} impacts, the reference {len(samples_json['impacts'])}"
+            f"the certified run has {len(r.impacts)} impacts, the reference "
+            f"{len(samples_json['impacts'])}"
         )
     rows, worst = [], Fraction(0)
     for s in samples_json["samples"]:
@@ -78,12 +79,14 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
         worst = max(worst, ex, ev)
         rows.append({"period": s["period"], "x_err": _up(ex), "v_err": _up(ev)})
     imps = []
-    for row, (bt, _, va) in zip(samples_json["impacts"], r.impacts):
+    for row, (bt, _, va) in zip(samples_json["impacts"], r.impacts, strict=True):
         et, ev = _err(row["t"], bt), _err(row["v_after"], va)
         imps.append({"t_err": _up(et), "v_err": _up(ev)})
     return {
-        "method": "certified engine (python-flint arb, closed-form flights, isolated impacts, interval Newton); "
-        "err = |stored - mid| + rad, rounded up: a proven bound of |stored - truth|",
+        "method": (
+            "certified engine (python-flint arb, closed-form flights, isolated impacts, interval "
+            "Newton); err = |stored - mid| + rad, rounded up: a proven bound of |stored - truth|"
+        ),
         "bits": bits,
         "periods": samples_json["periods"],
         "impacts": len(r.impacts),
@@ -129,7 +132,9 @@ def add_certificate(case_dir: str | Path, bits: int = CERTIFICATE_BITS) -> dict:
         "file": CERTIFICATE,
         "bits": bits,
         "max_proven_error": cert["max_err"],
-        "method": "every stored sample and impact within a proven bound of the truth (ball arithmetic)",
+        "method": (
+            "every stored sample and impact within a proven bound of the truth (ball arithmetic)"
+        ),
         "versions": _versions(),
         "generated_utc": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
     }
@@ -164,9 +169,10 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
     )
     if len(r.impacts) != cert["impacts"] or len(r.impacts) != len(data["impacts"]):
         return [
-            f"{case}: the certified run has {len(r.impacts)} impacts, the certificate {cert['impacts']}"
+            f"{case}: the certified run has {len(r.impacts)} impacts, the certificate "
+            f"{cert['impacts']}"
         ]
-    for s, c in zip(data["samples"], cert["samples"]):
+    for s, c in zip(data["samples"], cert["samples"], strict=True):
         _, _, bx, bv = r.samples[s["period"]]
         for name, ball in (("x", bx), ("v", bv)):
             if _err(s[name], ball) > Fraction(c[f"{name}_err"]):
@@ -175,12 +181,13 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
                     f"{c[name + '_err']} of the freshly certified ball"
                 ]
     for j, (row, c, (bt, _, va)) in enumerate(
-        zip(data["impacts"], cert["impact_errors"], r.impacts)
+        zip(data["impacts"], cert["impact_errors"], r.impacts, strict=True)
     ):
         if _err(row["t"], bt) > Fraction(c["t_err"]) or _err(row["v_after"], va) > Fraction(
             c["v_err"]
         ):
             return [
-                f"{case}: stored impact {j} is not within its proven bound of the freshly certified ball"
+                f"{case}: stored impact {j} is not within its proven bound of the freshly "
+                "certified ball"
             ]
     return []

@@ -269,8 +269,10 @@ def _score_model(
         div = divergence_rate(*separation(tr2, tr))
         model_lle = div["rate"] if math.isfinite(div["rate"]) else None
         extra = {
-            "model_lle_method": f"finite-time divergence rate of the model against itself from x0 + "
-            f"{decimal_str(MODEL_PERTURBATION)}",
+            "model_lle_method": (
+                "finite-time divergence rate of the model against itself from x0 + "
+                f"{decimal_str(MODEL_PERTURBATION)}"
+            ),
             "model_lle_fit": div,
         }
     sc = score(tr, ref, regime=regime, lle=lle["lle"], model_lle=model_lle, ref2=ref2, transient=k)
@@ -348,8 +350,9 @@ def _one_line(sc: dict) -> str:
     if sc["regime"] == "periodic":
         im = sc["impacts"]
         return (
-            f"max state error {sc['max_state_error']:.2e}, impacts dt {im['max_dt']:.1e} dv {im['max_dv']:.1e} "
-            f"(unmatched {im['unmatched_model']}/{im['unmatched_reference']}), period {sc['period_model']}"
+            f"max state error {sc['max_state_error']:.2e}, impacts dt {im['max_dt']:.1e} dv "
+            f"{im['max_dv']:.1e} (unmatched {im['unmatched_model']}/{im['unmatched_reference']}), "
+            f"period {sc['period_model']}"
         )
     h = sc["horizons"]
     return (
@@ -373,10 +376,12 @@ def format_scores(result: CompareResult) -> str:
     """
     r = result["reference"]
     lines = [
-        f"scene {result['scene']}: {result['regime']} (reference period {result['reference_period']}), "
-        f"{result['periods']} periods, transient {result['transient_periods']}",
-        f"reference heyoka {r['precision']} agrees with {r['check_precision']} to {r['agreement_max']:.1e}; "
-        f"LLE {result['lle']['lle']:.4f} +- {result['lle']['stderr']:.4f}",
+        f"scene {result['scene']}: {result['regime']} (reference period "
+        f"{result['reference_period']}), {result['periods']} periods, transient "
+        f"{result['transient_periods']}",
+        f"reference heyoka {r['precision']} agrees with {r['check_precision']} to "
+        f"{r['agreement_max']:.1e}; LLE {result['lle']['lle']:.4f} +- "
+        f"{result['lle']['stderr']:.4f}",
     ]
     for m, sc in result["models"].items():
         lines.append(f"  {m:<20} {_one_line(sc)}")
@@ -411,7 +416,7 @@ def _plot_portraits(scene: Scene, ref: Trajectory, trajs: dict, k: int, path: Pa
     panels = [("reference: heyoka " + ref.precision.name, ref)] + [(m, t) for m, t in trajs.items()]
     fig = figure(figsize=(4.2 * len(panels), 4))
     axes = fig.subplots(1, len(panels), sharex=True, sharey=True, squeeze=False)[0]
-    for ax, (label, tr) in zip(axes, panels):
+    for ax, (label, tr) in zip(axes, panels, strict=True):
         with np.errstate(invalid="ignore"):
             f = tr.as_float64()
         tk = f["t"][k]
@@ -426,7 +431,8 @@ def _plot_portraits(scene: Scene, ref: Trajectory, trajs: dict, k: int, path: Pa
     axes[0].set_ylabel("x'")
     axes[0].legend(fontsize=7, loc="lower left")
     fig.suptitle(
-        f"{scene.name}: phase portraits after {k} transient periods (eta = {decimal_str(scene.params.eta)})",
+        f"{scene.name}: phase portraits after {k} transient periods (eta = "
+        f"{decimal_str(scene.params.eta)})",
         fontsize=10,
     )
     fig.tight_layout()
@@ -463,7 +469,7 @@ def _plot_separation(
         label=f"{ref.precision.name} vs {check.precision.name}",
     )
     if anchor is None:
-        for m, tr in trajs.items():
+        for tr in trajs.values():
             t, sep = separation(tr, ref)
             pos = np.nonzero(sep > 0)[0]
             if len(pos):
@@ -502,10 +508,12 @@ def _points_report(res: dict) -> list[str]:
         "",
         "## Bifurcation points along eta",
         "",
-        f"Mechanics: grazing of the non-impacting orbit at eta = {rp['grazing']:.12g} (closed form); "
-        f"period-doubling of the 1:1 orbit at eta = {_g(rp['period-doubling'], '.12g')} (continuation).",
+        f"Mechanics: grazing of the non-impacting orbit at eta = {rp['grazing']:.12g} (closed "
+        f"form); period-doubling of the 1:1 orbit at eta = {_g(rp['period-doubling'], '.12g')} "
+        "(continuation).",
         "",
-        "| model | grazing eta | shift | resolution | period-doubling eta | shift | resolution | how |",
+        "| model | grazing eta | shift | resolution | period-doubling eta | shift | resolution | "
+        "how |",
         "|---|---:|---:|---:|---:|---:|---:|---|",
     ]
     for m, s in res["models"].items():
@@ -533,20 +541,22 @@ def _points_report(res: dict) -> list[str]:
         )
     L += [
         "",
-        "How obtained (`precise_impact.verification.points`): the grazing point is the root of x_w - max x of "
-        "the model's own steady state, the period-doubling point the root of det(A + I) of the model's "
-        "stroboscopic map identified from its runs (A fitted, multipliers = eig A); both approached from the "
-        "valid side by a safeguarded secant.  *how* = root: the test function reached zero there; extrapolated: "
-        "the model's orbit was lost (it escaped) while the test function was still away from zero -- an "
-        "imperfect, discontinuity-induced bifurcation of the switching hardware -- and the eta given "
-        "extrapolates the smooth test function (resolution = the extrapolated distance).  The heyoka model "
-        "itself recovers both mechanical points to ~1e-9.",
+        "How obtained (`precise_impact.verification.points`): the grazing point is the root of "
+        "x_w - max x of the model's own steady state, the period-doubling point the root of det(A "
+        "+ I) of the model's stroboscopic map identified from its runs (A fitted, multipliers = "
+        "eig A); both approached from the valid side by a safeguarded secant.  *how* = root: the "
+        "test function reached zero there; extrapolated: the model's orbit was lost (it escaped) "
+        "while the test function was still away from zero -- an imperfect, discontinuity-induced "
+        "bifurcation of the switching hardware -- and the eta given extrapolates the smooth test "
+        "function (resolution = the extrapolated distance).  The heyoka model itself recovers both "
+        "mechanical points to ~1e-9.",
     ]
     return L
 
 
 def _report(res: dict) -> str:
-    """``report.md``: how the reference was made, every model's scores and how they were obtained."""
+    """``report.md``: how the reference was made, every model's scores and how they were
+    obtained."""
     L = _report_header(res)
     L += ["## Scores", ""]
     if res["regime"] == "periodic":
@@ -566,28 +576,31 @@ def _report_header(res: dict) -> list[str]:
         "",
         res.get("description", ""),
         "",
-        f"Parameters (exact decimals): {p}.  {res['periods']} forcing periods from the scene's initial "
-        f"condition; samples at t0 + kT, T = 2 pi / eta.  The first {res['transient_periods']} periods are the "
-        "transient (excluded from state errors, impact matching, periods and clouds).",
+        f"Parameters (exact decimals): {p}.  {res['periods']} forcing periods from the scene's "
+        "initial condition; samples at t0 + kT, T = 2 pi / eta.  The first "
+        f"{res['transient_periods']} periods are the transient (excluded from state errors, impact "
+        "matching, periods and clouds).",
         "",
         "## Reference",
         "",
         f"heyoka Taylor integrator with impact events (the `mechanical` model) in {r['precision']} "
-        f"(MPFR); rerun in {r['check_precision']}.  Largest disagreement over all stroboscopic samples: "
-        f"**{r['agreement_max']:.2e}** (final sample {r['agreement_final']:.2e}) -- the reference's demonstrated "
-        f"accuracy.  Impacts: {r['impacts']}.  Time {r['elapsed_s']:.1f} s.",
+        f"(MPFR); rerun in {r['check_precision']}.  Largest disagreement over all stroboscopic "
+        f"samples: **{r['agreement_max']:.2e}** (final sample {r['agreement_final']:.2e}) -- the "
+        f"reference's demonstrated accuracy.  Impacts: {r['impacts']}.  "
+        f"Time {r['elapsed_s']:.1f} s.",
         "",
-        f"Regime: **{res['regime']}** (reference period {res['reference_period']}: smallest p <= 32 with the "
-        "samples after the transient p-periodic to 1e-6 (1 + |x| + |v|); 0 = none).",
+        f"Regime: **{res['regime']}** (reference period {res['reference_period']}: smallest p <= "
+        "32 with the samples after the transient p-periodic to 1e-6 (1 + |x| + |v|); 0 = none).",
         "",
-        f"LLE: **{ly['lle']:.4f} +- {ly['stderr']:.4f}** per unit time ({ly['method']}: {ly['periods']} measured "
-        f"periods after {ly['transient']} transient, error bar by batch means; {ly['elapsed_s']:.1f} s).",
+        f"LLE: **{ly['lle']:.4f} +- {ly['stderr']:.4f}** per unit time ({ly['method']}: "
+        f"{ly['periods']} measured periods after {ly['transient']} transient, error bar by batch "
+        f"means; {ly['elapsed_s']:.1f} s).",
         "",
     ]
     if "second_reference_x0" in r:
         L += [
-            f"Second reference (noise floor of the distribution distances): heyoka {r['precision']} from "
-            f"x0 = {r['second_reference_x0']}.",
+            "Second reference (noise floor of the distribution distances): heyoka "
+            f"{r['precision']} from x0 = {r['second_reference_x0']}.",
             "",
         ]
     return L
@@ -596,28 +609,31 @@ def _report_header(res: dict) -> list[str]:
 def _periodic_scores(res: dict) -> list[str]:
     """The scores table of a periodic scene and how its columns were obtained."""
     L = [
-        "| model | max state error | final state error | impacts (model/ref) | matched | unmatched model/ref "
-        "| max impact dt | max impact dv | period | time [s] |",
+        "| model | max state error | final state error | impacts (model/ref) | matched | "
+        "unmatched model/ref | max impact dt | max impact dv | period | time [s] |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for m, s in res["models"].items():
         im = s["impacts"]
         L.append(
-            f"| {m} | {_g(s['max_state_error'])} | {_g(s['final_state_error'])} | {im['model_impacts']}/"
-            f"{im['reference_impacts']} | {im['matched']} | {im['unmatched_model']}/{im['unmatched_reference']} "
-            f"| {_g(im['max_dt'])} | {_g(im['max_dv'])} | {s['period_model']} | {s['elapsed_s']:.3f} |"
+            f"| {m} | {_g(s['max_state_error'])} | {_g(s['final_state_error'])} | "
+            f"{im['model_impacts']}/{im['reference_impacts']} | {im['matched']} | "
+            f"{im['unmatched_model']}/{im['unmatched_reference']} | {_g(im['max_dt'])} | "
+            f"{_g(im['max_dv'])} | {s['period_model']} | {s['elapsed_s']:.3f} |"
         )
     L += [
         "",
         "How obtained:",
         "",
-        "* *state error*: max(|x - x_ref|, |v - v_ref|) at every stroboscopic sample after the transient, the "
-        "difference taken exactly in mpmath (then rounded to float).",
-        "* *impacts*: each model impact after the transient is matched to the nearest reference impact in "
-        "time (within T/4; one model impact per reference impact); dt and dv = |v_before - v_before_ref| are "
-        "over matched pairs; unmatched counts are the impacts left over on each side.",
-        "* *period*: smallest p <= 32 such that the model's samples after the transient repeat after p "
-        "periods to 1e-6 (1 + |x| + |v|) (`precise_impact.analysis.periodicity.detect_period`).",
+        "* *state error*: max(|x - x_ref|, |v - v_ref|) at every stroboscopic sample after the "
+        "transient, the difference taken exactly in mpmath (then rounded to float).",
+        "* *impacts*: each model impact after the transient is matched to the nearest reference "
+        "impact in time (within T/4; one model impact per reference impact); dt and dv = "
+        "|v_before - v_before_ref| are over matched pairs; unmatched counts are the impacts left "
+        "over on each side.",
+        "* *period*: smallest p <= 32 such that the model's samples after the transient repeat "
+        "after p periods to 1e-6 (1 + |x| + |v|) "
+        "(`precise_impact.analysis.periodicity.detect_period`).",
     ]
     return L
 
@@ -629,7 +645,8 @@ def _chaotic_scores(res: dict) -> list[str]:
         "| model | "
         + " | ".join(f"horizon d={d}" for d in deltas)
         + " | fitted rate | rate / LLE | "
-        "model LLE est. | LLE gap | sliced W (floor) | impact-v W1 (floor) | impacts/period (ref) | period | time [s] |",
+        "model LLE est. | LLE gap | sliced W (floor) | impact-v W1 (floor) | impacts/period (ref) "
+        "| period | time [s] |",
         "|---|" + "---:|" * (len(deltas) + 10),
     ]
     for m, s in res["models"].items():
@@ -637,9 +654,10 @@ def _chaotic_scores(res: dict) -> list[str]:
         L.append(
             f"| {m} | "
             + " | ".join(_g(s["horizons"][x], ".1f") for x in deltas)
-            + f" | {_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')} | {_g(s['rate_over_lle'], '.3f')} "
-            f"| {_g(s['lle_model'], '.4f')} | {_g(s['lle_gap'], '+.4f')} | {s['sliced_wasserstein']:.4f} "
-            f"({s['sw_floor']:.4f}) | {s['impact_v_wasserstein']:.4f} ({s['impact_v_floor']:.4f}) | "
+            + f" | {_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')} | "
+            f"{_g(s['rate_over_lle'], '.3f')} | {_g(s['lle_model'], '.4f')} | "
+            f"{_g(s['lle_gap'], '+.4f')} | {s['sliced_wasserstein']:.4f} ({s['sw_floor']:.4f}) | "
+            f"{s['impact_v_wasserstein']:.4f} ({s['impact_v_floor']:.4f}) | "
             f"{s['impacts_per_period_model']:.3f} ({s['impacts_per_period_reference']:.3f}) | "
             f"{s['period_model']} | {s['elapsed_s']:.3f} |"
         )
@@ -647,20 +665,23 @@ def _chaotic_scores(res: dict) -> list[str]:
         "",
         "How obtained:",
         "",
-        "* *separation* sep(t) = max(|x - x_ref|, |v - v_ref|) at the stroboscopic samples (exact differences).",
-        "* *horizon d*: first time (dimensionless) sep exceeds d, interpolated linearly in ln sep between the "
-        "two samples around the crossing; 'never' if it stays below.",
-        "* *fitted rate*: least-squares slope of ln sep against t over the samples with 1e-12 < sep < 1e-2 "
-        "before sep first reaches 1e-2 (error: standard error of the slope); *rate / LLE* divides by the "
-        "variational LLE above.",
+        "* *separation* sep(t) = max(|x - x_ref|, |v - v_ref|) at the stroboscopic samples (exact "
+        "differences).",
+        "* *horizon d*: first time (dimensionless) sep exceeds d, interpolated linearly in ln sep "
+        "between the two samples around the crossing; 'never' if it stays below.",
+        "* *fitted rate*: least-squares slope of ln sep against t over the samples with 1e-12 < "
+        "sep < 1e-2 before sep first reaches 1e-2 (error: standard error of the slope); *rate / "
+        "LLE* divides by the variational LLE above.",
         f"* *model LLE est.*: the same fitted rate for the model against itself started from x0 + "
-        f"{decimal_str(MODEL_PERTURBATION)} (a finite-time estimate); *LLE gap* = model LLE est. - reference LLE.",
-        "* *sliced W*: sliced 1-Wasserstein distance between the (x, v) stroboscopic clouds after the transient "
-        "(256 projection directions, stratified random angles, exact 1-D distance from sorted samples); "
-        "*floor*: the same distance between the reference and the second reference (two samples of the "
-        "same attractor) -- a model distance near the floor is indistinguishable from sampling noise.",
-        "* *impact-v W1*: 1-D Wasserstein distance between the v_before values of the impacts after the "
-        "transient; floor as above.",
+        f"{decimal_str(MODEL_PERTURBATION)} (a finite-time estimate); *LLE gap* = model LLE est. - "
+        "reference LLE.",
+        "* *sliced W*: sliced 1-Wasserstein distance between the (x, v) stroboscopic clouds after "
+        "the transient (256 projection directions, stratified random angles, exact 1-D distance "
+        "from sorted samples); *floor*: the same distance between the reference and the second "
+        "reference (two samples of the same attractor) -- a model distance near the floor is "
+        "indistinguishable from sampling noise.",
+        "* *impact-v W1*: 1-D Wasserstein distance between the v_before values of the impacts "
+        "after the transient; floor as above.",
     ]
     return L
 
@@ -686,9 +707,10 @@ def _report_footer(res: dict) -> list[str]:
         "## Figures",
         "",
         "* `phase_portraits.png`: phase portraits (dense output, "
-        "after the transient) with the stroboscopic samples, one panel per model, the reference first.",
-        "* `separation.png`: sep(t) on a log scale for each model, the reference's own mp-vs-mp disagreement, "
-        f"and the line e^(lambda t) with lambda = {ly['lle']:.4f} (variational LLE).",
+        "after the transient) with the stroboscopic samples, one panel per model, the reference "
+        "first.",
+        "* `separation.png`: sep(t) on a log scale for each model, the reference's own mp-vs-mp "
+        f"disagreement, and the line e^(lambda t) with lambda = {ly['lle']:.4f} (variational LLE).",
         "",
         "Numbers are also in `scores.json`.",
         "",

@@ -124,7 +124,7 @@ def _approach(
         if reference is not None:
             if pts:
                 r_new, r_old = reference(eta), reference(pts[-1][0])
-                start = tuple(n + (e - o) for n, e, o in zip(r_new, ends[-1], r_old))
+                start = tuple(n + (e - o) for n, e, o in zip(r_new, ends[-1], r_old, strict=True))
             else:
                 start = reference(eta)
         value, valid, end = evaluate(eta, start)
@@ -232,7 +232,8 @@ def _monodromy(run: Callable[..., Any], params: Params, eta: float, state: tuple
     x0, v0 = float(tr.x[-1]), float(tr.v[-1])
     steps = np.hypot(np.diff(np.asarray(tr.x, dtype=float)), np.diff(np.asarray(tr.v, dtype=float)))
     # not escaping: |mu| <= 1 over the last 20 periods, or within the model's noise floor (a
-    # switching model's stroboscopic map can hold a 1e-5 period-2 cycle of its delays and hysteresis)
+    # switching model's stroboscopic map can hold a 1e-5 period-2 cycle of its delays and
+    # hysteresis)
     settled = bool(steps[-1] <= max(steps[-21], 0.1 * PERTURBATION))
     fits, resid = [], 0.0
     for sign in (

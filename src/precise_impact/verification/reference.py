@@ -95,7 +95,8 @@ def shipped_root() -> Path:
 
 
 def default_root() -> Path:
-    """Where datasets are read from: ``$PRECISE_IMPACT_REFERENCE`` if set, else :func:`shipped_root`.
+    """Where datasets are read from: ``$PRECISE_IMPACT_REFERENCE`` if set, else
+    :func:`shipped_root`.
 
     Every entry point (the ``testing`` API, ``reference verify``, ``compare``) resolves
     its default through this one function, so the override is honoured everywhere.
@@ -181,7 +182,9 @@ def _impact_dicts(traj) -> list[dict]:
     s = traj.precision.to_str
     return [
         {"t": s(t), "v_before": s(vb), "v_after": s(va)}
-        for t, vb, va in zip(traj.impacts_t, traj.impacts_v_before, traj.impacts_v_after)
+        for t, vb, va in zip(
+            traj.impacts_t, traj.impacts_v_before, traj.impacts_v_after, strict=True
+        )
     ]
 
 
@@ -190,7 +193,7 @@ def _impact_disagreement(a, b) -> float | None:
         return None
     with mpmath.workprec(max(a.precision.bits, b.precision.bits) + 16):
         worst = mpmath.mpf(0)
-        for (t1, b1, a1), (t2, b2, a2) in zip(a.impacts_mpf(), b.impacts_mpf()):
+        for (t1, b1, a1), (t2, b2, a2) in zip(a.impacts_mpf(), b.impacts_mpf(), strict=True):
             worst = max(worst, abs(t1 - t2), abs(b1 - b2), abs(a1 - a2))
         return float(worst)
 
@@ -206,7 +209,8 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
     errs = sample_errors(ref, check)
     imp_dis = _impact_disagreement(ref, check)
     _log(
-        f"  {case}: mp:{bits} vs mp:{bits + 64}: max {max(errs):.2e} ({time.perf_counter() - t0:.1f} s)",
+        f"  {case}: mp:{bits} vs mp:{bits + 64}: max {max(errs):.2e} "
+        f"({time.perf_counter() - t0:.1f} s)",
         progress,
     )
     s = P.to_str
@@ -217,10 +221,12 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
         "precision": P.name,
         "digits": P.digits,
         "periods": SINGLE_PERIODS,
-        "sample_times": "t0 + k 2 pi / eta, k = 0..periods (each correctly rounded to the precision)",
+        "sample_times": (
+            "t0 + k 2 pi / eta, k = 0..periods (each correctly rounded to the precision)"
+        ),
         "samples": [
             {"period": k, "t": s(t), "x": s(x), "v": s(v)}
-            for k, (t, x, v) in enumerate(zip(ref.t, ref.x, ref.v))
+            for k, (t, x, v) in enumerate(zip(ref.t, ref.x, ref.v, strict=True))
         ],
         "impacts": _impact_dicts(ref),
         # disagreement with the +64-bit run at each sample: the demonstrated error bound
@@ -245,7 +251,9 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
         ["samples.json", "dense.npz"],
         {
             "case": case,
-            "description": f"single impact oscillator from rest, eta = {eta}, {SINGLE_PERIODS} periods",
+            "description": (
+                f"single impact oscillator from rest, eta = {eta}, {SINGLE_PERIODS} periods"
+            ),
             "params": params.decimal(),
             "model": "heyoka (Taylor integrator with impact events)",
             "precision": P.name,
@@ -253,7 +261,10 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
             "periods": SINGLE_PERIODS,
             "impacts": ref.n_impacts,
             "accuracy": {
-                "method": f"two heyoka runs, {P.name} (stored) and mp:{bits + 64}, compared at every stroboscopic sample",
+                "method": (
+                    f"two heyoka runs, {P.name} (stored) and mp:{bits + 64}, compared at every "
+                    "stroboscopic sample"
+                ),
                 "runs": [P.name, f"mp:{bits + 64}"],
                 "max_sample_disagreement": f"{max(errs):.3e}",
                 "final_sample_disagreement": f"{errs[-1]:.3e}",
@@ -316,7 +327,9 @@ def _gen_coupled(case: str, case_dir: Path, progress: bool) -> dict:
         ["coupled.npz"],
         {
             "case": case,
-            "description": "master-slave pair (eqs. 11-12, first-order form), Fig. 7: k = 0.031 and 0.032",
+            "description": (
+                "master-slave pair (eqs. 11-12, first-order form), Fig. 7: k = 0.031 and 0.032"
+            ),
             "params": params.decimal(),
             "k": list(COUPLED_KS),
             "y0": list(COUPLED_Y0),
@@ -326,14 +339,18 @@ def _gen_coupled(case: str, case_dir: Path, progress: bool) -> dict:
             "tolerance": "machine epsilon of float64",
             "periods": COUPLED_PERIODS,
             "accuracy": {
-                "method": "the same runs in float64 (stored) and float128, compared at every stroboscopic sample",
+                "method": (
+                    "the same runs in float64 (stored) and float128, compared at every "
+                    "stroboscopic sample"
+                ),
                 "runs": ["float64", "float128"],
                 "per_k": acc,
                 "what_is_demonstrated": (
-                    "The float64 samples are pointwise accurate (to 1e-6) only over the periods listed in "
-                    "periods_agreeing_to_1e-6; the master is chaotic, so later samples are one valid "
-                    "realisation, not the exact orbit.  The synchronisation outcome (|x - y| decay or not) is "
-                    "a statistical property and is compared via final_absdiff in both precisions."
+                    "The float64 samples are pointwise accurate (to 1e-6) only over the periods "
+                    "listed in periods_agreeing_to_1e-6; the master is chaotic, so later samples "
+                    "are one valid realisation, not the exact orbit.  The synchronisation outcome "
+                    "(|x - y| decay or not) is a statistical property and is compared via "
+                    "final_absdiff in both precisions."
                 ),
             },
         },
@@ -372,7 +389,8 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
             }
         )
         _log(
-            f"  {case}: eta={eta}: {var.lle:.5f} +- {var.lle_stderr:.5f} (two-traj {two.lle:.5f} +- {two.lle_stderr:.5f})",
+            f"  {case}: eta={eta}: {var.lle:.5f} +- {var.lle_stderr:.5f} (two-traj {two.lle:.5f} +- "
+            f"{two.lle_stderr:.5f})",
             progress,
         )
     _write_json(
@@ -385,7 +403,9 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
             "case": case,
             "description": "largest Lyapunov exponent at the paper's three frequencies",
             "params": Params.make().decimal() | {"eta": list(LLE_ETAS)},
-            "model": "heyoka variational equations + saltation (QR each period); Benettin two-trajectory",
+            "model": (
+                "heyoka variational equations + saltation (QR each period); Benettin two-trajectory"
+            ),
             "precision": "float64",
             "tolerance": "machine epsilon of float64",
             "periods": LLE_PERIODS,
@@ -394,7 +414,9 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
                 "method": "two independent methods; error bars by batch means (20 segments)",
                 "runs": ["variational", "two-trajectory"],
                 "agree_within_3_sigma": {r["eta"]: r["methods_agree_within_3_sigma"] for r in rows},
-                "what_is_demonstrated": "statistical agreement of two methods, not digits of a single orbit",
+                "what_is_demonstrated": (
+                    "statistical agreement of two methods, not digits of a single orbit"
+                ),
             },
         },
     )
@@ -442,8 +464,8 @@ def _gen_bifurcation(case: str, case_dir: Path, progress: bool) -> dict:
                 "method": "none beyond the error bars: statistical quantities of float64 runs",
                 "runs": ["float64"],
                 "what_is_demonstrated": (
-                    "LLE error bars (batch means); stroboscopic x values in chaotic windows are one "
-                    "realisation on the attractor, not a precise orbit"
+                    "LLE error bars (batch means); stroboscopic x values in chaotic windows are "
+                    "one realisation on the attractor, not a precise orbit"
                 ),
             },
         },
@@ -529,8 +551,8 @@ def single_tolerance(period: int, precision: Precision, stored_disagreement: flo
     """Allowed |recomputed - stored| at ``period`` for a recomputation in ``precision``.
 
     ``1e4 eps`` at the start, growing by 1.5x the measured chaotic loss rate
-    (:data:`~precise_impact.verification.accuracy.DIGITS_LOST_PER_PERIOD` decimal digits per period), plus the
-    stored reference's own demonstrated disagreement.
+    (:data:`~precise_impact.verification.accuracy.DIGITS_LOST_PER_PERIOD` decimal digits per
+    period), plus the stored reference's own demonstrated disagreement.
     """
     return (
         1e4 * precision.eps_float * 10 ** (1.5 * DIGITS_LOST_PER_PERIOD * period)
@@ -556,7 +578,8 @@ def _recompute_single(case: str, case_dir: Path) -> list[str]:
             tol = single_tolerance(k, P, stored)
             if not err <= tol:
                 problems.append(
-                    f"{case}: recomputed float128 sample at period {k} differs from stored by {err:.3e} > {tol:.3e}"
+                    f"{case}: recomputed float128 sample at period {k} differs from stored by "
+                    f"{err:.3e} > {tol:.3e}"
                 )
                 break
         t_end = traj.t[-1]
@@ -564,10 +587,13 @@ def _recompute_single(case: str, case_dir: Path) -> list[str]:
         stored_imp = [i for i in data["impacts"] if mpmath.mpf(i["t"]) < t_end]
         if len(stored_imp) != traj.n_impacts:
             problems.append(
-                f"{case}: {traj.n_impacts} impacts recomputed in the first {n} periods, {len(stored_imp)} stored"
+                f"{case}: {traj.n_impacts} impacts recomputed in the first {n} periods, "
+                f"{len(stored_imp)} stored"
             )
         else:
-            for j, ((t, vb, va), row) in enumerate(zip(traj.impacts_mpf(), stored_imp)):
+            for j, ((t, _vb, va), row) in enumerate(
+                zip(traj.impacts_mpf(), stored_imp, strict=True)
+            ):
                 err = float(
                     max(abs(t - mpmath.mpf(row["t"])), abs(va - mpmath.mpf(row["v_after"])))
                 )
@@ -598,7 +624,8 @@ def _recompute_coupled(case: str, case_dir: Path) -> list[str]:
             )
             if not dev <= 1e-9:
                 problems.append(
-                    f"{case}: k={k}: recomputed first {n} periods differ from stored by {dev:.3e} > 1e-9"
+                    f"{case}: k={k}: recomputed first {n} periods differ from stored by "
+                    f"{dev:.3e} > 1e-9"
                 )
     return problems
 

@@ -203,7 +203,7 @@ def _plot_portraits(
     """Side-by-side phase portraits of the models (paper Figs. 4-6), second half of the run."""
     fig_ = new_fig(figsize=(4 * len(models), 3.8))
     axes = fig_.subplots(1, len(models), sharex=True, sharey=True)
-    for ax, (name, tr) in zip(np.atleast_1d(axes), models.items()):
+    for ax, (name, tr) in zip(np.atleast_1d(axes), models.items(), strict=True):
         xs, vs = _floats(tr, True)
         half = len(xs) // 2
         ax.plot(xs[half:], vs[half:], lw=0.4)
@@ -228,7 +228,8 @@ def _lle_two_methods(p: Params, progress: bool | None):
         "two-trajectory": [lle_t.lle, lle_t.lle_stderr, lle_t.periods],
     }
     _say(
-        f"LLE: variational {lle_v.lle:.4f} +- {lle_v.lle_stderr:.4f}, two-trajectory {lle_t.lle:.4f} +- {lle_t.lle_stderr:.4f}",
+        f"LLE: variational {lle_v.lle:.4f} +- {lle_v.lle_stderr:.4f}, two-trajectory {lle_t.lle:.4f} "
+        f"+- {lle_t.lle_stderr:.4f}",
         progress,
     )
     return entry, lle_v
@@ -266,24 +267,26 @@ def _report_md(res: dict) -> str:
     L = [
         "# precise_impact: the paper's figures reproduced",
         "",
-        f"{'Quick run' if res['quick'] else 'Full run'}; {res['periods']} forcing periods per figure from rest; "
-        f"ngspice {'used' if res['ngspice'] else 'not installed (apt-get install ngspice)'}; "
+        f"{'Quick run' if res['quick'] else 'Full run'}; {res['periods']} forcing periods per "
+        "figure from rest; ngspice "
+        f"{'used' if res['ngspice'] else 'not installed (apt-get install ngspice)'}; "
         f"{res['elapsed_s']:.0f} s in all.",
         "",
         "## Figs. 4-6: models against the demonstrated reference",
         "",
-        "Reference: heyoka's Taylor integrator in multiprecision; its accuracy is demonstrated by a second run "
-        "with 64 more bits (the largest disagreement over all stroboscopic samples is given). Error: the largest "
-        "max(|dx|, |dv|) at the stroboscopic samples t0 + kT over the last quarter of the run; horizon: the first "
-        "period where it exceeds 0.1 (chaotic divergence).",
+        "Reference: heyoka's Taylor integrator in multiprecision; its accuracy is demonstrated by "
+        "a second run with 64 more bits (the largest disagreement over all stroboscopic samples "
+        "is given). Error: the largest max(|dx|, |dv|) at the stroboscopic samples t0 + kT over "
+        "the last quarter of the run; horizon: the first period where it exceeds 0.1 (chaotic "
+        "divergence).",
         "",
     ]
     for fig, row in res["figures"].items():
         L.append(f"### Fig. {fig}: eta = {row['eta']} ({row['regime']})")
         L.append("")
         L.append(
-            f"Reference {row['reference']}, agreement with {row['check']}: {row['demonstrated']:.1e}. "
-            f"Phase portraits: `fig{fig}_phase_portraits.png`."
+            f"Reference {row['reference']}, agreement with {row['check']}: "
+            f"{row['demonstrated']:.1e}. Phase portraits: `fig{fig}_phase_portraits.png`."
         )
         L.append("")
         L.append("| model | error (last quarter) | horizon (err > 0.1) | impacts | time [s] |")
@@ -291,23 +294,25 @@ def _report_md(res: dict) -> str:
         for n, m in row["models"].items():
             hz = "never" if m["horizon_0.1"] is None else f"period {m['horizon_0.1']}"
             L.append(
-                f"| {n} | {m['max_error_second_half']:.2e} | {hz} | {m['impacts']} | {m['elapsed_s']:.3f} |"
+                f"| {n} | {m['max_error_second_half']:.2e} | {hz} | {m['impacts']} | "
+                f"{m['elapsed_s']:.3f} |"
             )
         L.append("")
     v, t = res["lle"]["variational"], res["lle"]["two-trajectory"]
     L += [
         "## Largest Lyapunov exponent at eta = 0.712",
         "",
-        f"- variational equations with the impact's saltation matrix: **{v[0]:.4f} +- {v[1]:.4f}** per unit time "
-        f"({v[2]} periods over 4 orbits; error bar: batch means of 20 segments)",
+        f"- variational equations with the impact's saltation matrix: **{v[0]:.4f} +- {v[1]:.4f}** "
+        f"per unit time ({v[2]} periods over 4 orbits; error bar: batch means of 20 segments)",
         f"- two nearby trajectories (Benettin): **{t[0]:.4f} +- {t[1]:.4f}** ({t[2]} periods)",
         "- the paper: ~0.03, and 0.031 < LLE < 0.032 from its synchronisation experiment",
         "",
         "## Synchronisation threshold of each coupled form (Fig. 7)",
         "",
-        "A run is synchronised if |x - y| < 1e-8 at every dense sample of the last 10 %; k* is where the "
-        "synchronised fraction crosses 1/2 (linear interpolation), +- half the bracketing grid step. Fig. 7-like "
-        "plots: `fig7_<form>.png`; fractions: `sync_fraction_<form>.png`.",
+        "A run is synchronised if |x - y| < 1e-8 at every dense sample of the last 10 %; k* is "
+        "where the synchronised fraction crosses 1/2 (linear interpolation), +- half the "
+        "bracketing grid step. Fig. 7-like plots: `fig7_<form>.png`; fractions: "
+        "`sync_fraction_<form>.png`.",
         "",
         "| form | k* | note |",
         "|---|---:|---|",
@@ -321,9 +326,9 @@ def _report_md(res: dict) -> str:
         L.append(f"| {form} | {ks} | {s['message']} |")
     L += [
         "",
-        "`first-order` = eqs. (11)-(12); `reduced` = the exact second-order form of (12); `paper` = the "
-        "printed eq. (14a), which the Fig. 3 circuit with eq. (15) realises. Finite runs bias k* above the LLE "
-        "(a run must shrink |x - y| by ~1e8 within its length).",
+        "`first-order` = eqs. (11)-(12); `reduced` = the exact second-order form of (12); `paper` "
+        "= the printed eq. (14a), which the Fig. 3 circuit with eq. (15) realises. Finite runs "
+        "bias k* above the LLE (a run must shrink |x - y| by ~1e8 within its length).",
         "",
     ]
     return "\n".join(L)

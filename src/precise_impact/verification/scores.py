@@ -103,7 +103,8 @@ def sliced_wasserstein(p: np.ndarray, q: np.ndarray, n_proj: int = 256, seed: in
 
 # ----------------------------------------------------------------- separation
 def separation(model: Trajectory, ref: Trajectory) -> tuple[np.ndarray, np.ndarray]:
-    """``(t, sep)``: stroboscopic times and ``max(|x - x_ref|, |v - v_ref|)`` (exact differences)."""
+    """``(t, sep)``: stroboscopic times and ``max(|x - x_ref|, |v - v_ref|)`` (exact
+    differences)."""
     sep = np.asarray(sample_errors(model, ref), dtype=float)
     t = _f64(ref)["t"][: len(sep)]
     return t, sep
@@ -244,14 +245,15 @@ def sample_diff(a, b, ia, ib, ta: Trajectory, tb: Trajectory) -> list[float]:
             math.nan
             if a[i] is None or b[j] is None
             else float(abs(ta.precision.to_mpf(a[i]) - tb.precision.to_mpf(b[j])))
-            for i, j in zip(ia, ib)
+            for i, j in zip(ia, ib, strict=True)
         ]
 
 
 def detected_period(
     traj: Trajectory, transient: int = 0, max_period: int = 32, rtol: float = 1e-6
 ) -> int:
-    """Smallest p <= ``max_period`` with p-periodic stroboscopic samples after ``transient``; 0 if none."""
+    """Smallest p <= ``max_period`` with p-periodic stroboscopic samples after ``transient``; 0 if
+    none."""
     f = _f64(traj)
     return int(
         detect_period(f["x"][transient:], f["v"][transient:], max_period=max_period, rtol=rtol)
@@ -273,7 +275,8 @@ def periodic_scores(
     max_period: int = 32,
     rtol: float = 1e-6,
 ) -> dict[str, Any]:
-    """Largest state error after ``transient`` periods, impact errors matched one by one, periods."""
+    """Largest state error after ``transient`` periods, impact errors matched one by one,
+    periods."""
     k = _transient(ref, transient)
     errs = sample_errors(model, ref)
     tk = float(_f64(ref)["t"][k])
@@ -310,7 +313,8 @@ def chaotic_scores(
     n_proj: int = 256,
     seed: int = 0,
 ) -> dict[str, Any]:
-    """Predictability horizons, fitted divergence rate, attractor and impact-velocity distances, LLE gap.
+    """Predictability horizons, fitted divergence rate, attractor and impact-velocity distances,
+    LLE gap.
 
     ``ref2`` (a second reference, e.g. from a perturbed initial condition) gives the
     sampling noise floor of the cloud distances; without it the floor is the

@@ -16,6 +16,7 @@ import statistics
 import time
 from collections.abc import Callable
 from fractions import Fraction
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -59,7 +60,8 @@ CASES = {
 def predicted_bits(
     N: int, eta: float = 0.712, lam: float = LAMBDA, margin: float = MARGIN_DIGITS
 ) -> float:
-    """Bits needed to keep 15 digits after N periods: ``(15 + N T lam / ln 10 + margin) log2 10``."""
+    """Bits needed to keep 15 digits after N periods:
+    ``(15 + N T lam / ln 10 + margin) log2 10``."""
     T = 2 * math.pi / eta
     return (15 + N * T * lam / math.log(10) + margin) * math.log2(10)
 
@@ -179,13 +181,13 @@ def _ref_states(traj) -> list[tuple]:
 def _states(res) -> list[tuple]:
     if hasattr(res, "state_mpf"):
         return _ref_states(res)
-    return [(mpmath.mpf(float(x)), mpmath.mpf(float(v))) for x, v in zip(res.x, res.v)]
+    return [(mpmath.mpf(float(x)), mpmath.mpf(float(v))) for x, v in zip(res.x, res.v, strict=True)]
 
 
 def _errors(res, ref_states: list[tuple], bits: int) -> list[float]:
     out = []
     with mpmath.workprec(bits + 32):
-        for (x, v), (xr, vr) in zip(_states(res), ref_states):
+        for (x, v), (xr, vr) in zip(_states(res), ref_states, strict=True):
             out.append(float(max(abs(x - xr), abs(v - vr))))
     return out
 
@@ -328,7 +330,8 @@ def _case_rows(
         rows.append(r)
         hz = "" if r["horizon"] is None else f", horizon {r['horizon']}"
         _progress(
-            f"[{case}] {r['method']} {r['setting']}: error {r['error']:.2e}{hz}, {r['time_s']:.4f} s",
+            f"[{case}] {r['method']} {r['setting']}: error {r['error']:.2e}{hz}, "
+            f"{r['time_s']:.4f} s",
             progress,
         )
 
@@ -349,7 +352,7 @@ def _heyoka_rows(run: _CaseRun, cfg: dict) -> None:
         c0 = time.perf_counter()
         solver.integrator()
         compile_s = time.perf_counter() - c0
-        traj, el, n = _timed(lambda: solver.solve(run.params, run.periods), run.budget)
+        traj, el, n = _timed(partial(solver.solve, run.params, run.periods), run.budget)
         fam = "heyoka mp" if prec.startswith("mp:") else f"heyoka {prec}"
         tol_s = "eps" if tol is None else tol
         run.row(
@@ -379,7 +382,7 @@ def _analytical_rows(run: _CaseRun, cfg: dict) -> None:
     ]
     for kwargs, name, setting in settings:
         solver = AnalyticalSolver(**kwargs)
-        traj, el, n = _timed(lambda: solver.solve(run.params, run.periods), run.budget)
+        traj, el, n = _timed(partial(solver.solve, run.params, run.periods), run.budget)
         name = f"analytical {name}"
         run.row(name, name, setting, traj, el, n, impacts=traj.n_impacts)
 
@@ -392,7 +395,7 @@ def _scipy_rows(run: _CaseRun, cfg: dict, notes: list[str]) -> None:
         for rtol in rtols:
             try:
                 res, el, n = _timed(
-                    lambda: scipy_solve(run.params, run.periods, method, rtol), run.budget
+                    partial(scipy_solve, run.params, run.periods, method, rtol), run.budget
                 )
             except RuntimeError as exc:
                 notes.append(f"{run.case}: scipy {method} rtol={rtol:g} failed: {exc}")
@@ -421,7 +424,7 @@ def _spice_rows(run: _CaseRun, cfg: dict, notes: list[str]) -> None:
 
         comps = nominal_components(run.params)
         for tmax in cfg["spice_tmax"]:
-            res, el, n = _timed(lambda: run_spice(comps, {}, run.periods, tmax=tmax), run.budget)
+            res, el, n = _timed(partial(run_spice, comps, {}, run.periods, tmax=tmax), run.budget)
             run.row(
                 "ngspice",
                 "ngspice",
@@ -532,7 +535,7 @@ def _time_at_error(rows: list[dict], family: str, target: float) -> float | None
         return None
     le = math.log10(target)
     # Interpolate between the two bracketing points (by error); None when not bracketed.
-    for (e0, t0), (e1, t1) in zip(pts, pts[1:]):
+    for (e0, t0), (e1, t1) in zip(pts, pts[1:], strict=False):
         if e0 <= le <= e1:
             return 10 ** (t0 if e1 == e0 else t0 + (t1 - t0) * (le - e0) / (e1 - e0))
     return None
@@ -613,7 +616,8 @@ def work_precision(
         )
     t_start = time.perf_counter()
     notes: list[str] = [
-        "scipy solve_ivp: atol = rtol * 1e-3; terminal event on x - x_w (direction +1), restart with v -> -R v",
+        "scipy solve_ivp: atol = rtol * 1e-3; terminal event on x - x_w (direction +1), restart "
+        "with v -> -R v",
         "times: median of repeats after one warm-up (repeats column); heyoka compile time separate",
         "periodic error: max over stroboscopic samples; chaotic error: at the last period",
     ]
@@ -644,7 +648,8 @@ def work_precision(
 
 @dataclasses.dataclass
 class WorkPrecisionResult(ResultMixin):
-    """Error against the demonstrated reference versus wall time, per method (:func:`work_precision`).
+    """Error against the demonstrated reference versus wall time, per method
+    (:func:`work_precision`).
 
     Attributes
     ----------
@@ -717,7 +722,7 @@ def _save(fig, path: Path) -> None:
 def _plot_wp(result: dict[str, Any], path: Path) -> None:
     cases = list(result["cases"])
     fig, axes = new_figure(1, len(cases), figsize=(7 * len(cases), 5.5), layout="tight")
-    for ax, case in zip(axes[0], cases):
+    for ax, case in zip(axes[0], cases, strict=True):
         rows = [r for r in result["rows"] if r["case"] == case]
         fams = list(dict.fromkeys(r["family"] for r in rows))
         for fam in fams:
@@ -798,7 +803,8 @@ def format_table(result: dict[str, Any]) -> str:
     ch = result.get("chaos_cost")
     if ch:
         lines.append(
-            f"What chaos costs (eta=0.712, target {ch['target']:g}, reference {ch['reference_precision']}):"
+            f"What chaos costs (eta=0.712, target {ch['target']:g}, reference "
+            f"{ch['reference_precision']}):"
         )
         lines.append(f"  {'N':>4} {'bits':>5} {'predicted':>9} {'time [s]':>9}")
         for r in ch["rows"]:
@@ -818,7 +824,8 @@ def format_table(result: dict[str, Any]) -> str:
         + (
             "n/a (error not bracketed by both curves)"
             if r is None
-            else f"{r:.0f}x ({h['scipy_dop853_time_s']:.4f} s vs {h['heyoka_float64_time_s']:.5f} s)"
+            else f"{r:.0f}x ({h['scipy_dop853_time_s']:.4f} s "
+            f"vs {h['heyoka_float64_time_s']:.5f} s)"
         )
     )
     if "circuit_vs_mechanical" in h:

@@ -49,7 +49,8 @@ class _Curve:
         return t if t @ prev >= 0 else -t
 
     def correct(self, y, tau, base, s, fixed_lam=False, iterations=12):
-        """Newton on ``G = 0`` and ``tau . (y - base) = s`` (or ``lam`` fixed); ``(y, iterations)`` or ``(None, n)``."""
+        """Newton on ``G = 0`` and ``tau . (y - base) = s`` (or ``lam`` fixed); ``(y, iterations)``
+        or ``(None, n)``."""
         y = y.copy()
         for it in range(1, iterations + 1):
             try:
@@ -111,7 +112,8 @@ class _Point:
         T = system.forcing_period(vals)
         zeta, R = vals[1], vals[4]
         neutral = area_preserving(zeta, R, system.impacts)
-        # det M in closed form (exact up to one rounding of exp): never rounding noise of either sign
+        # det M in closed form (exact up to one rounding of exp): never rounding noise of either
+        # sign
         det_exact = R ** (2 * system.impacts) * math.exp(-2 * zeta * system.period * T)
         ns = (det_exact - 1) if complex_pair and not neutral else math.nan
         self.tests = {
@@ -185,7 +187,9 @@ def _is_root(z: _Point, test: str) -> bool:
 
 
 _GRAZING_DETAIL = {
-    "graze_interior": "a flight's interior maximum touches the wall (an impact appears or vanishes)",
+    "graze_interior": (
+        "a flight's interior maximum touches the wall (an impact appears or vanishes)"
+    ),
     "graze_impact": "an impact's approach velocity vanishes (the impact becomes tangential)",
 }
 
@@ -224,14 +228,20 @@ def _trace(
                 break
             ds *= 0.5
             if ds < 1e-9 * (1 + abs(p.lam)):
-                reason = f"step size below 1e-9 at {system.parameter} = {p.lam:.12g} (no orbit at the range's end)"
+                reason = (
+                    f"step size below 1e-9 at {system.parameter} = {p.lam:.12g} (no orbit at the "
+                    "range's end)"
+                )
                 break
             continue
         y, it, tau = _corrected(curve, p, pred, ds)
         if tau is None or tau @ p.tau < 0.9:
             ds *= 0.5
             if ds < 1e-9 * (1 + abs(p.lam)):
-                reason = f"step size below 1e-9 at {system.parameter} = {p.lam:.12g} (singular or ill-ordered impacts)"
+                reason = (
+                    f"step size below 1e-9 at {system.parameter} = {p.lam:.12g} (singular or "
+                    "ill-ordered impacts)"
+                )
                 break
             continue
         if not lo <= y[-1] <= hi:
@@ -245,7 +255,10 @@ def _trace(
         done[0] += 1
         travelled = 0.0 if pts[-1].admissible else travelled + abs(pts[-1].lam - p.lam)
         if travelled > virtual * span:
-            reason = f"virtual (past grazing) over {virtual:g} of the range, at {system.parameter} = {y[-1]:.12g}"
+            reason = (
+                f"virtual (past grazing) over {virtual:g} of the range, at {system.parameter} = "
+                f"{y[-1]:.12g}"
+            )
             break
         if progress is not None:
             progress.update(min(done[0], progress.total), f"{system.parameter} = {y[-1]:.6g}")
@@ -275,7 +288,8 @@ def _corrected(curve: _Curve, p: _Point, pred, ds: float):
 
 
 def _switch(system: ShootingSystem, pd: _Point):
-    """The first point of the doubled branch born at the period-doubling point ``pd`` and its tangent."""
+    """The first point of the doubled branch born at the period-doubling point ``pd`` and its
+    tangent."""
     n, p = system.impacts, system.period
     double = ShootingSystem(system.base, system.parameter, 2 * p, 2 * n)
     lam = pd.lam
@@ -411,7 +425,7 @@ def continue_orbit(
         branches.append(
             Branch.from_points(parameter, cv.s.period, cv.s.impacts, origin, pts, reason)
         )
-        for a, b in zip(pts[:-1], pts[1:]):
+        for a, b in zip(pts[:-1], pts[1:], strict=True):
             for test in _TESTS:
                 if not _sign_change(a.tests[test], b.tests[test]):
                     continue
@@ -518,7 +532,8 @@ def _first_point(p_start: Params, parameter: str, period: int, orbit: Any, lam0:
             sts[q:], sts[:-q], rtol=0, atol=1e-8 * (1 + np.abs(sts).max())
         ):
             raise ConvergenceError(
-                f"the orbit found has period {q}, a divisor of {period}: continue it with period {q}"
+                f"the orbit found has period {q}, a divisor of {period}: continue it "
+                f"with period {q}"
             )
     return curve, first
 

@@ -82,7 +82,7 @@ def _map_mp(params: Params, z: tuple, period: int, bits: int):
     w = mpmath.sqrt(1 - zeta * zeta)
     M = mpmath.eye(2)
     t_prev = t0
-    for ti, vb in zip(tr.impacts_t, tr.impacts_v_before):
+    for ti, vb in zip(tr.impacts_t, tr.impacts_v_before, strict=True):
         ti, vb = P.to_mpf(ti), P.to_mpf(vb)
         M = (
             mpmath.matrix(oscillator_saltation(ti, vb, eta, zeta, a, xw, R, mpmath.cos))
@@ -102,7 +102,7 @@ def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations
         z = mpmath.matrix([mpmath.mpf(z0[0]), mpmath.mpf(z0[1])])
         tiny = mpmath.mpf(2) ** (8 - bits)
         last = mpmath.inf
-        for it in range(1, max_iterations + 1):
+        for _ in range(max_iterations):
             fz, M, n = _map_mp(params, (z[0], z[1]), period, bits)
             F = mpmath.matrix([fz[0] - z[0], fz[1] - z[1]])
             dz = mpmath.lu_solve(M - mpmath.eye(2), -F)
@@ -123,7 +123,7 @@ def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations
         mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
         T = 2 * mpmath.pi / _mpq(params.eta)
         lle = float(mpmath.log(abs(mu[0])) / (period * T))
-        return z[0], z[1], list(mu), lle, float(residual), n, it, [float(h) for h in steps]
+        return z[0], z[1], list(mu), lle, float(residual), n, len(steps), [float(h) for h in steps]
 
 
 def _closed_form_seed(params: Params, period: int, near: np.ndarray | None):
@@ -173,8 +173,8 @@ def find_orbit(
     max_iterations : int, default 50
         Newton iterations at most.
     precision : str, default ``'float64'``
-        ``'float64'`` (the compiled closed forms) or ``'mp:BITS'`` (``BITS <= 2048``): the float64 orbit refined
-        by Newton in multiprecision, the map evaluated by the robust analytical solver
+        ``'float64'`` (the compiled closed forms) or ``'mp:BITS'`` (``BITS <= 2048``): the float64
+        orbit refined by Newton in multiprecision, the map evaluated by the robust analytical solver
         (mpmath) and its Jacobian by the closed-form flow and saltation matrices;
         quadratic convergence to the working precision.
     seed : str, default ``'simulation'``
@@ -337,18 +337,17 @@ def _newton_float(
 ) -> tuple[np.ndarray, int, list]:
     """Float64 Newton on ``P^p(z) - z`` from ``z``: the last iterate, the iterations, the steps."""
     last = math.inf
-    it = 0
     steps: list = []
-    for it in range(1, max_iterations + 1):
+    for _ in range(max_iterations):
         fz, M, n = _map(params, z, period)
         F = fz - z
         J = M - np.eye(2)
         try:
             dz = np.linalg.solve(J, -F)
-        except np.linalg.LinAlgError:
+        except np.linalg.LinAlgError as err:
             raise ConvergenceError(
                 f"M - I is singular at (x, v) = ({z[0]!r}, {z[1]!r}): a multiplier +1 (fold)"
-            )
+            ) from err
         z = z + dz
         if z[0] > float(params.x_w):  # a step beyond the wall: back to it
             z[0] = float(params.x_w)
@@ -362,7 +361,7 @@ def _newton_float(
             f"no convergence in {max_iterations} Newton iterations (last step {last:.3g}) "
             f"from the guess; try another guess, period or impacts"
         )
-    return z, it, steps
+    return z, len(steps), steps  # one step per iteration taken
 
 
 def _refined_orbit(

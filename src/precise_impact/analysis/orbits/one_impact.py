@@ -106,7 +106,7 @@ def one_impact_orbits(
                 continue
             y0, u0 = xw - X, -R * v - V
 
-            def x_at(t):
+            def x_at(t, ts=ts, y0=y0, u0=u0):
                 f00, f01, _, _ = _phi(t - ts, zeta, w)
                 return P * mpmath.cos(eta * t) + Q * mpmath.sin(eta * t) + f00 * y0 + f01 * u0
 

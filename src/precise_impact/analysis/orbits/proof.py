@@ -22,7 +22,8 @@ __all__ = ["prove_orbit", "ProvenOrbit"]
 
 @dataclasses.dataclass
 class ProvenOrbit(ResultMixin):
-    """A periodic orbit proven to exist, unique in its box, with enclosed multipliers (:func:`prove_orbit`).
+    """A periodic orbit proven to exist, unique in its box, with enclosed multipliers
+    (:func:`prove_orbit`).
 
     Attributes
     ----------

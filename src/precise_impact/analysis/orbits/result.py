@@ -74,7 +74,8 @@ class PeriodicOrbit(ResultMixin):
 
     def _num(self, z):
         """A float (float64: JSON numbers round-trip it exactly), or (multiprecision) a decimal
-        string with every digit of the working precision (a JSON number would round it to float64)."""
+        string with every digit of the working precision (a JSON number would round it to
+        float64)."""
         if isinstance(z, float):
             return z
         import mpmath

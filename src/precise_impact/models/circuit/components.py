@@ -145,15 +145,17 @@ def exact_omega(comp: Components) -> Fraction:
         raise ParameterError(
             "R2, R7, R3, C2, R8, C1",
             f"omega = {float(w2) ** 0.5:.3g} rad/s",
-            f"a design with {OMEGA_RANGE[0]:g} <= omega = sqrt(R2/(R7 R3 C2 R8 C1)) <= {OMEGA_RANGE[1]:g} rad/s "
-            "(beyond it the circuit's time and voltage scales leave float64)",
+            f"a design with {OMEGA_RANGE[0]:g} <= omega = sqrt(R2/(R7 R3 C2 R8 C1)) <= "
+            f"{OMEGA_RANGE[1]:g} rad/s (beyond it the circuit's time and voltage scales leave "
+            "float64)",
         )
     root = _isqrt_fraction(w2)
     if root is None:
         raise ParameterError(
             "R2, R7, R3, C2, R8, C1",
             decimal_str(w2),
-            "omega^2 = R2/(R7 R3 C2 R8 C1) must be a rational square for an exact mapping (design values)",
+            "omega^2 = R2/(R7 R3 C2 R8 C1) must be a rational square for an exact mapping (design "
+            "values)",
         )
     return root
 
@@ -268,7 +270,8 @@ def to_mechanical(comp: Components, t: Any, V_s: Any, V_q: Any, omega: Any):
 
 
 def to_circuit(comp: Components, tau: Any, x: Any, v: Any, omega: Any):
-    """Dimensionless ``(tau, x, x')`` -> circuit ``(t, V_s, V_q)`` (inverse of :func:`to_mechanical`)."""
+    """Dimensionless ``(tau, x, x')`` -> circuit ``(t, V_s, V_q)`` (inverse of
+    :func:`to_mechanical`)."""
     vu = comp.V_unit
     rc = comp.R8 * comp.C1
     return tau / omega, -x * _num(vu, x), v * omega * _num(rc, v) * _num(vu, v)

@@ -86,8 +86,9 @@ def inverting(hy, inputs, Rf, op: OpAmp, target_rate=None, unclamped=None):
     """Algebraic inverting (summing) stage: inputs = [(V_i, R_i)], feedback ``Rf``.
 
     The ideal output, then each switched-on effect's own transformation
-    (:mod:`precise_impact.models.circuit.effects`), in the order offset, finite gain, gain-bandwidth, saturation.
-    ``target_rate`` (d/dt of the ideal output) enables the quasi-static GBW lag.
+    (:mod:`precise_impact.models.circuit.effects`), in the order offset, finite gain,
+    gain-bandwidth, saturation. ``target_rate`` (d/dt of the ideal output) enables the quasi-static
+    GBW lag.
     """
     ideal = (
         -Rf * hy.sum([v / r for v, r in inputs])
@@ -185,7 +186,8 @@ def network_rhs(hy, p: dict, V_s, V_q, op: OpAmp, V_q_of=None):
 
 
 def dynamic_network(hy, p: dict, op: OpAmp):
-    """Dynamic-GBW network (:func:`~precise_impact.models.circuit.effects.opamp_gbw.dynamic_network`)."""
+    """Dynamic-GBW network
+    (:func:`~precise_impact.models.circuit.effects.opamp_gbw.dynamic_network`)."""
     return opamp_gbw.dynamic_network(
         hy, p, _num(op.gain()), _num(op.gbw), 0.0 if op.v_os is None else _num(op.v_os)
     )

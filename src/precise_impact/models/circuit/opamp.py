@@ -51,7 +51,8 @@ _IDX = {n: i for i, n in enumerate(NETWORK_PARS)}
 
 
 def circuit_system(op: OpAmp):
-    """heyoka variables and right-hand sides of the network for ``op`` (runtime component parameters)."""
+    """heyoka variables and right-hand sides of the network for ``op`` (runtime component
+    parameters)."""
     import heyoka as hy
 
     p = {n: hy.par[i] for i, n in enumerate(NETWORK_PARS)}
@@ -138,7 +139,8 @@ class CircuitSolver:
     precision : str, default ``'float64'``
     tol : decimal or None, default ``None`` (the precision's epsilon)
     effects : mapping or None, default ``None``
-        ``{name: {setting: value}}`` from :data:`~precise_impact.models.circuit.effects.catalogue.EFFECTS` that fit model
+        ``{name: {setting: value}}`` from
+        :data:`~precise_impact.models.circuit.effects.catalogue.EFFECTS` that fit model
         ``'circuit'`` (op-amp gain, GBW, saturation, offset; component tolerance).
     max_impacts : int, default ``10**6``
     """

@@ -51,7 +51,8 @@ def _system():
 
 
 class _Comparator(ImpactRecorder):
-    """Trip event (``V_s`` falls through ``v_trip``): toggles at once, or stops for a delayed toggle.
+    """Trip event (``V_s`` falls through ``v_trip``): toggles at once, or stops for a delayed
+    toggle.
 
     The trip times are its :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder` log
     (``t``; no velocities: the switching is resolved by the solver), under the impact budget.
@@ -145,7 +146,8 @@ class SwitchedCapacitorSolver:
     tol : decimal or None, default ``None`` (the precision's epsilon)
     effects : mapping or None, default ``None``
         Effects fitting ``'switched-capacitor'``: ``comparator``, ``flipflop``,
-        ``switch``, ``tolerance`` (:data:`~precise_impact.models.circuit.effects.catalogue.EFFECTS`).
+        ``switch``, ``tolerance``
+        (:data:`~precise_impact.models.circuit.effects.catalogue.EFFECTS`).
     max_impacts : int, default ``10**6``
     """
 

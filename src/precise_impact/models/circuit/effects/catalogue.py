@@ -112,7 +112,10 @@ EFFECTS: dict[str, EffectSpec] = {
                     "",
                     "quasi-static",
                     choices=("quasi-static", "dynamic"),
-                    doc="'dynamic': each op-amp output a state (stiff); 'quasi-static': first-order lag correction",
+                    doc=(
+                        "'dynamic': each op-amp output a state (stiff); 'quasi-static': "
+                        "first-order lag correction"
+                    ),
                 ),
             },
             "single-pole open-loop response A(s) = A0 / (1 + s A0 / (2 pi GBW))",
@@ -160,7 +163,8 @@ EFFECTS: dict[str, EffectSpec] = {
                     "V", "0", "0", "1", doc="total hysteresis around V_wall (LT1394: none)"
                 ),
             },
-            "comparator U5: trips at V_wall - hysteresis/2, re-arms at V_wall + hysteresis/2, after a delay",
+            "comparator U5: trips at V_wall - hysteresis/2, re-arms at V_wall + hysteresis/2, "
+            "after a delay",
         ),
         EffectSpec(
             "flipflop",
