@@ -64,7 +64,9 @@ def run(ns: argparse.Namespace) -> int:
         sys.stdout.write("\n")
         return 0
     spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
-    print(f"LLE = {r.lle:.6f} +- {r.lle_stderr:.6f} per unit time ({r.method}, {r.precision}){spec}")
+    print(
+        f"LLE = {r.lle:.6f} +- {r.lle_stderr:.6f} per unit time ({r.method}, {r.precision}){spec}"
+    )
     groups = r.stats.get("attractors", [])
     head = next((g for g in groups if g["id"] == r.stats.get("headline_attractor")), None)
     if r.stats.get("lle_source") == "floquet" and head is not None:
