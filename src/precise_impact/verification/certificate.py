@@ -66,7 +66,7 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
 
     t0 = time.perf_counter()
     p = Params.make(**samples_json["params"])
-    r = certify(p, samples_json["periods"], bits=bits, max_bits=bits)
+    r = certify(p, samples_json["periods"], precision=f"mp:{bits}", max_bits=bits)
     if len(r.impacts) != len(samples_json["impacts"]):
         raise ValueError(
             f"the certified run has {len(r.impacts)} impacts, the reference "
@@ -165,7 +165,10 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
     data = json.loads((case_dir / "samples.json").read_text())
     cert = json.loads((case_dir / CERTIFICATE).read_text())
     r = certify(
-        Params.make(**data["params"]), data["periods"], bits=cert["bits"], max_bits=cert["bits"]
+        Params.make(**data["params"]),
+        data["periods"],
+        precision=f"mp:{cert['bits']}",
+        max_bits=cert["bits"],
     )
     if len(r.impacts) != cert["impacts"] or len(r.impacts) != len(data["impacts"]):
         return [

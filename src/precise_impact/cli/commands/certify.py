@@ -23,10 +23,17 @@ def register(sub) -> argparse.ArgumentParser:
     add_param_flags(ce)
     add_periods(ce, "300", "forcing periods")
     ce.add_argument(
+        "--precision",
+        default=None,
+        metavar="P",
+        help="working precision of the balls: auto (chosen from --target and the measured radius "
+        "growth; the single oscillator's default) or mp:BITS (the pair's default mp:256)",
+    )
+    ce.add_argument(
         "--bits",
         default=None,
         metavar="B",
-        help="working precision (default: chosen from --target and the measured radius growth)",
+        help="deprecated: --precision mp:B",
     )
     ce.add_argument(
         "--target",
@@ -70,12 +77,17 @@ def run(ns: argparse.Namespace) -> int:
     """Run ``certify``; returns the exit status."""
     params = params_from(ns)
     max_bits = check_count(ns.max_bits, "max_bits", MAX_BITS, minimum=64)
-    bits = None if ns.bits is None else check_count(ns.bits, "bits", max_bits, minimum=64)
+    if ns.bits is not None:  # the 0.2 spelling
+        if ns.precision is not None:
+            raise ParameterError("bits", ns.bits, "not with --precision (--bits is deprecated)")
+        bits = check_count(ns.bits, "bits", max_bits, minimum=64)
+        print("precise-impact: --bits is deprecated, use --precision mp:BITS", file=sys.stderr)
+        ns.precision = f"mp:{bits}"
     progress = None if ns.json else True
     if ns.k is not None:
         if ns.target is not None:
             raise ParameterError(
-                "target", ns.target, "only for the single oscillator (the pair takes --bits)"
+                "target", ns.target, "only for the single oscillator (the pair takes --precision)"
             )
         r = certify_coupled(
             params,
@@ -83,7 +95,7 @@ def run(ns: argparse.Namespace) -> int:
             ns.form,
             ns.periods,
             y0=ns.y0,
-            bits=256 if bits is None else bits,
+            precision="mp:256" if ns.precision is None else ns.precision,
             max_bits=max_bits,
             progress=progress,
         )
@@ -99,7 +111,7 @@ def run(ns: argparse.Namespace) -> int:
         r = certify(
             params,
             ns.periods,
-            bits=bits,
+            precision="auto" if ns.precision is None else ns.precision,
             target_radius="1e-30" if ns.target is None else ns.target,
             max_bits=max_bits,
             progress=progress,

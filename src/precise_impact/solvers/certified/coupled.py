@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core import flight
+from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.coupling import (
     check_form,
     check_k,
@@ -36,6 +37,7 @@ from precise_impact.solvers.certified.single import (
     Flight,
     Isolator,
     ball_str,
+    certified_bits,
     check_certifiable,
     describe,
     exact_value,
@@ -343,9 +345,10 @@ def certify_coupled(
     periods: int = 100,
     *,
     y0: Sequence[Any] | None = None,
-    bits: int = 256,
+    precision: str = "mp:256",
     max_bits: int = 4096,
     progress: bool | None = None,
+    bits: Any = UNSET,
     **param_values: Any,
 ) -> CertifiedCoupledTrajectory:
     """The master-slave pair certified: every sample and impact of both oscillators in a proven ball.
@@ -366,12 +369,14 @@ def certify_coupled(
     y0 : pair or None, default ``None``
         The slave's start ``(position, velocity variable)`` in ``form``'s variables, exact,
         position ``< x_w``; ``None``: on the diagonal (the slave is the master, exactly).
-    bits : int, default 256
-        Working precision (``64 <= bits <= max_bits``).
+    precision : str, default ``'mp:256'``
+        Working precision of the balls, ``'mp:BITS'`` (``64 <= BITS <= max_bits``).
     max_bits : int, default 4096
         After a failed proof the bits are doubled up to this (``<= 16384``).
     progress : bool or None, default ``None``
         A progress line on stderr (``None``: only when stderr is a terminal).
+    bits : int
+        Deprecated: ``precision='mp:BITS'``.
     **param_values
         Parameter values replacing those of ``params``.
 
@@ -404,7 +409,11 @@ def certify_coupled(
     form = check_form(form)
     periods = check_count(periods, "periods", 100_000, minimum=1)
     max_bits = check_count(max_bits, "max_bits", MAX_BITS, minimum=MIN_BITS)
-    bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
+    if bits is not UNSET:  # the 0.2 spelling
+        warn_renamed("bits=", "precision=", "certify_coupled")
+        bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
+    else:
+        bits = certified_bits(precision, max_bits, allow_auto=False)
     y0q = check_y0(y0, params)
     check_certifiable(params)
     if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
@@ -494,7 +503,7 @@ class CertifiedCoupledSolver:
             form,
             periods,
             y0=y0,
-            bits=self.bits,
+            precision=f"mp:{self.bits}",
             max_bits=self.bits,
             progress=self.progress,
         )

@@ -16,6 +16,7 @@ from typing import Any
 
 from precise_impact.core import flight
 from precise_impact.core.flow import steady_state
+from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import CertificationError, OptionalDependencyError, ParameterError
@@ -555,14 +556,30 @@ def check_certifiable(params: Params) -> None:
     _flint()
 
 
+def certified_bits(precision: Any, max_bits: int, allow_auto: bool = True) -> int | None:
+    """The working bits a certified engine runs at: ``'mp:BITS'`` -> ``BITS``, ``'auto'`` ->
+    ``None`` (chosen by a pilot run); anything else is refused naming ``precision``."""
+    allowed = (
+        "'auto' or " if allow_auto else ""
+    ) + f"'mp:BITS' with {MIN_BITS} <= BITS <= {max_bits}"
+    if allow_auto and precision == "auto":
+        return None
+    if isinstance(precision, str) and precision.startswith("mp:"):
+        b = precision[3:]
+        if b.isdigit() and MIN_BITS <= int(b) <= max_bits:
+            return int(b)
+    raise ParameterError("precision", precision, allowed)
+
+
 def certify(
     params: Any = None,
     periods: int = 300,
     *,
-    bits: int | None = None,
+    precision: str = "auto",
     target_radius: Any = "1e-30",
     max_bits: int = 8192,
     progress: bool | None = None,
+    bits: Any = UNSET,
     **param_values: Any,
 ) -> CertifiedTrajectory:
     """A certified trajectory: every stroboscopic sample and impact enclosed in a proven ball.
@@ -574,19 +591,22 @@ def certify(
         with ``param_values``.
     periods : int, default 300
         Forcing periods (``1 <= periods <= 100000``).
-    bits : int or None, default ``None``
-        Working precision (``64 <= bits <= max_bits``).  ``None`` chooses it: a pilot run
-        of ``min(periods, 40)`` periods at 128 bits measures the growth of the radius per
-        period, and the bits are set so that the last sample's radius is below
-        ``target_radius`` with two decimal digits to spare (rounded up to a multiple of 64).
+    precision : str, default ``'auto'``
+        Working precision of the balls, ``'mp:BITS'`` (``64 <= BITS <= max_bits``).
+        ``'auto'`` chooses it: a pilot run of ``min(periods, 40)`` periods at 128 bits
+        measures the growth of the radius per period, and the bits are set so that the last
+        sample's radius is below ``target_radius`` with two decimal digits to spare (rounded
+        up to a multiple of 64).
     target_radius : decimal, default ``'1e-30'``
-        The radius wanted at every sample when ``bits`` is ``None``
+        The radius wanted at every sample when ``precision`` is ``'auto'``
         (``1e-3000 <= target_radius <= 1e-3``).
     max_bits : int, default 8192
         The precision is doubled (from ``bits`` or the automatic choice) after a failed proof
         or a missed target, up to this (``<= 16384``).
     progress : bool or None, default ``None``
         A progress line on stderr (``None``: only when stderr is a terminal).
+    bits : int or None
+        Deprecated: ``precision='mp:BITS'`` (``None``: ``'auto'``).
     **param_values
         Parameter values replacing those of ``params``.
 
@@ -618,8 +638,12 @@ def certify(
     params = params_or_values(params, param_values)
     periods = check_count(periods, "periods", 100_000, minimum=1)
     max_bits = check_count(max_bits, "max_bits", MAX_BITS, minimum=MIN_BITS)
-    if bits is not None:
-        bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
+    if bits is not UNSET:  # the 0.2 spelling
+        warn_renamed("bits=", "precision=", "certify")
+        if bits is not None:
+            bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
+    else:
+        bits = certified_bits(precision, max_bits)
     target = exact("target_radius", target_radius, 3000)
     if not Fraction(1, 10**3000) <= target <= Fraction(1, 1000):
         raise ParameterError(
@@ -721,7 +745,7 @@ class CertifiedSolver:
             raise ParameterError(
                 "per_period", str(per_period), "0 for the certified model (no dense output)"
             )
-        r = certify(params, periods, bits=self.bits, max_bits=self.bits)
+        r = certify(params, periods, precision=f"mp:{self.bits}", max_bits=self.bits)
         P = self.precision
         mid = lambda b: P.from_fraction(exact_value(b.mid()))  # noqa: E731
         rad = lambda b: float(exact_value(b.rad())) * (1 + 2**-50)  # noqa: E731

@@ -1,0 +1,55 @@
+"""certify / certify_coupled take ``precision=`` ('auto' or 'mp:BITS'); ``bits=`` is the 0.2
+spelling, kept one release with a DeprecationWarning (issue 23, one vocabulary)."""
+
+import json
+import subprocess
+import sys
+import warnings
+
+import pytest
+
+from precise_impact import Params
+from precise_impact.errors import ParameterError
+from precise_impact.solvers.certified.coupled import certify_coupled
+from precise_impact.solvers.certified.single import certify
+
+P = Params.make(eta="0.74")
+
+
+def test_precision_mp_bits_is_the_old_bits_exactly():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        new = certify(P, 5, precision="mp:128", max_bits=128)
+    with pytest.warns(DeprecationWarning, match="certify: bits= is deprecated, use precision="):
+        old = certify(P, 5, bits=128, max_bits=128)
+    assert new.bits == old.bits == 128
+    assert [tuple(map(str, s)) for s in new.samples] == [tuple(map(str, s)) for s in old.samples]
+
+
+def test_auto_is_the_default_and_chooses_the_bits():
+    r = certify(P, 5)
+    assert r.bits_choice != "given" and r.bits >= 128
+
+
+@pytest.mark.parametrize("bad", ["float64", "mp:32", "mp:99999", "auto2", 128])
+def test_a_bad_precision_is_refused_before_work_naming_it(bad):
+    with pytest.raises(ParameterError, match=r"^precision = .*'auto' or 'mp:BITS' with 64"):
+        certify(P, 5, precision=bad)
+
+
+def test_the_pair_takes_mp_bits_and_refuses_auto():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = certify_coupled(P, "0.1", periods=3, precision="mp:192")
+    assert r.bits == 192
+    with pytest.raises(ParameterError, match=r"^precision = 'auto' is not allowed: 'mp:BITS'"):
+        certify_coupled(P, "0.1", periods=3, precision="auto")
+
+
+def test_cli_precision_flag_and_the_deprecated_bits_flag():
+    cmd = [sys.executable, "-m", "precise_impact", "certify", "--eta", "0.74", "--periods", "3"]
+    new = subprocess.run([*cmd, "--precision", "mp:128", "--json"], capture_output=True, text=True)
+    old = subprocess.run([*cmd, "--bits", "128", "--json"], capture_output=True, text=True)
+    assert new.returncode == old.returncode == 0, (new.stderr, old.stderr)
+    assert json.loads(new.stdout)["bits"] == json.loads(old.stdout)["bits"] == 128
+    assert "--bits is deprecated" in old.stderr and "deprecated" not in new.stderr
