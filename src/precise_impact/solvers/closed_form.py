@@ -15,6 +15,7 @@ from typing import Any
 import mpmath
 
 from precise_impact.core import flight
+from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.crossing import safeguarded_newton
 from precise_impact.core.flow import acceleration, steady_state
 from precise_impact.core.impact import impact_at_start, reset_velocity
@@ -181,12 +182,37 @@ def _as_backend(ops, value):
     return float(value)
 
 
+def _arithmetic(precision: Any, backend: Any, dps: Any, bits: Any) -> tuple[str, Any, Any]:
+    """``(backend, dps, bits)`` from ``precision`` (``'float64'`` or ``'mp:BITS'``), or from the
+    deprecated ``backend``/``dps``/``bits`` with one :class:`DeprecationWarning`."""
+    old = {k: v for k, v in (("backend", backend), ("dps", dps), ("bits", bits)) if v is not UNSET}
+    if precision is not None:
+        if old:
+            name = next(iter(old))
+            raise ParameterError(name, old[name], "not with precision= (it is deprecated)")
+        P = Precision.parse(precision)
+        if P.kind == "float64":
+            return "float64", None, None
+        if P.kind == "mp":
+            return "mpmath", None, P.bits
+        raise ParameterError("precision", P.name, "'float64' or 'mp:BITS' for the closed form")
+    if old:
+        warn_renamed("/".join(f"{k}=" for k in old), "precision=", "AnalyticalSolver", 4)
+    return (
+        old.get("backend", "float64"),
+        old.get("dps", None),
+        old.get("bits", None),
+    )
+
+
 # --------------------------------------------------------------------------- solver
 class AnalyticalSolver:
     """Closed-form solver of the impact oscillator (eq. 2 of Denysenko, Balcerzak & Dabrowski).
 
-    ``AnalyticalSolver(finder="robust", backend="float64", dps=None,
-    scan_fraction=Fraction(1, 1000), max_impacts=10**6, max_evals=None)``
+    ``AnalyticalSolver(finder="robust", scan_fraction=Fraction(1, 1000), max_impacts=10**6,
+    max_evals=None, *, precision="float64")``: ``precision`` is ``'float64'`` or ``'mp:BITS'``
+    (mpmath); ``backend=``, ``dps=`` and ``bits=`` are the 0.2 spellings, kept one release
+    with a :class:`DeprecationWarning`.
 
     Between impacts the motion is the exact solution of the linear flow (2a)
     (underdamped, ``0 <= zeta < 1``); impacts are found as the first upward
@@ -290,13 +316,16 @@ class AnalyticalSolver:
     def __init__(
         self,
         finder: str = "robust",
-        backend: str = "float64",
-        dps: int | None = None,
+        backend: Any = UNSET,
+        dps: Any = UNSET,
         scan_fraction: Any = Fraction(1, 1000),
         max_impacts: int = 10**6,
         max_evals: int | None = None,
-        bits: int | None = None,
+        bits: Any = UNSET,
+        *,
+        precision: str | Precision | None = None,
     ) -> None:
+        backend, dps, bits = _arithmetic(precision, backend, dps, bits)
         if finder not in _FINDERS:
             raise ParameterError("finder", finder, "one of 'robust', 'paper'")
         if backend not in _BACKENDS:

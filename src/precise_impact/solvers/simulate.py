@@ -46,9 +46,7 @@ def _heyoka(prec: Precision, tol: Any, **options: Any) -> Solver:
 
 def _analytical(finder: str):
     def factory(prec: Precision, tol: Any, **options: Any) -> Solver:
-        if prec.kind == "float64":
-            return AnalyticalSolver(finder=finder, backend="float64", **options)
-        return AnalyticalSolver(finder=finder, backend="mpmath", bits=prec.bits, **options)
+        return AnalyticalSolver(finder=finder, precision=prec, **options)
 
     return factory
 

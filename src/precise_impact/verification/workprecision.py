@@ -371,13 +371,17 @@ def _heyoka_rows(run: _CaseRun, cfg: dict) -> None:
 def _analytical_rows(run: _CaseRun, cfg: dict) -> None:
     """The closed-form solver: the paper's finder (each scan fraction), the robust one, mpmath."""
     settings = [
-        (dict(finder="paper", backend="float64", scan_fraction=sf), "paper float64", f"scan={sf}")
+        (dict(finder="paper", scan_fraction=sf), "paper float64", f"scan={sf}")
         for sf in cfg["analytical_paper"]
     ]
     if cfg["analytical_robust"]:
-        settings.append((dict(finder="robust", backend="float64"), "robust float64", "robust"))
+        settings.append((dict(finder="robust"), "robust float64", "robust"))
     settings += [
-        (dict(finder="robust", backend="mpmath", dps=dps), "robust mpmath", f"dps={dps}")
+        (
+            dict(finder="robust", precision=f"mp:{mpmath.libmp.dps_to_prec(dps)}"),
+            "robust mpmath",
+            f"dps={dps}",
+        )
         for dps in cfg["analytical_mp_dps"]
     ]
     for kwargs, name, setting in settings:

@@ -75,7 +75,7 @@ def _map_mp(params: Params, z: tuple, period: int, bits: int):
 
     P = Precision.parse(f"mp:{bits}")
     q = params.replace(x0=_fraction(z[0]), v0=_fraction(z[1]))
-    tr = AnalyticalSolver(finder="robust", backend="mpmath", bits=bits).solve(q, period)
+    tr = AnalyticalSolver(finder="robust", precision=f"mp:{bits}").solve(q, period)
     eta, zeta, a, xw, R, t0 = (
         _mpq(getattr(params, n)) for n in ("eta", "zeta", "a", "x_w", "R", "t0")
     )

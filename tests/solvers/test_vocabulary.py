@@ -1,4 +1,4 @@
-"""certify / certify_coupled take ``precision=`` ('auto' or 'mp:BITS'); ``bits=`` is the 0.2
+"""One vocabulary (issue 23). certify / certify_coupled take ``precision=`` ('auto' or 'mp:BITS'); ``bits=`` is the 0.2
 spelling, kept one release with a DeprecationWarning (issue 23, one vocabulary)."""
 
 import json
@@ -53,3 +53,24 @@ def test_cli_precision_flag_and_the_deprecated_bits_flag():
     assert new.returncode == old.returncode == 0, (new.stderr, old.stderr)
     assert json.loads(new.stdout)["bits"] == json.loads(old.stdout)["bits"] == 128
     assert "--bits is deprecated" in old.stderr and "deprecated" not in new.stderr
+
+
+def test_closed_form_precision_is_the_old_backend_dps_bits_exactly():
+    """AnalyticalSolver(precision='mp:103') is backend='mpmath', dps=30 (mpmath's 103 bits)."""
+    from precise_impact.solvers.closed_form import AnalyticalSolver
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        new = AnalyticalSolver(precision="mp:103").solve(P, 20)
+        f64 = AnalyticalSolver(precision="float64").solve(P, 20)
+    with pytest.warns(DeprecationWarning, match="AnalyticalSolver: backend=/dps= is deprecated"):
+        old = AnalyticalSolver(backend="mpmath", dps=30).solve(P, 20)
+    with pytest.warns(DeprecationWarning):
+        old64 = AnalyticalSolver(backend="float64").solve(P, 20)
+    assert new.precision.name == old.precision.name == "mp:103"
+    assert [str(x) for x in new.x] == [str(x) for x in old.x]
+    assert list(f64.x) == list(old64.x) and list(f64.v) == list(old64.v)
+    with pytest.raises(ParameterError, match="^precision = 'float128'"):
+        AnalyticalSolver(precision="float128")
+    with pytest.raises(ParameterError, match="^backend = .*not with precision="):
+        AnalyticalSolver(backend="mpmath", precision="mp:128")
