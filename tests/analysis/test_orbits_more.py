@@ -74,7 +74,7 @@ def test_one_to_two_orbit_closed_form_equals_newton_and_heyoka():
     p = Params.make(R="0.8", eta="0.9")
     (cf,) = one_impact_orbits(p, dps=60, period=2)
     assert (cf.period, cf.impacts, cf.method) == (2, 1, "closed form") and cf.stable
-    nw = find_orbit(p, 2, seed="closed-form")
+    nw = find_orbit(p, 2, guess_from="closed-form")
     assert nw.impacts == 1 and nw.period == 2 and nw.stability == "stable"
     assert abs(nw.x - float(cf.x)) <= 1e-12 and abs(nw.v - float(cf.v)) <= 1e-12
     mu_cf = sorted((complex(m) for m in cf.multipliers), key=lambda m: (m.imag, m.real))
@@ -90,7 +90,7 @@ def test_one_to_two_orbit_closed_form_equals_newton_and_heyoka():
         )
     # auto seeding (impacts=1) finds the same orbit; an explicit guess elsewhere also converges to
     # it
-    auto = find_orbit(p, 2, impacts=1, seed="auto")
+    auto = find_orbit(p, 2, impacts=1, guess_from="auto")
     assert abs(auto.x - nw.x) <= 1e-12
     q = p.replace(x0=mpmath.nstr(cf.x, 60), v0=mpmath.nstr(cf.v, 60))
     tr = simulate(q, 2, precision="mp:192")
@@ -111,7 +111,7 @@ def test_multiprecision_newton_converges_quadratically():
     log2(512 / 50) + 3 = 6 (digits double per step from float64, then one step to see the floor);
     the result equals the closed form to 2^-500."""
     p = Params.make(R="0.8", eta="0.9")
-    o = find_orbit(p, 2, seed="closed-form", precision="mp:512")
+    o = find_orbit(p, 2, guess_from="closed-form", precision="mp:512")
     mp_steps = o.steps[1:]  # the first is float64 Newton's
     assert 3 <= len(mp_steps) <= math.ceil(math.log2(512 / 50)) + 3, o.steps
     floor = 2.0**-504
@@ -150,7 +150,7 @@ def test_orbit_cli_seed_and_json_state_types():
     (cf,) = one_impact_orbits(Params.make(R="0.8", eta="0.9"), dps=30, period=2)
     assert abs(d["state"]["x"] - float(cf.x)) <= 1e-12
     r = subprocess.run(
-        base + ["--seed", "closed-form", "--precision", "mp:128", "--json"],
+        base + ["--guess-from", "closed-form", "--precision", "mp:128", "--json"],
         capture_output=True,
         text=True,
         timeout=120,

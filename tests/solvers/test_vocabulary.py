@@ -74,3 +74,19 @@ def test_closed_form_precision_is_the_old_backend_dps_bits_exactly():
         AnalyticalSolver(precision="float128")
     with pytest.raises(ParameterError, match="^backend = .*not with precision="):
         AnalyticalSolver(backend="mpmath", precision="mp:128")
+
+
+def test_find_orbit_guess_from_and_the_deprecated_seed():
+    """``seed`` means an RNG seed elsewhere (score, sync_scan); find_orbit's start strategy is
+    ``guess_from``."""
+    from precise_impact import find_orbit
+
+    p = Params.make(R="0.8", eta="1")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        new = find_orbit(p, 1, guess_from="closed-form")
+    with pytest.warns(DeprecationWarning, match="find_orbit: seed= is deprecated, use guess_from="):
+        old = find_orbit(p, 1, seed="closed-form")
+    assert (new.x, new.v, new.lle) == (old.x, old.v, old.lle)
+    with pytest.raises(ParameterError, match="^guess_from = "):
+        find_orbit(p, 1, guess_from="random")

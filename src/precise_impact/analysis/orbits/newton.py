@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
+from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
 
@@ -152,7 +153,8 @@ def find_orbit(
     impacts: int | None = None,
     max_iterations: int = 50,
     precision: str = "float64",
-    seed: str = "simulation",
+    guess_from: str = "simulation",
+    seed: Any = UNSET,
     **param_values: Any,
 ) -> PeriodicOrbit:
     """A periodic orbit of the stroboscopic map (stable or unstable) by Newton's method.
@@ -177,7 +179,7 @@ def find_orbit(
         orbit refined by Newton in multiprecision, the map evaluated by the robust analytical solver
         (mpmath) and its Jacobian by the closed-form flow and saltation matrices;
         quadratic convergence to the working precision.
-    seed : str, default ``'simulation'``
+    guess_from : str, default ``'simulation'``
         Where Newton starts when ``guess`` is ``None``: ``'simulation'`` (the state after
         ``transient`` periods), ``'closed-form'`` (the closed-form 1:``period`` orbit of
         :func:`~precise_impact.analysis.orbits.one_impact.one_impact_orbits`: one impact per
@@ -186,6 +188,8 @@ def find_orbit(
         or ``'auto'`` (the closed form when ``impacts == 1`` and one exists, else the
         simulation).  With a ``guess`` and ``'closed-form'``, the closed-form orbit nearest
         the guess.
+    seed : str
+        Deprecated spelling of ``guess_from`` (``seed`` is an RNG seed elsewhere).
     **param_values
         Parameter values replacing those of ``params``.
 
@@ -220,11 +224,14 @@ def find_orbit(
            multipliers of impacting orbits).
     """
     params = params_or_values(params, param_values)
+    if seed is not UNSET:  # the 0.2 spelling
+        warn_renamed("seed=", "guess_from=", "find_orbit")
+        guess_from = seed
     period, transient, max_iterations, impacts, Pq = _check_options(
-        params, period, transient, max_iterations, impacts, seed, precision
+        params, period, transient, max_iterations, impacts, guess_from, precision
     )
     g = _parse_guess(params, guess)
-    z = _seed(params, period, g, seed, impacts, transient)
+    z = _seed(params, period, g, guess_from, impacts, transient)
     z, it, steps = _newton_float(params, z, period, max_iterations)
     fz, M, n = _map(params, z, period)
     residual = float(np.max(np.abs(fz - z)))
@@ -273,10 +280,10 @@ def _check_options(
     if impacts is not None:
         impacts = check_count(impacts, "impacts", 10**6)
     if seed not in ("simulation", "closed-form", "auto"):
-        raise ParameterError("seed", seed, "'simulation', 'closed-form' or 'auto'")
+        raise ParameterError("guess_from", seed, "'simulation', 'closed-form' or 'auto'")
     if seed == "closed-form" and impacts not in (None, 1):
         raise ParameterError(
-            "impacts", str(impacts), "None or 1 with seed='closed-form' (one impact per orbit)"
+            "impacts", str(impacts), "None or 1 with guess_from='closed-form' (one impact per orbit)"
         )
     from precise_impact.core.precision import Precision
 

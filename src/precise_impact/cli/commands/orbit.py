@@ -28,7 +28,9 @@ def register(sub) -> argparse.ArgumentParser:
     add_orbit_flags(ob, "")
     add_precision(ob, "float64 or mp:BITS (Newton refined to that precision)")
     ob.add_argument(
-        "--seed",
+        "--guess-from",
+        "--seed",  # the 0.2 name
+        dest="guess_from",
         default="auto",
         choices=("auto", "simulation", "closed-form"),
         help="where Newton starts without --guess: the closed-form orbit with one impact per P "
@@ -57,7 +59,7 @@ def run(ns: argparse.Namespace) -> int:
         impacts=impacts,
         transient=check_count(ns.transient, "transient"),
         precision=ns.precision,
-        seed=ns.seed,
+        guess_from=ns.guess_from,
     )
     if ns.json:
         json.dump(o.to_dict(), sys.stdout)
