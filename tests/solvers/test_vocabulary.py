@@ -90,3 +90,15 @@ def test_find_orbit_guess_from_and_the_deprecated_seed():
     assert (new.x, new.v, new.lle) == (old.x, old.v, old.lle)
     with pytest.raises(ParameterError, match="^guess_from = "):
         find_orbit(p, 1, guess_from="random")
+
+
+def test_fast_lle_segments_and_the_deprecated_blocks():
+    from precise_impact.solvers.fast.lle import fast_lle
+
+    p = Params.make(eta="0.712")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        new = fast_lle(p, periods=400, transient=100, segments=8)
+    with pytest.warns(DeprecationWarning, match="fast_lle: blocks= is deprecated, use segments="):
+        old = fast_lle(p, periods=400, transient=100, blocks=8)
+    assert new["lle"] == old["lle"] and new["stderr"] == old["stderr"]

@@ -12,10 +12,12 @@ bars, attractors) are :mod:`precise_impact.analysis.lyapunov.fast`.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numba
 import numpy as np
 
+from precise_impact.core.compat import UNSET, renamed
 from precise_impact.solvers.fast.crossing import JIT, mul2
 from precise_impact.solvers.fast.single import (
     FLIGHT_SAMPLES,
@@ -261,8 +263,9 @@ def fast_lle(
     periods: int = 6000,
     transient: int = 1000,
     initial_conditions: int = 4,
-    blocks: int = 20,
+    segments: Any = UNSET,
     max_impacts: int = 10**8,
+    blocks: Any = UNSET,
 ):
     """Both Lyapunov exponents from the compiled engine, per start and combined.
 
@@ -277,10 +280,13 @@ def fast_lle(
         Discarded periods per start (the tangent basis is *not* restarted after them).
     initial_conditions : int, default 4
         Starts, run in parallel.
-    blocks : int, default 20
-        Batch means per start for the standard error.
+    segments : int, default 20
+        Batch means per start for the standard error (as ``segments`` of
+        :func:`~precise_impact.analysis.lyapunov.lyapunov`).
     max_impacts : int, default ``10**8``
         Impact budget per start.
+    blocks : int
+        Deprecated spelling of ``segments``.
 
     Returns
     -------
@@ -303,7 +309,8 @@ def fast_lle(
     periods = check_count(periods, "periods", minimum=1)
     transient = check_count(transient, "transient")
     n = check_count(initial_conditions, "initial_conditions", 1000, minimum=1)
-    blocks = check_count(blocks, "blocks", 10_000, minimum=1)
+    segments = renamed(segments, blocks, old="blocks", new="segments", where="fast_lle", default=20)
+    blocks = check_count(segments, "segments", 10_000, minimum=1)
     if blocks > periods:
         blocks = periods
     max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
