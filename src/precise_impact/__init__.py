@@ -9,6 +9,7 @@ names below are the public API; the layering is described in ``docs/design.rst``
 
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
 from precise_impact.analysis.lyapunov import (
+    LYAPUNOV_ENGINES,
     LYAPUNOV_METHODS,
     Attractor,
     LyapunovResult,
@@ -140,6 +141,7 @@ __all__ = [
     "simulate_coupled_circuit",
     # analysis
     "LYAPUNOV_METHODS",
+    "LYAPUNOV_ENGINES",
     "LyapunovResult",
     "Attractor",
     "StartEstimate",

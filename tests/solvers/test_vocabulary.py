@@ -102,3 +102,26 @@ def test_fast_lle_segments_and_the_deprecated_blocks():
     with pytest.warns(DeprecationWarning, match="fast_lle: blocks= is deprecated, use segments="):
         old = fast_lle(p, periods=400, transient=100, blocks=8)
     assert new["lle"] == old["lle"] and new["stderr"] == old["stderr"]
+
+
+def test_lyapunov_model_fast_is_the_old_method_fast():
+    from precise_impact import lyapunov
+
+    p = Params.make(eta="0.712")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        new = lyapunov(p, "variational", model="fast", periods=400, transient=100)
+    with pytest.warns(DeprecationWarning, match="method='fast' is deprecated"):
+        old = lyapunov(p, "fast", periods=400, transient=100)
+    assert new.lle == old.lle and new.lle_stderr == old.lle_stderr
+    with pytest.raises(ParameterError, match="^model = 'fast' .* heyoka with method='two-traj"):
+        lyapunov(p, "two-trajectory", model="fast")
+
+
+def test_cli_lle_model_flag_and_the_deprecated_method_fast():
+    cmd = [sys.executable, "-m", "precise_impact", "lle", "--periods", "300", "--transient", "50"]
+    new = subprocess.run([*cmd, "--model", "fast", "--json"], capture_output=True, text=True)
+    old = subprocess.run([*cmd, "--method", "fast", "--json"], capture_output=True, text=True)
+    assert new.returncode == old.returncode == 0, (new.stderr, old.stderr)
+    assert json.loads(new.stdout)["lle"] == json.loads(old.stdout)["lle"]
+    assert "--method fast is deprecated" in old.stderr

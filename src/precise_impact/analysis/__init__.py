@@ -2,6 +2,7 @@
 
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
 from precise_impact.analysis.lyapunov import (
+    LYAPUNOV_ENGINES,
     LYAPUNOV_METHODS,
     Attractor,
     LyapunovResult,
@@ -14,6 +15,7 @@ from precise_impact.analysis.sync import SyncResult, sync_scan
 
 __all__ = [
     "LYAPUNOV_METHODS",
+    "LYAPUNOV_ENGINES",
     "LyapunovResult",
     "Attractor",
     "StartEstimate",

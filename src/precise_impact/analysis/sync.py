@@ -498,7 +498,8 @@ def sync_scan(
 
         lr = lyapunov(
             params,
-            "fast" if engine == "fast" else "variational",
+            "variational",
+            model="fast" if engine == "fast" else "heyoka",
             periods=lle_periods,
             transient=lle_transient,
         )

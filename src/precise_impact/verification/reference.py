@@ -429,7 +429,7 @@ def _gen_bifurcation(case: str, case_dir: Path, progress: bool) -> dict:
     params = Params.make()
     lo, hi, n = BIF_RANGE
     r = bifurcation(
-        params, lo, hi, n, periods=BIF_PERIODS, transient=BIF_TRANSIENT, progress=progress
+        params, ("eta", lo, hi, n), periods=BIF_PERIODS, transient=BIF_TRANSIENT, progress=progress
     )
     _write_npz(
         case_dir / "bifurcation.npz",

@@ -11,11 +11,13 @@ from precise_impact.analysis.lyapunov.result import (
     block_stderr,
 )
 from precise_impact.core.budget import enforce_max_time
+from precise_impact.core.compat import warn_renamed
 from precise_impact.core.params import Params, check_count
 from precise_impact.errors import ParameterError
 
 __all__ = [
     "LYAPUNOV_METHODS",
+    "LYAPUNOV_ENGINES",
     "Attractor",
     "StartEstimate",
     "lyapunov",
@@ -23,11 +25,25 @@ __all__ = [
     "block_stderr",
 ]
 
-LYAPUNOV_METHODS = ("variational", "two-trajectory", "fast")
+#: The algorithms (``method=``).
+LYAPUNOV_METHODS = ("variational", "two-trajectory")
+
+#: Every ``(method, model)`` pair that runs: the variational method on heyoka or on the
+#: compiled closed form (``model='fast'``, float64), the two-trajectory method on heyoka.
+LYAPUNOV_ENGINES = (
+    ("variational", "heyoka"),
+    ("variational", "fast"),
+    ("two-trajectory", "heyoka"),
+)
 
 
 def lyapunov(
-    params: Params, method: str = "variational", *, max_time: Any = None, **kwargs: Any
+    params: Params,
+    method: str = "variational",
+    *,
+    model: str = "heyoka",
+    max_time: Any = None,
+    **kwargs: Any,
 ) -> LyapunovResult:
     """Largest Lyapunov exponent (and, variationally, the spectrum) of the impact oscillator.
 
@@ -36,13 +52,18 @@ def lyapunov(
     params : Params
         System and initial condition (``eta = 0.712`` is the paper's chaotic case).
     method : str, default ``'variational'``
-        One of :data:`LYAPUNOV_METHODS`: ``'variational'`` (heyoka's variational
-        equations, saltation matrix at each impact, QR every period:
-        :func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`),
+        The algorithm, one of :data:`LYAPUNOV_METHODS`: ``'variational'`` (tangent
+        flow, saltation matrix at each impact, QR re-orthonormalisation:
+        :func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`) or
         ``'two-trajectory'`` (Benettin's renormalised pair of orbits:
-        :func:`~precise_impact.analysis.lyapunov.two_trajectory.two_trajectory_lle`) or
-        ``'fast'`` (the same spectrum as ``'variational'`` from the compiled closed-form
-        engine, float64, every core: :func:`~precise_impact.analysis.lyapunov.fast.fast_spectrum`).
+        :func:`~precise_impact.analysis.lyapunov.two_trajectory.two_trajectory_lle`).
+        ``'fast'`` is the 0.2 spelling of ``method='variational', model='fast'``
+        (a :class:`DeprecationWarning`).
+    model : str, default ``'heyoka'``
+        The engine: ``'heyoka'`` (Taylor integration, every precision) or ``'fast'`` (the
+        variational method on the compiled closed form, float64, every core:
+        :func:`~precise_impact.analysis.lyapunov.fast.fast_spectrum`); the pairs that run
+        are :data:`LYAPUNOV_ENGINES`.
     max_time : decimal or None, default ``None``
         Time budget in seconds (``1 <= max_time <= 604800``): the estimated cost of the
         runs (:func:`~precise_impact.core.budget.estimate_cost`, job ``'lle'``) is checked
@@ -90,8 +111,19 @@ def lyapunov(
     from precise_impact.core.params import as_params
 
     params = as_params(params)
+    if method == "fast":  # the 0.2 spelling
+        warn_renamed("method='fast'", "method='variational', model='fast'", "lyapunov")
+        method, model = "variational", "fast"
     if method not in LYAPUNOV_METHODS:
         raise ParameterError("method", method, "one of " + ", ".join(LYAPUNOV_METHODS))
+    if (method, model) not in LYAPUNOV_ENGINES:
+        raise ParameterError(
+            "model",
+            model,
+            f"one of {', '.join(m for k, m in LYAPUNOV_ENGINES if k == method)} "
+            f"with method={method!r}",
+        )
+    engine = "fast" if model == "fast" else method
     if max_time is not None:
         starts = kwargs.get("initial_conditions")
         enforce_max_time(
@@ -100,18 +132,18 @@ def lyapunov(
             periods=check_count(kwargs.get("periods", 20000)),
             transient=check_count(kwargs.get("transient", 1000), "transient"),
             precision=kwargs.get("precision", "float64"),
-            model=method,
+            model=engine,
             runs=None if starts is None else check_count(starts, "initial_conditions"),
         )
-    if method == "variational":
+    if engine == "variational":
         from precise_impact.analysis.lyapunov.variational import variational_spectrum
 
         return variational_spectrum(params, **kwargs)
-    if method == "fast":
+    if engine == "fast":
         from precise_impact.analysis.lyapunov.fast import fast_spectrum
 
         return fast_spectrum(params, **kwargs)
-    if method == "two-trajectory":
+    if engine == "two-trajectory":
         from precise_impact.analysis.lyapunov.two_trajectory import two_trajectory_lle
 
         return two_trajectory_lle(params, **kwargs)

@@ -48,9 +48,7 @@ def run(ns: argparse.Namespace) -> int:
     check_count(ns.eta[2], "n", 1_000_000, minimum=1)
     res = bifurcation(
         params,
-        ns.eta[0],
-        ns.eta[1],
-        ns.eta[2],
+        ("eta", ns.eta[0], ns.eta[1], ns.eta[2]),
         periods=ns.periods,
         transient=ns.transient,
         workers=workers,

@@ -36,8 +36,14 @@ def register(sub) -> argparse.ArgumentParser:
     ly.add_argument(
         "--method",
         default="variational",
-        help="variational, two-trajectory or fast (compiled closed form, float64) "
-        "(default variational)",
+        help="the algorithm: variational or two-trajectory (default variational; 'fast' is the "
+        "deprecated spelling of --method variational --model fast)",
+    )
+    ly.add_argument(
+        "--model",
+        default="heyoka",
+        help="the engine: heyoka (every precision) or fast (the variational method on the "
+        "compiled closed form, float64) (default heyoka)",
     )
     add_precision(ly, "float64, longdouble, float128 or mp:BITS")
     add_json(ly)
@@ -50,9 +56,17 @@ def run(ns: argparse.Namespace) -> int:
     params = params_from(ns)
     periods = check_count(ns.periods)
     transient = check_count(ns.transient, "transient")
+    method, model = ns.method, ns.model
+    if method == "fast":  # the 0.2 spelling
+        print(
+            "precise-impact: --method fast is deprecated, use --method variational --model fast",
+            file=sys.stderr,
+        )
+        method, model = "variational", "fast"
     r = lyapunov(
         params,
-        ns.method,
+        method,
+        model=model,
         periods=periods,
         transient=transient,
         precision=ns.precision,

@@ -36,7 +36,9 @@ def register(sub) -> argparse.ArgumentParser:
     )
     sw.add_argument("--tile", default="64", metavar="K", help="points per tile (default 64)")
     sw.add_argument(
-        "--engine",
+        "--model",
+        "--engine",  # the 0.2 name
+        dest="model",
         default="fast",
         choices=("fast", "heyoka"),
         help="fast (compiled closed form) or heyoka (SIMD batch variational) (default fast)",
@@ -83,7 +85,7 @@ def run(ns: argparse.Namespace) -> int:
         transient=ns.transient,
         tile_size=ns.tile,
         max_work=max_work,
-        engine=ns.engine,
+        model=ns.model,
     )
     workers = None if ns.workers is None else check_count(ns.workers, "workers", 1024)
     if ns.scheduler is not None and not ns.scheduler.startswith("tcp://"):

@@ -56,7 +56,9 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_out(sy, "dir", "plots and JSON go here (default results)", default="results")
     sy.add_argument(
-        "--engine",
+        "--model",
+        "--engine",  # the 0.2 name
+        dest="model",
         choices=("fast", "heyoka"),
         default="fast",
         help="fast (compiled closed forms, float64; default) or heyoka (Taylor integration)",
@@ -84,7 +86,7 @@ def run(ns: argparse.Namespace) -> int:
         ensemble=ensemble,
         seed=seed,
         progress=not ns.json,
-        engine=ns.engine,
+        model=ns.model,
         max_time=max_time(ns),
     )
     out = Path(ns.out)
@@ -113,7 +115,7 @@ def run(ns: argparse.Namespace) -> int:
     ):
         print(f"{float(k):8.4f} {fs:12.3f} {fi:12.3f} {r + float(k):9.4f}")
     print(f"threshold k* = {res.k_star:.4f} +- {res.k_star_err:.4f} ({res.message})")
-    lle_method = "fast" if ns.engine == "fast" else "variational"
+    lle_method = "fast" if ns.model == "fast" else "variational"
     print(f"LLE ({lle_method}) = {res.lle:.4f} +- {res.lle_stderr:.4f}")
     print(
         f"written: {out / (stem + '.json')}, {out / (stem + '_fraction.png')}, "
