@@ -111,13 +111,13 @@ def test_accumulation_time_against_exact_series(precision, R):
     limit = 0.5 * P.digits / mpmath.log10(1 / mpq(R)) + 10
     assert ep["episode_impacts"] == tr.n_impacts <= limit
     # each recorded impact is one of the exact sequence
-    for k, (t, vb) in enumerate(zip(tr.impacts_t, tr.impacts_v_before)):
+    for k, (t, vb) in enumerate(zip(tr.impacts_t, tr.impacts_v_before, strict=True)):
         assert rel_t_err(P, t, ts[k]) <= 16
         with mpmath.workprec(600):
             assert abs(P.to_mpf(vb) - vs[k]) <= 16 * P.eps_float
     # samples: x(0) = -2 at rest, then on the wall at rest once t > t_inf (~4.2 .. 27)
     x_w = P.from_fraction(p.x_w)
-    for t, x, v in zip(tr.t, tr.x, tr.v):
+    for t, x, v in zip(tr.t, tr.x, tr.v, strict=True):
         if t > ep["t_accumulation"]:
             assert (x, v) == (x_w, 0)
         assert x <= x_w
@@ -208,7 +208,7 @@ def test_forced_chattering_sticks_and_releases(precision, R, forced_ref):
     ref = forced_ref[R]
     chat, stick = tr.stats["chattering"], tr.stats["sticking"]
     assert len(chat) == len(stick) == len(ref.stats["chattering"]) >= 5
-    for ep, (t_s, t_r), ep_ref in zip(chat, stick, ref.stats["chattering"]):
+    for ep, (t_s, t_r), ep_ref in zip(chat, stick, ref.stats["chattering"], strict=True):
         assert not ep["floor"]
         assert ep["episode_impacts"] < 200
         assert t_s == ep["t_accumulation"]
@@ -221,14 +221,14 @@ def test_forced_chattering_sticks_and_releases(precision, R, forced_ref):
         )
     # impact law and the invariant x <= x_w everywhere
     R_q = Fraction(R)
-    for vb, va in zip(tr.impacts_v_before, tr.impacts_v_after):
+    for vb, va in zip(tr.impacts_v_before, tr.impacts_v_after, strict=True):
         with mpmath.workprec(600):
             assert P.to_mpf(vb) > 0
             assert abs(P.to_mpf(va) + mpq(R_q) * P.to_mpf(vb)) <= P.eps_float * abs(P.to_mpf(vb))
     x_w = P.from_fraction(p.x_w)
     assert all(x <= x_w for x in tr.dense_x)
     inside = 0
-    for t, x, v in zip(tr.dense_t, tr.dense_x, tr.dense_v):
+    for t, x, v in zip(tr.dense_t, tr.dense_x, tr.dense_v, strict=True):
         if any(t_s <= t <= t_r for t_s, t_r in stick):
             assert (x, v) == (x_w, 0)
             inside += 1

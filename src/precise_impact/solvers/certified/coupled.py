@@ -203,7 +203,7 @@ class CertifiedCoupledTrajectory(ResultMixin):
         rows = []
         for k, t, *balls in self.samples:
             row: dict = {"period": k, "t": ball_str(t)[0]}
-            for name, b in zip("xvyw", balls):
+            for name, b in zip("xvyw", balls, strict=True):
                 row[name], row[name + "_rad"] = ball_str(b)
             rows.append(row)
 

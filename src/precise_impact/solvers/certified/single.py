@@ -421,7 +421,7 @@ class CertifiedTrajectory(ResultMixin):
         ys = [r[k - 1] for k in ks]
         km, ym = sum(ks) / len(ks), sum(ys) / len(ys)
         den = sum((k - km) ** 2 for k in ks)
-        return sum((k - km) * (y - ym) for k, y in zip(ks, ys)) / den if den else 0.0
+        return sum((k - km) * (y - ym) for k, y in zip(ks, ys, strict=True)) / den if den else 0.0
 
     def contains(self, k: int, x: Any, v: Any) -> bool:
         """Whether the exact decimals ``x, v`` lie in sample ``k``'s balls.

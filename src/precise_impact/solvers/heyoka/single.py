@@ -857,7 +857,7 @@ class HeyokaSolver:
         k = bisect.bisect_right(rec.t, t_end)
         imp_t, imp_vb, imp_va = rec.t[:k], rec.v_before[:k], rec.v_after[:k]
         x_w = P.from_fraction(params.x_w)
-        for tc, va in zip(imp_t, imp_va):
+        for tc, va in zip(imp_t, imp_va, strict=True):
             j = bisect.bisect_left(grid, tc)
             if j < n_out and grid[j] == tc:
                 # heyoka's output at a grid time equal to an event time is the
