@@ -77,7 +77,8 @@ def test_near_simultaneous_impacts_refused_then_ordered():
     assert r.bits == 512 and len(r.master_impacts) == len(r.slave_impacts) == 4
     for (tm, _, _), (ts, _, _) in zip(r.master_impacts, r.slave_impacts, strict=True):
         gap = abs(float((ts - tm).mid()))
-        # |e| ~ 1e-90 decays like exp(-(zeta + k) t) <= 1; |y'| ~ 1: the impacts 1e-93 .. 1e-90 apart
+        # |e| ~ 1e-90 decays like exp(-(zeta + k) t) <= 1; |y'| ~ 1: the impacts 1e-93 .. 1e-90
+        # apart
         assert 1e-94 < gap < 1e-89 and not ts.overlaps(tm)
 
 

@@ -183,7 +183,8 @@ def release_exact(t_start) -> mpmath.mpf:
 
 @pytest.fixture(scope="module")
 def forced_ref():
-    """192 bits: eps ~ 1.6e-58, far below the 128-bit run's eps ~ 5.9e-39 (2.2 s; 256 bits took 6.4 s)."""
+    """192 bits: eps ~ 1.6e-58, far below the 128-bit run's eps ~ 5.9e-39 (2.2 s; 256 bits took
+    6.4 s)."""
     return {R: HeyokaSolver("mp:192").solve(Params.make(R=R, **FORCED), 6) for R in ("1/2", "4/5")}
 
 
@@ -198,8 +199,9 @@ def test_forced_chattering_sticks_and_releases(precision, R, forced_ref):
     times equal the closed form rounded up (0 <= t_rel - exact <= 1 ulp <= eps t);
     accumulation times agree with the 192-bit run to <= 64 eps t (measured against
     256 bits: <= 2.1 eps t for R = 1/2, <= 7.1 eps t for R = 0.8); < 200 impacts
-    per episode (measured 12-43 in float64, up to 101 at 128 bits for R = 0.8); x <= x_w at every dense point; (x_w, 0)
-    exactly inside every sticking interval; |v_after| = R |v_before|.
+    per episode (measured 12-43 in float64, up to 101 at 128 bits for R = 0.8); x <= x_w
+    at every dense point; (x_w, 0) exactly inside every sticking interval;
+    |v_after| = R |v_before|.
     """
     p = Params.make(R=R, **FORCED)
     solver = HeyokaSolver(precision)
@@ -289,7 +291,7 @@ def test_plastic_impact_with_force_pulling_away_leaves_the_wall(precision):
     assert max(sample_errors(tr, an)) <= (1e-10 if precision == "float64" else 1e-30)
 
 
-# ----------------------------------------------------------------------------- closed-form wall force
+# ------------------------------------------------------------------------ closed-form wall force
 def _release_brute(t, eta, a, x_w):
     """First t' > t where G = a cos(eta t') - x_w goes from + to -: scan + bisection."""
     with mpmath.workprec(300):
