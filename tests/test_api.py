@@ -1,4 +1,5 @@
-"""The public API: every model behind one Solver protocol, results that serialise, names documented."""
+"""The public API: every model behind one Solver protocol, results that serialise, names
+documented."""
 
 from __future__ import annotations
 
@@ -275,8 +276,8 @@ def test_missing_dask_is_one_line_and_exit_2(tmp_path):
     code = (
         "import sys; sys.modules['dask'] = None; sys.modules['distributed'] = None; "
         "from precise_impact.cli.main import main; "
-        f"sys.exit(main(['sweep', '--axis', 'eta', '0.70', '0.72', '2', '--periods', '2', '--transient', '1', "
-        f"'--dask', 'local', '--out', {str(tmp_path / 'sw')!r}]))"
+        "sys.exit(main(['sweep', '--axis', 'eta', '0.70', '0.72', '2', '--periods', '2', "
+        f"'--transient', '1', '--dask', 'local', '--out', {str(tmp_path / 'sw')!r}]))"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     lines = r.stderr.strip().splitlines()
@@ -307,7 +308,9 @@ import matplotlib
 matplotlib.use("svg")
 import precise_impact as pi
 from precise_impact.analysis.sync import plot_fig7
-plot_fig7(pi.Params.make(), "first-order", "0.031", "0.032", 4, {str(tmp_path / "f7.png")!r}, per_period=4)
+plot_fig7(
+    pi.Params.make(), "first-order", "0.031", "0.032", 4, {str(tmp_path / "f7.png")!r}, per_period=4
+)
 pi.accuracy_table
 r = pi.BifurcationResult
 print(matplotlib.get_backend())

@@ -44,8 +44,9 @@ LAYERS = {
 INTERNALS_ALLOWED: dict[str, tuple[str, str]] = {
     "analysis/test_grazing.py": (
         "precise_impact.solvers.heyoka.variational",
-        "drives the variational integrator's impact recorder and grazing depth (_SaltationRecorder, "
-        "_Depth) directly: a dropped impact and a 1e18-scaled tangent cannot be provoked through the API",
+        "drives the variational integrator's impact recorder and grazing depth "
+        "(_SaltationRecorder, _Depth) directly: a dropped impact and a 1e18-scaled tangent "
+        "cannot be provoked through the API",
     ),
 }
 

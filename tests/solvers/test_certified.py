@@ -72,7 +72,7 @@ def test_a_grazing_impact_missed_by_the_papers_scan_is_found_and_proven():
         pi.simulate(q, 3, model="analytical"),
     ):
         assert other.n_impacts == 2
-        for (t, vb, _), t2 in zip(r.impacts, other.impacts_t):
+        for (t, _, _), t2 in zip(r.impacts, other.impacts_t, strict=True):
             assert abs(float(t.mid()) - float(t2)) < 1e-9  # float64 impact times, ~1e-12 apart
     assert all(vb > 0 for _, vb, _ in r.impacts)  # proven transversal
 
@@ -114,7 +114,7 @@ def test_certified_model_and_threads():
     ref = pi.simulate(p, 30, precision="mp:256")
     assert tr.n_impacts == ref.n_impacts and tr.stats["max_radius"] < 1e-60
     assert (
-        max(abs(a - b) for a, b in zip(tr.x, ref.x)) < 1e-60
+        max(abs(a - b) for a, b in zip(tr.x, ref.x, strict=True)) < 1e-60
     )  # heyoka mp:256 vs the proven midpoints
     serial = [
         certify(pi.Params.make(eta=e), 40, bits=b).to_dict()
@@ -129,7 +129,7 @@ def test_certified_model_and_threads():
     ts = [threading.Thread(target=work, args=(i,)) for i in range(4)]
     [t.start() for t in ts]
     [t.join() for t in ts]
-    for a, b in zip(out, serial):
+    for a, b in zip(out, serial, strict=True):
         assert a["samples"] == b["samples"] and a["bits"] == b["bits"]
 
 
@@ -141,7 +141,7 @@ def test_proven_period_3_orbit_and_its_stability():
     f = pi.find_orbit(pi.Params.make(eta="0.74"), 3)
     # the float64 Newton orbit lies within its rounding (1e-15) of the proven box
     assert abs(float(o.x[0]) - f.x) < 1e-14 and abs(float(o.v[0]) - f.v) < 1e-14
-    for enc, mu in zip(o.multipliers, sorted(f.multipliers, key=lambda m: -abs(m))):
+    for enc, mu in zip(o.multipliers, sorted(f.multipliers, key=lambda m: -abs(m)), strict=True):
         assert abs(float(enc["re"]) - mu.real) < 1e-13
     assert o.lle[0] <= f.lle + 1e-13 and f.lle - 1e-13 <= o.lle[1]
 

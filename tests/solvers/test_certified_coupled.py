@@ -41,9 +41,9 @@ def test_pair_contains_heyoka_mp(form, k):
     assert r.max_radius() < 1e-45
     with mpmath.workprec(600):
         for i, (_, _, *balls) in enumerate(r.samples):
-            for b, hv in zip(balls, (h.x[i], h.v[i], h.y[i], h.w[i])):
+            for b, hv in zip(balls, (h.x[i], h.v[i], h.y[i], h.w[i]), strict=True):
                 assert abs(mpmath.mpf(str(hv)) - _mp(b)) <= float(exact_value(b.rad())) + 1e-60
-        for (t, _, _), ht in zip(r.slave_impacts, h.slave_impacts_t):
+        for (t, _, _), ht in zip(r.slave_impacts, h.slave_impacts_t, strict=True):
             assert abs(mpmath.mpf(str(ht)) - _mp(t)) <= float(exact_value(t.rad())) + 1e-60
 
 
@@ -59,7 +59,7 @@ def test_diagonal_is_the_single_oscillator_exactly():
             b.rad()
         )
 
-    for (_, t, x, v, y, w), (_, t2, x2, v2) in zip(r.samples, s.samples):
+    for (_, _, x, v, y, w), (_, _, x2, v2) in zip(r.samples, s.samples, strict=True):
         assert same(x, x2) and same(y, x2) and same(v, v2) and same(w, v2)
 
 
@@ -75,9 +75,10 @@ def test_near_simultaneous_impacts_refused_then_ordered():
         pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, bits=256, max_bits=256)
     r = pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, bits=256)
     assert r.bits == 512 and len(r.master_impacts) == len(r.slave_impacts) == 4
-    for (tm, _, _), (ts, _, _) in zip(r.master_impacts, r.slave_impacts):
+    for (tm, _, _), (ts, _, _) in zip(r.master_impacts, r.slave_impacts, strict=True):
         gap = abs(float((ts - tm).mid()))
-        # |e| ~ 1e-90 decays like exp(-(zeta + k) t) <= 1; |y'| ~ 1: the impacts 1e-93 .. 1e-90 apart
+        # |e| ~ 1e-90 decays like exp(-(zeta + k) t) <= 1; |y'| ~ 1: the impacts 1e-93 .. 1e-90
+        # apart
         assert 1e-94 < gap < 1e-89 and not ts.overlaps(tm)
 
 

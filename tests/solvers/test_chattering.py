@@ -111,13 +111,13 @@ def test_accumulation_time_against_exact_series(precision, R):
     limit = 0.5 * P.digits / mpmath.log10(1 / mpq(R)) + 10
     assert ep["episode_impacts"] == tr.n_impacts <= limit
     # each recorded impact is one of the exact sequence
-    for k, (t, vb) in enumerate(zip(tr.impacts_t, tr.impacts_v_before)):
+    for k, (t, vb) in enumerate(zip(tr.impacts_t, tr.impacts_v_before, strict=True)):
         assert rel_t_err(P, t, ts[k]) <= 16
         with mpmath.workprec(600):
             assert abs(P.to_mpf(vb) - vs[k]) <= 16 * P.eps_float
     # samples: x(0) = -2 at rest, then on the wall at rest once t > t_inf (~4.2 .. 27)
     x_w = P.from_fraction(p.x_w)
-    for t, x, v in zip(tr.t, tr.x, tr.v):
+    for t, x, v in zip(tr.t, tr.x, tr.v, strict=True):
         if t > ep["t_accumulation"]:
             assert (x, v) == (x_w, 0)
         assert x <= x_w
@@ -183,7 +183,8 @@ def release_exact(t_start) -> mpmath.mpf:
 
 @pytest.fixture(scope="module")
 def forced_ref():
-    """192 bits: eps ~ 1.6e-58, far below the 128-bit run's eps ~ 5.9e-39 (2.2 s; 256 bits took 6.4 s)."""
+    """192 bits: eps ~ 1.6e-58, far below the 128-bit run's eps ~ 5.9e-39 (2.2 s; 256 bits took
+    6.4 s)."""
     return {R: HeyokaSolver("mp:192").solve(Params.make(R=R, **FORCED), 6) for R in ("1/2", "4/5")}
 
 
@@ -198,8 +199,9 @@ def test_forced_chattering_sticks_and_releases(precision, R, forced_ref):
     times equal the closed form rounded up (0 <= t_rel - exact <= 1 ulp <= eps t);
     accumulation times agree with the 192-bit run to <= 64 eps t (measured against
     256 bits: <= 2.1 eps t for R = 1/2, <= 7.1 eps t for R = 0.8); < 200 impacts
-    per episode (measured 12-43 in float64, up to 101 at 128 bits for R = 0.8); x <= x_w at every dense point; (x_w, 0)
-    exactly inside every sticking interval; |v_after| = R |v_before|.
+    per episode (measured 12-43 in float64, up to 101 at 128 bits for R = 0.8); x <= x_w
+    at every dense point; (x_w, 0) exactly inside every sticking interval;
+    |v_after| = R |v_before|.
     """
     p = Params.make(R=R, **FORCED)
     solver = HeyokaSolver(precision)
@@ -208,7 +210,7 @@ def test_forced_chattering_sticks_and_releases(precision, R, forced_ref):
     ref = forced_ref[R]
     chat, stick = tr.stats["chattering"], tr.stats["sticking"]
     assert len(chat) == len(stick) == len(ref.stats["chattering"]) >= 5
-    for ep, (t_s, t_r), ep_ref in zip(chat, stick, ref.stats["chattering"]):
+    for ep, (t_s, t_r), ep_ref in zip(chat, stick, ref.stats["chattering"], strict=True):
         assert not ep["floor"]
         assert ep["episode_impacts"] < 200
         assert t_s == ep["t_accumulation"]
@@ -221,14 +223,14 @@ def test_forced_chattering_sticks_and_releases(precision, R, forced_ref):
         )
     # impact law and the invariant x <= x_w everywhere
     R_q = Fraction(R)
-    for vb, va in zip(tr.impacts_v_before, tr.impacts_v_after):
+    for vb, va in zip(tr.impacts_v_before, tr.impacts_v_after, strict=True):
         with mpmath.workprec(600):
             assert P.to_mpf(vb) > 0
             assert abs(P.to_mpf(va) + mpq(R_q) * P.to_mpf(vb)) <= P.eps_float * abs(P.to_mpf(vb))
     x_w = P.from_fraction(p.x_w)
     assert all(x <= x_w for x in tr.dense_x)
     inside = 0
-    for t, x, v in zip(tr.dense_t, tr.dense_x, tr.dense_v):
+    for t, x, v in zip(tr.dense_t, tr.dense_x, tr.dense_v, strict=True):
         if any(t_s <= t <= t_r for t_s, t_r in stick):
             assert (x, v) == (x_w, 0)
             inside += 1
@@ -289,7 +291,7 @@ def test_plastic_impact_with_force_pulling_away_leaves_the_wall(precision):
     assert max(sample_errors(tr, an)) <= (1e-10 if precision == "float64" else 1e-30)
 
 
-# ----------------------------------------------------------------------------- closed-form wall force
+# ------------------------------------------------------------------------ closed-form wall force
 def _release_brute(t, eta, a, x_w):
     """First t' > t where G = a cos(eta t') - x_w goes from + to -: scan + bisection."""
     with mpmath.workprec(300):

@@ -10,6 +10,7 @@ roundoff of the arithmetic involved; each one says why.
 from __future__ import annotations
 
 from fractions import Fraction
+from itertools import pairwise
 
 import heyoka as hy
 import mpmath
@@ -78,7 +79,7 @@ def test_segments_continuous_and_samples_on_closed_form():
     xw = mpq(p.x_w)
     tol = mpmath.mpf("1e-50")
     with mpmath.workdps(60):
-        for (t_a, _, va), (t_b, vb, _) in zip(imps, imps[1:]):
+        for (t_a, _, va), (t_b, vb, _) in pairwise(imps):
             cf = solver.closed_form(p, t_a, xw, va)
             x_end, v_end = cf(t_b)
             assert abs(x_end - xw) < tol
@@ -172,7 +173,7 @@ def test_mpmath_and_float64_agree_in_the_chaotic_regime():
     m = AnalyticalSolver(backend="mpmath", dps=60).solve(p, 15)
     fi, mi = f.impacts_mpf(), m.impacts_mpf()
     assert len(fi) >= 10 and len(mi) >= 10
-    for (tf, vf, _), (tm, vm, _) in zip(fi[:10], mi[:10]):
+    for (tf, vf, _), (tm, vm, _) in zip(fi[:10], mi[:10], strict=True):
         assert abs(tf - tm) < 1e-10
         assert abs(vf - vm) < 1e-10
 

@@ -40,7 +40,10 @@ def test_reduction_algebra_is_exact():
     from precise_impact.solvers.heyoka.coupled import slave_rhs
 
     rng = random.Random(1)
-    cos = lambda u: F(1, 3)  # any fixed forcing value; exact
+
+    def cos(u):  # any fixed forcing value; exact
+        return F(1, 3)
+
     for _ in range(20):
         y, yd, x, xd, zeta, k, t = (F(rng.randint(-999, 999), rng.randint(1, 99)) for _ in range(7))
         a, eta = F(1), F(89, 125)

@@ -75,7 +75,9 @@ def test_compiled_saltation_is_the_core_one():
         core = oscillator_saltation(t, vm, eta, zeta, a, xw, R, math.cos)
         fast = compiled_saltation(t, vm, eta, zeta, a, xw, R)
         ref = [core[0][0], core[0][1], core[1][0], core[1][1]]
-        assert all(abs(x - y) <= 8 * EPS * max(1.0, abs(y)) for x, y in zip(fast, ref)), (fast, ref)
+        assert all(
+            abs(x - y) <= 8 * EPS * max(1.0, abs(y)) for x, y in zip(fast, ref, strict=True)
+        ), (fast, ref)
 
 
 @pytest.mark.parametrize("R", ["1", "0.8"])

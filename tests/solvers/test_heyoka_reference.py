@@ -35,7 +35,9 @@ def mpq(q: Fraction) -> mpmath.mpf:
 def scaled_error(y, y_true, atol, rtol) -> float:
     """max over components of |y - y_true| / (atol + rtol |y_true|)."""
     with mpmath.workprec(600):
-        return float(max(abs(a - b) / (atol + rtol * abs(b)) for a, b in zip(y, y_true)))
+        return float(
+            max(abs(a - b) / (atol + rtol * abs(b)) for a, b in zip(y, y_true, strict=True))
+        )
 
 
 # ------------------------------------------------------------------ periodic regimes
@@ -105,8 +107,8 @@ def test_mpmath_analytical_and_heyoka_mp_agree_on_50_impacts(chaotic_mp256):
     h_imp = chaotic_mp256.impacts_mpf()
     assert len(a_imp) >= 50
     with mpmath.workprec(300):
-        worst = max(abs(a[0] - h[0]) for a, h in zip(a_imp[:50], h_imp[:50]))
-        worst_v = max(abs(a[1] - h[1]) for a, h in zip(a_imp[:50], h_imp[:50]))
+        worst = max(abs(a[0] - h[0]) for a, h in zip(a_imp[:50], h_imp[:50], strict=True))
+        worst_v = max(abs(a[1] - h[1]) for a, h in zip(a_imp[:50], h_imp[:50], strict=True))
     assert worst <= mpmath.mpf("1e-40"), worst
     assert worst_v <= mpmath.mpf("1e-40"), worst_v
 
@@ -234,7 +236,7 @@ def test_impact_records_satisfy_the_impact_law():
         p = Params.make(eta="0.712", R=R)
         tr = simulate(p, 60, precision="float128")
         P = tr.precision
-        for vb, va in zip(tr.impacts_v_before, tr.impacts_v_after):
+        for vb, va in zip(tr.impacts_v_before, tr.impacts_v_after, strict=True):
             assert P.to_mpf(vb) > 0
             # the callback computes -R*v in float128: R rounded once (eps/2 relative)
             # and the product rounded once (eps/2) -> <= eps relative; exact for R = 1

@@ -131,7 +131,7 @@ def test_start_on_wall_at_rest_pushed_in_sticks(precision, eta, a, x_w, t0, rele
         assert 0 <= d <= P.eps_float * ex
     assert tr.impacts_t.size == 0 or tr.impacts_t[0] > t_r
     n_stuck = 0
-    for t, x, v in zip(tr.dense_t, tr.dense_x, tr.dense_v):
+    for t, x, v in zip(tr.dense_t, tr.dense_x, tr.dense_v, strict=True):
         assert x <= x_w_p
         if t <= t_r:
             assert (x, v) == (x_w_p, 0)

@@ -7,7 +7,8 @@ step only when it stays inside and at least halves the bracket, bisect otherwise
 a step or bracket below ``tol``.  Generic in the number type (float, mpmath ``mpf``): the
 closed-form solver (:mod:`precise_impact.solvers.closed_form`, both backends) and the
 shooting system's grazing test (:mod:`precise_impact.analysis.orbits.shooting`) call it; the
-compiled engines keep their numba copy (:func:`precise_impact.solvers.fast.crossing.refine_crossing`).
+compiled engines keep their numba copy
+(:func:`precise_impact.solvers.fast.crossing.refine_crossing`).
 Reference: W. H. Press et al., *Numerical Recipes*, 3rd ed. (2007), sec. 9.4 (``rtsafe``).
 """
 

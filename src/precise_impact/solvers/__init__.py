@@ -1,8 +1,11 @@
 """Solvers of the single oscillator and the model registry.
 
-* :mod:`~precise_impact.solvers.base` — the :class:`Solver` protocol, :data:`MODELS`, :func:`make_solver`.
-* :mod:`~precise_impact.solvers.heyoka.cache` — the one cache of compiled heyoka integrators (a private copy per caller).
-* :mod:`~precise_impact.solvers.heyoka.single` — :class:`HeyokaSolver`, the reference (every precision).
+* :mod:`~precise_impact.solvers.base` — the :class:`Solver` protocol, :data:`MODELS`,
+  :func:`make_solver`.
+* :mod:`~precise_impact.solvers.heyoka.cache` — the one cache of compiled heyoka integrators
+  (a private copy per caller).
+* :mod:`~precise_impact.solvers.heyoka.single` — :class:`HeyokaSolver`, the reference (every
+  precision).
 * :mod:`~precise_impact.solvers.closed_form` — :class:`AnalyticalSolver`, closed-form segments.
 * :mod:`~precise_impact.solvers.simulate` — :func:`simulate` and :func:`simulate_coupled`, one
   entry point for every model of the oscillator and of the pair (:data:`COUPLED_MODELS`).

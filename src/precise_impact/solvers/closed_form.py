@@ -36,7 +36,8 @@ _BACKENDS = ("float64", "mpmath")
 
 # --------------------------------------------------------------------------- backends
 class _Float64Ops(flight.FloatOps):
-    """Scalar float64 arithmetic through :mod:`math` (:class:`precise_impact.core.flight.FloatOps`)."""
+    """Scalar float64 arithmetic through :mod:`math`
+    (:class:`precise_impact.core.flight.FloatOps`)."""
 
     @staticmethod
     def from_precision(precision: Precision, x: Any) -> float:
@@ -383,7 +384,7 @@ class AnalyticalSolver:
 
     @property
     def precision(self) -> Precision:
-        """Precision of the returned Trajectory's state values: the bits mpmath really works with."""
+        """Precision of the returned Trajectory's state values: the bits mpmath really uses."""
         if isinstance(self._ops, _MpmathOps):
             return Precision.parse(f"mp:{self._ops.prec}")
         return Precision.parse("float64")
@@ -723,9 +724,9 @@ class _Run:
                     continue
             # 4. sticking / chattering: zero velocity on the wall, pushed into it
             raise BudgetExceededError(
-                "analytical solver: the mass rests on the wall with (rounding-level) zero velocity and is "
-                f"pushed into it at t = {float(t1):.17g} (x'' = {float(acc):.3g}): sticking or the end of a "
-                "chattering sequence, which eq. (2) does not model"
+                "analytical solver: the mass rests on the wall with (rounding-level) zero velocity "
+                f"and is pushed into it at t = {float(t1):.17g} (x'' = {float(acc):.3g}): sticking "
+                "or the end of a chattering sequence, which eq. (2) does not model"
             )
 
     def refine(self, seg: _Segment, lo, f_lo, v_lo, hi):

@@ -275,8 +275,8 @@ def simulate_coupled(
         System parameters (the paper's: zeta = 0.05, a = 1, x_w = 2, R = 1,
         eta = 0.712 chaotic) and the master's initial state ``(x0, v0)`` at ``t0``.
     k : decimal string / Fraction / int / float
-        Coupling ``k >= 0``, converted exactly (:func:`~precise_impact.core.params.exact`; a float is
-        read as its shortest round-trip decimal).
+        Coupling ``k >= 0``, converted exactly (:func:`~precise_impact.core.params.exact`; a
+        float is read as its shortest round-trip decimal).
     form : str, default ``'first-order'``
         One of :data:`COUPLED_FORMS`: eqs. (12) as written, (14a) as printed, or the
         correct second-order reduction of (12) (module docstring).

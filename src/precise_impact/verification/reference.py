@@ -389,8 +389,8 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
             }
         )
         _log(
-            f"  {case}: eta={eta}: {var.lle:.5f} +- {var.lle_stderr:.5f} (two-traj {two.lle:.5f} +- "
-            f"{two.lle_stderr:.5f})",
+            f"  {case}: eta={eta}: {var.lle:.5f} +- {var.lle_stderr:.5f} "
+            f"(two-traj {two.lle:.5f} +- {two.lle_stderr:.5f})",
             progress,
         )
     _write_json(

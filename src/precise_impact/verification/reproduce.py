@@ -228,8 +228,8 @@ def _lle_two_methods(p: Params, progress: bool | None):
         "two-trajectory": [lle_t.lle, lle_t.lle_stderr, lle_t.periods],
     }
     _say(
-        f"LLE: variational {lle_v.lle:.4f} +- {lle_v.lle_stderr:.4f}, two-trajectory {lle_t.lle:.4f} "
-        f"+- {lle_t.lle_stderr:.4f}",
+        f"LLE: variational {lle_v.lle:.4f} +- {lle_v.lle_stderr:.4f}, "
+        f"two-trajectory {lle_t.lle:.4f} +- {lle_t.lle_stderr:.4f}",
         progress,
     )
     return entry, lle_v

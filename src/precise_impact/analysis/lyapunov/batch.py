@@ -29,7 +29,7 @@ def batch_lle(
     max_period: int = 32,
     max_impacts: int = 10**7,
 ) -> list[dict]:
-    """LLE (variational, saltation), its error bar, the period and impacts per period for each point.
+    """LLE (variational, saltation), its error bar, period and impacts per period for each point.
 
     Parameters
     ----------
@@ -52,7 +52,8 @@ def batch_lle(
     Returns one dict per point: ``lle``, ``lambda2``, ``stderr``, ``period``,
     ``impacts_per_period``, ``x_last``/``v_last`` (the last stroboscopic sample) and
     ``grazing`` (tangential contacts over the whole run, transient included: events
-    within the grazing depth of the wall, not impacts; see :mod:`precise_impact.analysis.lyapunov.variational`).
+    within the grazing depth of the wall, not impacts; see
+    :mod:`precise_impact.analysis.lyapunov.variational`).
     Raises :class:`~precise_impact.errors.MissedImpactError` if a lane's maximum of ``x``
     lies beyond the wall by more than 4 grazing depths (an impact heyoka missed).
     Each lane is integrated exactly as it would be alone (per-lane steps, events and

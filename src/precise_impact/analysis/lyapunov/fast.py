@@ -202,7 +202,7 @@ def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out)
         rates = list(fine_imps / (per // (blocks * m))) if n > 1 else None
         attribute(
             result,
-            list(zip(xt, vt)),
+            list(zip(xt, vt, strict=True)),
             [(d["lle"], d["lambda2"], bm[i]) for i, d in enumerate(per_start)],
             impact_blocks=rates,
             periods=[per] * n,

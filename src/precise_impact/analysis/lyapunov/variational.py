@@ -204,7 +204,7 @@ def variational_spectrum(
         "max_overshoot": -math.inf,
         "missed": 0,
     }
-    for j, (ic, n) in enumerate(zip(ics, per_orbit)):
+    for j, (ic, n) in enumerate(zip(ics, per_orbit, strict=True)):
         rec.reset(max_impacts, depth, *fns, pars=ta.pars)
         grd.reset(depth, rec.f64)
         label = f" (orbit {j + 1}/{n_ic})" if n_ic > 1 else ""
@@ -261,7 +261,7 @@ def variational_spectrum(
     if attractors:
         per_start = [
             (float(np.sum(a) / np.sum(d)), float(np.sum(b) / np.sum(d)), blk)
-            for a, b, d, blk in zip(L1, L2, DT, test_blocks)
+            for a, b, d, blk in zip(L1, L2, DT, test_blocks, strict=True)
         ]
         attribute(
             result,

@@ -129,7 +129,7 @@ class ShootingSystem:
     def _cycle(self, u, vals):
         """Impacts sorted into ``[t0, t0 + pT)`` as (time, v_after, v_before)."""
         n, pT, t0 = self.impacts, self.period * self.forcing_period(vals), self.base["t0"]
-        xw, R = vals[3], vals[4]
+        xw = vals[3]
         out = []
         for i in range(n):
             j = (i + 1) % n
@@ -250,6 +250,6 @@ def from_orbit(system: ShootingSystem, params: Any, x: float, v: float, lam: flo
             f"the orbit has {len(ts)} impacts per {system.period} period(s), not {system.impacts}"
         )
     u = np.empty(system.size)
-    for i, (t, w) in enumerate(zip(ts, vb)):
+    for i, (t, w) in enumerate(zip(ts, vb, strict=True)):
         u[2 * i], u[2 * i + 1] = t, -system.values(lam)[4] * w
     return u

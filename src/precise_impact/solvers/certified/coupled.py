@@ -82,7 +82,8 @@ class _Pair:
         self, c: Constants, consts: tuple, s, x, v, e, ep, master: Flight | None = None
     ) -> None:
         self.c = c
-        # the master's flight goes on unchanged through a slave impact (no re-anchoring, no wrapping)
+        # the master's flight goes on unchanged through a slave impact (no re-anchoring, no
+        # wrapping)
         self.m = Flight(c, s, x, v) if master is None else master
         al, om, c0 = consts
         self.e = _ErrorFlow(al, om, c0, s, e, ep)
@@ -198,14 +199,15 @@ class CertifiedCoupledTrajectory(ResultMixin):
         return max(log10_abs(b.rad()) for s in self.samples for b in s[2:])
 
     def to_dict(self) -> dict:
-        """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``samples`` (``{"period",
-        "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}``), ``master_impacts`` and
-        ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``), ``max_radius``, ``max_log10_radius``,
-        ``elapsed_s``; midpoints and rigorous radii as decimal strings."""
+        """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``samples``
+        (``{"period", "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}``),
+        ``master_impacts`` and ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``),
+        ``max_radius``, ``max_log10_radius``, ``elapsed_s``; midpoints and rigorous radii as
+        decimal strings."""
         rows = []
         for k, t, *balls in self.samples:
             row: dict = {"period": k, "t": ball_str(t)[0]}
-            for name, b in zip("xvyw", balls):
+            for name, b in zip("xvyw", balls, strict=True):
                 row[name], row[name + "_rad"] = ball_str(b)
             rows.append(row)
 
@@ -351,7 +353,7 @@ def certify_coupled(
     bits: Any = UNSET,
     **param_values: Any,
 ) -> CertifiedCoupledTrajectory:
-    """The master-slave pair certified: every sample and impact of both oscillators in a proven ball.
+    """The master-slave pair certified: each sample and impact of both oscillators in a proven ball.
 
     Parameters
     ----------
@@ -363,7 +365,8 @@ def certify_coupled(
         (always for 'first-order' and 'reduced'; ``k`` up to about 3.4 for 'paper' at
         zeta = 0.05).
     form : str, default ``'first-order'``
-        ``'first-order'``, ``'paper'`` or ``'reduced'`` (:mod:`~precise_impact.solvers.heyoka.coupled`).
+        ``'first-order'``, ``'paper'`` or ``'reduced'``
+        (:mod:`~precise_impact.solvers.heyoka.coupled`).
     periods : int, default 100
         Forcing periods (``1 <= periods <= 100000``).
     y0 : pair or None, default ``None``
@@ -492,7 +495,8 @@ class CertifiedCoupledSolver:
         y0: Any = None,
         per_period: int = 0,
     ) -> CertifiedCoupledTrajectory:
-        """Certify the pair for ``periods`` periods at the solver's bits (:func:`certify_coupled`)."""
+        """Certify the pair for ``periods`` periods at the solver's bits
+        (:func:`certify_coupled`)."""
         if per_period:
             raise ParameterError(
                 "per_period", str(per_period), "0 for the certified model (no dense output)"

@@ -402,11 +402,12 @@ class CertifiedTrajectory(ResultMixin):
         ]
 
     def log10_radii(self) -> list[float]:
-        """``log10 max(rad x, rad v)`` per sample (``-inf`` for an exact point), at any magnitude."""
+        """``log10 max(rad x, rad v)`` per sample (``-inf`` for an exact point), any magnitude."""
         return [log10_abs(max(s[2].rad(), s[3].rad())) for s in self.samples]
 
     def max_radius(self) -> float:
-        """The largest radius of any sample (a float: 0.0 if below 1e-308, see :meth:`max_log10_radius`)."""
+        """The largest radius of any sample (a float: 0.0 if below 1e-308, see
+        :meth:`max_log10_radius`)."""
         return max(self.radii())
 
     def max_log10_radius(self) -> float:
@@ -414,7 +415,8 @@ class CertifiedTrajectory(ResultMixin):
         return max(self.log10_radii())
 
     def growth_digits_per_period(self) -> float:
-        """Decimal digits of radius lost per forcing period (least squares over the samples after the first)."""
+        """Decimal digits of radius lost per forcing period (least squares over the samples
+        after the first)."""
         r = self.log10_radii()[1:]
         ks = [k for k in range(1, len(r) + 1) if math.isfinite(r[k - 1])]
         if len(ks) < 2:
@@ -422,7 +424,7 @@ class CertifiedTrajectory(ResultMixin):
         ys = [r[k - 1] for k in ks]
         km, ym = sum(ks) / len(ks), sum(ys) / len(ys)
         den = sum((k - km) ** 2 for k in ks)
-        return sum((k - km) * (y - ym) for k, y in zip(ks, ys)) / den if den else 0.0
+        return sum((k - km) * (y - ym) for k, y in zip(ks, ys, strict=True)) / den if den else 0.0
 
     def contains(self, k: int, x: Any, v: Any) -> bool:
         """Whether the exact decimals ``x, v`` lie in sample ``k``'s balls.
@@ -441,7 +443,8 @@ class CertifiedTrajectory(ResultMixin):
         from precise_impact.core.params import exact
 
         _, _, bx, bv = self.samples[k]
-        # exactly, in rationals: no rounding, and no dependence on python-flint's process-wide precision
+        # exactly, in rationals: no rounding, and no dependence on python-flint's process-wide
+        # precision
         return all(
             abs(exact(n, q, 10**6) - exact_value(b.mid())) <= exact_value(b.rad())
             for n, q, b in (("x", x, bx), ("v", v, bv))
@@ -451,8 +454,8 @@ class CertifiedTrajectory(ResultMixin):
         """The CLI's ``--json`` object: ``params``, ``periods``, ``bits``, ``bits_choice``,
         ``samples`` (``{"period", "t", "x", "v", "x_rad", "v_rad"}``: decimal midpoints and
         rigorous radii as decimal strings), ``impacts`` (``{"t", "t_rad", "v_before",
-        "v_after", "v_rad"}``), ``max_radius`` (0.0 below 1e-308), ``max_log10_radius``, ``growth_digits_per_period``,
-        ``elapsed_s``."""
+        "v_after", "v_rad"}``), ``max_radius`` (0.0 below 1e-308), ``max_log10_radius``,
+        ``growth_digits_per_period``, ``elapsed_s``."""
         out = []
         for k, t, x, v in self.samples:
             tm, _ = ball_str(t)
@@ -488,7 +491,8 @@ class CertifiedTrajectory(ResultMixin):
 
 
 class working_bits:
-    """``with working_bits(bits):`` python-flint at ``bits`` under the engine's lock (restored after)."""
+    """``with working_bits(bits):`` python-flint at ``bits`` under the engine's lock (restored
+    after)."""
 
     def __init__(self, bits: int) -> None:
         self.bits = bits
@@ -665,7 +669,8 @@ def certify(
         need = r_pilot + g * (periods - n_pilot) - log_target + 2
         bits = int(64 * math.ceil(max(128, 128 + need / 0.30103) / 64))
         choice = (
-            f"automatic: radius growth {g:.3f} digits/period (pilot of {n_pilot} periods at 128 bits) "
+            f"automatic: radius growth {g:.3f} digits/period "
+            f"(pilot of {n_pilot} periods at 128 bits) "
             f"-> {bits} bits for radius 1e{log_target:.0f} after {periods} periods"
         )
         if bits > max_bits:
@@ -690,8 +695,8 @@ def certify(
                 bar.close()  # the run reported every period; show a throttled last one
                 return res
             choice += (
-                f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, retried at "
-                f"{2 * bits}"
+                f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, "
+                f"retried at {2 * bits}"
             )
         except CertificationError as e:
             if 2 * bits > max_bits:
@@ -701,12 +706,14 @@ def certify(
 
 
 class CertifiedSolver:
-    """The certified engine as a model of the registry (``model='certified'``, ``precision='mp:BITS'``).
+    """The certified engine as a model of the registry (``model='certified'``,
+    ``precision='mp:BITS'``).
 
     Its :class:`~precise_impact.core.trajectory.Trajectory` holds the balls' midpoints in the
     working precision; ``stats['x_rad']``, ``stats['v_rad']`` (floats, rounded up) and
-    ``stats['max_radius']`` (and ``stats['max_log10_radius']``, which never underflows) carry the proven radii.  Dense output is not offered
-    (``per_period`` must be 0): use :func:`certify` for the balls themselves.
+    ``stats['max_radius']`` (and ``stats['max_log10_radius']``, which never underflows) carry
+    the proven radii.  Dense output is not offered (``per_period`` must be 0): use
+    :func:`certify` for the balls themselves.
 
     Parameters
     ----------

@@ -385,8 +385,8 @@ class FastCoupledSolver:
         elapsed = _time.perf_counter() - start_t
         if st == STATUS_BUDGET or budget < 1:
             raise BudgetExceededError(
-                f"impact budget max_impacts={self.max_impacts} exhausted (chattering/Zeno sequence?); "
-                "raise max_impacts or check the parameters"
+                f"impact budget max_impacts={self.max_impacts} exhausted "
+                "(chattering/Zeno sequence?); raise max_impacts or check the parameters"
             )
         if st != STATUS_OK:
             why = (

@@ -69,7 +69,8 @@ def mul2(a00, a01, a10, a11, b00, b01, b10, b11):
 #: that; bounded with a factor 8 to spare as ``PHASE_ERROR sqrt(P^2 + Q^2) eta |t|``.
 PHASE_ERROR = 4.0 * 2.220446049250313e-16
 
-#: Cached step sizes: ``h_max / 2^k``, ``k = 0..STEP_LEVELS - 1`` (halving and doubling stay on them).
+#: Cached step sizes: ``h_max / 2^k``, ``k = 0..STEP_LEVELS - 1`` (halving and doubling stay
+#: on them).
 STEP_LEVELS = 40
 
 

@@ -66,7 +66,8 @@ def lle_orbit(
     Returns ``(status, log1, log2, impacts, x, v)`` summed over the ``periods`` measured
     periods (``impacts``: those in the measured periods); ``block_sums[j]`` gets the
     first-exponent logs of block ``j`` (``blocks`` equal blocks, for batch means),
-    ``block_impacts[j]`` the impacts in block ``j``, and ``xs_tail, vs_tail`` the stroboscopic samples of the last ``len(xs_tail)`` periods.
+    ``block_impacts[j]`` the impacts in block ``j``, and ``xs_tail, vs_tail`` the
+    stroboscopic samples of the last ``len(xs_tail)`` periods.
 
     Notes
     -----

@@ -3,13 +3,14 @@
 Used by :func:`~precise_impact.analysis.lyapunov.batch.batch_lle` (the statistics).
 
 The same flow (:func:`~precise_impact.core.flow.acceleration`), impact map and saltation
-matrix (:mod:`precise_impact.core.impact`) as :mod:`precise_impact.analysis.lyapunov.variational`, integrated by
+matrix (:mod:`precise_impact.core.impact`) as
+:mod:`precise_impact.analysis.lyapunov.variational`, integrated by
 ``taylor_adaptive_batch`` so that ``batch_size`` parameter points advance together in
 SIMD lanes; each lane keeps its own step size, events and period boundaries.  Used
 by parameter sweeps, where per-point Python overhead would otherwise dominate.
 
-The hard cases are treated exactly as in :mod:`precise_impact.analysis.lyapunov.variational` (see its module
-docstring): the tangents are re-orthonormalised right after every impact (the
+The hard cases are treated exactly as in :mod:`precise_impact.analysis.lyapunov.variational`
+(see its module docstring): the tangents are re-orthonormalised right after every impact (the
 saltation matrix's ``1/v-`` never accumulates, and heyoka's cooldown
 ``10 eps max|state| / v-`` does not see large tangent entries), an event whose
 excursion beyond the wall is below the grazing depth
@@ -61,8 +62,8 @@ _COEF64 = (
 
 
 def _depth(t: float, pr, i: int, amp: float) -> float:
-    """Grazing depth of lane ``i`` at local time ``t``, ``amp`` its steady amplitude (the one formula,
-    :func:`~precise_impact.core.impact.grazing_depth`, with float64's coefficient)."""
+    """Grazing depth of lane ``i`` at local time ``t``, ``amp`` its steady amplitude (the one
+    formula, :func:`~precise_impact.core.impact.grazing_depth`, with float64's coefficient)."""
     return grazing_depth(_COEF64, amp, t, pr[I_XW, i], pr[I_A, i], pr[I_ETA, i])
 
 
@@ -236,8 +237,9 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
         if grd.first_miss is not None:
             i, t_m, over = grd.first_miss
             raise MissedImpactError(
-                f"batch lane {i} ({group[i]}): a maximum of x lies {over:.3g} beyond the wall at local time "
-                f"{t_m:.17g} with no impact event: heyoka's event detection missed an impact"
+                f"batch lane {i} ({group[i]}): a maximum of x lies {over:.3g} beyond the wall "
+                f"at local time {t_m:.17g} with no impact event: heyoka's event detection missed "
+                "an impact"
             )
         ta.set_time(L0)  # the forcing is T-periodic: set every lane's clock back one period
         s = ta.state

@@ -266,12 +266,17 @@ class CoupledTrajectory(ResultMixin):
             "precision": self.precision.name,
             "samples": [
                 {"period": j, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
-                for j, (t, x, v, y, w) in enumerate(zip(self.t, self.x, self.v, self.y, self.w))
+                for j, (t, x, v, y, w) in enumerate(
+                    zip(self.t, self.x, self.v, self.y, self.w, strict=True)
+                )
             ],
             "master_impacts": [
                 {"t": s(t), "v_before": s(b), "v_after": s(a)}
                 for t, b, a in zip(
-                    self.master_impacts_t, self.master_impacts_v_before, self.master_impacts_v_after
+                    self.master_impacts_t,
+                    self.master_impacts_v_before,
+                    self.master_impacts_v_after,
+                    strict=True,
                 )
             ],
             "slave_impacts": [
@@ -281,6 +286,7 @@ class CoupledTrajectory(ResultMixin):
                     self.slave_impacts_w_before,
                     self.slave_impacts_w_after,
                     self.slave_impacts_x,
+                    strict=True,
                 )
             ],
             "elapsed_s": self.elapsed_s,

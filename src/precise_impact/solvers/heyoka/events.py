@@ -140,8 +140,8 @@ class ImpactRecorder:
         list of tuple
         """
         if self.aux:
-            return list(zip(self.t, self.v_before, self.v_after, self.aux))
-        return list(zip(self.t, self.v_before, self.v_after))
+            return list(zip(self.t, self.v_before, self.v_after, self.aux, strict=True))
+        return list(zip(self.t, self.v_before, self.v_after, strict=True))
 
     def arrays(self, precision: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The log as arrays of ``precision``'s type: ``(t, v_before, v_after)``.

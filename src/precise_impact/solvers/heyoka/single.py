@@ -78,8 +78,9 @@ class _ImpactRecorder(ImpactRecorder):
     after plastic impacts) until such flights were started a rounding distance
     below the wall (see the module docstring); kept as a safeguard.  Such an
     event restores ``(x_w, 0)``, is counted in ``spurious`` (and against the
-    budget) and not recorded; heyoka's cooldown then keeps it from recurring.  Without a watch (the default; other users of
-    :func:`build_integrator`) the recorder is a plain impact recorder.
+    budget) and not recorded; heyoka's cooldown then keeps it from recurring.  Without a
+    watch (the default; other users of :func:`build_integrator`) the recorder is a plain
+    impact recorder.
     """
 
     def __init__(self) -> None:
@@ -269,7 +270,8 @@ class _ZenoWatch:
     bits + 64).  Its error is a power series ``sum_{p >= 2} c_p R^(p k)`` (the
     flights shrink by ``R``, the relative error of the constant-force model is
     O(flight)), so the Richardson table ``T[k, j] = (T[k, j-1] - R^(j+1) T[k-1, j-1])
-    / (1 - R^(j+1))`` removes one term per column.  With ``noise = tol_factor * tol * max(1, |t_k|)``
+    / (1 - R^(j+1))`` removes one term per column.  With
+    ``noise = tol_factor * tol * max(1, |t_k|)``
     (``tol`` = the solver's tolerance, at least eps: the impact times carry a few
     ulps of error) the estimate is *converged* when, in the lowest column where
     this happens, the last two changes from row to row are both ``<= noise``; the
@@ -428,10 +430,11 @@ class _ZenoWatch:
                 n, until = self.elastic_bounces(tf, vf)
                 if n > self.budget_left():
                     self.refusal = (
-                        f"R = 1 with the net force into the wall from t = {tf:.6g}: the mass bounces on the wall "
-                        f"with speeds decaying like exp(-2 zeta t / 3) and ever shorter flights (not Zeno: the "
-                        f"impacts never accumulate, there is no sticking); reaching {until} takes ~{n:.2g} more "
-                        f"impacts, over the budget max_impacts = {self.max_impacts}; raise max_impacts, shorten "
+                        f"R = 1 with the net force into the wall from t = {tf:.6g}: the mass "
+                        "bounces on the wall with speeds decaying like exp(-2 zeta t / 3) and "
+                        "ever shorter flights (not Zeno: the impacts never accumulate, there is "
+                        f"no sticking); reaching {until} takes ~{n:.2g} more impacts, over the "
+                        f"budget max_impacts = {self.max_impacts}; raise max_impacts, shorten "
                         "the run or use R < 1"
                     )
                     return True
@@ -521,7 +524,8 @@ class _ZenoWatch:
 
 
 def _below_wall(P: Precision, x_w: Fraction) -> Any:
-    """``x_w - eps max(1, |x_w|)`` rounded down to ``P``: a rounding-level distance inside the allowed region."""
+    """``x_w - eps max(1, |x_w|)`` rounded down to ``P``: a rounding-level distance inside the
+    allowed region."""
     with mpmath.workprec(P.bits + _GUARD_BITS):
         m = P.to_mpf(P.from_fraction(x_w))
         m = m - mpmath.mpf(P.eps_fraction.numerator) / P.eps_fraction.denominator * max(1, abs(m))
@@ -719,7 +723,8 @@ class HeyokaSolver:
             Dense output points per period (0: none).
         progress : callable or None, default ``None``
             Called as ``progress(periods_done, periods)`` after every chunk of
-            :data:`CHUNK_PERIODS` periods (e.g. :meth:`~precise_impact.io.progress.Progress.update`).
+            :data:`CHUNK_PERIODS` periods
+            (e.g. :meth:`~precise_impact.io.progress.Progress.update`).
 
         Returns
         -------
@@ -857,7 +862,7 @@ class HeyokaSolver:
         k = bisect.bisect_right(rec.t, t_end)
         imp_t, imp_vb, imp_va = rec.t[:k], rec.v_before[:k], rec.v_after[:k]
         x_w = P.from_fraction(params.x_w)
-        for tc, va in zip(imp_t, imp_va):
+        for tc, va in zip(imp_t, imp_va, strict=True):
             j = bisect.bisect_left(grid, tc)
             if j < n_out and grid[j] == tc:
                 # heyoka's output at a grid time equal to an event time is the
@@ -995,9 +1000,10 @@ class HeyokaSolver:
                 self._steps_exceeded(max_steps, steps, ta)
             if rec.exceeded:
                 raise BudgetExceededError(
-                    f"impact budget max_impacts={self.max_impacts} exhausted at t={P.to_str(ta.time)} "
-                    f"({min(i, n_out)} of {n_out} output times done); raise max_impacts, ask for a shorter run "
-                    "or check the parameters (a Zeno sequence?)"
+                    f"impact budget max_impacts={self.max_impacts} exhausted at "
+                    f"t={P.to_str(ta.time)} ({min(i, n_out)} of {n_out} output times done); "
+                    "raise max_impacts, ask for a shorter run or check the parameters "
+                    "(a Zeno sequence?)"
                 )
             if rec.stop_reason == "bounce":
                 raise BudgetExceededError(watch.refusal)

@@ -181,8 +181,8 @@ GUARD_FACTOR = 4
 class _SaltationRecorder(ImpactRecorder):
     """Terminal-event callback: impact map on the state, saltation matrix on the tangents.
 
-    Counts impacts against the budget with :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder`
-    (no log: ``keep=False``).
+    Counts impacts against the budget with
+    :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder` (no log: ``keep=False``).
 
     Deep-copied into the integrator by heyoka: read it back from
     ``ta.t_events[0].callback``.  Counters (since the last :meth:`reset`):
@@ -446,9 +446,10 @@ def integrate_orbit(
         if check_guard and guard.missed:
             t_m, over = guard.first_miss
             raise MissedImpactError(
-                f"a maximum of x lies {over:.3g} beyond the wall x_w = {float(params.x_w)!r} at local time "
-                f"{t_m:.17g} with no impact event (more than {GUARD_FACTOR} grazing depths): heyoka's event "
-                "detection missed an impact; the result cannot be trusted"
+                f"a maximum of x lies {over:.3g} beyond the wall x_w = {float(params.x_w)!r} "
+                f"at local time {t_m:.17g} with no impact event (more than {GUARD_FACTOR} "
+                "grazing depths): heyoka's event detection missed an impact; the result cannot "
+                "be trusted"
             )
         return res[-1]
 
