@@ -1,5 +1,5 @@
-"""One vocabulary (issue 23). certify / certify_coupled take ``precision=`` ('auto' or 'mp:BITS'); ``bits=`` is the 0.2
-spelling, kept one release with a DeprecationWarning (issue 23, one vocabulary)."""
+"""One vocabulary (issue 23): ``precision=``, ``model=`` / ``method=``, ``segments``,
+``guess_from``; each 0.2 spelling kept one release with a DeprecationWarning, same numbers."""
 
 import json
 import subprocess

@@ -93,7 +93,7 @@ class ResultMixin:
         if path.suffix == ".json":
             write_json(path, self.to_dict())
         elif path.suffix == ".npz":
-            arrays = {}
+            arrays: dict[str, Any] = {}
             for f in dataclasses.fields(self):  # type: ignore[arg-type]
                 v = getattr(self, f.name)
                 if isinstance(v, np.ndarray) and v.dtype != object:

@@ -158,9 +158,9 @@ class Trajectory(ResultMixin):
             atomic_write(path, write, binary=True)
         elif path.suffix == ".csv":
             lines = ["kind,index,t,x,v_or_v_before,v_after"]
-            for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True)):
+            for j, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True)):
                 lines.append(
-                    f"sample,{k},{self.precision.to_str(t)},{self.precision.to_str(x)},{self.precision.to_str(v)},"
+                    f"sample,{j},{self.precision.to_str(t)},{self.precision.to_str(x)},{self.precision.to_str(v)},"
                 )
             for i, (t, vb, va) in enumerate(
                 zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)

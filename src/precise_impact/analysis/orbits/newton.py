@@ -283,7 +283,9 @@ def _check_options(
         raise ParameterError("guess_from", seed, "'simulation', 'closed-form' or 'auto'")
     if seed == "closed-form" and impacts not in (None, 1):
         raise ParameterError(
-            "impacts", str(impacts), "None or 1 with guess_from='closed-form' (one impact per orbit)"
+            "impacts",
+            str(impacts),
+            "None or 1 with guess_from='closed-form' (one impact per orbit)",
         )
     from precise_impact.core.precision import Precision
 

@@ -15,8 +15,8 @@ from fractions import Fraction
 from typing import Any
 
 from precise_impact.core import flight
-from precise_impact.core.flow import steady_state
 from precise_impact.core.compat import UNSET, warn_renamed
+from precise_impact.core.flow import steady_state
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import CertificationError, OptionalDependencyError, ParameterError
