@@ -93,6 +93,8 @@ def _state(tau, t, eta, zeta, w, P, Q, y0, u0, al, wd, c0, e0, ep0):
     return x, v, q00 * e0 + q01 * ep0, q10 * e0 + q11 * ep0, c
 
 
+# long: one compiled loop (numba): the step-halving search carries its bracket, proof bounds
+# and status in locals across iterations; split into calls it would pass ~15 values per step.
 @numba.njit(**JIT)
 def _cflight(
     t0, x0, v0, e0, ep0, t1, eta, zeta, a, xw, P, Q, w, S, al, wd, c0, err_scale, h_max, touch
@@ -190,6 +192,8 @@ def _cflight(
     return STATUS_OK, 0, lo, x, v, e, ep
 
 
+# long: one compiled loop (numba) over periods and both oscillators' impacts, carrying the
+# pair's state and the sample arrays in locals; the flight itself is _cflight.
 @numba.njit(**JIT)
 def coupled_strobe(
     eta,
@@ -395,39 +399,42 @@ class FastCoupledSolver:
                 else STATUS_TEXT[int(st)]
             )
             raise Unresolved("fast", why)
-        ts, xs, vs, ys, ws = cols[4], cols[0], cols[1], cols[2], cols[3]
-        m = np.array([[f(c) for c in r] for r in m0]).reshape(-1, 3)
-        sl = np.array([[f(c) for c in r] for r in s0]).reshape(-1, 4)
-        m = np.concatenate([m, m_imp[:nm]])
-        sl = np.concatenate([sl, s_imp[:ns]])
-        P = Precision.parse("float64")
-        traj = CoupledTrajectory(
-            params=params,
-            form=form,
-            k=kq,
-            y0=y0q,
-            precision=P,
-            t=ts[::step].copy(),
-            x=xs[::step].copy(),
-            v=vs[::step].copy(),
-            y=ys[::step].copy(),
-            w=ws[::step].copy(),
-            master_impacts_t=m[:, 0].copy(),
-            master_impacts_v_before=m[:, 1].copy(),
-            master_impacts_v_after=m[:, 2].copy(),
-            slave_impacts_t=sl[:, 0].copy(),
-            slave_impacts_w_before=sl[:, 1].copy(),
-            slave_impacts_w_after=sl[:, 2].copy(),
-            slave_impacts_x=sl[:, 3].copy(),
-            elapsed_s=elapsed,
-            stats={"simultaneous": int(nb), "engine": "fast"},
+        m = np.concatenate([np.array([[f(c) for c in r] for r in m0]).reshape(-1, 3), m_imp[:nm]])
+        sl = np.concatenate([np.array([[f(c) for c in r] for r in s0]).reshape(-1, 4), s_imp[:ns]])
+        return _trajectory(params, form, kq, y0q, cols, step, per_period, m, sl, elapsed, nb)
+
+
+def _trajectory(params, form, kq, y0q, cols, step, per_period, m, sl, elapsed, nb):
+    """The :class:`CoupledTrajectory` of a finished compiled run (float64 arrays)."""
+    ts, xs, vs, ys, ws = cols[4], cols[0], cols[1], cols[2], cols[3]
+    P = Precision.parse("float64")
+    traj = CoupledTrajectory(
+        params=params,
+        form=form,
+        k=kq,
+        y0=y0q,
+        precision=P,
+        t=ts[::step].copy(),
+        x=xs[::step].copy(),
+        v=vs[::step].copy(),
+        y=ys[::step].copy(),
+        w=ws[::step].copy(),
+        master_impacts_t=m[:, 0].copy(),
+        master_impacts_v_before=m[:, 1].copy(),
+        master_impacts_v_after=m[:, 2].copy(),
+        slave_impacts_t=sl[:, 0].copy(),
+        slave_impacts_w_before=sl[:, 1].copy(),
+        slave_impacts_w_after=sl[:, 2].copy(),
+        slave_impacts_x=sl[:, 3].copy(),
+        elapsed_s=elapsed,
+        stats={"simultaneous": int(nb), "engine": "fast"},
+    )
+    if per_period > 0:
+        traj.dense_t, traj.dense_x, traj.dense_v, traj.dense_y, traj.dense_w = (
+            ts,
+            xs,
+            vs,
+            ys,
+            ws,
         )
-        if per_period > 0:
-            traj.dense_t, traj.dense_x, traj.dense_v, traj.dense_y, traj.dense_w = (
-                ts,
-                xs,
-                vs,
-                ys,
-                ws,
-            )
-        return traj
+    return traj

@@ -39,6 +39,8 @@ __all__ = ["lle_orbit", "lle_batch", "lle_batch_serial", "fast_lle", "QR_EVERY"]
 QR_EVERY = 4
 
 
+# long: one compiled loop (numba) over periods, flights and impacts, carrying the tangent basis,
+# its QR and the per-block sums in locals; the flight itself is _flight.
 @numba.njit(**JIT)
 def lle_orbit(
     eta,

@@ -76,6 +76,8 @@ def sample_time(tb, T, step, k):
     return tb + (k // step) * T + (k % step) * (T / step)
 
 
+# long: one compiled loop (numba): the step-halving search carries its bracket, proof bounds
+# and status in locals across iterations; split into calls it would pass ~15 values per step.
 @numba.njit(**JIT)
 def _flight(
     t0, x0, v0, tb, T, step, k, k_last, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf
