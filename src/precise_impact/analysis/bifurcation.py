@@ -225,21 +225,10 @@ def _fast_point(params: Params, periods: int, transient: int) -> tuple:
     if not params.zeta < 1:
         raise Unresolved("fast", "zeta >= 1 (the closed form is underdamped only)")
     # numba is imported on first use, not with the package (0.3 s of import time)
-    from precise_impact.solvers.fast.lle import lle_batch_serial
+    from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch_serial
     from precise_impact.solvers.fast.single import STATUS_OK
 
-    pars = np.array(
-        [
-            [
-                float(params.eta),
-                float(params.zeta),
-                float(params.a),
-                float(params.x_w),
-                float(params.R),
-            ]
-        ]
-    )
-    starts = np.array([[float(params.t0), float(params.x0), float(params.v0)]])
+    pars, starts = kernel_inputs(params, 1)
     st, l1, _, imps, bsums, _, xt, _ = lle_batch_serial(
         pars, starts, periods, transient, min(10, periods), 10**7, periods
     )

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import time
-from fractions import Fraction
 
 import numpy as np
 
@@ -100,24 +99,10 @@ def fast_spectrum(
     )
     while m > 1 and (per // (blocks * m)) * m != per // blocks:
         m -= 1
-    from precise_impact.solvers.fast.lle import lle_batch
+    from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch
     from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT
 
-    pars = np.array(
-        [
-            [
-                float(params.eta),
-                float(params.zeta),
-                float(params.a),
-                float(params.x_w),
-                float(params.R),
-            ]
-        ]
-        * n
-    )
-    starts = np.array(
-        [[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)]
-    )
+    pars, starts = kernel_inputs(params, n)
 
     def compiled() -> LyapunovResult:
         if not params.zeta < 1 or (params.zeta == 0 and params.eta == 1):

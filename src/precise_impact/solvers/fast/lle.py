@@ -12,6 +12,7 @@ bars, attractors) are :mod:`precise_impact.analysis.lyapunov.fast`.
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from typing import Any
 
 import numba
@@ -261,6 +262,17 @@ lle_batch = _make_batch(True)
 lle_batch_serial = _make_batch(False)
 
 
+def kernel_inputs(params: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The LLE kernels' inputs for ``n`` starts: rows ``(eta, zeta, a, x_w, R)`` and starts
+    ``(t0, x0, v0 + j/4)``, ``j = 0..n-1`` (the variational method's ensemble), float64."""
+    row = [float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R")]
+    pars = np.array([row] * n)
+    starts = np.array(
+        [[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)]
+    )
+    return pars, starts
+
+
 def fast_lle(
     params,
     periods: int = 6000,
@@ -304,8 +316,6 @@ def fast_lle(
     .. [1] G. Benettin, L. Galgani, A. Giorgilli, J.-M. Strelcyn, Meccanica 15 (1980) 9-30.
     .. [2] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices).
     """
-    from fractions import Fraction
-
     from precise_impact.core.params import as_params, check_count
 
     params = as_params(params)
@@ -317,21 +327,7 @@ def fast_lle(
     if blocks > periods:
         blocks = periods
     max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
-    pars = np.array(
-        [
-            [
-                float(params.eta),
-                float(params.zeta),
-                float(params.a),
-                float(params.x_w),
-                float(params.R),
-            ]
-        ]
-        * n
-    )
-    starts = np.array(
-        [[float(params.t0), float(params.x0), float(params.v0 + Fraction(j, 4))] for j in range(n)]
-    )
+    pars, starts = kernel_inputs(params, n)
     status, log1, log2, imps, bsums, _, _, _ = lle_batch(
         pars, starts, periods, transient, blocks, max_impacts, 1
     )
