@@ -18,7 +18,6 @@ import hashlib
 import math
 import os
 import time
-import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -26,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.compat import warn_renamed
 from precise_impact.core.params import check_count
 from precise_impact.core.precision import Precision
 from precise_impact.errors import OptionalDependencyError, ParameterError
@@ -53,12 +53,9 @@ EXECUTORS = ("serial", "processes", "dask")
 
 # ------------------------------------------------------------------ vocabulary
 def deprecated_keyword(old: str, new: str, where: str, stacklevel: int = 3) -> None:
-    """Warn that keyword (or form) ``old`` of ``where`` is deprecated in favour of ``new``."""
-    warnings.warn(
-        f"{where}: {old} is deprecated and will be removed in the next release; use {new}",
-        DeprecationWarning,
-        stacklevel=stacklevel,
-    )
+    """Warn that keyword (or form) ``old`` of ``where`` is deprecated in favour of ``new`` (the
+    one message, :func:`precise_impact.core.compat.warn_renamed`)."""
+    warn_renamed(old, new, where, stacklevel=stacklevel + 1)
 
 
 def resolve_model(

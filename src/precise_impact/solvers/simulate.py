@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import dataclasses
 import threading
-import warnings
 from typing import Any
 
 from precise_impact.core.budget import enforce_max_time
+from precise_impact.core.compat import warn_renamed
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
@@ -343,11 +343,7 @@ def simulate_coupled(
     if max_impacts is not None:
         options["max_impacts"] = check_max_impacts(max_impacts)
     if engine is not None:
-        warnings.warn(
-            "simulate_coupled(engine=...) is deprecated; use model=... (the same names)",
-            DeprecationWarning,
-            stacklevel=2,
-        )
+        warn_renamed("engine=", "model=", "simulate_coupled")
         model = check_engine(engine)
     solver = make_coupled_solver(model, P, None, form, **options)
     return solver.solve(params, k, periods, form=form, y0=y0, per_period=per_period)
