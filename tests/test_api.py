@@ -149,7 +149,9 @@ def results(tmp_path_factory):
         pi.sync_scan(
             p, "first-order", ["0.05"], periods=20, ensemble=2, lle_periods=0, per_period=4
         ),
-        pi.bifurcation(p, "0.70", "0.72", 2, periods=20, transient=5, workers=1, progress=False),
+        pi.bifurcation(
+            p, ("eta", "0.70", "0.72", 2), periods=20, transient=5, workers=1, progress=False
+        ),
         pi.run_sweep(spec, tmp_path_factory.mktemp("sweep"), workers=1, progress=False),
         pi.accuracy_table(periods=3, etas=("0.74",), progress=False),
         pi.compare("fig6-period3-ideal", ["circuit"], periods=10, progress=False),
@@ -161,8 +163,8 @@ def results(tmp_path_factory):
         cont,
         cont.branches[0],
         cont.bifurcations[0],
-        pi.certify(p, 3, bits=128),
-        pi.certify_coupled(p, "0.1", "reduced", 3, y0=("0.5", "0.1"), bits=128),
+        pi.certify(p, 3, precision="mp:128"),
+        pi.certify_coupled(p, "0.1", "reduced", 3, y0=("0.5", "0.1"), precision="mp:128"),
         pi.prove_orbit(pi.Params.make(eta="0.70"), 1, guess=("102/53", "49/265"), impacts=0),
     ]
     return {type(r).__name__: r for r in made}

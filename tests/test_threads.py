@@ -90,7 +90,7 @@ def test_variational_lle_from_threads_is_bit_identical():
         r = lyapunov(
             Params.make(eta=eta), periods=60, transient=20, initial_conditions=1, segments=2
         )
-        return (np.array([r.lle, r.spectrum[0], r.spectrum[1], r.impacts]), r.running)
+        return (np.array([r.lle, r.spectrum[0], r.spectrum[1], r.n_impacts]), r.running)
 
     serial = [run(eta) for eta in ETAS]
     threaded = _in_threads(run, ETAS)

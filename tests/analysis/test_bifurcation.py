@@ -81,8 +81,9 @@ def test_axis_tuple_model_and_progress():
     assert seen == [(1, 3), (2, 3), (3, 3)] and new.eta == eta_grid("0.73", "0.75", 3)
     with pytest.warns(DeprecationWarning) as w:
         old = bifurcation(p, "0.73", "0.75", 3, engine="heyoka", progress=False, **kw)
-    assert {str(m.message).split(";")[-1].strip() for m in w} == {
-        "use model=",
+    assert {str(m.message).split(" (the old spelling")[0] for m in w} == {
+        "bifurcation: engine= is deprecated, use model=",
+        "bifurcation: (eta_min, eta_max, n) is deprecated, "
         "use an axis tuple ('eta', start, stop, n)",
     }
     with pytest.warns(DeprecationWarning):

@@ -66,7 +66,7 @@ def test_exponents_sum_to_the_exact_volume_rate_on_chaos(method, model):
             assert abs(total - exponent_sum(p, s["impacts"], t)) < 1e-13, s
     else:
         t = r.periods * T
-        assert abs(sum(r.spectrum) - exponent_sum(p, r.impacts, t)) < 1e-13
+        assert abs(sum(r.spectrum) - exponent_sum(p, r.n_impacts, t)) < 1e-13
 
 
 @pytest.mark.parametrize("method, model", ENGINES, ids=IDS)
@@ -80,4 +80,4 @@ def test_periodic_finite_time_lle_converges_to_the_floquet_value(method, model):
     assert abs(exact - orbit.lle) < 1e-14
     kw = {} if method == "two-trajectory" else {"attractors": False}
     r = pi.lyapunov(p, method=method, model=model, **kw)
-    assert abs(r.lle - exact) <= 4 * r.stderr + 1e-12, (r.lle, exact, r.stderr)
+    assert abs(r.lle - exact) <= 4 * r.lle_stderr + 1e-12, (r.lle, exact, r.lle_stderr)

@@ -71,7 +71,7 @@ def test_period_three_orbit_equals_the_long_run_and_its_floquet_lle():
     tail = np.column_stack([np.asarray(tr.x, float), np.asarray(tr.v, float)])[-3:]
     bound = 4 * EPS * float(tr.t[-1]) * float(np.max(np.abs(np.asarray(tr.v, float))))
     assert min(np.max(np.abs(row - [o.x, o.v])) for row in tail) <= bound
-    r = lyapunov(p, "fast", periods=20000, transient=1000)
+    r = lyapunov(p, "variational", model="fast", periods=20000, transient=1000)
     ft = r.stats["finite_time"]
     assert r.stats["lle_source"] == "floquet" and ft["lle"] != r.lle
     assert abs(ft["lle"] - o.lle) <= 3 * ft["stderr"], (ft, o.lle)

@@ -47,9 +47,9 @@ def test_non_impacting_orbit_gives_minus_zeta(values, transient):
     """
     periods = 2000
     r = two_trajectory_lle(Params.make(**values), periods=periods, transient=transient)
-    assert r.impacts == 0
+    assert r.n_impacts == 0
     t_total = periods * 2 * math.pi / float(Params.make(**values).eta)
-    assert abs(r.lle + ZETA) <= 0.1 / t_total + 3 * r.stderr, (r.lle, r.stderr)
+    assert abs(r.lle + ZETA) <= 0.1 / t_total + 3 * r.lle_stderr, (r.lle, r.lle_stderr)
 
 
 # ------------------------------------------------------------------ chaotic regime
@@ -70,12 +70,14 @@ def test_chaotic_lle_positive_around_0_03(chaotic):
     r = chaotic
     assert r.method == "two-trajectory" and r.spectrum is None and r.precision == "float64"
     assert 0.02 < r.lle < 0.045, (r.lle, r.stderr)
-    assert 0 < r.stderr < 0.003
+    assert 0 < r.lle_stderr < 0.003
     # ~0.70 impacts per period on this attractor (measured 14052 / 20000).
-    assert 0.5 * r.periods < r.impacts < r.periods
+    assert 0.5 * r.periods < r.n_impacts < r.periods
     assert r.periods == 20000 and r.transient == 1000
     assert len(r.running) == 20000 and r.running[-1] == pytest.approx(r.lle, rel=1e-12)
-    assert len(r.segments) == 20 and np.mean(r.segments) == pytest.approx(r.lle, abs=3 * r.stderr)
+    assert len(r.segments) == 20 and np.mean(r.segments) == pytest.approx(
+        r.lle, abs=3 * r.lle_stderr
+    )
     assert r.elapsed_s > 0
     assert r.to_dict()["method"] == "two-trajectory"
 
@@ -96,7 +98,7 @@ def test_d0_plateau_on_long_run(chaotic):
     large = two_trajectory_lle(p, periods=20000, transient=1000, d0="1e-8")
     assert abs(small.lle - large.lle) < 1e-4, (small.lle, large.lle)
     assert abs(large.lle - chaotic.lle) < 1e-4, (large.lle, chaotic.lle)
-    assert small.impacts == large.impacts == chaotic.impacts
+    assert small.n_impacts == large.n_impacts == chaotic.n_impacts
 
 
 # ------------------------------------------------------------------ precisions
@@ -110,7 +112,7 @@ def test_float64_float128_same_orbit_short_run():
     p = Params.make(eta="0.712")
     a = two_trajectory_lle(p, periods=40, transient=0, precision="float64")
     b = two_trajectory_lle(p, periods=40, transient=0, precision="float128")
-    assert a.impacts == b.impacts
+    assert a.n_impacts == b.n_impacts
     assert abs(a.lle - b.lle) < 2e-6, (a.lle, b.lle)
 
 
@@ -126,7 +128,7 @@ def test_float64_float128_consistent_error_bars():
     a = two_trajectory_lle(p, periods=1500, transient=200, precision="float64")
     b = two_trajectory_lle(p, periods=1500, transient=200, precision="float128")
     assert b.precision == "float128"
-    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.stderr, b.stderr), (
+    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.lle_stderr, b.lle_stderr), (
         a.lle,
         a.stderr,
         b.lle,
@@ -186,7 +188,7 @@ def test_impact_straddling_the_period_boundary():
     assert straddled.stats["straddles"] == 1 and straddled.stats["grazing_misses"] == 0
     reference = two_trajectory_lle(p, periods=3, transient=0, d0="1e-8")
     assert reference.stats["straddles"] == 0
-    assert straddled.impacts == reference.impacts == 2
+    assert straddled.n_impacts == reference.n_impacts == 2
     naive = math.log(1 / 1e-4) / float(T)
     assert abs(straddled.running[0] - reference.running[0]) < 1e-4 < 0.1 * naive
     np.testing.assert_allclose(straddled.running, reference.running, rtol=0, atol=1e-4)
@@ -198,7 +200,7 @@ def test_many_straddles_at_large_d0_agree(chaotic):
     d0 within 3 stderr (measured 0.03018 vs 0.03024, 28 straddles)."""
     r = two_trajectory_lle(Params.make(eta="0.712"), periods=20000, transient=1000, d0="1e-3")
     assert r.stats["straddles"] > 0
-    assert abs(r.lle - chaotic.lle) < 3 * chaotic.stderr
+    assert abs(r.lle - chaotic.lle) < 3 * chaotic.lle_stderr
 
 
 # ------------------------------------------------------------------ misc behaviour
@@ -225,7 +227,7 @@ def test_progress_goes_to_stderr(capsys):
 
 def test_single_period_has_nan_stderr():
     r = two_trajectory_lle(Params.make(), periods=1, transient=0)
-    assert math.isfinite(r.lle) and math.isnan(r.stderr) and len(r.running) == 1
+    assert math.isfinite(r.lle) and math.isnan(r.lle_stderr) and len(r.running) == 1
 
 
 # ------------------------------------------------------------------ validation

@@ -33,7 +33,7 @@ def test_non_impacting_orbit_has_lle_minus_zeta(precision):
         attractors=False,
     )
     assert "lle_source" not in r.stats
-    assert r.impacts == 0
+    assert r.n_impacts == 0
     t = r.periods / r.initial_conditions * 2 * math.pi / 0.7  # each orbit's own duration
     bound = math.log(1 + 2 * 0.05 / math.sqrt(1 - 0.05**2)) / t
     assert abs(r.spectrum[0] + 0.05) <= bound
@@ -51,8 +51,8 @@ def test_exponents_sum_to_trace_plus_impact_term(R):
     p = Params.make(eta="0.712", R=R)
     r = variational_spectrum(p, periods=3000, transient=200)
     t = r.periods * 2 * math.pi / 0.712
-    expected = -2 * 0.05 + r.impacts / t * math.log(float(Fraction(R)) ** 2)
-    assert r.impacts > 1000
+    expected = -2 * 0.05 + r.n_impacts / t * math.log(float(Fraction(R)) ** 2)
+    assert r.n_impacts > 1000
     assert abs(sum(r.spectrum) - expected) <= 1e-12
 
 
@@ -104,7 +104,7 @@ def test_contracting_impacting_orbits_stay_finite(eta):
     (attractors=False: the integrator's own estimate, not the Floquet value)."""
     r = variational_spectrum(Params.make(eta=eta), periods=2000, transient=500, attractors=False)
     assert "lle_source" not in r.stats
-    assert r.impacts > 0
+    assert r.n_impacts > 0
     assert all(math.isfinite(v) for v in r.spectrum)
     assert r.spectrum[0] < 0 or abs(r.spectrum[0]) < 0.01
 
@@ -126,7 +126,7 @@ def test_chaotic_lle_converges_with_error_bar():
     its numerical value is ~0.03; we measure 0.0300 +- 0.0003 (20000 periods).
     """
     r = variational_spectrum(Params.make(eta="0.712"))
-    assert r.stderr <= 0.0005
+    assert r.lle_stderr <= 0.0005
     assert 0.028 < r.lle < 0.032
     # running estimate ends at the result (cumsum vs sum: ~N eps relative, N = 2e4)
     assert len(r.running) == r.periods and abs(r.running[-1] - r.lle) < 1e-11
@@ -144,7 +144,7 @@ def test_two_methods_agree_within_error_bars():
     p = Params.make(eta="0.712")
     a = lyapunov(p, "variational")
     b = lyapunov(p, "two-trajectory")
-    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.stderr, b.stderr), (
+    assert abs(a.lle - b.lle) <= 3 * math.hypot(a.lle_stderr, b.lle_stderr), (
         a.lle,
         a.stderr,
         b.lle,

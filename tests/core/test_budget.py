@@ -73,9 +73,11 @@ def test_the_api_enforces_max_time():
     e = _refused_quickly(lambda: pi.simulate(p, 10**6, precision="mp:2048", max_time=60))
     assert e.name == "max_time" and "10^6" not in str(e) and "1000000 periods" in str(e)
     _refused_quickly(lambda: pi.lyapunov(p, periods=10**7, max_time=60))
-    _refused_quickly(lambda: pi.lyapunov(p, "fast", periods=10**8, max_time=10))
     _refused_quickly(
-        lambda: bifurcation(p, "0.7", "0.8", 1000, periods=10**5, workers=1, max_time=10)
+        lambda: pi.lyapunov(p, "variational", model="fast", periods=10**8, max_time=10)
+    )
+    _refused_quickly(
+        lambda: bifurcation(p, ("eta", "0.7", "0.8", 1000), periods=10**5, workers=1, max_time=10)
     )
     _refused_quickly(
         lambda: sync_scan(
@@ -86,5 +88,5 @@ def test_the_api_enforces_max_time():
     a = pi.simulate(p, 5, max_time=60)
     b = pi.simulate(p, 5)
     assert list(a.x) == list(b.x)
-    r = pi.lyapunov(p, "fast", periods=200, transient=10, max_time=60)
+    r = pi.lyapunov(p, "variational", model="fast", periods=200, transient=10, max_time=60)
     assert r.periods == 200

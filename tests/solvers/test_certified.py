@@ -30,7 +30,7 @@ def test_heyoka_mp_references_lie_within_their_stated_accuracy_of_the_proven_bal
     data = json.loads((shipped_root() / case / "samples.json").read_text())
     manifest = json.loads((shipped_root() / case / "manifest.json").read_text())
     p = pi.Params.make(**data["params"])
-    r = certify(p, data["periods"], bits=512)
+    r = certify(p, data["periods"], precision="mp:512")
     assert len(r.impacts) == len(data["impacts"]) == manifest["impacts"]
     assert r.max_radius() < 1e-70
     stated = float(manifest["accuracy"]["max_sample_disagreement"])
@@ -63,8 +63,8 @@ def test_a_grazing_impact_missed_by_the_papers_scan_is_found_and_proven():
     p = pi.Params.make(eta="0.7106874")
     ss = pi.steady_state(p)
     q = p.replace(x0=ss.P, v0=ss.eta * ss.Q)
-    paper = AnalyticalSolver(finder="paper", backend="float64").solve(q, 3)
-    r = certify(q, 3, bits=256)
+    paper = AnalyticalSolver(finder="paper", precision="float64").solve(q, 3)
+    r = certify(q, 3, precision="mp:256")
     assert paper.n_impacts == 0 and len(r.impacts) == 2
     for other in (
         pi.simulate(q, 3),
@@ -86,8 +86,8 @@ def test_a_near_tangency_beyond_the_precision_is_refused_then_resolved(sign, imp
         a="0", zeta="0", eta="0.5", x0="-1", v0="0", x_w=Fraction(1) + sign * Fraction(1, 10**200)
     )
     with pytest.raises(CertificationError, match=r"t = 3\.14159265358979"):
-        certify(p, 1, bits=128, max_bits=128)
-    r = certify(p, 1, bits=128, max_bits=4096)
+        certify(p, 1, precision="mp:128", max_bits=128)
+    r = certify(p, 1, precision="mp:128", max_bits=4096)
     assert len(r.impacts) == impacts and "no proof at 128 bits" in r.bits_choice and r.bits > 128
     if (
         impacts
@@ -117,14 +117,14 @@ def test_certified_model_and_threads():
         max(abs(a - b) for a, b in zip(tr.x, ref.x, strict=True)) < 1e-60
     )  # heyoka mp:256 vs the proven midpoints
     serial = [
-        certify(pi.Params.make(eta=e), 40, bits=b).to_dict()
+        certify(pi.Params.make(eta=e), 40, precision=f"mp:{b}").to_dict()
         for e, b in (("0.712", 192), ("0.74", 320))
     ] * 2
     out = [None] * 4
 
     def work(i):
         e, b = (("0.712", 192), ("0.74", 320))[i % 2]
-        out[i] = certify(pi.Params.make(eta=e), 40, bits=b).to_dict()
+        out[i] = certify(pi.Params.make(eta=e), 40, precision=f"mp:{b}").to_dict()
 
     ts = [threading.Thread(target=work, args=(i,)) for i in range(4)]
     [t.start() for t in ts]
@@ -249,7 +249,7 @@ def test_fast_engine_scored_against_proven_balls():
     """A regression test against proven truth: the fast engine's period-3 orbit over 100 periods
     stays within 4 eps t max|v| (its stated rounding growth) of the certified balls."""
     p = pi.Params.make(eta="0.74")
-    r = certify(p, 100, bits=192)
+    r = certify(p, 100, precision="mp:192")
     tr = pi.simulate(p, 100, model="fast")
     eps = 2.0**-52
     for k in range(1, 101):
@@ -276,7 +276,7 @@ def test_users_scores_carry_proven_error_bounds():
     ref = load_reference("single-0.712")
     assert ref.proven_x_err is not None and max(ref.proven_x_err) < 1e-50
     s = score_solver(fast, "single-0.712", periods=60, atol=1e-9, rtol=1e-9)
-    r = certify(pi.Params.make(**ref.params), 60, bits=256)
+    r = certify(pi.Params.make(**ref.params), 60, precision="mp:256")
     old = flint.ctx.prec
     flint.ctx.prec = 256
     try:
@@ -310,7 +310,7 @@ def test_contains_is_exact():
     away is out, whatever python-flint's (process-wide) precision is at the time."""
     from precise_impact.solvers.certified.single import exact_value
 
-    r = certify(pi.Params.make(eta="0.74"), 5, bits=256)
+    r = certify(pi.Params.make(eta="0.74"), 5, precision="mp:256")
     _, _, bx, bv = r.samples[5]
     mx, mv, rx = exact_value(bx.mid()), exact_value(bv.mid()), exact_value(bx.rad())
     old = flint.ctx.prec

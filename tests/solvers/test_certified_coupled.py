@@ -33,7 +33,7 @@ def test_pair_contains_heyoka_mp(form, k):
     (the balls themselves are measured at 1e-58 .. 1e-50 at 256 bits)."""
     p = pi.Params.make(eta="0.712")
     y0 = ("0.5", "0.1")
-    r = pi.certify_coupled(p, k, form, 60, y0=y0, bits=256)
+    r = pi.certify_coupled(p, k, form, 60, y0=y0, precision="mp:256")
     h = pi.simulate_coupled(p, k, form, 60, y0=y0, precision="mp:256")
     assert len(r.master_impacts) == len(h.master_impacts_t) and len(r.slave_impacts) == len(
         h.slave_impacts_t
@@ -50,8 +50,8 @@ def test_pair_contains_heyoka_mp(form, k):
 def test_diagonal_is_the_single_oscillator_exactly():
     """On the diagonal the slave is the master in every form (all coupling terms vanish)."""
     p = pi.Params.make(eta="0.74")
-    r = pi.certify_coupled(p, "0.3", "paper", 30, bits=192)
-    s = pi.certify(p, 30, bits=192)
+    r = pi.certify_coupled(p, "0.3", "paper", 30, precision="mp:192")
+    s = pi.certify(p, 30, precision="mp:192")
     assert len(r.master_impacts) == len(r.slave_impacts) == len(s.impacts) == 20
 
     def same(a, b):  # the same ball: midpoint and radius
@@ -72,8 +72,8 @@ def test_near_simultaneous_impacts_refused_then_ordered():
     with pytest.raises(
         CertificationError, match=r"simultaneous master and slave impacts .* at t = 8\.24167"
     ):
-        pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, bits=256, max_bits=256)
-    r = pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, bits=256)
+        pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, precision="mp:256", max_bits=256)
+    r = pi.certify_coupled(p, "0.1", "reduced", 5, y0=y0, precision="mp:256")
     assert r.bits == 512 and len(r.master_impacts) == len(r.slave_impacts) == 4
     for (tm, _, _), (ts, _, _) in zip(r.master_impacts, r.slave_impacts, strict=True):
         gap = abs(float((ts - tm).mid()))

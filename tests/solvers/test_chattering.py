@@ -283,7 +283,7 @@ def test_plastic_impact_with_force_pulling_away_leaves_the_wall(precision):
     p = Params.make(R="0", eta="0.712")
     tr = HeyokaSolver(precision).solve(p, 60)
     an = (
-        AnalyticalSolver() if precision == "float64" else AnalyticalSolver(backend="mpmath", dps=40)
+        AnalyticalSolver() if precision == "float64" else AnalyticalSolver(precision="mp:136")
     ).solve(p, 60)
     assert tr.stats["sticking"] == [] and tr.stats["chattering"] == []
     assert tr.n_impacts == an.n_impacts == 43

@@ -44,7 +44,7 @@ def test_closed_form_satisfies_ode():
     are accurate to ~1e-50 at 50 dps; 1e-40 leaves 10 digits for cancellation.
     """
     p = Params.make(eta="0.712")
-    solver = AnalyticalSolver(backend="mpmath", dps=200)
+    solver = AnalyticalSolver(precision="mp:668")
     cf = solver.closed_form(p, Fraction(3), Fraction(1, 2), Fraction(-1, 3))
     zeta, a, eta = mpq(p.zeta), mpq(p.a), mpq(p.eta)
     with mpmath.workdps(50):
@@ -72,7 +72,7 @@ def test_segments_continuous_and_samples_on_closed_form():
     Also check, on a grid, that no segment goes beyond the wall (no missed impact).
     """
     p = Params.make(eta="0.712")
-    solver = AnalyticalSolver(backend="mpmath", dps=60)
+    solver = AnalyticalSolver(precision="mp:203")
     tr = solver.solve(p, 25)
     imps = tr.impacts_mpf()
     assert len(imps) >= 15
@@ -109,7 +109,7 @@ def test_result_types_and_precision():
     np.testing.assert_array_equal(tr.dense_x[::8], tr.x)
     trp = AnalyticalSolver(finder="paper").solve(p, 1)
     assert trp.model == "analytical-paper" and trp.dense_t is None
-    trm = AnalyticalSolver(backend="mpmath", dps=60).solve(p, 2)
+    trm = AnalyticalSolver(precision="mp:203").solve(p, 2)
     # the bits mpmath really uses at 60 digits (203), not ceil(60 log2 10) = 200
     assert trm.precision == Precision.parse(f"mp:{mpmath.libmp.dps_to_prec(60)}")
     assert all(isinstance(z, hy.real) for z in list(trm.x) + list(trm.impacts_t))
@@ -119,7 +119,7 @@ def test_result_types_and_precision():
 def test_start_on_wall_is_an_impact_and_samples_are_right_continuous():
     """x0 = x_w, v0 > 0: impact at t0; sample 0 holds the state after the reset (exactly)."""
     p = Params.make(x0="2", v0="1", R="0.5")
-    for solver in (AnalyticalSolver(), AnalyticalSolver(backend="mpmath", dps=30)):
+    for solver in (AnalyticalSolver(), AnalyticalSolver(precision="mp:103")):
         tr = solver.solve(p, 2)
         t, vb, va = tr.impacts_mpf()[0]
         assert t == 0 and vb == 1 and va == mpmath.mpf(-0.5)
@@ -135,7 +135,7 @@ def test_non_impacting_converges_to_steady_state():
     60-digit evaluation at t ~ 5e3 is accurate to ~1e-56, so 1e-40 is loose.
     """
     p = Params.make(eta="0.70", x_w="100")
-    tr = AnalyticalSolver(backend="mpmath", dps=60).solve(p, 600)
+    tr = AnalyticalSolver(precision="mp:203").solve(p, 600)
     assert tr.n_impacts == 0 and tr.stats["envelope_exit_t"] is not None
     ss = steady_state(p)
     _, x, v = tr.state_mpf(600)
@@ -169,8 +169,8 @@ def test_mpmath_and_float64_agree_in_the_chaotic_regime():
     impacts (measured difference ~1e-13).  1e-10 leaves a factor 1000.
     """
     p = Params.make(eta="0.712")
-    f = AnalyticalSolver(backend="float64").solve(p, 15)
-    m = AnalyticalSolver(backend="mpmath", dps=60).solve(p, 15)
+    f = AnalyticalSolver(precision="float64").solve(p, 15)
+    m = AnalyticalSolver(precision="mp:203").solve(p, 15)
     fi, mi = f.impacts_mpf(), m.impacts_mpf()
     assert len(fi) >= 10 and len(mi) >= 10
     for (tf, vf, _), (tm, vm, _) in zip(fi[:10], mi[:10], strict=True):
@@ -186,7 +186,7 @@ GRAZE = dict(eta="0.74", x_w="1.09628936")
 
 def _excursion(p: Params):
     """(t_in, t_out, t_max) of the first arc's excursion beyond the wall, from mpmath roots."""
-    cf = AnalyticalSolver(backend="mpmath", dps=50).closed_form(p, p.t0, p.x0, p.v0)
+    cf = AnalyticalSolver(precision="mp:169").closed_form(p, p.t0, p.x0, p.v0)
     xw = mpq(p.x_w)
     with mpmath.workdps(50):
         # bracketing solver, then a secant polish; check the residuals
@@ -227,7 +227,7 @@ def test_paper_finder_misses_a_grazing_impact_that_robust_finds():
     assert paper.impacts_t[0] > float(t_out) + 1
     assert robust.impacts_t[0] < paper.impacts_t[0]
     # same with the 60-digit robust finder
-    rm = AnalyticalSolver(backend="mpmath", dps=60).solve(p, 1)
+    rm = AnalyticalSolver(precision="mp:203").solve(p, 1)
     with mpmath.workdps(50):
         assert abs(rm.impacts_mpf()[0][0] - t_in) < mpmath.mpf("1e-45")
     # heyoka's event detection (an independent method) finds it too: in float64
@@ -288,7 +288,7 @@ def test_robust_never_goes_through_the_wall(eta, zeta, x_w, R):
 @pytest.mark.parametrize("values", [dict(zeta="1"), dict(zeta="2.5"), dict(zeta="0", eta="1")])
 def test_parameter_errors(values):
     p = Params.make(**values)
-    for solver in (AnalyticalSolver(), AnalyticalSolver(backend="mpmath")):
+    for solver in (AnalyticalSolver(), AnalyticalSolver(precision="mp:203")):
         with pytest.raises(ParameterError) as e:
             solver.solve(p, 10**9)  # raised before any work (this would never finish)
         assert e.value.name == "zeta"
@@ -302,7 +302,7 @@ def test_bad_options():
     with pytest.raises(ParameterError):
         AnalyticalSolver(backend="float64", dps=30)
     with pytest.raises(ParameterError):
-        AnalyticalSolver(backend="mpmath", dps=5)
+        AnalyticalSolver(precision="mp:20")
     with pytest.raises(ParameterError):
         AnalyticalSolver(scan_fraction=0)
     with pytest.raises(ParameterError):

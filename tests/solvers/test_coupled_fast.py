@@ -110,7 +110,7 @@ def test_sync_fractions_agree_with_heyoka_far_from_the_threshold():
     p = Params.make(eta="0.712")
     kw = dict(periods=300, ensemble=4, lle_periods=4000)
     f = sync_scan(p, "first-order", ["0.005", "0.1"], **kw)
-    h = sync_scan(p, "first-order", ["0.005", "0.1"], engine="heyoka", **kw)
+    h = sync_scan(p, "first-order", ["0.005", "0.1"], model="heyoka", **kw)
     assert list(f.fraction_synchronised) == list(h.fraction_synchronised) == [0.0, 1.0]
     assert abs(f.lle - 0.0302) < 6 * f.lle_stderr + 2e-3
 

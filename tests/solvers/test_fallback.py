@@ -75,7 +75,7 @@ def test_the_engines_fall_back_through_it():
     assert tr.model == "fast" and tr.stats["engine"].startswith("heyoka (fallback: zeta >= 1")
     with pytest.raises(IntegrationError, match="fast engine does not resolve"):
         FastSolver(fallback=False).solve(over, 3)
-    r = lyapunov(over, method="fast", periods=40, transient=10)
+    r = lyapunov(over, method="variational", model="fast", periods=40, transient=10)
     assert r.stats["engine"] == "heyoka variational (fallback: zeta >= 1)"
     pair = simulate_coupled(Params.make(eta="0.712"), "10", "paper", 3, y0=("1", "0"), model="fast")
     assert (

@@ -184,12 +184,12 @@ def test_lyapunov_method_fast_is_the_variational_spectrum():
     from precise_impact import lyapunov
 
     p = Params.make(eta="0.74")
-    f = lyapunov(p, "fast", periods=4000, transient=500)
+    f = lyapunov(p, "variational", model="fast", periods=4000, transient=500)
     v = lyapunov(p, "variational", periods=4000, transient=500)
     assert f.method == "fast" and f.stats["engine"] == "fast"
     assert abs(sum(f.spectrum) + 0.1) <= 1e-12 and abs(sum(v.spectrum) + 0.1) <= 1e-12
     offset = 2.0 / (1000 * 2 * math.pi / 0.74)  # log(cond) / (periods per start x T)
-    assert abs(f.lle - v.lle) <= 4 * math.hypot(f.stderr, v.stderr) + offset, (f.lle, v.lle)
+    assert abs(f.lle - v.lle) <= 4 * math.hypot(f.lle_stderr, v.stderr) + offset, (f.lle, v.lle)
 
 
 def test_sweep_engines_agree_on_periods_and_impact_rates(tmp_path):
@@ -201,7 +201,7 @@ def test_sweep_engines_agree_on_periods_and_impact_rates(tmp_path):
     res = {}
     for eng in ("fast", "heyoka"):
         spec = SweepSpec.make(
-            Params.make(), axes, periods=600, transient=400, tile_size=3, engine=eng
+            Params.make(), axes, periods=600, transient=400, tile_size=3, model=eng
         )
         res[eng] = run_sweep(spec, tmp_path / eng, workers=1, progress=False)
     f, h = res["fast"], res["heyoka"]

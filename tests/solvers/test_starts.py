@@ -34,9 +34,7 @@ def mpq(q) -> mpmath.mpf:
 
 
 def analytical(precision: str) -> AnalyticalSolver:
-    return (
-        AnalyticalSolver() if precision == "float64" else AnalyticalSolver(backend="mpmath", dps=40)
-    )
+    return AnalyticalSolver() if precision == "float64" else AnalyticalSolver(precision="mp:136")
 
 
 # --------------------------------------------------------------------------- on the wall
