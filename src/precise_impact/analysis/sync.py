@@ -300,6 +300,123 @@ def _sync_rows(
     return out
 
 
+def _check_k_values(k_values: Sequence[Any]) -> list[Fraction]:
+    """``k_values`` (a sequence, or an axis tuple ``('k', start, stop, n)``) as exact couplings,
+    sorted and distinct."""
+    if (
+        not isinstance(k_values, (str, bytes))
+        and isinstance(k_values, Sequence)
+        and len(k_values) == 4
+        and k_values[0] == "k"
+    ):
+        _, lo, hi, n = check_axis(k_values, "k", "k_values")
+        k_values = exact_grid(lo, hi, n, "k")
+    if (
+        isinstance(k_values, (str, bytes))
+        or not isinstance(k_values, Sequence)
+        or len(k_values) == 0
+    ):
+        raise ParameterError("k_values", k_values, "a non-empty sequence of couplings k >= 0")
+    ks = sorted(check_k(k, "k_values") for k in k_values)
+    if len(set(ks)) != len(ks):
+        raise ParameterError("k_values", [decimal_str(k) for k in ks], "couplings must be distinct")
+    return ks
+
+
+def _check_counts(
+    periods: Any,
+    ensemble: Any,
+    seed: Any,
+    tail: Any,
+    threshold: Any,
+    per_period: Any,
+    spread: Any,
+    lle_periods: Any,
+    lle_transient: Any,
+) -> tuple[int, int, int, Fraction, Fraction, int, Fraction, int, int]:
+    """:func:`sync_scan`'s counts and levels, checked in that order (``tail``, ``threshold``
+    and ``spread`` exact)."""
+    periods = check_count(periods, "periods")
+    if periods < 1:
+        raise ParameterError("periods", periods, "an integer with 1 <= periods <= 100000000")
+    ensemble = check_count(ensemble, "ensemble", MAX_ENSEMBLE, minimum=1)
+    seed = check_count(seed, "seed", 2**63 - 1)
+    tq = exact("tail", tail)
+    if not 0 < tq <= 1:
+        raise ParameterError("tail", tail, "fraction of the run with 0 < tail <= 1")
+    thr = exact("threshold", threshold)
+    if not thr > 0:
+        raise ParameterError("threshold", threshold, "a finite |x - y| level > 0")
+    per_period = check_count(per_period, "per_period", 100_000)
+    if per_period < 1:
+        raise ParameterError("per_period", per_period, "an integer with 1 <= per_period <= 100000")
+    sq = exact("spread", spread)
+    if not sq > 0:
+        raise ParameterError("spread", spread, "half-width of the initial-condition box, > 0")
+    lle_periods = check_count(lle_periods, "lle_periods")
+    if 0 < lle_periods < 4:  # the variational estimate runs 4 initial conditions
+        raise ParameterError(
+            "lle_periods",
+            lle_periods,
+            "0 (no LLE) or an integer with 4 <= lle_periods <= 100000000",
+        )
+    lle_transient = check_count(lle_transient, "lle_transient")
+    return periods, ensemble, seed, tq, thr, per_period, sq, lle_periods, lle_transient
+
+
+def _report_row(
+    ks: list[Fraction], form: str, ensemble: int, progress: ProgressArg, i: int, rows: list
+) -> None:
+    """One progress line for ``ks[i]``, as its row finishes (the runner's ``on_tile``)."""
+    row, seconds = rows[0]
+    ns = sum(r.synchronised for r in row)
+    ni = sum(r.intermittent for r in row)
+    say(
+        f"  sync {form} k={decimal_str(ks[i])}: {ns}/{ensemble} synchronised, "
+        f"{ni} intermittent ({seconds:.2f} s)",
+        progress,
+    )
+
+
+def _fractions(
+    runs: list[list[SyncRun]],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per ``k``: fractions synchronised, intermittent, bursting, collapsed; mean finite rate."""
+    fs = np.array([np.mean([r.synchronised for r in row]) for row in runs])
+    fi = np.array([np.mean([r.intermittent for r in row]) for row in runs])
+    fb = np.array([np.mean([r.burst for r in row]) for row in runs])
+    fc = np.array([np.mean([r.collapsed for r in row]) for row in runs])
+    mr = np.array(
+        [
+            float(np.mean(finite))
+            if (finite := [r.rate for r in row if math.isfinite(r.rate)])
+            else math.nan
+            for row in runs
+        ]
+    )
+    return fs, fi, fb, fc, mr
+
+
+def _single_lle(
+    params: Params, engine: str, lle_periods: int, lle_transient: int
+) -> tuple[float, float]:
+    """The single oscillator's variational LLE and its standard error (NaN, NaN if
+    ``lle_periods = 0``)."""
+    lle = lle_se = math.nan
+    if lle_periods > 0:
+        from precise_impact.analysis.lyapunov import lyapunov
+
+        lr = lyapunov(
+            params,
+            "variational",
+            model="fast" if engine == "fast" else "heyoka",
+            periods=lle_periods,
+            transient=lle_transient,
+        )
+        lle, lle_se = float(lr.lle), float(lr.lle_stderr)
+    return lle, lle_se
+
+
 def sync_scan(
     params: Params,
     form: str,
@@ -395,48 +512,10 @@ def sync_scan(
 
     params = as_params(params)
     form = check_form(form)
-    if (
-        not isinstance(k_values, (str, bytes))
-        and isinstance(k_values, Sequence)
-        and len(k_values) == 4
-        and k_values[0] == "k"
-    ):
-        _, lo, hi, n = check_axis(k_values, "k", "k_values")
-        k_values = exact_grid(lo, hi, n, "k")
-    if (
-        isinstance(k_values, (str, bytes))
-        or not isinstance(k_values, Sequence)
-        or len(k_values) == 0
-    ):
-        raise ParameterError("k_values", k_values, "a non-empty sequence of couplings k >= 0")
-    ks = sorted(check_k(k, "k_values") for k in k_values)
-    if len(set(ks)) != len(ks):
-        raise ParameterError("k_values", [decimal_str(k) for k in ks], "couplings must be distinct")
-    periods = check_count(periods, "periods")
-    if periods < 1:
-        raise ParameterError("periods", periods, "an integer with 1 <= periods <= 100000000")
-    ensemble = check_count(ensemble, "ensemble", MAX_ENSEMBLE, minimum=1)
-    seed = check_count(seed, "seed", 2**63 - 1)
-    tq = exact("tail", tail)
-    if not 0 < tq <= 1:
-        raise ParameterError("tail", tail, "fraction of the run with 0 < tail <= 1")
-    thr = exact("threshold", threshold)
-    if not thr > 0:
-        raise ParameterError("threshold", threshold, "a finite |x - y| level > 0")
-    per_period = check_count(per_period, "per_period", 100_000)
-    if per_period < 1:
-        raise ParameterError("per_period", per_period, "an integer with 1 <= per_period <= 100000")
-    sq = exact("spread", spread)
-    if not sq > 0:
-        raise ParameterError("spread", spread, "half-width of the initial-condition box, > 0")
-    lle_periods = check_count(lle_periods, "lle_periods")
-    if 0 < lle_periods < 4:  # the variational estimate runs 4 initial conditions
-        raise ParameterError(
-            "lle_periods",
-            lle_periods,
-            "0 (no LLE) or an integer with 4 <= lle_periods <= 100000000",
-        )
-    lle_transient = check_count(lle_transient, "lle_transient")
+    ks = _check_k_values(k_values)
+    periods, ensemble, seed, tq, thr, per_period, sq, lle_periods, lle_transient = _check_counts(
+        periods, ensemble, seed, tail, threshold, per_period, spread, lle_periods, lle_transient
+    )
     P = Precision.parse(precision)
     engine = resolve_model(model, engine, "sync_scan", default=None, precision=P)
     if engine is None:
@@ -457,16 +536,7 @@ def sync_scan(
     y0s = ensemble_y0(params, ensemble, seed, sq)
     tail_f, thr_f = float(tq), float(thr)
 
-    def report(i: int, rows: list) -> None:  # one line per k, as each finishes
-        row, seconds = rows[0]
-        ns = sum(r.synchronised for r in row)
-        ni = sum(r.intermittent for r in row)
-        say(
-            f"  sync {form} k={decimal_str(ks[i])}: {ns}/{ensemble} synchronised, "
-            f"{ni} intermittent ({seconds:.2f} s)",
-            progress,
-        )
-
+    report = functools.partial(_report_row, ks, form, ensemble, progress)
     job = functools.partial(
         _sync_rows, params, ks, form, periods, y0s, per_period, P, engine, tail_f, thr_f
     )
@@ -478,32 +548,9 @@ def sync_scan(
         on_tile=report if wanted(progress) else None,
     )
     runs: list[list[SyncRun]] = [row for tile in run.values for row, _ in tile]
-    fs = np.array([np.mean([r.synchronised for r in row]) for row in runs])
-    fi = np.array([np.mean([r.intermittent for r in row]) for row in runs])
-    fb = np.array([np.mean([r.burst for r in row]) for row in runs])
-    fc = np.array([np.mean([r.collapsed for r in row]) for row in runs])
-    mr = np.array(
-        [
-            float(np.mean(finite))
-            if (finite := [r.rate for r in row if math.isfinite(r.rate)])
-            else math.nan
-            for row in runs
-        ]
-    )
+    fs, fi, fb, fc, mr = _fractions(runs)
     k_star, k_err, msg = half_crossing([float(k) for k in ks], fs)
-
-    lle = lle_se = math.nan
-    if lle_periods > 0:
-        from precise_impact.analysis.lyapunov import lyapunov
-
-        lr = lyapunov(
-            params,
-            "variational",
-            model="fast" if engine == "fast" else "heyoka",
-            periods=lle_periods,
-            transient=lle_transient,
-        )
-        lle, lle_se = float(lr.lle), float(lr.lle_stderr)
+    lle, lle_se = _single_lle(params, engine, lle_periods, lle_transient)
     return SyncResult(
         params=params,
         form=form,

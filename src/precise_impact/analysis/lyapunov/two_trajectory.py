@@ -162,6 +162,154 @@ def _local_clock(P: Precision, t0: Fraction, eta: Fraction) -> tuple[Any, Any, A
     return local_clock(P, t0, eta, _SYNC_FRACTION)
 
 
+# ------------------------------------------------------------------ the steps
+def _check_inputs(
+    params: Any,
+    periods: Any,
+    transient: Any,
+    precision: str | Precision,
+    d0: Any,
+    segments: Any,
+    progress: Any,
+    attractors: Any,
+) -> tuple[Params, int, int, int, Precision, Fraction]:
+    """:func:`two_trajectory_lle`'s arguments checked (before any work):
+    ``(params, periods, transient, segments, P, d0)``."""
+    from precise_impact.core.params import as_params
+
+    params = as_params(params)
+    periods = _check_int("periods", periods, 1, _MAX_PERIODS)
+    transient = _check_int("transient", transient, 0, _MAX_PERIODS)
+    segments = _check_int("segments", segments, 2, _MAX_PERIODS)
+    P = Precision.parse(precision)
+    d0q = _check_d0(d0, P)
+    if not isinstance(progress, (bool, np.bool_)):
+        raise ParameterError("progress", progress, "True or False")
+    if not isinstance(attractors, (bool, np.bool_)):
+        raise ParameterError("attractors", attractors, "True or False")
+    return params, periods, transient, segments, P, d0q
+
+
+def _start_orbits(
+    params: Params, P: Precision, transient: int, L0: Any, L1: Any, x_w: Any, R: Any
+) -> tuple[OrbitStepper, OrbitStepper]:
+    """The fiducial orbit after ``transient`` periods and its copy for the perturbed one.
+
+    The fiducial runs on a private copy of the cached compiled integrator; the perturbed
+    one on a deep copy of it (own callback copy, no recompilation); both cleared.
+    """
+    conv = P.from_fraction
+    ta = copy.deepcopy(build_integrator(P, compact_mode=(P.kind == "mp")))
+    ta.pars[:] = P.array([conv(getattr(params, n)) for n in RUNTIME_PARAMS])
+    ta.time = L0
+    fid = OrbitStepper(ta, _IMPACT_BUDGET)
+    fid.clear()
+    fid.set_state(conv(params.x0), conv(params.v0), x_w, R)
+    for _ in range(transient):
+        fid.propagate_until(L1, P)
+        fid.ta.time = L0
+        fid.clear()
+    per = OrbitStepper(copy.deepcopy(fid.ta), _IMPACT_BUDGET)
+    fid.clear()
+    per.clear()
+    return fid, per
+
+
+def _place(fid: OrbitStepper, per: OrbitStepper, dx: Any, dv: Any, x_w: Any, R: Any) -> int:
+    """Set the perturbed orbit at ``fiducial + (dx, dv)``, or at ``fiducial - (dx, dv)`` if
+    that lies inside the wall; 1 if it was flipped, else 0."""
+    xf, vf = fid.ta.state[0], fid.ta.state[1]
+    xp = xf + dx
+    vp = vf + dv
+    flipped = 0
+    if xp > x_w:  # inside the wall: use the opposite tangent direction
+        xp, vp = xf - dx, vf - dv
+        flipped = 1
+    per.set_state(xp, vp, x_w, R)
+    return flipped
+
+
+def _measure_periods(
+    fid: OrbitStepper,
+    per: OrbitStepper,
+    arith: _Arith,
+    P: Precision,
+    periods: int,
+    clock: tuple[Any, Any, Any],
+    d0q: Fraction,
+    wall: tuple[Any, Any],
+    progress: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, dict[str, int]]:
+    """Benettin's loop over the measured periods (``clock = (L0, L1, t_limit)``,
+    ``wall = (x_w, R)``).
+
+    Returns ``(log_growth, dts, strobe, impacts, counts)``: per period ``ln(d/d0)``, the
+    elapsed time and the fiducial's stroboscopic sample; the fiducial's impacts; and the
+    counters ``straddles``, ``grazing_misses``, ``collapses``, ``flips``.
+    """
+    L0, L1, t_limit = clock
+    x_w, R = wall
+    flips = _place(fid, per, *arith.along_diagonal(), x_w, R)
+    log_growth = np.empty(periods)
+    dts = np.empty(periods)
+    strobe = np.empty((periods, 2))  # the fiducial's stroboscopic samples (the attractor test)
+    impacts = 0
+    straddles = grazing_misses = collapses = 0
+    bar = Progress(periods, "two-trajectory LLE", bool(progress))
+    for j in range(periods):
+        t_begin = fid.ta.time
+        fid.propagate_until(L1, P)
+        per.propagate_until(L1, P)
+        if fid.count != per.count:
+            straddles += 1
+            if not _synchronise(fid, per, t_limit, P):
+                grazing_misses += 1
+        t_now = fid.ta.time
+        dts[j] = float(t_now - t_begin)
+        # Next period on the local clock: t_now - L1 is exact (Sterbenz), and both
+        # orbits get the identical clock value.
+        t_next = L0 + (t_now - L1)
+        fid.ta.time = t_next
+        per.ta.time = t_next
+        xf, vf = fid.ta.state[0], fid.ta.state[1]
+        strobe[j] = float(xf), float(vf)
+        m = arith.measure(per.ta.state[0] - xf, per.ta.state[1] - vf)
+        if m is None:
+            collapses += 1
+            floor = P.eps_float * max(1.0, abs(float(xf)), abs(float(vf)))
+            log_growth[j] = math.log(floor / float(d0q))
+            dx, dv = arith.along_diagonal()
+        else:
+            log_growth[j], dx, dv = m
+        impacts += fid.count
+        fid.clear()
+        per.clear()
+        flips += _place(fid, per, dx, dv, x_w, R)
+        if progress:
+            bar.update(j + 1, f"lle ~ {log_growth[: j + 1].sum() / dts[: j + 1].sum():.6g}")
+    counts = dict(
+        straddles=straddles, grazing_misses=grazing_misses, collapses=collapses, flips=flips
+    )
+    return log_growth, dts, strobe, impacts, counts
+
+
+def _attribute_strobe(
+    result: LyapunovResult, strobe: np.ndarray, blocks: Any, P: Precision, periods: int
+) -> None:
+    """Identify the fiducial orbit's attractor from its last stroboscopic samples
+    (:func:`~precise_impact.analysis.lyapunov.attractors.attribute`)."""
+    from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
+
+    tail = strobe[-3 * MAX_PERIOD :]
+    attribute(
+        result,
+        [(tail[:, 0], tail[:, 1])],
+        [(result.lle, math.nan, blocks)],
+        P.name if P.kind in ("float64", "mp") else "float64",
+        periods=[periods],
+    )
+
+
 # ------------------------------------------------------------------ main entry
 def two_trajectory_lle(
     params: Params,
@@ -288,96 +436,19 @@ def two_trajectory_lle(
     .. [2] F. Biscani, D. Izzo, "Revisiting high-order Taylor methods for
            astrodynamics and celestial mechanics", MNRAS 504 (2021) (heyoka).
     """
-    # ---- validation (before any work)
-    from precise_impact.core.params import as_params
-
-    params = as_params(params)
-    periods = _check_int("periods", periods, 1, _MAX_PERIODS)
-    transient = _check_int("transient", transient, 0, _MAX_PERIODS)
-    segments = _check_int("segments", segments, 2, _MAX_PERIODS)
-    P = Precision.parse(precision)
-    d0q = _check_d0(d0, P)
-    if not isinstance(progress, (bool, np.bool_)):
-        raise ParameterError("progress", progress, "True or False")
-    if not isinstance(attractors, (bool, np.bool_)):
-        raise ParameterError("attractors", attractors, "True or False")
-
+    params, periods, transient, segments, P, d0q = _check_inputs(
+        params, periods, transient, precision, d0, segments, progress, attractors
+    )
     t_start = _time.perf_counter()
     conv = P.from_fraction
     arith = _Arith(P, d0q)
     x_w, R = conv(params.x_w), conv(params.R)
     L0, L1, sync_window = _local_clock(P, params.t0, params.eta)
-
-    # ---- fiducial orbit: a private copy of the cached compiled integrator
-    ta = copy.deepcopy(build_integrator(P, compact_mode=(P.kind == "mp")))
-    ta.pars[:] = P.array([conv(getattr(params, n)) for n in RUNTIME_PARAMS])
-    ta.time = L0
-    fid = OrbitStepper(ta, _IMPACT_BUDGET)
-    fid.clear()
-    fid.set_state(conv(params.x0), conv(params.v0), x_w, R)
-    for _ in range(transient):
-        fid.propagate_until(L1, P)
-        fid.ta.time = L0
-        fid.clear()
-
-    # ---- perturbed orbit: a deep copy (own callback copy, no recompilation)
-    per = OrbitStepper(copy.deepcopy(fid.ta), _IMPACT_BUDGET)
-    fid.clear()
-    per.clear()
-
-    flips = [0]
-
-    def place(dx: Any, dv: Any) -> None:
-        xf, vf = fid.ta.state[0], fid.ta.state[1]
-        xp = xf + dx
-        vp = vf + dv
-        if xp > x_w:  # inside the wall: use the opposite tangent direction
-            xp, vp = xf - dx, vf - dv
-            flips[0] += 1
-        per.set_state(xp, vp, x_w, R)
-
-    place(*arith.along_diagonal())
-
-    log_growth = np.empty(periods)
-    dts = np.empty(periods)
-    strobe = np.empty((periods, 2))  # the fiducial's stroboscopic samples (the attractor test)
-    impacts = 0
-    straddles = grazing_misses = collapses = 0
-    bar = Progress(periods, "two-trajectory LLE", bool(progress))
-    t_limit = L1 + sync_window
-
-    for j in range(periods):
-        t_begin = fid.ta.time
-        fid.propagate_until(L1, P)
-        per.propagate_until(L1, P)
-        if fid.count != per.count:
-            straddles += 1
-            if not _synchronise(fid, per, t_limit, P):
-                grazing_misses += 1
-        t_now = fid.ta.time
-        dts[j] = float(t_now - t_begin)
-        # Next period on the local clock: t_now - L1 is exact (Sterbenz), and both
-        # orbits get the identical clock value.
-        t_next = L0 + (t_now - L1)
-        fid.ta.time = t_next
-        per.ta.time = t_next
-        xf, vf = fid.ta.state[0], fid.ta.state[1]
-        strobe[j] = float(xf), float(vf)
-        m = arith.measure(per.ta.state[0] - xf, per.ta.state[1] - vf)
-        if m is None:
-            collapses += 1
-            floor = P.eps_float * max(1.0, abs(float(xf)), abs(float(vf)))
-            log_growth[j] = math.log(floor / float(d0q))
-            dx, dv = arith.along_diagonal()
-        else:
-            log_growth[j], dx, dv = m
-        impacts += fid.count
-        fid.clear()
-        per.clear()
-        place(dx, dv)
-        if progress:
-            bar.update(j + 1, f"lle ~ {log_growth[: j + 1].sum() / dts[: j + 1].sum():.6g}")
-
+    fid, per = _start_orbits(params, P, transient, L0, L1, x_w, R)
+    log_growth, dts, strobe, impacts, counts = _measure_periods(
+        fid, per, arith, P, periods, (L0, L1, L1 + sync_window), d0q, (x_w, R), progress
+    )
+    collapses = counts["collapses"]
     if collapses:
         warnings.warn(
             f"two_trajectory_lle: the separation collapsed to exactly zero in {collapses} of "
@@ -402,23 +473,8 @@ def two_trajectory_lle(
         running=running,
         segments=blocks,
         elapsed_s=elapsed,
-        stats=dict(
-            straddles=straddles,
-            grazing_misses=grazing_misses,
-            collapses=collapses,
-            flips=flips[0],
-            d0=d0q,
-        ),
+        stats=dict(**counts, d0=d0q),
     )
     if attractors:
-        from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
-
-        tail = strobe[-3 * MAX_PERIOD :]
-        attribute(
-            result,
-            [(tail[:, 0], tail[:, 1])],
-            [(result.lle, math.nan, blocks)],
-            P.name if P.kind in ("float64", "mp") else "float64",
-            periods=[periods],
-        )
+        _attribute_strobe(result, strobe, blocks, P, periods)
     return result

@@ -54,6 +54,97 @@ def initial_condition(params: Params, j: int) -> Params:
     return params if j == 0 else params.replace(v0=params.v0 + Fraction(j, 4))
 
 
+def _check_counts(
+    periods: Any, initial_conditions: Any, transient: Any, segments: Any
+) -> tuple[int, int, int, int]:
+    """:func:`variational_spectrum`'s counts checked in that order:
+    ``(periods, initial_conditions, transient, segments)``."""
+    periods = check_count(periods, "periods")
+    n_ic = check_count(initial_conditions, "initial_conditions", 1000)
+    if n_ic < 1:
+        raise ParameterError(
+            "initial_conditions",
+            initial_conditions,
+            "an integer with 1 <= initial_conditions <= 1000",
+        )
+    if periods < n_ic:
+        raise ParameterError(
+            "periods", periods, f"an integer >= initial_conditions = {n_ic} (>= 1 period per orbit)"
+        )
+    transient = check_count(transient, "transient")
+    segments = check_count(segments, "segments", 10**6)
+    if segments < 2:
+        raise ParameterError(
+            "segments", segments, "an integer >= 2 (the error bar needs independent blocks)"
+        )
+    return periods, n_ic, transient, segments
+
+
+def _new_diag() -> dict[str, Any]:
+    """The counters of ``stats`` before the first orbit (:func:`_add_diag` sums them)."""
+    return {
+        "impacts": 0,
+        "grazing": 0,
+        "min_impact_speed": math.inf,
+        "max_contact_speed": 0.0,
+        "max_saltation": 0.0,
+        "maxima": 0,
+        "max_overshoot": -math.inf,
+        "missed": 0,
+    }
+
+
+def _add_diag(diag: dict[str, Any], rec: Any, grd: Any) -> None:
+    """Add one orbit's impact-callback (``rec``) and guard (``grd``) counters to ``diag``."""
+    diag["impacts"] += rec.count
+    diag["grazing"] += rec.grazing
+    diag["min_impact_speed"] = min(diag["min_impact_speed"], rec.min_speed)
+    diag["max_contact_speed"] = max(diag["max_contact_speed"], rec.max_contact_speed)
+    diag["max_saltation"] = max(diag["max_saltation"], rec.max_saltation)
+    diag["maxima"] += grd.maxima
+    diag["max_overshoot"] = max(diag["max_overshoot"], grd.max_overshoot)
+    diag["missed"] += grd.missed
+
+
+def _orbit_blocks(
+    l1: np.ndarray, dt: np.ndarray, ni: np.ndarray, n: int, blocks_per_orbit: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One orbit's blocks for the error bar, and the attractors' per-start tests: finer blocks
+    (``TEST_BLOCKS`` of ``>= TEST_BLOCK_PERIODS`` periods) and the impacts per period in the
+    same blocks (:func:`block_stderr`'s split)."""
+    blocks = block_stderr(l1, dt, min(blocks_per_orbit, n))[0]
+    nt = min(n, max(blocks_per_orbit, min(TEST_BLOCKS, n // TEST_BLOCK_PERIODS)))
+    test_blocks = block_stderr(l1, dt, nt)[0]
+    rates = np.array([ni[i].mean() for i in np.array_split(np.arange(n), nt) if len(i)])
+    return blocks, test_blocks, rates
+
+
+def _attribute_starts(
+    result: LyapunovResult,
+    logs: tuple[list, list, list],
+    test_blocks: list,
+    tails: list,
+    rates: list,
+    P: Precision,
+    per_orbit: list[int],
+) -> None:
+    """Group the starts by attractor (:func:`attribute`); ``logs = (L1, L2, DT)``, the
+    per-orbit logs of ``r11``, ``r22`` and the period lengths."""
+    L1, L2, DT = logs
+    per_start = [
+        (float(np.sum(a) / np.sum(d)), float(np.sum(b) / np.sum(d)), blk)
+        for a, b, d, blk in zip(L1, L2, DT, test_blocks, strict=True)
+    ]
+    attribute(
+        result,
+        tails,
+        per_start,
+        P.name if P.kind in ("float64", "mp") else "float64",
+        impact_blocks=rates,
+        periods=per_orbit,
+    )
+
+
 def variational_spectrum(
     params: Params,
     periods: int = 20000,
@@ -160,24 +251,9 @@ def variational_spectrum(
            ``src/detail/event_detection.cpp`` (cooldown, root-finding failures).
     """
     P = Precision.parse(precision)
-    periods = check_count(periods, "periods")
-    n_ic = check_count(initial_conditions, "initial_conditions", 1000)
-    if n_ic < 1:
-        raise ParameterError(
-            "initial_conditions",
-            initial_conditions,
-            "an integer with 1 <= initial_conditions <= 1000",
-        )
-    if periods < n_ic:
-        raise ParameterError(
-            "periods", periods, f"an integer >= initial_conditions = {n_ic} (>= 1 period per orbit)"
-        )
-    transient = check_count(transient, "transient")
-    segments = check_count(segments, "segments", 10**6)
-    if segments < 2:
-        raise ParameterError(
-            "segments", segments, "an integer >= 2 (the error bar needs independent blocks)"
-        )
+    periods, n_ic, transient, segments = _check_counts(
+        periods, initial_conditions, transient, segments
+    )
     q = P.check_tol(tol)
     tol = None if q is None else P.from_fraction(q)
     depth = depth_for(P, grazing_depth, params)
@@ -194,16 +270,7 @@ def variational_spectrum(
     L1, L2, DT, blocks, tails, rates, test_blocks = [], [], [], [], [], [], []
     impacts = 0
     strobe = None
-    diag = {
-        "impacts": 0,
-        "grazing": 0,
-        "min_impact_speed": math.inf,
-        "max_contact_speed": 0.0,
-        "max_saltation": 0.0,
-        "maxima": 0,
-        "max_overshoot": -math.inf,
-        "missed": 0,
-    }
+    diag = _new_diag()
     for j, (ic, n) in enumerate(zip(ics, per_orbit, strict=True)):
         rec.reset(max_impacts, depth, *fns, pars=ta.pars)
         grd.reset(depth, rec.f64)
@@ -218,20 +285,11 @@ def variational_spectrum(
         L2.append(l2)
         DT.append(dt)
         impacts += imp
-        blocks.append(block_stderr(l1, dt, min(blocks_per_orbit, n))[0])
-        # the attractors' per-start tests: finer blocks (TEST_BLOCKS of >= TEST_BLOCK_PERIODS
-        # periods) and the impacts per period in the same blocks (block_stderr's split)
-        nt = min(n, max(blocks_per_orbit, min(TEST_BLOCKS, n // TEST_BLOCK_PERIODS)))
-        test_blocks.append(block_stderr(l1, dt, nt)[0])
-        rates.append(np.array([ni[i].mean() for i in np.array_split(np.arange(n), nt) if len(i)]))
-        diag["impacts"] += rec.count
-        diag["grazing"] += rec.grazing
-        diag["min_impact_speed"] = min(diag["min_impact_speed"], rec.min_speed)
-        diag["max_contact_speed"] = max(diag["max_contact_speed"], rec.max_contact_speed)
-        diag["max_saltation"] = max(diag["max_saltation"], rec.max_saltation)
-        diag["maxima"] += grd.maxima
-        diag["max_overshoot"] = max(diag["max_overshoot"], grd.max_overshoot)
-        diag["missed"] += grd.missed
+        blk, test_blk, rate = _orbit_blocks(l1, dt, ni, n, blocks_per_orbit)
+        blocks.append(blk)
+        test_blocks.append(test_blk)
+        rates.append(rate)
+        _add_diag(diag, rec, grd)
     elapsed = _time.perf_counter() - start
     l1, l2, dt = np.concatenate(L1), np.concatenate(L2), np.concatenate(DT)
     diag["max_period_log"] = float(np.max(l1)) if len(l1) else -math.inf
@@ -259,16 +317,5 @@ def variational_spectrum(
         stats=diag,
     )
     if attractors:
-        per_start = [
-            (float(np.sum(a) / np.sum(d)), float(np.sum(b) / np.sum(d)), blk)
-            for a, b, d, blk in zip(L1, L2, DT, test_blocks, strict=True)
-        ]
-        attribute(
-            result,
-            tails,
-            per_start,
-            P.name if P.kind in ("float64", "mp") else "float64",
-            impact_blocks=rates,
-            periods=per_orbit,
-        )
+        _attribute_starts(result, (L1, L2, DT), test_blocks, tails, rates, P, per_orbit)
     return result
