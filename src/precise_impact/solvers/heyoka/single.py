@@ -421,24 +421,7 @@ class _ZenoWatch:
         v_floor = math.sqrt(500.0 * self.eps_f * self.scale * g) / R
         at_floor = vf < v_floor
         if R >= 1:
-            if at_floor:
-                self._finish(t, vb, None, at_floor=True)
-                return True
-            short = 2 * vf / g * self.omega <= self.flight_fraction
-            if short and not self.predicted and self.budget_left is not None:
-                self.predicted = True  # once per run of short bounces
-                n, until = self.elastic_bounces(tf, vf)
-                if n > self.budget_left():
-                    self.refusal = (
-                        f"R = 1 with the net force into the wall from t = {tf:.6g}: the mass "
-                        "bounces on the wall with speeds decaying like exp(-2 zeta t / 3) and "
-                        "ever shorter flights (not Zeno: the impacts never accumulate, there is "
-                        f"no sticking); reaching {until} takes ~{n:.2g} more impacts, over the "
-                        f"budget max_impacts = {self.max_impacts}; raise max_impacts, shorten "
-                        "the run or use R < 1"
-                    )
-                    return True
-            return False
+            return self._observe_elastic(t, vb, tf, vf, g, at_floor)
         short = 2 * R * vf / g * self.omega <= self.flight_fraction
         if not short and not at_floor:
             self.clear_run()
@@ -447,6 +430,35 @@ class _ZenoWatch:
             self.clear_run()
         self.prev_v = vf
         self.run_n += 1
+        return self._observe_chattering(t, vb, tf, at_floor)
+
+    def _observe_elastic(
+        self, t: Any, vb: Any, tf: float, vf: float, g: float, at_floor: bool
+    ) -> bool:
+        """:meth:`observe` for R >= 1: rest at the speed floor, or a refusal when the predicted
+        bounces of a run of short flights exceed the impact budget."""
+        if at_floor:
+            self._finish(t, vb, None, at_floor=True)
+            return True
+        short = 2 * vf / g * self.omega <= self.flight_fraction
+        if short and not self.predicted and self.budget_left is not None:
+            self.predicted = True  # once per run of short bounces
+            n, until = self.elastic_bounces(tf, vf)
+            if n > self.budget_left():
+                self.refusal = (
+                    f"R = 1 with the net force into the wall from t = {tf:.6g}: the mass "
+                    "bounces on the wall with speeds decaying like exp(-2 zeta t / 3) and "
+                    "ever shorter flights (not Zeno: the impacts never accumulate, there is "
+                    f"no sticking); reaching {until} takes ~{n:.2g} more impacts, over the "
+                    f"budget max_impacts = {self.max_impacts}; raise max_impacts, shorten "
+                    "the run or use R < 1"
+                )
+                return True
+        return False
+
+    def _observe_chattering(self, t: Any, vb: Any, tf: float, at_floor: bool) -> bool:
+        """:meth:`observe` for R < 1 inside a run of short flights: the accumulation time
+        extrapolated; True (episode finished) once it is converged or at the speed floor."""
         p = self.params
         P = self.P
         tm, vm = P.to_mpf(t), P.to_mpf(vb)
