@@ -207,6 +207,51 @@ def _arithmetic(precision: Any, backend: Any, dps: Any, bits: Any) -> tuple[str,
 
 
 # --------------------------------------------------------------------------- solver
+def _check_arithmetic(backend: str, dps: Any, bits: Any) -> Any:
+    """Validate ``dps``/``bits`` against ``backend``; the digits to use (60 by default for
+    mpmath without ``bits``, else as given)."""
+    if backend == "float64":
+        if dps is not None:
+            raise ParameterError(
+                "dps", dps, "dps is only for backend='mpmath'; use None with float64"
+            )
+        if bits is not None:
+            raise ParameterError(
+                "bits", bits, "bits is only for backend='mpmath'; use None with float64"
+            )
+    else:
+        if bits is not None:
+            if dps is not None:
+                raise ParameterError("dps", dps, "give dps or bits, not both")
+            if isinstance(bits, bool) or not isinstance(bits, int) or not (64 <= bits <= 100_000):
+                raise ParameterError("bits", bits, "an integer with 64 <= bits <= 100000")
+        else:
+            if dps is None:
+                dps = 60
+            if isinstance(dps, bool) or not isinstance(dps, int) or not (20 <= dps <= 30000):
+                raise ParameterError("dps", dps, "an integer with 20 <= dps <= 30000")
+    return dps
+
+
+def _check_limits(scan_fraction: Any, max_impacts: int, max_evals: int | None) -> Fraction:
+    """Validate the scan fraction and the budgets; the scan fraction, exact."""
+    sf = exact("scan_fraction", scan_fraction)
+    if not (0 < sf <= 1):
+        raise ParameterError("scan_fraction", decimal_str(sf), "0 < scan_fraction <= 1")
+    if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 0:
+        raise ParameterError("max_impacts", max_impacts, "an integer >= 0")
+    if max_evals is not None and (
+        isinstance(max_evals, bool) or not isinstance(max_evals, int) or max_evals < 1
+    ):
+        raise ParameterError("max_evals", max_evals, "None or an integer >= 1")
+    return sf
+
+
+def _no_progress(t1: Any) -> BudgetExceededError:
+    """The error of a robust-finder step that does not advance past ``t1``."""
+    return BudgetExceededError(f"analytical solver: no progress at t = {float(t1):.17g}")
+
+
 class AnalyticalSolver:
     """Closed-form solver of the impact oscillator (eq. 2 of Denysenko, Balcerzak & Dabrowski).
 
@@ -331,39 +376,8 @@ class AnalyticalSolver:
             raise ParameterError("finder", finder, "one of 'robust', 'paper'")
         if backend not in _BACKENDS:
             raise ParameterError("backend", backend, "one of 'float64', 'mpmath'")
-        if backend == "float64":
-            if dps is not None:
-                raise ParameterError(
-                    "dps", dps, "dps is only for backend='mpmath'; use None with float64"
-                )
-            if bits is not None:
-                raise ParameterError(
-                    "bits", bits, "bits is only for backend='mpmath'; use None with float64"
-                )
-        else:
-            if bits is not None:
-                if dps is not None:
-                    raise ParameterError("dps", dps, "give dps or bits, not both")
-                if (
-                    isinstance(bits, bool)
-                    or not isinstance(bits, int)
-                    or not (64 <= bits <= 100_000)
-                ):
-                    raise ParameterError("bits", bits, "an integer with 64 <= bits <= 100000")
-            else:
-                if dps is None:
-                    dps = 60
-                if isinstance(dps, bool) or not isinstance(dps, int) or not (20 <= dps <= 30000):
-                    raise ParameterError("dps", dps, "an integer with 20 <= dps <= 30000")
-        sf = exact("scan_fraction", scan_fraction)
-        if not (0 < sf <= 1):
-            raise ParameterError("scan_fraction", decimal_str(sf), "0 < scan_fraction <= 1")
-        if isinstance(max_impacts, bool) or not isinstance(max_impacts, int) or max_impacts < 0:
-            raise ParameterError("max_impacts", max_impacts, "an integer >= 0")
-        if max_evals is not None and (
-            isinstance(max_evals, bool) or not isinstance(max_evals, int) or max_evals < 1
-        ):
-            raise ParameterError("max_evals", max_evals, "None or an integer >= 1")
+        dps = _check_arithmetic(backend, dps, bits)
+        sf = _check_limits(scan_fraction, max_impacts, max_evals)
         self.finder = finder
         self.backend = backend
         self.dps = dps
@@ -635,7 +649,6 @@ class _Run:
         """First upward crossing of x = x_w in (t_s, t_end], or None (see class docstring)."""
         m = self.m
         x_w = m.x_w
-        sqrt = self.ops.sqrt
         t1 = seg.t_s
         while True:
             x, v, dec = self.feval(seg, t1)
@@ -648,86 +661,111 @@ class _Run:
                 return None
             M = (m.Ap * m.eta2 + hom) * m.infl
             if f < -3 * d0:
-                # Certified step: q(h) = (f + 2 d0) + (v + d1) h + M h^2 / 2 < 0 on [0, h*).
-                F0 = f + 2 * d0
-                F1 = v + d1
-                den = F1 + sqrt(F1 * F1 - 2 * M * F0)
-                if not den > 0:
-                    return None  # M == 0 and non-increasing: never reaches the wall
-                t2 = t1 + (-2 * F0) / den
-                self.n_steps += 1
-                if t2 >= t_end:
-                    return None
-                if not t2 > t1:
-                    raise BudgetExceededError(
-                        f"analytical solver: no progress at t = {float(t1):.17g}"
-                    )
-                t1 = t2
-                continue
+                done, out = self._certified_step(t1, t_end, f, v, d0, d1, M)
+            else:
+                done, out = self._near_wall(seg, t1, t_end, x, v, f, (d0, d1, hom), M)
+            if done:
+                return out
+            t1 = out
 
-            # ---- within rounding of the wall ------------------------------------------
-            # 1. transversal upward crossing just ahead
-            a_up = v - d1
-            c_in = 3 * d0 - f
-            if a_up > 0 and a_up * a_up >= 2 * M * c_in:
-                tau_in = 2 * c_in / (a_up + sqrt(a_up * a_up - 2 * M * c_in))
-                tb = t1 + tau_in
-                if tb > t_end:
-                    tb = t_end
-                if not tb > t1:
-                    return t1, v  # the crossing is at t1 to within the time resolution
-                xb, vb, _ = self.feval(seg, tb)
-                if xb - x_w > 0:
-                    return self.refine(seg, t1, f, v, tb)
-                if tb == t_end:
-                    return None  # f increasing on [t1, t_end] and still <= 0
-                t1 = tb  # (only if the margins were pessimistic) no crossing in [t1, tb]
-                continue
-            # 2. leaving the wall: bound f + d0 + s h + M h^2/2 reaches -5 d0
-            s = v + d1
-            c_out = f + 6 * d0
-            if s < 0:
-                disc = s * s - 2 * M * c_out
-                if disc >= 0:
-                    tau = 2 * c_out / (-s + sqrt(disc))
-                    t2 = t1 + tau
-                    if t2 >= t_end:
-                        return None
-                    if not t2 > t1:
-                        raise BudgetExceededError(
-                            f"analytical solver: no progress at t = {float(t1):.17g}"
-                        )
-                    self.n_steps += 1
-                    t1 = t2
-                    continue
-            # 3. grazing: a maximum touching the wall (f'' < 0)
-            acc = m.accel(t1, x, v)
-            d2 = m.margin2(t1, d0, d1, hom)
-            c2 = acc + d2
-            if c2 < 0:
-                kappa = -c2 / 2
-                M3 = (m.Ap * m.eta3 + hom) * m.infl
-                tau_c = kappa / M3 if M3 > 0 else None
-                tau = 2 * c_out / (sqrt(s * s + 2 * kappa * c_out) - s)
-                if tau_c is None or tau <= tau_c:
-                    t2 = t1 + tau
-                    if not (t1 == seg.t_s and seg.after_impact):
-                        self.n_grazing += 1  # tangential contact, not an impact
-                    if t2 >= t_end:
-                        return None
-                    if not t2 > t1:
-                        raise BudgetExceededError(
-                            f"analytical solver: no progress at t = {float(t1):.17g}"
-                        )
-                    self.n_steps += 1
-                    t1 = t2
-                    continue
-            # 4. sticking / chattering: zero velocity on the wall, pushed into it
-            raise BudgetExceededError(
-                "analytical solver: the mass rests on the wall with (rounding-level) zero velocity "
-                f"and is pushed into it at t = {float(t1):.17g} (x'' = {float(acc):.3g}): sticking "
-                "or the end of a chattering sequence, which eq. (2) does not model"
-            )
+    # The steps of find_robust: each returns ``(True, result)`` (the crossing ``(t, v)`` or None,
+    # no crossing before ``t_end``) or ``(False, t2)`` (no crossing in ``[t1, t2)``: go on from
+    # ``t2``); the cases of the wall's neighbourhood return None where they do not apply.
+    def _certified_step(self, t1, t_end, f, v, d0, d1, M):
+        """Certified step: q(h) = (f + 2 d0) + (v + d1) h + M h^2 / 2 < 0 on [0, h*)."""
+        F0 = f + 2 * d0
+        F1 = v + d1
+        den = F1 + self.ops.sqrt(F1 * F1 - 2 * M * F0)
+        if not den > 0:
+            return True, None  # M == 0 and non-increasing: never reaches the wall
+        t2 = t1 + (-2 * F0) / den
+        self.n_steps += 1
+        if t2 >= t_end:
+            return True, None
+        if not t2 > t1:
+            raise _no_progress(t1)
+        return False, t2
+
+    def _near_wall(self, seg: _Segment, t1, t_end, x, v, f, margins, M):
+        """Within rounding of the wall: a crossing ahead, leaving, grazing, or sticking (raised)."""
+        d0, d1, hom = margins
+        # 1. transversal upward crossing just ahead
+        step = self._crossing_ahead(seg, t1, t_end, v, f, d0, d1, M)
+        if step is not None:
+            return step
+        # 2. leaving the wall: bound f + d0 + s h + M h^2/2 reaches -5 d0
+        s = v + d1
+        c_out = f + 6 * d0
+        step = self._leaving_wall(t1, t_end, s, c_out, M)
+        if step is not None:
+            return step
+        # 3. grazing: a maximum touching the wall (f'' < 0)
+        m = self.m
+        acc = m.accel(t1, x, v)
+        d2 = m.margin2(t1, d0, d1, hom)
+        step = self._grazing(seg, t1, t_end, acc + d2, s, c_out, hom)
+        if step is not None:
+            return step
+        # 4. sticking / chattering: zero velocity on the wall, pushed into it
+        raise BudgetExceededError(
+            "analytical solver: the mass rests on the wall with (rounding-level) zero velocity "
+            f"and is pushed into it at t = {float(t1):.17g} (x'' = {float(acc):.3g}): sticking "
+            "or the end of a chattering sequence, which eq. (2) does not model"
+        )
+
+    def _crossing_ahead(self, seg: _Segment, t1, t_end, v, f, d0, d1, M):
+        """Case 1 of :meth:`_near_wall`: a transversal upward crossing just ahead."""
+        a_up = v - d1
+        c_in = 3 * d0 - f
+        if not (a_up > 0 and a_up * a_up >= 2 * M * c_in):
+            return None
+        tau_in = 2 * c_in / (a_up + self.ops.sqrt(a_up * a_up - 2 * M * c_in))
+        tb = t1 + tau_in
+        if tb > t_end:
+            tb = t_end
+        if not tb > t1:
+            return True, (t1, v)  # the crossing is at t1 to within the time resolution
+        xb, vb, _ = self.feval(seg, tb)
+        if xb - self.m.x_w > 0:
+            return True, self.refine(seg, t1, f, v, tb)
+        if tb == t_end:
+            return True, None  # f increasing on [t1, t_end] and still <= 0
+        return False, tb  # (only if the margins were pessimistic) no crossing in [t1, tb]
+
+    def _leaving_wall(self, t1, t_end, s, c_out, M):
+        """Case 2 of :meth:`_near_wall`: moving away, the bound reaches -5 d0 at ``t2``."""
+        if s < 0:
+            disc = s * s - 2 * M * c_out
+            if disc >= 0:
+                tau = 2 * c_out / (-s + self.ops.sqrt(disc))
+                t2 = t1 + tau
+                if t2 >= t_end:
+                    return True, None
+                if not t2 > t1:
+                    raise _no_progress(t1)
+                self.n_steps += 1
+                return False, t2
+        return None
+
+    def _grazing(self, seg: _Segment, t1, t_end, c2, s, c_out, hom):
+        """Case 3 of :meth:`_near_wall`: a maximum touching the wall (``c2`` bounds f'' < 0)."""
+        if c2 < 0:
+            m = self.m
+            kappa = -c2 / 2
+            M3 = (m.Ap * m.eta3 + hom) * m.infl
+            tau_c = kappa / M3 if M3 > 0 else None
+            tau = 2 * c_out / (self.ops.sqrt(s * s + 2 * kappa * c_out) - s)
+            if tau_c is None or tau <= tau_c:
+                t2 = t1 + tau
+                if not (t1 == seg.t_s and seg.after_impact):
+                    self.n_grazing += 1  # tangential contact, not an impact
+                if t2 >= t_end:
+                    return True, None
+                if not t2 > t1:
+                    raise _no_progress(t1)
+                self.n_steps += 1
+                return False, t2
+        return None
 
     def refine(self, seg: _Segment, lo, f_lo, v_lo, hi):
         """Root of the increasing ``f`` in ``[lo, hi]`` (``f(lo) <= 0 < f(hi)`` up to rounding):

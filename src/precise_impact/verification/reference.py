@@ -198,21 +198,8 @@ def _impact_disagreement(a, b) -> float | None:
         return float(worst)
 
 
-def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
-    eta = SINGLE_CASES[case]
-    params = Params.make(eta=eta)
-    bits = reference_bits(SINGLE_PERIODS)
-    P = Precision.parse(f"mp:{bits}")
-    t0 = time.perf_counter()
-    ref = simulate(params, SINGLE_PERIODS, precision=P)
-    check = simulate(params, SINGLE_PERIODS, precision=f"mp:{bits + 64}")
-    errs = sample_errors(ref, check)
-    imp_dis = _impact_disagreement(ref, check)
-    _log(
-        f"  {case}: mp:{bits} vs mp:{bits + 64}: max {max(errs):.2e} "
-        f"({time.perf_counter() - t0:.1f} s)",
-        progress,
-    )
+def _single_samples(case: str, params: Params, P: Precision, ref: Any, errs: list) -> dict:
+    """The ``samples.json`` document of a single-oscillator case: the stored decimals."""
     s = P.to_str
     samples = {
         "case": case,
@@ -232,6 +219,62 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
         # disagreement with the +64-bit run at each sample: the demonstrated error bound
         "sample_disagreement": [f"{e:.3e}" for e in errs],
     }
+    return samples
+
+
+def _single_manifest(
+    case: str, eta: str, params: Params, P: Precision, bits: int, ref: Any, errs: list, imp_dis: Any
+) -> dict:
+    """The manifest metadata of a single-oscillator case: provenance and accuracy."""
+    return {
+        "case": case,
+        "description": (
+            f"single impact oscillator from rest, eta = {eta}, {SINGLE_PERIODS} periods"
+        ),
+        "params": params.decimal(),
+        "model": "heyoka (Taylor integrator with impact events)",
+        "precision": P.name,
+        "tolerance": f"machine epsilon of {P.name} (2**-{bits - 1})",
+        "periods": SINGLE_PERIODS,
+        "impacts": ref.n_impacts,
+        "accuracy": {
+            "method": (
+                f"two heyoka runs, {P.name} (stored) and mp:{bits + 64}, compared at every "
+                "stroboscopic sample"
+            ),
+            "runs": [P.name, f"mp:{bits + 64}"],
+            "max_sample_disagreement": f"{max(errs):.3e}",
+            "final_sample_disagreement": f"{errs[-1]:.3e}",
+            "max_impact_disagreement": None if imp_dis is None else f"{imp_dis:.3e}",
+            "impact_counts_agree": imp_dis is not None,
+            "metric": "max(|x - x'|, |v - v'|)",
+        },
+        "dense": {
+            "file": "dense.npz",
+            "precision": "float64 (heyoka float64 run; for plotting only, NOT the reference)",
+            "per_period": DENSE_PER_PERIOD,
+            "periods": f"last {DENSE_LAST_PERIODS} of {SINGLE_PERIODS}",
+            "note": "strobe_* / impacts_t arrays are the mp reference rounded to float64",
+        },
+    }
+
+
+def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
+    eta = SINGLE_CASES[case]
+    params = Params.make(eta=eta)
+    bits = reference_bits(SINGLE_PERIODS)
+    P = Precision.parse(f"mp:{bits}")
+    t0 = time.perf_counter()
+    ref = simulate(params, SINGLE_PERIODS, precision=P)
+    check = simulate(params, SINGLE_PERIODS, precision=f"mp:{bits + 64}")
+    errs = sample_errors(ref, check)
+    imp_dis = _impact_disagreement(ref, check)
+    _log(
+        f"  {case}: mp:{bits} vs mp:{bits + 64}: max {max(errs):.2e} "
+        f"({time.perf_counter() - t0:.1f} s)",
+        progress,
+    )
+    samples = _single_samples(case, params, P, ref, errs)
     _write_json(case_dir / "samples.json", samples)
     dense = simulate(params, SINGLE_PERIODS, precision="float64", per_period=DENSE_PER_PERIOD)
     n0 = (SINGLE_PERIODS - DENSE_LAST_PERIODS) * DENSE_PER_PERIOD
@@ -249,37 +292,7 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
     write_manifest(
         case_dir,
         ["samples.json", "dense.npz"],
-        {
-            "case": case,
-            "description": (
-                f"single impact oscillator from rest, eta = {eta}, {SINGLE_PERIODS} periods"
-            ),
-            "params": params.decimal(),
-            "model": "heyoka (Taylor integrator with impact events)",
-            "precision": P.name,
-            "tolerance": f"machine epsilon of {P.name} (2**-{bits - 1})",
-            "periods": SINGLE_PERIODS,
-            "impacts": ref.n_impacts,
-            "accuracy": {
-                "method": (
-                    f"two heyoka runs, {P.name} (stored) and mp:{bits + 64}, compared at every "
-                    "stroboscopic sample"
-                ),
-                "runs": [P.name, f"mp:{bits + 64}"],
-                "max_sample_disagreement": f"{max(errs):.3e}",
-                "final_sample_disagreement": f"{errs[-1]:.3e}",
-                "max_impact_disagreement": None if imp_dis is None else f"{imp_dis:.3e}",
-                "impact_counts_agree": imp_dis is not None,
-                "metric": "max(|x - x'|, |v - v'|)",
-            },
-            "dense": {
-                "file": "dense.npz",
-                "precision": "float64 (heyoka float64 run; for plotting only, NOT the reference)",
-                "per_period": DENSE_PER_PERIOD,
-                "periods": f"last {DENSE_LAST_PERIODS} of {SINGLE_PERIODS}",
-                "note": "strobe_* / impacts_t arrays are the mp reference rounded to float64",
-            },
-        },
+        _single_manifest(case, eta, params, P, bits, ref, errs, imp_dis),
     )
     from precise_impact.verification.certificate import add_certificate
 

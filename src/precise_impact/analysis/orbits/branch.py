@@ -232,6 +232,28 @@ class ContinuationResult(ResultMixin):
                 np.repeat(vals, xs.shape[1]), xs.ravel(), ",", color="0.55", alpha=0.6, zorder=0
             )
             ax1.plot([], [], ".", color="0.55", label="brute force (simulated attractors)")
+        self._plot_branches(ax1, ax2)
+        self._plot_bifurcations(ax1)
+        xw = float(self.params.x_w) if self.parameter != "x_w" else None
+        if xw is not None:
+            ax1.axhline(xw, color="tab:red", lw=0.7)
+        ax1.set_ylabel("x at t0 + kT")
+        ax1.legend(loc="best", fontsize=7)
+        ax2.axhline(0, color="k", lw=0.6)
+        ax2.set_ylabel("LLE = ln|mu_max| / (pT)")
+        ax2.set_xlabel(self.parameter)
+        p = self.params
+        fig.suptitle(
+            f"Continuation in {self.parameter} from {decimal_str(self.start)} "
+            f"to {decimal_str(self.stop)} "
+            f"(zeta={decimal_str(p.zeta)}, a={decimal_str(p.a)}, x_w={decimal_str(p.x_w)}, "
+            f"R={decimal_str(p.R)}, eta={decimal_str(p.eta)})",
+            fontsize=10,
+        )
+        return save_figure(fig, path, fmt="png", dpi=120)
+
+    def _plot_branches(self, ax1: Any, ax2: Any) -> None:
+        """Draw every branch on ``ax1`` (x) and ``ax2`` (LLE), styled by stability."""
         colors = [
             "tab:blue",
             "tab:purple",
@@ -258,6 +280,9 @@ class ContinuationResult(ResultMixin):
                     ax1.plot(b.values[sl], b.x[sl, j], **style)
                 ax2.plot(b.values[sl], b.lle[sl], **style)
             ax1.plot([], [], color=c, label=f"branch {k}: period {b.period}, {b.impacts} impact(s)")
+
+    def _plot_bifurcations(self, ax1: Any) -> None:
+        """The style legend entries and the bifurcation points on ``ax1``."""
         ax1.plot([], [], "k-", label="stable")
         ax1.plot([], [], "k--", label="unstable")
         if any(np.any(np.asarray(b.stability) == "elliptic") for b in self.branches):
@@ -285,23 +310,6 @@ class ContinuationResult(ResultMixin):
                 label=lab,
                 zorder=5,
             )
-        xw = float(self.params.x_w) if self.parameter != "x_w" else None
-        if xw is not None:
-            ax1.axhline(xw, color="tab:red", lw=0.7)
-        ax1.set_ylabel("x at t0 + kT")
-        ax1.legend(loc="best", fontsize=7)
-        ax2.axhline(0, color="k", lw=0.6)
-        ax2.set_ylabel("LLE = ln|mu_max| / (pT)")
-        ax2.set_xlabel(self.parameter)
-        p = self.params
-        fig.suptitle(
-            f"Continuation in {self.parameter} from {decimal_str(self.start)} "
-            f"to {decimal_str(self.stop)} "
-            f"(zeta={decimal_str(p.zeta)}, a={decimal_str(p.a)}, x_w={decimal_str(p.x_w)}, "
-            f"R={decimal_str(p.R)}, eta={decimal_str(p.eta)})",
-            fontsize=10,
-        )
-        return save_figure(fig, path, fmt="png", dpi=120)
 
     def save_all(self, out: str | os.PathLike, diagram: tuple | None = None) -> dict[str, Path]:
         """Write ``continuation.json`` and ``continuation.png`` (over a diagram) in ``out``.

@@ -236,6 +236,91 @@ class CertifiedCoupledTrajectory(ResultMixin):
         }
 
 
+class _Walk:
+    """The pair's certified walk between samples: the current :class:`_Pair` (restarted at each
+    impact) and the impacts found, ``(t, before, after)`` balls of the master and the slave."""
+
+    def __init__(self, c, iso, consts, form: str, k, bits: int, pair: _Pair) -> None:
+        self.c, self.iso, self.consts, self.form, self.k, self.bits = c, iso, consts, form, k, bits
+        self.pair = pair
+        self.mimp: list = []
+        self.simp: list = []
+
+    def unordered(self, t) -> CertificationError:
+        return CertificationError(
+            describe(t, "simultaneous master and slave impacts whose order cannot be proven")
+            + f" at {self.bits} bits"
+        )
+
+    def advance(self, a, tk, end, hstep, check: bool) -> None:
+        """Prove both gaps < 0 from ``a`` up to ``end`` (the sample ``tk``'s upper end) in steps
+        of ``hstep``, applying every impact on the way; ``check``: prove them < 0 at ``a``."""
+        iso = self.iso
+        while True:
+            b = a + hstep
+            b = point(b) if b < end else end
+            pair = self.pair
+            hm = iso.first_crossing(pair.master_gap, pair.master_bound(), a, b, check_start=check)
+            hs = iso.first_crossing(pair.slave_gap, pair.slave_bound(), a, b, check_start=check)
+            check = False
+            if hm is None and hs is None:
+                if not (b < end):
+                    return
+                a = b
+                continue
+            if hm is not None and hs is not None and hm.overlaps(hs):
+                raise self.unordered(hm.union(hs))
+            master = hs is None or (hm is not None and hm < hs)
+            d = self.impacts(master, hm if master else hs, tk, end)
+            a = d if d < end else end
+            if not (a < end):
+                return  # both gaps < 0 proven up to the sample
+
+    def impacts(self, master: bool, hit, tk, end):
+        """Apply the impact at ``hit`` (the master's if ``master``, else the slave's) and those of
+        the other oscillator before this one departs; the proven departure time."""
+        iso = self.iso
+        while True:  # apply the impact; the other oscillator may impact before this one departs
+            if hit.overlaps(tk):
+                raise CertificationError(
+                    describe(hit, "an impact on a sample time") + f" at {self.bits} bits"
+                )
+            if master:
+                gap, bound, other, obound = self.master_impact(hit)
+            else:
+                gap, bound, other, obound = self.slave_impact(hit)
+            d = iso.depart(gap, bound, hit)  # this one's gap < 0 proven on (impact, d]
+            stop = d if d < end else end
+            nxt = iso.first_crossing(other, obound, point(hit.lower()), stop, check_start=True)
+            if nxt is None:
+                return d
+            if nxt.overlaps(hit) or not nxt > hit:
+                raise self.unordered(hit.union(nxt))
+            master, hit = not master, nxt
+
+    def master_impact(self, hit) -> tuple:
+        """Reset the master at ``hit``; (its gap, bound, the slave's gap, bound)."""
+        c = self.c
+        x, v, e, ep = self.pair.state(hit)
+        va = -c.R * v
+        self.mimp.append((hit, v, va))
+        yd = v + ep  # y' is continuous through the master's impact
+        pair = self.pair = _Pair(c, self.consts, hit, c.xw, va, e, yd - va)
+        return pair.master_gap, pair.master_bound(), pair.slave_gap, pair.slave_bound()
+
+    def slave_impact(self, hit) -> tuple:
+        """Reset the slave at ``hit``; (its gap, bound, the master's gap, bound)."""
+        c, form, k = self.c, self.form, self.k
+        x, v, e, ep = self.pair.state(hit)
+        wb = slave_velocity(form, k, e, v + ep)
+        wa = slave_reset(form, x, wb, c.R, k, c.xw)
+        self.simp.append((hit, wb, wa))
+        e_at = c.xw - x  # the slave is on the wall
+        yd = slave_derivative(form, k, e_at, wa)
+        pair = self.pair = _Pair(c, self.consts, hit, x, v, e_at, yd - v, master=self.pair.m)
+        return pair.slave_gap, pair.slave_bound(), pair.master_gap, pair.master_bound()
+
+
 def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress) -> tuple:
     c = Constants(params, bits)
     iso = Isolator(bits)
@@ -253,91 +338,21 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
     e0 = yp - x0
     ep0 = slave_derivative(form, k, e0, yv) - v0
     s = c.t0
-    pair = _Pair(c, consts, s, x0, v0, e0, ep0)
+    walk = _Walk(c, iso, consts, form, k, bits, _Pair(c, consts, s, x0, v0, e0, ep0))
 
     samples = [(0, s, x0, v0, yp, yv)]
-    mimp: list = []
-    simp: list = []
     a = s
-    check = True  # prove both gaps < 0 at a after a (re)start
     hstep = point(c.T / 16)
     for n in range(1, periods + 1):
         tk = c.t0 + n * c.T
         end = upper(tk)
-        while True:
-            b = a + hstep
-            b = point(b) if b < end else end
-            hm = iso.first_crossing(pair.master_gap, pair.master_bound(), a, b, check_start=check)
-            hs = iso.first_crossing(pair.slave_gap, pair.slave_bound(), a, b, check_start=check)
-            check = False
-            if hm is None and hs is None:
-                if not (b < end):
-                    break
-                a = b
-                continue
-            if hm is not None and hs is not None and hm.overlaps(hs):
-                raise CertificationError(
-                    describe(
-                        hm.union(hs),
-                        "simultaneous master and slave impacts whose order cannot be proven",
-                    )
-                    + f" at {bits} bits"
-                )
-            master = hs is None or (hm is not None and hm < hs)
-            hit = hm if master else hs
-            while True:  # apply the impact; the other oscillator may impact before this one departs
-                if hit.overlaps(tk):
-                    raise CertificationError(
-                        describe(hit, "an impact on a sample time") + f" at {bits} bits"
-                    )
-                x, v, e, ep = pair.state(hit)
-                if master:
-                    va = -c.R * v
-                    mimp.append((hit, v, va))
-                    yd = v + ep  # y' is continuous through the master's impact
-                    pair = _Pair(c, consts, hit, c.xw, va, e, yd - va)
-                    gap, bound, other, obound = (
-                        pair.master_gap,
-                        pair.master_bound(),
-                        pair.slave_gap,
-                        pair.slave_bound(),
-                    )
-                else:
-                    wb = slave_velocity(form, k, e, v + ep)
-                    wa = slave_reset(form, x, wb, c.R, k, c.xw)
-                    simp.append((hit, wb, wa))
-                    e_at = c.xw - x  # the slave is on the wall
-                    yd = slave_derivative(form, k, e_at, wa)
-                    pair = _Pair(c, consts, hit, x, v, e_at, yd - v, master=pair.m)
-                    gap, bound, other, obound = (
-                        pair.slave_gap,
-                        pair.slave_bound(),
-                        pair.master_gap,
-                        pair.master_bound(),
-                    )
-                d = iso.depart(gap, bound, hit)  # this one's gap < 0 proven on (impact, d]
-                stop = d if d < end else end
-                nxt = iso.first_crossing(other, obound, point(hit.lower()), stop, check_start=True)
-                if nxt is None:
-                    break
-                if nxt.overlaps(hit) or not nxt > hit:
-                    raise CertificationError(
-                        describe(
-                            hit.union(nxt),
-                            "simultaneous master and slave impacts whose order cannot be proven",
-                        )
-                        + f" at {bits} bits"
-                    )
-                master, hit = not master, nxt
-            a = d if d < end else end
-            if not (a < end):
-                break  # both gaps < 0 proven up to the sample
-        x, v, e, ep = pair.state(tk)
+        walk.advance(a, tk, end, hstep, check=n == 1)  # first: prove both gaps < 0 at the start
+        x, v, e, ep = walk.pair.state(tk)
         samples.append((n, tk, x, v, x + e, slave_velocity(form, k, e, v + ep)))
         a = end
         if progress is not None:
             progress.update(n)
-    return samples, mimp, simp
+    return samples, walk.mimp, walk.simp
 
 
 def certify_coupled(

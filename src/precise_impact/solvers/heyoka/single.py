@@ -421,24 +421,7 @@ class _ZenoWatch:
         v_floor = math.sqrt(500.0 * self.eps_f * self.scale * g) / R
         at_floor = vf < v_floor
         if R >= 1:
-            if at_floor:
-                self._finish(t, vb, None, at_floor=True)
-                return True
-            short = 2 * vf / g * self.omega <= self.flight_fraction
-            if short and not self.predicted and self.budget_left is not None:
-                self.predicted = True  # once per run of short bounces
-                n, until = self.elastic_bounces(tf, vf)
-                if n > self.budget_left():
-                    self.refusal = (
-                        f"R = 1 with the net force into the wall from t = {tf:.6g}: the mass "
-                        "bounces on the wall with speeds decaying like exp(-2 zeta t / 3) and "
-                        "ever shorter flights (not Zeno: the impacts never accumulate, there is "
-                        f"no sticking); reaching {until} takes ~{n:.2g} more impacts, over the "
-                        f"budget max_impacts = {self.max_impacts}; raise max_impacts, shorten "
-                        "the run or use R < 1"
-                    )
-                    return True
-            return False
+            return self._observe_elastic(t, vb, tf, vf, g, at_floor)
         short = 2 * R * vf / g * self.omega <= self.flight_fraction
         if not short and not at_floor:
             self.clear_run()
@@ -447,6 +430,35 @@ class _ZenoWatch:
             self.clear_run()
         self.prev_v = vf
         self.run_n += 1
+        return self._observe_chattering(t, vb, tf, at_floor)
+
+    def _observe_elastic(
+        self, t: Any, vb: Any, tf: float, vf: float, g: float, at_floor: bool
+    ) -> bool:
+        """:meth:`observe` for R >= 1: rest at the speed floor, or a refusal when the predicted
+        bounces of a run of short flights exceed the impact budget."""
+        if at_floor:
+            self._finish(t, vb, None, at_floor=True)
+            return True
+        short = 2 * vf / g * self.omega <= self.flight_fraction
+        if short and not self.predicted and self.budget_left is not None:
+            self.predicted = True  # once per run of short bounces
+            n, until = self.elastic_bounces(tf, vf)
+            if n > self.budget_left():
+                self.refusal = (
+                    f"R = 1 with the net force into the wall from t = {tf:.6g}: the mass "
+                    "bounces on the wall with speeds decaying like exp(-2 zeta t / 3) and "
+                    "ever shorter flights (not Zeno: the impacts never accumulate, there is "
+                    f"no sticking); reaching {until} takes ~{n:.2g} more impacts, over the "
+                    f"budget max_impacts = {self.max_impacts}; raise max_impacts, shorten "
+                    "the run or use R < 1"
+                )
+                return True
+        return False
+
+    def _observe_chattering(self, t: Any, vb: Any, tf: float, at_floor: bool) -> bool:
+        """:meth:`observe` for R < 1 inside a run of short flights: the accumulation time
+        extrapolated; True (episode finished) once it is converged or at the speed floor."""
         p = self.params
         P = self.P
         tm, vm = P.to_mpf(t), P.to_mpf(vb)
@@ -912,137 +924,188 @@ class HeyokaSolver:
         ``chunk``; ``live`` receives the sample lists and the count of finished
         samples (``'done'``) for progress and for a partial result on interrupt.
         """
-        import heyoka as hy
-
-        P = self.precision
-        wall = _Wall(P, params)
-        x_w = P.from_fraction(params.x_w)
-        x_below = _below_wall(P, params.x_w)
-        zero = P.from_fraction(Fraction(0))
-        n = len(grid)
-        xs: list = [None] * n
-        vs: list = [None] * n
-        live["xs"], live["vs"] = xs, vs
+        run = _Propagation(self, ta, rec, watch, params, grid, max_steps, n_out, chunk)
+        live["xs"], live["vs"] = run.xs, run.vs
         report = live.get("progress")
-        i = 0
-        steps = 0
-        sticking: list = []
-        chattering: list = []
-        tail_samples = 0
-        flight_start = len(rec.t)
-
-        def rest_on_wall(t: Any) -> None:
-            ta.time = t
-            ta.state[:] = P.array([x_w, zero])
-            ta.reset_cooldowns()
-            rec.contact_t = t
-
-        while i < n:
-            live["done"] = i
+        while run.i < run.n:
+            live["done"] = run.i
             if report is not None:
-                report(i)
-            t_cur = ta.time
-            # ---- at rest on the wall: stick while the force pushes into it
-            if ta.state[0] == x_w and ta.state[1] == 0 and wall.sticks(t_cur):
-                t_rel = wall.release(t_cur)
-                while i < n and (t_rel is None or grid[i] <= t_rel):
-                    xs[i], vs[i] = x_w, zero
-                    i += 1
-                sticking.append((t_cur, t_rel))
-                if t_rel is None or i >= n:
-                    break
-                rest_on_wall(t_rel)
-                watch.clear_run()
-                flight_start = len(rec.t)
-                continue
-            # ---- free flight over the remaining output times
-            if grid[i] < t_cur:
-                raise RuntimeError(
-                    f"internal error: output time {P.to_str(grid[i])} before t={P.to_str(t_cur)}"
-                )
-            prepend = not (grid[i] == t_cur)  # propagate_grid must start at the current time
-            remaining = max_steps - steps
-            if remaining < 1 and i >= n_out:
+                report(run.i)
+            if not run.step():
                 break
-            if remaining < 1:
-                self._steps_exceeded(max_steps, steps, ta)
-            rec.stop_reason = None
-            on_wall = ta.state[0] == x_w
-            if on_wall:
-                # Leaving the wall (v <= 0).  A root of x - x_w exactly at the start
-                # of a fresh propagation makes heyoka miss the next root in the same
-                # step (measured: x_w = 0.5, v = -0.05 went through the wall) or
-                # report a spurious one; start a rounding-level distance below it.
-                v_cur = ta.state[1]
-                ta.state[0] = x_below
-            # chunks end at output times k * chunk (fixed positions); a run of up to
-            # CHUNK_PERIODS periods (+ the padding) stays one call
-            stop = n if n <= chunk + 2 else min(n, (i // chunk + 1) * chunk + 1)
-            res = ta.propagate_grid(
-                P.array(([t_cur] if prepend else []) + grid[i:stop]), max_steps=remaining
-            )
-            outcome, n_steps, states = res[0], res[3], res[-1]
-            steps += int(n_steps)
-            i_first = i
-            rows = (
-                states.tolist() if P.kind == "float64" else states
-            )  # Python floats: exact for float64
-            for row in rows[1:] if prepend else rows:
-                xs[i], vs[i] = row[0], row[1]
-                i += 1
-            if on_wall and not prepend and i > i_first:
-                xs[i_first], vs[i_first] = x_w, v_cur  # the exact state at the start
-            if outcome == hy.taylor_outcome.time_limit:
-                continue
-            if i >= n_out and (outcome == hy.taylor_outcome.step_limit or rec.exceeded):
-                break  # every output time is done: the padding does not need finishing
-            if outcome == hy.taylor_outcome.step_limit:
-                self._steps_exceeded(max_steps, steps, ta)
-            if rec.exceeded:
-                raise BudgetExceededError(
-                    f"impact budget max_impacts={self.max_impacts} exhausted at "
-                    f"t={P.to_str(ta.time)} ({min(i, n_out)} of {n_out} output times done); "
-                    "raise max_impacts, ask for a shorter run or check the parameters "
-                    "(a Zeno sequence?)"
-                )
-            if rec.stop_reason == "bounce":
-                raise BudgetExceededError(watch.refusal)
-            if rec.stop_reason == "rest":
-                continue
-            if rec.stop_reason == "chatter":
-                assert watch.result is not None  # the watch stopped: its result is set
-                z = dict(watch.result)
-                t_inf = z["t_accumulation"]
-                while i < n and grid[i] < t_inf:
-                    xs[i], vs[i] = watch.tail_state(grid[i])
-                    tail_samples += 1
-                    i += 1
-                z["episode_impacts"] = len(rec.t) - flight_start
-                del z["g"]
-                chattering.append(z)
-                rest_on_wall(t_inf)
-                watch.clear_run()
-                continue
-            raise IntegrationError(
-                f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}"
-            )
-
-        live["done"] = i
+        live["done"] = run.i
         stats = {
-            "steps": steps,
+            "steps": run.steps,
             "max_steps": max_steps,
-            "chattering": chattering,
-            "sticking": sticking,
-            "tail_samples": tail_samples,
+            "chattering": run.chattering,
+            "sticking": run.sticking,
+            "tail_samples": run.tail_samples,
             "spurious_contacts": rec.spurious,
         }
-        return xs, vs, stats
+        return run.xs, run.vs, stats
 
     def _steps_exceeded(self, max_steps: int, steps: int, ta) -> None:
         raise BudgetExceededError(
             f"step budget max_steps={max_steps} exhausted at t={self.precision.to_str(ta.time)} "
             f"after {steps} heyoka steps; raise max_steps or check the parameters"
         )
+
+
+class _Propagation:
+    """The state of one :meth:`HeyokaSolver._run`: the samples so far (``xs``, ``vs``, the next
+    output index ``i``), the heyoka steps taken and the sticking and chattering episodes."""
+
+    def __init__(
+        self,
+        solver: HeyokaSolver,
+        ta,
+        rec: _ImpactRecorder,
+        watch: _ZenoWatch,
+        params: Params,
+        grid: list,
+        max_steps: int,
+        n_out: int,
+        chunk: int,
+    ) -> None:
+        self.solver, self.ta, self.rec, self.watch = solver, ta, rec, watch
+        self.grid, self.max_steps, self.n_out, self.chunk = grid, max_steps, n_out, chunk
+        P = self.P = solver.precision
+        self.wall = _Wall(P, params)
+        self.x_w = P.from_fraction(params.x_w)
+        self.x_below = _below_wall(P, params.x_w)
+        self.zero = P.from_fraction(Fraction(0))
+        self.n = n = len(grid)
+        self.xs: list = [None] * n
+        self.vs: list = [None] * n
+        self.i = 0
+        self.steps = 0
+        self.sticking: list = []
+        self.chattering: list = []
+        self.tail_samples = 0
+        self.flight_start = len(rec.t)
+
+    def rest_on_wall(self, t: Any) -> None:
+        ta = self.ta
+        ta.time = t
+        ta.state[:] = self.P.array([self.x_w, self.zero])
+        ta.reset_cooldowns()
+        self.rec.contact_t = t
+
+    def step(self) -> bool:
+        """One sticking phase or one free flight; False when the run ends."""
+        ta = self.ta
+        t_cur = ta.time
+        # ---- at rest on the wall: stick while the force pushes into it
+        if ta.state[0] == self.x_w and ta.state[1] == 0 and self.wall.sticks(t_cur):
+            return self.stick(t_cur)
+        return self.flight(t_cur)
+
+    def stick(self, t_cur: Any) -> bool:
+        """On the wall at rest until the release (the closed form); False if it never comes
+        within the output times."""
+        grid, n = self.grid, self.n
+        t_rel = self.wall.release(t_cur)
+        while self.i < n and (t_rel is None or grid[self.i] <= t_rel):
+            self.xs[self.i], self.vs[self.i] = self.x_w, self.zero
+            self.i += 1
+        self.sticking.append((t_cur, t_rel))
+        if t_rel is None or self.i >= n:
+            return False
+        self.rest_on_wall(t_rel)
+        self.watch.clear_run()
+        self.flight_start = len(self.rec.t)
+        return True
+
+    def flight(self, t_cur: Any) -> bool:
+        """Free flight over the remaining output times (up to the end of the chunk); False when
+        the run ends (a budget running out in the padding)."""
+        P, ta, grid, n, i = self.P, self.ta, self.grid, self.n, self.i
+        xs, vs, x_w = self.xs, self.vs, self.x_w
+        if grid[i] < t_cur:
+            raise RuntimeError(
+                f"internal error: output time {P.to_str(grid[i])} before t={P.to_str(t_cur)}"
+            )
+        prepend = not (grid[i] == t_cur)  # propagate_grid must start at the current time
+        remaining = self.max_steps - self.steps
+        if remaining < 1 and i >= self.n_out:
+            return False
+        if remaining < 1:
+            self.solver._steps_exceeded(self.max_steps, self.steps, ta)
+        self.rec.stop_reason = None
+        on_wall = ta.state[0] == x_w
+        if on_wall:
+            # Leaving the wall (v <= 0).  A root of x - x_w exactly at the start
+            # of a fresh propagation makes heyoka miss the next root in the same
+            # step (measured: x_w = 0.5, v = -0.05 went through the wall) or
+            # report a spurious one; start a rounding-level distance below it.
+            v_cur = ta.state[1]
+            ta.state[0] = self.x_below
+        # chunks end at output times k * chunk (fixed positions); a run of up to
+        # CHUNK_PERIODS periods (+ the padding) stays one call
+        chunk = self.chunk
+        stop = n if n <= chunk + 2 else min(n, (i // chunk + 1) * chunk + 1)
+        res = ta.propagate_grid(
+            P.array(([t_cur] if prepend else []) + grid[i:stop]), max_steps=remaining
+        )
+        outcome, n_steps, states = res[0], res[3], res[-1]
+        self.steps += int(n_steps)
+        i_first = i
+        rows = (
+            states.tolist() if P.kind == "float64" else states
+        )  # Python floats: exact for float64
+        for row in rows[1:] if prepend else rows:
+            xs[i], vs[i] = row[0], row[1]
+            i += 1
+        self.i = i
+        if on_wall and not prepend and i > i_first:
+            xs[i_first], vs[i_first] = x_w, v_cur  # the exact state at the start
+        return self.after_flight(outcome)
+
+    def after_flight(self, outcome: Any) -> bool:
+        """Why the flight stopped: go on, end the run (False) or raise."""
+        import heyoka as hy
+
+        P, ta, rec, i, n_out = self.P, self.ta, self.rec, self.i, self.n_out
+        if outcome == hy.taylor_outcome.time_limit:
+            return True
+        if i >= n_out and (outcome == hy.taylor_outcome.step_limit or rec.exceeded):
+            return False  # every output time is done: the padding does not need finishing
+        if outcome == hy.taylor_outcome.step_limit:
+            self.solver._steps_exceeded(self.max_steps, self.steps, ta)
+        if rec.exceeded:
+            raise BudgetExceededError(
+                f"impact budget max_impacts={self.solver.max_impacts} exhausted at "
+                f"t={P.to_str(ta.time)} ({min(i, n_out)} of {n_out} output times done); "
+                "raise max_impacts, ask for a shorter run or check the parameters "
+                "(a Zeno sequence?)"
+            )
+        if rec.stop_reason == "bounce":
+            raise BudgetExceededError(self.watch.refusal)
+        if rec.stop_reason == "rest":
+            return True
+        if rec.stop_reason == "chatter":
+            self.chatter_tail()
+            return True
+        raise IntegrationError(
+            f"heyoka stopped early with outcome {outcome} at t={P.to_str(ta.time)}"
+        )
+
+    def chatter_tail(self) -> None:
+        """The watch stopped at a converged chattering episode: the output times in its
+        unresolved tail from the extrapolation, then rest on the wall at the accumulation."""
+        watch, grid, n = self.watch, self.grid, self.n
+        assert watch.result is not None  # the watch stopped: its result is set
+        z = dict(watch.result)
+        t_inf = z["t_accumulation"]
+        while self.i < n and grid[self.i] < t_inf:
+            self.xs[self.i], self.vs[self.i] = watch.tail_state(grid[self.i])
+            self.tail_samples += 1
+            self.i += 1
+        z["episode_impacts"] = len(self.rec.t) - self.flight_start
+        del z["g"]
+        self.chattering.append(z)
+        self.rest_on_wall(t_inf)
+        watch.clear_run()
 
 
 class OrbitStepper:
