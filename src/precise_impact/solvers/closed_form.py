@@ -104,9 +104,9 @@ class _Model:
         """``(x, v, exp(-zeta (t - t_s)))`` from the segment's closed form."""
         if t == seg.t_s:
             return seg.x_s, seg.v_s, self.one
-        (p00, p01, p10, p11), dec = flight.flow_and_decay(t - seg.t_s, self.zeta, self.wd, self.ops)
-        xp, vp = flight.forced_response(t, self.P, self.Q, self.eta, self.ops)
-        return xp + (p00 * seg.y + p01 * seg.u), vp + (p10 * seg.y + p11 * seg.u), dec
+        return flight.state_and_decay(
+            t, seg.t_s, seg.y, seg.u, self.P, self.Q, self.eta, self.zeta, self.wd, self.ops
+        )
 
     def accel(self, t, x, v):
         """``x''`` from eq. (2a), via :func:`~precise_impact.core.flow.acceleration`."""
