@@ -188,3 +188,23 @@ def test_the_compiled_bounds_and_gap_are_the_core_ones():
         xt, vt = f.at(t)
         scale = abs(P) + abs(Q) + abs(f.y) + abs(f.u) + abs(xw)
         assert abs(g - (xt - xw)) <= 8 * EPS * scale and abs(gp - vt) <= 8 * EPS * scale
+
+
+def test_the_amplitude_form_is_the_flow_form():
+    """state_from_coefficients (the closed form's hot loop) and state_and_decay (the flow
+    matrix applied to (y, u)) are two writings of one flight: float64 within a few ulps of the
+    state's scale (each is ~10 roundings of terms bounded by |x_p| + A), 200-bit mpmath to 1e-55."""
+    import math
+
+    for ops, tol in ((flight.FLOAT, 64 * 2.0**-52), (flight.MpmathOps(bits=200), 1e-55)):
+        with ops.context():
+            P, Q, eta, zeta = ops.num(0.3), ops.num(-0.7), ops.num(0.712), ops.num(0.05)
+            wd = flight.damped_frequency(zeta, ops)
+            y, u, s = ops.num(0.4), ops.num(-1.1), ops.num(2.5)
+            k = flight.trig_coefficients(y, u, zeta, wd)
+            for j in range(40):
+                t = s + ops.num(j) / 7
+                a = flight.state_from_coefficients(t, s, k, P, Q, eta, zeta, wd, ops)
+                b = flight.state_and_decay(t, s, y, u, P, Q, eta, zeta, wd, ops)
+                assert all(abs(p - q) <= tol * 4 for p, q in zip(a, b, strict=True)), (j, a, b)
+            assert k[2] == u and not math.isnan(float(k[3]))

@@ -33,6 +33,8 @@ __all__ = [
     "flow_and_decay",
     "homogeneous_start",
     "state_and_decay",
+    "state_from_coefficients",
+    "trig_coefficients",
     "Flight",
     "homogeneous_amplitudes",
     "second_derivative_bound",
@@ -208,6 +210,30 @@ def state_and_decay(
     return (
         P * cf + Q * sf + (e * (c + zeta * sw) * y + e * sw * u),
         eta * (Q * cf - P * sf) + (-1 * e * sw * y + e * (c - zeta * sw) * u),
+        e,
+    )
+
+
+def trig_coefficients(y: Any, u: Any, alpha: Any, wd: Any, c0: Any = 1) -> tuple:
+    """``(A, B, A1, B1)`` with ``y(tau) = e^(-alpha tau) (A cos(wd tau) + B sin(wd tau))`` and
+    ``y'(tau) = e^(-alpha tau) (A1 cos + B1 sin)`` from the homogeneous start ``(y, u)``: the
+    flight in amplitude form, cheaper to evaluate many times than :func:`flow_and_decay`."""
+    return y, (u + alpha * y) / wd, u, -(alpha * u + c0 * y) / wd
+
+
+def state_from_coefficients(
+    t: Any, s: Any, coefficients: tuple, P: Any, Q: Any, eta: Any, zeta: Any, wd: Any, ops: Any
+) -> tuple[Any, Any, Any]:
+    """``(x(t), x'(t), exp(-zeta (t - s)))`` of a flight in amplitude form
+    (:func:`trig_coefficients`): the closed form's hot loop (~20 evaluations a flight)."""
+    A, B, A1, B1 = coefficients
+    cf, sf = ops.cos_sin(eta * t)
+    tau = t - s
+    e = ops.exp(-zeta * tau)
+    c, sn = ops.cos_sin(wd * tau)
+    return (
+        P * cf + Q * sf + e * (A * c + B * sn),
+        eta * (Q * cf - P * sf) + e * (A1 * c + B1 * sn),
         e,
     )
 

@@ -62,15 +62,16 @@ class _MpmathOps(flight.MpmathOps):
 
 # --------------------------------------------------------------------------- model
 class _Segment:
-    """One flight between impacts: its anchor, its homogeneous start ``(y, u)`` and the amplitude
-    ``E`` bounding the homogeneous part and every derivative (:mod:`precise_impact.core.flight`)."""
+    """One flight between impacts: its anchor, its homogeneous part in amplitude form ``k``
+    (:func:`precise_impact.core.flight.trig_coefficients`) and the amplitude ``E`` bounding the
+    homogeneous part and every derivative (:mod:`precise_impact.core.flight`)."""
 
-    __slots__ = ("t_s", "x_s", "v_s", "y", "u", "E", "after_impact")
+    __slots__ = ("t_s", "x_s", "v_s", "k", "E", "after_impact")
 
-    def __init__(self, t_s, x_s, v_s, y, u, E):
+    def __init__(self, t_s, x_s, v_s, k, E):
         self.after_impact = False
         self.t_s, self.x_s, self.v_s = t_s, x_s, v_s
-        self.y, self.u, self.E = y, u, E
+        self.k, self.E = k, E
 
 
 class _Model:
@@ -98,14 +99,14 @@ class _Model:
     def segment(self, t_s, x_s, v_s) -> _Segment:
         y, u = flight.homogeneous_start(t_s, x_s, v_s, self.P, self.Q, self.eta, self.ops)
         E = flight.homogeneous_amplitudes(y, u, self.zeta, self.wd, self.ops)[0] * self.infl
-        return _Segment(t_s, x_s, v_s, y, u, E)
+        return _Segment(t_s, x_s, v_s, flight.trig_coefficients(y, u, self.zeta, self.wd), E)
 
     def state(self, seg: _Segment, t):
         """``(x, v, exp(-zeta (t - t_s)))`` from the segment's closed form."""
         if t == seg.t_s:
             return seg.x_s, seg.v_s, self.one
-        return flight.state_and_decay(
-            t, seg.t_s, seg.y, seg.u, self.P, self.Q, self.eta, self.zeta, self.wd, self.ops
+        return flight.state_from_coefficients(
+            t, seg.t_s, seg.k, self.P, self.Q, self.eta, self.zeta, self.wd, self.ops
         )
 
     def accel(self, t, x, v):
@@ -536,7 +537,12 @@ class _Run:
                 f"analytical solver: more than {self.max_evals} closed-form evaluations "
                 f"(t = {float(t):.17g}); raise max_evals"
             )
-        return self.m.state(seg, t)
+        if t == seg.t_s:
+            return seg.x_s, seg.v_s, self.m.one
+        m = self.m  # m.state, without its call: the hot loop (~20 evaluations a flight)
+        return flight.state_from_coefficients(
+            t, seg.t_s, seg.k, m.P, m.Q, m.eta, m.zeta, m.wd, m.ops
+        )
 
     # -- main loop -------------------------------------------------------------------------
     def execute(self, samples_prec, dense_prec):
@@ -661,31 +667,29 @@ class _Run:
                 return None
             M = (m.Ap * m.eta2 + hom) * m.infl
             if f < -3 * d0:
-                done, out = self._certified_step(t1, t_end, f, v, d0, d1, M)
-            else:
-                done, out = self._near_wall(seg, t1, t_end, x, v, f, (d0, d1, hom), M)
+                # certified step: q(h) = (f + 2 d0) + (v + d1) h + M h^2 / 2 < 0 on [0, h*)
+                # (inline: the hot loop, ~15 steps a flight; a call per step cost 8 %)
+                F0 = f + 2 * d0
+                F1 = v + d1
+                den = F1 + self.ops.sqrt(F1 * F1 - 2 * M * F0)
+                if not den > 0:
+                    return None  # M == 0 and non-increasing: never reaches the wall
+                t2 = t1 + (-2 * F0) / den
+                self.n_steps += 1
+                if t2 >= t_end:
+                    return None
+                if not t2 > t1:
+                    raise _no_progress(t1)
+                t1 = t2
+                continue
+            done, out = self._near_wall(seg, t1, t_end, x, v, f, (d0, d1, hom), M)
             if done:
                 return out
             t1 = out
 
-    # The steps of find_robust: each returns ``(True, result)`` (the crossing ``(t, v)`` or None,
-    # no crossing before ``t_end``) or ``(False, t2)`` (no crossing in ``[t1, t2)``: go on from
-    # ``t2``); the cases of the wall's neighbourhood return None where they do not apply.
-    def _certified_step(self, t1, t_end, f, v, d0, d1, M):
-        """Certified step: q(h) = (f + 2 d0) + (v + d1) h + M h^2 / 2 < 0 on [0, h*)."""
-        F0 = f + 2 * d0
-        F1 = v + d1
-        den = F1 + self.ops.sqrt(F1 * F1 - 2 * M * F0)
-        if not den > 0:
-            return True, None  # M == 0 and non-increasing: never reaches the wall
-        t2 = t1 + (-2 * F0) / den
-        self.n_steps += 1
-        if t2 >= t_end:
-            return True, None
-        if not t2 > t1:
-            raise _no_progress(t1)
-        return False, t2
-
+    # The cases of find_robust near the wall: each returns ``(True, result)`` (the crossing
+    # ``(t, v)`` or None, no crossing before ``t_end``) or ``(False, t2)`` (no crossing in
+    # ``[t1, t2)``: go on from ``t2``), or None where it does not apply.
     def _near_wall(self, seg: _Segment, t1, t_end, x, v, f, margins, M):
         """Within rounding of the wall: a crossing ahead, leaving, grazing, or sticking (raised)."""
         d0, d1, hom = margins
