@@ -208,3 +208,24 @@ def test_the_amplitude_form_is_the_flow_form():
                 b = flight.state_and_decay(t, s, y, u, P, Q, eta, zeta, wd, ops)
                 assert all(abs(p - q) <= tol * 4 for p, q in zip(a, b, strict=True)), (j, a, b)
             assert k[2] == u and not math.isnan(float(k[3]))
+
+
+def test_precision_carries_the_flights_arithmetic():
+    """Precision.ops: float64 -> math, mp:BITS -> mpmath at BITS (independent of mpmath's global
+    precision), long double / float128 refused (only heyoka computes in them)."""
+    import mpmath
+    import pytest
+
+    from precise_impact.core.precision import Precision
+    from precise_impact.errors import ParameterError
+
+    assert Precision.parse("float64").ops is flight.FLOAT
+    ops = Precision.parse("mp:300").ops
+    before = mpmath.mp.prec
+    with ops.context():
+        third = ops.num(Fraction(1, 3))
+        assert mpmath.mp.prec == 300 and abs(third * 3 - 1) <= mpmath.mpf(2) ** -299
+    assert mpmath.mp.prec == before
+    for name in ("longdouble", "float128"):
+        with pytest.raises(ParameterError, match="^precision = "):
+            _ = Precision.parse(name).ops

@@ -16,6 +16,7 @@ import mpmath
 import numpy as np
 from mpmath import libmp
 
+from precise_impact.core import flight
 from precise_impact.errors import ParameterError
 
 __all__ = ["Precision", "PRECISION_HELP", "MAX_MP_BITS", "has_quad", "quad_or_mp"]
@@ -89,6 +90,31 @@ class Precision:
     bits: int
 
     # ----------------------------------------------------------------- parsing
+    @property
+    def ops(self) -> Any:
+        """The closed-form flight's arithmetic in this precision
+        (:mod:`precise_impact.core.flight`): float64 through :mod:`math`, ``mp:BITS`` through
+        mpmath at ``BITS`` (its own working precision, not the process-global one).
+
+        Raises
+        ------
+        ParameterError
+            For long double and float128, which only heyoka computes in.
+
+        Examples
+        --------
+        >>> from precise_impact.core.precision import Precision
+        >>> Precision.parse("float64").ops.name, Precision.parse("mp:256").ops.prec
+        ('float64', 256)
+        """
+        if self.kind == "float64":
+            return flight.FLOAT
+        if self.kind == "mp":
+            return flight.MpmathOps(bits=self.bits)
+        raise ParameterError(
+            "precision", self.name, "float64 or mp:BITS for the closed-form flight (heyoka only)"
+        )
+
     @staticmethod
     def parse(spec: str | Precision) -> Precision:
         """Parse a precision string; raise :class:`ParameterError` if unknown."""
