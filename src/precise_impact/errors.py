@@ -28,7 +28,13 @@ __all__ = [
 
 
 class PreciseImpactError(Exception):
-    """Base class of every error precise_impact raises (``except PreciseImpactError``)."""
+    """Base class of every error precise_impact raises (``except PreciseImpactError``).
+
+    See Also
+    --------
+    precise_impact.errors.ParameterError : an invalid argument.
+    precise_impact.errors.IntegrationError : an engine failed.
+    """
 
 
 class ParameterError(PreciseImpactError, ValueError):
@@ -45,6 +51,11 @@ class ParameterError(PreciseImpactError, ValueError):
         The value given.
     allowed : str
         The allowed range or set, in words.
+
+    See Also
+    --------
+    precise_impact.errors.PreciseImpactError : the base of every error raised here.
+    precise_impact.core.params.Params : the validated parameters.
     """
 
     def __init__(self, name: str, value: object, allowed: str):
@@ -55,7 +66,13 @@ class ParameterError(PreciseImpactError, ValueError):
 
 
 class BudgetExceededError(PreciseImpactError, RuntimeError):
-    """An integration hit its impact or step budget (e.g. a Zeno impact sequence)."""
+    """An integration hit its impact or step budget (e.g. a Zeno impact sequence).
+
+    See Also
+    --------
+    precise_impact.errors.IntegrationError : another engine failure.
+    precise_impact.errors.OverBudgetError : a wall-time budget exceeded.
+    """
 
 
 class OverBudgetError(ParameterError, BudgetExceededError):
@@ -65,6 +82,12 @@ class OverBudgetError(ParameterError, BudgetExceededError):
     samples over half the machine's memory).  Both a :class:`ParameterError` (ask for less,
     or raise ``max_time``: the CLI exits with status 2, like any bad input) and a
     :class:`BudgetExceededError` (a budget stopped it).
+
+    See Also
+    --------
+    precise_impact.errors.PreciseImpactError : the base of every error raised here.
+    precise_impact.errors.BudgetExceededError : an impact or step budget exhausted.
+    precise_impact.errors.Interrupted : a run stopped by the user.
     """
 
 
@@ -82,6 +105,11 @@ class OptionalDependencyError(PreciseImpactError, RuntimeError):
         The one command that installs it.
     purpose : str
         What needs it.
+
+    See Also
+    --------
+    precise_impact.errors.PreciseImpactError : the base of every error raised here.
+    precise_impact.errors.NgspiceNotFoundError : ngspice in particular.
     """
 
     def __init__(self, component: str, install: str, purpose: str):
@@ -94,11 +122,23 @@ class OptionalDependencyError(PreciseImpactError, RuntimeError):
 
 
 class MissedImpactError(PreciseImpactError, RuntimeError):
-    """The guard found a maximum of ``x`` beyond the wall that no impact event caught."""
+    """The guard found a maximum of ``x`` beyond the wall that no impact event caught.
+
+    See Also
+    --------
+    precise_impact.errors.IntegrationError : another engine failure.
+    precise_impact.solvers.certified.single.certify : a run whose impacts are proven.
+    """
 
 
 class SpiceError(PreciseImpactError, RuntimeError):
-    """ngspice failed, timed out, or wrote no usable output (message has its log tail)."""
+    """ngspice failed, timed out, or wrote no usable output (message has its log tail).
+
+    See Also
+    --------
+    precise_impact.errors.PreciseImpactError : the base of every error raised here.
+    precise_impact.models.circuit.spice.SpiceSolver : the model that runs ngspice.
+    """
 
 
 class NgspiceNotFoundError(SpiceError, OptionalDependencyError):
@@ -108,6 +148,11 @@ class NgspiceNotFoundError(SpiceError, OptionalDependencyError):
     ----------
     message : str
         The one-line message (what needed ngspice and the install command).
+
+    See Also
+    --------
+    precise_impact.errors.OptionalDependencyError : any missing optional dependency.
+    precise_impact.models.circuit.spice.SpiceSolver : the model that needs ngspice.
     """
 
     def __init__(self, message: str):
@@ -124,6 +169,12 @@ class ReferenceDataError(PreciseImpactError, RuntimeError):
 
     Raised by every loader before any scoring: a damaged reference is never turned into a
     verdict on the solver being scored.  The message names the case and the file.
+
+    See Also
+    --------
+    precise_impact.errors.PreciseImpactError : the base of every error raised here.
+    precise_impact.verification.reference.verify : check the reference datasets.
+    precise_impact.verification.reference.generate : write them.
     """
 
 
@@ -132,6 +183,12 @@ class IntegrationError(PreciseImpactError, RuntimeError):
 
     Inside the documented parameter box this does not happen; the CLI reports it as one
     line with exit status 3, like an exhausted budget, and keeps what was finished.
+
+    See Also
+    --------
+    precise_impact.errors.PreciseImpactError : the base of every error raised here.
+    precise_impact.errors.MissedImpactError : an impact the engine stepped over.
+    precise_impact.errors.BudgetExceededError : an impact or step budget exhausted.
     """
 
 
@@ -139,6 +196,12 @@ class CertificationError(IntegrationError):
     """No proof at this precision: the message names the time and the ball.
 
     Raised by the certified engines (:mod:`precise_impact.solvers.certified`).
+
+    See Also
+    --------
+    precise_impact.errors.PreciseImpactError : the base of every error raised here.
+    precise_impact.solvers.certified.single.certify : raises it when certification fails.
+    precise_impact.solvers.certified.single.CertifiedSolver : the certified model.
     """
 
 
@@ -146,6 +209,12 @@ class ConvergenceError(IntegrationError):
     """Newton's iteration did not reach a periodic orbit (the message says how far it got).
 
     Raised by :func:`~precise_impact.analysis.orbits.find_orbit` and the continuation.
+
+    See Also
+    --------
+    precise_impact.errors.PreciseImpactError : the base of every error raised here.
+    precise_impact.analysis.orbits.newton.find_orbit : raises it when Newton's method fails.
+    precise_impact.analysis.orbits.proof.prove_orbit : a proven orbit.
     """
 
 
@@ -155,6 +224,11 @@ class Interrupted(KeyboardInterrupt):
     last finished chunk, with ``stats['partial'] = True``).
 
     A ``KeyboardInterrupt``, so code that does not know it behaves as before.
+
+    See Also
+    --------
+    precise_impact.errors.OverBudgetError : a wall-time budget exceeded.
+    precise_impact.errors.BudgetExceededError : an impact or step budget exhausted.
     """
 
     def __init__(self, message: str, partial=None) -> None:

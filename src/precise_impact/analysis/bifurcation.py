@@ -63,6 +63,11 @@ class BifurcationResult(ResultMixin):
         Wall time (diagnostic).
     workers : int
         Processes used (diagnostic).
+
+    See Also
+    --------
+    precise_impact.analysis.bifurcation.bifurcation : returns it.
+    precise_impact.analysis.orbits.branch.brute_force_diagram : the diagram along any parameter.
     """
 
     params: Params
@@ -342,11 +347,27 @@ def bifurcation(
     ParameterError
         Bad input, before any work.
 
+    See Also
+    --------
+    precise_impact.analysis.orbits.branch.brute_force_diagram
+        The stroboscopic x alone, on any parameter.
+    precise_impact.analysis.orbits.continuation.continue_orbit
+        The periodic branches, stable and unstable.
+    precise_impact.analysis.sweep.run_sweep : a resumable sweep over one or two axes.
+
     References
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
            mechanical impact oscillator" (the period-3 orbit at eta = 0.74 and the
            chaotic band near eta = 0.712).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> b = pi.bifurcation(pi.Params.make(), ("eta", "0.70", "0.72", 3), periods=20, transient=20,
+    ...                     progress=False, workers=1)
+    >>> [str(e) for e in b.eta], b.x.shape
+    (['7/10', '71/100', '18/25'], (3, 20))
     """
     from precise_impact.core.params import as_params
 

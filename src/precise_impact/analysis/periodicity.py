@@ -26,6 +26,13 @@ def detect_period(xs: np.ndarray, vs: np.ndarray, max_period: int = 32, rtol: fl
         The period; 0 means no period up to ``max_period`` (chaotic, quasi-periodic,
         or still transient).
 
+    See Also
+    --------
+    precise_impact.analysis.orbits.branch.brute_force_diagram
+        Stroboscopic samples along a parameter.
+    precise_impact.analysis.orbits.newton.find_orbit : the periodic orbit itself.
+    precise_impact.solvers.simulate.simulate : a trajectory's stroboscopic samples.
+
     Examples
     --------
     >>> import numpy as np

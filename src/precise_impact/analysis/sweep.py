@@ -66,6 +66,12 @@ class SweepSpec:
         :func:`~precise_impact.analysis.lyapunov.fast.fast_batch`; a point it does not
         resolve is computed by heyoka) or ``'heyoka'`` (SIMD batch variational
         integration, :func:`~precise_impact.analysis.lyapunov.batch.batch_lle`).
+
+    See Also
+    --------
+    precise_impact.analysis.sweep.run_sweep : compute a sweep.
+    precise_impact.analysis.sweep.load_sweep : read one back.
+    precise_impact.analysis.sweep.SweepResult : the result.
     """
 
     base: Params
@@ -341,6 +347,24 @@ def run_sweep(
         (a lock file, :class:`~precise_impact.io.lock.DirectoryLock`), before any work.
     OptionalDependencyError
         ``dask`` is asked for and Dask is not installed.
+
+    See Also
+    --------
+    precise_impact.analysis.sweep.SweepSpec : the grid, periods and tiling of a sweep.
+    precise_impact.analysis.sweep.load_sweep : read a finished sweep back.
+    precise_impact.analysis.bifurcation.bifurcation : a one-axis diagram in memory.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> import tempfile
+    >>> spec = pi.SweepSpec.make(pi.Params.make(), [("eta", "0.70", "0.74", 3)], periods=60,
+    ...                          transient=20, tile_size=2)
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     res = pi.run_sweep(spec, out, workers=1, progress=False)
+    ...
+    >>> type(res).__name__, len(spec.axes[0][1])
+    ('SweepResult', 3)
     """
     out = Path(out)
     with DirectoryLock(out, "out"):  # one writer per directory, before anything is read or written
@@ -440,6 +464,12 @@ class SweepResult(ResultMixin):
         finished: resume), ``tiles_computed`` (by this call), ``elapsed_s``,
         ``points_per_s`` (``None`` if nothing was computed), ``workers``, ``backend``
         (``'processes'`` or ``'dask'``).  From :func:`load_sweep`: ``tiles_total``.
+
+    See Also
+    --------
+    precise_impact.analysis.sweep.run_sweep : returns it.
+    precise_impact.analysis.sweep.load_sweep : also returns it.
+    precise_impact.analysis.sweep.SweepSpec : the grid.
 
     Notes
     -----
@@ -560,6 +590,25 @@ def load_sweep(out: str | os.PathLike, spec: SweepSpec) -> SweepResult:
     ------
     ParameterError
         A tile is missing (the sweep is not finished) or belongs to another sweep.
+
+    See Also
+    --------
+    precise_impact.analysis.sweep.run_sweep : compute the tiles that this reads.
+    precise_impact.analysis.sweep.SweepSpec : the grid the tiles belong to.
+    precise_impact.analysis.sweep.SweepResult : the arrays returned.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> import tempfile
+    >>> spec = pi.SweepSpec.make(pi.Params.make(), [("eta", "0.70", "0.74", 3)], periods=60,
+    ...                          transient=20, tile_size=2)
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     _ = pi.run_sweep(spec, out, workers=1, progress=False)
+    ...     res = pi.load_sweep(out, spec)
+    ...
+    >>> res.spec == spec
+    True
     """
     return _gather(Path(out), spec, {"tiles_total": spec.n_tiles}, strict=True)
 

@@ -196,6 +196,11 @@ class SyncResult(ResultMixin):
     lle_periods : int
     elapsed_s : float
         Wall time of the whole scan (LLE included).
+
+    See Also
+    --------
+    precise_impact.analysis.sync.sync_scan : returns it.
+    precise_impact.solvers.simulate.simulate_coupled : one run of the scan.
     """
 
     params: Params
@@ -500,6 +505,12 @@ def sync_scan(
     ParameterError
         Bad input, before any work.
 
+    See Also
+    --------
+    precise_impact.solvers.simulate.simulate_coupled : one master-slave run.
+    precise_impact.solvers.certified.coupled.certify_coupled : a certified master-slave run.
+    precise_impact.analysis.sync.SyncResult : the scan's fields.
+
     References
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
@@ -507,6 +518,14 @@ def sync_scan(
     .. [2] A. Pikovsky, M. Rosenblum, J. Kurths, *Synchronization* (2001), ch. 13.
     .. [3] J. F. Heagy, N. Platt, S. M. Hammel, PRE 49 (1994) 1140 (on-off
            intermittency at the threshold).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> r = pi.sync_scan(pi.Params.make(eta="0.74"), "first-order", ["0", "0.1"], periods=50,
+    ...                   ensemble=2, lle_periods=0)
+    >>> [str(k) for k in r.k_values], r.ensemble
+    (['0', '1/10'], 2)
     """
     from precise_impact.core.params import as_params
 

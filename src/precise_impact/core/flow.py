@@ -38,6 +38,19 @@ def acceleration(
     -------
     number
         The acceleration, in the number type of the arguments.
+
+    See Also
+    --------
+    precise_impact.core.impact.reset_velocity : the other half of eq. (2), at the wall.
+    precise_impact.core.flow.steady_state : the smooth flow's steady state.
+    precise_impact.solvers.simulate.simulate : the flow integrated.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> import math
+    >>> pi.acceleration(0.0, 0.5, 0.0, 0.7, 0.05, 1.0, math.cos)
+    0.5
     """
     return a * cos(eta * t) - 2 * zeta * v - x
 
@@ -50,6 +63,11 @@ class SteadyState:
     exact rationals for rational parameters.  It is the unique periodic solution of
     (2a) when ``zeta > 0``; every solution that stops impacting converges to it as
     ``exp(-zeta t)``.
+
+    See Also
+    --------
+    precise_impact.core.flow.steady_state : computes it.
+    precise_impact.core.flow.grazing_frequencies : where its amplitude reaches the wall.
     """
 
     P: Fraction
@@ -92,6 +110,12 @@ def steady_state(params) -> SteadyState:
     -------
     SteadyState
         ``P``, ``Q`` and ``eta`` as Fractions: ``x_p(t) = P cos(eta t) + Q sin(eta t)``.
+
+    See Also
+    --------
+    precise_impact.core.flow.grazing_frequencies : where the steady amplitude reaches the wall.
+    precise_impact.core.flow.SteadyState : the result's fields.
+    precise_impact.solvers.simulate.simulate : the impacting motion.
 
     Examples
     --------
@@ -136,6 +160,20 @@ def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
     list of mpmath.mpf
         The positive roots ``eta`` in increasing order (empty if the amplitude never
         reaches the wall).
+
+    See Also
+    --------
+    precise_impact.core.flow.steady_state : the smooth oscillator's steady state.
+    precise_impact.analysis.orbits.one_impact.one_impact_orbits
+        The impacting orbits born at grazing.
+    precise_impact.core.params.Params : the parameters.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> etas = pi.grazing_frequencies(pi.Params.make(), dps=15)
+    >>> [round(float(e), 6) for e in etas]
+    [0.710687, 1.218574]
     """
     from precise_impact.core.params import as_params, check_count
 

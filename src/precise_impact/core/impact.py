@@ -43,6 +43,18 @@ def reset_velocity(v_minus: Any, R: Any) -> Any:
     -------
     number
         Velocity after the impact.
+
+    See Also
+    --------
+    precise_impact.core.impact.impact_at_start : whether the initial state is an impact.
+    precise_impact.core.impact.oscillator_saltation : the impact's saltation matrix.
+    precise_impact.core.flow.acceleration : the flow between impacts.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> pi.reset_velocity(2.0, 0.8)
+    -1.6
     """
     return -R * v_minus
 
@@ -76,9 +88,23 @@ def saltation_matrix(
     ZeroDivisionError
         A tangential impact (``n^T f- = 0``).
 
+    See Also
+    --------
+    precise_impact.core.impact.oscillator_saltation : the matrix for the single oscillator.
+    precise_impact.core.impact.reset_velocity : the reset map.
+    precise_impact.analysis.orbits.newton.find_orbit
+        Its Jacobian passes impacts through saltation matrices.
+
     References
     ----------
     .. [1] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> S = pi.saltation_matrix([[1, 0], [0, -0.5]], [1.0, -1.0], [-0.5, -1.0], [1, 0])
+    >>> [[round(float(s), 6) for s in row] for row in S]
+    [[-0.5, 0.0], [-1.5, -0.5]]
     """
     n = len(f_minus)
     dg_f = [sum(jac_reset[i][k] * f_minus[k] for k in range(n)) for i in range(n)]
@@ -123,6 +149,12 @@ def oscillator_saltation(
     ZeroDivisionError
         ``v_minus = 0`` (a tangential, grazing contact has no saltation matrix).
 
+    See Also
+    --------
+    precise_impact.core.impact.saltation_matrix : the general formula.
+    precise_impact.core.impact.reset_velocity : the reset map.
+    precise_impact.analysis.orbits.newton.find_orbit : uses it for the orbit's multipliers.
+
     References
     ----------
     .. [1] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681.
@@ -162,6 +194,18 @@ def impact_at_start(x0: Any, v0: Any, x_w: Any, R: Any) -> bool:
     -------
     bool
         Whether the start is an impact.
+
+    See Also
+    --------
+    precise_impact.core.impact.reset_velocity : the velocity after an impact.
+    precise_impact.solvers.simulate.simulate : applies it to the initial state.
+    precise_impact.core.params.Params : the initial state and wall.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> pi.impact_at_start(2.0, 0.5, 2.0, 0.8), pi.impact_at_start(1.0, 0.5, 2.0, 0.8)
+    (True, False)
     """
     return x0 == x_w and v0 > 0
 

@@ -289,6 +289,12 @@ class Params:
     ===========  ==================================  ============
 
     Defaults are the paper's (zeta = 0.05, a = 1, x_w = 2, R = 1, chaotic eta = 0.712).
+
+    See Also
+    --------
+    precise_impact.solvers.simulate.simulate : integrate from these parameters.
+    precise_impact.core.precision.Precision : the arithmetic the engines use.
+    precise_impact.core.flow.steady_state : the smooth oscillator's steady state.
     """
 
     zeta: Fraction

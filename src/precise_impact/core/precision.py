@@ -83,6 +83,11 @@ class Precision:
         ``'float64'``, ``'longdouble'``, ``'float128'`` or ``'mp'``.
     bits : int
         Significand bits including the implicit one (53, 64 on x86-64, 113, BITS).
+
+    See Also
+    --------
+    precise_impact.solvers.base.make_solver : a solver at a precision.
+    precise_impact.solvers.simulate.simulate : its ``precision`` argument.
     """
 
     name: str

@@ -69,7 +69,13 @@ def _container_jsonable(obj: Any) -> Any:
 
 class ResultMixin:
     """``to_dict()``, ``save(path)`` and (for one release) ``result["field"]`` for dataclass
-    results."""
+    results.
+
+    See Also
+    --------
+    precise_impact.core.trajectory.Trajectory : a result using it.
+    precise_impact.analysis.lyapunov.result.LyapunovResult : another.
+    """
 
     def to_dict(self) -> dict[str, Any]:
         """The result as plain JSON types (``json.dumps(result.to_dict())`` always works)."""

@@ -43,6 +43,12 @@ class Trajectory(ResultMixin):
         Wall time of the integration (compilation excluded).
     stats : dict
         Solver statistics (steps, ...).
+
+    See Also
+    --------
+    precise_impact.solvers.simulate.simulate : returns it.
+    precise_impact.solvers.certified.single.CertifiedTrajectory : the certified counterpart.
+    precise_impact.verification.scores.score : compare two trajectories.
     """
 
     params: Params

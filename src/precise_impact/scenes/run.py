@@ -36,6 +36,19 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
     -------
     Trajectory, CoupledTrajectory or CoupledCircuitTrajectory
         By the scene's system and model.
+
+    See Also
+    --------
+    precise_impact.scenes.scene.load_scene : the scene to run.
+    precise_impact.solvers.simulate.simulate : the same with explicit parameters.
+    precise_impact.verification.compare.compare : score several models on the scene.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> tr = pi.run_scene(pi.load_scene("fig6-period3-ideal"))
+    >>> tr.model, tr.periods
+    ('circuit', 200)
     """
     if model is not None and model != scene.model:
         scene = scene.with_model(model)

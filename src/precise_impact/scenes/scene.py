@@ -100,7 +100,14 @@ def parse_quantity(name: str, value: Any, unit: str) -> Fraction:
 
 @dataclasses.dataclass
 class Scene:
-    """A validated scene (see the module docstring for the TOML layout)."""
+    """A validated scene (see the module docstring for the TOML layout).
+
+    See Also
+    --------
+    precise_impact.scenes.scene.load_scene : parse a scene.
+    precise_impact.scenes.run.run_scene : simulate it.
+    precise_impact.scenes.scene.builtin_scenes : the shipped scenes.
+    """
 
     name: str
     description: str
@@ -342,6 +349,18 @@ def builtin_scenes() -> dict[str, Path]:
     -------
     dict of str to Path
         ``{name: path}`` of each built-in ``.toml`` scene.
+
+    See Also
+    --------
+    precise_impact.scenes.scene.load_scene : parse one of them.
+    precise_impact.scenes.run.run_scene : simulate a scene.
+    precise_impact.verification.compare.compare : score models on a scene.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> "fig6-period3-ideal" in pi.builtin_scenes()
+    True
     """
     root = resources.files("precise_impact") / "scenes"
     return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
@@ -365,6 +384,19 @@ def load_scene(spec: str | Path) -> Scene:
     ------
     ParameterError
         Unknown name, unreadable or malformed file, or a value out of range.
+
+    See Also
+    --------
+    precise_impact.scenes.scene.builtin_scenes : the names accepted.
+    precise_impact.scenes.run.run_scene : simulate the scene.
+    precise_impact.scenes.scene.Scene : the parsed scene.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> sc = pi.load_scene("fig6-period3-ideal")
+    >>> type(sc).__name__, str(sc.params.eta)
+    ('Scene', '37/50')
     """
     spec = str(spec)
     built = builtin_scenes()

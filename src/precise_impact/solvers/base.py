@@ -128,6 +128,12 @@ class Solver(Protocol):
         stroboscopic samples at ``t0 + k 2 pi / eta`` (``k = 0..periods``), every
         impact, and ``per_period`` dense points per period when ``> 0``.  Models
         may take further keyword-only options (the circuit models: ``x0, v0, t0``).
+
+    See Also
+    --------
+    precise_impact.solvers.base.make_solver : a solver by model name.
+    precise_impact.solvers.heyoka.single.HeyokaSolver : the reference solver.
+    precise_impact.solvers.simulate.simulate : build and run a solver in one call.
     """
 
     @property
@@ -245,6 +251,19 @@ def make_solver(
     ------
     ParameterError
         Unknown model, or a precision / tolerance / option the model does not take.
+
+    See Also
+    --------
+    precise_impact.solvers.simulate.simulate : build the solver and run it in one call.
+    precise_impact.solvers.base.Solver : the protocol every solver follows.
+    precise_impact.core.precision.Precision : the precision names accepted.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> s = pi.make_solver("fast")
+    >>> isinstance(s, pi.Solver)
+    True
     """
     spec = _REGISTRY[canonical_model(model)]
     P = Precision.parse(precision)

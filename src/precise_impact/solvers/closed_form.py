@@ -358,6 +358,12 @@ class AnalyticalSolver:
 
     * C. J. Budd, F. Dux, *Chattering and related behaviour in impact
       oscillators*, Phil. Trans. R. Soc. A 347 (1994) 365-389 (chattering).
+
+    See Also
+    --------
+    precise_impact.solvers.base.Solver : the protocol it follows.
+    precise_impact.solvers.heyoka.single.HeyokaSolver : the Taylor-integrator model.
+    precise_impact.solvers.certified.single.CertifiedSolver : the certified engine as a model.
     """
 
     def __init__(

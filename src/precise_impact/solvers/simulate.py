@@ -235,12 +235,29 @@ def simulate(
     BudgetExceededError
         An impact or step budget was exhausted (e.g. a Zeno impact sequence).
 
+    See Also
+    --------
+    precise_impact.solvers.certified.single.certify : the same trajectory enclosed in proven balls.
+    precise_impact.solvers.base.make_solver : the solver object behind ``model``.
+    precise_impact.analysis.lyapunov.lyapunov
+        The largest Lyapunov exponent of the trajectory's attractor.
+    precise_impact.scenes.run.run_scene : simulate a named scene.
+
     References
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
        mechanical impact oscillator" (the system and its parameters).
     .. [2] F. Biscani, D. Izzo, "Revisiting high-order Taylor methods for astrodynamics
        and celestial mechanics", MNRAS 504 (2021) (heyoka, the reference integrator).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> tr = pi.simulate(pi.Params.make(eta="0.74"), 3, model="fast")
+    >>> tr.x.shape, tr.n_impacts
+    ((4,), 2)
+    >>> round(float(tr.x[-1]), 6)
+    1.344885
     """
     params = params_or_values(params, param_values)  # a Params (validated), a mapping, or None
     periods = check_count(periods, "periods")
@@ -322,6 +339,13 @@ def simulate_coupled(
     BudgetExceededError
         More than ``max_impacts`` impacts.
 
+    See Also
+    --------
+    precise_impact.solvers.certified.coupled.certify_coupled : the same pair certified.
+    precise_impact.analysis.sync.sync_scan : the synchronised fraction against k.
+    precise_impact.models.circuit.coupled.simulate_coupled_circuit
+        The op-amp circuit of the same pair.
+
     Notes
     -----
     A start on the wall moving into it is an impact at ``t0`` (applied before the
@@ -333,6 +357,13 @@ def simulate_coupled(
            mechanical impact oscillator", eqs. (11)-(14) and Fig. 7.
     .. [2] F. Biscani, D. Izzo, MNRAS 504 (2021) 2614 (heyoka's Taylor method and
            event detection).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> ct = pi.simulate_coupled(pi.Params.make(eta="0.74"), "0.1", periods=3)
+    >>> ct.form, ct.x.shape
+    ('first-order', (4,))
     """
     from precise_impact.core.params import as_params
 

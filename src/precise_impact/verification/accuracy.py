@@ -73,6 +73,19 @@ def accuracy_table(
     ------
     ParameterError
         ``periods`` outside 1..2000, before any work.
+
+    See Also
+    --------
+    precise_impact.verification.scores.score : one model against one reference.
+    precise_impact.verification.workprecision.work_precision : error against wall time.
+    precise_impact.verification.accuracy.AccuracyResult : the result's fields.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> r = pi.accuracy_table(periods=3, etas=("0.74",), progress=False)
+    >>> r.periods, r.rows[0]["model"], r.rows[0]["eta"]
+    (3, 'heyoka', '0.74')
     """
     periods = check_count(periods, "periods", 2000, minimum=1)
     bits = reference_bits(periods)
@@ -161,6 +174,11 @@ class AccuracyResult(ResultMixin):
     rows : list of dict
         One row per (eta, model, precision): ``eta``, ``model``, ``precision``,
         ``max_error``, ``final_error``, ``impacts``, ``elapsed_s``, ``role``.
+
+    See Also
+    --------
+    precise_impact.verification.accuracy.accuracy_table : returns it.
+    precise_impact.verification.scores.score : one model's scores.
     """
 
     periods: int

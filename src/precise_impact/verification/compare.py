@@ -131,6 +131,19 @@ def compare(
         Unknown scene or model, or bad counts, before any work.
     OptionalDependencyError
         A model needs a component that is not installed (e.g. ngspice).
+
+    See Also
+    --------
+    precise_impact.verification.scores.score : the scores of one trajectory against another.
+    precise_impact.scenes.scene.load_scene : the scenes by name.
+    precise_impact.verification.compare.CompareResult : the result's fields.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> r = pi.compare("fig6-period3-ideal", ["circuit"], periods=10, progress=False)
+    >>> r.scene, r.periods
+    ('fig6-period3-ideal', 10)
     """
     models = check_models(models)
     scene = load_scene(scene_name_or_path)
@@ -325,6 +338,11 @@ class CompareResult(ResultMixin):
         Model name -> its scores (see :func:`~precise_impact.verification.scores.score`).
     files : list of str or None
         Files written when ``out`` was given.
+
+    See Also
+    --------
+    precise_impact.verification.compare.compare : returns it.
+    precise_impact.verification.scores.score : the scores in it.
     """
 
     scene: str

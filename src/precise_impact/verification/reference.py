@@ -533,6 +533,20 @@ def generate(
     dict
         ``{case: manifest}`` (the existing manifest for skipped cases, with
         ``"skipped": True`` added).  Every file is written atomically, the manifest last.
+
+    See Also
+    --------
+    precise_impact.verification.reference.verify : check the datasets written.
+    precise_impact.solvers.certified.single.certify
+        A certified trajectory, independent of the datasets.
+    precise_impact.verification.reproduce.reproduce : the paper's figures from the same cases.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> from precise_impact.verification.reference import CASES
+    >>> sorted(CASES)    # the case names accepted
+    ['bifurcation', 'coupled-fig7', 'lle', 'single-0.70', 'single-0.712', 'single-0.74']
     """
     names = _check_cases(cases)
     out = Path(out)
@@ -685,6 +699,18 @@ def verify(
     list of str
         One message per problem (missing file, checksum mismatch, recomputed
         value outside its tolerance); empty when every dataset verifies.
+
+    See Also
+    --------
+    precise_impact.verification.reference.generate : write the datasets checked.
+    precise_impact.errors.ReferenceDataError : raised when shipped data is unusable.
+    precise_impact.verification.reproduce.reproduce : the paper's figures.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> pi.verify_reference(recompute=False)    # checksums of the shipped data: no problems
+    []
     """
     root = default_root() if root is None else Path(root)
     problems: list[str] = []

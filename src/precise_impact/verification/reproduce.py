@@ -72,6 +72,11 @@ class ReproduceResult(ResultMixin):
         Coupled form -> synchronisation threshold ``k_star`` with its error and the scan.
     elapsed_s : float
         Wall time.
+
+    See Also
+    --------
+    precise_impact.verification.reproduce.reproduce : returns it.
+    precise_impact.verification.workprecision.WorkPrecisionResult : the work-precision study.
     """
 
     quick: bool
@@ -103,10 +108,24 @@ def reproduce(
     ReproduceResult
         The numbers written to ``out/report.json``.
 
+    See Also
+    --------
+    precise_impact.verification.workprecision.work_precision
+        Error against wall time of every method.
+    precise_impact.verification.compare.compare : score models on one scene.
+    precise_impact.verification.reproduce.ReproduceResult : the result's fields.
+
     References
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
            mechanical impact oscillator" (Figs. 4-7).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> import dataclasses
+    >>> [f.name for f in dataclasses.fields(pi.ReproduceResult)]    # what a run returns
+    ['quick', 'periods', 'ngspice', 'figures', 'lle', 'sync', 'elapsed_s']
     """
 
     out = Path(out)

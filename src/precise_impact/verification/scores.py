@@ -422,6 +422,21 @@ def score(
     ------
     ParameterError
         Trajectories that do not match (parameters, sample count) or bad keywords.
+
+    See Also
+    --------
+    precise_impact.verification.compare.compare
+        Score models on a scene against a demonstrated reference.
+    precise_impact.verification.accuracy.accuracy_table : errors of every model at several eta.
+    precise_impact.analysis.periodicity.detect_period : the period score's building block.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> p = pi.Params.make(eta="0.74")
+    >>> s = pi.score(pi.simulate(p, 20, model="fast"), pi.simulate(p, 20))
+    >>> s["model"], s["periods"], s["regime"]
+    ('fast', 20, 'chaotic')
     """
     if regime not in REGIMES:
         raise ParameterError("regime", regime, "one of " + ", ".join(REGIMES))

@@ -606,10 +606,23 @@ def work_precision(
         Per method, precision and tolerance: error against the demonstrated
         reference and wall time; the chaos cost table.
 
+    See Also
+    --------
+    precise_impact.verification.accuracy.accuracy_table : errors alone, at several eta.
+    precise_impact.verification.workprecision.WorkPrecisionResult : the result's fields.
+    precise_impact.verification.reproduce.reproduce : the main job.
+
     References
     ----------
     .. [1] F. Biscani, D. Izzo, "Revisiting high-order Taylor methods for
            astrodynamics and celestial mechanics", MNRAS 504 (2021) 2614 (heyoka).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> import dataclasses
+    >>> [f.name for f in dataclasses.fields(pi.WorkPrecisionResult)][:4]    # what a run returns
+    ['quick', 'cases', 'references', 'rows']
     """
     cfg = _config(quick)
     if config:
@@ -674,6 +687,11 @@ class WorkPrecisionResult(ResultMixin):
         What was skipped and why.
     elapsed_s : float
         Wall time.
+
+    See Also
+    --------
+    precise_impact.verification.workprecision.work_precision : returns it.
+    precise_impact.verification.accuracy.AccuracyResult : errors alone.
     """
 
     quick: bool

@@ -95,6 +95,12 @@ def lyapunov(
     OverBudgetError
         The estimated cost is over ``max_time``, before any work.
 
+    See Also
+    --------
+    precise_impact.solvers.simulate.simulate : the trajectory whose exponent is measured.
+    precise_impact.analysis.bifurcation.bifurcation : the exponent along a range of eta.
+    precise_impact.analysis.lyapunov.result.LyapunovResult : the result's fields.
+
     References
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a

@@ -38,6 +38,11 @@ class Attractor:
         ``ln |mu_max| / (p T)`` of a periodic orbit.
     multipliers : tuple[complex, ...]
         Floquet multipliers of a periodic orbit (empty otherwise).
+
+    See Also
+    --------
+    precise_impact.analysis.lyapunov.result.LyapunovResult : the result holding it.
+    precise_impact.analysis.lyapunov.lyapunov : the measurement.
     """
 
     id: int
@@ -82,6 +87,11 @@ class StartEstimate:
         Measured periods of this start.
     attractor : int or None
         The :attr:`Attractor.id` it ended on.
+
+    See Also
+    --------
+    precise_impact.analysis.lyapunov.result.LyapunovResult : the result holding it.
+    precise_impact.analysis.lyapunov.lyapunov : the measurement.
     """
 
     lle: float
@@ -139,6 +149,12 @@ class LyapunovResult(ResultMixin):
         Method diagnostics (variational: impacts, grazing contacts, guard checks,
         missed impacts ...; two-trajectory: straddled boundaries, grazing misses,
         collapses, the separation ``d0`` used).
+
+    See Also
+    --------
+    precise_impact.analysis.lyapunov.lyapunov : returns it.
+    precise_impact.analysis.lyapunov.result.Attractor : the attractor it was measured on.
+    precise_impact.analysis.lyapunov.result.StartEstimate : one start's own estimate.
     """
 
     params: Params

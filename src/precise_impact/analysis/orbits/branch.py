@@ -61,6 +61,11 @@ class Branch(ResultMixin):
         when ``zeta = 0`` and ``R = 1`` make ``det M = 1`` identically and the multipliers
         are a complex pair on the unit circle (then ``stable`` is false and ``lle`` is 0).
         ``None`` (a branch built by hand): derived from ``stable``.
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.branch.ContinuationResult : the result holding branches.
+    precise_impact.analysis.orbits.branch.Bifurcation : a bifurcation on a branch.
     """
 
     parameter: str
@@ -131,6 +136,11 @@ class Bifurcation(ResultMixin):
         The test function's value at the returned point (how close to zero it got).
     detail : str
         Which grazing (interior maximum or impact velocity), or the branch switched to.
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.branch.Branch : the branch it lies on.
+    precise_impact.analysis.orbits.continuation.continue_orbit : finds them.
     """
 
     type: str
@@ -174,6 +184,12 @@ class ContinuationResult(ResultMixin):
         Every located point, by branch and along the range.
     elapsed_s : float
         Wall time (diagnostic).
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.continuation.continue_orbit : returns it.
+    precise_impact.analysis.orbits.branch.Branch : its branches.
+    precise_impact.analysis.orbits.branch.Bifurcation : their bifurcations.
     """
 
     params: Params
@@ -386,6 +402,21 @@ def brute_force_diagram(
     tuple
         ``(values, x)``: ``x`` of shape ``(n, periods)`` (NaN where the run fails,
         e.g. chattering or sticking without a fallback, and the value is skipped).
+
+    See Also
+    --------
+    precise_impact.analysis.bifurcation.bifurcation : the same diagram along eta with the LLE.
+    precise_impact.analysis.orbits.continuation.continue_orbit
+        The periodic branches, stable and unstable.
+    precise_impact.analysis.periodicity.detect_period : the period of each column.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> values, xs = pi.brute_force_diagram(pi.Params.make(eta="0.74"), ("eta", "0.73", "0.75", 3),
+    ...                                      periods=8, transient=20)
+    >>> values.round(2).tolist(), xs.shape
+    ([0.73, 0.74, 0.75], (3, 8))
     """
     if isinstance(parameter, str):
         deprecated_keyword(

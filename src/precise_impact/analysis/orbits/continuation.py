@@ -382,6 +382,13 @@ def continue_orbit(
     ConvergenceError
         No periodic orbit at ``start`` (see :func:`find_orbit`).
 
+    See Also
+    --------
+    precise_impact.analysis.orbits.newton.find_orbit : a single orbit at fixed parameters.
+    precise_impact.analysis.orbits.branch.brute_force_diagram
+        The simulated attractor at the same parameter values.
+    precise_impact.analysis.orbits.branch.ContinuationResult : the branches and their bifurcations.
+
     Notes
     -----
     Orbits past a grazing point stay on the branch as *virtual* orbits (``admissible``
@@ -396,6 +403,14 @@ def continue_orbit(
            2004, ch. 10 (test functions, branch switching at period-doubling).
     .. [3] P. Thota, H. Dankowicz, SIAM J. Appl. Dyn. Syst. 7 (2008) 1283-1322 (TC-HAT:
            continuation of impacting orbits, grazing by the tangency condition).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> p = pi.Params.make(R="0.8", eta="1")
+    >>> res = pi.continue_orbit(p, "eta", "1", "1.1", 1, max_points=20)
+    >>> res.parameter, res.branches[0].period
+    ('eta', 1)
     """
     from precise_impact.analysis.orbits.newton import find_orbit
     from precise_impact.io.progress import Progress

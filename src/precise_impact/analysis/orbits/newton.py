@@ -208,6 +208,14 @@ def find_orbit(
     IntegrationError
         The map cannot be evaluated (a tangential contact or chattering on the way).
 
+    See Also
+    --------
+    precise_impact.analysis.orbits.proof.prove_orbit : prove the orbit exists, with an enclosure.
+    precise_impact.analysis.orbits.one_impact.one_impact_orbits
+        Every 1:1 impacting orbit in closed form.
+    precise_impact.analysis.orbits.continuation.continue_orbit
+        Follow the orbit as a parameter changes.
+
     Notes
     -----
     The iteration stops when the Newton step is at rounding level, ``|dz| <= 16 eps
@@ -222,6 +230,13 @@ def find_orbit(
     .. [2] M. di Bernardo, C. J. Budd, A. R. Champneys, P. Kowalczyk, *Piecewise-smooth
            Dynamical Systems*, Springer 2008, secs. 2.5 and 6 (saltation, Floquet
            multipliers of impacting orbits).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> o = pi.find_orbit(pi.Params.make(eta="0.74"), 3)
+    >>> o.period, o.impacts, bool(max(abs(m) for m in o.multipliers) < 1)
+    (3, 2, True)
     """
     params = params_or_values(params, param_values)
     if seed is not UNSET:  # the 0.2 spelling

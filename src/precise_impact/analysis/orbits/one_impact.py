@@ -70,6 +70,21 @@ def one_impact_orbits(
     ------
     ParameterError
         Bad input.
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.newton.find_orbit : any period by Newton's method.
+    precise_impact.analysis.orbits.proof.prove_orbit : prove one of the orbits.
+    precise_impact.analysis.orbits.continuation.continue_orbit : follow an orbit in a parameter.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> orbits = pi.one_impact_orbits(pi.Params.make(R="0.8", eta="1"), dps=20)
+    >>> [(o.period, o.impacts) for o in orbits]
+    [(1, 1)]
+    >>> round(float(orbits[0].x), 6)
+    1.686569
     """
     params = params_or_values(params, param_values)
     dps = check_count(dps, "dps", 10_000, minimum=15)

@@ -50,6 +50,11 @@ class ProvenOrbit(ResultMixin):
         Enclosure ``(lower, upper)`` of ``ln |mu_max| / (p T)``.
     elapsed_s : float
         Wall time (diagnostic).
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.proof.prove_orbit : returns it.
+    precise_impact.analysis.orbits.result.PeriodicOrbit : the floating-point counterpart.
     """
 
     params: Params
@@ -138,6 +143,12 @@ def prove_orbit(
     CertificationError
         The engine could not prove the impact sequence over the box (a graze within it).
 
+    See Also
+    --------
+    precise_impact.analysis.orbits.newton.find_orbit : the same orbit in floating point, unproven.
+    precise_impact.solvers.certified.single.certify : a certified transient from an initial state.
+    precise_impact.analysis.orbits.proof.ProvenOrbit : the enclosure's fields.
+
     References
     ----------
     .. [1] R. Krawczyk, "Newton-Algorithmen zur Bestimmung von Nullstellen mit
@@ -146,6 +157,13 @@ def prove_orbit(
            SIAM 2009, sec. 8.2.
     .. [3] P. Zgliczynski, "C^1 Lohner algorithm", Found. Comput. Math. 2 (2002) 429-465
            (validated Poincare maps).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> po = pi.prove_orbit(pi.Params.make(eta="0.70"), 1)
+    >>> po.period, po.impacts, po.bits
+    (1, 0, 256)
     """
     from precise_impact.analysis.orbits.newton import find_orbit
     from precise_impact.solvers.certified.single import ball_str, working_bits

@@ -50,6 +50,12 @@ class PeriodicOrbit(ResultMixin):
     steps : list of float
         Sizes ``max |dz|`` of the Newton steps, in order (float64 first, then the
         multiprecision refinement); their ratios show the quadratic convergence.
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.newton.find_orbit : returns it.
+    precise_impact.analysis.orbits.one_impact.one_impact_orbits : returns a list of them.
+    precise_impact.analysis.orbits.proof.ProvenOrbit : the proven counterpart.
     """
 
     params: Params

@@ -52,6 +52,12 @@ class Components:
     ``V_unit`` is the voltage that represents one unit of the dimensionless
     displacement (1 V by default).  Construct with :meth:`make` (validated) or
     :func:`nominal_components`.
+
+    See Also
+    --------
+    precise_impact.models.circuit.components.nominal_components
+        The ideal values for a set of parameters.
+    precise_impact.models.circuit.opamp.CircuitSolver : the circuit that uses them.
     """
 
     R1: Fraction
@@ -210,10 +216,23 @@ def nominal_components(
         ``zeta = 0`` (R6 would be infinite: leave the damping resistor out by giving
         a huge R6 through :meth:`Components.replace`) or a non-positive value.
 
+    See Also
+    --------
+    precise_impact.models.circuit.components.Components : the component values returned.
+    precise_impact.models.circuit.opamp.CircuitSolver : the circuit that uses them.
+    precise_impact.models.circuit.coupled.simulate_coupled_circuit : two coupled circuits.
+
     References
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
            mechanical impact oscillator", eqs. (3)-(9) and Fig. 2.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> c = pi.nominal_components(pi.Params.make(eta="0.74"))
+    >>> type(c).__name__
+    'Components'
     """
     from precise_impact.core.params import as_params
 

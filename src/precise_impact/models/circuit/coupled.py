@@ -176,6 +176,14 @@ def simulate_coupled_circuit(
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a
            mechanical impact oscillator", Fig. 3 and eq. (15).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> c = pi.nominal_components(pi.Params.make(eta="0.74"))
+    >>> tr = pi.simulate_coupled_circuit(c, "0.1", 3)
+    >>> tr.x.shape, tr.y.shape
+    ((4,), (4,))
     """
     from precise_impact.solvers.heyoka.coupled import check_k
 
@@ -251,6 +259,11 @@ class CoupledCircuitTrajectory(ResultMixin):
         The dimensionless parameters of the design.
     R31, R32 : Fraction
         The coupling resistors of eq. (15).
+
+    See Also
+    --------
+    precise_impact.models.circuit.coupled.simulate_coupled_circuit : returns it.
+    precise_impact.solvers.heyoka.coupled.CoupledTrajectory : the mechanical pair's result.
     """
 
     t: np.ndarray

@@ -143,6 +143,12 @@ class CircuitSolver:
         :data:`~precise_impact.models.circuit.effects.catalogue.EFFECTS` that fit model
         ``'circuit'`` (op-amp gain, GBW, saturation, offset; component tolerance).
     max_impacts : int, default ``10**6``
+
+    See Also
+    --------
+    precise_impact.models.circuit.components.Components : its component values.
+    precise_impact.models.circuit.switched.SwitchedCapacitorSolver : the switched-capacitor circuit.
+    precise_impact.models.circuit.spice.SpiceSolver : the same circuit in ngspice.
     """
 
     model_name = "circuit"

@@ -887,6 +887,11 @@ class SpiceSolver:
     executable : str or None, default ``None``
         The ngspice binary (``None``: ``ngspice`` on PATH).
 
+    See Also
+    --------
+    precise_impact.models.circuit.opamp.CircuitSolver : the same circuit in Python.
+    precise_impact.errors.NgspiceNotFoundError : raised without ngspice.
+
     Notes
     -----
     ngspice computes in float64, so ``precision`` is always float64.  ``solve``

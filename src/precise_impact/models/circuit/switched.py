@@ -149,6 +149,11 @@ class SwitchedCapacitorSolver:
         ``switch``, ``tolerance``
         (:data:`~precise_impact.models.circuit.effects.catalogue.EFFECTS`).
     max_impacts : int, default ``10**6``
+
+    See Also
+    --------
+    precise_impact.models.circuit.opamp.CircuitSolver : the continuous op-amp circuit.
+    precise_impact.solvers.base.Solver : the protocol it follows.
     """
 
     model_name = "switched-capacitor"

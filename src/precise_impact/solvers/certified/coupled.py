@@ -133,6 +133,11 @@ class CertifiedCoupledTrajectory(ResultMixin):
         ``(t, w_before, w_after)`` balls.
     elapsed_s : float
         Wall time (diagnostic).
+
+    See Also
+    --------
+    precise_impact.solvers.certified.coupled.certify_coupled : returns it.
+    precise_impact.solvers.heyoka.coupled.CoupledTrajectory : the floating-point counterpart.
     """
 
     params: Any
@@ -413,12 +418,25 @@ def certify_coupled(
     OptionalDependencyError
         python-flint is not installed.
 
+    See Also
+    --------
+    precise_impact.solvers.certified.single.certify : a single oscillator certified.
+    precise_impact.solvers.simulate.simulate_coupled : the same pair in floating point.
+    precise_impact.analysis.sync.sync_scan : synchronisation against the coupling k.
+
     References
     ----------
     .. [1] V. Denysenko, M. Balcerzak, A. Dabrowski, "Electronic equivalent of a mechanical
            impact oscillator", eqs. (11)-(14).
     .. [2] F. Johansson, "Arb: efficient arbitrary-precision midpoint-radius interval
            arithmetic", IEEE Trans. Comput. 66 (2017) 1281-1292.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> cc = pi.certify_coupled(pi.Params.make(eta="0.74"), k="0.1", periods=2)
+    >>> type(cc).__name__, cc.periods
+    ('CertifiedCoupledTrajectory', 2)
     """
     from precise_impact.io.progress import Progress
 

@@ -374,6 +374,11 @@ class CertifiedTrajectory(ResultMixin):
         ``(t, v_before, v_after)`` balls, in order.
     elapsed_s : float
         Wall time of the final run (diagnostic).
+
+    See Also
+    --------
+    precise_impact.solvers.certified.single.certify : returns it.
+    precise_impact.core.trajectory.Trajectory : the floating-point counterpart.
     """
 
     params: Params
@@ -629,12 +634,26 @@ def certify(
     OptionalDependencyError
         python-flint is not installed.
 
+    See Also
+    --------
+    precise_impact.solvers.simulate.simulate : the same trajectory in floating point, unproven.
+    precise_impact.solvers.certified.coupled.certify_coupled : the master-slave pair certified.
+    precise_impact.analysis.orbits.proof.prove_orbit
+        A proven periodic orbit instead of a transient.
+
     References
     ----------
     .. [1] F. Johansson, "Arb: efficient arbitrary-precision midpoint-radius interval
            arithmetic", IEEE Trans. Comput. 66 (2017) 1281-1292.
     .. [2] R. E. Moore, R. B. Kearfott, M. J. Cloud, *Introduction to Interval Analysis*,
            SIAM 2009, ch. 8 (interval Newton).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> ct = pi.certify(pi.Params.make(eta="0.74"), 3)
+    >>> type(ct).__name__, ct.periods
+    ('CertifiedTrajectory', 3)
     """
     from precise_impact.core.params import exact
     from precise_impact.io.progress import Progress
@@ -719,6 +738,12 @@ class CertifiedSolver:
     ----------
     bits : int
         Working precision (``MIN_BITS <= bits <= MAX_BITS``).
+
+    See Also
+    --------
+    precise_impact.solvers.certified.single.certify : the function form.
+    precise_impact.solvers.certified.single.CertifiedTrajectory : its result.
+    precise_impact.solvers.base.Solver : the protocol it follows.
     """
 
     model_name = "certified"

@@ -189,6 +189,11 @@ class CoupledTrajectory(ResultMixin):
         Wall time of the integration (compilation excluded).
     stats : dict
         ``steps``; ``simultaneous`` = impacts applied to both oscillators at once.
+
+    See Also
+    --------
+    precise_impact.solvers.simulate.simulate_coupled : returns it.
+    precise_impact.solvers.certified.coupled.CertifiedCoupledTrajectory : the certified counterpart.
     """
 
     params: Params

@@ -590,6 +590,12 @@ class HeyokaSolver:
         ``None`` means ``10**5 * (periods + 1) + 2 * max_impacts`` (a period
         takes ~20-300 steps; every impact ends a step).
 
+    See Also
+    --------
+    precise_impact.solvers.base.Solver : the protocol it follows.
+    precise_impact.solvers.closed_form.AnalyticalSolver : the closed-form model.
+    precise_impact.solvers.simulate.simulate : runs it for ``model='heyoka'``.
+
     Notes
     -----
     Conventions:
