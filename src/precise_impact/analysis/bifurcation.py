@@ -28,7 +28,7 @@ from precise_impact.analysis.scan import (
 )
 from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.flow import grazing_frequencies
-from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
+from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
@@ -369,7 +369,6 @@ def bifurcation(
     >>> [str(e) for e in b.eta], b.x.shape
     (['7/10', '71/100', '18/25'], (3, 20))
     """
-    from precise_impact.core.params import as_params
 
     params = as_params(params)
     etas = _eta_axis(axis, eta_max, n, eta_min)

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.scan import Grid, NpzTileStore, resolve_model, run_scan
-from precise_impact.core.params import Params, check_count, decimal_str, exact_grid
+from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write, write_json
@@ -135,7 +135,6 @@ class SweepSpec:
             Bad axis name, range, count or a budget exceeded.
         """
         from precise_impact.analysis.lyapunov.batch import default_batch_size
-        from precise_impact.core.params import as_params
 
         base = as_params(base, "base")
         if isinstance(axes, (str, bytes)) or not isinstance(axes, Sequence):

@@ -20,7 +20,14 @@ import numpy as np
 
 from precise_impact.analysis.scan import check_axis, check_workers, resolve_model, run_scan
 from precise_impact.core.budget import enforce_max_time
-from precise_impact.core.params import Params, check_count, decimal_str, exact, exact_grid
+from precise_impact.core.params import (
+    Params,
+    as_params,
+    check_count,
+    decimal_str,
+    exact,
+    exact_grid,
+)
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
@@ -527,7 +534,6 @@ def sync_scan(
     >>> [str(k) for k in r.k_values], r.ensemble
     (['0', '1/10'], 2)
     """
-    from precise_impact.core.params import as_params
 
     params = as_params(params)
     form = check_form(form)
@@ -662,7 +668,6 @@ def plot_fig7(
            mechanical impact oscillator", Fig. 7.
     """
     p, fmt = _check_plot_path(path)
-    from precise_impact.core.params import as_params
 
     params = as_params(params)
     form = check_form(form)

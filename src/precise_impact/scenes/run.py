@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, estimate_cost
 from precise_impact.core.params import decimal_str
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
@@ -53,7 +54,6 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
     if model is not None and model != scene.model:
         scene = scene.with_model(model)
     P = scene.precision
-    from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, estimate_cost
 
     cost = estimate_cost(
         "scene",

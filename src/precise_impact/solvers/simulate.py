@@ -13,7 +13,7 @@ from typing import Any
 
 from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.compat import warn_renamed
-from precise_impact.core.params import Params, check_count, params_or_values
+from precise_impact.core.params import Params, as_params, check_count, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.solvers.base import (
@@ -365,7 +365,6 @@ def simulate_coupled(
     >>> ct.form, ct.x.shape
     ('first-order', (4,))
     """
-    from precise_impact.core.params import as_params
 
     params = as_params(params)
     check_inputs(params, k, form, periods, per_period, y0)

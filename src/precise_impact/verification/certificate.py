@@ -19,6 +19,8 @@ __all__ = [
     "check_certificate",
 ]
 
+from precise_impact.core.params import Params
+from precise_impact.io.atomic import write_json
 from precise_impact.verification.reference import CERTIFICATE_FILE as CERTIFICATE  # noqa: E402
 
 #: Working precision of the certificates: radii ~1e-70 after 300 chaotic periods, far below the
@@ -61,7 +63,6 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
     ValueError
         The certified run's impact count differs from the stored one (the reference is wrong).
     """
-    from precise_impact.core.params import Params
     from precise_impact.solvers.certified.single import certify
 
     t0 = time.perf_counter()
@@ -114,7 +115,6 @@ def add_certificate(case_dir: str | Path, bits: int = CERTIFICATE_BITS) -> dict:
         The updated manifest.
     """
     from precise_impact.io.atomic import sha256_file as _sha256
-    from precise_impact.io.atomic import write_json
     from precise_impact.verification.reference import MANIFEST, _versions, read_manifest
 
     case_dir = Path(case_dir)
@@ -158,7 +158,6 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
     list of str
         Problems (empty: every stored bound holds).
     """
-    from precise_impact.core.params import Params
     from precise_impact.solvers.certified.single import certify
 
     case_dir = Path(case_dir)

@@ -10,6 +10,7 @@ import math
 
 import mpmath
 
+from precise_impact.core.precision import MAX_MP_BITS
 from precise_impact.core.trajectory import Trajectory
 
 __all__ = ["DIGITS_LOST_PER_PERIOD", "max_reference_periods", "reference_bits", "sample_errors"]
@@ -37,7 +38,6 @@ def max_reference_periods(target_digits: int = 30, max_bits: int | None = None) 
     reference and its check 64 bits wider must both be allowed precisions;
     ``max_bits`` defaults to :data:`~precise_impact.core.precision.MAX_MP_BITS`).
     """
-    from precise_impact.core.precision import MAX_MP_BITS
 
     limit = MAX_MP_BITS if max_bits is None else max_bits
     lo, hi = 0, 10**7

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.flow import grazing_frequencies, steady_state
 from precise_impact.core.params import Params
 from precise_impact.errors import IntegrationError
 
@@ -45,7 +46,6 @@ def mechanical_points(params: Params) -> dict:
         ``{"grazing": float, "period-doubling": float or None, "pd_state": (x, v) or None}``.
     """
     from precise_impact.analysis.orbits import continue_orbit, one_impact_orbits
-    from precise_impact.core.flow import grazing_frequencies
 
     g = float(grazing_frequencies(params)[0])
     p1 = params.replace(eta=Fraction(1))
@@ -200,7 +200,6 @@ def model_grazing(
         ``{"eta", "resolution", "evaluations", "values"}``: ``resolution`` is the last secant
         step (the root is known to about that); ``values`` the margins ``x_w - max x``.
     """
-    from precise_impact.core.flow import steady_state
 
     xw = float(params.x_w)
 

@@ -12,7 +12,7 @@ from precise_impact.analysis.lyapunov.result import (
 )
 from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.compat import warn_renamed
-from precise_impact.core.params import Params, check_count
+from precise_impact.core.params import Params, as_params, check_count
 from precise_impact.errors import ParameterError
 
 __all__ = [
@@ -114,7 +114,6 @@ def lyapunov(
     >>> r.method, abs(sum(r.spectrum) + 0.1) < 1e-12    # lambda1 + lambda2 = -2 zeta (R = 1)
     ('variational', True)
     """
-    from precise_impact.core.params import as_params
 
     params = as_params(params)
     if method == "fast":  # the 0.2 spelling

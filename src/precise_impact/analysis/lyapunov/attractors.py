@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.errors import IntegrationError
+
 __all__ = [
     "attribute",
     "MAX_PERIOD",
@@ -319,7 +321,6 @@ def _periodic_groups(
     Newton run per orbit); the others are returned as ``loose`` indices."""
     from precise_impact.analysis.orbits.newton import find_orbit
     from precise_impact.analysis.periodicity import detect_period
-    from precise_impact.errors import IntegrationError
 
     groups: list[dict] = []
     loose: list[int] = []

@@ -19,7 +19,7 @@ import numpy as np
 
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 from precise_impact.core.clock import local_clock
-from precise_impact.core.params import RUNTIME_PARAMS, Params, exact
+from precise_impact.core.params import RUNTIME_PARAMS, Params, as_params, exact
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
 from precise_impact.io.progress import Progress
@@ -175,7 +175,6 @@ def _check_inputs(
 ) -> tuple[Params, int, int, int, Precision, Fraction]:
     """:func:`two_trajectory_lle`'s arguments checked (before any work):
     ``(params, periods, transient, segments, P, d0)``."""
-    from precise_impact.core.params import as_params
 
     params = as_params(params)
     periods = _check_int("periods", periods, 1, _MAX_PERIODS)

@@ -17,8 +17,9 @@ import numpy as np
 from precise_impact.analysis.orbits.branch import Bifurcation, Branch, ContinuationResult
 from precise_impact.analysis.orbits.result import area_preserving, classify
 from precise_impact.analysis.orbits.shooting import CONTINUABLE, ShootingSystem, from_orbit
-from precise_impact.core.params import Params, check_count, params_or_values
+from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.errors import ParameterError
+from precise_impact.io.progress import Progress
 
 __all__ = ["continue_orbit"]
 
@@ -413,7 +414,6 @@ def continue_orbit(
     ('eta', 1)
     """
     from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.io.progress import Progress
 
     t_start = time.perf_counter()
     params = params_or_values(params, param_values)
@@ -500,7 +500,6 @@ def _check_range(params: Params, parameter: str, start: Any, stop: Any):
 
 def _check_virtual(virtual: Any) -> float:
     """``virtual`` checked (``0 <= virtual <= 10``) and as a float."""
-    from precise_impact.core.params import exact
 
     vq = exact("virtual", virtual)
     if not 0 <= vq <= 10:

@@ -15,7 +15,9 @@ import numpy as np
 
 from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
 from precise_impact.core.compat import UNSET, warn_renamed
+from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, exact, params_or_values
+from precise_impact.core.precision import Precision
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
 
 __all__ = ["find_orbit", "ConvergenceError"]
@@ -70,8 +72,6 @@ def _map_mp(params: Params, z: tuple, period: int, bits: int):
     import mpmath
 
     from precise_impact.analysis.orbits.one_impact import flow_matrix
-    from precise_impact.core.impact import oscillator_saltation
-    from precise_impact.core.precision import Precision
     from precise_impact.solvers.closed_form import AnalyticalSolver
 
     P = Precision.parse(f"mp:{bits}")
@@ -302,7 +302,6 @@ def _check_options(
             str(impacts),
             "None or 1 with guess_from='closed-form' (one impact per orbit)",
         )
-    from precise_impact.core.precision import Precision
 
     Pq = Precision.parse(precision)
     if Pq.kind not in ("float64", "mp") or (Pq.kind == "mp" and Pq.bits > MAX_BITS):

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
+from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
@@ -77,7 +78,6 @@ def _mat_mul(A, B):
 
 def _jacobian(c, impacts, period):
     """``M``: flow and saltation matrices along the impacts (balls), from ``t0`` to ``t0 + p T``."""
-    from precise_impact.core.impact import oscillator_saltation
     from precise_impact.solvers.certified.single import flow_matrix
 
     one, zero = c.eta * 0 + 1, c.eta * 0

@@ -14,6 +14,7 @@ import numpy as np
 
 from precise_impact.core import flight
 from precise_impact.core.crossing import safeguarded_newton
+from precise_impact.core.impact import oscillator_saltation
 
 __all__ = ["ShootingSystem", "CONTINUABLE"]
 
@@ -159,7 +160,6 @@ class ShootingSystem:
     def monodromy(self, u: np.ndarray, lam: float) -> np.ndarray:
         """Jacobian of ``P^p`` at the orbit's point at ``t0``: flow matrices and saltation
         matrices (:func:`~precise_impact.core.impact.oscillator_saltation`) in order."""
-        from precise_impact.core.impact import oscillator_saltation
 
         vals = self.values(lam)
         eta, zeta, a, xw, R, w = vals[0], vals[1], vals[2], vals[3], vals[4], vals[7]

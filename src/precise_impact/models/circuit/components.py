@@ -12,7 +12,7 @@ from typing import Any
 
 import mpmath
 
-from precise_impact.core.params import Params, decimal_str, exact
+from precise_impact.core.params import Params, as_params, decimal_str, exact
 from precise_impact.errors import ParameterError
 
 __all__ = [
@@ -234,7 +234,6 @@ def nominal_components(
     >>> type(c).__name__
     'Components'
     """
-    from precise_impact.core.params import as_params
 
     params = as_params(params)
     r, c, vu = exact("R", R), exact("C", C), exact("V_unit", V_unit)

@@ -14,10 +14,10 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.impact import reset_velocity
-from precise_impact.core.params import Params, check_count
+from precise_impact.core.params import Params, check_count, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import BudgetExceededError
+from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.models.circuit.components import Components, dimensionless
 from precise_impact.models.circuit.network import NETWORK_PARS
 from precise_impact.models.circuit.opamp import design_omega
@@ -309,8 +309,6 @@ class CircuitCoupledSolver:
         per_period: int = 0,
     ) -> CoupledCircuitTrajectory:
         """Simulate the circuit pair (:func:`~precise_impact.simulate_coupled`)."""
-        from precise_impact.core.params import decimal_str
-        from precise_impact.errors import ParameterError
         from precise_impact.models.circuit.components import nominal_components
 
         if form != CIRCUIT_COUPLED_FORM:

@@ -23,6 +23,7 @@ import mpmath
 import numpy as np
 
 from precise_impact.core.params import check_count, decimal_str, exact
+from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import NgspiceNotFoundError, ParameterError, SpiceError
 from precise_impact.models.circuit.components import Components, to_circuit, to_mechanical
@@ -600,7 +601,6 @@ class SpiceResult:
 
         ``params`` defaults to ``dimensionless(components)`` (needs a rational omega).
         """
-        from precise_impact.core.precision import Precision
         from precise_impact.core.trajectory import Trajectory
         from precise_impact.models.circuit.components import dimensionless
 
@@ -908,7 +908,6 @@ class SpiceSolver:
         timeout: float = 600,
         executable: str | None = None,
     ) -> None:
-        from precise_impact.core.precision import Precision
 
         self.precision = Precision.parse("float64")
         self.effects = validate_effects(effects, "spice")

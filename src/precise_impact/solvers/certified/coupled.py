@@ -29,6 +29,7 @@ from precise_impact.core.params import Params, check_count, decimal_str, params_
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
+from precise_impact.io.progress import Progress
 from precise_impact.solvers.certified.single import (
     MAX_BITS,
     MIN_BITS,
@@ -438,7 +439,6 @@ def certify_coupled(
     >>> type(cc).__name__, cc.periods
     ('CertifiedCoupledTrajectory', 2)
     """
-    from precise_impact.io.progress import Progress
 
     params = params_or_values(params, param_values)
     kq = check_k(k)

@@ -17,9 +17,11 @@ from typing import Any
 from precise_impact.core import flight
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.flow import steady_state
-from precise_impact.core.params import Params, check_count, params_or_values
+from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
+from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import CertificationError, OptionalDependencyError, ParameterError
+from precise_impact.io.progress import Progress
 
 __all__ = [
     "certify",
@@ -445,7 +447,6 @@ class CertifiedTrajectory(ResultMixin):
         -------
         bool
         """
-        from precise_impact.core.params import exact
 
         _, _, bx, bv = self.samples[k]
         # exactly, in rationals: no rounding, and no dependence on python-flint's process-wide
@@ -552,7 +553,6 @@ def check_certifiable(params: Params) -> None:
     OptionalDependencyError
         python-flint is not installed.
     """
-    from precise_impact.core.params import decimal_str
 
     if not params.zeta < 1:
         raise ParameterError(
@@ -655,8 +655,6 @@ def certify(
     >>> type(ct).__name__, ct.periods
     ('CertifiedTrajectory', 3)
     """
-    from precise_impact.core.params import exact
-    from precise_impact.io.progress import Progress
 
     params = params_or_values(params, param_values)
     periods = check_count(periods, "periods", 100_000, minimum=1)
@@ -749,7 +747,6 @@ class CertifiedSolver:
     model_name = "certified"
 
     def __init__(self, bits: int) -> None:
-        from precise_impact.core.precision import Precision
 
         self.bits = check_count(bits, "bits", MAX_BITS, minimum=MIN_BITS)
         self.precision = Precision.parse(f"mp:{self.bits}")

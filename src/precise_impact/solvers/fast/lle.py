@@ -19,6 +19,7 @@ import numba
 import numpy as np
 
 from precise_impact.core.compat import UNSET, renamed
+from precise_impact.core.params import as_params, check_count
 from precise_impact.solvers.fast.crossing import JIT, mul2
 from precise_impact.solvers.fast.single import (
     FLIGHT_SAMPLES,
@@ -316,7 +317,6 @@ def fast_lle(
     .. [1] G. Benettin, L. Galgani, A. Giorgilli, J.-M. Strelcyn, Meccanica 15 (1980) 9-30.
     .. [2] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices).
     """
-    from precise_impact.core.params import as_params, check_count
 
     params = as_params(params)
     periods = check_count(periods, "periods", minimum=1)

@@ -48,6 +48,7 @@ from precise_impact.core.params import (
     I_ZETA,
     RUNTIME_PARAMS,
 )
+from precise_impact.core.precision import Precision
 from precise_impact.errors import BudgetExceededError, IntegrationError, MissedImpactError
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
@@ -194,8 +195,6 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     clock, the impacts in the measured periods and the tangential contacts of the whole run.
     """
     import heyoka as hy
-
-    from precise_impact.core.precision import Precision
 
     ta = _integrator(B)
     rec = ta.t_events[0].callback
