@@ -25,6 +25,7 @@ import mpmath
 import numpy as np
 
 from precise_impact.errors import ReferenceDataError
+from precise_impact.verification.reference import checksum_problems, default_root
 
 __all__ = [
     "ReferenceCase",
@@ -41,7 +42,6 @@ _WORKPREC = 400  # bits; above every stored reference precision
 
 
 def _root(root: str | os.PathLike | None) -> Path:
-    from precise_impact.verification.reference import default_root
 
     return Path(root) if root is not None else default_root()
 
@@ -124,7 +124,6 @@ def load_reference(
     """
     if case not in SINGLE_CASES:
         raise ValueError(f"case must be one of {', '.join(SINGLE_CASES)}, got {case!r}")
-    from precise_impact.verification.reference import checksum_problems
 
     d = _root(root) / case
     if not d.is_dir():

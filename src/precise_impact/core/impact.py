@@ -15,6 +15,7 @@ import mpmath
 
 from precise_impact.core.flow import acceleration
 from precise_impact.core.params import I_A, I_ETA, I_XW
+from precise_impact.errors import ParameterError
 
 __all__ = [
     "reset_velocity",
@@ -332,7 +333,6 @@ def steady_amplitude(params) -> float:
     import math
 
     from precise_impact.core.flow import steady_state
-    from precise_impact.errors import ParameterError
 
     try:
         return math.sqrt(float(steady_state(params).amplitude_squared))

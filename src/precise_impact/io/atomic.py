@@ -13,6 +13,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from precise_impact.errors import ParameterError
+
 __all__ = [
     "atomic_write",
     "write_json",
@@ -96,7 +98,6 @@ def check_output_file(path: str | os.PathLike, force: bool = False, name: str = 
     directory at ``path``, a file where a parent directory should be, a directory that
     cannot be written, and an existing file unless ``force``.
     """
-    from precise_impact.errors import ParameterError
 
     path = Path(path)
     if path.is_dir():
@@ -119,7 +120,6 @@ def check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = T
     With ``force=False`` an existing directory that holds anything is refused (the run
     would replace files of the same name in it): a new or empty directory, or ``--force``.
     """
-    from precise_impact.errors import ParameterError
 
     path = Path(path)
     if path.exists() and not path.is_dir():

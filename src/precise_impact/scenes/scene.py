@@ -18,6 +18,8 @@ from typing import Any
 from precise_impact.core.params import PARAM_NAMES, Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
+from precise_impact.models.circuit.components import nominal_components
+from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
 from precise_impact.solvers.base import MODEL_ALIASES
 
 __all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
@@ -141,7 +143,6 @@ class Scene:
             The effects that do not fit ``model`` (e.g. the comparator of a
             switched-capacitor scene run on the op-amp ``circuit`` model).
         """
-        from precise_impact.models.circuit.effects.catalogue import EFFECTS
 
         model = MODEL_ALIASES.get(model, model)
         raw = dict(self._raw)
@@ -155,7 +156,6 @@ class Scene:
 
     def design(self):
         """Design components (nominal from the parameters, then overrides)."""
-        from precise_impact.models.circuit.components import nominal_components
 
         base = nominal_components(
             self.params,
@@ -294,7 +294,6 @@ def _components_section(data: Mapping) -> dict[str, Fraction]:
 
 def _effects_section(data: Mapping, model: str, kind: str) -> dict:
     """``[effects]``: the circuit effects, quantities with units parsed, validated for ``model``."""
-    from precise_impact.models.circuit.effects.catalogue import validate_effects
 
     raw_eff = data.get("effects", {})
     if not isinstance(raw_eff, Mapping):
@@ -322,7 +321,6 @@ def _effects_section(data: Mapping, model: str, kind: str) -> dict:
 def _effect_quantities(en: str, settings: Any) -> Any:
     """One effect's settings with quantities given with units (``'10 ns'``) parsed; an unknown
     effect or a non-table unchanged (the catalogue refuses it)."""
-    from precise_impact.models.circuit.effects.catalogue import EFFECTS
 
     spec = EFFECTS.get(en)
     if spec is None or not isinstance(settings, Mapping):

@@ -21,6 +21,7 @@ __all__ = [
 
 from precise_impact.core.params import Params
 from precise_impact.io.atomic import write_json
+from precise_impact.solvers.certified.single import certify, exact_value
 from precise_impact.verification.reference import CERTIFICATE_FILE as CERTIFICATE  # noqa: E402
 
 #: Working precision of the certificates: radii ~1e-70 after 300 chaotic periods, far below the
@@ -37,7 +38,6 @@ def _up(q: Fraction) -> str:
 
 def _err(stored: str, ball) -> Fraction:
     """``|stored - mid| + rad`` exactly (an upper bound of ``|stored - truth|``)."""
-    from precise_impact.solvers.certified.single import exact_value
 
     return abs(Fraction(stored) - exact_value(ball.mid())) + exact_value(ball.rad())
 
@@ -63,7 +63,6 @@ def certificate_for(samples_json: dict, bits: int = CERTIFICATE_BITS) -> dict:
     ValueError
         The certified run's impact count differs from the stored one (the reference is wrong).
     """
-    from precise_impact.solvers.certified.single import certify
 
     t0 = time.perf_counter()
     p = Params.make(**samples_json["params"])
@@ -158,7 +157,6 @@ def check_certificate(case: str, case_dir: str | Path) -> list[str]:
     list of str
         Problems (empty: every stored bound holds).
     """
-    from precise_impact.solvers.certified.single import certify
 
     case_dir = Path(case_dir)
     data = json.loads((case_dir / "samples.json").read_text())

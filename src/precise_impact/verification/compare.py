@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.core.params import check_count, decimal_str
 from precise_impact.core.result import ResultMixin
 from precise_impact.core.trajectory import Trajectory
@@ -25,8 +26,10 @@ from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
 from precise_impact.io.progress import say as _progress
+from precise_impact.scenes.run import run_scene
 from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
 from precise_impact.solvers.base import MODEL_ALIASES
+from precise_impact.solvers.simulate import make_solver
 from precise_impact.verification.metrics import reference_bits, sample_errors
 from precise_impact.verification.scores import detected_period, divergence_rate, score, separation
 
@@ -72,7 +75,6 @@ def scene_for_model(scene: Scene, model: str) -> tuple[Scene, list[str]]:
 
 
 def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=None) -> Trajectory:
-    from precise_impact.scenes.run import run_scene
 
     sc = dataclasses.replace(
         scene_for_model(scene, model)[0], periods=periods, per_period=per_period
@@ -206,7 +208,6 @@ def compare(
 
 def _reference(params: Any, periods: int, per_period: int, bits: int, progress: bool | None):
     """The heyoka reference at ``bits``, its check at ``bits + 64``, and how they agree."""
-    from precise_impact.solvers.simulate import make_solver
 
     t0 = time.perf_counter()
     ref = make_solver("heyoka", f"mp:{bits}").solve(params, periods, per_period=per_period)
@@ -231,7 +232,6 @@ def _reference(params: Any, periods: int, per_period: int, bits: int, progress: 
 
 def _reference_lle(params: Any, progress: bool | None) -> dict[str, Any]:
     """The reference LLE (variational, default run) with its error bar and cost."""
-    from precise_impact.analysis.lyapunov import lyapunov
 
     t0 = time.perf_counter()
     ly = lyapunov(params, "variational")

@@ -14,9 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.orbits import continue_orbit, find_orbit, one_impact_orbits
 from precise_impact.core.flow import grazing_frequencies, steady_state
 from precise_impact.core.params import Params
 from precise_impact.errors import IntegrationError
+from precise_impact.scenes.run import run_scene
 
 __all__ = ["mechanical_points", "model_grazing", "model_period_doubling", "point_scores"]
 
@@ -45,7 +47,6 @@ def mechanical_points(params: Params) -> dict:
     dict
         ``{"grazing": float, "period-doubling": float or None, "pd_state": (x, v) or None}``.
     """
-    from precise_impact.analysis.orbits import continue_orbit, one_impact_orbits
 
     g = float(grazing_frequencies(params)[0])
     p1 = params.replace(eta=Fraction(1))
@@ -290,7 +291,6 @@ def model_period_doubling(
 
     def mechanics(eta: float) -> tuple:
         """The mechanical 1:1 orbit at eta (Newton from the nearest one known)."""
-        from precise_impact.analysis.orbits import find_orbit
 
         if eta not in known:
             near = min(known, key=lambda e: abs(e - eta))
@@ -321,7 +321,6 @@ def point_scores(scene: Any, model: str, mechanics: dict | None = None) -> dict:
         ``{"grazing": {"mechanics", "model", "shift", "resolution", "evaluations"},
         "period-doubling": {... , "fit_residual"} or None}``.
     """
-    from precise_impact.scenes.run import run_scene
     from precise_impact.verification.compare import scene_for_model
 
     base = scene_for_model(scene, model)[0]

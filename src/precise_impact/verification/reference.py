@@ -19,17 +19,21 @@ from typing import Any
 import mpmath
 import numpy as np
 
+from precise_impact.analysis.bifurcation import bifurcation
+from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision, quad_or_mp
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write, sha256_file, write_json
 from precise_impact.io.progress import say as _log
+from precise_impact.solvers.heyoka.coupled import simulate_coupled
 from precise_impact.solvers.simulate import simulate
 from precise_impact.verification.metrics import (
     DIGITS_LOST_PER_PERIOD,
     reference_bits,
     sample_errors,
 )
+from precise_impact.version import __version__
 
 __all__ = [
     "CASES",
@@ -111,8 +115,6 @@ _sha256 = sha256_file
 
 def _versions() -> dict[str, str]:
     import heyoka
-
-    from precise_impact.version import __version__
 
     return {
         "precise_impact": __version__,
@@ -302,7 +304,6 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
 
 # ------------------------------------------------------------------ coupled
 def _gen_coupled(case: str, case_dir: Path, progress: bool) -> dict:
-    from precise_impact.solvers.heyoka.coupled import simulate_coupled
 
     params = Params.make()
     arrays: dict[str, np.ndarray] = {}
@@ -372,7 +373,6 @@ def _gen_coupled(case: str, case_dir: Path, progress: bool) -> dict:
 
 # ------------------------------------------------------------------ lle
 def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
-    from precise_impact.analysis.lyapunov import lyapunov
 
     rows = []
     for eta in LLE_ETAS:
@@ -437,7 +437,6 @@ def _gen_lle(case: str, case_dir: Path, progress: bool) -> dict:
 
 # ------------------------------------------------------------------ bifurcation
 def _gen_bifurcation(case: str, case_dir: Path, progress: bool) -> dict:
-    from precise_impact.analysis.bifurcation import bifurcation
 
     params = Params.make()
     lo, hi, n = BIF_RANGE
@@ -635,7 +634,6 @@ def _recompute_single(case: str, case_dir: Path) -> list[str]:
 
 
 def _recompute_coupled(case: str, case_dir: Path) -> list[str]:
-    from precise_impact.solvers.heyoka.coupled import simulate_coupled
 
     n = VERIFY_PERIODS
     problems = []

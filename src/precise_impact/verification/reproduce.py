@@ -15,12 +15,19 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov import lyapunov
+from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure as new_fig
 from precise_impact.io.progress import say as _say
+from precise_impact.models.circuit.components import nominal_components
+from precise_impact.models.circuit.opamp import CircuitSolver
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
+from precise_impact.scenes.scene import load_scene
+from precise_impact.solvers.simulate import simulate
 from precise_impact.verification.metrics import reference_bits, sample_errors
 
 __all__ = ["reproduce"]
@@ -150,7 +157,6 @@ def _figure(
     fig: str, eta: str, regime: str, periods: int, spice: bool, out: Path, progress: bool | None
 ) -> dict[str, Any]:
     """One of Figs. 4-6: the reference, every model's errors against it, the phase portraits."""
-    from precise_impact.solvers.simulate import simulate
 
     p = Params.make(eta=eta)
     bits = reference_bits(periods)
@@ -189,11 +195,6 @@ def _figure(
 def _figure_models(fig: str, p: Params, periods: int, spice: bool) -> dict[str, Trajectory]:
     """The models' runs of one figure: mechanical float64, ideal circuit, switched-capacitor,
     ngspice (where installed)."""
-    from precise_impact.models.circuit.components import nominal_components
-    from precise_impact.models.circuit.opamp import CircuitSolver
-    from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
-    from precise_impact.scenes.scene import load_scene
-    from precise_impact.solvers.simulate import simulate
 
     dense = simulate(p, periods, per_period=60)
     design = nominal_components(p)
@@ -238,7 +239,6 @@ def _plot_portraits(
 def _lle_two_methods(p: Params, progress: bool | None):
     """The LLE by the variational equations and by two trajectories: the report's entry and the
     variational result."""
-    from precise_impact.analysis.lyapunov import lyapunov
 
     lle_v = lyapunov(p, "variational")
     lle_t = lyapunov(p, "two-trajectory")
@@ -258,7 +258,6 @@ def _sync_thresholds(
     p: Params, quick: bool, lle_v: Any, out: Path, progress: bool | None
 ) -> dict[str, Any]:
     """The synchronisation threshold of each coupled form, with its Fig. 7 and fraction plots."""
-    from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
 
     sp = 300 if quick else 500
     ens = 4 if quick else 8

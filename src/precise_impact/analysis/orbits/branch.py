@@ -23,6 +23,7 @@ from precise_impact.analysis.scan import (
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
+from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.io.progress import ProgressArg
 from precise_impact.solvers.base import make_solver
 
@@ -231,7 +232,6 @@ class ContinuationResult(ResultMixin):
         pathlib.Path
             The file written.
         """
-        from precise_impact.io.figures import new_figure, save_figure
 
         fig, axes = new_figure(
             2,

@@ -19,6 +19,7 @@ from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
+from precise_impact.solvers.closed_form import AnalyticalSolver
 
 __all__ = ["find_orbit", "ConvergenceError"]
 
@@ -72,7 +73,6 @@ def _map_mp(params: Params, z: tuple, period: int, bits: int):
     import mpmath
 
     from precise_impact.analysis.orbits.one_impact import flow_matrix
-    from precise_impact.solvers.closed_form import AnalyticalSolver
 
     P = Precision.parse(f"mp:{bits}")
     q = params.replace(x0=_fraction(z[0]), v0=_fraction(z[1]))

@@ -17,6 +17,14 @@ from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
+from precise_impact.solvers.certified.single import (
+    ball_str,
+    exact_value,
+    flow_matrix,
+    run_balls,
+    to_ball,
+    working_bits,
+)
 
 __all__ = ["prove_orbit", "ProvenOrbit"]
 
@@ -78,7 +86,6 @@ def _mat_mul(A, B):
 
 def _jacobian(c, impacts, period):
     """``M``: flow and saltation matrices along the impacts (balls), from ``t0`` to ``t0 + p T``."""
-    from precise_impact.solvers.certified.single import flow_matrix
 
     one, zero = c.eta * 0 + 1, c.eta * 0
     M = [[one, zero], [zero, one]]
@@ -166,7 +173,6 @@ def prove_orbit(
     (1, 0, 256)
     """
     from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.solvers.certified.single import ball_str, working_bits
 
     t_start = time.perf_counter()
     params = params_or_values(params, param_values)
@@ -215,8 +221,6 @@ def _refine_centre(params: Params, period: int, bits: int, x: float, v: float) -
     """The float64 orbit ``(x, v)`` refined by Newton on point runs to the working precision."""
     import flint
 
-    from precise_impact.solvers.certified.single import run_balls, to_ball
-
     z = [to_ball(Fraction(x)), to_ball(Fraction(v))]
     # Newton on point runs: quadratic from float64 to the working precision
     for _ in range(int(math.log2(bits / 50)) + 3):
@@ -234,8 +238,6 @@ def _refine_centre(params: Params, period: int, bits: int, x: float, v: float) -
 def _krawczyk(params: Params, period: int, bits: int, z: list, r: Fraction, radius: Any):
     """Krawczyk test on ``z + [-r, r]^2``: box, impacts, proven, contraction, ``M(Z)``, system."""
     import flint
-
-    from precise_impact.solvers.certified.single import exact_value, run_balls, to_ball
 
     samples, imps, c = run_balls(params, period, bits, start=(z[0], z[1]))
     fx, fv = _final(samples)
@@ -284,8 +286,6 @@ def _multipliers(MZ: list) -> tuple[list, list, list]:
     """The two multipliers of ``MZ`` enclosed: their records, ``|mu|`` upper and lower bounds."""
     import flint
 
-    from precise_impact.solvers.certified.single import ball_str
-
     tr = MZ[0][0] + MZ[1][1]
     dt = MZ[0][0] * MZ[1][1] - MZ[0][1] * MZ[1][0]
     disc = flint.acb(tr * tr - 4 * dt).sqrt()
@@ -311,8 +311,6 @@ def _multipliers(MZ: list) -> tuple[list, list, list]:
 def _stability_and_lle(ups: list, lows: list, pT: Any) -> tuple[bool | None, tuple[float, float]]:
     """Stability (``None``: undecided) and the LLE interval from the multipliers' moduli."""
     import flint
-
-    from precise_impact.solvers.certified.single import exact_value
 
     unit = flint.arb(1)
     stable = (

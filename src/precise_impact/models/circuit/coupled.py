@@ -23,6 +23,7 @@ from precise_impact.models.circuit.network import NETWORK_PARS
 from precise_impact.models.circuit.opamp import design_omega
 from precise_impact.solvers.base import PRECISION_KINDS, Capabilities, register_coupled_model
 from precise_impact.solvers.heyoka.cache import IntegratorCache
+from precise_impact.solvers.heyoka.coupled import check_k
 from precise_impact.solvers.heyoka.events import ImpactRecorder
 
 __all__ = [
@@ -185,7 +186,6 @@ def simulate_coupled_circuit(
     >>> tr.x.shape, tr.y.shape
     ((4,), (4,))
     """
-    from precise_impact.solvers.heyoka.coupled import check_k
 
     P = Precision.parse(precision)
     k = check_k(k)

@@ -601,7 +601,6 @@ class SpiceResult:
 
         ``params`` defaults to ``dimensionless(components)`` (needs a rational omega).
         """
-        from precise_impact.core.trajectory import Trajectory
         from precise_impact.models.circuit.components import dimensionless
 
         if params is None:

@@ -20,6 +20,7 @@ from precise_impact.core.flow import steady_state
 from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
+from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import CertificationError, OptionalDependencyError, ParameterError
 from precise_impact.io.progress import Progress
 
@@ -768,7 +769,6 @@ class CertifiedSolver:
         Trajectory
             Midpoints of the certified balls, radii in ``stats``.
         """
-        from precise_impact.core.trajectory import Trajectory
 
         if per_period:
             raise ParameterError(
