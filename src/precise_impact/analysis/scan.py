@@ -17,6 +17,7 @@ import dataclasses
 import hashlib
 import math
 import os
+import socket
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
@@ -294,6 +295,21 @@ def check_workers(workers: Any) -> int:
     return n
 
 
+def _refused(address: str) -> str | None:
+    """Why a TCP connection to a ``tcp://HOST:PORT`` scheduler address is refused at once, or
+    ``None`` (it connects, or answers too slowly to tell: :class:`Client`'s timeout decides)."""
+    host, _, port = address.removeprefix("tcp://").rpartition(":")
+    if not port.isdigit():
+        return None
+    try:
+        socket.create_connection((host.strip("[]") or "127.0.0.1", int(port)), timeout=2).close()
+    except ConnectionRefusedError as e:
+        return e.strerror or "refused"
+    except OSError:
+        return None
+    return None
+
+
 def run_scan(
     job: Callable[[int, int], Any],
     n_points: int,
@@ -467,6 +483,11 @@ def _run_dask(job, bounds, todo, dask: str, finished, workers) -> int:
         client = Client(cluster)
     else:
         cluster = None
+        refused = _refused(dask)
+        if refused is not None:  # nothing listens there: say so now, not after the 10 s timeout
+            raise ParameterError(
+                "scheduler", dask, f"a reachable Dask scheduler (connection refused: {refused})"
+            )
         try:
             client = Client(dask, timeout=10)
         except (OSError, TimeoutError) as e:
