@@ -191,8 +191,8 @@ def test_the_compiled_bounds_and_gap_are_the_core_ones():
 
 
 def test_the_amplitude_form_is_the_flow_form():
-    """state_from_coefficients (the closed form's hot loop) and state_and_decay (the flow
-    matrix applied to (y, u)) are two writings of one flight: float64 within a few ulps of the
+    """state_from_coefficients (the closed form's hot loop) and Flight.at (the flow matrix
+    applied to (y, u)) are two writings of one flight: float64 within a few ulps of the
     state's scale (each is ~10 roundings of terms bounded by |x_p| + A), 200-bit mpmath to 1e-55."""
     import math
 
@@ -202,17 +202,21 @@ def test_the_amplitude_form_is_the_flow_form():
             wd = flight.damped_frequency(zeta, ops)
             y, u, s = ops.num(0.4), ops.num(-1.1), ops.num(2.5)
             k = flight.trig_coefficients(y, u, zeta, wd)
+            xp, vp = flight.forced_response(s, P, Q, eta, ops)
+            fl = flight.Flight(P, Q, eta, zeta, wd, ops, s, xp + y, vp + u)
             for j in range(40):
                 t = s + ops.num(j) / 7
                 a = flight.state_from_coefficients(t, s, k, P, Q, eta, zeta, wd, ops)
-                b = flight.state_and_decay(t, s, y, u, P, Q, eta, zeta, wd, ops)
-                assert all(abs(p - q) <= tol * 4 for p, q in zip(a, b, strict=True)), (j, a, b)
+                b = fl.at(t)
+                assert all(abs(p - q) <= tol * 4 for p, q in zip(a[:2], b, strict=True)), (j, a, b)
+                assert a[2] == ops.exp(-zeta * (t - s))  # the decay factor
             assert k[2] == u and not math.isnan(float(k[3]))
 
 
 def test_precision_carries_the_flights_arithmetic():
-    """Precision.ops: float64 -> math, mp:BITS -> mpmath at BITS (independent of mpmath's global
-    precision), long double / float128 refused (only heyoka computes in them)."""
+    """Precision.ops: float64 -> math, mp:BITS -> mpmath at BITS inside ops.context() (which
+    sets and restores mpmath's process-global precision), long double / float128 refused (only
+    heyoka computes in them)."""
     import mpmath
     import pytest
 

@@ -32,7 +32,6 @@ __all__ = [
     "flow_matrix",
     "flow_and_decay",
     "homogeneous_start",
-    "state_and_decay",
     "state_from_coefficients",
     "trig_coefficients",
     "Flight",
@@ -195,25 +194,6 @@ def flow_and_decay(tau: Any, alpha: Any, wd: Any, ops: Any, c0: Any = 1):
     return (e * (c + alpha * sw), e * sw, -c0 * e * sw, e * (c - alpha * sw)), e
 
 
-def state_and_decay(
-    t: Any, s: Any, y: Any, u: Any, P: Any, Q: Any, eta: Any, zeta: Any, wd: Any, ops: Any
-) -> tuple[Any, Any, Any]:
-    """``(x(t), x'(t), exp(-zeta (t - s)))`` of the flight whose homogeneous part starts at
-    ``(y, u)`` at ``s``: :func:`forced_response` plus :func:`flow_and_decay` applied to
-    ``(y, u)``, the same operations in the same order, written out in one call because every
-    engine's hot loop evaluates it (the closed form's crossing search, ~300 times a period)."""
-    tau = t - s
-    e = ops.exp(-zeta * tau)
-    c, sn = ops.cos_sin(wd * tau)
-    sw = sn / wd
-    cf, sf = ops.cos_sin(eta * t)
-    return (
-        P * cf + Q * sf + (e * (c + zeta * sw) * y + e * sw * u),
-        eta * (Q * cf - P * sf) + (-1 * e * sw * y + e * (c - zeta * sw) * u),
-        e,
-    )
-
-
 def trig_coefficients(y: Any, u: Any, alpha: Any, wd: Any, c0: Any = 1) -> tuple:
     """``(A, B, A1, B1)`` with ``y(tau) = e^(-alpha tau) (A cos(wd tau) + B sin(wd tau))`` and
     ``y'(tau) = e^(-alpha tau) (A1 cos + B1 sin)`` from the homogeneous start ``(y, u)``: the
@@ -225,7 +205,8 @@ def state_from_coefficients(
     t: Any, s: Any, coefficients: tuple, P: Any, Q: Any, eta: Any, zeta: Any, wd: Any, ops: Any
 ) -> tuple[Any, Any, Any]:
     """``(x(t), x'(t), exp(-zeta (t - s)))`` of a flight in amplitude form
-    (:func:`trig_coefficients`): the closed form's hot loop (~20 evaluations a flight)."""
+    (:func:`trig_coefficients`): the closed form's hot loop (~20 evaluations a flight).
+    :meth:`Flight.at` is the same state in flow form (:func:`flow_and_decay`)."""
     A, B, A1, B1 = coefficients
     cf, sf = ops.cos_sin(eta * t)
     tau = t - s
@@ -281,10 +262,9 @@ class Flight:
 
     def at(self, t: Any) -> tuple[Any, Any]:
         """``(x, v)`` at ``t``."""
-        x, v, _ = state_and_decay(
-            t, self.s, self.y, self.u, self.P, self.Q, self.eta, self.zeta, self.wd, self.ops
-        )
-        return x, v
+        (p00, p01, p10, p11), _ = flow_and_decay(t - self.s, self.zeta, self.wd, self.ops)
+        xp, vp = forced_response(t, self.P, self.Q, self.eta, self.ops)
+        return xp + (p00 * self.y + p01 * self.u), vp + (p10 * self.y + p11 * self.u)
 
     def amplitude(self) -> Any:
         """``A`` with ``|y^(k)(tau)| <= A e^(-zeta tau)`` for every ``k`` (``c0 = 1``)."""

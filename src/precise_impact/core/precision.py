@@ -99,7 +99,8 @@ class Precision:
     def ops(self) -> Any:
         """The closed-form flight's arithmetic in this precision
         (:mod:`precise_impact.core.flight`): float64 through :mod:`math`, ``mp:BITS`` through
-        mpmath at ``BITS`` (its own working precision, not the process-global one).
+        mpmath at ``BITS`` inside ``ops.context()``, which sets mpmath's process-global
+        precision for its duration (so not for concurrent threads of mpmath work).
 
         Raises
         ------

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.errors import IntegrationError
 
 __all__ = [
@@ -242,8 +243,6 @@ def attribute(
            (Floquet multipliers of impacting orbits).
     .. [2] B. L. Welch, Biometrika 34 (1947) 28-35 (unequal-variance comparison of means).
     """
-    from precise_impact.analysis.lyapunov.result import means_stderr
-
     params = result.params
     T = 2 * math.pi / float(params.eta)
     n = len(tails)
@@ -285,8 +284,6 @@ def _per_start(
 ) -> list[dict]:
     """Step 1 of :func:`attribute`: each start's LLE, its batch-means error, impact rate and
     the rate's error (floor ``1 / N``: an integer count over ``N`` periods)."""
-    from precise_impact.analysis.lyapunov.result import means_stderr
-
     n = len(blocks)
     starts = []
     for j in range(n):
