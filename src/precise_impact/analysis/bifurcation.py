@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.lyapunov.result import means_stderr
+from precise_impact.analysis.lyapunov.variational import variational_spectrum
 from precise_impact.analysis.scan import (
     PointJob,
     check_axis,
@@ -248,8 +249,6 @@ def _fast_point(params: Params, periods: int, transient: int) -> tuple:
 def _heyoka_point(params: Params, periods: int, transient: int) -> tuple:
     """One eta value by the heyoka variational method (the same four values)."""
     # heyoka is imported on first use, not with the package
-    from precise_impact.analysis.lyapunov.variational import variational_spectrum
-
     r = variational_spectrum(
         params, periods=periods, transient=transient, initial_conditions=1, segments=10
     )

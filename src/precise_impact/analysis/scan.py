@@ -32,6 +32,7 @@ from precise_impact.core.precision import Precision
 from precise_impact.errors import OptionalDependencyError, ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.progress import Progress, ProgressArg, check_progress
+from precise_impact.io.progress import say as _say
 from precise_impact.solvers.base import ENGINES
 
 __all__ = [
@@ -380,8 +381,6 @@ def run_scan(
         Ctrl-C (or SIGTERM through the CLI): the pending tiles are cancelled, every tile
         finished before is kept (written to ``store``), then the interrupt propagates.
     """
-    from precise_impact.io.progress import say as _say
-
     progress = check_progress(progress)
     tile_size = check_count(tile_size, "tile_size", 10**9, minimum=1)
     if unit not in ("points", "tiles"):

@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.batch import batch_lle, default_batch_size
+from precise_impact.analysis.lyapunov.fast import ROW_FIELDS, fast_batch_rows
 from precise_impact.analysis.scan import Grid, NpzTileStore, resolve_model, run_scan
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
@@ -134,8 +136,6 @@ class SweepSpec:
         ParameterError
             Bad axis name, range, count or a budget exceeded.
         """
-        from precise_impact.analysis.lyapunov.batch import default_batch_size
-
         base = as_params(base, "base")
         if isinstance(axes, (str, bytes)) or not isinstance(axes, Sequence):
             raise ParameterError(
@@ -224,8 +224,6 @@ class SweepSpec:
         :data:`~precise_impact.analysis.lyapunov.fast.ROW_FIELDS`), each value rounded once
         from its exact decimal, as ``float(self.point(k).name)`` (no Params per point:
         the corners were validated by :meth:`make` and the axes are monotone)."""
-        from precise_impact.analysis.lyapunov.fast import ROW_FIELDS
-
         row = {n: float(getattr(self.base, n)) for n in ROW_FIELDS}
         out = np.empty((hi - lo, len(ROW_FIELDS)))
         out[:] = [row[n] for n in ROW_FIELDS]
@@ -264,8 +262,6 @@ def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
     lo = tile * spec.tile_size
     hi = min(spec.n_points, lo + spec.tile_size)
     if spec.engine == "fast":
-        from precise_impact.analysis.lyapunov.fast import fast_batch_rows
-
         res = fast_batch_rows(
             spec.rows(lo, hi),
             lambda idx: [spec.point(lo + i) for i in idx],
@@ -273,8 +269,6 @@ def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
             transient=spec.transient,
         )
     else:
-        from precise_impact.analysis.lyapunov.batch import batch_lle
-
         pts = [spec.point(k) for k in range(lo, hi)]
         res = batch_lle(
             pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size

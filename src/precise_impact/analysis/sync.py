@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.analysis.scan import check_axis, check_workers, resolve_model, run_scan
 from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.params import (
@@ -416,8 +417,6 @@ def _single_lle(
     ``lle_periods = 0``)."""
     lle = lle_se = math.nan
     if lle_periods > 0:
-        from precise_impact.analysis.lyapunov import lyapunov
-
         lr = lyapunov(
             params,
             "variational",

@@ -13,6 +13,8 @@ import os
 import warnings
 from typing import Any
 
+from precise_impact.core.params import exact
+from precise_impact.core.precision import Precision
 from precise_impact.errors import OverBudgetError, ParameterError
 
 __all__ = [
@@ -144,8 +146,6 @@ def estimate_cost(
     >>> round(c.seconds, 3), c.what
     (1.764, '4 x 21000 periods in float64')
     """
-    from precise_impact.core.precision import Precision
-
     if isinstance(job, Precision):  # the 0.x signature (precision, periods, per_period, ...)
         warnings.warn(
             "estimate_cost(precision, periods, ...) is deprecated: use run_cost(precision, "
@@ -265,8 +265,6 @@ def check_cost(
 
 def parse_max_time(value) -> float:
     """``--max-time`` as seconds: a decimal with ``1 <= value <= MAX_TIME``."""
-    from precise_impact.core.params import exact
-
     q = exact("max_time", value, max_exponent=10)
     if not 1 <= q <= MAX_TIME:
         raise ParameterError("max_time", value, f"seconds with 1 <= max_time <= {MAX_TIME:g}")

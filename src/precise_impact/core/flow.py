@@ -16,6 +16,8 @@ from typing import Any
 import mpmath
 
 from precise_impact.core.flight import steady_coefficients
+from precise_impact.core.params import as_params, check_count
+from precise_impact.errors import ParameterError
 
 __all__ = ["acceleration", "SteadyState", "steady_state", "grazing_frequencies"]
 
@@ -124,13 +126,9 @@ def steady_state(params) -> SteadyState:
     >>> ss.P, ss.eta * ss.Q
     (Fraction(102, 53), Fraction(49, 265))
     """
-    from precise_impact.core.params import as_params
-
     params = as_params(params)
     eta, zeta, a = params.eta, params.zeta, params.a
     if (1 - eta**2) ** 2 + (2 * zeta * eta) ** 2 == 0:
-        from precise_impact.errors import ParameterError
-
         raise ParameterError(
             "zeta",
             "0",
@@ -175,8 +173,6 @@ def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
     >>> [round(float(e), 6) for e in etas]
     [0.710687, 1.218574]
     """
-    from precise_impact.core.params import as_params, check_count
-
     params = as_params(params)
     dps = check_count(dps, "dps", 10_000, minimum=1)
     with mpmath.workdps(dps):

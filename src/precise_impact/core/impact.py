@@ -13,7 +13,7 @@ from typing import Any
 
 import mpmath
 
-from precise_impact.core.flow import acceleration
+from precise_impact.core.flow import acceleration, steady_state
 from precise_impact.core.params import I_A, I_ETA, I_XW
 from precise_impact.errors import ParameterError
 
@@ -331,8 +331,6 @@ def steady_amplitude(params) -> float:
     At the undamped resonance (``zeta = 0``, ``eta = 1``: no steady state) ``|a|``.
     """
     import math
-
-    from precise_impact.core.flow import steady_state
 
     try:
         return math.sqrt(float(steady_state(params).amplitude_squared))

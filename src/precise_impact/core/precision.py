@@ -17,6 +17,8 @@ import numpy as np
 from mpmath import libmp
 
 from precise_impact.core import flight
+from precise_impact.core.clock import sample_times
+from precise_impact.core.params import check_tol
 from precise_impact.errors import ParameterError
 
 __all__ = ["Precision", "PRECISION_HELP", "MAX_MP_BITS", "has_quad", "quad_or_mp"]
@@ -200,8 +202,6 @@ class Precision:
         ``None`` means the precision's epsilon (heyoka's default).  A tolerance below
         epsilon cannot be met in this precision and is refused, naming the range.
         """
-        from precise_impact.core.params import check_tol
-
         q = check_tol(tol, name)
         if q is not None and q < self.eps_fraction:
             raise ParameterError(
@@ -311,8 +311,6 @@ class Precision:
         list
             ``periods * per_period + 1`` numbers of this precision.
         """
-        from precise_impact.core.clock import sample_times
-
         return sample_times(self, t0, eta, periods, per_period)
 
     def __str__(self) -> str:

@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.params import Params, decimal_str
+from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write, write_json
 
@@ -30,9 +32,6 @@ _NOT_A_LEAF = object()
 
 def _leaf_jsonable(obj: Any) -> Any:
     """``obj`` as one JSON value if it is a scalar-like leaf, else the ``_NOT_A_LEAF`` marker."""
-    from precise_impact.core.params import Params, decimal_str
-    from precise_impact.core.precision import Precision
-
     if obj is None or isinstance(obj, (bool, str, int)):
         return obj
     if isinstance(obj, float):

@@ -13,6 +13,7 @@ import numpy as np
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write, write_json
 
 __all__ = ["Trajectory", "atomic_write"]
@@ -180,8 +181,6 @@ class Trajectory(ResultMixin):
         elif path.suffix == ".json":
             write_json(path, self.to_dict(), indent=None)
         else:
-            from precise_impact.errors import ParameterError
-
             raise ParameterError("out", str(path), "output file must end in .npz, .csv or .json")
         return path
 

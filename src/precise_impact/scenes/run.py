@@ -12,7 +12,14 @@ from precise_impact.core.params import decimal_str
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
+from precise_impact.models.circuit.coupled import simulate_coupled_circuit
+from precise_impact.models.circuit.effects.tolerance import actual_components
+from precise_impact.models.circuit.opamp import CircuitSolver
+from precise_impact.models.circuit.spice import run_spice
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.scenes.scene import Scene
+from precise_impact.solvers.base import make_solver
+from precise_impact.solvers.heyoka.coupled import simulate_coupled
 
 __all__ = ["run_scene", "scene_json"]
 
@@ -67,9 +74,6 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
     if scene.kind == "coupled":
         y0 = (scene.params.x0 + 1, scene.params.v0)  # the slave starts one unit away (paper Fig. 7)
         if scene.model == "circuit":
-            from precise_impact.models.circuit.coupled import simulate_coupled_circuit
-            from precise_impact.models.circuit.effects.tolerance import actual_components
-
             design = scene.design()
             actual = actual_components(design, scene.effects)
             return simulate_coupled_circuit(
@@ -84,8 +88,6 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
                 precision=P.name,
                 actual=actual,
             )
-        from precise_impact.solvers.heyoka.coupled import simulate_coupled
-
         return simulate_coupled(
             scene.params,
             scene.k,
@@ -96,21 +98,13 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
             precision=P.name,
         )
     if scene.model in ("heyoka", "analytical"):
-        from precise_impact.solvers.base import make_solver
-
         solver = make_solver(scene.model, P, scene.tol)
         return solver.solve(scene.params, scene.periods, per_period=scene.per_period)
     if scene.model == "circuit":
-        from precise_impact.models.circuit.opamp import CircuitSolver
-
         s = CircuitSolver(P, scene.tol, scene.effects)
     elif scene.model == "switched-capacitor":
-        from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
-
         s = SwitchedCapacitorSolver(P, scene.tol, scene.effects)
     else:
-        from precise_impact.models.circuit.spice import run_spice
-
         p = scene.params
         kw = {} if scene.tmax is None else {"tmax": float(scene.tmax)}
         res = run_spice(

@@ -18,9 +18,10 @@ from typing import Any
 from precise_impact.core.params import PARAM_NAMES, Params, check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
-from precise_impact.models.circuit.components import nominal_components
+from precise_impact.models.circuit.components import exact_omega, nominal_components
 from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
 from precise_impact.solvers.base import MODEL_ALIASES
+from precise_impact.solvers.heyoka.coupled import check_form, check_k
 
 __all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
 
@@ -219,8 +220,6 @@ def _build(data: Mapping, source: str) -> Scene:
     )
     scene._raw = data
     if model in ("circuit", "switched-capacitor", "spice"):
-        from precise_impact.models.circuit.components import exact_omega
-
         exact_omega(scene.design())  # the design must map exactly onto the dimensionless system
     return scene
 
@@ -232,8 +231,6 @@ def _system_section(system: Mapping):
         raise ParameterError("system.kind", kind, "'single' or 'coupled'")
     form = k = None
     if kind == "coupled":
-        from precise_impact.solvers.heyoka.coupled import check_form, check_k
-
         form = check_form(system.get("form", "first-order"))
         k = check_k(system.get("k", "0.032"), "system.k")
     elif "form" in system or "k" in system:

@@ -20,9 +20,11 @@ __all__ = [
 ]
 
 from precise_impact.core.params import Params
+from precise_impact.io.atomic import sha256_file as _sha256
 from precise_impact.io.atomic import write_json
 from precise_impact.solvers.certified.single import certify, exact_value
 from precise_impact.verification.reference import CERTIFICATE_FILE as CERTIFICATE  # noqa: E402
+from precise_impact.verification.reference import MANIFEST, _versions, read_manifest
 
 #: Working precision of the certificates: radii ~1e-70 after 300 chaotic periods, far below the
 #: references' own errors (1e-54 at eta = 0.712), in ~0.3 s per case.
@@ -113,9 +115,6 @@ def add_certificate(case_dir: str | Path, bits: int = CERTIFICATE_BITS) -> dict:
     dict
         The updated manifest.
     """
-    from precise_impact.io.atomic import sha256_file as _sha256
-    from precise_impact.verification.reference import MANIFEST, _versions, read_manifest
-
     case_dir = Path(case_dir)
     data = json.loads((case_dir / "samples.json").read_text())
     cert = certificate_for(data, bits)

@@ -31,6 +31,7 @@ from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
 from precise_impact.solvers.base import MODEL_ALIASES
 from precise_impact.solvers.simulate import make_solver
 from precise_impact.verification.metrics import reference_bits, sample_errors
+from precise_impact.verification.points import mechanical_points, point_scores
 from precise_impact.verification.scores import detected_period, divergence_rate, score, separation
 
 __all__ = [
@@ -168,8 +169,6 @@ def compare(
     lle = _reference_lle(params, progress)
     ref2 = None
     if regime == "chaotic":
-        from precise_impact.solvers.simulate import make_solver
-
         p2 = params.replace(x0=params.x0 + REF_PERTURBATION)
         ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, periods)
         ref_info["second_reference_x0"] = decimal_str(p2.x0)
@@ -183,8 +182,6 @@ def compare(
         sc["effects_dropped"] = dropped[m]
         sc["effects"] = sorted(scene_for_model(scene, m)[0].effects)
         if mech is not None:
-            from precise_impact.verification.points import point_scores
-
             sc["points"] = point_scores(scene, m, mech)
         results[m] = sc
         _progress(f"{m}: " + _one_line(sc), progress)
@@ -249,8 +246,6 @@ def _reference_lle(params: Any, progress: bool | None) -> dict[str, Any]:
 
 def _mechanical_points(params: Any, ref_info: dict[str, Any]) -> dict[str, Any]:
     """The mechanics' grazing and period-doubling points, also recorded in ``ref_info``."""
-    from precise_impact.verification.points import mechanical_points
-
     mech = mechanical_points(params)
     ref_info["points"] = {
         "grazing": mech["grazing"],

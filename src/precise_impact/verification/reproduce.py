@@ -25,6 +25,7 @@ from precise_impact.io.figures import figure as new_fig
 from precise_impact.io.progress import say as _say
 from precise_impact.models.circuit.components import nominal_components
 from precise_impact.models.circuit.opamp import CircuitSolver
+from precise_impact.models.circuit.spice import run_spice
 from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.scenes.scene import load_scene
 from precise_impact.solvers.simulate import simulate
@@ -209,8 +210,6 @@ def _figure_models(fig: str, p: Params, periods: int, spice: bool) -> dict[str, 
         ),
     }
     if spice:
-        from precise_impact.models.circuit.spice import run_spice
-
         models["ngspice (TMAX 10 us)"] = run_spice(
             design, {}, periods, tmax=10e-6, dense=True
         ).to_trajectory()

@@ -29,6 +29,9 @@ from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.io.progress import say as _progress
+from precise_impact.models.circuit.components import nominal_components
+from precise_impact.models.circuit.opamp import CircuitSolver
+from precise_impact.models.circuit.spice import run_spice
 from precise_impact.solvers.closed_form import AnalyticalSolver
 from precise_impact.solvers.heyoka.single import HeyokaSolver
 from precise_impact.verification.metrics import reference_bits
@@ -423,9 +426,6 @@ def _spice_rows(run: _CaseRun, cfg: dict, notes: list[str]) -> None:
     if not cfg["spice_tmax"]:
         return
     if shutil.which("ngspice"):
-        from precise_impact.models.circuit.components import nominal_components
-        from precise_impact.models.circuit.spice import run_spice
-
         comps = nominal_components(run.params)
         for tmax in cfg["spice_tmax"]:
             res, el, n = _timed(partial(run_spice, comps, {}, run.periods, tmax=tmax), run.budget)
@@ -557,9 +557,6 @@ def _headlines(rows: list[dict], cfg: dict, progress: bool) -> dict[str, Any]:
         "heyoka_vs_dop853_target": 100.0,
     }
     if cfg.get("circuit"):
-        from precise_impact.models.circuit.components import nominal_components
-        from precise_impact.models.circuit.opamp import CircuitSolver
-
         spec = cfg["cases"]["periodic"]
         p = Params.make(eta=spec["eta"])
         comps = nominal_components(p)

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 from typing import Any
 
+from precise_impact.analysis.lyapunov.fast import fast_spectrum
 from precise_impact.analysis.lyapunov.result import (
     Attractor,
     LyapunovResult,
     StartEstimate,
     block_stderr,
 )
+from precise_impact.analysis.lyapunov.two_trajectory import two_trajectory_lle
+from precise_impact.analysis.lyapunov.variational import variational_spectrum
 from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.compat import warn_renamed
 from precise_impact.core.params import Params, as_params, check_count
@@ -141,15 +144,9 @@ def lyapunov(
             runs=None if starts is None else check_count(starts, "initial_conditions"),
         )
     if engine == "variational":
-        from precise_impact.analysis.lyapunov.variational import variational_spectrum
-
         return variational_spectrum(params, **kwargs)
     if engine == "fast":
-        from precise_impact.analysis.lyapunov.fast import fast_spectrum
-
         return fast_spectrum(params, **kwargs)
     if engine == "two-trajectory":
-        from precise_impact.analysis.lyapunov.two_trajectory import two_trajectory_lle
-
         return two_trajectory_lle(params, **kwargs)
     raise ParameterError("method", method, "one of " + ", ".join(LYAPUNOV_METHODS))

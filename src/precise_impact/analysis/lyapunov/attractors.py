@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.lyapunov.result import means_stderr
+from precise_impact.analysis.orbits.newton import find_orbit
+from precise_impact.analysis.periodicity import detect_period
 from precise_impact.errors import IntegrationError
 
 __all__ = [
@@ -316,9 +318,6 @@ def _periodic_groups(
 ) -> tuple[list[dict], list[int]]:
     """Step 2: starts whose tails are periodic, refined by Newton and grouped by orbit (one
     Newton run per orbit); the others are returned as ``loose`` indices."""
-    from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.analysis.periodicity import detect_period
-
     groups: list[dict] = []
     loose: list[int] = []
     for j, (xs, vs) in enumerate(tails):

@@ -18,7 +18,10 @@ from precise_impact.analysis.lyapunov.attractors import (
     TEST_BLOCKS,
     attribute,
 )
+from precise_impact.analysis.lyapunov.batch import batch_lle
 from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr
+from precise_impact.analysis.lyapunov.variational import variational_spectrum
+from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import ParameterError
 from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
@@ -128,8 +131,6 @@ def fast_spectrum(
         )
 
     def variational() -> LyapunovResult:
-        from precise_impact.analysis.lyapunov.variational import variational_spectrum
-
         return variational_spectrum(
             params,
             periods=per * n,
@@ -294,7 +295,6 @@ def fast_batch_rows(
     list of dict
         As :func:`fast_batch`.
     """
-    from precise_impact.analysis.periodicity import detect_period
     from precise_impact.solvers.fast.lle import lle_batch, lle_batch_serial
     from precise_impact.solvers.fast.single import STATUS_OK
 
@@ -338,8 +338,6 @@ def fast_batch_rows(
         return results
 
     def variational(indices) -> list:
-        from precise_impact.analysis.lyapunov.batch import batch_lle
-
         return batch_lle(
             fallback_points(indices),
             periods=periods,

@@ -17,6 +17,7 @@ from typing import Any
 import mpmath
 import numpy as np
 
+from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 from precise_impact.core.clock import local_clock
 from precise_impact.core.params import RUNTIME_PARAMS, Params, as_params, exact
@@ -297,8 +298,6 @@ def _attribute_strobe(
 ) -> None:
     """Identify the fiducial orbit's attractor from its last stroboscopic samples
     (:func:`~precise_impact.analysis.lyapunov.attractors.attribute`)."""
-    from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
-
     tail = strobe[-3 * MAX_PERIOD :]
     attribute(
         result,

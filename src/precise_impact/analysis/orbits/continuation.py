@@ -15,10 +15,11 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.orbits.branch import Bifurcation, Branch, ContinuationResult
+from precise_impact.analysis.orbits.newton import find_orbit
 from precise_impact.analysis.orbits.result import area_preserving, classify
 from precise_impact.analysis.orbits.shooting import CONTINUABLE, ShootingSystem, from_orbit
 from precise_impact.core.params import Params, check_count, exact, params_or_values
-from precise_impact.errors import ParameterError
+from precise_impact.errors import ConvergenceError, ParameterError
 from precise_impact.io.progress import Progress
 
 __all__ = ["continue_orbit"]
@@ -413,8 +414,6 @@ def continue_orbit(
     >>> res.parameter, res.branches[0].period
     ('eta', 1)
     """
-    from precise_impact.analysis.orbits.newton import find_orbit
-
     t_start = time.perf_counter()
     params = params_or_values(params, param_values)
     p_start, lam0, lam1 = _check_range(params, parameter, start, stop)
@@ -524,8 +523,6 @@ def _check_ends(parameter: str, p_start: Params, lam0: Any, lam1: Any) -> None:
 
 def _first_point(p_start: Params, parameter: str, period: int, orbit: Any, lam0: Any, lam1: Any):
     """The branch through ``orbit`` and its first point, the tangent pointing towards ``lam1``."""
-    from precise_impact.analysis.orbits.newton import ConvergenceError
-
     base = {k: float(getattr(p_start, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")}
     system = ShootingSystem(base, parameter, period, orbit.impacts)
     u0 = from_orbit(system, p_start, orbit.x, orbit.v, float(lam0))

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.orbits.one_impact import flow_matrix, one_impact_orbits
 from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.impact import oscillator_saltation
@@ -72,8 +73,6 @@ def _map_mp(params: Params, z: tuple, period: int, bits: int):
     the flights and impacts, the closed-form flow and saltation matrices the Jacobian."""
     import mpmath
 
-    from precise_impact.analysis.orbits.one_impact import flow_matrix
-
     P = Precision.parse(f"mp:{bits}")
     q = params.replace(x0=_fraction(z[0]), v0=_fraction(z[1]))
     tr = AnalyticalSolver(finder="robust", precision=f"mp:{bits}").solve(q, period)
@@ -130,8 +129,6 @@ def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations
 def _closed_form_seed(params: Params, period: int, near: np.ndarray | None):
     """The closed-form 1:``period`` orbit (:func:`one_impact_orbits`) to start Newton from:
     the one nearest ``near``, else the stable one, else the least unstable; ``None`` if none."""
-    from precise_impact.analysis.orbits.one_impact import one_impact_orbits
-
     if not (0 <= params.zeta < 1 and 0 < params.R <= 1):
         return None
     found = one_impact_orbits(params, dps=30, period=period)

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
+from precise_impact.analysis.orbits.newton import find_orbit
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.core.result import ResultMixin
@@ -172,8 +173,6 @@ def prove_orbit(
     >>> po.period, po.impacts, po.bits
     (1, 0, 256)
     """
-    from precise_impact.analysis.orbits.newton import find_orbit
-
     t_start = time.perf_counter()
     params = params_or_values(params, param_values)
     period = check_count(period, "period", 1000, minimum=1)

@@ -18,7 +18,7 @@ from precise_impact.core.params import Params, check_count, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import BudgetExceededError, ParameterError
-from precise_impact.models.circuit.components import Components, dimensionless
+from precise_impact.models.circuit.components import Components, dimensionless, nominal_components
 from precise_impact.models.circuit.network import NETWORK_PARS
 from precise_impact.models.circuit.opamp import design_omega
 from precise_impact.solvers.base import PRECISION_KINDS, Capabilities, register_coupled_model
@@ -309,8 +309,6 @@ class CircuitCoupledSolver:
         per_period: int = 0,
     ) -> CoupledCircuitTrajectory:
         """Simulate the circuit pair (:func:`~precise_impact.simulate_coupled`)."""
-        from precise_impact.models.circuit.components import nominal_components
-
         if form != CIRCUIT_COUPLED_FORM:
             raise ParameterError("form", form, f"{CIRCUIT_COUPLED_FORM!r} for the circuit model")
         if params.R != 1:

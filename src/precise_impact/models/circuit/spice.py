@@ -26,7 +26,13 @@ from precise_impact.core.params import check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import NgspiceNotFoundError, ParameterError, SpiceError
-from precise_impact.models.circuit.components import Components, to_circuit, to_mechanical
+from precise_impact.models.circuit.components import (
+    Components,
+    design_and_start,
+    dimensionless,
+    to_circuit,
+    to_mechanical,
+)
 from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
 from precise_impact.models.circuit.effects.tolerance import (
     E24,
@@ -601,8 +607,6 @@ class SpiceResult:
 
         ``params`` defaults to ``dimensionless(components)`` (needs a rational omega).
         """
-        from precise_impact.models.circuit.components import dimensionless
-
         if params is None:
             params = dimensionless(
                 self.components, x0=self.stats["x0"], v0=self.stats["v0"], t0=self.stats["t0"]
@@ -951,8 +955,6 @@ class SpiceSolver:
         SpiceError
             ngspice failed or timed out.
         """
-        from precise_impact.models.circuit.components import design_and_start
-
         design, x0, v0, t0 = design_and_start(params, x0, v0, t0)
         res = run_spice(
             design,
