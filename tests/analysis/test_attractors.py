@@ -186,6 +186,7 @@ def test_chaotic_estimate_is_untouched():
     assert [g["kind"] for g in r.stats["attractors"]] == ["not periodic"]
 
 
+@pytest.mark.slow  # over ~10 s on 2 cores: CI runs the slow tests in a step of their own
 def test_chaotic_error_bars_cover_the_long_run_value_at_the_stated_rate():
     """100 runs of 20000 periods (4 starts, 20 batch-means blocks each) from different x0 against
     the 800 000-period value: |z| = |lle - ref| / sqrt(se^2 + se_ref^2) must be below 1 and 2 at

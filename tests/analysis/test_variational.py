@@ -16,7 +16,9 @@ def mpq(q: Fraction):
     return mpmath.mpf(q.numerator) / q.denominator
 
 
-@pytest.mark.parametrize("precision", ["float64", "float128"])
+@pytest.mark.parametrize(
+    "precision", ["float64", pytest.param("float128", marks=pytest.mark.slow)]  # float128: ~10 s
+)
 def test_non_impacting_orbit_has_lle_minus_zeta(precision):
     """eta = 0.70 after the transient: no impacts, both exponents -> -zeta.
 
@@ -56,6 +58,7 @@ def test_exponents_sum_to_trace_plus_impact_term(R):
     assert abs(sum(r.spectrum) - expected) <= 1e-12
 
 
+@pytest.mark.slow  # over ~10 s on 2 cores: CI runs the slow tests in a step of their own
 def test_period3_lle_equals_floquet_multipliers():
     """eta = 0.74: the period-3 orbit's LLE from its monodromy matrix (mpmath, 60 digits).
 

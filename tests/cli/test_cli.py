@@ -292,6 +292,7 @@ def test_sweep_cli_resumes(tmp_path):
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: R_max = ")
 
 
+@pytest.mark.slow  # over ~10 s on 2 cores: CI runs the slow tests in a step of their own
 def test_reproduce_quick_main_job(tmp_path):
     """The README's first command: report.md with every figure, the LLE and the sync thresholds."""
     r = run("reproduce", "--quick", "--out", str(tmp_path))
