@@ -101,3 +101,35 @@ def test_bifurcation_low_eta_gives_minus_zeta():
         progress=False,
     )
     assert np.all(np.abs(b.lle + 0.05) < _finite_time_bound(0.05, 6 * 2 * math.pi / 0.005))
+
+
+@pytest.mark.parametrize("model", ["heyoka", "fast"])
+def test_overdamped_runs_with_attractors_and_in_sync_scan(model):
+    # before: 'zeta = 3/2 is not allowed: 0 <= zeta < 1 for the orbit finder' once the tails
+    # were long enough for the attractor step's Newton refinement (>= 3 * 32 periods per start)
+    z = 1.5
+    p = pi.Params.make(zeta="1.5")  # overdamped: the orbit stays off the wall x_w = 2
+    r = pi.lyapunov(p, model=model, periods=4 * 100, transient=10)
+    assert r.stats["lle_source"] == "finite-time"  # no orbit finder: the finite-time value
+    bound = _finite_time_bound(z, 100 * 2 * math.pi / 0.712)
+    assert abs(r.spectrum[0] - (-z + math.sqrt(z * z - 1))) < bound
+    assert abs(r.spectrum[1] - (-z - math.sqrt(z * z - 1))) < bound
+    from precise_impact.analysis.sync import sync_scan
+
+    s = sync_scan(p, "first-order", ["0.02"], periods=20, ensemble=2, lle_periods=400, model=model)
+    assert abs(s.lle - r.spectrum[0]) < bound
+
+
+def test_reversed_ranges_run_in_the_order_given(tmp_path):
+    # before: sweep / bifurcation --eta 0.8 0.7 3 refused ('eta_max must be > eta_min')
+    p = pi.Params.make()
+    kw = dict(periods=20, transient=10)
+    b = pi.bifurcation(p, ("eta", "0.8", "0.7", 3), workers=1, progress=False, **kw)
+    f = pi.bifurcation(p, ("eta", "0.7", "0.8", 3), workers=1, progress=False, **kw)
+    assert [str(e) for e in b.eta] == ["4/5", "3/4", "7/10"]
+    assert list(b.lle) == list(f.lle[::-1])  # each point alone: the same numbers
+    spec = pi.SweepSpec.make(p, [("eta", "0.8", "0.7", 3)], **kw)
+    res = pi.run_sweep(spec, tmp_path, workers=1, progress=False)
+    assert [float(v) for v in spec.axes[0][1]] == [0.8, 0.75, 0.7]
+    assert list(res.lle) == list(f.lle[::-1])
+    assert (tmp_path / "sweep.csv").read_text().splitlines()[1].startswith("0.8,")
