@@ -133,3 +133,64 @@ def test_reversed_ranges_run_in_the_order_given(tmp_path):
     assert [float(v) for v in spec.axes[0][1]] == [0.8, 0.75, 0.7]
     assert list(res.lle) == list(f.lle[::-1])
     assert (tmp_path / "sweep.csv").read_text().splitlines()[1].startswith("0.8,")
+
+
+def _exact_sum(zeta: float, R: float, impacts: int, time: float) -> float:
+    return -2 * zeta + (impacts / time) * (2 * math.log(R) if R > 0 else -math.inf)
+
+
+def test_fast_kernel_spectrum_sum_is_exact_on_random_systems():
+    # before: 15 of 600 starts (x_w < 0: slow impacts, saltation ~1/v, parallel columns)
+    # missed lambda1 + lambda2 = -2 zeta + rate ln R^2 by up to 1e-6, or gave lambda2 = -inf
+    from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch_serial
+
+    rng = np.random.default_rng(1)
+    eps = np.finfo(float).eps
+    checked = 0
+    for _ in range(300):
+        eta, zeta, a = rng.uniform(0.3, 3), rng.uniform(0, 0.3), rng.uniform(0.2, 2)
+        xw, R = rng.uniform(-1.5, 1.5), rng.uniform(0, 1)
+        vals = [f"{v:.3f}" for v in (eta, zeta, a, xw, R, min(0.0, xw - 1))]
+        p = pi.Params.make(**dict(zip(("eta", "zeta", "a", "x_w", "R", "x0"), vals, strict=True)))
+        periods, transient = 200, 20
+        pars, starts = kernel_inputs(p, 2)
+        st, l1, l2, imps, *_ = lle_batch_serial(pars, starts, periods, transient, 10, 10**6, 10)
+        T = 2 * math.pi / float(p.eta)
+        z, r = float(p.zeta), float(p.R)
+        for j in range(2):
+            if st[j] != 0:  # not resolved by the kernel (a contact): heyoka's case
+                continue
+            checked += 1
+            got = (l1[j] + l2[j]) / (periods * T)
+            want = _exact_sum(z, r, int(imps[j]), periods * T)
+            if math.isinf(want):
+                assert got == want
+                continue
+            # each QR adds ln det = D - 2 zeta (t_s - t_anchor) with D = 2 zeta (t - t'):
+            # a few roundings of numbers up to 2 zeta t_end + |ln R^2| per QR or impact,
+            # at most one QR per sample plus one per impact
+            n_terms = periods + transient + 2 * int(imps[j]) + 2
+            t_end = (periods + transient) * T
+            tol = 8 * eps * n_terms * (1 + 2 * z * t_end + abs(2 * math.log(r))) / (periods * T)
+            assert abs(got - want) <= tol, (p.decimal(), got, want, tol)
+    assert checked > 300
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(eta="1.137", x_w="-0.97", x0="-1.97"),  # before: spectrum (0.4667, -inf)
+        dict(eta="1000"),  # before: lambda1 = -0.050022 < lambda2 = -0.049978
+        dict(eta="0.712", R="0.8", x_w="-0.2", x0="-1.2"),
+    ],
+)
+def test_fast_spectrum_is_sorted_and_sums_exactly(kw):
+    p = pi.Params.make(**kw)
+    r = pi.lyapunov(p, model="fast", periods=800, transient=50, attractors=False)
+    assert r.stats["engine"] == "fast"
+    lam1, lam2 = r.spectrum
+    assert lam1 >= lam2 and r.lle == lam1
+    T = 2 * math.pi / float(p.eta)
+    want = _exact_sum(float(p.zeta), float(p.R), r.n_impacts, r.periods * T)
+    # as the random test's bound: ~1e4 terms of ~1e-15 each, over t >= 5
+    assert abs(lam1 + lam2 - want) < 1e-12

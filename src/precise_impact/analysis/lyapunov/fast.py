@@ -193,6 +193,7 @@ def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out)
             impact_blocks=rates,
             periods=[per] * n,
         )
+    result.order_spectrum()
     return result
 
 

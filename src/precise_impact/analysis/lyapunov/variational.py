@@ -318,4 +318,5 @@ def variational_spectrum(
     )
     if attractors:
         _attribute_starts(result, (L1, L2, DT), test_blocks, tails, rates, P, per_orbit)
+    result.order_spectrum()
     return result

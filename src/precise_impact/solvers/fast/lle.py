@@ -97,6 +97,13 @@ def lle_orbit(
     c00, c01, c10, c11 = 1.0, 0.0, 0.0, 1.0  # the basis at the last sample
     log1 = 0.0
     log2 = 0.0
+    # ln det W, tracked exactly: det Phi(dt) = exp(-2 zeta dt) (Liouville), det S = R^2.  The
+    # second exponent's log at a QR is ln det(Phi W) - ln r11, not ln r22 of Gram-Schmidt:
+    # after slow impacts (saltation ~1/v) the columns are parallel to rounding and r22 was
+    # cancellation noise or 0 (measured: eta = 1.137, x_w = -0.97, R = 1: lambda2 = -inf
+    # where lambda1 + lambda2 = -2 zeta exactly)
+    D = 0.0
+    lnR2 = 2.0 * math.log(R) if R > 0.0 else -math.inf
     n_imp = 0
     n_meas = 0
     total = transient + periods
@@ -151,18 +158,22 @@ def lle_orbit(
                     det = p00 * p11 - p01 * p10
                     W01, W11 = (p11 * u0 - p01 * u1) / det, (p00 * u1 - p10 * u0) / det
                 c00, c10, c01, c11 = q0, q1, u0, u1
+                ts = sample_time(t0, T, 1, k)
                 if k > transient:
                     l1 = math.log(r11)
                     log1 += l1
-                    log2 += math.log(r22) if r22 > 0.0 else -math.inf
+                    log2 += (D - 2.0 * zeta * (ts - t)) - l1
                     j = (k - transient - 1) // per_block
                     if j < blocks:
                         block_sums[j] += l1
+                D = 2.0 * zeta * (ts - t)  # det(Phi W) = det(q u) = 1 after the QR
             k += 1
         if st != STATUS_OK:
             return st, log1, log2, n_meas, x, v
         if not hit:  # re-anchor at the last sample
-            t, x, v = sample_time(t0, T, 1, k - 1), buf[ns - 1, 0], buf[ns - 1, 1]
+            ts = sample_time(t0, T, 1, k - 1)
+            D -= 2.0 * zeta * (ts - t)
+            t, x, v = ts, buf[ns - 1, 0], buf[ns - 1, 1]
             W00, W01, W10, W11 = c00, c01, c10, c11
             continue
         if vc < v_floor:
@@ -170,6 +181,7 @@ def lle_orbit(
         # the basis just before the impact, then through the saltation matrix
         s00, s01, s10, s11 = compiled_saltation(tc, vc, eta, zeta, a, xw, R)
         W00, W01, W10, W11 = mul2(s00, s01, s10, s11, *mul2(F00, F01, F10, F11, W00, W01, W10, W11))
+        D += lnR2 - 2.0 * zeta * (tc - t)
         n_imp += 1
         if k > transient:  # the impact lies before sample k: measured period k - transient
             n_meas += 1
