@@ -15,6 +15,7 @@ __all__ = [
     "ParameterError",
     "BudgetExceededError",
     "OverBudgetError",
+    "EndlessBouncesError",
     "OptionalDependencyError",
     "MissedImpactError",
     "SpiceError",
@@ -75,6 +76,17 @@ class BudgetExceededError(PreciseImpactError, RuntimeError):
     """
 
 
+class EndlessBouncesError(BudgetExceededError):
+    """``R = 1`` bounces on the wall under a force into it, predicted to come to rest or to
+    outrun the impact budget (:func:`~precise_impact.core.impact.elastic_bounce_count`):
+    refused at the first short flight, exit status 3.  Scans record it per point.
+
+    See Also
+    --------
+    precise_impact.errors.BudgetExceededError : its base.
+    """
+
+
 class OverBudgetError(ParameterError, BudgetExceededError):
     """A request whose estimated cost exceeds its budget, refused before any work.
 
@@ -119,16 +131,6 @@ class OptionalDependencyError(PreciseImpactError, RuntimeError):
         super().__init__(
             f"{purpose} needs {component}, which is not installed; install it with: {install}"
         )
-
-
-class MissedImpactError(PreciseImpactError, RuntimeError):
-    """The guard found a maximum of ``x`` beyond the wall that no impact event caught.
-
-    See Also
-    --------
-    precise_impact.errors.IntegrationError : another engine failure.
-    precise_impact.solvers.certified.single.certify : a run whose impacts are proven.
-    """
 
 
 class SpiceError(PreciseImpactError, RuntimeError):
@@ -189,6 +191,19 @@ class IntegrationError(PreciseImpactError, RuntimeError):
     precise_impact.errors.PreciseImpactError : the base of every error raised here.
     precise_impact.errors.MissedImpactError : an impact the engine stepped over.
     precise_impact.errors.BudgetExceededError : an impact or step budget exhausted.
+    """
+
+
+class MissedImpactError(IntegrationError):
+    """The guard found a maximum of ``x`` beyond the wall that no impact event caught.
+
+    An :class:`IntegrationError` (the CLI: one line, exit status 3; before 0.3 it escaped
+    the CLI as a traceback).
+
+    See Also
+    --------
+    precise_impact.errors.IntegrationError : another engine failure.
+    precise_impact.solvers.certified.single.certify : a run whose impacts are proven.
     """
 
 

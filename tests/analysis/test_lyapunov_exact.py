@@ -194,3 +194,59 @@ def test_fast_spectrum_is_sorted_and_sums_exactly(kw):
     want = _exact_sum(float(p.zeta), float(p.R), r.n_impacts, r.periods * T)
     # as the random test's bound: ~1e4 terms of ~1e-15 each, over t >= 5
     assert abs(lam1 + lam2 - want) < 1e-12
+
+
+# R = 1, x_w = -1 < -|a|: the force pushes into the wall at all times, the bounces decay to
+# rest on the wall with ever more impacts (docs/numerics.rst, R = 1 with the force into the wall)
+INTO_WALL = dict(R="1", x_w="-1", x0="-2")
+
+
+@pytest.mark.parametrize("model", ["heyoka", "fast"])
+def test_lyapunov_refuses_endless_elastic_bounces(model):
+    # before: heyoka ran to its 10^7-impact budget; fast ran past 90 s (to the speed floor,
+    # then heyoka); bifurcation printed LLEs of 0.65-0.77
+    with pytest.raises(pi.errors.EndlessBouncesError, match="rest on the wall"):
+        pi.lyapunov(pi.Params.make(eta="0.8", **INTO_WALL), model=model, periods=2000)
+
+
+@pytest.mark.parametrize("model", ["fast", "heyoka"])
+def test_scans_write_a_refused_status_not_a_number(model, tmp_path):
+    # before: sweep.csv held lle = -inf (fast) and bifurcation LLEs of 0.65-0.77
+    p = pi.Params.make(**INTO_WALL)
+    spec = pi.SweepSpec.make(p, [("eta", "0.7", "0.9", 3)], periods=200, transient=100, model=model)
+    res = pi.run_sweep(spec, tmp_path, workers=1, progress=False)
+    assert list(res.status) == [1, 1, 1] and np.all(np.isnan(res.lle))
+    rows = (tmp_path / "sweep.csv").read_text().splitlines()
+    assert rows[0].endswith(",status") and all(",nan," in r and "refused" in r for r in rows[1:])
+    b = pi.bifurcation(
+        p,
+        ("eta", "0.7", "0.9", 2),
+        periods=200,
+        transient=100,
+        workers=1,
+        progress=False,
+        model=model,
+    )
+    assert np.all(np.isnan(b.lle)) and all(
+        s.startswith("R = 1 with the net force") for s in b.status
+    )
+    ok = pi.bifurcation(
+        pi.Params.make(),
+        ("eta", "0.7", "0.8", 2),
+        periods=20,
+        transient=10,
+        workers=1,
+        progress=False,
+        model=model,
+    )
+    assert ok.status == ["ok", "ok"] and np.all(np.isfinite(ok.lle))
+
+
+def test_cli_lle_fast_into_the_wall_is_one_line_exit_3(capsys):
+    from precise_impact.cli.main import main
+
+    code = main(["lle", "--model", "fast", "--x_w", "-1", "--x0", "-2", "--periods", "2000"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert (
+        code == 3 and len(err) == 1 and err[0].startswith("precise-impact: budget exceeded: R = 1")
+    )

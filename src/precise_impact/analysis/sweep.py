@@ -37,6 +37,12 @@ __all__ = ["SWEEP_PARAMS", "SweepSpec", "SweepResult", "compute_tile", "run_swee
 #: Runtime parameters a sweep may vary (no recompilation between points).
 SWEEP_PARAMS = ("eta", "x_w", "zeta", "a", "R")
 _FIELDS = ("lle", "stderr", "lambda2", "period", "impacts_per_period")
+#: A point's ``status`` code and its word in ``sweep.csv``: computed, or refused (an ``R = 1``
+#: bounce sequence predicted to come to rest on the wall or to outrun the impact budget,
+#: :class:`~precise_impact.errors.EndlessBouncesError`; its values are NaN).  The tiles keep
+#: their documented fields: a refused point has ``period = REFUSED_PERIOD``.
+STATUS_WORDS = {0: "ok", 1: "refused: R = 1 bounces on the wall without end"}
+REFUSED_PERIOD = -1
 _MINIMUM = {"eta": (Fraction(0), True), "zeta": (Fraction(0), False), "R": (Fraction(0), False)}
 
 
@@ -273,6 +279,8 @@ def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
             pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size
         )
     out = {f: np.array([r[f] for r in res]) for f in _FIELDS}
+    refused = np.array([r.get("status", "ok") != "ok" for r in res], dtype=bool)
+    out["period"] = np.where(refused, REFUSED_PERIOD, out["period"])
     out["index"] = np.arange(lo, hi)
     return out
 
@@ -443,7 +451,8 @@ class SweepResult(ResultMixin):
         Largest Lyapunov exponent per unit time, its standard error, the second exponent.
     period : numpy.ndarray of float, shape ``spec.shape``
         Detected period of the stroboscopic samples
-        (:func:`~precise_impact.analysis.periodicity.detect_period`; 0: none <= 32).
+        (:func:`~precise_impact.analysis.periodicity.detect_period`; 0: none <= 32; -1: the
+        point was refused, see :attr:`status`).
     impacts_per_period : numpy.ndarray of float, shape ``spec.shape``
         Mean impacts per forcing period.
     complete : bool
@@ -481,6 +490,14 @@ class SweepResult(ResultMixin):
     files: dict = dataclasses.field(default_factory=dict)
     stats: dict = dataclasses.field(default_factory=dict)
 
+    @property
+    def status(self) -> np.ndarray:
+        """Per point: 0 computed, 1 refused (an ``R = 1`` bounce sequence on the wall
+        predicted to come to rest or to outrun the impact budget: its values are NaN and its
+        ``period`` is ``REFUSED_PERIOD``; ``sweep.csv`` says it in words, :data:`STATUS_WORDS`),
+        NaN where a tile is missing."""
+        return np.where(np.isnan(self.period), np.nan, (self.period == REFUSED_PERIOD) * 1.0)
+
     def coordinates(self) -> dict[str, np.ndarray]:
         """Each axis' values as float64, ``{name: array}`` in axis order."""
         return {name: np.array([float(v) for v in vals]) for name, vals in self.spec.axes}
@@ -516,7 +533,7 @@ class SweepResult(ResultMixin):
             return path
         if path.suffix == ".csv":
             names = [name for name, _ in spec.axes]
-            lines = [",".join(names + list(_FIELDS))]
+            lines = [",".join(names + list(_FIELDS) + ["status"])]
             for k in range(spec.n_points):
                 idx = np.unravel_index(k, spec.shape)
                 coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx, strict=True)]
@@ -525,7 +542,7 @@ class SweepResult(ResultMixin):
                     if f != "period"
                     else _int_or_nan(self.period[idx])
                     for f in _FIELDS
-                ]
+                ] + [_status_word(self.status[idx])]
                 lines.append(",".join(coords + row))
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
@@ -533,6 +550,10 @@ class SweepResult(ResultMixin):
         if path.suffix != ".json":
             raise ParameterError("path", str(path), "a file ending in .json, .npz or .csv")
         return super().save(path)
+
+
+def _status_word(code: float) -> str:
+    return STATUS_WORDS.get(int(code), "nan") if math.isfinite(code) else "nan"
 
 
 def _int_or_nan(x: float) -> str:
@@ -642,7 +663,7 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
         ax1.set_ylabel("LLE per unit time")
         ax2.step(x, data["period"], where="mid")
         ax2.set_xlabel(name)
-        ax2.set_ylabel("period (0 = none <= 32)")
+        ax2.set_ylabel("period (0 = none <= 32, -1 = refused)")
     else:
         (n0, v0), (n1, v1) = spec.axes
         ext = [float(v1[0]), float(v1[-1]), float(v0[0]), float(v0[-1])]
@@ -665,7 +686,7 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
         import matplotlib
 
         cmap = matplotlib.colormaps["tab20"].with_extremes(bad="white")
-        per = np.ma.masked_equal(data["period"], 0)  # no period <= 32 (chaotic / transient): white
+        per = np.ma.masked_less_equal(data["period"], 0)  # none <= 32 or refused (-1): white
         im2 = ax2.imshow(
             per, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=0.5, vmax=20.5
         )

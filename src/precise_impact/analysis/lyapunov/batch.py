@@ -17,7 +17,7 @@ from precise_impact.core.params import Params, check_count
 from precise_impact.errors import ParameterError
 from precise_impact.solvers.heyoka.batch import default_batch_size, integrate_group
 
-__all__ = ["batch_lle", "detect_period", "default_batch_size"]
+__all__ = ["batch_lle", "detect_period", "default_batch_size", "refused_row"]
 
 
 def batch_lle(
@@ -53,7 +53,9 @@ def batch_lle(
     ``impacts_per_period``, ``x_last``/``v_last`` (the last stroboscopic sample) and
     ``grazing`` (tangential contacts over the whole run, transient included: events
     within the grazing depth of the wall, not impacts; see
-    :mod:`precise_impact.analysis.lyapunov.variational`).
+    :mod:`precise_impact.analysis.lyapunov.variational`) and ``status``: ``'ok'``, or why the
+    point was refused (``R = 1`` bounces on the wall predicted to come to rest or to outrun
+    ``max_impacts``: :func:`refused_row`, NaN values).
     Raises :class:`~precise_impact.errors.MissedImpactError` if a lane's maximum of ``x``
     lies beyond the wall by more than 4 grazing depths (an impact heyoka missed).
     Each lane is integrated exactly as it would be alone (per-lane steps, events and
@@ -89,10 +91,15 @@ def batch_lle(
 
 
 def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
-    l1, l2, xs, vs, T, impacts, grazing = integrate_group(group, B, periods, transient, max_impacts)
+    l1, l2, xs, vs, T, impacts, grazing, refused = integrate_group(
+        group, B, periods, transient, max_impacts
+    )
     results = []
     nb = min(segments, periods)
     for i in range(B):
+        if refused[i] is not None:
+            results.append(refused_row(refused[i], int(grazing[i])))
+            continue
         blocks = np.array([blk.sum() for blk in np.array_split(l1[:, i], nb)]) / np.array(
             [len(blk) * T[i] for blk in np.array_split(l1[:, i], nb)]
         )
@@ -107,6 +114,24 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
                 "x_last": float(xs[-1, i]),
                 "v_last": float(vs[-1, i]),
                 "grazing": int(grazing[i]),
+                "status": "ok",
             }
         )
     return results
+
+
+def refused_row(why: str, grazing: int = 0) -> dict:
+    """A scan point refused with a reason (an ``R = 1`` bounce sequence without end:
+    :class:`~precise_impact.errors.EndlessBouncesError`): NaN values and ``status = why``."""
+    nan = float("nan")
+    return {
+        "lle": nan,
+        "lambda2": nan,
+        "stderr": nan,
+        "period": 0,
+        "impacts_per_period": nan,
+        "x_last": nan,
+        "v_last": nan,
+        "grazing": grazing,
+        "status": why,
+    }

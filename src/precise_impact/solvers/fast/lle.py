@@ -19,11 +19,18 @@ import numba
 import numpy as np
 
 from precise_impact.core.compat import UNSET, renamed
+from precise_impact.core.impact import (
+    BOUNCES_ENDLESS,
+    BOUNCES_REST,
+    elastic_bounce_count,
+    short_elastic_flight,
+)
 from precise_impact.core.params import as_params, check_count
 from precise_impact.solvers.fast.crossing import JIT, mul2
 from precise_impact.solvers.fast.single import (
     FLIGHT_SAMPLES,
     STATUS_BUDGET,
+    STATUS_ENDLESS_BOUNCES,
     STATUS_NONFINITE,
     STATUS_OK,
     STATUS_SLOW_IMPACT,
@@ -33,6 +40,11 @@ from precise_impact.solvers.fast.single import (
     compiled_saltation,
     sample_time,
 )
+
+EPS = 2.220446049250313e-16  # float64's machine epsilon (the bounce prediction's floor)
+#: The shared prediction of R = 1 bounce sequences, compiled for the kernel.
+_bounce_count = numba.njit(**JIT)(elastic_bounce_count)
+_short_flight = numba.njit(**JIT)(short_elastic_flight)
 
 __all__ = ["lle_orbit", "lle_batch", "lle_batch_serial", "fast_lle", "QR_EVERY"]
 
@@ -104,6 +116,8 @@ def lle_orbit(
     # where lambda1 + lambda2 = -2 zeta exactly)
     D = 0.0
     lnR2 = 2.0 * math.log(R) if R > 0.0 else -math.inf
+    predicted = False  # the current R = 1 bounce sequence has been predicted
+    t_end = t0 + (transient + periods) * T
     n_imp = 0
     n_meas = 0
     total = transient + periods
@@ -176,6 +190,21 @@ def lle_orbit(
             t, x, v = ts, buf[ns - 1, 0], buf[ns - 1, 1]
             W00, W01, W10, W11 = c00, c01, c10, c11
             continue
+        if R >= 1.0:
+            # R = 1 under the wall force (core.impact.elastic_bounce_count): the first short
+            # flight of a bounce sequence predicts its impacts; rest on the wall or more than
+            # the budget is refused at once (STATUS_ENDLESS_BOUNCES: log1, log2 carry the
+            # impact's time and speed for the message), not run to the floor
+            gc = a * math.cos(eta * tc) - xw
+            if _short_flight(vc, gc, eta):
+                if not predicted:
+                    predicted = True
+                    nb, end, _ = _bounce_count(tc, vc, t_end, eta, zeta, a, xw, EPS)
+                    rest = end == BOUNCES_REST or end == BOUNCES_ENDLESS
+                    if rest or nb > max_impacts - n_imp:
+                        return STATUS_ENDLESS_BOUNCES, tc, vc, n_meas, x, v
+            else:
+                predicted = False
         if vc < v_floor:
             return STATUS_SLOW_IMPACT, log1, log2, n_meas, x, v
         # the basis just before the impact, then through the saltation matrix

@@ -31,12 +31,17 @@ import numpy as np
 from precise_impact.core.clock import local_clock
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import (
+    BOUNCES_ENDLESS,
+    BOUNCES_REST,
     GRAZING_SAFETY,
+    elastic_bounce_count,
+    elastic_bounce_refusal,
     grazing_depth,
     impact_at_start,
     is_contact,
     oscillator_saltation,
     reset_velocity,
+    short_elastic_flight,
     steady_amplitude,
 )
 from precise_impact.core.linalg import gram_schmidt2
@@ -60,6 +65,10 @@ __all__ = ["integrate_group", "default_batch_size"]
 _COEF64 = (
     GRAZING_SAFETY * 2.0**-53
 )  # grazing_depth_coefficient(float64), exactly (a power of two times 16)
+
+
+#: The wall of a retired lane (a refused R = 1 bounce sequence): far beyond any orbit.
+RETIRED_WALL = 1e12
 
 
 def _depth(t: float, pr, i: int, amp: float) -> float:
@@ -87,6 +96,12 @@ class _BatchSaltation:
         self.grazing = np.zeros(batch_size, dtype=np.int64)
         self.log1 = np.zeros(batch_size)
         self.log2 = np.zeros(batch_size)
+        # R = 1 bounce sequences (core.impact.elastic_bounce_count), per lane: the run's end
+        # on the local clock (set every period), whether the current one was predicted, and
+        # the refusal of a lane predicted to come to rest or to outrun its budget
+        self.t_end = np.full(batch_size, math.inf)
+        self.predicted = [False] * batch_size
+        self.refused: list[str | None] = [None] * batch_size
 
     @property
     def count(self) -> np.ndarray:
@@ -123,7 +138,25 @@ class _BatchSaltation:
             self.log2[i] = -math.inf
         st[1, i] = reset_velocity(vb, R)
         st[0, i] = x_w
+        if R >= 1 and self.refused[i] is None:
+            self._bounces(pr, i, t, vb, float(eta), float(zeta), float(a), float(x_w))
         return self.lanes[i].record(t)
+
+    def _bounces(self, pr, i: int, t: float, vb: float, eta, zeta, a, x_w) -> None:
+        """An ``R = 1`` impact of lane ``i``: predict a bounce sequence at its first short flight;
+        one that comes to rest or outruns the budget is refused and the lane retired (its wall
+        moved to ``RETIRED_WALL``: it runs on without impacts, its results are discarded)."""
+        if not short_elastic_flight(vb, a * math.cos(eta * t) - x_w, eta):
+            self.predicted[i] = False
+            return
+        if self.predicted[i]:
+            return
+        self.predicted[i] = True
+        n, end, s = elastic_bounce_count(t, vb, float(self.t_end[i]), eta, zeta, a, x_w, 2.0**-52)
+        lane = self.lanes[i]
+        if end in (BOUNCES_REST, BOUNCES_ENDLESS) or n > lane.max_impacts - lane.count:
+            self.refused[i] = elastic_bounce_refusal(t, n, end, s, lane.max_impacts)
+            pr[I_XW, i] = RETIRED_WALL
 
 
 class _BatchGuard:
@@ -189,10 +222,11 @@ def _integrator(batch_size: int):
 def integrate_group(group, B: int, periods: int, transient: int, max_impacts: int):
     """Integrate ``B`` points (one SIMD lane each) for ``transient + periods`` periods.
 
-    Returns ``(l1, l2, xs, vs, T, impacts, grazing)``: per measured period and lane the
+    Returns ``(l1, l2, xs, vs, T, impacts, grazing, refused)``: per measured period and lane the
     logs ``ln r11``, ``ln r22`` (in-callback QRs of the impacts included) and the
     stroboscopic samples (arrays ``(periods, B)``), each lane's period ``T`` on its local
-    clock, the impacts in the measured periods and the tangential contacts of the whole run.
+    clock, the impacts in the measured periods, the tangential contacts of the whole run, and
+    per lane ``None`` or why it was refused (an ``R = 1`` bounce sequence without end).
     """
     import heyoka as hy
 
@@ -229,6 +263,7 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     M = int(m.max())
     targets = [np.where(j < m, L0 + (L1 - L0) * j / m, L1) for j in range(1, M)] + [L1]
     for k in range(1, total + 1):
+        rec.t_end = L0 + (total - k + 1) * T
         s1 = np.zeros(B)
         s2 = np.zeros(B)
         for j, target in enumerate(targets, start=1):
@@ -277,4 +312,4 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     if imp0 is None:  # transient == 0
         imp0 = np.zeros(B, dtype=np.int64)
     impacts = rec.count - imp0
-    return l1, l2, xs, vs, T, impacts, rec.grazing.copy()
+    return l1, l2, xs, vs, T, impacts, rec.grazing.copy(), list(rec.refused)

@@ -23,6 +23,8 @@ from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import (
     GrazingDepth,
     chatter_accumulation_time,
+    elastic_bounce_count,
+    elastic_bounce_text,
     grazing_depth_coefficient,
     impact_at_start,
     is_contact,
@@ -368,47 +370,20 @@ class _ZenoWatch:
         return i < len(self.grid) and self.grid[i] < t_inf
 
     def elastic_bounces(self, t: float, v: float) -> tuple[float, str]:
-        """Predicted impacts of an ``R = 1`` bounce sequence on the wall from impact ``(t, v)``.
-
-        With ``R = 1`` and short flights under the wall force ``g(s) = a cos(eta s) - x_w > 0``
-        the bounce's action ``J = (2/3) v^3 / g`` is an adiabatic invariant of the flight
-        between impacts, and linear damping makes it decay exactly like ``exp(-2 zeta s)``
-        on average (``dJ/dt = -2 zeta J`` for any bounce shape).  So the impact speed is
-        ``v(s) = (1.5 g(s) J(s))^(1/3)``, ``~ exp(-2 zeta s / 3)``: flights shrink, the impact
-        rate ``g / (2 v)`` grows exponentially, but their sum diverges (not a Zeno
-        sequence).  The impact count is the integral of that rate up to the first of:
-        the force turning (release), the speed floor (taken as rest), the run's end.
-        Returns ``(count, what ends it)``; ``inf`` when the integral passes 1e18.
-        """
-        zeta = float(self.params.zeta)
-        J0 = 2.0 * v**3 / 3.0 / max(self.a_f * math.cos(self.eta_f * t) - self.xw_f, 1e-300)
-        t_end = float(self.grid[-1])
-        h = min(2 * math.pi / self.omega / 64, max(t_end - t, 1e-300))
-        total, s0 = 0.0, t
-        for _ in range(64):  # chunks of 4096 steps: enough for 4096 forcing periods
-            s = s0 + h * np.arange(1, 4097)
-            g = self.a_f * np.cos(self.eta_f * s) - self.xw_f
-            J = J0 * np.exp(-2 * zeta * (s - t))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                vs = np.cbrt(1.5 * np.maximum(g, 0) * J)
-                rate = np.where(g > 0, g / (2 * vs), 0.0)
-            floor = np.sqrt(500.0 * self.eps_f * self.scale * np.maximum(g, 0))
-            stop = (g <= 0) | (vs < floor) | (s >= t_end)
-            k = int(np.argmax(stop)) if stop.any() else len(s)
-            total += float(np.sum(rate[:k])) * h
-            if k < len(s):
-                what = (
-                    "the end of the run"
-                    if s[k] >= t_end
-                    else f"the release at t ~ {s[k]:.6g}"
-                    if g[k] <= 0
-                    else f"rest on the wall at t ~ {s[k]:.6g}"
-                )
-                return total, what
-            if total > 1e18:
-                return math.inf, "the end of the run"
-            s0 = float(s[-1])
-        return total, f"t = {s0:.6g}"
+        """Predicted impacts of an ``R = 1`` bounce sequence on the wall from impact ``(t, v)``
+        until the run's end: :func:`~precise_impact.core.impact.elastic_bounce_count`.
+        Returns ``(count, what ends it)``; ``inf`` when the count passes 1e18."""
+        n, end, s = elastic_bounce_count(
+            t,
+            v,
+            float(self.grid[-1]),
+            self.eta_f,
+            float(self.params.zeta),
+            self.a_f,
+            self.xw_f,
+            self.eps_f,
+        )
+        return n, elastic_bounce_text(end, s)
 
     # -- called by the impact callback ------------------------------------------------
     def observe(self, t: Any, vb: Any) -> bool:

@@ -130,15 +130,20 @@ import numpy as np
 
 from precise_impact.core.clock import local_grid, period_float
 from precise_impact.core.flow import acceleration, tangent_qr_interval
-from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.impact import (
+    BOUNCES_ENDLESS,
+    BOUNCES_REST,
+    elastic_bounce_count,
+    elastic_bounce_refusal,
     grazing_depth_coefficient,
     impact_at_start,
     is_contact,
     oscillator_saltation,
     reset_velocity,
+    short_elastic_flight,
     steady_amplitude,
 )
+from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.core.params import (
     I_A,
@@ -153,6 +158,7 @@ from precise_impact.core.params import (
 from precise_impact.core.precision import Precision
 from precise_impact.errors import (
     BudgetExceededError,
+    EndlessBouncesError,
     IntegrationError,
     MissedImpactError,
     ParameterError,
@@ -221,6 +227,31 @@ class _SaltationRecorder(ImpactRecorder):
         self.qr_t: list = []
         self.qr_log1: list = []
         self.qr_log2: list = []
+        #: R = 1 bounce sequences (core.impact.elastic_bounce_count): the run's end on the
+        #: local clock (set per chunk), the precision's eps, and the refusal once predicted
+        self.t_end = math.inf
+        self.eps = 2.0**-52
+        self.predicted = False
+        self.refusal: str | None = None
+
+    def _bounces(self, t: Any, vb: Any, pr: Any) -> bool:
+        """At an ``R = 1`` impact: predict a bounce sequence at its first short flight; True
+        (stop, ``refusal`` set) when it comes to rest or outruns the impact budget."""
+        tf, vf = float(t), float(vb)
+        eta, zeta, a, x_w = (float(pr[i]) for i in (I_ETA, I_ZETA, I_A, I_XW))
+        g = a * math.cos(eta * tf) - x_w
+        if not short_elastic_flight(vf, g, eta):
+            self.predicted = False
+            return False
+        if self.predicted:
+            return False
+        self.predicted = True
+        n, end, s = elastic_bounce_count(tf, vf, self.t_end, eta, zeta, a, x_w, self.eps)
+        left = self.max_impacts - self.count
+        if end not in (BOUNCES_REST, BOUNCES_ENDLESS) and n <= left:
+            return False
+        self.refusal = elastic_bounce_refusal(tf, n, end, s, self.max_impacts)
+        return True
 
     def take_logs(self) -> tuple[list, list, list]:
         """The in-callback QR logs ``(t, ln r11, ln r22)`` since the last call, and forget them."""
@@ -273,6 +304,8 @@ class _SaltationRecorder(ImpactRecorder):
         s = abs(float(s10))
         if s > self.max_saltation:
             self.max_saltation = s
+        if R >= 1 and self._bounces(t, vb, pr):
+            return False
         return self.within_budget()
 
 
@@ -448,11 +481,14 @@ def integrate_orbit(
     ta.reset_cooldowns()
     sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
     grids: dict[int, Any] = {}
+    left = [transient + periods]  # periods still to run (the bounce prediction's horizon)
 
     def run(g):
         """Propagate over the grid ``g`` (starting at the clock's value); the grid states."""
         res = ta.propagate_grid(g)
         oc = res[0]
+        if rec.refusal is not None:
+            raise EndlessBouncesError(rec.refusal)
         if rec.exceeded:
             raise BudgetExceededError(
                 f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}"
@@ -475,6 +511,8 @@ def integrate_orbit(
         if g is None:
             g = grids[k] = P.array(grid[: k + 1])
         ta.time = L0  # the forcing is T-periodic: the clock starts every chunk at L0
+        rec.t_end = float(L0) + left[0] * period
+        left[0] -= k
         return run(g)
 
     subgrids = [P.array(grid[j : j + 2]) for j in range(sub)] if sub > 1 else []
@@ -483,6 +521,8 @@ def integrate_orbit(
         """One period in ``sub`` steps, the tangents re-orthonormalised after each (a long
         period: :func:`chunk_layout`); the state QRs' summed logs and the period-end state."""
         ta.time = L0
+        rec.t_end = float(L0) + left[0] * period
+        left[0] -= 1
         s1 = s2 = 0.0
         row = None
         for g in subgrids:
