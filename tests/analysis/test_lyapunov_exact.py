@@ -250,3 +250,32 @@ def test_cli_lle_fast_into_the_wall_is_one_line_exit_3(capsys):
     assert (
         code == 3 and len(err) == 1 and err[0].startswith("precise-impact: budget exceeded: R = 1")
     )
+
+
+@pytest.mark.parametrize("model", ["heyoka", "fast"])
+@pytest.mark.parametrize("kw", [dict(x_w="0"), dict(x_w="0.5", x0="0.5")])
+def test_start_on_the_wall_pushed_into_it_is_released_not_missed(model, kw):
+    # before: MissedImpactError ('a maximum of x lies 1.13 beyond the wall', a traceback in the
+    # CLI): the start at rest on the wall sticks until the force turns (the sticking decision),
+    # and the starts v0 = j/4 on the wall began exactly on it and missed their next impact
+    r = pi.lyapunov(pi.Params.make(**kw), model=model, periods=200, transient=20)
+    T = 2 * math.pi / 0.712
+    assert np.isfinite(r.lle) and r.spectrum[0] >= r.spectrum[1]
+    assert abs(sum(r.spectrum) - _exact_sum(0.05, 1.0, r.n_impacts, r.periods * T)) < 1e-12
+
+
+def test_start_stuck_for_good_is_refused_and_batch_lanes_are_released(tmp_path):
+    with pytest.raises(pi.ParameterError) as e:  # the force always into the wall: no release
+        pi.lyapunov(pi.Params.make(x_w="-1", x0="-1", R="0.8"), periods=20, transient=2)
+    assert e.value.name == "x0"
+    assert issubclass(pi.errors.MissedImpactError, pi.errors.IntegrationError)  # one CLI line
+    # the SIMD batch (sweep --model heyoka): x_w = 0 with x0 = 0 (before: MissedImpactError)
+    row = batch_lle([pi.Params.make(x_w="0")], periods=100, transient=20)[0]
+    alone = pi.lyapunov(
+        pi.Params.make(x_w="0"), periods=100, transient=20, initial_conditions=1, attractors=False
+    )
+    # the same orbit (QRs per period in the batch, per 8 periods alone: rounding apart)
+    assert abs(row["lle"] - alone.lle) <= 4 * row["stderr"]
+    T = 2 * math.pi / 0.712
+    want = _exact_sum(0.05, 1.0, round(row["impacts_per_period"] * 100), 100 * T)
+    assert abs(row["lle"] + row["lambda2"] - want) < 1e-12

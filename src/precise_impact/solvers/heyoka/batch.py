@@ -57,7 +57,8 @@ from precise_impact.core.precision import Precision
 from precise_impact.errors import BudgetExceededError, IntegrationError, MissedImpactError
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.solvers.heyoka.variational import GUARD_FACTOR, chunk_layout
+from precise_impact.solvers.heyoka.single import _below_wall
+from precise_impact.solvers.heyoka.variational import GUARD_FACTOR, chunk_layout, released_at
 
 __all__ = ["integrate_group", "default_batch_size"]
 
@@ -238,18 +239,24 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     grd.reset(B, amp)
     ta.pars[:] = np.array([[float(getattr(p, n)) for p in group] for n in RUNTIME_PARAMS])
     st = np.zeros((6, B))
-    for i, p in enumerate(group):
-        v0 = float(p.v0)
-        if impact_at_start(p.x0, p.v0, p.x_w, p.R):
-            v0 = reset_velocity(v0, float(p.R))
-        st[:, i] = (float(p.x0), v0, 1.0, 0.0, 0.0, 1.0)
-    ta.state[:] = st
     P64 = Precision.parse("float64")
     clocks = [local_clock(P64, p.t0, p.eta) for p in group]
     L0 = np.array([c[0] for c in clocks])
     L1 = np.array([c[1] for c in clocks])
     T = L1 - L0  # the period each lane integrates (the local clock's)
-    ta.set_time(L0)
+    start = L0.copy()  # a lane that starts stuck on the wall starts at its release
+    for i, p in enumerate(group):
+        x0, v0 = float(p.x0), float(p.v0)
+        if impact_at_start(p.x0, p.v0, p.x_w, p.R):
+            # as the variational integrator: off the wall by a rounding-level distance
+            v0, x0 = reset_velocity(v0, float(p.R)), _below_wall(P64, p.x_w)
+        elif p.x0 == p.x_w and p.v0 == 0:
+            t_r = released_at(P64, p, float(L0[i]))
+            if t_r is not None:
+                start[i], x0 = t_r, _below_wall(P64, p.x_w)
+        st[:, i] = (x0, v0, 1.0, 0.0, 0.0, 1.0)
+    ta.state[:] = st
+    ta.set_time(start)
     ta.reset_cooldowns()
     total = transient + periods
     l1 = np.zeros((periods, B))
@@ -267,6 +274,8 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
         s1 = np.zeros(B)
         s2 = np.zeros(B)
         for j, target in enumerate(targets, start=1):
+            if k == 1:  # never back before a released lane's start
+                target = np.maximum(target, start)
             ta.propagate_until(target)
             if rec.exceeded:
                 raise BudgetExceededError(

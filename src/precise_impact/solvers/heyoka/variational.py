@@ -470,6 +470,12 @@ def integrate_orbit(
     x0, v0 = conv(params.x0), conv(params.v0)
     if impact_at_start(params.x0, params.v0, params.x_w, params.R):
         v0 = reset_velocity(v0, conv(params.R))
+        # leave a rounding-level distance below the wall: a propagation that starts on it
+        # can miss the next impact (measured: x0 = x_w = 0, v0 = 1/4, the force into the
+        # wall: the impact at t ~ 0.5 was missed, MissedImpactError 0.976 beyond the wall)
+        from precise_impact.solvers.heyoka.single import _below_wall
+
+        x0 = _below_wall(P, params.x_w)
     period = period_float(params.eta)
     chunk, sub = chunk_layout(period, params.zeta)
     grid = local_grid(P, params.t0, params.eta, chunk, sub)
@@ -531,7 +537,12 @@ def integrate_orbit(
             s1, s2 = s1 + float(a), s2 + float(b)
         return s1, s2, row
 
+    pre = _released_start(ta, rec, P, params, grid, sub, run, sqrt, log)
     done = 0
+    if pre is not None:  # the first period went to the sticking start and its release
+        left[0] -= 1
+        if transient:
+            done = 1
     while done < transient:
         if sub > 1:
             one_period()
@@ -550,6 +561,12 @@ def integrate_orbit(
     ni = np.zeros(periods)  # impacts in each measured period (the attractors' impact-rate test)
     bar = Progress(periods, f"variational LLE{label}", progress)
     done = 0
+    if pre is not None and not transient:  # the release's period is the first measured one
+        _, c1, c2 = rec.take_logs()
+        l1[0], l2[0] = sum(c1) + pre[0], sum(c2) + pre[1]
+        ni[0] = len(c1)
+        sx[0], sv[0] = pre[2][0], pre[2][1]
+        done = 1
     while done < periods and sub > 1:
         s1, s2, row = one_period()
         _, c1, c2 = rec.take_logs()
@@ -585,6 +602,58 @@ def integrate_orbit(
         done += k
         bar.update(done)
     return l1, l2, dt, sx, sv, rec.count - impacts0, ni
+
+
+def released_at(P: Precision, params: Params, L0: Any) -> Any:
+    """The release time (local clock, precision ``P``) of a start at rest on the wall at the
+    local time ``L0`` with the force into it (the heyoka solver's sticking decision), or
+    ``None`` for a start that does not stick; :class:`ParameterError` if the force never
+    turns (the mass stays on the wall for good: no Lyapunov exponents)."""
+    from precise_impact.solvers.heyoka.single import _Wall
+
+    wall = _Wall(P, params)
+    if not wall.sticks(L0):
+        return None
+    t_r = wall.release(L0)
+    if t_r is None:
+        raise ParameterError(
+            "x0",
+            f"{params.x0} (= x_w, v0 = 0)",
+            "a start off the wall or moving: at rest on the wall with the force always into it "
+            "the mass stays there for good, which has no Lyapunov exponents",
+        )
+    return t_r
+
+
+def _released_start(ta, rec, P, params: Params, grid: list, sub: int, run, sqrt, log):
+    """A start at rest on the wall with the force into it sticks until the force turns
+    (core.impact.pushes_into_wall, release_time: the heyoka solver's sticking decision):
+    integrate its first period from the release, a rounding-level distance below the wall
+    (a propagation starting on the wall can miss the next impact), with the tangents at the
+    identity there.  Returns ``None`` for any other start, else the logs of that period's
+    QRs and its end state ``(s1, s2, row)``; raises :class:`ParameterError` if the force never
+    turns.  (Measured before: x_w = 0, x0 = v0 = 0 went through the wall, MissedImpactError.)
+    """
+    if not (params.x0 == params.x_w and params.v0 == 0):
+        return None
+    from precise_impact.solvers.heyoka.single import _below_wall
+
+    t_r = released_at(P, params, grid[0])
+    if t_r is None:
+        return None
+    one, zero = P.from_fraction(Fraction(1)), P.from_fraction(Fraction(0))
+    ta.time = t_r
+    ta.state[:] = P.array([_below_wall(P, params.x_w), zero, one, zero, zero, one])
+    ta.reset_cooldowns()
+    s1 = s2 = 0.0
+    row = ta.state
+    for g in grid[1 : sub + 1]:
+        if g <= t_r:
+            continue
+        row = run(P.array([ta.time, g]))[-1]
+        a, b = _gram_schmidt(ta.state, sqrt, log)
+        s1, s2 = s1 + float(a), s2 + float(b)
+    return s1, s2, row
 
 
 def depth_for(P: Precision, grazing_depth: Any, params: Params) -> _Depth:
