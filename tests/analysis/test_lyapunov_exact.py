@@ -279,3 +279,11 @@ def test_start_stuck_for_good_is_refused_and_batch_lanes_are_released(tmp_path):
     T = 2 * math.pi / 0.712
     want = _exact_sum(0.05, 1.0, round(row["impacts_per_period"] * 100), 100 * T)
     assert abs(row["lle"] + row["lambda2"] - want) < 1e-12
+
+
+def test_two_trajectory_low_eta_non_impacting_is_minus_zeta():
+    # before: -0.0040 at eta = 0.005 (one renormalisation per period of 1257 time units: the
+    # separation sank into the rounding of the two orbits and heyoka's long steps)
+    r = pi.lyapunov(pi.Params.make(eta="0.005", x_w=FAR), "two-trajectory", periods=10, transient=2)
+    # finite-time bound as above plus the measured step error (~1e-9 at steps of 2.5)
+    assert abs(r.lle + 0.05) < _finite_time_bound(0.05, 10 * 2 * math.pi / 0.005) + 1e-7

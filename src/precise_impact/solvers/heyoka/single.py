@@ -1118,8 +1118,8 @@ class OrbitStepper:
                 f"more than {self.budget} impacts within one forcing period at "
                 f"t={P.to_str(self.ta.time)} (chattering/Zeno sequence?)"
             )
-        if outcome != hy.taylor_outcome.time_limit:
-            raise RuntimeError(
+        if outcome != hy.taylor_outcome.time_limit:  # one CLI line, exit 3 (was a traceback)
+            raise IntegrationError(
                 f"heyoka stopped early with outcome {outcome} at t={P.to_str(self.ta.time)}"
             )
 
