@@ -255,7 +255,7 @@ def test_sync_cli(tmp_path):
         assert (tmp_path / name).stat().st_size > 1000
     bad = run("sync", "--form", "diagonal", "--out", str(tmp_path / "new"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: form = ")
-    bad = run("sync", "--k", "0.05", "0.01", "3", "--out", str(tmp_path / "new"))
+    bad = run("sync", "--k", "0.05", "0.05", "3", "--out", str(tmp_path / "new"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: k_max = ")
 
 
