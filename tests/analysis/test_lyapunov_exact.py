@@ -287,3 +287,20 @@ def test_two_trajectory_low_eta_non_impacting_is_minus_zeta():
     r = pi.lyapunov(pi.Params.make(eta="0.005", x_w=FAR), "two-trajectory", periods=10, transient=2)
     # finite-time bound as above plus the measured step error (~1e-9 at steps of 2.5)
     assert abs(r.lle + 0.05) < _finite_time_bound(0.05, 10 * 2 * math.pi / 0.005) + 1e-7
+
+
+@pytest.mark.parametrize("model", ["fast", "heyoka"])
+def test_a_failing_point_gets_a_status_and_leaves_its_neighbours_alone(model, tmp_path):
+    # R = 0.8 with the force always into the wall chatters to rest; heyoka's variational
+    # integration misses an impact there (MissedImpactError).  Before: the whole sweep stopped
+    # (and the CLI printed a traceback); now that point says 'failed: ...' and the others are
+    # computed as they would be alone
+    base = pi.Params.make(R="0.8", x0="-2")
+    spec = pi.SweepSpec.make(base, [("x_w", "-1", "2", 2)], periods=40, transient=10, model=model)
+    res = pi.run_sweep(spec, tmp_path / "both", workers=1, progress=False)
+    assert list(res.status) == [2, 0] and np.isnan(res.lle[0]) and np.isfinite(res.lle[1])
+    alone = pi.SweepSpec.make(base, [("x_w", "2", "2", 1)], periods=40, transient=10, model=model)
+    one = pi.run_sweep(alone, tmp_path / "one", workers=1, progress=False)
+    assert res.lle[1] == one.lle[0]
+    rows = (tmp_path / "both" / "sweep.csv").read_text().splitlines()
+    assert rows[1].startswith("-1,nan,nan,nan,nan,nan,failed: ") and rows[2].endswith(",ok")

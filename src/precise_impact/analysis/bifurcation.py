@@ -32,7 +32,7 @@ from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import EndlessBouncesError, ParameterError
+from precise_impact.errors import EndlessBouncesError, IntegrationError, ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.io.progress import ProgressArg, check_progress
@@ -271,6 +271,8 @@ def _heyoka_point(params: Params, periods: int, transient: int) -> tuple:
         )
     except EndlessBouncesError as e:
         return _refused(periods, str(e))
+    except IntegrationError as e:  # e.g. a missed impact while chattering into the wall
+        return _refused(periods, f"integration stopped: {e}")
     return r.strobe_x, r.lle, r.lle_stderr, r.n_impacts / r.periods, "ok"
 
 

@@ -41,8 +41,12 @@ _FIELDS = ("lle", "stderr", "lambda2", "period", "impacts_per_period")
 #: bounce sequence predicted to come to rest on the wall or to outrun the impact budget,
 #: :class:`~precise_impact.errors.EndlessBouncesError`; its values are NaN).  The tiles keep
 #: their documented fields: a refused point has ``period = REFUSED_PERIOD``.
-STATUS_WORDS = {0: "ok", 1: "refused: R = 1 bounces on the wall without end"}
-REFUSED_PERIOD = -1
+STATUS_WORDS = {
+    0: "ok",
+    1: "refused: R = 1 bounces on the wall without end",
+    2: "failed: the integration stopped (e.g. a missed impact while chattering into the wall)",
+}
+REFUSED_PERIOD = -1  # status 1; status 2 is period = -2
 _MINIMUM = {"eta": (Fraction(0), True), "zeta": (Fraction(0), False), "R": (Fraction(0), False)}
 
 
@@ -279,8 +283,8 @@ def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
             pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size
         )
     out = {f: np.array([r[f] for r in res]) for f in _FIELDS}
-    refused = np.array([r.get("status", "ok") != "ok" for r in res], dtype=bool)
-    out["period"] = np.where(refused, REFUSED_PERIOD, out["period"])
+    code = np.array([r.get("status_code", 0) for r in res])
+    out["period"] = np.where(code > 0, -code, out["period"])
     out["index"] = np.arange(lo, hi)
     return out
 
@@ -451,8 +455,8 @@ class SweepResult(ResultMixin):
         Largest Lyapunov exponent per unit time, its standard error, the second exponent.
     period : numpy.ndarray of float, shape ``spec.shape``
         Detected period of the stroboscopic samples
-        (:func:`~precise_impact.analysis.periodicity.detect_period`; 0: none <= 32; -1: the
-        point was refused, see :attr:`status`).
+        (:func:`~precise_impact.analysis.periodicity.detect_period`; 0: none <= 32; -1, -2: the
+        point was refused or failed, see :attr:`status`).
     impacts_per_period : numpy.ndarray of float, shape ``spec.shape``
         Mean impacts per forcing period.
     complete : bool
@@ -493,10 +497,11 @@ class SweepResult(ResultMixin):
     @property
     def status(self) -> np.ndarray:
         """Per point: 0 computed, 1 refused (an ``R = 1`` bounce sequence on the wall
-        predicted to come to rest or to outrun the impact budget: its values are NaN and its
-        ``period`` is ``REFUSED_PERIOD``; ``sweep.csv`` says it in words, :data:`STATUS_WORDS`),
-        NaN where a tile is missing."""
-        return np.where(np.isnan(self.period), np.nan, (self.period == REFUSED_PERIOD) * 1.0)
+        predicted to come to rest or to outrun the impact budget), 2 failed (the integrator
+        stopped: a missed impact while chattering into the wall ...); a refused or failed
+        point has NaN values and ``period = -status``; ``sweep.csv`` says it in words
+        (:data:`STATUS_WORDS`).  NaN where a tile is missing."""
+        return np.where(np.isnan(self.period), np.nan, np.maximum(-self.period, 0.0))
 
     def coordinates(self) -> dict[str, np.ndarray]:
         """Each axis' values as float64, ``{name: array}`` in axis order."""
@@ -540,7 +545,7 @@ class SweepResult(ResultMixin):
                 row = [
                     repr(float(getattr(self, f)[idx]))
                     if f != "period"
-                    else _int_or_nan(self.period[idx])
+                    else _int_or_nan(self.period[idx] if self.period[idx] >= 0 else np.nan)
                     for f in _FIELDS
                 ] + [_status_word(self.status[idx])]
                 lines.append(",".join(coords + row))
@@ -663,7 +668,7 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
         ax1.set_ylabel("LLE per unit time")
         ax2.step(x, data["period"], where="mid")
         ax2.set_xlabel(name)
-        ax2.set_ylabel("period (0 = none <= 32, -1 = refused)")
+        ax2.set_ylabel("period (0 = none <= 32, < 0 = refused)")
     else:
         (n0, v0), (n1, v1) = spec.axes
         ext = [float(v1[0]), float(v1[-1]), float(v0[0]), float(v0[-1])]

@@ -14,7 +14,7 @@ import numpy as np
 from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.params import Params, check_count
-from precise_impact.errors import ParameterError
+from precise_impact.errors import IntegrationError, ParameterError
 from precise_impact.solvers.heyoka.batch import default_batch_size, integrate_group
 
 __all__ = ["batch_lle", "detect_period", "default_batch_size", "refused_row"]
@@ -76,17 +76,18 @@ def batch_lle(
     out: list[dict] = []
     for lo in range(0, len(points), B):
         group = points[lo : lo + B]
-        out.extend(
-            _run_group(
-                group + [group[0]] * (B - len(group)),
-                B,
-                periods,
-                transient,
-                segments,
-                max_period,
-                max_impacts,
-            )[: len(group)]
-        )
+        args = (B, periods, transient, segments, max_period, max_impacts)
+        try:
+            out.extend(_run_group(group + [group[0]] * (B - len(group)), *args)[: len(group)])
+        except IntegrationError:
+            # a lane the integrator could not carry (e.g. a missed impact while chattering
+            # into the wall): each point alone, and the failing ones get their reason as
+            # status (a scan records it per point instead of stopping)
+            for p in group:
+                try:
+                    out.extend(_run_group([p] * B, *args)[:1])
+                except IntegrationError as e:
+                    out.append(refused_row(f"integration stopped: {e}", failed=True))
     return out
 
 
@@ -120,9 +121,11 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
     return results
 
 
-def refused_row(why: str, grazing: int = 0) -> dict:
+def refused_row(why: str, grazing: int = 0, failed: bool = False) -> dict:
     """A scan point refused with a reason (an ``R = 1`` bounce sequence without end:
-    :class:`~precise_impact.errors.EndlessBouncesError`): NaN values and ``status = why``."""
+    :class:`~precise_impact.errors.EndlessBouncesError`; ``failed``: the integrator stopped,
+    :class:`~precise_impact.errors.IntegrationError`): NaN values and ``status = why``,
+    ``status_code`` 1 (refused) or 2 (failed)."""
     nan = float("nan")
     return {
         "lle": nan,
@@ -134,4 +137,5 @@ def refused_row(why: str, grazing: int = 0) -> dict:
         "v_last": nan,
         "grazing": grazing,
         "status": why,
+        "status_code": 2 if failed else 1,
     }
