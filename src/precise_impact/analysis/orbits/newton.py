@@ -129,7 +129,7 @@ def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations
 def _closed_form_seed(params: Params, period: int, near: np.ndarray | None):
     """The closed-form 1:``period`` orbit (:func:`one_impact_orbits`) to start Newton from:
     the one nearest ``near``, else the stable one, else the least unstable; ``None`` if none."""
-    if not (0 <= params.zeta < 1 and 0 < params.R <= 1):
+    if not (0 <= params.zeta < 1 and 0 <= params.R <= 1):
         return None
     found = one_impact_orbits(params, dps=30, period=period)
     if not found:
