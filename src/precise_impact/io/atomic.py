@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from precise_impact.errors import ParameterError
+from precise_impact.io.lock import LOCK_NAME
 
 __all__ = [
     "atomic_write",
@@ -126,7 +127,8 @@ def check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = T
         raise ParameterError(name, str(path), "a directory (this is an existing file)")
     if not force and path.is_dir():
         try:
-            first = next(iter(sorted(path.iterdir())), None)
+            # the lock file of a finished run (io/lock.py) is not the user's content
+            first = next((e for e in sorted(path.iterdir()) if e.name != LOCK_NAME), None)
         except OSError:
             first = None
         if first is not None:
