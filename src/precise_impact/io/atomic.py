@@ -6,7 +6,6 @@ Temporary file in the target directory, fsync, the umask's mode, one rename.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import tempfile
 from collections.abc import Callable
@@ -18,7 +17,6 @@ from precise_impact.io.lock import LOCK_NAME
 
 __all__ = [
     "atomic_write",
-    "write_json",
     "sha256_file",
     "current_umask",
     "check_output_file",
@@ -69,11 +67,6 @@ def atomic_write(
         except FileNotFoundError:
             pass
         raise
-
-
-def write_json(path: str | os.PathLike, obj: Any, indent: int | None = 1) -> None:
-    """Write ``obj`` as JSON (UTF-8, trailing newline) atomically."""
-    atomic_write(path, lambda fh: fh.write(json.dumps(obj, indent=indent) + "\n"), binary=False)
 
 
 def sha256_file(path: str | os.PathLike) -> str:

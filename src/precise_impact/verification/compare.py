@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import json
 import math
 import time
 from collections.abc import Sequence
@@ -25,6 +24,7 @@ from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.scenes.run import run_scene
 from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
@@ -298,8 +298,7 @@ def _write_outputs(
 ) -> None:
     """``scores.json``, the two figures and ``report.md`` in ``out``; their paths in ``result``."""
     k, lle, results = result["transient_periods"], result["lle"], result["models"]
-    text = json.dumps(result, indent=2, default=_json_default)
-    atomic_write(out / "scores.json", lambda fh: fh.write(text), binary=False)
+    write_json(out / "scores.json", result, indent=2, default=_json_default)
     _plot_portraits(scene, ref, trajs, k, out / "phase_portraits.png")
     _plot_separation(scene, ref, check, trajs, lle["lle"], results, out / "separation.png")
     md = _report(result)
