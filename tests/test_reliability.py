@@ -408,3 +408,26 @@ def test_a_refused_run_leaves_no_out_directory_behind(tmp_path):
             pass
         assert (out / ".precise_impact.lock").read_text()  # the outer lock still holds it
     check_output_dir(out, force=False)  # only the released lock file: still "empty"
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["compare", "fig5-chaotic-ideal", "--models", "spice", "--points"],
+        ["compare", "fig5-chaotic-ideal", "--models", "circuit,spice", "--points"],
+        ["compare", "fig5-chaotic-ideal", "--models", "spice"],
+        ["simulate", "--model", "spice", "--periods", "2"],
+        ["run", "fig5-chaotic-ideal", "--model", "spice"],
+    ],
+    ids=lambda a: "-".join(a[2:5:2]),
+)
+def test_missing_ngspice_is_one_line_before_any_work(tmp_path, monkeypatch, args):
+    """Without ngspice on PATH: one line naming ngspice and its install command, exit 2, at
+    once.  Before, ``compare --models circuit,spice --points`` ran the reference, the LLE
+    and the circuit (10 s, three progress lines) before the refusal."""
+    monkeypatch.setenv("PATH", str(tmp_path))  # an empty directory: no ngspice
+    code, err, took = cli_in_process(*args)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, (code, err)
+    assert "ngspice" in lines[0] and "apt-get install ngspice" in lines[0], lines[0]
+    assert took < 5

@@ -26,6 +26,7 @@ from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
 from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
+from precise_impact.models.circuit.spice import find_ngspice
 from precise_impact.scenes.run import run_scene
 from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
 from precise_impact.solvers.base import MODEL_ALIASES
@@ -161,6 +162,8 @@ def compare(
     dropped = {
         m: scene_for_model(scene, m)[1] for m in models
     }  # validates every model before any work
+    if "spice" in models:
+        find_ngspice()  # a missing ngspice is refused before the reference runs, not after
 
     bits = reference_bits(periods)
     ref, check, ref_info = _reference(params, periods, per_period, bits, progress)

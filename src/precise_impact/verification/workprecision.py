@@ -798,7 +798,9 @@ def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
     _save(fig, path)
 
 
-def format_table(result: dict[str, Any]) -> str:
+def format_table(result: WorkPrecisionResult | dict[str, Any]) -> str:
+    """The ``bench work-precision`` table of a :class:`WorkPrecisionResult` (or its fields
+    as a dict)."""
     lines = []
     for case, ref in result["references"].items():
         lines.append(
@@ -818,7 +820,7 @@ def format_table(result: dict[str, Any]) -> str:
                 f"  {r['method']:<28} {r['setting']:<14} {r['error']:>9.2e} {hz:>7} "
                 f"{r['time_s']:>10.5f} {cs:>8} {r['repeats']:>3}"
             )
-    ch = result.get("chaos_cost")
+    ch = result["chaos_cost"] if "chaos_cost" in result else None
     if ch:
         lines.append(
             f"What chaos costs (eta=0.712, target {ch['target']:g}, reference "
