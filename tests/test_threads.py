@@ -195,6 +195,18 @@ def _analytical_mp():
     return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
 
 
+_SHARED: dict = {}
+
+
+def _analytical_mp_shared():
+    """One mpmath solver object (one MpmathOps context) used by every thread at once."""
+    from precise_impact import AnalyticalSolver
+
+    solver = _SHARED.setdefault("analytical", AnalyticalSolver(precision="mp:200"))
+    tr = solver.solve(Params.make(R="0.8", eta="1.3", x0="0.5"), 8)
+    return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
+
+
 def _heyoka_mp():
     tr = HeyokaSolver("mp:160").solve(Params.make(R="0.8", eta="1.3", x0="0.5"), 4)
     return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
@@ -229,17 +241,27 @@ def _sample_errors_mp():
     return _mp_key(sample_errors(*_PAIR))
 
 
+def _prove_orbit():
+    """python-flint, not mpmath (its process-wide precision is set under the engine's lock)."""
+    from precise_impact import prove_orbit
+
+    r = prove_orbit(Params.make(R="0.8", eta="1"), 1, bits=128, transient=200)
+    return (str(r.x), str(r.v), [str(m) for m in r.multipliers], r.proven, r.stable)
+
+
 MP_ENTRY_POINTS = {
     "one_impact_orbits": _one_impact,
     "find_orbit mp": _find_orbit_mp,
     "AnalyticalSolver mp": _analytical_mp,
+    "AnalyticalSolver mp, one object": _analytical_mp_shared,
     "HeyokaSolver mp": _heyoka_mp,
     "HeyokaSolver mp chattering": _heyoka_mp_chattering,
     "grazing_frequencies": _grazing_frequencies,
     "sample_errors mp": _sample_errors_mp,
+    "prove_orbit": _prove_orbit,
 }
 #: ~10 s each on 2 busy cores (heyoka's mp compile with the wall's events): marked slow
-_SLOW_MP = {"HeyokaSolver mp chattering"}
+_SLOW_MP = {"HeyokaSolver mp chattering", "prove_orbit"}
 MP_NAMES = [
     pytest.param(n, marks=pytest.mark.slow) if n in _SLOW_MP else n for n in MP_ENTRY_POINTS
 ]
