@@ -24,6 +24,7 @@ from typing import Any
 import mpmath
 import numpy as np
 
+from precise_impact.core.mpcontext import mp_context, mp_export, mp_import
 from precise_impact.errors import ParameterError, ReferenceDataError, one_line
 from precise_impact.verification.reference import checksum_problems, default_root
 
@@ -148,8 +149,7 @@ def load_reference(
     else:
 
         def conv(s: str) -> mpmath.mpf:
-            with mpmath.workprec(_WORKPREC):
-                return mpmath.mpf(s)
+            return mp_export(mp_context(_WORKPREC).mpf(s))
 
     samples = data["samples"]
     px = pv = None
@@ -180,21 +180,23 @@ def load_reference(
 def _to_mpf(value: Any) -> mpmath.mpf:
     """Exact mpmath value of a user number (float, numpy float, longdouble, heyoka real, str,
     Decimal)."""
-    with mpmath.workprec(_WORKPREC):
-        if isinstance(value, (float, np.float64, np.float32, int, np.integer)):
-            return (
-                mpmath.mpf(float(value))
-                if not isinstance(value, (int, np.integer))
-                else mpmath.mpf(int(value))
-            )
-        if isinstance(value, np.longdouble):
-            n, d = value.as_integer_ratio()
-            return mpmath.mpf(n) / d
-        if isinstance(value, Fraction):
-            return mpmath.mpf(value.numerator) / value.denominator
-        if isinstance(value, mpmath.mpf):
-            return +value
-        return mpmath.mpf(str(value))
+    # in a context of this thread's own (mpmath's global precision is shared by every thread)
+    return mp_export(_to_mpf_in(mp_context(_WORKPREC), value))
+
+
+def _to_mpf_in(mp: Any, value: Any) -> Any:
+    if isinstance(value, (float, np.float64, np.float32, int, np.integer)):
+        return (
+            mp.mpf(float(value)) if not isinstance(value, (int, np.integer)) else mp.mpf(int(value))
+        )
+    if isinstance(value, np.longdouble):
+        n, d = value.as_integer_ratio()
+        return mp.mpf(n) / d
+    if isinstance(value, Fraction):
+        return mp.mpf(value.numerator) / value.denominator
+    if hasattr(value, "_mpf_"):
+        return +mp_import(mp, value)
+    return mp.mpf(str(value))
 
 
 def _sample(value: Any, var: str, k: int) -> mpmath.mpf:
@@ -369,16 +371,16 @@ def _shape_failure(result: dict[str, Any], n: int, periods: int, x: Any, v: Any)
 def _scaled_errors(ref: Any, x: Sequence[Any], v: Sequence[Any], n: int, atol: float, rtol: float):
     """Scaled and absolute errors of the samples against the reference: ``ex, ev, ax, av``."""
     ex, ev, ax, av = (np.empty(n) for _ in range(4))
-    with mpmath.workprec(_WORKPREC):
-        for k in range(n):
-            for y, yr, e, a in ((x[k], ref.x[k], ex, ax), (v[k], ref.v[k], ev, av)):
-                ym = _to_mpf(y)
-                if not mpmath.isfinite(ym):
-                    a[k] = e[k] = np.inf
-                    continue
-                d = abs(ym - yr)
-                a[k] = float(d)
-                e[k] = float(d / (atol + rtol * abs(yr)))
+    mp = mp_context(_WORKPREC)  # this thread's own: mpmath's global precision is shared
+    for k in range(n):
+        for y, yr, e, a in ((x[k], ref.x[k], ex, ax), (v[k], ref.v[k], ev, av)):
+            ym = _to_mpf_in(mp, y)
+            if not mp.isfinite(ym):
+                a[k] = e[k] = np.inf
+                continue
+            d = abs(ym - yr)
+            a[k] = float(d)
+            e[k] = float(d / (atol + rtol * abs(mp_import(mp, yr))))
     return ex, ev, ax, av
 
 

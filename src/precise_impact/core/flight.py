@@ -89,7 +89,7 @@ class MpmathOps:
     change the results (mpmath's module-level ``mp``, which ``workprec``/``workdps`` set, is
     shared by every thread).  Nothing here changes ``ctx.prec``, so one instance may serve
     several threads; mpmath routines that raise and restore it (``eig``, ``lu_solve``) need a
-    context of one computation or thread (:func:`precise_impact.core.precision.mp_context`).
+    context of one computation or thread (:func:`precise_impact.core.mpcontext.mp_context`).
     """
 
     name = "mpmath"

@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import threading
 from fractions import Fraction
 from typing import Any
 
@@ -19,6 +18,7 @@ from mpmath import libmp
 
 from precise_impact.core import flight
 from precise_impact.core.clock import sample_times
+from precise_impact.core.mpcontext import mp_context
 from precise_impact.core.params import check_tol
 from precise_impact.errors import ParameterError
 
@@ -266,7 +266,9 @@ class Precision:
     def from_mpf(self, m: Any) -> Any:
         """Round an mpmath number (any precision, of any mpmath context) to this precision, to
         nearest."""
-        m = m if hasattr(m, "_mpf_") else mpmath.mpf(m)
+        # other numbers (float, int, str) read in a context of this thread's own, exactly for
+        # floats and ints, not at mpmath's shared global precision
+        m = m if hasattr(m, "_mpf_") else mp_context(self.bits + 64).convert(m)
         return self._from_mpf_exact(_mk(libmp.normalize(*m._mpf_, self.bits, "n")))
 
     def to_mpf(self, x: Any) -> mpmath.mpf:
@@ -303,7 +305,11 @@ class Precision:
         return arr
 
     def mp_workprec(self, extra_bits: int = 0):
-        """Context manager: mpmath working precision = this precision + ``extra_bits``."""
+        """Context manager: mpmath working precision = this precision + ``extra_bits``.
+
+        This sets mpmath's process-global precision, shared by every thread; the package
+        computes in contexts of its own instead (:func:`precise_impact.core.mpcontext.mp_context`).
+        """
         return mpmath.workprec(self.bits + extra_bits)
 
     def sample_times(self, t0: Fraction, eta: Fraction, periods: int, per_period: int = 1) -> list:
@@ -335,50 +341,6 @@ class Precision:
 def _mp_ops(bits: int) -> Any:
     """One :class:`~precise_impact.core.flight.MpmathOps` a precision (a context costs ~6 ms)."""
     return flight.MpmathOps(bits=bits)
-
-
-_LOCAL = threading.local()
-
-
-def mp_context(bits: int) -> Any:
-    """This thread's :class:`mpmath.MPContext` at ``bits`` of precision.
-
-    mpmath's module-level context (``mpmath.mp``, and ``mpmath.workprec``/``workdps``, which
-    change it) is shared by every thread: two threads computing at different precisions change
-    each other's results.  A context of its own per thread and precision does not; numbers
-    made by ``ctx.mpf`` / ``ctx.make_mpf`` compute at ``ctx.prec`` whatever the module-level
-    precision.  Numbers handed to callers go out through :func:`mp_export`.  Never set the
-    returned context's ``prec`` (mpmath's own routines such as ``lu_solve`` raise it and restore
-    it, which is safe only because the context belongs to one thread).
-    """
-    cache = getattr(_LOCAL, "contexts", None)
-    if cache is None:
-        cache = _LOCAL.contexts = {}
-    ctx = cache.get(bits)
-    if ctx is None:
-        ctx = mpmath.MPContext()
-        ctx.prec = bits
-        cache[bits] = ctx
-    return ctx
-
-
-def mp_export(z: Any) -> Any:
-    """A number of any mpmath context as the module-level ``mpmath.mpf`` / ``mpc`` of the same
-    value (exactly: no rounding), so that it is not tied to a thread's context."""
-    if hasattr(z, "_mpf_"):
-        return mpmath.mp.make_mpf(z._mpf_)
-    if hasattr(z, "_mpc_"):
-        return mpmath.mp.make_mpc(z._mpc_)
-    return z
-
-
-def mp_import(ctx: Any, z: Any) -> Any:
-    """An mpmath number (of any context) as a number of ``ctx``, exactly (no rounding)."""
-    if hasattr(z, "_mpf_"):
-        return ctx.make_mpf(z._mpf_)
-    if hasattr(z, "_mpc_"):
-        return ctx.make_mpc(z._mpc_)
-    return ctx.convert(z)
 
 
 def _mk(raw: tuple) -> mpmath.mpf:

@@ -18,8 +18,9 @@ from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.flight import MpmathOps
 from precise_impact.core.impact import oscillator_saltation
+from precise_impact.core.mpcontext import mp_export
 from precise_impact.core.params import Params, check_count, exact, params_or_values
-from precise_impact.core.precision import Precision, mp_export
+from precise_impact.core.precision import Precision
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
 from precise_impact.solvers.closed_form import AnalyticalSolver
 

@@ -17,8 +17,8 @@ from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving
 from precise_impact.core import flight
 from precise_impact.core.flow import steady_state
 from precise_impact.core.impact import oscillator_saltation
+from precise_impact.core.mpcontext import mp_export
 from precise_impact.core.params import check_count, params_or_values
-from precise_impact.core.precision import mp_export
 from precise_impact.errors import ParameterError
 
 __all__ = ["one_impact_orbits", "flow_matrix"]

@@ -19,9 +19,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import mpmath
 import numpy as np
+from mpmath import libmp
 
+from precise_impact.core.mpcontext import mp_context
 from precise_impact.core.params import check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
@@ -336,14 +337,14 @@ def _initial_values(components: Components, c: dict, x0q, v0q, t0q) -> dict[str,
     eta = float(components.Omega) / omega
     period_s = 2 * math.pi / c["Omega"]
     _, vs0, vq0 = to_circuit(components, 0.0, float(x0q), float(v0q), omega)
-    with mpmath.workdps(40):  # eta t0 = Omega t0 / omega, rounded once
-        phi = float(
-            mpmath.mpf(components.Omega.numerator)
-            / components.Omega.denominator
-            * mpmath.mpf(t0q.numerator)
-            / t0q.denominator
-            / components.omega(40)
-        )
+    mp = mp_context(libmp.dps_to_prec(40))  # this thread's own: the global one is shared
+    phi = float(  # eta t0 = Omega t0 / omega, rounded once
+        mp.mpf(components.Omega.numerator)
+        / components.Omega.denominator
+        * mp.mpf(t0q.numerator)
+        / t0q.denominator
+        / components.omega(40)
+    )
     vmq0 = -c["R5"] / c["R4"] * vq0
     vp0 = -c["R2"] * (c["V_A"] * math.cos(phi) / c["R1"] + vmq0 / c["R6"] + vs0 / c["R7"])
     x0f = float(x0q)
