@@ -8,7 +8,7 @@ import math
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin
 
-__all__ = ["PeriodicOrbit", "area_preserving", "classify"]
+__all__ = ["PeriodicOrbit", "area_preserving", "classify", "UNDERFLOW"]
 
 
 @dataclasses.dataclass
@@ -112,6 +112,12 @@ class PeriodicOrbit(ResultMixin):
             "method": self.method,
             "precision": self.precision,
         }
+
+
+#: Below this modulus a float64 multiplier has lost bits to underflow (the 2x2 products that
+#: make it keep 53 bits above 2^-969 = 2^(-1022 + 53)): its logarithm is then taken from the
+#: scaled monodromy instead (``ShootingSystem.floquet_lle``).
+UNDERFLOW = 2.0**-969
 
 
 def area_preserving(zeta, R, impacts: int) -> bool:

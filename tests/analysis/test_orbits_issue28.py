@@ -1,0 +1,149 @@
+"""Periodic orbits, correct or refused (issue 28, items 2-6): LLE from logarithms when the
+multipliers underflow, outward-rounded LLE enclosures, virtual orbits counted apart, a
+tangential impact met by continuation, a transient of bounded memory with a budget, negative
+numbers in scientific notation among a flag's values, and no refusal for an unused start."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import mpmath
+import numpy as np
+import pytest
+
+import precise_impact as pi
+from precise_impact.analysis.orbits import newton
+from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
+from precise_impact.cli.main import _glue_negative_values, _strip_glued, build_parser, main
+from precise_impact.errors import OverBudgetError
+
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
+
+
+# ---- item 2: the LLE of an orbit whose multipliers underflow --------------------------------
+def test_underflowed_multipliers_give_the_exact_lle():
+    # zeta p T = 0.999 * 2 pi / 0.001 = 6277: exp(-6277) is 0 in float64 (LLE was -inf, JSON null)
+    p = pi.Params.make(zeta="0.999", eta="0.001")
+    o = pi.find_orbit(p, 1)
+    assert o.impacts == 0 and max(abs(m) for m in o.multipliers) == 0
+    assert o.lle == -0.999  # a non-impacting orbit: exactly -zeta
+    assert json.loads(json.dumps(o.to_dict(), allow_nan=False))["lle"] == -0.999
+    res = pi.continue_orbit(p, "eta", "0.001", "0.0011", 1, max_points=3, doublings=0)
+    assert list(res.branches[0].lle) == [-0.999] * len(res.branches[0].lle)
+
+
+def test_scaled_monodromy_lle_matches_the_closed_form():
+    # the logarithm path on an impacting orbit (eta = 0.985, 1 impact per 2 periods) agrees
+    # with ln|mu| / (p T) of the 50-digit closed form: float64 rounding of a 2x2 product over
+    # p T = 12.8, ~10 eps relative on |mu|, so 1e-15 / (p T) ~ 1e-16 absolute; 1e-14 is safe
+    p = pi.Params.make(eta="0.985")
+    o = pi.find_orbit(p, 2)
+    base = {k: float(getattr(p, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")}
+    system = ShootingSystem(base, "eta", 2, o.impacts)
+    u = from_orbit(system, p, o.x, o.v, base["eta"])
+    closed = pi.one_impact_orbits(p, dps=50, period=2)[0]
+    with mpmath.workdps(50):
+        exact = mpmath.log(abs(closed.multipliers[0])) / (4 * mpmath.pi / mpmath.mpf("0.985"))
+    assert abs(system.floquet_lle(u, base["eta"]) - float(exact)) < 1e-14
+    assert abs(o.lle - float(exact)) < 1e-14
+
+
+# ---- item 3: an LLE enclosure never narrower than its rounding --------------------------------
+def test_proven_lle_interval_is_rounded_outward():
+    p = pi.Params.make(eta="0.985")
+    lo, hi = pi.prove_orbit(p, 2).lle
+    closed = pi.one_impact_orbits(p, dps=50, period=2)[0]
+    with mpmath.workdps(50):
+        exact = mpmath.log(abs(closed.multipliers[0])) / (4 * mpmath.pi / mpmath.mpf("0.985"))
+        # before: lo == hi == the nearest float, 1.1e-19 from the value it claimed to enclose
+        assert mpmath.mpf(lo) <= exact <= mpmath.mpf(hi)
+    assert lo < hi and hi - lo <= 2 * math.ulp(abs(lo))  # outward: one ulp at most each side
+
+
+# ---- items 4, 5 and 6: a continuation through a tangential impact, reversed range -----------
+@pytest.fixture(scope="module")
+def tangential():
+    # R = 0.9, eta from 1.04 down to 0.95: the doubled branch's regula falsi landed on an
+    # impact with v^- = 0 exactly: ZeroDivisionError from the saltation matrix (a traceback)
+    return pi.continue_orbit(pi.Params.make(R="0.9"), "eta", "1.04", "0.95", 1)
+
+
+def test_continuation_through_a_tangential_impact(tangential):
+    res = tangential
+    graze = [b for b in res.bifurcations if b.type == "grazing"]
+    assert graze and graze[0].test == 0.0  # located exactly by the tangency condition v^- = 0
+    assert all(math.isnan(c) for m in graze[0].multipliers for c in m)  # undefined there
+    json.dumps(res.to_dict(), allow_nan=False)  # strict JSON: null for the undefined values
+    assert res.start > res.stop and min(res.branches[0].values) == pytest.approx(0.95)
+
+
+def test_virtual_orbits_are_counted_apart(tangential, capsys):
+    for b in tangential.branches:
+        n = b.counts()
+        assert sum(n.values()) == len(b.values)
+        assert n["virtual"] == int(np.sum(~b.admissible))
+        assert n["stable"] == int(np.sum(b.stable & b.admissible))
+    doubled = tangential.branches[1]
+    assert doubled.counts()["virtual"] > 0 and np.any(doubled.stable & ~doubled.admissible)
+    code = main(["continue", "--param", "eta", "1.04", "0.95", "--R", "0.9", "--doublings", "1"])
+    out = capsys.readouterr().out
+    assert code == 0
+    n = doubled.counts()
+    assert (
+        f"{n['stable']} stable, {n['unstable']} unstable, {n['virtual']} virtual"
+        in out.splitlines()[1]
+    )
+    assert "undefined (a tangential impact" in out
+
+
+# ---- item 5: the transient in chunks, with a budget ----------------------------------------
+def test_transient_runs_in_chunks(monkeypatch):
+    p = pi.Params.make(eta="0.985")
+    whole = newton._transient_end(p, 50)
+    monkeypatch.setattr(newton, "TRANSIENT_CHUNK", 7)
+    chunked = newton._transient_end(p, 50)
+    # restarting at t0 instead of t0 + k T moves the state by rounding of the sample times
+    # (~eps * k T, amplified by the contracting map at most by its condition ~10)
+    assert np.max(np.abs(chunked - whole)) < 1e-11
+
+
+def test_transient_over_budget_is_refused_before_work(capsys):
+    with pytest.raises(OverBudgetError, match="max_time"):
+        pi.find_orbit(pi.Params.make(x_w="5"), 1, transient=10**8, max_time=100)
+    assert main(["orbit", "--transient", "100000000", "--max-time", "100"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "transient of 100000000 periods" in err
+
+
+# ---- item 6: negative numbers in scientific notation, an unused default start ---------------
+@pytest.mark.parametrize(
+    ("argv", "dest", "value"),
+    [
+        (["orbit", "--guess", "-1e-3", "0"], "guess", ["-1e-3", "0"]),
+        (
+            ["continue", "--param", "eta", "1", "1.1", "--guess", "-1e-3", "-2E-1"],
+            "guess",
+            ["-1e-3", "-2E-1"],
+        ),
+        (["certify", "--y0", "-1e-3", "0"], "y0", ["-1e-3", "0"]),
+        (["simulate", "--tol", "-1e-9"], "tol", "-1e-9"),
+        (["simulate", "--x_w", "-.5e-1"], "x_w", "-.5e-1"),
+    ],
+)
+def test_negative_scientific_values_are_values(argv, dest, value):
+    ns = _strip_glued(build_parser().parse_args(_glue_negative_values(argv)))
+    assert getattr(ns, dest) == value
+
+
+def test_orbit_with_a_guess_in_scientific_notation(capsys):
+    assert main(["orbit", "--eta", "0.985", "--period", "2", "--guess", "-1e-3", "0"]) == 0
+    assert "period-2 orbit with 1 impact(s)" in capsys.readouterr().out
+
+
+def test_no_refusal_for_an_unused_default_start(capsys):
+    # x_w < 0 with no --x0: the transient starts at the wall instead of refusing x0 = 0
+    assert main(["orbit", "--x_w", "-0.1", "--eta", "2.5", "--R", "0.8"]) == 0
+    assert "period-1 orbit with 1 impact(s)" in capsys.readouterr().out
+    assert main(["orbit", "--x_w", "-0.1", "--eta", "2.5", "--R", "0.8", "--x0", "0"]) == 2
+    assert "x0 = " in capsys.readouterr().err  # a start given inside the wall: still refused
