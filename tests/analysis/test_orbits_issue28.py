@@ -147,3 +147,12 @@ def test_no_refusal_for_an_unused_default_start(capsys):
     assert "period-1 orbit with 1 impact(s)" in capsys.readouterr().out
     assert main(["orbit", "--x_w", "-0.1", "--eta", "2.5", "--R", "0.8", "--x0", "0"]) == 2
     assert "x0 = " in capsys.readouterr().err  # a start given inside the wall: still refused
+
+
+def test_continuation_in_x_w_past_the_start_position():
+    # the start x0 = 0 seeds the orbit at x_w = 0.5 only: x_w = -0.5 at the range's end was
+    # refused for it ("x0 <= x_w = -0.5")
+    res = pi.continue_orbit(
+        pi.Params.make(eta="0.8"), "x_w", "0.5", "-0.5", 1, max_points=50, doublings=0
+    )
+    assert min(res.branches[0].values) < 0

@@ -500,8 +500,13 @@ def _check_range(params: Params, parameter: str, start: Any, stop: Any):
     fields = {k: getattr(params, k) for k in params.decimal()}
 
     def _at(name, value):
+        values = {**fields, parameter: value}
+        if name == "stop" and parameter == "x_w":
+            # the start (x0, v0) seeds only the orbit at ``start``: the system at ``stop`` is
+            # checked without it (x_w = -0.5 is no reason to refuse, whatever x0 is)
+            values["x0"] = min(exact("x0", values["x0"]), exact("stop", value))
         try:
-            return Params.make(**{**fields, parameter: value})
+            return Params.make(**values)
         except ParameterError as e:
             raise ParameterError(
                 name,
