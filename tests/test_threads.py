@@ -151,3 +151,102 @@ def test_sweep_on_a_threaded_dask_worker_is_bit_identical(tmp_path):
     a, b = load_sweep(tmp_path / "serial", spec), load_sweep(tmp_path / "threads", spec)
     for f in ("lle", "stderr", "lambda2", "period", "impacts_per_period"):
         assert np.array_equal(a[f], b[f], equal_nan=True), f
+
+
+# ---------------------------------------------------------------------------- mpmath
+# mpmath's working precision is process-global (``mpmath.mp``, set by ``workprec``/``workdps``):
+# before every mpmath computation had a context of its own, a thread working at another
+# precision changed the results of one_impact_orbits (6 of 8 threaded calls), find_orbit
+# mp (8 of 8) and the mpmath analytical solver (2 of 8 differed, 4 of 8 raised a spurious
+# BudgetExceededError "no progress").
+
+
+def _mp_key(obj):
+    """Bits of a result: mpmath numbers by their raw tuples (``repr`` depends on mp.dps)."""
+    if hasattr(obj, "_mpf_"):
+        return ("f", obj._mpf_)
+    if hasattr(obj, "_mpc_"):
+        return ("c", obj._mpc_)
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return tuple(_mp_key(x) for x in obj)
+    if isinstance(obj, float):
+        return obj.hex()
+    return str(obj)  # heyoka reals print round-trip digits
+
+
+def _one_impact():
+    from precise_impact.analysis.orbits.one_impact import one_impact_orbits
+
+    orbits = one_impact_orbits(Params.make(R="0.8", eta="1"), dps=40, grid=100)
+    return _mp_key([(o.x, o.v, o.multipliers, o.lle, o.precision) for o in orbits])
+
+
+def _find_orbit_mp():
+    from precise_impact.analysis.orbits.newton import find_orbit
+
+    o = find_orbit(Params.make(R="0.8", eta="1"), period=1, precision="mp:200")
+    return _mp_key((o.x, o.v, o.multipliers, o.lle, o.residual))
+
+
+def _analytical_mp():
+    from precise_impact import AnalyticalSolver
+
+    tr = AnalyticalSolver(precision="mp:200").solve(Params.make(R="0.8", eta="1.3", x0="0.5"), 8)
+    return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
+
+
+def _heyoka_mp():
+    tr = HeyokaSolver("mp:160").solve(Params.make(R="0.8", eta="1.3", x0="0.5"), 4)
+    return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
+
+
+MP_ENTRY_POINTS = {
+    "one_impact_orbits": _one_impact,
+    "find_orbit mp": _find_orbit_mp,
+    "AnalyticalSolver mp": _analytical_mp,
+    "HeyokaSolver mp": _heyoka_mp,
+}
+
+
+@pytest.mark.parametrize("name", list(MP_ENTRY_POINTS))
+def test_mp_results_do_not_depend_on_mpmaths_global_precision(name):
+    """The same call under another module-level mpmath precision gives the same bits (the
+    deterministic form of the race below: each computation works in a context of its own)."""
+    import mpmath
+
+    fn = MP_ENTRY_POINTS[name]
+    default = fn()
+    with mpmath.workprec(70):
+        low = fn()
+    with mpmath.workdps(300):
+        high = fn()
+    assert low == default and high == default
+
+
+@pytest.mark.parametrize("name", list(MP_ENTRY_POINTS))
+def test_mp_results_from_threads_are_bit_identical(name):
+    """4 threads, while another thread keeps switching mpmath's global precision, give the
+    serial result bit for bit."""
+    import threading
+
+    import mpmath
+
+    fn = MP_ENTRY_POINTS[name]
+    serial = fn()
+    stop = threading.Event()
+
+    def noise():
+        while not stop.is_set():
+            with mpmath.workprec(70):
+                mpmath.exp(mpmath.mpf(1) / 3)
+            with mpmath.workdps(500):
+                mpmath.cos(mpmath.mpf(2) / 7)
+
+    other = threading.Thread(target=noise)
+    other.start()
+    try:
+        threaded = _in_threads(lambda _: fn(), range(THREADS))
+    finally:
+        stop.set()
+        other.join()
+    assert all(t == serial for t in threaded)

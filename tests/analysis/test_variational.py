@@ -17,7 +17,8 @@ def mpq(q: Fraction):
 
 
 @pytest.mark.parametrize(
-    "precision", ["float64", pytest.param("float128", marks=pytest.mark.slow)]  # float128: ~10 s
+    "precision",
+    ["float64", pytest.param("float128", marks=pytest.mark.slow)],  # float128: ~10 s
 )
 def test_non_impacting_orbit_has_lle_minus_zeta(precision):
     """eta = 0.70 after the transient: no impacts, both exponents -> -zeta.

@@ -224,7 +224,7 @@ def test_bifurcation_cli(tmp_path):
     assert "grazing eta (closed form): 0.710687" in r.stdout
     assert (tmp_path / "bifurcation.png").exists() and (tmp_path / "bifurcation.npz").exists()
     assert "3/3" in r.stderr  # progress bar
-    bad = run("bifurcation", "--eta", "0.7", "0.6", "3", "--out", str(tmp_path / "new"))
+    bad = run("bifurcation", "--eta", "0.7", "0.7", "3", "--out", str(tmp_path / "new"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: eta_max = ")
 
 

@@ -397,7 +397,7 @@ def bifurcation(
         label="bifurcation",
     )
     results = [r for tile in run.values for r in tile]
-    lo_f, hi_f = float(etas[0]), float(etas[-1])
+    lo_f, hi_f = float(min(etas)), float(max(etas))  # the grid may run downwards
     graz = [float(g) for g in grazing_frequencies(params) if lo_f <= float(g) <= hi_f]
     return BifurcationResult(
         params=params,

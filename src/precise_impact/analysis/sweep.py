@@ -169,10 +169,9 @@ class SweepSpec:
                 vals = exact_grid(lo, hi, n, name, minimum=Fraction(-(10**30)))
             else:
                 vals = exact_grid(lo, hi, n, name, minimum=minimum, strict=strict)
-            if name == "R" and vals[-1] > 1:
-                raise ParameterError(
-                    "R_max", decimal_str(vals[-1]), "restitution must satisfy R <= 1"
-                )
+            if name == "R" and max(vals) > 1:
+                end = "R_max" if vals[-1] > 1 else "R_min"
+                raise ParameterError(end, decimal_str(max(vals)), "restitution must satisfy R <= 1")
             built.append((name, tuple(vals)))
         if len(built) == 2 and built[0][0] == built[1][0]:
             raise ParameterError("axis", built[1][0], "the two axes must be different parameters")

@@ -117,8 +117,11 @@ def local_clock(
         return precision.from_mpf(s0), precision.from_mpf(s0 + T), precision.from_mpf(w)
 
 
-def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> list:
-    """``periods + 1`` times ``fl(s0 + k T)``, ``k = 0..periods``, of the local clock.
+def local_grid(
+    precision: Any, t0: Fraction, eta: Fraction, periods: int, substeps: int = 1
+) -> list:
+    """``periods + 1`` times ``fl(s0 + k T)``, ``k = 0..periods``, of the local clock
+    (with ``substeps = m > 1``: the ``m periods + 1`` times ``fl(s0 + k T / m)``).
 
     Parameters
     ----------
@@ -130,6 +133,8 @@ def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> lis
         Forcing frequency (exact, > 0).
     periods : int
         Forcing periods the grid spans (``>= 1``).
+    substeps : int, default 1
+        Equal steps per period (``>= 1``); every ``m``-th time is a period boundary.
 
     Returns
     -------
@@ -144,10 +149,13 @@ def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> lis
         + abs(t0).__ceil__().bit_length()
         + abs(eta).__ceil__().bit_length()
         + periods.bit_length()
+        + (substeps.bit_length() if substeps > 1 else 0)
     )
     with mpmath.workprec(precision.bits + extra):
         T, s0 = _period_and_start(t0, eta)
-        return [precision.from_mpf(s0 + k * T) for k in range(periods + 1)]
+        if substeps == 1:
+            return [precision.from_mpf(s0 + k * T) for k in range(periods + 1)]
+        return [precision.from_mpf(s0 + k * T / substeps) for k in range(periods * substeps + 1)]
 
 
 def period_float(eta: Fraction) -> float:

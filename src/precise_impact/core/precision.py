@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import threading
 from fractions import Fraction
 from typing import Any
 
@@ -101,8 +102,8 @@ class Precision:
     def ops(self) -> Any:
         """The closed-form flight's arithmetic in this precision
         (:mod:`precise_impact.core.flight`): float64 through :mod:`math`, ``mp:BITS`` through
-        mpmath at ``BITS`` inside ``ops.context()``, which sets mpmath's process-global
-        precision for its duration (so not for concurrent threads of mpmath work).
+        mpmath at ``BITS`` in a context of its own (:class:`~precise_impact.core.flight.MpmathOps`:
+        safe in concurrent threads; mpmath's process-global precision is never used).
 
         Raises
         ------
@@ -118,7 +119,7 @@ class Precision:
         if self.kind == "float64":
             return flight.FLOAT
         if self.kind == "mp":
-            return flight.MpmathOps(bits=self.bits)
+            return _mp_ops(self.bits)
         raise ParameterError(
             "precision", self.name, "float64 or mp:BITS for the closed-form flight (heyoka only)"
         )
@@ -251,8 +252,9 @@ class Precision:
         return self.from_fraction(Fraction(s))
 
     def from_mpf(self, m: Any) -> Any:
-        """Round an mpmath number (any precision) to this precision, to nearest."""
-        m = mpmath.mpf(m) if not isinstance(m, mpmath.mpf) else m
+        """Round an mpmath number (any precision, of any mpmath context) to this precision, to
+        nearest."""
+        m = m if hasattr(m, "_mpf_") else mpmath.mpf(m)
         return self._from_mpf_exact(_mk(libmp.normalize(*m._mpf_, self.bits, "n")))
 
     def to_mpf(self, x: Any) -> mpmath.mpf:
@@ -315,6 +317,56 @@ class Precision:
 
     def __str__(self) -> str:
         return self.name
+
+
+@functools.lru_cache(maxsize=32)
+def _mp_ops(bits: int) -> Any:
+    """One :class:`~precise_impact.core.flight.MpmathOps` a precision (a context costs ~6 ms)."""
+    return flight.MpmathOps(bits=bits)
+
+
+_LOCAL = threading.local()
+
+
+def mp_context(bits: int) -> Any:
+    """This thread's :class:`mpmath.MPContext` at ``bits`` of precision.
+
+    mpmath's module-level context (``mpmath.mp``, and ``mpmath.workprec``/``workdps``, which
+    change it) is shared by every thread: two threads computing at different precisions change
+    each other's results.  A context of its own per thread and precision does not; numbers
+    made by ``ctx.mpf`` / ``ctx.make_mpf`` compute at ``ctx.prec`` whatever the module-level
+    precision.  Numbers handed to callers go out through :func:`mp_export`.  Never set the
+    returned context's ``prec`` (mpmath's own routines such as ``lu_solve`` raise it and restore
+    it, which is safe only because the context belongs to one thread).
+    """
+    cache = getattr(_LOCAL, "contexts", None)
+    if cache is None:
+        cache = _LOCAL.contexts = {}
+    ctx = cache.get(bits)
+    if ctx is None:
+        ctx = mpmath.MPContext()
+        ctx.prec = bits
+        cache[bits] = ctx
+    return ctx
+
+
+def mp_export(z: Any) -> Any:
+    """A number of any mpmath context as the module-level ``mpmath.mpf`` / ``mpc`` of the same
+    value (exactly: no rounding), so that it is not tied to a thread's context."""
+    if hasattr(z, "_mpf_"):
+        return mpmath.mp.make_mpf(z._mpf_)
+    if hasattr(z, "_mpc_"):
+        return mpmath.mp.make_mpc(z._mpc_)
+    return z
+
+
+def mp_import(ctx: Any, z: Any) -> Any:
+    """An mpmath number (of any context) as a number of ``ctx``, exactly (no rounding)."""
+    if hasattr(z, "_mpf_"):
+        return ctx.make_mpf(z._mpf_)
+    if hasattr(z, "_mpc_"):
+        return ctx.make_mpc(z._mpc_)
+    return ctx.convert(z)
 
 
 def _mk(raw: tuple) -> mpmath.mpf:

@@ -23,7 +23,7 @@ from precise_impact.analysis.bifurcation import bifurcation
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision, quad_or_mp
-from precise_impact.errors import ParameterError
+from precise_impact.errors import OptionalDependencyError, ParameterError
 from precise_impact.io.atomic import atomic_write, sha256_file, write_json
 from precise_impact.io.progress import say as _log
 from precise_impact.solvers.heyoka.coupled import simulate_coupled
@@ -715,8 +715,6 @@ def verify(
     import importlib.util
 
     if importlib.util.find_spec("flint") is None:  # the proofs need python-flint (a dependency)
-        from precise_impact.errors import OptionalDependencyError
-
         raise OptionalDependencyError(
             "python-flint", "re-checking the references' proofs", "pip install python-flint"
         )

@@ -323,6 +323,8 @@ def _periodic_groups(
     for j, (xs, vs) in enumerate(tails):
         xs, vs = np.asarray(xs, float), np.asarray(vs, float)
         p = detect_period(xs, vs, MAX_PERIOD) if len(xs) >= 3 * MAX_PERIOD else 0
+        if not params.zeta < 1:
+            p = 0  # the orbit finder is underdamped only: an overdamped start stays finite-time
         orbit = None
         if p > 0:
             cycle = np.column_stack([xs[-p:], vs[-p:]])

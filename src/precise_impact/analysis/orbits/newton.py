@@ -25,9 +25,10 @@ from precise_impact.analysis.orbits.result import (
 from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
 from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, parse_max_time, run_cost
 from precise_impact.core.compat import UNSET, warn_renamed
+from precise_impact.core.flight import MpmathOps
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, exact, params_or_values
-from precise_impact.core.precision import Precision
+from precise_impact.core.precision import Precision, mp_export
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
 from precise_impact.solvers.closed_form import AnalyticalSolver
 
@@ -62,10 +63,8 @@ def _map(params: Params, z: np.ndarray, period: int):
     return np.array([x, v]), np.array([[m00, m01], [m10, m11]]), int(n)
 
 
-def _mpq(q) -> Any:
-    import mpmath
-
-    return mpmath.mpf(q.numerator) / q.denominator
+def _mpq(q, ctx) -> Any:
+    return ctx.mpf(q.numerator) / q.denominator
 
 
 def _fraction(z) -> Any:
@@ -77,62 +76,64 @@ def _fraction(z) -> Any:
     return -q if sign else q
 
 
-def _map_mp(params: Params, z: tuple, period: int, bits: int):
+def _map_mp(params: Params, z: tuple, period: int, ops: Any):
     """The map and its Jacobian in multiprecision: the robust analytical solver (mpmath) gives
-    the flights and impacts, the closed-form flow and saltation matrices the Jacobian."""
-    import mpmath
-
+    the flights and impacts, the closed-form flow and saltation matrices the Jacobian; numbers
+    of ``ops.ctx`` (this computation's own mpmath context)."""
+    bits, ctx = ops.prec, ops.ctx
     P = Precision.parse(f"mp:{bits}")
     q = params.replace(x0=_fraction(z[0]), v0=_fraction(z[1]))
     tr = AnalyticalSolver(finder="robust", precision=f"mp:{bits}").solve(q, period)
     eta, zeta, a, xw, R, t0 = (
-        _mpq(getattr(params, n)) for n in ("eta", "zeta", "a", "x_w", "R", "t0")
+        _mpq(getattr(params, n), ctx) for n in ("eta", "zeta", "a", "x_w", "R", "t0")
     )
-    w = mpmath.sqrt(1 - zeta * zeta)
-    M = mpmath.eye(2)
+    w = ctx.sqrt(1 - zeta * zeta)
+    M = ctx.eye(2)
     t_prev = t0
+    at = lambda y: ops.mpf(P.to_mpf(y))  # noqa: E731  (exact, in ctx)
     for ti, vb in zip(tr.impacts_t, tr.impacts_v_before, strict=True):
-        ti, vb = P.to_mpf(ti), P.to_mpf(vb)
+        ti, vb = at(ti), at(vb)
         M = (
-            mpmath.matrix(oscillator_saltation(ti, vb, eta, zeta, a, xw, R, mpmath.cos))
-            * flow_matrix(ti - t_prev, zeta, w)
+            ctx.matrix(oscillator_saltation(ti, vb, eta, zeta, a, xw, R, ctx.cos))
+            * flow_matrix(ti - t_prev, zeta, w, ops)
             * M
         )
         t_prev = ti
-    M = flow_matrix(P.to_mpf(tr.t[-1]) - t_prev, zeta, w) * M
-    return (P.to_mpf(tr.x[-1]), P.to_mpf(tr.v[-1])), M, len(tr.impacts_t)
+    M = flow_matrix(at(tr.t[-1]) - t_prev, zeta, w, ops) * M
+    return (at(tr.x[-1]), at(tr.v[-1])), M, len(tr.impacts_t)
 
 
 def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations: int):
-    import mpmath
-
+    """Newton's method at ``bits`` in an mpmath context of this computation's own (mpmath's
+    module-level precision, which ``workprec`` sets, is shared by every thread)."""
+    ops = MpmathOps(bits=bits)
+    mp = ops.ctx
     steps = []
-    with mpmath.workprec(bits):
-        z = mpmath.matrix([mpmath.mpf(z0[0]), mpmath.mpf(z0[1])])
-        tiny = mpmath.mpf(2) ** (8 - bits)
-        last = mpmath.inf
-        for _ in range(max_iterations):
-            fz, M, n = _map_mp(params, (z[0], z[1]), period, bits)
-            F = mpmath.matrix([fz[0] - z[0], fz[1] - z[1]])
-            dz = mpmath.lu_solve(M - mpmath.eye(2), -F)
-            z = z + dz
-            size = max(abs(dz[0]), abs(dz[1]))
-            steps.append(size)
-            if size <= tiny * (1 + max(abs(z[0]), abs(z[1]))) or (
-                size >= last and last < mpmath.mpf(2) ** (-bits // 2)
-            ):
-                break
-            last = size
-        else:
-            raise ConvergenceError(
-                f"no convergence in {max_iterations} multiprecision Newton iterations"
-            )
-        fz, M, n = _map_mp(params, (z[0], z[1]), period, bits)
-        residual = max(abs(fz[0] - z[0]), abs(fz[1] - z[1]))
-        mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
-        T = 2 * mpmath.pi / _mpq(params.eta)
-        lle = float(mpmath.log(abs(mu[0])) / (period * T))
-        return z[0], z[1], list(mu), lle, float(residual), n, len(steps), [float(h) for h in steps]
+    z = mp.matrix([mp.mpf(z0[0]), mp.mpf(z0[1])])
+    tiny = mp.mpf(2) ** (8 - bits)
+    last = mp.inf
+    for _ in range(max_iterations):
+        fz, M, n = _map_mp(params, (z[0], z[1]), period, ops)
+        F = mp.matrix([fz[0] - z[0], fz[1] - z[1]])
+        dz = mp.lu_solve(M - mp.eye(2), -F)
+        z = z + dz
+        size = max(abs(dz[0]), abs(dz[1]))
+        steps.append(size)
+        if size <= tiny * (1 + max(abs(z[0]), abs(z[1]))) or (
+            size >= last and last < mp.mpf(2) ** (-bits // 2)
+        ):
+            break
+        last = size
+    else:
+        raise ConvergenceError(
+            f"no convergence in {max_iterations} multiprecision Newton iterations"
+        )
+    fz, M, n = _map_mp(params, (z[0], z[1]), period, ops)
+    residual = max(abs(fz[0] - z[0]), abs(fz[1] - z[1]))
+    mu = sorted(mp.eig(M)[0], key=lambda m: -abs(m))
+    T = 2 * mp.pi / _mpq(params.eta, mp)
+    lle = float(mp.log(abs(mu[0])) / (period * T))
+    return z[0], z[1], list(mu), lle, float(residual), n, len(steps), [float(h) for h in steps]
 
 
 def _closed_form_seed(params: Params, period: int, near: np.ndarray | None):
@@ -469,9 +470,9 @@ def _refined_orbit(
         period=period,
         impacts=n,
         t=float(params.t0),
-        x=x,
-        v=v,
-        multipliers=mu,
+        x=mp_export(x),
+        v=mp_export(v),
+        multipliers=[mp_export(m) for m in mu],
         stable=kind == "stable",
         lle=0.0 if kind == "elliptic" else lle,
         residual=res,

@@ -6,6 +6,8 @@ when admissible); the multipliers follow in closed form (derivation: ``docs/nume
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
 from fractions import Fraction
 from typing import Any
 
@@ -16,26 +18,37 @@ from precise_impact.core import flight
 from precise_impact.core.flow import steady_state
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import check_count, params_or_values
+from precise_impact.core.precision import mp_export
 from precise_impact.errors import ParameterError
 
 __all__ = ["one_impact_orbits", "flow_matrix"]
 
 
-def _q(f: Fraction) -> mpmath.mpf:
-    return mpmath.mpf(f.numerator) / f.denominator
+def _q(f: Fraction, ctx: Any = mpmath.mp) -> Any:
+    return ctx.mpf(f.numerator) / f.denominator
 
 
-def _phi(tau, zeta, w):
-    """``Phi(tau)`` in mpmath at the current working precision
-    (:func:`precise_impact.core.flight.flow_matrix`)."""
-    return flight.flow_matrix(tau, zeta, w, flight.MPMATH)
+def _phi(tau, zeta, w, ops: Any = flight.MPMATH):
+    """``Phi(tau)`` in mpmath (:func:`precise_impact.core.flight.flow_matrix`): in ``ops``'s
+    context, by default at the module-level working precision."""
+    return flight.flow_matrix(tau, zeta, w, ops)
 
 
-def flow_matrix(tau, zeta, w) -> mpmath.matrix:
+def flow_matrix(tau, zeta, w, ops: Any = None) -> Any:
     """The homogeneous flow (and tangent flow) ``Phi(tau)`` of the free flight as an mpmath
-    matrix, ``w = sqrt(1 - zeta^2)``."""
-    p00, p01, p10, p11 = _phi(tau, zeta, w)
-    return mpmath.matrix([[p00, p01], [p10, p11]])
+    matrix, ``w = sqrt(1 - zeta^2)``: of ``ops.ctx`` (a
+    :class:`~precise_impact.core.flight.MpmathOps`, thread-safe), or without ``ops`` at the
+    module-level working precision (``mpmath.workprec``; not thread-safe)."""
+    p00, p01, p10, p11 = _phi(tau, zeta, w, flight.MPMATH if ops is None else ops)
+    return (mpmath.matrix if ops is None else ops.ctx.matrix)([[p00, p01], [p10, p11]])
+
+
+@contextlib.contextmanager
+def _own_context(dps: int) -> Iterator[tuple[flight.MpmathOps, Any]]:
+    """``(ops, ctx)``: an mpmath context of this computation's own at ``dps`` digits (mpmath's
+    module-level precision, which ``workdps`` sets, is shared by every thread)."""
+    ops = flight.MpmathOps(dps=dps)
+    yield ops, ops.ctx
 
 
 def one_impact_orbits(
@@ -97,13 +110,13 @@ def one_impact_orbits(
         )
     ss = steady_state(params)
     out = []
-    with mpmath.workdps(dps):
-        eta, zeta, a, xw, R = (_q(getattr(params, n)) for n in ("eta", "zeta", "a", "x_w", "R"))
-        P, Q = _q(ss.P), _q(ss.Q)
-        T = 2 * mpmath.pi / eta
+    with _own_context(dps) as (ops, mp):
+        eta, zeta, a, xw, R = (_q(getattr(params, n), mp) for n in ("eta", "zeta", "a", "x_w", "R"))
+        P, Q = _q(ss.P, mp), _q(ss.Q, mp)
+        T = 2 * mp.pi / eta
         nT = n * T
-        w = flight.damped_frequency(zeta, flight.MPMATH)
-        e, c, s, half = _decay_cos_sin(params, n, nT, w)
+        w = flight.damped_frequency(zeta, ops)
+        e, c, s, half = _decay_cos_sin(params, n, nT, w, mp)
         sw = s / w
         p00, p01, p10, p11 = e * (c + zeta * sw), e * sw, -e * sw, e * (c - zeta * sw)
         # The impact phase t* and velocity v solve the two flight equations (land on the wall
@@ -125,69 +138,69 @@ def one_impact_orbits(
         a1, a2 = p01 * R, 1 + p11 * R
         norm = a1 * a1 + a2 * a2
         Ac, As = C1 * P - C2 * eta * Q, C1 * Q + C2 * eta * P
-        rho, psi = mpmath.hypot(Ac, As), mpmath.atan2(As, Ac)
+        rho, psi = mp.hypot(Ac, As), mp.atan2(As, Ac)
         if norm == 0 or rho == 0:
             _degenerate(params, ss, norm)
             return []
         if abs(C1 * xw / rho) > 1:
             return []
-        delta = mpmath.acos(C1 * xw / rho)
+        delta = mp.acos(C1 * xw / rho)
         for theta in (psi + delta, psi - delta):
-            ts = mpmath.fmod(theta / eta, T)
+            ts = mp.fmod(theta / eta, T)
             if ts < 0:
                 ts += T
-            X = P * mpmath.cos(eta * ts) + Q * mpmath.sin(eta * ts)
-            V = eta * (Q * mpmath.cos(eta * ts) - P * mpmath.sin(eta * ts))
+            X = P * mp.cos(eta * ts) + Q * mp.sin(eta * ts)
+            V = eta * (Q * mp.cos(eta * ts) - P * mp.sin(eta * ts))
             b1 = (p00 - 1) * (xw - X) - p01 * V
             b2 = V * (1 - p11) + p10 * (xw - X)
             v = (a1 * b1 + a2 * b2) / norm
             if not v > 0:
                 continue
-            if params.R == 0 and _sticks(eta, a, xw, ts):
+            if params.R == 0 and _sticks(eta, a, xw, ts, mp):
                 continue  # a plastic impact that the force holds on the wall: not a flight
             y0, u0 = xw - X, -R * v - V
 
             def x_at(t, ts=ts, y0=y0, u0=u0):
-                f00, f01, _, _ = _phi(t - ts, zeta, w)
-                return P * mpmath.cos(eta * t) + Q * mpmath.sin(eta * t) + f00 * y0 + f01 * u0
+                f00, f01, _, _ = _phi(t - ts, zeta, w, ops)
+                return P * mp.cos(eta * t) + Q * mp.sin(eta * t) + f00 * y0 + f01 * u0
 
             if any(x_at(ts + nT * j / (n * grid)) >= xw for j in range(1, n * grid)):
                 continue  # the flight would cross the wall: not a 1:n orbit
-            t0 = _q(params.t0)
-            tau = mpmath.fmod(t0 - ts, nT)
+            t0 = _q(params.t0, mp)
+            tau = mp.fmod(t0 - ts, nT)
             if tau < 0:
                 tau += nT
-            f00, f01, f10, f11 = _phi(tau, zeta, w)
+            f00, f01, f10, f11 = _phi(tau, zeta, w, ops)
             t_s = ts + tau
-            x0 = P * mpmath.cos(eta * t_s) + Q * mpmath.sin(eta * t_s) + f00 * y0 + f01 * u0
-            v0 = eta * (Q * mpmath.cos(eta * t_s) - P * mpmath.sin(eta * t_s)) + f10 * y0 + f11 * u0
-            S = oscillator_saltation(ts, v, eta, zeta, a, xw, R, mpmath.cos)
-            M = mpmath.matrix(S) * mpmath.matrix([[p00, p01], [p10, p11]])  # S Phi(nT)
-            mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
+            x0 = P * mp.cos(eta * t_s) + Q * mp.sin(eta * t_s) + f00 * y0 + f01 * u0
+            v0 = eta * (Q * mp.cos(eta * t_s) - P * mp.sin(eta * t_s)) + f10 * y0 + f11 * u0
+            S = oscillator_saltation(ts, v, eta, zeta, a, xw, R, mp.cos)
+            M = mp.matrix(S) * mp.matrix([[p00, p01], [p10, p11]])  # S Phi(nT)
+            mu = sorted(mp.eig(M)[0], key=lambda m: -abs(m))
             kind = classify(mu, area_preserving(params.zeta, params.R, 1))
-            lle = 0.0 if kind == "elliptic" else float(mpmath.log(abs(mu[0])) / nT)
+            lle = 0.0 if kind == "elliptic" else float(mp.log(abs(mu[0])) / nT)
             out.append(
                 PeriodicOrbit(
                     params=params,
                     period=n,
                     impacts=1,
                     t=float(t0),
-                    x=x0,
-                    v=v0,
-                    multipliers=list(mu),
+                    x=mp_export(x0),
+                    v=mp_export(v0),
+                    multipliers=[mp_export(m) for m in mu],
                     stable=kind == "stable",
                     lle=lle,
-                    residual=_residual(P, Q, eta, zeta, w, R, xw, t0, x0, v0, ts, nT),
+                    residual=_residual(P, Q, eta, zeta, w, R, xw, t0, x0, v0, ts, nT, ops),
                     iterations=0,
                     method="closed form",
-                    precision=f"mp:{mpmath.mp.prec}",
+                    precision=f"mp:{mp.prec}",
                     stability=kind,
                 )
             )
     return out
 
 
-def _decay_cos_sin(params: Any, n: int, nT: Any, w: Any) -> tuple:
+def _decay_cos_sin(params: Any, n: int, nT: Any, w: Any, mp: Any) -> tuple:
     """``(e^(-zeta n T), cos(w n T), sin(w n T), sin(w n T / 2))`` at the working precision;
     exact at the resonances ``zeta = 0``, ``n T = k pi`` (``eta = 2n / k``), where the rounded
     ``pi`` would leave ``sin ~ 10^-dps`` and the closed form would divide by it."""
@@ -196,23 +209,23 @@ def _decay_cos_sin(params: Any, n: int, nT: Any, w: Any) -> tuple:
         if k.denominator == 1:
             sign = -1 if k.numerator % 2 else 1
             return (
-                mpmath.mpf(1),
-                mpmath.mpf(sign),
-                mpmath.mpf(0),
-                mpmath.mpf(1 if sign == -1 else 0),
+                mp.mpf(1),
+                mp.mpf(sign),
+                mp.mpf(0),
+                mp.mpf(1 if sign == -1 else 0),
             )
-    e = mpmath.exp(-_q(params.zeta) * nT)
-    c, s = mpmath.cos_sin(w * nT)
-    return e, c, s, mpmath.sin(w * nT / 2)
+    e = mp.exp(-_q(params.zeta, mp) * nT)
+    c, s = mp.cos_sin(w * nT)
+    return e, c, s, mp.sin(w * nT / 2)
 
 
-def _sticks(eta: Any, a: Any, xw: Any, ts: Any) -> bool:
+def _sticks(eta: Any, a: Any, xw: Any, ts: Any, mp: Any) -> bool:
     """At rest on the wall after a plastic impact (``R = 0``) the mass leaves only if
     ``x'' = a cos(eta t*) - x_w < 0``; where ``x''`` is zero to rounding (``2^16`` units of the
     working precision of the terms), the next derivative ``-a eta sin(eta t*)`` decides."""
-    acc = a * mpmath.cos(eta * ts) - xw
-    if abs(acc) <= mpmath.ldexp(abs(a) + abs(xw), 16 - mpmath.mp.prec):
-        return not -a * eta * mpmath.sin(eta * ts) < 0
+    acc = a * mp.cos(eta * ts) - xw
+    if abs(acc) <= mp.ldexp(abs(a) + abs(xw), 16 - mp.prec):
+        return not -a * eta * mp.sin(eta * ts) < 0
     return acc >= 0
 
 
@@ -233,12 +246,11 @@ def _degenerate(params: Any, ss: Any, norm: Any) -> None:
         )
 
 
-def _residual(P, Q, eta, zeta, w, R, xw, t0, x0, v0, ts, nT) -> float:
+def _residual(P, Q, eta, zeta, w, R, xw, t0, x0, v0, ts, nT, ops) -> float:
     """``max |P^n(z) - z|`` and the miss of the wall at the impact, by the flight equations
     evaluated once more from the returned point ``z = (x0, v0)`` at ``t0`` (an honest residual:
     a wrong phase or velocity shows here)."""
-    ops = flight.MPMATH
-    t_imp = ts + nT * mpmath.ceil((t0 - ts) / nT)  # the next impact at or after t0
+    t_imp = ts + nT * ops.ctx.ceil((t0 - ts) / nT)  # the next impact at or after t0
     if t_imp == t0:
         t_imp += nT
     x1, v1 = flight.Flight(P, Q, eta, zeta, w, ops, t0, x0, v0).at(t_imp)

@@ -52,7 +52,7 @@ from precise_impact.core.precision import Precision
 from precise_impact.errors import BudgetExceededError, IntegrationError, MissedImpactError
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.solvers.heyoka.variational import GUARD_FACTOR
+from precise_impact.solvers.heyoka.variational import GUARD_FACTOR, chunk_layout
 
 __all__ = ["integrate_group", "default_batch_size"]
 
@@ -223,23 +223,41 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     xs = np.zeros((periods, B))
     vs = np.zeros((periods, B))
     imp0 = None
+    # QR steps per period and lane: a period longer than the tangents' QR interval is cut
+    # into equal steps, each lane as it would be alone (solvers.heyoka.variational.chunk_layout)
+    m = np.array([chunk_layout(float(T[i]), p.zeta)[1] for i, p in enumerate(group)])
+    M = int(m.max())
+    targets = [np.where(j < m, L0 + (L1 - L0) * j / m, L1) for j in range(1, M)] + [L1]
     for k in range(1, total + 1):
-        ta.propagate_until(L1)
-        if rec.exceeded:
-            raise BudgetExceededError(
-                f"impact budget max_impacts={max_impacts} exhausted in a batch lane"
-            )
-        if any(r[0] != hy.taylor_outcome.time_limit for r in ta.propagate_res):
-            raise IntegrationError(
-                f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}"
-            )
-        if grd.first_miss is not None:
-            i, t_m, over = grd.first_miss
-            raise MissedImpactError(
-                f"batch lane {i} ({group[i]}): a maximum of x lies {over:.3g} beyond the wall "
-                f"at local time {t_m:.17g} with no impact event: heyoka's event detection missed "
-                "an impact"
-            )
+        s1 = np.zeros(B)
+        s2 = np.zeros(B)
+        for j, target in enumerate(targets, start=1):
+            ta.propagate_until(target)
+            if rec.exceeded:
+                raise BudgetExceededError(
+                    f"impact budget max_impacts={max_impacts} exhausted in a batch lane"
+                )
+            if any(r[0] != hy.taylor_outcome.time_limit for r in ta.propagate_res):
+                raise IntegrationError(
+                    f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}"
+                )
+            if grd.first_miss is not None:
+                i, t_m, over = grd.first_miss
+                raise MissedImpactError(
+                    f"batch lane {i} ({group[i]}): a maximum of x lies {over:.3g} beyond the "
+                    f"wall at local time {t_m:.17g} with no impact event: heyoka's event "
+                    "detection missed an impact"
+                )
+            if j == M:
+                break
+            s = ta.state
+            moved = j < m  # lanes inside their period (at L1 the period's own QR follows)
+            q0, q1, u0, u1, r11, r22 = gram_schmidt2(s[2], s[4], s[3], s[5], np.sqrt)
+            s[2], s[4] = np.where(moved, q0, s[2]), np.where(moved, q1, s[4])
+            s[3], s[5] = np.where(moved, u0, s[3]), np.where(moved, u1, s[5])
+            with np.errstate(divide="ignore"):
+                s1 += np.where(moved, np.log(r11), 0.0)
+                s2 += np.where(moved, np.log(r22), 0.0)
         ta.set_time(L0)  # the forcing is T-periodic: set every lane's clock back one period
         s = ta.state
         q0, q1, u0, u1, r11, r22 = gram_schmidt2(s[2], s[4], s[3], s[5], np.sqrt)
@@ -253,6 +271,8 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
             j = k - transient - 1
             with np.errstate(divide="ignore"):
                 l1[j], l2[j] = np.log(r11) + c1_log, np.log(r22) + c2_log
+                if M > 1:
+                    l1[j], l2[j] = l1[j] + s1, l2[j] + s2
             xs[j], vs[j] = s[0], s[1]
     if imp0 is None:  # transient == 0
         imp0 = np.zeros(B, dtype=np.int64)

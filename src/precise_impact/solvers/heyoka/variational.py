@@ -129,7 +129,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.clock import local_grid, period_float
-from precise_impact.core.flow import acceleration
+from precise_impact.core.flow import acceleration, tangent_qr_interval
 from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.impact import (
     grazing_depth_coefficient,
@@ -166,6 +166,7 @@ __all__ = [
     "integrate_orbit",
     "depth_for",
     "CHUNK",
+    "chunk_layout",
     "GUARD_FACTOR",
     "MissedImpactError",
     "grazing_depth_coefficient",
@@ -394,6 +395,24 @@ def _state_logs(rows, sqrt, log) -> tuple[list, list]:
 CHUNK = 8
 
 
+def chunk_layout(period: float, zeta: Any) -> tuple[int, int]:
+    """Periods per chunk and QR steps per period: ``(CHUNK, 1)`` unless that spans more than
+    :func:`~precise_impact.core.flow.tangent_qr_interval` (long periods, strong damping):
+    then as many whole periods as fit (at least one), and a long period cut into equal steps.
+
+    Between two QRs the tangents must not shrink far below ``(x, v)``: heyoka's error control
+    is relative to the whole state, and tangent entries near ``eps |x|`` are noise
+    (measured: eta = 0.001, non-impacting, 8 periods per QR: LLE -0.0045 for -zeta = -0.05;
+    zeta = 1.5: lambda2 -1.02 for -2.618).
+    """
+    h = tangent_qr_interval(zeta)
+    if CHUNK * period <= h:
+        return CHUNK, 1
+    if period <= h:
+        return max(1, int(h // period)), 1
+    return 1, math.ceil(period / h)
+
+
 def integrate_orbit(
     ta,
     rec,
@@ -418,7 +437,9 @@ def integrate_orbit(
     x0, v0 = conv(params.x0), conv(params.v0)
     if impact_at_start(params.x0, params.v0, params.x_w, params.R):
         v0 = reset_velocity(v0, conv(params.R))
-    grid = local_grid(P, params.t0, params.eta, CHUNK)
+    period = period_float(params.eta)
+    chunk, sub = chunk_layout(period, params.zeta)
+    grid = local_grid(P, params.t0, params.eta, chunk, sub)
     L0 = grid[0]
     # the grazing depth at the chunk's last clock value (module docstring, *Time*)
     rec.t_depth = guard.t_depth = grid[-1]
@@ -426,15 +447,10 @@ def integrate_orbit(
     ta.state[:] = P.array([x0, v0, one, zero, zero, one])
     ta.reset_cooldowns()
     sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
-    period = period_float(params.eta)
     grids: dict[int, Any] = {}
 
-    def advance(k):
-        """``k <= CHUNK`` periods from ``L0``; the grid states (rows ``1..k``)."""
-        g = grids.get(k)
-        if g is None:
-            g = grids[k] = P.array(grid[: k + 1])
-        ta.time = L0  # the forcing is T-periodic: the clock starts every chunk at L0
+    def run(g):
+        """Propagate over the grid ``g`` (starting at the clock's value); the grid states."""
         res = ta.propagate_grid(g)
         oc = res[0]
         if rec.exceeded:
@@ -453,9 +469,35 @@ def integrate_orbit(
             )
         return res[-1]
 
+    def advance(k):
+        """``k <= chunk`` periods from ``L0``; the grid states (rows ``1..k``)."""
+        g = grids.get(k)
+        if g is None:
+            g = grids[k] = P.array(grid[: k + 1])
+        ta.time = L0  # the forcing is T-periodic: the clock starts every chunk at L0
+        return run(g)
+
+    subgrids = [P.array(grid[j : j + 2]) for j in range(sub)] if sub > 1 else []
+
+    def one_period():
+        """One period in ``sub`` steps, the tangents re-orthonormalised after each (a long
+        period: :func:`chunk_layout`); the state QRs' summed logs and the period-end state."""
+        ta.time = L0
+        s1 = s2 = 0.0
+        row = None
+        for g in subgrids:
+            row = run(g)[-1]
+            a, b = _gram_schmidt(ta.state, sqrt, log)
+            s1, s2 = s1 + float(a), s2 + float(b)
+        return s1, s2, row
+
     done = 0
     while done < transient:
-        k = min(CHUNK, transient - done)
+        if sub > 1:
+            one_period()
+            done += 1
+            continue
+        k = min(chunk, transient - done)
         advance(k)
         _gram_schmidt(ta.state, sqrt, log)  # keep the tangents bounded during the transient too
         done += k
@@ -468,8 +510,19 @@ def integrate_orbit(
     ni = np.zeros(periods)  # impacts in each measured period (the attractors' impact-rate test)
     bar = Progress(periods, f"variational LLE{label}", progress)
     done = 0
+    while done < periods and sub > 1:
+        s1, s2, row = one_period()
+        _, c1, c2 = rec.take_logs()
+        p1 = p2 = 0.0
+        for u, w in zip(c1, c2, strict=True):
+            p1, p2 = p1 + u, p2 + w
+        l1[done], l2[done] = p1 + s1, p2 + s2
+        ni[done] = len(c1)
+        sx[done], sv[done] = row[0], row[1]
+        done += 1
+        bar.update(done)
     while done < periods:
-        k = min(CHUNK, periods - done)
+        k = min(chunk, periods - done)
         rows = advance(k)[1:]
         # a period's logs: those of the in-callback QRs of its impacts, plus the change
         # of the tangent state's own QR logs (the state restarted orthonormal at L0)
