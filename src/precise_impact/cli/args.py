@@ -10,12 +10,14 @@ One spelling per flag across commands: the parameter flags (the ``Params`` names
 from __future__ import annotations
 
 import argparse
+import contextlib
 from fractions import Fraction
 from typing import Any
 
 from precise_impact.core.budget import DEFAULT_MAX_TIME, parse_max_time
 from precise_impact.core.params import Params, decimal_str, exact
 from precise_impact.io.atomic import check_output_dir, check_output_file
+from precise_impact.io.lock import DirectoryLock
 
 __all__ = [
     "EXIT_BAD_INPUT",
@@ -196,12 +198,19 @@ def max_time(ns: argparse.Namespace) -> float:
     return DEFAULT_MAX_TIME if ns.max_time is None else parse_max_time(ns.max_time)
 
 
-def check_outputs(ns: argparse.Namespace) -> None:
-    """Every ``--out`` checked before any work: the right kind, writable, no silent overwrite."""
+def check_outputs(ns: argparse.Namespace) -> contextlib.AbstractContextManager:
+    """Every ``--out`` checked before any work: the right kind, writable, no silent overwrite.
+
+    Returns the context to run the command in: an ``--out`` directory is locked for the whole
+    run (:class:`~precise_impact.io.lock.DirectoryLock`), so a second run into the same
+    directory is refused at once, naming the first, instead of mixing its files with it.
+    """
     out, kind = getattr(ns, "out", None), getattr(ns, "out_kind", None)
     if out is None or kind is None:
-        return
-    if kind == "file":
+        return contextlib.nullcontext()
+    if kind == "file":  # written in one atomic rename: two writers cannot mix one file
         check_output_file(out, force=ns.force)
-    else:  # a sweep and a reference dataset resume in their own directory (checked there)
-        check_output_dir(out, force=kind == "resume" or getattr(ns, "force", False))
+        return contextlib.nullcontext()
+    # a sweep and a reference dataset resume in their own directory (checked there)
+    check_output_dir(out, force=kind == "resume" or getattr(ns, "force", False))
+    return DirectoryLock(out, "out")  # acquired on entering the `with` block

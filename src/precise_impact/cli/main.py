@@ -114,8 +114,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     heyoka.set_logger_level_error()
     _terminate_as_interrupt()
     try:
-        check_outputs(ns)
-        return ns.run(ns)
+        with check_outputs(ns):  # an --out directory is locked until the run ends
+            return ns.run(ns)
     except (ParameterError, OptionalDependencyError) as e:  # bad input, or a missing component
         print(f"precise-impact: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -224,6 +224,18 @@ class Precision:
         return math.ceil(self.bits * math.log10(2)) + 1
 
     # ------------------------------------------------------------- conversion
+    def nan(self) -> Any:
+        """Not-a-number of this precision (a value not recorded; ``to_str`` gives ``'nan'``)."""
+        if self.kind == "float64":
+            return math.nan
+        if self.kind == "longdouble":
+            return np.longdouble("nan")
+        if self.kind == "float128":
+            return _real128()("nan")
+        import heyoka as hy
+
+        return hy.real("nan", self.bits)
+
     def _from_mpf_exact(self, m: mpmath.mpf) -> Any:
         """Convert an mpf that is already representable in this precision."""
         if self.kind == "float64":

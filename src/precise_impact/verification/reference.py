@@ -24,7 +24,8 @@ from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision, quad_or_mp
 from precise_impact.errors import OptionalDependencyError, ParameterError
-from precise_impact.io.atomic import atomic_write, sha256_file, write_json
+from precise_impact.io.atomic import atomic_write, sha256_file
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _log
 from precise_impact.solvers.heyoka.coupled import simulate_coupled
 from precise_impact.solvers.simulate import simulate

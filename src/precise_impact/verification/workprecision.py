@@ -9,7 +9,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
-import json
 import math
 import shutil
 import statistics
@@ -28,6 +27,7 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.models.circuit.components import nominal_components
 from precise_impact.models.circuit.opamp import CircuitSolver
@@ -721,8 +721,7 @@ CSV_FIELDS = [
 
 
 def write_outputs(result: dict[str, Any], out: Path) -> None:
-    text = json.dumps(result, indent=2, default=str)
-    atomic_write(out / "work_precision.json", lambda fh: fh.write(text), binary=False)
+    write_json(out / "work_precision.json", result, indent=2, default=str)
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, extrasaction="ignore")
     w.writeheader()
@@ -799,7 +798,9 @@ def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
     _save(fig, path)
 
 
-def format_table(result: dict[str, Any]) -> str:
+def format_table(result: WorkPrecisionResult | dict[str, Any]) -> str:
+    """The ``bench work-precision`` table of a :class:`WorkPrecisionResult` (or its fields
+    as a dict)."""
     lines = []
     for case, ref in result["references"].items():
         lines.append(
@@ -819,7 +820,7 @@ def format_table(result: dict[str, Any]) -> str:
                 f"  {r['method']:<28} {r['setting']:<14} {r['error']:>9.2e} {hz:>7} "
                 f"{r['time_s']:>10.5f} {cs:>8} {r['repeats']:>3}"
             )
-    ch = result.get("chaos_cost")
+    ch = result["chaos_cost"] if "chaos_cost" in result else None
     if ch:
         lines.append(
             f"What chaos costs (eta=0.712, target {ch['target']:g}, reference "

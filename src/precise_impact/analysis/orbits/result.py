@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin
@@ -105,7 +104,7 @@ class PeriodicOrbit(ResultMixin):
             "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
             "stable": self.stable,
             "stability": self.stability,
-            "lle": self.lle if math.isfinite(self.lle) else None,
+            "lle": self.lle,  # -inf (R = 0) is "-inf" (ResultMixin: strict JSON)
             "residual": self.residual,
             "iterations": self.iterations,
             "steps": [float(h) for h in self.steps],

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from precise_impact.cli.args import add_json, add_param_flags, add_periods, params_from
 from precise_impact.core.params import check_count
 from precise_impact.errors import ParameterError
+from precise_impact.io.jsonout import print_json
 from precise_impact.solvers.certified.coupled import certify_coupled
 from precise_impact.solvers.certified.single import MAX_BITS, certify
 
@@ -136,8 +136,7 @@ def run(ns: argparse.Namespace) -> int:
         ]
         names = "xv"
     if ns.json:
-        json.dump(d, sys.stdout, allow_nan=False)  # strict: no NaN / Infinity tokens
-        sys.stdout.write("\n")
+        print_json(d)
         return 0
     last = d["samples"][-1]
     lines += [f"{n}({last['period']} T) = {last[n]} +- {last[n + '_rad']}" for n in names]

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import sys
 
 from precise_impact.analysis.orbits import continue_orbit
 from precise_impact.analysis.orbits.branch import brute_force_diagram
@@ -21,6 +19,7 @@ from precise_impact.cli.args import (
 )
 from precise_impact.core.params import check_count
 from precise_impact.errors import ParameterError
+from precise_impact.io.jsonout import print_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -108,8 +107,7 @@ def run(ns: argparse.Namespace) -> int:
         if not ns.json:
             print("wrote " + ", ".join(str(f) for f in files.values()))
     if ns.json:
-        json.dump(res.to_dict(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(res.to_dict())
         return 0
     for k, b in enumerate(res.branches):
         n = b.counts()  # virtual orbits counted once, as virtual, never as stable or unstable

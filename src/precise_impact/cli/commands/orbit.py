@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
 from precise_impact.analysis.orbits import find_orbit
 from precise_impact.cli.args import (
@@ -17,6 +15,7 @@ from precise_impact.cli.args import (
     orbit_params_from,
 )
 from precise_impact.core.params import check_count
+from precise_impact.io.jsonout import print_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -66,8 +65,7 @@ def run(ns: argparse.Namespace) -> int:
         max_time=max_time(ns),
     )
     if ns.json:
-        json.dump(o.to_dict(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(o.to_dict())
         return 0
     mus = ", ".join(
         f"{m.real:.12g}{m.imag:+.12g}i" if m.imag else f"{m.real:.12g}" for m in o.multipliers

@@ -51,6 +51,7 @@ __all__ = [
     "SpiceResult",
     "SpiceError",
     "NgspiceNotFoundError",
+    "find_ngspice",
     "E24",
     "E96",
     "IDEAL_OPAMP_GAIN",
@@ -637,7 +638,14 @@ def _extrapolate(ts, ys, i0: int, i1: int, t: float) -> float:
     return float(ys[i1] + (ys[i1] - ys[i0]) * (t - ts[i1]) / (ts[i1] - ts[i0]))
 
 
-def _find_ngspice(executable: str | None) -> str:
+def find_ngspice(executable: str | None = None) -> str:
+    """The path of the ngspice executable (``executable`` or ``ngspice`` on ``PATH``).
+
+    Raises
+    ------
+    NgspiceNotFoundError
+        It is not there: one line naming ngspice and how to install it.
+    """
     exe = shutil.which(executable or "ngspice")
     if exe is None:
         raise NgspiceNotFoundError(
@@ -711,7 +719,7 @@ def run_spice(
         or not (timeout > 0 and math.isfinite(timeout))
     ):
         raise ParameterError("timeout", timeout, "seconds > 0")
-    exe = _find_ngspice(executable)
+    exe = find_ngspice(executable)
     if workdir is None:
         with tempfile.TemporaryDirectory(prefix="precise_impact_spice_") as tmp:
             return _run(

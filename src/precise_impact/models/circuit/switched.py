@@ -338,9 +338,9 @@ class SwitchedCapacitorSolver:
         imp_t, imp_vb, imp_va = [], [], []
         for tt, vb, va in switches.rows():
             imp_t.append(om * tt)
-            if vb is None:
-                imp_vb.append(None)
-                imp_va.append(None)
+            if vb is None:  # not recorded (immediate switching): NaN of the precision
+                imp_vb.append(P.nan())
+                imp_va.append(P.nan())
             else:
                 imp_vb.append(vb / (om * rcv * vuv))
                 imp_va.append(va / (om * rcv * vuv))
@@ -360,6 +360,8 @@ class SwitchedCapacitorSolver:
                 "effects": sorted(self.effects),
                 "components": comp.decimal(),
                 "comparator_trips": trips,
+                "null": "impact velocities not recorded: with immediate switching V_q flips "
+                "sign at the comparator trip and only its instant is logged",
             },
         )
         if per_period > 0:
