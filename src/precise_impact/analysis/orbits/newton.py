@@ -303,7 +303,12 @@ def _underflowed_lle(params: Params, z: np.ndarray, period: int, n: int) -> floa
     underflow in float64 (``ShootingSystem.floquet_lle``: exactly ``-zeta`` without impacts)."""
     base = {k: float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")}
     system = ShootingSystem(base, "eta", period, n)
-    u = from_orbit(system, params, float(z[0]), float(z[1]), base["eta"])
+    if n == 0:
+        return system.floquet_lle(np.asarray(z, dtype=float), base["eta"])  # -zeta, exactly
+    try:
+        u = from_orbit(system, params, float(z[0]), float(z[1]), base["eta"])
+    except ValueError as err:  # the simulated period met another impact count
+        raise IntegrationError(f"the impacts for the orbit's LLE not found: {err}") from err
     return system.floquet_lle(u, base["eta"])
 
 
