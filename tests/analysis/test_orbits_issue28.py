@@ -156,3 +156,33 @@ def test_continuation_in_x_w_past_the_start_position():
         pi.Params.make(eta="0.8"), "x_w", "0.5", "-0.5", 1, max_points=50, doublings=0
     )
     assert min(res.branches[0].values) < 0
+
+
+# ---- items 2 and 3 in the Lyapunov report of a periodic orbit -------------------------------
+def test_floquet_second_exponent_and_resolution_from_logarithms():
+    from precise_impact.analysis.orbits.result import (
+        floquet_resolution,
+        floquet_second_exponent,
+    )
+
+    pT = 2 * math.pi / 0.001
+    # non-impacting, mu_2 = 0 in float64: lambda_2 = -2 zeta - lambda_1 = -0.999 (was -inf)
+    assert floquet_second_exponent(-0.999, 0.0, 0.999, 1.0, 0, pT) == pytest.approx(-0.999, abs=0)
+    # n impacts: ln|det M| / (p T) = 2 n ln R / (p T) - 2 zeta
+    lam2 = floquet_second_exponent(-0.5, 0.0, 0.3, 0.8, 2, 10.0)
+    assert lam2 == pytest.approx(4 * math.log(0.8) / 10 - 0.6 + 0.5, rel=1e-15)
+    assert floquet_second_exponent(-0.5, 0.0, 0.3, 0.0, 1, 10.0) == -math.inf  # plastic
+    assert floquet_second_exponent(-0.5, 0.25, 0.3, 0.8, 1, 10.0) == math.log(0.25) / 10
+    # the bar is 1e-12 / (p T) (unchanged, eta = 0.985) or two ulps where that is smaller
+    assert floquet_resolution(-0.0263, 4 * math.pi / 0.985) == 1e-12 / (4 * math.pi / 0.985)
+    assert floquet_resolution(-0.999, pT) == 2 * math.ulp(0.999) > 1e-12 / pT
+
+
+@pytest.mark.slow  # ~20 s: 400 periods of 6283 time units, the heyoka fallback
+def test_lyapunov_of_an_underflowing_periodic_orbit():
+    r = pi.lyapunov(
+        pi.Params.make(zeta="0.999", eta="0.001"), model="fast", periods=400, transient=10
+    )
+    assert r.lle_source == "floquet"
+    assert r.lle == -0.999 and r.spectrum[1] == pytest.approx(-0.999, abs=1e-15)
+    assert r.lle_stderr >= 2 * math.ulp(0.999)  # before: (-0.999, -inf), 1.4 ulps
