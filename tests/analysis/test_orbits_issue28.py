@@ -15,7 +15,7 @@ import pytest
 import precise_impact as pi
 from precise_impact.analysis.orbits import newton
 from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
-from precise_impact.cli.main import _glue_negative_values, _strip_glued, build_parser, main
+from precise_impact.cli.main import main
 from precise_impact.errors import OverBudgetError
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
@@ -99,13 +99,23 @@ def test_virtual_orbits_are_counted_apart(tangential, capsys):
 
 # ---- item 5: the transient in chunks, with a budget ----------------------------------------
 def test_transient_runs_in_chunks(monkeypatch):
+    from precise_impact.solvers.fast.single import FastSolver
+
     p = pi.Params.make(eta="0.985")
-    whole = newton._transient_end(p, 50)
+    whole = pi.find_orbit(p, 2, transient=50)
+    calls = []
+    solve = FastSolver.solve
+
+    def spy(self, params, periods, per_period=0):
+        calls.append(periods)
+        return solve(self, params, periods, per_period)
+
+    monkeypatch.setattr(FastSolver, "solve", spy)
     monkeypatch.setattr(newton, "TRANSIENT_CHUNK", 7)
-    chunked = newton._transient_end(p, 50)
-    # restarting at t0 instead of t0 + k T moves the state by rounding of the sample times
-    # (~eps * k T, amplified by the contracting map at most by its condition ~10)
-    assert np.max(np.abs(chunked - whole)) < 1e-11
+    chunked = pi.find_orbit(p, 2, transient=50)
+    assert calls == [7] * 7 + [1]  # only one chunk of samples held at a time
+    # the same orbit: Newton from two starting states that differ by rounding
+    assert abs(chunked.x - whole.x) < 1e-12 and abs(chunked.v - whole.v) < 1e-12
 
 
 def test_transient_over_budget_is_refused_before_work(capsys):
@@ -118,22 +128,38 @@ def test_transient_over_budget_is_refused_before_work(capsys):
 
 # ---- item 6: negative numbers in scientific notation, an unused default start ---------------
 @pytest.mark.parametrize(
-    ("argv", "dest", "value"),
+    ("argv", "message"),
     [
-        (["orbit", "--guess", "-1e-3", "0"], "guess", ["-1e-3", "0"]),
+        # parsed, then refused by the validators naming the flag (before: argparse's "expected 2
+        # arguments" for the two-value flags)
         (
-            ["continue", "--param", "eta", "1", "1.1", "--guess", "-1e-3", "-2E-1"],
-            "guess",
-            ["-1e-3", "-2E-1"],
+            [
+                "continue",
+                "--param",
+                "eta",
+                "1",
+                "1.1",
+                "--guess",
+                "-1e-3",
+                "-2E-1",
+                "--max-points",
+                "0",
+            ],
+            "max_points = ",
         ),
-        (["certify", "--y0", "-1e-3", "0"], "y0", ["-1e-3", "0"]),
-        (["simulate", "--tol", "-1e-9"], "tol", "-1e-9"),
-        (["simulate", "--x_w", "-.5e-1"], "x_w", "-.5e-1"),
+        (["certify", "--y0", "-1e-3", "0"], "y0 = '-1e-3 0' is not allowed: only with --k"),
+        (["simulate", "--tol", "-1e-9"], "tol = '-1e-9'"),
     ],
 )
-def test_negative_scientific_values_are_values(argv, dest, value):
-    ns = _strip_glued(build_parser().parse_args(_glue_negative_values(argv)))
-    assert getattr(ns, dest) == value
+def test_negative_scientific_values_are_values(argv, message, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and "expected" not in err
+
+
+def test_negative_scientific_wall(capsys):
+    assert main(["simulate", "--x_w", "-.5e-1", "--x0", "-1", "--periods", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["params"]["x_w"] == "-0.05"
 
 
 def test_orbit_with_a_guess_in_scientific_notation(capsys):
