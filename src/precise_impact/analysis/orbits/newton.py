@@ -7,14 +7,23 @@ eigenvalues give the exact LLE ``ln |mu_max| / (p T)``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from precise_impact.analysis.orbits.one_impact import flow_matrix, one_impact_orbits
-from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
+from precise_impact.analysis.orbits.result import (
+    UNDERFLOW,
+    PeriodicOrbit,
+    area_preserving,
+    classify,
+)
+from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
+from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, parse_max_time, run_cost
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.flight import MpmathOps
 from precise_impact.core.impact import oscillator_saltation
@@ -154,6 +163,7 @@ def find_orbit(
     precision: str = "float64",
     guess_from: str = "simulation",
     seed: Any = UNSET,
+    max_time: Any = None,
     **param_values: Any,
 ) -> PeriodicOrbit:
     """A periodic orbit of the stroboscopic map (stable or unstable) by Newton's method.
@@ -189,6 +199,10 @@ def find_orbit(
         the guess.
     seed : str
         Deprecated spelling of ``guess_from`` (``seed`` is an RNG seed elsewhere).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds for the transient (``None``: none): a transient whose estimate
+        is over it is refused before any work (:class:`~precise_impact.errors.OverBudgetError`).
+        The transient is run in chunks, only its last state kept (its memory is bounded).
     **param_values
         Parameter values replacing those of ``params``.
 
@@ -202,6 +216,8 @@ def find_orbit(
     ------
     ParameterError
         Bad input, before any work.
+    OverBudgetError
+        The transient's estimate is over ``max_time``, before any work.
     ConvergenceError
         No convergence within ``max_iterations``, or to an orbit with another impact count.
     IntegrationError
@@ -245,6 +261,8 @@ def find_orbit(
         params, period, transient, max_iterations, impacts, guess_from, precision
     )
     g = _parse_guess(params, guess)
+    if g is None and guess_from != "closed-form":
+        transient_cost(transient, max_time)
     z = _seed(params, period, g, guess_from, impacts, transient)
     z, it, steps = _newton_float(params, z, period, max_iterations)
     fz, M, n = _map(params, z, period)
@@ -259,7 +277,10 @@ def find_orbit(
         return _refined_orbit(params, period, z, n, Pq, max_iterations, it, steps)
     mu = sorted(np.linalg.eigvals(M).tolist(), key=lambda m: -abs(m))
     T = 2 * math.pi / float(params.eta)
-    lle = math.log(abs(mu[0])) / (period * T) if abs(mu[0]) > 0 else -math.inf
+    if abs(mu[0]) > UNDERFLOW:
+        lle = math.log(abs(mu[0])) / (period * T)
+    else:  # M underflowed (zeta p T > ~670): the logarithm from the scaled monodromy
+        lle = _underflowed_lle(params, z, period, n)
     kind = classify(mu, area_preserving(params.zeta, params.R, n))
     return PeriodicOrbit(
         params=params,
@@ -276,6 +297,20 @@ def find_orbit(
         stability=kind,
         steps=steps,
     )
+
+
+def _underflowed_lle(params: Params, z: np.ndarray, period: int, n: int) -> float:
+    """``ln |mu_max| / (p T)`` of the orbit through ``z`` from logarithms, for multipliers that
+    underflow in float64 (``ShootingSystem.floquet_lle``: exactly ``-zeta`` without impacts)."""
+    base = {k: float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")}
+    system = ShootingSystem(base, "eta", period, n)
+    if n == 0:
+        return system.floquet_lle(np.asarray(z, dtype=float), base["eta"])  # -zeta, exactly
+    try:
+        u = from_orbit(system, params, float(z[0]), float(z[1]), base["eta"])
+    except ValueError as err:  # the simulated period met another impact count
+        raise IntegrationError(f"the impacts for the orbit's LLE not found: {err}") from err
+    return system.floquet_lle(u, base["eta"])
 
 
 def _check_options(
@@ -347,11 +382,44 @@ def _seed(
     if z is None and g is not None:
         z = g
     elif z is None:
-        from precise_impact.solvers.fast.single import FastSolver
-
-        tr = FastSolver().solve(params, transient)
-        z = np.array([float(tr.x[-1]), float(tr.v[-1])])
+        z = _transient_end(params, transient)
     return z
+
+
+#: Periods of the transient run at a time: only its last state is kept, so its memory is that
+#: of one chunk (~2.4 MB of samples) however long it is (10^8 periods in one run held 2.4 GB).
+TRANSIENT_CHUNK = 100_000
+
+
+def _transient_end(params: Params, transient: int) -> np.ndarray:
+    """The state after ``transient`` periods from ``(x0, v0)`` at ``t0``, run in chunks of
+    :data:`TRANSIENT_CHUNK` periods restarted at ``t0`` (the flow is ``T``-periodic); one run,
+    bit-identical to before, up to one chunk."""
+    from precise_impact.solvers.fast.single import FastSolver
+
+    solver = FastSolver()
+    q = params
+    left = transient
+    while True:
+        tr = solver.solve(q, min(left, TRANSIENT_CHUNK))
+        z = np.array([float(tr.x[-1]), float(tr.v[-1])])
+        left -= min(left, TRANSIENT_CHUNK)
+        if left == 0:
+            return z
+        q = params.replace(x0=Fraction(z[0]), v0=Fraction(z[1]))
+
+
+def transient_cost(transient: int, max_time: Any = DEFAULT_MAX_TIME) -> None:
+    """Refuse a transient whose estimated run time is over ``max_time`` seconds (``None``: no
+    budget), before any work (:class:`~precise_impact.errors.OverBudgetError`): priced as a
+    float64 run whose samples are not kept (the fast engine's fallback, heyoka, sets the
+    price per period)."""
+    if max_time is None:
+        return
+    cost = run_cost(Precision.parse("float64"), transient, stored=False)
+    check_cost(
+        dataclasses.replace(cost, what=f"a transient of {cost.what}"), parse_max_time(max_time)
+    )
 
 
 def _newton_float(
