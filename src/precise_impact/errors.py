@@ -63,7 +63,17 @@ class ParameterError(PreciseImpactError, ValueError):
         self.name = name
         self.value = value
         self.allowed = allowed
-        super().__init__(f"{name} = {value!r} is not allowed: {allowed}")
+        super().__init__(f"{name} = {one_line(value)} is not allowed: {allowed}")
+
+
+def one_line(value: object, limit: int = 80) -> str:
+    """``repr(value)`` on one line (a 2-D array's repr has several) of at most ``limit``
+    characters: the refusal stays one line however large the value."""
+    try:
+        text = " ".join(repr(value).split())
+    except Exception:  # a hostile __repr__: the type still says what was given
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 class BudgetExceededError(PreciseImpactError, RuntimeError):

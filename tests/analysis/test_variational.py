@@ -167,4 +167,4 @@ def test_plastic_impacts_r0():
     b = lyapunov(p, "two-trajectory", periods=4000, transient=200)
     assert a.spectrum[1] == -math.inf and math.isfinite(a.lle)
     assert abs(a.lle - b.lle) < 5e-4
-    assert a.to_dict()["spectrum"][1] is None
+    assert a.to_dict()["spectrum"][1] == "-inf"  # strict JSON: the sign is kept

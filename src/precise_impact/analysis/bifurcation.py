@@ -8,7 +8,6 @@ stroboscopic points and the LLE; the values go through the scan runner
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 from collections.abc import Sequence
@@ -35,6 +34,7 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.errors import EndlessBouncesError, IntegrationError, ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.jsonout import dumps
 from precise_impact.io.progress import ProgressArg, check_progress
 from precise_impact.solvers.base import Unresolved, with_fallback
 
@@ -126,7 +126,7 @@ class BifurcationResult(ResultMixin):
             "status": np.array(self.status, dtype=str),
             "grazing": np.array(self.grazing, dtype=float),
             "meta_json": np.asarray(
-                json.dumps(
+                dumps(
                     {
                         "params": self.params.decimal(),
                         "periods": self.periods,

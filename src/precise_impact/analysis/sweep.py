@@ -27,8 +27,9 @@ from precise_impact.analysis.scan import Grid, NpzTileStore, resolve_model, run_
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
-from precise_impact.io.atomic import atomic_write, write_json
+from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
+from precise_impact.io.jsonout import dumps, write_json
 from precise_impact.io.lock import DirectoryLock
 from precise_impact.io.progress import say
 
@@ -263,7 +264,7 @@ class SweepSpec:
             import numba
 
             ident["numba"] = numba.__version__
-        return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
+        return hashlib.sha256(dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
@@ -532,7 +533,7 @@ class SweepResult(ResultMixin):
             npz = dict(
                 {f: getattr(self, f) for f in _FIELDS},
                 **axes,
-                spec_json=np.asarray(json.dumps(spec.to_json_dict())),
+                spec_json=np.asarray(dumps(spec.to_json_dict())),
             )
             atomic_write(path, lambda fh: np.savez_compressed(fh, **npz), binary=True)
             return path

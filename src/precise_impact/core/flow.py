@@ -15,8 +15,10 @@ from fractions import Fraction
 from typing import Any
 
 import mpmath
+from mpmath import libmp
 
 from precise_impact.core.flight import steady_coefficients
+from precise_impact.core.mpcontext import mp_context, mp_export
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import ParameterError
 
@@ -235,13 +237,13 @@ def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
     """
     params = as_params(params)
     dps = check_count(dps, "dps", 10_000, minimum=1)
-    with mpmath.workdps(dps):
-        z = mpmath.mpf(params.zeta.numerator) / params.zeta.denominator
-        a = mpmath.mpf(params.a.numerator) / params.a.denominator
-        xw = mpmath.mpf(params.x_w.numerator) / params.x_w.denominator
-        b = 1 - 2 * z**2
-        disc = b**2 - 1 + (a / xw) ** 2
-        if disc < 0:
-            return []
-        roots = [b - mpmath.sqrt(disc), b + mpmath.sqrt(disc)]
-        return sorted(mpmath.sqrt(u) for u in roots if u > 0)
+    ctx = mp_context(libmp.dps_to_prec(dps))  # this thread's own, not mpmath's global precision
+    z = ctx.mpf(params.zeta.numerator) / params.zeta.denominator
+    a = ctx.mpf(params.a.numerator) / params.a.denominator
+    xw = ctx.mpf(params.x_w.numerator) / params.x_w.denominator
+    b = 1 - 2 * z**2
+    disc = b**2 - 1 + (a / xw) ** 2
+    if disc < 0:
+        return []
+    roots = [b - ctx.sqrt(disc), b + ctx.sqrt(disc)]
+    return sorted(mp_export(ctx.sqrt(u)) for u in roots if u > 0)

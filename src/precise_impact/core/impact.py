@@ -236,12 +236,17 @@ def wall_acceleration(t: Any, eta: Any, zeta: Any, a: Any, x_w: Any, cos) -> Any
     return acceleration(t, x_w, 0 * x_w, eta, zeta, a, cos)
 
 
-def _mpq(q: Any) -> Any:
+def _mpq(q: Any, ctx: Any) -> Any:
     q = Fraction(q)
-    return mpmath.mpf(q.numerator) / q.denominator
+    return ctx.mpf(q.numerator) / q.denominator
 
 
-def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
+def _mp_time(t: Any, ctx: Any) -> Any:
+    """An exact time (Fraction, int, or an mpmath number of any context) in ``ctx``."""
+    return ctx.make_mpf(t._mpf_) if hasattr(t, "_mpf_") else _mpq(t, ctx)
+
+
+def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction, *, ctx: Any = None) -> bool:
     """True if a mass at rest on the wall at time ``t`` stays there (sticks).
 
     ``G(s) = a cos(eta s) - x_w`` is the wall force (:func:`wall_acceleration`).
@@ -251,9 +256,12 @@ def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
     (``a = x_w = 0``: the mass rests at the spring's equilibrium, on the wall)
     counts as sticking: the mass stays where it is, for good.
 
-    ``t`` is an exact number (Fraction, int, or an mpf, evaluated at the current
-    mpmath precision; callers add guard bits); the parameters are exact rationals.
+    ``t`` is an exact number (Fraction, int, or an mpf); the parameters are exact rationals.
+    Evaluated in the mpmath context ``ctx`` (callers add guard bits to its precision; a context
+    of their own, :func:`~precise_impact.core.mpcontext.mp_context`, is thread-safe), or without
+    it at mpmath's module-level working precision.
     """
+    mp = mpmath.mp if ctx is None else ctx
     eta, a, x_w = Fraction(eta), Fraction(a), Fraction(x_w)
     if t == 0:
         g0 = a - x_w  # exact: cos(0) = 1
@@ -262,11 +270,11 @@ def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
         if a == 0 and x_w == 0:
             return True  # G == 0 everywhere: at rest for good
         return -eta * eta * x_w > 0  # G'(0) = 0, G''(0) = -a eta^2 = -eta^2 x_w
-    th = _mpq(eta) * (t if isinstance(t, mpmath.mpf) else _mpq(t))
-    g = _mpq(a) * mpmath.cos(th) - _mpq(x_w)
+    th = _mpq(eta, mp) * _mp_time(t, mp)
+    g = _mpq(a, mp) * mp.cos(th) - _mpq(x_w, mp)
     if g != 0:
         return g > 0
-    g1 = -_mpq(a) * _mpq(eta) * mpmath.sin(th)
+    g1 = -_mpq(a, mp) * _mpq(eta, mp) * mp.sin(th)
     if g1 != 0:
         return g1 > 0
     if a == 0 and x_w == 0:
@@ -274,7 +282,7 @@ def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
     return -eta * eta * x_w > 0
 
 
-def release_time(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> Any:
+def release_time(t: Any, eta: Fraction, a: Fraction, x_w: Fraction, *, ctx: Any = None) -> Any:
     """First time ``s > t`` at which the wall force ``G = a cos(eta s) - x_w`` turns negative.
 
     Closed form at the current mpmath precision (callers add guard bits for
@@ -285,24 +293,26 @@ def release_time(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> Any:
     returned as an mpf.  Returns ``None`` if ``G`` never turns negative:
     ``a = 0`` (constant force) or ``c <= -1`` (``G >= 0`` everywhere, touching
     zero at most tangentially when ``c = -1``); also for ``c >= 1``, where ``G <= 0``
-    everywhere and nothing can stick in the first place.
+    everywhere and nothing can stick in the first place.  Evaluated in the mpmath context
+    ``ctx`` as :func:`pushes_into_wall` (a number of ``ctx``).
     """
+    mp = mpmath.mp if ctx is None else ctx
     eta, a, x_w = Fraction(eta), Fraction(a), Fraction(x_w)
     if a == 0:
         return None
     c = x_w / abs(a)
     if c <= -1 or c >= 1:
         return None
-    two_pi = 2 * mpmath.pi
-    phi = mpmath.acos(_mpq(c))
+    two_pi = 2 * mp.pi
+    phi = mp.acos(_mpq(c, mp))
     if a < 0:
-        phi -= mpmath.pi
-    th = _mpq(eta) * (t if isinstance(t, mpmath.mpf) else _mpq(t))
-    k = mpmath.floor((th - phi) / two_pi) + 1
+        phi -= mp.pi
+    th = _mpq(eta, mp) * _mp_time(t, mp)
+    k = mp.floor((th - phi) / two_pi) + 1
     th_rel = phi + two_pi * k
     while th_rel <= th:  # guards the floor against rounding at an exact zero
         th_rel += two_pi
-    return th_rel / _mpq(eta)
+    return th_rel / _mpq(eta, mp)
 
 
 def chatter_accumulation_time(t_n: Any, v_n: Any, R: Any, g: Any) -> Any:

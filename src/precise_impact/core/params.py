@@ -136,8 +136,14 @@ def exact(name: str, value: Any, max_exponent: int = MAX_EXPONENT) -> Fraction:
             value,
             f"expected a decimal string, int, Fraction or float, got {type(value).__name__}",
         )
-    if q != 0 and not (Fraction(1, 10**max_exponent) <= abs(q) <= 10**max_exponent):
-        raise ParameterError(name, _short(value), rng)
+    if q != 0:
+        # log2 |q| lies in (e - 1, e + 1): far inside the range no 10**max_exponent is built (a
+        # million-digit power cost ~1.5 s a call with max_exponent = 10**6)
+        e = q.numerator.bit_length() - q.denominator.bit_length()
+        if abs(e) + 2 >= 3 * max_exponent and not (
+            Fraction(1, 10**max_exponent) <= abs(q) <= 10**max_exponent
+        ):
+            raise ParameterError(name, _short(value), rng)
     return q
 
 

@@ -218,10 +218,8 @@ class LyapunovResult(ResultMixin):
             "params": self.params.decimal(),
             "method": self.method,
             "lle": self.lle,
-            # JSON has no infinity: a -inf exponent (plastic impacts, R = 0) is null
-            "spectrum": [v if math.isfinite(v) else None for v in self.spectrum]
-            if self.spectrum is not None
-            else None,
+            # a -inf exponent (plastic impacts, R = 0) is "-inf" (ResultMixin: strict JSON)
+            "spectrum": None if self.spectrum is None else list(self.spectrum),
             "lle_stderr": self.lle_stderr,
             "periods": self.periods,
             "n_impacts": self.n_impacts,

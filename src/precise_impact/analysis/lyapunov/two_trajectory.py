@@ -21,6 +21,7 @@ from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 from precise_impact.core.clock import local_clock
 from precise_impact.core.flow import tangent_qr_interval
+from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.params import RUNTIME_PARAMS, Params, as_params, exact
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
@@ -83,8 +84,8 @@ def default_d0(precision: str | Precision = "float64") -> Fraction:
     """
     P = Precision.parse(precision)
     e = P.eps_fraction
-    with mpmath.workprec(64):
-        return _mpf_to_fraction(mpmath.sqrt(mpmath.mpf(e.numerator) / e.denominator) / 100)
+    ctx = mp_context(64)  # this thread's own (mpmath's global precision is shared)
+    return _mpf_to_fraction(ctx.sqrt(ctx.mpf(e.numerator) / e.denominator) / 100)
 
 
 def _mpf_to_fraction(m: mpmath.mpf) -> Fraction:
@@ -106,8 +107,11 @@ class _Arith:
         self.native = P.kind in ("float64", "longdouble")
         self.d0 = P.from_fraction(d0)
         self.prec = P.bits + 32
-        with mpmath.workprec(self.prec):
-            self.d0m = mpmath.mpf(d0.numerator) / d0.denominator
+        # a context of its own (mpmath's global precision is shared by every thread); the
+        # measurements run in the thread that made this object
+        self.ctx = ctx = mpmath.MPContext()
+        ctx.prec = self.prec
+        self.d0m = ctx.mpf(d0.numerator) / d0.denominator
 
     def measure(self, dx: Any, dv: Any) -> tuple[float, Any, Any] | None:
         """``(ln(d / d0), dx * d0 / d, dv * d0 / d)``, or ``None`` if ``d == 0``."""
@@ -117,19 +121,17 @@ class _Arith:
                 return None
             s = self.d0 / d
             return float(np.log(d / self.d0)), dx * s, dv * s
-        P = self.P
-        with mpmath.workprec(self.prec):
-            dxm, dvm = P.to_mpf(dx), P.to_mpf(dv)
-            d = mpmath.sqrt(dxm * dxm + dvm * dvm)
-            if d == 0:
-                return None
-            s = self.d0m / d
-            return float(mpmath.log(d / self.d0m)), P.from_mpf(dxm * s), P.from_mpf(dvm * s)
+        P, ctx = self.P, self.ctx
+        dxm, dvm = mp_import(ctx, P.to_mpf(dx)), mp_import(ctx, P.to_mpf(dv))
+        d = ctx.sqrt(dxm * dxm + dvm * dvm)
+        if d == 0:
+            return None
+        s = self.d0m / d
+        return float(ctx.log(d / self.d0m)), P.from_mpf(dxm * s), P.from_mpf(dvm * s)
 
     def along_diagonal(self) -> tuple[Any, Any]:
         """``d0 (1, 1) / sqrt(2)``: the initial perturbation."""
-        with mpmath.workprec(self.prec):
-            c = self.P.from_mpf(self.d0m / mpmath.sqrt(2))
+        c = self.P.from_mpf(self.d0m / self.ctx.sqrt(2))
         return c, c
 
 

@@ -37,12 +37,14 @@ from precise_impact.solvers.certified.single import (
     Constants,
     Flight,
     Isolator,
+    _finite_or_none,
     ball_str,
     certified_bits,
     check_certifiable,
     describe,
     exact_value,
     log10_abs,
+    max_radius_str,
     point,
     run_balls,
     to_ball,
@@ -208,8 +210,9 @@ class CertifiedCoupledTrajectory(ResultMixin):
         """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``samples``
         (``{"period", "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}``),
         ``master_impacts`` and ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``),
-        ``max_radius``, ``max_log10_radius``, ``elapsed_s``; midpoints and rigorous radii as
-        decimal strings."""
+        ``max_radius``, ``max_log10_radius`` (``None`` for exact points), ``elapsed_s``; midpoints
+        and rigorous radii as decimal strings (``max_radius`` in scientific notation, rounded up,
+        never 0 for a ball of any radius): strict JSON."""
         rows = []
         for k, t, *balls in self.samples:
             row: dict = {"period": k, "t": ball_str(t)[0]}
@@ -222,7 +225,13 @@ class CertifiedCoupledTrajectory(ResultMixin):
             for t, b, a in lst:
                 (tm, tr), (bm, br), (am, ar) = ball_str(t), ball_str(b), ball_str(a)
                 out.append(
-                    {"t": tm, "t_rad": tr, "before": bm, "after": am, "rad": max(br, ar, key=float)}
+                    {
+                        "t": tm,
+                        "t_rad": tr,
+                        "before": bm,
+                        "after": am,
+                        "rad": max(br, ar, key=Fraction),
+                    }
                 )
             return out
 
@@ -236,8 +245,8 @@ class CertifiedCoupledTrajectory(ResultMixin):
             "samples": rows,
             "master_impacts": imps(self.master_impacts),
             "slave_impacts": imps(self.slave_impacts),
-            "max_radius": self.max_radius(),
-            "max_log10_radius": self.max_log10_radius(),
+            "max_radius": max_radius_str(b for s in self.samples for b in s[2:]),
+            "max_log10_radius": _finite_or_none(self.max_log10_radius()),
             "elapsed_s": self.elapsed_s,
         }
 

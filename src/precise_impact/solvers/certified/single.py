@@ -30,6 +30,7 @@ __all__ = [
     "CertificationError",
     "CertifiedSolver",
     "ball_str",
+    "radius_str",
     "working_bits",
     "flow_matrix",
     "run_balls",
@@ -131,6 +132,33 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
     return str(dm), str(dr).replace("E", "e")
 
 
+def radius_str(r) -> str:
+    """A radius (an exact non-negative arb, e.g. ``b.rad()``) as a decimal string in scientific
+    notation, 3 significant digits rounded up: ``'0'`` only for an exact 0, never rounded to 0
+    at any magnitude (a float underflows to 0.0 below 1e-308 and would state exactness)."""
+    from decimal import ROUND_CEILING, Decimal, localcontext
+
+    q = exact_value(r)
+    if q == 0:
+        return "0"
+    with localcontext() as ctx:
+        ctx.prec = 3
+        ctx.rounding = ROUND_CEILING
+        d = Decimal(q.numerator) / Decimal(q.denominator)
+    return f"{d:.2e}"
+
+
+def _finite_or_none(x: float) -> float | None:
+    """``x``, or ``None`` for a non-finite value (``-inf``: the log10 radius of an exact point),
+    so that the JSON stays strict."""
+    return x if math.isfinite(x) else None
+
+
+def max_radius_str(balls) -> str:
+    """The largest radius of ``balls`` as :func:`radius_str` (chosen exactly, not by float)."""
+    return radius_str(max((b.rad() for b in balls), key=exact_value))
+
+
 class Flight(flight.Flight):
     """The closed-form flight of the single oscillator from ``(s, x_s, v_s)``, all balls,
     evaluated at ball or point times (also the master of the certified pair,
@@ -223,28 +251,34 @@ class Isolator:
                     describe(a, "a wall contact cannot be excluded") + f" (gap {ga}) "
                     f"at {self.bits} bits"
                 )
-        h = b - a
-        m = point((a + b) / 2)
-        gm, vm = gap(m)
-        if gm + abs(vm) * h / 2 + A * h * h / 8 < 0:
-            return None  # cleared: g < 0 on [a, b]
-        vlo = vm - A * h / 2
-        vhi = vm + A * h / 2
-        if vhi < 0:
-            return None  # g decreasing from g(a) < 0
-        if vlo > 0:
-            gb, _ = gap(b)
-            if gb < 0:
-                return None  # increasing and still below the wall at b
-            if gb > 0:
-                return self.newton(gap, a, b)
-        if depth > self.max_depth:
-            raise CertificationError(
-                describe(_interval(a, b), "a crossing cannot be separated from a graze")
-                + f" with gap in {gap(_interval(a, b))[0]} at {self.bits} bits"
-            )
-        r = self.first_crossing(gap, A, a, m, depth + 1)
-        return r if r is not None else self.first_crossing(gap, A, m, b, depth + 1)
+        # depth first, left half first, on an explicit stack: the bisection may go bits + 40
+        # levels deep, past Python's recursion limit (a RecursionError at 1024 bits before)
+        todo = [(a, b, depth)]
+        while todo:
+            a, b, depth = todo.pop()
+            h = b - a
+            m = point((a + b) / 2)
+            gm, vm = gap(m)
+            if gm + abs(vm) * h / 2 + A * h * h / 8 < 0:
+                continue  # cleared: g < 0 on [a, b]
+            vlo = vm - A * h / 2
+            vhi = vm + A * h / 2
+            if vhi < 0:
+                continue  # g decreasing from g(a) < 0
+            if vlo > 0:
+                gb, _ = gap(b)
+                if gb < 0:
+                    continue  # increasing and still below the wall at b
+                if gb > 0:
+                    return self.newton(gap, a, b)
+            if depth > self.max_depth:
+                raise CertificationError(
+                    describe(_interval(a, b), "a crossing cannot be separated from a graze")
+                    + f" with gap in {gap(_interval(a, b))[0]} at {self.bits} bits"
+                )
+            todo.append((m, b, depth + 1))
+            todo.append((a, m, depth + 1))
+        return None
 
     def newton(self, gap, a, b):
         """The unique crossing in ``[a, b]`` (``g' > 0`` proven there, ``g(a) < 0 < g(b)``)."""
@@ -315,8 +349,11 @@ class _Engine:
             a = s
         elif p.x0 == p.x_w:
             if p.v0 > 0:
+                # an impact at t0; samples are right-continuous (docs/numerics.rst, as every
+                # engine): sample 0 holds the state after it
                 impacts.append((s, v0, -c.R * v0))
                 fl = Flight(c, s, c.xw, -c.R * v0)
+                samples[0] = (0, c.t0, x0, -c.R * v0)
             elif p.v0 == 0:
                 raise CertificationError("the start (x0 = x_w, v0 = 0) is a contact: not certified")
             a = iso.depart(fl.gap, fl.acceleration_bound(), s)
@@ -447,8 +484,13 @@ class CertifiedTrajectory(ResultMixin):
         Returns
         -------
         bool
-        """
 
+        Raises
+        ------
+        ParameterError
+            ``k`` is not an integer with ``0 <= k <= periods``.
+        """
+        k = check_count(k, "k", self.periods, minimum=0)
         _, _, bx, bv = self.samples[k]
         # exactly, in rationals: no rounding, and no dependence on python-flint's process-wide
         # precision
@@ -461,8 +503,10 @@ class CertifiedTrajectory(ResultMixin):
         """The CLI's ``--json`` object: ``params``, ``periods``, ``bits``, ``bits_choice``,
         ``samples`` (``{"period", "t", "x", "v", "x_rad", "v_rad"}``: decimal midpoints and
         rigorous radii as decimal strings), ``impacts`` (``{"t", "t_rad", "v_before",
-        "v_after", "v_rad"}``), ``max_radius`` (0.0 below 1e-308), ``max_log10_radius``,
-        ``growth_digits_per_period``, ``elapsed_s``."""
+        "v_after", "v_rad"}``), ``max_radius`` (a string in scientific notation, rounded up,
+        :func:`radius_str`: never 0 for a ball of any radius), ``max_log10_radius`` (``None``
+        when every sample is an exact point), ``growth_digits_per_period``, ``elapsed_s``:
+        strict JSON."""
         out = []
         for k, t, x, v in self.samples:
             tm, _ = ball_str(t)
@@ -480,7 +524,7 @@ class CertifiedTrajectory(ResultMixin):
                     "t_rad": tr,
                     "v_before": bm,
                     "v_after": am,
-                    "v_rad": max(br, ar, key=float),
+                    "v_rad": max(br, ar, key=Fraction),
                 }
             )
         return {
@@ -490,8 +534,8 @@ class CertifiedTrajectory(ResultMixin):
             "bits_choice": self.bits_choice,
             "samples": out,
             "impacts": imps,
-            "max_radius": self.max_radius(),
-            "max_log10_radius": self.max_log10_radius(),
+            "max_radius": max_radius_str(b for row in self.samples for b in row[2:]),
+            "max_log10_radius": _finite_or_none(self.max_log10_radius()),
             "growth_digits_per_period": self.growth_digits_per_period(),
             "elapsed_s": self.elapsed_s,
         }
@@ -603,10 +647,10 @@ def certify(
         Forcing periods (``1 <= periods <= 100000``).
     precision : str, default ``'auto'``
         Working precision of the balls, ``'mp:BITS'`` (``64 <= BITS <= max_bits``).
-        ``'auto'`` chooses it: a pilot run of ``min(periods, 40)`` periods at 128 bits
-        measures the growth of the radius per period, and the bits are set so that the last
-        sample's radius is below ``target_radius`` with two decimal digits to spare (rounded
-        up to a multiple of 64).
+        ``'auto'`` chooses it: a pilot run of ``min(periods, 40)`` periods at 128 bits (doubled
+        until it is proven, up to ``max_bits``) measures the growth of the radius per period,
+        and the bits are set so that the last sample's radius is below ``target_radius`` with
+        two decimal digits to spare (rounded up to a multiple of 64).
     target_radius : decimal, default ``'1e-30'``
         The radius wanted at every sample when ``precision`` is ``'auto'``
         (``1e-3000 <= target_radius <= 1e-3``).
@@ -623,7 +667,10 @@ def certify(
     Returns
     -------
     CertifiedTrajectory
-        Balls of every sample and impact, the bits used and how they were chosen.
+        Balls of every sample and impact, the bits used and how they were chosen.  Samples are
+        right-continuous, as in every engine (``docs/numerics.rst``): a start on the wall
+        moving into it (``x0 = x_w``, ``v0 > 0``) is an impact at ``t0``, and sample 0 holds
+        the state after it, ``(x_w, -R v0)``.
 
     Raises
     ------
@@ -678,18 +725,30 @@ def certify(
     )  # no underflow below 1e-308
     if bits is None:
         n_pilot = min(periods, 40)
-        pilot = CertifiedTrajectory(
-            params, n_pilot, 128, "pilot", *_run(params, n_pilot, 128, None), 0.0
-        )
+        pilot_bits, failed = 128, ""
+        while True:  # a pilot without a proof retries at twice the bits, as the run does
+            try:
+                runs = _run(params, n_pilot, pilot_bits, None)
+                break
+            except CertificationError as e:
+                if 2 * pilot_bits > max_bits:
+                    raise CertificationError(
+                        f"{e} (the pilot of {n_pilot} periods, up to max_bits = {max_bits})"
+                    ) from None
+                failed += f"no proof at {pilot_bits} bits ({e}); "
+                pilot_bits *= 2
+        pilot = CertifiedTrajectory(params, n_pilot, pilot_bits, "pilot", *runs, 0.0)
         g = max(pilot.growth_digits_per_period(), 0.0)
         r_pilot = max(pilot.log10_radii()[-1], -300.0)
-        # radius ~ 10^(r_pilot + g (N - n_pilot) - 0.30103 (bits - 128)); two digits to spare
+        # radius ~ 10^(r_pilot + g (N - n_pilot) - 0.30103 (bits - pilot_bits)); two digits
+        # to spare
         need = r_pilot + g * (periods - n_pilot) - log_target + 2
-        bits = int(64 * math.ceil(max(128, 128 + need / 0.30103) / 64))
+        bits = int(64 * math.ceil(max(pilot_bits, pilot_bits + need / 0.30103) / 64))
         choice = (
             f"automatic: radius growth {g:.3f} digits/period "
-            f"(pilot of {n_pilot} periods at 128 bits) "
-            f"-> {bits} bits for radius 1e{log_target:.0f} after {periods} periods"
+            f"(pilot of {n_pilot} periods at {pilot_bits} bits"
+            + (f"; {failed[:-2]}" if failed else "")
+            + f") -> {bits} bits for radius 1e{log_target:.0f} after {periods} periods"
         )
         if bits > max_bits:
             raise ParameterError(
@@ -728,9 +787,10 @@ class CertifiedSolver:
     ``precision='mp:BITS'``).
 
     Its :class:`~precise_impact.core.trajectory.Trajectory` holds the balls' midpoints in the
-    working precision; ``stats['x_rad']``, ``stats['v_rad']`` (floats, rounded up) and
-    ``stats['max_radius']`` (and ``stats['max_log10_radius']``, which never underflows) carry
-    the proven radii.  Dense output is not offered (``per_period`` must be 0): use
+    working precision; ``stats['x_rad']``, ``stats['v_rad']`` and ``stats['max_radius']``
+    (decimal strings in scientific notation, rounded up: :func:`radius_str`, never 0 for a ball
+    of any radius) and ``stats['max_log10_radius']`` (``None`` for exact points) carry the
+    proven radii.  Dense output is not offered (``per_period`` must be 0): use
     :func:`certify` for the balls themselves.
 
     Parameters
@@ -777,7 +837,6 @@ class CertifiedSolver:
         r = certify(params, periods, precision=f"mp:{self.bits}", max_bits=self.bits)
         P = self.precision
         mid = lambda b: P.from_fraction(exact_value(b.mid()))  # noqa: E731
-        rad = lambda b: float(exact_value(b.rad())) * (1 + 2**-50)  # noqa: E731
         return Trajectory(
             params=params,
             model=self.model_name,
@@ -793,9 +852,9 @@ class CertifiedSolver:
             stats={
                 "certified": True,
                 "bits": self.bits,
-                "x_rad": [rad(s[2]) for s in r.samples],
-                "v_rad": [rad(s[3]) for s in r.samples],
-                "max_radius": r.max_radius(),
-                "max_log10_radius": r.max_log10_radius(),
+                "x_rad": [radius_str(s[2].rad()) for s in r.samples],
+                "v_rad": [radius_str(s[3].rad()) for s in r.samples],
+                "max_radius": max_radius_str(b for s in r.samples for b in s[2:]),
+                "max_log10_radius": _finite_or_none(r.max_log10_radius()),
             },
         )

@@ -34,6 +34,7 @@ from precise_impact.core.impact import (
     steady_amplitude,
     wall_acceleration,
 )
+from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.params import (
     I_A,
     I_ETA,
@@ -206,8 +207,9 @@ def build_integrator(
 
 
 # --------------------------------------------------------------------------- the wall
-def _mpq(q: Fraction) -> mpmath.mpf:
-    return mpmath.mpf(q.numerator) / q.denominator
+def _mpq(q: Fraction, ctx: Any) -> Any:
+    """``q`` in the mpmath context ``ctx`` (one rounding at its precision)."""
+    return ctx.mpf(q.numerator) / q.denominator
 
 
 def _extra_bits(tm: mpmath.mpf) -> int:
@@ -226,9 +228,11 @@ class _Wall:
     """Sticking decision and release time for one run, in mpmath with guard bits.
 
     Times come in as numbers of the working precision ``P`` and are converted
-    exactly; the release time is computed at ``P.bits + 64`` bits plus the bits of
-    ``|t|`` and rounded *up* to ``P``, so that the force at the returned instant
-    is already ``<= 0`` (the released mass does not start inside the wall).
+    exactly (into mpmath contexts of this thread's own, :mod:`precise_impact.core.mpcontext`:
+    mpmath's global precision is shared by every thread); the release time is computed at
+    ``P.bits + 64`` bits plus the bits of ``|t|`` and rounded *up* to ``P``, so that the force
+    at the returned instant is already ``<= 0`` (the released mass does not start inside the
+    wall).
     """
 
     def __init__(self, P: Precision, params: Params) -> None:
@@ -242,18 +246,16 @@ class _Wall:
         """Does a mass at rest on the wall at ``t`` stay there (force into the wall)?"""
         p = self.params
         tm = self.P.to_mpf(t)
-        with mpmath.workprec(self.prec(tm)):
-            return pushes_into_wall(tm, p.eta, p.a, p.x_w)
+        return pushes_into_wall(tm, p.eta, p.a, p.x_w, ctx=mp_context(self.prec(tm)))
 
     def release(self, t: Any) -> Any:
         """Release time (working precision) after sticking at ``t``, or ``None`` (never)."""
         p = self.params
         tm = self.P.to_mpf(t)
-        with mpmath.workprec(self.prec(tm) + 8):
-            tr = release_time(tm, p.eta, p.a, p.x_w)
-            if tr is None:
-                return None
-            return _round_up(self.P, tr)
+        tr = release_time(tm, p.eta, p.a, p.x_w, ctx=mp_context(self.prec(tm) + 8))
+        if tr is None:
+            return None
+        return _round_up(self.P, tr)
 
 
 class _ZenoWatch:
@@ -341,14 +343,14 @@ class _ZenoWatch:
     def _prec(self, tm) -> int:
         return self.P.bits + _extra_bits(tm)
 
-    def _richardson(self, F, noise: float) -> tuple:
+    def _richardson(self, F, noise: float, ctx: Any) -> tuple:
         """Append ``F`` as a new row of the table; return ``(estimate, change, converged)``.
 
         The estimate is the entry of the *lowest* column whose last two changes
         are both ``<= noise`` (converged), else the entry with the smallest last
         change (not converged).
         """
-        Rm = _mpq(self.R)
+        Rm = _mpq(self.R, ctx)
         prev, prev_diff = self.row, self.diff
         row = [F]
         for j in range(1, min(len(prev), self.LEVELS) + 1):
@@ -436,32 +438,33 @@ class _ZenoWatch:
         extrapolated; True (episode finished) once it is converged or at the speed floor."""
         p = self.params
         P = self.P
-        tm, vm = P.to_mpf(t), P.to_mpf(vb)
-        with mpmath.workprec(self._prec(tm)):
-            gm = wall_acceleration(
-                tm, _mpq(p.eta), _mpq(p.zeta), _mpq(p.a), _mpq(p.x_w), mpmath.cos
-            )
-            F = chatter_accumulation_time(tm, vm, _mpq(self.R), gm)
-            noise = self.tol_factor * self.tol_f * max(1.0, abs(tf))
-            est, err, converged = self._richardson(F, noise)
-            converged = converged and self.run_n >= 3
-            if self.run_n >= 3:
-                self.best, self.best_err = est, err
-            if not (converged or at_floor):
-                return False
-            t_rel = release_time(tm, p.eta, p.a, p.x_w)
-            t_inf_m = self.best if self.best is not None else F
-            if t_rel is not None and t_inf_m >= t_rel:
-                if not at_floor:
-                    return False  # incomplete chattering: the force turns before t_inf
-                t_inf_m = t_rel
-            t_inf = P.from_mpf(t_inf_m)
-            if t_inf < t:
-                t_inf = t
-            if not at_floor and self.window_has_output(t, t_inf):
-                return False  # resolve more impacts: an output time lies in the tail
-            self._finish(t, vb, gm, at_floor=at_floor, t_inf=t_inf, err=self.best_err)
-            return True
+        tm = P.to_mpf(t)
+        ctx = mp_context(self._prec(tm))
+        tm, vm = mp_import(ctx, tm), mp_import(ctx, P.to_mpf(vb))
+        gm = wall_acceleration(
+            tm, _mpq(p.eta, ctx), _mpq(p.zeta, ctx), _mpq(p.a, ctx), _mpq(p.x_w, ctx), ctx.cos
+        )
+        F = chatter_accumulation_time(tm, vm, _mpq(self.R, ctx), gm)
+        noise = self.tol_factor * self.tol_f * max(1.0, abs(tf))
+        est, err, converged = self._richardson(F, noise, ctx)
+        converged = converged and self.run_n >= 3
+        if self.run_n >= 3:
+            self.best, self.best_err = est, err
+        if not (converged or at_floor):
+            return False
+        t_rel = release_time(tm, p.eta, p.a, p.x_w, ctx=ctx)
+        t_inf_m = self.best if self.best is not None else F
+        if t_rel is not None and t_inf_m >= t_rel:
+            if not at_floor:
+                return False  # incomplete chattering: the force turns before t_inf
+            t_inf_m = t_rel
+        t_inf = P.from_mpf(t_inf_m)
+        if t_inf < t:
+            t_inf = t
+        if not at_floor and self.window_has_output(t, t_inf):
+            return False  # resolve more impacts: an output time lies in the tail
+        self._finish(t, vb, gm, at_floor=at_floor, t_inf=t_inf, err=self.best_err)
+        return True
 
     def _finish(self, t, vb, g, at_floor, t_inf=None, err=math.inf) -> None:
         self.result = {
@@ -490,35 +493,36 @@ class _ZenoWatch:
         if z["g"] is None:  # R = 1 at the floor: taken to be at rest
             return x_w, zero
         sm = P.to_mpf(s)
-        with mpmath.workprec(self._prec(sm)):
-            Rm, g = _mpq(self.R), z["g"]
-            w = Rm * P.to_mpf(z["v_last_impact"])
-            tm = P.to_mpf(z["t_last_impact"])
-            tiny = mpmath.mpf(self.eps_f) * self.scale / 1024  # (x_w, 0) to within eps
-            while w > tiny:
-                tau = 2 * w / g
-                if tm + tau > sm:
-                    break
-                tm += tau
-                w *= Rm
-            else:
-                return x_w, zero
-            sig = sm - tm
-            xw = _mpq(self.params.x_w)
-            x = min(xw - w * sig + g * sig * sig / 2, xw)
-            v = -w + g * sig
-            return P.from_mpf(x), P.from_mpf(v)
+        ctx = mp_context(self._prec(sm))
+        sm = mp_import(ctx, sm)
+        Rm, g = _mpq(self.R, ctx), mp_import(ctx, z["g"])
+        w = Rm * P.to_mpf(z["v_last_impact"])
+        tm = mp_import(ctx, P.to_mpf(z["t_last_impact"]))
+        tiny = ctx.mpf(self.eps_f) * self.scale / 1024  # (x_w, 0) to within eps
+        while w > tiny:
+            tau = 2 * w / g
+            if tm + tau > sm:
+                break
+            tm += tau
+            w *= Rm
+        else:
+            return x_w, zero
+        sig = sm - tm
+        xw = _mpq(self.params.x_w, ctx)
+        x = min(xw - w * sig + g * sig * sig / 2, xw)
+        v = -w + g * sig
+        return P.from_mpf(x), P.from_mpf(v)
 
 
 def _below_wall(P: Precision, x_w: Fraction) -> Any:
     """``x_w - eps max(1, |x_w|)`` rounded down to ``P``: a rounding-level distance inside the
     allowed region."""
-    with mpmath.workprec(P.bits + _GUARD_BITS):
-        m = P.to_mpf(P.from_fraction(x_w))
-        m = m - mpmath.mpf(P.eps_fraction.numerator) / P.eps_fraction.denominator * max(1, abs(m))
-        return P._from_mpf_exact(
-            mpmath.mp.make_mpf(libmp.normalize(*m._mpf_, P.bits, libmp.round_floor))
-        )
+    ctx = mp_context(P.bits + _GUARD_BITS)
+    m = mp_import(ctx, P.to_mpf(P.from_fraction(x_w)))
+    m = m - ctx.mpf(P.eps_fraction.numerator) / P.eps_fraction.denominator * max(1, abs(m))
+    return P._from_mpf_exact(
+        mpmath.mp.make_mpf(libmp.normalize(*m._mpf_, P.bits, libmp.round_floor))
+    )
 
 
 def _pad_time(P: Precision, grid: list, eta: Fraction, per_period: int) -> Any:
@@ -530,9 +534,9 @@ def _pad_time(P: Precision, grid: list, eta: Fraction, per_period: int) -> Any:
     is then rarely shortened by the padding, so its computed time does not
     depend on the padding.
     """
-    with mpmath.workprec(P.bits + _extra_bits(P.to_mpf(grid[-1]))):
-        spacing = 2 * mpmath.pi / _mpq(eta) / per_period
-        return P.from_mpf(P.to_mpf(grid[-1]) + spacing)
+    ctx = mp_context(P.bits + _extra_bits(P.to_mpf(grid[-1])))
+    spacing = 2 * ctx.pi / _mpq(eta, ctx) / per_period
+    return P.from_mpf(mp_import(ctx, P.to_mpf(grid[-1])) + spacing)
 
 
 # --------------------------------------------------------------------------- solver
