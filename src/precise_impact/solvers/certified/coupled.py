@@ -29,7 +29,7 @@ from precise_impact.core.coupling import (
 from precise_impact.core.params import Params, check_count, decimal_str, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import ParameterError
+from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.certified.single import (
     MAX_BITS,
@@ -529,6 +529,9 @@ def certify_coupled(
             return CertifiedCoupledTrajectory(
                 params, form, kq, y0q, periods, bits, samples, mimp, simp, time.perf_counter() - t0
             )
+        except BudgetExceededError:
+            bar.close()  # end a line redrawn in place before the one-line refusal
+            raise
         except CertificationError as e:
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None

@@ -22,7 +22,12 @@ from precise_impact.core.params import Params, check_count, decimal_str, exact, 
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.errors import CertificationError, OptionalDependencyError, ParameterError
+from precise_impact.errors import (
+    BudgetExceededError,
+    CertificationError,
+    OptionalDependencyError,
+    ParameterError,
+)
 from precise_impact.io.progress import Progress
 
 __all__ = [
@@ -856,6 +861,9 @@ def certify(
                 f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, "
                 f"retried at {2 * bits}"
             )
+        except BudgetExceededError:
+            bar.close()  # end a line redrawn in place before the one-line refusal
+            raise
         except CertificationError as e:
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
