@@ -220,7 +220,9 @@ class MissedImpactError(IntegrationError):
 class CertificationError(IntegrationError):
     """No proof at this precision: the message names the time and the ball.
 
-    Raised by the certified engines (:mod:`precise_impact.solvers.certified`).
+    Raised by the certified engines (:mod:`precise_impact.solvers.certified`).  ``partial``
+    holds the samples proven before the failure (their radius growth projects the bits a run
+    needs: :func:`~precise_impact.solvers.certified.single.out_of_reach`), or ``None``.
 
     See Also
     --------
@@ -228,6 +230,8 @@ class CertificationError(IntegrationError):
     precise_impact.solvers.certified.single.certify : raises it when certification fails.
     precise_impact.solvers.certified.single.CertifiedSolver : the certified model.
     """
+
+    partial: list | None = None
 
 
 class ConvergenceError(IntegrationError):

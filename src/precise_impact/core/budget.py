@@ -9,13 +9,15 @@ in ``benchmarks/results/cost_model.md`` and ``docs/numerics.rst``.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
+import time
 import warnings
 from typing import Any
 
 from precise_impact.core.params import exact
 from precise_impact.core.precision import Precision
-from precise_impact.errors import OverBudgetError, ParameterError
+from precise_impact.errors import BudgetExceededError, OverBudgetError, ParameterError
 
 __all__ = [
     "Cost",
@@ -27,6 +29,8 @@ __all__ = [
     "parse_max_time",
     "DEFAULT_MAX_TIME",
     "MAX_TIME",
+    "Deadline",
+    "certify_seconds_per_period",
 ]
 
 #: Default time budget of one CLI run or scene, seconds (raise it with ``--max-time``).
@@ -72,8 +76,20 @@ def _per_period(precision) -> tuple[float, float, float]:
     return 1.2e-3 * max(1.0, bits / 128) ** 2.7, 2e-5, 3 * (120 + bits / 8)
 
 
+def certify_seconds_per_period(bits: int) -> float:
+    """Seconds per forcing period of a certified (ball arithmetic) run at ``bits``.
+
+    Measured (python-flint 0.x, this project's 2-core CI machine under load, default system
+    eta = 0.712 and eta = 0.74, 40-300 periods): 128 bits 0.6-1.0 ms, 256 bits 1.1-1.5 ms,
+    512 bits 1.8 ms, 1024 bits 3.9-4.7 ms, 2048 bits 7.4 ms, 4096 bits 17-23 ms, 8192 bits
+    52 ms per period.  ``1.2 ms x (bits / 256)^1.1`` (never below 1.2 ms) bounds these within
+    ~25% (8192 bits: 54 ms); the in-run deadline (:class:`Deadline`) catches the rest.
+    """
+    return 1.2e-3 * max(1.0, bits / 256) ** 1.1
+
+
 #: The jobs :func:`estimate_cost` prices.
-JOBS = ("simulate", "scene", "lle", "bifurcation", "sync")
+JOBS = ("simulate", "scene", "lle", "bifurcation", "sync", "certify")
 
 
 def estimate_cost(
@@ -100,7 +116,9 @@ def estimate_cost(
         engine's measured cost relative to heyoka), ``'bifurcation'`` (``runs`` values of
         eta, one variational run each: factor 2), ``'sync'`` (``runs`` = couplings x
         ensemble master-slave runs of 4 states: factor 4 in heyoka, 4/5 with
-        ``model='fast'``).
+        ``model='fast'``), ``'certify'`` (one certified run at ``precision='mp:BITS'``,
+        :func:`certify_seconds_per_period`; ``coupled=True``: the master-slave pair
+        off the diagonal, factor 5).
     *args
         Deprecated: the 0.x low-level form ``estimate_cost(precision, periods, ...)``,
         now :func:`run_cost` (a ``DeprecationWarning``).
@@ -119,7 +137,8 @@ def estimate_cost(
         Independent runs (starting conditions, values of eta, couplings x ensemble);
         ``None``: the job's default (4 starting conditions for ``'lle'``, else 1).
     coupled : bool, default ``False``
-        For ``'scene'``: the scene is a coupled (master-slave) system.
+        For ``'scene'``: the scene is a coupled (master-slave) system; for ``'certify'``:
+        the pair off the diagonal (the slave integrated on its own).
     **kwargs
         Deprecated low-level keywords (``factor``, ``stored``), with ``*args``.
 
@@ -156,8 +175,16 @@ def estimate_cost(
         return run_cost(job, *args, **kwargs)
     if args or kwargs:
         raise TypeError(f"estimate_cost(job, ...) takes keywords only, not {args or kwargs}")
-    P = Precision.parse(precision)
     length = periods + transient
+    if job == "certify":
+        # ball arithmetic: the precision is 'mp:BITS' (python-flint), priced per period;
+        # the pair off the diagonal walks master, slave and their error flow: measured (k = 0.5,
+        # x0 = 0.1, y0 = (0.2, 0), eta = 0.712 and 0.74) 2.7-3.0 ms against 0.6-1.0 ms per period
+        # at 256 bits, 4.9-5.0 ms against 1.0-2.3 ms at 1024 bits: x5 bounds them
+        bits = int(str(precision)[3:]) if str(precision).startswith("mp:") else 128
+        seconds = length * certify_seconds_per_period(bits) * (5.0 if coupled else 1.0)
+        return Cost(seconds, 0.0, f"{length} certified periods at {bits} bits")
+    P = Precision.parse(precision)
     n = 1 if runs is None else runs
     if job == "simulate":
         return run_cost(P, length, per_period)
@@ -295,3 +322,35 @@ def enforce_max_time(max_time: Any, job: str, scale: float = 1.0, **job_args: An
     if max_time is None:
         return
     check_cost(estimate_cost(job, **job_args), parse_max_time(max_time) * scale)
+
+
+class Deadline:
+    """The budget of a run enforced while it works: :meth:`check` between periods.
+
+    Parameters
+    ----------
+    max_time : float or None
+        Seconds from now; ``None``: no deadline (:meth:`check` does nothing).
+    what : str
+        The job, for the message (e.g. ``'certify'``).
+    """
+
+    def __init__(self, max_time: float | None, what: str) -> None:
+        self.max_time = max_time
+        self.what = what
+        self.start = time.monotonic()
+        self.end = None if max_time is None else self.start + max_time
+
+    def left(self) -> float:
+        """Seconds left (``inf`` without a deadline)."""
+        return math.inf if self.end is None else self.end - time.monotonic()
+
+    def check(self, where: str) -> None:
+        """Raise :class:`~precise_impact.errors.BudgetExceededError` (one line: the job,
+        ``where`` it stopped, the budget) once the deadline has passed."""
+        if self.end is not None and time.monotonic() > self.end:
+            raise BudgetExceededError(
+                f"{self.what}: max_time = {self.max_time:g} s ran out after "
+                f"{time.monotonic() - self.start:.1f} s ({where}); raise --max-time "
+                f"(at most {MAX_TIME:g} s) or ask for less"
+            )

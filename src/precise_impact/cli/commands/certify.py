@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 
-from precise_impact.cli.args import add_json, add_param_flags, add_periods, params_from
+from precise_impact.cli.args import (
+    add_json,
+    add_max_time,
+    add_param_flags,
+    add_periods,
+    max_time,
+    params_from,
+)
 from precise_impact.core.params import check_count
 from precise_impact.errors import ParameterError
 from precise_impact.io.jsonout import print_json
@@ -68,6 +75,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="the slave's start (position, velocity variable); default: on the master "
         "(the diagonal)",
     )
+    add_max_time(ce)
     add_json(ce)
     ce.set_defaults(run=run)
     return ce
@@ -108,6 +116,7 @@ def run(ns: argparse.Namespace) -> int:
             precision="mp:256" if ns.precision is None else ns.precision,
             max_bits=max_bits,
             progress=progress,
+            max_time=max_time(ns),
         )
         d = r.to_dict()
         lines = [
@@ -126,6 +135,7 @@ def run(ns: argparse.Namespace) -> int:
             target_radius="1e-30" if ns.target is None else ns.target,
             max_bits=max_bits,
             progress=progress,
+            max_time=max_time(ns),
         )
         d = r.to_dict()
         lines = [

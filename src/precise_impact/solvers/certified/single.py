@@ -15,13 +15,19 @@ from fractions import Fraction
 from typing import Any
 
 from precise_impact.core import flight
+from precise_impact.core.budget import Deadline, enforce_max_time, parse_max_time
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.flow import steady_state
 from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.errors import CertificationError, OptionalDependencyError, ParameterError
+from precise_impact.errors import (
+    BudgetExceededError,
+    CertificationError,
+    OptionalDependencyError,
+    ParameterError,
+)
 from precise_impact.io.progress import Progress
 
 __all__ = [
@@ -47,6 +53,7 @@ __all__ = [
     "lower",
     "describe",
     "check_certifiable",
+    "out_of_reach",
 ]
 
 #: Bounds of the working precision (bits).
@@ -329,16 +336,26 @@ class _Engine:
         self.c = Constants(params, bits)
         self.iso = Isolator(bits)
 
-    def run(self, periods: int, progress=None, start: tuple | None = None):
+    def run(self, periods: int, progress=None, start: tuple | None = None, deadline=None):
         """Samples ``(k, t, x, v)`` and impacts ``(t, v_before, v_after)`` over ``periods``, from
         the initial condition of the parameters or from ``start = (x0, v0)`` balls at ``t0``
-        (a box: every state in it is followed, the balls enclose them all)."""
+        (a box: every state in it is followed, the balls enclose them all).  ``deadline``: a
+        :class:`~precise_impact.core.budget.Deadline` checked after every period.  A
+        :class:`CertificationError` carries the samples proven before it as ``partial``."""
+        samples: list = []
+        try:
+            return self._run(periods, progress, start, deadline, samples)
+        except CertificationError as e:
+            e.partial = samples
+            raise
+
+    def _run(self, periods: int, progress, start: tuple | None, deadline, samples: list):
         c = self.c
         p = self.p
         iso = self.iso
         x0, v0 = (to_ball(p.x0), to_ball(p.v0)) if start is None else start
         s = c.t0
-        samples = [(0, c.t0, x0, v0)]
+        samples.append((0, c.t0, x0, v0))
         impacts = []
         fl = Flight(c, s, x0, v0)
         if start is not None:
@@ -390,6 +407,8 @@ class _Engine:
             a = end
             if progress is not None:
                 progress.update(k)
+            if deadline is not None:
+                deadline.check(f"{k} of {periods} periods at {self.bits} bits")
         return samples, impacts
 
 
@@ -567,19 +586,71 @@ def flow_matrix(c: Constants, tau):
 
 
 def run_balls(
-    params: Params, periods: int, bits: int, start: tuple | None = None, progress=None
+    params: Params,
+    periods: int,
+    bits: int,
+    start: tuple | None = None,
+    progress=None,
+    deadline=None,
 ) -> tuple:
     """``(samples, impacts, constants)`` of one certified run at ``bits`` (the caller holds
     :class:`working_bits`); ``start``: ``(x0, v0)`` balls at ``t0`` instead of the parameters';
-    ``progress``: a :class:`~precise_impact.io.progress.Progress` told each finished period."""
+    ``progress``: a :class:`~precise_impact.io.progress.Progress` told each finished period;
+    ``deadline``: a :class:`~precise_impact.core.budget.Deadline` checked after each period."""
     eng = _Engine(params, bits)
-    samples, impacts = eng.run(periods, progress, start)
+    samples, impacts = eng.run(periods, progress, start, deadline)
     return samples, impacts, eng.c
 
 
-def _run(params: Params, periods: int, bits: int, progress) -> tuple[list, list]:
+def _run(params: Params, periods: int, bits: int, progress, deadline=None) -> tuple[list, list]:
     with working_bits(bits):
-        return run_balls(params, periods, bits, progress=progress)[:2]
+        return run_balls(params, periods, bits, progress=progress, deadline=deadline)[:2]
+
+
+#: The fewest periods proven before a failed attempt over which the radius growth is trusted to
+#: project the bits of the whole run (:func:`out_of_reach`): a transient shorter than this
+#: (impacts before a trajectory settles) never leads to a refusal.
+MIN_MEASURED_PERIODS = 100
+#: A projection refuses only when it exceeds ``max_bits`` by this factor (one more doubling
+#: beyond ``max_bits`` would still not suffice).
+REACH_MARGIN = 2
+
+
+def out_of_reach(e: CertificationError, bits: int, periods: int, max_bits: int) -> str | None:
+    """The refusal of a run whose bits are out of reach, or ``None`` to double the bits on.
+
+    After a failed attempt at ``bits``, the radius growth ``g`` (decimal digits per period,
+    least squares over the second half of the periods proven before the failure: a trajectory
+    that settles onto a stable orbit grows less there) projects the bits the run needs:
+    ``bits + g (periods - proven) / log10(2)`` (the failure happens when the radius reaches
+    the same level, reached ``g (periods - proven)`` digits later).  Refused only with at least
+    :data:`MIN_MEASURED_PERIODS` periods proven, ``g > 0``, and a projection above
+    :data:`REACH_MARGIN` x ``max_bits``.
+    """
+    samples = getattr(e, "partial", None) or []
+    proven = len(samples) - 1
+    if proven < MIN_MEASURED_PERIODS:
+        return None
+    half = samples[proven // 2 :]
+    ks = [s[0] for s in half]
+    ys = [max(log10_abs(b.rad()) for b in s[2:]) for s in half]
+    pts = [(k, y) for k, y in zip(ks, ys, strict=True) if math.isfinite(y)]
+    if len(pts) < 2:
+        return None
+    km = sum(k for k, _ in pts) / len(pts)
+    ym = sum(y for _, y in pts) / len(pts)
+    den = sum((k - km) ** 2 for k, _ in pts)
+    g = sum((k - km) * (y - ym) for k, y in pts) / den if den else 0.0
+    if not g > 0:
+        return None
+    need = bits + g * (periods - proven) / math.log10(2)
+    if need <= REACH_MARGIN * max_bits:
+        return None
+    return (
+        f"{e} (after {proven} proven periods the radius grows {g:.3g} decimal digits per period:"
+        f" {periods} periods need ~{need:.3g} bits, beyond max_bits = {max_bits}; "
+        f"ask for fewer periods)"
+    )
 
 
 def check_certifiable(params: Params) -> None:
@@ -633,6 +704,7 @@ def certify(
     target_radius: Any = "1e-30",
     max_bits: int = 8192,
     progress: bool | None = None,
+    max_time: Any = None,
     bits: Any = UNSET,
     **param_values: Any,
 ) -> CertifiedTrajectory:
@@ -659,6 +731,11 @@ def certify(
         or a missed target, up to this (``<= 16384``).
     progress : bool or None, default ``None``
         A progress line on stderr (``None``: only when stderr is a terminal).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds (``1 <= max_time <= 604800``): the estimated cost
+        (:func:`~precise_impact.core.budget.estimate_cost`, job ``'certify'``) is checked
+        against it before any work (at the given bits, or the pilot's 128 and again at the
+        automatic choice), and the run stops once it is spent; ``None``: no budget.
     bits : int or None
         Deprecated: ``precision='mp:BITS'`` (``None``: ``'auto'``).
     **param_values
@@ -676,9 +753,15 @@ def certify(
     ------
     ParameterError
         Bad input, before any work.
+    OverBudgetError
+        The estimated cost is over ``max_time``, before any work.
+    BudgetExceededError
+        ``max_time`` ran out during the run.
     CertificationError
         No proof up to ``max_bits`` (a tangential contact, chattering, an impact on a sample
-        time); the message names the time and the ball.
+        time); the message names the time and the ball.  Also, without doubling on, when the
+        radius growth measured over a failed attempt projects more bits than ``max_bits``
+        can give (:func:`out_of_reach`).
     OptionalDependencyError
         python-flint is not installed.
 
@@ -719,6 +802,8 @@ def certify(
             "target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3"
         )
     check_certifiable(params)  # (x0 <= x_w holds for every Params)
+    enforce_max_time(max_time, "certify", periods=periods, precision=f"mp:{bits or 128}")
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "certify")
     choice = "given"
     log_target = math.log10(target.numerator) - math.log10(
         target.denominator
@@ -728,7 +813,7 @@ def certify(
         pilot_bits, failed = 128, ""
         while True:  # a pilot without a proof retries at twice the bits, as the run does
             try:
-                runs = _run(params, n_pilot, pilot_bits, None)
+                runs = _run(params, n_pilot, pilot_bits, None, deadline)
                 break
             except CertificationError as e:
                 if 2 * pilot_bits > max_bits:
@@ -756,11 +841,12 @@ def certify(
                 str(target_radius),
                 f"a target reachable within max_bits = {max_bits} (needs ~{bits} bits)",
             )
+        enforce_max_time(max_time, "certify", periods=periods, precision=f"mp:{bits}")
     bar = Progress(periods, "certified periods", enabled=progress)
     while True:
         t0 = time.perf_counter()
         try:
-            samples, impacts = _run(params, periods, bits, bar)
+            samples, impacts = _run(params, periods, bits, bar, deadline)
             res = CertifiedTrajectory(
                 params, periods, bits, choice, samples, impacts, time.perf_counter() - t0
             )
@@ -775,9 +861,16 @@ def certify(
                 f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, "
                 f"retried at {2 * bits}"
             )
+        except BudgetExceededError:
+            bar.close()  # end a line redrawn in place before the one-line refusal
+            raise
         except CertificationError as e:
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
+            refusal = out_of_reach(e, bits, periods, max_bits)
+            if refusal is not None:
+                bar.close()
+                raise CertificationError(refusal) from None
             choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
         bits *= 2
 
