@@ -175,7 +175,9 @@ def _call_continue(**kw):
 def _call_certify(**kw):
     from precise_impact import certify
 
-    base = dict(periods=2, bits=128)
+    base = dict(periods=2, precision="mp:128")
+    if "bits" in kw:  # the deprecated spelling of precision
+        del base["precision"]
     base.update(kw)
     return certify(base.pop("params", Params.make()), **base)
 
@@ -183,7 +185,9 @@ def _call_certify(**kw):
 def _call_certify_coupled(**kw):
     from precise_impact import certify_coupled
 
-    base = dict(k="0.1", form="reduced", periods=2, y0=("0.5", "0.1"), bits=128)
+    base = dict(k="0.1", form="reduced", periods=2, y0=("0.5", "0.1"), precision="mp:128")
+    if "bits" in kw:  # the deprecated spelling of precision
+        del base["precision"]
     base.update(kw)
     return certify_coupled(base.pop("params", Params.make()), **base)
 
@@ -194,6 +198,53 @@ def _call_prove(**kw):
     base = dict(period=1, bits=128, guess=("102/53", "49/265"), impacts=0)
     base.update(kw)
     return prove_orbit(base.pop("params", Params.make(eta="0.70")), **base)
+
+
+def _call_lyapunov_fast(**kw):
+    base = dict(model="fast", periods=20, transient=5)
+    base.update(kw)
+    return lyapunov(base.pop("params", Params.make()), base.pop("method", "variational"), **base)
+
+
+def _call_run_sweep(**kw):
+    """A two-point fast-engine sweep into a fresh directory (a text ``out`` is put under it)."""
+    import tempfile
+
+    from precise_impact import run_sweep
+
+    with tempfile.TemporaryDirectory() as tmp:
+        base = dict(out=os.path.join(tmp, "s"), workers=1, progress=False)
+        if isinstance(kw.get("out"), str):
+            kw["out"] = os.path.join(tmp, kw["out"].replace("/", "_").replace("\x00", ""))
+        base.update(kw)
+        spec = base.pop("spec", None)
+        if spec is None:
+            spec = SweepSpec.make(
+                Params.make(), [("eta", "0.7", "0.72", 2)], periods=5, transient=5, model="fast"
+            )
+        return run_sweep(spec, **base)
+
+
+def _zeros(p, n):
+    return [0.0] * (n + 1), [0.0] * (n + 1)
+
+
+def _call_score_solver(**kw):
+    from precise_impact.testing import score_solver
+
+    base = dict(solver=_zeros, case="single-0.74", periods=3)
+    base.update(kw)
+    return score_solver(base.pop("solver"), **base)
+
+
+def _call_score_solver_output(solver):
+    """The fuzzed value is what the solver returns."""
+    return _call_score_solver(solver=lambda p, n: solver)
+
+
+def _call_score_solver_samples(solver):
+    """The fuzzed value is every sample the solver returns."""
+    return _call_score_solver(solver=lambda p, n: ([solver] * (n + 1), [solver] * (n + 1)))
 
 
 #: (callable, the arguments to fuzz); each call with valid defaults takes milliseconds.
@@ -222,11 +273,23 @@ ENTRY_POINTS = {
         ],
     ),
     "make_solver": (_call_solver, ["model", "precision", "tol"]),
-    "lyapunov": (_call_lyapunov, ["params", "method", "periods", "transient", "precision"]),
+    "lyapunov": (
+        _call_lyapunov,
+        ["params", "method", "periods", "transient", "precision", "model", "max_time"],
+    ),
+    "lyapunov-fast": (
+        _call_lyapunov_fast,
+        ["params", "method", "periods", "transient", "precision", "max_time"],
+    ),
     "bifurcation": (
         _call_bifurcation,
-        ["params", "eta_min", "eta_max", "n", "periods", "transient", "workers"],
+        ["params", "eta_min", "eta_max", "n", "periods", "transient", "workers", "model"]
+        + ["max_time"],
     ),
+    "run_sweep": (_call_run_sweep, ["spec", "out", "workers", "dask", "max_tiles"]),
+    "score_solver": (_call_score_solver, ["solver", "case", "periods", "atol", "rtol"]),
+    "score_solver-output": (_call_score_solver_output, ["solver"]),
+    "score_solver-samples": (_call_score_solver_samples, ["solver"]),
     "sync_scan": (
         _call_sync,
         [
@@ -244,11 +307,13 @@ ENTRY_POINTS = {
             "lle_transient",
             "precision",
             "engine",
+            "model",
+            "max_time",
         ],
     ),
     "SweepSpec.make": (
         _call_sweep_spec,
-        ["base", "axes", "periods", "transient", "tile_size", "batch_size", "max_work"],
+        ["base", "axes", "periods", "transient", "tile_size", "batch_size", "max_work", "model"],
     ),
     "simulate_coupled": (
         _call_coupled,
@@ -265,13 +330,17 @@ ENTRY_POINTS = {
     ),
     "find_orbit": (
         _call_orbit,
-        ["params", "period", "guess", "transient", "impacts", "max_iterations", "precision"],
+        ["params", "period", "guess", "transient", "impacts", "max_iterations", "precision"]
+        + ["guess_from", "seed"],
     ),
-    "one_impact_orbits": (_call_one_impact, ["params", "dps", "grid"]),
-    "certify": (_call_certify, ["params", "periods", "bits", "target_radius", "max_bits"]),
+    "one_impact_orbits": (_call_one_impact, ["params", "dps", "grid", "period"]),
+    "certify": (
+        _call_certify,
+        ["params", "periods", "bits", "target_radius", "max_bits", "precision"],
+    ),
     "certify_coupled": (
         _call_certify_coupled,
-        ["params", "k", "form", "periods", "y0", "bits", "max_bits"],
+        ["params", "k", "form", "periods", "y0", "bits", "max_bits", "precision"],
     ),
     "prove_orbit": (
         _call_prove,
@@ -303,7 +372,18 @@ ANSWERS = {
     "certify_coupled": (IntegrationError,),
     "prove_orbit": (IntegrationError,),
 }
-CASES = [(name, arg) for name, (_, args) in ENTRY_POINTS.items() for arg in args]
+#: Failures the fuzz found in another part's code (reported there, not fixed here): xfail, not
+#: strict (most values pass), so that the rest of the fuzz keeps running.
+KNOWN = {
+    ("find_orbit", "seed"): "orbits: the deprecated seed='' is refused naming guess_from",
+}
+CASES = [
+    pytest.param(name, arg, marks=pytest.mark.xfail(reason=KNOWN[name, arg], strict=False))
+    if (name, arg) in KNOWN
+    else (name, arg)
+    for name, (_, args) in ENTRY_POINTS.items()
+    for arg in args
+]
 
 
 def _names_argument(err: ParameterError, arg: str) -> bool:
@@ -320,7 +400,9 @@ def _names_argument(err: ParameterError, arg: str) -> bool:
     return arg in str(err)  # a relation between two arguments (x0 <= x_w, eta_max > eta_min)
 
 
-@pytest.mark.parametrize("entry,arg", CASES, ids=[f"{e}-{a}" for e, a in CASES])
+@pytest.mark.parametrize(
+    "entry,arg", CASES, ids=[f"{e}-{a}" for e, a in (getattr(c, "values", c) for c in CASES)]
+)
 @settings(
     max_examples=EXAMPLES,
     deadline=None,

@@ -7,13 +7,14 @@ line on stderr naming the parameter, no traceback, within the time bound.
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
 import time
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 TIME_BOUND = 60  # seconds: the review's bound for every case
@@ -35,24 +36,47 @@ def cli_in_process(*args):
     """``main(args)`` in this process (no interpreter start: the fuzz runs 25 cases in ~2 s, not
     ~15 s): its exit status, its stderr and the time taken. An exception that escapes main()
     fails the test as the traceback it would print; SIGTERM's handler is restored afterwards."""
+    code, _, err, took = cli_in_process_out(*args)
+    return code, err, took
+
+
+class OverTimeBound(BaseException):
+    """Raised by the watchdog of :func:`cli_in_process_out` (not an Exception: main() does not
+    catch it, so a run over the bound ends as this test's failure, not as a hang)."""
+
+
+def cli_in_process_out(*args, bound: float = TIME_BOUND):
+    """:func:`cli_in_process` with standard output too: ``(code, stdout, stderr, seconds)``.
+
+    A run still going after ``bound`` seconds is stopped (SIGALRM) and fails the test naming
+    its arguments."""
     import contextlib
     import io
     import signal
 
     from precise_impact.cli.main import main
 
+    def over(signum, frame):
+        raise OverTimeBound(f"{list(args)} still running after {bound} s")
+
     old = signal.getsignal(signal.SIGTERM)
-    err = io.StringIO()
+    old_alarm = signal.signal(signal.SIGALRM, over)
+    out, err = io.StringIO(), io.StringIO()
     t = time.perf_counter()
+    signal.setitimer(signal.ITIMER_REAL, bound)
     try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             try:
                 code = main(list(args))
             except SystemExit as e:  # argparse's own refusals
                 code = e.code
+    except OverTimeBound as e:
+        pytest.fail(str(e))
     finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old_alarm)
         signal.signal(signal.SIGTERM, old)
-    return code, err.getvalue(), time.perf_counter() - t
+    return code, out.getvalue(), err.getvalue(), time.perf_counter() - t
 
 
 def one_line_refusal(r, name):
@@ -437,3 +461,181 @@ def test_missing_ngspice_is_one_line_before_any_work(tmp_path, monkeypatch, args
     assert code == 2 and len(lines) == 1, (code, err)
     assert "ngspice" in lines[0] and "apt-get install ngspice" in lines[0], lines[0]
     assert took < 5
+
+
+# --- fuzzing every flag of the commands added since the last round --------------------------
+#: A tiny job per command (milliseconds to a few seconds); the fuzzed flag replaces its value.
+#: ``{out}`` is a fresh directory per example.
+CLI_FUZZ_BASE = {
+    "lle-fast": ["lle", "--model", "fast", "--periods", "20", "--transient", "5", "--json"],
+    "orbit": ["orbit", "--eta", "0.74", "--period", "3", "--transient", "200", "--json"],
+    "continue": ["continue", "--param", "eta", "1", "0.99", "--R", "0.8", "--max-points", "4"]
+    + ["--doublings", "0", "--transient", "200", "--diagram", "0", "--json"],
+    "certify": ["certify", "--periods", "2", "--precision", "mp:128", "--json"],
+    "certify-coupled": ["certify", "--k", "0.1", "--form", "reduced", "--y0", "0.5", "0.1"]
+    + ["--periods", "2", "--precision", "mp:128", "--json"],
+    "sync-fast": ["sync", "--k", "0.05", "0.05", "1", "--periods", "5", "--ensemble", "1"]
+    + ["--fig7", "0.031", "0.032", "--model", "fast", "--out", "{out}", "--force", "--json"],
+    "sweep-fast": ["sweep", "--axis", "eta", "0.7", "0.72", "2", "--periods", "5"]
+    + ["--transient", "5", "--tile", "2", "--model", "fast", "--workers", "1", "--out", "{out}"]
+    + ["--json"],
+    "bifurcation-fast": ["bifurcation", "--eta", "0.7", "0.72", "2", "--periods", "5"]
+    + ["--transient", "5", "--workers", "1", "--out", "{out}", "--force"],
+}
+#: Not fuzzed: switches (no value), and the Dask flags (a cluster start or a network address).
+CLI_FUZZ_SKIP = {"--help", "--json", "--force", "--dask", "--scheduler"}
+
+
+def _command_flags(argv0: str) -> list[tuple[str, int]]:
+    """Every option of a command, from its parser: ``(flag, number of values)``."""
+    import argparse
+
+    from precise_impact.cli.main import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    flags = []
+    for a in sub.choices[argv0]._actions:
+        if not a.option_strings or a.option_strings[0] in CLI_FUZZ_SKIP or a.nargs == 0:
+            continue
+        n = a.nargs if isinstance(a.nargs, int) else 1
+        flags.append((a.option_strings[0], n))
+    return flags
+
+
+CLI_FUZZ_FLAGS = {name: _command_flags(base[0]) for name, base in CLI_FUZZ_BASE.items()}
+CLI_VALUES = st.one_of(
+    st.text(min_size=0, max_size=40),
+    st.from_regex(r"-?[0-9]{1,6}(\.[0-9]{0,6})?([eE][-+]?[0-9]{1,12})?", fullmatch=True),
+    st.sampled_from(
+        ["nan", "inf", "-inf", "-0", "0", "1", "2", "1e400", "9" * 600, "mp:0", "mp:64"]
+        + ["mp:999999", "float128", "1/0", "102/53", "-1e-3", "eta", "x_w", "reduced", "fast"]
+    ),
+)
+#: ``--out`` values: under the example's directory, whatever the text (never outside it).
+OUT_VALUES = st.one_of(
+    st.text(min_size=0, max_size=40).map(lambda s: s.replace("/", "_").replace("\x00", "")),
+    st.sampled_from(["existing.txt", "existing.txt/sub", "", ".", "a" * 300, "d/e/f", "x\ny"]),
+)
+#: Seconds per fuzzed run: every base job takes a few seconds; a legal value may make it longer
+#: but never minutes (a budget refuses it first).
+CLI_FUZZ_BOUND = 30.0
+#: Examples per command (each draws one flag): 8 by default, 20x in the slow long run.
+CLI_EXAMPLES = max(3, int(os.environ.get("PRECISE_IMPACT_FUZZ_EXAMPLES", "25")) // 3)
+
+
+def _known_failure(name: str, flag: str, values: list[str]) -> bool:
+    """Inputs whose failure the fuzz found in another part's code (reported there; pinned by
+    test_known_certify_coupled_large_forcing_is_one_line): left out so that the rest of the
+    fuzz keeps running.  Coupled certify with a large forcing amplitude (RecursionError)."""
+    if name != "certify-coupled" or flag != "--a":
+        return False
+    try:
+        return abs(float(values[0])) >= 1e4
+    except (ValueError, OverflowError):
+        return False
+
+
+def _with_flag(base: list[str], flag: str, n: int, values: list[str]) -> list[str]:
+    """``base`` with ``flag``'s values replaced (or the flag added)."""
+    args = list(base)
+    if flag in args:
+        i = args.index(flag)
+        del args[i : i + 1 + n]
+    return args + [flag, *values]
+
+
+@pytest.mark.parametrize("name", list(CLI_FUZZ_BASE))
+@settings(
+    max_examples=CLI_EXAMPLES,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+@given(data=st.data())
+def test_fuzz_every_flag_of_the_new_commands(tmp_path_factory, monkeypatch, name, data):
+    """Any text for any one flag of orbit, continue, certify (single, coupled), lle --method
+    fast and sync/sweep/bifurcation on the fast engine: exit 0, 2 or 3; one line on stderr
+    on 2 or 3; one strict JSON object on stdout for --json; within the time bound."""
+    work = tmp_path_factory.mktemp("fuzz")
+    monkeypatch.chdir(work)  # a relative --out lands here
+    (work / "existing.txt").write_text("keep me\n")
+    flag, n = data.draw(st.sampled_from(CLI_FUZZ_FLAGS[name]), label="flag")
+    strategy = OUT_VALUES if flag == "--out" else CLI_VALUES
+    drawn = data.draw(st.lists(strategy, min_size=n, max_size=n), label="values")
+    values = [v.replace("\x00", "") for v in drawn]
+    if flag == "--out":
+        values = [str(work / v) if v else v for v in values]
+    assume(not _known_failure(name, flag, values))
+    base = [a.replace("{out}", str(work / "out")) for a in CLI_FUZZ_BASE[name]]
+    args = _with_flag(base, flag, n, values)
+    code, out, err, took = cli_in_process_out(*args, bound=CLI_FUZZ_BOUND)
+    assert code in (0, 2, 3), (args, code, err[-800:])
+    if code in (2, 3):  # a deprecated spelling (lle --method fast) is named on a line of its own
+        lines = [ln for ln in err.strip().splitlines() if "is deprecated, use" not in ln]
+        assert len(lines) == 1, (args, err)
+    if code == 0 and "--json" in args:
+        lines = out.strip().splitlines()
+        assert len(lines) == 1, (args, out[-500:])
+
+        def refuse(token):
+            raise AssertionError(f"{args}: non-strict JSON token {token}")
+
+        assert isinstance(json.loads(lines[0], parse_constant=refuse), dict)
+    assert (work / "existing.txt").read_text() == "keep me\n"
+    assert took < CLI_FUZZ_BOUND, (args, took)
+
+
+@pytest.mark.parametrize(
+    "error,code",
+    [
+        ("MissedImpactError", 3),
+        ("SpiceError", 3),
+        ("ReferenceDataError", 2),
+        ("PreciseImpactError", 3),
+    ],
+)
+def test_every_error_of_the_package_is_one_line_with_its_status(monkeypatch, error, code):
+    """A MissedImpactError (seen by the fuzz: sweep/sync --x_w 0 on the fast engine's heyoka
+    fallback), an ngspice failure or a damaged reference: one line and a status, not a
+    traceback (exit 1); a message written over two lines is still printed as one."""
+    import precise_impact.errors as errors
+    from precise_impact.cli.commands import simulate as simulate_cmd
+
+    def fail(ns):
+        raise getattr(errors, error)("first line\nsecond line")
+
+    monkeypatch.setattr(simulate_cmd, "run", fail)
+    got, err, _ = cli_in_process("simulate", "--periods", "1")
+    assert got == code and err.strip().splitlines() == [err.strip().splitlines()[0]], (got, err)
+    assert "first line second line" in err
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["simulate", "--periods", "1", "--out", "{tmp}/" + "a" * 300 + ".csv"],
+        ["bifurcation", "--eta", "0.7", "0.72", "2", "--out", "{tmp}/" + "a" * 300],
+        ["sweep", "--axis", "eta", "0.7", "0.72", "2", "--out", "{tmp}/" + "a" * 300],
+    ],
+    ids=["file", "dir", "resume"],
+)
+def test_an_out_name_too_long_is_bad_input(tmp_path, args):
+    """A 300-character --out name: one line naming out, exit 2, before any work (was exit 4,
+    "I/O error: File name too long", as if the run had started)."""
+    code, err, took = cli_in_process(*[a.replace("{tmp}", str(tmp_path)) for a in args])
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "out = " in lines[0], (code, err)
+    assert "File name too long" in lines[0] and took < 5
+
+
+@pytest.mark.xfail(
+    reason="certify (another part): solvers/certified/single.py first_crossing recurses past "
+    "Python's limit for the coupled pair with a >= 3.1e5 (RecursionError, exit 1); found by "
+    "the widened fuzz",
+    strict=False,
+)
+def test_known_certify_coupled_large_forcing_is_one_line():
+    code, err, _ = cli_in_process(
+        *["certify", "--k", "0.1", "--form", "reduced", "--y0", "0.5", "0.1", "--periods", "2"],
+        *["--precision", "mp:128", "--json", "--a", "700000"],
+    )
+    assert code in (0, 2, 3) and len(err.strip().splitlines()) <= 1

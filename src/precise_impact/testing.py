@@ -271,6 +271,8 @@ def score_solver(
     ReferenceDataError
         The reference is missing or damaged (never turned into a verdict).
     """
+    if not callable(solver):
+        raise ParameterError("solver", solver, "a callable solver(params, periods) -> (x, v)")
     ref = load_reference(case, root=root)
     periods = _check_score_options(ref, case, periods, atol, rtol)
     out = solver(dict(ref.params), periods)
@@ -334,12 +336,12 @@ def _check_score_options(ref: Any, case: str, periods: Any, atol: Any, rtol: Any
         )
     periods = int(periods)
     for name, tol in (("atol", atol), ("rtol", rtol)):
-        if not (
-            isinstance(tol, (int, float))
-            and not isinstance(tol, bool)
-            and tol >= 0
-            and np.isfinite(tol)
-        ):
+        ok = isinstance(tol, (int, float)) and not isinstance(tol, bool)
+        try:  # an int too large for a float is not a tolerance either
+            ok = ok and math.isfinite(float(tol)) and tol >= 0
+        except OverflowError:
+            ok = False
+        if not ok:
             raise ParameterError(name, tol, f"a finite number, {name} >= 0")
     if atol == 0 and rtol == 0:
         raise ParameterError("atol", atol, "atol > 0 or rtol > 0 (they cannot both be 0)")
@@ -380,7 +382,8 @@ def _scaled_errors(ref: Any, x: Sequence[Any], v: Sequence[Any], n: int, atol: f
                 continue
             d = abs(ym - yr)
             a[k] = float(d)
-            e[k] = float(d / (atol + rtol * abs(mp_import(mp, yr))))
+            scale = atol + rtol * abs(mp_import(mp, yr))  # 0 with atol = 0 where y_ref = 0
+            e[k] = float(d / scale) if scale else (0.0 if d == 0 else np.inf)
     return ex, ev, ax, av
 
 

@@ -284,3 +284,19 @@ def test_model_keyword_and_progress_callable(tmp_path):
     seen = []
     res = run_sweep(spec, tmp_path, workers=1, progress=lambda d, n: seen.append((d, n)))
     assert res.complete and seen == [(2, 2)]
+
+
+@pytest.mark.parametrize(
+    "kw,name",
+    [({"spec": ""}, "spec"), ({"out": 0.0}, "out"), ({"out": ""}, "out")],
+)
+def test_run_sweep_refuses_what_is_not_a_spec_or_a_path(tmp_path, monkeypatch, kw, name):
+    """Found by the fuzz: AttributeError / TypeError before; out='' would write into the
+    working directory."""
+    monkeypatch.chdir(tmp_path)
+    args = dict(spec=_tiny_spec(), out=tmp_path / "s", workers=1, progress=False)
+    args.update(kw)
+    with pytest.raises(ParameterError) as e:
+        run_sweep(**args)
+    assert e.value.name == name
+    assert list(tmp_path.iterdir()) == []

@@ -213,3 +213,22 @@ def test_bad_score_options_are_one_line_refusals_naming_them(kw, name):
     with pytest.raises(ParameterError) as e:
         score_solver(lambda p, n: ([0.0] * (n + 1), [0.0] * (n + 1)), **kw)
     assert e.value.name == name and "\n" not in str(e.value), str(e.value)
+
+
+def test_score_solver_edge_arguments():
+    """Found by the fuzz: a non-callable solver (TypeError), an int tolerance too large for a
+    float (numpy TypeError) are refused by name; atol = 0 where the reference is 0 scores 0 for
+    an exact sample (was ZeroDivisionError)."""
+    from precise_impact.errors import ParameterError
+
+    zeros = lambda p, n: ([0.0] * (n + 1), [0.0] * (n + 1))  # noqa: E731
+    with pytest.raises(ParameterError) as e:
+        score_solver("not a function", "single-0.74", periods=3)
+    assert e.value.name == "solver"
+    with pytest.raises(ParameterError) as e:
+        score_solver(zeros, "single-0.74", periods=3, atol=10**400)
+    assert e.value.name == "atol"
+    ref = load_reference("single-0.74")
+    exact = lambda p, n: (list(ref.x[: n + 1]), list(ref.v[: n + 1]))  # noqa: E731
+    r = score_solver(exact, "single-0.74", periods=3, atol=0.0)
+    assert r["max_error"] == 0.0 and r["passed"]

@@ -27,7 +27,7 @@ from precise_impact.analysis.scan import Grid, NpzTileStore, resolve_model, run_
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
-from precise_impact.io.atomic import atomic_write
+from precise_impact.io.atomic import atomic_write, check_output_dir
 from precise_impact.io.figures import figure
 from precise_impact.io.jsonout import dumps, write_json
 from precise_impact.io.lock import DirectoryLock
@@ -371,7 +371,9 @@ def run_sweep(
     >>> type(res).__name__, len(spec.axes[0][1])
     ('SweepResult', 3)
     """
-    out = Path(out)
+    if not isinstance(spec, SweepSpec):
+        raise ParameterError("spec", spec, "a SweepSpec (from SweepSpec.make)")
+    out = check_output_dir(out, "out", force=True)  # a directory path; resumed in, not replaced
     with DirectoryLock(out, "out"):  # one writer per directory, before anything is read or written
         return _run_locked(spec, out, workers, dask, progress, max_tiles)
 

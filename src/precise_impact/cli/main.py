@@ -1,7 +1,8 @@
 """The ``precise-impact`` entry point: parse, dispatch to the command's ``run``, map errors.
 
-Exit statuses: 0 ok, 2 bad input (argparse's own status too), 3 a budget was hit or an
-integration or Newton iteration stopped, 4 an I/O error during the run (finished files are
+Exit statuses: 0 ok, 2 bad input (argparse's own status too), a missing optional component or
+reference dataset, 3 a budget was hit or an integration or Newton iteration stopped (or missed
+an impact, or ngspice failed), 4 an I/O error during the run (finished files are
 complete: every write is atomic), 130 interrupted (Ctrl-C or SIGTERM).  The commands are the
 modules of :mod:`precise_impact.cli.commands`.
 """
@@ -23,8 +24,11 @@ from precise_impact.errors import (
     BudgetExceededError,
     ConvergenceError,
     IntegrationError,
+    MissedImpactError,
     OptionalDependencyError,
     ParameterError,
+    PreciseImpactError,
+    ReferenceDataError,
 )
 from precise_impact.version import __version__
 
@@ -92,6 +96,11 @@ def _is_number(s: str) -> bool:
     return True
 
 
+def _say(message: str) -> None:
+    """One line on stderr however the message was written (a newline would make it two)."""
+    print("precise-impact: " + " ".join(message.splitlines()), file=sys.stderr)
+
+
 def _terminate_as_interrupt() -> None:
     """SIGTERM ends a run like Ctrl-C: the same cleanup, one line, exit 130."""
     if threading.current_thread() is not threading.main_thread():
@@ -117,16 +126,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         with check_outputs(ns):  # an --out directory is locked until the run ends
             return ns.run(ns)
     except (ParameterError, OptionalDependencyError) as e:  # bad input, or a missing component
-        print(f"precise-impact: error: {e}", file=sys.stderr)
+        _say(f"error: {e}")
         return EXIT_BAD_INPUT
     except BudgetExceededError as e:
-        print(f"precise-impact: budget exceeded: {e}", file=sys.stderr)
+        _say(f"budget exceeded: {e}")
         return EXIT_BUDGET
     except ConvergenceError as e:  # a Newton iteration that found no orbit
-        print(f"precise-impact: no periodic orbit: {e}", file=sys.stderr)
+        _say(f"no periodic orbit: {e}")
         return EXIT_BUDGET
     except IntegrationError as e:
-        print(f"precise-impact: integration stopped: {e}", file=sys.stderr)
+        _say(f"integration stopped: {e}")
+        return EXIT_BUDGET
+    except MissedImpactError as e:  # a result that cannot be trusted is not printed
+        _say(f"integration stopped: {e}")
+        return EXIT_BUDGET
+    except ReferenceDataError as e:  # the stored reference is missing or damaged
+        _say(f"error: {e}")
+        return EXIT_BAD_INPUT
+    except PreciseImpactError as e:  # any other failure of the package's own (e.g. ngspice's)
+        _say(f"run stopped: {e}")
         return EXIT_BUDGET
     except BrokenPipeError:  # e.g. piped into `head`
         sys.stderr.close()

@@ -90,8 +90,14 @@ def check_output_file(path: str | os.PathLike, force: bool = False, name: str = 
 
     Refused with :class:`~precise_impact.errors.ParameterError` naming ``name``: a
     directory at ``path``, a file where a parent directory should be, a directory that
-    cannot be written, and an existing file unless ``force``.
+    cannot be written, an existing file unless ``force``, and a path the file system
+    refuses to look at (a name too long, ...).
     """
+    return _refuse_os_errors(_check_output_file, path, name, force)
+
+
+def _check_output_file(path: str | os.PathLike, force: bool = False, name: str = "out") -> Path:
+    """The checks of :func:`check_output_file`."""
 
     path = Path(path)
     if path.is_dir():
@@ -113,7 +119,29 @@ def check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = T
 
     With ``force=False`` an existing directory that holds anything is refused (the run
     would replace files of the same name in it): a new or empty directory, or ``--force``.
+    A path the file system refuses to look at (a name too long, ...) is refused too.
     """
+    return _refuse_os_errors(_check_output_dir, path, name, force)
+
+
+def _refuse_os_errors(check: Callable[..., Path], path: Any, name: str, force: bool) -> Path:
+    """``check(path, force=force, name=name)``; an ``OSError`` from looking at ``path``
+    (``ENAMETOOLONG``, ``ELOOP``, ...) becomes a :class:`ParameterError` naming ``name``
+    (was: exit 4 as an I/O error "during the run", before any work had started)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterError(name, path, "a path (str or os.PathLike)")
+    if isinstance(path, str) and not path:  # Path('') is '.': the working directory
+        raise ParameterError(name, path, "a non-empty path")
+    try:
+        return check(path, force=force, name=name)
+    except OSError as e:
+        raise ParameterError(
+            name, str(path), f"a path the file system accepts ({e.strerror or e})"
+        ) from None
+
+
+def _check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = True) -> Path:
+    """The checks of :func:`check_output_dir`."""
 
     path = Path(path)
     if path.exists() and not path.is_dir():
