@@ -1,7 +1,8 @@
 """The ``precise-impact`` entry point: parse, dispatch to the command's ``run``, map errors.
 
-Exit statuses: 0 ok, 2 bad input (argparse's own status too), 3 a budget was hit or an
-integration or Newton iteration stopped, 4 an I/O error during the run (finished files are
+Exit statuses: 0 ok, 2 bad input (argparse's own status too), 3 a budget was hit (a run whose
+estimate is over its budget is refused with 3 before any work) or an integration or Newton
+iteration stopped, 4 an I/O error during the run (finished files are
 complete: every write is atomic), 130 interrupted (Ctrl-C or SIGTERM).  The commands are the
 modules of :mod:`precise_impact.cli.commands`.
 """
@@ -24,6 +25,7 @@ from precise_impact.errors import (
     ConvergenceError,
     IntegrationError,
     OptionalDependencyError,
+    OverBudgetError,
     ParameterError,
 )
 from precise_impact.version import __version__
@@ -117,6 +119,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         check_outputs(ns)
         return ns.run(ns)
+    except OverBudgetError as e:  # a budget (also a ParameterError): refused before any work
+        print(f"precise-impact: over budget: {e}", file=sys.stderr)
+        return EXIT_BUDGET
     except (ParameterError, OptionalDependencyError) as e:  # bad input, or a missing component
         print(f"precise-impact: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -17,6 +17,7 @@ from precise_impact.cli.args import (
     params_from,
 )
 from precise_impact.core.params import check_count
+from precise_impact.errors import Interrupted
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -63,16 +64,20 @@ def run(ns: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         method, model = "variational", "fast"
-    r = lyapunov(
-        params,
-        method,
-        model=model,
-        periods=periods,
-        transient=transient,
-        precision=ns.precision,
-        progress=not ns.json,
-        max_time=max_time(ns),
-    )
+    try:
+        r = lyapunov(
+            params,
+            method,
+            model=model,
+            periods=periods,
+            transient=transient,
+            precision=ns.precision,
+            progress=not ns.json,
+            max_time=max_time(ns),
+        )
+    except Interrupted as e:  # say how far it got (nothing is written: no file to keep)
+        e.kept = str(e)  # type: ignore[attr-defined]
+        raise
     if ns.json:
         json.dump(r.to_dict(), sys.stdout)
         sys.stdout.write("\n")

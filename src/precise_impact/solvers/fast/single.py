@@ -18,6 +18,7 @@ from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import BudgetExceededError, IntegrationError
 from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
+from precise_impact.solvers.fast.control import STATUS_INTERRUPTED
 from precise_impact.solvers.fast.crossing import (
     JIT,
     PHASE_ERROR,
@@ -35,6 +36,8 @@ STATUS_CONTACT = 1  # a tangential contact (rounding-level excursion): rerun wit
 STATUS_SLOW_IMPACT = 2  # an impact slower than v_floor (chattering / sticking): rerun with heyoka
 STATUS_BUDGET = 3  # max_impacts exhausted
 STATUS_NONFINITE = 4
+# 5: STATUS_UNSUPPORTED of the pair (solvers.fast.coupled);
+# 6: STATUS_INTERRUPTED (solvers.fast.control)
 
 __all__ = [
     "FastSolver",
@@ -54,6 +57,7 @@ STATUS_TEXT = {
     STATUS_SLOW_IMPACT: "impact slower than the speed floor (chattering or sticking)",
     STATUS_BUDGET: "impact budget exhausted",
     STATUS_NONFINITE: "non-finite state",
+    STATUS_INTERRUPTED: "stopped (interrupted, or another orbit of the batch went to heyoka)",
 }
 
 
