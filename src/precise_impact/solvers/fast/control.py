@@ -161,7 +161,7 @@ def run_kernel(
     Notes
     -----
     Outside the main thread (a test runner's thread, a Dask worker) no signal can reach
-    this code: ``call()`` runs right there.
+    this code: ``call()`` runs right there (without progress).
     """
     if threading.current_thread() is not threading.main_thread():
         return call()
@@ -181,13 +181,15 @@ def run_kernel(
             else:  # stopping: the kernel sees the flag within POLL_PERIODS periods
                 done.wait()
             break
-        except KeyboardInterrupt as e:  # SIGTERM arrives as one too (precise_impact.cli.main)
-            stop[0] = STOP_INTERRUPT
+        except BaseException as e:  # Ctrl-C; SIGTERM arrives as one too (precise_impact.cli.main)
+            stop[0] = STOP_INTERRUPT  # (anything else raised here, too: never left running)
             if interrupt is None:
                 interrupt = e
     if bar is not None and time.perf_counter() - start > PROGRESS_AFTER:
         bar.update(int(counts.sum()))  # type: ignore[union-attr]
         bar.close()
+    if interrupt is not None and not isinstance(interrupt, KeyboardInterrupt):
+        raise interrupt
     if "error" in box:
         raise box["error"]
     if interrupt is not None:
