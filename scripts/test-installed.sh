@@ -8,7 +8,8 @@
 #   ruff check, ruff format --check and mypy on the sources (zero findings),
 #   precise-impact --version, precise-impact reference verify, the README's testing example
 #   (the code block itself, read from README.md), the whole test suite against the installed
-#   package (pyproject's pytest settings: markers, -m 'not slow'), and the documentation
+#   package (pyproject's pytest settings: markers, -m 'not slow'), then the slow tests but the
+#   ~10-minute hypothesis long run (-m slow), and the documentation
 #   build (html and doctest, warnings are errors) when docs/conf.py exists.
 # Then the lowest declared dependency versions (ci/lowest-constraints.txt) in a second
 # venv run a fast subset.  Every step is timed.
@@ -98,6 +99,12 @@ PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovid
 # pyproject's settings applied (its markers and addopts -m 'not slow'), not pytest's defaults
 grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
 grep -Eq "[0-9]+ deselected" "$work/pytest.log" || { echo "addopts -m 'not slow' was not applied"; exit 1; }
+took
+
+step "the slow accuracy tests (marked slow: long references, coverage statistics, the main job), installed package"
+# the hypothesis long run (test_fuzz_long_run, ~10 min) stays a manual run: pytest -m slow
+PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -q \
+  --rootdir "$repo" -c "$repo/pyproject.toml" -m slow -k "not fuzz_long_run"
 took
 
 if [ -f "$repo/docs/conf.py" ]; then

@@ -303,28 +303,34 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
     from precise_impact.solvers.heyoka.single import CHUNK_PERIODS
 
     out = tmp_path / "long.npz"
-    p = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "precise_impact",
-            "simulate",
-            "--periods",
-            "40000",
-            "--precision",
-            "mp:128",
-            "--out",
-            str(out),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
     part = tmp_path / "long.partial.npz"
-    deadline = time.monotonic() + 40
-    time.sleep(5)  # ~1.2 ms per period at 128 bits: a few chunks are finished by now
-    p.send_signal(signal.SIGTERM)
-    _, err = p.communicate(timeout=TIME_BOUND)
+    # ~1.2 ms per period at 128 bits, after heyoka's JIT compilation (~2-4 s, far more on a
+    # loaded machine): the signal is sent after 5 s, and if no chunk was finished by then (the
+    # run says so and leaves no partial file) once more after 12 s, then 25 s.
+    for delay in (5, 12, 25):
+        p = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "precise_impact",
+                "simulate",
+                "--periods",
+                "40000",
+                "--precision",
+                "mp:128",
+                "--out",
+                str(out),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        deadline = time.monotonic() + 40
+        time.sleep(delay)
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=TIME_BOUND)
+        if part.exists() or p.returncode != 130:
+            break
     assert time.monotonic() < deadline + TIME_BOUND
     assert p.returncode == 130, err[-500:]
     lines = err.strip().splitlines()
@@ -369,3 +375,91 @@ def test_directory_outputs_are_not_overwritten_without_force(tmp_path):
     r, _ = cli(*args, "--force")
     assert r.returncode == 0, r.stderr[-500:]
     assert (out / "keep.txt").read_text() == "mine\n" and len(list(out.iterdir())) > 1
+
+
+# --- one writer per --out directory (every command, not only sweep) ------------------------
+BUSY_OUT_RUNS = [
+    ["continue", "--param", "eta", "1", "0.99", "--R", "0.8", "--max-points", "3", "--force"],
+    ["sync", "--k", "0.05", "0.05", "1", "--periods", "5", "--ensemble", "1", "--force"],
+    ["bifurcation", "--eta", "0.70", "0.72", "2", "--periods", "5", "--transient", "5", "--force"],
+    ["accuracy", "--periods", "2", "--force"],
+    ["compare", "fig5-chaotic-ideal", "--models", "circuit", "--periods", "2", "--force"],
+    ["sweep", "--axis", "eta", "0.7", "0.72", "2", "--periods", "5", "--transient", "5"],
+]
+
+
+def test_a_second_run_into_a_busy_out_directory_is_refused(tmp_path):
+    """Two runs into one --out: the second is refused at once (exit 2, one line naming the
+    first run's pid), the first goes on alone.  Before, two continue/sync/bifurcation runs
+    both exited 0 and the directory held a mix of their files; only sweep was locked."""
+    import signal
+
+    out = tmp_path / "out"
+    first = subprocess.Popen(  # a long run holding --out (minutes; stopped below)
+        [sys.executable, "-m", "precise_impact", "bifurcation", "--eta", "0.70", "0.72", "2"]
+        + ["--periods", "200000", "--transient", "5", "--workers", "1", "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + TIME_BOUND
+        lock = out / ".precise_impact.lock"
+        while f'"pid": {first.pid}' not in (lock.read_text() if lock.exists() else ""):
+            assert first.poll() is None and time.monotonic() < deadline, first.stderr.read()
+            time.sleep(0.05)
+        for args in BUSY_OUT_RUNS:
+            code, err, took = cli_in_process(*args, "--out", str(out))
+            lines = err.strip().splitlines()
+            assert code == 2 and len(lines) == 1, (args, code, err)
+            assert f"locked by pid {first.pid}" in lines[0] and "out" in lines[0], lines[0]
+            assert took < 5, args  # refused before any work
+            assert first.poll() is None  # the first run goes on
+        assert sorted(p.name for p in out.iterdir()) == [".precise_impact.lock"]
+    finally:
+        first.send_signal(signal.SIGTERM)
+        first.communicate(timeout=TIME_BOUND)
+    assert first.returncode == 130
+
+
+def test_a_refused_run_leaves_no_out_directory_behind(tmp_path):
+    """The lock creates --out before the parameters are checked; a run refused for bad input
+    removes it again (nothing else was written), and a finished run's lock file does not make
+    its directory count as non-empty for the next run."""
+    out = tmp_path / "new" / "out"
+    code, err, _ = cli_in_process(
+        "continue", "--param", "eta", "1", "0.99", "--R", "7", "--out", str(out)
+    )
+    assert code == 2 and "R" in err and not out.exists(), (code, err)
+    from precise_impact.io.atomic import check_output_dir
+    from precise_impact.io.lock import DirectoryLock
+
+    out.mkdir(parents=True)
+    with DirectoryLock(out):
+        with DirectoryLock(out):  # re-entrant in one thread (the CLI's lock, then a sweep's)
+            pass
+        assert (out / ".precise_impact.lock").read_text()  # the outer lock still holds it
+    check_output_dir(out, force=False)  # only the released lock file: still "empty"
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["compare", "fig5-chaotic-ideal", "--models", "spice", "--points"],
+        ["compare", "fig5-chaotic-ideal", "--models", "circuit,spice", "--points"],
+        ["compare", "fig5-chaotic-ideal", "--models", "spice"],
+        ["simulate", "--model", "spice", "--periods", "2"],
+        ["run", "fig5-chaotic-ideal", "--model", "spice"],
+    ],
+    ids=lambda a: "-".join(a[2:5:2]),
+)
+def test_missing_ngspice_is_one_line_before_any_work(tmp_path, monkeypatch, args):
+    """Without ngspice on PATH: one line naming ngspice and its install command, exit 2, at
+    once.  Before, ``compare --models circuit,spice --points`` ran the reference, the LLE
+    and the circuit (10 s, three progress lines) before the refusal."""
+    monkeypatch.setenv("PATH", str(tmp_path))  # an empty directory: no ngspice
+    code, err, took = cli_in_process(*args)
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, (code, err)
+    assert "ngspice" in lines[0] and "apt-get install ngspice" in lines[0], lines[0]
+    assert took < 5

@@ -151,3 +151,171 @@ def test_sweep_on_a_threaded_dask_worker_is_bit_identical(tmp_path):
     a, b = load_sweep(tmp_path / "serial", spec), load_sweep(tmp_path / "threads", spec)
     for f in ("lle", "stderr", "lambda2", "period", "impacts_per_period"):
         assert np.array_equal(a[f], b[f], equal_nan=True), f
+
+
+# ---------------------------------------------------------------------------- mpmath
+# mpmath's working precision is process-global (``mpmath.mp``, set by ``workprec``/``workdps``):
+# before every mpmath computation had a context of its own, a thread working at another
+# precision changed the results of one_impact_orbits (6 of 8 threaded calls), find_orbit
+# mp (8 of 8) and the mpmath analytical solver (2 of 8 differed, 4 of 8 raised a spurious
+# BudgetExceededError "no progress").
+
+
+def _mp_key(obj):
+    """Bits of a result: mpmath numbers by their raw tuples (``repr`` depends on mp.dps)."""
+    if hasattr(obj, "_mpf_"):
+        return ("f", obj._mpf_)
+    if hasattr(obj, "_mpc_"):
+        return ("c", obj._mpc_)
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return tuple(_mp_key(x) for x in obj)
+    if isinstance(obj, float):
+        return obj.hex()
+    return str(obj)  # heyoka reals print round-trip digits
+
+
+def _one_impact():
+    from precise_impact.analysis.orbits.one_impact import one_impact_orbits
+
+    orbits = one_impact_orbits(Params.make(R="0.8", eta="1"), dps=40, grid=100)
+    return _mp_key([(o.x, o.v, o.multipliers, o.lle, o.precision) for o in orbits])
+
+
+def _find_orbit_mp():
+    from precise_impact.analysis.orbits.newton import find_orbit
+
+    o = find_orbit(Params.make(R="0.8", eta="1"), period=1, precision="mp:200")
+    return _mp_key((o.x, o.v, o.multipliers, o.lle, o.residual))
+
+
+def _analytical_mp():
+    from precise_impact import AnalyticalSolver
+
+    tr = AnalyticalSolver(precision="mp:200").solve(Params.make(R="0.8", eta="1.3", x0="0.5"), 8)
+    return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
+
+
+_SHARED: dict = {}
+
+
+def _analytical_mp_shared():
+    """One mpmath solver object (one MpmathOps context) used by every thread at once."""
+    from precise_impact import AnalyticalSolver
+
+    solver = _SHARED.setdefault("analytical", AnalyticalSolver(precision="mp:200"))
+    tr = solver.solve(Params.make(R="0.8", eta="1.3", x0="0.5"), 8)
+    return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
+
+
+def _heyoka_mp():
+    tr = HeyokaSolver("mp:160").solve(Params.make(R="0.8", eta="1.3", x0="0.5"), 4)
+    return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
+
+
+def _heyoka_mp_chattering():
+    """Sticking and chattering: the wall's mpmath (release time, accumulation time)."""
+    p = Params.make(R="4/5", eta="0.2", a="1", x_w="0.5", zeta="0.05")
+    tr = HeyokaSolver("mp:192").solve(p, 3)
+    return _mp_key((tr.x, tr.v, tr.impacts_t, tr.impacts_v_after))
+
+
+def _grazing_frequencies():
+    from precise_impact import grazing_frequencies
+
+    return _mp_key(grazing_frequencies(Params.make(), dps=200))
+
+
+_PAIR: list = []
+
+
+def _sample_errors_mp():
+    """A verification metric: errors of a float64 run against an mp:200 one, in mpmath."""
+    from precise_impact import AnalyticalSolver
+    from precise_impact.verification.metrics import sample_errors
+
+    if not _PAIR:  # computed once, serially (the first, serial call)
+        p = Params.make(eta="0.74")
+        _PAIR.extend(
+            [AnalyticalSolver().solve(p, 20), AnalyticalSolver(precision="mp:200").solve(p, 20)]
+        )
+    return _mp_key(sample_errors(*_PAIR))
+
+
+def _prove_orbit():
+    """python-flint, not mpmath (its process-wide precision is set under the engine's lock)."""
+    from precise_impact import prove_orbit
+
+    r = prove_orbit(Params.make(R="0.8", eta="1"), 1, bits=128, transient=200)
+    return (str(r.x), str(r.v), [str(m) for m in r.multipliers], r.proven, r.stable)
+
+
+MP_ENTRY_POINTS = {
+    "one_impact_orbits": _one_impact,
+    "find_orbit mp": _find_orbit_mp,
+    "AnalyticalSolver mp": _analytical_mp,
+    "AnalyticalSolver mp, one object": _analytical_mp_shared,
+    "HeyokaSolver mp": _heyoka_mp,
+    "HeyokaSolver mp chattering": _heyoka_mp_chattering,
+    "grazing_frequencies": _grazing_frequencies,
+    "sample_errors mp": _sample_errors_mp,
+    "prove_orbit": _prove_orbit,
+}
+#: ~10 s each on 2 busy cores (heyoka's mp compile with the wall's events): marked slow
+_SLOW_MP = {"HeyokaSolver mp chattering", "prove_orbit"}
+MP_NAMES = [
+    pytest.param(n, marks=pytest.mark.slow) if n in _SLOW_MP else n for n in MP_ENTRY_POINTS
+]
+
+
+@pytest.mark.parametrize("name", MP_NAMES)
+def test_mp_results_do_not_depend_on_mpmaths_global_precision(name):
+    """The same call under another module-level mpmath precision gives the same bits (the
+    deterministic form of the race below: each computation works in a context of its own)."""
+    import mpmath
+
+    fn = MP_ENTRY_POINTS[name]
+    default = fn()
+    with mpmath.workprec(70):
+        low = fn()
+    with mpmath.workdps(300):
+        high = fn()
+    assert low == default and high == default
+
+
+@pytest.mark.parametrize("name", MP_NAMES)
+def test_mp_results_from_threads_are_bit_identical(name):
+    """4 threads, while another thread keeps switching mpmath's global precision, give the
+    serial result bit for bit."""
+    import threading
+    import time
+
+    import mpmath
+
+    fn = MP_ENTRY_POINTS[name]
+    t0 = time.perf_counter()
+    serial = fn()
+    # cheap calls repeated (~0.3 s a thread) so that the threads and the noise interleave
+    reps = max(1, min(50, int(0.3 / (time.perf_counter() - t0))))
+    stop = threading.Event()
+
+    def noise():  # mostly at 24 bits: a computation that catches it loses digits
+        while not stop.is_set():
+            with mpmath.workprec(24):
+                for _ in range(100):
+                    mpmath.exp(mpmath.mpf(1) / 3)
+            with mpmath.workdps(500):
+                mpmath.cos(mpmath.mpf(2) / 7)
+
+    import sys
+
+    switch = sys.getswitchinterval()
+    sys.setswitchinterval(1e-5)  # switch threads often: short computations interleave too
+    other = threading.Thread(target=noise)
+    other.start()
+    try:
+        threaded = _in_threads(lambda _: [fn() for _ in range(reps)], range(THREADS))
+    finally:
+        stop.set()
+        other.join()
+        sys.setswitchinterval(switch)
+    assert all(t == serial for run in threaded for t in run)

@@ -15,6 +15,7 @@ __all__ = [
     "ParameterError",
     "BudgetExceededError",
     "OverBudgetError",
+    "EndlessBouncesError",
     "OptionalDependencyError",
     "MissedImpactError",
     "SpiceError",
@@ -62,7 +63,17 @@ class ParameterError(PreciseImpactError, ValueError):
         self.name = name
         self.value = value
         self.allowed = allowed
-        super().__init__(f"{name} = {value!r} is not allowed: {allowed}")
+        super().__init__(f"{name} = {one_line(value)} is not allowed: {allowed}")
+
+
+def one_line(value: object, limit: int = 80) -> str:
+    """``repr(value)`` on one line (a 2-D array's repr has several) of at most ``limit``
+    characters: the refusal stays one line however large the value."""
+    try:
+        text = " ".join(repr(value).split())
+    except Exception:  # a hostile __repr__: the type still says what was given
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 class BudgetExceededError(PreciseImpactError, RuntimeError):
@@ -72,6 +83,17 @@ class BudgetExceededError(PreciseImpactError, RuntimeError):
     --------
     precise_impact.errors.IntegrationError : another engine failure.
     precise_impact.errors.OverBudgetError : a wall-time budget exceeded.
+    """
+
+
+class EndlessBouncesError(BudgetExceededError):
+    """``R = 1`` bounces on the wall under a force into it, predicted to come to rest or to
+    outrun the impact budget (:func:`~precise_impact.core.impact.elastic_bounce_count`):
+    refused at the first short flight, exit status 3.  Scans record it per point.
+
+    See Also
+    --------
+    precise_impact.errors.BudgetExceededError : its base.
     """
 
 
@@ -119,16 +141,6 @@ class OptionalDependencyError(PreciseImpactError, RuntimeError):
         super().__init__(
             f"{purpose} needs {component}, which is not installed; install it with: {install}"
         )
-
-
-class MissedImpactError(PreciseImpactError, RuntimeError):
-    """The guard found a maximum of ``x`` beyond the wall that no impact event caught.
-
-    See Also
-    --------
-    precise_impact.errors.IntegrationError : another engine failure.
-    precise_impact.solvers.certified.single.certify : a run whose impacts are proven.
-    """
 
 
 class SpiceError(PreciseImpactError, RuntimeError):
@@ -192,10 +204,25 @@ class IntegrationError(PreciseImpactError, RuntimeError):
     """
 
 
+class MissedImpactError(IntegrationError):
+    """The guard found a maximum of ``x`` beyond the wall that no impact event caught.
+
+    An :class:`IntegrationError` (the CLI: one line, exit status 3; before 0.3 it escaped
+    the CLI as a traceback).
+
+    See Also
+    --------
+    precise_impact.errors.IntegrationError : another engine failure.
+    precise_impact.solvers.certified.single.certify : a run whose impacts are proven.
+    """
+
+
 class CertificationError(IntegrationError):
     """No proof at this precision: the message names the time and the ball.
 
-    Raised by the certified engines (:mod:`precise_impact.solvers.certified`).
+    Raised by the certified engines (:mod:`precise_impact.solvers.certified`).  ``partial``
+    holds the samples proven before the failure (their radius growth projects the bits a run
+    needs: :func:`~precise_impact.solvers.certified.single.out_of_reach`), or ``None``.
 
     See Also
     --------
@@ -203,6 +230,8 @@ class CertificationError(IntegrationError):
     precise_impact.solvers.certified.single.certify : raises it when certification fails.
     precise_impact.solvers.certified.single.CertifiedSolver : the certified model.
     """
+
+    partial: list | None = None
 
 
 class ConvergenceError(IntegrationError):

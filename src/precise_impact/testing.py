@@ -24,7 +24,8 @@ from typing import Any
 import mpmath
 import numpy as np
 
-from precise_impact.errors import ReferenceDataError
+from precise_impact.core.mpcontext import mp_context, mp_export, mp_import
+from precise_impact.errors import ParameterError, ReferenceDataError, one_line
 from precise_impact.verification.reference import checksum_problems, default_root
 
 __all__ = [
@@ -116,14 +117,14 @@ def load_reference(
 
     Raises
     ------
-    ValueError
-        ``case`` is not one of :data:`SINGLE_CASES`.
+    ParameterError
+        ``case`` is not one of :data:`SINGLE_CASES` (a ``ValueError``).
     ReferenceDataError
         The case is missing, or a file fails its sha256 checksum (checked before
         anything is read).
     """
-    if case not in SINGLE_CASES:
-        raise ValueError(f"case must be one of {', '.join(SINGLE_CASES)}, got {case!r}")
+    if not isinstance(case, str) or case not in SINGLE_CASES:
+        raise ParameterError("case", case, f"one of {', '.join(SINGLE_CASES)}")
 
     d = _root(root) / case
     if not d.is_dir():
@@ -148,8 +149,7 @@ def load_reference(
     else:
 
         def conv(s: str) -> mpmath.mpf:
-            with mpmath.workprec(_WORKPREC):
-                return mpmath.mpf(s)
+            return mp_export(mp_context(_WORKPREC).mpf(s))
 
     samples = data["samples"]
     px = pv = None
@@ -180,21 +180,42 @@ def load_reference(
 def _to_mpf(value: Any) -> mpmath.mpf:
     """Exact mpmath value of a user number (float, numpy float, longdouble, heyoka real, str,
     Decimal)."""
-    with mpmath.workprec(_WORKPREC):
-        if isinstance(value, (float, np.float64, np.float32, int, np.integer)):
-            return (
-                mpmath.mpf(float(value))
-                if not isinstance(value, (int, np.integer))
-                else mpmath.mpf(int(value))
-            )
-        if isinstance(value, np.longdouble):
-            n, d = value.as_integer_ratio()
-            return mpmath.mpf(n) / d
-        if isinstance(value, Fraction):
-            return mpmath.mpf(value.numerator) / value.denominator
-        if isinstance(value, mpmath.mpf):
-            return +value
-        return mpmath.mpf(str(value))
+    # in a context of this thread's own (mpmath's global precision is shared by every thread)
+    return mp_export(_to_mpf_in(mp_context(_WORKPREC), value))
+
+
+def _to_mpf_in(mp: Any, value: Any) -> Any:
+    if isinstance(value, (float, np.float64, np.float32, int, np.integer)):
+        return (
+            mp.mpf(float(value)) if not isinstance(value, (int, np.integer)) else mp.mpf(int(value))
+        )
+    if isinstance(value, np.longdouble):
+        n, d = value.as_integer_ratio()
+        return mp.mpf(n) / d
+    if isinstance(value, Fraction):
+        return mp.mpf(value.numerator) / value.denominator
+    if hasattr(value, "_mpf_"):
+        return +mp_import(mp, value)
+    return mp.mpf(str(value))
+
+
+def _sample(value: Any, var: str, k: int) -> mpmath.mpf:
+    """One sample the solver returned, as an exact mpmath number; a value that is not one
+    number (a string that is not a decimal, a row of a 2-D array, ...) is refused naming
+    ``solver`` and the sample."""
+    if not isinstance(value, (bool, np.bool_)) and not (
+        isinstance(value, np.ndarray) and value.ndim
+    ):
+        try:
+            return _to_mpf(value)
+        except (TypeError, ValueError, ArithmeticError):
+            pass
+    raise ParameterError(
+        "solver",
+        f"{var}[{k}] = {one_line(value, 60)}",
+        "x and v sequences of numbers (float, numpy float, decimal string, mpmath or heyoka "
+        "number), one per sample",
+    )
 
 
 def score_solver(
@@ -245,7 +266,8 @@ def score_solver(
     Raises
     ------
     ParameterError
-        Bad ``case``, ``periods`` or tolerances.
+        Bad ``case``, ``periods`` or tolerances, or a sample of the solver's ``x`` or ``v``
+        that is not one number (named ``solver``, with its index).
     ReferenceDataError
         The reference is missing or damaged (never turned into a verdict).
     """
@@ -268,8 +290,10 @@ def score_solver(
         x = v = None
     if x is None or len(x) != n or len(v) != n:
         return _shape_failure(result, n, periods, x, v)
-    result["solver_x"] = np.array([float(_to_mpf(y)) for y in x])
-    result["solver_v"] = np.array([float(_to_mpf(y)) for y in v])
+    x = [_sample(y, "x", k) for k, y in enumerate(x)]
+    v = [_sample(y, "v", k) for k, y in enumerate(v)]
+    result["solver_x"] = np.array([float(y) for y in x])
+    result["solver_v"] = np.array([float(y) for y in v])
     ex, ev, ax, av = _scaled_errors(ref, x, v, n, atol, rtol)
     kx, kv = int(np.argmax(ex)), int(np.argmax(ev))
     if ev[kv] > ex[kx]:
@@ -305,15 +329,20 @@ def _check_score_options(ref: Any, case: str, periods: Any, atol: Any, rtol: Any
         or not isinstance(periods, (int, np.integer))
         or not 1 <= periods <= ref.periods
     ):
-        raise ValueError(
-            f"periods must be an integer in 1..{ref.periods} for case {case!r}, got {periods!r}"
+        raise ParameterError(
+            "periods", periods, f"an integer, 1 <= periods <= {ref.periods} for case {case!r}"
         )
     periods = int(periods)
     for name, tol in (("atol", atol), ("rtol", rtol)):
-        if not (isinstance(tol, (int, float)) and tol >= 0 and np.isfinite(tol)):
-            raise ValueError(f"{name} must be a finite number >= 0, got {tol!r}")
+        if not (
+            isinstance(tol, (int, float))
+            and not isinstance(tol, bool)
+            and tol >= 0
+            and np.isfinite(tol)
+        ):
+            raise ParameterError(name, tol, f"a finite number, {name} >= 0")
     if atol == 0 and rtol == 0:
-        raise ValueError("atol and rtol cannot both be 0")
+        raise ParameterError("atol", atol, "atol > 0 or rtol > 0 (they cannot both be 0)")
     return periods
 
 
@@ -342,16 +371,16 @@ def _shape_failure(result: dict[str, Any], n: int, periods: int, x: Any, v: Any)
 def _scaled_errors(ref: Any, x: Sequence[Any], v: Sequence[Any], n: int, atol: float, rtol: float):
     """Scaled and absolute errors of the samples against the reference: ``ex, ev, ax, av``."""
     ex, ev, ax, av = (np.empty(n) for _ in range(4))
-    with mpmath.workprec(_WORKPREC):
-        for k in range(n):
-            for y, yr, e, a in ((x[k], ref.x[k], ex, ax), (v[k], ref.v[k], ev, av)):
-                ym = _to_mpf(y)
-                if not mpmath.isfinite(ym):
-                    a[k] = e[k] = np.inf
-                    continue
-                d = abs(ym - yr)
-                a[k] = float(d)
-                e[k] = float(d / (atol + rtol * abs(yr)))
+    mp = mp_context(_WORKPREC)  # this thread's own: mpmath's global precision is shared
+    for k in range(n):
+        for y, yr, e, a in ((x[k], ref.x[k], ex, ax), (v[k], ref.v[k], ev, av)):
+            ym = _to_mpf_in(mp, y)
+            if not mp.isfinite(ym):
+                a[k] = e[k] = np.inf
+                continue
+            d = abs(ym - yr)
+            a[k] = float(d)
+            e[k] = float(d / (atol + rtol * abs(mp_import(mp, yr))))
     return ex, ev, ax, av
 
 

@@ -27,6 +27,8 @@ def test_grazing_frequency_closed_form_matches_amplitude_condition():
 
 
 def test_grid_is_exact_and_validated():
+    # a reversed range runs in the order given (before: refused, 'eta_max must be > eta_min')
+    assert eta_grid("0.8", "0.7", 3) == [Fraction(4, 5), Fraction(3, 4), Fraction(7, 10)]
     grid = eta_grid("0.70", "0.74", 5)
     assert grid == [
         Fraction(7, 10),
@@ -37,7 +39,8 @@ def test_grid_is_exact_and_validated():
     ]
     for args, name in [
         (("0", "1", 3), "eta_min"),
-        (("0.8", "0.7", 3), "eta_max"),
+        (("0.8", "0.8", 3), "eta_max"),
+        (("0.8", "0", 3), "eta_max"),
         (("0.7", "0.8", 0), "n"),
     ]:
         with pytest.raises(ParameterError) as e:

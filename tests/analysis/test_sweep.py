@@ -185,17 +185,32 @@ def test_damaged_spec_file_is_rewritten_or_refused(tmp_path, capsys):
 
 
 def test_one_writer_per_out_directory(tmp_path):
+    import threading
+
     from precise_impact.io.lock import DirectoryLock
 
     spec = _tiny_spec()
-    with DirectoryLock(
-        tmp_path, "out"
-    ):  # another writer holds it (a separate open file: flock conflicts)
+    held, done = threading.Event(), threading.Event()
+
+    def other_writer():  # another thread's lock (a separate open file: flock conflicts)
+        with DirectoryLock(tmp_path, "out"):
+            held.set()
+            done.wait(60)
+
+    t = threading.Thread(target=other_writer)
+    t.start()
+    try:
+        assert held.wait(60)
         with pytest.raises(ParameterError) as e:
             run_sweep(spec, tmp_path, workers=1, progress=False)
         assert e.value.name == "out" and f"pid {__import__('os').getpid()}" in str(e.value)
+    finally:
+        done.set()
+        t.join()
     assert not (tmp_path / "sweep_spec.json").exists()  # refused before anything was written
     assert run_sweep(spec, tmp_path, workers=1, progress=False).complete  # released: free again
+    with DirectoryLock(tmp_path, "out"):  # this thread's own lock is re-entered (the CLI's case)
+        assert run_sweep(spec, tmp_path, workers=1, progress=False).complete
 
 
 def test_lock_left_by_a_killed_process_is_stale(tmp_path):

@@ -47,7 +47,6 @@ def test_progress_meanings(capsys):
 @pytest.mark.parametrize(
     "kwargs, name",
     [
-        ({"k_values": ("k", "0.05", "0.01", 3)}, "k_max"),
         ({"k_values": ("k", "0", "0.1", 0)}, "n"),
         ({"model": "gpu"}, "model"),
         ({"model": "fast", "precision": "mp:128"}, "precision"),

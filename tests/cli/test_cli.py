@@ -224,7 +224,7 @@ def test_bifurcation_cli(tmp_path):
     assert "grazing eta (closed form): 0.710687" in r.stdout
     assert (tmp_path / "bifurcation.png").exists() and (tmp_path / "bifurcation.npz").exists()
     assert "3/3" in r.stderr  # progress bar
-    bad = run("bifurcation", "--eta", "0.7", "0.6", "3", "--out", str(tmp_path / "new"))
+    bad = run("bifurcation", "--eta", "0.7", "0.7", "3", "--out", str(tmp_path / "new"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: eta_max = ")
 
 
@@ -255,8 +255,15 @@ def test_sync_cli(tmp_path):
         assert (tmp_path / name).stat().st_size > 1000
     bad = run("sync", "--form", "diagonal", "--out", str(tmp_path / "new"))
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: form = ")
-    bad = run("sync", "--k", "0.05", "0.01", "3", "--out", str(tmp_path / "new"))
-    assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: k_max = ")
+    # a reversed range is run, not refused (issue 28); the k grid is stored ascending, the
+    # order in which the threshold k* is read off
+    rev = run("sync", "--k", "0.05", "0.01", "3", "--periods", "50", "--out", str(tmp_path / "rev"))
+    assert rev.returncode == 0, rev.stderr
+    assert json.loads((tmp_path / "rev" / "sync_first-order.json").read_text())["k_values"] == [
+        "0.01",
+        "0.03",
+        "0.05",
+    ]
 
 
 def test_sweep_cli_resumes(tmp_path):

@@ -51,7 +51,7 @@ def test_unknown_job_and_old_signature():
     with pytest.warns(DeprecationWarning, match="run_cost"):
         old = estimate_cost(F64, 100, 10, factor=2)
     assert old == run_cost(F64, 100, 10, factor=2)
-    assert set(JOBS) == {"simulate", "scene", "lle", "bifurcation", "sync", "sweep"}
+    assert set(JOBS) == {"simulate", "scene", "lle", "bifurcation", "sync", "certify", "sweep"}
 
 
 def test_enforce_max_time():

@@ -214,9 +214,9 @@ def test_the_amplitude_form_is_the_flow_form():
 
 
 def test_precision_carries_the_flights_arithmetic():
-    """Precision.ops: float64 -> math, mp:BITS -> mpmath at BITS inside ops.context() (which
-    sets and restores mpmath's process-global precision), long double / float128 refused (only
-    heyoka computes in them)."""
+    """Precision.ops: float64 -> math, mp:BITS -> mpmath at BITS in a context of its own (numbers
+    of ops.num compute at BITS whatever mpmath's process-global precision is, and the ops never
+    change that), long double / float128 refused (only heyoka computes in them)."""
     import mpmath
     import pytest
 
@@ -226,9 +226,12 @@ def test_precision_carries_the_flights_arithmetic():
     assert Precision.parse("float64").ops is flight.FLOAT
     ops = Precision.parse("mp:300").ops
     before = mpmath.mp.prec
-    with ops.context():
+    with ops.context(), mpmath.workprec(53):
         third = ops.num(Fraction(1, 3))
-        assert mpmath.mp.prec == 300 and abs(third * 3 - 1) <= mpmath.mpf(2) ** -299
+        # 2^-250 survives the sum at 300 bits, not at mpmath's global 53 bits
+        tiny = third * 3 + ops.num(Fraction(1, 2**250)) - 1
+        assert mpmath.mp.prec == 53 and 2**-251 < tiny < 2**-249
+        assert ops.exp(third).context is ops.ctx and ops.pi.context is ops.ctx
     assert mpmath.mp.prec == before
     for name in ("longdouble", "float128"):
         with pytest.raises(ParameterError, match="^precision = "):

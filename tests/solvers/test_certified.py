@@ -112,7 +112,7 @@ def test_certified_model_and_threads():
     p = pi.Params.make(eta="0.74")
     tr = pi.simulate(p, 30, model="certified", precision="mp:256")
     ref = pi.simulate(p, 30, precision="mp:256")
-    assert tr.n_impacts == ref.n_impacts and tr.stats["max_radius"] < 1e-60
+    assert tr.n_impacts == ref.n_impacts and float(tr.stats["max_radius"]) < 1e-60
     assert (
         max(abs(a - b) for a, b in zip(tr.x, ref.x, strict=True)) < 1e-60
     )  # heyoka mp:256 vs the proven midpoints
@@ -320,3 +320,113 @@ def test_contains_is_exact():
         assert not r.contains(5, mx + 2 * rx, mv) and not r.contains(5, mx, mv + 1)
     finally:
         flint.ctx.prec = old
+
+
+def test_a_start_on_the_wall_moving_in_is_post_impact_at_sample_0():
+    """Samples are right-continuous in every engine (docs/numerics.rst): from x0 = x_w = 2,
+    v0 = 1 there is an impact at t0 and sample 0 is (x_w, -R v0).  Before, the certified run
+    kept the pre-impact v0 = 1 at sample 0, so heyoka's mp:256 / mp:320 sample 0 lay
+    outside its ball (R = 1 here: v = -1 after the impact)."""
+    p = pi.Params.make(x0="2", v0="1")
+    r = certify(p, 3, precision="mp:256")
+    assert r.contains(0, p.x_w, -p.R * p.v0) and not r.contains(0, p.x0, p.v0)
+    assert len(r.impacts) >= 1 and r.impacts[0][0].is_zero()
+    # another engine's mp:256 samples (the closed form: heyoka's mp JIT costs ~10 s here)
+    h = pi.simulate(p, 3, model="analytical", precision="mp:256")
+    assert all(r.contains(k, str(h.x[k]), str(h.v[k])) for k in range(4))
+
+
+def test_radii_below_the_float_range_are_strings_never_zero():
+    """At mp:4096 the radii are ~1e-1230: as floats they were 0.0 in stats / to_dict (a bound
+    shown as exactness).  Now decimal strings in scientific notation, rounded up; '0' only for
+    an exact point (sample 0 of x0 = v0 = 0)."""
+    from precise_impact.solvers.certified.single import exact_value, radius_str
+
+    p = pi.Params.make(eta="0.74")
+    tr = pi.simulate(p, 3, model="certified", precision="mp:4096")
+    rads = tr.stats["x_rad"][1:] + tr.stats["v_rad"][1:] + [tr.stats["max_radius"]]
+    assert tr.stats["x_rad"][0] == tr.stats["v_rad"][0] == "0"
+    assert all("e-12" in s and 0 < Fraction(s) and float(s) == 0.0 for s in rads), rads
+    r = certify(p, 3, precision="mp:4096")
+    d = r.to_dict()
+    assert d["max_radius"] == tr.stats["max_radius"] and Fraction(d["max_radius"]) > 0
+    # rounded up: never below the exact radius of the ball
+    for _, _, x, v in r.samples:
+        for b in (x, v):
+            assert Fraction(radius_str(b.rad())) >= exact_value(b.rad())
+    assert radius_str(flint.arb(0).rad()) == "0"
+
+
+def test_automatic_bits_escalate_when_the_pilot_fails():
+    """eta = 1, R = 0.8: the 128-bit pilot cannot prove a departure at t ~ 226 (period 36).
+    Before, certify gave up (CLI exit 3) although 256 bits certify it; now the pilot doubles."""
+    r = certify(pi.Params.make(eta="1", R="0.8"), 40)
+    assert r.bits >= 256 and "no proof at 128 bits" in r.bits_choice
+    assert r.max_log10_radius() <= -30
+
+
+def test_a_bisection_deeper_than_pythons_recursion_limit_is_refused_not_crashed():
+    """A graze g(t) = -(t - c)^2 bisected to max_depth = bits + 40 = 1064 levels at 1024 bits:
+    the recursive bisection raised RecursionError (a traceback from ``certify --bits 64
+    --periods 2000`` after the bits doubled to 1024); the iterative one raises the
+    CertificationError that names the graze."""
+    from precise_impact.solvers.certified.single import Isolator, to_ball, working_bits
+
+    with working_bits(1024):
+        c = to_ball(Fraction(1, 3))
+
+        def gap(t):
+            return -(t - c) * (t - c), -2 * (t - c)
+
+        with pytest.raises(CertificationError, match="cannot be separated from a graze"):
+            Isolator(1024).first_crossing(gap, flint.arb(2), flint.arb(0), flint.arb(1))
+
+
+def test_contains_refuses_a_sample_index_out_of_range():
+    r = certify(pi.Params.make(eta="0.74"), 5, precision="mp:128")
+    for k in (99, 6, -1):
+        with pytest.raises(pi.ParameterError, match=r"^k = .*0 <= k <= 5"):
+            r.contains(k, 0, 0)
+    assert r.contains(5, *(exact_value_mid(b) for b in r.samples[5][2:]))
+
+
+def exact_value_mid(b):
+    from precise_impact.solvers.certified.single import exact_value
+
+    return exact_value(b.mid())
+
+
+def _cli(argv, capsys):
+    from precise_impact.cli.main import main
+
+    try:
+        rc = main(argv)
+    except SystemExit as e:  # argparse
+        rc = e.code
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_certify_cli_refuses_conflicting_or_ignored_flags(capsys):
+    """--target with fixed bits, and --form without --k, were silently ignored."""
+    for argv, word in (
+        (["--bits", "128", "--target", "1e-100"], "target"),
+        (["--precision", "mp:128", "--target", "1e-100"], "target"),
+        (["--form", "paper"], "form"),
+    ):
+        rc, out, err = _cli(["certify", "--periods", "2", *argv], capsys)
+        lines = [s for s in err.splitlines() if "deprecated" not in s]
+        assert rc == 2 and len(lines) == 1 and word in lines[0] and out == "", (argv, err)
+
+
+def test_certify_cli_json_is_strict_for_exact_points(capsys):
+    """a = 0 from rest: every sample is the exact point 0, whose log10 radius is -inf; the JSON
+    had a bare -Infinity token."""
+
+    def no_constants(name):
+        raise AssertionError(f"non-JSON token {name}")
+
+    rc, out, _ = _cli(["certify", "--a", "0", "--periods", "2", "--json"], capsys)
+    assert rc == 0
+    d = json.loads(out, parse_constant=no_constants)
+    assert d["max_radius"] == "0" and d["max_log10_radius"] is None

@@ -173,3 +173,43 @@ def test_a_damaged_reference_is_an_error_not_a_verdict(tmp_path):
     finally:
         del os.environ["PRECISE_IMPACT_REFERENCE"]
     assert load_reference("single-0.74").name == "single-0.74"  # the shipped data still loads
+
+
+@pytest.mark.parametrize(
+    "samples,where",
+    [
+        (lambda n: (["abc"] * n, ["1"] * n), "x[0] = 'abc'"),
+        (lambda n: (np.zeros((n, 2)), np.zeros((n, 2))), "x[0] = array([0., 0.])"),
+        (lambda n: ([0.5] * n, [0.1] * (n - 1) + ["1e"]), "v[30] = '1e'"),
+        (lambda n: ([True] * n, [0.0] * n), "x[0] = True"),
+    ],
+    ids=["strings", "2-D", "bad-decimal", "bools"],
+)
+def test_a_solver_returning_non_numbers_is_one_refusal_naming_solver(samples, where):
+    """Strings or rows of a 2-D array as samples: one ParameterError naming ``solver`` and
+    the sample (before: ValueError "invalid literal for int() with base 10: 'abc'")."""
+    from precise_impact.errors import ParameterError
+
+    with pytest.raises(ParameterError) as e:
+        score_solver(lambda p, n: samples(n + 1), "single-0.74", periods=30)
+    assert e.value.name == "solver" and where in str(e.value) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize(
+    "kw,name",
+    [
+        ({"case": np.zeros((2, 2))}, "case"),
+        ({"case": "nope"}, "case"),
+        ({"periods": "3"}, "periods"),
+        ({"periods": np.zeros((3, 3))}, "periods"),
+        ({"atol": "1e-6"}, "atol"),
+        ({"rtol": True}, "rtol"),
+        ({"atol": 0, "rtol": 0}, "atol"),
+    ],
+)
+def test_bad_score_options_are_one_line_refusals_naming_them(kw, name):
+    from precise_impact.errors import ParameterError
+
+    with pytest.raises(ParameterError) as e:
+        score_solver(lambda p, n: ([0.0] * (n + 1), [0.0] * (n + 1)), **kw)
+    assert e.value.name == name and "\n" not in str(e.value), str(e.value)

@@ -92,3 +92,23 @@ def test_scipy_first_impact_time():
         assert len(res.impacts_t) >= 1
         # measured: 2.4e-7 at rtol 1e-6, 1.7e-11 at rtol 1e-10 (atol = rtol * 1e-3)
         assert abs(res.impacts_t[0] - t_ref) < 10 * rtol, (rtol, res.impacts_t[0], t_ref)
+
+
+def test_the_bench_table_prints_from_the_result(tiny, tmp_path):
+    """``bench work-precision`` without --json printed a traceback after its run
+    (``'WorkPrecisionResult' object has no attribute 'get'``): the table is made from the result
+    and from its JSON form alike, and the JSON file is strict."""
+    import dataclasses
+    import json
+
+    from precise_impact.verification.workprecision import format_table
+
+    res, out = tiny
+    text = format_table(res)
+    assert "Headlines:" in text and "periodic: eta=0.74" in text
+    assert format_table({f.name: getattr(res, f.name) for f in dataclasses.fields(res)}) == text
+
+    def refuse(token):
+        raise AssertionError(token)
+
+    json.loads((out / "work_precision.json").read_text(), parse_constant=refuse)

@@ -8,7 +8,6 @@ stroboscopic points and the LLE; the values go through the scan runner
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 from collections.abc import Sequence
@@ -18,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.fast import bounce_refusal
 from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.analysis.lyapunov.variational import variational_spectrum
 from precise_impact.analysis.scan import (
@@ -31,9 +31,10 @@ from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import ParameterError
+from precise_impact.errors import EndlessBouncesError, IntegrationError, ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.jsonout import dumps
 from precise_impact.io.progress import ProgressArg, check_progress
 from precise_impact.solvers.base import Unresolved, with_fallback
 
@@ -56,6 +57,10 @@ class BifurcationResult(ResultMixin):
         Largest Lyapunov exponent per unit time and its standard error, per eta.
     impacts_per_period : numpy.ndarray of float
         Mean impacts per forcing period, per eta.
+    status : list of str
+        Per eta: ``'ok'``, or why the value was refused (an ``R = 1`` bounce sequence on the
+        wall predicted to come to rest or to outrun the impact budget,
+        :class:`~precise_impact.errors.EndlessBouncesError`; its ``x``, ``lle`` ... are NaN).
     grazing : list of float
         Closed-form grazing frequencies inside the range.
     periods, transient : int
@@ -82,6 +87,7 @@ class BifurcationResult(ResultMixin):
     transient: int
     elapsed_s: float
     workers: int
+    status: list = dataclasses.field(default_factory=list)
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write one file atomically; the suffix picks it.
@@ -117,9 +123,10 @@ class BifurcationResult(ResultMixin):
             "lle": self.lle,
             "lle_stderr": self.lle_stderr,
             "impacts_per_period": self.impacts_per_period,
+            "status": np.array(self.status, dtype=str),
             "grazing": np.array(self.grazing, dtype=float),
             "meta_json": np.asarray(
-                json.dumps(
+                dumps(
                     {
                         "params": self.params.decimal(),
                         "periods": self.periods,
@@ -235,24 +242,38 @@ def _fast_point(params: Params, periods: int, transient: int) -> tuple:
     from precise_impact.solvers.fast.single import STATUS_OK
 
     pars, starts = kernel_inputs(params, 1)
-    st, l1, _, imps, bsums, _, xt, _ = lle_batch_serial(
+    st, l1, l2, imps, bsums, _, xt, _ = lle_batch_serial(
         pars, starts, periods, transient, min(10, periods), 10**7, periods
     )
+    why = bounce_refusal(pars[0], starts[0], st[0], l1[0], l2[0], periods + transient, 10**7)
+    if why is not None:
+        return _refused(periods, why)
     if st[0] != STATUS_OK:
         raise Unresolved("fast", f"status {int(st[0])}")
     T = 2 * math.pi / float(params.eta)
     nb = min(10, periods)
     bm = bsums[0] / ((periods // nb) * T)
-    return xt[0], float(l1[0] / (periods * T)), means_stderr(bm), float(imps[0] / periods)
+    return xt[0], float(l1[0] / (periods * T)), means_stderr(bm), float(imps[0] / periods), "ok"
+
+
+def _refused(periods: int, why: str) -> tuple:
+    """A refused eta value (:class:`~precise_impact.errors.EndlessBouncesError`): NaN values
+    and the reason as its status."""
+    return np.full(periods, np.nan), math.nan, math.nan, math.nan, why
 
 
 def _heyoka_point(params: Params, periods: int, transient: int) -> tuple:
-    """One eta value by the heyoka variational method (the same four values)."""
+    """One eta value by the heyoka variational method (the same five values)."""
     # heyoka is imported on first use, not with the package
-    r = variational_spectrum(
-        params, periods=periods, transient=transient, initial_conditions=1, segments=10
-    )
-    return r.strobe_x, r.lle, r.lle_stderr, r.n_impacts / r.periods
+    try:
+        r = variational_spectrum(
+            params, periods=periods, transient=transient, initial_conditions=1, segments=10
+        )
+    except EndlessBouncesError as e:
+        return _refused(periods, str(e))
+    except IntegrationError as e:  # e.g. a missed impact while chattering into the wall
+        return _refused(periods, f"integration stopped: {e}")
+    return r.strobe_x, r.lle, r.lle_stderr, r.n_impacts / r.periods, "ok"
 
 
 #: Each model's point job; the fast one hands what it does not resolve to heyoka.
@@ -403,7 +424,7 @@ def bifurcation(
         label="bifurcation",
     )
     results = [r for tile in run.values for r in tile]
-    lo_f, hi_f = float(etas[0]), float(etas[-1])
+    lo_f, hi_f = float(min(etas)), float(max(etas))  # the grid may run downwards
     graz = [float(g) for g in grazing_frequencies(params) if lo_f <= float(g) <= hi_f]
     return BifurcationResult(
         params=params,
@@ -417,4 +438,5 @@ def bifurcation(
         transient=transient,
         elapsed_s=run.elapsed_s,
         workers=workers,
+        status=[r[4] for r in results],
     )

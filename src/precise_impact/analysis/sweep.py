@@ -34,8 +34,9 @@ from precise_impact.core.budget import enforce_max_time, estimate_cost, format_d
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import OverBudgetError, ParameterError
-from precise_impact.io.atomic import atomic_write, write_json
+from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
+from precise_impact.io.jsonout import dumps, write_json
 from precise_impact.io.lock import DirectoryLock
 from precise_impact.io.progress import say
 
@@ -44,6 +45,16 @@ __all__ = ["SWEEP_PARAMS", "SweepSpec", "SweepResult", "compute_tile", "run_swee
 #: Runtime parameters a sweep may vary (no recompilation between points).
 SWEEP_PARAMS = ("eta", "x_w", "zeta", "a", "R")
 _FIELDS = ("lle", "stderr", "lambda2", "period", "impacts_per_period")
+#: A point's ``status`` code and its word in ``sweep.csv``: computed, or refused (an ``R = 1``
+#: bounce sequence predicted to come to rest on the wall or to outrun the impact budget,
+#: :class:`~precise_impact.errors.EndlessBouncesError`; its values are NaN).  The tiles keep
+#: their documented fields: a refused point has ``period = REFUSED_PERIOD``.
+STATUS_WORDS = {
+    0: "ok",
+    1: "refused: R = 1 bounces on the wall without end",
+    2: "failed: the integration stopped (e.g. a missed impact while chattering into the wall)",
+}
+REFUSED_PERIOD = -1  # status 1; status 2 is period = -2
 _MINIMUM = {"eta": (Fraction(0), True), "zeta": (Fraction(0), False), "R": (Fraction(0), False)}
 
 
@@ -180,10 +191,9 @@ class SweepSpec:
                 vals = exact_grid(lo, hi, n, name, minimum=Fraction(-(10**30)))
             else:
                 vals = exact_grid(lo, hi, n, name, minimum=minimum, strict=strict)
-            if name == "R" and vals[-1] > 1:
-                raise ParameterError(
-                    "R_max", decimal_str(vals[-1]), "restitution must satisfy R <= 1"
-                )
+            if name == "R" and max(vals) > 1:
+                end = "R_max" if vals[-1] > 1 else "R_min"
+                raise ParameterError(end, decimal_str(max(vals)), "restitution must satisfy R <= 1")
             built.append((name, tuple(vals)))
         if len(built) == 2 and built[0][0] == built[1][0]:
             raise ParameterError("axis", built[1][0], "the two axes must be different parameters")
@@ -265,7 +275,7 @@ class SweepSpec:
             import numba
 
             ident["numba"] = numba.__version__
-        return hashlib.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
+        return hashlib.sha256(dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
@@ -285,6 +295,8 @@ def compute_tile(spec: SweepSpec, tile: int) -> dict[str, np.ndarray]:
             pts, periods=spec.periods, transient=spec.transient, batch_size=spec.batch_size
         )
     out = {f: np.array([r[f] for r in res]) for f in _FIELDS}
+    code = np.array([r.get("status_code", 0) for r in res])
+    out["period"] = np.where(code > 0, -code, out["period"])
     out["index"] = np.arange(lo, hi)
     return out
 
@@ -473,7 +485,8 @@ class SweepResult(ResultMixin):
         Largest Lyapunov exponent per unit time, its standard error, the second exponent.
     period : numpy.ndarray of float, shape ``spec.shape``
         Detected period of the stroboscopic samples
-        (:func:`~precise_impact.analysis.periodicity.detect_period`; 0: none <= 32).
+        (:func:`~precise_impact.analysis.periodicity.detect_period`; 0: none <= 32; -1, -2: the
+        point was refused or failed, see :attr:`status`).
     impacts_per_period : numpy.ndarray of float, shape ``spec.shape``
         Mean impacts per forcing period.
     complete : bool
@@ -511,6 +524,15 @@ class SweepResult(ResultMixin):
     files: dict = dataclasses.field(default_factory=dict)
     stats: dict = dataclasses.field(default_factory=dict)
 
+    @property
+    def status(self) -> np.ndarray:
+        """Per point: 0 computed, 1 refused (an ``R = 1`` bounce sequence on the wall
+        predicted to come to rest or to outrun the impact budget), 2 failed (the integrator
+        stopped: a missed impact while chattering into the wall ...); a refused or failed
+        point has NaN values and ``period = -status``; ``sweep.csv`` says it in words
+        (:data:`STATUS_WORDS`).  NaN where a tile is missing."""
+        return np.where(np.isnan(self.period), np.nan, np.maximum(-self.period, 0.0))
+
     def coordinates(self) -> dict[str, np.ndarray]:
         """Each axis' values as float64, ``{name: array}`` in axis order."""
         return {name: np.array([float(v) for v in vals]) for name, vals in self.spec.axes}
@@ -540,22 +562,22 @@ class SweepResult(ResultMixin):
             npz = dict(
                 {f: getattr(self, f) for f in _FIELDS},
                 **axes,
-                spec_json=np.asarray(json.dumps(spec.to_json_dict())),
+                spec_json=np.asarray(dumps(spec.to_json_dict())),
             )
             atomic_write(path, lambda fh: np.savez_compressed(fh, **npz), binary=True)
             return path
         if path.suffix == ".csv":
             names = [name for name, _ in spec.axes]
-            lines = [",".join(names + list(_FIELDS))]
+            lines = [",".join(names + list(_FIELDS) + ["status"])]
             for k in range(spec.n_points):
                 idx = np.unravel_index(k, spec.shape)
                 coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx, strict=True)]
                 row = [
                     repr(float(getattr(self, f)[idx]))
                     if f != "period"
-                    else _int_or_nan(self.period[idx])
+                    else _int_or_nan(self.period[idx] if self.period[idx] >= 0 else np.nan)
                     for f in _FIELDS
-                ]
+                ] + [_status_word(self.status[idx])]
                 lines.append(",".join(coords + row))
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
@@ -563,6 +585,10 @@ class SweepResult(ResultMixin):
         if path.suffix != ".json":
             raise ParameterError("path", str(path), "a file ending in .json, .npz or .csv")
         return super().save(path)
+
+
+def _status_word(code: float) -> str:
+    return STATUS_WORDS.get(int(code), "nan") if math.isfinite(code) else "nan"
 
 
 def _int_or_nan(x: float) -> str:
@@ -672,7 +698,7 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
         ax1.set_ylabel("LLE per unit time")
         ax2.step(x, data["period"], where="mid")
         ax2.set_xlabel(name)
-        ax2.set_ylabel("period (0 = none <= 32)")
+        ax2.set_ylabel("period (0 = none <= 32, < 0 = refused)")
     else:
         (n0, v0), (n1, v1) = spec.axes
         ext = [float(v1[0]), float(v1[-1]), float(v0[0]), float(v0[-1])]
@@ -695,7 +721,7 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
         import matplotlib
 
         cmap = matplotlib.colormaps["tab20"].with_extremes(bad="white")
-        per = np.ma.masked_equal(data["period"], 0)  # no period <= 32 (chaotic / transient): white
+        per = np.ma.masked_less_equal(data["period"], 0)  # none <= 32 or refused (-1): white
         im2 = ax2.imshow(
             per, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=0.5, vmax=20.5
         )

@@ -10,11 +10,14 @@ One spelling per flag across commands: the parameter flags (the ``Params`` names
 from __future__ import annotations
 
 import argparse
+import contextlib
+from fractions import Fraction
 from typing import Any
 
 from precise_impact.core.budget import DEFAULT_MAX_TIME, parse_max_time
-from precise_impact.core.params import Params
+from precise_impact.core.params import Params, decimal_str, exact
 from precise_impact.io.atomic import check_output_dir, check_output_file
+from precise_impact.io.lock import DirectoryLock
 
 __all__ = [
     "EXIT_BAD_INPUT",
@@ -29,6 +32,7 @@ __all__ = [
     "add_precision",
     "check_outputs",
     "max_time",
+    "orbit_params_from",
     "params_from",
 ]
 
@@ -42,7 +46,7 @@ PARAM_FLAGS = (
     ("--a", "a", "forcing amplitude (default 1)"),
     ("--x_w", "x_w", "wall position (default 2; --xw is accepted too)"),
     ("--R", "R", "restitution coefficient, 0 <= R <= 1 (default 1)"),
-    ("--x0", "x0", "initial position, <= x_w (default 0)"),
+    ("--x0", "x0", "initial position, <= x_w (default 0; orbit, continue: min(0, x_w))"),
     ("--v0", "v0", "initial velocity (default 0)"),
     ("--t0", "t0", "initial time / forcing phase (default 0)"),
 )
@@ -85,6 +89,20 @@ def params_from(ns: argparse.Namespace, exclude: tuple[str, ...] = ()) -> Params
     return Params.make(
         **{dest: getattr(ns, dest) for _, dest, _ in PARAM_FLAGS if dest not in exclude}
     )
+
+
+def orbit_params_from(ns: argparse.Namespace, walls: tuple = ()) -> Params:
+    """:func:`params_from` for the orbit commands, whose start ``(x0, v0)`` only seeds the
+    transient: without ``--x0`` it is 0, or the wall where that lies left of 0
+    (``x0 = min(0, x_w, *walls)``, ``walls``: other wall positions the command visits), so
+    that a system is never refused for a default start it does not need.  A given ``--x0``
+    inside the wall is still refused."""
+    if ns.x0 is None:
+        lows = [exact("x_w", w) for w in (ns.x_w, *walls) if w is not None]
+        x0 = min([Fraction(0), *lows])
+        if x0 < 0:
+            ns = argparse.Namespace(**{**vars(ns), "x0": decimal_str(x0)})
+    return params_from(ns)
 
 
 def add_orbit_flags(p: argparse.ArgumentParser, which: str) -> None:
@@ -180,12 +198,19 @@ def max_time(ns: argparse.Namespace) -> float:
     return DEFAULT_MAX_TIME if ns.max_time is None else parse_max_time(ns.max_time)
 
 
-def check_outputs(ns: argparse.Namespace) -> None:
-    """Every ``--out`` checked before any work: the right kind, writable, no silent overwrite."""
+def check_outputs(ns: argparse.Namespace) -> contextlib.AbstractContextManager:
+    """Every ``--out`` checked before any work: the right kind, writable, no silent overwrite.
+
+    Returns the context to run the command in: an ``--out`` directory is locked for the whole
+    run (:class:`~precise_impact.io.lock.DirectoryLock`), so a second run into the same
+    directory is refused at once, naming the first, instead of mixing its files with it.
+    """
     out, kind = getattr(ns, "out", None), getattr(ns, "out_kind", None)
     if out is None or kind is None:
-        return
-    if kind == "file":
+        return contextlib.nullcontext()
+    if kind == "file":  # written in one atomic rename: two writers cannot mix one file
         check_output_file(out, force=ns.force)
-    else:  # a sweep and a reference dataset resume in their own directory (checked there)
-        check_output_dir(out, force=kind == "resume" or getattr(ns, "force", False))
+        return contextlib.nullcontext()
+    # a sweep and a reference dataset resume in their own directory (checked there)
+    check_output_dir(out, force=kind == "resume" or getattr(ns, "force", False))
+    return DirectoryLock(out, "out")  # acquired on entering the `with` block

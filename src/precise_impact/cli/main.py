@@ -52,41 +52,38 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _glue_negative_values(argv: list[str]) -> list[str]:
-    """``--tol -1e-9`` -> ``--tol=-1e-9``: argparse would read ``-1e-9`` as an option.
+    """Negative numbers that argparse would read as options (``-1e-9``, ``-inf``) made values.
 
-    Lets the validators, not argparse, report a negative value with its allowed range.
+    argparse takes ``-1`` and ``-0.5`` as values by itself but ``-1e-3`` or ``-inf`` as an
+    unknown option.  A leading space makes any such token a value, wherever it stands: after a
+    one-value flag (``--tol -1e-9``), inside a flag's several values (``--guess -1e-3 0``,
+    ``--y0 -1e-3 0``: gluing ``--guess=-1e-3`` gave the flag one value of its two) or in
+    ``--axis x_w -1e-3 2 3``; :func:`_strip_glued` takes the space off after parsing, so the
+    validators, not argparse, report a value out of range, naming it as typed.
     """
     out: list[str] = []
-    i = 0
-    while i < len(argv):
-        a = argv[i]
+    for a in argv:
         if (
-            a.startswith("--")
-            and "=" not in a
-            and i + 1 < len(argv)
-            and argv[i + 1].startswith("-")
+            len(a) > 1
+            and a[0] == "-"
+            and not a.startswith("--")
+            and not re.fullmatch(r"-\d+|-\d*\.\d+", a)  # argparse reads these as values
+            and (a[1].isdigit() or a[1] == "." or _is_number(a))
         ):
-            nxt = argv[i + 1]
-            plain = re.fullmatch(r"-\d+|-\d*\.\d+", nxt)  # argparse itself reads these as values
-            if (
-                not plain
-                and len(nxt) > 1
-                and (
-                    nxt[1].isdigit()
-                    or nxt[1] == "."
-                    or nxt[1:].lower() in ("inf", "infinity", "nan")
-                )
-            ):
-                out.append(f"{a}={nxt}")
-                i += 2
-                continue
-        # Any other token that is a negative number (``--axis x_w -1e-3 2 3``): a leading
-        # space makes argparse take it as a value; the number parser strips it.
-        if len(a) > 1 and a[0] == "-" and not a.startswith("--") and _is_number(a):
             a = " " + a
         out.append(a)
-        i += 1
     return out
+
+
+def _strip_glued(ns: argparse.Namespace) -> argparse.Namespace:
+    """The leading space :func:`_glue_negative_values` put before a negative number, removed
+    from every parsed value (strings and lists of strings)."""
+    for k, v in vars(ns).items():
+        if isinstance(v, str) and v.startswith(" -"):
+            setattr(ns, k, v[1:])
+        elif isinstance(v, list):
+            setattr(ns, k, [x[1:] if isinstance(x, str) and x.startswith(" -") else x for x in v])
+    return ns
 
 
 def _is_number(s: str) -> bool:
@@ -111,14 +108,16 @@ def _terminate_as_interrupt() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``precise-impact`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     parser = build_parser()
-    ns = parser.parse_args(_glue_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    ns = _strip_glued(
+        parser.parse_args(_glue_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    )
     # heyoka logs its warnings (e.g. root finding near grazing) to stdout, which would
     # corrupt --json output; the CLI keeps only errors.
     heyoka.set_logger_level_error()
     _terminate_as_interrupt()
     try:
-        check_outputs(ns)
-        return ns.run(ns)
+        with check_outputs(ns):  # an --out directory is locked until the run ends
+            return ns.run(ns)
     except OverBudgetError as e:  # a budget (also a ParameterError): refused before any work
         print(f"precise-impact: over budget: {e}", file=sys.stderr)
         return EXIT_BUDGET

@@ -9,6 +9,7 @@ in ``benchmarks/results/cost_model.md`` and ``docs/numerics.rst``.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import time
 import warnings
@@ -20,7 +21,6 @@ from precise_impact.errors import BudgetExceededError, OverBudgetError, Paramete
 
 __all__ = [
     "Cost",
-    "Deadline",
     "format_duration",
     "JOBS",
     "estimate_cost",
@@ -30,6 +30,8 @@ __all__ = [
     "parse_max_time",
     "DEFAULT_MAX_TIME",
     "MAX_TIME",
+    "Deadline",
+    "certify_seconds_per_period",
 ]
 
 #: Default time budget of one CLI run or scene, seconds (raise it with ``--max-time``).
@@ -79,8 +81,20 @@ def _per_period(precision) -> tuple[float, float, float]:
     return 1.2e-3 * max(1.0, bits / 128) ** 2.7, 2e-5, 3 * (120 + bits / 8)
 
 
+def certify_seconds_per_period(bits: int) -> float:
+    """Seconds per forcing period of a certified (ball arithmetic) run at ``bits``.
+
+    Measured (python-flint 0.x, this project's 2-core CI machine under load, default system
+    eta = 0.712 and eta = 0.74, 40-300 periods): 128 bits 0.6-1.0 ms, 256 bits 1.1-1.5 ms,
+    512 bits 1.8 ms, 1024 bits 3.9-4.7 ms, 2048 bits 7.4 ms, 4096 bits 17-23 ms, 8192 bits
+    52 ms per period.  ``1.2 ms x (bits / 256)^1.1`` (never below 1.2 ms) bounds these within
+    ~25% (8192 bits: 54 ms); the in-run deadline (:class:`Deadline`) catches the rest.
+    """
+    return 1.2e-3 * max(1.0, bits / 256) ** 1.1
+
+
 #: The jobs :func:`estimate_cost` prices.
-JOBS = ("simulate", "scene", "lle", "bifurcation", "sync", "sweep")
+JOBS = ("simulate", "scene", "lle", "bifurcation", "sync", "certify", "sweep")
 
 #: Cost of one period of the fast engine's LLE kernel relative to a plain heyoka float64
 #: period (``benchmarks/results/fast.md``: 4 x 6000 periods in 10.2 ms on 2 cores, and a
@@ -116,7 +130,9 @@ def estimate_cost(
         engine's measured cost relative to heyoka, :data:`FAST_FACTOR`), ``'bifurcation'``
         (``runs`` values of eta, one variational run each: factor 2; ``model='fast'``:
         2/30), ``'sync'`` (``runs`` = couplings x ensemble master-slave runs of 4 states:
-        factor 4 in heyoka, 4/5 with ``model='fast'``), ``'sweep'`` (``runs`` grid points:
+        factor 4 in heyoka, 4/5 with ``model='fast'``), ``'certify'`` (one certified run at
+        ``precision='mp:BITS'``, :func:`certify_seconds_per_period`; ``coupled=True``: the
+        master-slave pair off the diagonal, factor 5), ``'sweep'`` (``runs`` grid points:
         2/30 on the fast engine, the default, 4 with ``model='heyoka'``, the SIMD batch).
         Times are for one core: a job on ``w`` workers is checked against ``w`` times the
         budget (:func:`enforce_max_time`'s ``scale``).
@@ -138,7 +154,8 @@ def estimate_cost(
         Independent runs (starting conditions, values of eta, couplings x ensemble);
         ``None``: the job's default (4 starting conditions for ``'lle'``, else 1).
     coupled : bool, default ``False``
-        For ``'scene'``: the scene is a coupled (master-slave) system.
+        For ``'scene'``: the scene is a coupled (master-slave) system; for ``'certify'``:
+        the pair off the diagonal (the slave integrated on its own).
     **kwargs
         Deprecated low-level keywords (``factor``, ``stored``), with ``*args``.
 
@@ -175,8 +192,16 @@ def estimate_cost(
         return run_cost(job, *args, **kwargs)
     if args or kwargs:
         raise TypeError(f"estimate_cost(job, ...) takes keywords only, not {args or kwargs}")
-    P = Precision.parse(precision)
     length = periods + transient
+    if job == "certify":
+        # ball arithmetic: the precision is 'mp:BITS' (python-flint), priced per period;
+        # the pair off the diagonal walks master, slave and their error flow: measured (k = 0.5,
+        # x0 = 0.1, y0 = (0.2, 0), eta = 0.712 and 0.74) 2.7-3.0 ms against 0.6-1.0 ms per period
+        # at 256 bits, 4.9-5.0 ms against 1.0-2.3 ms at 1024 bits: x5 bounds them
+        bits = int(str(precision)[3:]) if str(precision).startswith("mp:") else 128
+        seconds = length * certify_seconds_per_period(bits) * (5.0 if coupled else 1.0)
+        return Cost(seconds, 0.0, f"{length} certified periods at {bits} bits")
+    P = Precision.parse(precision)
     n = 1 if runs is None else runs
     if job == "simulate":
         return run_cost(P, length, per_period)
@@ -322,24 +347,37 @@ def enforce_max_time(max_time: Any, job: str, scale: float = 1.0, **job_args: An
 
 
 class Deadline:
-    """A time budget that runs from its creation: work decided on mid-run (a fallback
-    engine) is admitted only if its estimate fits in what is left.
+    """The budget of a run enforced while it works: :meth:`check` between periods, and
+    :meth:`admit` for work decided on mid-run (a fallback engine), admitted only if its
+    estimate fits in what is left.
 
     Parameters
     ----------
     max_time : float or None
-        Seconds (already validated, :func:`parse_max_time`); ``None``: no budget.
+        Seconds from now; ``None``: no deadline (:meth:`check` does nothing).
+    what : str
+        The job, for the message (e.g. ``'certify'``).
     """
 
-    def __init__(self, max_time: float | None) -> None:
+    def __init__(self, max_time: float | None, what: str) -> None:
         self.max_time = max_time
+        self.what = what
         self.start = time.monotonic()
+        self.end = None if max_time is None else self.start + max_time
 
-    def remaining(self) -> float | None:
-        """Seconds left (``None``: no budget)."""
-        if self.max_time is None:
-            return None
-        return self.max_time - (time.monotonic() - self.start)
+    def left(self) -> float:
+        """Seconds left (``inf`` without a deadline)."""
+        return math.inf if self.end is None else self.end - time.monotonic()
+
+    def check(self, where: str) -> None:
+        """Raise :class:`~precise_impact.errors.BudgetExceededError` (one line: the job,
+        ``where`` it stopped, the budget) once the deadline has passed."""
+        if self.end is not None and time.monotonic() > self.end:
+            raise BudgetExceededError(
+                f"{self.what}: max_time = {self.max_time:g} s ran out after "
+                f"{time.monotonic() - self.start:.1f} s ({where}); raise --max-time "
+                f"(at most {MAX_TIME:g} s) or ask for less"
+            )
 
     def admit(self, cost: Cost, what: str) -> None:
         """Refuse ``cost`` if it does not fit in what is left.
@@ -356,8 +394,8 @@ class Deadline:
         BudgetExceededError
             The estimate is over the time left (the CLI: one line, exit status 3).
         """
-        left = self.remaining()
-        if left is not None and cost.seconds > left:
+        left = self.left()
+        if cost.seconds > left:
             raise BudgetExceededError(
                 f"{what} would take ~{_duration(cost.seconds)} ({cost.what}), more than the "
                 f"{_duration(max(left, 0.0))} left of max_time = {self.max_time:g} s; raise "

@@ -12,6 +12,9 @@ from fractions import Fraction
 from typing import Any
 
 import mpmath
+from mpmath import libmp
+
+from precise_impact.core.mpcontext import mp_context
 
 __all__ = ["sample_times", "local_clock", "local_grid", "period_float", "GUARD_BITS"]
 
@@ -19,8 +22,8 @@ __all__ = ["sample_times", "local_clock", "local_grid", "period_float", "GUARD_B
 GUARD_BITS = 64
 
 
-def _mpq(q: Fraction) -> mpmath.mpf:
-    return mpmath.mpf(q.numerator) / q.denominator
+def _mpq(q: Fraction, ctx: Any) -> Any:
+    return ctx.mpf(q.numerator) / q.denominator
 
 
 def _man_exp(m: mpmath.mpf) -> tuple[int, int]:
@@ -63,23 +66,22 @@ def sample_times(
     """
     n = periods * per_period
     guard = GUARD_BITS + max(n, 1).bit_length()
-    with mpmath.workprec(precision.bits + guard):
-        step = 2 * mpmath.pi / _mpq(eta) / per_period
-        t0m = _mpq(t0)
-        if precision.kind != "float64":
-            return [precision.from_mpf(t0m + j * step) for j in range(n + 1)]
+    ctx = mp_context(precision.bits + guard)  # thread-safe: not mpmath's global precision
+    step = 2 * ctx.pi / _mpq(eta, ctx) / per_period
+    t0m = _mpq(t0, ctx)
+    if precision.kind != "float64":
+        return [precision.from_mpf(t0m + j * step) for j in range(n + 1)]
     (m0, e0), (ms, es) = _man_exp(t0m), _man_exp(step)
     E = min(e0, es)
     A, B = m0 << (e0 - E), ms << (es - E)
     return [math.ldexp(float(A + j * B), E) for j in range(n + 1)]
 
 
-def _period_and_start(t0: Fraction, eta: Fraction) -> tuple[mpmath.mpf, mpmath.mpf]:
-    """``T = 2 pi / eta`` and ``s0 = t0 mod T`` at mpmath's current precision (the caller's guard
-    bits)."""
-    T = 2 * mpmath.pi / _mpq(eta)
-    t0m = _mpq(t0)
-    return T, t0m - mpmath.floor(t0m / T) * T
+def _period_and_start(t0: Fraction, eta: Fraction, ctx: Any) -> tuple[mpmath.mpf, mpmath.mpf]:
+    """``T = 2 pi / eta`` and ``s0 = t0 mod T`` in ``ctx`` (at the caller's guard bits)."""
+    T = 2 * ctx.pi / _mpq(eta, ctx)
+    t0m = _mpq(t0, ctx)
+    return T, t0m - ctx.floor(t0m / T) * T
 
 
 def local_clock(
@@ -111,14 +113,16 @@ def local_clock(
     then ``L0 = fl(s0)``, ``L1 = fl(s0 + T)`` and ``W = fl(window T)``, each rounded once.
     """
     extra = GUARD_BITS + abs(t0).__ceil__().bit_length() + abs(eta).__ceil__().bit_length()
-    with mpmath.workprec(precision.bits + extra):
-        T, s0 = _period_and_start(t0, eta)
-        w = T * window.numerator / window.denominator
-        return precision.from_mpf(s0), precision.from_mpf(s0 + T), precision.from_mpf(w)
+    T, s0 = _period_and_start(t0, eta, mp_context(precision.bits + extra))
+    w = T * window.numerator / window.denominator
+    return precision.from_mpf(s0), precision.from_mpf(s0 + T), precision.from_mpf(w)
 
 
-def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> list:
-    """``periods + 1`` times ``fl(s0 + k T)``, ``k = 0..periods``, of the local clock.
+def local_grid(
+    precision: Any, t0: Fraction, eta: Fraction, periods: int, substeps: int = 1
+) -> list:
+    """``periods + 1`` times ``fl(s0 + k T)``, ``k = 0..periods``, of the local clock
+    (with ``substeps = m > 1``: the ``m periods + 1`` times ``fl(s0 + k T / m)``).
 
     Parameters
     ----------
@@ -130,6 +134,8 @@ def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> lis
         Forcing frequency (exact, > 0).
     periods : int
         Forcing periods the grid spans (``>= 1``).
+    substeps : int, default 1
+        Equal steps per period (``>= 1``); every ``m``-th time is a period boundary.
 
     Returns
     -------
@@ -144,10 +150,12 @@ def local_grid(precision: Any, t0: Fraction, eta: Fraction, periods: int) -> lis
         + abs(t0).__ceil__().bit_length()
         + abs(eta).__ceil__().bit_length()
         + periods.bit_length()
+        + (substeps.bit_length() if substeps > 1 else 0)
     )
-    with mpmath.workprec(precision.bits + extra):
-        T, s0 = _period_and_start(t0, eta)
+    T, s0 = _period_and_start(t0, eta, mp_context(precision.bits + extra))
+    if substeps == 1:
         return [precision.from_mpf(s0 + k * T) for k in range(periods + 1)]
+    return [precision.from_mpf(s0 + k * T / substeps) for k in range(periods * substeps + 1)]
 
 
 def period_float(eta: Fraction) -> float:
@@ -162,5 +170,5 @@ def period_float(eta: Fraction) -> float:
     -------
     float
     """
-    with mpmath.workdps(30):
-        return float(2 * mpmath.pi / _mpq(eta))
+    ctx = mp_context(libmp.dps_to_prec(30))
+    return float(2 * ctx.pi / _mpq(eta, ctx))

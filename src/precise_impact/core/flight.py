@@ -81,10 +81,55 @@ class NumpyOps(FloatOps):
 
 
 class MpmathOps:
-    """mpmath at ``bits`` (or ``dps``) of precision; evaluate inside :meth:`context`.
+    """mpmath at ``bits`` (or ``dps``) of precision, in an :class:`mpmath.MPContext` of its own.
 
-    mpmath's working precision is process-global: :meth:`context` sets it for the block.
+    ``ctx.prec`` is this precision for good: numbers made by :meth:`num` (or ``ctx.mpf``) and
+    the functions ``exp``, ``sqrt``, ``cos``, ``sin``, ``cos_sin``, ``pi`` compute at it whatever
+    mpmath's process-global precision is, so concurrent threads at other precisions cannot
+    change the results (mpmath's module-level ``mp``, which ``workprec``/``workdps`` set, is
+    shared by every thread).  Nothing here changes ``ctx.prec``, so one instance may serve
+    several threads; mpmath routines that raise and restore it (``eig``, ``lu_solve``) need a
+    context of one computation or thread (:func:`precise_impact.core.mpcontext.mp_context`).
     """
+
+    name = "mpmath"
+
+    def __init__(self, dps: int | None = None, bits: int | None = None) -> None:
+        if bits is not None:
+            self.prec, self.dps = bits, libmp.prec_to_dps(bits)
+        else:
+            self.prec, self.dps = libmp.dps_to_prec(dps), dps
+        self.ctx = ctx = mpmath.MPContext()
+        ctx.prec = self.prec
+        self.exp, self.sqrt, self.cos, self.sin = ctx.exp, ctx.sqrt, ctx.cos, ctx.sin
+        self.cos_sin = ctx.cos_sin
+        self.u = ctx.ldexp(ctx.mpf(1), -self.prec)
+
+    @property
+    def pi(self):
+        return +self.ctx.pi
+
+    def context(self):
+        """Nothing to set (the context's precision is its own); kept for ops-generic code."""
+        return contextlib.nullcontext()
+
+    def num(self, q: Fraction) -> Any:
+        q = Fraction(q)
+        # one correct rounding of the exact rational at the working precision
+        return self.ctx.make_mpf(libmp.from_rational(q.numerator, q.denominator, self.prec, "n"))
+
+    def mpf(self, x: Any) -> Any:
+        """``x`` as a number of this context: mpmath numbers of any context exactly, others
+        rounded once to the working precision."""
+        if hasattr(x, "_mpf_"):
+            return self.ctx.make_mpf(x._mpf_)
+        return self.ctx.mpf(x)
+
+
+class _GlobalMpmathOps:
+    """mpmath at whatever working precision the caller has set on the module-level context
+    (``mpmath.workprec`` / ``workdps``): not safe in concurrent threads; kept for callers that
+    evaluate the formulas on module-level ``mpmath.mpf`` numbers (:data:`MPMATH`)."""
 
     name = "mpmath"
     exp = staticmethod(mpmath.exp)
@@ -93,25 +138,13 @@ class MpmathOps:
     sin = staticmethod(mpmath.sin)
     cos_sin = staticmethod(mpmath.cos_sin)
 
-    def __init__(self, dps: int | None = None, bits: int | None = None) -> None:
-        if bits is not None:
-            self.prec, self.dps = bits, libmp.prec_to_dps(bits)
-        else:
-            self.prec, self.dps = libmp.dps_to_prec(dps), dps
-        with mpmath.workprec(self.prec):
-            self.u = mpmath.ldexp(mpmath.mpf(1), -self.prec)
-
     @property
     def pi(self):
         return +mpmath.pi
 
-    def context(self):
-        return mpmath.workprec(self.prec)
-
-    def num(self, q: Fraction) -> mpmath.mpf:
-        q = Fraction(q)
-        # one correct rounding of the exact rational at the working precision
-        return mpmath.mp.make_mpf(libmp.from_rational(q.numerator, q.denominator, self.prec, "n"))
+    @staticmethod
+    def context():
+        return contextlib.nullcontext()
 
 
 class ArbOps:
@@ -148,10 +181,10 @@ class ArbOps:
 
 FLOAT, NUMPY, ARB = FloatOps(), NumpyOps(), ArbOps()
 
-#: mpmath at whatever working precision the caller has set (for formulas evaluated inside the
-#: caller's own ``mpmath.workprec`` / ``workdps`` block; converting numbers needs a
-#: :class:`MpmathOps` of a stated precision).
-MPMATH = MpmathOps(bits=53)
+#: mpmath at whatever working precision the caller has set on the module-level context (for
+#: formulas evaluated inside the caller's own ``mpmath.workprec`` / ``workdps`` block: not
+#: thread-safe; the package's own mpmath work uses :class:`MpmathOps`).
+MPMATH = _GlobalMpmathOps()
 
 
 # ------------------------------------------------------------------------------ the formulas

@@ -7,6 +7,7 @@ sec. 2.5).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
@@ -27,6 +28,12 @@ __all__ = [
     "pushes_into_wall",
     "release_time",
     "chatter_accumulation_time",
+    "elastic_bounce_count",
+    "elastic_bounce_text",
+    "elastic_bounce_refusal",
+    "short_elastic_flight",
+    "ELASTIC_FLIGHT_FRACTION",
+    "ELASTIC_FLOOR_FACTOR",
 ]
 
 
@@ -229,12 +236,17 @@ def wall_acceleration(t: Any, eta: Any, zeta: Any, a: Any, x_w: Any, cos) -> Any
     return acceleration(t, x_w, 0 * x_w, eta, zeta, a, cos)
 
 
-def _mpq(q: Any) -> Any:
+def _mpq(q: Any, ctx: Any) -> Any:
     q = Fraction(q)
-    return mpmath.mpf(q.numerator) / q.denominator
+    return ctx.mpf(q.numerator) / q.denominator
 
 
-def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
+def _mp_time(t: Any, ctx: Any) -> Any:
+    """An exact time (Fraction, int, or an mpmath number of any context) in ``ctx``."""
+    return ctx.make_mpf(t._mpf_) if hasattr(t, "_mpf_") else _mpq(t, ctx)
+
+
+def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction, *, ctx: Any = None) -> bool:
     """True if a mass at rest on the wall at time ``t`` stays there (sticks).
 
     ``G(s) = a cos(eta s) - x_w`` is the wall force (:func:`wall_acceleration`).
@@ -244,9 +256,12 @@ def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
     (``a = x_w = 0``: the mass rests at the spring's equilibrium, on the wall)
     counts as sticking: the mass stays where it is, for good.
 
-    ``t`` is an exact number (Fraction, int, or an mpf, evaluated at the current
-    mpmath precision; callers add guard bits); the parameters are exact rationals.
+    ``t`` is an exact number (Fraction, int, or an mpf); the parameters are exact rationals.
+    Evaluated in the mpmath context ``ctx`` (callers add guard bits to its precision; a context
+    of their own, :func:`~precise_impact.core.mpcontext.mp_context`, is thread-safe), or without
+    it at mpmath's module-level working precision.
     """
+    mp = mpmath.mp if ctx is None else ctx
     eta, a, x_w = Fraction(eta), Fraction(a), Fraction(x_w)
     if t == 0:
         g0 = a - x_w  # exact: cos(0) = 1
@@ -255,11 +270,11 @@ def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
         if a == 0 and x_w == 0:
             return True  # G == 0 everywhere: at rest for good
         return -eta * eta * x_w > 0  # G'(0) = 0, G''(0) = -a eta^2 = -eta^2 x_w
-    th = _mpq(eta) * (t if isinstance(t, mpmath.mpf) else _mpq(t))
-    g = _mpq(a) * mpmath.cos(th) - _mpq(x_w)
+    th = _mpq(eta, mp) * _mp_time(t, mp)
+    g = _mpq(a, mp) * mp.cos(th) - _mpq(x_w, mp)
     if g != 0:
         return g > 0
-    g1 = -_mpq(a) * _mpq(eta) * mpmath.sin(th)
+    g1 = -_mpq(a, mp) * _mpq(eta, mp) * mp.sin(th)
     if g1 != 0:
         return g1 > 0
     if a == 0 and x_w == 0:
@@ -267,7 +282,7 @@ def pushes_into_wall(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> bool:
     return -eta * eta * x_w > 0
 
 
-def release_time(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> Any:
+def release_time(t: Any, eta: Fraction, a: Fraction, x_w: Fraction, *, ctx: Any = None) -> Any:
     """First time ``s > t`` at which the wall force ``G = a cos(eta s) - x_w`` turns negative.
 
     Closed form at the current mpmath precision (callers add guard bits for
@@ -278,24 +293,26 @@ def release_time(t: Any, eta: Fraction, a: Fraction, x_w: Fraction) -> Any:
     returned as an mpf.  Returns ``None`` if ``G`` never turns negative:
     ``a = 0`` (constant force) or ``c <= -1`` (``G >= 0`` everywhere, touching
     zero at most tangentially when ``c = -1``); also for ``c >= 1``, where ``G <= 0``
-    everywhere and nothing can stick in the first place.
+    everywhere and nothing can stick in the first place.  Evaluated in the mpmath context
+    ``ctx`` as :func:`pushes_into_wall` (a number of ``ctx``).
     """
+    mp = mpmath.mp if ctx is None else ctx
     eta, a, x_w = Fraction(eta), Fraction(a), Fraction(x_w)
     if a == 0:
         return None
     c = x_w / abs(a)
     if c <= -1 or c >= 1:
         return None
-    two_pi = 2 * mpmath.pi
-    phi = mpmath.acos(_mpq(c))
+    two_pi = 2 * mp.pi
+    phi = mp.acos(_mpq(c, mp))
     if a < 0:
-        phi -= mpmath.pi
-    th = _mpq(eta) * (t if isinstance(t, mpmath.mpf) else _mpq(t))
-    k = mpmath.floor((th - phi) / two_pi) + 1
+        phi -= mp.pi
+    th = _mpq(eta, mp) * _mp_time(t, mp)
+    k = mp.floor((th - phi) / two_pi) + 1
     th_rel = phi + two_pi * k
     while th_rel <= th:  # guards the floor against rounding at an exact zero
         th_rel += two_pi
-    return th_rel / _mpq(eta)
+    return th_rel / _mpq(eta, mp)
 
 
 def chatter_accumulation_time(t_n: Any, v_n: Any, R: Any, g: Any) -> Any:
@@ -377,3 +394,99 @@ def is_contact(v_minus: Any, acc_minus: Any, depth: Any) -> bool:
     amount, and the saltation matrix ~ 1/v- would be meaningless).
     """
     return not v_minus > 0 or (acc_minus < 0 and v_minus * v_minus <= -2 * acc_minus * depth)
+
+
+# --------------------------------------------------------------------------- R = 1 bounces
+#: A flight ``2 v / g`` at most this fraction of ``1 / max(1, eta)`` is *short*: the start of
+#: an ``R = 1`` bounce sequence under the wall force (:func:`short_elastic_flight`).
+ELASTIC_FLIGHT_FRACTION = 0.1
+#: The speed floor of a bounce, ``sqrt(ELASTIC_FLOOR_FACTOR eps scale g)``: below it heyoka's
+#: event cooldown comes within a factor 100 of the flight (the mass is taken to be at rest).
+ELASTIC_FLOOR_FACTOR = 500.0
+
+#: What ends a predicted bounce sequence (:func:`elastic_bounce_count`).
+BOUNCES_RUN_END, BOUNCES_RELEASE, BOUNCES_REST, BOUNCES_ENDLESS, BOUNCES_HORIZON = 0, 1, 2, 3, 4
+
+
+def short_elastic_flight(v: float, g: float, eta: float) -> bool:
+    """Is the flight after an impact at speed ``v`` under the wall force ``g > 0`` short
+    (``2 v / g <= ELASTIC_FLIGHT_FRACTION / max(1, eta)``)?  Plain floats (numba too)."""
+    return g > 0.0 and 2.0 * v / g * max(1.0, eta) <= ELASTIC_FLIGHT_FRACTION
+
+
+def elastic_bounce_count(
+    t: float, v: float, t_end: float, eta: float, zeta: float, a: float, x_w: float, eps: float
+) -> tuple[float, int, float]:
+    """Predicted impacts of an ``R = 1`` bounce sequence on the wall from the impact ``(t, v)``.
+
+    With ``R = 1`` and short flights under the wall force ``g(s) = a cos(eta s) - x_w > 0``
+    the bounce's action ``J = (2/3) v^3 / g`` is an adiabatic invariant of the flight
+    between impacts, and linear damping makes it decay exactly like ``exp(-2 zeta s)``
+    on average (``dJ/dt = -2 zeta J`` for any bounce shape).  So the impact speed is
+    ``v(s) = (1.5 g(s) J(s))^(1/3)``, ``~ exp(-2 zeta s / 3)``: flights shrink, the impact
+    rate ``g / (2 v)`` grows exponentially, but their sum diverges (not a Zeno
+    sequence).  The impact count is the integral of that rate (steps of ``1/64`` of the
+    shorter of the forcing period and ``2 pi``, at most 64 x 4096 of them) up to the first of:
+    the force turning (release), the speed floor ``sqrt(ELASTIC_FLOOR_FACTOR eps scale g)``
+    (rest: the mass is taken to be at rest), ``t_end``.
+
+    Plain floats and ``math`` only, so the compiled engine runs the same code
+    (:mod:`precise_impact.solvers.fast.lle`).
+
+    Returns
+    -------
+    tuple
+        ``(count, end, s)``: ``end`` one of ``BOUNCES_RUN_END``, ``BOUNCES_RELEASE``,
+        ``BOUNCES_REST``, ``BOUNCES_ENDLESS`` (the count passed 1e18: ``count = inf``) or
+        ``BOUNCES_HORIZON`` (none within the steps); ``s`` the time it ends
+        (:func:`elastic_bounce_text` words it).
+    """
+    scale = max(1.0, abs(a), abs(x_w))
+    g0 = a * math.cos(eta * t) - x_w
+    J0 = 2.0 * v**3 / 3.0 / max(g0, 1e-300)
+    h = min(2.0 * math.pi / max(1.0, eta) / 64.0, max(t_end - t, 1e-300))
+    total = 0.0
+    s = t
+    for i in range(1, 64 * 4096 + 1):
+        s = t + h * i
+        g = a * math.cos(eta * s) - x_w
+        if g <= 0.0:
+            return total, BOUNCES_RELEASE, s
+        vs = (1.5 * g * J0 * math.exp(-2.0 * zeta * (s - t))) ** (1.0 / 3.0)
+        if vs < math.sqrt(ELASTIC_FLOOR_FACTOR * eps * scale * g):
+            return total, BOUNCES_REST, s
+        if s >= t_end:
+            return total, BOUNCES_RUN_END, s
+        total += g / (2.0 * vs) * h
+        if total > 1e18:
+            return math.inf, BOUNCES_ENDLESS, s
+    return total, BOUNCES_HORIZON, s
+
+
+def elastic_bounce_text(end: int, s: float) -> str:
+    """What ends a predicted bounce sequence, in words (:func:`elastic_bounce_count`)."""
+    if end == BOUNCES_RUN_END or end == BOUNCES_ENDLESS:
+        return "the end of the run"
+    if end == BOUNCES_RELEASE:
+        return f"the release at t ~ {s:.6g}"
+    if end == BOUNCES_REST:
+        return f"rest on the wall at t ~ {s:.6g}"
+    return f"t = {s:.6g}"
+
+
+def elastic_bounce_refusal(t: float, count: float, end: int, s: float, max_impacts: int) -> str:
+    """Why a Lyapunov run refuses an ``R = 1`` bounce sequence predicted at time ``t``
+    (:func:`elastic_bounce_count`'s ``count, end, s``): it comes to rest on the wall (whose
+    exponents the tangent methods do not resolve) or outruns the budget ``max_impacts``."""
+    rest = end in (BOUNCES_REST, BOUNCES_ENDLESS)
+    return (
+        f"R = 1 with the net force into the wall from t = {t:.6g}: the mass bounces on the "
+        "wall with speeds decaying like exp(-2 zeta t / 3) and ever shorter flights; reaching "
+        f"{elastic_bounce_text(end, s)} takes ~{count:.2g} more impacts"
+        + (
+            ", and the Lyapunov exponents of an orbit at rest on the wall are not resolved"
+            if rest
+            else f", over the budget max_impacts = {max_impacts}"
+        )
+        + "; use R < 1 or a wall the force does not push into"
+    )

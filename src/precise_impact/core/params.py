@@ -136,8 +136,14 @@ def exact(name: str, value: Any, max_exponent: int = MAX_EXPONENT) -> Fraction:
             value,
             f"expected a decimal string, int, Fraction or float, got {type(value).__name__}",
         )
-    if q != 0 and not (Fraction(1, 10**max_exponent) <= abs(q) <= 10**max_exponent):
-        raise ParameterError(name, _short(value), rng)
+    if q != 0:
+        # log2 |q| lies in (e - 1, e + 1): far inside the range no 10**max_exponent is built (a
+        # million-digit power cost ~1.5 s a call with max_exponent = 10**6)
+        e = q.numerator.bit_length() - q.denominator.bit_length()
+        if abs(e) + 2 >= 3 * max_exponent and not (
+            Fraction(1, 10**max_exponent) <= abs(q) <= 10**max_exponent
+        ):
+            raise ParameterError(name, _short(value), rng)
     return q
 
 
@@ -221,24 +227,24 @@ def check_tol(tol: Any, name: str = "tol") -> Fraction | None:
 def exact_grid(
     lo: Any, hi: Any, n: Any, name: str, minimum: Fraction = Fraction(0), strict: bool = False
 ) -> list[Fraction]:
-    """``n`` exact, evenly spaced values from ``lo`` to ``hi`` (both included).
+    """``n`` exact, evenly spaced values from ``lo`` to ``hi`` (both included, in that order:
+    ``hi < lo`` gives a descending grid).
 
-    Errors name ``{name}_min``, ``{name}_max`` or ``n``; ``lo`` must be ``>= minimum``
-    (``> minimum`` when ``strict``).
+    Errors name ``{name}_min`` (``lo``), ``{name}_max`` (``hi``) or ``n``; both ends must be
+    ``>= minimum`` (``> minimum`` when ``strict``), and differ when ``n > 1``.
     """
     lo_q, hi_q = exact(f"{name}_min", lo), exact(f"{name}_max", hi)
     n = check_count(n, "n", 1_000_000, minimum=1)  # the number of {name} values
-    if lo_q < minimum or (strict and lo_q == minimum):
-        raise ParameterError(
-            f"{name}_min",
-            decimal_str(lo_q),
-            f"must be {'>' if strict else '>='} {decimal_str(minimum)}",
-        )
-    if hi_q < lo_q or (hi_q == lo_q and n > 1):
+    for end, q in ((f"{name}_min", lo_q), (f"{name}_max", hi_q)):
+        if q < minimum or (strict and q == minimum):
+            raise ParameterError(
+                end, decimal_str(q), f"must be {'>' if strict else '>='} {decimal_str(minimum)}"
+            )
+    if hi_q == lo_q and n > 1:
         raise ParameterError(
             f"{name}_max",
             decimal_str(hi_q),
-            f"must be > {name}_min = {decimal_str(lo_q)} (or equal with n = 1)",
+            f"must differ from {name}_min = {decimal_str(lo_q)} (or be equal with n = 1)",
         )
     if n == 1:
         return [lo_q]

@@ -18,6 +18,7 @@ from mpmath import libmp
 
 from precise_impact.core import flight
 from precise_impact.core.clock import sample_times
+from precise_impact.core.mpcontext import mp_context
 from precise_impact.core.params import check_tol
 from precise_impact.errors import ParameterError
 
@@ -101,8 +102,8 @@ class Precision:
     def ops(self) -> Any:
         """The closed-form flight's arithmetic in this precision
         (:mod:`precise_impact.core.flight`): float64 through :mod:`math`, ``mp:BITS`` through
-        mpmath at ``BITS`` inside ``ops.context()``, which sets mpmath's process-global
-        precision for its duration (so not for concurrent threads of mpmath work).
+        mpmath at ``BITS`` in a context of its own (:class:`~precise_impact.core.flight.MpmathOps`:
+        safe in concurrent threads; mpmath's process-global precision is never used).
 
         Raises
         ------
@@ -118,7 +119,7 @@ class Precision:
         if self.kind == "float64":
             return flight.FLOAT
         if self.kind == "mp":
-            return flight.MpmathOps(bits=self.bits)
+            return _mp_ops(self.bits)
         raise ParameterError(
             "precision", self.name, "float64 or mp:BITS for the closed-form flight (heyoka only)"
         )
@@ -223,6 +224,18 @@ class Precision:
         return math.ceil(self.bits * math.log10(2)) + 1
 
     # ------------------------------------------------------------- conversion
+    def nan(self) -> Any:
+        """Not-a-number of this precision (a value not recorded; ``to_str`` gives ``'nan'``)."""
+        if self.kind == "float64":
+            return math.nan
+        if self.kind == "longdouble":
+            return np.longdouble("nan")
+        if self.kind == "float128":
+            return _real128()("nan")
+        import heyoka as hy
+
+        return hy.real("nan", self.bits)
+
     def _from_mpf_exact(self, m: mpmath.mpf) -> Any:
         """Convert an mpf that is already representable in this precision."""
         if self.kind == "float64":
@@ -251,8 +264,11 @@ class Precision:
         return self.from_fraction(Fraction(s))
 
     def from_mpf(self, m: Any) -> Any:
-        """Round an mpmath number (any precision) to this precision, to nearest."""
-        m = mpmath.mpf(m) if not isinstance(m, mpmath.mpf) else m
+        """Round an mpmath number (any precision, of any mpmath context) to this precision, to
+        nearest."""
+        # other numbers (float, int, str) read in a context of this thread's own, exactly for
+        # floats and ints, not at mpmath's shared global precision
+        m = m if hasattr(m, "_mpf_") else mp_context(self.bits + 64).convert(m)
         return self._from_mpf_exact(_mk(libmp.normalize(*m._mpf_, self.bits, "n")))
 
     def to_mpf(self, x: Any) -> mpmath.mpf:
@@ -289,7 +305,11 @@ class Precision:
         return arr
 
     def mp_workprec(self, extra_bits: int = 0):
-        """Context manager: mpmath working precision = this precision + ``extra_bits``."""
+        """Context manager: mpmath working precision = this precision + ``extra_bits``.
+
+        This sets mpmath's process-global precision, shared by every thread; the package
+        computes in contexts of its own instead (:func:`precise_impact.core.mpcontext.mp_context`).
+        """
         return mpmath.workprec(self.bits + extra_bits)
 
     def sample_times(self, t0: Fraction, eta: Fraction, periods: int, per_period: int = 1) -> list:
@@ -315,6 +335,12 @@ class Precision:
 
     def __str__(self) -> str:
         return self.name
+
+
+@functools.lru_cache(maxsize=32)
+def _mp_ops(bits: int) -> Any:
+    """One :class:`~precise_impact.core.flight.MpmathOps` a precision (a context costs ~6 ms)."""
+    return flight.MpmathOps(bits=bits)
 
 
 def _mk(raw: tuple) -> mpmath.mpf:

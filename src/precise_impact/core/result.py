@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-import math
+import functools
 import os
 from fractions import Fraction
 from pathlib import Path
@@ -14,13 +14,15 @@ import numpy as np
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
-from precise_impact.io.atomic import atomic_write, write_json
+from precise_impact.io.atomic import atomic_write
+from precise_impact.io.jsonout import finite_or_marker, write_json
 
 __all__ = ["ResultMixin", "to_jsonable"]
 
 
 def to_jsonable(obj: Any) -> Any:
-    """``obj`` in plain JSON types (see the module docstring); non-finite floats become ``None``."""
+    """``obj`` in plain JSON types, strict JSON: a NaN becomes ``None`` and an infinity the
+    string ``'inf'`` or ``'-inf'`` (:func:`precise_impact.io.jsonout.finite_or_marker`)."""
     out = _leaf_jsonable(obj)
     if out is not _NOT_A_LEAF:
         return out
@@ -35,7 +37,7 @@ def _leaf_jsonable(obj: Any) -> Any:
     if obj is None or isinstance(obj, (bool, str, int)):
         return obj
     if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
+        return finite_or_marker(obj)
     if isinstance(obj, Fraction):
         return decimal_str(obj)
     if isinstance(obj, Params):
@@ -76,8 +78,25 @@ class ResultMixin:
     precise_impact.analysis.lyapunov.result.LyapunovResult : another.
     """
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """A result type's own ``to_dict`` is made strict JSON once, here: its output passes
+        through :func:`to_jsonable` (finite numbers, strings and containers unchanged; NaN
+        ``None``, infinities ``'inf'`` / ``'-inf'``, numpy values plain)."""
+        super().__init_subclass__(**kwargs)
+        own = cls.__dict__.get("to_dict")
+        if own is None or getattr(own, "_strict_json", False):
+            return
+
+        @functools.wraps(own)
+        def to_dict(self: Any, *args: Any, **kw: Any) -> Any:
+            return to_jsonable(own(self, *args, **kw))
+
+        to_dict._strict_json = True  # type: ignore[attr-defined]
+        cls.to_dict = to_dict  # type: ignore[method-assign]
+
     def to_dict(self) -> dict[str, Any]:
-        """The result as plain JSON types (``json.dumps(result.to_dict())`` always works)."""
+        """The result as plain JSON types; ``json.dumps(result.to_dict(), allow_nan=False)``
+        always works (NaN is ``null``, an infinity ``"inf"`` / ``"-inf"``)."""
         return {f.name: to_jsonable(getattr(self, f.name)) for f in dataclasses.fields(self)}  # type: ignore[arg-type]
 
     def save(self, path: str | os.PathLike) -> Path:

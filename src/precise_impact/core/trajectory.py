@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 from pathlib import Path
 from typing import Any
@@ -14,7 +13,8 @@ from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
-from precise_impact.io.atomic import atomic_write, write_json
+from precise_impact.io.atomic import atomic_write
+from precise_impact.io.jsonout import dumps, write_json
 
 __all__ = ["Trajectory", "atomic_write"]
 
@@ -108,28 +108,46 @@ class Trajectory(ResultMixin):
         }
 
     # ------------------------------------------------------------------ output
+    def _str(self, x: Any) -> str | None:
+        """``x`` as a full-precision decimal string; ``None`` for a value the model did not
+        record (``None`` in an object array, NaN in a float array)."""
+        if x is None:
+            return None
+        text = self.precision.to_str(x)
+        return None if text == "nan" else text
+
+    #: The reason given beside a JSON object holding ``null`` state numbers (a model may say
+    #: more in ``stats["null"]``).
+    NULL_REASON = "not recorded by this model"
+
     def to_dict(self) -> dict:
-        """The CLI's ``--json`` object; every state number a full-precision decimal string."""
-        s = self.precision.to_str
+        """The CLI's ``--json`` object; every state number a full-precision decimal string
+        (``null`` where the model recorded none, with the reason under ``"null"``)."""
+        s = self._str
         partial = {}
         if self.stats and self.stats.get("partial"):  # an interrupted run: say so in every file
             partial = {"partial": {k: self.stats[k] for k in ("periods_done", "periods_asked")}}
+        samples = [
+            {"period": k, "t": s(t), "x": s(x), "v": s(v)}
+            for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True))
+        ]
+        impacts = [
+            {"t": s(t), "v_before": s(vb), "v_after": s(va)}
+            for t, vb, va in zip(
+                self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True
+            )
+        ]
+        has_null = any(v is None for row in samples + impacts for v in row.values())
+        null = {"null": (self.stats or {}).get("null", self.NULL_REASON)} if has_null else {}
         return {
             **partial,
             "params": self.params.decimal(),
             "model": self.model,
             "precision": self.precision.name,
             "tol": s(self.tol) if self.tol is not None else None,
-            "samples": [
-                {"period": k, "t": s(t), "x": s(x), "v": s(v)}
-                for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True))
-            ],
-            "impacts": [
-                {"t": s(t), "v_before": s(vb), "v_after": s(va)}
-                for t, vb, va in zip(
-                    self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True
-                )
-            ],
+            "samples": samples,
+            "impacts": impacts,
+            **null,
             "elapsed_s": self.elapsed_s,
         }
 
@@ -141,7 +159,7 @@ class Trajectory(ResultMixin):
         written atomically (temporary file + rename).
         """
         path = Path(path)
-        s = np.vectorize(self.precision.to_str, otypes=[object])
+        s = np.vectorize(lambda x: self._str(x) or "nan", otypes=[object])
         if path.suffix == ".npz":
             arrays: dict[str, np.ndarray] = {}
             for name in ("t", "x", "v", "impacts_t", "impacts_v_before", "impacts_v_after"):
@@ -157,7 +175,7 @@ class Trajectory(ResultMixin):
                     f(self.dense_v),
                 )
             meta = {k: v for k, v in self.to_dict().items() if k not in ("samples", "impacts")}
-            arrays["meta_json"] = np.asarray(json.dumps(meta))
+            arrays["meta_json"] = np.asarray(dumps(meta))
 
             def write(fh):
                 np.savez_compressed(fh, **arrays)
@@ -165,17 +183,13 @@ class Trajectory(ResultMixin):
             atomic_write(path, write, binary=True)
         elif path.suffix == ".csv":
             lines = ["kind,index,t,x,v_or_v_before,v_after"]
+            c = lambda x: self._str(x) or "nan"  # noqa: E731 - not recorded
             for j, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True)):
-                lines.append(
-                    f"sample,{j},{self.precision.to_str(t)},{self.precision.to_str(x)},{self.precision.to_str(v)},"
-                )
+                lines.append(f"sample,{j},{c(t)},{c(x)},{c(v)},")
             for i, (t, vb, va) in enumerate(
                 zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)
             ):
-                p = self.precision
-                lines.append(
-                    f"impact,{i},{p.to_str(t)},{decimal_str(self.params.x_w)},{p.to_str(vb)},{p.to_str(va)}"
-                )
+                lines.append(f"impact,{i},{c(t)},{decimal_str(self.params.x_w)},{c(vb)},{c(va)}")
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
         elif path.suffix == ".json":

@@ -6,7 +6,6 @@ Temporary file in the target directory, fsync, the umask's mode, one rename.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import tempfile
 from collections.abc import Callable
@@ -14,10 +13,10 @@ from pathlib import Path
 from typing import Any
 
 from precise_impact.errors import ParameterError
+from precise_impact.io.lock import LOCK_NAME
 
 __all__ = [
     "atomic_write",
-    "write_json",
     "sha256_file",
     "current_umask",
     "check_output_file",
@@ -68,11 +67,6 @@ def atomic_write(
         except FileNotFoundError:
             pass
         raise
-
-
-def write_json(path: str | os.PathLike, obj: Any, indent: int | None = 1) -> None:
-    """Write ``obj`` as JSON (UTF-8, trailing newline) atomically."""
-    atomic_write(path, lambda fh: fh.write(json.dumps(obj, indent=indent) + "\n"), binary=False)
 
 
 def sha256_file(path: str | os.PathLike) -> str:
@@ -126,7 +120,8 @@ def check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = T
         raise ParameterError(name, str(path), "a directory (this is an existing file)")
     if not force and path.is_dir():
         try:
-            first = next(iter(sorted(path.iterdir())), None)
+            # the lock file of a finished run (io/lock.py) is not the user's content
+            first = next((e for e in sorted(path.iterdir()) if e.name != LOCK_NAME), None)
         except OSError:
             first = None
         if first is not None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import io
-import json
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +11,7 @@ from precise_impact.core.params import decimal_str
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
+from precise_impact.io.jsonout import write_json
 from precise_impact.models.circuit.coupled import simulate_coupled_circuit
 from precise_impact.models.circuit.effects.tolerance import actual_components
 from precise_impact.models.circuit.opamp import CircuitSolver
@@ -175,8 +175,7 @@ def save_scene_outputs(
     out = Path(out)
     obj = scene_json(scene, result, model)
     stem = f"{scene.name}_{obj['model']}"
-    text = json.dumps(obj)
-    atomic_write(out / f"{stem}.json", lambda fh: fh.write(text), binary=False)
+    write_json(out / f"{stem}.json", obj, indent=None)
     fig = figure(figsize=(6, 4.5))
     ax = fig.subplots()
     if isinstance(result, Trajectory):

@@ -12,8 +12,6 @@ import time
 from fractions import Fraction
 from typing import Any
 
-import mpmath
-
 from precise_impact.core import flight
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.crossing import safeguarded_newton
@@ -49,11 +47,10 @@ class _Float64Ops(flight.FloatOps):
 
 
 class _MpmathOps(flight.MpmathOps):
-    """mpmath at ``dps`` digits or ``bits`` (every method runs inside :meth:`context`)."""
+    """mpmath at ``dps`` digits or ``bits``, in the solver's own context (thread-safe)."""
 
-    @staticmethod
-    def from_precision(precision: Precision, x: Any) -> mpmath.mpf:
-        return precision.to_mpf(x)
+    def from_precision(self, precision: Precision, x: Any) -> Any:
+        return self.mpf(precision.to_mpf(x))  # exact: a number of this context
 
     @staticmethod
     def to_precision(precision: Precision, x: Any) -> Any:
@@ -156,7 +153,7 @@ class ClosedForm:
     """The closed-form solution of (2a) on one segment, ``t -> (x(t), v(t))``.
 
     Obtained from :meth:`AnalyticalSolver.closed_form`; evaluation uses the solver's
-    backend (for mpmath: inside ``mpmath.workdps(dps)`` of the solver).
+    backend (for mpmath: the solver's own context at its precision).
     """
 
     def __init__(self, model: _Model, seg: _Segment) -> None:
@@ -180,7 +177,7 @@ def _as_backend(ops, value):
     if isinstance(value, Fraction):
         return ops.num(value)
     if ops.name == "mpmath":
-        return mpmath.mpf(value)
+        return ops.mpf(value)
     return float(value)
 
 
@@ -532,7 +529,7 @@ class _Run:
             self.root_tol_rel = 4 * ops.u
             self.max_iter = 4 * 64 + 200
         else:
-            self.root_tol_rel = mpmath.mpf(10) ** (5 - ops.dps)
+            self.root_tol_rel = ops.ctx.mpf(10) ** (5 - ops.dps)
             self.max_iter = 4 * ops.prec + 200
 
     # -- evaluation with budget --------------------------------------------------------

@@ -6,7 +6,6 @@ The reference's accuracy is demonstrated by two multiprecision runs (``bits``, `
 from __future__ import annotations
 
 import dataclasses
-import json
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -15,8 +14,8 @@ from typing import Any
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import has_quad
 from precise_impact.core.result import ResultMixin
-from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.solvers.simulate import simulate
 from precise_impact.verification.metrics import reference_bits, sample_errors
@@ -137,8 +136,7 @@ def accuracy_table(
     result = AccuracyResult(periods=periods, reference_bits=bits, rows=rows)
     if out is not None:
         out = Path(out)
-        text = json.dumps(result.to_dict(), indent=2)
-        atomic_write(out / "accuracy.json", lambda fh: fh.write(text), binary=False)
+        write_json(out / "accuracy.json", result.to_dict(), indent=2)
         _plot(curves, periods, out / "accuracy.png")
     return result
 

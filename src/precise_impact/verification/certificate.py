@@ -21,7 +21,7 @@ __all__ = [
 
 from precise_impact.core.params import Params
 from precise_impact.io.atomic import sha256_file as _sha256
-from precise_impact.io.atomic import write_json
+from precise_impact.io.jsonout import write_json
 from precise_impact.solvers.certified.single import certify, exact_value
 from precise_impact.verification.reference import CERTIFICATE_FILE as CERTIFICATE  # noqa: E402
 from precise_impact.verification.reference import MANIFEST, _versions, read_manifest

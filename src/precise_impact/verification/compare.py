@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import json
 import math
 import time
 from collections.abc import Sequence
@@ -25,7 +24,9 @@ from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
+from precise_impact.models.circuit.spice import find_ngspice
 from precise_impact.scenes.run import run_scene
 from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
 from precise_impact.solvers.base import MODEL_ALIASES
@@ -161,6 +162,8 @@ def compare(
     dropped = {
         m: scene_for_model(scene, m)[1] for m in models
     }  # validates every model before any work
+    if "spice" in models:
+        find_ngspice()  # a missing ngspice is refused before the reference runs, not after
 
     bits = reference_bits(periods)
     ref, check, ref_info = _reference(params, periods, per_period, bits, progress)
@@ -298,8 +301,7 @@ def _write_outputs(
 ) -> None:
     """``scores.json``, the two figures and ``report.md`` in ``out``; their paths in ``result``."""
     k, lle, results = result["transient_periods"], result["lle"], result["models"]
-    text = json.dumps(result, indent=2, default=_json_default)
-    atomic_write(out / "scores.json", lambda fh: fh.write(text), binary=False)
+    write_json(out / "scores.json", result, indent=2, default=_json_default)
     _plot_portraits(scene, ref, trajs, k, out / "phase_portraits.png")
     _plot_separation(scene, ref, check, trajs, lle["lle"], results, out / "separation.png")
     md = _report(result)

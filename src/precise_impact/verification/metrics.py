@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import math
 
-import mpmath
-
+from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.precision import MAX_MP_BITS
 from precise_impact.core.trajectory import Trajectory
 
@@ -53,9 +52,11 @@ def max_reference_periods(target_digits: int = 30, max_bits: int | None = None) 
 def sample_errors(traj: Trajectory, ref: Trajectory) -> list[float]:
     """``max(|x - x_ref|, |v - v_ref|)`` at every stroboscopic sample, as floats."""
     out = []
-    with mpmath.workprec(max(traj.precision.bits, ref.precision.bits) + 16):
-        for k in range(min(len(traj.t), len(ref.t))):
-            _, x, v = traj.state_mpf(k)
-            _, xr, vr = ref.state_mpf(k)
-            out.append(float(max(abs(x - xr), abs(v - vr))))
+    # a context of this thread's own: mpmath's global precision is shared by every thread
+    ctx = mp_context(max(traj.precision.bits, ref.precision.bits) + 16)
+    for k in range(min(len(traj.t), len(ref.t))):
+        _, x, v = traj.state_mpf(k)
+        _, xr, vr = ref.state_mpf(k)
+        x, v = mp_import(ctx, x), mp_import(ctx, v)
+        out.append(float(max(abs(x - xr), abs(v - vr))))
     return out

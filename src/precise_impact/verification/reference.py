@@ -21,10 +21,12 @@ import numpy as np
 
 from precise_impact.analysis.bifurcation import bifurcation
 from precise_impact.analysis.lyapunov import lyapunov
+from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision, quad_or_mp
-from precise_impact.errors import ParameterError
-from precise_impact.io.atomic import atomic_write, sha256_file, write_json
+from precise_impact.errors import OptionalDependencyError, ParameterError
+from precise_impact.io.atomic import atomic_write, sha256_file
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _log
 from precise_impact.solvers.heyoka.coupled import simulate_coupled
 from precise_impact.solvers.simulate import simulate
@@ -193,11 +195,12 @@ def _impact_dicts(traj) -> list[dict]:
 def _impact_disagreement(a, b) -> float | None:
     if a.n_impacts != b.n_impacts:
         return None
-    with mpmath.workprec(max(a.precision.bits, b.precision.bits) + 16):
-        worst = mpmath.mpf(0)
-        for (t1, b1, a1), (t2, b2, a2) in zip(a.impacts_mpf(), b.impacts_mpf(), strict=True):
-            worst = max(worst, abs(t1 - t2), abs(b1 - b2), abs(a1 - a2))
-        return float(worst)
+    ctx = mp_context(max(a.precision.bits, b.precision.bits) + 16)  # not the shared global one
+    worst = ctx.mpf(0)
+    for (t1, b1, a1), (t2, b2, a2) in zip(a.impacts_mpf(), b.impacts_mpf(), strict=True):
+        t1, b1, a1 = (mp_import(ctx, z) for z in (t1, b1, a1))
+        worst = max(worst, abs(t1 - t2), abs(b1 - b2), abs(a1 - a2))
+    return float(worst)
 
 
 def _single_samples(case: str, params: Params, P: Precision, ref: Any, errs: list) -> dict:
@@ -596,40 +599,34 @@ def _recompute_single(case: str, case_dir: Path) -> list[str]:
     manifest = read_manifest(case_dir)
     stored = float(manifest["accuracy"]["max_sample_disagreement"])
     problems = []
-    with mpmath.workprec(400):
-        for k in range(n + 1):
-            row = data["samples"][k]
-            _, x, v = traj.state_mpf(k)
-            err = float(max(abs(x - mpmath.mpf(row["x"])), abs(v - mpmath.mpf(row["v"]))))
-            tol = single_tolerance(k, P, stored)
-            if not err <= tol:
-                problems.append(
-                    f"{case}: recomputed float128 sample at period {k} differs from stored by "
-                    f"{err:.3e} > {tol:.3e}"
-                )
-                break
-        t_end = traj.t[-1]
-        t_end = P.to_mpf(t_end)
-        stored_imp = [i for i in data["impacts"] if mpmath.mpf(i["t"]) < t_end]
-        if len(stored_imp) != traj.n_impacts:
+    mp = mp_context(400)  # this thread's own context: the global precision is shared
+    for k in range(n + 1):
+        row = data["samples"][k]
+        _, x, v = traj.state_mpf(k)
+        err = float(max(abs(mp.mpf(row["x"]) - x), abs(mp.mpf(row["v"]) - v)))
+        tol = single_tolerance(k, P, stored)
+        if not err <= tol:
             problems.append(
-                f"{case}: {traj.n_impacts} impacts recomputed in the first {n} periods, "
-                f"{len(stored_imp)} stored"
+                f"{case}: recomputed float128 sample at period {k} differs from stored by "
+                f"{err:.3e} > {tol:.3e}"
             )
-        else:
-            for j, ((t, _vb, va), row) in enumerate(
-                zip(traj.impacts_mpf(), stored_imp, strict=True)
-            ):
-                err = float(
-                    max(abs(t - mpmath.mpf(row["t"])), abs(va - mpmath.mpf(row["v_after"])))
-                )
-                # impact times are ill-conditioned near grazing: 1e3 x the sample tolerance
-                tol = 1e3 * single_tolerance(n, P, stored)
-                if not err <= tol:
-                    problems.append(
-                        f"{case}: impact {j} differs from stored by {err:.3e} > {tol:.3e}"
-                    )
-                    break
+            break
+    t_end = traj.t[-1]
+    t_end = P.to_mpf(t_end)
+    stored_imp = [i for i in data["impacts"] if mp.mpf(i["t"]) < t_end]
+    if len(stored_imp) != traj.n_impacts:
+        problems.append(
+            f"{case}: {traj.n_impacts} impacts recomputed in the first {n} periods, "
+            f"{len(stored_imp)} stored"
+        )
+    else:
+        for j, ((t, _vb, va), row) in enumerate(zip(traj.impacts_mpf(), stored_imp, strict=True)):
+            err = float(max(abs(mp.mpf(row["t"]) - t), abs(mp.mpf(row["v_after"]) - va)))
+            # impact times are ill-conditioned near grazing: 1e3 x the sample tolerance
+            tol = 1e3 * single_tolerance(n, P, stored)
+            if not err <= tol:
+                problems.append(f"{case}: impact {j} differs from stored by {err:.3e} > {tol:.3e}")
+                break
     return problems
 
 
@@ -715,8 +712,6 @@ def verify(
     import importlib.util
 
     if importlib.util.find_spec("flint") is None:  # the proofs need python-flint (a dependency)
-        from precise_impact.errors import OptionalDependencyError
-
         raise OptionalDependencyError(
             "python-flint", "re-checking the references' proofs", "pip install python-flint"
         )

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.periodicity import detect_period
+from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import ParameterError
 from precise_impact.verification.metrics import sample_errors
@@ -238,15 +239,14 @@ def match_impacts(
 
 def sample_diff(a, b, ia, ib, ta: Trajectory, tb: Trajectory) -> list[float]:
     """``|a[ia] - b[ib]|`` computed exactly in mpmath, as floats."""
-    import mpmath
-
-    with mpmath.workprec(max(ta.precision.bits, tb.precision.bits) + 16):
-        return [
-            math.nan
-            if a[i] is None or b[j] is None
-            else float(abs(ta.precision.to_mpf(a[i]) - tb.precision.to_mpf(b[j])))
-            for i, j in zip(ia, ib, strict=True)
-        ]
+    # a context of this thread's own: mpmath's global precision is shared by every thread
+    ctx = mp_context(max(ta.precision.bits, tb.precision.bits) + 16)
+    return [
+        math.nan
+        if a[i] is None or b[j] is None
+        else float(abs(mp_import(ctx, ta.precision.to_mpf(a[i])) - tb.precision.to_mpf(b[j])))
+        for i, j in zip(ia, ib, strict=True)
+    ]
 
 
 def detected_period(

@@ -9,7 +9,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
-import json
 import math
 import shutil
 import statistics
@@ -23,11 +22,13 @@ from typing import Any
 import mpmath
 import numpy as np
 
+from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.models.circuit.components import nominal_components
 from precise_impact.models.circuit.opamp import CircuitSolver
@@ -184,14 +185,15 @@ def _ref_states(traj) -> list[tuple]:
 def _states(res) -> list[tuple]:
     if hasattr(res, "state_mpf"):
         return _ref_states(res)
-    return [(mpmath.mpf(float(x)), mpmath.mpf(float(v))) for x, v in zip(res.x, res.v, strict=True)]
+    return [(float(x), float(v)) for x, v in zip(res.x, res.v, strict=True)]  # exact in mpmath
 
 
 def _errors(res, ref_states: list[tuple], bits: int) -> list[float]:
     out = []
-    with mpmath.workprec(bits + 32):
-        for (x, v), (xr, vr) in zip(_states(res), ref_states, strict=True):
-            out.append(float(max(abs(x - xr), abs(v - vr))))
+    ctx = mp_context(bits + 32)  # this thread's own: mpmath's global precision is shared
+    for (x, v), (xr, vr) in zip(_states(res), ref_states, strict=True):
+        x, v = mp_import(ctx, x), mp_import(ctx, v)
+        out.append(float(max(abs(x - xr), abs(v - vr))))
     return out
 
 
@@ -456,11 +458,12 @@ def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]
         runs[b] = HeyokaSolver(f"mp:{b}").solve(params, Nmax)
         _progress(f"[chaos] mp:{b} x {Nmax} periods: {runs[b].elapsed_s:.2f} s", progress)
         if b - 64 in runs and b >= top_need:
-            with mpmath.workprec(b + 32):
-                _, x1, v1 = runs[b].state_mpf(Nmax)
-                _, x0, v0 = runs[b - 64].state_mpf(Nmax)
-                if max(abs(x1 - x0), abs(v1 - v0)) < 1e-30:
-                    break
+            ctx = mp_context(b + 32)
+            _, x1, v1 = runs[b].state_mpf(Nmax)
+            _, x0, v0 = runs[b - 64].state_mpf(Nmax)
+            x1, v1 = mp_import(ctx, x1), mp_import(ctx, v1)
+            if max(abs(x1 - x0), abs(v1 - v0)) < 1e-30:
+                break
         if b > 2048:
             break
         b += 64
@@ -468,16 +471,17 @@ def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]
     rows = []
     for N in Ns:
         chosen, diff_at = None, None
-        with mpmath.workprec(top + 32):
-            _, xt, vt = runs[top].state_mpf(N)
-            for bb in sorted(runs):
-                if bb == top:
-                    continue
-                _, x, v = runs[bb].state_mpf(N)
-                d = float(max(abs(x - xt), abs(v - vt)))
-                if d <= CHAOS_TARGET:
-                    chosen, diff_at = bb, d
-                    break
+        ctx = mp_context(top + 32)
+        _, xt, vt = runs[top].state_mpf(N)
+        for bb in sorted(runs):
+            if bb == top:
+                continue
+            _, x, v = runs[bb].state_mpf(N)
+            x, v = mp_import(ctx, x), mp_import(ctx, v)
+            d = float(max(abs(x - xt), abs(v - vt)))
+            if d <= CHAOS_TARGET:
+                chosen, diff_at = bb, d
+                break
         if chosen is None:
             chosen, diff_at = top, 0.0
         solver = HeyokaSolver(f"mp:{chosen}")
@@ -501,10 +505,11 @@ def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]
     t0 = time.perf_counter()
     a = HeyokaSolver(f"mp:{bc}").solve(params, certify_N)
     c = HeyokaSolver(f"mp:{bc + 64}").solve(params, certify_N)
-    with mpmath.workprec(bc + 96):
-        _, xa, va = a.state_mpf(certify_N)
-        _, xc, vc = c.state_mpf(certify_N)
-        agree = float(max(abs(xa - xc), abs(va - vc)))
+    ctx = mp_context(bc + 96)
+    _, xa, va = a.state_mpf(certify_N)
+    _, xc, vc = c.state_mpf(certify_N)
+    xa, va = mp_import(ctx, xa), mp_import(ctx, va)
+    agree = float(max(abs(xa - xc), abs(va - vc)))
     cert_s = time.perf_counter() - t0
     _progress(
         f"[chaos] certify {certify_N} periods: mp:{bc} vs mp:{bc + 64} agree to {agree:.1e}, "
@@ -721,8 +726,7 @@ CSV_FIELDS = [
 
 
 def write_outputs(result: dict[str, Any], out: Path) -> None:
-    text = json.dumps(result, indent=2, default=str)
-    atomic_write(out / "work_precision.json", lambda fh: fh.write(text), binary=False)
+    write_json(out / "work_precision.json", result, indent=2, default=str)
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=CSV_FIELDS, extrasaction="ignore")
     w.writeheader()
@@ -799,7 +803,9 @@ def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
     _save(fig, path)
 
 
-def format_table(result: dict[str, Any]) -> str:
+def format_table(result: WorkPrecisionResult | dict[str, Any]) -> str:
+    """The ``bench work-precision`` table of a :class:`WorkPrecisionResult` (or its fields
+    as a dict)."""
     lines = []
     for case, ref in result["references"].items():
         lines.append(
@@ -819,7 +825,7 @@ def format_table(result: dict[str, Any]) -> str:
                 f"  {r['method']:<28} {r['setting']:<14} {r['error']:>9.2e} {hz:>7} "
                 f"{r['time_s']:>10.5f} {cs:>8} {r['repeats']:>3}"
             )
-    ch = result.get("chaos_cost")
+    ch = result["chaos_cost"] if "chaos_cost" in result else None
     if ch:
         lines.append(
             f"What chaos costs (eta=0.712, target {ch['target']:g}, reference "

@@ -17,7 +17,9 @@ import numpy as np
 
 from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.analysis.orbits.newton import find_orbit
+from precise_impact.analysis.orbits.result import floquet_resolution, floquet_second_exponent
 from precise_impact.analysis.periodicity import detect_period
+from precise_impact.core.mpcontext import mp_context
 from precise_impact.errors import IntegrationError
 
 __all__ = [
@@ -52,16 +54,17 @@ def _same_cycle(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
 
 @functools.lru_cache(maxsize=256)
 def _t_quantile_cached(alpha: float, dof: float) -> float:
-    import mpmath
-
+    # 53 bits in a context of this thread's own: mpmath's global precision is shared by every
+    # thread (another thread's workprec changed these quantiles)
+    mp = mp_context(53)
     if not math.isfinite(dof) or dof > 1e6:
-        return float(mpmath.sqrt(2) * mpmath.erfinv(1 - mpmath.mpf(alpha)))
-    nu = mpmath.mpf(dof)
+        return float(mp.sqrt(2) * mp.erfinv(1 - mp.mpf(alpha)))
+    nu = mp.mpf(dof)
 
     def tail(x):  # two-sided tail probability P(|t_nu| > x)
-        return mpmath.betainc(nu / 2, mpmath.mpf(1) / 2, 0, nu / (nu + x * x), regularized=True)
+        return mp.betainc(nu / 2, mp.mpf(1) / 2, 0, nu / (nu + x * x), regularized=True)
 
-    lo, hi = mpmath.mpf(0), mpmath.mpf(1)
+    lo, hi = mp.mpf(0), mp.mpf(1)
     while tail(hi) > alpha:
         hi *= 2
     for _ in range(60):
@@ -323,6 +326,8 @@ def _periodic_groups(
     for j, (xs, vs) in enumerate(tails):
         xs, vs = np.asarray(xs, float), np.asarray(vs, float)
         p = detect_period(xs, vs, MAX_PERIOD) if len(xs) >= 3 * MAX_PERIOD else 0
+        if not params.zeta < 1:
+            p = 0  # the orbit finder is underdamped only: an overdamped start stays finite-time
         orbit = None
         if p > 0:
             cycle = np.column_stack([xs[-p:], vs[-p:]])
@@ -433,7 +438,7 @@ def _periodic_error_bars(groups: list[dict], starts: list[dict], dur: list[float
         o = g["_orbit"]
         B = periodic_bias_bound(o)
         g["bias_bound"] = B
-        res = 1e-12 / (o.period * T)
+        res = floquet_resolution(o.lle, o.period * T)
         for j in st:
             starts[j]["stderr_batch"] = starts[j]["stderr"]
             starts[j]["stderr"] = math.sqrt(starts[j]["stderr"] ** 2 + (B / dur[j]) ** 2 + res**2)
@@ -483,8 +488,12 @@ def _headline(
         pT = o.period * T
         result.lle = o.lle
         if result.spectrum is not None:
-            result.spectrum = (o.lle, math.log(mu[1]) / pT if mu[1] > 0 else -math.inf)
-        result.lle_stderr = 1e-12 / pT
+            zeta, R = float(o.params.zeta), float(o.params.R)
+            result.spectrum = (
+                o.lle,
+                floquet_second_exponent(o.lle, mu[1], zeta, R, o.impacts, pT),
+            )
+        result.lle_stderr = floquet_resolution(o.lle, pT)
         return head, finite, "floquet"
     if len(groups) > 1:  # the headline attractor alone, never an average over attractors
         result.lle = head["lle"]

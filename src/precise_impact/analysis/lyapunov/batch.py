@@ -14,10 +14,10 @@ import numpy as np
 from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.params import Params, check_count
-from precise_impact.errors import ParameterError
+from precise_impact.errors import IntegrationError, ParameterError
 from precise_impact.solvers.heyoka.batch import default_batch_size, integrate_group
 
-__all__ = ["batch_lle", "detect_period", "default_batch_size"]
+__all__ = ["batch_lle", "detect_period", "default_batch_size", "refused_row"]
 
 
 def batch_lle(
@@ -53,7 +53,9 @@ def batch_lle(
     ``impacts_per_period``, ``x_last``/``v_last`` (the last stroboscopic sample) and
     ``grazing`` (tangential contacts over the whole run, transient included: events
     within the grazing depth of the wall, not impacts; see
-    :mod:`precise_impact.analysis.lyapunov.variational`).
+    :mod:`precise_impact.analysis.lyapunov.variational`) and ``status``: ``'ok'``, or why the
+    point was refused (``R = 1`` bounces on the wall predicted to come to rest or to outrun
+    ``max_impacts``: :func:`refused_row`, NaN values).
     Raises :class:`~precise_impact.errors.MissedImpactError` if a lane's maximum of ``x``
     lies beyond the wall by more than 4 grazing depths (an impact heyoka missed).
     Each lane is integrated exactly as it would be alone (per-lane steps, events and
@@ -74,25 +76,31 @@ def batch_lle(
     out: list[dict] = []
     for lo in range(0, len(points), B):
         group = points[lo : lo + B]
-        out.extend(
-            _run_group(
-                group + [group[0]] * (B - len(group)),
-                B,
-                periods,
-                transient,
-                segments,
-                max_period,
-                max_impacts,
-            )[: len(group)]
-        )
+        args = (B, periods, transient, segments, max_period, max_impacts)
+        try:
+            out.extend(_run_group(group + [group[0]] * (B - len(group)), *args)[: len(group)])
+        except IntegrationError:
+            # a lane the integrator could not carry (e.g. a missed impact while chattering
+            # into the wall): each point alone, and the failing ones get their reason as
+            # status (a scan records it per point instead of stopping)
+            for p in group:
+                try:
+                    out.extend(_run_group([p] * B, *args)[:1])
+                except IntegrationError as e:
+                    out.append(refused_row(f"integration stopped: {e}", failed=True))
     return out
 
 
 def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
-    l1, l2, xs, vs, T, impacts, grazing = integrate_group(group, B, periods, transient, max_impacts)
+    l1, l2, xs, vs, T, impacts, grazing, refused = integrate_group(
+        group, B, periods, transient, max_impacts
+    )
     results = []
     nb = min(segments, periods)
     for i in range(B):
+        if refused[i] is not None:
+            results.append(refused_row(refused[i], int(grazing[i])))
+            continue
         blocks = np.array([blk.sum() for blk in np.array_split(l1[:, i], nb)]) / np.array(
             [len(blk) * T[i] for blk in np.array_split(l1[:, i], nb)]
         )
@@ -107,6 +115,27 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
                 "x_last": float(xs[-1, i]),
                 "v_last": float(vs[-1, i]),
                 "grazing": int(grazing[i]),
+                "status": "ok",
             }
         )
     return results
+
+
+def refused_row(why: str, grazing: int = 0, failed: bool = False) -> dict:
+    """A scan point refused with a reason (an ``R = 1`` bounce sequence without end:
+    :class:`~precise_impact.errors.EndlessBouncesError`; ``failed``: the integrator stopped,
+    :class:`~precise_impact.errors.IntegrationError`): NaN values and ``status = why``,
+    ``status_code`` 1 (refused) or 2 (failed)."""
+    nan = float("nan")
+    return {
+        "lle": nan,
+        "lambda2": nan,
+        "stderr": nan,
+        "period": 0,
+        "impacts_per_period": nan,
+        "x_last": nan,
+        "v_last": nan,
+        "grazing": grazing,
+        "status": why,
+        "status_code": 2 if failed else 1,
+    }

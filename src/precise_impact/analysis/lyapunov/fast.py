@@ -19,13 +19,14 @@ from precise_impact.analysis.lyapunov.attractors import (
     TEST_BLOCKS,
     attribute,
 )
-from precise_impact.analysis.lyapunov.batch import batch_lle
+from precise_impact.analysis.lyapunov.batch import batch_lle, refused_row
 from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr
 from precise_impact.analysis.lyapunov.variational import variational_spectrum
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.budget import Deadline, estimate_cost, parse_max_time
+from precise_impact.core.impact import elastic_bounce_count, elastic_bounce_refusal
 from precise_impact.core.params import as_params, check_count
-from precise_impact.errors import ParameterError
+from precise_impact.errors import EndlessBouncesError, ParameterError
 from precise_impact.io.progress import ProgressArg, check_progress, say
 from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
 
@@ -98,7 +99,7 @@ def fast_spectrum(
     .. [2] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices).
     """
     params = as_params(params)
-    deadline = Deadline(None if max_time is None else parse_max_time(max_time))
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "lle")
     progress = check_progress(progress)
     if precision not in ("float64",):
         raise ParameterError(
@@ -143,6 +144,7 @@ def fast_spectrum(
             abort_on_failure=True,  # one start unresolved sends all to heyoka: stop the others
             progress=progress,
         )
+        _refuse_endless_bounces(pars, starts, status, log1, log2, per + transient, max_impacts)
         if np.any(status != STATUS_OK):
             bad = {STATUS_TEXT[int(s)] for s in status if s not in (STATUS_OK, STATUS_INTERRUPTED)}
             raise Unresolved("fast", "; ".join(sorted(bad)))
@@ -183,6 +185,29 @@ def fast_spectrum(
     return with_fallback(
         compiled, variational, note_fallback("heyoka variational"), before_fallback=admit
     )()
+
+
+def bounce_refusal(row, start, status, tc, vc, total_periods: int, max_impacts: int):
+    """The refusal message of a start the kernel stopped with ``STATUS_ENDLESS_BOUNCES``
+    (``tc, vc``: the impact it predicted from; ``row`` = eta, zeta, a, x_w, R), else ``None``."""
+    from precise_impact.solvers.fast.single import STATUS_ENDLESS_BOUNCES
+
+    if status != STATUS_ENDLESS_BOUNCES:
+        return None
+    eta, zeta, a, xw = (float(v) for v in row[:4])
+    t_end = float(start[0]) + total_periods * 2 * math.pi / eta
+    n, end, s = elastic_bounce_count(float(tc), float(vc), t_end, eta, zeta, a, xw, 2.0**-52)
+    return elastic_bounce_refusal(float(tc), n, end, s, max_impacts)
+
+
+def _refuse_endless_bounces(pars, starts, status, log1, log2, total_periods, max_impacts):
+    """Raise :class:`EndlessBouncesError` for the first start predicted to bounce without end."""
+    for i in range(len(status)):
+        why = bounce_refusal(
+            pars[i], starts[i], status[i], log1[i], log2[i], total_periods, max_impacts
+        )
+        if why is not None:
+            raise EndlessBouncesError(why)
 
 
 def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out) -> LyapunovResult:
@@ -235,6 +260,7 @@ def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out)
             impact_blocks=rates,
             periods=[per] * n,
         )
+    result.order_spectrum()
     return result
 
 
@@ -360,6 +386,18 @@ def fast_batch_rows(
         results: list = [None] * len(rows)
         per_block = periods // blocks
         for j, i in enumerate(ok_pts.tolist()):
+            why = bounce_refusal(
+                rows[i, :5],
+                rows[i, 5:],
+                status[j],
+                log1[j],
+                log2[j],
+                periods + transient,
+                max_impacts,
+            )
+            if why is not None:  # refused, not handed to heyoka (which would refuse it too)
+                results[i] = dict(refused_row(why), engine="fast")
+                continue
             if status[j] != STATUS_OK:
                 continue
             T = 2 * math.pi / eta[i]
@@ -374,6 +412,7 @@ def fast_batch_rows(
                 "v_last": float(vt[j][-1]),
                 "grazing": 0,
                 "engine": "fast",
+                "status": "ok",
             }
         if any(r is None for r in results):
             raise Unresolved("fast", "points the compiled engine does not resolve", results)

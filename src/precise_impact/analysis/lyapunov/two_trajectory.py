@@ -20,6 +20,8 @@ import numpy as np
 from precise_impact.analysis.lyapunov.attractors import MAX_PERIOD, attribute
 from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 from precise_impact.core.clock import local_clock
+from precise_impact.core.flow import tangent_qr_interval
+from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.params import RUNTIME_PARAMS, Params, as_params, exact
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
@@ -82,8 +84,8 @@ def default_d0(precision: str | Precision = "float64") -> Fraction:
     """
     P = Precision.parse(precision)
     e = P.eps_fraction
-    with mpmath.workprec(64):
-        return _mpf_to_fraction(mpmath.sqrt(mpmath.mpf(e.numerator) / e.denominator) / 100)
+    ctx = mp_context(64)  # this thread's own (mpmath's global precision is shared)
+    return _mpf_to_fraction(ctx.sqrt(ctx.mpf(e.numerator) / e.denominator) / 100)
 
 
 def _mpf_to_fraction(m: mpmath.mpf) -> Fraction:
@@ -105,8 +107,11 @@ class _Arith:
         self.native = P.kind in ("float64", "longdouble")
         self.d0 = P.from_fraction(d0)
         self.prec = P.bits + 32
-        with mpmath.workprec(self.prec):
-            self.d0m = mpmath.mpf(d0.numerator) / d0.denominator
+        # a context of its own (mpmath's global precision is shared by every thread); the
+        # measurements run in the thread that made this object
+        self.ctx = ctx = mpmath.MPContext()
+        ctx.prec = self.prec
+        self.d0m = ctx.mpf(d0.numerator) / d0.denominator
 
     def measure(self, dx: Any, dv: Any) -> tuple[float, Any, Any] | None:
         """``(ln(d / d0), dx * d0 / d, dv * d0 / d)``, or ``None`` if ``d == 0``."""
@@ -116,19 +121,17 @@ class _Arith:
                 return None
             s = self.d0 / d
             return float(np.log(d / self.d0)), dx * s, dv * s
-        P = self.P
-        with mpmath.workprec(self.prec):
-            dxm, dvm = P.to_mpf(dx), P.to_mpf(dv)
-            d = mpmath.sqrt(dxm * dxm + dvm * dvm)
-            if d == 0:
-                return None
-            s = self.d0m / d
-            return float(mpmath.log(d / self.d0m)), P.from_mpf(dxm * s), P.from_mpf(dvm * s)
+        P, ctx = self.P, self.ctx
+        dxm, dvm = mp_import(ctx, P.to_mpf(dx)), mp_import(ctx, P.to_mpf(dv))
+        d = ctx.sqrt(dxm * dxm + dvm * dvm)
+        if d == 0:
+            return None
+        s = self.d0m / d
+        return float(ctx.log(d / self.d0m)), P.from_mpf(dxm * s), P.from_mpf(dvm * s)
 
     def along_diagonal(self) -> tuple[Any, Any]:
         """``d0 (1, 1) / sqrt(2)``: the initial perturbation."""
-        with mpmath.workprec(self.prec):
-            c = self.P.from_mpf(self.d0m / mpmath.sqrt(2))
+        c = self.P.from_mpf(self.d0m / self.ctx.sqrt(2))
         return c, c
 
 
@@ -239,6 +242,7 @@ def _measure_periods(
     d0q: Fraction,
     wall: tuple[Any, Any],
     progress: bool,
+    zeta: Any = 0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, dict[str, int]]:
     """Benettin's loop over the measured periods (``clock = (L0, L1, t_limit)``,
     ``wall = (x_w, R)``).
@@ -250,6 +254,19 @@ def _measure_periods(
     L0, L1, t_limit = clock
     x_w, R = wall
     flips = _place(fid, per, *arith.along_diagonal(), x_w, R)
+    # a long period is cut into steps: over a step the separation may shrink by at most ~e^-1
+    # (core.flow.tangent_qr_interval / 8: far below d0 it is the rounding of the two states),
+    # and below eta = 0.1 a step is at most 2.5 time units: the slow forced response lets
+    # heyoka take steps that resolve it but not the separation (a frequency-1 oscillation
+    # ~1e-10 of the state that its error control does not see).  Measured, non-impacting,
+    # eta = 0.005: one renormalisation per period -0.0040, steps of 20 -0.04933, of 10
+    # -0.04949, of 2.5 -0.0499999970 for -zeta = -0.05; eta >= 0.1 exact with the e^-1 rule.
+    T = float(L1 - L0)
+    step = tangent_qr_interval(zeta) / 8
+    if T > 20 * math.pi:
+        step = min(step, 2.5)
+    m = max(1, math.ceil(T / step))
+    subs = [L0 + (L1 - L0) * i / m for i in range(1, m)]
     log_growth = np.empty(periods)
     dts = np.empty(periods)
     strobe = np.empty((periods, 2))  # the fiducial's stroboscopic samples (the attractor test)
@@ -258,6 +275,18 @@ def _measure_periods(
     bar = Progress(periods, "two-trajectory LLE", bool(progress))
     for j in range(periods):
         t_begin = fid.ta.time
+        sub_log = 0.0
+        for target in subs:
+            fid.propagate_until(target, P)
+            per.propagate_until(target, P)
+            if fid.count != per.count:
+                continue  # an impact between the two: measured at the period's end
+            m_sub = arith.measure(
+                per.ta.state[0] - fid.ta.state[0], per.ta.state[1] - fid.ta.state[1]
+            )
+            if m_sub is not None:
+                sub_log += m_sub[0]
+                flips += _place(fid, per, m_sub[1], m_sub[2], x_w, R)
         fid.propagate_until(L1, P)
         per.propagate_until(L1, P)
         if fid.count != per.count:
@@ -281,6 +310,7 @@ def _measure_periods(
             dx, dv = arith.along_diagonal()
         else:
             log_growth[j], dx, dv = m
+        log_growth[j] += sub_log
         impacts += fid.count
         fid.clear()
         per.clear()
@@ -444,7 +474,16 @@ def two_trajectory_lle(
     L0, L1, sync_window = _local_clock(P, params.t0, params.eta)
     fid, per = _start_orbits(params, P, transient, L0, L1, x_w, R)
     log_growth, dts, strobe, impacts, counts = _measure_periods(
-        fid, per, arith, P, periods, (L0, L1, L1 + sync_window), d0q, (x_w, R), progress
+        fid,
+        per,
+        arith,
+        P,
+        periods,
+        (L0, L1, L1 + sync_window),
+        d0q,
+        (x_w, R),
+        progress,
+        zeta=params.zeta,
     )
     collapses = counts["collapses"]
     if collapses:

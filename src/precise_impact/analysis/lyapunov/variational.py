@@ -273,6 +273,7 @@ def variational_spectrum(
     diag = _new_diag()
     for j, (ic, n) in enumerate(zip(ics, per_orbit, strict=True)):
         rec.reset(max_impacts, depth, *fns, pars=ta.pars)
+        rec.eps = P.eps_float
         grd.reset(depth, rec.f64)
         label = f" (orbit {j + 1}/{n_ic})" if n_ic > 1 else ""
         l1, l2, dt, sx, sv, imp, ni = integrate_orbit(
@@ -318,4 +319,5 @@ def variational_spectrum(
     )
     if attractors:
         _attribute_starts(result, (L1, L2, DT), test_blocks, tails, rates, P, per_orbit)
+    result.order_spectrum()
     return result

@@ -87,6 +87,19 @@ class Branch(ResultMixin):
         if self.stability is None:
             self.stability = np.where(np.asarray(self.stable, dtype=bool), "stable", "unstable")
 
+    def counts(self) -> dict[str, int]:
+        """Points by kind, each counted once: ``virtual`` (not admissible: past grazing, not a
+        physical orbit whatever its multipliers), and among the admissible ones ``stable``,
+        ``unstable`` and ``elliptic``; the four add up to the branch's points."""
+        adm = np.asarray(self.admissible, dtype=bool)
+        kinds = np.asarray(self.stability, dtype=object)
+        return {
+            "stable": int(np.sum(adm & (kinds == "stable"))),
+            "unstable": int(np.sum(adm & (kinds == "unstable"))),
+            "elliptic": int(np.sum(adm & (kinds == "elliptic"))),
+            "virtual": int(np.sum(~adm)),
+        }
+
     @classmethod
     def from_points(
         cls, parameter: str, period: int, impacts: int, origin: str, pts: list, reason: str

@@ -16,7 +16,7 @@ import numpy as np
 
 from precise_impact.analysis.orbits.branch import Bifurcation, Branch, ContinuationResult
 from precise_impact.analysis.orbits.newton import find_orbit
-from precise_impact.analysis.orbits.result import area_preserving, classify
+from precise_impact.analysis.orbits.result import UNDERFLOW, area_preserving, classify
 from precise_impact.analysis.orbits.shooting import CONTINUABLE, ShootingSystem, from_orbit
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.errors import ConvergenceError, ParameterError
@@ -103,12 +103,27 @@ class _Point:
         self.y, self.tau = y.copy(), tau.copy()
         u, lam = y[:-1], float(y[-1])
         self.lam = lam
-        self.M = system.monodromy(u, lam)
-        mu = np.linalg.eigvals(self.M)
+        try:
+            self.M = system.monodromy(u, lam)
+        except ZeroDivisionError:
+            # an impact arrives tangentially (v^- = 0 exactly): the grazing point itself, where
+            # the saltation matrix and so M are unbounded.  Its multipliers are undefined (NaN:
+            # JSON null; the larger one grows without bound towards it, so the stability is
+            # the limit's, unstable) and only the grazing tests are kept.
+            self.M = np.full((2, 2), math.nan)
+        mu = (
+            np.linalg.eigvals(self.M)
+            if np.all(np.isfinite(self.M))
+            else [complex(math.nan, math.nan)] * 2
+        )
         self.mu = sorted((complex(m) for m in mu), key=lambda m: -abs(m))
         self.states = system.states(u, lam)
         gi, gv = system.grazing_tests(u, lam)
-        tr, det = float(np.trace(self.M)), float(np.linalg.det(self.M))
+        tr, det = (
+            (float(np.trace(self.M)), float(np.linalg.det(self.M)))
+            if np.all(np.isfinite(self.M))
+            else (math.nan, math.nan)
+        )
         complex_pair = tr * tr < 4 * det
         vals = system.values(lam)
         T = system.forcing_period(vals)
@@ -127,14 +142,14 @@ class _Point:
         }
         self.admissible = bool(gi >= 0 and gv >= 0)
         self.stability = classify(self.mu, neutral)
-        if self.stability == "elliptic":
+        if not math.isfinite(abs(self.mu[0])):
+            self.lle = math.nan  # a tangential impact: multipliers undefined (above)
+        elif self.stability == "elliptic":
             self.lle = 0.0  # |mu| = 1 exactly (det M = 1, complex pair)
-        else:
-            self.lle = (
-                math.log(abs(self.mu[0])) / (system.period * T)
-                if abs(self.mu[0]) > 0
-                else -math.inf
-            )
+        elif abs(self.mu[0]) > UNDERFLOW:
+            self.lle = math.log(abs(self.mu[0])) / (system.period * T)
+        else:  # M underflowed (zeta p T > ~670): the logarithm from the scaled monodromy
+            self.lle = system.floquet_lle(u, lam)
 
 
 def _sign_change(a: float, b: float) -> bool:
@@ -334,6 +349,7 @@ def continue_orbit(
     doublings: int = 2,
     virtual: Any = "0.1",
     progress: bool | None = None,
+    max_time: Any = None,
     **param_values: Any,
 ) -> ContinuationResult:
     """A branch of periodic orbits continued in one parameter, with its bifurcations.
@@ -368,6 +384,9 @@ def continue_orbit(
         between its two grazing frequencies).
     progress : bool or None, default ``None``
         A progress line on stderr (``None``: only when stderr is a terminal).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds of the starting orbit's transient (``None``: none; see
+        :func:`~precise_impact.analysis.orbits.newton.find_orbit`).
     **param_values
         Parameter values replacing those of ``params``.
 
@@ -423,7 +442,9 @@ def continue_orbit(
     virtual = _check_virtual(virtual)
     _check_ends(parameter, p_start, lam0, lam1)
 
-    orbit = find_orbit(p_start, period, guess=guess, transient=transient, impacts=impacts)
+    orbit = find_orbit(
+        p_start, period, guess=guess, transient=transient, impacts=impacts, max_time=max_time
+    )
     lo, hi = sorted((float(lam0), float(lam1)))
     curve, first = _first_point(p_start, parameter, period, orbit, lam0, lam1)
 
@@ -479,8 +500,13 @@ def _check_range(params: Params, parameter: str, start: Any, stop: Any):
     fields = {k: getattr(params, k) for k in params.decimal()}
 
     def _at(name, value):
+        values = {**fields, parameter: value}
+        if name == "stop" and parameter == "x_w":
+            # the start (x0, v0) seeds only the orbit at ``start``: the system at ``stop`` is
+            # checked without it (x_w = -0.5 is no reason to refuse, whatever x0 is)
+            values["x0"] = min(exact("x0", values["x0"]), exact("stop", value))
         try:
-            return Params.make(**{**fields, parameter: value})
+            return Params.make(**values)
         except ParameterError as e:
             raise ParameterError(
                 name,

@@ -7,16 +7,27 @@ eigenvalues give the exact LLE ``ln |mu_max| / (p T)``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from precise_impact.analysis.orbits.one_impact import flow_matrix, one_impact_orbits
-from precise_impact.analysis.orbits.result import PeriodicOrbit, area_preserving, classify
+from precise_impact.analysis.orbits.result import (
+    UNDERFLOW,
+    PeriodicOrbit,
+    area_preserving,
+    classify,
+)
+from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
+from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, parse_max_time, run_cost
 from precise_impact.core.compat import UNSET, warn_renamed
+from precise_impact.core.flight import MpmathOps
 from precise_impact.core.impact import oscillator_saltation
+from precise_impact.core.mpcontext import mp_export
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
@@ -53,10 +64,8 @@ def _map(params: Params, z: np.ndarray, period: int):
     return np.array([x, v]), np.array([[m00, m01], [m10, m11]]), int(n)
 
 
-def _mpq(q) -> Any:
-    import mpmath
-
-    return mpmath.mpf(q.numerator) / q.denominator
+def _mpq(q, ctx) -> Any:
+    return ctx.mpf(q.numerator) / q.denominator
 
 
 def _fraction(z) -> Any:
@@ -68,68 +77,70 @@ def _fraction(z) -> Any:
     return -q if sign else q
 
 
-def _map_mp(params: Params, z: tuple, period: int, bits: int):
+def _map_mp(params: Params, z: tuple, period: int, ops: Any):
     """The map and its Jacobian in multiprecision: the robust analytical solver (mpmath) gives
-    the flights and impacts, the closed-form flow and saltation matrices the Jacobian."""
-    import mpmath
-
+    the flights and impacts, the closed-form flow and saltation matrices the Jacobian; numbers
+    of ``ops.ctx`` (this computation's own mpmath context)."""
+    bits, ctx = ops.prec, ops.ctx
     P = Precision.parse(f"mp:{bits}")
     q = params.replace(x0=_fraction(z[0]), v0=_fraction(z[1]))
     tr = AnalyticalSolver(finder="robust", precision=f"mp:{bits}").solve(q, period)
     eta, zeta, a, xw, R, t0 = (
-        _mpq(getattr(params, n)) for n in ("eta", "zeta", "a", "x_w", "R", "t0")
+        _mpq(getattr(params, n), ctx) for n in ("eta", "zeta", "a", "x_w", "R", "t0")
     )
-    w = mpmath.sqrt(1 - zeta * zeta)
-    M = mpmath.eye(2)
+    w = ctx.sqrt(1 - zeta * zeta)
+    M = ctx.eye(2)
     t_prev = t0
+    at = lambda y: ops.mpf(P.to_mpf(y))  # noqa: E731  (exact, in ctx)
     for ti, vb in zip(tr.impacts_t, tr.impacts_v_before, strict=True):
-        ti, vb = P.to_mpf(ti), P.to_mpf(vb)
+        ti, vb = at(ti), at(vb)
         M = (
-            mpmath.matrix(oscillator_saltation(ti, vb, eta, zeta, a, xw, R, mpmath.cos))
-            * flow_matrix(ti - t_prev, zeta, w)
+            ctx.matrix(oscillator_saltation(ti, vb, eta, zeta, a, xw, R, ctx.cos))
+            * flow_matrix(ti - t_prev, zeta, w, ops)
             * M
         )
         t_prev = ti
-    M = flow_matrix(P.to_mpf(tr.t[-1]) - t_prev, zeta, w) * M
-    return (P.to_mpf(tr.x[-1]), P.to_mpf(tr.v[-1])), M, len(tr.impacts_t)
+    M = flow_matrix(at(tr.t[-1]) - t_prev, zeta, w, ops) * M
+    return (at(tr.x[-1]), at(tr.v[-1])), M, len(tr.impacts_t)
 
 
 def _newton_mp(params: Params, z0: tuple, period: int, bits: int, max_iterations: int):
-    import mpmath
-
+    """Newton's method at ``bits`` in an mpmath context of this computation's own (mpmath's
+    module-level precision, which ``workprec`` sets, is shared by every thread)."""
+    ops = MpmathOps(bits=bits)
+    mp = ops.ctx
     steps = []
-    with mpmath.workprec(bits):
-        z = mpmath.matrix([mpmath.mpf(z0[0]), mpmath.mpf(z0[1])])
-        tiny = mpmath.mpf(2) ** (8 - bits)
-        last = mpmath.inf
-        for _ in range(max_iterations):
-            fz, M, n = _map_mp(params, (z[0], z[1]), period, bits)
-            F = mpmath.matrix([fz[0] - z[0], fz[1] - z[1]])
-            dz = mpmath.lu_solve(M - mpmath.eye(2), -F)
-            z = z + dz
-            size = max(abs(dz[0]), abs(dz[1]))
-            steps.append(size)
-            if size <= tiny * (1 + max(abs(z[0]), abs(z[1]))) or (
-                size >= last and last < mpmath.mpf(2) ** (-bits // 2)
-            ):
-                break
-            last = size
-        else:
-            raise ConvergenceError(
-                f"no convergence in {max_iterations} multiprecision Newton iterations"
-            )
-        fz, M, n = _map_mp(params, (z[0], z[1]), period, bits)
-        residual = max(abs(fz[0] - z[0]), abs(fz[1] - z[1]))
-        mu = sorted(mpmath.eig(M)[0], key=lambda m: -abs(m))
-        T = 2 * mpmath.pi / _mpq(params.eta)
-        lle = float(mpmath.log(abs(mu[0])) / (period * T))
-        return z[0], z[1], list(mu), lle, float(residual), n, len(steps), [float(h) for h in steps]
+    z = mp.matrix([mp.mpf(z0[0]), mp.mpf(z0[1])])
+    tiny = mp.mpf(2) ** (8 - bits)
+    last = mp.inf
+    for _ in range(max_iterations):
+        fz, M, n = _map_mp(params, (z[0], z[1]), period, ops)
+        F = mp.matrix([fz[0] - z[0], fz[1] - z[1]])
+        dz = mp.lu_solve(M - mp.eye(2), -F)
+        z = z + dz
+        size = max(abs(dz[0]), abs(dz[1]))
+        steps.append(size)
+        if size <= tiny * (1 + max(abs(z[0]), abs(z[1]))) or (
+            size >= last and last < mp.mpf(2) ** (-bits // 2)
+        ):
+            break
+        last = size
+    else:
+        raise ConvergenceError(
+            f"no convergence in {max_iterations} multiprecision Newton iterations"
+        )
+    fz, M, n = _map_mp(params, (z[0], z[1]), period, ops)
+    residual = max(abs(fz[0] - z[0]), abs(fz[1] - z[1]))
+    mu = sorted(mp.eig(M)[0], key=lambda m: -abs(m))
+    T = 2 * mp.pi / _mpq(params.eta, mp)
+    lle = float(mp.log(abs(mu[0])) / (period * T))
+    return z[0], z[1], list(mu), lle, float(residual), n, len(steps), [float(h) for h in steps]
 
 
 def _closed_form_seed(params: Params, period: int, near: np.ndarray | None):
     """The closed-form 1:``period`` orbit (:func:`one_impact_orbits`) to start Newton from:
     the one nearest ``near``, else the stable one, else the least unstable; ``None`` if none."""
-    if not (0 <= params.zeta < 1 and 0 < params.R <= 1):
+    if not (0 <= params.zeta < 1 and 0 <= params.R <= 1):
         return None
     found = one_impact_orbits(params, dps=30, period=period)
     if not found:
@@ -152,6 +163,7 @@ def find_orbit(
     precision: str = "float64",
     guess_from: str = "simulation",
     seed: Any = UNSET,
+    max_time: Any = None,
     **param_values: Any,
 ) -> PeriodicOrbit:
     """A periodic orbit of the stroboscopic map (stable or unstable) by Newton's method.
@@ -187,6 +199,10 @@ def find_orbit(
         the guess.
     seed : str
         Deprecated spelling of ``guess_from`` (``seed`` is an RNG seed elsewhere).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds for the transient (``None``: none): a transient whose estimate
+        is over it is refused before any work (:class:`~precise_impact.errors.OverBudgetError`).
+        The transient is run in chunks, only its last state kept (its memory is bounded).
     **param_values
         Parameter values replacing those of ``params``.
 
@@ -200,6 +216,8 @@ def find_orbit(
     ------
     ParameterError
         Bad input, before any work.
+    OverBudgetError
+        The transient's estimate is over ``max_time``, before any work.
     ConvergenceError
         No convergence within ``max_iterations``, or to an orbit with another impact count.
     IntegrationError
@@ -243,6 +261,8 @@ def find_orbit(
         params, period, transient, max_iterations, impacts, guess_from, precision
     )
     g = _parse_guess(params, guess)
+    if g is None and guess_from != "closed-form":
+        transient_cost(transient, max_time)
     z = _seed(params, period, g, guess_from, impacts, transient)
     z, it, steps = _newton_float(params, z, period, max_iterations)
     fz, M, n = _map(params, z, period)
@@ -257,7 +277,10 @@ def find_orbit(
         return _refined_orbit(params, period, z, n, Pq, max_iterations, it, steps)
     mu = sorted(np.linalg.eigvals(M).tolist(), key=lambda m: -abs(m))
     T = 2 * math.pi / float(params.eta)
-    lle = math.log(abs(mu[0])) / (period * T) if abs(mu[0]) > 0 else -math.inf
+    if abs(mu[0]) > UNDERFLOW:
+        lle = math.log(abs(mu[0])) / (period * T)
+    else:  # M underflowed (zeta p T > ~670): the logarithm from the scaled monodromy
+        lle = _underflowed_lle(params, z, period, n)
     kind = classify(mu, area_preserving(params.zeta, params.R, n))
     return PeriodicOrbit(
         params=params,
@@ -274,6 +297,20 @@ def find_orbit(
         stability=kind,
         steps=steps,
     )
+
+
+def _underflowed_lle(params: Params, z: np.ndarray, period: int, n: int) -> float:
+    """``ln |mu_max| / (p T)`` of the orbit through ``z`` from logarithms, for multipliers that
+    underflow in float64 (``ShootingSystem.floquet_lle``: exactly ``-zeta`` without impacts)."""
+    base = {k: float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")}
+    system = ShootingSystem(base, "eta", period, n)
+    if n == 0:
+        return system.floquet_lle(np.asarray(z, dtype=float), base["eta"])  # -zeta, exactly
+    try:
+        u = from_orbit(system, params, float(z[0]), float(z[1]), base["eta"])
+    except ValueError as err:  # the simulated period met another impact count
+        raise IntegrationError(f"the impacts for the orbit's LLE not found: {err}") from err
+    return system.floquet_lle(u, base["eta"])
 
 
 def _check_options(
@@ -345,11 +382,44 @@ def _seed(
     if z is None and g is not None:
         z = g
     elif z is None:
-        from precise_impact.solvers.fast.single import FastSolver
-
-        tr = FastSolver().solve(params, transient)
-        z = np.array([float(tr.x[-1]), float(tr.v[-1])])
+        z = _transient_end(params, transient)
     return z
+
+
+#: Periods of the transient run at a time: only its last state is kept, so its memory is that
+#: of one chunk (~2.4 MB of samples) however long it is (10^8 periods in one run held 2.4 GB).
+TRANSIENT_CHUNK = 100_000
+
+
+def _transient_end(params: Params, transient: int) -> np.ndarray:
+    """The state after ``transient`` periods from ``(x0, v0)`` at ``t0``, run in chunks of
+    :data:`TRANSIENT_CHUNK` periods restarted at ``t0`` (the flow is ``T``-periodic); one run,
+    bit-identical to before, up to one chunk."""
+    from precise_impact.solvers.fast.single import FastSolver
+
+    solver = FastSolver()
+    q = params
+    left = transient
+    while True:
+        tr = solver.solve(q, min(left, TRANSIENT_CHUNK))
+        z = np.array([float(tr.x[-1]), float(tr.v[-1])])
+        left -= min(left, TRANSIENT_CHUNK)
+        if left == 0:
+            return z
+        q = params.replace(x0=Fraction(z[0]), v0=Fraction(z[1]))
+
+
+def transient_cost(transient: int, max_time: Any = DEFAULT_MAX_TIME) -> None:
+    """Refuse a transient whose estimated run time is over ``max_time`` seconds (``None``: no
+    budget), before any work (:class:`~precise_impact.errors.OverBudgetError`): priced as a
+    float64 run whose samples are not kept (the fast engine's fallback, heyoka, sets the
+    price per period)."""
+    if max_time is None:
+        return
+    cost = run_cost(Precision.parse("float64"), transient, stored=False)
+    check_cost(
+        dataclasses.replace(cost, what=f"a transient of {cost.what}"), parse_max_time(max_time)
+    )
 
 
 def _newton_float(
@@ -406,9 +476,9 @@ def _refined_orbit(
         period=period,
         impacts=n,
         t=float(params.t0),
-        x=x,
-        v=v,
-        multipliers=mu,
+        x=mp_export(x),
+        v=mp_export(v),
+        multipliers=[mp_export(m) for m in mu],
         stable=kind == "stable",
         lle=0.0 if kind == "elliptic" else lle,
         residual=res,

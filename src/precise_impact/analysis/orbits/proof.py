@@ -317,4 +317,21 @@ def _stability_and_lle(ups: list, lows: list, pT: Any) -> tuple[bool | None, tup
     )
     big = max(range(2), key=lambda i: float(exact_value(ups[i])))
     lle = ((flint.arb(lows[big]).log() / pT), (flint.arb(ups[big]).log() / pT))
-    return stable, (float(exact_value(lle[0].lower())), float(exact_value(lle[1].upper())))
+    lo, hi = exact_value(lle[0].lower()), exact_value(lle[1].upper())
+    return stable, (_float_down(lo), _float_up(hi))
+
+
+def _float_down(q: Fraction) -> float:
+    """The largest float64 ``<= q``.  ``float()`` rounds to nearest: an enclosure's ends
+    rounded that way can lose the value they enclose (eta = 0.985, p = 2: both ends of the
+    LLE interval became one float, 1.1e-19 from the truth).  Rounded outward the float64
+    interval is at least as wide as the ball and never narrower than the rounding itself
+    (one ulp at most on each side)."""
+    f = float(q)
+    return math.nextafter(f, -math.inf) if Fraction(f) > q else f
+
+
+def _float_up(q: Fraction) -> float:
+    """The smallest float64 ``>= q`` (see :func:`_float_down`)."""
+    f = float(q)
+    return math.nextafter(f, math.inf) if Fraction(f) < q else f

@@ -8,7 +8,14 @@ import math
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin
 
-__all__ = ["PeriodicOrbit", "area_preserving", "classify"]
+__all__ = [
+    "PeriodicOrbit",
+    "area_preserving",
+    "classify",
+    "UNDERFLOW",
+    "floquet_second_exponent",
+    "floquet_resolution",
+]
 
 
 @dataclasses.dataclass
@@ -105,13 +112,43 @@ class PeriodicOrbit(ResultMixin):
             "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
             "stable": self.stable,
             "stability": self.stability,
-            "lle": self.lle if math.isfinite(self.lle) else None,
+            "lle": self.lle,  # -inf (R = 0) is "-inf" (ResultMixin: strict JSON)
             "residual": self.residual,
             "iterations": self.iterations,
             "steps": [float(h) for h in self.steps],
             "method": self.method,
             "precision": self.precision,
         }
+
+
+#: Below this modulus a float64 multiplier has lost bits to underflow (the 2x2 products that
+#: make it keep 53 bits above 2^-969 = 2^(-1022 + 53)): its logarithm is then taken from the
+#: scaled monodromy instead (``ShootingSystem.floquet_lle``).
+UNDERFLOW = 2.0**-969
+
+
+def floquet_second_exponent(
+    lle: float, mu2: float, zeta: float, R: float, impacts: int, pT: float
+) -> float:
+    """The second Floquet exponent ``ln |mu_2| / (p T)``; from ``|mu_1 mu_2| = |det M| =
+    R^(2n) exp(-2 zeta p T)`` (logarithms, exact) when ``|mu_2|`` is below :data:`UNDERFLOW`:
+    ``2 n ln R / (p T) - 2 zeta - lle`` (``-inf`` only for a plastic impact, ``R = 0``).
+    Before, an underflowed ``mu_2`` gave ``-inf`` (``zeta = 0.999``, ``eta = 0.001``: the
+    spectrum ``(-0.999, -inf)`` instead of ``(-0.999, -0.999)``)."""
+    if mu2 > UNDERFLOW:
+        return math.log(mu2) / pT
+    if impacts and R == 0:
+        return -math.inf
+    return (2 * impacts * math.log(R) if impacts else 0.0) / pT - 2 * zeta - lle
+
+
+def floquet_resolution(lle: float, pT: float) -> float:
+    """The float64 resolution of a Floquet LLE ``ln |mu| / (p T)``: the eigenvalue's rounding,
+    ``1e-12 / (p T)`` (``|mu|`` from a float64 2x2 monodromy, generously), floored at two ulps
+    of the value: the logarithm and the division each round to half an ulp of their result, so
+    a bar below that could not cover the value it is reported with (it matters only where
+    ``|ln mu| > ~2000``, e.g. ``zeta p T = 6277``)."""
+    return max(1e-12 / pT, 2 * math.ulp(lle)) if math.isfinite(lle) else 1e-12 / pT
 
 
 def area_preserving(zeta, R, impacts: int) -> bool:

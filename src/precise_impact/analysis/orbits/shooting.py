@@ -174,6 +174,43 @@ class ShootingSystem:
             prev = ti
         return self.phi(t0 + pT - prev, zeta, w) @ M
 
+    def scaled_monodromy(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """``N = exp(zeta p T) M``: :meth:`monodromy` with the decay ``exp(-zeta tau)`` of each
+        flight left out (the flights' ``tau`` add up to ``p T``), so that it never underflows:
+        ``M``'s entries reach 0 in float64 once ``zeta p T > 745`` (``zeta = 0.999``,
+        ``eta = 0.001``: ``exp(-6277)``) while ``N`` has ``det N = R^(2n)``."""
+        vals = self.values(lam)
+        eta, zeta, a, xw, R, w = vals[0], vals[1], vals[2], vals[3], vals[4], vals[7]
+        T, t0 = self.forcing_period(vals), self.base["t0"]
+
+        def rot(tau):  # Phi(tau) exp(zeta tau): det 1
+            c, s = math.cos(w * tau), math.sin(w * tau) / w
+            return np.array([[c + zeta * s, s], [-s, c - zeta * s]])
+
+        if self.impacts == 0:
+            return rot(self.period * T)
+        cyc, pT = self._cycle(u, vals)
+        N, prev = np.eye(2), t0
+        for ti, _, vb in cyc:
+            S = np.array(oscillator_saltation(ti, vb, eta, zeta, a, xw, R, math.cos), dtype=float)
+            N = S @ rot(ti - prev) @ N
+            prev = ti
+        return rot(t0 + pT - prev) @ N
+
+    def floquet_lle(self, u: np.ndarray, lam: float) -> float:
+        """``ln |mu_max| / (p T)`` from logarithms: ``-zeta + ln |nu_max| / (p T)`` with ``nu``
+        the eigenvalues of :meth:`scaled_monodromy` (``mu = exp(-zeta p T) nu``).  Without
+        impacts ``N = Phi(p T) exp(zeta p T)`` has ``det N = 1`` and (underdamped) its
+        eigenvalues on the unit circle: exactly ``-zeta``.  For the orbits whose multipliers
+        underflow in float64 (``-inf`` before)."""
+        vals = self.values(lam)
+        zeta = vals[1]
+        if self.impacts == 0:
+            return -zeta
+        pT = self.period * self.forcing_period(vals)
+        nu = float(np.max(np.abs(np.linalg.eigvals(self.scaled_monodromy(u, lam)))))
+        return -zeta + math.log(nu) / pT if nu > 0 else -math.inf
+
     def grazing_tests(self, u: np.ndarray, lam: float) -> tuple[float, float]:
         """``(x_w - highest interior maximum of x, lowest arrival velocity v^-)``.
 

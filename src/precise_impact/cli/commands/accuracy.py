@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
 from precise_impact.cli.args import add_json, add_out, add_periods
 from precise_impact.core.params import check_count
+from precise_impact.io.jsonout import print_json
 from precise_impact.verification.accuracy import accuracy_table, format_table
 
 
@@ -30,8 +29,7 @@ def run(ns: argparse.Namespace) -> int:
     periods = check_count(ns.periods, maximum=2000, minimum=1)
     result = accuracy_table(periods=periods, out=ns.out, progress=not ns.json)
     if ns.json:
-        json.dump(result.to_dict(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(result.to_dict())
         return 0
     print(format_table(result))
     if ns.out is not None:

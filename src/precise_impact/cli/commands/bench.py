@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 from precise_impact.cli.args import add_json, add_out
+from precise_impact.io.jsonout import print_json
 from precise_impact.verification.workprecision import format_table, work_precision
 
 __all__ = ["register", "run"]
@@ -35,7 +35,7 @@ def run(ns: argparse.Namespace) -> int:
     """Run the ``bench`` subcommand; returns the exit status."""
     result = work_precision(quick=ns.quick, out=ns.out, progress=not ns.json)
     if ns.json:
-        print(json.dumps(result.to_dict()))
+        print_json(result.to_dict())
     else:
         print(format_table(result))
     return 0

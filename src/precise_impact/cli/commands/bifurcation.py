@@ -61,8 +61,11 @@ def run(ns: argparse.Namespace) -> int:
         f"{len(res.eta)} values of eta in {res.elapsed_s:.1f} s on {res.workers} worker(s); "
         f"grazing eta (closed form): {grazing}"
     )
-    print(
-        f"LLE range: {res.lle.min():.4f} .. {res.lle.max():.4f}; "
-        f"written: {files['png']}, {files['npz']}"
-    )
+    refused = [(e, why) for e, why in zip(res.eta, res.status, strict=True) if why != "ok"]
+    if refused:  # values refused per point (status in the npz), never a wrong number
+        e, why = refused[0]
+        print(f"{len(refused)} of {len(res.eta)} values refused (eta = {float(e):g}: {why})")
+    ok = res.lle[[why == "ok" for why in res.status]]
+    lle_range = f"{ok.min():.4f} .. {ok.max():.4f}" if len(ok) else "none"
+    print(f"LLE range: {lle_range}; written: {files['png']}, {files['npz']}")
     return 0

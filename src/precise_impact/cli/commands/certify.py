@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
-from precise_impact.cli.args import add_json, add_param_flags, add_periods, params_from
+from precise_impact.cli.args import (
+    add_json,
+    add_max_time,
+    add_param_flags,
+    add_periods,
+    max_time,
+    params_from,
+)
 from precise_impact.core.params import check_count
 from precise_impact.errors import ParameterError
+from precise_impact.io.jsonout import print_json
 from precise_impact.solvers.certified.coupled import certify_coupled
 from precise_impact.solvers.certified.single import MAX_BITS, certify
 
@@ -40,7 +47,7 @@ def register(sub) -> argparse.ArgumentParser:
         default=None,
         metavar="R",
         help="radius wanted at every sample, the single oscillator's automatic bits "
-        "(default 1e-30)",
+        "(default 1e-30; not with --precision mp:BITS / --bits, which fix the bits)",
     )
     ce.add_argument(
         "--max-bits",
@@ -57,8 +64,8 @@ def register(sub) -> argparse.ArgumentParser:
     )
     ce.add_argument(
         "--form",
-        default="first-order",
-        help="the pair's slave equation: first-order, paper or reduced",
+        default=None,
+        help="the pair's slave equation, with --k: first-order (default), paper or reduced",
     )
     ce.add_argument(
         "--y0",
@@ -68,6 +75,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="the slave's start (position, velocity variable); default: on the master "
         "(the diagonal)",
     )
+    add_max_time(ce)
     add_json(ce)
     ce.set_defaults(run=run)
     return ce
@@ -83,6 +91,16 @@ def run(ns: argparse.Namespace) -> int:
         bits = check_count(ns.bits, "bits", max_bits, minimum=64)
         print("precise-impact: --bits is deprecated, use --precision mp:BITS", file=sys.stderr)
         ns.precision = f"mp:{bits}"
+    if ns.target is not None and ns.precision not in (None, "auto"):
+        # one of them would be ignored: the target only steers the automatic bits
+        given = "--bits" if ns.bits is not None else "--precision"
+        raise ParameterError(
+            "target",
+            ns.target,
+            f"only with the automatic bits (--precision auto), not with {given}",
+        )
+    if ns.form is not None and ns.k is None:
+        raise ParameterError("form", ns.form, "only with --k (the coupled pair)")
     progress = None if ns.json else True
     if ns.k is not None:
         if ns.target is not None:
@@ -92,17 +110,19 @@ def run(ns: argparse.Namespace) -> int:
         r = certify_coupled(
             params,
             ns.k,
-            ns.form,
+            "first-order" if ns.form is None else ns.form,
             ns.periods,
             y0=ns.y0,
             precision="mp:256" if ns.precision is None else ns.precision,
             max_bits=max_bits,
             progress=progress,
+            max_time=max_time(ns),
         )
+        d = r.to_dict()
         lines = [
             f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, "
             f"{len(r.master_impacts)} master and {len(r.slave_impacts)} slave impacts, at "
-            f"{r.bits} bits in {r.elapsed_s:.2f} s; largest radius 1e{r.max_log10_radius():.1f}"
+            f"{r.bits} bits in {r.elapsed_s:.2f} s; largest radius {d['max_radius']}"
         ]
         names = "xvyw"
     else:
@@ -115,18 +135,18 @@ def run(ns: argparse.Namespace) -> int:
             target_radius="1e-30" if ns.target is None else ns.target,
             max_bits=max_bits,
             progress=progress,
+            max_time=max_time(ns),
         )
+        d = r.to_dict()
         lines = [
             f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits "
             f"({r.bits_choice}) in {r.elapsed_s:.2f} s",
-            f"largest radius 1e{r.max_log10_radius():.1f}; radius growth "
+            f"largest radius {d['max_radius']}; radius growth "
             f"{r.growth_digits_per_period():.3f} decimal digits per period",
         ]
         names = "xv"
-    d = r.to_dict()
     if ns.json:
-        json.dump(d, sys.stdout)
-        sys.stdout.write("\n")
+        print_json(d)
         return 0
     last = d["samples"][-1]
     lines += [f"{n}({last['period']} T) = {last[n]} +- {last[n + '_rad']}" for n in names]

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
 import heyoka
 
 from precise_impact.cli.args import add_json, add_out, add_periods
 from precise_impact.core.params import check_count
+from precise_impact.io.jsonout import print_json
 from precise_impact.scenes.scene import SCENE_MODELS
 from precise_impact.verification.compare import check_models, compare, format_scores
 from precise_impact.verification.metrics import max_reference_periods
@@ -49,8 +48,7 @@ def run(ns: argparse.Namespace) -> int:
         ns.scene, models, out=ns.out, periods=periods, progress=not ns.json, points=ns.points
     )
     if ns.json:
-        json.dump(result.to_dict(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(result.to_dict())
     else:
         print(format_scores(result))
         if ns.out is not None:

@@ -3,21 +3,23 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
+import math
 
 from precise_impact.analysis.orbits import continue_orbit
 from precise_impact.analysis.orbits.branch import brute_force_diagram
 from precise_impact.cli.args import (
     PARAM_FLAGS,
     add_json,
+    add_max_time,
     add_orbit_flags,
     add_out,
     add_param_flags,
-    params_from,
+    max_time,
+    orbit_params_from,
 )
 from precise_impact.core.params import check_count
 from precise_impact.errors import ParameterError
+from precise_impact.io.jsonout import print_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -63,6 +65,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="values of the brute-force diagram drawn beneath the branches with --out "
         "(default 200; 0: none)",
     )
+    add_max_time(co)
     add_json(co)
     add_out(co, "dir", "write continuation.json and continuation.png here")
     co.set_defaults(run=run)
@@ -77,7 +80,7 @@ def run(ns: argparse.Namespace) -> int:
         raise ParameterError(
             name, fixed[name], f"not given twice: --{name} is set by --param {name} FROM TO"
         )
-    params = params_from(ns)
+    params = orbit_params_from(ns, (lo, hi) if name == "x_w" else ())
     n_diagram = check_count(ns.diagram, "diagram", 5000)
     res = continue_orbit(
         params,
@@ -92,6 +95,7 @@ def run(ns: argparse.Namespace) -> int:
         doublings=ns.doublings,
         virtual=ns.virtual,
         progress=None if ns.json else True,
+        max_time=max_time(ns),
     )
     if ns.out is not None:
         diagram = None
@@ -103,17 +107,16 @@ def run(ns: argparse.Namespace) -> int:
         if not ns.json:
             print("wrote " + ", ".join(str(f) for f in files.values()))
     if ns.json:
-        json.dump(res.to_dict(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(res.to_dict())
         return 0
     for k, b in enumerate(res.branches):
-        n_st = int(b.stable.sum())
-        n_el = int((b.stability == "elliptic").sum())
+        n = b.counts()  # virtual orbits counted once, as virtual, never as stable or unstable
         print(
             f"branch {k}: period {b.period}, {b.impacts} impact(s), {len(b.values)} points, {name} "
-            f"{b.values.min():.10g} .. {b.values.max():.10g}, {n_st} stable, "
-            + (f"{n_el} elliptic (neutral), " if n_el else "")
-            + f"{int((~b.admissible).sum())} virtual ({b.origin}; {b.stop_reason})"
+            f"{b.values.min():.10g} .. {b.values.max():.10g}, {n['stable']} stable, "
+            f"{n['unstable']} unstable, "
+            + (f"{n['elliptic']} elliptic (neutral), " if n["elliptic"] else "")
+            + f"{n['virtual']} virtual ({b.origin}; {b.stop_reason})"
         )
     if not res.bifurcations:
         print("no bifurcation in the range")
@@ -121,6 +124,8 @@ def run(ns: argparse.Namespace) -> int:
         mus = ", ".join(
             f"{m[0]:.8g}{m[1]:+.3g}i" if m[1] else f"{m[0]:.8g}" for m in bif.multipliers
         )
+        if not all(math.isfinite(c) for m in bif.multipliers for c in m):
+            mus = "undefined (a tangential impact: the saltation matrix is unbounded)"
         where = "" if bif.admissible else " (virtual orbit)"
         print(
             f"{bif.type} on branch {bif.branch} at {name} = {bif.value!r}{where}: "

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from precise_impact.analysis.lyapunov import lyapunov
@@ -18,6 +17,7 @@ from precise_impact.cli.args import (
 )
 from precise_impact.core.params import check_count
 from precise_impact.errors import Interrupted
+from precise_impact.io.jsonout import print_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -79,8 +79,7 @@ def run(ns: argparse.Namespace) -> int:
         e.kept = str(e)  # type: ignore[attr-defined]
         raise
     if ns.json:
-        json.dump(r.to_dict(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(r.to_dict())
         return 0
     spec = "" if r.spectrum is None else f"  spectrum = ({r.spectrum[0]:.6f}, {r.spectrum[1]:.6f})"
     print(

@@ -3,18 +3,19 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
 from precise_impact.analysis.orbits import find_orbit
 from precise_impact.cli.args import (
     add_json,
+    add_max_time,
     add_orbit_flags,
     add_param_flags,
     add_precision,
-    params_from,
+    max_time,
+    orbit_params_from,
 )
 from precise_impact.core.params import check_count
+from precise_impact.io.jsonout import print_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -27,6 +28,7 @@ def register(sub) -> argparse.ArgumentParser:
     add_param_flags(ob)
     add_orbit_flags(ob, "")
     add_precision(ob, "float64 or mp:BITS (Newton refined to that precision)")
+    add_max_time(ob)
     ob.add_argument(
         "--guess-from",
         "--seed",  # the 0.2 name
@@ -49,7 +51,7 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``orbit``; returns the exit status."""
-    params = params_from(ns)
+    params = orbit_params_from(ns)
     period = check_count(ns.period, "period", 1000, minimum=1)
     impacts = None if ns.impacts is None else check_count(ns.impacts, "impacts", 10**6)
     o = find_orbit(
@@ -60,10 +62,10 @@ def run(ns: argparse.Namespace) -> int:
         transient=check_count(ns.transient, "transient"),
         precision=ns.precision,
         guess_from=ns.guess_from,
+        max_time=max_time(ns),
     )
     if ns.json:
-        json.dump(o.to_dict(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(o.to_dict())
         return 0
     mus = ", ".join(
         f"{m.real:.12g}{m.imag:+.12g}i" if m.imag else f"{m.real:.12g}" for m in o.multipliers

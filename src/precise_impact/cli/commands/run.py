@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
 from precise_impact.cli.args import add_json, add_max_time, add_out, max_time
 from precise_impact.errors import ParameterError
+from precise_impact.io.jsonout import print_json
 from precise_impact.scenes.run import run_scene, save_scene_outputs, scene_json
 from precise_impact.scenes.scene import SCENE_MODELS, load_scene
 
@@ -37,8 +36,7 @@ def run(ns: argparse.Namespace) -> int:
     obj = scene_json(scene, result)
     files = save_scene_outputs(scene, result, ns.out) if ns.out is not None else []
     if ns.json:
-        json.dump(obj, sys.stdout)
-        sys.stdout.write("\n")
+        print_json(obj)
         return 0
     last = obj["samples"][-1]
     n_imp = (

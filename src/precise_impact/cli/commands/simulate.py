@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from pathlib import Path
 
 from precise_impact.cli.args import (
@@ -21,6 +19,7 @@ from precise_impact.core.budget import check_cost, estimate_cost
 from precise_impact.core.params import check_count
 from precise_impact.core.precision import Precision
 from precise_impact.errors import Interrupted, ParameterError
+from precise_impact.io.jsonout import print_json
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.heyoka.single import HeyokaSolver
 from precise_impact.solvers.simulate import MODELS, make_solver
@@ -93,8 +92,7 @@ def run(ns: argparse.Namespace) -> int:
     if ns.out is not None:
         traj.save(ns.out)
     if ns.json:
-        json.dump(traj.to_dict(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(traj.to_dict())
         return 0
     s = traj.precision.to_str
     print(

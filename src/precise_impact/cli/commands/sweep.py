@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 
 from precise_impact.analysis.sweep import MAX_WORK, SweepSpec, run_sweep
 from precise_impact.cli.args import add_json, add_out, add_param_flags, add_periods, params_from
 from precise_impact.core.params import check_count, exact
 from precise_impact.errors import ParameterError
+from precise_impact.io.jsonout import print_json
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -107,8 +106,7 @@ def run(ns: argparse.Namespace) -> int:
     )
     st = res.stats
     if ns.json:  # the run, not the grid (that is in sweep.npz / sweep.csv)
-        json.dump(dict(st, complete=res.complete, **res.files), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(dict(st, complete=res.complete, **res.files))
         return 0
     print(
         f"{spec.n_points} points in {spec.n_tiles} tiles: {st['tiles_computed']} computed, "

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from pathlib import Path
 
 from precise_impact.analysis.sync import MAX_ENSEMBLE, plot_fig7, plot_sync_fraction, sync_scan
@@ -18,7 +16,7 @@ from precise_impact.cli.args import (
     params_from,
 )
 from precise_impact.core.params import check_count, exact_grid
-from precise_impact.io.atomic import atomic_write
+from precise_impact.io.jsonout import print_json, write_json
 from precise_impact.solvers.heyoka.coupled import check_form, check_k
 
 
@@ -91,15 +89,13 @@ def run(ns: argparse.Namespace) -> int:
     )
     out = Path(ns.out)
     stem = f"sync_{form}"
-    text = json.dumps(res.to_dict(), indent=1)
-    atomic_write(out / f"{stem}.json", lambda fh: fh.write(text), binary=False)
+    write_json(out / f"{stem}.json", res.to_dict(), indent=1)
     plot_sync_fraction(res, out / f"{stem}_fraction.png")
     plot_fig7(params, form, k1, k2, periods, out / f"{stem}_fig7.png")
     if ns.json:
         obj = res.to_dict()
         obj.pop("runs", None)
-        json.dump(obj, sys.stdout)
-        sys.stdout.write("\n")
+        print_json(obj)
         return 0
     print(
         f"form {form}: {periods} periods, ensemble {ensemble}, sync = |x - y| < "

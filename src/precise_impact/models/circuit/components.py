@@ -11,7 +11,9 @@ from fractions import Fraction
 from typing import Any
 
 import mpmath
+from mpmath import libmp
 
+from precise_impact.core.mpcontext import mp_context, mp_export
 from precise_impact.core.params import Params, as_params, decimal_str, exact
 from precise_impact.errors import ParameterError
 
@@ -117,9 +119,9 @@ class Components:
 
     def omega(self, dps: int = 40) -> mpmath.mpf:
         """Natural angular frequency [rad/s] (an mpmath number: sqrt is irrational in general)."""
-        with mpmath.workdps(dps):
-            w2 = self.omega_squared
-            return mpmath.sqrt(mpmath.mpf(w2.numerator) / w2.denominator)
+        mp = mp_context(libmp.dps_to_prec(dps))  # this thread's own: the global one is shared
+        w2 = self.omega_squared
+        return mp_export(mp.sqrt(mp.mpf(w2.numerator) / w2.denominator))
 
 
 def dimensionless(comp: Components, x0: Any = 0, v0: Any = 0, t0: Any = 0, R: Any = 1) -> Params:
@@ -297,9 +299,9 @@ def to_circuit(comp: Components, tau: Any, x: Any, v: Any, omega: Any):
 
 def _num(q: Fraction, like: Any):
     """An exact rational rounded to the number type of ``like``: mpmath for mpmath
-    numbers (at the current mpmath precision), float64 otherwise."""
-    if isinstance(like, mpmath.mpf):
-        return mpmath.mpf(q.numerator) / q.denominator
+    numbers (in ``like``'s context, at its precision), float64 otherwise."""
+    if hasattr(like, "_mpf_"):
+        return like.context.mpf(q.numerator) / q.denominator
     return float(q)
 
 

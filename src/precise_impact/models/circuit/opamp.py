@@ -10,10 +10,10 @@ from collections.abc import Mapping
 from fractions import Fraction
 from typing import Any
 
-import mpmath
 import numpy as np
 
 from precise_impact.core.impact import reset_velocity
+from precise_impact.core.mpcontext import mp_context
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
@@ -223,18 +223,12 @@ class CircuitSolver:
         state = [Vs0, Vq0]
         if self.op.dynamic:
             # consistent op-amp states: ideal stage outputs, virtual grounds at 0
-            with mpmath.workprec(P.bits + 32):
-                om_t0 = (
-                    mpmath.mpf(comp.Omega.numerator)
-                    / comp.Omega.denominator
-                    * t0s.numerator
-                    / t0s.denominator
-                )
-                V3 = Fraction(
-                    mpmath.nstr(
-                        comp.V_A.numerator * mpmath.cos(om_t0) / comp.V_A.denominator, P.digits + 5
-                    )
-                )
+            mp = mp_context(P.bits + 32)  # this thread's own: the global precision is shared
+            om_t0 = mp.mpf(comp.Omega.numerator) / comp.Omega.denominator * t0s.numerator
+            om_t0 = om_t0 / t0s.denominator
+            V3 = Fraction(
+                mp.nstr(comp.V_A.numerator * mp.cos(om_t0) / comp.V_A.denominator, P.digits + 5)
+            )
             Vmq0 = -(comp.R5 / comp.R4) * Vq0
             Vp0 = -comp.R2 * (V3 / comp.R1 + Vmq0 / comp.R6 + Vs0 / comp.R7)
             state += [Vp0, Vmq0, -Vs0, -Vq0]

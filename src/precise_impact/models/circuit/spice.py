@@ -19,9 +19,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import mpmath
 import numpy as np
+from mpmath import libmp
 
+from precise_impact.core.mpcontext import mp_context
 from precise_impact.core.params import check_count, decimal_str, exact
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
@@ -51,6 +52,7 @@ __all__ = [
     "SpiceResult",
     "SpiceError",
     "NgspiceNotFoundError",
+    "find_ngspice",
     "E24",
     "E96",
     "IDEAL_OPAMP_GAIN",
@@ -335,14 +337,14 @@ def _initial_values(components: Components, c: dict, x0q, v0q, t0q) -> dict[str,
     eta = float(components.Omega) / omega
     period_s = 2 * math.pi / c["Omega"]
     _, vs0, vq0 = to_circuit(components, 0.0, float(x0q), float(v0q), omega)
-    with mpmath.workdps(40):  # eta t0 = Omega t0 / omega, rounded once
-        phi = float(
-            mpmath.mpf(components.Omega.numerator)
-            / components.Omega.denominator
-            * mpmath.mpf(t0q.numerator)
-            / t0q.denominator
-            / components.omega(40)
-        )
+    mp = mp_context(libmp.dps_to_prec(40))  # this thread's own: the global one is shared
+    phi = float(  # eta t0 = Omega t0 / omega, rounded once
+        mp.mpf(components.Omega.numerator)
+        / components.Omega.denominator
+        * mp.mpf(t0q.numerator)
+        / t0q.denominator
+        / components.omega(40)
+    )
     vmq0 = -c["R5"] / c["R4"] * vq0
     vp0 = -c["R2"] * (c["V_A"] * math.cos(phi) / c["R1"] + vmq0 / c["R6"] + vs0 / c["R7"])
     x0f = float(x0q)
@@ -637,7 +639,14 @@ def _extrapolate(ts, ys, i0: int, i1: int, t: float) -> float:
     return float(ys[i1] + (ys[i1] - ys[i0]) * (t - ts[i1]) / (ts[i1] - ts[i0]))
 
 
-def _find_ngspice(executable: str | None) -> str:
+def find_ngspice(executable: str | None = None) -> str:
+    """The path of the ngspice executable (``executable`` or ``ngspice`` on ``PATH``).
+
+    Raises
+    ------
+    NgspiceNotFoundError
+        It is not there: one line naming ngspice and how to install it.
+    """
     exe = shutil.which(executable or "ngspice")
     if exe is None:
         raise NgspiceNotFoundError(
@@ -711,7 +720,7 @@ def run_spice(
         or not (timeout > 0 and math.isfinite(timeout))
     ):
         raise ParameterError("timeout", timeout, "seconds > 0")
-    exe = _find_ngspice(executable)
+    exe = find_ngspice(executable)
     if workdir is None:
         with tempfile.TemporaryDirectory(prefix="precise_impact_spice_") as tmp:
             return _run(

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.mpcontext import mp_context
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
@@ -263,21 +264,17 @@ class SwitchedCapacitorSolver:
         t0s = params.t0 / omega
         k = switch.coupling(self.ron, comp.R2, comp.R3)
         rho = comp.R5 / comp.R4
-        # V3(t0) enters only through R_on; exact cosine at t0 via mpmath
-        import mpmath
-
-        with mpmath.workprec(P.bits + 32):
-            c = mpmath.cos(
-                mpmath.mpf(comp.Omega.numerator)
-                / comp.Omega.denominator
-                * t0s.numerator
-                / t0s.denominator
-            )
-            V3 = (
-                Fraction(mpmath.nstr(c * comp.V_A.numerator / comp.V_A.denominator, P.digits + 5))
-                if k
-                else Fraction(0)
-            )
+        # V3(t0) enters only through R_on; exact cosine at t0 via mpmath (in a context of this
+        # thread's own: mpmath's global precision is shared by every thread)
+        mp = mp_context(P.bits + 32)
+        c = mp.cos(
+            mp.mpf(comp.Omega.numerator) / comp.Omega.denominator * t0s.numerator / t0s.denominator
+        )
+        V3 = (
+            Fraction(mp.nstr(c * comp.V_A.numerator / comp.V_A.denominator, P.digits + 5))
+            if k
+            else Fraction(0)
+        )
         VC0 = -(Vq0 * (1 + k * rho / comp.R6) - k * (V3 / comp.R1 + Vs0 / comp.R7))
         ta.time = conv(t0s)
         ta.state[:] = P.array([conv(Vs0), conv(VC0)])
@@ -338,9 +335,9 @@ class SwitchedCapacitorSolver:
         imp_t, imp_vb, imp_va = [], [], []
         for tt, vb, va in switches.rows():
             imp_t.append(om * tt)
-            if vb is None:
-                imp_vb.append(None)
-                imp_va.append(None)
+            if vb is None:  # not recorded (immediate switching): NaN of the precision
+                imp_vb.append(P.nan())
+                imp_va.append(P.nan())
             else:
                 imp_vb.append(vb / (om * rcv * vuv))
                 imp_va.append(va / (om * rcv * vuv))
@@ -360,6 +357,8 @@ class SwitchedCapacitorSolver:
                 "effects": sorted(self.effects),
                 "components": comp.decimal(),
                 "comparator_trips": trips,
+                "null": "impact velocities not recorded: with immediate switching V_q flips "
+                "sign at the comparator trip and only its instant is logged",
             },
         )
         if per_period > 0:

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core import flight
+from precise_impact.core.budget import Deadline, enforce_max_time, parse_max_time
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.coupling import (
     check_form,
@@ -28,7 +29,7 @@ from precise_impact.core.coupling import (
 from precise_impact.core.params import Params, check_count, decimal_str, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import ParameterError
+from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.certified.single import (
     MAX_BITS,
@@ -37,12 +38,15 @@ from precise_impact.solvers.certified.single import (
     Constants,
     Flight,
     Isolator,
+    _finite_or_none,
     ball_str,
     certified_bits,
     check_certifiable,
     describe,
     exact_value,
     log10_abs,
+    max_radius_str,
+    out_of_reach,
     point,
     run_balls,
     to_ball,
@@ -208,8 +212,9 @@ class CertifiedCoupledTrajectory(ResultMixin):
         """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``samples``
         (``{"period", "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}``),
         ``master_impacts`` and ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``),
-        ``max_radius``, ``max_log10_radius``, ``elapsed_s``; midpoints and rigorous radii as
-        decimal strings."""
+        ``max_radius``, ``max_log10_radius`` (``None`` for exact points), ``elapsed_s``; midpoints
+        and rigorous radii as decimal strings (``max_radius`` in scientific notation, rounded up,
+        never 0 for a ball of any radius): strict JSON."""
         rows = []
         for k, t, *balls in self.samples:
             row: dict = {"period": k, "t": ball_str(t)[0]}
@@ -222,7 +227,13 @@ class CertifiedCoupledTrajectory(ResultMixin):
             for t, b, a in lst:
                 (tm, tr), (bm, br), (am, ar) = ball_str(t), ball_str(b), ball_str(a)
                 out.append(
-                    {"t": tm, "t_rad": tr, "before": bm, "after": am, "rad": max(br, ar, key=float)}
+                    {
+                        "t": tm,
+                        "t_rad": tr,
+                        "before": bm,
+                        "after": am,
+                        "rad": max(br, ar, key=Fraction),
+                    }
                 )
             return out
 
@@ -236,8 +247,8 @@ class CertifiedCoupledTrajectory(ResultMixin):
             "samples": rows,
             "master_impacts": imps(self.master_impacts),
             "slave_impacts": imps(self.slave_impacts),
-            "max_radius": self.max_radius(),
-            "max_log10_radius": self.max_log10_radius(),
+            "max_radius": max_radius_str(b for s in self.samples for b in s[2:]),
+            "max_log10_radius": _finite_or_none(self.max_log10_radius()),
             "elapsed_s": self.elapsed_s,
         }
 
@@ -327,7 +338,18 @@ class _Walk:
         return pair.slave_gap, pair.slave_bound(), pair.master_gap, pair.master_bound()
 
 
-def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress) -> tuple:
+def _run(
+    params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress, deadline=None
+) -> tuple:
+    samples: list = []
+    try:
+        return _walk(params, kq, form, y0q, periods, bits, progress, deadline, samples)
+    except CertificationError as e:
+        e.partial = samples  # the proven samples, for out_of_reach
+        raise
+
+
+def _walk(params, kq, form, y0q, periods, bits, progress, deadline, samples: list) -> tuple:
     c = Constants(params, bits)
     iso = Isolator(bits)
     k = to_ball(kq)
@@ -346,7 +368,7 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
     s = c.t0
     walk = _Walk(c, iso, consts, form, k, bits, _Pair(c, consts, s, x0, v0, e0, ep0))
 
-    samples = [(0, s, x0, v0, yp, yv)]
+    samples.append((0, s, x0, v0, yp, yv))
     a = s
     hstep = point(c.T / 16)
     for n in range(1, periods + 1):
@@ -358,6 +380,8 @@ def _run(params, kq: Fraction, form: str, y0q, periods: int, bits: int, progress
         a = end
         if progress is not None:
             progress.update(n)
+        if deadline is not None:
+            deadline.check(f"{n} of {periods} periods at {bits} bits")
     return samples, walk.mimp, walk.simp
 
 
@@ -371,6 +395,7 @@ def certify_coupled(
     precision: str = "mp:256",
     max_bits: int = 4096,
     progress: bool | None = None,
+    max_time: Any = None,
     bits: Any = UNSET,
     **param_values: Any,
 ) -> CertifiedCoupledTrajectory:
@@ -399,6 +424,10 @@ def certify_coupled(
         After a failed proof the bits are doubled up to this (``<= 16384``).
     progress : bool or None, default ``None``
         A progress line on stderr (``None``: only when stderr is a terminal).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds (``1 <= max_time <= 604800``): the estimated cost
+        (:func:`~precise_impact.core.budget.estimate_cost`, job ``'certify'``) is checked
+        against it before any work, and the run stops once it is spent; ``None``: no budget.
     bits : int
         Deprecated: ``precision='mp:BITS'``.
     **param_values
@@ -413,9 +442,15 @@ def certify_coupled(
     ------
     ParameterError
         Bad input, before any work.
+    OverBudgetError
+        The estimated cost is over ``max_time``, before any work.
+    BudgetExceededError
+        ``max_time`` ran out during the run.
     CertificationError
         No proof up to ``max_bits`` (an impact order that cannot be proven, a tangential
-        contact, an impact on a sample time); the message names the time.
+        contact, an impact on a sample time); the message names the time.  Also, without
+        doubling on, when the radius growth measured over a failed attempt projects more bits
+        than ``max_bits`` can give (:func:`~precise_impact.solvers.certified.single.out_of_reach`).
     OptionalDependencyError
         python-flint is not installed.
 
@@ -474,25 +509,36 @@ def certify_coupled(
                 decimal_str(y0q[0]),
                 f"y0[0] < x_w = {decimal_str(params.x_w)} for the certified pair",
             )
+    enforce_max_time(
+        max_time, "certify", periods=periods, precision=f"mp:{bits}", coupled=y0q is not None
+    )
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "certify")
     bar = Progress(periods, "certified periods (pair)", enabled=progress)
     while True:
         t0 = time.perf_counter()
         try:
             with working_bits(bits):
                 if y0q is None:  # the diagonal: the slave is the master, exactly (module docstring)
-                    ss, imps, _ = run_balls(params, periods, bits)
+                    ss, imps, _ = run_balls(params, periods, bits, deadline=deadline)
                     samples = [(n, t, x, v, x, v) for n, t, x, v in ss]
                     mimp = simp = list(imps)
                     bar.update(periods)
                 else:
-                    samples, mimp, simp = _run(params, kq, form, y0q, periods, bits, bar)
+                    samples, mimp, simp = _run(params, kq, form, y0q, periods, bits, bar, deadline)
             bar.close()
             return CertifiedCoupledTrajectory(
                 params, form, kq, y0q, periods, bits, samples, mimp, simp, time.perf_counter() - t0
             )
+        except BudgetExceededError:
+            bar.close()  # end a line redrawn in place before the one-line refusal
+            raise
         except CertificationError as e:
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
+            refusal = out_of_reach(e, bits, periods, max_bits)
+            if refusal is not None:
+                bar.close()
+                raise CertificationError(refusal) from None
             bits *= 2
 
 

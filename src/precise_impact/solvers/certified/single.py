@@ -15,13 +15,19 @@ from fractions import Fraction
 from typing import Any
 
 from precise_impact.core import flight
+from precise_impact.core.budget import Deadline, enforce_max_time, parse_max_time
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.flow import steady_state
 from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.errors import CertificationError, OptionalDependencyError, ParameterError
+from precise_impact.errors import (
+    BudgetExceededError,
+    CertificationError,
+    OptionalDependencyError,
+    ParameterError,
+)
 from precise_impact.io.progress import Progress
 
 __all__ = [
@@ -30,6 +36,7 @@ __all__ = [
     "CertificationError",
     "CertifiedSolver",
     "ball_str",
+    "radius_str",
     "working_bits",
     "flow_matrix",
     "run_balls",
@@ -46,6 +53,7 @@ __all__ = [
     "lower",
     "describe",
     "check_certifiable",
+    "out_of_reach",
 ]
 
 #: Bounds of the working precision (bits).
@@ -129,6 +137,33 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
         ctx.rounding = ROUND_CEILING
         dr = Decimal(err.numerator) / Decimal(err.denominator)
     return str(dm), str(dr).replace("E", "e")
+
+
+def radius_str(r) -> str:
+    """A radius (an exact non-negative arb, e.g. ``b.rad()``) as a decimal string in scientific
+    notation, 3 significant digits rounded up: ``'0'`` only for an exact 0, never rounded to 0
+    at any magnitude (a float underflows to 0.0 below 1e-308 and would state exactness)."""
+    from decimal import ROUND_CEILING, Decimal, localcontext
+
+    q = exact_value(r)
+    if q == 0:
+        return "0"
+    with localcontext() as ctx:
+        ctx.prec = 3
+        ctx.rounding = ROUND_CEILING
+        d = Decimal(q.numerator) / Decimal(q.denominator)
+    return f"{d:.2e}"
+
+
+def _finite_or_none(x: float) -> float | None:
+    """``x``, or ``None`` for a non-finite value (``-inf``: the log10 radius of an exact point),
+    so that the JSON stays strict."""
+    return x if math.isfinite(x) else None
+
+
+def max_radius_str(balls) -> str:
+    """The largest radius of ``balls`` as :func:`radius_str` (chosen exactly, not by float)."""
+    return radius_str(max((b.rad() for b in balls), key=exact_value))
 
 
 class Flight(flight.Flight):
@@ -223,28 +258,34 @@ class Isolator:
                     describe(a, "a wall contact cannot be excluded") + f" (gap {ga}) "
                     f"at {self.bits} bits"
                 )
-        h = b - a
-        m = point((a + b) / 2)
-        gm, vm = gap(m)
-        if gm + abs(vm) * h / 2 + A * h * h / 8 < 0:
-            return None  # cleared: g < 0 on [a, b]
-        vlo = vm - A * h / 2
-        vhi = vm + A * h / 2
-        if vhi < 0:
-            return None  # g decreasing from g(a) < 0
-        if vlo > 0:
-            gb, _ = gap(b)
-            if gb < 0:
-                return None  # increasing and still below the wall at b
-            if gb > 0:
-                return self.newton(gap, a, b)
-        if depth > self.max_depth:
-            raise CertificationError(
-                describe(_interval(a, b), "a crossing cannot be separated from a graze")
-                + f" with gap in {gap(_interval(a, b))[0]} at {self.bits} bits"
-            )
-        r = self.first_crossing(gap, A, a, m, depth + 1)
-        return r if r is not None else self.first_crossing(gap, A, m, b, depth + 1)
+        # depth first, left half first, on an explicit stack: the bisection may go bits + 40
+        # levels deep, past Python's recursion limit (a RecursionError at 1024 bits before)
+        todo = [(a, b, depth)]
+        while todo:
+            a, b, depth = todo.pop()
+            h = b - a
+            m = point((a + b) / 2)
+            gm, vm = gap(m)
+            if gm + abs(vm) * h / 2 + A * h * h / 8 < 0:
+                continue  # cleared: g < 0 on [a, b]
+            vlo = vm - A * h / 2
+            vhi = vm + A * h / 2
+            if vhi < 0:
+                continue  # g decreasing from g(a) < 0
+            if vlo > 0:
+                gb, _ = gap(b)
+                if gb < 0:
+                    continue  # increasing and still below the wall at b
+                if gb > 0:
+                    return self.newton(gap, a, b)
+            if depth > self.max_depth:
+                raise CertificationError(
+                    describe(_interval(a, b), "a crossing cannot be separated from a graze")
+                    + f" with gap in {gap(_interval(a, b))[0]} at {self.bits} bits"
+                )
+            todo.append((m, b, depth + 1))
+            todo.append((a, m, depth + 1))
+        return None
 
     def newton(self, gap, a, b):
         """The unique crossing in ``[a, b]`` (``g' > 0`` proven there, ``g(a) < 0 < g(b)``)."""
@@ -295,16 +336,26 @@ class _Engine:
         self.c = Constants(params, bits)
         self.iso = Isolator(bits)
 
-    def run(self, periods: int, progress=None, start: tuple | None = None):
+    def run(self, periods: int, progress=None, start: tuple | None = None, deadline=None):
         """Samples ``(k, t, x, v)`` and impacts ``(t, v_before, v_after)`` over ``periods``, from
         the initial condition of the parameters or from ``start = (x0, v0)`` balls at ``t0``
-        (a box: every state in it is followed, the balls enclose them all)."""
+        (a box: every state in it is followed, the balls enclose them all).  ``deadline``: a
+        :class:`~precise_impact.core.budget.Deadline` checked after every period.  A
+        :class:`CertificationError` carries the samples proven before it as ``partial``."""
+        samples: list = []
+        try:
+            return self._run(periods, progress, start, deadline, samples)
+        except CertificationError as e:
+            e.partial = samples
+            raise
+
+    def _run(self, periods: int, progress, start: tuple | None, deadline, samples: list):
         c = self.c
         p = self.p
         iso = self.iso
         x0, v0 = (to_ball(p.x0), to_ball(p.v0)) if start is None else start
         s = c.t0
-        samples = [(0, c.t0, x0, v0)]
+        samples.append((0, c.t0, x0, v0))
         impacts = []
         fl = Flight(c, s, x0, v0)
         if start is not None:
@@ -315,8 +366,11 @@ class _Engine:
             a = s
         elif p.x0 == p.x_w:
             if p.v0 > 0:
+                # an impact at t0; samples are right-continuous (docs/numerics.rst, as every
+                # engine): sample 0 holds the state after it
                 impacts.append((s, v0, -c.R * v0))
                 fl = Flight(c, s, c.xw, -c.R * v0)
+                samples[0] = (0, c.t0, x0, -c.R * v0)
             elif p.v0 == 0:
                 raise CertificationError("the start (x0 = x_w, v0 = 0) is a contact: not certified")
             a = iso.depart(fl.gap, fl.acceleration_bound(), s)
@@ -353,6 +407,8 @@ class _Engine:
             a = end
             if progress is not None:
                 progress.update(k)
+            if deadline is not None:
+                deadline.check(f"{k} of {periods} periods at {self.bits} bits")
         return samples, impacts
 
 
@@ -447,8 +503,13 @@ class CertifiedTrajectory(ResultMixin):
         Returns
         -------
         bool
-        """
 
+        Raises
+        ------
+        ParameterError
+            ``k`` is not an integer with ``0 <= k <= periods``.
+        """
+        k = check_count(k, "k", self.periods, minimum=0)
         _, _, bx, bv = self.samples[k]
         # exactly, in rationals: no rounding, and no dependence on python-flint's process-wide
         # precision
@@ -461,8 +522,10 @@ class CertifiedTrajectory(ResultMixin):
         """The CLI's ``--json`` object: ``params``, ``periods``, ``bits``, ``bits_choice``,
         ``samples`` (``{"period", "t", "x", "v", "x_rad", "v_rad"}``: decimal midpoints and
         rigorous radii as decimal strings), ``impacts`` (``{"t", "t_rad", "v_before",
-        "v_after", "v_rad"}``), ``max_radius`` (0.0 below 1e-308), ``max_log10_radius``,
-        ``growth_digits_per_period``, ``elapsed_s``."""
+        "v_after", "v_rad"}``), ``max_radius`` (a string in scientific notation, rounded up,
+        :func:`radius_str`: never 0 for a ball of any radius), ``max_log10_radius`` (``None``
+        when every sample is an exact point), ``growth_digits_per_period``, ``elapsed_s``:
+        strict JSON."""
         out = []
         for k, t, x, v in self.samples:
             tm, _ = ball_str(t)
@@ -480,7 +543,7 @@ class CertifiedTrajectory(ResultMixin):
                     "t_rad": tr,
                     "v_before": bm,
                     "v_after": am,
-                    "v_rad": max(br, ar, key=float),
+                    "v_rad": max(br, ar, key=Fraction),
                 }
             )
         return {
@@ -490,8 +553,8 @@ class CertifiedTrajectory(ResultMixin):
             "bits_choice": self.bits_choice,
             "samples": out,
             "impacts": imps,
-            "max_radius": self.max_radius(),
-            "max_log10_radius": self.max_log10_radius(),
+            "max_radius": max_radius_str(b for row in self.samples for b in row[2:]),
+            "max_log10_radius": _finite_or_none(self.max_log10_radius()),
             "growth_digits_per_period": self.growth_digits_per_period(),
             "elapsed_s": self.elapsed_s,
         }
@@ -523,19 +586,71 @@ def flow_matrix(c: Constants, tau):
 
 
 def run_balls(
-    params: Params, periods: int, bits: int, start: tuple | None = None, progress=None
+    params: Params,
+    periods: int,
+    bits: int,
+    start: tuple | None = None,
+    progress=None,
+    deadline=None,
 ) -> tuple:
     """``(samples, impacts, constants)`` of one certified run at ``bits`` (the caller holds
     :class:`working_bits`); ``start``: ``(x0, v0)`` balls at ``t0`` instead of the parameters';
-    ``progress``: a :class:`~precise_impact.io.progress.Progress` told each finished period."""
+    ``progress``: a :class:`~precise_impact.io.progress.Progress` told each finished period;
+    ``deadline``: a :class:`~precise_impact.core.budget.Deadline` checked after each period."""
     eng = _Engine(params, bits)
-    samples, impacts = eng.run(periods, progress, start)
+    samples, impacts = eng.run(periods, progress, start, deadline)
     return samples, impacts, eng.c
 
 
-def _run(params: Params, periods: int, bits: int, progress) -> tuple[list, list]:
+def _run(params: Params, periods: int, bits: int, progress, deadline=None) -> tuple[list, list]:
     with working_bits(bits):
-        return run_balls(params, periods, bits, progress=progress)[:2]
+        return run_balls(params, periods, bits, progress=progress, deadline=deadline)[:2]
+
+
+#: The fewest periods proven before a failed attempt over which the radius growth is trusted to
+#: project the bits of the whole run (:func:`out_of_reach`): a transient shorter than this
+#: (impacts before a trajectory settles) never leads to a refusal.
+MIN_MEASURED_PERIODS = 100
+#: A projection refuses only when it exceeds ``max_bits`` by this factor (one more doubling
+#: beyond ``max_bits`` would still not suffice).
+REACH_MARGIN = 2
+
+
+def out_of_reach(e: CertificationError, bits: int, periods: int, max_bits: int) -> str | None:
+    """The refusal of a run whose bits are out of reach, or ``None`` to double the bits on.
+
+    After a failed attempt at ``bits``, the radius growth ``g`` (decimal digits per period,
+    least squares over the second half of the periods proven before the failure: a trajectory
+    that settles onto a stable orbit grows less there) projects the bits the run needs:
+    ``bits + g (periods - proven) / log10(2)`` (the failure happens when the radius reaches
+    the same level, reached ``g (periods - proven)`` digits later).  Refused only with at least
+    :data:`MIN_MEASURED_PERIODS` periods proven, ``g > 0``, and a projection above
+    :data:`REACH_MARGIN` x ``max_bits``.
+    """
+    samples = getattr(e, "partial", None) or []
+    proven = len(samples) - 1
+    if proven < MIN_MEASURED_PERIODS:
+        return None
+    half = samples[proven // 2 :]
+    ks = [s[0] for s in half]
+    ys = [max(log10_abs(b.rad()) for b in s[2:]) for s in half]
+    pts = [(k, y) for k, y in zip(ks, ys, strict=True) if math.isfinite(y)]
+    if len(pts) < 2:
+        return None
+    km = sum(k for k, _ in pts) / len(pts)
+    ym = sum(y for _, y in pts) / len(pts)
+    den = sum((k - km) ** 2 for k, _ in pts)
+    g = sum((k - km) * (y - ym) for k, y in pts) / den if den else 0.0
+    if not g > 0:
+        return None
+    need = bits + g * (periods - proven) / math.log10(2)
+    if need <= REACH_MARGIN * max_bits:
+        return None
+    return (
+        f"{e} (after {proven} proven periods the radius grows {g:.3g} decimal digits per period:"
+        f" {periods} periods need ~{need:.3g} bits, beyond max_bits = {max_bits}; "
+        f"ask for fewer periods)"
+    )
 
 
 def check_certifiable(params: Params) -> None:
@@ -589,6 +704,7 @@ def certify(
     target_radius: Any = "1e-30",
     max_bits: int = 8192,
     progress: bool | None = None,
+    max_time: Any = None,
     bits: Any = UNSET,
     **param_values: Any,
 ) -> CertifiedTrajectory:
@@ -603,10 +719,10 @@ def certify(
         Forcing periods (``1 <= periods <= 100000``).
     precision : str, default ``'auto'``
         Working precision of the balls, ``'mp:BITS'`` (``64 <= BITS <= max_bits``).
-        ``'auto'`` chooses it: a pilot run of ``min(periods, 40)`` periods at 128 bits
-        measures the growth of the radius per period, and the bits are set so that the last
-        sample's radius is below ``target_radius`` with two decimal digits to spare (rounded
-        up to a multiple of 64).
+        ``'auto'`` chooses it: a pilot run of ``min(periods, 40)`` periods at 128 bits (doubled
+        until it is proven, up to ``max_bits``) measures the growth of the radius per period,
+        and the bits are set so that the last sample's radius is below ``target_radius`` with
+        two decimal digits to spare (rounded up to a multiple of 64).
     target_radius : decimal, default ``'1e-30'``
         The radius wanted at every sample when ``precision`` is ``'auto'``
         (``1e-3000 <= target_radius <= 1e-3``).
@@ -615,6 +731,11 @@ def certify(
         or a missed target, up to this (``<= 16384``).
     progress : bool or None, default ``None``
         A progress line on stderr (``None``: only when stderr is a terminal).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds (``1 <= max_time <= 604800``): the estimated cost
+        (:func:`~precise_impact.core.budget.estimate_cost`, job ``'certify'``) is checked
+        against it before any work (at the given bits, or the pilot's 128 and again at the
+        automatic choice), and the run stops once it is spent; ``None``: no budget.
     bits : int or None
         Deprecated: ``precision='mp:BITS'`` (``None``: ``'auto'``).
     **param_values
@@ -623,15 +744,24 @@ def certify(
     Returns
     -------
     CertifiedTrajectory
-        Balls of every sample and impact, the bits used and how they were chosen.
+        Balls of every sample and impact, the bits used and how they were chosen.  Samples are
+        right-continuous, as in every engine (``docs/numerics.rst``): a start on the wall
+        moving into it (``x0 = x_w``, ``v0 > 0``) is an impact at ``t0``, and sample 0 holds
+        the state after it, ``(x_w, -R v0)``.
 
     Raises
     ------
     ParameterError
         Bad input, before any work.
+    OverBudgetError
+        The estimated cost is over ``max_time``, before any work.
+    BudgetExceededError
+        ``max_time`` ran out during the run.
     CertificationError
         No proof up to ``max_bits`` (a tangential contact, chattering, an impact on a sample
-        time); the message names the time and the ball.
+        time); the message names the time and the ball.  Also, without doubling on, when the
+        radius growth measured over a failed attempt projects more bits than ``max_bits``
+        can give (:func:`out_of_reach`).
     OptionalDependencyError
         python-flint is not installed.
 
@@ -672,24 +802,38 @@ def certify(
             "target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3"
         )
     check_certifiable(params)  # (x0 <= x_w holds for every Params)
+    enforce_max_time(max_time, "certify", periods=periods, precision=f"mp:{bits or 128}")
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "certify")
     choice = "given"
     log_target = math.log10(target.numerator) - math.log10(
         target.denominator
     )  # no underflow below 1e-308
     if bits is None:
         n_pilot = min(periods, 40)
-        pilot = CertifiedTrajectory(
-            params, n_pilot, 128, "pilot", *_run(params, n_pilot, 128, None), 0.0
-        )
+        pilot_bits, failed = 128, ""
+        while True:  # a pilot without a proof retries at twice the bits, as the run does
+            try:
+                runs = _run(params, n_pilot, pilot_bits, None, deadline)
+                break
+            except CertificationError as e:
+                if 2 * pilot_bits > max_bits:
+                    raise CertificationError(
+                        f"{e} (the pilot of {n_pilot} periods, up to max_bits = {max_bits})"
+                    ) from None
+                failed += f"no proof at {pilot_bits} bits ({e}); "
+                pilot_bits *= 2
+        pilot = CertifiedTrajectory(params, n_pilot, pilot_bits, "pilot", *runs, 0.0)
         g = max(pilot.growth_digits_per_period(), 0.0)
         r_pilot = max(pilot.log10_radii()[-1], -300.0)
-        # radius ~ 10^(r_pilot + g (N - n_pilot) - 0.30103 (bits - 128)); two digits to spare
+        # radius ~ 10^(r_pilot + g (N - n_pilot) - 0.30103 (bits - pilot_bits)); two digits
+        # to spare
         need = r_pilot + g * (periods - n_pilot) - log_target + 2
-        bits = int(64 * math.ceil(max(128, 128 + need / 0.30103) / 64))
+        bits = int(64 * math.ceil(max(pilot_bits, pilot_bits + need / 0.30103) / 64))
         choice = (
             f"automatic: radius growth {g:.3f} digits/period "
-            f"(pilot of {n_pilot} periods at 128 bits) "
-            f"-> {bits} bits for radius 1e{log_target:.0f} after {periods} periods"
+            f"(pilot of {n_pilot} periods at {pilot_bits} bits"
+            + (f"; {failed[:-2]}" if failed else "")
+            + f") -> {bits} bits for radius 1e{log_target:.0f} after {periods} periods"
         )
         if bits > max_bits:
             raise ParameterError(
@@ -697,11 +841,12 @@ def certify(
                 str(target_radius),
                 f"a target reachable within max_bits = {max_bits} (needs ~{bits} bits)",
             )
+        enforce_max_time(max_time, "certify", periods=periods, precision=f"mp:{bits}")
     bar = Progress(periods, "certified periods", enabled=progress)
     while True:
         t0 = time.perf_counter()
         try:
-            samples, impacts = _run(params, periods, bits, bar)
+            samples, impacts = _run(params, periods, bits, bar, deadline)
             res = CertifiedTrajectory(
                 params, periods, bits, choice, samples, impacts, time.perf_counter() - t0
             )
@@ -716,9 +861,16 @@ def certify(
                 f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, "
                 f"retried at {2 * bits}"
             )
+        except BudgetExceededError:
+            bar.close()  # end a line redrawn in place before the one-line refusal
+            raise
         except CertificationError as e:
             if 2 * bits > max_bits:
                 raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
+            refusal = out_of_reach(e, bits, periods, max_bits)
+            if refusal is not None:
+                bar.close()
+                raise CertificationError(refusal) from None
             choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
         bits *= 2
 
@@ -728,9 +880,10 @@ class CertifiedSolver:
     ``precision='mp:BITS'``).
 
     Its :class:`~precise_impact.core.trajectory.Trajectory` holds the balls' midpoints in the
-    working precision; ``stats['x_rad']``, ``stats['v_rad']`` (floats, rounded up) and
-    ``stats['max_radius']`` (and ``stats['max_log10_radius']``, which never underflows) carry
-    the proven radii.  Dense output is not offered (``per_period`` must be 0): use
+    working precision; ``stats['x_rad']``, ``stats['v_rad']`` and ``stats['max_radius']``
+    (decimal strings in scientific notation, rounded up: :func:`radius_str`, never 0 for a ball
+    of any radius) and ``stats['max_log10_radius']`` (``None`` for exact points) carry the
+    proven radii.  Dense output is not offered (``per_period`` must be 0): use
     :func:`certify` for the balls themselves.
 
     Parameters
@@ -777,7 +930,6 @@ class CertifiedSolver:
         r = certify(params, periods, precision=f"mp:{self.bits}", max_bits=self.bits)
         P = self.precision
         mid = lambda b: P.from_fraction(exact_value(b.mid()))  # noqa: E731
-        rad = lambda b: float(exact_value(b.rad())) * (1 + 2**-50)  # noqa: E731
         return Trajectory(
             params=params,
             model=self.model_name,
@@ -793,9 +945,9 @@ class CertifiedSolver:
             stats={
                 "certified": True,
                 "bits": self.bits,
-                "x_rad": [rad(s[2]) for s in r.samples],
-                "v_rad": [rad(s[3]) for s in r.samples],
-                "max_radius": r.max_radius(),
-                "max_log10_radius": r.max_log10_radius(),
+                "x_rad": [radius_str(s[2].rad()) for s in r.samples],
+                "v_rad": [radius_str(s[3].rad()) for s in r.samples],
+                "max_radius": max_radius_str(b for s in r.samples for b in s[2:]),
+                "max_log10_radius": _finite_or_none(r.max_log10_radius()),
             },
         )

@@ -19,6 +19,12 @@ import numba
 import numpy as np
 
 from precise_impact.core.compat import UNSET, renamed
+from precise_impact.core.impact import (
+    BOUNCES_ENDLESS,
+    BOUNCES_REST,
+    elastic_bounce_count,
+    short_elastic_flight,
+)
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import Interrupted
 from precise_impact.io.progress import ProgressArg
@@ -36,6 +42,7 @@ from precise_impact.solvers.fast.crossing import JIT, mul2
 from precise_impact.solvers.fast.single import (
     FLIGHT_SAMPLES,
     STATUS_BUDGET,
+    STATUS_ENDLESS_BOUNCES,
     STATUS_NONFINITE,
     STATUS_OK,
     STATUS_SLOW_IMPACT,
@@ -45,6 +52,11 @@ from precise_impact.solvers.fast.single import (
     compiled_saltation,
     sample_time,
 )
+
+EPS = 2.220446049250313e-16  # float64's machine epsilon (the bounce prediction's floor)
+#: The shared prediction of R = 1 bounce sequences, compiled for the kernel.
+_bounce_count = numba.njit(**JIT)(elastic_bounce_count)
+_short_flight = numba.njit(**JIT)(short_elastic_flight)
 
 __all__ = ["lle_orbit", "lle_batch", "lle_batch_serial", "fast_lle", "QR_EVERY", "LLE_KERNELS"]
 
@@ -99,7 +111,12 @@ def lle_orbit(
     """
     P, Q, w, S, err_scale, h_max, v_floor, steps = _setup(eta, zeta, a, xw)
     T = 2.0 * math.pi / eta
-    buf = np.empty((FLIGHT_SAMPLES, 6))
+    # samples per flight from one anchor: Phi(k T) ~ exp(-zeta k T) must not underflow
+    # (measured at eta = 0.005: 16 samples of exp(-62.8) each, status non-finite)
+    n_buf = FLIGHT_SAMPLES
+    if zeta * T * FLIGHT_SAMPLES > 600.0:
+        n_buf = max(1, int(600.0 / (zeta * T)))
+    buf = np.empty((n_buf, 6))
     t, x, v = t0, x0, v0
     W00, W01, W10, W11 = (
         1.0,
@@ -110,6 +127,15 @@ def lle_orbit(
     c00, c01, c10, c11 = 1.0, 0.0, 0.0, 1.0  # the basis at the last sample
     log1 = 0.0
     log2 = 0.0
+    # ln det W, tracked exactly: det Phi(dt) = exp(-2 zeta dt) (Liouville), det S = R^2.  The
+    # second exponent's log at a QR is ln det(Phi W) - ln r11, not ln r22 of Gram-Schmidt:
+    # after slow impacts (saltation ~1/v) the columns are parallel to rounding and r22 was
+    # cancellation noise or 0 (measured: eta = 1.137, x_w = -0.97, R = 1: lambda2 = -inf
+    # where lambda1 + lambda2 = -2 zeta exactly)
+    D = 0.0
+    lnR2 = 2.0 * math.log(R) if R > 0.0 else -math.inf
+    predicted = False  # the current R = 1 bounce sequence has been predicted
+    t_end = t0 + (transient + periods) * T
     n_imp = 0
     n_meas = 0
     total = transient + periods
@@ -142,21 +168,23 @@ def lle_orbit(
             # at the end of the transient and of every block, and whenever the basis has
             # grown large (saltations at slow impacts): the logs of a product of
             # upper-triangular factors are the sums of their logs, so fewer QRs give the
-            # same exponents and block sums.
+            # same exponents and block sums.  A basis shrunk below 1e-100 is taken at once
+            # too (a long damped period: measured at eta = 0.005, four periods between QRs
+            # underflowed the squares of Gram-Schmidt to 0, status non-finite).
             km = k - transient
             if (
                 (km % QR_EVERY == 0)
                 or km == 0
                 or (km > 0 and km % per_block == 0)
                 or k == total
-                or abs(c00) + abs(c10) + abs(c01) + abs(c11) > 1e150
+                or not 1e-100 < abs(c00) + abs(c10) + abs(c01) + abs(c11) < 1e150
             ):
                 r11 = math.sqrt(c00 * c00 + c10 * c10)
                 q0, q1 = c00 / r11, c10 / r11
                 proj = q0 * c01 + q1 * c11
                 d0, d1 = c01 - proj * q0, c11 - proj * q1
                 r22 = math.sqrt(d0 * d0 + d1 * d1)
-                if not math.isfinite(r11):
+                if not 1e-150 < r11 < math.inf:  # under- or overflowed: not resolved here
                     return STATUS_NONFINITE, log1, log2, n_meas, xk, vk
                 # W <- W r^-1: first column / r11, second (column - proj * new first) / r22
                 W00, W10 = W00 / r11, W10 / r11
@@ -168,25 +196,45 @@ def lle_orbit(
                     det = p00 * p11 - p01 * p10
                     W01, W11 = (p11 * u0 - p01 * u1) / det, (p00 * u1 - p10 * u0) / det
                 c00, c10, c01, c11 = q0, q1, u0, u1
+                ts = sample_time(t0, T, 1, k)
                 if k > transient:
                     l1 = math.log(r11)
                     log1 += l1
-                    log2 += math.log(r22) if r22 > 0.0 else -math.inf
+                    log2 += (D - 2.0 * zeta * (ts - t)) - l1
                     j = (k - transient - 1) // per_block
                     if j < blocks:
                         block_sums[j] += l1
+                D = 2.0 * zeta * (ts - t)  # det(Phi W) = det(q u) = 1 after the QR
             k += 1
         if st != STATUS_OK:
             return st, log1, log2, n_meas, x, v
         if not hit:  # re-anchor at the last sample
-            t, x, v = sample_time(t0, T, 1, k - 1), buf[ns - 1, 0], buf[ns - 1, 1]
+            ts = sample_time(t0, T, 1, k - 1)
+            D -= 2.0 * zeta * (ts - t)
+            t, x, v = ts, buf[ns - 1, 0], buf[ns - 1, 1]
             W00, W01, W10, W11 = c00, c01, c10, c11
             continue
+        if R >= 1.0:
+            # R = 1 under the wall force (core.impact.elastic_bounce_count): the first short
+            # flight of a bounce sequence predicts its impacts; rest on the wall or more than
+            # the budget is refused at once (STATUS_ENDLESS_BOUNCES: log1, log2 carry the
+            # impact's time and speed for the message), not run to the floor
+            gc = a * math.cos(eta * tc) - xw
+            if _short_flight(vc, gc, eta):
+                if not predicted:
+                    predicted = True
+                    nb, end, _ = _bounce_count(tc, vc, t_end, eta, zeta, a, xw, EPS)
+                    rest = end == BOUNCES_REST or end == BOUNCES_ENDLESS
+                    if rest or nb > max_impacts - n_imp:
+                        return STATUS_ENDLESS_BOUNCES, tc, vc, n_meas, x, v
+            else:
+                predicted = False
         if vc < v_floor:
             return STATUS_SLOW_IMPACT, log1, log2, n_meas, x, v
         # the basis just before the impact, then through the saltation matrix
         s00, s01, s10, s11 = compiled_saltation(tc, vc, eta, zeta, a, xw, R)
         W00, W01, W10, W11 = mul2(s00, s01, s10, s11, *mul2(F00, F01, F10, F11, W00, W01, W10, W11))
+        D += lnR2 - 2.0 * zeta * (tc - t)
         n_imp += 1
         if k > transient:  # the impact lies before sample k: measured period k - transient
             n_meas += 1

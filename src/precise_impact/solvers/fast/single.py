@@ -36,7 +36,9 @@ STATUS_CONTACT = 1  # a tangential contact (rounding-level excursion): rerun wit
 STATUS_SLOW_IMPACT = 2  # an impact slower than v_floor (chattering / sticking): rerun with heyoka
 STATUS_BUDGET = 3  # max_impacts exhausted
 STATUS_NONFINITE = 4
-# 5: STATUS_UNSUPPORTED of the pair (solvers.fast.coupled);
+#: R = 1 bounces under the wall force predicted to reach rest or to outrun the impact budget
+#: (core.impact.elastic_bounce_count; the LLE kernel only): refused, not rerun
+STATUS_ENDLESS_BOUNCES = 5
 # 6: STATUS_INTERRUPTED (solvers.fast.control)
 
 __all__ = [
@@ -57,6 +59,7 @@ STATUS_TEXT = {
     STATUS_SLOW_IMPACT: "impact slower than the speed floor (chattering or sticking)",
     STATUS_BUDGET: "impact budget exhausted",
     STATUS_NONFINITE: "non-finite state",
+    STATUS_ENDLESS_BOUNCES: "R = 1 bounces on the wall without end (predicted)",
     STATUS_INTERRUPTED: "stopped (interrupted, or another orbit of the batch went to heyoka)",
 }
 

@@ -31,12 +31,17 @@ import numpy as np
 from precise_impact.core.clock import local_clock
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import (
+    BOUNCES_ENDLESS,
+    BOUNCES_REST,
     GRAZING_SAFETY,
+    elastic_bounce_count,
+    elastic_bounce_refusal,
     grazing_depth,
     impact_at_start,
     is_contact,
     oscillator_saltation,
     reset_velocity,
+    short_elastic_flight,
     steady_amplitude,
 )
 from precise_impact.core.linalg import gram_schmidt2
@@ -52,7 +57,8 @@ from precise_impact.core.precision import Precision
 from precise_impact.errors import BudgetExceededError, IntegrationError, MissedImpactError
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
-from precise_impact.solvers.heyoka.variational import GUARD_FACTOR
+from precise_impact.solvers.heyoka.single import _below_wall
+from precise_impact.solvers.heyoka.variational import GUARD_FACTOR, chunk_layout, released_at
 
 __all__ = ["integrate_group", "default_batch_size"]
 
@@ -60,6 +66,10 @@ __all__ = ["integrate_group", "default_batch_size"]
 _COEF64 = (
     GRAZING_SAFETY * 2.0**-53
 )  # grazing_depth_coefficient(float64), exactly (a power of two times 16)
+
+
+#: The wall of a retired lane (a refused R = 1 bounce sequence): far beyond any orbit.
+RETIRED_WALL = 1e12
 
 
 def _depth(t: float, pr, i: int, amp: float) -> float:
@@ -87,6 +97,12 @@ class _BatchSaltation:
         self.grazing = np.zeros(batch_size, dtype=np.int64)
         self.log1 = np.zeros(batch_size)
         self.log2 = np.zeros(batch_size)
+        # R = 1 bounce sequences (core.impact.elastic_bounce_count), per lane: the run's end
+        # on the local clock (set every period), whether the current one was predicted, and
+        # the refusal of a lane predicted to come to rest or to outrun its budget
+        self.t_end = np.full(batch_size, math.inf)
+        self.predicted = [False] * batch_size
+        self.refused: list[str | None] = [None] * batch_size
 
     @property
     def count(self) -> np.ndarray:
@@ -123,7 +139,25 @@ class _BatchSaltation:
             self.log2[i] = -math.inf
         st[1, i] = reset_velocity(vb, R)
         st[0, i] = x_w
+        if R >= 1 and self.refused[i] is None:
+            self._bounces(pr, i, t, vb, float(eta), float(zeta), float(a), float(x_w))
         return self.lanes[i].record(t)
+
+    def _bounces(self, pr, i: int, t: float, vb: float, eta, zeta, a, x_w) -> None:
+        """An ``R = 1`` impact of lane ``i``: predict a bounce sequence at its first short flight;
+        one that comes to rest or outruns the budget is refused and the lane retired (its wall
+        moved to ``RETIRED_WALL``: it runs on without impacts, its results are discarded)."""
+        if not short_elastic_flight(vb, a * math.cos(eta * t) - x_w, eta):
+            self.predicted[i] = False
+            return
+        if self.predicted[i]:
+            return
+        self.predicted[i] = True
+        n, end, s = elastic_bounce_count(t, vb, float(self.t_end[i]), eta, zeta, a, x_w, 2.0**-52)
+        lane = self.lanes[i]
+        if end in (BOUNCES_REST, BOUNCES_ENDLESS) or n > lane.max_impacts - lane.count:
+            self.refused[i] = elastic_bounce_refusal(t, n, end, s, lane.max_impacts)
+            pr[I_XW, i] = RETIRED_WALL
 
 
 class _BatchGuard:
@@ -189,10 +223,11 @@ def _integrator(batch_size: int):
 def integrate_group(group, B: int, periods: int, transient: int, max_impacts: int):
     """Integrate ``B`` points (one SIMD lane each) for ``transient + periods`` periods.
 
-    Returns ``(l1, l2, xs, vs, T, impacts, grazing)``: per measured period and lane the
+    Returns ``(l1, l2, xs, vs, T, impacts, grazing, refused)``: per measured period and lane the
     logs ``ln r11``, ``ln r22`` (in-callback QRs of the impacts included) and the
     stroboscopic samples (arrays ``(periods, B)``), each lane's period ``T`` on its local
-    clock, the impacts in the measured periods and the tangential contacts of the whole run.
+    clock, the impacts in the measured periods, the tangential contacts of the whole run, and
+    per lane ``None`` or why it was refused (an ``R = 1`` bounce sequence without end).
     """
     import heyoka as hy
 
@@ -204,18 +239,24 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     grd.reset(B, amp)
     ta.pars[:] = np.array([[float(getattr(p, n)) for p in group] for n in RUNTIME_PARAMS])
     st = np.zeros((6, B))
-    for i, p in enumerate(group):
-        v0 = float(p.v0)
-        if impact_at_start(p.x0, p.v0, p.x_w, p.R):
-            v0 = reset_velocity(v0, float(p.R))
-        st[:, i] = (float(p.x0), v0, 1.0, 0.0, 0.0, 1.0)
-    ta.state[:] = st
     P64 = Precision.parse("float64")
     clocks = [local_clock(P64, p.t0, p.eta) for p in group]
     L0 = np.array([c[0] for c in clocks])
     L1 = np.array([c[1] for c in clocks])
     T = L1 - L0  # the period each lane integrates (the local clock's)
-    ta.set_time(L0)
+    start = L0.copy()  # a lane that starts stuck on the wall starts at its release
+    for i, p in enumerate(group):
+        x0, v0 = float(p.x0), float(p.v0)
+        if impact_at_start(p.x0, p.v0, p.x_w, p.R):
+            # as the variational integrator: off the wall by a rounding-level distance
+            v0, x0 = reset_velocity(v0, float(p.R)), _below_wall(P64, p.x_w)
+        elif p.x0 == p.x_w and p.v0 == 0:
+            t_r = released_at(P64, p, float(L0[i]))
+            if t_r is not None:
+                start[i], x0 = t_r, _below_wall(P64, p.x_w)
+        st[:, i] = (x0, v0, 1.0, 0.0, 0.0, 1.0)
+    ta.state[:] = st
+    ta.set_time(start)
     ta.reset_cooldowns()
     total = transient + periods
     l1 = np.zeros((periods, B))
@@ -223,23 +264,44 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     xs = np.zeros((periods, B))
     vs = np.zeros((periods, B))
     imp0 = None
+    # QR steps per period and lane: a period longer than the tangents' QR interval is cut
+    # into equal steps, each lane as it would be alone (solvers.heyoka.variational.chunk_layout)
+    m = np.array([chunk_layout(float(T[i]), p.zeta)[1] for i, p in enumerate(group)])
+    M = int(m.max())
+    targets = [np.where(j < m, L0 + (L1 - L0) * j / m, L1) for j in range(1, M)] + [L1]
     for k in range(1, total + 1):
-        ta.propagate_until(L1)
-        if rec.exceeded:
-            raise BudgetExceededError(
-                f"impact budget max_impacts={max_impacts} exhausted in a batch lane"
-            )
-        if any(r[0] != hy.taylor_outcome.time_limit for r in ta.propagate_res):
-            raise IntegrationError(
-                f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}"
-            )
-        if grd.first_miss is not None:
-            i, t_m, over = grd.first_miss
-            raise MissedImpactError(
-                f"batch lane {i} ({group[i]}): a maximum of x lies {over:.3g} beyond the wall "
-                f"at local time {t_m:.17g} with no impact event: heyoka's event detection missed "
-                "an impact"
-            )
+        rec.t_end = L0 + (total - k + 1) * T
+        s1 = np.zeros(B)
+        s2 = np.zeros(B)
+        for j, target in enumerate(targets, start=1):
+            if k == 1:  # never back before a released lane's start
+                target = np.maximum(target, start)
+            ta.propagate_until(target)
+            if rec.exceeded:
+                raise BudgetExceededError(
+                    f"impact budget max_impacts={max_impacts} exhausted in a batch lane"
+                )
+            if any(r[0] != hy.taylor_outcome.time_limit for r in ta.propagate_res):
+                raise IntegrationError(
+                    f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}"
+                )
+            if grd.first_miss is not None:
+                i, t_m, over = grd.first_miss
+                raise MissedImpactError(
+                    f"batch lane {i} ({group[i]}): a maximum of x lies {over:.3g} beyond the "
+                    f"wall at local time {t_m:.17g} with no impact event: heyoka's event "
+                    "detection missed an impact"
+                )
+            if j == M:
+                break
+            s = ta.state
+            moved = j < m  # lanes inside their period (at L1 the period's own QR follows)
+            q0, q1, u0, u1, r11, r22 = gram_schmidt2(s[2], s[4], s[3], s[5], np.sqrt)
+            s[2], s[4] = np.where(moved, q0, s[2]), np.where(moved, q1, s[4])
+            s[3], s[5] = np.where(moved, u0, s[3]), np.where(moved, u1, s[5])
+            with np.errstate(divide="ignore"):
+                s1 += np.where(moved, np.log(r11), 0.0)
+                s2 += np.where(moved, np.log(r22), 0.0)
         ta.set_time(L0)  # the forcing is T-periodic: set every lane's clock back one period
         s = ta.state
         q0, q1, u0, u1, r11, r22 = gram_schmidt2(s[2], s[4], s[3], s[5], np.sqrt)
@@ -253,8 +315,10 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
             j = k - transient - 1
             with np.errstate(divide="ignore"):
                 l1[j], l2[j] = np.log(r11) + c1_log, np.log(r22) + c2_log
+                if M > 1:
+                    l1[j], l2[j] = l1[j] + s1, l2[j] + s2
             xs[j], vs[j] = s[0], s[1]
     if imp0 is None:  # transient == 0
         imp0 = np.zeros(B, dtype=np.int64)
     impacts = rec.count - imp0
-    return l1, l2, xs, vs, T, impacts, rec.grazing.copy()
+    return l1, l2, xs, vs, T, impacts, rec.grazing.copy(), list(rec.refused)

@@ -23,6 +23,8 @@ from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import (
     GrazingDepth,
     chatter_accumulation_time,
+    elastic_bounce_count,
+    elastic_bounce_text,
     grazing_depth_coefficient,
     impact_at_start,
     is_contact,
@@ -32,6 +34,7 @@ from precise_impact.core.impact import (
     steady_amplitude,
     wall_acceleration,
 )
+from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.params import (
     I_A,
     I_ETA,
@@ -204,8 +207,9 @@ def build_integrator(
 
 
 # --------------------------------------------------------------------------- the wall
-def _mpq(q: Fraction) -> mpmath.mpf:
-    return mpmath.mpf(q.numerator) / q.denominator
+def _mpq(q: Fraction, ctx: Any) -> Any:
+    """``q`` in the mpmath context ``ctx`` (one rounding at its precision)."""
+    return ctx.mpf(q.numerator) / q.denominator
 
 
 def _extra_bits(tm: mpmath.mpf) -> int:
@@ -224,9 +228,11 @@ class _Wall:
     """Sticking decision and release time for one run, in mpmath with guard bits.
 
     Times come in as numbers of the working precision ``P`` and are converted
-    exactly; the release time is computed at ``P.bits + 64`` bits plus the bits of
-    ``|t|`` and rounded *up* to ``P``, so that the force at the returned instant
-    is already ``<= 0`` (the released mass does not start inside the wall).
+    exactly (into mpmath contexts of this thread's own, :mod:`precise_impact.core.mpcontext`:
+    mpmath's global precision is shared by every thread); the release time is computed at
+    ``P.bits + 64`` bits plus the bits of ``|t|`` and rounded *up* to ``P``, so that the force
+    at the returned instant is already ``<= 0`` (the released mass does not start inside the
+    wall).
     """
 
     def __init__(self, P: Precision, params: Params) -> None:
@@ -240,18 +246,16 @@ class _Wall:
         """Does a mass at rest on the wall at ``t`` stay there (force into the wall)?"""
         p = self.params
         tm = self.P.to_mpf(t)
-        with mpmath.workprec(self.prec(tm)):
-            return pushes_into_wall(tm, p.eta, p.a, p.x_w)
+        return pushes_into_wall(tm, p.eta, p.a, p.x_w, ctx=mp_context(self.prec(tm)))
 
     def release(self, t: Any) -> Any:
         """Release time (working precision) after sticking at ``t``, or ``None`` (never)."""
         p = self.params
         tm = self.P.to_mpf(t)
-        with mpmath.workprec(self.prec(tm) + 8):
-            tr = release_time(tm, p.eta, p.a, p.x_w)
-            if tr is None:
-                return None
-            return _round_up(self.P, tr)
+        tr = release_time(tm, p.eta, p.a, p.x_w, ctx=mp_context(self.prec(tm) + 8))
+        if tr is None:
+            return None
+        return _round_up(self.P, tr)
 
 
 class _ZenoWatch:
@@ -339,14 +343,14 @@ class _ZenoWatch:
     def _prec(self, tm) -> int:
         return self.P.bits + _extra_bits(tm)
 
-    def _richardson(self, F, noise: float) -> tuple:
+    def _richardson(self, F, noise: float, ctx: Any) -> tuple:
         """Append ``F`` as a new row of the table; return ``(estimate, change, converged)``.
 
         The estimate is the entry of the *lowest* column whose last two changes
         are both ``<= noise`` (converged), else the entry with the smallest last
         change (not converged).
         """
-        Rm = _mpq(self.R)
+        Rm = _mpq(self.R, ctx)
         prev, prev_diff = self.row, self.diff
         row = [F]
         for j in range(1, min(len(prev), self.LEVELS) + 1):
@@ -368,47 +372,20 @@ class _ZenoWatch:
         return i < len(self.grid) and self.grid[i] < t_inf
 
     def elastic_bounces(self, t: float, v: float) -> tuple[float, str]:
-        """Predicted impacts of an ``R = 1`` bounce sequence on the wall from impact ``(t, v)``.
-
-        With ``R = 1`` and short flights under the wall force ``g(s) = a cos(eta s) - x_w > 0``
-        the bounce's action ``J = (2/3) v^3 / g`` is an adiabatic invariant of the flight
-        between impacts, and linear damping makes it decay exactly like ``exp(-2 zeta s)``
-        on average (``dJ/dt = -2 zeta J`` for any bounce shape).  So the impact speed is
-        ``v(s) = (1.5 g(s) J(s))^(1/3)``, ``~ exp(-2 zeta s / 3)``: flights shrink, the impact
-        rate ``g / (2 v)`` grows exponentially, but their sum diverges (not a Zeno
-        sequence).  The impact count is the integral of that rate up to the first of:
-        the force turning (release), the speed floor (taken as rest), the run's end.
-        Returns ``(count, what ends it)``; ``inf`` when the integral passes 1e18.
-        """
-        zeta = float(self.params.zeta)
-        J0 = 2.0 * v**3 / 3.0 / max(self.a_f * math.cos(self.eta_f * t) - self.xw_f, 1e-300)
-        t_end = float(self.grid[-1])
-        h = min(2 * math.pi / self.omega / 64, max(t_end - t, 1e-300))
-        total, s0 = 0.0, t
-        for _ in range(64):  # chunks of 4096 steps: enough for 4096 forcing periods
-            s = s0 + h * np.arange(1, 4097)
-            g = self.a_f * np.cos(self.eta_f * s) - self.xw_f
-            J = J0 * np.exp(-2 * zeta * (s - t))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                vs = np.cbrt(1.5 * np.maximum(g, 0) * J)
-                rate = np.where(g > 0, g / (2 * vs), 0.0)
-            floor = np.sqrt(500.0 * self.eps_f * self.scale * np.maximum(g, 0))
-            stop = (g <= 0) | (vs < floor) | (s >= t_end)
-            k = int(np.argmax(stop)) if stop.any() else len(s)
-            total += float(np.sum(rate[:k])) * h
-            if k < len(s):
-                what = (
-                    "the end of the run"
-                    if s[k] >= t_end
-                    else f"the release at t ~ {s[k]:.6g}"
-                    if g[k] <= 0
-                    else f"rest on the wall at t ~ {s[k]:.6g}"
-                )
-                return total, what
-            if total > 1e18:
-                return math.inf, "the end of the run"
-            s0 = float(s[-1])
-        return total, f"t = {s0:.6g}"
+        """Predicted impacts of an ``R = 1`` bounce sequence on the wall from impact ``(t, v)``
+        until the run's end: :func:`~precise_impact.core.impact.elastic_bounce_count`.
+        Returns ``(count, what ends it)``; ``inf`` when the count passes 1e18."""
+        n, end, s = elastic_bounce_count(
+            t,
+            v,
+            float(self.grid[-1]),
+            self.eta_f,
+            float(self.params.zeta),
+            self.a_f,
+            self.xw_f,
+            self.eps_f,
+        )
+        return n, elastic_bounce_text(end, s)
 
     # -- called by the impact callback ------------------------------------------------
     def observe(self, t: Any, vb: Any) -> bool:
@@ -461,32 +438,33 @@ class _ZenoWatch:
         extrapolated; True (episode finished) once it is converged or at the speed floor."""
         p = self.params
         P = self.P
-        tm, vm = P.to_mpf(t), P.to_mpf(vb)
-        with mpmath.workprec(self._prec(tm)):
-            gm = wall_acceleration(
-                tm, _mpq(p.eta), _mpq(p.zeta), _mpq(p.a), _mpq(p.x_w), mpmath.cos
-            )
-            F = chatter_accumulation_time(tm, vm, _mpq(self.R), gm)
-            noise = self.tol_factor * self.tol_f * max(1.0, abs(tf))
-            est, err, converged = self._richardson(F, noise)
-            converged = converged and self.run_n >= 3
-            if self.run_n >= 3:
-                self.best, self.best_err = est, err
-            if not (converged or at_floor):
-                return False
-            t_rel = release_time(tm, p.eta, p.a, p.x_w)
-            t_inf_m = self.best if self.best is not None else F
-            if t_rel is not None and t_inf_m >= t_rel:
-                if not at_floor:
-                    return False  # incomplete chattering: the force turns before t_inf
-                t_inf_m = t_rel
-            t_inf = P.from_mpf(t_inf_m)
-            if t_inf < t:
-                t_inf = t
-            if not at_floor and self.window_has_output(t, t_inf):
-                return False  # resolve more impacts: an output time lies in the tail
-            self._finish(t, vb, gm, at_floor=at_floor, t_inf=t_inf, err=self.best_err)
-            return True
+        tm = P.to_mpf(t)
+        ctx = mp_context(self._prec(tm))
+        tm, vm = mp_import(ctx, tm), mp_import(ctx, P.to_mpf(vb))
+        gm = wall_acceleration(
+            tm, _mpq(p.eta, ctx), _mpq(p.zeta, ctx), _mpq(p.a, ctx), _mpq(p.x_w, ctx), ctx.cos
+        )
+        F = chatter_accumulation_time(tm, vm, _mpq(self.R, ctx), gm)
+        noise = self.tol_factor * self.tol_f * max(1.0, abs(tf))
+        est, err, converged = self._richardson(F, noise, ctx)
+        converged = converged and self.run_n >= 3
+        if self.run_n >= 3:
+            self.best, self.best_err = est, err
+        if not (converged or at_floor):
+            return False
+        t_rel = release_time(tm, p.eta, p.a, p.x_w, ctx=ctx)
+        t_inf_m = self.best if self.best is not None else F
+        if t_rel is not None and t_inf_m >= t_rel:
+            if not at_floor:
+                return False  # incomplete chattering: the force turns before t_inf
+            t_inf_m = t_rel
+        t_inf = P.from_mpf(t_inf_m)
+        if t_inf < t:
+            t_inf = t
+        if not at_floor and self.window_has_output(t, t_inf):
+            return False  # resolve more impacts: an output time lies in the tail
+        self._finish(t, vb, gm, at_floor=at_floor, t_inf=t_inf, err=self.best_err)
+        return True
 
     def _finish(self, t, vb, g, at_floor, t_inf=None, err=math.inf) -> None:
         self.result = {
@@ -515,35 +493,36 @@ class _ZenoWatch:
         if z["g"] is None:  # R = 1 at the floor: taken to be at rest
             return x_w, zero
         sm = P.to_mpf(s)
-        with mpmath.workprec(self._prec(sm)):
-            Rm, g = _mpq(self.R), z["g"]
-            w = Rm * P.to_mpf(z["v_last_impact"])
-            tm = P.to_mpf(z["t_last_impact"])
-            tiny = mpmath.mpf(self.eps_f) * self.scale / 1024  # (x_w, 0) to within eps
-            while w > tiny:
-                tau = 2 * w / g
-                if tm + tau > sm:
-                    break
-                tm += tau
-                w *= Rm
-            else:
-                return x_w, zero
-            sig = sm - tm
-            xw = _mpq(self.params.x_w)
-            x = min(xw - w * sig + g * sig * sig / 2, xw)
-            v = -w + g * sig
-            return P.from_mpf(x), P.from_mpf(v)
+        ctx = mp_context(self._prec(sm))
+        sm = mp_import(ctx, sm)
+        Rm, g = _mpq(self.R, ctx), mp_import(ctx, z["g"])
+        w = Rm * P.to_mpf(z["v_last_impact"])
+        tm = mp_import(ctx, P.to_mpf(z["t_last_impact"]))
+        tiny = ctx.mpf(self.eps_f) * self.scale / 1024  # (x_w, 0) to within eps
+        while w > tiny:
+            tau = 2 * w / g
+            if tm + tau > sm:
+                break
+            tm += tau
+            w *= Rm
+        else:
+            return x_w, zero
+        sig = sm - tm
+        xw = _mpq(self.params.x_w, ctx)
+        x = min(xw - w * sig + g * sig * sig / 2, xw)
+        v = -w + g * sig
+        return P.from_mpf(x), P.from_mpf(v)
 
 
 def _below_wall(P: Precision, x_w: Fraction) -> Any:
     """``x_w - eps max(1, |x_w|)`` rounded down to ``P``: a rounding-level distance inside the
     allowed region."""
-    with mpmath.workprec(P.bits + _GUARD_BITS):
-        m = P.to_mpf(P.from_fraction(x_w))
-        m = m - mpmath.mpf(P.eps_fraction.numerator) / P.eps_fraction.denominator * max(1, abs(m))
-        return P._from_mpf_exact(
-            mpmath.mp.make_mpf(libmp.normalize(*m._mpf_, P.bits, libmp.round_floor))
-        )
+    ctx = mp_context(P.bits + _GUARD_BITS)
+    m = mp_import(ctx, P.to_mpf(P.from_fraction(x_w)))
+    m = m - ctx.mpf(P.eps_fraction.numerator) / P.eps_fraction.denominator * max(1, abs(m))
+    return P._from_mpf_exact(
+        mpmath.mp.make_mpf(libmp.normalize(*m._mpf_, P.bits, libmp.round_floor))
+    )
 
 
 def _pad_time(P: Precision, grid: list, eta: Fraction, per_period: int) -> Any:
@@ -555,9 +534,9 @@ def _pad_time(P: Precision, grid: list, eta: Fraction, per_period: int) -> Any:
     is then rarely shortened by the padding, so its computed time does not
     depend on the padding.
     """
-    with mpmath.workprec(P.bits + _extra_bits(P.to_mpf(grid[-1]))):
-        spacing = 2 * mpmath.pi / _mpq(eta) / per_period
-        return P.from_mpf(P.to_mpf(grid[-1]) + spacing)
+    ctx = mp_context(P.bits + _extra_bits(P.to_mpf(grid[-1])))
+    spacing = 2 * ctx.pi / _mpq(eta, ctx) / per_period
+    return P.from_mpf(mp_import(ctx, P.to_mpf(grid[-1])) + spacing)
 
 
 # --------------------------------------------------------------------------- solver
@@ -1143,8 +1122,8 @@ class OrbitStepper:
                 f"more than {self.budget} impacts within one forcing period at "
                 f"t={P.to_str(self.ta.time)} (chattering/Zeno sequence?)"
             )
-        if outcome != hy.taylor_outcome.time_limit:
-            raise RuntimeError(
+        if outcome != hy.taylor_outcome.time_limit:  # one CLI line, exit 3 (was a traceback)
+            raise IntegrationError(
                 f"heyoka stopped early with outcome {outcome} at t={P.to_str(self.ta.time)}"
             )
 

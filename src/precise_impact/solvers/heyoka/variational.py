@@ -12,8 +12,13 @@ tangent matrix is re-orthonormalised (Gram-Schmidt = QR; Benettin et al.,
 Meccanica 15 (1980) 21-30; Shimada & Nagashima, Prog. Theor. Phys. 61 (1979)
 1605) *right after every impact* and at the end of every ``CHUNK`` (8) periods; the
 logs of the diagonal of R accumulate the two exponents, per period (*Per-period
-logs* below).  Müller, Chaos Solitons Fractals 5
-(1995) 1671 introduced the saltation-matrix treatment for impacting systems.
+logs* below).  A chunk never spans more than ``8 / (zeta + sqrt(max(zeta^2 - 1, 0)))``
+time units (:func:`~precise_impact.solvers.heyoka.variational.chunk_layout`: fewer periods
+per chunk, or a long period cut into steps with a QR after each), since heyoka's error
+control is relative to the whole state and tangents shrunk far below ``(x, v)`` would be
+integrated as noise (measured at eta = 0.001, non-impacting: LLE -0.0045 for -zeta = -0.05).
+Müller, Chaos Solitons Fractals 5 (1995) 1671 introduced the saltation-matrix treatment
+for impacting systems.
 
 Hard cases
 ----------
@@ -129,16 +134,21 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.clock import local_grid, period_float
-from precise_impact.core.flow import acceleration
-from precise_impact.core.impact import GrazingDepth as _Depth
+from precise_impact.core.flow import acceleration, tangent_qr_interval
 from precise_impact.core.impact import (
+    BOUNCES_ENDLESS,
+    BOUNCES_REST,
+    elastic_bounce_count,
+    elastic_bounce_refusal,
     grazing_depth_coefficient,
     impact_at_start,
     is_contact,
     oscillator_saltation,
     reset_velocity,
+    short_elastic_flight,
     steady_amplitude,
 )
+from precise_impact.core.impact import GrazingDepth as _Depth
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.core.params import (
     I_A,
@@ -153,6 +163,7 @@ from precise_impact.core.params import (
 from precise_impact.core.precision import Precision
 from precise_impact.errors import (
     BudgetExceededError,
+    EndlessBouncesError,
     IntegrationError,
     MissedImpactError,
     ParameterError,
@@ -166,6 +177,7 @@ __all__ = [
     "integrate_orbit",
     "depth_for",
     "CHUNK",
+    "chunk_layout",
     "GUARD_FACTOR",
     "MissedImpactError",
     "grazing_depth_coefficient",
@@ -220,6 +232,31 @@ class _SaltationRecorder(ImpactRecorder):
         self.qr_t: list = []
         self.qr_log1: list = []
         self.qr_log2: list = []
+        #: R = 1 bounce sequences (core.impact.elastic_bounce_count): the run's end on the
+        #: local clock (set per chunk), the precision's eps, and the refusal once predicted
+        self.t_end = math.inf
+        self.eps = 2.0**-52
+        self.predicted = False
+        self.refusal: str | None = None
+
+    def _bounces(self, t: Any, vb: Any, pr: Any) -> bool:
+        """At an ``R = 1`` impact: predict a bounce sequence at its first short flight; True
+        (stop, ``refusal`` set) when it comes to rest or outruns the impact budget."""
+        tf, vf = float(t), float(vb)
+        eta, zeta, a, x_w = (float(pr[i]) for i in (I_ETA, I_ZETA, I_A, I_XW))
+        g = a * math.cos(eta * tf) - x_w
+        if not short_elastic_flight(vf, g, eta):
+            self.predicted = False
+            return False
+        if self.predicted:
+            return False
+        self.predicted = True
+        n, end, s = elastic_bounce_count(tf, vf, self.t_end, eta, zeta, a, x_w, self.eps)
+        left = self.max_impacts - self.count
+        if end not in (BOUNCES_REST, BOUNCES_ENDLESS) and n <= left:
+            return False
+        self.refusal = elastic_bounce_refusal(tf, n, end, s, self.max_impacts)
+        return True
 
     def take_logs(self) -> tuple[list, list, list]:
         """The in-callback QR logs ``(t, ln r11, ln r22)`` since the last call, and forget them."""
@@ -272,6 +309,8 @@ class _SaltationRecorder(ImpactRecorder):
         s = abs(float(s10))
         if s > self.max_saltation:
             self.max_saltation = s
+        if R >= 1 and self._bounces(t, vb, pr):
+            return False
         return self.within_budget()
 
 
@@ -394,6 +433,24 @@ def _state_logs(rows, sqrt, log) -> tuple[list, list]:
 CHUNK = 8
 
 
+def chunk_layout(period: float, zeta: Any) -> tuple[int, int]:
+    """Periods per chunk and QR steps per period: ``(CHUNK, 1)`` unless that spans more than
+    :func:`~precise_impact.core.flow.tangent_qr_interval` (long periods, strong damping):
+    then as many whole periods as fit (at least one), and a long period cut into equal steps.
+
+    Between two QRs the tangents must not shrink far below ``(x, v)``: heyoka's error control
+    is relative to the whole state, and tangent entries near ``eps |x|`` are noise
+    (measured: eta = 0.001, non-impacting, 8 periods per QR: LLE -0.0045 for -zeta = -0.05;
+    zeta = 1.5: lambda2 -1.02 for -2.618).
+    """
+    h = tangent_qr_interval(zeta)
+    if CHUNK * period <= h:
+        return CHUNK, 1
+    if period <= h:
+        return max(1, int(h // period)), 1
+    return 1, math.ceil(period / h)
+
+
 def integrate_orbit(
     ta,
     rec,
@@ -418,7 +475,15 @@ def integrate_orbit(
     x0, v0 = conv(params.x0), conv(params.v0)
     if impact_at_start(params.x0, params.v0, params.x_w, params.R):
         v0 = reset_velocity(v0, conv(params.R))
-    grid = local_grid(P, params.t0, params.eta, CHUNK)
+        # leave a rounding-level distance below the wall: a propagation that starts on it
+        # can miss the next impact (measured: x0 = x_w = 0, v0 = 1/4, the force into the
+        # wall: the impact at t ~ 0.5 was missed, MissedImpactError 0.976 beyond the wall)
+        from precise_impact.solvers.heyoka.single import _below_wall
+
+        x0 = _below_wall(P, params.x_w)
+    period = period_float(params.eta)
+    chunk, sub = chunk_layout(period, params.zeta)
+    grid = local_grid(P, params.t0, params.eta, chunk, sub)
     L0 = grid[0]
     # the grazing depth at the chunk's last clock value (module docstring, *Time*)
     rec.t_depth = guard.t_depth = grid[-1]
@@ -426,17 +491,15 @@ def integrate_orbit(
     ta.state[:] = P.array([x0, v0, one, zero, zero, one])
     ta.reset_cooldowns()
     sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
-    period = period_float(params.eta)
     grids: dict[int, Any] = {}
+    left = [transient + periods]  # periods still to run (the bounce prediction's horizon)
 
-    def advance(k):
-        """``k <= CHUNK`` periods from ``L0``; the grid states (rows ``1..k``)."""
-        g = grids.get(k)
-        if g is None:
-            g = grids[k] = P.array(grid[: k + 1])
-        ta.time = L0  # the forcing is T-periodic: the clock starts every chunk at L0
+    def run(g):
+        """Propagate over the grid ``g`` (starting at the clock's value); the grid states."""
         res = ta.propagate_grid(g)
         oc = res[0]
+        if rec.refusal is not None:
+            raise EndlessBouncesError(rec.refusal)
         if rec.exceeded:
             raise BudgetExceededError(
                 f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}"
@@ -453,9 +516,44 @@ def integrate_orbit(
             )
         return res[-1]
 
+    def advance(k):
+        """``k <= chunk`` periods from ``L0``; the grid states (rows ``1..k``)."""
+        g = grids.get(k)
+        if g is None:
+            g = grids[k] = P.array(grid[: k + 1])
+        ta.time = L0  # the forcing is T-periodic: the clock starts every chunk at L0
+        rec.t_end = float(L0) + left[0] * period
+        left[0] -= k
+        return run(g)
+
+    subgrids = [P.array(grid[j : j + 2]) for j in range(sub)] if sub > 1 else []
+
+    def one_period():
+        """One period in ``sub`` steps, the tangents re-orthonormalised after each (a long
+        period: :func:`chunk_layout`); the state QRs' summed logs and the period-end state."""
+        ta.time = L0
+        rec.t_end = float(L0) + left[0] * period
+        left[0] -= 1
+        s1 = s2 = 0.0
+        row = None
+        for g in subgrids:
+            row = run(g)[-1]
+            a, b = _gram_schmidt(ta.state, sqrt, log)
+            s1, s2 = s1 + float(a), s2 + float(b)
+        return s1, s2, row
+
+    pre = _released_start(ta, rec, P, params, grid, sub, run, sqrt, log)
     done = 0
+    if pre is not None:  # the first period went to the sticking start and its release
+        left[0] -= 1
+        if transient:
+            done = 1
     while done < transient:
-        k = min(CHUNK, transient - done)
+        if sub > 1:
+            one_period()
+            done += 1
+            continue
+        k = min(chunk, transient - done)
         advance(k)
         _gram_schmidt(ta.state, sqrt, log)  # keep the tangents bounded during the transient too
         done += k
@@ -468,8 +566,25 @@ def integrate_orbit(
     ni = np.zeros(periods)  # impacts in each measured period (the attractors' impact-rate test)
     bar = Progress(periods, f"variational LLE{label}", progress)
     done = 0
+    if pre is not None and not transient:  # the release's period is the first measured one
+        _, c1, c2 = rec.take_logs()
+        l1[0], l2[0] = sum(c1) + pre[0], sum(c2) + pre[1]
+        ni[0] = len(c1)
+        sx[0], sv[0] = pre[2][0], pre[2][1]
+        done = 1
+    while done < periods and sub > 1:
+        s1, s2, row = one_period()
+        _, c1, c2 = rec.take_logs()
+        p1 = p2 = 0.0
+        for u, w in zip(c1, c2, strict=True):
+            p1, p2 = p1 + u, p2 + w
+        l1[done], l2[done] = p1 + s1, p2 + s2
+        ni[done] = len(c1)
+        sx[done], sv[done] = row[0], row[1]
+        done += 1
+        bar.update(done)
     while done < periods:
-        k = min(CHUNK, periods - done)
+        k = min(chunk, periods - done)
         rows = advance(k)[1:]
         # a period's logs: those of the in-callback QRs of its impacts, plus the change
         # of the tangent state's own QR logs (the state restarted orthonormal at L0)
@@ -492,6 +607,58 @@ def integrate_orbit(
         done += k
         bar.update(done)
     return l1, l2, dt, sx, sv, rec.count - impacts0, ni
+
+
+def released_at(P: Precision, params: Params, L0: Any) -> Any:
+    """The release time (local clock, precision ``P``) of a start at rest on the wall at the
+    local time ``L0`` with the force into it (the heyoka solver's sticking decision), or
+    ``None`` for a start that does not stick; :class:`ParameterError` if the force never
+    turns (the mass stays on the wall for good: no Lyapunov exponents)."""
+    from precise_impact.solvers.heyoka.single import _Wall
+
+    wall = _Wall(P, params)
+    if not wall.sticks(L0):
+        return None
+    t_r = wall.release(L0)
+    if t_r is None:
+        raise ParameterError(
+            "x0",
+            f"{params.x0} (= x_w, v0 = 0)",
+            "a start off the wall or moving: at rest on the wall with the force always into it "
+            "the mass stays there for good, which has no Lyapunov exponents",
+        )
+    return t_r
+
+
+def _released_start(ta, rec, P, params: Params, grid: list, sub: int, run, sqrt, log):
+    """A start at rest on the wall with the force into it sticks until the force turns
+    (core.impact.pushes_into_wall, release_time: the heyoka solver's sticking decision):
+    integrate its first period from the release, a rounding-level distance below the wall
+    (a propagation starting on the wall can miss the next impact), with the tangents at the
+    identity there.  Returns ``None`` for any other start, else the logs of that period's
+    QRs and its end state ``(s1, s2, row)``; raises :class:`ParameterError` if the force never
+    turns.  (Measured before: x_w = 0, x0 = v0 = 0 went through the wall, MissedImpactError.)
+    """
+    if not (params.x0 == params.x_w and params.v0 == 0):
+        return None
+    from precise_impact.solvers.heyoka.single import _below_wall
+
+    t_r = released_at(P, params, grid[0])
+    if t_r is None:
+        return None
+    one, zero = P.from_fraction(Fraction(1)), P.from_fraction(Fraction(0))
+    ta.time = t_r
+    ta.state[:] = P.array([_below_wall(P, params.x_w), zero, one, zero, zero, one])
+    ta.reset_cooldowns()
+    s1 = s2 = 0.0
+    row = ta.state
+    for g in grid[1 : sub + 1]:
+        if g <= t_r:
+            continue
+        row = run(P.array([ta.time, g]))[-1]
+        a, b = _gram_schmidt(ta.state, sqrt, log)
+        s1, s2 = s1 + float(a), s2 + float(b)
+    return s1, s2, row
 
 
 def depth_for(P: Precision, grazing_depth: Any, params: Params) -> _Depth:
