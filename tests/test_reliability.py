@@ -79,9 +79,14 @@ def cli_in_process_out(*args, bound: float = TIME_BOUND):
     return code, out.getvalue(), err.getvalue(), time.perf_counter() - t
 
 
+#: What a budget refusal names (exit status 3, before any work); other refusals are bad input (2).
+BUDGETS = ("max_time", "max_work", "half this machine's memory")
+
+
 def one_line_refusal(r, name):
     lines = r.stderr.strip().splitlines()
-    assert r.returncode == 2, (r.returncode, r.stderr[-500:])
+    code = 3 if name in BUDGETS else 2
+    assert r.returncode == code, (r.returncode, r.stderr[-500:])
     assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr[-500:]
     assert name in lines[0], lines[0]
 
@@ -150,6 +155,27 @@ def one_line_refusal(r, name):
         (["simulate", "--periods", "10000000", "--dense", "10000"], "half this machine's memory"),
         (["simulate", "--periods", "100000", "--precision", "mp:2048"], "max_time"),
         (["lle", "--periods", "100000000"], "max_time"),
+        (["lle", "--model", "fast", "--periods", "100000000", "--max-time", "60"], "max_time"),
+        (
+            [
+                "sweep",
+                "--axis",
+                "eta",
+                "0.6",
+                "0.9",
+                "1000",
+                "--axis",
+                "x_w",
+                "0.1",
+                "0.5",
+                "100",
+                "--max-time",
+                "60",
+                "--out",
+                "{tmp}/s",
+            ],
+            "max_time",
+        ),
         (["simulate", "--periods", "5", "--max-time", "0"], "1 <= max_time <= 604800"),
         (["run", "{tmp}/huge.toml"], "half this machine's memory"),
         (["run", "{tmp}/long.toml"], "max_time"),

@@ -102,8 +102,8 @@ class OverBudgetError(ParameterError, BudgetExceededError):
 
     Raised by :func:`~precise_impact.core.budget.check_cost` (time over ``max_time``, or
     samples over half the machine's memory).  Both a :class:`ParameterError` (ask for less,
-    or raise ``max_time``: the CLI exits with status 2, like any bad input) and a
-    :class:`BudgetExceededError` (a budget stopped it).
+    or raise ``max_time``) and a :class:`BudgetExceededError` (a budget stopped it): the CLI
+    reports it as a budget, one line and exit status 3.
 
     See Also
     --------

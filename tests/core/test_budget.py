@@ -27,6 +27,13 @@ def test_job_estimates():
     assert sim.seconds == pytest.approx(100 * 6e-4 + 1001 * 2e-5) and sim.bytes == 1001 * 200
     bif = estimate_cost("bifurcation", periods=2000, transient=1000, runs=50)
     assert bif.seconds == pytest.approx(50 * (2 * 3000 * 1e-5 + 3001 * 1e-6))
+    # the fast engine priced as itself (2/30 of a heyoka float64 period), not as heyoka
+    bif_fast = estimate_cost("bifurcation", periods=2000, transient=1000, runs=50, model="fast")
+    assert bif_fast.seconds == pytest.approx(50 * (2 / 30 * 3000 * 1e-5 + 3001 * 1e-6))
+    sweep = estimate_cost("sweep", periods=2000, transient=1000, runs=10**4)
+    assert sweep.seconds == pytest.approx(10**4 * (2 / 30 * 3000 * 1e-5 + 3001 * 1e-6))
+    sweep_heyoka = estimate_cost("sweep", periods=2000, transient=1000, runs=10**4, model="heyoka")
+    assert sweep_heyoka.seconds == pytest.approx(10**4 * (4 * 3000 * 1e-5 + 3001 * 1e-6))
     sync = estimate_cost("sync", periods=500, per_period=20, runs=48, model="heyoka")
     assert sync.seconds == pytest.approx(48 * (4 * 500 * 1e-5 + 10001 * 1e-6))
     sync_fast = estimate_cost("sync", periods=500, per_period=20, runs=48, model="fast")
@@ -44,7 +51,7 @@ def test_unknown_job_and_old_signature():
     with pytest.warns(DeprecationWarning, match="run_cost"):
         old = estimate_cost(F64, 100, 10, factor=2)
     assert old == run_cost(F64, 100, 10, factor=2)
-    assert set(JOBS) == {"simulate", "scene", "lle", "bifurcation", "sync", "certify"}
+    assert set(JOBS) == {"simulate", "scene", "lle", "bifurcation", "sync", "certify", "sweep"}
 
 
 def test_enforce_max_time():
@@ -90,3 +97,55 @@ def test_the_api_enforces_max_time():
     assert list(a.x) == list(b.x)
     r = pi.lyapunov(p, "variational", model="fast", periods=200, transient=10, max_time=60)
     assert r.periods == 200
+
+
+def test_the_fast_engine_is_priced_as_itself():
+    """A fast bifurcation was priced as heyoka variational runs (30x over) and refused at a
+    budget it fits in: 100 x 11000 periods ~1.8 s fast, ~23 s as heyoka."""
+    enforce_max_time(10, "bifurcation", periods=10**4, transient=1000, runs=100, model="fast")
+    with pytest.raises(OverBudgetError):
+        enforce_max_time(10, "bifurcation", periods=10**4, transient=1000, runs=100)
+    # a sweep: the fast kernel, or heyoka's SIMD batch; checked per worker
+    enforce_max_time(60, "sweep", periods=2000, transient=1000, runs=10**4)  # ~50 s
+    with pytest.raises(OverBudgetError):
+        enforce_max_time(60, "sweep", periods=2000, transient=1000, runs=10**4, model="heyoka")
+    spec = pi.SweepSpec.make(pi.Params.make(), [("eta", "0.6", "0.9", 1000)])
+    with pytest.raises(OverBudgetError, match="max_time"):
+        pi.run_sweep(spec, "/nonexistent/never-written", workers=1, max_time=1)
+
+
+def test_a_fast_lle_falls_back_to_heyoka_only_within_what_is_left_of_its_budget(capsys):
+    """Issue 28: an orbit the fast engine does not resolve reran the whole estimate on heyoka,
+    whatever the budget (1e7 periods with max_time=70: no result after 90 s).  Now heyoka's
+    estimate (~14 min here) is checked against the time left: refused at once (exit 3 in
+    the CLI); a fallback that fits runs and says so."""
+    over = pi.Params.make(eta="0.712", zeta="1.2")  # outside the closed form: falls back
+    t = time.perf_counter()
+    with pytest.raises(BudgetExceededError, match="heyoka would take") as e:
+        pi.lyapunov(over, "variational", model="fast", periods=10**7, max_time=70)
+    assert time.perf_counter() - t < 2.0 and "left of max_time = 70 s" in str(e.value)
+    assert not isinstance(e.value, ParameterError)  # a budget met mid-run, not bad input
+    r = pi.lyapunov(
+        over, "variational", model="fast", periods=40, transient=10, max_time=70, progress=True
+    )
+    assert r.stats["engine"] == "heyoka variational (fallback: zeta >= 1)"
+    err = capsys.readouterr().err
+    assert "computed by heyoka instead" in err and "zeta >= 1" in err
+
+
+def test_the_cli_refuses_a_fallback_over_budget_with_exit_3(capsys, monkeypatch):
+    import signal
+
+    from precise_impact.cli.main import main
+
+    monkeypatch.setattr(signal, "signal", lambda *a: None)  # main() leaves SIGTERM alone here
+    t = time.perf_counter()
+    code = main(
+        ["lle", "--model", "fast", "--zeta", "1.2", "--periods", "10000000", "--max-time", "70"]
+    )
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 3 and len(lines) == 1 and "heyoka would take" in lines[0], lines
+    assert time.perf_counter() - t < 2.0
+    code = main(["lle", "--model", "fast", "--periods", "100000000", "--max-time", "60"])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 3 and len(lines) == 1 and "over budget: max_time" in lines[0], lines

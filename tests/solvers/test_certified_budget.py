@@ -43,12 +43,12 @@ def test_certify_out_of_reach_exits_3_with_one_line_at_once(extra):
 
 def test_certify_max_time_refuses_before_work():
     """100000 periods at 64 bits are priced ~2 min (1.2 ms per period): over --max-time 1,
-    refused before any work like every command's estimate (exit 2, one line naming both)."""
+    refused before any work like every command's estimate (exit 3, one line naming both)."""
     code, err, took = cli_in_process(
         "certify", "--bits", "64", "--periods", "100000", "--max-time", "1"
     )
     lines = _message_lines(err)
-    assert code == 2 and len(lines) == 1, err
+    assert code == 3 and len(lines) == 1, err  # a budget: exit 3 (issue 28)
     assert "max_time = '1 s'" in lines[0] and "100000 certified periods at 64 bits" in lines[0]
     assert took < 1, took  # no period computed (one 64-bit period is ~0.3 ms, 1e5 are ~30 s)
 

@@ -352,7 +352,7 @@ def bifurcation(
     max_time : decimal or None, default ``None``
         Time budget in seconds per worker (``1 <= max_time <= 604800``): the estimated
         cost of the runs (:func:`~precise_impact.core.budget.estimate_cost`, job
-        ``'bifurcation'``, priced as heyoka runs) is checked against ``max_time x workers``
+        ``'bifurcation'``, priced for the model) is checked against ``max_time x workers``
         before any work (:class:`~precise_impact.errors.OverBudgetError`); ``None``: no budget.
 
     Returns
@@ -404,7 +404,13 @@ def bifurcation(
     model = resolve_model(model, engine, "bifurcation")
     progress = check_progress(progress)
     enforce_max_time(
-        max_time, "bifurcation", scale=workers, periods=periods, transient=transient, runs=len(etas)
+        max_time,
+        "bifurcation",
+        scale=workers,
+        periods=periods,
+        transient=transient,
+        runs=len(etas),
+        model=model,  # the compiled kernel costs ~1/30 of a variational run
     )
     jobs = [
         (params.replace(eta=e), periods, transient, model) for e in etas

@@ -23,10 +23,17 @@ import numpy as np
 
 from precise_impact.analysis.lyapunov.batch import batch_lle, default_batch_size
 from precise_impact.analysis.lyapunov.fast import ROW_FIELDS, fast_batch_rows
-from precise_impact.analysis.scan import Grid, NpzTileStore, resolve_model, run_scan
+from precise_impact.analysis.scan import (
+    Grid,
+    NpzTileStore,
+    check_workers,
+    resolve_model,
+    run_scan,
+)
+from precise_impact.core.budget import enforce_max_time, estimate_cost, format_duration
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import ParameterError
+from precise_impact.errors import OverBudgetError, ParameterError
 from precise_impact.io.atomic import atomic_write, check_output_dir
 from precise_impact.io.figures import figure
 from precise_impact.io.jsonout import dumps, write_json
@@ -164,12 +171,16 @@ class SweepSpec:
             points *= check_count(ax[3], "n", 1_000_000, minimum=1)
         work = points * (periods + transient)
         if work > max_work:
-            raise ParameterError(
+            model_name = resolve_model(model, engine, "SweepSpec.make")
+            cost = estimate_cost(
+                "sweep", periods=periods, transient=transient, runs=points, model=model_name
+            )
+            raise OverBudgetError(
                 "max_work",
                 max_work,
                 f"this sweep needs {points} points x {periods + transient} periods "
-                f"= {work:.3g} point-periods (~{work / 3000 / 60 / 3600:.3g} h at 60 points/s of "
-                f"3000 periods); raise the budget (--max-work) to at least {work}",
+                f"= {work:.3g} point-periods (~{format_duration(cost.seconds)} on one core, "
+                f"{model_name} model); raise the budget (--max-work) to at least {work}",
             )
         built = []
         for name, lo, hi, n in axes:
@@ -307,6 +318,7 @@ def run_sweep(
     dask: str | None = None,
     progress: bool | None = None,
     max_tiles: int | None = None,
+    max_time: Any = None,
 ) -> SweepResult:
     """Compute every unfinished tile, then assemble the table and the plots.
 
@@ -328,6 +340,12 @@ def run_sweep(
         ``None`` shows it only when stderr is a terminal.
     max_tiles : int or None, default ``None`` (no limit)
         Stop after this many newly computed tiles (for tests of resuming).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds per worker (``1 <= max_time <= 604800``): the estimated
+        cost of every point of the grid (:func:`~precise_impact.core.budget.estimate_cost`,
+        job ``'sweep'``) is checked against ``max_time x workers`` before any work
+        (:class:`~precise_impact.errors.OverBudgetError`); ``None``: no time budget (the
+        work budget of :meth:`SweepSpec.make` still holds).
 
     Notes
     -----
@@ -374,6 +392,17 @@ def run_sweep(
     if not isinstance(spec, SweepSpec):
         raise ParameterError("spec", spec, "a SweepSpec (from SweepSpec.make)")
     out = check_output_dir(out, "out", force=True)  # a directory path; resumed in, not replaced
+    if max_time is not None:
+        n_workers = 1 if dask is not None and dask != "local" else check_workers(workers)
+        enforce_max_time(
+            max_time,
+            "sweep",
+            scale=n_workers,
+            periods=spec.periods,
+            transient=spec.transient,
+            runs=spec.n_points,
+            model=spec.engine,
+        )
     with DirectoryLock(out, "out"):  # one writer per directory, before anything is read or written
         return _run_locked(spec, out, workers, dask, progress, max_tiles)
 

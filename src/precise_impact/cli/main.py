@@ -1,8 +1,9 @@
 """The ``precise-impact`` entry point: parse, dispatch to the command's ``run``, map errors.
 
 Exit statuses: 0 ok, 2 bad input (argparse's own status too), a missing optional component or
-reference dataset, 3 a budget was hit or an integration or Newton iteration stopped (or missed
-an impact, or ngspice failed), 4 an I/O error during the run (finished files are
+reference dataset, 3 a budget was hit (a run whose estimate is over its budget is refused with 3
+before any work) or an integration or Newton iteration stopped (or missed an impact, or ngspice
+failed), 4 an I/O error during the run (finished files are
 complete: every write is atomic), 130 interrupted (Ctrl-C or SIGTERM).  The commands are the
 modules of :mod:`precise_impact.cli.commands`.
 """
@@ -26,6 +27,7 @@ from precise_impact.errors import (
     IntegrationError,
     MissedImpactError,
     OptionalDependencyError,
+    OverBudgetError,
     ParameterError,
     PreciseImpactError,
     ReferenceDataError,
@@ -125,6 +127,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         with check_outputs(ns):  # an --out directory is locked until the run ends
             return ns.run(ns)
+    except OverBudgetError as e:  # a budget (also a ParameterError): refused before any work
+        _say(f"over budget: {e}")
+        return EXIT_BUDGET
     except (ParameterError, OptionalDependencyError) as e:  # bad input, or a missing component
         _say(f"error: {e}")
         return EXIT_BAD_INPUT

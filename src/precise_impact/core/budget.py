@@ -21,6 +21,7 @@ from precise_impact.errors import BudgetExceededError, OverBudgetError, Paramete
 
 __all__ = [
     "Cost",
+    "format_duration",
     "JOBS",
     "estimate_cost",
     "run_cost",
@@ -51,11 +52,15 @@ class Cost:
         return f"{self.what}: estimated ~{_duration(self.seconds)} and ~{_size(self.bytes)}"
 
 
-def _duration(s: float) -> str:
+def format_duration(s: float) -> str:
+    """``s`` seconds in words (``'12 s'``, ``'3.5 min'``, ``'2.1 h'``, ``'1.5 days'``)."""
     for unit, scale in (("days", 86400), ("h", 3600), ("min", 60)):
         if s >= scale:
             return f"{s / scale:.3g} {unit}"
     return f"{s:.2g} s"
+
+
+_duration = format_duration
 
 
 def _size(b: float) -> str:
@@ -89,7 +94,16 @@ def certify_seconds_per_period(bits: int) -> float:
 
 
 #: The jobs :func:`estimate_cost` prices.
-JOBS = ("simulate", "scene", "lle", "bifurcation", "sync", "certify")
+JOBS = ("simulate", "scene", "lle", "bifurcation", "sync", "certify", "sweep")
+
+#: Cost of one period of the fast engine's LLE kernel relative to a plain heyoka float64
+#: period (``benchmarks/results/fast.md``: 4 x 6000 periods in 10.2 ms on 2 cores, and a
+#: sweep's 674 points of 3000 periods per second per core, ~4.9e-7 s a period; priced at
+#: 6.7e-7 s, 1.4x over).
+FAST_FACTOR = 2 / 30
+#: A sweep point on heyoka's SIMD batch variational integrator (8.1 points of 3000 periods
+#: per second per core, ``benchmarks/results/fast.md``: ~4.1e-5 s a period; priced at 4e-5).
+HEYOKA_SWEEP_FACTOR = 4.0
 
 
 def estimate_cost(
@@ -113,12 +127,15 @@ def estimate_cost(
         ``'scene'`` (:func:`~precise_impact.scenes.run.run_scene`: circuit and coupled
         systems integrate 2-4x the states, factor 4), ``'lle'`` (``runs`` starting
         conditions, default 4, variational: factor 2; ``model='fast'``: 2/30, the compiled
-        engine's measured cost relative to heyoka), ``'bifurcation'`` (``runs`` values of
-        eta, one variational run each: factor 2), ``'sync'`` (``runs`` = couplings x
-        ensemble master-slave runs of 4 states: factor 4 in heyoka, 4/5 with
-        ``model='fast'``), ``'certify'`` (one certified run at ``precision='mp:BITS'``,
-        :func:`certify_seconds_per_period`; ``coupled=True``: the master-slave pair
-        off the diagonal, factor 5).
+        engine's measured cost relative to heyoka, :data:`FAST_FACTOR`), ``'bifurcation'``
+        (``runs`` values of eta, one variational run each: factor 2; ``model='fast'``:
+        2/30), ``'sync'`` (``runs`` = couplings x ensemble master-slave runs of 4 states:
+        factor 4 in heyoka, 4/5 with ``model='fast'``), ``'certify'`` (one certified run at
+        ``precision='mp:BITS'``, :func:`certify_seconds_per_period`; ``coupled=True``: the
+        master-slave pair off the diagonal, factor 5), ``'sweep'`` (``runs`` grid points:
+        2/30 on the fast engine, the default, 4 with ``model='heyoka'``, the SIMD batch).
+        Times are for one core: a job on ``w`` workers is checked against ``w`` times the
+        budget (:func:`enforce_max_time`'s ``scale``).
     *args
         Deprecated: the 0.x low-level form ``estimate_cost(precision, periods, ...)``,
         now :func:`run_cost` (a ``DeprecationWarning``).
@@ -195,11 +212,16 @@ def estimate_cost(
     if job == "lle":
         # four starting conditions; the variational equations cost about twice a trajectory;
         # the compiled engine ~1/30 of heyoka's variational run (benchmarks/results/fast.md)
-        factor = 2 / 30 if model == "fast" else 2
+        factor = FAST_FACTOR if model == "fast" else 2
         return run_cost(P, length, runs=4 if runs is None else runs, factor=factor, stored=False)
     if job == "bifurcation":
-        # one variational run per value (x2)
-        return run_cost(P, length, runs=n, factor=2, stored=False)
+        # one variational run per value (x2), or the compiled kernel (model='fast')
+        factor = FAST_FACTOR if model == "fast" else 2
+        return run_cost(P, length, runs=n, factor=factor, stored=False)
+    if job == "sweep":
+        # ``runs`` grid points; the fast kernel, or heyoka's SIMD batch (model='heyoka')
+        factor = HEYOKA_SWEEP_FACTOR if model == "heyoka" else FAST_FACTOR
+        return run_cost(P, length, runs=n, factor=factor, stored=False)
     if job == "sync":
         # master + slave (4 states, x4) for every k and ensemble member
         factor = 4 if model == "heyoka" else 4 / 5
@@ -325,7 +347,9 @@ def enforce_max_time(max_time: Any, job: str, scale: float = 1.0, **job_args: An
 
 
 class Deadline:
-    """The budget of a run enforced while it works: :meth:`check` between periods.
+    """The budget of a run enforced while it works: :meth:`check` between periods, and
+    :meth:`admit` for work decided on mid-run (a fallback engine), admitted only if its
+    estimate fits in what is left.
 
     Parameters
     ----------
@@ -353,4 +377,27 @@ class Deadline:
                 f"{self.what}: max_time = {self.max_time:g} s ran out after "
                 f"{time.monotonic() - self.start:.1f} s ({where}); raise --max-time "
                 f"(at most {MAX_TIME:g} s) or ask for less"
+            )
+
+    def admit(self, cost: Cost, what: str) -> None:
+        """Refuse ``cost`` if it does not fit in what is left.
+
+        Parameters
+        ----------
+        cost : Cost
+            The estimate of the work about to start.
+        what : str
+            What would run (the message's subject, e.g. ``'... heyoka'``).
+
+        Raises
+        ------
+        BudgetExceededError
+            The estimate is over the time left (the CLI: one line, exit status 3).
+        """
+        left = self.left()
+        if cost.seconds > left:
+            raise BudgetExceededError(
+                f"{what} would take ~{_duration(cost.seconds)} ({cost.what}), more than the "
+                f"{_duration(max(left, 0.0))} left of max_time = {self.max_time:g} s; raise "
+                f"--max-time (at most {MAX_TIME:g} s) or ask for fewer periods"
             )

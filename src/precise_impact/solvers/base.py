@@ -402,6 +402,8 @@ def with_fallback(
     primary: Callable[..., Any],
     fallback: Callable[..., Any] | None,
     mark: Callable[[Any, str], Any] | None = None,
+    *,
+    before_fallback: Callable[[Unresolved], Any] | None = None,
 ) -> Callable[..., Any]:
     """``primary``, and ``fallback`` for what it does not resolve: the one fallback rule.
 
@@ -419,6 +421,10 @@ def with_fallback(
         The two engines, called with the same arguments.
     mark : callable or None
         ``mark(result, why) -> result``; ``None`` leaves the fallback's result as it is.
+    before_fallback : callable or None
+        ``before_fallback(unresolved)`` is called before the fallback runs: it may refuse
+        it by raising (a time budget the fallback would not fit in:
+        :meth:`~precise_impact.core.budget.Deadline.admit`) or say that it falls back.
 
     Returns
     -------
@@ -431,6 +437,8 @@ def with_fallback(
         except Unresolved as u:
             if fallback is None:
                 raise
+            if before_fallback is not None:
+                before_fallback(u)
             if u.partial is None:
                 out = fallback(*args, **kwargs)
                 return out if mark is None else mark(out, u.why)

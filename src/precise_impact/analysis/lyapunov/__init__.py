@@ -145,8 +145,8 @@ def lyapunov(
         )
     if engine == "variational":
         return variational_spectrum(params, **kwargs)
-    if engine == "fast":
-        return fast_spectrum(params, **kwargs)
+    if engine == "fast":  # the budget also bounds a fallback to heyoka decided mid-run
+        return fast_spectrum(params, max_time=max_time, **kwargs)
     if engine == "two-trajectory":
         return two_trajectory_lle(params, **kwargs)
     raise ParameterError("method", method, "one of " + ", ".join(LYAPUNOV_METHODS))

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 
@@ -22,9 +23,11 @@ from precise_impact.analysis.lyapunov.batch import batch_lle, refused_row
 from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr
 from precise_impact.analysis.lyapunov.variational import variational_spectrum
 from precise_impact.analysis.periodicity import detect_period
+from precise_impact.core.budget import Deadline, estimate_cost, parse_max_time
 from precise_impact.core.impact import elastic_bounce_count, elastic_bounce_refusal
 from precise_impact.core.params import as_params, check_count
 from precise_impact.errors import EndlessBouncesError, ParameterError
+from precise_impact.io.progress import ProgressArg, check_progress, say
 from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
 
 __all__ = ["fast_spectrum", "fast_batch", "fast_batch_rows", "point_rows", "ROW_FIELDS"]
@@ -38,8 +41,9 @@ def fast_spectrum(
     segments: int = 20,
     precision: str = "float64",
     max_impacts: int = 10**8,
-    progress: bool = False,
+    progress: ProgressArg = False,
     attractors: bool = True,
+    max_time: Any = None,
 ) -> LyapunovResult:
     """Both Lyapunov exponents from the compiled engine.
 
@@ -60,12 +64,19 @@ def fast_spectrum(
         Only ``'float64'`` (the engine's type); other precisions: ``method='variational'``.
     max_impacts : int, default ``10**8``
         Impact budget per start.
-    progress : bool, default ``False``
-        Accepted for the common signature of :func:`~precise_impact.analysis.lyapunov.lyapunov`
-        (the run is one compiled call).
+    progress : bool, None or callable, default ``False``
+        Periods done on stderr once the run has gone 2 s
+        (:data:`~precise_impact.io.progress.ProgressArg`), and a line when the estimate
+        falls back to heyoka.
     attractors : bool, default ``True``
         Group the starts by attractor and give a periodic attractor's exact (Floquet) LLE
         (:func:`~precise_impact.analysis.lyapunov.attractors.attribute`).
+    max_time : decimal or None, default ``None``
+        Time budget in seconds from this call: a start the engine does not resolve sends
+        the estimate to heyoka only if heyoka's estimated cost
+        (:func:`~precise_impact.core.budget.estimate_cost`) fits in what is left of it,
+        else :class:`~precise_impact.errors.BudgetExceededError`.  (The compiled run
+        itself is priced by :func:`~precise_impact.analysis.lyapunov.lyapunov`.)
 
     Returns
     -------
@@ -75,12 +86,21 @@ def fast_spectrum(
         ``impact_rate``, ``impact_rate_stderr``, ``periods`` and ``attractor`` id, as
         :func:`~precise_impact.analysis.lyapunov.attractors.attribute` says).
 
+    Raises
+    ------
+    Interrupted
+        Ctrl-C or SIGTERM (within milliseconds: the compiled loops poll a stop flag).
+    BudgetExceededError
+        The heyoka fallback would not fit in what is left of ``max_time``.
+
     References
     ----------
     .. [1] G. Benettin, L. Galgani, A. Giorgilli, J.-M. Strelcyn, Meccanica 15 (1980) 9-30.
     .. [2] P. C. Müller, Chaos Solitons Fractals 5 (1995) 1671-1681 (saltation matrices).
     """
     params = as_params(params)
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "lle")
+    progress = check_progress(progress)
     if precision not in ("float64",):
         raise ParameterError(
             "precision", precision, "'float64' for method 'fast' (other precisions: 'variational')"
@@ -103,6 +123,7 @@ def fast_spectrum(
     )
     while m > 1 and (per // (blocks * m)) * m != per // blocks:
         m -= 1
+    from precise_impact.solvers.fast.control import STATUS_INTERRUPTED
     from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch
     from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT
 
@@ -113,11 +134,19 @@ def fast_spectrum(
             raise Unresolved("fast", "zeta >= 1")
         start = time.perf_counter()
         status, log1, log2, imps, fine, fine_imps, xt, vt = lle_batch(
-            pars, starts, per, transient, blocks * m, max_impacts, min(per, 3 * MAX_PERIOD)
+            pars,
+            starts,
+            per,
+            transient,
+            blocks * m,
+            max_impacts,
+            min(per, 3 * MAX_PERIOD),
+            abort_on_failure=True,  # one start unresolved sends all to heyoka: stop the others
+            progress=progress,
         )
         _refuse_endless_bounces(pars, starts, status, log1, log2, per + transient, max_impacts)
         if np.any(status != STATUS_OK):
-            bad = {STATUS_TEXT[int(s)] for s in status if s != STATUS_OK}
+            bad = {STATUS_TEXT[int(s)] for s in status if s not in (STATUS_OK, STATUS_INTERRUPTED)}
             raise Unresolved("fast", "; ".join(sorted(bad)))
         elapsed = time.perf_counter() - start
         return _fast_result(
@@ -142,7 +171,20 @@ def fast_spectrum(
             max_impacts=max_impacts,
         )
 
-    return with_fallback(compiled, variational, note_fallback("heyoka variational"))()
+    def admit(u: Unresolved) -> None:
+        cost = estimate_cost(
+            "lle", periods=per * n, transient=transient, runs=n, model="variational"
+        )
+        deadline.admit(cost, f"the fast engine does not resolve this orbit ({u.why}); heyoka")
+        say(
+            f"lle: the fast engine does not resolve this orbit ({u.why}); the estimate is "
+            f"computed by heyoka instead ({cost.describe()})",
+            progress,
+        )
+
+    return with_fallback(
+        compiled, variational, note_fallback("heyoka variational"), before_fallback=admit
+    )()
 
 
 def bounce_refusal(row, start, status, tc, vc, total_periods: int, max_impacts: int):

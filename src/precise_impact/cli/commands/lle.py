@@ -16,6 +16,7 @@ from precise_impact.cli.args import (
     params_from,
 )
 from precise_impact.core.params import check_count
+from precise_impact.errors import Interrupted
 from precise_impact.io.jsonout import print_json
 
 
@@ -63,16 +64,20 @@ def run(ns: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         method, model = "variational", "fast"
-    r = lyapunov(
-        params,
-        method,
-        model=model,
-        periods=periods,
-        transient=transient,
-        precision=ns.precision,
-        progress=not ns.json,
-        max_time=max_time(ns),
-    )
+    try:
+        r = lyapunov(
+            params,
+            method,
+            model=model,
+            periods=periods,
+            transient=transient,
+            precision=ns.precision,
+            progress=not ns.json,
+            max_time=max_time(ns),
+        )
+    except Interrupted as e:  # say how far it got (nothing is written: no file to keep)
+        e.kept = str(e)  # type: ignore[attr-defined]
+        raise
     if ns.json:
         print_json(r.to_dict())
         return 0

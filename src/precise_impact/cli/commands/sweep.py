@@ -49,6 +49,13 @@ def register(sub) -> argparse.ArgumentParser:
         help="work budget in point-periods, points x (periods + transient) (default 1e10)",
     )
     sw.add_argument(
+        "--max-time",
+        default=None,
+        metavar="S",
+        help="time budget in seconds per worker, checked against an estimate before any work "
+        "(default: none, --max-work holds)",
+    )
+    sw.add_argument(
         "--workers",
         default=None,
         metavar="W",
@@ -90,7 +97,12 @@ def run(ns: argparse.Namespace) -> int:
     if ns.scheduler is not None and not ns.scheduler.startswith("tcp://"):
         raise ParameterError("scheduler", ns.scheduler, "a Dask scheduler address tcp://HOST:PORT")
     res = run_sweep(
-        spec, ns.out, workers=workers, dask=ns.dask or ns.scheduler, progress=not ns.json
+        spec,
+        ns.out,
+        workers=workers,
+        dask=ns.dask or ns.scheduler,
+        progress=not ns.json,
+        max_time=ns.max_time,
     )
     st = res.stats
     if ns.json:  # the run, not the grid (that is in sweep.npz / sweep.csv)

@@ -11,7 +11,10 @@ from typing import Any
 
 import numba
 
-JIT: dict[str, Any] = dict(cache=True, fastmath=False, error_model="numpy")
+#: The compile options of every kernel: cached on disk, IEEE arithmetic, numpy's error model, and
+#: the GIL released (a kernel runs in a helper thread while the main thread waits for signals:
+#: :mod:`precise_impact.solvers.fast.control`).
+JIT: dict[str, Any] = dict(cache=True, fastmath=False, error_model="numpy", nogil=True)
 
 __all__ = [
     "JIT",

@@ -26,6 +26,18 @@ from precise_impact.core.impact import (
     short_elastic_flight,
 )
 from precise_impact.core.params import as_params, check_count
+from precise_impact.errors import Interrupted
+from precise_impact.io.progress import ProgressArg
+from precise_impact.solvers.fast.control import (
+    POLL_PERIODS,
+    STATUS_INTERRUPTED,
+    STOP_ABORT,
+    STOP_NONE,
+    load_flag,
+    new_flag,
+    run_kernel,
+    store_count,
+)
 from precise_impact.solvers.fast.crossing import JIT, mul2
 from precise_impact.solvers.fast.single import (
     FLIGHT_SAMPLES,
@@ -46,7 +58,7 @@ EPS = 2.220446049250313e-16  # float64's machine epsilon (the bounce prediction'
 _bounce_count = numba.njit(**JIT)(elastic_bounce_count)
 _short_flight = numba.njit(**JIT)(short_elastic_flight)
 
-__all__ = ["lle_orbit", "lle_batch", "lle_batch_serial", "fast_lle", "QR_EVERY"]
+__all__ = ["lle_orbit", "lle_batch", "lle_batch_serial", "fast_lle", "QR_EVERY", "LLE_KERNELS"]
 
 #: Samples between two QRs of the tangent basis in :func:`lle_orbit` (the basis grows or
 #: shrinks by at most ~e^2 per period between impacts; large growth forces a QR at once).
@@ -73,6 +85,9 @@ def lle_orbit(
     block_impacts,
     xs_tail,
     vs_tail,
+    stop,
+    counts,
+    slot,
 ):
     """Both Lyapunov exponents of one orbit: tangent flow ``Phi``, saltation at every impact,
     Gram-Schmidt QR every ``QR_EVERY`` samples (and at block ends); the tangent basis starts
@@ -83,7 +98,10 @@ def lle_orbit(
     periods (``impacts``: those in the measured periods); ``block_sums[j]`` gets the
     first-exponent logs of block ``j`` (``blocks`` equal blocks, for batch means),
     ``block_impacts[j]`` the impacts in block ``j``, and ``xs_tail, vs_tail`` the
-    stroboscopic samples of the last ``len(xs_tail)`` periods.
+    stroboscopic samples of the last ``len(xs_tail)`` periods.  Every
+    :data:`~precise_impact.solvers.fast.control.POLL_PERIODS` periods it publishes the
+    periods done in ``counts[slot]`` and looks at the stop flag ``stop[0]``: set, it returns
+    ``STATUS_INTERRUPTED`` with the sums so far.
 
     Notes
     -----
@@ -127,7 +145,13 @@ def lle_orbit(
         block_sums[j] = 0.0
         block_impacts[j] = 0
     k = 1
+    next_poll = 0
     while k <= total:
+        if k >= next_poll:  # publish the progress, look at the stop flag (both atomic)
+            store_count(counts, slot, k - 1)
+            if load_flag(stop, 0) != STOP_NONE:
+                return STATUS_INTERRUPTED, log1, log2, n_meas, x, v
+            next_poll = k + POLL_PERIODS
         st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(
             t, x, v, t0, T, 1, k, total, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf
         )
@@ -220,6 +244,7 @@ def lle_orbit(
         if n_imp >= max_impacts:
             return STATUS_BUDGET, log1, log2, n_meas, x, v
         t, x, v = tc, xw, -R * vc
+    store_count(counts, slot, total)
     return STATUS_OK, log1, log2, n_meas, x, v
 
 
@@ -230,7 +255,7 @@ def _batch(
     transient,
     blocks,
     max_impacts,
-    keep,
+    abort,
     status,
     log1,
     log2,
@@ -239,6 +264,8 @@ def _batch(
     bimps,
     xt,
     vt,
+    stop,
+    counts,
     i,
 ):
     st, l1, l2, ni, _, _ = lle_orbit(
@@ -258,8 +285,13 @@ def _batch(
         bimps[i],
         xt[i],
         vt[i],
+        stop,
+        counts,
+        i,
     )
     status[i], log1[i], log2[i], imps[i] = st, l1, l2, ni
+    if abort and st != STATUS_OK and st != STATUS_INTERRUPTED and load_flag(stop, 0) == STOP_NONE:
+        store_count(stop, 0, STOP_ABORT)  # the batch goes to the fallback: stop the others
 
 
 _batch_one = numba.njit(**JIT)(_batch)
@@ -268,17 +300,28 @@ _batch_one = numba.njit(**JIT)(_batch)
 def _make_batch(parallel: bool):
     rng = numba.prange if parallel else range
 
-    def run(pars, starts, periods, transient, blocks, max_impacts, keep):
-        n = pars.shape[0]
-        status = np.zeros(n, np.int64)
-        log1 = np.zeros(n)
-        log2 = np.zeros(n)
-        imps = np.zeros(n, np.int64)
-        bsums = np.zeros((n, blocks))
-        bimps = np.zeros((n, blocks), np.int64)
-        xt = np.zeros((n, keep))
-        vt = np.zeros((n, keep))
-        for i in rng(n):
+    # the outputs are the caller's arrays and nothing is returned: a result to box would
+    # call into Python on the way out (see precise_impact.solvers.fast.control)
+    def run(
+        pars,
+        starts,
+        periods,
+        transient,
+        blocks,
+        max_impacts,
+        abort,
+        status,
+        log1,
+        log2,
+        imps,
+        bsums,
+        bimps,
+        xt,
+        vt,
+        stop,
+        counts,
+    ):
+        for i in rng(pars.shape[0]):
             _batch_one(
                 pars,
                 starts,
@@ -286,7 +329,7 @@ def _make_batch(parallel: bool):
                 transient,
                 blocks,
                 max_impacts,
-                keep,
+                abort,
                 status,
                 log1,
                 log2,
@@ -295,20 +338,105 @@ def _make_batch(parallel: bool):
                 bimps,
                 xt,
                 vt,
+                stop,
+                counts,
                 i,
             )
-        return status, log1, log2, imps, bsums, bimps, xt, vt
 
-    return numba.njit(parallel=parallel, cache=True, error_model="numpy")(run)
+    return numba.njit(parallel=parallel, **JIT)(run)
 
 
-#: ``lle_orbit`` for many orbits (one per row of ``pars`` = eta, zeta, a, x_w, R and of
-#: ``starts`` = t0, x0, v0): ``(status, log1, log2, impacts, block_sums, block_impacts, xs_tail,
-#: vs_tail)``.
-#: ``lle_batch`` runs the orbits on every core (numba threads), ``lle_batch_serial`` on one
-#: (inside a worker process of a sweep, which is already one per core).
-lle_batch = _make_batch(True)
-lle_batch_serial = _make_batch(False)
+#: The compiled batch kernels, by ``parallel``: ``kernel(pars, starts, periods, transient,
+#: blocks, max_impacts, abort_on_failure, status, log1, log2, impacts, block_sums,
+#: block_impacts, xs_tail, vs_tail, stop, counts)`` fills the caller's arrays and returns
+#: nothing; :func:`lle_batch` is the way to call them (signals, progress).
+LLE_KERNELS = {True: _make_batch(True), False: _make_batch(False)}
+
+
+def lle_batch(
+    pars: np.ndarray,
+    starts: np.ndarray,
+    periods: int,
+    transient: int,
+    blocks: int,
+    max_impacts: int,
+    keep: int,
+    *,
+    parallel: bool = True,
+    abort_on_failure: bool = False,
+    progress: ProgressArg = False,
+) -> tuple:
+    """``lle_orbit`` for many orbits (one per row of ``pars`` = eta, zeta, a, x_w, R and of
+    ``starts`` = t0, x0, v0), stopped cleanly by Ctrl-C or SIGTERM.
+
+    Parameters
+    ----------
+    pars, starts : numpy.ndarray
+        Shapes ``(n, 5)`` and ``(n, 3)``.
+    periods, transient, blocks, max_impacts : int
+        As :func:`lle_orbit`, for every orbit.
+    keep : int
+        Stroboscopic samples of the last periods kept per orbit.
+    parallel : bool, default ``True``
+        The orbits on every core (numba threads); ``False`` on one (inside a worker
+        process of a sweep, which is already one per core).
+    abort_on_failure : bool, default ``False``
+        An orbit the engine does not resolve stops the others (their status is then
+        ``STATUS_INTERRUPTED``): for a batch that goes to the fallback engine as a whole.
+    progress : bool, None or callable, default ``False``
+        Periods done over all orbits (:func:`~precise_impact.solvers.fast.control.run_kernel`).
+
+    Returns
+    -------
+    tuple
+        ``(status, log1, log2, impacts, block_sums, block_impacts, xs_tail, vs_tail)``, one
+        row per orbit.
+
+    Raises
+    ------
+    Interrupted
+        Ctrl-C or SIGTERM during the run (its ``partial`` is the tuple above, with the
+        work done so far).
+    """
+    n = pars.shape[0]
+    out = (
+        np.zeros(n, np.int64),
+        np.zeros(n),
+        np.zeros(n),
+        np.zeros(n, np.int64),
+        np.zeros((n, blocks)),
+        np.zeros((n, blocks), np.int64),
+        np.zeros((n, keep)),
+        np.zeros((n, keep)),
+    )
+    stop, counts = new_flag(), np.zeros(n, np.int64)
+    length = transient + periods
+    args = (pars, starts, periods, transient, blocks, max_impacts, bool(abort_on_failure))
+    kernel = LLE_KERNELS[bool(parallel)]
+    try:
+        run_kernel(
+            lambda: kernel(*args, *out, stop, counts),
+            stop,
+            counts,
+            n * length,
+            progress,
+            label="lle periods",
+            what=lambda done: (
+                f"interrupted after {done // max(n, 1)} of {length} periods"
+                + (f" per start ({n} starts)" if n > 1 else "")
+            ),
+        )
+    except Interrupted as e:
+        e.partial = out  # the sums so far (status STATUS_INTERRUPTED)
+        raise
+    return out
+
+
+def lle_batch_serial(pars, starts, periods, transient, blocks, max_impacts, keep, **kw) -> tuple:
+    """:func:`lle_batch` on one core (inside a worker process of a sweep)."""
+    return lle_batch(
+        pars, starts, periods, transient, blocks, max_impacts, keep, parallel=False, **kw
+    )
 
 
 def kernel_inputs(params: Any, n: int) -> tuple[np.ndarray, np.ndarray]:

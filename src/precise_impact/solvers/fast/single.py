@@ -18,6 +18,7 @@ from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import BudgetExceededError, IntegrationError
 from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
+from precise_impact.solvers.fast.control import STATUS_INTERRUPTED
 from precise_impact.solvers.fast.crossing import (
     JIT,
     PHASE_ERROR,
@@ -38,6 +39,7 @@ STATUS_NONFINITE = 4
 #: R = 1 bounces under the wall force predicted to reach rest or to outrun the impact budget
 #: (core.impact.elastic_bounce_count; the LLE kernel only): refused, not rerun
 STATUS_ENDLESS_BOUNCES = 5
+# 6: STATUS_INTERRUPTED (solvers.fast.control)
 
 __all__ = [
     "FastSolver",
@@ -58,6 +60,7 @@ STATUS_TEXT = {
     STATUS_BUDGET: "impact budget exhausted",
     STATUS_NONFINITE: "non-finite state",
     STATUS_ENDLESS_BOUNCES: "R = 1 bounces on the wall without end (predicted)",
+    STATUS_INTERRUPTED: "stopped (interrupted, or another orbit of the batch went to heyoka)",
 }
 
 

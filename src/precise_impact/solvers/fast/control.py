@@ -1,0 +1,199 @@
+"""Stopping and watching the fast engine's compiled loops: a stop flag they poll, a progress
+counter they publish, and the runner that turns Ctrl-C / SIGTERM into a clean stop.
+
+A Python signal handler runs only in the main thread, between bytecodes: it cannot run while
+that thread is inside a compiled (nopython) loop, and once the loop returns, boxing its
+results calls back into Python, where the pending ``KeyboardInterrupt`` is raised half-way
+through (a ``SystemError`` "returned a result with an exception set", or a segmentation
+fault from a parallel kernel).  So :func:`run_kernel` runs the kernel (compiled with
+``nogil``) in a helper thread that blocks SIGINT and SIGTERM, while the main thread waits in
+Python: the interrupt is raised there at once, sets the kernel's *stop flag*, the kernel
+returns :data:`STATUS_INTERRUPTED` within :data:`POLL_PERIODS` periods, and the interrupt
+goes on (:class:`~precise_impact.errors.Interrupted`) with the work finished so far.  The
+same loop reads the kernel's progress counters and reports them
+(:class:`~precise_impact.io.progress.Progress`).
+
+The flag and the counters are ``int64`` arrays read and written with atomic (relaxed)
+loads and stores (:func:`load_flag`, :func:`store_count`): a plain load of a value the loop
+never writes would be hoisted out of the loop by the compiler, and the flag never seen.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from precise_impact.errors import Interrupted
+from precise_impact.io.progress import Progress, ProgressArg
+
+__all__ = [
+    "POLL_PERIODS",
+    "STOP_NONE",
+    "STOP_INTERRUPT",
+    "STOP_ABORT",
+    "STATUS_INTERRUPTED",
+    "load_flag",
+    "store_count",
+    "new_flag",
+    "run_kernel",
+]
+
+#: Periods between two looks at the stop flag (and two progress updates) in a kernel:
+#: ~1 ms of work, so a stop is seen within milliseconds and the polling costs nothing.
+POLL_PERIODS = 256
+
+#: Values of the stop flag: run on; stop (Ctrl-C, SIGTERM); stop because another orbit of the
+#: batch failed and the batch goes to the fallback engine anyway.
+STOP_NONE, STOP_INTERRUPT, STOP_ABORT = 0, 1, 2
+
+#: A kernel's status when it stopped on its flag (the other statuses:
+#: :mod:`precise_impact.solvers.fast.single`).
+STATUS_INTERRUPTED = 6
+
+#: Seconds a run goes before progress is shown (a short run prints nothing).
+PROGRESS_AFTER = 2.0
+#: Seconds between two looks of the waiting thread at the kernel.
+WAIT_INTERVAL = 0.05
+
+
+def _element_pointer(context, builder, arr_ty, arr, idx):
+    ary = context.make_array(arr_ty)(context, builder, arr)
+    return cgutils.get_item_pointer(context, builder, arr_ty, ary, [idx], wraparound=False)
+
+
+@intrinsic
+def load_flag(typingctx, arr, idx):
+    """``arr[idx]`` (an ``int64`` array) by an atomic load: read anew at every call, never
+    hoisted out of a loop."""
+    if not (isinstance(arr, types.Array) and arr.dtype == types.int64):
+        return None
+
+    def codegen(context, builder, sig, args):
+        ptr = _element_pointer(context, builder, sig.args[0], args[0], args[1])
+        return builder.load_atomic(ptr, "monotonic", 8)
+
+    return types.int64(arr, types.intp), codegen
+
+
+@intrinsic
+def store_count(typingctx, arr, idx, value):
+    """``arr[idx] = value`` (``int64``) by an atomic store: visible to another thread at once."""
+    if not (isinstance(arr, types.Array) and arr.dtype == types.int64):
+        return None
+
+    def codegen(context, builder, sig, args):
+        ptr = _element_pointer(context, builder, sig.args[0], args[0], args[1])
+        val = context.cast(builder, args[2], sig.args[2], types.int64)
+        builder.store_atomic(val, ptr, "monotonic", 8)
+        return context.get_dummy_value()
+
+    return types.void(arr, types.intp, types.int64), codegen
+
+
+def new_flag() -> np.ndarray:
+    """A fresh stop flag (:data:`STOP_NONE`)."""
+    return np.zeros(1, np.int64)
+
+
+def _in_thread(call: Callable[[], Any], box: dict, done: threading.Event) -> None:
+    try:
+        # the interrupt is the main thread's to take: never this thread's system calls
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        box["value"] = call()
+    except BaseException as e:  # handed to the waiting thread
+        box["error"] = e
+    finally:
+        done.set()
+
+
+def run_kernel(
+    call: Callable[[], Any],
+    stop: np.ndarray,
+    counts: np.ndarray | None = None,
+    total: int = 0,
+    progress: ProgressArg = False,
+    label: str = "periods",
+    what: Callable[[int], str] | None = None,
+) -> Any:
+    """``call()`` (a compiled kernel, ``nogil``, polling ``stop``) so that Ctrl-C and SIGTERM
+    stop it cleanly, with progress from ``counts``.
+
+    Parameters
+    ----------
+    call : callable
+        Runs the kernel; its result is returned.
+    stop : numpy.ndarray
+        The kernel's stop flag (:func:`new_flag`); set to :data:`STOP_INTERRUPT` on an
+        interrupt.
+    counts : numpy.ndarray or None
+        Work done so far, published by the kernel (:func:`store_count`); the progress is
+        its sum.
+    total : int
+        The sum of ``counts`` at the end.
+    progress : bool, None or callable
+        :data:`~precise_impact.io.progress.ProgressArg`; a line only once the run has gone
+        :data:`PROGRESS_AFTER` seconds.
+    label : str
+        What the progress line counts.
+    what : callable or None
+        ``what(done)`` says what was finished when interrupted (the
+        :class:`~precise_impact.errors.Interrupted` message).
+
+    Returns
+    -------
+    object
+        ``call()``'s result.
+
+    Raises
+    ------
+    Interrupted
+        Ctrl-C or SIGTERM while the kernel ran; raised once the kernel has stopped (its
+        arrays hold the work done so far).
+
+    Notes
+    -----
+    Outside the main thread (a test runner's thread, a Dask worker) no signal can reach
+    this code: ``call()`` runs right there (without progress).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return call()
+    box: dict[str, Any] = {}
+    done = threading.Event()
+    worker = threading.Thread(target=_in_thread, args=(call, box, done), daemon=True)
+    bar = Progress(total, label, progress) if counts is not None and total > 0 else None
+    start = time.perf_counter()
+    interrupt: BaseException | None = None
+    worker.start()
+    while True:
+        try:
+            if interrupt is None:
+                while not done.wait(WAIT_INTERVAL):
+                    if bar is not None and time.perf_counter() - start > PROGRESS_AFTER:
+                        bar.update(int(counts.sum()))  # type: ignore[union-attr]
+            else:  # stopping: the kernel sees the flag within POLL_PERIODS periods
+                done.wait()
+            break
+        except BaseException as e:  # Ctrl-C; SIGTERM arrives as one too (precise_impact.cli.main)
+            stop[0] = STOP_INTERRUPT  # (anything else raised here, too: never left running)
+            if interrupt is None:
+                interrupt = e
+    if bar is not None and time.perf_counter() - start > PROGRESS_AFTER:
+        bar.update(int(counts.sum()))  # type: ignore[union-attr]
+        bar.close()
+    if interrupt is not None and not isinstance(interrupt, KeyboardInterrupt):
+        raise interrupt
+    if "error" in box:
+        raise box["error"]
+    if interrupt is not None:
+        finished = int(counts.sum()) if counts is not None else 0
+        text = what(finished) if what is not None else "interrupted"
+        raise Interrupted(text, box.get("value")) from interrupt
+    return box["value"]
