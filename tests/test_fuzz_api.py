@@ -374,9 +374,7 @@ ANSWERS = {
 }
 #: Failures the fuzz found in another part's code (reported there, not fixed here): xfail, not
 #: strict (most values pass), so that the rest of the fuzz keeps running.
-KNOWN = {
-    ("find_orbit", "seed"): "orbits: the deprecated seed='' is refused naming guess_from",
-}
+KNOWN: dict[tuple[str, str], str] = {}
 CASES = [
     pytest.param(name, arg, marks=pytest.mark.xfail(reason=KNOWN[name, arg], strict=False))
     if (name, arg) in KNOWN

@@ -256,6 +256,8 @@ def find_orbit(
     params = params_or_values(params, param_values)
     if seed is not UNSET:  # the 0.2 spelling
         warn_renamed("seed=", "guess_from=", "find_orbit")
+        if seed not in ("simulation", "closed-form", "auto"):  # named as the caller spelled it
+            raise ParameterError("seed", seed, "'simulation', 'closed-form' or 'auto'")
         guess_from = seed
     period, transient, max_iterations, impacts, Pq = _check_options(
         params, period, transient, max_iterations, impacts, guess_from, precision
