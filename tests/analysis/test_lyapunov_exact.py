@@ -304,3 +304,21 @@ def test_a_failing_point_gets_a_status_and_leaves_its_neighbours_alone(model, tm
     assert res.lle[1] == one.lle[0]
     rows = (tmp_path / "both" / "sweep.csv").read_text().splitlines()
     assert rows[1].startswith("-1,nan,nan,nan,nan,nan,failed: ") and rows[2].endswith(",ok")
+
+
+@pytest.mark.parametrize("model", ["fast", "heyoka"])
+def test_scan_error_bars_on_a_periodic_orbit_are_not_below_rounding(model, tmp_path):
+    """A scan row on a periodic orbit (eta = 0.7, x_w = 0: a 1:1 orbit with two impacts per
+    period): its batch means are equal to rounding, so their standard error alone fell to
+    1.0e-18 (a third of an ulp) while the row missed the Floquet exponent by 1.1e-16.  The
+    row's stderr now carries the sum's rounding, sqrt(n) eps |lle| (rounding_stderr), and covers
+    the Newton orbit's exact LLE within 3 standard errors."""
+    p = pi.Params.make(x_w="0")
+    exact = pi.find_orbit(p.replace(eta="0.7"), 1).lle
+    spec = pi.SweepSpec.make(
+        p, [("eta", "0.7", "0.7", 1)], periods=500, transient=1000, model=model
+    )
+    res = pi.run_sweep(spec, tmp_path, workers=1, progress=False)
+    lle, se = float(res.lle[0]), float(res.stderr[0])
+    assert se >= math.ulp(lle)  # never below the rounding of the value itself
+    assert abs(lle - exact) <= 3 * se, (lle, exact, se)

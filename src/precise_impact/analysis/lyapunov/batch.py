@@ -7,11 +7,12 @@ advancing together in heyoka's SIMD lanes; the hard cases in ``docs/numerics.rst
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from precise_impact.analysis.lyapunov.result import means_stderr
+from precise_impact.analysis.lyapunov.result import means_stderr, rounding_stderr
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.params import Params, check_count
 from precise_impact.errors import IntegrationError, ParameterError
@@ -105,11 +106,14 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
             [len(blk) * T[i] for blk in np.array_split(l1[:, i], nb)]
         )
         tot = periods * T[i]
+        lle = float(l1[:, i].sum() / tot)
+        # one term per step: periods + impacts (rounding floor, rounding_stderr)
+        floor = rounding_stderr(lle, periods + float(impacts[i]))
         results.append(
             {
-                "lle": float(l1[:, i].sum() / tot),
+                "lle": lle,
                 "lambda2": float(l2[:, i].sum() / tot),
-                "stderr": means_stderr(blocks),
+                "stderr": math.hypot(means_stderr(blocks), floor),
                 "period": detect_period(xs[:, i], vs[:, i], max_period),
                 "impacts_per_period": float(impacts[i] / periods),
                 "x_last": float(xs[-1, i]),

@@ -20,7 +20,7 @@ from precise_impact.analysis.lyapunov.attractors import (
     attribute,
 )
 from precise_impact.analysis.lyapunov.batch import batch_lle, refused_row
-from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr
+from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr, rounding_stderr
 from precise_impact.analysis.lyapunov.variational import variational_spectrum
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.budget import Deadline, estimate_cost, parse_max_time
@@ -402,10 +402,13 @@ def fast_batch_rows(
                 continue
             T = 2 * math.pi / eta[i]
             bm = bsums[j] / (per_block * T)
+            lle = float(log1[j] / (periods * T))
+            # one term per flight: periods + impacts (rounding floor, rounding_stderr)
+            floor = rounding_stderr(lle, periods + float(imps[j]))
             results[i] = {
-                "lle": float(log1[j] / (periods * T)),
+                "lle": lle,
                 "lambda2": float(log2[j] / (periods * T)),
-                "stderr": means_stderr(bm),
+                "stderr": math.hypot(means_stderr(bm), floor),
                 "period": detect_period(xt[j], vt[j], max_period),
                 "impacts_per_period": float(imps[j] / periods),
                 "x_last": float(xt[j][-1]),
