@@ -41,8 +41,10 @@ from precise_impact.solvers.fast.single import STATUS_OK  # noqa: E402
 
 SRC = str(Path(__file__).resolve().parents[2] / "src")
 #: Seconds from the signal to the exit: the kernel stops within POLL_PERIODS periods (~1 ms),
-#: then the interpreter shuts down (~0.5 s measured); 5 s leaves room for a loaded machine.
-EXIT_BOUND = 5.0
+#: then the interpreter shuts down (0.3-2.1 s measured); 9.1 s was seen once with both cores
+#: taken by other test runs (the parallel kernel's threads compete for them): 20 s bounds it
+#: and still tells a clean stop from the old crash or a run to the end (minutes).
+EXIT_BOUND = 20.0
 
 
 def _outputs(n, blocks=2, keep=1):
