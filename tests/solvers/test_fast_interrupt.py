@@ -36,7 +36,12 @@ from precise_impact.solvers.fast.control import (  # noqa: E402
     STOP_INTERRUPT,
     new_flag,
 )
-from precise_impact.solvers.fast.lle import LLE_KERNELS, kernel_inputs, lle_batch  # noqa: E402
+from precise_impact.solvers.fast.lle import (  # noqa: E402
+    LLE_KERNELS,
+    batch_outputs,
+    kernel_inputs,
+    lle_batch,
+)
 from precise_impact.solvers.fast.single import STATUS_OK  # noqa: E402
 
 SRC = str(Path(__file__).resolve().parents[2] / "src")
@@ -48,16 +53,7 @@ EXIT_BOUND = 20.0
 
 
 def _outputs(n, blocks=2, keep=1):
-    return (
-        np.zeros(n, np.int64),
-        np.zeros(n),
-        np.zeros(n),
-        np.zeros(n, np.int64),
-        np.zeros((n, blocks)),
-        np.zeros((n, blocks), np.int64),
-        np.zeros((n, keep)),
-        np.zeros((n, keep)),
-    )
+    return batch_outputs(n, blocks, keep)
 
 
 @pytest.mark.parametrize("parallel", [True, False])

@@ -353,6 +353,22 @@ def _make_batch(parallel: bool):
 LLE_KERNELS = {True: _make_batch(True), False: _make_batch(False)}
 
 
+def batch_outputs(n: int, blocks: int, keep: int) -> tuple[np.ndarray, ...]:
+    """The batch kernels' output arrays for ``n`` orbits, zeroed: ``status, log1, log2,
+    impacts`` (per orbit), ``block sums, block impacts`` (``n x blocks``) and the last ``keep``
+    stroboscopic ``x, v`` (``n x keep``); the kernels write into them (nothing is returned)."""
+    return (
+        np.zeros(n, np.int64),
+        np.zeros(n),
+        np.zeros(n),
+        np.zeros(n, np.int64),
+        np.zeros((n, blocks)),
+        np.zeros((n, blocks), np.int64),
+        np.zeros((n, keep)),
+        np.zeros((n, keep)),
+    )
+
+
 def lle_batch(
     pars: np.ndarray,
     starts: np.ndarray,
@@ -399,16 +415,7 @@ def lle_batch(
         work done so far).
     """
     n = pars.shape[0]
-    out = (
-        np.zeros(n, np.int64),
-        np.zeros(n),
-        np.zeros(n),
-        np.zeros(n, np.int64),
-        np.zeros((n, blocks)),
-        np.zeros((n, blocks), np.int64),
-        np.zeros((n, keep)),
-        np.zeros((n, keep)),
-    )
+    out = batch_outputs(n, blocks, keep)
     stop, counts = new_flag(), np.zeros(n, np.int64)
     length = transient + periods
     args = (pars, starts, periods, transient, blocks, max_impacts, bool(abort_on_failure))
