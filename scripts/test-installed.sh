@@ -101,13 +101,10 @@ grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did no
 grep -Eq "[0-9]+ deselected" "$work/pytest.log" || { echo "addopts -m 'not slow' was not applied"; exit 1; }
 took
 
-step "the slow accuracy tests (marked slow: long references, coverage statistics, the main job), installed package"
-# manual runs (pytest -m slow): the hypothesis long run (test_fuzz_long_run, ~10 min) and the
-# 90 random-moment signals (test_ten_signals_per_long_command, ~10 min; issue 28 keeps it open:
-# a signal can still end sweep --model heyoka with status -2 instead of 130)
+step "the slow tests (marked slow: long references, coverage statistics, the main job, ten signals per long command), installed package"
+# a manual run (pytest -m slow): the hypothesis long run (test_fuzz_long_run, ~10 min)
 PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -q \
-  --rootdir "$repo" -c "$repo/pyproject.toml" -m slow \
-  -k "not fuzz_long_run and not test_ten_signals_per_long_command"
+  --rootdir "$repo" -c "$repo/pyproject.toml" -m slow -k "not fuzz_long_run"
 took
 
 if [ -f "$repo/docs/conf.py" ]; then

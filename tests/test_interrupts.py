@@ -8,6 +8,7 @@ ten per command (the reliability round's acceptance: 10 tries each)."""
 from __future__ import annotations
 
 import json
+import os
 import random
 import signal
 import subprocess
@@ -27,16 +28,18 @@ LONG_COMMANDS = {
     # within seconds and the heyoka fallback is refused by the budget: exit 3 before the signal)
     "lle-fast": ["lle", "--model", "fast", "--eta", "0.8", "--periods", "100000000"],
     "certify": ["certify", "--periods", "5000"],
+    # a transient of 1e8 periods (56 s) before the continuation: the continuation itself ends
+    # in ~1.5 s, and a signal after a run has ended is the teardown test's case, not this one
     "continue": [
         "continue",
         "--param",
         "eta",
-        "0.7",
+        "0.74",
         "3.0",
         "--period",
-        "1",
-        "--max-points",
-        "100000",
+        "3",
+        "--transient",
+        "100000000",
     ],
     "sync": ["sync", "--k", "0", "2", "400", "--periods", "2000"],
     "sweep-fast": [
@@ -51,8 +54,12 @@ LONG_COMMANDS = {
         "--periods",
         "200000",
     ],
-    "sweep-heyoka": ["sweep", "--axis", "eta", "0.5", "1.5", "400", "--periods", "20000"],
-    "bifurcation": ["bifurcation", "--eta", "0.5", "1.5", "400", "--periods", "5000"],
+    # chaotic values (0.70-0.72): the LLE runs its whole length (~2 min); on 0.5-1.5 most points
+    # are periodic, stop early and the sweep ended in 2.3 s, before most signals
+    "sweep-heyoka": ["sweep", "--axis", "eta", "0.70", "0.72", "400", "--periods", "200000"],
+    # chaotic values: ~19 s of work (on 0.5-1.5 with 5000 periods it ended in 1.4 s, before
+    # the later signals)
+    "bifurcation": ["bifurcation", "--eta", "0.70", "0.72", "400", "--periods", "200000"],
 }
 WRITES_OUT = {"sweep-fast", "sweep-heyoka", "bifurcation", "sync", "continue"}
 DEFAULT_SUITE = {"lle-fast", "sweep-fast", "certify"}  # one try each in the default suite
@@ -166,3 +173,117 @@ def test_an_interrupted_fast_sweep_resumes_to_the_uninterrupted_numbers(tmp_path
     )
     assert r.returncode == 0, r.stderr[-800:]
     assert (cut / "sweep.csv").read_text() == (whole / "sweep.csv").read_text()
+
+
+# A short run on two worker processes (~2-3 s in all): its pool is started, joined and torn down.
+SHORT_SWEEP = ["sweep", "--axis", "eta", "0.5", "1.5", "40", "--periods", "2000", "--workers", "2"]
+
+
+def _signal_at(args, delay, sig, out, group=False):
+    """``args`` started, ``sig`` sent after ``delay`` s (to the whole process group with
+    ``group``, as a terminal's Ctrl-C is); returns (status, stderr)."""
+    cmd = [sys.executable, "-m", "precise_impact", *args, "--out", str(out)]
+    p = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        stdin=subprocess.DEVNULL,
+        start_new_session=group,
+        preexec_fn=None
+        if group
+        else lambda: signal.signal(signal.SIGINT, signal.default_int_handler),
+    )
+    time.sleep(delay)
+    try:
+        if group:
+            os.killpg(p.pid, sig)
+        else:
+            p.send_signal(sig)
+    except ProcessLookupError:  # it had ended
+        pass
+    try:
+        _, err = p.communicate(timeout=TIME_BOUND)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        pytest.fail(f"{args[0]}: no exit within {TIME_BOUND} s of {sig.name} at {delay:.2f} s")
+    return p.returncode, err
+
+
+def _run_time(args, out):
+    t = time.perf_counter()
+    r = subprocess.run(
+        [sys.executable, "-m", "precise_impact", *args, "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr[-800:]
+    return time.perf_counter() - t
+
+
+@pytest.mark.parametrize("fractions", [(0.8, 0.9, 0.97, 1.0), (0.6, 0.7, 0.85, 0.93, 1.03)])
+def test_a_signal_as_a_run_ends_is_an_exit_not_a_kill(fractions, tmp_path):
+    """A signal in the last moments of a run, after ``main()`` returned (pool joined, the
+    interpreter tearing down): status 0 (ignored once only C++ destructors are left) or 130 with
+    one line, never a kill by the signal (-2, -15: before the entry wrapper, 8 of 10 signals that
+    landed after a short ``continue`` had finished its work) and never a traceback. The moments
+    are fractions of the unsignalled run's own duration, so a slower machine shifts them too."""
+    whole = _run_time(SHORT_SWEEP, tmp_path / "whole")
+    for i, f in enumerate(fractions):
+        sig = (signal.SIGINT, signal.SIGTERM)[i % 2]
+        rc, err = _signal_at(SHORT_SWEEP, f * whole, sig, tmp_path / f"cut{i}")
+        where = (f"{f:.2f} x {whole:.2f} s", sig.name, err[-600:])
+        assert rc in (0, 130), (rc, *where)
+        assert "Traceback" not in err, where
+        if rc == 130:
+            assert err.strip().splitlines()[-1].startswith("precise-impact: "), where
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("i", range(20))
+def test_sigterm_to_a_two_worker_sweep_20_of_20(i, tmp_path):
+    """SIGTERM to ``sweep --workers 2`` at a seeded moment: exit 130 within the bound, one line,
+    every tile whole (issue 27: it hung for good in 3 of 7 tries, the parent waiting on a
+    worker after printing that finished results were kept)."""
+    delay = random.Random(27_000 + i).uniform(1.5, 6.0)
+    args = [
+        "sweep",
+        "--axis",
+        "eta",
+        "0.70",
+        "0.72",
+        "200",
+        "--periods",
+        "200000",
+        "--workers",
+        "2",
+    ]
+    rc, err = _signal_at(args, delay, signal.SIGTERM, tmp_path / "out")
+    assert rc == 130, (delay, rc, err[-800:])
+    assert "Traceback" not in err, err[-800:]
+    _tiles(tmp_path / "out")
+
+
+@pytest.mark.parametrize("delay", [2.0, 3.5])
+def test_ctrl_c_in_a_terminal_reaches_the_workers_without_tracebacks(delay, tmp_path):
+    """Ctrl-C in a terminal signals the whole process group (the sweep's workers too): one line
+    from the parent, exit 130, and no worker's KeyboardInterrupt traceback on stderr."""
+    args = [
+        "sweep",
+        "--axis",
+        "eta",
+        "0.70",
+        "0.72",
+        "200",
+        "--periods",
+        "200000",
+        "--workers",
+        "2",
+    ]
+    rc, err = _signal_at(args, delay, signal.SIGINT, tmp_path / "out", group=True)
+    assert rc == 130, (rc, err[-800:])
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err[-1500:]
+    lines = [line for line in err.strip().splitlines() if line.strip()]
+    assert lines[-1].startswith("precise-impact: "), lines[-3:]
+    _tiles(tmp_path / "out")

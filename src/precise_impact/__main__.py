@@ -1,5 +1,3 @@
-import sys
+from precise_impact.cli.entry import run
 
-from precise_impact.cli.main import main
-
-sys.exit(main())
+run()

@@ -21,6 +21,7 @@ import heyoka
 
 from precise_impact.cli.args import EXIT_BAD_INPUT, Parser, check_outputs
 from precise_impact.cli.commands import COMMANDS
+from precise_impact.cli.entry import EXIT_INTERRUPTED
 from precise_impact.errors import (
     BudgetExceededError,
     ConvergenceError,
@@ -38,7 +39,6 @@ __all__ = ["main", "build_parser", "EXIT_BAD_INPUT", "EXIT_BUDGET", "EXIT_IO", "
 
 EXIT_BUDGET = 3
 EXIT_IO = 4
-EXIT_INTERRUPTED = 130  # 128 + SIGINT, the shell's convention
 
 
 def build_parser() -> argparse.ArgumentParser:
