@@ -229,8 +229,11 @@ def test_array_results_save_npz_that_loads_back(results, tmp_path):
             assert arrays.keys() & set(z.files) or name == "Trajectory", name
     sw = results["SweepResult"]
     csv = sw.save(tmp_path / "sweep.csv").read_text().splitlines()
-    assert csv[0] == "eta,lle,stderr,lambda2,period,impacts_per_period,status" and len(csv) == 3
-    assert csv[1].endswith(",ok")  # a per-point status word (issue 28: refused points say so)
+    assert (
+        csv[0] == "eta,lle,stderr,lambda2,period,impacts_per_period,status,eta_exact"
+        and len(csv) == 3
+    )
+    assert csv[1].endswith(",ok,0.7")  # a per-point status word (issue 28: refused points say so)
     assert float(csv[1].split(",")[1]) == sw.lle[0]  # repr(float) round-trips exactly
     with pytest.raises(pi.ParameterError):
         sw.save(tmp_path / "sweep.txt")

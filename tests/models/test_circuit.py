@@ -97,6 +97,29 @@ def test_switched_capacitor_without_effects_is_the_ideal_impact(precision):
     assert tr.n_impacts == ref.n_impacts
 
 
+@pytest.mark.parametrize("precision", ["float64", "mp:128"])
+def test_switched_capacitor_records_the_impact_velocities(precision):
+    """Issue 27: every ``impacts_v_before`` was NaN (immediate switching logged only the trip
+    instant).  Now V_q just before and after the flip: on the period-3 orbit (eta = 0.74,
+    100 periods, 67 impacts) the same velocities as the mechanics within the phase round-off
+    bound of the ideal-circuit test (10 eps t_end: each sample's time carries ~eps t of
+    rounding, and |dv/dt| <= 1 + |x| + a = O(1) near the wall), and ``v_after = -v_before``
+    exactly (R_on = 0: reversing C2 flips V_q, the ideal impact R = 1)."""
+    p = Params.make(eta="0.74")
+    tr = SwitchedCapacitorSolver(precision).solve(nominal_components(p), 100)
+    ref = simulate(p, 100, precision=precision)
+    P = tr.precision
+    assert tr.n_impacts == ref.n_impacts == 67
+    vb = [mpmath.mpf(P.to_str(v)) for v in tr.impacts_v_before]
+    vr = [mpmath.mpf(P.to_str(v)) for v in ref.impacts_v_before]
+    va = [mpmath.mpf(P.to_str(v)) for v in tr.impacts_v_after]
+    assert all(mpmath.isfinite(v) and v > 0 for v in vb)  # towards the wall at x_w = 2
+    assert all(a == -b for a, b in zip(va, vb, strict=True))
+    bound = 10 * mpmath.mpf(2) ** (-P.bits + 1) * mpmath.mpf(P.to_str(ref.t[-1]))
+    assert max(abs(a - b) for a, b in zip(vb, vr, strict=True)) <= bound
+    assert "null" not in tr.to_dict()
+
+
 def test_switch_on_resistance_steady_state_closed_form():
     """R_on in series with C2: the non-impacting steady state (eta = 0.70, wall far away)
     equals the closed form of the linear switched-capacitor equations.

@@ -7,6 +7,7 @@ an interrupted sweep resumes and gives the same numbers bit for bit.
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import functools
 import hashlib
@@ -512,8 +513,9 @@ class SweepResult(ResultMixin):
     -----
     ``save(path)`` writes ``.json`` (:meth:`to_dict`), ``.npz`` (the arrays, one
     ``axisI_NAME`` array of coordinates per axis and the specification as
-    ``spec_json``) or ``.csv`` (one row per point: coordinates as exact decimals, then
-    the fields).
+    ``spec_json``) or ``.csv`` (one row per point: the coordinates as decimal numbers
+    (float64), the fields, ``status``, then each coordinate exactly in ``NAME_exact``: a
+    decimal, or a ratio such as ``89/58``).
     """
 
     spec: SweepSpec
@@ -569,19 +571,28 @@ class SweepResult(ResultMixin):
             atomic_write(path, lambda fh: np.savez_compressed(fh, **npz), binary=True)
             return path
         if path.suffix == ".csv":
+            # each coordinate as a decimal number (float64, repr round-trips) that spreadsheets
+            # and pandas read as a number, and exactly (``89/58``) in its own NAME_exact column
             names = [name for name, _ in spec.axes]
-            lines = [",".join(names + list(_FIELDS) + ["status"])]
+            buf = io.StringIO()
+            w = csv.writer(buf, lineterminator="\n")
+            w.writerow(names + list(_FIELDS) + ["status"] + [f"{n}_exact" for n in names])
             for k in range(spec.n_points):
                 idx = np.unravel_index(k, spec.shape)
-                coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx, strict=True)]
+                exact = [vals[i] for (_, vals), i in zip(spec.axes, idx, strict=True)]
                 row = [
                     repr(float(getattr(self, f)[idx]))
                     if f != "period"
                     else _int_or_nan(self.period[idx] if self.period[idx] >= 0 else np.nan)
                     for f in _FIELDS
-                ] + [_status_word(self.status[idx])]
-                lines.append(",".join(coords + row))
-            text = "\n".join(lines) + "\n"
+                ]
+                w.writerow(
+                    [repr(float(v)) for v in exact]
+                    + row
+                    + [_status_word(self.status[idx])]
+                    + [decimal_str(v) for v in exact]
+                )
+            text = buf.getvalue()
             atomic_write(path, lambda fh: fh.write(text), binary=False)
             return path
         if path.suffix != ".json":

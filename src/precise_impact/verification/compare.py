@@ -25,6 +25,7 @@ from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure
 from precise_impact.io.jsonout import write_json
+from precise_impact.io.markdown import table
 from precise_impact.io.progress import say as _progress
 from precise_impact.models.circuit.spice import find_ngspice
 from precise_impact.scenes.run import run_scene
@@ -527,10 +528,8 @@ def _points_report(res: dict) -> list[str]:
         f"form); period-doubling of the 1:1 orbit at eta = {_g(rp['period-doubling'], '.12g')} "
         "(continuation).",
         "",
-        "| model | grazing eta | shift | resolution | period-doubling eta | shift | resolution | "
-        "how |",
-        "|---|---:|---:|---:|---:|---:|---:|---|",
     ]
+    rows = []
     for m, s in res["models"].items():
         g, d = s["points"]["grazing"], s["points"]["period-doubling"]
         dd = (
@@ -549,11 +548,21 @@ def _points_report(res: dict) -> list[str]:
                 ),
             )
         )
-        L.append(
-            f"| {m} | {g['model']:.10g} | {g['shift']:+.3e} | {g['resolution']:.1e} | "
-            + " | ".join(dd)
-            + " |"
-        )
+        rows.append((m, f"{g['model']:.10g}", f"{g['shift']:+.3e}", f"{g['resolution']:.1e}", *dd))
+    L += table(
+        (
+            "model",
+            "grazing eta",
+            "shift",
+            "resolution",
+            "period-doubling eta",
+            "shift",
+            "resolution",
+            "how",
+        ),
+        rows,
+        "lrrrrrrl",
+    )
     L += [
         "",
         "How obtained (`precise_impact.verification.points`): the grazing point is the root of "
@@ -623,19 +632,36 @@ def _report_header(res: dict) -> list[str]:
 
 def _periodic_scores(res: dict) -> list[str]:
     """The scores table of a periodic scene and how its columns were obtained."""
-    L = [
-        "| model | max state error | final state error | impacts (model/ref) | matched | "
-        "unmatched model/ref | max impact dt | max impact dv | period | time [s] |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
-    ]
+    rows = []
     for m, s in res["models"].items():
         im = s["impacts"]
-        L.append(
-            f"| {m} | {_g(s['max_state_error'])} | {_g(s['final_state_error'])} | "
-            f"{im['model_impacts']}/{im['reference_impacts']} | {im['matched']} | "
-            f"{im['unmatched_model']}/{im['unmatched_reference']} | {_g(im['max_dt'])} | "
-            f"{_g(im['max_dv'])} | {s['period_model']} | {s['elapsed_s']:.3f} |"
+        rows.append(
+            (
+                m,
+                _g(s["max_state_error"]),
+                _g(s["final_state_error"]),
+                f"{im['model_impacts']}/{im['reference_impacts']}",
+                im["matched"],
+                f"{im['unmatched_model']}/{im['unmatched_reference']}",
+                _g(im["max_dt"]),
+                _g(im["max_dv"]),
+                s["period_model"],
+                f"{s['elapsed_s']:.3f}",
+            )
         )
+    header = (
+        "model",
+        "max state error",
+        "final state error",
+        "impacts (model/ref)",
+        "matched",
+        "unmatched model/ref",
+        "max impact dt",
+        "max impact dv",
+        "period",
+        "time [s]",
+    )
+    L = table(header, rows)
     L += [
         "",
         "How obtained:",
@@ -656,26 +682,39 @@ def _periodic_scores(res: dict) -> list[str]:
 def _chaotic_scores(res: dict) -> list[str]:
     """The scores table of a chaotic scene and how its columns were obtained."""
     deltas = list(next(iter(res["models"].values()))["horizons"])
-    L = [
-        "| model | "
-        + " | ".join(f"horizon d={d}" for d in deltas)
-        + " | fitted rate | rate / LLE | "
-        "model LLE est. | LLE gap | sliced W (floor) | impact-v W1 (floor) | impacts/period (ref) "
-        "| period | time [s] |",
-        "|---|" + "---:|" * (len(deltas) + 10),
-    ]
+    header = (
+        "model",
+        *(f"horizon d={d}" for d in deltas),
+        "fitted rate",
+        "rate / LLE",
+        "model LLE est.",
+        "LLE gap",
+        "sliced W (floor)",
+        "impact-v W1 (floor)",
+        "impacts/period (ref)",
+        "period",
+        "time [s]",
+    )
+    rows = []
     for m, s in res["models"].items():
         d = s["divergence"]
-        L.append(
-            f"| {m} | "
-            + " | ".join(_g(s["horizons"][x], ".1f") for x in deltas)
-            + f" | {_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')} | "
-            f"{_g(s['rate_over_lle'], '.3f')} | {_g(s['lle_model'], '.4f')} | "
-            f"{_g(s['lle_gap'], '+.4f')} | {s['sliced_wasserstein']:.4f} ({s['sw_floor']:.4f}) | "
-            f"{s['impact_v_wasserstein']:.4f} ({s['impact_v_floor']:.4f}) | "
-            f"{s['impacts_per_period_model']:.3f} ({s['impacts_per_period_reference']:.3f}) | "
-            f"{s['period_model']} | {s['elapsed_s']:.3f} |"
+        rows.append(
+            (
+                m,
+                *(_g(s["horizons"][x], ".1f") for x in deltas),
+                f"{_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')}",
+                _g(s["rate_over_lle"], ".3f"),
+                _g(s["lle_model"], ".4f"),
+                _g(s["lle_gap"], "+.4f"),
+                f"{_g(s['sliced_wasserstein'], '.4f')} ({_g(s['sw_floor'], '.4f')})",
+                f"{_g(s['impact_v_wasserstein'], '.4f')} ({_g(s['impact_v_floor'], '.4f')})",
+                f"{_g(s['impacts_per_period_model'], '.3f')} "
+                f"({_g(s['impacts_per_period_reference'], '.3f')})",
+                s["period_model"],
+                f"{s['elapsed_s']:.3f}",
+            )
         )
+    L = table(header, rows)
     L += [
         "",
         "How obtained:",
