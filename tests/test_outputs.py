@@ -92,7 +92,7 @@ def test_compare_outputs_load_in_other_tools(tmp_path):
 
     # the periodic table and the grazing / period-doubling table (compare --points: 1-10 s
     # a model) laid out from real periodic scores of two models on this result
-    from precise_impact.verification.compare import _report
+    from precise_impact.verification.compare import report_markdown
     from precise_impact.verification.scores import score
 
     p = pi.Params.make(eta="0.74")
@@ -104,7 +104,7 @@ def test_compare_outputs_load_in_other_tools(tmp_path):
         d["models"][m] = score(tr, ref, regime="periodic", lle=-0.05, transient=4)
         d["models"][m].update(effects=[], effects_dropped=[])
     del d["models"]["switched-capacitor"]
-    (t,) = assert_tables_render(_report(d), expect=1)
+    (t,) = assert_tables_render(report_markdown(d), expect=1)
     assert len(t) == 3 and len(t[0]) == 10
     d["reference"]["points"] = {"grazing": 0.9, "period-doubling": None}
     d["models"]["heyoka"]["points"] = {
@@ -112,7 +112,7 @@ def test_compare_outputs_load_in_other_tools(tmp_path):
         "period-doubling": _points(0.95, 2e-3, "extrapolated"),
     }
     d["models"]["analytical"]["points"] = {"grazing": _points(0.9, 0.0), "period-doubling": None}
-    tables = assert_tables_render(_report(d), expect=2)
+    tables = assert_tables_render(report_markdown(d), expect=2)
     assert len(tables[1][0]) == 8 and tables[1][2][4:] == ["n/a"] * 4
 
 
@@ -143,3 +143,47 @@ def test_sweep_csv_reads_as_numbers(tmp_path):
     for k in numeric:
         assert pd.api.types.is_numeric_dtype(df[k]), k
     assert df["eta"].iloc[2] == float(Fraction("0.7") + Fraction("0.02") / 3)  # exact float
+
+
+# ----------------------------------------------------------------------- the model registry
+def test_every_registered_model_is_accepted_wherever_models_are_listed():
+    """Every list of models derives from the registry: ``compare --models`` took 5 of the 8,
+    ``accuracy`` scored 4, scenes ran 5.  Each model runs a scene (in a precision it takes:
+    certified in mp at the reference's bits, without dense output) and is named in the help
+    of every command that takes a model."""
+    import argparse
+    import dataclasses
+
+    from precise_impact.cli.main import build_parser
+    from precise_impact.models.circuit.spice import find_ngspice
+    from precise_impact.verification.accuracy import candidates
+    from precise_impact.verification.compare import check_models, scene_for_model
+    from precise_impact.verification.metrics import reference_bits
+
+    names = list(pi.MODELS)
+    assert len(names) >= 8  # heyoka, analytical(-paper), fast, certified, 3 circuit models
+    assert check_models(",".join(names)) == names
+    assert check_models(["mechanical"]) == ["heyoka"]  # the alias
+    assert {m for m, _ in candidates(reference_bits(30))} == set(names)
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for cmd, flag in (("compare", "--models"), ("run", "--model"), ("simulate", "--model")):
+        text = " ".join(a.help or "" for a in sub.choices[cmd]._actions if flag in a.option_strings)
+        assert all(m in text for m in names), (cmd, text)
+    try:
+        find_ngspice()
+        have_spice = True
+    except pi.OptionalDependencyError:
+        have_spice = False
+    scene = pi.load_scene("fig5-chaotic-datasheet")  # switched-capacitor, datasheet effects
+    for m in names:
+        fitted, dropped = scene_for_model(scene, m, 20)
+        assert fitted.model == m
+        caps = pi.solvers.base.model_capabilities(m)
+        assert fitted.precision.kind in caps.precisions
+        assert fitted.per_period == (50 if caps.dense else 0)
+        if m == "spice" and not have_spice:
+            continue
+        tr = pi.run_scene(dataclasses.replace(fitted, periods=3))
+        assert tr.model == m and len(tr.t) == 4, m
+    with pytest.raises(pi.ParameterError, match="models"):
+        check_models("heyoka,nonesuch")

@@ -29,8 +29,8 @@ from precise_impact.io.markdown import table
 from precise_impact.io.progress import say as _progress
 from precise_impact.models.circuit.spice import find_ngspice
 from precise_impact.scenes.run import run_scene
-from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
-from precise_impact.solvers.base import MODEL_ALIASES
+from precise_impact.scenes.scene import Scene, load_scene
+from precise_impact.solvers.base import MODEL_ALIASES, MODELS, model_capabilities
 from precise_impact.solvers.simulate import make_solver
 from precise_impact.verification.metrics import reference_bits, sample_errors
 from precise_impact.verification.points import mechanical_points, point_scores
@@ -41,6 +41,7 @@ __all__ = [
     "CompareResult",
     "check_models",
     "format_scores",
+    "report_markdown",
     "REF_PERTURBATION",
     "MODEL_PERTURBATION",
 ]
@@ -58,29 +59,39 @@ def check_models(models: str | Sequence[str]) -> list[str]:
     models = [MODEL_ALIASES.get(m, m) for m in models]
     if not models or any(not m for m in models):
         raise ParameterError(
-            "models", ",".join(models), "a comma-separated list of " + ", ".join(SCENE_MODELS)
+            "models", ",".join(models), "a comma-separated list of " + ", ".join(MODELS)
         )
     for m in models:
-        if m not in SCENE_MODELS:
-            raise ParameterError("models", m, "each one of " + ", ".join(SCENE_MODELS))
+        if m not in MODELS:
+            raise ParameterError("models", m, "each one of " + ", ".join(MODELS))
     if len(set(models)) != len(models):
         raise ParameterError("models", ",".join(models), "no model twice")
     return models
 
 
-def scene_for_model(scene: Scene, model: str) -> tuple[Scene, list[str]]:
+def scene_for_model(
+    scene: Scene, model: str, periods: int | None = None
+) -> tuple[Scene, list[str]]:
     """``scene`` on ``model``, keeping only the scene's effects that fit ``model``.
+
+    A model that does not take the scene's precision runs in one it takes: a
+    multiprecision-only model (``certified``) at the reference's bits for ``periods``
+    (:func:`~precise_impact.verification.metrics.reference_bits`), a float64-only one in
+    float64 (:meth:`~precise_impact.scenes.scene.Scene.model_settings`).
 
     Returns the scene and the names of the effects dropped (e.g. the comparator of a
     switched-capacitor scene when run on the op-amp ``circuit`` model).
     """
-    return scene.fitted_to(model)
+    bits = reference_bits(scene.periods if periods is None else periods)
+    return scene.fitted_to(model, mp_bits=bits)
 
 
 def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=None) -> Trajectory:
 
+    if not model_capabilities(model).dense:
+        per_period = 0  # e.g. certified: stroboscopic samples and impacts only
     sc = dataclasses.replace(
-        scene_for_model(scene, model)[0], periods=periods, per_period=per_period
+        scene_for_model(scene, model, periods)[0], periods=periods, per_period=per_period
     )
     if params is not None:
         sc = dataclasses.replace(sc, params=params)
@@ -106,8 +117,9 @@ def compare(
     scene_name_or_path : str or Path
         A built-in scene (:func:`~precise_impact.scenes.builtin_scenes`) or a ``.toml`` file.
     models : sequence of str or str
-        Names from :data:`precise_impact.scenes.scene.SCENE_MODELS` (or one string
-        ``'a,b'``).
+        Names from :data:`precise_impact.solvers.base.MODELS`, every registered model (or
+        one string ``'a,b'``); a model that does not take the scene's precision runs in one
+        it takes (:func:`scene_for_model`).
     out : directory or None, default ``None``
         Writes ``report.md``, ``scores.json``, ``phase_portraits.png``,
         ``separation.png``; ``None`` writes nothing.
@@ -161,8 +173,14 @@ def compare(
     k = periods // 5 if transient is None else int(transient)
     params = scene.params
     dropped = {
-        m: scene_for_model(scene, m)[1] for m in models
+        m: scene_for_model(scene, m, periods)[1] for m in models
     }  # validates every model before any work
+    if points:
+        for m in models:
+            if not model_capabilities(m).dense:  # the grazing point needs the steady state's max x
+                raise ParameterError(
+                    "models", m, "models with dense output for the points (certified has none)"
+                )
     if "spice" in models:
         find_ngspice()  # a missing ngspice is refused before the reference runs, not after
 
@@ -184,7 +202,7 @@ def compare(
         trajs[m] = tr
         sc = _score_model(scene, m, tr, periods, regime, ref, ref2, lle, k)
         sc["effects_dropped"] = dropped[m]
-        sc["effects"] = sorted(scene_for_model(scene, m)[0].effects)
+        sc["effects"] = sorted(scene_for_model(scene, m, periods)[0].effects)
         if mech is not None:
             sc["points"] = point_scores(scene, m, mech)
         results[m] = sc
@@ -305,7 +323,7 @@ def _write_outputs(
     write_json(out / "scores.json", result, indent=2, default=_json_default)
     _plot_portraits(scene, ref, trajs, k, out / "phase_portraits.png")
     _plot_separation(scene, ref, check, trajs, lle["lle"], results, out / "separation.png")
-    md = _report(result)
+    md = report_markdown(result)
     atomic_write(out / "report.md", lambda fh: fh.write(md), binary=False)
     result["files"] = [
         str(out / n) for n in ("report.md", "scores.json", "phase_portraits.png", "separation.png")
@@ -578,9 +596,10 @@ def _points_report(res: dict) -> list[str]:
     return L
 
 
-def _report(res: dict) -> str:
+def report_markdown(res: dict) -> str:
     """``report.md``: how the reference was made, every model's scores and how they were
-    obtained."""
+    obtained; ``res`` is a :class:`CompareResult`'s fields as a dict (or ``scores.json``).
+    Its tables come from :func:`precise_impact.io.markdown.table`."""
     L = _report_header(res)
     L += ["## Scores", ""]
     if res["regime"] == "periodic":
