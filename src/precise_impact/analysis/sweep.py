@@ -33,7 +33,7 @@ from precise_impact.analysis.scan import (
 )
 from precise_impact.core.budget import enforce_max_time, estimate_cost, format_duration
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import OverBudgetError, ParameterError
 from precise_impact.io.atomic import atomic_write, check_output_dir
 from precise_impact.io.figures import figure
@@ -527,6 +527,24 @@ class SweepResult(ResultMixin):
     complete: bool
     files: dict = dataclasses.field(default_factory=dict)
     stats: dict = dataclasses.field(default_factory=dict)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``points``: one row per grid point, as ``sweep.csv``."""
+
+        def points() -> dict:
+            grids = np.meshgrid(*self.coordinates().values(), indexing="ij")
+            cols = [(n, "1", g.ravel()) for n, g in zip(self.coordinates(), grids, strict=True)]
+            cols += [
+                ("lle", "1/tau", self.lle.ravel()),
+                ("stderr", "1/tau", self.stderr.ravel()),
+                ("lambda2", "1/tau", self.lambda2.ravel()),
+                ("period", None, self.period.ravel()),
+                ("impacts_per_period", None, self.impacts_per_period.ravel()),
+                ("status", None, [_status_word(c) for c in self.status.ravel()]),
+            ]
+            return columns(*cols)
+
+        return {"points": points}
 
     @property
     def status(self) -> np.ndarray:

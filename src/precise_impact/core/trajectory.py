@@ -11,7 +11,7 @@ import numpy as np
 
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.jsonout import dumps, write_json
@@ -75,6 +75,27 @@ class Trajectory(ResultMixin):
     @property
     def n_impacts(self) -> int:
         return len(self.impacts_t)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``samples`` (default), ``impacts``, ``dense`` (if kept)."""
+        P = self.precision
+        tab = {
+            "samples": lambda: columns(
+                ("period", None, np.arange(len(self.t))),
+                *(("t", "1", self.t), ("x", "1", self.x), ("v", "1", self.v)),
+                precision=P,
+            ),
+            "impacts": lambda: columns(
+                ("t", "1", self.impacts_t),
+                ("v_before", "1", self.impacts_v_before),
+                ("v_after", "1", self.impacts_v_after),
+                precision=P,
+            ),
+        }
+        if self.dense_t is not None:
+            d = (("t", "1", self.dense_t), ("x", "1", self.dense_x), ("v", "1", self.dense_v))
+            tab["dense"] = lambda: columns(*d, precision=P)
+        return tab
 
     def state_mpf(self, k: int) -> tuple:
         """Exact mpmath values ``(t, x, v)`` of sample ``k``."""

@@ -13,7 +13,7 @@ from typing import Any
 
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import has_quad
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, record_columns
 from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.figures import new_figure, save_figure
 from precise_impact.io.jsonout import write_json
@@ -209,6 +209,10 @@ class AccuracyResult(ResultMixin):
     periods: int
     reference_bits: int
     rows: list
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``rows``: one per (eta, model, precision)."""
+        return {"rows": lambda: record_columns(self.rows)}
 
 
 def format_table(result: AccuracyResult) -> str:

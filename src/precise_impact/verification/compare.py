@@ -19,7 +19,7 @@ import numpy as np
 
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.core.params import check_count, decimal_str
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
@@ -372,6 +372,15 @@ class CompareResult(ResultMixin):
     lle: dict
     models: dict
     files: list | None = None
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``models``: one row per model, its scalar scores (nested
+        ones as ``divergence.rate``, ``horizons.0.001`` ...)."""
+        return {
+            "models": lambda: record_columns(
+                [{"model": m, **flat(sc)} for m, sc in self.models.items()]
+            )
+        }
 
 
 def _json_default(o):

@@ -18,7 +18,7 @@ import numpy as np
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
 from precise_impact.core.params import Params
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure as new_fig
@@ -95,6 +95,26 @@ class ReproduceResult(ResultMixin):
     lle: dict
     sync: dict
     elapsed_s: float
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``models`` (default: one row per figure and model) and
+        ``sync`` (one row per coupled form)."""
+        return {
+            "models": lambda: record_columns(
+                [
+                    {
+                        "figure": fig,
+                        "eta": row["eta"],
+                        "regime": row["regime"],
+                        "model": m,
+                        **flat(v),
+                    }
+                    for fig, row in self.figures.items()
+                    for m, v in row["models"].items()
+                ]
+            ),
+            "sync": lambda: record_columns([{"form": f, **flat(s)} for f, s in self.sync.items()]),
+        }
 
 
 def reproduce(

@@ -24,7 +24,7 @@ import numpy as np
 
 from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.params import Params
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, record_columns
 from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure, save_figure
@@ -704,6 +704,14 @@ class WorkPrecisionResult(ResultMixin):
     headlines: dict
     notes: list
     elapsed_s: float
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``rows`` (default: one per method and setting, as
+        ``work_precision.csv``) and ``chaos_cost`` (bits and time per chaotic length)."""
+        tab = {"rows": lambda: record_columns(self.rows)}
+        if self.chaos_cost:
+            tab["chaos_cost"] = lambda: record_columns(self.chaos_cost["rows"])
+        return tab
 
 
 # --------------------------------------------------------------------------- outputs

@@ -16,7 +16,7 @@ import numpy as np
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count, decimal_str
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.models.circuit.components import Components, dimensionless, nominal_components
 from precise_impact.models.circuit.network import NETWORK_PARS
@@ -278,6 +278,25 @@ class CoupledCircuitTrajectory(ResultMixin):
     params: Params
     R31: Fraction
     R32: Fraction
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``samples`` (default), ``impacts`` (``who``: master or
+        slave), mapped to the dimensionless system."""
+        P = self.precision
+
+        def impacts() -> dict:
+            who = ["master"] * len(self.master_impacts_t) + ["slave"] * len(self.slave_impacts_t)
+            t = list(self.master_impacts_t) + list(self.slave_impacts_t)
+            return columns(("who", None, who), ("t", "1", t), precision=P)
+
+        return {
+            "samples": lambda: columns(
+                ("period", None, np.arange(len(self.t))),
+                *((n, "1", getattr(self, n)) for n in ("t", "x", "v", "y", "w")),
+                precision=P,
+            ),
+            "impacts": impacts,
+        }
 
 
 class CircuitCoupledSolver:
