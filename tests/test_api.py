@@ -270,6 +270,17 @@ def _every_result(results):
     return out
 
 
+def test_every_result_type_to_dict_loads_with_a_strict_parser(results):
+    """All 19 result types (SyncRun and ReproduceResult included): ``to_dict()`` is text a
+    strict parser (no NaN / Infinity tokens) loads."""
+
+    def refuse(token):
+        raise AssertionError(f"non-strict JSON token {token}")
+
+    for name, r in _every_result(results).items():
+        assert isinstance(json.loads(json.dumps(r.to_dict()), parse_constant=refuse), dict), name
+
+
 #: Result types without samples or rows (one orbit, one point, one run): no to_dataframe.
 NO_ROWS = {"Bifurcation", "PeriodicOrbit", "ProvenOrbit", "SyncRun"}
 
