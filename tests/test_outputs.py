@@ -187,3 +187,17 @@ def test_every_registered_model_is_accepted_wherever_models_are_listed():
         assert tr.model == m and len(tr.t) == 4, m
     with pytest.raises(pi.ParameterError, match="models"):
         check_models("heyoka,nonesuch")
+
+
+def test_trajectory_csv_reads_as_numbers(tmp_path):
+    """``simulate --out FILE.csv``: the impact rows' x (the wall) was ``17/9`` for a wall that
+    is no terminating decimal; every number column now reads with float()."""
+    tr = pi.simulate(pi.Params.make(eta="0.74", x_w="17/9"), 3)
+    with open(tr.save(tmp_path / "a.csv"), newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["kind"] for r in rows].count("impact") == tr.n_impacts > 0
+    for r in rows:
+        for k in ("t", "x", "v_or_v_before") + (("v_after",) if r["kind"] == "impact" else ()):
+            float(r[k])
+    wall = [float(r["x"]) for r in rows if r["kind"] == "impact"]
+    assert wall == [float(Fraction(17, 9))] * tr.n_impacts

@@ -207,10 +207,13 @@ class Trajectory(ResultMixin):
             c = lambda x: self._str(x) or "nan"  # noqa: E731 - not recorded
             for j, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True)):
                 lines.append(f"sample,{j},{c(t)},{c(x)},{c(v)},")
+            xw = decimal_str(self.params.x_w)
+            if "/" in xw:  # a ratio is text to a spreadsheet: the wall in the working precision
+                xw = c(self.precision.from_fraction(self.params.x_w))
             for i, (t, vb, va) in enumerate(
                 zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)
             ):
-                lines.append(f"impact,{i},{c(t)},{decimal_str(self.params.x_w)},{c(vb)},{c(va)}")
+                lines.append(f"impact,{i},{c(t)},{xw},{c(vb)},{c(va)}")
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
         elif path.suffix == ".json":
