@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import subprocess
 import sys
 from fractions import Fraction
@@ -87,6 +88,9 @@ def test_compare_outputs_load_in_other_tools(tmp_path):
     scores = strict_loads((out / "scores.json").read_text())
     sc = scores["models"]["switched-capacitor"]
     assert isinstance(sc["impact_v_wasserstein"], float)  # was NaN (null): no velocities
+    for m in scores["models"].values():  # a null score says why (12 periods: no growth fit)
+        for part in (m["divergence"], m.get("model_lle_fit") or {}):
+            assert part["rate"] is not None or "3 needed" in part["why"]
     (t,) = assert_tables_render((out / "report.md").read_text(), expect=1)
     assert len(t[0]) == 1 + len(sc["horizons"]) + 9 and t[1][0] == "switched-capacitor"
 
@@ -201,3 +205,14 @@ def test_trajectory_csv_reads_as_numbers(tmp_path):
             float(r[k])
     wall = [float(r["x"]) for r in rows if r["kind"] == "impact"]
     assert wall == [float(Fraction(17, 9))] * tr.n_impacts
+
+
+def test_a_null_score_says_why():
+    """Strict JSON writes NaN as null: the scores that can be undefined carry a reason."""
+    from precise_impact.io.jsonout import dumps
+    from precise_impact.verification.scores import divergence_rate
+
+    d = strict_loads(dumps(divergence_rate([0.0, 1.0, 2.0], [1e-20, 1e-20, 1e-20])))
+    assert d["rate"] is None and d["why"].startswith("no fit: 0 samples")
+    ok = divergence_rate([0.0, 1.0, 2.0, 3.0], [1e-10, 1e-9, 1e-8, 1e-7])
+    assert math.isclose(ok["rate"], math.log(10), rel_tol=1e-12) and "why" not in ok
