@@ -6,7 +6,11 @@ Build (from the repository root, with ``pip install -e '.[docs]'``):
     sphinx-build -W --keep-going -b doctest docs docs/_build/doctest   # runs every example
 """
 
+import sys
 from importlib import metadata
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent / "_ext"))
 
 project = "precise_impact"
 author = "precise_impact developers"
@@ -18,7 +22,14 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.doctest",
     "sphinx.ext.mathjax",
+    # MathJax 3 shipped in the [docs] extra and copied into _static/: formulas render
+    # without a network (tests/test_docs_build.py checks that no page loads a remote script)
+    "sphinx-mathjax-offline",
     "numpydoc",
+    # docs/_ext: figures made by the package's own code at build time, and the tables of the
+    # circuit-builders page generated from the code
+    "docfigures",
+    "componenttables",
 ]
 
 # The API pages document what is installed (autodoc imports the package).
@@ -46,6 +57,9 @@ import precise_impact as pi
 
 exclude_patterns = ["_build"]
 html_theme = "alabaster"
+# Wide enough for the code blocks (alabaster's default 940 px column scrolled 100-character
+# lines); below 1240 px the theme's narrow layout uses the whole window.
+html_theme_options = {"page_width": "1240px", "sidebar_width": "230px", "body_max_width": "none"}
 html_static_path: list[str] = []
 nitpicky = False
 
