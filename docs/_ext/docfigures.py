@@ -71,7 +71,7 @@ class RunFigure(SphinxDirective):
         code = "\n".join(self.content)
         docname = self.env.docname
         serial = self.env.new_serialno("runfigure")
-        out_dir = Path(self.env.app.doctreedir).parent / "_docfigures" / Path(docname).parent
+        out_dir = Path(self.env.doctreedir).parent / "_docfigures" / Path(docname).parent
         out_dir.mkdir(parents=True, exist_ok=True)
         stem = f"{Path(docname).name}-{serial}"
 
