@@ -104,7 +104,7 @@ def test_one_page_build_offline_math_figure_tables(tmp_path):
         assert f'<span class="pre">{name}</span>' in html, name
     # R6 sets the damping alone: x4 gives zeta x1/4
     row = re.search(r"<span class=\"pre\">R6</span>.*?</tr>", html, re.S).group(0)
-    assert "zeta</span></code> x1/4" in row and ">eta</span></code> x" not in row
+    assert "zeta</span></code> \u00d71/4" in row and ">eta</span></code>" not in row
 
 
 def test_failing_figure_code_fails_the_build(tmp_path):

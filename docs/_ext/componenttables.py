@@ -55,7 +55,7 @@ def _literal_aware(text: str) -> nodes.paragraph:
 
 
 def _fmt_factor(q: Fraction) -> str:
-    return f"x{q.numerator}" if q.denominator == 1 else f"x{q.numerator}/{q.denominator}"
+    return f"\u00d7{q.numerator}" + ("" if q.denominator == 1 else f"/{q.denominator}")
 
 
 def _quantity(value: Fraction, unit: str) -> str:
@@ -118,7 +118,7 @@ class ComponentsTable(SphinxDirective):
                 kw[key] = 4 * value
                 changed = nominal_components(params, **kw)
                 what = {
-                    "R": "every resistor but R6 (R6 = R / (2 zeta))",
+                    "R": "every resistor but R6 = R / (2 zeta)",
                     "C": "C1 and C2",
                     "V_unit": "the volts of one unit of x",
                 }[key]
@@ -136,7 +136,7 @@ class ComponentsTable(SphinxDirective):
             rows.append([f"``{key}``", unit, nominal, effect or "nothing"])
         return [
             _table(
-                ["key", "unit", "nominal (paper's parameters)", "x4 changes"],
+                ["key", "unit", "nominal (paper's parameters)", "\u00d74 changes"],
                 rows,
                 [8, 5, 40, 60],
             )
