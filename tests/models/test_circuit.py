@@ -264,3 +264,21 @@ def test_designs_outside_the_integrable_range_are_refused_naming_the_input(R, ze
     with pytest.raises(ParameterError) as e:
         nominal_components(Params.make(eta="0.712", zeta=zeta), R=R)
     assert names in e.value.name.split(", ") or names in str(e.value)
+
+
+@pytest.mark.parametrize("model", ["circuit", "switched-capacitor", "spice"])
+def test_circuits_refuse_a_restitution_they_do_not_realise(model):
+    """Every circuit reverses V_q with unit gain at the wall: R = 1. Asked for R = 0.8, the
+    circuit and the switched-capacitor model ran R = 1 silently (10 periods at eta = 0.74:
+    0.44 from the R = 0.8 mechanics in x, 1.3e-14 from R = 1); now R is refused by name
+    before any work, in the one place Params become a design (nominal_components)."""
+    with pytest.raises(ParameterError, match=r"R = '0\.8' is not allowed: R = 1 for the circuits"):
+        simulate(Params.make(eta="0.74", R="0.8"), model=model, periods=2)
+
+
+def test_the_cli_refuses_a_circuit_at_r_below_one(capsys):
+    from precise_impact.cli.main import main
+
+    assert main(["simulate", "--model", "circuit", "--R", "0.8", "--periods", "2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "R = '0.8'" in err[0], err

@@ -28,11 +28,29 @@ from precise_impact.solvers import simulate as _registers_the_solvers_models  # 
 from precise_impact.solvers.base import COUPLED_MODELS, MODEL_ALIASES, MODELS, model_capabilities
 from precise_impact.solvers.heyoka.coupled import check_form, check_k
 
-__all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
+__all__ = [
+    "Scene",
+    "load_scene",
+    "builtin_scenes",
+    "SCENE_MODELS",
+    "COMPONENT_KEYS",
+    "parse_quantity",
+]
 
 #: The models a scene runs on: every registered model (a live view of
 #: :data:`~precise_impact.solvers.base.MODELS`, so a model registered later is accepted too).
 SCENE_MODELS = MODELS
+#: The keys a scene's ``[components]`` table accepts, each with its unit: the design values
+#: ``R``, ``C``, ``V_unit`` of :func:`nominal_components` and any single resistor or capacitor
+#: overriding the nominal design (``docs/guide/circuit_builders.rst`` is generated from it).
+COMPONENT_KEYS = {
+    "R": "ohm",
+    "C": "F",
+    "V_unit": "V",
+    **{f"R{i}": "ohm" for i in range(1, 9)},
+    "C1": "F",
+    "C2": "F",
+}
 _TOP = {
     "name",
     "description",
@@ -49,15 +67,7 @@ _SECTIONS = {
     "model": {"name", "precision", "tol", "tmax"},
     "duration": {"periods"},
     "outputs": {"per_period"},
-    "components": {"R", "C", "V_unit", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2"},
-}
-_COMPONENT_UNIT = {
-    "R": "ohm",
-    "C": "F",
-    "V_unit": "V",
-    **{f"R{i}": "ohm" for i in range(1, 9)},
-    "C1": "F",
-    "C2": "F",
+    "components": set(COMPONENT_KEYS),
 }
 _PREFIX = {
     "p": Fraction(1, 10**12),
@@ -322,7 +332,7 @@ def _parameters_section(data: Mapping) -> Params:
 def _components_section(data: Mapping) -> dict[str, Fraction]:
     """``[components]``: the component values (with units), each positive."""
     comps = {
-        n: parse_quantity(f"components.{n}", v, _COMPONENT_UNIT[n])
+        n: parse_quantity(f"components.{n}", v, COMPONENT_KEYS[n])
         for n, v in data.get("components", {}).items()
     }
     for n, v in comps.items():

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.impact import reset_velocity
-from precise_impact.core.params import Params, check_count, decimal_str
+from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import BudgetExceededError, ParameterError
@@ -330,10 +330,6 @@ class CircuitCoupledSolver:
         """Simulate the circuit pair (:func:`~precise_impact.simulate_coupled`)."""
         if form != CIRCUIT_COUPLED_FORM:
             raise ParameterError("form", form, f"{CIRCUIT_COUPLED_FORM!r} for the circuit model")
-        if params.R != 1:
-            raise ParameterError(
-                "R", decimal_str(params.R), "1 for the circuit pair (its comparators' impact law)"
-            )
         return simulate_coupled_circuit(
             nominal_components(params),
             k,
