@@ -265,7 +265,7 @@ def _build(data: Mapping, source: str) -> Scene:
         source=source,
     )
     scene._raw = data
-    if model in ("circuit", "switched-capacitor", "spice"):
+    if model in CIRCUIT_MODELS:
         exact_omega(scene.design())  # the design must map exactly onto the dimensionless system
     return scene
 
