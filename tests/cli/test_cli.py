@@ -316,3 +316,32 @@ def test_reproduce_quick_main_job(tmp_path):
     assert "Largest Lyapunov exponent" in md and "Fig. 6" in md
     for name in ("fig4_phase_portraits.png", "fig7_first-order.png", "sync_fraction_paper.png"):
         assert (tmp_path / name).stat().st_size > 5000
+
+
+def test_bench_work_precision_without_json_prints_the_table(capsys, monkeypatch):
+    """``bench work-precision --quick --out DIR`` without ``--json`` (a README line) ended in
+    ``AttributeError: 'WorkPrecisionResult' object has no attribute 'get'`` after its run, the
+    table lost.  Through the CLI on a tiny configuration, without ``--out`` (the plots take
+    seconds; the README's line with ``--out`` runs in the slow ``test_readme_sequence``)."""
+    from precise_impact.verification import workprecision
+
+    tiny = {  # the quick configuration, cut to what runs in a second
+        **workprecision._config(True),
+        "cases": {
+            "periodic": {"eta": "0.74", "periods": 10},
+            "chaotic": {"eta": "0.712", "periods": 10},
+        },
+        "heyoka": {"float64": ["1e-9", None]},
+        "heyoka_mp": [],
+        "analytical_paper": [],
+        "analytical_mp_dps": [],
+        "scipy": {},
+        "spice_tmax": [],
+        "chaos_N": [10],
+        "certify_N": 10,
+        "budget_s": 0.5,
+    }
+    monkeypatch.setattr(workprecision, "_config", lambda quick: tiny)
+    assert main(["bench", "work-precision", "--quick"]) == 0
+    text = capsys.readouterr().out
+    assert "Headlines:" in text and "heyoka float64" in text and "What chaos costs" in text

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import re
 import tomllib
+import warnings
 from collections.abc import Mapping
 from fractions import Fraction
 from importlib import resources
@@ -23,7 +24,35 @@ from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_ef
 from precise_impact.solvers.base import MODEL_ALIASES
 from precise_impact.solvers.heyoka.coupled import check_form, check_k
 
-__all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
+__all__ = [
+    "Scene",
+    "load_scene",
+    "builtin_scenes",
+    "SCENE_MODELS",
+    "SCENE_ALIASES",
+    "scene_alias",
+    "parse_quantity",
+]
+
+#: Old built-in scene names -> the names of what they show (issue 27: the datasheet model of
+#: Fig. 4 is chaotic, of Fig. 6 on a period-2 orbit).  Accepted for one release, with a
+#: :class:`DeprecationWarning` (the CLI: one line on stderr).
+SCENE_ALIASES = {
+    "fig4-periodic-datasheet": "fig4-chaotic-datasheet",
+    "fig6-period3-datasheet": "fig6-period2-datasheet",
+}
+
+
+def scene_alias(spec: str | Path) -> str | None:
+    """The one-line notice for a deprecated built-in scene name, or ``None``."""
+    new = SCENE_ALIASES.get(str(spec))
+    if new is None or str(spec) in builtin_scenes():
+        return None
+    return (
+        f"scene {str(spec)!r} is deprecated, use {new!r} (named for what it shows; the old name "
+        "is removed in the next release)"
+    )
+
 
 SCENE_MODELS = ("heyoka", "analytical", "circuit", "switched-capacitor", "spice")
 _TOP = {
@@ -395,6 +424,10 @@ def load_scene(spec: str | Path) -> Scene:
     """
     spec = str(spec)
     built = builtin_scenes()
+    notice = scene_alias(spec)
+    if notice is not None:
+        warnings.warn(notice, DeprecationWarning, stacklevel=2)
+        spec = SCENE_ALIASES[spec]
     if spec in built:
         path = built[spec]
     else:
