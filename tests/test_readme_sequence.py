@@ -36,7 +36,7 @@ from pathlib import Path
 
 import pytest
 
-from precise_impact.cli.main import _glue_negative_values, build_parser, main
+from precise_impact.cli.main import build_parser, main
 from precise_impact.io.lock import LOCK_NAME
 from precise_impact.verification.reproduce import OUTPUT_FILES
 
@@ -106,7 +106,7 @@ def _quick(cmd: str) -> str | None:
 def _out_dir(cmd: str, cwd: Path):
     """The command's parsed arguments (the CLI's own parser) and its ``--out`` directory."""
     argv = shlex.split(cmd.split(">", 1)[0])[1:]
-    ns = build_parser().parse_args(_glue_negative_values(argv))
+    ns = build_parser().parse_args(argv)  # the README's commands have no negative values
     out = getattr(ns, "out", None)
     if out is None or getattr(ns, "out_kind", None) != "dir":
         return ns, None

@@ -4,7 +4,6 @@ figures (errors 1.34, 2.54, 2.81, horizon "period 1") without a word on which or
 
 from __future__ import annotations
 
-import importlib
 import math
 from fractions import Fraction
 
@@ -15,8 +14,14 @@ from precise_impact import Params, find_orbit, simulate
 from precise_impact.models.circuit.components import nominal_components
 from precise_impact.models.circuit.switched import effective_system
 from precise_impact.scenes.scene import load_scene
-
-reproduce = importlib.import_module("precise_impact.verification.reproduce")
+from precise_impact.verification.reproduce import (
+    DATASHEET_MODEL,
+    DATASHEET_SCENES,
+    _attractor,
+    _attractor_md,
+    _attractors,
+    _figure_models,
+)
 
 
 def test_effective_system_of_the_ideal_design_is_the_design():
@@ -51,25 +56,25 @@ def test_report_names_attractors_and_explains_the_datasheet_model():
     p = Params.make(eta="0.74")
     periods = 150
     ref = simulate(p, periods)  # float64 holds the period-3 orbit to rounding (a stable orbit)
-    models = reproduce._figure_models("6", p, periods, False)
-    a = reproduce._attractors("6", p, periods, ref, models)
+    models = _figure_models("6", p, periods, False)
+    a = _attractors("6", p, periods, ref, models)
     mech = a["reference"]
     assert mech["period"] == 3 and mech["impacts_per_period"] == pytest.approx(2 / 3, abs=1e-15)
     orbit = find_orbit(p, period=3)
     assert mech["lle"] == pytest.approx(orbit.lle, abs=1e-9)  # the Floquet value, not an estimate
     assert a["models"]["circuit (ideal)"]["same_as_mechanics"] == "same"
-    ds = a["models"][reproduce.DATASHEET_MODEL]
+    ds = a["models"][DATASHEET_MODEL]
     assert ds["same_as_mechanics"] == "another attractor"
     assert ds["period"] == 2 and ds["impacts_per_period"] == 1.0
     e = ds["effective"]
-    scene = load_scene(reproduce.DATASHEET_SCENES["6"])
+    scene = load_scene(DATASHEET_SCENES["6"])
     assert e == {**e, **effective_system(scene.design(), scene.effects)}  # from the parts
     assert e["zeta"] > 0.05 + e["ron_damping"] / 2 * 0.9  # R_on's damping is in it
     assert e["grazing_eta"] != e["mechanics_grazing_eta"] and e["explains"]
     assert e["attractor"]["period"] == 2 and e["attractor"]["impacts_per_period"] == 1.0
     # a periodic orbit of an R = 1 system with complex multipliers: LLE = -zeta exactly
     assert ds["lle"] == pytest.approx(-e["zeta"], rel=1e-9)
-    md = "\n".join(reproduce._attractor_md(a))
+    md = "\n".join(_attractor_md(a))
     assert "| mechanics (reference) | period 3, 0.67 impacts per period | -0.0177 |" in md
     assert "**no: another attractor**" in md
     assert f"zeta {e['zeta']:.4f} (R_on adds 2 R_on/R3 = {e['ron_damping']:.4f} to 2 zeta)" in md
@@ -81,6 +86,6 @@ def test_attractor_of_a_run_counts_whole_orbits():
     on the period-2 orbit when 75 periods held 74 impacts and a half orbit)."""
     p = Params.make(eta="0.74")
     tr = simulate(p, 151)
-    att = reproduce._attractor(tr, p, 151)
+    att = _attractor(tr, p, 151)
     assert att["period"] == 3 and att["impacts_per_period"] * 3 == pytest.approx(2, abs=1e-12)
     assert np.isfinite(att["impacts_per_period"])
