@@ -71,6 +71,12 @@ def test_report_names_attractors_and_explains_the_datasheet_model():
     assert e == {**e, **effective_system(scene.design(), scene.effects)}  # from the parts
     assert e["zeta"] > 0.05 + e["ron_damping"] / 2 * 0.9  # R_on's damping is in it
     assert e["grazing_eta"] != e["mechanics_grazing_eta"] and e["explains"]
+    # on the figure's axis (Omega over the design's 1000 rad/s) the effective system grazes at
+    # 0.6951: compare --points measured the model itself there, 0.6951023101 (a closed-form
+    # root, tests/verification/test_points.py); the effective system takes the forcing gain
+    # at Omega only, which moves its root by ~1e-5
+    assert e["grazing_eta_figure"] == pytest.approx(e["grazing_eta"] * e["omega"] / 1000, 1e-15)
+    assert e["grazing_eta_figure"] == pytest.approx(0.6951023101, abs=5e-5)
     assert e["attractor"]["period"] == 2 and e["attractor"]["impacts_per_period"] == 1.0
     # a periodic orbit of an R = 1 system with complex multipliers: LLE = -zeta exactly
     assert ds["lle"] == pytest.approx(-e["zeta"], rel=1e-9)
@@ -79,6 +85,7 @@ def test_report_names_attractors_and_explains_the_datasheet_model():
     assert "**no: another attractor**" in md
     assert f"zeta {e['zeta']:.4f} (R_on adds 2 R_on/R3 = {e['ron_damping']:.4f} to 2 zeta)" in md
     assert "so the shifts explain it" in md
+    assert "the figure's eta 0.74 lies above the model's grazing and above the mechanics'" in md
 
 
 def test_attractor_of_a_run_counts_whole_orbits():

@@ -26,7 +26,7 @@ from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import figure as new_fig
 from precise_impact.io.progress import say as _say
 from precise_impact.models.circuit.components import nominal_components
-from precise_impact.models.circuit.opamp import CircuitSolver
+from precise_impact.models.circuit.opamp import CircuitSolver, design_omega
 from precise_impact.models.circuit.spice import run_spice
 from precise_impact.models.circuit.switched import SwitchedCapacitorSolver, effective_system
 from precise_impact.scenes.scene import load_scene
@@ -321,9 +321,11 @@ def _attractors(
         att_e = {**_attractor(run_e, pe, EFFECTIVE_PERIODS), **_system_lle(pe)}
         att.update(lle=att_e["lle"], lle_stderr=att_e["lle_stderr"], system="effective")
         att["same_as_mechanics"] = _same(att, mech)
+        omega_design = float(design_omega(ds.design()))  # the figure's eta is Omega / this
         att["effective"] = {
             **eff,
             "grazing_eta": graz_e,
+            "grazing_eta_figure": graz_e * eff["omega"] / omega_design,
             "mechanics_grazing_eta": graz,
             "attractor": att_e,
             "explains": _same(att, att_e) != "another attractor",
@@ -405,6 +407,10 @@ def _describe(att: dict) -> str:
     return f"{kind}, {att['impacts_per_period']:.2f} impacts per period"
 
 
+def _side(eta: float, grazing: float) -> str:
+    return "above" if eta > grazing else "below"
+
+
 def _attractor_md(a: dict) -> list[str]:
     """The attractor table of one figure and, for a model on another attractor, why."""
     m = a["reference"]
@@ -439,10 +445,11 @@ def _attractor_md(a: dict) -> list[str]:
             f"{n}: {verdict}. Its circuit realises another mechanical system (from its drawn "
             "parts and the switches' R_on, `effective_system`): "
             f"zeta {e['zeta']:.4f} (R_on adds 2 R_on/R3 = {e['ron_damping']:.4f} to 2 zeta), "
-            f"eta {e['eta']:.4f} (omega {e['omega']:.1f} rad/s), a {e['a']:.4f}; its grazing "
-            f"frequency {e['grazing_eta']:.4f} against the mechanics' "
-            f"{e['mechanics_grazing_eta']:.4f} (eta - grazing: {e['eta'] - e['grazing_eta']:+.4f}"
-            f" against the mechanics' {m['eta'] - e['mechanics_grazing_eta']:+.4f})."
+            f"eta {e['eta']:.4f} (omega {e['omega']:.1f} rad/s), a {e['a']:.4f}; it grazes at "
+            f"eta {e['grazing_eta']:.4f}, which is {e['grazing_eta_figure']:.4f} on the figure's "
+            f"eta axis against the mechanics' {e['mechanics_grazing_eta']:.4f}: the figure's "
+            f"eta {m['eta']:g} lies {_side(m['eta'], e['grazing_eta_figure'])} the model's "
+            f"grazing and {_side(m['eta'], e['mechanics_grazing_eta'])} the mechanics'."
             f" The mechanics at these parameters ({EFFECTIVE_PERIODS} periods): {_describe(ee)}, "
             f"LLE {ee['lle']:.4f}: "
             + (
