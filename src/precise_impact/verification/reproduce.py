@@ -301,6 +301,7 @@ def _attractors(
         **_system_lle(p),
         "system": "mechanics",
         "eta": float(p.eta),
+        "eta_text": {f: eta for f, eta, _ in FIGS}.get(fig, str(p.eta)),
     }
     out: dict[str, Any] = {"reference": mech, "models": {}}
     for name, tr in models.items():
@@ -448,7 +449,7 @@ def _attractor_md(a: dict) -> list[str]:
             f"eta {e['eta']:.4f} (omega {e['omega']:.1f} rad/s), a {e['a']:.4f}; it grazes at "
             f"eta {e['grazing_eta']:.4f}, which is {e['grazing_eta_figure']:.4f} on the figure's "
             f"eta axis against the mechanics' {e['mechanics_grazing_eta']:.4f}: the figure's "
-            f"eta {m['eta']:g} lies {_side(m['eta'], e['grazing_eta_figure'])} the model's "
+            f"eta {m['eta_text']} lies {_side(m['eta'], e['grazing_eta_figure'])} the model's "
             f"grazing and {_side(m['eta'], e['mechanics_grazing_eta'])} the mechanics'."
             f" The mechanics at these parameters ({EFFECTIVE_PERIODS} periods): {_describe(ee)}, "
             f"LLE {ee['lle']:.4f}: "
