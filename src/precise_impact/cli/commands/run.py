@@ -23,10 +23,17 @@ def register(sub) -> argparse.ArgumentParser:
         "--model", default=None, help="override the scene's model: one of " + ", ".join(MODELS)
     )
     add_json(rn)
-    add_out(rn, "dir", "write <scene>_<model>.json and .png here")
+    add_out(rn, "dir", "write <scene>_<model>.json and .png here", writes=_scene_files)
     add_max_time(rn)
     rn.set_defaults(run=run)
     return rn
+
+
+def _scene_files(ns: argparse.Namespace) -> tuple[str, ...]:
+    """The files ``run`` writes into ``--out``: ``<scene>_<model>.json`` and ``.png``."""
+    scene = load_scene(ns.scene)  # a bad name is refused here, before any work, as in run()
+    model = scene.model if ns.model is None else ns.model if ns.model in SCENE_MODELS else "*"
+    return (f"{scene.name}_{model}.json", f"{scene.name}_{model}.png")
 
 
 def run(ns: argparse.Namespace) -> int:
