@@ -59,6 +59,7 @@ def scene_alias(spec: str | Path) -> str | None:
         "is removed in the next release)"
     )
 
+
 #: The models a scene runs on: every registered model (a live view of
 #: :data:`~precise_impact.solvers.base.MODELS`, so a model registered later is accepted too).
 SCENE_MODELS = MODELS

@@ -32,7 +32,7 @@ def register(sub) -> argparse.ArgumentParser:
 def _scene_files(ns: argparse.Namespace) -> tuple[str, ...]:
     """The files ``run`` writes into ``--out``: ``<scene>_<model>.json`` and ``.png``."""
     scene = load_scene(ns.scene)  # a bad name is refused here, before any work, as in run()
-    model = scene.model if ns.model is None else ns.model if ns.model in SCENE_MODELS else "*"
+    model = scene.model if ns.model is None else ns.model if ns.model in MODELS else "*"
     return (f"{scene.name}_{model}.json", f"{scene.name}_{model}.png")
 
 
