@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core import digits as _digits
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin
@@ -44,6 +45,10 @@ class Trajectory(ResultMixin):
         Wall time of the integration (compilation excluded).
     stats : dict
         Solver statistics (steps, ...).
+    claim : Digits or None
+        The significant digits each sample claims (:meth:`claimed_digits`): set by
+        ``simulate(..., demonstrate=...)`` (``'demonstrated'``); ``None`` until first asked
+        for, then ``'proven'`` (certified model) or ``'estimated'``.
 
     See Also
     --------
@@ -67,6 +72,28 @@ class Trajectory(ResultMixin):
     dense_v: np.ndarray | None = None
     elapsed_s: float = 0.0
     stats: dict = dataclasses.field(default_factory=dict)
+    claim: _digits.Digits | None = dataclasses.field(default=None, repr=False, compare=False)
+
+    def claimed_digits(self) -> _digits.Digits:
+        """The significant digits each sample can claim, and on what basis.
+
+        ``'proven'`` for the certified model (its balls' radii), ``'demonstrated'`` when a
+        second run at a higher precision was asked for (``simulate(..., demonstrate=True)``),
+        else ``'estimated'``: the precision's rounding amplified along this run by its tangent
+        flow (:func:`precise_impact.core.digits.estimate`).  Computed once and kept.
+
+        Returns
+        -------
+        Digits
+            ``x[k]``, ``v[k]``: claimed significant digits of sample ``k``; ``basis``; ``note``.
+        """
+        if self.claim is None:
+            st = self.stats or {}
+            if st.get("certified") and "x_rad" in st and len(st["x_rad"]) == len(self.x):
+                self.claim = _digits.proven(self, st["x_rad"], st["v_rad"])
+            else:
+                self.claim = _digits.estimate(self)
+        return self.claim
 
     @property
     def periods(self) -> int:
@@ -127,8 +154,16 @@ class Trajectory(ResultMixin):
         partial = {}
         if self.stats and self.stats.get("partial"):  # an interrupted run: say so in every file
             partial = {"partial": {k: self.stats[k] for k in ("periods_done", "periods_asked")}}
+        claim = self.claimed_digits()
         samples = [
-            {"period": k, "t": s(t), "x": s(x), "v": s(v)}
+            {
+                "period": k,
+                "t": s(t),
+                "x": s(x),
+                "v": s(v),
+                "x_digits": int(claim.x[k]),
+                "v_digits": int(claim.v[k]),
+            }
             for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True))
         ]
         impacts = [
@@ -138,6 +173,8 @@ class Trajectory(ResultMixin):
             )
         ]
         has_null = any(v is None for row in samples + impacts for v in row.values())
+        # "x", "v": every binary digit of the run, as decimals; "x_digits", "v_digits": how many
+        # leading significant digits of each the run can claim ("digits": on what basis)
         null = {"null": (self.stats or {}).get("null", self.NULL_REASON)} if has_null else {}
         return {
             **partial,
@@ -145,6 +182,7 @@ class Trajectory(ResultMixin):
             "model": self.model,
             "precision": self.precision.name,
             "tol": s(self.tol) if self.tol is not None else None,
+            "digits": claim.summary(),
             "samples": samples,
             "impacts": impacts,
             **null,
