@@ -386,3 +386,17 @@ def test_simulate_demonstrate_flag(capsys):
         capsys, "simulate", "--periods", "4", "--model", "spice", "--demonstrate"
     )
     assert code == 2 and "spice" in err and out == ""
+
+
+def test_run_prints_the_last_sample_to_its_claimed_digits(capsys):
+    code, out, err = _main(capsys, "run", "fig6-period3-ideal", "--json")
+    assert code == 0, err
+    obj = _strict(out)
+    last = obj["samples"][-1]
+    assert obj["digits"]["basis"] == "estimated" and 5 <= last["x_digits"] <= 15
+    code, out, err = _main(capsys, "run", "fig6-period3-ideal")
+    line = next(ln for ln in out.splitlines() if ln.startswith("last sample:"))
+    x = line.split("x = ", 1)[1].split(",", 1)[0]
+    assert len(x.lstrip("-").replace(".", "").lstrip("0")) == last["x_digits"]
+    code, out, err = _main(capsys, "run", "fig5-chaotic-ideal")
+    assert "(no digit claimed)" in out and err.startswith("warning: no significant digit")

@@ -32,8 +32,8 @@ PESSIMISM = 5
 
 
 @functools.cache
-def _pair(eta: str, periods: int, lo: str, hi: str, x_w: str = "2", model: str = "heyoka"):
-    p = paper(eta, x_w=x_w)
+def _pair(eta: str, periods: int, lo: str, hi: str, x_w: str = "2", model: str = "heyoka", x0="0"):
+    p = paper(eta, x_w=x_w, x0=x0)
     ref_model = "analytical" if model == "fast" else model
     return pi.simulate(p, periods, precision=lo, model=model), pi.simulate(
         p, periods, precision=hi, model=ref_model
@@ -81,6 +81,25 @@ def test_float64_claim_holds_at_every_sample(eta, periods, x_w):
         assert claim.at(30) >= 4 and claim.final == 0
     else:  # the periodic orbits keep most of float64 (a digit or two for |t| ~ 2600)
         assert claim.final >= 9
+
+
+def test_transient_that_exhausts_float64_claims_nothing_after():
+    """eta = 0.70 from x0 = 1: ~76 periods of chaos exhaust float64 (truth 4 digits at period
+    80), then the run settles on the non-impacting orbit and the truth recovers (13 digits at
+    period 200: both runs land on the same stable orbit).  The estimate cannot see that two
+    runs apart by O(1) share a basin: it holds at 0 -- conservative; --demonstrate shows it."""
+    run, ref = _pair(ETA_TRANSIENT, 300, "float64", "mp:128", x0="1")
+    claim, truth = _check(run, ref, pessimism=None)
+    assert claim.at(20) >= 5 and claim.final == 0 and truth.at(200) >= 10
+
+
+def test_no_impacts_claims_most_digits():
+    """x_w = 1000: a linear flow contracting at zeta; every error is local (<= ~10^2 eps), so
+    the claim sits within PESSIMISM of the truth and never falls far below 15."""
+    run, ref = _pair("0.5", 300, "float64", "mp:128", x_w="1000")
+    assert run.n_impacts == 0
+    claim, truth = _check(run, ref)
+    assert claim.min >= 9
 
 
 def test_fast_model_claim_holds():
@@ -155,3 +174,38 @@ def test_exact_start_claims_every_digit():
     err = abs(Fraction(float(Fraction(1, 10))) - Fraction(1, 10))
     assert math.floor(math.log10(1e-20 / float(err))) < 0 and c.x[0] == 0
     assert c.v[0] == 15
+
+
+# ------------------------------------------------------------------ the pair
+@pytest.mark.parametrize(
+    "form, k, y0",
+    [
+        ("first-order", "0.1", None),  # synchronising from the diagonal
+        ("paper", "0.3", ("1", "0")),
+        ("reduced", "0.02", ("1.5", "0")),  # weak: the slave stays chaotic
+    ],
+)
+def test_pair_claim_holds_at_every_sample(form, k, y0):
+    p = paper(ETA_CHAOTIC)
+    run = pi.simulate_coupled(p, k, form=form, periods=150, y0=y0)
+    ref = pi.simulate_coupled(p, k, form=form, periods=150, y0=y0, precision="mp:128")
+    claim = run.claimed_digits()
+    truth = D.demonstrate(run, ref)
+    assert claim.basis == "estimated" and truth.y is not None and claim.y is not None
+    for name, c in claim.components().items():
+        t = truth.components()[name]
+        assert np.all(c <= t), (name, np.flatnonzero(c > t)[:5])
+        assert np.all((t >= claim.cap) | (c >= t - PESSIMISM)), name
+    assert claim.at(10) >= 6 and claim.final == 0
+
+
+def test_pair_demonstrate_and_json():
+    p = paper(ETA_CHAOTIC)
+    ct = pi.simulate_coupled(p, "0.1", periods=30, model="fast", demonstrate=True)
+    c = ct.claimed_digits()
+    assert c.basis == "demonstrated" and c.reference == "mp:128" and c.at(30) >= 5
+    d = ct.to_dict()
+    assert d["digits"]["basis"] == "demonstrated"
+    assert set(d["samples"][0]) >= {"x_digits", "v_digits", "y_digits", "w_digits"}
+    with pytest.raises(pi.ParameterError, match="demonstrate"):
+        pi.simulate_coupled(p, "0.1", periods=3, demonstrate="float64")

@@ -13,9 +13,7 @@ Three bases, strongest first:
     :func:`~precise_impact.core.flight.flow_matrix` between events and the impact's saltation
     matrix :func:`~precise_impact.core.impact.oscillator_saltation` at each impact.
 
-The estimate's bound
---------------------
-A run commits a local error ``delta_j`` at each event ``j`` (a sample or an impact) and carries
+**The estimate's bound.**  A run commits a local error ``delta_j`` at each event ``j`` (a sample or an impact) and carries
 the earlier ones along: to first order the error at event ``n`` is
 ``e_n = sum_j Phi(n, j) d_j`` with ``|d_j| <= delta_j``, so
 ``|e_n,i| <= sum_j ||row_i Phi(n, j)|| delta_j``.  Summing that for every ``n`` is quadratic;
@@ -304,11 +302,9 @@ def estimate(traj: Any) -> Digits:
     order = np.lexsort((-kinds, times))
     times, kinds, index = times[order], kinds[order], index[order]
     # state just after each event (the start of the next flight) and just before it
-    x_after = np.where(kinds == 0, xs[np.where(kinds == 0, index, 0)], x_w)
-    v_after = np.where(
-        kinds == 0, vs[np.where(kinds == 0, index, 0)], iva[np.where(kinds == 1, index, 0)]
-    )
-    v_before = np.where(kinds == 1, ivb[np.where(kinds == 1, index, 0)], v_after)
+    x_after = np.where(kinds == 0, _pick(xs, kinds == 0, index), x_w)
+    v_after = np.where(kinds == 0, _pick(vs, kinds == 0, index), _pick(iva, kinds == 1, index))
+    v_before = np.where(kinds == 1, _pick(ivb, kinds == 1, index), v_after)
     # flights: event e-1 -> e
     tau = np.diff(times)
     f00, f01, f10, f11 = flow_matrix(tau, zeta, wd, NUMPY)
@@ -411,6 +407,14 @@ def _add_identity(b: list, d2: float) -> None:
     add = math.exp(ld - b[3]) if ld - b[3] > -700 else 0.0
     b[0] += add
     b[2] += add
+
+
+def _pick(values: np.ndarray, mask: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``values[index]`` where ``mask`` (events of that kind), 0 elsewhere; ``values`` may be
+    empty (a run without impacts)."""
+    out = np.zeros(len(index))
+    out[mask] = values[index[mask]]
+    return out
 
 
 def _half_log(g: float, L: float, S: float) -> float:
@@ -614,9 +618,9 @@ def estimate_coupled(traj: Any) -> Digits:
     # master-only segments for the near-grazing passes
     msk = kinds != 2
     m_idx = np.flatnonzero(msk)
-    mx = np.where(kinds == 0, F["x"][np.where(kinds == 0, index, 0)], x_w)
-    mv = np.where(kinds == 0, F["v"][np.where(kinds == 0, index, 0)], 0.0)
-    mv = np.where(kinds == 1, mva[np.where(kinds == 1, index, 0)], mv)
+    mx = np.where(kinds == 0, _pick(F["x"], kinds == 0, index), x_w)
+    mv = np.where(kinds == 0, _pick(F["v"], kinds == 0, index), 0.0)
+    mv = np.where(kinds == 1, _pick(mva, kinds == 1, index), mv)
     depth_m = _near_misses(p, times[m_idx][:-1], times[m_idx][1:], mx[m_idx][:-1], mv[m_idx][:-1])
     depth = np.full(len(times), np.inf)
     depth[m_idx[1:]] = depth_m
