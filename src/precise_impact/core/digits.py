@@ -13,8 +13,8 @@ Three bases, strongest first:
     :func:`~precise_impact.core.flight.flow_matrix` between events and the impact's saltation
     matrix :func:`~precise_impact.core.impact.oscillator_saltation` at each impact.
 
-**The estimate's bound.**  A run commits a local error ``delta_j`` at each event ``j`` (a sample or an impact) and carries
-the earlier ones along: to first order the error at event ``n`` is
+**The estimate's bound.**  A run commits a local error ``delta_j`` at each event ``j`` (a
+sample or an impact) and carries the earlier ones along: to first order the error at event ``n`` is
 ``e_n = sum_j Phi(n, j) d_j`` with ``|d_j| <= delta_j``, so
 ``|e_n,i| <= sum_j ||row_i Phi(n, j)|| delta_j``.  Summing that for every ``n`` is quadratic;
 Cauchy-Schwarz with positive weights ``w_j = exp(2 gamma (t_n - t_j))`` gives
