@@ -117,8 +117,12 @@ def test_out_files(tmp_path, capsys):
     assert list(d["x_str"]) == [P.to_str(x) for x in tr.x]
     assert d["dense_t"].shape == (61,)
     lines = csv.read_text().splitlines()
-    assert lines[0].startswith("kind,index,t,x")
+    assert lines[0] == "kind,index,t,x,v_or_v_before,v_after,x_digits,v_digits"
     assert sum(1 for ln in lines if ln.startswith("sample,")) == 7
+    claim = simulate(Params.make(eta="0.74"), 6).claimed_digits()
+    last = lines[7].split(",")  # sample 6: its claimed digits in the last two columns
+    assert last[0] == "sample" and (int(last[6]), int(last[7])) == (claim.x[6], claim.v[6])
+    assert all(len(ln.split(",")) == 8 for ln in lines)
     assert not list(tmp_path.glob(".*.tmp"))  # atomic writes leave no temporaries
 
 

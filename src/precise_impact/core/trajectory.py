@@ -193,8 +193,9 @@ class Trajectory(ResultMixin):
         """Write ``.npz`` (decimal strings for every number, plus float64 copies), ``.csv`` or
         ``.json``.
 
-        ``.json`` is :meth:`to_dict` (the CLI's ``--json`` object).  The file is
-        written atomically (temporary file + rename).
+        ``.json`` is :meth:`to_dict` (the CLI's ``--json`` object); ``.csv`` rows give each
+        sample's claimed digits (``x_digits``, ``v_digits``, :meth:`claimed_digits`).  The file
+        is written atomically (temporary file + rename).
         """
         path = Path(path)
         s = np.vectorize(lambda x: self._str(x) or "nan", otypes=[object])
@@ -220,14 +221,17 @@ class Trajectory(ResultMixin):
 
             atomic_write(path, write, binary=True)
         elif path.suffix == ".csv":
-            lines = ["kind,index,t,x,v_or_v_before,v_after"]
+            # x_digits, v_digits: the significant digits a sample claims (claimed_digits)
+            lines = ["kind,index,t,x,v_or_v_before,v_after,x_digits,v_digits"]
             c = lambda x: self._str(x) or "nan"  # noqa: E731 - not recorded
+            claim = self.claimed_digits()
             for j, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True)):
-                lines.append(f"sample,{j},{c(t)},{c(x)},{c(v)},")
+                lines.append(f"sample,{j},{c(t)},{c(x)},{c(v)},,{claim.x[j]},{claim.v[j]}")
             for i, (t, vb, va) in enumerate(
                 zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)
             ):
-                lines.append(f"impact,{i},{c(t)},{decimal_str(self.params.x_w)},{c(vb)},{c(va)}")
+                xw = decimal_str(self.params.x_w)
+                lines.append(f"impact,{i},{c(t)},{xw},{c(vb)},{c(va)},,")
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
         elif path.suffix == ".json":
