@@ -209,3 +209,18 @@ def test_pair_demonstrate_and_json():
     assert set(d["samples"][0]) >= {"x_digits", "v_digits", "y_digits", "w_digits"}
     with pytest.raises(pi.ParameterError, match="demonstrate"):
         pi.simulate_coupled(p, "0.1", periods=3, demonstrate="float64")
+
+
+def test_near_miss_depth_of_the_steady_state():
+    """A flight on the steady state x_p = P cos(eta t) + Q sin(eta t) turns back at
+    sqrt(P^2 + Q^2) (2.18144 at eta = 0.74): the depth below x_w = 2.19 is exact to rounding."""
+    p = paper(ETA_PERIOD3, x_w="2.19")
+    P_, Q_ = D.steady_coefficients(0.74, 0.05, 1.0)
+    T = 2 * math.pi / 0.74
+    depth = D._near_misses(p, np.array([0.0]), np.array([T]), np.array([P_]), np.array([0.74 * Q_]))
+    assert abs(depth[0] - (2.19 - math.hypot(P_, Q_))) < 1e-12
+    far = paper(ETA_PERIOD3, x_w="3")  # 0.82 below the wall: not near
+    none = D._near_misses(
+        far, np.array([0.0]), np.array([T]), np.array([P_]), np.array([0.74 * Q_])
+    )
+    assert none[0] == math.inf
