@@ -362,15 +362,16 @@ def estimate(traj: Any) -> Digits:
                 b[3] += 2 * b[5] * dt
                 b[4] *= math.exp(-2 * b[5] * dt)
             delta = local_error(u, t, xal[e], max(abs(vb), abs(val[e])), rate * dt, a, zeta)
-            # the current position error bound (before this event's own error)
-            lex = min(_half_log(b[0], b[3], b[4]) for b in bounds)
-            ex = math.exp(min(lex, 700.0))
-            acc = acc_max + 2 * zeta * abs(vb)
-            jump = (1 + R) * math.sqrt(2 * acc * 2 * ex)
-            if kl[e] == 1 and vb * vb <= 2 * acc * 2 * ex:
-                delta += jump  # the impact could vanish
-            if dl[e - 1] <= 2 * ex:
-                delta += jump  # a pass near the wall could become an impact
+            if kl[e] == 1 or dl[e - 1] < inf:
+                # the current position error bound (before this event's own error)
+                lex = min(_half_log(b[0], b[3], b[4]) for b in bounds)
+                ex = math.exp(min(lex, 700.0))
+                acc = acc_max + 2 * zeta * abs(vb)
+                jump = (1 + R) * math.sqrt(2 * acc * 2 * ex)
+                if kl[e] == 1 and vb * vb <= 2 * acc * 2 * ex:
+                    delta += jump  # the impact could vanish
+                if dl[e - 1] <= 2 * ex:
+                    delta += jump  # a pass near the wall could become an impact
         else:  # the start: the parameters' exact x0, v0 rounded once to the precision
             delta = _start_error(traj)
         for b in bounds:
