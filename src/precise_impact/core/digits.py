@@ -134,6 +134,9 @@ class Digits:
         Claimed significant digits of ``x`` and ``v`` at each sample (``0``: none).
     y, w : numpy int arrays or None
         The slave's, for a master-slave pair.
+    impacts : dict or None
+        ``{"t", "v_before", "v_after"}``: each impact's claimed digits (the estimate of one
+        oscillator; ``None`` where not given).
     cap : int
         The most the precision allows (:func:`max_digits`).
     note : str
@@ -150,6 +153,7 @@ class Digits:
     reference: str | None = None
     y: np.ndarray | None = None
     w: np.ndarray | None = None
+    impacts: dict | None = None
 
     def components(self) -> dict[str, np.ndarray]:
         """``{"x": ..., "v": ...}`` and, for a pair, ``"y"``, ``"w"``."""
@@ -324,54 +328,47 @@ def estimate(traj: Any) -> Digits:
     fl = [z.tolist() for z in (f00, f01, f10, f11)]
     dl = depth.tolist()
     inf = math.inf
+    n_i = len(it)
+    log_it = np.full(n_i, math.inf)
+    log_ivb = np.full(n_i, math.inf)
+    log_iva = np.full(n_i, math.inf)
     for e in range(len(tl)):
         t = tl[e]
         vb = vbl[e]
         if e > 0:
             dt = tl[e] - tl[e - 1]
-            j00, j01, j10, j11 = fl[0][e - 1], fl[1][e - 1], fl[2][e - 1], fl[3][e - 1]
-            if kl[e] == 1:  # the impact's saltation after the flight to it
+            _advance(bounds, fl[0][e - 1], fl[1][e - 1], fl[2][e - 1], fl[3][e - 1], dt)
+            delta = local_error(u, t, xal[e], max(abs(vb), abs(val[e])), rate * dt, a, zeta)
+            if kl[e] == 1 or dl[e - 1] < inf:
+                # the position error bound just before this event (and its own error)
+                lex = min(_half_log(b[0], b[3], b[4]) for b in bounds)
+                ex = math.exp(min(lex, 700.0))
+                acc = acc_max + 2 * zeta * abs(vb)
+                jump = (1 + R) * math.sqrt(2 * acc * 2 * ex)
+                if kl[e] == 1:
+                    # the impact's time and velocities: the position error is a time error
+                    # ex / |v-|, which moves v- by |acc| ex / |v-|
+                    lev = min(_half_log(b[2], b[3], b[4]) for b in bounds)
+                    j = il[e]
+                    lt = lex - math.log(abs(vb)) if vb else math.inf
+                    lt = _log_add(lt, math.log(u * max(abs(t), 1.0)))
+                    log_it[j] = lt / _LN10
+                    lvb = _log_add(
+                        _log_add(lev, math.log(acc) + lt), math.log(u * abs(vb) + 1e-300)
+                    )
+                    log_ivb[j] = lvb / _LN10
+                    log_iva[j] = (lvb + math.log(R)) / _LN10 if R else -math.inf
+                    if vb * vb <= 2 * acc * 2 * ex:
+                        delta += jump  # the impact could vanish
+                if dl[e - 1] <= 2 * ex:
+                    delta += jump  # a pass near the wall could become an impact
+            if kl[e] == 1:  # the impact's saltation matrix after the flight to it
                 sm: Any
                 if vb == 0:
                     sm = ((-R, 0.0), (inf, -R))
                 else:
                     sm = oscillator_saltation(t, vb, eta, zeta, a, x_w, R, math.cos)
-                j00, j01, j10, j11 = (
-                    sm[0][0] * j00 + sm[0][1] * j10,
-                    sm[0][0] * j01 + sm[0][1] * j11,
-                    sm[1][0] * j00 + sm[1][1] * j10,
-                    sm[1][0] * j01 + sm[1][1] * j11,
-                )
-            for b in bounds:
-                gxx, gxv, gvv = b[0], b[1], b[2]
-                a0 = j00 * gxx + j01 * gxv
-                a1 = j00 * gxv + j01 * gvv
-                b0 = j10 * gxx + j11 * gxv
-                b1 = j10 * gxv + j11 * gvv
-                gxx, gxv, gvv = a0 * j00 + a1 * j01, a0 * j10 + a1 * j11, b0 * j10 + b1 * j11
-                tr = gxx + gvv
-                if not 1e-100 < tr < 1e100:  # rescale (or give up: infinite / NaN)
-                    if tr == 0:
-                        pass
-                    elif tr < inf:
-                        gxx, gxv, gvv = gxx / tr, gxv / tr, gvv / tr
-                        b[3] += math.log(tr)
-                    else:
-                        gxx = gxv = gvv = inf
-                b[0], b[1], b[2] = gxx, gxv, gvv
-                b[3] += 2 * b[5] * dt
-                b[4] *= math.exp(-2 * b[5] * dt)
-            delta = local_error(u, t, xal[e], max(abs(vb), abs(val[e])), rate * dt, a, zeta)
-            if kl[e] == 1 or dl[e - 1] < inf:
-                # the current position error bound (before this event's own error)
-                lex = min(_half_log(b[0], b[3], b[4]) for b in bounds)
-                ex = math.exp(min(lex, 700.0))
-                acc = acc_max + 2 * zeta * abs(vb)
-                jump = (1 + R) * math.sqrt(2 * acc * 2 * ex)
-                if kl[e] == 1 and vb * vb <= 2 * acc * 2 * ex:
-                    delta += jump  # the impact could vanish
-                if dl[e - 1] <= 2 * ex:
-                    delta += jump  # a pass near the wall could become an impact
+                _advance(bounds, sm[0][0], sm[0][1], sm[1][0], sm[1][1], 0.0)
         else:  # the start: the parameters' exact x0, v0 rounded once to the precision
             delta = _start_error(traj)
         for b in bounds:
@@ -380,6 +377,15 @@ def estimate(traj: Any) -> Digits:
             k = il[e]
             log_ex[k] = min(_half_log(b[0], b[3], b[4]) for b in bounds) / _LN10
             log_ev[k] = min(_half_log(b[2], b[3], b[4]) for b in bounds) / _LN10
+    impacts = {
+        "t": np.array([digits_of(_lg(z), lg, cap) for z, lg in zip(it, log_it, strict=True)], int),
+        "v_before": np.array(
+            [digits_of(_lg(z), lg, cap) for z, lg in zip(ivb, log_ivb, strict=True)], int
+        ),
+        "v_after": np.array(
+            [digits_of(_lg(z), lg, cap) for z, lg in zip(iva, log_iva, strict=True)], int
+        ),
+    }
     dx = np.array(
         [digits_of(_lg(xs[k]), log_ex[k], cap) for k in range(n_s)],
         dtype=int,
@@ -392,7 +398,41 @@ def estimate(traj: Any) -> Digits:
         f"tangent flow along the run (flight flows and saltation matrices), local error "
         f"{C_STATE:g} u (steps + 1) |state| + {C_TIME:g} u |t| |f| per event, u = {u:.3g}"
     )
-    return Digits("estimated", dx, dv, cap, note)
+    return Digits("estimated", dx, dv, cap, note, impacts=impacts)
+
+
+def _advance(bounds: list, j00: float, j01: float, j10: float, j11: float, dt: float) -> None:
+    """``G <- e^{2 gamma dt} J G J^T``, ``S <- e^{-2 gamma dt} S`` on every bound (rescaled)."""
+    inf = math.inf
+    for b in bounds:
+        gxx, gxv, gvv = b[0], b[1], b[2]
+        a0 = j00 * gxx + j01 * gxv
+        a1 = j00 * gxv + j01 * gvv
+        b0 = j10 * gxx + j11 * gxv
+        b1 = j10 * gxv + j11 * gvv
+        gxx, gxv, gvv = a0 * j00 + a1 * j01, a0 * j10 + a1 * j11, b0 * j10 + b1 * j11
+        tr = gxx + gvv
+        if not 1e-100 < tr < 1e100:  # rescale (or give up: infinite / NaN)
+            if tr == 0:
+                pass
+            elif tr < inf:
+                gxx, gxv, gvv = gxx / tr, gxv / tr, gvv / tr
+                b[3] += math.log(tr)
+            else:
+                gxx = gxv = gvv = inf
+        b[0], b[1], b[2] = gxx, gxv, gvv
+        if dt:
+            b[3] += 2 * b[5] * dt
+            b[4] *= math.exp(-2 * b[5] * dt)
+
+
+def _log_add(p: float, q: float) -> float:
+    """``log(e^p + e^q)`` (either may be ``-inf`` / ``inf``)."""
+    if p < q:
+        p, q = q, p
+    if p == math.inf or q == -math.inf:
+        return p
+    return p + math.log1p(math.exp(q - p))
 
 
 def _add_identity(b: list, d2: float) -> None:
@@ -468,6 +508,9 @@ def demonstrate(traj: Any, reference: Any) -> Digits:
         for k in range(n):
             d[k] = agreement_digits(mine[k], P, ref[k], Q, cap)
         out[name] = d
+    impacts = None
+    if hasattr(traj, "impacts_t") and hasattr(reference, "impacts_t"):
+        impacts = _impact_agreement(traj, reference, cap)
     by = getattr(reference, "model", None) or getattr(reference, "stats", {}).get("engine", "")
     note = f"agreement with a second run at {Q.name} ({by}), sample by sample"
     return Digits(
@@ -479,7 +522,27 @@ def demonstrate(traj: Any, reference: Any) -> Digits:
         reference=Q.name,
         y=out.get("y"),
         w=out.get("w"),
+        impacts=impacts,
     )
+
+
+def _impact_agreement(traj: Any, reference: Any, cap: int) -> dict:
+    """Per-impact agreement of two runs, impact by impact in time order, until the first whose
+    time agrees on no digit (from there the two sequences may pair different impacts: 0)."""
+    P, Q = traj.precision, reference.precision
+    n = len(traj.impacts_t)
+    out = {name: np.zeros(n, int) for name in ("t", "v_before", "v_after")}
+    for j in range(min(n, len(reference.impacts_t))):
+        for name in out:
+            attr = "impacts_" + name
+            out[name][j] = agreement_digits(
+                getattr(traj, attr)[j], P, getattr(reference, attr)[j], Q, cap
+            )
+        if out["t"][j] == 0:
+            for name in out:
+                out[name][j:] = 0
+            break
+    return out
 
 
 def proven(traj: Any, x_rad: list, v_rad: list, **slave: tuple) -> Digits:

@@ -166,13 +166,27 @@ class Trajectory(ResultMixin):
             }
             for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True))
         ]
+        idig = claim.impacts or {}
+
+        def imp_digits(i: int) -> dict:
+            # each impact's claimed digits (null: the basis gives none per impact)
+            return {
+                f"{n}_digits": (int(idig[n][i]) if n in idig else None)
+                for n in ("t", "v_before", "v_after")
+            }
+
         impacts = [
-            {"t": s(t), "v_before": s(vb), "v_after": s(va)}
-            for t, vb, va in zip(
-                self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True
+            {"t": s(t), "v_before": s(vb), "v_after": s(va), **imp_digits(i)}
+            for i, (t, vb, va) in enumerate(
+                zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)
             )
         ]
-        has_null = any(v is None for row in samples + impacts for v in row.values())
+        has_null = any(
+            v is None
+            for row in samples + impacts
+            for k, v in row.items()
+            if not k.endswith("_digits")
+        )
         # "x", "v": every binary digit of the run, as decimals; "x_digits", "v_digits": how many
         # leading significant digits of each the run can claim ("digits": on what basis)
         null = {"null": (self.stats or {}).get("null", self.NULL_REASON)} if has_null else {}
