@@ -229,3 +229,23 @@ def test_near_miss_depth_of_the_steady_state():
         far, np.array([0.0]), np.array([T]), np.array([P_]), np.array([0.74 * Q_])
     )
     assert none[0] == math.inf
+
+
+def test_simulate_demonstrate_api():
+    from precise_impact.solvers.simulate import demonstration_model, reference_precision
+
+    assert reference_precision("float64").name == "mp:128"
+    assert reference_precision("mp:256").name == "mp:320"
+    assert reference_precision("float64", "float128").name == "float128"
+    assert demonstration_model("fast", pi.Precision.parse("mp:128")) == "analytical"
+    assert demonstration_model("mechanical", pi.Precision.parse("mp:128")) == "heyoka"
+    with pytest.raises(pi.ParameterError, match="demonstrate"):
+        demonstration_model("spice", pi.Precision.parse("mp:128"))
+    with pytest.raises(pi.ParameterError, match="more bits"):
+        reference_precision("mp:256", "mp:128")
+    tr = pi.simulate(paper(ETA_CHAOTIC), 40, model="fast", demonstrate=True)
+    c = tr.claimed_digits()
+    ref = pi.simulate(paper(ETA_CHAOTIC), 40, model="analytical", precision="mp:128")
+    assert c.basis == "demonstrated" and c.reference == "mp:128"
+    assert c.x.tolist() == D.demonstrate(tr, ref).x.tolist()
+    assert tr.to_dict()["digits"]["basis"] == "demonstrated"
