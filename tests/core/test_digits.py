@@ -249,3 +249,14 @@ def test_simulate_demonstrate_api():
     assert c.basis == "demonstrated" and c.reference == "mp:128"
     assert c.x.tolist() == D.demonstrate(tr, ref).x.tolist()
     assert tr.to_dict()["digits"]["basis"] == "demonstrated"
+
+
+def test_spice_runs_claim_to_its_reltol_not_eps():
+    """ngspice keeps its RELTOL of 1e-3: a 'spice' trajectory claims at most ~2 digits, never
+    float64's 15 (the same samples labelled 'heyoka' claim 12 after a period)."""
+    import dataclasses
+
+    tr = pi.simulate(paper(ETA_PERIOD3), 10)
+    as_spice = dataclasses.replace(tr, model="spice", tol=None, stats={}, claim=None)
+    assert tr.claimed_digits().at(1) >= 11
+    assert as_spice.claimed_digits().x[1:].max() <= 2

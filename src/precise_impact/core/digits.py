@@ -27,7 +27,8 @@ a few (:data:`GAMMAS`) is taken at each sample: ``gamma = 0`` suits chaos (the o
 dominates), a small positive ``gamma`` a contracting periodic orbit (where ``gamma = 0`` would
 cost ``sqrt(n)``, ~1.9 digits after 6000 events).
 
-The local error per event (:func:`local_error`), in units of ``u = max(eps, tol)``:
+The local error per event (:func:`local_error`), in units of ``u = max(eps, tol)`` (ngspice's
+RELTOL, 1e-3, for the ``'spice'`` model):
 
 - ``C_STATE (m + 1) max(1, |x|, |v|)``: the integrator's own error over the ``m`` steps of the
   flight since the last event (heyoka's error control is ``tol max(1, |state|)`` per step and
@@ -88,6 +89,8 @@ BASES = ("proven", "demonstrated", "estimated")
 #: Local error per event, in units of ``max(eps, tol)`` (module docstring).
 C_STATE = 8.0
 C_TIME = 4.0
+#: ngspice's default RELTOL (the netlists keep it): the unit of a ``'spice'`` run's local error.
+SPICE_RELTOL = 1e-3
 #: Weight rates tried by the Cauchy-Schwarz bound (module docstring); per unit time.
 GAMMAS = (0.0, 0.002, 0.01, 0.03)
 #: Points per flight of the grid that looks for near-grazing passes.
@@ -276,9 +279,9 @@ def estimate(traj: Any) -> Digits:
             u = max(eps, float(P.to_float(tol)))
         except (TypeError, ValueError):
             u = eps
-    floor = traj.stats.get("accuracy_floor") if isinstance(traj.stats, dict) else None
-    if floor:
-        u = max(u, float(floor))
+    st = traj.stats if isinstance(traj.stats, dict) else {}
+    if traj.model == "spice":  # ngspice's steps are accurate to its RELTOL, not to eps
+        u = max(u, float(st.get("reltol", SPICE_RELTOL)))
     eta, zeta, a, x_w, R = (float(q) for q in (p.eta, p.zeta, p.a, p.x_w, p.R))
     wd = math.sqrt(1 - zeta * zeta)
     ts, xs, vs = _floats(P, traj.t), _floats(P, traj.x), _floats(P, traj.v)
