@@ -260,3 +260,10 @@ def test_spice_runs_claim_to_its_reltol_not_eps():
     as_spice = dataclasses.replace(tr, model="spice", tol=None, stats={}, claim=None)
     assert tr.claimed_digits().at(1) >= 11
     assert as_spice.claimed_digits().x[1:].max() <= 2
+
+
+@pytest.mark.parametrize("lo, hi", [("longdouble", "mp:128"), ("float128", "mp:192")])
+def test_extended_precisions_claim_holds(lo, hi):
+    run, ref = _pair(ETA_CHAOTIC, 150, lo, hi)
+    claim, truth = _check(run, ref)
+    assert claim.cap == {"longdouble": 18, "float128": 33}[lo] and claim.at(20) >= claim.cap - 8
