@@ -1,9 +1,8 @@
 """The paper's three frequencies: the mechanical solvers against a demonstrated reference.
 
-Scores the (model, precision) pairs of :data:`CANDIDATES`: 4 of the registered models (heyoka
-in three precisions, both closed-form finders, the compiled engine); the circuit models are
-scored by :func:`~precise_impact.verification.reproduce.reproduce` and
-:func:`~precise_impact.verification.compare.compare`.
+Scores the (model, precision) pairs of :data:`CANDIDATES`: every registered model in the first
+precision it takes (heyoka also in long double and float128; ``certified`` in the reference's
+multiprecision; ``spice`` when ngspice is installed).
 
 The reference's accuracy is demonstrated by two multiprecision runs (``bits``, ``bits + 64``).
 """

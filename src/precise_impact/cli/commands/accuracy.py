@@ -7,15 +7,26 @@ import argparse
 from precise_impact.cli.args import add_json, add_out, add_periods
 from precise_impact.core.params import check_count
 from precise_impact.io.jsonout import print_json
-from precise_impact.verification.accuracy import accuracy_table, format_table
+from precise_impact.verification.accuracy import CANDIDATES, accuracy_table, format_table
+
+
+def _scored() -> str:
+    """The (model, precision) pairs scored, as the help names them (from CANDIDATES)."""
+    by_model: dict[str, list[str]] = {}
+    for model, precision in CANDIDATES:
+        by_model.setdefault(model, []).append(precision)
+    return "; ".join(
+        m if ps == ["float64"] else f"{m} {', '.join(ps)}" for m, ps in by_model.items()
+    )
 
 
 def register(sub) -> argparse.ArgumentParser:
     """Add ``accuracy`` to ``sub``."""
     a = sub.add_parser(
         "accuracy",
-        help="the paper's three frequencies: the mechanical solvers (heyoka float64, longdouble, "
-        "float128; analytical; analytical-paper; fast) against a demonstrated reference",
+        help="the paper's three frequencies: every registered model ("
+        + _scored()
+        + "; spice when ngspice is installed) against a demonstrated reference",
     )
     add_periods(a, "100", "forcing periods from rest")
     add_out(

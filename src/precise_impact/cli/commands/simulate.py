@@ -60,7 +60,7 @@ def register(sub) -> argparse.ArgumentParser:
         const="auto",
         default=None,
         metavar="P",
-        help="run again at precision P (default: 64 bits more, at least mp:128) and claim, per "
+        help="run again at precision P (P left out: 64 bits more, at least mp:128) and claim, per "
         "sample, the digits both runs agree on; without it the digits are estimated from the "
         "precision and the run's error amplification (proven for --model certified)",
     )
