@@ -6,7 +6,7 @@ import argparse
 
 import heyoka
 
-from precise_impact.cli.args import add_json, add_out, add_periods
+from precise_impact.cli.args import add_json, add_out, add_periods, add_units
 from precise_impact.core.params import check_count
 from precise_impact.io.jsonout import print_json
 from precise_impact.scenes.scene import SCENE_MODELS
@@ -31,6 +31,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_json(c, "print one JSON object")
     add_out(c, "dir", "directory for report.md, scores.json and the PNGs")
+    add_units(c)
     c.set_defaults(run=run)
     return c
 
@@ -45,7 +46,13 @@ def run(ns: argparse.Namespace) -> int:
     if ns.json:
         heyoka.set_logger_level_error()
     result = compare(
-        ns.scene, models, out=ns.out, periods=periods, progress=not ns.json, points=ns.points
+        ns.scene,
+        models,
+        out=ns.out,
+        periods=periods,
+        progress=not ns.json,
+        points=ns.points,
+        units=ns.units,
     )
     if ns.json:
         print_json(result.to_dict())

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from precise_impact.cli.args import add_out
+from precise_impact.cli.args import add_out, add_units
 from precise_impact.verification.reproduce import reproduce
 
 
@@ -15,13 +15,14 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_out(rp, "dir", "output directory (default results)", default="results")
     rp.add_argument("--quick", action="store_true", help="shorter runs (about a minute)")
+    add_units(rp)
     rp.set_defaults(run=run)
     return rp
 
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``reproduce``; returns the exit status."""
-    res = reproduce(ns.out, quick=ns.quick, progress=True)
+    res = reproduce(ns.out, quick=ns.quick, progress=True, units=ns.units)
     print(f"report: {ns.out}/report.md ({res['elapsed_s']:.0f} s)")
     for fig, row in res["figures"].items():
         print(
