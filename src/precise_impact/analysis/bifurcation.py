@@ -181,7 +181,13 @@ class BifurcationResult(ResultMixin):
         -------
         matplotlib.figure.Figure
         """
-        from precise_impact.io.figures import check_plot_path, finish, legend_outside, wrap_title
+        from precise_impact.io.figures import (
+            check_plot_path,
+            draw_density,
+            finish,
+            legend_outside,
+            wrap_title,
+        )
 
         check_plot_path(path)
         eta = np.array([float(e) for e in self.eta])
@@ -193,7 +199,7 @@ class BifurcationResult(ResultMixin):
             gridspec_kw={"height_ratios": [3, 2]},
         )
         ax1, ax2 = axes[:, 0]
-        _draw_density(ax1, eta, self.x)
+        draw_density(ax1, eta, self.x)
         ax1.plot([], [], "s", color="0.2", ms=4, label="x at t0 + kT (grey: share of samples)")
         ax1.axhline(float(self.params.x_w), color="tab:red", lw=0.9, label="wall x = x_w")
         ax1.set_ylabel("x at t0 + kT (dimensionless)")
@@ -254,42 +260,6 @@ class BifurcationResult(ResultMixin):
         nu = self.impacts_per_period * np.array([float(e) for e in self.eta]) / (2 * math.pi)
         R = float(self.params.R)
         return -float(self.params.zeta) + (nu * math.log(R) if R > 0 else 0.0) * (R != 1)
-
-
-def _draw_density(ax: Any, eta: np.ndarray, x: np.ndarray, rows: int = 700) -> None:
-    """Each eta's samples binned into ``rows`` pixel rows: a grey image in which every row
-    holding a sample is inked and rows holding a larger share are darker."""
-    from matplotlib.colors import LinearSegmentedColormap
-
-    if x.size == 0 or not np.isfinite(x).any():
-        return
-    lo, hi = float(np.nanmin(x)), float(np.nanmax(x))
-    pad = 0.02 * (hi - lo) if hi > lo else 0.5
-    lo, hi = lo - pad, hi + pad
-    img = np.zeros((rows, len(eta)))
-    for j in range(len(eta)):
-        col = x[j][np.isfinite(x[j])]
-        if len(col):
-            idx = np.minimum(((col - lo) / (hi - lo) * rows).astype(np.int64), rows - 1)
-            share = np.bincount(idx, minlength=rows) / len(col)
-            # any sample inks its pixel (>= 0.35 grey), fuller rows darker
-            img[:, j] = np.where(share > 0, 0.35 + 0.65 * np.minimum(1.0, np.sqrt(share) / 0.3), 0)
-    if len(eta) > 1:
-        d = (eta[-1] - eta[0]) / (len(eta) - 1) / 2
-    else:
-        d = 0.5e-3
-    cmap = LinearSegmentedColormap.from_list("ink", ["white", "black"])
-    ax.imshow(
-        np.ma.masked_equal(img, 0.0),
-        origin="lower",
-        aspect="auto",
-        extent=(eta[0] - d, eta[-1] + d, lo, hi),
-        cmap=cmap.with_extremes(bad="white"),
-        vmin=0.0,
-        vmax=1.0,
-        interpolation="nearest",
-        rasterized=True,
-    )
 
 
 def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:

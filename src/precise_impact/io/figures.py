@@ -54,6 +54,7 @@ __all__ = [
     "plot_coupled",
     "plot_certified",
     "figure_legend",
+    "draw_density",
 ]
 
 #: The unit modes of phase portraits and time series.
@@ -363,6 +364,52 @@ def draw_phase_portrait(
 
 
 # ------------------------------------------------------------------------ styles
+def draw_density(
+    ax: Any, values: Any, x: Any, rows: int = 360, ink: str = "black", zorder: float = 0
+) -> None:
+    """A bifurcation diagram as an image: each parameter value's samples ``x[j]`` binned into
+    ``rows`` pixel rows, every row holding a sample inked and rows holding a larger share
+    darker (drawing millions of markers instead took ~40 s for 400 x 200000 samples).
+    ``rows`` stays below the axes' height in pixels at the usual sizes, so that no inked row
+    is lost when the image is resampled."""
+    from matplotlib.colors import LinearSegmentedColormap
+
+    eta = np.asarray(values, dtype=float)
+    x = np.asarray(x, dtype=float)
+    order = np.argsort(eta, kind="stable")  # a diagram may run downwards (1 -> 0.9)
+    eta, x = eta[order], x[order]
+    if x.size == 0 or not np.isfinite(x).any():
+        return
+    lo, hi = float(np.nanmin(x)), float(np.nanmax(x))
+    pad = 0.02 * (hi - lo) if hi > lo else 0.5
+    lo, hi = lo - pad, hi + pad
+    img = np.zeros((rows, len(eta)))
+    for j in range(len(eta)):
+        col = x[j][np.isfinite(x[j])]
+        if len(col):
+            idx = np.minimum(((col - lo) / (hi - lo) * rows).astype(np.int64), rows - 1)
+            share = np.bincount(idx, minlength=rows) / len(col)
+            # any sample inks its pixel (>= 0.35 grey), fuller rows darker
+            img[:, j] = np.where(share > 0, 0.35 + 0.65 * np.minimum(1.0, np.sqrt(share) / 0.3), 0)
+    if len(eta) > 1:
+        d = (eta[-1] - eta[0]) / (len(eta) - 1) / 2
+    else:
+        d = 0.5e-3
+    cmap = LinearSegmentedColormap.from_list("ink", ["white", ink])
+    ax.imshow(
+        np.ma.masked_equal(img, 0.0),
+        origin="lower",
+        aspect="auto",
+        extent=(eta[0] - d, eta[-1] + d, lo, hi),
+        cmap=cmap.with_extremes(bad="white"),
+        vmin=0.0,
+        vmax=1.0,
+        interpolation="antialiased",  # never drop a one-row orbit
+        rasterized=True,
+        zorder=zorder,
+    )
+
+
 def figure_legend(fig: Any, axes: Any, ncol: Any = 4, fontsize: float = 8):
     """One legend for the whole figure beneath its axes (outside every panel), each label once."""
     handles: dict = {}

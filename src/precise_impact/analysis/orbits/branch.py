@@ -23,7 +23,13 @@ from precise_impact.analysis.scan import (
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
-from precise_impact.io.figures import finish, legend_outside, new_figure, wrap_title
+from precise_impact.io.figures import (
+    draw_density,
+    finish,
+    legend_outside,
+    new_figure,
+    wrap_title,
+)
 from precise_impact.io.progress import ProgressArg
 from precise_impact.solvers.base import make_solver
 
@@ -319,8 +325,8 @@ def branches_figure(
     ax1, ax2 = axes[:, 0]
     if diagram is not None:
         vals, xs = diagram
-        ax1.plot(np.repeat(vals, xs.shape[1]), xs.ravel(), ",", color="0.55", alpha=0.6, zorder=0)
-        ax1.plot([], [], ".", color="0.55", label="brute force (simulated attractors)")
+        draw_density(ax1, vals, xs, ink="0.45")
+        ax1.plot([], [], "s", color="0.55", ms=4, label="brute force (simulated attractors)")
     _plot_branches(branches, ax1, ax2)
     _plot_bifurcations(branches, bifurcations, ax1)
     if xw is not None:
