@@ -13,6 +13,13 @@ Every result type that has samples or rows has a ``plot`` method of one shape::
 ``units="dimensionless"`` (default: ``tau``, ``x``, ``x'``) or ``units="circuit"`` (``t`` in
 seconds, ``V_s`` and ``V_q`` in volts, from the design's components through
 :func:`~precise_impact.models.circuit.components.circuit_scales`).
+
+The types with a ``plot``: ``Trajectory``, ``CoupledTrajectory``, ``CertifiedTrajectory``,
+``CertifiedCoupledTrajectory``, ``CoupledCircuitTrajectory``, ``SpiceResult``, ``SyncResult``,
+``Branch``, ``ContinuationResult``, ``BifurcationResult``, ``LyapunovResult``, ``SweepResult``,
+``WorkPrecisionResult``, ``CompareResult``, ``AccuracyResult``, ``ReproduceResult``.  The
+single-point results (``PeriodicOrbit``, ``ProvenOrbit``, ``Bifurcation``, ``SyncRun``) have
+no samples or rows to draw.
 """
 
 from __future__ import annotations
@@ -756,6 +763,7 @@ def plot_coupled(
         t = np.array([P.to_float(a) for a in tr.t])
         d = np.array([abs(P.to_float(a - b)) for a, b in zip(tr.x, tr.y, strict=True)])
     d = np.asarray(d, dtype=float)
+    unit = " V" if u.name == "circuit" else ""
     parts = []
     if getattr(tr, "form", None):
         parts.append(str(tr.form))
@@ -766,8 +774,8 @@ def plot_coupled(
         if getattr(tr, r, None) is not None:
             parts.append(f"{r} = {float(getattr(tr, r)):g} ohm")
     head = (
-        f"{', '.join(parts)}: final {u.d_label.split(' (')[0]} = {float(u.d(d[-1])):.3g}, "
-        f"smallest {float(u.d(d.min())):.3g}"
+        f"{', '.join(parts)}: final {u.d_label.split(' (')[0]} = {float(u.d(d[-1])):.3g}{unit}, "
+        f"smallest {float(u.d(d.min())):.3g}{unit}"
     )
     title = f"{type(tr).__name__}: master-slave difference over {len(tr.t) - 1} periods"
     return finish(plot_differences([(t, d, head)], u, title, threshold=threshold), path, dpi=150)

@@ -207,5 +207,6 @@ def scene_figure(scene: Scene, result, obj: dict, units: str = "dimensionless"):
         [abs(P.to_float(x) - P.to_float(y)) for x, y in zip(result["x"], result["y"], strict=True)]
     )
     u = scene_units(scene, units)
-    head = f"k = {decimal_str(scene.k)}: final |x - y| = {float(u.d(d[-1])):.3g}"
+    name, unit = u.d_label.split(" (")[0], " V" if u.name == "circuit" else ""
+    head = f"k = {decimal_str(scene.k)}: final {name} = {float(u.d(d[-1])):.3g}{unit}"
     return plot_differences([(t, d, head)], u, title + " (|x - y| at t0 + kT)")
