@@ -342,3 +342,46 @@ def test_dataclass_results_plot_rows():
     assert [len(ax.patches) for ax in fig.axes] == [2, 2]
     fields = {f.name for f in dataclasses.fields(pi.ReproduceResult)}
     assert {"figures", "sync"} <= fields
+
+
+# ---------------------------------------------------------------- the commands' figures
+def test_compare_portraits_overlay_the_reference_with_verdicts(traj):
+    from precise_impact.verification.compare import portraits_figure
+
+    scene = pi.load_scene("fig6-period3-datasheet")
+    model = pi.simulate(scene.params, 30, per_period=40)
+    results = {"circuit": {"regime": "periodic", "max_state_error": 1.5e-12, "period_model": 3}}
+    u = plot_units("circuit", components=scene.design())
+    fig = portraits_figure(scene, traj, {"circuit": model}, 10, results, u)
+    ref_ax, model_ax = fig.axes
+    assert model_ax.get_title().endswith("max state error 1.5e-12, period 3")
+    rings = [ln for ln in model_ax.get_lines() if ln.get_label() == "reference samples"]
+    assert len(rings) == 1 and len(rings[0].get_xdata()) == 21  # samples 10..30
+    assert ref_ax.get_xlabel().startswith("V_s (V)") and ref_ax.get_ylabel().startswith("V_q")
+    assert "omega = 1000 rad/s" in fig.get_suptitle()
+    (lg,) = fig.legends
+    assert _outside(fig, lg)
+
+
+def test_scene_figure_titles_fit_and_units(traj):
+    from precise_impact.scenes.run import scene_figure
+
+    scene = pi.load_scene("fig6-period3-datasheet")
+    obj = {"model": "switched-capacitor", "effects": ["comparator", "flipflop", "switch"]}
+    fig = scene_figure(scene, traj, obj, units="circuit")
+    fig.canvas.draw()
+    assert fig._suptitle.get_window_extent().x1 <= fig.bbox.width
+    assert fig.axes[1].get_xlabel() == "t (s)"
+
+
+def test_units_flag_is_checked_before_any_work(tmp_path):
+    import subprocess
+    import sys
+
+    r = subprocess.run(
+        [sys.executable, "-m", "precise_impact", "run", "fig6-period3-ideal", "--units", "volts"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert r.returncode == 2 and "--units" in r.stderr and "circuit" in r.stderr
