@@ -358,9 +358,16 @@ def test_compare_portraits_overlay_the_reference_with_verdicts(traj):
     rings = [ln for ln in model_ax.get_lines() if ln.get_label() == "reference samples"]
     assert len(rings) == 1 and len(rings[0].get_xdata()) == 21  # samples 10..30
     assert ref_ax.get_xlabel().startswith("V_s (V)") and ref_ax.get_ylabel().startswith("V_q")
-    assert "omega = 1000 rad/s" in fig.get_suptitle()
+    assert "omega = 1000 rad/s" in fig.get_suptitle().replace("\n", " ")
     (lg,) = fig.legends
     assert _outside(fig, lg)
+    # a long verdict wraps inside its panel instead of running into the next one
+    long = {"circuit": {**results["circuit"], "period_model": "3 " + "x" * 120}}
+    fig = portraits_figure(scene, traj, {"circuit": model}, 10, long, u)
+    fig.canvas.draw()
+    for ax in fig.axes:
+        width = ax.title.get_window_extent().width
+        assert width <= 1.05 * ax.get_window_extent().width
 
 
 def test_scene_figure_titles_fit_and_units(traj):

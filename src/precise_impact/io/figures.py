@@ -27,6 +27,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import os
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -572,7 +573,11 @@ def phase_portrait_panels(
             )
         draw_wall(ax, x_w, units)
         head = label if not verdicts or label not in verdicts else f"{label}\n{verdicts[label]}"
-        ax.set_title(head, fontsize=8.5)
+        # the axes take ~80 % of the panel; DejaVu Sans is ~0.6 em per character
+        chars = max(20, int(panel_size[0] * 72 * 0.8 / (0.6 * 8.5)))
+        ax.set_title(
+            "\n".join(textwrap.fill(line, chars) for line in head.split("\n")), fontsize=8.5
+        )
         if j:
             ax.set_ylabel("")
         ax.grid(True, lw=0.3, alpha=0.5)
@@ -583,12 +588,10 @@ def phase_portrait_panels(
 
 
 def wrap_title(text: str, fig: Any, fontsize: float = 10) -> str:
-    """``text`` broken into lines that fit the figure's width (about 0.55 fontsize wide per
+    """``text`` broken into lines that fit the figure's width (about 0.6 fontsize wide per
     character), so a title is never clipped."""
-    import textwrap
-
     width_pt = fig.get_figwidth() * 72 * 0.95
-    chars = max(30, int(width_pt / (0.55 * fontsize)))
+    chars = max(30, int(width_pt / (0.6 * fontsize)))
     return "\n".join(textwrap.wrap(text, chars)) if len(text) > chars else text
 
 

@@ -306,11 +306,13 @@ def _plot_portraits(
     verdicts = {}
     for name, sc in scores.items():
         err, hz = sc["max_error_second_half"], sc["horizon_0.1"]
-        verdicts[name] = (
-            f"on the reference: last-quarter error {err:.1e}"
-            if err < 0.1
-            else f"off the reference from period {hz}; last-quarter error {err:.2g}"
-        )
+        if err < 0.1:
+            verdicts[name] = f"on the reference: last-quarter error {err:.1e}"
+        elif regime == "chaotic" and hz is not None and hz > 2:
+            # chaos: every run leaves the reference once its error has grown to the attractor
+            verdicts[name] = f"on the reference for {hz} periods, then chaos parts them"
+        else:
+            verdicts[name] = f"off the reference from period {hz}; last-quarter error {err:.2g}"
     fig_ = phase_portrait_panels(
         list(models.items()),
         float(p.x_w),
