@@ -2,11 +2,17 @@
 
 Build (from the repository root, with ``pip install -e '.[docs]'``):
 
-    sphinx-build -W --keep-going -b html docs docs/_build/html
-    sphinx-build -W --keep-going -b doctest docs docs/_build/doctest   # runs every example
+    sphinx-build -W --keep-going -b html -d docs/_build/doctrees docs docs/_build/html
+    sphinx-build -W --keep-going -b doctest -d docs/_build/doctrees docs docs/_build/doctest
+
+(the doctest build runs every example, on the html build's parse: one doctree directory).
 """
 
+import sys
 from importlib import metadata
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent / "_ext"))
 
 project = "precise_impact"
 author = "precise_impact developers"
@@ -18,7 +24,14 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.doctest",
     "sphinx.ext.mathjax",
+    # MathJax 3 shipped in the [docs] extra and copied into _static/: formulas render
+    # without a network (tests/test_docs_build.py checks that no page loads a remote script)
+    "sphinx-mathjax-offline",
     "numpydoc",
+    # docs/_ext: figures made by the package's own code at build time, and the tables of the
+    # circuit-builders page generated from the code
+    "docfigures",
+    "componenttables",
 ]
 
 # The API pages document what is installed (autodoc imports the package).
@@ -46,7 +59,12 @@ import precise_impact as pi
 
 exclude_patterns = ["_build"]
 html_theme = "alabaster"
-html_static_path: list[str] = []
+# Wide enough for the code blocks (alabaster's default 940 px column hid everything past
+# ~55 characters of a code line behind a scroll bar); below 1240 px the theme's narrow
+# layout uses the whole window, and longer lines wrap (_static/custom.css).
+html_theme_options = {"page_width": "1240px", "sidebar_width": "230px", "body_max_width": "none"}
+html_static_path = ["_static"]
+html_css_files = ["custom.css"]  # code lines wrap rather than scroll out of sight
 nitpicky = False
 
 

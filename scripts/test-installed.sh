@@ -108,11 +108,29 @@ PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovid
 took
 
 if [ -f "$repo/docs/conf.py" ]; then
-  step "documentation: html and doctest (warnings are errors, every example executed)"
-  sphinx-build -q -W --keep-going -b html "$repo/docs" "$work/docs/html"
+  step "documentation: html and doctest (warnings are errors, every example executed, every figure made)"
+  # one doctree directory for both builders: the doctest build reuses the html build's parse
+  # (the figures of docs/_ext/docfigures are made once)
+  if ! sphinx-build -W --keep-going -b html -d "$work/docs/doctrees" "$repo/docs" "$work/docs/html" \
+       >"$work/docs-html.log" 2>&1; then
+    cat "$work/docs-html.log"; exit 1
+  fi
+  grep -E "^docfigures:" "$work/docs-html.log" || true     # the figures' count and seconds
   if grep -q "sphinx.ext.doctest" "$repo/docs/conf.py"; then
     sphinx-build -q -W --keep-going -b doctest -d "$work/docs/doctrees" "$repo/docs" "$work/docs/doctest"
   fi
+  # the pages work offline: no script or stylesheet from another host (MathJax is bundled)
+  python - "$work/docs/html" <<'PY'
+import pathlib, re, sys
+bad = []
+for page in sorted(pathlib.Path(sys.argv[1]).rglob("*.html")):
+    for tag in re.findall(r"<(?:script|link)\b[^>]*>", page.read_text(encoding="utf-8")):
+        bad += [f"{page.name}: {u}" for u in re.findall(r'(?:src|href)="([^"]*)"', tag)
+                if re.match(r"(?:[a-z]+:)?//", u, re.I)]
+if bad:
+    sys.exit("pages load remote scripts or stylesheets:\n  " + "\n  ".join(bad))
+print(f"   no remote scripts or stylesheets in {len(list(pathlib.Path(sys.argv[1]).rglob('*.html')))} pages")
+PY
   took
 fi
 

@@ -229,11 +229,115 @@ def test_array_results_save_npz_that_loads_back(results, tmp_path):
             assert arrays.keys() & set(z.files) or name == "Trajectory", name
     sw = results["SweepResult"]
     csv = sw.save(tmp_path / "sweep.csv").read_text().splitlines()
-    assert csv[0] == "eta,lle,stderr,lambda2,period,impacts_per_period,status" and len(csv) == 3
-    assert csv[1].endswith(",ok")  # a per-point status word (issue 28: refused points say so)
+    assert (
+        csv[0] == "eta,lle,stderr,lambda2,period,impacts_per_period,status,eta_exact"
+        and len(csv) == 3
+    )
+    assert csv[1].endswith(",ok,0.7")  # a per-point status word (issue 28: refused points say so)
     assert float(csv[1].split(",")[1]) == sw.lle[0]  # repr(float) round-trips exactly
     with pytest.raises(pi.ParameterError):
         sw.save(tmp_path / "sweep.txt")
+
+
+def _every_result(results):
+    """Every result type (19): the public ones, ReproduceResult (24 s to run) built from its
+    fields, and SyncRun."""
+    out = dict(results)
+    out["ReproduceResult"] = pi.ReproduceResult(
+        quick=True,
+        periods=20,
+        ngspice=False,
+        figures={
+            "4": {
+                "eta": "0.70",
+                "regime": "periodic",
+                "models": {
+                    "circuit (ideal)": {
+                        "max_error_second_half": 1e-12,
+                        "horizon_0.1": None,
+                        "impacts": 3,
+                        "elapsed_s": 0.1,
+                    }
+                },
+            }
+        },
+        lle={"variational": [0.03, 0.001, 100]},
+        sync={"paper": {"k_star": 0.031, "k_star_err": 0.001, "message": "crossing"}},
+        elapsed_s=1.0,
+    )
+    out["SyncRun"] = results["SyncResult"].runs[0][0]  # reached through SyncResult.runs
+    assert set(out) == _public_result_types() | {"SyncRun"}
+    return out
+
+
+def test_every_result_type_to_dict_loads_with_a_strict_parser(results):
+    """All 19 result types (SyncRun and ReproduceResult included): ``to_dict()`` is text a
+    strict parser (no NaN / Infinity tokens) loads."""
+
+    def refuse(token):
+        raise AssertionError(f"non-strict JSON token {token}")
+
+    for name, r in _every_result(results).items():
+        assert isinstance(json.loads(json.dumps(r.to_dict()), parse_constant=refuse), dict), name
+
+
+#: Result types without samples or rows (one orbit, one point, one run): no to_dataframe.
+NO_ROWS = {"Bifurcation", "PeriodicOrbit", "ProvenOrbit", "SyncRun"}
+
+
+def test_every_result_type_has_a_short_repr(results):
+    """Issue 27: the repr of a 200-period mp:256 Trajectory was 94,429 characters (every
+    sample's 78 digits); every result type's repr is now one line, type first, sizes and key
+    numbers, at most REPR_LIMIT = 400 characters, whatever it holds."""
+    reprs = {name: repr(r) for name, r in _every_result(results).items()}
+    reprs["Trajectory-200"] = repr(pi.simulate(pi.Params.make(eta="0.74"), 200, precision="mp:128"))
+    for name, text in reprs.items():
+        assert len(text) <= 400 and "\n" not in text, (name, len(text))
+        assert text.startswith(name.split("-")[0] + "("), name
+    assert "periods=200" in reprs["Trajectory-200"] and "n_impacts=133" in reprs["Trajectory-200"]
+    assert "t,x,v=<201 object>" in reprs["Trajectory-200"]
+    assert "lle=" in reprs["LyapunovResult"] and "regime=" in reprs["CompareResult"]
+
+
+def test_to_dataframe_on_every_result_type_with_rows(results):
+    """Every result type with samples or rows converts to a DataFrame (15 of the 19; the 4
+    single-object types say they have none); columns carry units, numbers are float64."""
+    pd = pytest.importorskip("pandas")
+    everything = _every_result(results)
+    assert len(everything) == 19
+    covered = 0
+    for name, r in everything.items():
+        if name in NO_ROWS:
+            assert r.tables() == ()
+            with pytest.raises(pi.ParameterError, match="no samples or rows"):
+                r.to_dataframe()
+            continue
+        covered += 1
+        assert r.tables(), name
+        for what in r.tables():
+            df = r.to_dataframe(what)
+            assert isinstance(df, pd.DataFrame) and len(df) > 0, (name, what)
+            for col in df.columns:
+                if col.endswith(("[1]", "[1/tau]", "[s]")):
+                    assert df[col].dtype == np.float64, (name, what, col)
+        pd.testing.assert_frame_equal(r.to_dataframe(), r.to_dataframe(r.tables()[0]))
+        with pytest.raises(pi.ParameterError, match="what"):
+            r.to_dataframe("no-such-table")
+    assert covered == 15
+    tr = results["Trajectory"]
+    df = tr.to_dataframe()
+    assert list(df.columns) == ["period", "t [1]", "x [1]", "v [1]"]
+    assert np.array_equal(df["x [1]"].to_numpy(), tr.as_float64()["x"])
+    imp = tr.to_dataframe("impacts")
+    assert np.array_equal(imp["v_before [1]"].to_numpy(), tr.as_float64()["impacts_v_before"])
+    sw = results["SweepResult"].to_dataframe()
+    assert sw["eta [1]"].tolist() == [0.7, 0.72] and sw["status"].tolist() == ["ok", "ok"]
+
+
+def test_to_dataframe_without_pandas_says_how_to_install_it(results, monkeypatch):
+    monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas -> ImportError
+    with pytest.raises(pi.OptionalDependencyError, match=r"pip install 'precise_impact\[pandas\]'"):
+        results["Trajectory"].to_dataframe()
 
 
 def test_dict_style_access_is_kept_for_one_release():

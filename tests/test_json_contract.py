@@ -68,7 +68,7 @@ def _results():
     yield "simulate-analytical", lambda: simulate(P, 2, model="analytical")
     yield "simulate-fast", lambda: simulate(P, 2, model="fast")
     yield "simulate-circuit", lambda: simulate(P, 2, model="circuit")
-    # the known failure: a ValueError from to_dict (the immediate switches record no velocity)
+    # once a ValueError from to_dict, then null velocities: now V_q at the flip (issue 27)
     for prec in ("float64", "float128", "mp:120"):
         yield (
             f"switched-{prec}",
@@ -171,3 +171,72 @@ def test_r0_spectrum_keeps_its_minus_infinity():
     r = pi.lyapunov(Params.make(eta="0.8", R="0"), periods=50, transient=5)
     assert r.spectrum is not None and r.spectrum[1] == -math.inf
     assert r.to_dict()["spectrum"][1] == "-inf"
+
+
+# --------------------------------------------------------------------- every --json command
+#: Quick arguments of every command that has ``--json`` (``{out}``: a fresh directory).
+JSON_COMMANDS = {
+    "simulate": ["simulate", "--eta", "0.74", "--periods", "3", "--model", "switched-capacitor"],
+    "accuracy": ["accuracy", "--periods", "2"],
+    "certify": ["certify", "--periods", "2", "--precision", "mp:128"],
+    "compare": ["compare", "fig5-chaotic-ideal", "--models", "switched-capacitor,certified"]
+    + ["--periods", "10"],
+    "continue": ["continue", "--param", "eta", "1", "0.99", "--R", "0.8", "--max-points", "4"]
+    + ["--doublings", "0", "--transient", "200", "--diagram", "0"],
+    "lle": ["lle", "--eta", "0.74", "--periods", "20", "--transient", "5"],
+    "orbit": ["orbit", "--eta", "0.74", "--period", "3", "--transient", "200"],
+    "run": ["run", "fig5-chaotic-datasheet", "--model", "switched-capacitor"],
+    "sweep": ["sweep", "--axis", "eta", "0.7", "0.72", "2", "--periods", "5", "--transient", "5"]
+    + ["--model", "fast", "--workers", "1", "--out", "{out}"],
+    "sync": ["sync", "--k", "0.05", "0.05", "1", "--periods", "5", "--ensemble", "1"]
+    + ["--fig7", "0.031", "0.032", "--model", "fast", "--out", "{out}"],
+    "bench": ["bench", "work-precision", "--quick"],
+}
+#: Over ~5 s each: CI runs them in its slow step.
+SLOW_JSON = {"bench", "compare"}
+
+
+def _json_commands() -> set[str]:
+    """Every command (and sub-command) whose parser has ``--json``."""
+    import argparse
+
+    from precise_impact.cli.main import build_parser
+
+    def subs(p):
+        return next((a for a in p._actions if isinstance(a, argparse._SubParsersAction)), None)
+
+    found = set()
+    for name, p in subs(build_parser()).choices.items():
+        inner = subs(p)
+        for q in [p] if inner is None else inner.choices.values():
+            if any("--json" in a.option_strings for a in q._actions):
+                found.add(name)
+    return found
+
+
+def test_every_json_command_is_checked():
+    assert set(JSON_COMMANDS) == _json_commands()
+
+
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_JSON else n for n in JSON_COMMANDS],
+)
+def test_every_json_command_prints_one_strict_json_object(name, tmp_path):
+    """Each command's ``--json`` prints exactly one line a strict parser loads (the switched
+    capacitor's impact velocities were NaN, its compare W1 NaN)."""
+    import contextlib
+    import io
+
+    from precise_impact.cli.main import main
+
+    args = [a.replace("{out}", str(tmp_path / "out")) for a in JSON_COMMANDS[name]] + ["--json"]
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(args)
+    assert code == 0, err.getvalue()[-800:]
+    lines = out.getvalue().strip().splitlines()
+    assert len(lines) == 1, out.getvalue()[-500:]
+    obj = strict_loads(lines[0])
+    assert isinstance(obj, dict) and obj
+    assert "null" not in obj  # no value a model did not record (switched-capacitor: it does)

@@ -314,5 +314,8 @@ def test_reproduce_quick_main_job(tmp_path):
     assert set(rep["sync"]) == {"first-order", "reduced", "paper"}
     md = (tmp_path / "report.md").read_text()
     assert "Largest Lyapunov exponent" in md and "Fig. 6" in md
+    from precise_impact.io.markdown import parse_tables
+
+    assert len(parse_tables(md)) == 4  # Figs. 4-6 and the thresholds; each renders (issue 27)
     for name in ("fig4_phase_portraits.png", "fig7_first-order.png", "sync_fraction_paper.png"):
         assert (tmp_path / name).stat().st_size > 5000

@@ -97,6 +97,29 @@ def test_switched_capacitor_without_effects_is_the_ideal_impact(precision):
     assert tr.n_impacts == ref.n_impacts
 
 
+@pytest.mark.parametrize("precision", ["float64", "mp:128"])
+def test_switched_capacitor_records_the_impact_velocities(precision):
+    """Issue 27: every ``impacts_v_before`` was NaN (immediate switching logged only the trip
+    instant).  Now V_q just before and after the flip: on the period-3 orbit (eta = 0.74,
+    100 periods, 67 impacts) the same velocities as the mechanics within the phase round-off
+    bound of the ideal-circuit test (10 eps t_end: each sample's time carries ~eps t of
+    rounding, and |dv/dt| <= 1 + |x| + a = O(1) near the wall), and ``v_after = -v_before``
+    exactly (R_on = 0: reversing C2 flips V_q, the ideal impact R = 1)."""
+    p = Params.make(eta="0.74")
+    tr = SwitchedCapacitorSolver(precision).solve(nominal_components(p), 100)
+    ref = simulate(p, 100, precision=precision)
+    P = tr.precision
+    assert tr.n_impacts == ref.n_impacts == 67
+    vb = [mpmath.mpf(P.to_str(v)) for v in tr.impacts_v_before]
+    vr = [mpmath.mpf(P.to_str(v)) for v in ref.impacts_v_before]
+    va = [mpmath.mpf(P.to_str(v)) for v in tr.impacts_v_after]
+    assert all(mpmath.isfinite(v) and v > 0 for v in vb)  # towards the wall at x_w = 2
+    assert all(a == -b for a, b in zip(va, vb, strict=True))
+    bound = 10 * mpmath.mpf(2) ** (-P.bits + 1) * mpmath.mpf(P.to_str(ref.t[-1]))
+    assert max(abs(a - b) for a, b in zip(vb, vr, strict=True)) <= bound
+    assert "null" not in tr.to_dict()
+
+
 def test_switch_on_resistance_steady_state_closed_form():
     """R_on in series with C2: the non-impacting steady state (eta = 0.70, wall far away)
     equals the closed form of the linear switched-capacitor equations.
@@ -241,3 +264,21 @@ def test_designs_outside_the_integrable_range_are_refused_naming_the_input(R, ze
     with pytest.raises(ParameterError) as e:
         nominal_components(Params.make(eta="0.712", zeta=zeta), R=R)
     assert names in e.value.name.split(", ") or names in str(e.value)
+
+
+@pytest.mark.parametrize("model", ["circuit", "switched-capacitor", "spice"])
+def test_circuits_refuse_a_restitution_they_do_not_realise(model):
+    """Every circuit reverses V_q with unit gain at the wall: R = 1. Asked for R = 0.8, the
+    circuit and the switched-capacitor model ran R = 1 silently (10 periods at eta = 0.74:
+    0.44 from the R = 0.8 mechanics in x, 1.3e-14 from R = 1); now R is refused by name
+    before any work, in the one place Params become a design (nominal_components)."""
+    with pytest.raises(ParameterError, match=r"R = '0\.8' is not allowed: R = 1 for the circuits"):
+        simulate(Params.make(eta="0.74", R="0.8"), model=model, periods=2)
+
+
+def test_the_cli_refuses_a_circuit_at_r_below_one(capsys):
+    from precise_impact.cli.main import main
+
+    assert main(["simulate", "--model", "circuit", "--R", "0.8", "--periods", "2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "R = '0.8'" in err[0], err

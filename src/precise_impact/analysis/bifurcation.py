@@ -30,7 +30,7 @@ from precise_impact.analysis.scan import (
 from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import EndlessBouncesError, IntegrationError, ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure
@@ -88,6 +88,26 @@ class BifurcationResult(ResultMixin):
     elapsed_s: float
     workers: int
     status: list = dataclasses.field(default_factory=list)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``values`` (default: one row per eta) and ``samples`` (one
+        row per eta and stroboscopic sample, for the diagram)."""
+        eta = [float(e) for e in self.eta]
+        n = self.x.shape[1] if self.x.ndim == 2 else 0
+        return {
+            "values": lambda: columns(
+                ("eta", "1", eta),
+                ("lle", "1/tau", self.lle),
+                ("lle_stderr", "1/tau", self.lle_stderr),
+                ("impacts_per_period", None, np.asarray(self.impacts_per_period, dtype=float)),
+                ("status", None, list(self.status) or ["ok"] * len(eta)),
+            ),
+            "samples": lambda: columns(
+                ("eta", "1", np.repeat(eta, n)),
+                ("sample", None, np.tile(np.arange(n), len(eta))),
+                ("x", "1", np.asarray(self.x, dtype=float).ravel()),
+            ),
+        }
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write one file atomically; the suffix picks it.

@@ -7,9 +7,11 @@ an interrupted sweep resumes and gives the same numbers bit for bit.
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import functools
 import hashlib
+import io
 import json
 import math
 import os
@@ -31,7 +33,7 @@ from precise_impact.analysis.scan import (
 )
 from precise_impact.core.budget import enforce_max_time, estimate_cost, format_duration
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import OverBudgetError, ParameterError
 from precise_impact.io.atomic import atomic_write, check_output_dir
 from precise_impact.io.figures import figure
@@ -514,8 +516,9 @@ class SweepResult(ResultMixin):
     -----
     ``save(path)`` writes ``.json`` (:meth:`to_dict`), ``.npz`` (the arrays, one
     ``axisI_NAME`` array of coordinates per axis and the specification as
-    ``spec_json``) or ``.csv`` (one row per point: coordinates as exact decimals, then
-    the fields).
+    ``spec_json``) or ``.csv`` (one row per point: the coordinates as decimal numbers
+    (float64), the fields, ``status``, then each coordinate exactly in ``NAME_exact``: a
+    decimal, or a ratio such as ``89/58``).
     """
 
     spec: SweepSpec
@@ -527,6 +530,24 @@ class SweepResult(ResultMixin):
     complete: bool
     files: dict = dataclasses.field(default_factory=dict)
     stats: dict = dataclasses.field(default_factory=dict)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``points``: one row per grid point, as ``sweep.csv``."""
+
+        def points() -> dict:
+            grids = np.meshgrid(*self.coordinates().values(), indexing="ij")
+            cols = [(n, "1", g.ravel()) for n, g in zip(self.coordinates(), grids, strict=True)]
+            cols += [
+                ("lle", "1/tau", self.lle.ravel()),
+                ("stderr", "1/tau", self.stderr.ravel()),
+                ("lambda2", "1/tau", self.lambda2.ravel()),
+                ("period", None, self.period.ravel()),
+                ("impacts_per_period", None, self.impacts_per_period.ravel()),
+                ("status", None, [_status_word(c) for c in self.status.ravel()]),
+            ]
+            return columns(*cols)
+
+        return {"points": points}
 
     @property
     def status(self) -> np.ndarray:
@@ -586,19 +607,28 @@ class SweepResult(ResultMixin):
             atomic_write(path, lambda fh: np.savez_compressed(fh, **npz), binary=True)
             return path
         if path.suffix == ".csv":
+            # each coordinate as a decimal number (float64, repr round-trips) that spreadsheets
+            # and pandas read as a number, and exactly (``89/58``) in its own NAME_exact column
             names = [name for name, _ in spec.axes]
-            lines = [",".join(names + list(_FIELDS) + ["status"])]
+            buf = io.StringIO()
+            w = csv.writer(buf, lineterminator="\n")
+            w.writerow(names + list(_FIELDS) + ["status"] + [f"{n}_exact" for n in names])
             for k in range(spec.n_points):
                 idx = np.unravel_index(k, spec.shape)
-                coords = [decimal_str(vals[i]) for (_, vals), i in zip(spec.axes, idx, strict=True)]
+                exact = [vals[i] for (_, vals), i in zip(spec.axes, idx, strict=True)]
                 row = [
                     repr(float(getattr(self, f)[idx]))
                     if f != "period"
                     else _int_or_nan(self.period[idx] if self.period[idx] >= 0 else np.nan)
                     for f in _FIELDS
-                ] + [_status_word(self.status[idx])]
-                lines.append(",".join(coords + row))
-            text = "\n".join(lines) + "\n"
+                ]
+                w.writerow(
+                    [repr(float(v)) for v in exact]
+                    + row
+                    + [_status_word(self.status[idx])]
+                    + [decimal_str(v) for v in exact]
+                )
+            text = buf.getvalue()
             atomic_write(path, lambda fh: fh.write(text), binary=False)
             return path
         if path.suffix != ".json":

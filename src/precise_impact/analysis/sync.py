@@ -31,7 +31,7 @@ from precise_impact.core.params import (
     exact_grid,
 )
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns, record_columns
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import (
@@ -257,6 +257,42 @@ class SyncResult(ResultMixin):
         matplotlib.figure.Figure
         """
         return finish(sync_fraction_figure(self), path, dpi=150)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``k`` (default: one row per coupling) and ``runs`` (one
+        row per run)."""
+        k = [float(x) for x in self.k_values]
+
+        def runs() -> dict:
+            rows = [
+                {
+                    "k": k[i],
+                    "member": j,
+                    "y0_0": float(r.y0[0]),
+                    "y0_1": float(r.y0[1]),
+                    **{f.name: getattr(r, f.name) for f in dataclasses.fields(r) if f.name != "y0"},
+                }
+                for i, member in enumerate(self.runs)
+                for j, r in enumerate(member)
+            ]
+            return record_columns(rows)
+
+        return {
+            "k": lambda: columns(
+                ("k", "1", k),
+                *(
+                    (n, None, np.asarray(getattr(self, n), dtype=float))
+                    for n in (
+                        "fraction_synchronised",
+                        "fraction_intermittent",
+                        "fraction_burst",
+                        "fraction_collapsed",
+                    )
+                ),
+                ("mean_rate", "1/tau", self.mean_rate),
+            ),
+            "runs": runs,
+        }
 
     def to_dict(self) -> dict:
         def num(x):

@@ -1,13 +1,19 @@
 """The process entry of ``precise-impact`` and ``python -m precise_impact``: a signal at any
-moment of the process's life ends it with one line and exit 130, never a traceback.
+moment once the package is imported ends the process with one line and exit 130 (or, in the
+last teardown step, is ignored), never a traceback or a kill.
 
 :func:`~precise_impact.cli.main.main` handles Ctrl-C and SIGTERM while it works; this wrapper
-covers the two moments it cannot: the imports before it runs (heyoka, numpy: ~0.3 s) and the
-interpreter's teardown after it has returned (worker pools joined, buffers flushed), where a
-signal used to kill the process with status -2 after its results were written. Once ``main``
-has returned, a signal flushes what was printed and ends the process at once (``os._exit``):
-the results are complete files by then (atomic writes), and a teardown that waits on something
-is not made to wait longer.
+covers the moments it cannot: the command line's imports (heyoka, numba's glue: ~0.3 s; a
+signal there is noted and ends the process once they are done: raised inside an extension's
+initialisation it became "ImportError: initialization failed") and the interpreter's teardown
+after ``main`` has returned (pools joined, buffers flushed), where a signal killed the process
+with status -2/-15 after its results were written. After ``main`` a signal flushes what was
+printed and ends the process at once (``os._exit``): the results are complete files by then
+(atomic writes), and a teardown that waits on something is not made to wait longer.
+
+Not covered: the ~0.4 s in which ``import precise_impact`` itself runs, before this module is
+reached (Python's default: a KeyboardInterrupt traceback, or a kill by SIGTERM); no work has
+started then.
 """
 
 from __future__ import annotations
@@ -46,13 +52,23 @@ def _ignore_signals() -> None:  # pragma: no cover - runs in a subprocess
 
 def run() -> None:
     """Run the command line and exit with its status (the console script's target)."""
-    signal.signal(signal.SIGTERM, _raise_interrupt)  # SIGTERM ends a run as Ctrl-C does
     atexit.register(_ignore_signals)  # registered first, so it runs last
-    try:
-        from precise_impact.cli.main import main
+    # During the imports a signal is noted, not raised: an exception inside an extension
+    # module's initialisation (heyoka's, numpy's) surfaces as "ImportError: initialization
+    # failed" with a traceback (seen once with a SIGINT 1.7 s into a loaded machine's start).
+    noted: list[int] = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, frame: noted.append(signum))
+    from precise_impact.cli.main import main
 
+    if noted:
+        print("precise-impact: interrupted before the run started", file=sys.stderr)
+        sys.exit(EXIT_INTERRUPTED)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _raise_interrupt)  # SIGTERM ends a run as Ctrl-C does
+    try:
         status = main()
-    except KeyboardInterrupt:  # before main() took over: nothing had started
+    except KeyboardInterrupt:  # before main() took over its signals: nothing had started
         print("precise-impact: interrupted before the run started", file=sys.stderr)
         status = EXIT_INTERRUPTED
     # main() has returned: its results are written. Until the last exit hook, the interpreter

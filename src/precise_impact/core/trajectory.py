@@ -11,7 +11,7 @@ import numpy as np
 
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.jsonout import dumps, write_json
@@ -75,6 +75,27 @@ class Trajectory(ResultMixin):
     @property
     def n_impacts(self) -> int:
         return len(self.impacts_t)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``samples`` (default), ``impacts``, ``dense`` (if kept)."""
+        P = self.precision
+        tab = {
+            "samples": lambda: columns(
+                ("period", None, np.arange(len(self.t))),
+                *(("t", "1", self.t), ("x", "1", self.x), ("v", "1", self.v)),
+                precision=P,
+            ),
+            "impacts": lambda: columns(
+                ("t", "1", self.impacts_t),
+                ("v_before", "1", self.impacts_v_before),
+                ("v_after", "1", self.impacts_v_after),
+                precision=P,
+            ),
+        }
+        if self.dense_t is not None:
+            d = (("t", "1", self.dense_t), ("x", "1", self.dense_x), ("v", "1", self.dense_v))
+            tab["dense"] = lambda: columns(*d, precision=P)
+        return tab
 
     def state_mpf(self, k: int) -> tuple:
         """Exact mpmath values ``(t, x, v)`` of sample ``k``."""
@@ -186,10 +207,13 @@ class Trajectory(ResultMixin):
             c = lambda x: self._str(x) or "nan"  # noqa: E731 - not recorded
             for j, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True)):
                 lines.append(f"sample,{j},{c(t)},{c(x)},{c(v)},")
+            xw = decimal_str(self.params.x_w)
+            if "/" in xw:  # a ratio is text to a spreadsheet: the wall in the working precision
+                xw = c(self.precision.from_fraction(self.params.x_w))
             for i, (t, vb, va) in enumerate(
                 zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)
             ):
-                lines.append(f"impact,{i},{c(t)},{decimal_str(self.params.x_w)},{c(vb)},{c(va)}")
+                lines.append(f"impact,{i},{c(t)},{xw},{c(vb)},{c(va)}")
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
         elif path.suffix == ".json":

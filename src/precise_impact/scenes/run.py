@@ -11,13 +11,14 @@ from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.figures import plot_differences, plot_trajectory, plot_units, save_figure
 from precise_impact.io.jsonout import write_json
 from precise_impact.models.circuit.coupled import simulate_coupled_circuit
+from precise_impact.models.circuit.effects.catalogue import CIRCUIT_MODELS
 from precise_impact.models.circuit.effects.tolerance import actual_components
 from precise_impact.models.circuit.opamp import CircuitSolver
 from precise_impact.models.circuit.spice import run_spice
 from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
 from precise_impact.scenes.scene import Scene
 from precise_impact.solvers.base import make_solver
-from precise_impact.solvers.heyoka.coupled import simulate_coupled
+from precise_impact.solvers.simulate import simulate_coupled
 
 __all__ = ["run_scene", "scene_json"]
 
@@ -94,8 +95,9 @@ def run_scene(scene: Scene, model: str | None = None, max_time: float | None = N
             y0=y0,
             per_period=scene.per_period,
             precision=P.name,
+            model=scene.model,
         )
-    if scene.model in ("heyoka", "analytical"):
+    if scene.model not in CIRCUIT_MODELS:  # a model of the mechanics, by the registry
         solver = make_solver(scene.model, P, scene.tol)
         return solver.solve(scene.params, scene.periods, per_period=scene.per_period)
     if scene.model == "circuit":

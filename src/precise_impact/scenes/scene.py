@@ -19,13 +19,38 @@ from precise_impact.core.params import PARAM_NAMES, Params, check_count, decimal
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
 from precise_impact.models.circuit.components import exact_omega, nominal_components
-from precise_impact.models.circuit.effects.catalogue import EFFECTS, validate_effects
-from precise_impact.solvers.base import MODEL_ALIASES
+from precise_impact.models.circuit.effects.catalogue import (
+    CIRCUIT_MODELS,
+    EFFECTS,
+    validate_effects,
+)
+from precise_impact.solvers import simulate as _registers_the_solvers_models  # noqa: F401
+from precise_impact.solvers.base import COUPLED_MODELS, MODEL_ALIASES, MODELS, model_capabilities
 from precise_impact.solvers.heyoka.coupled import check_form, check_k
 
-__all__ = ["Scene", "load_scene", "builtin_scenes", "SCENE_MODELS", "parse_quantity"]
+__all__ = [
+    "Scene",
+    "load_scene",
+    "builtin_scenes",
+    "SCENE_MODELS",
+    "COMPONENT_KEYS",
+    "parse_quantity",
+]
 
-SCENE_MODELS = ("heyoka", "analytical", "circuit", "switched-capacitor", "spice")
+#: The models a scene runs on: every registered model (a live view of
+#: :data:`~precise_impact.solvers.base.MODELS`, so a model registered later is accepted too).
+SCENE_MODELS = MODELS
+#: The keys a scene's ``[components]`` table accepts, each with its unit: the design values
+#: ``R``, ``C``, ``V_unit`` of :func:`nominal_components` and any single resistor or capacitor
+#: overriding the nominal design (``docs/guide/circuit_builders.rst`` is generated from it).
+COMPONENT_KEYS = {
+    "R": "ohm",
+    "C": "F",
+    "V_unit": "V",
+    **{f"R{i}": "ohm" for i in range(1, 9)},
+    "C1": "F",
+    "C2": "F",
+}
 _TOP = {
     "name",
     "description",
@@ -42,15 +67,7 @@ _SECTIONS = {
     "model": {"name", "precision", "tol", "tmax"},
     "duration": {"periods"},
     "outputs": {"per_period"},
-    "components": {"R", "C", "V_unit", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2"},
-}
-_COMPONENT_UNIT = {
-    "R": "ohm",
-    "C": "F",
-    "V_unit": "V",
-    **{f"R{i}": "ohm" for i in range(1, 9)},
-    "C1": "F",
-    "C2": "F",
+    "components": set(COMPONENT_KEYS),
 }
 _PREFIX = {
     "p": Fraction(1, 10**12),
@@ -128,14 +145,43 @@ class Scene:
     per_period: int
     source: str
 
-    def with_model(self, model: str) -> Scene:
-        """The same scene with another model (effects re-validated for it)."""
-        data = dict(self._raw)
-        data["model"] = dict(data.get("model", {}), name=model)
-        return _build(data, self.source)
+    def with_model(self, model: str, mp_bits: int | None = None) -> Scene:
+        """The same scene with another model (effects re-validated for it; the precision and
+        tolerance fitted to it, see :meth:`model_settings`)."""
+        return _build(self._fitted_raw(dict(self._raw), model, mp_bits), self.source)
 
-    def fitted_to(self, model: str) -> tuple[Scene, list[str]]:
-        """The same scene on ``model``, keeping only the effects that fit ``model``.
+    def _fitted_raw(self, raw: dict, model: str, mp_bits: int | None) -> dict:
+        """``raw`` with the ``[model]`` table of :meth:`model_settings` and, for a model
+        without dense output (``certified``), ``outputs.per_period = 0``."""
+        raw["model"] = self.model_settings(model, mp_bits)
+        name = raw["model"]["name"]
+        if isinstance(name, str) and name in MODELS and not model_capabilities(name).dense:
+            raw["outputs"] = dict(raw.get("outputs", {}), per_period=0)
+        return raw
+
+    def model_settings(self, model: str, mp_bits: int | None = None) -> dict:
+        """The scene's ``[model]`` table for ``model``: the scene's precision if ``model``
+        takes it, else ``mp:BITS`` for a multiprecision-only model (``mp_bits``, default the
+        larger of 128 and the scene's bits) or the model's first precision kind; the
+        tolerance dropped for a model that takes none; ``tmax`` kept for ``spice`` only."""
+        model = MODEL_ALIASES.get(model, model) if isinstance(model, str) else model
+        table = dict(self._raw.get("model", {}), name=model)
+        if not isinstance(model, str) or model not in MODELS:
+            return table  # refused by _model_section, naming model.name
+        caps = model_capabilities(model)
+        if self.precision.kind not in caps.precisions:
+            kind = caps.precisions[0]
+            bits = max(128, self.precision.bits) if mp_bits is None else mp_bits
+            table["precision"] = f"mp:{bits}" if kind == "mp" else kind
+        if not caps.tolerance:
+            table.pop("tol", None)
+        if model != "spice":
+            table.pop("tmax", None)
+        return table
+
+    def fitted_to(self, model: str, mp_bits: int | None = None) -> tuple[Scene, list[str]]:
+        """The same scene on ``model``, keeping only the effects that fit ``model`` (precision
+        and tolerance as :meth:`model_settings`).
 
         Returns
         -------
@@ -149,9 +195,9 @@ class Scene:
         raw = dict(self._raw)
         eff = dict(raw.get("effects", {}))
         keep = {n: v for n, v in eff.items() if n in EFFECTS and model in EFFECTS[n].models}
-        raw["model"] = dict(raw.get("model", {}), name=model)
+        raw = self._fitted_raw(raw, model, mp_bits)
         raw["effects"] = keep
-        if model in ("heyoka", "analytical"):
+        if model not in CIRCUIT_MODELS:
             raw.pop("components", None)
         return _build(raw, self.source), sorted(set(eff) - set(keep))
 
@@ -219,7 +265,7 @@ def _build(data: Mapping, source: str) -> Scene:
         source=source,
     )
     scene._raw = data
-    if model in ("circuit", "switched-capacitor", "spice"):
+    if model in CIRCUIT_MODELS:
         exact_omega(scene.design())  # the design must map exactly onto the dimensionless system
     return scene
 
@@ -246,15 +292,21 @@ def _model_section(model_t: Mapping, kind: str):
     """``[model]``: the model's name, precision, tolerance and (spice) ``tmax``."""
     model = model_t.get("name", "heyoka")
     model = MODEL_ALIASES.get(model, model) if isinstance(model, str) else model
-    if model not in SCENE_MODELS:
-        raise ParameterError("model.name", model, "one of " + ", ".join(SCENE_MODELS))
-    if kind == "coupled" and model not in ("heyoka", "circuit"):
+    if not isinstance(model, str) or model not in MODELS:
+        raise ParameterError("model.name", model, "one of " + ", ".join(MODELS))
+    if kind == "coupled" and model not in (*COUPLED_MODELS, "circuit"):
         raise ParameterError(
-            "model.name", model, "coupled scenes run on 'heyoka' (alias 'mechanical') or 'circuit'"
+            "model.name",
+            model,
+            "for a coupled scene one of " + ", ".join((*COUPLED_MODELS, "circuit")),
         )
     precision = Precision.parse(str(model_t.get("precision", "float64")))
     tol = model_t.get("tol")
     precision.check_tol(tol, "model.tol")
+    try:
+        model_capabilities(model).check(model, precision, tol)
+    except ParameterError as e:
+        raise ParameterError(f"model.{e.name}", e.value, e.allowed) from None
     tmax = None
     if "tmax" in model_t:
         if model != "spice":
@@ -280,7 +332,7 @@ def _parameters_section(data: Mapping) -> Params:
 def _components_section(data: Mapping) -> dict[str, Fraction]:
     """``[components]``: the component values (with units), each positive."""
     comps = {
-        n: parse_quantity(f"components.{n}", v, _COMPONENT_UNIT[n])
+        n: parse_quantity(f"components.{n}", v, COMPONENT_KEYS[n])
         for n, v in data.get("components", {}).items()
     }
     for n, v in comps.items():
@@ -295,7 +347,7 @@ def _effects_section(data: Mapping, model: str, kind: str) -> dict:
     raw_eff = data.get("effects", {})
     if not isinstance(raw_eff, Mapping):
         raise ParameterError("effects", raw_eff, "a table of effect tables")
-    if raw_eff and model in ("heyoka", "analytical"):
+    if raw_eff and model not in CIRCUIT_MODELS:
         first = next(iter(raw_eff))
         raise ParameterError(
             f"effects.{first}",
@@ -303,7 +355,7 @@ def _effects_section(data: Mapping, model: str, kind: str) -> dict:
             f"model '{model}' has no circuit effects; use circuit, switched-capacitor or spice",
         )
     eff_in = {en: _effect_quantities(en, settings) for en, settings in raw_eff.items()}
-    effects = validate_effects(eff_in, model) if model not in ("heyoka", "analytical") else {}
+    effects = validate_effects(eff_in, model) if model in CIRCUIT_MODELS else {}
     if kind == "coupled" and model == "circuit":
         bad = sorted(set(effects) - {"tolerance"})
         if bad:

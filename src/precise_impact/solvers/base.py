@@ -78,12 +78,15 @@ class Capabilities:
         Coupled models: the slave forms it integrates (``None``: every form).
     note : str
         Said after a refused precision or tolerance (what to use instead, or why).
+    dense : bool
+        Whether it gives dense output (``per_period > 0``).
     """
 
     precisions: tuple[str, ...] = PRECISION_KINDS
     tolerance: bool = True
     forms: tuple[str, ...] | None = None
     note: str = ""
+    dense: bool = True
 
     def __post_init__(self) -> None:
         bad = [k for k in self.precisions if k not in PRECISION_KINDS]

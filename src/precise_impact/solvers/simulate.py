@@ -77,7 +77,7 @@ FAST = Capabilities(
     tolerance=False,
     note="closed forms to float64 rounding; heyoka for other precisions",
 )
-CERTIFIED = Capabilities(("mp",), tolerance=False, note="proven enclosures at BITS")
+CERTIFIED = Capabilities(("mp",), tolerance=False, note="proven enclosures at BITS", dense=False)
 
 register_model(
     "heyoka",

@@ -14,7 +14,8 @@ from typing import Any
 
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import has_quad
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, record_columns
+from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.figures import (
     figure_legend,
     finish,
@@ -25,12 +26,15 @@ from precise_impact.io.figures import (
 )
 from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
+from precise_impact.models.circuit.spice import find_ngspice
+from precise_impact.solvers.base import MODELS, model_capabilities
 from precise_impact.solvers.simulate import simulate
 from precise_impact.verification.metrics import reference_bits, sample_errors
 
 __all__ = [
     "PAPER_ETAS",
     "CANDIDATES",
+    "candidates",
     "AccuracyResult",
     "reference_bits",
     "sample_errors",
@@ -41,15 +45,27 @@ __all__ = [
 #: The paper's three regimes: periodic without impacts, chaotic, period-3.
 PAPER_ETAS = ("0.70", "0.712", "0.74")
 
-#: (model, precision) pairs scored against the reference.
-CANDIDATES = (
-    ("heyoka", "float64"),
-    ("heyoka", "longdouble"),
-    ("heyoka", "float128"),
-    ("analytical", "float64"),
-    ("analytical-paper", "float64"),
-    ("fast", "float64"),
-)
+#: The mechanical reference's hardware precisions, each scored (the other models: one each).
+_HEYOKA_PRECISIONS = ("float64", "longdouble", "float128")
+
+
+def candidates(bits: int) -> tuple[tuple[str, str], ...]:
+    """The (model, precision) pairs scored: every registered model
+    (:data:`~precise_impact.solvers.base.MODELS`) in the first precision it takes
+    (``mp:bits``, the reference's, for a multiprecision-only model such as ``certified``),
+    and ``heyoka`` also in ``longdouble`` and ``float128``."""
+    out: list[tuple[str, str]] = []
+    for model in MODELS:
+        if model == "heyoka":
+            out += [(model, p) for p in _HEYOKA_PRECISIONS]
+            continue
+        kind = model_capabilities(model).precisions[0]
+        out.append((model, f"mp:{bits}" if kind == "mp" else kind))
+    return tuple(out)
+
+
+#: (model, precision) pairs scored against the reference at 100 periods (:func:`candidates`).
+CANDIDATES = candidates(reference_bits(100))
 
 
 def accuracy_table(
@@ -122,9 +138,12 @@ def accuracy_table(
             }
         )
         curves[eta] = {}
-        for model, prec in CANDIDATES:
+        for model, prec in candidates(bits):
             if prec == "float128" and not has_quad():
                 continue  # this heyoka build has no quad precision: the row does not exist here
+            if model == "spice" and not _have_ngspice():
+                _progress(f"eta={eta}: spice skipped (ngspice is not installed)", progress)
+                continue  # the row does not exist on this installation
             traj = simulate(params, periods, model=model, precision=prec)
             errs = sample_errors(traj, ref)
             curves[eta][f"{model} {prec}"] = errs
@@ -147,6 +166,14 @@ def accuracy_table(
         write_json(out / "accuracy.json", result.to_dict(), indent=2)
         _plot(curves, periods, out / "accuracy.png")
     return result
+
+
+def _have_ngspice() -> bool:
+    try:
+        find_ngspice()
+    except OptionalDependencyError:
+        return False
+    return True
 
 
 def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -> None:
@@ -249,6 +276,10 @@ class AccuracyResult(ResultMixin):
         )
         return finish(fig, path, dpi=110)
 
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``rows``: one per (eta, model, precision)."""
+        return {"rows": lambda: record_columns(self.rows)}
+
 
 def format_table(result: AccuracyResult) -> str:
     """The table printed by ``precise-impact accuracy``.
@@ -265,13 +296,13 @@ def format_table(result: AccuracyResult) -> str:
     lines = [
         f"Errors over {result['periods']} periods from rest against heyoka "
         f"mp:{result['reference_bits']} (max over stroboscopic samples of max(|dx|, |dv|))",
-        f"{'eta':>6}  {'model':<17} {'precision':<11} {'max error':>10} {'at end':>10} "
+        f"{'eta':>6}  {'model':<18} {'precision':<11} {'max error':>10} {'at end':>10} "
         f"{'impacts':>7} {'time [s]':>9}",
     ]
     for r in result["rows"]:
         tag = "  <- reference: disagreement with +64 bits" if r["role"] != "candidate" else ""
         lines.append(
-            f"{r['eta']:>6}  {r['model']:<17} {r['precision']:<11} {r['max_error']:>10.2e} "
+            f"{r['eta']:>6}  {r['model']:<18} {r['precision']:<11} {r['max_error']:>10.2e} "
             f"{r['final_error']:>10.2e} {r['impacts']:>7d} {r['elapsed_s']:>9.4f}{tag}"
         )
     return "\n".join(lines)

@@ -19,7 +19,7 @@ import numpy as np
 
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.core.params import check_count, decimal_str
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
@@ -34,11 +34,12 @@ from precise_impact.io.figures import (
     wrap_title,
 )
 from precise_impact.io.jsonout import write_json
+from precise_impact.io.markdown import table
 from precise_impact.io.progress import say as _progress
 from precise_impact.models.circuit.spice import find_ngspice
 from precise_impact.scenes.run import run_scene
-from precise_impact.scenes.scene import SCENE_MODELS, Scene, load_scene
-from precise_impact.solvers.base import MODEL_ALIASES
+from precise_impact.scenes.scene import Scene, load_scene
+from precise_impact.solvers.base import MODEL_ALIASES, MODELS, model_capabilities
 from precise_impact.solvers.simulate import make_solver
 from precise_impact.verification.metrics import reference_bits, sample_errors
 from precise_impact.verification.points import mechanical_points, point_scores
@@ -49,6 +50,7 @@ __all__ = [
     "CompareResult",
     "check_models",
     "format_scores",
+    "report_markdown",
     "REF_PERTURBATION",
     "MODEL_PERTURBATION",
 ]
@@ -66,29 +68,39 @@ def check_models(models: str | Sequence[str]) -> list[str]:
     models = [MODEL_ALIASES.get(m, m) for m in models]
     if not models or any(not m for m in models):
         raise ParameterError(
-            "models", ",".join(models), "a comma-separated list of " + ", ".join(SCENE_MODELS)
+            "models", ",".join(models), "a comma-separated list of " + ", ".join(MODELS)
         )
     for m in models:
-        if m not in SCENE_MODELS:
-            raise ParameterError("models", m, "each one of " + ", ".join(SCENE_MODELS))
+        if m not in MODELS:
+            raise ParameterError("models", m, "each one of " + ", ".join(MODELS))
     if len(set(models)) != len(models):
         raise ParameterError("models", ",".join(models), "no model twice")
     return models
 
 
-def scene_for_model(scene: Scene, model: str) -> tuple[Scene, list[str]]:
+def scene_for_model(
+    scene: Scene, model: str, periods: int | None = None
+) -> tuple[Scene, list[str]]:
     """``scene`` on ``model``, keeping only the scene's effects that fit ``model``.
+
+    A model that does not take the scene's precision runs in one it takes: a
+    multiprecision-only model (``certified``) at the reference's bits for ``periods``
+    (:func:`~precise_impact.verification.metrics.reference_bits`), a float64-only one in
+    float64 (:meth:`~precise_impact.scenes.scene.Scene.model_settings`).
 
     Returns the scene and the names of the effects dropped (e.g. the comparator of a
     switched-capacitor scene when run on the op-amp ``circuit`` model).
     """
-    return scene.fitted_to(model)
+    bits = reference_bits(scene.periods if periods is None else periods)
+    return scene.fitted_to(model, mp_bits=bits)
 
 
 def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=None) -> Trajectory:
 
+    if not model_capabilities(model).dense:
+        per_period = 0  # e.g. certified: stroboscopic samples and impacts only
     sc = dataclasses.replace(
-        scene_for_model(scene, model)[0], periods=periods, per_period=per_period
+        scene_for_model(scene, model, periods)[0], periods=periods, per_period=per_period
     )
     if params is not None:
         sc = dataclasses.replace(sc, params=params)
@@ -115,8 +127,9 @@ def compare(
     scene_name_or_path : str or Path
         A built-in scene (:func:`~precise_impact.scenes.builtin_scenes`) or a ``.toml`` file.
     models : sequence of str or str
-        Names from :data:`precise_impact.scenes.scene.SCENE_MODELS` (or one string
-        ``'a,b'``).
+        Names from :data:`precise_impact.solvers.base.MODELS`, every registered model (or
+        one string ``'a,b'``); a model that does not take the scene's precision runs in one
+        it takes (:func:`scene_for_model`).
     out : directory or None, default ``None``
         Writes ``report.md``, ``scores.json``, ``phase_portraits.png``,
         ``separation.png``; ``None`` writes nothing.
@@ -174,8 +187,14 @@ def compare(
     k = periods // 5 if transient is None else int(transient)
     params = scene.params
     dropped = {
-        m: scene_for_model(scene, m)[1] for m in models
+        m: scene_for_model(scene, m, periods)[1] for m in models
     }  # validates every model before any work
+    if points:
+        for m in models:
+            if not model_capabilities(m).dense:  # the grazing point needs the steady state's max x
+                raise ParameterError(
+                    "models", m, "models with dense output for the points (certified has none)"
+                )
     if "spice" in models:
         find_ngspice()  # a missing ngspice is refused before the reference runs, not after
 
@@ -197,7 +216,7 @@ def compare(
         trajs[m] = tr
         sc = _score_model(scene, m, tr, periods, regime, ref, ref2, lle, k)
         sc["effects_dropped"] = dropped[m]
-        sc["effects"] = sorted(scene_for_model(scene, m)[0].effects)
+        sc["effects"] = sorted(scene_for_model(scene, m, periods)[0].effects)
         if mech is not None:
             sc["points"] = point_scores(scene, m, mech)
         results[m] = sc
@@ -323,7 +342,7 @@ def _write_outputs(
         separation_figure(scene, ref, check, trajs, lle["lle"], results, u),
         out / "separation.png",
     )
-    md = _report(result)
+    md = report_markdown(result)
     atomic_write(out / "report.md", lambda fh: fh.write(md), binary=False)
     result["files"] = [
         str(out / n) for n in ("report.md", "scores.json", "phase_portraits.png", "separation.png")
@@ -424,6 +443,15 @@ class CompareResult(ResultMixin):
             fontsize=10,
         )
         return finish(fig, path, dpi=110)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``models``: one row per model, its scalar scores (nested
+        ones as ``divergence.rate``, ``horizons.0.001`` ...)."""
+        return {
+            "models": lambda: record_columns(
+                [{"model": m, **flat(sc)} for m, sc in self.models.items()]
+            )
+        }
 
 
 def _json_default(o):
@@ -597,10 +625,8 @@ def _points_report(res: dict) -> list[str]:
         f"form); period-doubling of the 1:1 orbit at eta = {_g(rp['period-doubling'], '.12g')} "
         "(continuation).",
         "",
-        "| model | grazing eta | shift | resolution | period-doubling eta | shift | resolution | "
-        "how |",
-        "|---|---:|---:|---:|---:|---:|---:|---|",
     ]
+    rows = []
     for m, s in res["models"].items():
         g, d = s["points"]["grazing"], s["points"]["period-doubling"]
         dd = (
@@ -619,11 +645,21 @@ def _points_report(res: dict) -> list[str]:
                 ),
             )
         )
-        L.append(
-            f"| {m} | {g['model']:.10g} | {g['shift']:+.3e} | {g['resolution']:.1e} | "
-            + " | ".join(dd)
-            + " |"
-        )
+        rows.append((m, f"{g['model']:.10g}", f"{g['shift']:+.3e}", f"{g['resolution']:.1e}", *dd))
+    L += table(
+        (
+            "model",
+            "grazing eta",
+            "shift",
+            "resolution",
+            "period-doubling eta",
+            "shift",
+            "resolution",
+            "how",
+        ),
+        rows,
+        "lrrrrrrl",
+    )
     L += [
         "",
         "How obtained (`precise_impact.verification.points`): the grazing point is the root of "
@@ -639,9 +675,10 @@ def _points_report(res: dict) -> list[str]:
     return L
 
 
-def _report(res: dict) -> str:
+def report_markdown(res: dict) -> str:
     """``report.md``: how the reference was made, every model's scores and how they were
-    obtained."""
+    obtained; ``res`` is a :class:`CompareResult`'s fields as a dict (or ``scores.json``).
+    Its tables come from :func:`precise_impact.io.markdown.table`."""
     L = _report_header(res)
     L += ["## Scores", ""]
     if res["regime"] == "periodic":
@@ -693,19 +730,36 @@ def _report_header(res: dict) -> list[str]:
 
 def _periodic_scores(res: dict) -> list[str]:
     """The scores table of a periodic scene and how its columns were obtained."""
-    L = [
-        "| model | max state error | final state error | impacts (model/ref) | matched | "
-        "unmatched model/ref | max impact dt | max impact dv | period | time [s] |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
-    ]
+    rows = []
     for m, s in res["models"].items():
         im = s["impacts"]
-        L.append(
-            f"| {m} | {_g(s['max_state_error'])} | {_g(s['final_state_error'])} | "
-            f"{im['model_impacts']}/{im['reference_impacts']} | {im['matched']} | "
-            f"{im['unmatched_model']}/{im['unmatched_reference']} | {_g(im['max_dt'])} | "
-            f"{_g(im['max_dv'])} | {s['period_model']} | {s['elapsed_s']:.3f} |"
+        rows.append(
+            (
+                m,
+                _g(s["max_state_error"]),
+                _g(s["final_state_error"]),
+                f"{im['model_impacts']}/{im['reference_impacts']}",
+                im["matched"],
+                f"{im['unmatched_model']}/{im['unmatched_reference']}",
+                _g(im["max_dt"]),
+                _g(im["max_dv"]),
+                s["period_model"],
+                f"{s['elapsed_s']:.3f}",
+            )
         )
+    header = (
+        "model",
+        "max state error",
+        "final state error",
+        "impacts (model/ref)",
+        "matched",
+        "unmatched model/ref",
+        "max impact dt",
+        "max impact dv",
+        "period",
+        "time [s]",
+    )
+    L = table(header, rows)
     L += [
         "",
         "How obtained:",
@@ -726,26 +780,39 @@ def _periodic_scores(res: dict) -> list[str]:
 def _chaotic_scores(res: dict) -> list[str]:
     """The scores table of a chaotic scene and how its columns were obtained."""
     deltas = list(next(iter(res["models"].values()))["horizons"])
-    L = [
-        "| model | "
-        + " | ".join(f"horizon d={d}" for d in deltas)
-        + " | fitted rate | rate / LLE | "
-        "model LLE est. | LLE gap | sliced W (floor) | impact-v W1 (floor) | impacts/period (ref) "
-        "| period | time [s] |",
-        "|---|" + "---:|" * (len(deltas) + 10),
-    ]
+    header = (
+        "model",
+        *(f"horizon d={d}" for d in deltas),
+        "fitted rate",
+        "rate / LLE",
+        "model LLE est.",
+        "LLE gap",
+        "sliced W (floor)",
+        "impact-v W1 (floor)",
+        "impacts/period (ref)",
+        "period",
+        "time [s]",
+    )
+    rows = []
     for m, s in res["models"].items():
         d = s["divergence"]
-        L.append(
-            f"| {m} | "
-            + " | ".join(_g(s["horizons"][x], ".1f") for x in deltas)
-            + f" | {_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')} | "
-            f"{_g(s['rate_over_lle'], '.3f')} | {_g(s['lle_model'], '.4f')} | "
-            f"{_g(s['lle_gap'], '+.4f')} | {s['sliced_wasserstein']:.4f} ({s['sw_floor']:.4f}) | "
-            f"{s['impact_v_wasserstein']:.4f} ({s['impact_v_floor']:.4f}) | "
-            f"{s['impacts_per_period_model']:.3f} ({s['impacts_per_period_reference']:.3f}) | "
-            f"{s['period_model']} | {s['elapsed_s']:.3f} |"
+        rows.append(
+            (
+                m,
+                *(_g(s["horizons"][x], ".1f") for x in deltas),
+                f"{_g(d['rate'], '.4f')} +- {_g(d['stderr'], '.4f')}",
+                _g(s["rate_over_lle"], ".3f"),
+                _g(s["lle_model"], ".4f"),
+                _g(s["lle_gap"], "+.4f"),
+                f"{_g(s['sliced_wasserstein'], '.4f')} ({_g(s['sw_floor'], '.4f')})",
+                f"{_g(s['impact_v_wasserstein'], '.4f')} ({_g(s['impact_v_floor'], '.4f')})",
+                f"{_g(s['impacts_per_period_model'], '.3f')} "
+                f"({_g(s['impacts_per_period_reference'], '.3f')})",
+                s["period_model"],
+                f"{s['elapsed_s']:.3f}",
+            )
         )
+    L = table(header, rows)
     L += [
         "",
         "How obtained:",

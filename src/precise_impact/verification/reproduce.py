@@ -18,7 +18,7 @@ import numpy as np
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
 from precise_impact.core.params import Params
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import (
@@ -31,6 +31,7 @@ from precise_impact.io.figures import (
     series_styles,
     wrap_title,
 )
+from precise_impact.io.markdown import table
 from precise_impact.io.progress import say as _say
 from precise_impact.models.circuit.components import nominal_components
 from precise_impact.models.circuit.opamp import CircuitSolver
@@ -151,6 +152,26 @@ class ReproduceResult(ResultMixin):
             fontsize=10,
         )
         return finish(fig, path, dpi=110)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``models`` (default: one row per figure and model) and
+        ``sync`` (one row per coupled form)."""
+        return {
+            "models": lambda: record_columns(
+                [
+                    {
+                        "figure": fig,
+                        "eta": row["eta"],
+                        "regime": row["regime"],
+                        "model": m,
+                        **flat(v),
+                    }
+                    for fig, row in self.figures.items()
+                    for m, v in row["models"].items()
+                ]
+            ),
+            "sync": lambda: record_columns([{"form": f, **flat(s)} for f, s in self.sync.items()]),
+        }
 
 
 def reproduce(
@@ -403,14 +424,19 @@ def _report_md(res: dict) -> str:
             f"{row['demonstrated']:.1e}. Phase portraits: `fig{fig}_phase_portraits.png`."
         )
         L.append("")
-        L.append("| model | error (last quarter) | horizon (err > 0.1) | impacts | time [s] |")
-        L.append("|---|---:|---:|---:|---:|")
-        for n, m in row["models"].items():
-            hz = "never" if m["horizon_0.1"] is None else f"period {m['horizon_0.1']}"
-            L.append(
-                f"| {n} | {m['max_error_second_half']:.2e} | {hz} | {m['impacts']} | "
-                f"{m['elapsed_s']:.3f} |"
+        rows = [
+            (
+                n,
+                f"{m['max_error_second_half']:.2e}",
+                "never" if m["horizon_0.1"] is None else f"period {m['horizon_0.1']}",
+                m["impacts"],
+                f"{m['elapsed_s']:.3f}",
             )
+            for n, m in row["models"].items()
+        ]
+        L += table(
+            ("model", "error (last quarter)", "horizon (err > 0.1)", "impacts", "time [s]"), rows
+        )
         L.append("")
     v, t = res["lle"]["variational"], res["lle"]["two-trajectory"]
     L += [
@@ -428,16 +454,16 @@ def _report_md(res: dict) -> str:
         "bracketing grid step. Fig. 7-like plots: `fig7_<form>.png`; fractions: "
         "`sync_fraction_<form>.png`.",
         "",
-        "| form | k* | note |",
-        "|---|---:|---|",
     ]
+    sync_rows = []
     for form, s in res["sync"].items():
         ks = (
             "n/a"
             if s["k_star"] is None or (isinstance(s["k_star"], float) and math.isnan(s["k_star"]))
             else f"{s['k_star']:.4f} +- {s['k_star_err']:.4f}"
         )
-        L.append(f"| {form} | {ks} | {s['message']} |")
+        sync_rows.append((form, ks, s["message"]))
+    L += table(("form", "k*", "note"), sync_rows, "lrl")
     L += [
         "",
         "`first-order` = eqs. (11)-(12); `reduced` = the exact second-order form of (12); `paper` "

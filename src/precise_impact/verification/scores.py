@@ -140,7 +140,8 @@ def divergence_rate(
     The window runs from the start up to the first sample with ``sep >= hi`` (after
     that the separation has saturated at the attractor's size); inside it only
     samples with ``lo < sep < hi`` are fitted.  Returns ``{"rate", "stderr",
-    "t_start", "t_end", "points"}`` (``rate`` NaN with fewer than 3 points).
+    "t_start", "t_end", "points"}`` (``rate`` NaN with fewer than 3 points, and ``"why"``
+    saying so).
     """
     t = np.asarray(t, dtype=float)
     sep = np.asarray(sep, dtype=float)
@@ -154,7 +155,11 @@ def divergence_rate(
         "t_end": math.nan,
         "points": int(len(idx)),
     }
-    if len(idx) < 3:
+    if len(idx) < 3:  # the JSON's nulls say why (strict JSON: NaN is null)
+        out["why"] = (
+            f"no fit: {len(idx)} samples with {lo:g} < sep < {hi:g} before sep first reached "
+            f"{hi:g}; 3 needed"
+        )
         return out
     tt, yy = t[idx], np.log(sep[idx])
     A = np.stack([tt, np.ones_like(tt)], axis=1)
@@ -215,6 +220,7 @@ def match_impacts(
             best[int(j[k])] = int(k)
     pairs = [(k, jr) for jr, k in best.items()]
     if not pairs:
+        res["why"] = "no impact pairs within the window after the transient: dt, dv undefined"
         return res
     mk = np.array([im[k] for k, _ in pairs])
     rk = np.array([ir[jr] for _, jr in pairs])
@@ -225,6 +231,7 @@ def match_impacts(
     res["dv_pairs"] = int(len(dv))
     if len(dv) == 0:
         dv = np.array([math.nan])
+        res["why"] = "the model records no impact velocity: dv undefined"
     res.update(
         matched=len(pairs),
         unmatched_model=int(len(im) - len(pairs)),

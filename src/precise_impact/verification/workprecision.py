@@ -25,7 +25,7 @@ import numpy as np
 
 from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.params import Params
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, record_columns
 from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import (
@@ -727,6 +727,14 @@ class WorkPrecisionResult(ResultMixin):
         matplotlib.figure.Figure
         """
         return finish(wp_figure(self.to_dict()), path, dpi=110)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``rows`` (default: one per method and setting, as
+        ``work_precision.csv``) and ``chaos_cost`` (bits and time per chaotic length)."""
+        tab = {"rows": lambda: record_columns(self.rows)}
+        if self.chaos_cost:
+            tab["chaos_cost"] = lambda: record_columns(self.chaos_cost["rows"])
+        return tab
 
 
 # --------------------------------------------------------------------------- outputs

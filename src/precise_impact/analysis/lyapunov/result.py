@@ -11,7 +11,7 @@ import numpy as np
 
 from precise_impact.core.compat import RenamedAttribute
 from precise_impact.core.params import Params
-from precise_impact.core.result import ResultMixin, to_jsonable
+from precise_impact.core.result import ResultMixin, columns, to_jsonable
 
 __all__ = ["Attractor", "LyapunovResult", "StartEstimate", "block_stderr", "means_stderr"]
 
@@ -178,6 +178,25 @@ class LyapunovResult(ResultMixin):
     #: Deprecated names (one release): ``lle_stderr`` and ``n_impacts``.
     stderr = RenamedAttribute("lle_stderr")
     impacts = RenamedAttribute("n_impacts")
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``running`` (default: the estimate after each measured
+        period), ``segments`` (each segment's estimate), ``strobe`` (where recorded)."""
+        tab = {
+            "running": lambda: columns(
+                ("period", None, np.arange(1, len(self.running) + 1)),
+                ("lle", "1/tau", self.running),
+            ),
+            "segments": lambda: columns(
+                ("segment", None, np.arange(len(self.segments))), ("lle", "1/tau", self.segments)
+            ),
+        }
+        if self.strobe_x is not None and self.strobe_v is not None:
+            sx, sv = self.strobe_x, self.strobe_v
+            tab["strobe"] = lambda: columns(
+                ("period", None, np.arange(len(sx))), ("x", "1", sx), ("v", "1", sv)
+            )
+        return tab
 
     def order_spectrum(self) -> None:
         """Put ``spectrum`` in descending order (``lle`` its first value).

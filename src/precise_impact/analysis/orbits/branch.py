@@ -21,7 +21,7 @@ from precise_impact.analysis.scan import (
     run_scan,
 )
 from precise_impact.core.params import Params, check_count, decimal_str, exact
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns, record_columns
 from precise_impact.errors import ParameterError
 from precise_impact.io.figures import (
     draw_density,
@@ -88,6 +88,24 @@ class Branch(ResultMixin):
     lle: np.ndarray
     stop_reason: str
     stability: np.ndarray | None = None
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``points``: one row per orbit of the branch, its
+        stroboscopic states as ``x_0 .. x_{p-1}``, ``v_0 ..``."""
+        return {"points": self._points}
+
+    def _points(self) -> dict:
+        x, v = np.asarray(self.x, dtype=float), np.asarray(self.v, dtype=float)
+        p = x.shape[1] if x.ndim == 2 else 0
+        return columns(
+            (self.parameter, "1", np.asarray(self.values, dtype=float)),
+            ("lle", "1/tau", self.lle),
+            ("stable", None, self.stable),
+            ("admissible", None, self.admissible),
+            ("stability", None, self.stability if self.stability is not None else [""] * len(x)),
+            *((f"x_{j}", "1", x[:, j]) for j in range(p)),
+            *((f"v_{j}", "1", v[:, j]) for j in range(p)),
+        )
 
     def __post_init__(self) -> None:
         if self.stability is None:
@@ -238,6 +256,44 @@ class ContinuationResult(ResultMixin):
     branches: list
     bifurcations: list
     elapsed_s: float
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``points`` (default: every branch's orbits, ``branch``
+        its index) and ``bifurcations``."""
+
+        def points() -> dict:
+            parts = [b._points() for b in self.branches]
+            keys = list(dict.fromkeys(k for part in parts for k in part))
+            out: dict = {
+                "branch": np.concatenate(
+                    [np.full(len(next(iter(pt.values()))), i) for i, pt in enumerate(parts)]
+                )
+                if parts
+                else np.zeros(0, dtype=int)
+            }
+            for key in keys:
+                out[key] = np.concatenate(
+                    [
+                        np.asarray(pt[key])
+                        if key in pt
+                        else np.full(len(next(iter(pt.values()))), np.nan)
+                        for pt in parts
+                    ]
+                )
+            return out
+
+        def bifurcations() -> dict:
+            rows = [
+                {
+                    f.name: getattr(b, f.name)
+                    for f in dataclasses.fields(b)
+                    if f.name not in ("x", "v", "multipliers")
+                }
+                for b in self.bifurcations
+            ]
+            return record_columns(rows)
+
+        return {"points": points, "bifurcations": bifurcations}
 
     def to_dict(self) -> dict[str, Any]:
         """The CLI's ``--json`` object: ``params``, ``parameter``, ``from``, ``to``, ``branches``

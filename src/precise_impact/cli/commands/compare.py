@@ -9,7 +9,7 @@ import heyoka
 from precise_impact.cli.args import add_json, add_out, add_periods, add_units
 from precise_impact.core.params import check_count
 from precise_impact.io.jsonout import print_json
-from precise_impact.scenes.scene import SCENE_MODELS
+from precise_impact.solvers.base import MODELS
 from precise_impact.verification.compare import check_models, compare, format_scores
 from precise_impact.verification.metrics import max_reference_periods
 
@@ -22,7 +22,7 @@ def register(sub) -> argparse.ArgumentParser:
         "compare", help="score models of a scene against a demonstrated heyoka reference"
     )
     c.add_argument("scene", help="built-in scene name or FILE.toml")
-    c.add_argument("--models", required=True, help="comma-separated: " + ",".join(SCENE_MODELS))
+    c.add_argument("--models", required=True, help="comma-separated: " + ",".join(MODELS))
     add_periods(c, None, "forcing periods", metavar=None, default_text="default: the scene's")
     c.add_argument(
         "--points",

@@ -219,7 +219,9 @@ def nominal_components(
     ------
     ParameterError
         ``zeta = 0`` (R6 would be infinite: leave the damping resistor out by giving
-        a huge R6 through :meth:`Components.replace`) or a non-positive value.
+        a huge R6 through :meth:`Components.replace`), ``R != 1`` (the circuits' impact
+        reverses the velocity with unit gain: a run at ``R = 0.8`` was silently one at
+        ``R = 1``) or a non-positive value.
 
     See Also
     --------
@@ -246,6 +248,12 @@ def nominal_components(
         raise ParameterError("R" if r <= 0 else "C", decimal_str(r if r <= 0 else c), "must be > 0")
     if params.zeta == 0:
         raise ParameterError("zeta", "0", "the circuit realises zeta > 0 (R6 = R2 / (2 zeta))")
+    if params.R != 1:  # every circuit model reverses V_q with unit gain at the wall
+        raise ParameterError(
+            "R",
+            decimal_str(params.R),
+            "R = 1 for the circuits (their impact reverses V_q with unit gain)",
+        )
     w = 1 / (r * c)
     if not OMEGA_RANGE[0] <= w <= OMEGA_RANGE[1]:
         raise ParameterError(

@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.impact import reset_velocity
-from precise_impact.core.params import Params, check_count, decimal_str
+from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.models.circuit.components import Components, dimensionless, nominal_components
 from precise_impact.models.circuit.network import NETWORK_PARS
@@ -309,6 +309,25 @@ class CoupledCircuitTrajectory(ResultMixin):
 
         return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``samples`` (default), ``impacts`` (``who``: master or
+        slave), mapped to the dimensionless system."""
+        P = self.precision
+
+        def impacts() -> dict:
+            who = ["master"] * len(self.master_impacts_t) + ["slave"] * len(self.slave_impacts_t)
+            t = list(self.master_impacts_t) + list(self.slave_impacts_t)
+            return columns(("who", None, who), ("t", "1", t), precision=P)
+
+        return {
+            "samples": lambda: columns(
+                ("period", None, np.arange(len(self.t))),
+                *((n, "1", getattr(self, n)) for n in ("t", "x", "v", "y", "w")),
+                precision=P,
+            ),
+            "impacts": impacts,
+        }
+
 
 class CircuitCoupledSolver:
     """The Fig. 3 op-amp pair as a coupled model (``model='circuit'``, ``form='paper'``).
@@ -341,10 +360,6 @@ class CircuitCoupledSolver:
         """Simulate the circuit pair (:func:`~precise_impact.simulate_coupled`)."""
         if form != CIRCUIT_COUPLED_FORM:
             raise ParameterError("form", form, f"{CIRCUIT_COUPLED_FORM!r} for the circuit model")
-        if params.R != 1:
-            raise ParameterError(
-                "R", decimal_str(params.R), "1 for the circuit pair (its comparators' impact law)"
-            )
         return simulate_coupled_circuit(
             nominal_components(params),
             k,

@@ -56,7 +56,9 @@ class _Comparator(ImpactRecorder):
     toggle.
 
     The trip times are its :class:`~precise_impact.solvers.heyoka.events.ImpactRecorder` log
-    (``t``; no velocities: the switching is resolved by the solver), under the impact budget.
+    (``t``), under the impact budget.  An immediate toggle also keeps the state at the trip
+    (``V_s, V_C`` and the polarity before the flip) in :attr:`states`, from which the solver
+    computes ``V_q`` just before and just after the reversal (the impact velocities).
     """
 
     def __init__(self) -> None:
@@ -73,6 +75,7 @@ class _Comparator(ImpactRecorder):
         self.armed = True
         self.reset_log(max_impacts)
         self.pending = False
+        self.states: list = []
 
     def __call__(self, ta, d_sgn) -> bool:
         if not self.armed:
@@ -81,6 +84,8 @@ class _Comparator(ImpactRecorder):
         if not self.record(ta.time):
             return False
         if self.immediate:
+            # heyoka stopped at the trip: the state there, before the flip (copies)
+            self.states.append((ta.state[0], ta.state[1], ta.pars[_I["pol"]]))
             ta.pars[_I["pol"]] = -ta.pars[_I["pol"]]
             self.armed = self.rearm_at_flip
             return True
@@ -195,7 +200,10 @@ class SwitchedCapacitorSolver:
 
         Impacts are recorded when the switches reconnect C2 (the velocity jump):
         ``impacts_t`` is that instant (dimensionless), ``v_before``/``v_after`` the
-        mapped ``V_q`` just before the switches opened and just after they closed.
+        mapped ``V_q`` just before the switches opened and just after they closed (with
+        immediate switching, no delay, break-before-make or charge injection: just before
+        and after the polarity flip at the comparator trip, so ``v_after = -v_before``
+        when ``R_on = 0``: the ideal impact, R = 1).
 
         Parameters
         ----------
@@ -305,9 +313,11 @@ class SwitchedCapacitorSolver:
                     pending_at = ta.time + sw["delay"]
                     continue
                 if immediate and cmp_.count > switches.count:
-                    # fast path: the callback flipped pol at the trip instant
-                    for tt in cmp_.t[switches.count :]:
-                        switches.log(tt)
+                    # fast path: the callback flipped pol at the trip instant; V_q before and
+                    # after from the state it kept there
+                    new = zip(cmp_.t[switches.count :], cmp_.states[switches.count :], strict=True)
+                    for tt, (Vs, VC, pol) in new:
+                        switches.log(tt, vq_fn(tt, Vs, VC, pol), vq_fn(tt, Vs, VC, -pol))
                 if pending_at is not None and ta.time == pending_at:
                     vb, va = self._switch(ta, sw, vq_fn)
                     switches.log(ta.time, vb, va)
@@ -331,16 +341,13 @@ class SwitchedCapacitorSolver:
         tau = P.array([om * s[0] for s in samples])
         x = P.array([-s[1] / vuv for s in samples])
         v = P.array([s[2] / (om * rcv * vuv) for s in samples])
-        # impact velocities: for the immediate path V_q flips sign exactly at the trip
+        # impact velocities: V_q just before the switches open and just after they close
+        # (immediate switching: both at the trip, around the polarity flip)
         imp_t, imp_vb, imp_va = [], [], []
         for tt, vb, va in switches.rows():
             imp_t.append(om * tt)
-            if vb is None:  # not recorded (immediate switching): NaN of the precision
-                imp_vb.append(P.nan())
-                imp_va.append(P.nan())
-            else:
-                imp_vb.append(vb / (om * rcv * vuv))
-                imp_va.append(va / (om * rcv * vuv))
+            imp_vb.append(vb / (om * rcv * vuv))
+            imp_va.append(va / (om * rcv * vuv))
         traj = Trajectory(
             params=params,
             model=self.model_name,
@@ -357,8 +364,6 @@ class SwitchedCapacitorSolver:
                 "effects": sorted(self.effects),
                 "components": comp.decimal(),
                 "comparator_trips": trips,
-                "null": "impact velocities not recorded: with immediate switching V_q flips "
-                "sign at the comparator trip and only its instant is logged",
             },
         )
         if per_period > 0:

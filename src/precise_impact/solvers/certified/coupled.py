@@ -29,7 +29,7 @@ from precise_impact.core.coupling import (
 )
 from precise_impact.core.params import Params, check_count, decimal_str, params_or_values
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, ball_columns
 from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.certified.single import (
@@ -156,6 +156,17 @@ class CertifiedCoupledTrajectory(ResultMixin):
     master_impacts: list
     slave_impacts: list
     elapsed_s: float
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``samples`` (default), ``master_impacts``,
+        ``slave_impacts``, each ball as its midpoint and its radius (``rad_*``)."""
+        return {
+            "samples": lambda: ball_columns(("period", "t", "x", "v", "y", "w"), self.samples),
+            "master_impacts": lambda: ball_columns(
+                ("t", "v_before", "v_after"), self.master_impacts
+            ),
+            "slave_impacts": lambda: ball_columns(("t", "w_before", "w_after"), self.slave_impacts),
+        }
 
     @property
     def precision(self) -> Precision:

@@ -21,7 +21,7 @@ from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.flow import steady_state
 from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, ball_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import (
     BudgetExceededError,
@@ -448,6 +448,14 @@ class CertifiedTrajectory(ResultMixin):
     samples: list
     impacts: list
     elapsed_s: float
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``samples`` (default) and ``impacts``, each ball as its
+        midpoint and its radius (``rad_*``, a proven bound on the midpoint's error)."""
+        return {
+            "samples": lambda: ball_columns(("period", "t", "x", "v"), self.samples),
+            "impacts": lambda: ball_columns(("t", "v_before", "v_after"), self.impacts),
+        }
 
     @property
     def x(self) -> list:

@@ -28,7 +28,7 @@ from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
@@ -221,6 +221,31 @@ class CoupledTrajectory(ResultMixin):
     dense_w: np.ndarray | None = None
     elapsed_s: float = 0.0
     stats: dict = dataclasses.field(default_factory=dict)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables: ``samples`` (default), ``master_impacts``,
+        ``slave_impacts`` (``w``: the slave's velocity variable of ``form``)."""
+        P = self.precision
+        return {
+            "samples": lambda: columns(
+                ("period", None, np.arange(len(self.t))),
+                *((n, "1", getattr(self, n)) for n in ("t", "x", "v", "y", "w")),
+                precision=P,
+            ),
+            "master_impacts": lambda: columns(
+                ("t", "1", self.master_impacts_t),
+                ("v_before", "1", self.master_impacts_v_before),
+                ("v_after", "1", self.master_impacts_v_after),
+                precision=P,
+            ),
+            "slave_impacts": lambda: columns(
+                ("t", "1", self.slave_impacts_t),
+                ("w_before", "1", self.slave_impacts_w_before),
+                ("w_after", "1", self.slave_impacts_w_after),
+                ("x", "1", self.slave_impacts_x),
+                precision=P,
+            ),
+        }
 
     @property
     def periods(self) -> int:
