@@ -392,3 +392,14 @@ def test_units_flag_is_checked_before_any_work(tmp_path):
         timeout=120,
     )
     assert r.returncode == 2 and "--units" in r.stderr and "circuit" in r.stderr
+
+
+def test_trajectory_plot_last_periods(traj):
+    fig = traj.plot(last=5)
+    ax1, ax2 = fig.axes
+    strobe = [ln for ln in ax2.get_lines() if ln.get_label() == "samples at t0 + kT"][0]
+    assert len(strobe.get_xdata()) == 6  # samples 25..30
+    t_from = float(traj.as_float64()["t"][25])
+    assert min(ax2.get_lines()[0].get_xdata()) >= t_from and "last 5 periods" in ax1.get_title()
+    with pytest.raises(ParameterError, match="last"):
+        traj.plot(last=0)

@@ -223,7 +223,11 @@ class Trajectory(ResultMixin):
         return path
 
     def plot(
-        self, path: str | os.PathLike | None = None, units: str = "dimensionless", components=None
+        self,
+        path: str | os.PathLike | None = None,
+        units: str = "dimensionless",
+        components=None,
+        last: int | None = None,
     ):
         """Phase portrait (impacts as vertical jumps at the labelled wall) beside ``x(t)``.
 
@@ -236,6 +240,8 @@ class Trajectory(ResultMixin):
             nominal design of :attr:`params`); see :func:`precise_impact.io.figures.plot_units`.
         components : Components or None
             The circuit design for ``units='circuit'``.
+        last : int or None, default ``None``
+            Draw only the last ``last`` forcing periods (``None``: all).
 
         Returns
         -------
@@ -243,7 +249,7 @@ class Trajectory(ResultMixin):
         """
         from precise_impact.io.figures import plot_trajectory
 
-        return plot_trajectory(self, path, units=units, components=components)
+        return plot_trajectory(self, path, units=units, components=components, last=last)
 
 
 # 0.1.0 name, kept for one release.

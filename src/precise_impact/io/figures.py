@@ -337,10 +337,12 @@ def draw_phase_portrait(
         Draw from this (dimensionless) time on.
     dense : (t, x, v) or None
         Dense samples (float64); without them the stroboscopic samples are the curve.
-    label, color, lw, **kw
+    label, color, lw
         Style of the curve.
     strobe : bool, default True
         Also draw the stroboscopic samples ``x, x'`` at ``t0 + kT``.
+    **kw
+        Passed to the curve's ``plot``.
     """
     t, x, v = dense if dense is not None else (f["t"], f["x"], f["v"])
     t, x, v = (np.asarray(a, dtype=float) for a in (t, x, v))
@@ -603,9 +605,21 @@ def time_series(
     units: PlotUnits,
     label: str = "trajectory",
     color: str = "tab:blue",
+    t_from: float | None = None,
 ) -> None:
     """``x`` against time (dense when available) with the samples at ``t0 + kT`` and the
-    labelled wall."""
+    labelled wall; from the (dimensionless) time ``t_from`` on if given."""
+    if t_from is not None:
+        keep = np.asarray(f["t"]) >= t_from
+        ik = np.asarray(f["impacts_t"]) >= t_from
+        imp = ("impacts_t", "impacts_v_before", "impacts_v_after")
+        f = {
+            **{k: np.asarray(f[k])[keep] for k in ("t", "x", "v")},
+            **{k: np.asarray(f[k])[ik] for k in imp},
+        }
+        if dense is not None:
+            dk = np.asarray(dense[0]) >= t_from
+            dense = tuple(np.asarray(a)[dk] for a in dense)
     if dense is not None:
         ax.plot(units.t(dense[0]), units.x(dense[1]), lw=0.6, color=color, label=label)
     ax.plot(
@@ -637,6 +651,7 @@ def plot_trajectory(
     units: str = "dimensionless",
     components: Any = None,
     title: str | None = None,
+    last: int | None = None,
 ):
     """A trajectory's phase portrait (impacts as vertical jumps) beside ``x`` against time.
 
@@ -651,6 +666,9 @@ def plot_trajectory(
         ``tr.params``).
     title : str or None
         The figure's title (default: model, precision, eta, periods, impacts).
+    last : int or None
+        Draw only the last ``last`` forcing periods (``None``: all; a long run's ``x(t)``
+        is otherwise a solid band).
 
     Returns
     -------
@@ -660,13 +678,18 @@ def plot_trajectory(
     u = plot_units(units, params=tr.params, components=components)
     f, dense = trajectory_floats(tr)
     x_w = float(tr.params.x_w)
+    n = len(f["t"]) - 1
+    if last is not None and not (isinstance(last, int) and 1 <= last):
+        raise ParameterError("last", last, "an integer >= 1 (periods drawn) or None")
+    t_from = None if last is None or last >= n else float(f["t"][n - last])
     fig = figure(figsize=(11, 4.6), layout="constrained")
     ax1, ax2 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1, 1.5]})
-    draw_phase_portrait(ax1, f, x_w, u, dense=dense, label="trajectory")
+    draw_phase_portrait(ax1, f, x_w, u, t_from=t_from, dense=dense, label="trajectory")
     draw_wall(ax1, x_w, u)
-    ax1.set_title("phase portrait", fontsize=9)
-    time_series(ax2, f, dense, x_w, u)
-    ax2.set_title("x against time", fontsize=9)
+    window = "" if t_from is None else f", the last {last} periods"
+    ax1.set_title("phase portrait" + window, fontsize=9)
+    time_series(ax2, f, dense, x_w, u, t_from=t_from)
+    ax2.set_title("x against time" + window, fontsize=9)
     for ax in (ax1, ax2):
         ax.grid(True, lw=0.3, alpha=0.5)
     figure_legend(fig, (ax1, ax2), ncol=5)
