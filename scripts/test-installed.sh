@@ -101,7 +101,7 @@ grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did no
 grep -Eq "[0-9]+ deselected" "$work/pytest.log" || { echo "addopts -m 'not slow' was not applied"; exit 1; }
 took
 
-step "the slow tests (marked slow: long references, coverage statistics, the main job, ten signals per long command), installed package"
+step "the slow tests (marked slow: long references, coverage statistics, the main job, the README's commands in order, ten signals per long command), installed package"
 # a manual run (pytest -m slow): the hypothesis long run (test_fuzz_long_run, ~10 min)
 PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -q \
   --rootdir "$repo" -c "$repo/pyproject.toml" -m slow -k "not fuzz_long_run"

@@ -48,6 +48,11 @@ INTERNALS_ALLOWED: dict[str, tuple[str, str]] = {
         "(_SaltationRecorder, _Depth) directly: a dropped impact and a 1e18-scaled tangent "
         "cannot be provoked through the API",
     ),
+    "verification/test_reproduce_report.py": (
+        "precise_impact.verification.reproduce",
+        "checks the main job's attractor section (_attractors, _attractor_md) on one figure's "
+        "runs (_figure_models): the whole job takes 1-2 minutes (its slow test covers it)",
+    ),
 }
 
 

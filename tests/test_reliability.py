@@ -375,11 +375,15 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
 
 
 def test_directory_outputs_are_not_overwritten_without_force(tmp_path):
-    """A directory --out that holds anything is refused before work (the run would replace
-    files of the same name); --force writes into it.  A sweep resumes in its own directory."""
+    """Commands share an --out directory: each refuses, before work, only a directory that
+    holds one of its own files (naming it), and never touches another file; --force replaces
+    its files.  Before (issue 27), any file refused the run, so the README's
+    ``accuracy --out results`` after ``reproduce --out results`` was refused, and re-running
+    the main job was refused naming ``accuracy.json``, a file it never writes."""
     out = tmp_path / "bif"
     out.mkdir()
     (out / "keep.txt").write_text("mine\n")
+    (out / "accuracy.json").write_text("{}\n")  # another command's file
     args = [
         "bifurcation",
         "--eta",
@@ -394,11 +398,18 @@ def test_directory_outputs_are_not_overwritten_without_force(tmp_path):
         str(out),
     ]
     r, _ = cli(*args)
+    assert r.returncode == 0, r.stderr[-500:]  # others' files: no refusal
+    assert (out / "keep.txt").read_text() == "mine\n"
+    assert (out / "accuracy.json").read_text() == "{}\n"
+    mtime = (out / "bifurcation.npz").stat().st_mtime_ns
+    r, _ = cli(*args)  # its own files now: refused, naming one of them
     one_line_refusal(r, "--force")
-    assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
+    assert "bifurcation." in r.stderr and "accuracy" not in r.stderr, r.stderr
+    assert (out / "bifurcation.npz").stat().st_mtime_ns == mtime
     r, _ = cli(*args, "--force")
     assert r.returncode == 0, r.stderr[-500:]
-    assert (out / "keep.txt").read_text() == "mine\n" and len(list(out.iterdir())) > 1
+    assert (out / "bifurcation.npz").stat().st_mtime_ns != mtime
+    assert (out / "keep.txt").read_text() == "mine\n"
 
 
 # --- one writer per --out directory (every command, not only sweep) ------------------------

@@ -8,6 +8,7 @@ import sys
 import textwrap
 from fractions import Fraction
 
+import numpy as np
 import pytest
 
 from precise_impact import ParameterError, Params, simulate
@@ -33,8 +34,9 @@ def write(tmp_path, text, name="s.toml"):
 
 def test_builtins_cover_the_papers_figures():
     names = set(builtin_scenes())
-    for fig in ("fig4-periodic", "fig5-chaotic", "fig6-period3", "fig7-k0.031", "fig7-k0.032"):
-        assert {f"{fig}-ideal", f"{fig}-datasheet"} <= names
+    for fig in ("fig4", "fig5", "fig6", "fig7-k0.031", "fig7-k0.032"):  # both parts per figure
+        assert any(n.startswith(fig) and n.endswith("-ideal") for n in names), fig
+        assert any(n.startswith(fig) and n.endswith("-datasheet") for n in names), fig
     for n in names:
         load_scene(n)  # every built-in validates
 
@@ -115,7 +117,7 @@ def test_run_cli_json_and_files(tmp_path):
             "-m",
             "precise_impact",
             "run",
-            "fig6-period3-datasheet",
+            "fig6-period2-datasheet",
             "--json",
             "--out",
             str(tmp_path),
@@ -126,10 +128,10 @@ def test_run_cli_json_and_files(tmp_path):
     )
     assert r.returncode == 0, r.stderr
     obj = json.loads(r.stdout)
-    assert obj["scene"] == "fig6-period3-datasheet" and obj["model"] == "switched-capacitor"
+    assert obj["scene"] == "fig6-period2-datasheet" and obj["model"] == "switched-capacitor"
     assert obj["effects"] == ["comparator", "flipflop", "switch", "tolerance"]
     assert len(obj["samples"]) == 201 and obj["impacts"] and isinstance(obj["elapsed_s"], float)
-    assert (tmp_path / "fig6-period3-datasheet_switched-capacitor.png").stat().st_size > 5000
+    assert (tmp_path / "fig6-period2-datasheet_switched-capacitor.png").stat().st_size > 5000
     r = subprocess.run(
         [sys.executable, "-m", "precise_impact", "run", "fig7-k0.032-ideal", "--json"],
         capture_output=True,
@@ -165,3 +167,56 @@ def test_scene_on_ngspice_matches_the_reference():
     tr = run_scene(sc, "spice")
     ref = simulate(Params.make(eta="0.74"), 120)
     assert tr.model == "spice" and max(sample_errors(tr, ref)[-30:]) < 0.01
+
+
+@pytest.mark.parametrize(
+    "name, period, impacts_per_period",
+    [
+        # the mechanics: non-impacting period 1 at 0.70, period 3 with 2/3 impact per period
+        ("fig4-chaotic-datasheet", 0, None),
+        ("fig6-period2-datasheet", 2, 1.0),
+    ],
+)
+def test_datasheet_scenes_show_what_they_are_named(name, period, impacts_per_period):
+    """The datasheet scenes were named for the mechanics' attractor (fig4-periodic,
+    fig6-period3) while the model is chaotic at Fig. 4's eta and on a period-2 orbit with one
+    impact per period at Fig. 6's (199 impacts in 200 periods): each name now says what the
+    scene shows, checked on its own run (200 periods, the last 100)."""
+    from precise_impact import detect_period
+    from precise_impact.scenes.run import run_scene
+
+    sc = load_scene(name)
+    tr = run_scene(sc)
+    x, v = np.asarray(tr.x, float), np.asarray(tr.v, float)
+    assert detect_period(x, v, max_period=16) == period
+    T = 2 * np.pi / float(sc.params.eta)
+    late = np.asarray(tr.impacts_t, float) > sc.periods / 2 * T
+    rate = late.sum() / (sc.periods / 2)
+    if impacts_per_period is None:
+        assert rate > 0.3  # chaotic and impacting: the mechanics at 0.70 stop impacting
+    else:
+        assert rate == impacts_per_period
+
+
+@pytest.mark.parametrize(
+    "old, new",
+    [
+        ("fig4-periodic-datasheet", "fig4-chaotic-datasheet"),
+        ("fig6-period3-datasheet", "fig6-period2-datasheet"),
+    ],
+)
+def test_old_datasheet_scene_names_are_deprecated_aliases(old, new):
+    with pytest.warns(DeprecationWarning, match=f"use '{new}'"):
+        assert load_scene(old).name == new
+    r = subprocess.run(
+        [sys.executable, "-m", "precise_impact", "run", old, "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["scene"] == new
+    lines = r.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(
+        f"precise-impact: warning: scene '{old}' is deprecated, use '{new}'"
+    ), r.stderr

@@ -146,7 +146,13 @@ def test_pair_cli_json():
         "v_rad",
         "y_rad",
         "w_rad",
+        "x_digits",
+        "v_digits",
+        "y_digits",
+        "w_digits",
     }
+    # proven digits: the radius (< 1e-25 on |y| ~ 1) leaves at least 24
+    assert d["digits"]["basis"] == "proven" and d["samples"][4]["y_digits"] >= 24
     assert d["slave_impacts"] and set(d["slave_impacts"][0]) == {
         "t",
         "t_rad",

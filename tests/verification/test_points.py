@@ -150,7 +150,7 @@ def _switched_linear(scene):
 
 
 def test_datasheet_switched_capacitor_points_are_shifted_as_derived():
-    """``compare fig4-periodic-datasheet --models switched-capacitor --points`` (documented shifts
+    """``compare fig4-chaotic-datasheet --models switched-capacitor --points`` (documented shifts
     -0.0156 grazing, -0.0333 period-doubling, 'extrapolated').  Independent references:
 
     * grazing: the non-impacting orbit never switches, so the model is the linear system of
@@ -170,7 +170,7 @@ def test_datasheet_switched_capacitor_points_are_shifted_as_derived():
     from precise_impact.scenes.scene import load_scene
     from precise_impact.verification.points import point_scores
 
-    scene = load_scene("fig4-periodic-datasheet")
+    scene = load_scene("fig4-chaotic-datasheet")
     sw = scene.fitted_to("switched-capacitor")[0]
     mech = mechanical_points(scene.params)
     pts = point_scores(scene, "switched-capacitor", mech)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+from collections.abc import Callable, Sequence
 from fractions import Fraction
 from typing import Any
 
@@ -51,14 +52,15 @@ PARAM_FLAGS = (
     ("--t0", "t0", "initial time / forcing phase (default 0)"),
 )
 
-#: ``--out`` kinds: a file (never overwritten without ``--force``), a directory (not written
-#: into when non-empty without ``--force``), or a directory the command resumes in (no
-#: ``--force``: a sweep's tiles, a reference dataset; checked for writability only).
+#: ``--out`` kinds: a file (never overwritten without ``--force``), a directory (shared by
+#: commands: each owns the files it names and refuses to replace them without ``--force``), or
+#: a directory the command resumes in (no ``--force``: a sweep's tiles, a reference dataset;
+#: checked for writability only).
 OUT_KINDS = ("file", "dir", "resume")
 
 _FORCE_HELP = {
     "file": "overwrite --out if it exists",
-    "dir": "write into an existing non-empty --out directory (files of the same name are replaced)",
+    "dir": "replace this command's files in --out if they exist (other files are never touched)",
 }
 
 
@@ -164,14 +166,20 @@ def add_out(
     required: bool = False,
     metavar: str | None = None,
     force: bool = True,
+    writes: Sequence[str] | Callable[[argparse.Namespace], Sequence[str]] | None = None,
 ) -> None:
     """``--out`` of a kind in :data:`OUT_KINDS` (file, dir, resume), with ``--force``.
 
     ``force=False`` leaves ``--force`` to the command (a reference dataset gives it its own
-    meaning).  :func:`check_outputs` checks the path by its kind before any work.
+    meaning).  ``writes`` (required for ``kind="dir"``): the glob patterns of the files the
+    command writes into the directory, or a function of the parsed arguments returning them
+    (e.g. ``run``'s ``<scene>_*.json``).  :func:`check_outputs` checks the path by its kind
+    before any work and, for a directory, refuses only to replace these files.
     """
     if kind not in OUT_KINDS:
         raise ValueError(f"--out kind {kind!r} is not one of {OUT_KINDS}")
+    if kind == "dir" and writes is None:
+        raise ValueError("an --out directory names the files it writes (writes=...)")
     kw: dict[str, Any] = {"metavar": metavar or ("FILE" if kind == "file" else "DIR")}
     if required:
         kw["required"] = True
@@ -180,7 +188,7 @@ def add_out(
     p.add_argument("--out", help=helptext, **kw)
     if force and kind != "resume":
         p.add_argument("--force", action="store_true", help=_FORCE_HELP[kind])
-    p.set_defaults(out_kind=kind)
+    p.set_defaults(out_kind=kind, out_writes=writes)
 
 
 def add_units(p: argparse.ArgumentParser) -> None:
@@ -212,6 +220,9 @@ def max_time(ns: argparse.Namespace) -> float:
 def check_outputs(ns: argparse.Namespace) -> contextlib.AbstractContextManager:
     """Every ``--out`` checked before any work: the right kind, writable, no silent overwrite.
 
+    An ``--out`` directory is shared by commands (``reproduce`` then ``accuracy`` then ``run``
+    into ``results/``): each command refuses, without ``--force``, only a directory that
+    already holds one of the files it writes (``add_out(writes=...)``), naming it.
     Returns the context to run the command in: an ``--out`` directory is locked for the whole
     run (:class:`~precise_impact.io.lock.DirectoryLock`), so a second run into the same
     directory is refused at once, naming the first, instead of mixing its files with it.
@@ -223,5 +234,7 @@ def check_outputs(ns: argparse.Namespace) -> contextlib.AbstractContextManager:
         check_output_file(out, force=ns.force)
         return contextlib.nullcontext()
     # a sweep and a reference dataset resume in their own directory (checked there)
-    check_output_dir(out, force=kind == "resume" or getattr(ns, "force", False))
+    writes = getattr(ns, "out_writes", None)
+    owned = writes(ns) if callable(writes) else writes
+    check_output_dir(out, force=kind == "resume" or getattr(ns, "force", False), owned=owned)
     return DirectoryLock(out, "out")  # acquired on entering the `with` block

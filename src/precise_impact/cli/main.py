@@ -11,10 +11,12 @@ modules of :mod:`precise_impact.cli.commands`.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import re
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Sequence
 
 import heyoka
@@ -114,6 +116,24 @@ def _terminate_as_interrupt() -> None:
     signal.signal(signal.SIGTERM, handler)
 
 
+@contextlib.contextmanager
+def _deprecations_as_lines():
+    """The package's own :class:`DeprecationWarning` (an old scene name, ...): one line on
+    stderr each, the first time, as soon as it is raised."""
+    seen: set[str] = set()
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = str(message)
+        if text not in seen:
+            seen.add(text)
+            _say(f"warning: {text}")
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("always", category=DeprecationWarning, module="precise_impact")
+        warnings.showwarning = show
+        yield
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``precise-impact`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     parser = build_parser()
@@ -125,7 +145,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     heyoka.set_logger_level_error()
     _terminate_as_interrupt()
     try:
-        with check_outputs(ns):  # an --out directory is locked until the run ends
+        with _deprecations_as_lines(), check_outputs(ns):  # --out locked until the run ends
             return ns.run(ns)
     except OverBudgetError as e:  # a budget (also a ParameterError): refused before any work
         _say(f"over budget: {e}")

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core import digits as _digits
 from precise_impact.core.params import Params, decimal_str
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, columns
@@ -44,6 +45,10 @@ class Trajectory(ResultMixin):
         Wall time of the integration (compilation excluded).
     stats : dict
         Solver statistics (steps, ...).
+    claim : Digits or None
+        The significant digits each sample claims (:meth:`claimed_digits`): set by
+        ``simulate(..., demonstrate=...)`` (``'demonstrated'``); ``None`` until first asked
+        for, then ``'proven'`` (certified model) or ``'estimated'``.
 
     See Also
     --------
@@ -67,6 +72,28 @@ class Trajectory(ResultMixin):
     dense_v: np.ndarray | None = None
     elapsed_s: float = 0.0
     stats: dict = dataclasses.field(default_factory=dict)
+    claim: _digits.Digits | None = dataclasses.field(default=None, repr=False, compare=False)
+
+    def claimed_digits(self) -> _digits.Digits:
+        """The significant digits each sample can claim, and on what basis.
+
+        ``'proven'`` for the certified model (its balls' radii), ``'demonstrated'`` when a
+        second run at a higher precision was asked for (``simulate(..., demonstrate=True)``),
+        else ``'estimated'``: the precision's rounding amplified along this run by its tangent
+        flow (:func:`precise_impact.core.digits.estimate`).  Computed once and kept.
+
+        Returns
+        -------
+        Digits
+            ``x[k]``, ``v[k]``: claimed significant digits of sample ``k``; ``basis``; ``note``.
+        """
+        if self.claim is None:
+            st = self.stats or {}
+            if st.get("certified") and "x_rad" in st and len(st["x_rad"]) == len(self.x):
+                self.claim = _digits.proven(self, st["x_rad"], st["v_rad"])
+            else:
+                self.claim = _digits.estimate(self)
+        return self.claim
 
     @property
     def periods(self) -> int:
@@ -148,17 +175,41 @@ class Trajectory(ResultMixin):
         partial = {}
         if self.stats and self.stats.get("partial"):  # an interrupted run: say so in every file
             partial = {"partial": {k: self.stats[k] for k in ("periods_done", "periods_asked")}}
+        claim = self.claimed_digits()
         samples = [
-            {"period": k, "t": s(t), "x": s(x), "v": s(v)}
+            {
+                "period": k,
+                "t": s(t),
+                "x": s(x),
+                "v": s(v),
+                "x_digits": int(claim.x[k]),
+                "v_digits": int(claim.v[k]),
+            }
             for k, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True))
         ]
+        idig = claim.impacts or {}
+
+        def imp_digits(i: int) -> dict:
+            # each impact's claimed digits (null: the basis gives none per impact)
+            return {
+                f"{n}_digits": (int(idig[n][i]) if n in idig else None)
+                for n in ("t", "v_before", "v_after")
+            }
+
         impacts = [
-            {"t": s(t), "v_before": s(vb), "v_after": s(va)}
-            for t, vb, va in zip(
-                self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True
+            {"t": s(t), "v_before": s(vb), "v_after": s(va), **imp_digits(i)}
+            for i, (t, vb, va) in enumerate(
+                zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)
             )
         ]
-        has_null = any(v is None for row in samples + impacts for v in row.values())
+        has_null = any(
+            v is None
+            for row in samples + impacts
+            for k, v in row.items()
+            if not k.endswith("_digits")
+        )
+        # "x", "v": every binary digit of the run, as decimals; "x_digits", "v_digits": how many
+        # leading significant digits of each the run can claim ("digits": on what basis)
         null = {"null": (self.stats or {}).get("null", self.NULL_REASON)} if has_null else {}
         return {
             **partial,
@@ -166,6 +217,7 @@ class Trajectory(ResultMixin):
             "model": self.model,
             "precision": self.precision.name,
             "tol": s(self.tol) if self.tol is not None else None,
+            "digits": claim.summary(),
             "samples": samples,
             "impacts": impacts,
             **null,
@@ -176,8 +228,9 @@ class Trajectory(ResultMixin):
         """Write ``.npz`` (decimal strings for every number, plus float64 copies), ``.csv`` or
         ``.json``.
 
-        ``.json`` is :meth:`to_dict` (the CLI's ``--json`` object).  The file is
-        written atomically (temporary file + rename).
+        ``.json`` is :meth:`to_dict` (the CLI's ``--json`` object); ``.csv`` rows give each
+        sample's claimed digits (``x_digits``, ``v_digits``, :meth:`claimed_digits`).  The file
+        is written atomically (temporary file + rename).
         """
         path = Path(path)
         s = np.vectorize(lambda x: self._str(x) or "nan", otypes=[object])
@@ -203,17 +256,19 @@ class Trajectory(ResultMixin):
 
             atomic_write(path, write, binary=True)
         elif path.suffix == ".csv":
-            lines = ["kind,index,t,x,v_or_v_before,v_after"]
+            # x_digits, v_digits: the significant digits a sample claims (claimed_digits)
+            lines = ["kind,index,t,x,v_or_v_before,v_after,x_digits,v_digits"]
             c = lambda x: self._str(x) or "nan"  # noqa: E731 - not recorded
+            claim = self.claimed_digits()
             for j, (t, x, v) in enumerate(zip(self.t, self.x, self.v, strict=True)):
-                lines.append(f"sample,{j},{c(t)},{c(x)},{c(v)},")
+                lines.append(f"sample,{j},{c(t)},{c(x)},{c(v)},,{claim.x[j]},{claim.v[j]}")
             xw = decimal_str(self.params.x_w)
             if "/" in xw:  # a ratio is text to a spreadsheet: the wall in the working precision
                 xw = c(self.precision.from_fraction(self.params.x_w))
             for i, (t, vb, va) in enumerate(
                 zip(self.impacts_t, self.impacts_v_before, self.impacts_v_after, strict=True)
             ):
-                lines.append(f"impact,{i},{c(t)},{xw},{c(vb)},{c(va)}")
+                lines.append(f"impact,{i},{c(t)},{xw},{c(vb)},{c(va)},,")
             text = "\n".join(lines) + "\n"
             atomic_write(path, lambda fh: fh.write(text), binary=False)
         elif path.suffix == ".json":

@@ -5,10 +5,11 @@ Temporary file in the target directory, fsync, the umask's mode, one rename.
 
 from __future__ import annotations
 
+import fnmatch
 import hashlib
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -114,14 +115,26 @@ def _check_output_file(path: str | os.PathLike, force: bool = False, name: str =
     return path
 
 
-def check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = True) -> Path:
+def check_output_dir(
+    path: str | os.PathLike,
+    name: str = "out",
+    force: bool = True,
+    owned: Sequence[str] | None = None,
+) -> Path:
     """Check, before any work, that ``path`` is (or can be created as) a writable directory.
 
-    With ``force=False`` an existing directory that holds anything is refused (the run
-    would replace files of the same name in it): a new or empty directory, or ``--force``.
-    A path the file system refuses to look at (a name too long, ...) is refused too.
+    With ``force=False`` an existing directory is refused when it holds a file the run
+    would replace: one whose name matches a glob pattern of ``owned`` (the files the
+    command writes, e.g. ``("report.md", "fig*_phase_portraits.png")``), or, with
+    ``owned=None``, anything at all.  So several commands share one ``--out`` directory
+    and only a second run of the same command needs ``--force``.  A path the file system
+    refuses to look at (a name too long, ...) is refused too.
     """
-    return _refuse_os_errors(_check_output_dir, path, name, force)
+
+    def check(p: Any, force: bool, name: str) -> Path:
+        return _check_output_dir(p, name=name, force=force, owned=owned)
+
+    return _refuse_os_errors(check, path, name, force)
 
 
 def _refuse_os_errors(check: Callable[..., Path], path: Any, name: str, force: bool) -> Path:
@@ -140,24 +153,39 @@ def _refuse_os_errors(check: Callable[..., Path], path: Any, name: str, force: b
         ) from None
 
 
-def _check_output_dir(path: str | os.PathLike, name: str = "out", force: bool = True) -> Path:
+def _check_output_dir(
+    path: str | os.PathLike,
+    name: str = "out",
+    force: bool = True,
+    owned: Sequence[str] | None = None,
+) -> Path:
     """The checks of :func:`check_output_dir`."""
 
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise ParameterError(name, str(path), "a directory (this is an existing file)")
     if not force and path.is_dir():
+
+        def replaced(entry: str) -> bool:
+            if entry == LOCK_NAME:  # the lock file of a finished run (io/lock.py)
+                return False
+            return owned is None or any(fnmatch.fnmatchcase(entry, pat) for pat in owned)
+
         try:
-            # the lock file of a finished run (io/lock.py) is not the user's content
-            first = next((e for e in sorted(path.iterdir()) if e.name != LOCK_NAME), None)
+            first = next((e for e in sorted(os.listdir(path)) if replaced(e)), None)
         except OSError:
             first = None
         if first is not None:
+            what = (
+                "a new or empty directory"
+                if owned is None
+                else "a directory without this command's files"
+            )
             raise ParameterError(
                 name,
                 str(path),
-                f"a new or empty directory (it holds {first.name}, which this run "
-                "may replace): another --out, or --force to write into it",
+                f"{what} (it holds {first}, which this run would replace): another --out, "
+                "or --force to replace it",
             )
     base = _nearest_existing(path)
     if not base.is_dir():

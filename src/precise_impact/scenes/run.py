@@ -138,12 +138,15 @@ def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]
             "effects": effects,
             "precision": d["precision"],
             "params": d["params"],
+            "digits": d["digits"],
             "samples": d["samples"],
             "impacts": d["impacts"],
             "elapsed_s": d["elapsed_s"],
         }
     P = result["precision"]
     s = P.to_str
+    claim = result.claimed_digits() if hasattr(result, "claimed_digits") else None
+    comps = claim.components() if claim is not None else {}
     return {
         "scene": scene.name,
         "model": model,
@@ -152,8 +155,17 @@ def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]
         "params": result["params"].decimal(),
         "form": scene.form if model != "circuit" else "paper",
         "k": decimal_str(scene.k),
+        **({"digits": claim.summary()} if claim is not None else {}),
         "samples": [
-            {"period": i, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
+            {
+                "period": i,
+                "t": s(t),
+                "x": s(x),
+                "v": s(v),
+                "y": s(y),
+                "w": s(w),
+                **{f"{n}_digits": int(c[i]) for n, c in comps.items()},
+            }
             for i, (t, x, v, y, w) in enumerate(
                 zip(result["t"], result["x"], result["v"], result["y"], result["w"], strict=True)
             )

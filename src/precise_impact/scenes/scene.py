@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import re
 import tomllib
+import warnings
 from collections.abc import Mapping
 from fractions import Fraction
 from importlib import resources
@@ -34,8 +35,30 @@ __all__ = [
     "builtin_scenes",
     "SCENE_MODELS",
     "COMPONENT_KEYS",
+    "SCENE_ALIASES",
+    "scene_alias",
     "parse_quantity",
 ]
+
+#: Old built-in scene names -> the names of what they show (issue 27: the datasheet model of
+#: Fig. 4 is chaotic, of Fig. 6 on a period-2 orbit).  Accepted for one release, with a
+#: :class:`DeprecationWarning` (the CLI: one line on stderr).
+SCENE_ALIASES = {
+    "fig4-periodic-datasheet": "fig4-chaotic-datasheet",
+    "fig6-period3-datasheet": "fig6-period2-datasheet",
+}
+
+
+def scene_alias(spec: str | Path) -> str | None:
+    """The one-line notice for a deprecated built-in scene name, or ``None``."""
+    new = SCENE_ALIASES.get(str(spec))
+    if new is None or str(spec) in builtin_scenes():
+        return None
+    return (
+        f"scene {str(spec)!r} is deprecated, use {new!r} (named for what it shows; the old name "
+        "is removed in the next release)"
+    )
+
 
 #: The models a scene runs on: every registered model (a live view of
 #: :data:`~precise_impact.solvers.base.MODELS`, so a model registered later is accepted too).
@@ -447,6 +470,10 @@ def load_scene(spec: str | Path) -> Scene:
     """
     spec = str(spec)
     built = builtin_scenes()
+    notice = scene_alias(spec)
+    if notice is not None:
+        warnings.warn(notice, DeprecationWarning, stacklevel=2)
+        spec = SCENE_ALIASES[spec]
     if spec in built:
         path = built[spec]
     else:

@@ -11,20 +11,25 @@ import dataclasses
 import threading
 from typing import Any
 
+from precise_impact.core import digits as _digits
 from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.compat import warn_renamed
 from precise_impact.core.params import Params, as_params, check_count, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import ParameterError
 from precise_impact.solvers.base import (
     COUPLED_MODELS,
     MODELS,
     PRECISION_KINDS,
     Capabilities,
     Solver,
+    canonical_model,
     check_engine,
+    coupled_model_capabilities,
     make_coupled_solver,
     make_solver,
+    model_capabilities,
     register_coupled_model,
     register_model,
 )
@@ -37,7 +42,15 @@ from precise_impact.solvers.heyoka.coupled import (
 )
 from precise_impact.solvers.heyoka.single import HeyokaSolver
 
-__all__ = ["MODELS", "make_solver", "simulate", "COUPLED_MODELS", "simulate_coupled"]
+__all__ = [
+    "MODELS",
+    "make_solver",
+    "simulate",
+    "COUPLED_MODELS",
+    "simulate_coupled",
+    "reference_precision",
+    "demonstration_model",
+]
 
 
 def _heyoka(prec: Precision, tol: Any, **options: Any) -> Solver:
@@ -193,6 +206,7 @@ def simulate(
     tol: Any = None,
     per_period: int = 0,
     max_time: Any = None,
+    demonstrate: bool | str | Precision = False,
     **param_values: Any,
 ) -> Trajectory:
     """Simulate the impact oscillator with any model.
@@ -217,6 +231,13 @@ def simulate(
         Time budget in seconds (``1 <= max_time <= 604800``): the run's estimated cost
         (:func:`~precise_impact.core.budget.estimate_cost`) is checked against it before
         any work (:class:`~precise_impact.errors.OverBudgetError`); ``None``: no budget.
+    demonstrate : bool or str, default ``False``
+        Run a second time at a higher precision (``True``: :func:`reference_precision`, or a
+        precision such as ``'mp:512'``) and claim, at each sample, the digits the two runs
+        agree on (``traj.claimed_digits().basis == 'demonstrated'``).  A float64-only model
+        is checked by its mp counterpart (:func:`demonstration_model`).  Without it every
+        trajectory still claims digits: ``'proven'`` (certified) or ``'estimated'``
+        (:meth:`~precise_impact.core.trajectory.Trajectory.claimed_digits`).
     **param_values
         Parameter values (exact decimals) replacing those of ``params``.
 
@@ -262,13 +283,74 @@ def simulate(
     params = params_or_values(params, param_values)  # a Params (validated), a mapping, or None
     periods = check_count(periods, "periods")
     solver = _solver(model, precision, tol)
+    prec = getattr(solver, "precision", None) or Precision.parse(precision)
+    second = None
+    if demonstrate is not False and demonstrate is not None:
+        ref = reference_precision(prec, demonstrate)
+        second = _solver(demonstration_model(model, ref), ref, None)
     if max_time is not None:
         per_period = check_count(per_period, "per_period", 100_000)
-        prec = getattr(solver, "precision", None) or precision
         enforce_max_time(
             max_time, "simulate", periods=periods, per_period=per_period, precision=prec
         )
-    return solver.solve(params, periods, per_period=per_period)
+        if second is not None:
+            enforce_max_time(max_time, "simulate", periods=periods, precision=ref)
+    traj = solver.solve(params, periods, per_period=per_period)
+    if second is not None:
+        traj.claim = _digits.demonstrate(traj, second.solve(params, periods))
+    return traj
+
+
+def reference_precision(precision: str | Precision, spec: Any = True) -> Precision:
+    """The second run's precision for ``demonstrate=spec``: ``spec`` itself when it names a
+    precision (it must have more bits), else 64 bits more than ``precision`` (~19 digits: the
+    second run's own error stays far below the first's), at least ``mp:128``.
+
+    Raises
+    ------
+    ParameterError
+        ``spec`` is not a precision, or not more precise than ``precision``.
+    """
+    P = Precision.parse(precision)
+    if spec is True:
+        return Precision.parse(f"mp:{max(128, P.bits + 64)}")
+    try:
+        ref = Precision.parse(spec)
+    except ParameterError:
+        raise ParameterError(
+            "demonstrate", str(spec), "True or a precision (float128, mp:BITS)"
+        ) from None
+    if ref.bits <= P.bits:
+        raise ParameterError(
+            "demonstrate",
+            ref.name,
+            f"a precision with more bits than {P.name} ({P.bits}), e.g. mp:{max(128, P.bits + 64)}",
+        )
+    return ref
+
+
+def demonstration_model(model: str, precision: Precision) -> str:
+    """The model that runs the second, more precise run of ``model``: itself when it takes
+    ``precision``; the closed forms (``'analytical'``) for ``'fast'`` (the same formulas in
+    float64 only).
+
+    Raises
+    ------
+    ParameterError
+        No registered model computes ``model``'s trajectory at ``precision`` (e.g. ``'spice'``).
+    """
+    name = canonical_model(model)
+    if precision.kind in model_capabilities(name).precisions:
+        return name
+    if name == "fast":
+        return "analytical"
+    kinds = ", ".join(model_capabilities(name).precisions)
+    raise ParameterError(
+        "demonstrate",
+        precision.name,
+        f"not given for model {name!r}: it runs in {kinds} only and has no more precise "
+        "counterpart",
+    )
 
 
 def simulate_coupled(
@@ -283,6 +365,7 @@ def simulate_coupled(
     engine: str | None = None,
     *,
     model: str = "heyoka",
+    demonstrate: bool | str | Precision = False,
 ) -> CoupledTrajectory:
     """Integrate the master-slave pair (11) + slave ``form`` for ``periods`` forcing periods.
 
@@ -322,6 +405,11 @@ def simulate_coupled(
         :class:`~precise_impact.solvers.certified.coupled.CertifiedCoupledTrajectory`) or
         ``'circuit'`` (the Fig. 3 op-amp pair of the nominal design, ``form='paper'``).
         Its precisions and forms are checked before any work.
+    demonstrate : bool or str, default ``False``
+        Run the pair again at a higher precision (``True``: :func:`reference_precision`, or
+        a precision) and claim, per sample, the digits both runs agree on
+        (``claimed_digits().basis == 'demonstrated'``); ``'fast'`` is checked by ``'heyoka'``.
+        Without it a pair claims ``'estimated'`` digits (``'proven'`` for ``'certified'``).
 
     Returns
     -------
@@ -376,4 +464,16 @@ def simulate_coupled(
         warn_renamed("engine=", "model=", "simulate_coupled")
         model = check_engine(engine)
     solver = make_coupled_solver(model, P, None, form, **options)
-    return solver.solve(params, k, periods, form=form, y0=y0, per_period=per_period)
+    second = None
+    if demonstrate is not False and demonstrate is not None:
+        ref = reference_precision(P, demonstrate)
+        name = model if ref.kind in coupled_model_capabilities(model).precisions else "heyoka"
+        if name != model and model != "fast":
+            raise ParameterError(
+                "demonstrate", ref.name, f"not given for model {model!r}: no {ref.name} run"
+            )
+        second = make_coupled_solver(name, ref, None, form, **options)
+    traj = solver.solve(params, k, periods, form=form, y0=y0, per_period=per_period)
+    if second is not None:
+        traj.claim = _digits.demonstrate(traj, second.solve(params, k, periods, form=form, y0=y0))
+    return traj

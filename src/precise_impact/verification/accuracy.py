@@ -1,4 +1,9 @@
-"""The paper's three frequencies: every model and precision against a demonstrated reference.
+"""The paper's three frequencies: the mechanical solvers against a demonstrated reference.
+
+Scores the (model, precision) pairs of :data:`CANDIDATES`: 4 of the registered models (heyoka
+in three precisions, both closed-form finders, the compiled engine); the circuit models are
+scored by :func:`~precise_impact.verification.reproduce.reproduce` and
+:func:`~precise_impact.verification.compare.compare`.
 
 The reference's accuracy is demonstrated by two multiprecision runs (``bits``, ``bits + 64``).
 """

@@ -16,7 +16,9 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.lyapunov import lyapunov
+from precise_impact.analysis.periodicity import detect_period
 from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
+from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
@@ -34,20 +36,54 @@ from precise_impact.io.figures import (
 from precise_impact.io.markdown import table
 from precise_impact.io.progress import say as _say
 from precise_impact.models.circuit.components import nominal_components
-from precise_impact.models.circuit.opamp import CircuitSolver
+from precise_impact.models.circuit.opamp import CircuitSolver, design_omega
 from precise_impact.models.circuit.spice import run_spice
-from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
+from precise_impact.models.circuit.switched import SwitchedCapacitorSolver, effective_system
 from precise_impact.scenes.scene import load_scene
 from precise_impact.solvers.simulate import simulate
 from precise_impact.verification.metrics import reference_bits, sample_errors
 
-__all__ = ["reproduce"]
+__all__ = ["reproduce", "OUTPUT_FILES"]
+
+#: The files :func:`reproduce` writes into its directory (glob patterns): the CLI refuses to
+#: replace them without ``--force`` and leaves every other file of the directory alone.
+OUTPUT_FILES = (
+    "report.json",
+    "report.md",
+    "fig[456]_phase_portraits.png",
+    "fig7_*.png",
+    "sync_fraction_*.png",
+)
 
 FIGS = (
     ("4", "0.70", "periodic, no impacts after the transient"),
     ("5", "0.712", "chaotic"),
     ("6", "0.74", "period 3"),
 )
+
+#: Run lengths of the full and the quick job: forcing periods per figure, periods per
+#: synchronisation run (Fig. 7), slave starts per coupling k.
+RUNS = {
+    False: {"periods": 300, "sync_periods": 500, "ensemble": 8},
+    True: {"periods": 150, "sync_periods": 300, "ensemble": 4},
+}
+
+#: The datasheet scene of each figure (named for what the datasheet model shows).
+DATASHEET_SCENES = {
+    "4": "fig4-chaotic-datasheet",
+    "5": "fig5-chaotic-datasheet",
+    "6": "fig6-period2-datasheet",
+}
+
+#: Longest period looked for in a model's stroboscopic samples (the last 2 x 16 + p samples
+#: are compared: after Fig. 4's ~75-period chaotic transient in a 150-period quick run).
+MAX_PERIOD = 16
+
+#: Periods of the effective mechanical system's run (fast engine) that names its attractor.
+EFFECTIVE_PERIODS = 400
+
+#: The model name whose circuit has an effective system of its own (R_on, drawn parts).
+DATASHEET_MODEL = "switched-capacitor (datasheet)"
 
 
 def _floats(tr: Trajectory, dense: bool):
@@ -77,7 +113,10 @@ class ReproduceResult(ResultMixin):
     ngspice : bool
         ngspice was found and run.
     figures : dict
-        Figure number -> eta, regime, the reference's demonstrated accuracy and each model's error.
+        Figure number -> eta, regime, the reference's demonstrated accuracy, each model's error
+        and ``attractors``: every run's period, impacts per period and LLE, whether it is the
+        mechanics' attractor, and for the datasheet circuit its effective system (zeta, eta, a,
+        grazing frequency) with the attractor of the mechanics at those parameters.
     lle : dict
         Method -> ``[lle, stderr, periods]``.
     sync : dict
@@ -187,8 +226,8 @@ def reproduce(
     out : directory, default ``'results'``
         Receives ``report.json``, ``report.md`` and the figures.
     quick : bool, default ``False``
-        Fewer periods (150 instead of 300 per figure, 300 instead of 500 for Fig. 7,
-        smaller ensembles) so that a fresh machine finishes in about a minute.
+        Shorter runs (:data:`RUNS`: 150 instead of 300 periods per figure, 300 instead of 500
+        per Fig. 7 run, 4 instead of 8 slave starts per k).
     progress : bool or None, default ``None``
         One line per finished step on stderr (``None``: only when stderr is a terminal).
     units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
@@ -224,7 +263,7 @@ def reproduce(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t_all = time.perf_counter()
-    periods = 150 if quick else 300
+    periods = RUNS[quick]["periods"]
     spice = shutil.which("ngspice") is not None
     res: dict[str, Any] = {"quick": quick, "periods": periods, "ngspice": spice, "figures": {}}
     for fig, eta, regime in FIGS:
@@ -276,6 +315,7 @@ def _figure(
             "impacts": tr.n_impacts,
             "elapsed_s": tr.elapsed_s,
         }
+    row["attractors"] = _attractors(fig, p, periods, ref, models)
     _plot_portraits(fig, eta, regime, periods, models, out, ref, row["models"], units)
     _say(
         f"Fig. {fig} (eta = {eta}): reference agreement {demonstrated:.1e}; "
@@ -291,9 +331,7 @@ def _figure_models(fig: str, p: Params, periods: int, spice: bool) -> dict[str, 
 
     dense = simulate(p, periods, per_period=60)
     design = nominal_components(p)
-    ds = load_scene(
-        f"fig{fig}-{'periodic' if fig == '4' else 'chaotic' if fig == '5' else 'period3'}-datasheet"
-    )
+    ds = load_scene(DATASHEET_SCENES[fig])
     models = {
         "mechanical float64": dense,
         "circuit (ideal)": CircuitSolver().solve(design, periods, per_period=60),
@@ -306,6 +344,87 @@ def _figure_models(fig: str, p: Params, periods: int, spice: bool) -> dict[str, 
             design, {}, periods, tmax=10e-6, dense=True
         ).to_trajectory()
     return models
+
+
+def _attractor(tr: Trajectory, params: Params, periods: int) -> dict[str, Any]:
+    """Where a run ends: its period (0: none up to :data:`MAX_PERIOD`) and the impacts per
+    forcing period over the second half of the run (a whole number of periods of the orbit,
+    so that a periodic orbit's rate is exact)."""
+    xs, vs = _floats(tr, False)
+    period = detect_period(xs, vs, max_period=MAX_PERIOD)
+    T = 2 * math.pi / float(params.eta)
+    n = periods // 2
+    if period:
+        n -= n % period
+    start = (periods - n) * T
+    late = sum(1 for t in tr.impacts_t if float(tr.precision.to_float(t)) > start)
+    return {"period": period, "impacts_per_period": late / n}
+
+
+def _system_lle(params: Params) -> dict[str, Any]:
+    """The LLE of a mechanical system (compiled engine; exact Floquet value on a periodic
+    orbit)."""
+    ly = lyapunov(params, method="variational", model="fast")
+    return {"lle": ly.lle, "lle_stderr": ly.lle_stderr}
+
+
+def _same(a: dict[str, Any], b: dict[str, Any]) -> str:
+    """``'same'``: the same period and, on a periodic orbit, the same impacts per orbit (a
+    whole number: exact); ``'both chaotic'``: no period and a positive LLE for both (chaotic
+    attractors, compared by their systems); otherwise ``'another attractor'``."""
+    if a["period"] != b["period"]:
+        return "another attractor"
+    if a["period"] == 0:
+        return "both chaotic" if a["lle"] > 0 and b["lle"] > 0 else "another attractor"
+    same = round(a["impacts_per_period"] * a["period"]) == round(
+        b["impacts_per_period"] * b["period"]
+    )
+    return "same" if same else "another attractor"
+
+
+def _attractors(
+    fig: str, p: Params, periods: int, ref: Trajectory, models: dict[str, Trajectory]
+) -> dict[str, Any]:
+    """Each model's attractor against the mechanics', and the landmark shifts of a model that
+    realises another system (the datasheet switched-capacitor circuit: ``R_on`` and the drawn
+    parts), with the attractor of the mechanics at the shifted parameters."""
+    mech = {
+        **_attractor(ref, p, periods),
+        **_system_lle(p),
+        "system": "mechanics",
+        "eta": float(p.eta),
+        "eta_text": {f: eta for f, eta, _ in FIGS}.get(fig, str(p.eta)),
+    }
+    out: dict[str, Any] = {"reference": mech, "models": {}}
+    for name, tr in models.items():
+        att = _attractor(tr, p, periods)
+        if name != DATASHEET_MODEL:  # the paper's parameters, realised exactly or by TMAX
+            att.update(lle=mech["lle"], lle_stderr=mech["lle_stderr"], system="mechanics")
+            att["same_as_mechanics"] = _same(att, mech)
+            out["models"][name] = att
+            continue
+        ds = load_scene(DATASHEET_SCENES[fig])
+        eff = effective_system(ds.design(), ds.effects)
+        pe = Params.make(
+            zeta=repr(eff["zeta"]), a=repr(eff["a"]), eta=repr(eff["eta"]), x_w=repr(eff["x_w"])
+        )
+        graz = float(grazing_frequencies(p, dps=20)[0])
+        graz_e = float(grazing_frequencies(pe, dps=20)[0])
+        run_e = simulate(pe, EFFECTIVE_PERIODS, model="fast")
+        att_e = {**_attractor(run_e, pe, EFFECTIVE_PERIODS), **_system_lle(pe)}
+        att.update(lle=att_e["lle"], lle_stderr=att_e["lle_stderr"], system="effective")
+        att["same_as_mechanics"] = _same(att, mech)
+        omega_design = float(design_omega(ds.design()))  # the figure's eta is Omega / this
+        att["effective"] = {
+            **eff,
+            "grazing_eta": graz_e,
+            "grazing_eta_figure": graz_e * eff["omega"] / omega_design,
+            "mechanics_grazing_eta": graz,
+            "attractor": att_e,
+            "explains": _same(att, att_e) != "another attractor",
+        }
+        out["models"][name] = att
+    return out
 
 
 def _plot_portraits(
@@ -376,8 +495,7 @@ def _sync_thresholds(
 ) -> dict[str, Any]:
     """The synchronisation threshold of each coupled form, with its Fig. 7 and fraction plots."""
 
-    sp = 300 if quick else 500
-    ens = 4 if quick else 8
+    sp, ens = RUNS[quick]["sync_periods"], RUNS[quick]["ensemble"]
     ks = [f"{0.02 + 0.005 * i:.3f}" for i in range(7)]
     sync: dict[str, Any] = {}
     for form in ("first-order", "reduced", "paper"):
@@ -396,6 +514,73 @@ def _sync_thresholds(
         plot_fig7(p, form, "0.031", "0.032", sp, out / f"fig7_{form}.png", units=units)
         _say(f"sync {form}: k* = {sr.k_star:.4f} +- {sr.k_star_err:.4f}", progress)
     return sync
+
+
+def _describe(att: dict) -> str:
+    if att["period"]:
+        kind = f"period {att['period']}"
+    elif att["lle"] > 0:
+        kind = "chaotic"
+    else:
+        kind = f"no period <= {MAX_PERIOD}"
+    return f"{kind}, {att['impacts_per_period']:.2f} impacts per period"
+
+
+def _side(eta: float, grazing: float) -> str:
+    return "above" if eta > grazing else "below"
+
+
+def _attractor_md(a: dict) -> list[str]:
+    """The attractor table of one figure and, for a model on another attractor, why."""
+    m = a["reference"]
+    L = [
+        "Attractors (second half of each run; LLE of the system the model realises, compiled "
+        "engine, exact on a periodic orbit):",
+        "",
+        "| run | attractor | LLE | system | same as the mechanics |",
+        "|---|---|---:|---|---|",
+        f"| mechanics (reference) | {_describe(m)} | {m['lle']:.4f} | paper's parameters | - |",
+    ]
+    for n, att in a["models"].items():
+        system = "paper's parameters" if att["system"] == "mechanics" else "effective (below)"
+        same = {
+            "same": "yes",
+            "both chaotic": "both chaotic",
+            "another attractor": "**no: another attractor**",
+        }[att["same_as_mechanics"]]
+        L.append(f"| {n} | {_describe(att)} | {att['lle']:.4f} | {system} | {same} |")
+    L.append("")
+    for n, att in a["models"].items():
+        e = att.get("effective")
+        if e is None:
+            continue
+        verdict = (
+            f"on another attractor than the mechanics ({_describe(att)} against {_describe(m)})"
+            if att["same_as_mechanics"] == "another attractor"
+            else f"{_describe(att)}, the mechanics {_describe(m)}"
+        )
+        ee = e["attractor"]
+        L += [
+            f"{n}: {verdict}. Its circuit realises another mechanical system (from its drawn "
+            "parts and the switches' R_on, `effective_system`): "
+            f"zeta {e['zeta']:.4f} (R_on adds 2 R_on/R3 = {e['ron_damping']:.4f} to 2 zeta), "
+            f"eta {e['eta']:.4f} (omega {e['omega']:.1f} rad/s), a {e['a']:.4f}; it grazes at "
+            f"eta {e['grazing_eta']:.4f}, which is {e['grazing_eta_figure']:.4f} on the figure's "
+            f"eta axis against the mechanics' {e['mechanics_grazing_eta']:.4f}: the figure's "
+            f"eta {m['eta_text']} lies {_side(m['eta'], e['grazing_eta_figure'])} the model's "
+            f"grazing and {_side(m['eta'], e['mechanics_grazing_eta'])} the mechanics'."
+            f" The mechanics at these parameters ({EFFECTIVE_PERIODS} periods): {_describe(ee)}, "
+            f"LLE {ee['lle']:.4f}: "
+            + (
+                "the same attractor as the circuit model, so the shifts explain it."
+                if e["explains"]
+                else "not the circuit model's attractor: the shifts alone do not explain it "
+                "(comparator and flip-flop delays, break-before-make and charge injection are "
+                "not in the effective system)."
+            ),
+            "",
+        ]
+    return L
 
 
 def _report_md(res: dict) -> str:
@@ -438,6 +623,7 @@ def _report_md(res: dict) -> str:
             ("model", "error (last quarter)", "horizon (err > 0.1)", "impacts", "time [s]"), rows
         )
         L.append("")
+        L += _attractor_md(row["attractors"])
     v, t = res["lle"]["variational"], res["lle"]["two-trajectory"]
     L += [
         "## Largest Lyapunov exponent at eta = 0.712",

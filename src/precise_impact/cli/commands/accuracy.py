@@ -14,11 +14,16 @@ def register(sub) -> argparse.ArgumentParser:
     """Add ``accuracy`` to ``sub``."""
     a = sub.add_parser(
         "accuracy",
-        help="the paper's three frequencies: every model and precision against a demonstrated "
-        "reference",
+        help="the paper's three frequencies: the mechanical solvers (heyoka float64, longdouble, "
+        "float128; analytical; analytical-paper; fast) against a demonstrated reference",
     )
     add_periods(a, "100", "forcing periods from rest")
-    add_out(a, "dir", "write accuracy.json and accuracy.png here")
+    add_out(
+        a,
+        "dir",
+        "write accuracy.json and accuracy.png here",
+        writes=("accuracy.json", "accuracy.png"),
+    )
     add_json(a, "print the result as one JSON object")
     a.set_defaults(run=run)
     return a

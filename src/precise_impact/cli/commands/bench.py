@@ -22,10 +22,13 @@ def register(sub) -> argparse.ArgumentParser:
         help="error vs wall time of heyoka, analytical, scipy solve_ivp and ngspice; "
         "the cost of chaos",
     )
-    wp.add_argument(
-        "--quick", action="store_true", help="fewer tolerances and methods (about a minute)"
+    wp.add_argument("--quick", action="store_true", help="fewer tolerances and methods")
+    add_out(
+        wp,
+        "dir",
+        "write work_precision.json/.csv/.png and chaos_cost.png into DIR",
+        writes=("work_precision.*", "chaos_cost.png"),
     )
-    add_out(wp, "dir", "write work_precision.json/.csv/.png and chaos_cost.png into DIR")
     add_json(wp, "print exactly one JSON object")
     b.set_defaults(run=run)
     return b

@@ -35,7 +35,13 @@ def register(sub) -> argparse.ArgumentParser:
     b.add_argument(
         "--workers", default=None, metavar="W", help="worker processes (default: all cores)"
     )
-    add_out(b, "dir", "write bifurcation.png and bifurcation.npz here", required=True)
+    add_out(
+        b,
+        "dir",
+        "write bifurcation.png and bifurcation.npz here",
+        required=True,
+        writes=("bifurcation.png", "bifurcation.npz"),
+    )
     add_max_time(b)
     b.set_defaults(run=run)
     return b

@@ -30,7 +30,12 @@ def register(sub) -> argparse.ArgumentParser:
         help="also score the grazing and period-doubling points along eta against the mechanics",
     )
     add_json(c, "print one JSON object")
-    add_out(c, "dir", "directory for report.md, scores.json and the PNGs")
+    add_out(
+        c,
+        "dir",
+        "write report.md, scores.json, phase_portraits.png and separation.png here",
+        writes=("report.md", "scores.json", "phase_portraits.png", "separation.png"),
+    )
     add_units(c)
     c.set_defaults(run=run)
     return c

@@ -67,7 +67,12 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_max_time(co)
     add_json(co)
-    add_out(co, "dir", "write continuation.json and continuation.png here")
+    add_out(
+        co,
+        "dir",
+        "write continuation.json and continuation.png here",
+        writes=("continuation.json", "continuation.png"),
+    )
     co.set_defaults(run=run)
     return co
 

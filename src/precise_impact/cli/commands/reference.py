@@ -8,7 +8,19 @@ from pathlib import Path
 
 from precise_impact.cli.args import add_out
 from precise_impact.errors import ParameterError
-from precise_impact.verification.reference import CASES, default_root, generate, verify
+from precise_impact.verification.reference import (
+    CASES,
+    REFERENCE_ENV,
+    default_root,
+    generate,
+    verify,
+)
+
+#: What ``default_root()`` resolves to, in the words of an installed package.
+DEFAULT_ROOT_HELP = (
+    f"${REFERENCE_ENV} if set, else the datasets installed with the package, "
+    "precise_impact/data/reference"
+)
 
 __all__ = ["register", "run"]
 
@@ -19,7 +31,9 @@ EXIT_BAD_INPUT = 2
 def register(sub) -> argparse.ArgumentParser:
     """Add ``reference`` (with ``generate`` and ``verify``) to ``sub`` (from ``add_subparsers``)."""
     p = sub.add_parser(
-        "reference", help="generate or verify the reference datasets (reference_data/)"
+        "reference",
+        help="generate or verify the reference datasets (shipped in the package: "
+        "precise_impact/data/reference)",
     )
     rsub = p.add_subparsers(dest="reference_command", metavar="{generate,verify}")
     rsub.required = True
@@ -36,7 +50,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     which.add_argument("--all", action="store_true", help="every case (the default)")
     # generation resumes in its directory (complete cases are skipped); --force regenerates
-    add_out(g, "resume", "output directory (default: the checkout's reference_data/)")
+    add_out(g, "resume", "output directory (default: " + DEFAULT_ROOT_HELP + ")")
     g.add_argument(
         "--force", action="store_true", help="regenerate cases that are already complete"
     )
@@ -48,7 +62,7 @@ def register(sub) -> argparse.ArgumentParser:
         "--root",
         default=None,
         metavar="DIR",
-        help="dataset directory (default: the checkout's reference_data/)",
+        help="dataset directory (default: " + DEFAULT_ROOT_HELP + ")",
     )
     v.add_argument(
         "--case",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from precise_impact.cli.args import add_out, add_units
-from precise_impact.verification.reproduce import reproduce
+from precise_impact.verification.reproduce import OUTPUT_FILES, RUNS, reproduce
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -13,8 +13,21 @@ def register(sub) -> argparse.ArgumentParser:
     rp = sub.add_parser(
         "reproduce", help="the main job: the paper's Figs. 4-7, LLE, sync thresholds, report.md"
     )
-    add_out(rp, "dir", "output directory (default results)", default="results")
-    rp.add_argument("--quick", action="store_true", help="shorter runs (about a minute)")
+    add_out(
+        rp,
+        "dir",
+        "write report.md, report.json and the figures here (default results)",
+        default="results",
+        writes=OUTPUT_FILES,
+    )
+    q, f = RUNS[True], RUNS[False]
+    rp.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"shorter runs: {q['periods']} instead of {f['periods']} periods per figure, "
+        f"{q['sync_periods']} instead of {f['sync_periods']} per Fig. 7 run, {q['ensemble']} "
+        f"instead of {f['ensemble']} slave starts per k",
+    )
     add_units(rp)
     rp.set_defaults(run=run)
     return rp

@@ -53,7 +53,14 @@ def register(sub) -> argparse.ArgumentParser:
         metavar=("K1", "K2"),
         help="couplings of the Fig. 7 plot (default the paper's 0.031 0.032)",
     )
-    add_out(sy, "dir", "plots and JSON go here (default results)", default="results")
+    add_out(
+        sy,
+        "dir",
+        "write sync_<form>.json, sync_<form>_fraction.png, sync_<form>_fig7.png here "
+        "(default results)",
+        default="results",
+        writes=lambda ns: (f"sync_{ns.form}.json", f"sync_{ns.form}_*.png"),
+    )
     sy.add_argument(
         "--model",
         "--engine",  # the 0.2 name

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.digits import Digits, max_digits
 from precise_impact.core.impact import reset_velocity
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
@@ -279,6 +280,25 @@ class CoupledCircuitTrajectory(ResultMixin):
     params: Params
     R31: Fraction
     R32: Fraction
+    claim: Digits | None = dataclasses.field(default=None, repr=False, compare=False)
+
+    def claimed_digits(self) -> Digits:
+        """Significant digits per sample: ``'demonstrated'`` after
+        ``simulate_coupled(..., demonstrate=...)``; otherwise none (the circuit pair records
+        no impact velocities, so its error amplification cannot be estimated)."""
+        if self.claim is None:
+            z = np.zeros(len(self.t), dtype=int)
+            self.claim = Digits(
+                "estimated",
+                z,
+                z.copy(),
+                max_digits(self.precision),
+                "the circuit pair records no impact velocities: no digit can be estimated "
+                "(demonstrate=True claims the digits a second precision agrees on)",
+                y=z.copy(),
+                w=z.copy(),
+            )
+        return self.claim
 
     def plot(
         self,

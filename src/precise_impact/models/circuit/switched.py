@@ -27,7 +27,7 @@ from precise_impact.models.circuit.opamp import design_omega
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
 
-__all__ = ["SwitchedCapacitorSolver"]
+__all__ = ["SwitchedCapacitorSolver", "effective_system"]
 
 PARS = NETWORK_PARS + ("pol", "ron", "v_trip", "v_rearm")
 _I = {n: i for i, n in enumerate(PARS)}
@@ -49,6 +49,65 @@ def _system():
         V_q,
         V_p,
     )
+
+
+def effective_system(design: Components, effects: Mapping[str, Any] | None = None) -> dict:
+    """The mechanical system the switched-capacitor circuit realises between switchings.
+
+    Between two switchings the circuit is linear in ``(V_s, V_C)``: its matrix ``A`` and its
+    forcing column ``b`` follow from the same KCL as the model (:func:`switch.vq`, with the
+    drawn parts of a ``tolerance`` effect and the switches' ``R_on``), exactly in rationals.
+    ``omega^2 = det A`` and ``2 zeta omega = -tr A`` give the effective natural frequency and
+    damping (``R_on`` adds about ``2 R_on / R3`` to ``2 zeta``); ``eta = Omega / omega``; the
+    effective forcing ``a`` is the one whose mechanical response has the circuit's amplitude
+    at ``Omega``; the wall stays ``-V_wall / V_unit``.  The same for either switch polarity.
+
+    Parameters
+    ----------
+    design : Components
+        The design values (the scene's).
+    effects : mapping or None
+        Effects of the model (``switch.ron`` and ``tolerance`` matter).
+
+    Returns
+    -------
+    dict
+        ``{"zeta", "eta", "a", "x_w", "omega", "ron_damping"}`` (floats; ``ron_damping`` is
+        ``2 R_on / R3`` of the drawn R3, in ``2 zeta`` units).  Nominal parts without ``R_on``
+        give the design's own parameters.
+    """
+    effects = validate_effects(effects, "switched-capacitor")
+    comp = actual_components(design, effects)
+    ron = effects.get("switch", {}).get("ron", Fraction(0))
+    rho = comp.R5 / comp.R4
+    k = switch.coupling(ron, comp.R2, comp.R3)
+
+    def rhs(V_s: Fraction, V_C: Fraction, V3: Fraction) -> tuple[Fraction, Fraction]:
+        V_q = switch.vq(1, V_C, V3, V_s, k, comp.R1, comp.R6, comp.R7, rho)
+        V_p = -comp.R2 * (V3 / comp.R1 - rho * V_q / comp.R6 + V_s / comp.R7)
+        return -V_q / (comp.R8 * comp.C1), V_p / (comp.R3 * comp.C2)
+
+    (a11, a21), (a12, a22) = (
+        rhs(Fraction(1), Fraction(0), Fraction(0)),
+        rhs(Fraction(0), Fraction(1), Fraction(0)),
+    )
+    b = rhs(Fraction(0), Fraction(0), Fraction(1))
+    A = np.array([[a11, a12], [a21, a22]], dtype=float)
+    omega = float(a11 * a22 - a12 * a21) ** 0.5
+    zeta = -float(a11 + a22) / (2 * omega)
+    W = float(comp.Omega)
+    eta = W / omega
+    h = np.linalg.solve(1j * W * np.eye(2) - A, np.array([float(b[0]), float(b[1])]))
+    amp_x = abs(h[0]) * float(comp.V_A) / float(design.V_unit)
+    a = float(amp_x) * ((1 - eta**2) ** 2 + (2 * zeta * eta) ** 2) ** 0.5
+    return {
+        "zeta": zeta,
+        "eta": eta,
+        "a": a,
+        "x_w": float(-comp.V_wall / design.V_unit),
+        "omega": omega,
+        "ron_damping": float(2 * ron / comp.R3),
+    }
 
 
 class _Comparator(ImpactRecorder):

@@ -27,6 +27,7 @@ from precise_impact.core.coupling import (
     slave_reset,
     slave_velocity,
 )
+from precise_impact.core.digits import Digits, proven
 from precise_impact.core.params import Params, check_count, decimal_str, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, ball_columns
@@ -156,6 +157,21 @@ class CertifiedCoupledTrajectory(ResultMixin):
     master_impacts: list
     slave_impacts: list
     elapsed_s: float
+    claim: Digits | None = dataclasses.field(default=None, repr=False, compare=False)
+
+    def claimed_digits(self) -> Digits:
+        """The significant digits each sample's ``x, v, y, w`` can claim: ``'proven'`` by the
+        balls' radii (plus the midpoints' rounding to :attr:`precision`)."""
+        if self.claim is None:
+            rad = {n: [s[i].rad() for s in self.samples] for i, n in enumerate("xvyw", 2)}
+            self.claim = proven(
+                self,
+                [exact_value(r) for r in rad["x"]],
+                [exact_value(r) for r in rad["v"]],
+                y=(self.y, [exact_value(r) for r in rad["y"]]),
+                w=(self.w, [exact_value(r) for r in rad["w"]]),
+            )
+        return self.claim
 
     def _tables(self) -> dict:
         """``to_dataframe()`` tables: ``samples`` (default), ``master_impacts``,
@@ -257,10 +273,12 @@ class CertifiedCoupledTrajectory(ResultMixin):
         and rigorous radii as decimal strings (``max_radius`` in scientific notation, rounded up,
         never 0 for a ball of any radius): strict JSON."""
         rows = []
-        for k, t, *balls in self.samples:
+        comps = self.claimed_digits().components()
+        for j, (k, t, *balls) in enumerate(self.samples):
             row: dict = {"period": k, "t": ball_str(t)[0]}
             for name, b in zip("xvyw", balls, strict=True):
                 row[name], row[name + "_rad"] = ball_str(b)
+            row.update({f"{n}_digits": int(d[j]) for n, d in comps.items()})
             rows.append(row)
 
         def imps(lst):
@@ -285,6 +303,7 @@ class CertifiedCoupledTrajectory(ResultMixin):
             "y0": None if self.y0 is None else [decimal_str(q) for q in self.y0],
             "periods": self.periods,
             "bits": self.bits,
+            "digits": self.claimed_digits().summary(),
             "samples": rows,
             "master_impacts": imps(self.master_impacts),
             "slave_impacts": imps(self.slave_impacts),

@@ -24,6 +24,7 @@ from precise_impact.core.coupling import (
     slave_reset,
     slave_rhs,
 )
+from precise_impact.core.digits import Digits, estimate_coupled
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import impact_at_start, reset_velocity
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, decimal_str
@@ -221,6 +222,7 @@ class CoupledTrajectory(ResultMixin):
     dense_w: np.ndarray | None = None
     elapsed_s: float = 0.0
     stats: dict = dataclasses.field(default_factory=dict)
+    claim: Digits | None = dataclasses.field(default=None, repr=False, compare=False)
 
     def _tables(self) -> dict:
         """``to_dataframe()`` tables: ``samples`` (default), ``master_impacts``,
@@ -250,6 +252,15 @@ class CoupledTrajectory(ResultMixin):
     @property
     def periods(self) -> int:
         return len(self.t) - 1
+
+    def claimed_digits(self) -> Digits:
+        """The significant digits each sample's ``x, v, y, w`` can claim, and on what basis:
+        ``'demonstrated'`` when ``simulate_coupled(..., demonstrate=...)`` ran a second
+        precision, else ``'estimated'`` from the pair's tangent flow along this run
+        (:func:`precise_impact.core.digits.estimate_coupled`).  Computed once and kept."""
+        if self.claim is None:
+            self.claim = estimate_coupled(self)
+        return self.claim
 
     def _f(self, a) -> np.ndarray:
         if a is None:
@@ -318,14 +329,24 @@ class CoupledTrajectory(ResultMixin):
     def to_dict(self) -> dict:
         """Every number a full-precision decimal string (stroboscopic samples, impacts)."""
         s = self.precision.to_str
+        c = self.claimed_digits()
         return {
             "params": self.params.decimal(),
             "form": self.form,
             "k": decimal_str(self.k),
             "y0": [decimal_str(q) for q in self.y0],
             "precision": self.precision.name,
+            "digits": c.summary(),
             "samples": [
-                {"period": j, "t": s(t), "x": s(x), "v": s(v), "y": s(y), "w": s(w)}
+                {
+                    "period": j,
+                    "t": s(t),
+                    "x": s(x),
+                    "v": s(v),
+                    "y": s(y),
+                    "w": s(w),
+                    **{f"{n}_digits": int(d[j]) for n, d in c.components().items()},
+                }
                 for j, (t, x, v, y, w) in enumerate(
                     zip(self.t, self.x, self.v, self.y, self.w, strict=True)
                 )

@@ -1,0 +1,229 @@
+"""The README's commands, run in order in a fresh directory, all succeed.
+
+The commands are read from README.md's ``bash`` blocks (no copy here to go stale): every
+``precise-impact ...`` line runs, in the order written, in one fresh working directory, so
+that later commands meet the files earlier ones left (``reproduce --out results`` then
+``run ... --out results``: refused before the output-directory contract, issue 27).  Set-up
+lines (venv, pip, apt-get, the CI script) are recognised and left to
+``scripts/test-installed.sh``; any other line fails the test, so a new README command is run
+or explicitly classified.
+
+After each command, every file it wrote into its ``--out`` directory must be one of the files
+it declares (``add_out(writes=...)``): the declaration is what lets commands share a
+directory, so a file written but not declared could be replaced silently by a second run.
+
+``test_readme_sequence`` (slow) runs the commands as written, each in a new process.  The
+default suite runs ``test_readme_sequence_quick``: the same lines with shorter runs (``QUICK``
+below: fewer periods, smaller grids, one worker) through ``main()`` in this process;
+``reproduce --quick`` and ``bench work-precision --quick`` (each over a minute on 2 busy
+cores) are left to the slow variant (``bench`` without ``--json`` is covered through the
+CLI in ``tests/cli/test_cli.py``), and ``reproduce``'s files are laid into ``results/``
+first, so that the quick run meets the same shared directory.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fnmatch
+import io
+import os
+import re
+import shlex
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from precise_impact.cli.main import build_parser, main
+from precise_impact.io.lock import LOCK_NAME
+from precise_impact.verification.reproduce import OUTPUT_FILES
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+#: Set-up commands of the README (first word, or first two): what scripts/test-installed.sh does.
+SETUP = {
+    ("python3", "-m"),  # python3 -m venv .venv
+    (".", ".venv/bin/activate"),
+    ("pip", "install"),
+    ("apt-get", "update"),
+    ("apt-get", "install"),
+    ("bash", "scripts/test-installed.sh"),
+}
+
+#: The quick variant: (README command prefix, replacements of its arguments).  Fewer periods
+#: and smaller grids, the same flags and outputs.
+QUICK = {
+    "simulate --eta 0.74 --periods 300": [("--periods 300", "--periods 10")],
+    "certify --eta 0.712 --periods 300": [("--periods 300", "--periods 60")],
+    "accuracy --out results": [("--out results", "--periods 5 --out results")],
+    "compare fig5-chaotic-datasheet": [
+        ("compare fig5-chaotic-datasheet", "compare fig5-chaotic-datasheet --periods 10")
+    ],
+    "sync --form first-order": [("--k 0.02 0.05 7", "--k 0.02 0.05 2 --periods 60 --ensemble 2")],
+    "bifurcation --eta 0.68 0.82 400": [
+        ("0.82 400", "0.82 4 --periods 40 --transient 40 --workers 1")
+    ],
+    "sweep --axis eta 0.68 0.82 100": [
+        ("0.82 100", "0.82 3"),
+        ("2.5 100", "2.5 3 --periods 40 --transient 40 --workers 1"),
+    ],
+}
+#: Left to the slow variant (see the module docstring).
+SLOW_ONLY = ("reproduce", "bench work-precision")
+
+
+def readme_commands() -> list[str]:
+    """Every command line of README.md's bash blocks, in order, split at ``&&``."""
+    text = README.read_text(encoding="utf-8")
+    lines = []
+    for block in re.findall(r"```bash\n(.*?)```", text, re.S):
+        for raw in block.replace("\\\n", " ").splitlines():
+            line = raw.split(" #", 1)[0].strip()
+            if line and not line.startswith("#"):
+                lines += [c.strip() for c in line.split("&&")]
+    return lines
+
+
+def _is_setup(cmd: str) -> bool:
+    words = shlex.split(cmd)
+    return tuple(words[:2]) in SETUP
+
+
+def _quick(cmd: str) -> str | None:
+    rest = cmd.removeprefix("precise-impact ")
+    if rest.startswith(SLOW_ONLY):
+        return None
+    for prefix, subs in QUICK.items():
+        if rest.startswith(prefix):
+            for a, b in subs:
+                assert a in cmd, (a, cmd)
+                cmd = cmd.replace(a, b)
+    return cmd
+
+
+def _out_dir(cmd: str, cwd: Path):
+    """The command's parsed arguments (the CLI's own parser) and its ``--out`` directory."""
+    argv = shlex.split(cmd.split(">", 1)[0])[1:]
+    ns = build_parser().parse_args(argv)  # the README's commands have no negative values
+    out = getattr(ns, "out", None)
+    if out is None or getattr(ns, "out_kind", None) != "dir":
+        return ns, None
+    return ns, cwd / out
+
+
+def _snapshot(d: Path | None) -> dict[str, float]:
+    if d is None or not d.is_dir():
+        return {}
+    return {
+        e.name: e.stat().st_mtime_ns for e in d.iterdir() if e.is_file() and e.name != LOCK_NAME
+    }
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ)
+    if not os.environ.get("PRECISE_IMPACT_TEST_INSTALLED"):
+        src = str(Path(__file__).resolve().parents[1] / "src")
+        env["PYTHONPATH"] = src + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+def _run_in_process(cmd: str, cwd: Path) -> tuple[int, str]:
+    """``main()`` on the command's words in ``cwd``; ``> FILE`` receives standard output."""
+    words, _, target = cmd.partition(">")
+    argv = shlex.split(words)[1:]
+    out, err = io.StringIO(), io.StringIO()
+    old = os.getcwd()
+    os.chdir(cwd)
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            status = main(argv)
+    finally:
+        os.chdir(old)
+    if target.strip():
+        (cwd / target.strip()).write_text(out.getvalue(), encoding="utf-8")
+    return status, err.getvalue()
+
+
+def _run_sequence(tmp_path: Path, quick: bool) -> list[tuple[str, float]]:
+    cmds = readme_commands()
+    unknown = [c for c in cmds if not c.startswith("precise-impact ") and not _is_setup(c)]
+    assert not unknown, f"README commands neither run here nor set-up: {unknown}"
+    exe = f"{shlex.quote(sys.executable)} -m precise_impact"
+    timings = []
+    if quick:  # the files reproduce leaves in results/, which later commands share
+        (tmp_path / "results").mkdir()
+        for pat in OUTPUT_FILES:
+            name = pat.replace("[456]", "4").replace("*", "first-order")
+            (tmp_path / "results" / name).write_text("from reproduce\n")
+    for cmd in cmds:
+        if _is_setup(cmd):
+            continue
+        run = _quick(cmd) if quick else cmd
+        if run is None:
+            continue
+        ns, out = _out_dir(run, tmp_path)
+        before = _snapshot(out)
+        t0 = time.perf_counter()
+        if quick:  # in this process: the same main(), without a new interpreter per line
+            status, stderr = _run_in_process(run, tmp_path)
+        else:
+            r = subprocess.run(
+                exe + run.removeprefix("precise-impact"),
+                shell=True,
+                cwd=tmp_path,
+                env=_env(),
+                capture_output=True,
+                text=True,
+                timeout=900,
+            )
+            status, stderr = r.returncode, r.stderr
+        timings.append((run, time.perf_counter() - t0))
+        assert status == 0, f"README command failed ({status}): {run}\n{stderr[-2000:]}"
+        assert "Traceback" not in stderr, run
+        if out is not None:
+            written = [n for n, m in _snapshot(out).items() if before.get(n) != m]
+            assert written, f"{run}: wrote nothing into {out}"
+            writes = ns.out_writes(ns) if callable(ns.out_writes) else ns.out_writes
+            undeclared = [n for n in written if not any(fnmatch.fnmatchcase(n, p) for p in writes)]
+            assert not undeclared, f"{run}: wrote {undeclared}, not in its declared {writes}"
+    return timings
+
+
+def test_readme_commands_are_known():
+    """Every README command line is either run by the sequence test or a recognised set-up."""
+    cmds = readme_commands()
+    assert any(c.startswith("precise-impact reproduce") for c in cmds)
+    assert len([c for c in cmds if c.startswith("precise-impact ")]) >= 10
+    for c in cmds:
+        assert c.startswith("precise-impact ") or _is_setup(c), c
+    for prefix in QUICK:  # every quick replacement still applies to a README command
+        assert any(c.startswith("precise-impact " + prefix) for c in cmds), prefix
+
+
+def test_readme_sequence_quick(tmp_path):
+    timings = _run_sequence(tmp_path, quick=True)
+    print("\n".join(f"{t:7.1f} s  {c}" for c, t in timings))
+    assert len(timings) >= 8
+    # the files reproduce leaves were not replaced by any other command
+    assert (tmp_path / "results" / "report.md").read_text() == "from reproduce\n"
+
+
+@pytest.mark.slow  # reproduce --quick and bench work-precision --quick: minutes in all
+def test_readme_sequence(tmp_path):
+    timings = _run_sequence(tmp_path, quick=False)
+    print("\n".join(f"{t:7.1f} s  {c}" for c, t in timings))
+    print(f"{sum(t for _, t in timings):7.1f} s  in all")
+    # a second run of the main job into the same directory is refused, naming its own file
+    r = subprocess.run(
+        [sys.executable, "-m", "precise_impact", "reproduce", "--quick", "--out", "results"],
+        cwd=tmp_path,
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    named = re.search(r"it holds (\S+),", r.stderr)
+    assert r.returncode == 2 and named, r.stderr
+    assert any(fnmatch.fnmatchcase(named.group(1), p) for p in OUTPUT_FILES), r.stderr
