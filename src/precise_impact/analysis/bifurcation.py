@@ -33,7 +33,7 @@ from precise_impact.core.params import Params, as_params, check_count, decimal_s
 from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import EndlessBouncesError, IntegrationError, ParameterError
 from precise_impact.io.atomic import atomic_write
-from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.figures import new_figure
 from precise_impact.io.jsonout import dumps
 from precise_impact.io.progress import ProgressArg, check_progress
 from precise_impact.solvers.base import Unresolved, with_fallback
@@ -131,7 +131,7 @@ class BifurcationResult(ResultMixin):
             Another suffix.
         """
         path = Path(path)
-        if path.suffix == ".png":
+        if path.suffix in (".png", ".pdf", ".svg"):
             self.plot(path)
             return path
         if path.suffix != ".npz":
@@ -157,7 +157,9 @@ class BifurcationResult(ResultMixin):
                 )
             ),
         }
-        atomic_write(path, lambda fh: np.savez_compressed(fh, **arrays), binary=True)
+        # uncompressed: zlib took 50 of the 90 s of a 400 x 200000 diagram (640 MB of
+        # chaotic samples compress by only 37 %)
+        atomic_write(path, lambda fh: np.savez(fh, **arrays), binary=True)
         return path
 
     def save_all(self, out: str | os.PathLike) -> dict[str, Path]:
@@ -179,29 +181,48 @@ class BifurcationResult(ResultMixin):
             "png": self.save(out / "bifurcation.png"),
         }
 
-    def plot(self, path: str | os.PathLike) -> None:
-        """Stroboscopic x against eta with the LLE beneath, saved as an image.
+    def plot(self, path: str | os.PathLike | None = None):
+        """Stroboscopic x against eta with the LLE beneath.
+
+        The points are drawn as a density image (one pixel column per eta, the share of the
+        samples in each pixel row in grey), so a diagram of 400 x 200000 samples takes
+        about a second, not the ~40 s of 80 million markers.  Beneath: the LLE with its
+        error bars, ``0`` and half the exponent sum ``-zeta + nu ln R`` (``nu`` impacts per
+        unit time): the LLE of every periodic orbit whose two Floquet multipliers are a
+        complex pair, impacting or not (``-zeta`` when ``R = 1``).
 
         Parameters
         ----------
-        path : str or os.PathLike
-            Output file (PNG; ``.pdf`` and ``.svg`` by their suffix), written atomically
-            with matplotlib's object API (the user's backend is never changed).
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``), atomically with
+            matplotlib's object API (the user's backend is never changed).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
         """
+        from precise_impact.io.figures import (
+            check_plot_path,
+            draw_density,
+            finish,
+            legend_outside,
+            wrap_title,
+        )
+
+        check_plot_path(path)
         eta = np.array([float(e) for e in self.eta])
         fig, axes = new_figure(
             2,
             1,
-            figsize=(10, 7),
-            layout="tight",
+            figsize=(11, 7),
             sharex=True,
             gridspec_kw={"height_ratios": [3, 2]},
         )
         ax1, ax2 = axes[:, 0]
-        xs = np.repeat(eta, self.x.shape[1])
-        ax1.plot(xs, self.x.ravel(), ",", color="k", alpha=0.5)
-        ax1.axhline(float(self.params.x_w), color="tab:red", lw=0.8, label="wall x_w")
-        ax1.set_ylabel("x at t0 + kT")
+        draw_density(ax1, eta, self.x)
+        ax1.plot([], [], "s", color="0.2", ms=4, label="x at t0 + kT (grey: share of samples)")
+        ax1.axhline(float(self.params.x_w), color="tab:red", lw=0.9, label="wall x = x_w")
+        ax1.set_ylabel("x at t0 + kT (dimensionless)")
         ax2.errorbar(
             eta,
             self.lle,
@@ -210,13 +231,27 @@ class BifurcationResult(ResultMixin):
             lw=0.8,
             color="tab:blue",
             ecolor="tab:gray",
+            label="LLE +- stderr",
         )
-        ax2.axhline(0, color="k", lw=0.6)
-        ax2.axhline(
-            -float(self.params.zeta), color="tab:green", lw=0.6, ls="--", label="-zeta (no impacts)"
+        ax2.axhline(0, color="k", lw=0.6, label="0")
+        half = self.half_exponent_sum()
+        r_one = self.params.R == 1
+        ax2.plot(
+            eta,
+            half,
+            color="tab:green",
+            lw=0.9,
+            ls="--",
+            label=(
+                "-zeta = half the exponent sum (R = 1):\nLLE of any periodic orbit with a "
+                "complex\npair of multipliers, impacts or not"
+                if r_one
+                else "-zeta + nu ln R = half the exponent sum:\nLLE of a periodic orbit with "
+                "a complex\npair of multipliers (nu: impacts per unit time)"
+            ),
         )
-        ax2.set_ylabel("LLE per unit time")
-        ax2.set_xlabel("eta")
+        ax2.set_ylabel("LLE per unit time tau")
+        ax2.set_xlabel("eta = Omega / omega")
         for g in self.grazing:
             for ax in (ax1, ax2):
                 ax.axvline(g, color="tab:orange", ls=":", lw=1)
@@ -224,15 +259,27 @@ class BifurcationResult(ResultMixin):
             ax1.plot(
                 [], [], color="tab:orange", ls=":", label=f"grazing eta = {self.grazing[0]:.5f}"
             )
-        ax1.legend(loc="upper right", fontsize=8)
-        ax2.legend(loc="lower right", fontsize=8)
+        legend_outside(ax1)
+        legend_outside(ax2)
         q = self.params
         fig.suptitle(
-            f"Bifurcation diagram and LLE (zeta={decimal_str(q.zeta)}, a={decimal_str(q.a)}, "
-            f"x_w={decimal_str(q.x_w)}, R={decimal_str(q.R)}; "
-            f"{self.transient} transient + {self.periods} periods)"
+            wrap_title(
+                f"Bifurcation diagram and LLE (zeta={decimal_str(q.zeta)}, a={decimal_str(q.a)}, "
+                f"x_w={decimal_str(q.x_w)}, R={decimal_str(q.R)}; "
+                f"{self.transient} transient + {self.periods} periods)",
+                fig,
+            ),
+            fontsize=10,
         )
-        save_figure(fig, path, fmt="png", dpi=120)
+        return finish(fig, path, dpi=120)
+
+    def half_exponent_sum(self) -> np.ndarray:
+        """``(lambda_1 + lambda_2) / 2 = -zeta + nu ln R`` per eta, ``nu`` the measured impacts
+        per unit time (each impact multiplies the Jacobian's determinant by ``R^2``, the flow
+        by ``exp(-2 zeta t)``): the LLE of an orbit whose multipliers are a complex pair."""
+        nu = self.impacts_per_period * np.array([float(e) for e in self.eta]) / (2 * math.pi)
+        R = float(self.params.R)
+        return -float(self.params.zeta) + (nu * math.log(R) if R > 0 else 0.0) * (R != 1)
 
 
 def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:

@@ -56,6 +56,9 @@ STATUS_WORDS = {
     2: "failed: the integration stopped (e.g. a missed impact while chattering into the wall)",
 }
 REFUSED_PERIOD = -1  # status 1; status 2 is period = -2
+#: The longest period the sweep's detection looks for (fast_batch_rows' default): the period
+#: map's category "none <= 32".
+_MAX_PERIOD = 32
 _MINIMUM = {"eta": (Fraction(0), True), "zeta": (Fraction(0), False), "R": (Fraction(0), False)}
 
 
@@ -555,6 +558,21 @@ class SweepResult(ResultMixin):
         (:data:`STATUS_WORDS`).  NaN where a tile is missing."""
         return np.where(np.isnan(self.period), np.nan, np.maximum(-self.period, 0.0))
 
+    def plot(self, path: str | os.PathLike | None = None):
+        """The LLE map and the period map (one discrete colour per whole period, with
+        "none <= 32" and "refused" as categories of their own).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        return _plot(self.spec, {f: getattr(self, f) for f in _FIELDS}, path)
+
     def coordinates(self) -> dict[str, np.ndarray]:
         """Each axis' values as float64, ``{name: array}`` in axis order."""
         return {name: np.array([float(v) for v in vals]) for name, vals in self.spec.axes}
@@ -711,25 +729,35 @@ def assemble(result: SweepResult, out: Path) -> dict[str, str]:
     for path in files.values():
         result.save(path)
     files["png"] = out / "sweep.png"
-    _plot(result.spec, {f: getattr(result, f) for f in _FIELDS}, files["png"])
+    result.plot(files["png"])
     return {k: str(v) for k, v in files.items()}
 
 
-def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
+def _plot(spec: SweepSpec, data: dict, path: Any = None):
+    """The sweep's figure: the LLE and the detected period (a discrete colour per whole period,
+    with the categories "none <= 32" and "refused"); written to ``path`` if given."""
     from matplotlib.colors import TwoSlopeNorm
 
-    fig = figure(figsize=(12, 4.8))
+    from precise_impact.io.figures import finish, period_colormap, wrap_title
+
+    fig = figure(figsize=(13, 5.0), layout="constrained")
     if len(spec.axes) == 1:
         name, vals = spec.axes[0]
         x = [float(v) for v in vals]
         ax1, ax2 = fig.subplots(1, 2)
-        ax1.errorbar(x, data["lle"], yerr=data["stderr"], lw=0.8)
+        ax1.errorbar(x, data["lle"], yerr=data["stderr"], lw=0.8, label="LLE +- stderr")
         ax1.axhline(0, color="k", lw=0.5)
         ax1.set_xlabel(name)
-        ax1.set_ylabel("LLE per unit time")
-        ax2.step(x, data["period"], where="mid")
+        ax1.set_ylabel("LLE per unit time tau")
+        ax1.set_title("largest Lyapunov exponent", fontsize=10)
+        per = np.asarray(data["period"], dtype=float)
+        index, cmap, norm, labels = period_colormap(per, _MAX_PERIOD)
+        ax2.scatter(x, per, c=index, cmap=cmap, norm=norm, s=14, edgecolors="0.3", lw=0.4)
+        ax2.step(x, per, where="mid", color="0.6", lw=0.6, zorder=0)
         ax2.set_xlabel(name)
-        ax2.set_ylabel("period (0 = none <= 32, < 0 = refused)")
+        ax2.set_ylabel(f"detected period (0: none <= {_MAX_PERIOD}, < 0: refused)")
+        ax2.yaxis.get_major_locator().set_params(integer=True)
+        ax2.set_title("detected period (whole forcing periods)", fontsize=10)
     else:
         (n0, v0), (n1, v1) = spec.axes
         ext = [float(v1[0]), float(v1[-1]), float(v0[0]), float(v0[-1])]
@@ -745,24 +773,30 @@ def _plot(spec: SweepSpec, data: dict, path: Path) -> None:
             cmap="RdBu_r",
             norm=TwoSlopeNorm(vcenter=0.0, vmin=vmin, vmax=vmax),
         )
-        fig.colorbar(im, ax=ax1, label="LLE per unit time")
+        fig.colorbar(im, ax=ax1, label="LLE per unit time tau (red: chaos)")
         ax1.set_xlabel(n1)
         ax1.set_ylabel(n0)
-        ax1.set_title("largest Lyapunov exponent")
-        import matplotlib
-
-        cmap = matplotlib.colormaps["tab20"].with_extremes(bad="white")
-        per = np.ma.masked_less_equal(data["period"], 0)  # none <= 32 or refused (-1): white
+        ax1.set_title("largest Lyapunov exponent", fontsize=10)
+        index, cmap, norm, labels = period_colormap(data["period"], _MAX_PERIOD)
         im2 = ax2.imshow(
-            per, origin="lower", aspect="auto", extent=ext, cmap=cmap, vmin=0.5, vmax=20.5
+            np.ma.masked_invalid(index),
+            origin="lower",
+            aspect="auto",
+            extent=ext,
+            cmap=cmap,
+            norm=norm,
+            interpolation="nearest",
         )
-        fig.colorbar(im2, ax=ax2, label="period (white: none <= 32)")
+        cb = fig.colorbar(im2, ax=ax2, label="detected period", ticks=range(len(labels)))
+        cb.ax.set_yticklabels(labels, fontsize=8)
+        cb.ax.minorticks_off()
         ax2.set_xlabel(n1)
-        ax2.set_title("detected period")
+        ax2.set_ylabel(n0)
+        ax2.set_title("detected period (one colour per whole period)", fontsize=10)
     fig.suptitle(
-        f"{spec.n_points} points, {spec.transient} transient + {spec.periods} periods each"
+        wrap_title(
+            f"{spec.n_points} points, {spec.transient} transient + {spec.periods} periods each",
+            fig,
+        )
     )
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    atomic_write(path, lambda fh: fh.write(buf.getvalue()), binary=True)
+    return finish(fig, path, dpi=110)

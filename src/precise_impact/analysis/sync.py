@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import os
 import time as _time
 from collections.abc import Sequence
 from fractions import Fraction
@@ -33,7 +34,15 @@ from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, columns, record_columns
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
-from precise_impact.io.figures import new_figure
+from precise_impact.io.figures import (
+    finish,
+    legend_outside,
+    new_figure,
+    plot_differences,
+    plot_units,
+    save_figure,
+    wrap_title,
+)
 from precise_impact.io.progress import ProgressArg, check_progress, say, wanted
 from precise_impact.solvers.heyoka.coupled import CoupledTrajectory, check_form, check_k
 from precise_impact.solvers.simulate import simulate_coupled
@@ -233,6 +242,21 @@ class SyncResult(ResultMixin):
     lle_stderr: float
     lle_periods: int
     elapsed_s: float
+
+    def plot(self, path: str | os.PathLike | None = None):
+        """The synchronised and intermittent fractions against ``k`` with the LLE band and
+        ``k*`` (:func:`sync_fraction_figure`).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        return finish(sync_fraction_figure(self), path, dpi=150)
 
     def _tables(self) -> dict:
         """``to_dataframe()`` tables: ``k`` (default: one row per coupling) and ``runs`` (one
@@ -664,8 +688,11 @@ def plot_fig7(
     y0: Sequence[Any] | None = None,
     per_period: int = 20,
     threshold: float | None = 1e-8,
+    units: str = "dimensionless",
+    components: Any = None,
 ) -> tuple[CoupledTrajectory, CoupledTrajectory]:
-    """The paper's Fig. 7: ``|x - y|`` against time (log scale) for two couplings.
+    """The paper's Fig. 7: ``|x - y|`` against time (log scale) for two couplings, each panel
+    titled with its verdict (synchronised or not, :func:`classify` over the last 10 %).
 
     Parameters
     ----------
@@ -685,7 +712,13 @@ def plot_fig7(
     per_period : int, default 20
         Plotted samples per period.
     threshold : float or None, default 1e-8
-        Drawn as a dashed horizontal line (``None``: not drawn).
+        Drawn as a dashed horizontal line and used for the verdicts (``None``: neither).
+    units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+        ``'circuit'``: ``t`` in seconds and ``|V_s1 - V_s2|`` in volts of ``components``
+        (default: the nominal design of ``params``); see
+        :func:`precise_impact.io.figures.plot_units`.
+    components : Components or None
+        The design for ``units='circuit'``.
 
     Returns
     -------
@@ -705,6 +738,7 @@ def plot_fig7(
     p, fmt = _check_plot_path(path)
 
     params = as_params(params)
+    plot_units(units, params=params, components=components)  # a bad unit before any run
     form = check_form(form)
     kl, kh = check_k(k_low, "k_low"), check_k(k_high, "k_high")
     periods = check_count(periods, "periods")
@@ -716,44 +750,96 @@ def plot_fig7(
     trajs = [
         simulate_coupled(params, k, form, periods, y0=y0, per_period=per_period) for k in (kl, kh)
     ]
-    fig, axes = _figure(2, 1, (7.5, 6.0))
-    for ax, tr, label in zip(axes[:, 0], trajs, ("a", "b"), strict=True):
-        t, d = tr.difference(dense=True)
-        pos = d > 0
-        ax.semilogy(t[pos], d[pos], lw=0.6, color="C0")
-        if threshold is not None:
-            ax.axhline(threshold, ls="--", lw=0.8, color="C3", label=f"threshold {threshold:g}")
-            ax.legend(loc="upper right", fontsize=8)
-        zero = np.flatnonzero(~pos)
-        note = ""
-        if len(zero) and zero[0] > 0 and not pos[zero[0] :].any():
-            note = f"  (|x - y| = 0 exactly from t = {t[zero[0]]:.0f})"
-        ax.set_title(f"{label}) {form}, k = {decimal_str(tr.k)}{note}", fontsize=10)
-        ax.set_ylabel("|x - y|")
-        ax.grid(True, which="major", lw=0.3)
-    axes[-1, 0].set_xlabel("t (dimensionless)")
-    _save(fig, p, fmt)
+    save_figure(fig7_figure(trajs, threshold, units=units, components=components), p, fmt, 150)
     return trajs[0], trajs[1]
 
 
-def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
-    """Synchronised (and intermittent) fraction against ``k``, with the LLE marked.
+def fig7_figure(
+    trajs: Sequence[CoupledTrajectory],
+    threshold: float | None = 1e-8,
+    tail: float = 0.1,
+    units: str = "dimensionless",
+    components: Any = None,
+):
+    """The figure of :func:`plot_fig7` from its runs: each panel's title gives the verdict of
+    :func:`classify` (synchronised: ``|x - y| < threshold`` over the last ``tail`` of the run),
+    the figure's title both.
 
-    The single oscillator's LLE is drawn as a vertical line with a band of
-    ``+- stderr``; ``k*`` (half crossing) as a point with its horizontal error bar.
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    u = plot_units(units, params=trajs[0].params, components=components)
+    panels, verdicts = [], []
+    for tr, label in zip(trajs, "abcdefgh", strict=False):
+        t, d = tr.difference(dense=tr.dense_t is not None)
+        pos = d > 0
+        note = ""
+        if len(d) > 1 and d[-1] == 0 and pos.any():
+            end = int(np.flatnonzero(pos)[-1]) + 1  # 0 exactly (off the log axis) from here on
+            unit = " s" if u.name == "circuit" else ""
+            note = f"; |x - y| = 0 exactly from t = {float(u.t(t[end])):.4g}{unit}"
+        if threshold is not None and tr.dense_t is not None:
+            run = classify(tr, tail, threshold)
+            word = (
+                "synchronised"
+                if run.synchronised
+                else "intermittent (reaches the threshold, not synchronised)"
+                if run.intermittent
+                else "not synchronised"
+            )
+            verdicts.append(run.synchronised)
+        else:
+            word = f"final |x - y| = {float(d[-1]):.2g}"
+        panels.append((t, d, f"{label}) {tr.form}, k = {decimal_str(tr.k)}: {word}{note}"))
+    tail_words = f"below {threshold:g} over the last {tail:.0%} of {trajs[0].periods} periods"
+    if verdicts:
+        n_sync = sum(verdicts)
+        head = (
+            "both runs synchronise"
+            if n_sync == len(verdicts)
+            else "neither run synchronises"
+            if n_sync == 0
+            else ", ".join(
+                f"{lab}) {'synchronises' if v else 'does not synchronise'}"
+                for lab, v in zip("abcdefgh", verdicts, strict=False)
+            )
+        )
+        title = f"Fig. 7 equivalent: {head} (synchronised: |x - y| {tail_words})"
+    else:
+        title = "Fig. 7 equivalent: |x - y| of master and slave"
+    return plot_differences(panels, u, title, threshold=threshold)
+
+
+def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
+    """Synchronised (and intermittent) fraction against ``k``, with the LLE marked; written
+    to ``path`` (``.png``, ``.pdf`` or ``.svg``, atomically).  :meth:`SyncResult.plot` draws
+    the same figure and returns it.
 
     Parameters
     ----------
     result : SyncResult
         From :func:`sync_scan`.
     path : str or Path
-        Output file, ``.png``, ``.pdf`` or ``.svg``; written atomically.
+        Output file.
     """
     p, fmt = _check_plot_path(path)
     if not isinstance(result, SyncResult):
         raise ParameterError("result", type(result).__name__, "a SyncResult from sync_scan")
+    save_figure(sync_fraction_figure(result), p, fmt, 150)
+    return p
+
+
+def sync_fraction_figure(result: SyncResult):
+    """The figure of :func:`plot_sync_fraction`: the legend beside the axes (never over the
+    data or the ``k*`` marker).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     k = np.array([float(v) for v in result.k_values])
-    fig, axes = _figure(1, 1, (6.5, 4.0))
+    fig, axes = _figure(1, 1, (8.5, 4.0))
     ax = axes[0, 0]
     if math.isfinite(result.lle):
         se = result.lle_stderr if math.isfinite(result.lle_stderr) else 0.0
@@ -776,18 +862,25 @@ def plot_sync_fraction(result: SyncResult, path: Any) -> Path:
             capsize=3,
             label=f"k* = {result.k_star:.4f} ± {result.k_star_err:.4f}",
         )
-    ax.set_xlabel("coupling k")
+    ax.set_xlabel("coupling k (per unit time tau)")
     ax.set_ylabel(f"fraction of {result.ensemble} runs")
     ax.set_ylim(-0.05, 1.05)
+    verdict = (
+        f"k* = {result.k_star:.4f}"
+        if math.isfinite(result.k_star)
+        else "synchronised fraction never crosses 1/2"
+    )
     ax.set_title(
-        f"{result.form}: {result.periods} periods, tail {result.tail:g}, threshold "
-        f"{result.threshold:g}",
+        wrap_title(
+            f"{result.form}: {verdict}; {result.periods} periods, tail {result.tail:g}, "
+            f"threshold {result.threshold:g}",
+            fig,
+        ),
         fontsize=10,
     )
-    ax.legend(fontsize=8, loc="center right")
+    legend_outside(ax)
     ax.grid(True, lw=0.3)
-    _save(fig, p, fmt)
-    return p
+    return fig
 
 
 # 0.1.0 name, kept for one release.

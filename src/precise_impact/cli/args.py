@@ -191,6 +191,17 @@ def add_out(
     p.set_defaults(out_kind=kind, out_writes=writes)
 
 
+def add_units(p: argparse.ArgumentParser) -> None:
+    """``--units``: the axes of the phase portraits and time series the command draws."""
+    p.add_argument(
+        "--units",
+        choices=("dimensionless", "circuit"),
+        default="dimensionless",
+        help="axes of the phase portraits and time series: dimensionless (tau, x, x') or "
+        "circuit (seconds, V_s and V_q in volts of the design)",
+    )
+
+
 def add_max_time(p: argparse.ArgumentParser) -> None:
     """``--max-time S``: the time budget, checked against the job's estimate before any work."""
     p.add_argument(

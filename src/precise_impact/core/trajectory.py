@@ -277,6 +277,35 @@ class Trajectory(ResultMixin):
             raise ParameterError("out", str(path), "output file must end in .npz, .csv or .json")
         return path
 
+    def plot(
+        self,
+        path: str | os.PathLike | None = None,
+        units: str = "dimensionless",
+        components=None,
+        last: int | None = None,
+    ):
+        """Phase portrait (impacts as vertical jumps at the labelled wall) beside ``x(t)``.
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf`` or ``.svg``, atomically).
+        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+            ``'circuit'``: seconds and the volts ``V_s``, ``V_q`` of ``components`` (default: the
+            nominal design of :attr:`params`); see :func:`precise_impact.io.figures.plot_units`.
+        components : Components or None
+            The circuit design for ``units='circuit'``.
+        last : int or None, default ``None``
+            Draw only the last ``last`` forcing periods (``None``: all).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from precise_impact.io.figures import plot_trajectory
+
+        return plot_trajectory(self, path, units=units, components=components, last=last)
+
 
 # 0.1.0 name, kept for one release.
 Trajectory.to_json_dict = Trajectory.to_dict  # type: ignore[attr-defined]

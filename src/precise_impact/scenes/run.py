@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 from typing import Any
 
 from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, estimate_cost
 from precise_impact.core.params import decimal_str
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.io.atomic import atomic_write
-from precise_impact.io.figures import figure
+from precise_impact.io.figures import plot_differences, plot_trajectory, plot_units, save_figure
 from precise_impact.io.jsonout import write_json
 from precise_impact.models.circuit.coupled import simulate_coupled_circuit
 from precise_impact.models.circuit.effects.catalogue import CIRCUIT_MODELS
@@ -181,42 +179,48 @@ def scene_json(scene: Scene, result, model: str | None = None) -> dict[str, Any]
 
 
 def save_scene_outputs(
-    scene: Scene, result, out: str | Path, model: str | None = None
+    scene: Scene, result, out: str | Path, model: str | None = None, units: str = "dimensionless"
 ) -> list[Path]:
-    """Write ``<scene>.json`` and a phase-portrait (or |x - y|) PNG into ``out``."""
-    import numpy as np
+    """Write ``<scene>.json`` and a phase-portrait (or |x - y|) PNG into ``out``.
 
+    ``units='circuit'`` draws seconds and the volts of the scene's design
+    (:func:`precise_impact.io.figures.plot_units`).
+    """
     out = Path(out)
+    scene_units(scene, units)  # a bad unit before anything is written
     obj = scene_json(scene, result, model)
     stem = f"{scene.name}_{obj['model']}"
     write_json(out / f"{stem}.json", obj, indent=None)
-    fig = figure(figsize=(6, 4.5))
-    ax = fig.subplots()
-    if isinstance(result, Trajectory):
-        f = result.as_float64()
-        if result.dense_x is not None:
-            conv = np.vectorize(result.precision.to_float, otypes=[float])
-            ax.plot(conv(result.dense_x), conv(result.dense_v), lw=0.5)
-        ax.plot(f["x"], f["v"], ".", ms=3, color="k", label="x, v at t0 + kT")
-        ax.axvline(float(scene.params.x_w), color="tab:red", lw=0.8, label="wall")
-        ax.set_xlabel("x")
-        ax.set_ylabel("x'")
-        ax.legend(fontsize=8)
-    else:
-        P = result["precision"]
-        d = [
-            abs(P.to_float(x) - P.to_float(y))
-            for x, y in zip(result["x"], result["y"], strict=True)
-        ]
-        ax.semilogy([P.to_float(t) for t in result["t"]], [max(v, 1e-300) for v in d])
-        ax.set_xlabel("t (dimensionless)")
-        ax.set_ylabel("|x - y| at t0 + kT")
-    ax.set_title(
-        f"{scene.name}: {obj['model']}, effects: {', '.join(obj['effects']) or 'none'}", fontsize=9
-    )
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
+    fig = scene_figure(scene, result, obj, units)
     png = out / f"{stem}.png"
-    atomic_write(png, lambda fh: fh.write(buf.getvalue()), binary=True)
+    save_figure(fig, png, fmt="png", dpi=110)
     return [out / f"{stem}.json", png]
+
+
+def scene_units(scene: Scene, units: str):
+    """The plot units of ``scene``: ``'circuit'`` from its design (components section)."""
+    if units == "circuit":
+        return plot_units(units, components=scene.design())
+    return plot_units(units)
+
+
+def scene_figure(scene: Scene, result, obj: dict, units: str = "dimensionless"):
+    """A scene run's figure: a single oscillator's phase portrait and ``x(t)``, or the coupled
+    pair's ``|x - y|`` against time; the title (wrapped to fit) names the scene, model and
+    effects."""
+    import numpy as np
+
+    effects = ", ".join(obj["effects"]) or "none"
+    title = f"{scene.name}: {obj['model']}, effects: {effects}"
+    if isinstance(result, Trajectory):
+        comps = scene.design() if units == "circuit" else None
+        return plot_trajectory(result, units=units, components=comps, title=title)
+    P = result["precision"]
+    t = np.array([P.to_float(v) for v in result["t"]])
+    d = np.array(
+        [abs(P.to_float(x) - P.to_float(y)) for x, y in zip(result["x"], result["y"], strict=True)]
+    )
+    u = scene_units(scene, units)
+    name, unit = u.d_label.split(" (")[0], " V" if u.name == "circuit" else ""
+    head = f"k = {decimal_str(scene.k)}: final {name} = {float(u.d(d[-1])):.3g}{unit}"
+    return plot_differences([(t, d, head)], u, title + " (|x - y| at t0 + kT)")

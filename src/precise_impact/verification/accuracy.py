@@ -10,6 +10,7 @@ The reference's accuracy is demonstrated by two multiprecision runs (``bits``, `
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -19,7 +20,14 @@ from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import has_quad
 from precise_impact.core.result import ResultMixin, record_columns
 from precise_impact.errors import OptionalDependencyError
-from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.figures import (
+    figure_legend,
+    finish,
+    new_figure,
+    save_figure,
+    series_styles,
+    wrap_title,
+)
 from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.models.circuit.spice import find_ngspice
@@ -173,19 +181,38 @@ def _have_ngspice() -> bool:
 
 
 def _plot(curves: dict[str, dict[str, list[float]]], periods: int, path: Path) -> None:
+    """Error against period, one panel per eta, one style per model and precision, the legend
+    beneath the panels."""
+    labels = list(dict.fromkeys(lab for by_model in curves.values() for lab in by_model))
+    style = dict(zip(labels, series_styles(len(labels)), strict=True))
     fig, axes = new_figure(
-        1, len(curves), figsize=(5 * len(curves), 4), layout="tight", sharey=True
+        1, len(curves), figsize=(5 * len(curves), 4.8), layout="constrained", sharey=True
     )
     for ax, (eta, by_model) in zip(axes[0], curves.items(), strict=True):
         for label, errs in by_model.items():
-            ax.semilogy(range(len(errs)), [max(e, 1e-40) for e in errs], label=label)
+            st = style[label]
+            ax.semilogy(
+                range(len(errs)),
+                [max(e, 1e-40) for e in errs],
+                label=label,
+                color=st["color"],
+                ls=st["ls"],
+                marker=st["marker"],
+                markevery=max(1, len(errs) // 8),
+                ms=4,
+                lw=1,
+            )
         ax.set_title(f"eta = {eta}")
         ax.set_xlabel("forcing period k")
         ax.grid(True, which="both", alpha=0.3)
-    axes[0][0].set_ylabel("max(|x - x_ref|, |v - v_ref|) at t0 + kT")
-    axes[0][-1].legend(fontsize=8)
+    axes[0][0].set_ylabel("max(|x - x_ref|, |x' - x'_ref|) at t0 + kT\n(dimensionless)")
+    figure_legend(fig, axes[0], ncol=4)
     fig.suptitle(
-        f"Error against the multiprecision heyoka reference over {periods} periods (floor 1e-40)"
+        wrap_title(
+            f"Error against the multiprecision heyoka reference over {periods} periods "
+            "(floor 1e-40)",
+            fig,
+        )
     )
     save_figure(fig, path, fmt="png", dpi=110)
 
@@ -213,6 +240,45 @@ class AccuracyResult(ResultMixin):
     periods: int
     reference_bits: int
     rows: list
+
+    def plot(self, path: str | os.PathLike | None = None):
+        """The largest error of every model and precision, one panel per eta (log scale);
+        each bar names its model.
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        etas = list(dict.fromkeys(r["eta"] for r in self.rows))
+        fig, axes = new_figure(
+            1, len(etas), figsize=(4.5 * len(etas), 5.0), layout="constrained", sharey=True
+        )
+        for ax, eta in zip(axes[0], etas, strict=True):
+            rows = [r for r in self.rows if r["eta"] == eta]
+            names = [f"{r['model']} {r['precision']}" for r in rows]
+            errs = [max(float(r["max_error"]), 1e-40) for r in rows]
+            colours = ["0.6" if r["role"] != "candidate" else "tab:blue" for r in rows]
+            ax.barh(range(len(rows)), errs, color=colours)
+            ax.set_yticks(range(len(rows)), names, fontsize=8)
+            ax.set_xscale("log")
+            ax.invert_yaxis()
+            ax.set_title(f"eta = {eta}", fontsize=10)
+            ax.set_xlabel("max error over the samples (dimensionless)")
+            ax.grid(True, axis="x", which="both", alpha=0.3)
+        fig.suptitle(
+            wrap_title(
+                f"Largest error against heyoka mp:{self.reference_bits} over {self.periods} "
+                "periods (grey: the reference against +64 bits)",
+                fig,
+            ),
+            fontsize=10,
+        )
+        return finish(fig, path, dpi=110)
 
     def _tables(self) -> dict:
         """``to_dataframe()`` table ``rows``: one per (eta, model, precision)."""

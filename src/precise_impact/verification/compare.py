@@ -7,8 +7,8 @@ by :func:`precise_impact.verification.scores.score` (``docs/numerics.rst``).
 from __future__ import annotations
 
 import dataclasses
-import io
 import math
+import os
 import time
 from collections.abc import Sequence
 from fractions import Fraction
@@ -23,7 +23,16 @@ from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
-from precise_impact.io.figures import figure
+from precise_impact.io.figures import (
+    figure,
+    finish,
+    legend_outside,
+    phase_portrait_panels,
+    plot_units,
+    save_figure,
+    series_styles,
+    wrap_title,
+)
 from precise_impact.io.jsonout import write_json
 from precise_impact.io.markdown import table
 from precise_impact.io.progress import say as _progress
@@ -109,6 +118,7 @@ def compare(
     progress: bool | None = None,
     transient: int | None = None,
     points: bool = False,
+    units: str = "dimensionless",
 ) -> CompareResult:
     """Score ``models`` on a scene against a demonstrated heyoka reference.
 
@@ -134,6 +144,9 @@ def compare(
         the period-doubling point of the 1:1 orbit along eta, against the mechanics
         (:func:`~precise_impact.verification.points.point_scores`; ~1-10 s per model):
         ``models[m]["points"]`` and ``reference["points"]``.
+    units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+        Axes of the figures: ``'circuit'`` in seconds and the volts of the scene's design
+        (:func:`precise_impact.io.figures.plot_units`).
 
     Returns
     -------
@@ -169,6 +182,7 @@ def compare(
     periods = scene.periods if periods is None else check_count(periods, "periods", 10**6)
     if periods < 10:
         raise ParameterError("periods", periods, ">= 10")
+    plot_units(units, components=scene.design() if units == "circuit" else None)  # before work
     per_period = scene.per_period or 50
     k = periods // 5 if transient is None else int(transient)
     params = scene.params
@@ -221,7 +235,7 @@ def compare(
         "models": results,
     }
     if out is not None:
-        _write_outputs(Path(out), result, scene, ref, check, trajs)
+        _write_outputs(Path(out), result, scene, ref, check, trajs, units)
     return CompareResult(**result)
 
 
@@ -317,12 +331,17 @@ def _write_outputs(
     ref: Trajectory,
     check: Trajectory,
     trajs: dict[str, Trajectory],
+    units: str = "dimensionless",
 ) -> None:
     """``scores.json``, the two figures and ``report.md`` in ``out``; their paths in ``result``."""
     k, lle, results = result["transient_periods"], result["lle"], result["models"]
     write_json(out / "scores.json", result, indent=2, default=_json_default)
-    _plot_portraits(scene, ref, trajs, k, out / "phase_portraits.png")
-    _plot_separation(scene, ref, check, trajs, lle["lle"], results, out / "separation.png")
+    u = plot_units(units, components=scene.design() if units == "circuit" else None)
+    save_figure(portraits_figure(scene, ref, trajs, k, results, u), out / "phase_portraits.png")
+    save_figure(
+        separation_figure(scene, ref, check, trajs, lle["lle"], results, u),
+        out / "separation.png",
+    )
     md = report_markdown(result)
     atomic_write(out / "report.md", lambda fh: fh.write(md), binary=False)
     result["files"] = [
@@ -372,6 +391,58 @@ class CompareResult(ResultMixin):
     lle: dict
     models: dict
     files: list | None = None
+
+    def plot(self, path: str | os.PathLike | None = None):
+        """Each model against the reference in one bar: the largest state error (periodic
+        scenes) or the time ``tau`` it stays within 1e-3 (chaotic), the verdict beside it.
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        names = list(self.models)
+        eta = float(Fraction(self.params["eta"]))
+        periodic = self.regime == "periodic"
+        fig = figure(figsize=(9, 1.6 + 0.5 * len(names)), layout="constrained")
+        ax = fig.subplots()
+        if periodic:
+            vals = [max(float(self.models[m]["max_state_error"]), 1e-40) for m in names]
+            ax.set_xscale("log")
+            ax.set_xlabel("largest state error after the transient (dimensionless)")
+        else:
+            span = self.periods * 2 * math.pi / eta
+            vals = [
+                min(float(self.models[m]["horizons"].get("0.001", math.nan)), span) for m in names
+            ]
+            ax.set_xlabel("time within 1e-3 of the reference, tau (dimensionless)")
+        ax.barh(range(len(names)), vals, color="tab:blue", alpha=0.35)
+        ax.set_yticks(range(len(names)), names, fontsize=8)
+        ax.invert_yaxis()
+        for i, m in enumerate(names):
+            ax.annotate(
+                _verdict(self.models[m], eta),
+                (0, i),
+                xycoords=("axes fraction", "data"),
+                xytext=(4, 0),
+                textcoords="offset points",
+                va="center",
+                fontsize=7.5,
+            )
+        ax.grid(True, axis="x", alpha=0.3)
+        ax.set_title(
+            wrap_title(
+                f"{self.scene}: {self.regime}, {self.periods} periods against heyoka "
+                f"{self.reference.get('precision', '')}",
+                fig,
+            ),
+            fontsize=10,
+        )
+        return finish(fig, path, dpi=110)
 
     def _tables(self) -> dict:
         """``to_dataframe()`` table ``models``: one row per model, its scalar scores (nested
@@ -440,72 +511,67 @@ def format_scores(result: CompareResult) -> str:
 
 
 # ----------------------------------------------------------------- figures
-def _f(traj: Trajectory, a):
+def _verdict(sc: dict, eta: float) -> str:
+    """One line per panel: how the model stands against the reference (a horizon is a time
+    tau; shown with the forcing periods it spans, ``tau eta / (2 pi)``)."""
+    if sc.get("regime") == "periodic":
+        return f"max state error {sc['max_state_error']:.1e}, period {sc.get('period_model')}"
+    h = sc.get("horizons", {}).get("0.001", math.nan)
+    if h == math.inf:
+        return "within 1e-3 of the reference throughout"
     return (
-        np.vectorize(traj.precision.to_float, otypes=[float])(a)
-        if a is not None and len(a)
-        else np.zeros(0)
+        f"within 1e-3 of the reference until tau = {h:.4g} ({h * eta / (2 * math.pi):.1f} periods)"
     )
 
 
-def _save(fig, path: Path) -> None:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    atomic_write(path, lambda fh: fh.write(buf.getvalue()), binary=True)
-
-
-def _plot_portraits(scene: Scene, ref: Trajectory, trajs: dict, k: int, path: Path) -> None:
-
-    panels = [("reference: heyoka " + ref.precision.name, ref)] + [(m, t) for m, t in trajs.items()]
-    fig = figure(figsize=(4.2 * len(panels), 4))
-    axes = fig.subplots(1, len(panels), sharex=True, sharey=True, squeeze=False)[0]
-    for ax, (label, tr) in zip(axes, panels, strict=True):
-        with np.errstate(invalid="ignore"):
-            f = tr.as_float64()
-        tk = f["t"][k]
-        if tr.dense_t is not None:
-            dt, dx, dv = _f(tr, tr.dense_t), _f(tr, tr.dense_x), _f(tr, tr.dense_v)
-            sel = dt >= tk
-            ax.plot(dx[sel], dv[sel], lw=0.4, color="tab:blue")
-        ax.plot(f["x"][k:], f["v"][k:], ".", ms=3, color="k", label="x, v at t0 + kT")
-        ax.axvline(float(scene.params.x_w), color="tab:red", lw=0.8, label="wall")
-        ax.set_title(label, fontsize=9)
-        ax.set_xlabel("x")
-    axes[0].set_ylabel("x'")
-    axes[0].legend(fontsize=7, loc="lower left")
-    fig.suptitle(
+def portraits_figure(
+    scene: Scene, ref: Trajectory, trajs: dict, k: int, results: dict, u: Any = None
+):
+    """The reference and each model in the phase plane after ``k`` transient periods: impacts
+    as vertical jumps at the labelled wall, the reference's samples (red rings) over every
+    model's, each model's verdict in its title."""
+    u = u or plot_units("dimensionless")
+    panels = [("reference: heyoka " + ref.precision.name, ref)] + list(trajs.items())
+    t_from = float(ref.as_float64()["t"][k])
+    return phase_portrait_panels(
+        panels,
+        float(scene.params.x_w),
+        u,
         f"{scene.name}: phase portraits after {k} transient periods (eta = "
         f"{decimal_str(scene.params.eta)})",
-        fontsize=10,
+        reference=ref,
+        t_from=t_from,
+        verdicts={m: _verdict(sc, float(scene.params.eta)) for m, sc in results.items()},
     )
-    fig.tight_layout()
-    _save(fig, path)
 
 
-def _plot_separation(
+def separation_figure(
     scene: Scene,
     ref: Trajectory,
     check: Trajectory,
     trajs: dict,
     lam: float,
     results: dict,
-    path: Path,
-) -> None:
-
-    fig = figure(figsize=(7.5, 4.5))
+    u: Any = None,
+):
+    """Each model's distance from the reference against time (log scale), the reference's own
+    check and the growth ``e^(lambda t)``; legend beside the axes, one style per series."""
+    u = u or plot_units("dimensionless")
+    fig = figure(figsize=(10, 4.8), layout="constrained")
     ax = fig.subplots()
+    styles = series_styles(len(trajs))
     floor = 1e-60
     anchor = None
-    for m, tr in trajs.items():
+    for (m, tr), st in zip(trajs.items(), styles, strict=True):
         t, sep = separation(tr, ref)
-        ax.semilogy(t, np.maximum(sep, floor), lw=1, label=m)
+        ax.semilogy(u.t(t), np.maximum(sep, floor), lw=1, color=st["color"], ls=st["ls"], label=m)
         div = results[m].get("divergence")
         if anchor is None and div and math.isfinite(div.get("t_start", math.nan)):
             i = int(np.argmin(np.abs(t - div["t_start"])))
             anchor = (t[i], sep[i])
     tc, sc = separation(check, ref)
     ax.semilogy(
-        tc,
+        u.t(tc),
         np.maximum(sc, floor),
         lw=0.8,
         color="0.5",
@@ -523,17 +589,21 @@ def _plot_separation(
         line = anchor[1] * np.exp(lam * (tt - anchor[0]))
         ok = (line > floor) & (line < 1e3)
         ax.semilogy(
-            tt[ok], line[ok], "k--", lw=1, label=f"e^(lambda t), lambda = {lam:.4f} (variational)"
+            u.t(tt[ok]),
+            line[ok],
+            "k--",
+            lw=1,
+            label=f"e^(lambda tau), lambda = {lam:.4f} per unit tau (variational)",
         )
-    ax.set_xlabel("t (dimensionless)")
-    ax.set_ylabel("max(|x - x_ref|, |v - v_ref|) at t0 + kT")
+    ax.set_xlabel(u.t_label)
+    ax.set_ylabel("max(|x - x_ref|, |x' - x'_ref|) at t0 + kT\n(dimensionless)")
     ax.set_title(
-        f"{scene.name}: separation from the heyoka {ref.precision.name} reference", fontsize=9
+        wrap_title(f"{scene.name}: separation from the heyoka {ref.precision.name} reference", fig),
+        fontsize=10,
     )
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    _save(fig, path)
+    legend_outside(ax, fontsize=7.5)
+    return fig
 
 
 # ----------------------------------------------------------------- report

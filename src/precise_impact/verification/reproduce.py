@@ -6,8 +6,8 @@
 from __future__ import annotations
 
 import dataclasses
-import io
 import math
+import os
 import shutil
 import time
 from pathlib import Path
@@ -23,7 +23,16 @@ from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.io.atomic import atomic_write
-from precise_impact.io.figures import figure as new_fig
+from precise_impact.io.figures import (
+    figure_legend,
+    finish,
+    new_figure,
+    phase_portrait_panels,
+    plot_units,
+    save_figure,
+    series_styles,
+    wrap_title,
+)
 from precise_impact.io.markdown import table
 from precise_impact.io.progress import say as _say
 from precise_impact.models.circuit.components import nominal_components
@@ -91,12 +100,6 @@ def _horizon(errs, delta=0.1):
     return None
 
 
-def _save_png(fig, path: Path) -> None:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    atomic_write(path, lambda fh: fh.write(buf.getvalue()), binary=True)
-
-
 @dataclasses.dataclass
 class ReproduceResult(ResultMixin):
     """The main job's numbers (also in ``out/report.json``; see :func:`reproduce`).
@@ -135,6 +138,60 @@ class ReproduceResult(ResultMixin):
     sync: dict
     elapsed_s: float
 
+    def plot(self, path: str | os.PathLike | None = None):
+        """The main job at a glance: each model's last-quarter error against the reference in
+        Figs. 4-6 (log scale, the reference's own demonstrated agreement dashed) and the
+        synchronised fraction against ``k`` of each coupled form with its ``k*``.
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        figs = list(self.figures.items())
+        fig, axes = new_figure(1, len(figs) + 1, figsize=(4.4 * (len(figs) + 1), 4.8))
+        for ax, (name, row) in zip(axes[0], figs, strict=False):
+            models = list(row["models"])
+            errs = [max(float(row["models"][m]["max_error_second_half"]), 1e-40) for m in models]
+            ax.barh(range(len(models)), errs, color="tab:blue")
+            ax.set_yticks(range(len(models)), [m.replace(" (", "\n(") for m in models], fontsize=7)
+            ax.invert_yaxis()
+            ax.set_xscale("log")
+            ax.axvline(
+                max(float(row["demonstrated"]), 1e-40),
+                color="k",
+                ls="--",
+                lw=0.8,
+                label="reference vs +64 bits",
+            )
+            ax.axvline(0.1, color="tab:red", ls=":", lw=0.8, label="0.1 (off the reference)")
+            ax.set_title(f"Fig. {name}: eta = {row['eta']} ({row['regime']})", fontsize=9)
+            ax.set_xlabel("last-quarter error (dimensionless)")
+            ax.grid(True, axis="x", which="both", alpha=0.3)
+        ax = axes[0][-1]
+        styles = series_styles(len(self.sync))
+        for (form, sy), st in zip(self.sync.items(), styles, strict=True):
+            ax.plot(sy["k"], sy["fraction"], label=f"{form}: k* = {sy['k_star']:.4f}", **st)
+        ax.axhline(0.5, color="0.5", lw=0.6)
+        ax.set_xlabel("coupling k")
+        ax.set_ylabel("synchronised fraction")
+        ax.set_title("synchronisation thresholds", fontsize=9)
+        ax.grid(True, alpha=0.3)
+        figure_legend(fig, axes[0], ncol=5)
+        fig.suptitle(
+            wrap_title(
+                f"Main job ({'quick' if self.quick else 'full'}, {self.periods} periods per "
+                f"figure, {self.elapsed_s:.0f} s)",
+                fig,
+            ),
+            fontsize=10,
+        )
+        return finish(fig, path, dpi=110)
+
     def _tables(self) -> dict:
         """``to_dataframe()`` tables: ``models`` (default: one row per figure and model) and
         ``sync`` (one row per coupled form)."""
@@ -157,7 +214,10 @@ class ReproduceResult(ResultMixin):
 
 
 def reproduce(
-    out: str | Path = "results", quick: bool = False, progress: bool | None = None
+    out: str | Path = "results",
+    quick: bool = False,
+    progress: bool | None = None,
+    units: str = "dimensionless",
 ) -> ReproduceResult:
     """Run the main job: the paper's figures and tables, side by side with ours.
 
@@ -170,6 +230,9 @@ def reproduce(
         per Fig. 7 run, 4 instead of 8 slave starts per k).
     progress : bool or None, default ``None``
         One line per finished step on stderr (``None``: only when stderr is a terminal).
+    units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+        Axes of the phase portraits and of Fig. 7: ``'circuit'`` in seconds and the volts
+        ``V_s``, ``V_q`` of the nominal design (:func:`precise_impact.io.figures.plot_units`).
 
     Returns
     -------
@@ -196,6 +259,7 @@ def reproduce(
     ['quick', 'periods', 'ngspice', 'figures', 'lle', 'sync', 'elapsed_s']
     """
 
+    plot_units(units, params=Params.make())  # a bad unit before any work
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t_all = time.perf_counter()
@@ -203,10 +267,10 @@ def reproduce(
     spice = shutil.which("ngspice") is not None
     res: dict[str, Any] = {"quick": quick, "periods": periods, "ngspice": spice, "figures": {}}
     for fig, eta, regime in FIGS:
-        res["figures"][fig] = _figure(fig, eta, regime, periods, spice, out, progress)
+        res["figures"][fig] = _figure(fig, eta, regime, periods, spice, out, progress, units)
     p = Params.make(eta="0.712")
     res["lle"], lle_v = _lle_two_methods(p, progress)
-    res["sync"] = _sync_thresholds(p, quick, lle_v, out, progress)
+    res["sync"] = _sync_thresholds(p, quick, lle_v, out, progress, units)
     res["elapsed_s"] = time.perf_counter() - t_all
     result = ReproduceResult(**res)
     result.save(out / "report.json")  # report.json is result.to_dict()
@@ -215,7 +279,14 @@ def reproduce(
 
 
 def _figure(
-    fig: str, eta: str, regime: str, periods: int, spice: bool, out: Path, progress: bool | None
+    fig: str,
+    eta: str,
+    regime: str,
+    periods: int,
+    spice: bool,
+    out: Path,
+    progress: bool | None,
+    units: str = "dimensionless",
 ) -> dict[str, Any]:
     """One of Figs. 4-6: the reference, every model's errors against it, the phase portraits."""
 
@@ -245,7 +316,7 @@ def _figure(
             "elapsed_s": tr.elapsed_s,
         }
     row["attractors"] = _attractors(fig, p, periods, ref, models)
-    _plot_portraits(fig, eta, regime, periods, models, out)
+    _plot_portraits(fig, eta, regime, periods, models, out, ref, row["models"], units)
     _say(
         f"Fig. {fig} (eta = {eta}): reference agreement {demonstrated:.1e}; "
         + ", ".join(f"{n}: {m['max_error_second_half']:.2e}" for n, m in row["models"].items()),
@@ -357,22 +428,43 @@ def _attractors(
 
 
 def _plot_portraits(
-    fig: str, eta: str, regime: str, periods: int, models: dict[str, Trajectory], out: Path
+    fig: str,
+    eta: str,
+    regime: str,
+    periods: int,
+    models: dict[str, Trajectory],
+    out: Path,
+    ref: Trajectory,
+    scores: dict[str, Any],
+    units: str = "dimensionless",
 ) -> None:
-    """Side-by-side phase portraits of the models (paper Figs. 4-6), second half of the run."""
-    fig_ = new_fig(figsize=(4 * len(models), 3.8))
-    axes = fig_.subplots(1, len(models), sharex=True, sharey=True)
-    for ax, (name, tr) in zip(np.atleast_1d(axes), models.items(), strict=True):
-        xs, vs = _floats(tr, True)
-        half = len(xs) // 2
-        ax.plot(xs[half:], vs[half:], lw=0.4)
-        ax.axvline(2.0, color="tab:red", lw=0.8)
-        ax.set_title(name, fontsize=9)
-        ax.set_xlabel("x")
-    np.atleast_1d(axes)[0].set_ylabel("x'")
-    fig_.suptitle(f"Fig. {fig}: eta = {eta} ({regime}), second half of {periods} periods")
-    fig_.tight_layout()
-    _save_png(fig_, out / f"fig{fig}_phase_portraits.png")
+    """Side-by-side phase portraits of the models (paper Figs. 4-6), second half of the run:
+    impacts as vertical jumps at the labelled wall, the reference's samples over each model's,
+    each panel titled with its verdict."""
+    p = models["mechanical float64"].params
+    u = plot_units(units, params=p)
+    verdicts = {}
+    for name, sc in scores.items():
+        err, hz = sc["max_error_second_half"], sc["horizon_0.1"]
+        if err < 0.1:
+            verdicts[name] = f"on the reference: last-quarter error {err:.1e}"
+        elif regime == "chaotic" and hz is not None and hz > 2:
+            # chaos: every run leaves the reference once its error has grown to the attractor
+            verdicts[name] = f"on the reference for {hz} periods, then chaos parts them"
+        else:
+            verdicts[name] = f"off the reference from period {hz}; last-quarter error {err:.2g}"
+    fig_ = phase_portrait_panels(
+        list(models.items()),
+        float(p.x_w),
+        u,
+        f"Fig. {fig}: eta = {eta} ({regime}), second half of {periods} periods; red rings: "
+        f"the reference {ref.precision.name} at t0 + kT",
+        reference=ref,
+        t_from=float(ref.as_float64()["t"][periods // 2]),
+        verdicts=verdicts,
+        panel_size=(4.0, 3.8),
+    )
+    save_figure(fig_, out / f"fig{fig}_phase_portraits.png", fmt="png", dpi=100)
 
 
 def _lle_two_methods(p: Params, progress: bool | None):
@@ -394,7 +486,12 @@ def _lle_two_methods(p: Params, progress: bool | None):
 
 
 def _sync_thresholds(
-    p: Params, quick: bool, lle_v: Any, out: Path, progress: bool | None
+    p: Params,
+    quick: bool,
+    lle_v: Any,
+    out: Path,
+    progress: bool | None,
+    units: str = "dimensionless",
 ) -> dict[str, Any]:
     """The synchronisation threshold of each coupled form, with its Fig. 7 and fraction plots."""
 
@@ -414,7 +511,7 @@ def _sync_thresholds(
         }
         sr.lle, sr.lle_stderr = lle_v.lle, lle_v.lle_stderr
         plot_sync_fraction(sr, out / f"sync_fraction_{form}.png")
-        plot_fig7(p, form, "0.031", "0.032", sp, out / f"fig7_{form}.png")
+        plot_fig7(p, form, "0.031", "0.032", sp, out / f"fig7_{form}.png", units=units)
         _say(f"sync {form}: k* = {sr.k_star:.4f} +- {sr.k_star_err:.4f}", progress)
     return sync
 

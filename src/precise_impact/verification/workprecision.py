@@ -10,6 +10,7 @@ import csv
 import dataclasses
 import io
 import math
+import os
 import shutil
 import statistics
 import time
@@ -27,7 +28,14 @@ from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin, record_columns
 from precise_impact.errors import OptionalDependencyError
 from precise_impact.io.atomic import atomic_write
-from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.figures import (
+    figure_legend,
+    finish,
+    new_figure,
+    save_figure,
+    series_styles,
+    wrap_title,
+)
 from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.models.circuit.components import nominal_components
@@ -707,6 +715,21 @@ class WorkPrecisionResult(ResultMixin):
     notes: list
     elapsed_s: float
 
+    def plot(self, path: str | os.PathLike | None = None):
+        """Error against wall time per method (:func:`wp_figure`): one style per method
+        family, the legend beneath the panels.
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        return finish(wp_figure(self.to_dict()), path, dpi=110)
+
     def _tables(self) -> dict:
         """``to_dataframe()`` tables: ``rows`` (default: one per method and setting, as
         ``work_precision.csv``) and ``chaos_cost`` (bits and time per chaotic length)."""
@@ -753,41 +776,61 @@ def _save(fig, path: Path) -> None:
 
 
 def _plot_wp(result: dict[str, Any], path: Path) -> None:
+    _save(wp_figure(result), path)
+
+
+def wp_figure(result: dict[str, Any]):
+    """Error against wall time per method family, one panel per case: every family has its
+    own colour x marker x line style (the same in every panel), one legend beneath."""
     cases = list(result["cases"])
-    fig, axes = new_figure(1, len(cases), figsize=(7 * len(cases), 5.5), layout="tight")
+    fams = list(dict.fromkeys(r["family"] for r in result["rows"]))
+    style = dict(zip(fams, series_styles(len(fams)), strict=True))
+    fig, axes = new_figure(1, len(cases), figsize=(7 * len(cases), 6.5), layout="constrained")
     for ax, case in zip(axes[0], cases, strict=True):
         rows = [r for r in result["rows"] if r["case"] == case]
-        fams = list(dict.fromkeys(r["family"] for r in rows))
-        for fam in fams:
+        for fam in dict.fromkeys(r["family"] for r in rows):
             pts = sorted((r["time_s"], max(r["error"], 1e-40)) for r in rows if r["family"] == fam)
-            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=fam, ms=4)
+            ax.loglog(
+                [p[0] for p in pts], [p[1] for p in pts], label=fam, ms=5, lw=1.1, **style[fam]
+            )
         ref = result["references"][case]
         ax.axhline(
             max(ref["agreement"], 1e-40),
             color="k",
             ls=":",
             lw=0.8,
-            label=f"reference agreement ({ref['precision']} vs {ref['check']})",
+            label="reference agreement (reference vs +64 bits)",
         )
         what = (
             "max error over samples" if case == "periodic" else f"error at period {ref['periods']}"
         )
-        ax.set_title(f"{case}: eta = {ref['eta']}, {ref['periods']} periods")
+        ax.set_title(
+            f"{case}: eta = {ref['eta']}, {ref['periods']} periods; reference {ref['precision']} "
+            f"vs {ref['check']}",
+            fontsize=10,
+        )
         ax.set_xlabel("wall time [s] (median)")
-        ax.set_ylabel(what + " (floor 1e-40)")
+        ax.set_ylabel(what + " (dimensionless; floor 1e-40)")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
+    figure_legend(fig, axes[0], ncol=4, fontsize=8)
     fig.suptitle(
-        "Work-precision: error against the demonstrated multiprecision reference vs wall time"
+        wrap_title(
+            "Work-precision: error against the demonstrated multiprecision reference vs wall time",
+            fig,
+        )
     )
-    fig.tight_layout()
-    _save(fig, path)
+    return fig
 
 
 def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
+    _save(chaos_figure(chaos), path)
+
+
+def chaos_figure(chaos: dict[str, Any]):
+    """Bits and time needed to keep N chaotic periods to the target; the legend beneath."""
     rows = chaos["rows"]
     N = [r["N"] for r in rows]
-    fig, axes = new_figure(figsize=(7, 4.5), layout="tight")
+    fig, axes = new_figure(figsize=(7.5, 5.2), layout="constrained")
     ax = axes[0, 0]
     ax.plot(N, [r["bits"] for r in rows], "o-", label="measured: smallest mp:64k reaching 1e-15")
     ax.plot(
@@ -804,13 +847,10 @@ def _plot_chaos(chaos: dict[str, Any], path: Path) -> None:
         N, [r["time_s"] for r in rows], "^:", color="C3", label="time at that precision [s]"
     )
     ax2.set_ylabel("wall time [s]")
-    h1, l1 = ax.get_legend_handles_labels()
-    h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left")
+    figure_legend(fig, (ax, ax2), ncol=1)
     c = chaos["certify"]
     ax.set_title(f"What chaos costs; certify {c['periods']} periods: {c['time_s']:.2f} s")
-    fig.tight_layout()
-    _save(fig, path)
+    return fig
 
 
 def format_table(result: WorkPrecisionResult | dict[str, Any]) -> str:

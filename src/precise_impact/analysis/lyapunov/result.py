@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Sequence
 
 import numpy as np
@@ -230,6 +231,65 @@ class LyapunovResult(ResultMixin):
         """The attractor whose values are :attr:`lle` and :attr:`spectrum`."""
         i = self.stats.get("headline_attractor")
         return None if i is None else self.attractors[int(i)]
+
+    def plot(self, path: str | os.PathLike | None = None):
+        """The running LLE estimate against the measured periods (its convergence) with the
+        final value +- stderr, and each independent segment's estimate.
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from precise_impact.io.figures import figure_legend, finish, new_figure, wrap_title
+
+        fig, axes = new_figure(1, 2, figsize=(11, 4.6), gridspec_kw={"width_ratios": [2, 1]})
+        ax1, ax2 = axes[0]
+        run = np.asarray(self.running, dtype=float)
+        se = self.lle_stderr if math.isfinite(self.lle_stderr) else 0.0
+        for ax in (ax1, ax2):
+            ax.axhspan(self.lle - se, self.lle + se, color="0.85", label="LLE +- stderr")
+            ax.axhline(self.lle, color="k", lw=0.8, label=f"LLE = {self.lle:.5f}")
+            if self.params.R == 1:  # otherwise half the sum depends on the impact rate
+                ax.axhline(
+                    -float(self.params.zeta),
+                    color="tab:green",
+                    lw=0.8,
+                    ls="--",
+                    label="-zeta (half the exponent sum at R = 1)",
+                )
+            ax.grid(True, lw=0.3, alpha=0.5)
+        ax1.plot(
+            np.arange(1, len(run) + 1), run, lw=0.9, color="tab:blue", label="running estimate"
+        )
+        ax1.set_xlabel("measured forcing periods")
+        ax1.set_ylabel("LLE per unit time tau")
+        ax1.set_title("convergence", fontsize=9)
+        seg = np.asarray(self.segments, dtype=float)
+        ax2.plot(
+            np.arange(1, len(seg) + 1),
+            seg,
+            "o",
+            ms=4,
+            color="tab:orange",
+            label="segment estimates",
+        )
+        ax2.set_xlabel("independent segment")
+        ax2.set_title("segments (their spread gives the stderr)", fontsize=9)
+        figure_legend(fig, (ax1, ax2), ncol=5)
+        fig.suptitle(
+            wrap_title(
+                f"LLE of eta = {self.params.decimal()['eta']}: {self.method}, {self.precision}, "
+                f"{self.transient} transient + {self.periods} periods, {self.n_impacts} impacts",
+                fig,
+            ),
+            fontsize=10,
+        )
+        return finish(fig, path)
 
     def to_dict(self) -> dict:
         """The ``precise-impact lle --json`` object."""

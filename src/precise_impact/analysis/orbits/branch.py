@@ -23,7 +23,13 @@ from precise_impact.analysis.scan import (
 from precise_impact.core.params import Params, check_count, decimal_str, exact
 from precise_impact.core.result import ResultMixin, columns, record_columns
 from precise_impact.errors import ParameterError
-from precise_impact.io.figures import new_figure, save_figure
+from precise_impact.io.figures import (
+    draw_density,
+    finish,
+    legend_outside,
+    new_figure,
+    wrap_title,
+)
 from precise_impact.io.progress import ProgressArg
 from precise_impact.solvers.base import make_solver
 
@@ -104,6 +110,25 @@ class Branch(ResultMixin):
     def __post_init__(self) -> None:
         if self.stability is None:
             self.stability = np.where(np.asarray(self.stable, dtype=bool), "stable", "unstable")
+
+    def plot(self, path: str | os.PathLike | None = None):
+        """This branch's ``x`` (stable solid, unstable dashed, virtual dotted grey) with its
+        LLE beneath (:func:`branches_figure`).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        title = (
+            f"Branch of period {self.period}, {self.impacts} impact(s) per orbit, along "
+            f"{self.parameter} ({len(self.values)} points; stopped: {self.stop_reason})"
+        )
+        return finish(branches_figure([self], [], self.parameter, title), path, dpi=120)
 
     def counts(self) -> dict[str, int]:
         """Points by kind, each counted once: ``virtual`` (not admissible: past grazing, not a
@@ -283,14 +308,15 @@ class ContinuationResult(ResultMixin):
             "elapsed_s": self.elapsed_s,
         }
 
-    def plot(self, path: str | os.PathLike, diagram: tuple | None = None) -> Path:
+    def plot(self, path: str | os.PathLike | None = None, diagram: tuple | None = None):
         """Stroboscopic ``x`` of every branch (stable solid, unstable dashed, virtual dotted
-        grey) with the bifurcation points, over a brute-force diagram; LLE beneath.
+        grey) with the bifurcation points, over a brute-force diagram; LLE beneath; the
+        legend beside the axes.
 
         Parameters
         ----------
-        path : str or os.PathLike
-            Output image (PNG; ``.pdf``/``.svg`` by suffix), written atomically with the
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``), atomically with the
             object API (the user's backend is never changed).
         diagram : tuple or None, default ``None``
             ``(values, x)`` of a brute-force diagram (:func:`brute_force_diagram`) drawn
@@ -298,103 +324,20 @@ class ContinuationResult(ResultMixin):
 
         Returns
         -------
-        pathlib.Path
-            The file written.
+        matplotlib.figure.Figure
         """
-
-        fig, axes = new_figure(
-            2,
-            1,
-            figsize=(10, 7.5),
-            layout="tight",
-            sharex=True,
-            gridspec_kw={"height_ratios": [3, 2]},
-        )
-        ax1, ax2 = axes[:, 0]
-        if diagram is not None:
-            vals, xs = diagram
-            ax1.plot(
-                np.repeat(vals, xs.shape[1]), xs.ravel(), ",", color="0.55", alpha=0.6, zorder=0
-            )
-            ax1.plot([], [], ".", color="0.55", label="brute force (simulated attractors)")
-        self._plot_branches(ax1, ax2)
-        self._plot_bifurcations(ax1)
-        xw = float(self.params.x_w) if self.parameter != "x_w" else None
-        if xw is not None:
-            ax1.axhline(xw, color="tab:red", lw=0.7)
-        ax1.set_ylabel("x at t0 + kT")
-        ax1.legend(loc="best", fontsize=7)
-        ax2.axhline(0, color="k", lw=0.6)
-        ax2.set_ylabel("LLE = ln|mu_max| / (pT)")
-        ax2.set_xlabel(self.parameter)
         p = self.params
-        fig.suptitle(
+        title = (
             f"Continuation in {self.parameter} from {decimal_str(self.start)} "
             f"to {decimal_str(self.stop)} "
             f"(zeta={decimal_str(p.zeta)}, a={decimal_str(p.a)}, x_w={decimal_str(p.x_w)}, "
-            f"R={decimal_str(p.R)}, eta={decimal_str(p.eta)})",
-            fontsize=10,
+            f"R={decimal_str(p.R)}, eta={decimal_str(p.eta)})"
         )
-        return save_figure(fig, path, fmt="png", dpi=120)
-
-    def _plot_branches(self, ax1: Any, ax2: Any) -> None:
-        """Draw every branch on ``ax1`` (x) and ``ax2`` (LLE), styled by stability."""
-        colors = [
-            "tab:blue",
-            "tab:purple",
-            "tab:brown",
-            "tab:cyan",
-            "tab:olive",
-            "tab:pink",
-            "tab:green",
-            "tab:gray",
-        ]
-        for k, b in enumerate(self.branches):
-            c = colors[k % len(colors)]
-            elliptic = np.asarray(b.stability) == "elliptic"
-            kind = np.where(~b.admissible, 2, np.where(b.stable, 0, np.where(elliptic, 3, 1)))
-            for lo, hi in _runs(kind):
-                sl = slice(lo, min(hi + 1, len(kind)))
-                style = {
-                    0: dict(ls="-", lw=1.6, color=c),
-                    1: dict(ls="--", lw=1.2, color=c),
-                    2: dict(ls=":", lw=0.9, color="0.6"),
-                    3: dict(ls="-.", lw=1.2, color=c),
-                }[int(kind[lo])]
-                for j in range(b.period):
-                    ax1.plot(b.values[sl], b.x[sl, j], **style)
-                ax2.plot(b.values[sl], b.lle[sl], **style)
-            ax1.plot([], [], color=c, label=f"branch {k}: period {b.period}, {b.impacts} impact(s)")
-
-    def _plot_bifurcations(self, ax1: Any) -> None:
-        """The style legend entries and the bifurcation points on ``ax1``."""
-        ax1.plot([], [], "k-", label="stable")
-        ax1.plot([], [], "k--", label="unstable")
-        if any(np.any(np.asarray(b.stability) == "elliptic") for b in self.branches):
-            ax1.plot([], [], "k-.", label="elliptic (neutral: zeta = 0, R = 1)")
-        ax1.plot([], [], ":", color="0.6", label="virtual (past grazing)")
-        marks = {
-            "grazing": ("o", "tab:orange"),
-            "period-doubling": ("s", "tab:red"),
-            "fold": ("^", "tab:green"),
-            "branch-point": ("v", "tab:olive"),
-            "neimark-sacker": ("D", "tab:pink"),
-        }
-        seen = set()
-        for bif in self.bifurcations:
-            m, c = marks[bif.type]
-            lab = bif.type if bif.type not in seen else None
-            seen.add(bif.type)
-            ax1.plot(
-                [bif.value] * len(bif.x),
-                bif.x,
-                m,
-                color=c,
-                ms=6,
-                mfc=c if bif.admissible else "none",
-                label=lab,
-                zorder=5,
-            )
+        xw = float(self.params.x_w) if self.parameter != "x_w" else None
+        fig = branches_figure(
+            self.branches, self.bifurcations, self.parameter, title, xw=xw, diagram=diagram
+        )
+        return finish(fig, path, dpi=120)
 
     def save_all(self, out: str | os.PathLike, diagram: tuple | None = None) -> dict[str, Path]:
         """Write ``continuation.json`` and ``continuation.png`` (over a diagram) in ``out``.
@@ -414,8 +357,104 @@ class ContinuationResult(ResultMixin):
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         files = {"json": self.save(out / "continuation.json")}
-        files["png"] = self.plot(out / "continuation.png", diagram=diagram)
+        files["png"] = out / "continuation.png"
+        self.plot(files["png"], diagram=diagram)
         return files
+
+
+def branches_figure(
+    branches: list,
+    bifurcations: list,
+    parameter: str,
+    title: str,
+    xw: float | None = None,
+    diagram: tuple | None = None,
+):
+    """Branches (x above, LLE beneath) with their bifurcations; the legend beside the axes."""
+    fig, axes = new_figure(
+        2,
+        1,
+        figsize=(12, 7.5),
+        sharex=True,
+        gridspec_kw={"height_ratios": [3, 2]},
+    )
+    ax1, ax2 = axes[:, 0]
+    if diagram is not None:
+        vals, xs = diagram
+        draw_density(ax1, vals, xs, ink="0.45")
+        ax1.plot([], [], "s", color="0.55", ms=4, label="brute force (simulated attractors)")
+    _plot_branches(branches, ax1, ax2)
+    _plot_bifurcations(branches, bifurcations, ax1)
+    if xw is not None:
+        ax1.axhline(xw, color="tab:red", lw=0.7, label="wall x = x_w")
+    ax1.set_ylabel("x at t0 + kT (dimensionless)")
+    legend_outside(ax1, fontsize=7.5)
+    ax2.axhline(0, color="k", lw=0.6)
+    ax2.set_ylabel("LLE = ln|mu_max| / (pT)")
+    ax2.set_xlabel(parameter)
+    fig.suptitle(wrap_title(title, fig), fontsize=10)
+    return fig
+
+
+def _plot_branches(branches: list, ax1: Any, ax2: Any) -> None:
+    """Draw every branch on ``ax1`` (x) and ``ax2`` (LLE), styled by stability."""
+    colors = [
+        "tab:blue",
+        "tab:purple",
+        "tab:brown",
+        "tab:cyan",
+        "tab:olive",
+        "tab:pink",
+        "tab:green",
+        "tab:gray",
+    ]
+    for k, b in enumerate(branches):
+        c = colors[k % len(colors)]
+        elliptic = np.asarray(b.stability) == "elliptic"
+        kind = np.where(~b.admissible, 2, np.where(b.stable, 0, np.where(elliptic, 3, 1)))
+        for lo, hi in _runs(kind):
+            sl = slice(lo, min(hi + 1, len(kind)))
+            style = {
+                0: dict(ls="-", lw=1.6, color=c),
+                1: dict(ls="--", lw=1.2, color=c),
+                2: dict(ls=":", lw=0.9, color="0.6"),
+                3: dict(ls="-.", lw=1.2, color=c),
+            }[int(kind[lo])]
+            for j in range(b.period):
+                ax1.plot(b.values[sl], b.x[sl, j], **style)
+            ax2.plot(b.values[sl], b.lle[sl], **style)
+        ax1.plot([], [], color=c, label=f"branch {k}: period {b.period}, {b.impacts} impact(s)")
+
+
+def _plot_bifurcations(branches: list, bifurcations: list, ax1: Any) -> None:
+    """The style legend entries and the bifurcation points on ``ax1``."""
+    ax1.plot([], [], "k-", label="stable")
+    ax1.plot([], [], "k--", label="unstable")
+    if any(np.any(np.asarray(b.stability) == "elliptic") for b in branches):
+        ax1.plot([], [], "k-.", label="elliptic (neutral: zeta = 0, R = 1)")
+    ax1.plot([], [], ":", color="0.6", label="virtual (past grazing)")
+    marks = {
+        "grazing": ("o", "tab:orange"),
+        "period-doubling": ("s", "tab:red"),
+        "fold": ("^", "tab:green"),
+        "branch-point": ("v", "tab:olive"),
+        "neimark-sacker": ("D", "tab:pink"),
+    }
+    seen = set()
+    for bif in bifurcations:
+        m, c = marks[bif.type]
+        lab = bif.type if bif.type not in seen else None
+        seen.add(bif.type)
+        ax1.plot(
+            [bif.value] * len(bif.x),
+            bif.x,
+            m,
+            color=c,
+            ms=6,
+            mfc=c if bif.admissible else "none",
+            label=lab,
+            zorder=5,
+        )
 
 
 def _runs(kind: np.ndarray):

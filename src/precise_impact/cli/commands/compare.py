@@ -6,7 +6,7 @@ import argparse
 
 import heyoka
 
-from precise_impact.cli.args import add_json, add_out, add_periods
+from precise_impact.cli.args import add_json, add_out, add_periods, add_units
 from precise_impact.core.params import check_count
 from precise_impact.io.jsonout import print_json
 from precise_impact.solvers.base import MODELS
@@ -36,6 +36,7 @@ def register(sub) -> argparse.ArgumentParser:
         "write report.md, scores.json, phase_portraits.png and separation.png here",
         writes=("report.md", "scores.json", "phase_portraits.png", "separation.png"),
     )
+    add_units(c)
     c.set_defaults(run=run)
     return c
 
@@ -50,7 +51,13 @@ def run(ns: argparse.Namespace) -> int:
     if ns.json:
         heyoka.set_logger_level_error()
     result = compare(
-        ns.scene, models, out=ns.out, periods=periods, progress=not ns.json, points=ns.points
+        ns.scene,
+        models,
+        out=ns.out,
+        periods=periods,
+        progress=not ns.json,
+        points=ns.points,
+        units=ns.units,
     )
     if ns.json:
         print_json(result.to_dict())

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from precise_impact.cli.args import add_out
+from precise_impact.cli.args import add_out, add_units
 from precise_impact.verification.reproduce import OUTPUT_FILES, RUNS, reproduce
 
 
@@ -28,13 +28,14 @@ def register(sub) -> argparse.ArgumentParser:
         f"{q['sync_periods']} instead of {f['sync_periods']} per Fig. 7 run, {q['ensemble']} "
         f"instead of {f['ensemble']} slave starts per k",
     )
+    add_units(rp)
     rp.set_defaults(run=run)
     return rp
 
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``reproduce``; returns the exit status."""
-    res = reproduce(ns.out, quick=ns.quick, progress=True)
+    res = reproduce(ns.out, quick=ns.quick, progress=True, units=ns.units)
     print(f"report: {ns.out}/report.md ({res['elapsed_s']:.0f} s)")
     for fig, row in res["figures"].items():
         print(

@@ -7,7 +7,7 @@ import sys
 
 import mpmath
 
-from precise_impact.cli.args import add_json, add_max_time, add_out, max_time
+from precise_impact.cli.args import add_json, add_max_time, add_out, add_units, max_time
 from precise_impact.core.mpcontext import mp_context
 from precise_impact.errors import ParameterError
 from precise_impact.io.jsonout import print_json
@@ -29,6 +29,7 @@ def register(sub) -> argparse.ArgumentParser:
     add_json(rn)
     add_out(rn, "dir", "write <scene>_<model>.json and .png here", writes=_scene_files)
     add_max_time(rn)
+    add_units(rn)
     rn.set_defaults(run=run)
     return rn
 
@@ -69,7 +70,7 @@ def run(ns: argparse.Namespace) -> int:
         scene = scene.with_model(ns.model, mp_bits=reference_bits(scene.periods))
     result = run_scene(scene, max_time=max_time(ns))
     obj = scene_json(scene, result)
-    files = save_scene_outputs(scene, result, ns.out) if ns.out is not None else []
+    files = save_scene_outputs(scene, result, ns.out, units=ns.units) if ns.out is not None else []
     if ns.json:
         print_json(obj)
         return 0

@@ -12,6 +12,7 @@ from precise_impact.cli.args import (
     add_out,
     add_param_flags,
     add_periods,
+    add_units,
     max_time,
     params_from,
 )
@@ -70,6 +71,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_json(sy)
     add_max_time(sy)
+    add_units(sy)
     sy.set_defaults(run=run)
     return sy
 
@@ -98,7 +100,7 @@ def run(ns: argparse.Namespace) -> int:
     stem = f"sync_{form}"
     write_json(out / f"{stem}.json", res.to_dict(), indent=1)
     plot_sync_fraction(res, out / f"{stem}_fraction.png")
-    plot_fig7(params, form, k1, k2, periods, out / f"{stem}_fig7.png")
+    plot_fig7(params, form, k1, k2, periods, out / f"{stem}_fig7.png", units=ns.units)
     if ns.json:
         obj = res.to_dict()
         obj.pop("runs", None)

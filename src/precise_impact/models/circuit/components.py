@@ -16,6 +16,7 @@ from mpmath import libmp
 from precise_impact.core.mpcontext import mp_context, mp_export
 from precise_impact.core.params import Params, as_params, decimal_str, exact
 from precise_impact.errors import ParameterError
+from precise_impact.io.figures import register_circuit_units
 
 __all__ = [
     "design_and_start",
@@ -25,6 +26,8 @@ __all__ = [
     "exact_omega",
     "to_mechanical",
     "to_circuit",
+    "circuit_scales",
+    "CircuitScales",
     "COMPONENT_UNITS",
 ]
 
@@ -303,6 +306,61 @@ def to_circuit(comp: Components, tau: Any, x: Any, v: Any, omega: Any):
     vu = comp.V_unit
     rc = comp.R8 * comp.C1
     return tau / omega, -x * _num(vu, x), v * omega * _num(rc, v) * _num(vu, v)
+
+
+@dataclasses.dataclass(frozen=True)
+class CircuitScales:
+    """The mapping between the dimensionless system and the circuit's seconds and volts,
+    as float64 factors (for plots and tables; :func:`to_circuit` is the exact form).
+
+    ``t [s] = seconds_per_tau * tau``, ``V_s [V] = volts_per_x * x``,
+    ``V_q [V] = volts_per_v * x'`` with ``seconds_per_tau = 1 / omega``,
+    ``volts_per_x = -V_unit`` (the integrator's output is ``-x``) and
+    ``volts_per_v = omega R8 C1 V_unit``; ``omega = sqrt(R2 / (R7 R3 C2 R8 C1))`` rad/s.
+    The wall ``x = x_w`` is ``V_s = -x_w V_unit = V_wall``.
+
+    Attributes
+    ----------
+    omega : float
+        Natural angular frequency [rad/s].
+    seconds_per_tau, volts_per_x, volts_per_v : float
+        The three factors.
+
+    See Also
+    --------
+    precise_impact.models.circuit.components.circuit_scales : builds it.
+    precise_impact.io.figures.PlotUnits : the plots' units, built from it.
+    """
+
+    omega: float
+    seconds_per_tau: float
+    volts_per_x: float
+    volts_per_v: float
+
+
+def circuit_scales(comp: Components) -> CircuitScales:
+    """The seconds and volts of ``comp``'s circuit per unit of dimensionless ``tau``, ``x``
+    and ``x'`` (the one home of the volts-to-x mapping for plots: :class:`CircuitScales`).
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> from precise_impact.models.circuit.components import circuit_scales
+    >>> s = circuit_scales(pi.nominal_components(pi.Params.make()))  # 10 kOhm, 100 nF
+    >>> s.omega, s.seconds_per_tau, s.volts_per_x, s.volts_per_v
+    (1000.0, 0.001, -1.0, 1.0)
+    """
+    w = float(comp.omega())
+    vu = float(comp.V_unit)
+    return CircuitScales(
+        omega=w,
+        seconds_per_tau=1.0 / w,
+        volts_per_x=-vu,
+        volts_per_v=w * float(comp.R8 * comp.C1) * vu,
+    )
+
+
+register_circuit_units(nominal_components, circuit_scales)
 
 
 def _num(q: Fraction, like: Any):

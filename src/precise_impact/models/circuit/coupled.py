@@ -7,6 +7,7 @@ not the reduction of eqs. (12); ``docs/circuit.rst``.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time as _time
 from fractions import Fraction
 from typing import Any
@@ -298,6 +299,35 @@ class CoupledCircuitTrajectory(ResultMixin):
                 w=z.copy(),
             )
         return self.claim
+
+    def plot(
+        self,
+        path: str | os.PathLike | None = None,
+        units: str = "dimensionless",
+        components: Any = None,
+        threshold: float | None = None,
+    ):
+        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
+            the nominal design of :attr:`params`).
+        components : Components or None
+            The design for ``units='circuit'``.
+        threshold : float or None
+            Drawn as a dashed line.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from precise_impact.io.figures import plot_coupled
+
+        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
     def _tables(self) -> dict:
         """``to_dataframe()`` tables: ``samples`` (default), ``impacts`` (``who``: master or

@@ -604,6 +604,17 @@ class SpiceResult:
     def n_impacts(self) -> int:
         return len(self.impacts_t)
 
+    def plot(self, path: str | os.PathLike | None = None, units: str = "dimensionless"):
+        """Phase portrait and ``x(t)`` of the run (:meth:`Trajectory.plot
+        <precise_impact.core.trajectory.Trajectory.plot>` of :meth:`to_trajectory`); with
+        ``units='circuit'`` in the seconds and volts of :attr:`components`.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        return self.to_trajectory().plot(path, units=units, components=self.components)
+
     def to_trajectory(self, params=None):
         """A :class:`~precise_impact.Trajectory` (model ``'spice'``, float64).
 

@@ -7,6 +7,7 @@ arithmetic; an impact order that cannot be proven stops the run (``docs/numerics
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from collections.abc import Sequence
 from fractions import Fraction
@@ -234,6 +235,35 @@ class CertifiedCoupledTrajectory(ResultMixin):
     def max_log10_radius(self) -> float:
         """``log10`` of the largest radius of any sample coordinate, at any magnitude."""
         return max(log10_abs(b.rad()) for s in self.samples for b in s[2:])
+
+    def plot(
+        self,
+        path: str | os.PathLike | None = None,
+        units: str = "dimensionless",
+        components: Any = None,
+        threshold: float | None = None,
+    ):
+        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
+            the nominal design of :attr:`params`).
+        components : Components or None
+            The design for ``units='circuit'``.
+        threshold : float or None
+            Drawn as a dashed line.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from precise_impact.io.figures import plot_coupled
+
+        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
     def to_dict(self) -> dict:
         """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``samples``

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import threading
 import time
 from fractions import Fraction
@@ -465,6 +466,28 @@ class CertifiedTrajectory(ResultMixin):
     def v(self) -> list:
         """The sample balls of ``v``."""
         return [s[3] for s in self.samples]
+
+    def plot(
+        self, path: str | os.PathLike | None = None, units: str = "dimensionless", components=None
+    ):
+        """The enclosures' midpoints in the phase plane beside their radii
+        (:func:`precise_impact.io.figures.plot_certified`).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+            ``'circuit'``: the volts of ``components`` (default: the nominal design).
+        components : Components or None
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from precise_impact.io.figures import plot_certified
+
+        return plot_certified(self, path, units=units, components=components)
 
     def radii(self) -> list[float]:
         """``max(rad x, rad v)`` per sample (floats, rounded up; a radius below 1e-308 underflows
