@@ -222,12 +222,10 @@ def test_near_miss_depth_of_the_steady_state():
     p = paper(ETA_PERIOD3, x_w="2.19")
     P_, Q_ = D.steady_coefficients(0.74, 0.05, 1.0)
     T = 2 * math.pi / 0.74
-    depth = D._near_misses(p, np.array([0.0]), np.array([T]), np.array([P_]), np.array([0.74 * Q_]))
+    depth = D.near_misses(p, np.array([0.0]), np.array([T]), np.array([P_]), np.array([0.74 * Q_]))
     assert abs(depth[0] - (2.19 - math.hypot(P_, Q_))) < 1e-12
     far = paper(ETA_PERIOD3, x_w="3")  # 0.82 below the wall: not near
-    none = D._near_misses(
-        far, np.array([0.0]), np.array([T]), np.array([P_]), np.array([0.74 * Q_])
-    )
+    none = D.near_misses(far, np.array([0.0]), np.array([T]), np.array([P_]), np.array([0.74 * Q_]))
     assert none[0] == math.inf
 
 

@@ -66,6 +66,7 @@ from precise_impact.core.flight import (
     flow_matrix,
     steady_coefficients,
 )
+from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import oscillator_saltation
 
 __all__ = [
@@ -219,7 +220,7 @@ def _floats(P: Any, arr: Any) -> np.ndarray:
     return np.array([P.to_float(z) if z is not None else math.nan for z in arr], dtype=float)
 
 
-def _near_misses(p, starts: np.ndarray, ends: np.ndarray, xs: np.ndarray, vs: np.ndarray):
+def near_misses(p, starts: np.ndarray, ends: np.ndarray, xs: np.ndarray, vs: np.ndarray):
     """Depth ``x_w - max x`` of each flight ``[starts, ends]`` from ``(xs, vs)`` that turns
     back inside it (``inf`` where none turns back near the wall)."""
     n = len(starts)
@@ -243,12 +244,12 @@ def _near_misses(p, starts: np.ndarray, ends: np.ndarray, xs: np.ndarray, vs: np
     sub = Flight(P_, Q_, eta, zeta, wd, NUMPY, starts[cand], xs[cand], vs[cand])
     for _ in range(30):  # Newton on v = 0 (x's maximum)
         xv, vv = sub.at(t)
-        acc = a * np.cos(eta * t) - 2 * zeta * vv - xv
+        acc = acceleration(t, xv, vv, eta, zeta, a, np.cos)
         with np.errstate(all="ignore"):
             step = np.where(acc < 0, vv / acc, 0.0)
         t = np.clip(t - step, starts[cand], ends[cand])
     xv, vv = sub.at(t)
-    acc = a * np.cos(eta * t) - 2 * zeta * vv - xv
+    acc = acceleration(t, xv, vv, eta, zeta, a, np.cos)
     span = ends[cand] - starts[cand]
     inside = (t > starts[cand] + 1e-9 * span) & (t < ends[cand] - 1e-9 * span) & (acc < 0)
     d = np.where(inside, np.maximum(x_w - xv, 0.0), np.inf)
@@ -315,7 +316,7 @@ def estimate(traj: Any) -> Digits:
     # flights: event e-1 -> e
     tau = np.diff(times)
     f00, f01, f10, f11 = flow_matrix(tau, zeta, wd, NUMPY)
-    depth = _near_misses(p, times[:-1], times[1:], x_after[:-1], v_after[:-1])
+    depth = near_misses(p, times[:-1], times[1:], x_after[:-1], v_after[:-1])
     span = times[-1] - times[0]
     steps = float(traj.stats.get("steps", 0) or 0) if isinstance(traj.stats, dict) else 0.0
     rate = steps / span if span > 0 else 0.0
@@ -688,7 +689,7 @@ def estimate_coupled(traj: Any) -> Digits:
     mx = np.where(kinds == 0, _pick(F["x"], kinds == 0, index), x_w)
     mv = np.where(kinds == 0, _pick(F["v"], kinds == 0, index), 0.0)
     mv = np.where(kinds == 1, _pick(mva, kinds == 1, index), mv)
-    depth_m = _near_misses(p, times[m_idx][:-1], times[m_idx][1:], mx[m_idx][:-1], mv[m_idx][:-1])
+    depth_m = near_misses(p, times[m_idx][:-1], times[m_idx][1:], mx[m_idx][:-1], mv[m_idx][:-1])
     depth = np.full(len(times), np.inf)
     depth[m_idx[1:]] = depth_m
     span = times[-1] - times[0] if len(times) else 0.0

@@ -743,7 +743,7 @@ def _periodic_scores(res: dict) -> list[str]:
                 f"{im['unmatched_model']}/{im['unmatched_reference']}",
                 _g(im["max_dt"]),
                 _g(im["max_dv"]),
-                s["period_model"],
+                s["period_model"] or "none",
                 f"{s['elapsed_s']:.3f}",
             )
         )
@@ -808,7 +808,7 @@ def _chaotic_scores(res: dict) -> list[str]:
                 f"{_g(s['impact_v_wasserstein'], '.4f')} ({_g(s['impact_v_floor'], '.4f')})",
                 f"{_g(s['impacts_per_period_model'], '.3f')} "
                 f"({_g(s['impacts_per_period_reference'], '.3f')})",
-                s["period_model"],
+                s["period_model"] or "none",
                 f"{s['elapsed_s']:.3f}",
             )
         )

@@ -537,10 +537,8 @@ def _attractor_md(a: dict) -> list[str]:
         "Attractors (second half of each run; LLE of the system the model realises, compiled "
         "engine, exact on a periodic orbit):",
         "",
-        "| run | attractor | LLE | system | same as the mechanics |",
-        "|---|---|---:|---|---|",
-        f"| mechanics (reference) | {_describe(m)} | {m['lle']:.4f} | paper's parameters | - |",
     ]
+    rows = [("mechanics (reference)", _describe(m), f"{m['lle']:.4f}", "paper's parameters", "-")]
     for n, att in a["models"].items():
         system = "paper's parameters" if att["system"] == "mechanics" else "effective (below)"
         same = {
@@ -548,7 +546,8 @@ def _attractor_md(a: dict) -> list[str]:
             "both chaotic": "both chaotic",
             "another attractor": "**no: another attractor**",
         }[att["same_as_mechanics"]]
-        L.append(f"| {n} | {_describe(att)} | {att['lle']:.4f} | {system} | {same} |")
+        rows.append((n, _describe(att), f"{att['lle']:.4f}", system, same))
+    L += table(("run", "attractor", "LLE", "system", "same as the mechanics"), rows, "llrll")
     L.append("")
     for n, att in a["models"].items():
         e = att.get("effective")

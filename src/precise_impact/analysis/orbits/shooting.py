@@ -14,6 +14,7 @@ import numpy as np
 
 from precise_impact.core import flight
 from precise_impact.core.crossing import safeguarded_newton
+from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import oscillator_saltation
 
 __all__ = ["ShootingSystem", "CONTINUABLE"]
@@ -68,7 +69,7 @@ class ShootingSystem:
     @staticmethod
     def field(vals, t, x, v):
         eta, zeta, a = vals[0], vals[1], vals[2]
-        return np.array([v, a * math.cos(eta * t) - 2 * zeta * v - x])
+        return np.array([v, acceleration(t, x, v, eta, zeta, a, math.cos)])
 
     def forcing_period(self, vals) -> float:
         return 2 * math.pi / vals[0]
