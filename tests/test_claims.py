@@ -583,7 +583,8 @@ def test_accuracy_table_is_the_accuracy_job():
     assert head and int(head.group(1)) == acc["reference_bits"], head
     assert int(head.group(2)) == acc["reference_bits"] + 64
     assert f"({acc['periods']} periods from rest)" in section
-    rows = re.findall(r"\* - (0\.\d+)\n((?:\s+- \S+\n){%d})" % len(ACCURACY_COLUMNS), section)
+    n = len(ACCURACY_COLUMNS)
+    rows = re.findall(rf"\* - (0\.\d+)\n((?:\s+- \S+\n){{{n}}})", section)
     assert [eta for eta, _ in rows] == ["0.70", "0.712", "0.74"]
     checked = 0
     for eta, cells in rows:

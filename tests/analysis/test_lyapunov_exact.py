@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import csv
 import math
 
 import numpy as np
@@ -216,8 +217,9 @@ def test_scans_write_a_refused_status_not_a_number(model, tmp_path):
     spec = pi.SweepSpec.make(p, [("eta", "0.7", "0.9", 3)], periods=200, transient=100, model=model)
     res = pi.run_sweep(spec, tmp_path, workers=1, progress=False)
     assert list(res.status) == [1, 1, 1] and np.all(np.isnan(res.lle))
-    rows = (tmp_path / "sweep.csv").read_text().splitlines()
-    assert rows[0].endswith(",status") and all(",nan," in r and "refused" in r for r in rows[1:])
+    with open(tmp_path / "sweep.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 3 and all(r["lle"] == "nan" and "refused" in r["status"] for r in rows)
     b = pi.bifurcation(
         p,
         ("eta", "0.7", "0.9", 2),
@@ -302,8 +304,10 @@ def test_a_failing_point_gets_a_status_and_leaves_its_neighbours_alone(model, tm
     alone = pi.SweepSpec.make(base, [("x_w", "2", "2", 1)], periods=40, transient=10, model=model)
     one = pi.run_sweep(alone, tmp_path / "one", workers=1, progress=False)
     assert res.lle[1] == one.lle[0]
-    rows = (tmp_path / "both" / "sweep.csv").read_text().splitlines()
-    assert rows[1].startswith("-1,nan,nan,nan,nan,nan,failed: ") and rows[2].endswith(",ok")
+    with open(tmp_path / "both" / "sweep.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert float(rows[0]["x_w"]) == -1 and rows[0]["lle"] == "nan"
+    assert rows[0]["status"].startswith("failed: ") and rows[1]["status"] == "ok"
 
 
 @pytest.mark.parametrize("model", ["fast", "heyoka"])

@@ -265,3 +265,16 @@ def test_extended_precisions_claim_holds(lo, hi):
     run, ref = _pair(ETA_CHAOTIC, 150, lo, hi)
     claim, truth = _check(run, ref)
     assert claim.cap == {"longdouble": 18, "float128": 33}[lo] and claim.at(20) >= claim.cap - 8
+
+
+def test_overdamped_and_negative_forcing_runs_get_a_claim_not_a_traceback(capsys):
+    """zeta >= 1 (a legitimate overdamped system since issue 28) and a < 0 (the forcing's
+    phase) ended in 'ValueError: math domain error' inside the estimate (found by the flag
+    fuzz): the overdamped run claims 0 digits and says why, a < 0 is estimated as a > 0."""
+    from precise_impact.cli.main import main
+
+    assert main(["simulate", "--zeta", "1.5", "--periods", "5"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "overdamped" in err and "--demonstrate" in err
+    tr = pi.simulate(pi.Params.make(a="-3"), periods=5)
+    assert tr.claimed_digits().final >= 9  # 12 measured: 5 non-chaotic periods from rest

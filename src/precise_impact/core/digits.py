@@ -257,6 +257,21 @@ def near_misses(p, starts: np.ndarray, ends: np.ndarray, xs: np.ndarray, vs: np.
     return depth
 
 
+def _overdamped(n_s: int, cap: int) -> Digits:
+    """No estimate for zeta >= 1: the flights' closed form (core.flight) is the underdamped
+    one the estimate carries errors with; 0 digits claimed, and the reason (a second
+    precision, ``demonstrate``, gives demonstrated digits there)."""
+    dx = np.zeros(n_s, int)
+    return Digits(
+        "estimated",
+        dx,
+        dx.copy(),
+        cap,
+        "zeta >= 1 (overdamped): no closed-form flight to carry the errors with; "
+        "use --demonstrate (a second precision) for digits",
+    )
+
+
 def estimate(traj: Any) -> Digits:
     """The digits a single run can claim at each sample (``'estimated'``; module docstring).
 
@@ -284,7 +299,6 @@ def estimate(traj: Any) -> Digits:
     if traj.model == "spice":  # ngspice's steps are accurate to its RELTOL, not to eps
         u = max(u, float(st.get("reltol", SPICE_RELTOL)))
     eta, zeta, a, x_w, R = (float(q) for q in (p.eta, p.zeta, p.a, p.x_w, p.R))
-    wd = math.sqrt(1 - zeta * zeta)
     ts, xs, vs = _floats(P, traj.t), _floats(P, traj.x), _floats(P, traj.v)
     it, ivb, iva = (
         _floats(P, traj.impacts_t),
@@ -303,6 +317,9 @@ def estimate(traj: Any) -> Digits:
             cap,
             "the model records no impact velocities: no digit can be estimated",
         )
+    if zeta >= 1:
+        return _overdamped(n_s, cap)
+    wd = math.sqrt(1 - zeta * zeta)
     # events in time order: kind 0 = sample, 1 = impact (an impact at a sample time first)
     times = np.concatenate([ts, it])
     kinds = np.concatenate([np.zeros(n_s, int), np.ones(len(it), int)])
@@ -325,7 +342,7 @@ def estimate(traj: Any) -> Digits:
     bounds = [[0.0, 0.0, 0.0, 0.0, 0.0, gm] for gm in GAMMAS]  # gxx, gxv, gvv, L, S, gamma
     log_ex = np.full(n_s, -math.inf)
     log_ev = np.full(n_s, -math.inf)
-    acc_max = a + abs(x_w) + 1.0
+    acc_max = abs(a) + abs(x_w) + 1.0  # a may be negative (the forcing's phase)
     tl = times.tolist()
     kl, il = kinds.tolist(), index.tolist()
     xal, val, vbl = x_after.tolist(), v_after.tolist(), v_before.tolist()
@@ -666,6 +683,8 @@ def estimate_coupled(traj: Any) -> Digits:
     eta, zeta, a, x_w, R = (float(q) for q in (p.eta, p.zeta, p.a, p.x_w, p.R))
     k, form = float(traj.k), traj.form
     F = {n: _floats(P, getattr(traj, n)) for n in ("t", "x", "v", "y", "w")}
+    if zeta >= 1:
+        return _overdamped(len(F["t"]), cap)
     mt, mvb, mva = (
         _floats(P, getattr(traj, "master_impacts_" + n)) for n in ("t", "v_before", "v_after")
     )
@@ -699,7 +718,7 @@ def estimate_coupled(traj: Any) -> Digits:
     logs = {n: np.full(n_s, -math.inf) for n in ("x", "v", "y", "w")}
     off = lambda _: 0.0  # noqa: E731
     last_m = (times[0] if len(times) else 0.0, float(p.x0), float(p.v0))  # master's last event
-    fullscale = a + abs(x_w) + 1.0
+    fullscale = abs(a) + abs(x_w) + 1.0
     for e in range(len(times)):
         t, kind, i = float(times[e]), int(kinds[e]), int(index[e])
         if e > 0:

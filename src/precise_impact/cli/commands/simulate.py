@@ -119,7 +119,8 @@ def run(ns: argparse.Namespace) -> int:
         first = claim.first_unclaimed()
         print(
             f"warning: no significant digit of the final state can be claimed ({claim.basis}; "
-            f"none from period {first} on): x and v are shown to 3 digits, marked unclaimed",
+            f"none from period {first} on): x and v are shown to 3 digits, marked unclaimed"
+            + (f" ({claim.note})" if claim.note else ""),
             file=sys.stderr,
         )
     if ns.out is not None:
