@@ -403,3 +403,18 @@ def test_trajectory_plot_last_periods(traj):
     assert min(ax2.get_lines()[0].get_xdata()) >= t_from and "last 5 periods" in ax1.get_title()
     with pytest.raises(ParameterError, match="last"):
         traj.plot(last=0)
+
+
+def test_circuit_units_for_a_system_no_circuit_realises():
+    """The seconds and volts do not depend on R or zeta: a mechanical run at R = 0.8 (or
+    zeta = 0) is drawn in circuit units (was refused: 'R = 1 for the circuits'), and a
+    design that is not a Components object is refused by name (was an AttributeError)."""
+    from precise_impact import ParameterError, Params
+    from precise_impact.io.figures import plot_units
+
+    one = plot_units("circuit", params=Params.make(R="1"))
+    for kw in ({"R": "0.8"}, {"zeta": "0"}):
+        u = plot_units("circuit", params=Params.make(**kw))
+        assert (u.t_scale, u.x_scale, u.v_scale) == (one.t_scale, one.x_scale, one.v_scale)
+    with pytest.raises(ParameterError, match="components"):
+        plot_units("circuit", components="x")

@@ -438,6 +438,8 @@ def test_simulate_demonstrate_flag(capsys):
         capsys, "simulate", "--periods", "4", "--model", "spice", "--demonstrate"
     )
     assert code == 2 and "spice" in err and out == ""
+    code, out, err = _main(capsys, "simulate", "--periods", "4", "--demonstrate", "mp:1000000000")
+    assert code == 2 and "64 <= BITS <= 8192" in err and out == ""  # the precision's own range
 
 
 def test_run_prints_the_last_sample_to_its_claimed_digits(capsys):

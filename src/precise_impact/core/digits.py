@@ -37,7 +37,7 @@ RELTOL, 1e-3, for the ``'spice'`` model):
   the tests against a higher precision check it);
 - ``C_TIME |t| (|v| + |acc|)``: time is carried to relative ``eps``, so the forcing's phase
   ``eta t``, an impact time and a sample time are each off by up to ``~eps |t|``, which moves
-  the state by ``|f| eps |t|`` (``|acc| <= a + |x| + 2 zeta |v|``); ``C_TIME = 4``.
+  the state by ``|f| eps |t|`` (``|acc| <= |a| + |x| + 2 zeta |v|``); ``C_TIME = 4``.
 
 Where the linearisation cannot see a change of the impact sequence it adds the change itself:
 an impact slower than ``sqrt(2 |acc| e_x)`` (the position error could remove it) and a flight
@@ -208,7 +208,7 @@ class Digits:
 # ------------------------------------------------------------------------------ estimate
 def local_error(u: float, t: float, x: float, v: float, steps: float, a: float, zeta: float):
     """The local error bound of one event (module docstring), absolute."""
-    acc = a + abs(x) + 2 * zeta * abs(v)
+    acc = abs(a) + abs(x) + 2 * zeta * abs(v)  # a < 0 is the forcing's phase: |a| bounds it
     return u * (C_STATE * (steps + 1) * max(1.0, abs(x), abs(v)) + C_TIME * abs(t) * (abs(v) + acc))
 
 
@@ -319,7 +319,17 @@ def estimate(traj: Any) -> Digits:
         )
     if zeta >= 1:
         return _overdamped(n_s, cap)
-    wd = math.sqrt(1 - zeta * zeta)
+    if st.get("effects"):  # a circuit's non-idealities: the run realises another system
+        dx = np.zeros(n_s, int)
+        return Digits(
+            "estimated",
+            dx,
+            dx.copy(),
+            cap,
+            f"the circuit's effects ({', '.join(st['effects'])}) change the system the run "
+            "realises (params are the nominal design's): use --demonstrate for digits",
+        )
+    wd = damped_frequency(zeta, FLOAT_OPS)
     # events in time order: kind 0 = sample, 1 = impact (an impact at a sample time first)
     times = np.concatenate([ts, it])
     kinds = np.concatenate([np.zeros(n_s, int), np.ones(len(it), int)])
@@ -701,7 +711,7 @@ def estimate_coupled(traj: Any) -> Digits:
     lam, V = np.linalg.eig(A)
     Vi = np.linalg.inv(V) if np.linalg.cond(V) < 1e8 else None
     P_, Q_ = steady_coefficients(eta, zeta, a)
-    wd = math.sqrt(1 - zeta * zeta)
+    wd = damped_frequency(zeta, FLOAT_OPS)
     # master-only segments for the near-grazing passes
     msk = kinds != 2
     m_idx = np.flatnonzero(msk)

@@ -28,6 +28,7 @@ import dataclasses
 import itertools
 import os
 import textwrap
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -219,7 +220,13 @@ def plot_units(units: str = "dimensionless", params: Any = None, components: Any
     if components is None:
         if params is None:
             raise ParameterError("units", units, "'circuit' needs the params or the components")
-        components = nominal_components(params)
+        # the seconds and volts of the nominal design; its realisability checks (R = 1 and
+        # zeta > 0 for a circuit) do not concern the scales: a mechanical run at R = 0.8 is
+        # drawn in the units of the circuit that would realise it at R = 1
+        realisable = params.replace(R=1, zeta=params.zeta or Fraction(1, 20))
+        components = nominal_components(realisable)
+    if not all(hasattr(components, n) for n in ("R8", "C1")):
+        raise ParameterError("components", type(components).__name__, "a Components object")
     s = circuit_scales(components)
     return PlotUnits(
         "circuit",

@@ -316,9 +316,9 @@ def reference_precision(precision: str | Precision, spec: Any = True) -> Precisi
         return Precision.parse(f"mp:{max(128, P.bits + 64)}")
     try:
         ref = Precision.parse(spec)
-    except ParameterError:
+    except ParameterError as e:  # keep the precision's own range (e.g. 64 <= BITS <= 8192)
         raise ParameterError(
-            "demonstrate", str(spec), "True or a precision (float128, mp:BITS)"
+            "demonstrate", str(spec), f"True or a precision (float128, mp:BITS): {e.allowed}"
         ) from None
     if ref.bits <= P.bits:
         raise ParameterError(

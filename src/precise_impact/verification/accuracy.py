@@ -1,4 +1,4 @@
-"""The paper's three frequencies: the mechanical solvers against a demonstrated reference.
+"""The paper's three frequencies: every registered model against a demonstrated reference.
 
 Scores the (model, precision) pairs of :data:`CANDIDATES`: every registered model in the first
 precision it takes (heyoka also in long double and float128; ``certified`` in the reference's
