@@ -257,6 +257,14 @@ def near_misses(p, starts: np.ndarray, ends: np.ndarray, xs: np.ndarray, vs: np.
     return depth
 
 
+#: The smallest normal float64: the floor of the unit roundoff the float estimate carries.
+_TINY = 2.2250738585072014e-308
+#: The most digits an estimate claims: its bounds are float64 numbers, which cannot hold an
+#: error below ~1e-300 (mp:4096 claimed its whole 1232-digit cap from bounds that underflowed
+#: to 0); a demonstrated or proven claim goes further.
+_FLOAT_DIGITS = 300
+
+
 def _overdamped(n_s: int, cap: int) -> Digits:
     """No estimate for zeta >= 1: the flights' closed form (core.flight) is the underdamped
     one the estimate carries errors with; 0 digits claimed, and the reason (a second
@@ -286,8 +294,10 @@ def estimate(traj: Any) -> Digits:
     Digits
     """
     P, p = traj.precision, traj.params
-    cap = max_digits(P)
-    eps = float(P.eps_fraction)
+    cap = min(max_digits(P), _FLOAT_DIGITS)  # the estimate is carried in float64
+    # the unit roundoff, floored at the smallest normal float: above ~1020 bits the estimate
+    # (carried in float64) claims at most ~300 digits, fewer than the precision holds, never more
+    eps = max(float(P.eps_fraction), _TINY)
     tol = traj.tol
     u = eps
     if tol is not None:
@@ -582,7 +592,9 @@ def proven(traj: Any, x_rad: list, v_rad: list, **slave: tuple) -> Digits:
     ``y=(mids, radii), w=(mids, radii)``."""
     P = traj.precision
     cap = max_digits(P)
-    eps = float(P.eps_fraction)
+    # log10 of eps exactly: float(eps) underflows to 0 above ~1074 bits (mp:8192 raised
+    # "math domain error" in a certified pair's to_dict)
+    log_eps = math.log10(P.eps_fraction.numerator) - math.log10(P.eps_fraction.denominator)
 
     def d(z: Any, rad: Any) -> int:
         m = P.to_mpf(z)
@@ -590,7 +602,7 @@ def proven(traj: Any, x_rad: list, v_rad: list, **slave: tuple) -> Digits:
         r = mpmath.mpf(rad)
         lr = _log10_abs(r) if r else -math.inf
         # the midpoint was rounded once to the precision: half an ulp more
-        lr = max(lr, lv + math.log10(eps)) if lv != -math.inf else lr
+        lr = max(lr, lv + log_eps) if lv != -math.inf else lr
         lr = lr + math.log10(2.0) if lr != -math.inf else lr  # radius + rounding <= 2 max
         return digits_of(lv, lr, cap)
 
@@ -688,8 +700,8 @@ def estimate_coupled(traj: Any) -> Digits:
     from precise_impact.core.impact import saltation_matrix
 
     P, p = traj.precision, traj.params
-    cap = max_digits(P)
-    u = float(P.eps_fraction)
+    cap = min(max_digits(P), _FLOAT_DIGITS)  # the estimate is carried in float64
+    u = max(float(P.eps_fraction), _TINY)  # as in estimate
     eta, zeta, a, x_w, R = (float(q) for q in (p.eta, p.zeta, p.a, p.x_w, p.R))
     k, form = float(traj.k), traj.form
     F = {n: _floats(P, getattr(traj, n)) for n in ("t", "x", "v", "y", "w")}
