@@ -265,19 +265,18 @@ _TINY = 2.2250738585072014e-308
 _FLOAT_DIGITS = 300
 
 
-def _overdamped(n_s: int, cap: int) -> Digits:
-    """No estimate for zeta >= 1: the flights' closed form (core.flight) is the underdamped
-    one the estimate carries errors with; 0 digits claimed, and the reason (a second
-    precision, ``demonstrate``, gives demonstrated digits there)."""
+def _none_claimed(n_s: int, cap: int, reason: str) -> Digits:
+    """An estimate that can claim no digit at any of ``n_s`` samples, and why."""
     dx = np.zeros(n_s, int)
-    return Digits(
-        "estimated",
-        dx,
-        dx.copy(),
-        cap,
-        "zeta >= 1 (overdamped): no closed-form flight to carry the errors with; "
-        "use --demonstrate (a second precision) for digits",
-    )
+    return Digits("estimated", dx, dx.copy(), cap, reason)
+
+
+#: Why zeta >= 1 claims nothing: the flights' closed form (core.flight) that carries the errors
+#: is the underdamped one; a second precision (``demonstrate``) gives digits there.
+_OVERDAMPED = (
+    "zeta >= 1 (overdamped): no closed-form flight to carry the errors with; "
+    "use --demonstrate (a second precision) for digits"
+)
 
 
 def estimate(traj: Any) -> Digits:
@@ -317,24 +316,16 @@ def estimate(traj: Any) -> Digits:
     )
     n_s = len(ts)
     if n_s == 0:
-        return Digits("estimated", np.zeros(0, int), np.zeros(0, int), cap, "no samples")
+        return _none_claimed(0, cap, "no samples")
     if len(ivb) and not np.all(np.isfinite(ivb)):  # impacts without velocities: nothing to go on
-        dx = np.zeros(n_s, int)
-        return Digits(
-            "estimated",
-            dx,
-            dx.copy(),
-            cap,
-            "the model records no impact velocities: no digit can be estimated",
+        return _none_claimed(
+            n_s, cap, "the model records no impact velocities: no digit can be estimated"
         )
     if zeta >= 1:
-        return _overdamped(n_s, cap)
+        return _none_claimed(n_s, cap, _OVERDAMPED)
     if st.get("effects"):  # a circuit's non-idealities: the run realises another system
-        dx = np.zeros(n_s, int)
-        return Digits(
-            "estimated",
-            dx,
-            dx.copy(),
+        return _none_claimed(
+            n_s,
             cap,
             f"the circuit's effects ({', '.join(st['effects'])}) change the system the run "
             "realises (params are the nominal design's): use --demonstrate for digits",
@@ -706,7 +697,7 @@ def estimate_coupled(traj: Any) -> Digits:
     k, form = float(traj.k), traj.form
     F = {n: _floats(P, getattr(traj, n)) for n in ("t", "x", "v", "y", "w")}
     if zeta >= 1:
-        return _overdamped(len(F["t"]), cap)
+        return _none_claimed(len(F["t"]), cap, _OVERDAMPED)
     mt, mvb, mva = (
         _floats(P, getattr(traj, "master_impacts_" + n)) for n in ("t", "v_before", "v_after")
     )
