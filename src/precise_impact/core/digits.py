@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from fractions import Fraction
 from typing import Any
 
 import mpmath
@@ -124,6 +125,18 @@ def _log10_abs(m: Any) -> float:
     nb = man.bit_length()
     shift = max(0, nb - 60)
     return (math.log2(man >> shift) + shift + exp) * math.log10(2.0)
+
+
+def _log10_radius(rad: Any) -> float:
+    """``log10 |rad|`` of a radius given as an mpmath number, a Fraction, an int, a float or a
+    decimal string, without rounding it at mpmath's (process-global) working precision first
+    (mpmath 1.3 cannot make an mpf from a Fraction at all)."""
+    if hasattr(rad, "_mpf_"):
+        return _log10_abs(rad)
+    q = Fraction(rad)
+    if not q:
+        return -math.inf
+    return math.log10(abs(q.numerator)) - math.log10(q.denominator)
 
 
 @dataclasses.dataclass
@@ -590,8 +603,7 @@ def proven(traj: Any, x_rad: list, v_rad: list, **slave: tuple) -> Digits:
     def d(z: Any, rad: Any) -> int:
         m = P.to_mpf(z)
         lv = _log10_abs(m)
-        r = mpmath.mpf(rad)
-        lr = _log10_abs(r) if r else -math.inf
+        lr = _log10_radius(rad)
         # the midpoint was rounded once to the precision: half an ulp more
         lr = max(lr, lv + log_eps) if lv != -math.inf else lr
         lr = lr + math.log10(2.0) if lr != -math.inf else lr  # radius + rounding <= 2 max
