@@ -72,6 +72,9 @@ class Measurement:
         File time of the first sample [s] (negative: pre-trigger samples).
     gain_error, offset_error : float or dict
         Probe/channel gain error (relative) and offset error [V], one value or per channel.
+    noise_v : float, dict or None
+        White noise RMS in volts (one value or per channel), overriding ``noise`` where given
+        (used to match a measured capture's noise).
     timebase_ppm : float
         Time-base error: the scope's clock runs this many ppm fast.
     seed : int
@@ -87,6 +90,7 @@ class Measurement:
     trigger_offset: float = 0.0
     gain_error: float | dict = 0.0
     offset_error: float | dict = 0.0
+    noise_v: float | dict | None = None
     timebase_ppm: float = 0.0
     seed: int = 0
 
@@ -108,7 +112,7 @@ class Measurement:
             raise ParameterError("trigger_offset", self.trigger_offset, "a finite time in s")
         if not (math.isfinite(self.timebase_ppm) and abs(self.timebase_ppm) <= 1e4):
             raise ParameterError("timebase_ppm", self.timebase_ppm, "|ppm| <= 1e4")
-        for name in ("gain_error", "offset_error", "full_scale"):
+        for name in ("gain_error", "offset_error", "full_scale", "noise_v"):
             v = getattr(self, name)
             vals = v.values() if isinstance(v, dict) else ([] if v is None else [v])
             if isinstance(v, dict) and set(v) - set(CHANNELS):
@@ -120,6 +124,8 @@ class Measurement:
                     raise ParameterError(name, x, "-0.5 < gain error < 0.5")
                 if name == "full_scale" and not x > 0:
                     raise ParameterError(name, x, "> 0 V")
+                if name == "noise_v" and not x >= 0:
+                    raise ParameterError(name, x, ">= 0 V")
         if not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
             raise ParameterError("seed", self.seed, "an integer >= 0")
         return self
@@ -248,9 +254,10 @@ def synth_capture(
     model = model or sc.model
     if model not in CIRCUIT_MODELS:
         raise ParameterError("model", model, "a circuit model: " + ", ".join(CIRCUIT_MODELS))
-    if eta is not None:
-        sc = dataclasses.replace(sc, params=sc.params.replace(eta=eta))
-    comp = sc.design()
+    params = sc.params if eta is None else sc.params.replace(eta=eta)
+    # the design realising these parameters (Omega follows eta); the scene itself is kept for
+    # the run (its raw table carries the effects), the parameters passed beside it
+    comp = dataclasses.replace(sc, params=params).design()
     scales = circuit_scales(comp)
     w = scales.omega
     Om = float(comp.Omega)
@@ -266,7 +273,7 @@ def synth_capture(
     dt_true = dt / (1 + e)
     t_true = t_true0 + np.arange(n) * dt_true
     run_periods = int(math.ceil((t_true[-1] + dt_true) / T)) + 1
-    tr = _run_model(sc, model, run_periods, DENSE_PER_PERIOD)
+    tr = _run_model(sc, model, run_periods, DENSE_PER_PERIOD, params=params)
     tau = w * t_true
     x, v = sample_trajectory(tr, tau)
     _, Vs, Vq = to_circuit(comp, tau, x, v, w)
@@ -284,7 +291,9 @@ def synth_capture(
             lo, fsr = float(y.min()) - 0.125 * pp, 1.25 * pp
         else:
             lo = 0.5 * float(y.max() + y.min()) - 0.5 * float(fsr)
-        y = y + meas.noise * fsr * rng.normal(size=n)
+        sigma = meas.per_channel(name, "noise_v", None)
+        sigma = meas.noise * fsr if sigma is None else float(sigma)
+        y = y + sigma * rng.normal(size=n)
         if meas.flicker:
             y = y + meas.flicker * fsr * _flicker(rng, n)
         clipped = 0
@@ -302,8 +311,8 @@ def synth_capture(
     truth = {
         "scene": sc.name,
         "model": model,
-        "params": sc.params.decimal(),
-        "eta": decimal_str(sc.params.eta),
+        "params": params.decimal(),
+        "eta": decimal_str(params.eta),
         "components": comp.decimal(),
         "omega_natural_rad_s": w,
         # V_3 = V_A cos(Omega t_true) with t_true = t_true0 + (t_file - t0_file) / (1 + e)
