@@ -31,8 +31,10 @@ sample.  :func:`score_capture` compares what does not depend on it:
    correlated over a few periods), so resampling one record underestimates how much a second
    record would differ; two records of the same length and noise reproduce exactly the
    variability the capture itself has.
-6. **LLE**: from :mod:`precise_impact.analysis.lyapunov.timeseries` when it is installed
-   (another part of issue 24); otherwise the field is left out and ``notes`` says so.
+6. **LLE**: ``timeseries_lle`` of :mod:`precise_impact.analysis.lyapunov.timeseries` (another
+   part of issue 24) on the recorded state ``(x, x')`` in ``tau`` with neighbours at equal
+   forcing phase, when that module is installed; otherwise the field is ``None`` and ``notes``
+   says so.
 
 A set of captures at several forcing frequencies gives a measured bifurcation diagram laid
 over the computed one (:func:`measured_bifurcation`).
@@ -44,6 +46,7 @@ import dataclasses
 import math
 import os
 from collections.abc import Sequence
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -559,27 +562,30 @@ def _velocity_stats(v: np.ndarray) -> dict[str, Any]:
     }
 
 
-def _lle_slot(capture: Capture, design: Any, notes: list) -> dict | None:
+def _lle_slot(capture: Capture, comp: Any, forcing: ForcingEstimate, notes: list) -> dict | None:
+    """The time-series LLE of the capture in ``1/tau`` (the variational LLE's unit):
+    :func:`precise_impact.analysis.lyapunov.timeseries.timeseries_lle` on the recorded state
+    ``(x, x')`` with neighbours at equal forcing phase, when that module is installed."""
     try:
-        from precise_impact.analysis.lyapunov import timeseries  # noqa: F401
+        from precise_impact.analysis.lyapunov.timeseries import timeseries_lle
     except ImportError:
         notes.append(
             "lle: left out (precise_impact.analysis.lyapunov.timeseries is not installed here)"
         )
         return None
-    fn = getattr(timeseries, "capture_lle", None) or getattr(timeseries, "estimate_lle", None)
-    if fn is None:
-        notes.append("lle: analysis.lyapunov.timeseries has no capture_lle/estimate_lle")
-        return None
+    m = capture.to_mechanical(comp, forcing.omega, forcing.phase0)
+    dt_tau = capture.sample_interval * m.omega
     try:
-        res = fn(capture, design) if fn.__name__ == "capture_lle" else None
-    except Exception as e:  # the estimator's own refusal: reported, the score stands
+        res = timeseries_lle(
+            np.column_stack([m.x, m.v]),
+            dt_tau,
+            period=2 * math.pi / m.eta,
+            phase0=float(m.phase[0]) if m.phase is not None else 0.0,
+        )
+    except Exception as e:  # the estimator's own refusal is reported; the score stands
         notes.append(f"lle: {type(e).__name__}: {e}")
         return None
-    if res is None:
-        notes.append("lle: estimate_lle needs a series; wire capture_lle")
-        return None
-    return res.to_dict() if hasattr(res, "to_dict") else dict(res)
+    return res.to_dict()
 
 
 def score_capture(
@@ -646,8 +652,6 @@ def score_capture(
     forcing = estimate_forcing(capture, float(comp.Omega))
     eta_meas = forcing.omega / float(comp.omega())
     if eta == "measured":
-        from fractions import Fraction
-
         eta_model: Any = Fraction(eta_meas).limit_denominator(10**9)
     else:
         eta_model = eta
@@ -708,14 +712,14 @@ def score_capture(
         "v": vimp,
         "v_model": np.concatenate(vms) if vms else np.empty(0),
     }
-    lle_res = _lle_slot(capture, comp, notes) if lle else None
+    lle_res = _lle_slot(capture, comp, forcing, notes) if lle else None
     sep = bool(sw > 2 * max(floors))
     return CaptureScore(
         scene=sc.name,
         model=model,
         forcing=forcing,
         eta=eta_meas,
-        eta_model=float(refs[0].source["truth"]["omega_natural_rad_s"] and ref_an[0]["eta"]),
+        eta_model=float(Fraction(refs[0].source["truth"]["eta"])),
         periods=periods,
         noise=an["noise"],
         period=an["period"],

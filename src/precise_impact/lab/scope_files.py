@@ -113,7 +113,9 @@ _VOLT_UNITS = {
 
 # =============================================================================== helpers
 def _bad(path: Any, what: str, allowed: str) -> ParameterError:
-    return ParameterError("file", f"{path}: {what}", allowed)
+    """The one-line refusal: the file's name (not its whole path: the value is cut at 80
+    characters) and what is wrong with it."""
+    return ParameterError("file", f"{Path(str(path)).name}: {what}", allowed)
 
 
 def _unit(path: Any, unit: str, kind: str, column: str) -> float:
