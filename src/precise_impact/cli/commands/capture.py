@@ -93,7 +93,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_json(s, "print the capture's summary as one JSON object")
     add_out(s, "file", "the capture file to write", required=True)
-    s.set_defaults(run=run_synth)
+    s.set_defaults(capture_run=run_synth)
 
     sc = cs.add_parser("score", help="score a capture against a model's attractor")
     sc.add_argument("file", help="capture file (or a Tektronix ALLnnnn directory)")
@@ -109,7 +109,7 @@ def register(sub) -> argparse.ArgumentParser:
     sc.add_argument("--seed", default="0", help="seed of the model captures (default 0)")
     add_json(sc)
     add_out(sc, "file", "write the score's figure (.png/.pdf/.svg) here")
-    sc.set_defaults(run=run_score)
+    sc.set_defaults(capture_run=run_score)
 
     b = cs.add_parser(
         "bifurcation", help="captures at several frequencies over the computed diagram"
@@ -120,7 +120,8 @@ def register(sub) -> argparse.ArgumentParser:
     b.add_argument("--computed", default="80", help="computed eta values (default 80, 0: none)")
     add_json(b)
     add_out(b, "file", "write the figure (.png/.pdf/.svg) here")
-    b.set_defaults(run=run_bifurcation)
+    b.set_defaults(capture_run=run_bifurcation)
+    c.set_defaults(run=run)
     return c
 
 
@@ -130,8 +131,9 @@ def _scene_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--eta", default=None, help="the model's eta: a decimal or 'measured'")
 
 
-def run(ns: argparse.Namespace) -> int:  # pragma: no cover - dispatched to the sub-commands
-    return int(ns.run(ns))
+def run(ns: argparse.Namespace) -> int:
+    """Run ``capture SUB``; returns the exit status."""
+    return int(ns.capture_run(ns))
 
 
 def run_synth(ns: argparse.Namespace) -> int:
