@@ -13,10 +13,13 @@ sample.  :func:`score_capture` compares what does not depend on it:
 2. **The Poincare section** at a forcing phase (:func:`poincare_section`): each section point is
    a local linear least-squares fit of ``+-w`` samples about the section time (the noise of a
    point falls as ``(2w)^-1/2``), never across an impact.
-3. **The detected period** of the section sequence: the project's
-   :func:`~precise_impact.analysis.periodicity.detect_period` with a tolerance of 6 standard
-   deviations of the difference of two section points (from the measured noise), so noise does
-   not break a period and chaos does not fake one.
+3. **The detected period** of the section sequence:
+   :func:`~precise_impact.analysis.periodicity.detect_period_noisy`, a chi-square test of the
+   ``p``-step differences against the measured noise of a section point (white noise from the
+   second differences, plus the ADC step's ``q^2/12``).  The computed sequences' detector
+   (:func:`~precise_impact.analysis.periodicity.detect_period`, every point within a relative
+   tolerance) does not fit measured ones: a tolerance wide enough for 10 % noise made the
+   chaotic record at eta = 0.712 "period 1".
 4. **Impacts** (:func:`detect_impacts`): ``V_q`` jumps sign at the wall; an impact is a one-sample
    drop of ``x'`` by more than 8 noise deviations of a difference, next to the wall; its velocity
    is half the jump of the one-sided local fits.  Impacts slower than about half the threshold
@@ -24,7 +27,8 @@ sample.  :func:`score_capture` compares what does not depend on it:
 5. **Distances to the model**: the sliced Wasserstein distance of the section clouds and the
    1-Wasserstein distance of the impact velocities, and their **noise floors**: the model is
    captured ``floor_captures`` times (3 by default) through the *same* measurement model
-   (the capture's sample rate, record length and measured noise per channel), from independent
+   (the capture's sample rate, record length, measured white noise per channel and ADC step),
+   from independent
    points of its attractor and independent noise, and the floor is the distance between those
    captures.  Independent captures and not a bootstrap of one: the section points of one record
    are serially dependent (a periodic orbit visits the same ``p`` points; a chaotic one is
@@ -51,10 +55,11 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.analysis.periodicity import detect_period
+from precise_impact.analysis.periodicity import detect_period_noisy
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.lab.capture import Capture, design_of
+from precise_impact.models.circuit.components import circuit_scales
 from precise_impact.verification.scores import sliced_wasserstein, wasserstein_1d
 
 __all__ = [
@@ -64,20 +69,19 @@ __all__ = [
     "estimate_forcing",
     "fit_sinusoid",
     "noise_sigma",
+    "adc_step",
+    "channel_noise",
     "poincare_section",
     "detect_impacts",
     "analyse_capture",
     "score_capture",
     "measured_bifurcation",
     "SECTION_HALF_WINDOW",
-    "PERIOD_SIGMAS",
     "IMPACT_SIGMAS",
 ]
 
 #: Samples on each side of a section time in its local fit (capped at a tenth of a period).
 SECTION_HALF_WINDOW = 8
-#: Tolerance of the period test, in standard deviations of the difference of two section points.
-PERIOD_SIGMAS = 6.0
 #: Impact threshold, in standard deviations of a one-sample difference of x'.
 IMPACT_SIGMAS = 8.0
 
@@ -271,10 +275,21 @@ def noise_sigma(y: np.ndarray) -> float:
     return 1.4826 * mad / math.sqrt(6)
 
 
-def _series(capture: Capture, design: Any):
-    comp = design_of(design)
-    m = capture.to_mechanical(comp)
-    return comp, m
+def adc_step(y: np.ndarray) -> float:
+    """The ADC's code step of a quantised record (the median gap between its distinct
+    values when they are fewer than half the samples), else 0."""
+    u = np.unique(np.asarray(y, float))
+    if len(u) < 2 or len(u) > 0.5 * len(y):
+        return 0.0
+    return float(np.median(np.diff(u)))
+
+
+def channel_noise(y: np.ndarray) -> dict[str, float]:
+    """``{'white', 'step', 'sigma'}`` of a channel: the white noise (:func:`noise_sigma`), the
+    ADC step (:func:`adc_step`) and their total ``sqrt(white^2 + step^2 / 12)`` (a coarse ADC
+    on a quiet signal repeats codes, so the second differences alone miss its error)."""
+    w, q = noise_sigma(y), adc_step(y)
+    return {"white": w, "step": q, "sigma": math.sqrt(w * w + q * q / 12.0)}
 
 
 def detect_impacts(
@@ -373,17 +388,6 @@ def poincare_section(
     return tk, xs, vs
 
 
-def _period(xs: np.ndarray, vs: np.ndarray, tol: float, max_period: int) -> int:
-    """:func:`~precise_impact.analysis.periodicity.detect_period` with an absolute tolerance
-    ``tol``: it tests ``|d| <= rtol (1 + |x| + |v|)``, so the points are divided by a scale
-    ``S`` that makes ``|x|/S + |v|/S <= 1e-9`` and ``rtol = tol / S`` (the test is then
-    ``|d| <= tol (1 + 1e-9)``)."""
-    if not len(xs):
-        return 0
-    S = 1e9 * float(np.max(np.abs(xs)) + np.max(np.abs(vs)) + 1e-300)
-    return int(detect_period(xs / S, vs / S, max_period=max_period, rtol=tol / S))
-
-
 def analyse_capture(
     capture: Capture,
     design: Any,
@@ -396,32 +400,28 @@ def analyse_capture(
     if forcing is None:
         forcing = estimate_forcing(capture, float(comp.Omega))
     m = capture.to_mechanical(comp, forcing.omega, forcing.phase0)
-    sx_v, sq_v = noise_sigma(capture.V_s), noise_sigma(capture.V_q)
-    scale_x = abs(float(capture.V_s.std()) / max(float(m.x.std()), 1e-300))
-    scale_v = abs(float(capture.V_q.std()) / max(float(m.v.std()), 1e-300))
-    sx, sv = sx_v / scale_x, sq_v / scale_v
+    noise = {k: channel_noise(y) for k, y in capture.channels.items()}
+    sc = circuit_scales(comp)
+    sx = noise["V_s"]["sigma"] / abs(sc.volts_per_x)
+    sv = noise["V_q"]["sigma"] / abs(sc.volts_per_v)
     dt_tau = capture.sample_interval * m.omega
     imp = detect_impacts(m.x, m.v, m.x_w, sx, sv, dt_tau)
-    hw = max(
-        1,
-        min(SECTION_HALF_WINDOW, int(0.05 * 2 * math.pi / forcing.omega / capture.sample_interval)),
-    )
+    per_period = 2 * math.pi / forcing.omega / capture.sample_interval
+    hw = max(1, min(SECTION_HALF_WINDOW, int(0.05 * per_period)))
     tk, xs, vs = poincare_section(
         m.x, m.v, capture.t, forcing.omega, forcing.phase0, section_phase, imp["index"], hw
     )
-    # a section point is a linear fit of 2 hw samples: its deviation ~ sigma sqrt(2 / hw)
-    # (intercept at the window centre of a least-squares line); two points differ by sqrt(2) x that
-    s_pt = max(sx, sv) * math.sqrt(2.0 / (2 * hw)) * 2.0
-    tol = PERIOD_SIGMAS * math.sqrt(2) * s_pt
-    period = _period(xs, vs, tol, max_period)
+    # a section point is the intercept of a least-squares line through 2 hw samples at (about)
+    # their centre: its noise is sigma / sqrt(2 hw)
+    s_x, s_v = sx / math.sqrt(2 * hw), sv / math.sqrt(2 * hw)
+    period = detect_period_noisy(xs, vs, s_x, s_v, max_period) if len(xs) else 0
     periods = capture.duration * forcing.omega / (2 * math.pi)
     return {
         "forcing": forcing,
         "eta": forcing.omega / m.omega,
-        "noise": {"V_s": sx_v, "V_q": sq_v, "x": sx, "v": sv},
+        "noise": {**noise, "x": sx, "v": sv, "section_x": s_x, "section_v": s_v},
         "section": {"t": tk, "x": xs, "v": vs, "phase": section_phase},
         "period": period,
-        "period_tolerance": tol,
         "impacts": {
             "count": len(imp["index"]),
             "per_period": len(imp["index"]) / periods if periods > 0 else math.nan,
@@ -453,8 +453,12 @@ class CaptureScore(ResultMixin):
     sliced_wasserstein : float
         Mean SW distance of the capture's section cloud to the model captures' clouds.
     sw_floor : float
-        Mean SW distance between the model captures' clouds (the noise floor), ``sw_floor_max``
-        the largest pair.
+        Mean SW distance between the model captures' clouds (the noise floor).
+    sw_floor_max : float
+        The largest of those pairs and of ``sw_floor_halves``.
+    sw_floor_halves : float
+        SW distance between the capture's first and second half, divided by ``sqrt 2`` (the
+        floor of clouds twice as large): a floor that does not depend on the noise model.
     impact_v_wasserstein, impact_v_floor : float
         The same for the impact velocities (1-Wasserstein).
     separated : bool
@@ -476,11 +480,11 @@ class CaptureScore(ResultMixin):
     noise: dict
     period: int
     period_model: int
-    period_tolerance: float
     impacts: dict
     sliced_wasserstein: float
     sw_floor: float
     sw_floor_max: float
+    sw_floor_halves: float
     impact_v_wasserstein: float
     impact_v_floor: float
     separated: bool
@@ -588,6 +592,21 @@ def _lle_slot(capture: Capture, comp: Any, forcing: ForcingEstimate, notes: list
     return res.to_dict()
 
 
+def _requantised(ref: Capture, capture: Capture, noise: dict) -> Capture:
+    """``ref`` on the capture's ADC grid, channel by channel (its step and offset)."""
+    chans = {}
+    for k, y in ref.channels.items():
+        q = noise.get(k, {}).get("step", 0.0)
+        src = capture.channels.get(k)
+        if q > 0 and src is not None:
+            off = float(src.min())
+            y = off + q * np.round((y - off) / q)
+        chans[k] = y
+    return Capture.make(
+        ref.t, chans["V_s"], chans["V_q"], chans.get("V_3"), ref.sample_interval, ref.source
+    )
+
+
 def score_capture(
     capture: Capture | str | os.PathLike,
     scene: Any = "fig6-period3-ideal",
@@ -661,28 +680,29 @@ def score_capture(
             f"record of {periods:.1f} periods: periods up to {max_period} need "
             f">= {3 * max_period + 2}"
         )
-    # the capture's noise, measured, is the synthetic captures' noise
-    sig = {k: noise_sigma(v) for k, v in capture.channels.items()}
-    sig.setdefault("V_3", sig["V_s"])
+    # the capture's measurement, measured, is the synthetic captures': its sample rate, its
+    # record length, its white noise per channel and its ADC step
+    noise = {k: channel_noise(v) for k, v in capture.channels.items()}
+    white = {k: n["white"] for k, n in noise.items()}
+    white.setdefault("V_3", white["V_s"])
     meas = Measurement(
         bits=0,
         noise=0.0,
-        noise_v=sig,
+        noise_v=white,
         sample_rate=capture.sample_rate,
         periods=max(2.0, periods),
         seed=seed,
     )
     refs = []
     for i in range(floor_captures):
-        refs.append(
-            synth_capture(
-                sc,
-                model,
-                eta=eta_model,
-                measurement=dataclasses.replace(meas, seed=seed + 1 + i),
-                transient=transient,
-            )
+        r = synth_capture(
+            sc,
+            model,
+            eta=eta_model,
+            measurement=dataclasses.replace(meas, seed=seed + 1 + i),
+            transient=transient,
         )
+        refs.append(_requantised(r, capture, noise))
     ref_an = [analyse_capture(r, comp, None, section_phase, max_period) for r in refs]
     if capture.V_3 is None:
         # the model's lag of V_s's fundamental behind V_3, to refer V_s's phase to the forcing
@@ -713,7 +733,18 @@ def score_capture(
         "v_model": np.concatenate(vms) if vms else np.empty(0),
     }
     lle_res = _lle_slot(capture, comp, forcing, notes) if lle else None
-    sep = bool(sw > 2 * max(floors))
+    # the capture's own halves: a floor that does not rest on the noise model (a 4-bit ADC's
+    # undithered codes made the model captures' floor 17x too small); SW between clouds of
+    # n/2 points is sqrt(2) that between clouds of n (the distance falls as n^-1/2).  On a
+    # period-p orbit each half holds whole cycles (a half with one point of the cycle more than
+    # the other differs by ~ spread p / n: 0.08 of the spread for 25 points)
+    p = an["period"]
+    h = len(cloud) // 2
+    if p > 0:
+        h -= h % p
+    halves = sliced_wasserstein(cloud[:h], cloud[h : 2 * h]) / math.sqrt(2) if h else 0.0
+    floor_max = max(max(floors), halves)
+    sep = bool(sw > 2 * floor_max)
     return CaptureScore(
         scene=sc.name,
         model=model,
@@ -724,18 +755,20 @@ def score_capture(
         noise=an["noise"],
         period=an["period"],
         period_model=ref_an[0]["period"],
-        period_tolerance=an["period_tolerance"],
         impacts=impacts,
         sliced_wasserstein=sw,
         sw_floor=float(np.mean(floors)),
-        sw_floor_max=float(max(floors)),
+        sw_floor_max=float(floor_max),
+        sw_floor_halves=float(halves),
         impact_v_wasserstein=w1,
         impact_v_floor=w1_floor,
         separated=sep,
         floor_method=(
             f"{floor_captures} independent synthetic captures of the model through the capture's "
-            "measurement model (sample rate, record length, measured noise per channel): the "
-            "floor is the mean (and max) distance between them"
+            "measurement model (sample rate, record length, measured white noise and ADC step "
+            "per channel): the floor is the mean distance between them; sw_floor_max the "
+            "largest of those and of the capture's own halves (/ sqrt 2); separated: SW > 2 "
+            "sw_floor_max"
         ),
         section={**an["section"]},
         section_model={"x": clouds[0][:, 0], "v": clouds[0][:, 1]},
