@@ -1,0 +1,859 @@
+"""Score an oscilloscope capture against a model at the level of the attractor.
+
+A capture has no known initial condition, so it cannot be compared with a model sample by
+sample.  :func:`score_capture` compares what does not depend on it:
+
+1. **The forcing** (:func:`estimate_forcing`): frequency and phase by a least-squares sinusoid
+   fit refined by Gauss-Newton on the frequency (phase-coherent: the whole record constrains
+   the frequency, whose error falls as ``N^-1/2 T^-1``, not to the FFT's bin ``1/T``), started
+   from the interpolated peak of a Hann-windowed, zero-padded spectrum.  From ``V_3`` when it
+   was recorded; else from ``V_s`` (a fit of its first three harmonics near the design's
+   ``Omega``), its phase then referred to the forcing through the model's own lag of ``V_s``
+   behind ``V_3`` (measured on the model's synthetic captures).
+2. **The Poincare section** at a forcing phase (:func:`poincare_section`): each section point is
+   a local linear least-squares fit of ``+-w`` samples about the section time (the noise of a
+   point falls as ``(2w)^-1/2``), never across an impact.
+3. **The detected period** of the section sequence: the project's
+   :func:`~precise_impact.analysis.periodicity.detect_period` with a tolerance of 6 standard
+   deviations of the difference of two section points (from the measured noise), so noise does
+   not break a period and chaos does not fake one.
+4. **Impacts** (:func:`detect_impacts`): ``V_q`` jumps sign at the wall; an impact is a one-sample
+   drop of ``x'`` by more than 8 noise deviations of a difference, next to the wall; its velocity
+   is half the jump of the one-sided local fits.  Impacts slower than about half the threshold
+   (grazing ones) are missed: :attr:`CaptureScore.impacts` states the threshold.
+5. **Distances to the model**: the sliced Wasserstein distance of the section clouds and the
+   1-Wasserstein distance of the impact velocities, and their **noise floors**: the model is
+   captured ``floor_captures`` times (3 by default) through the *same* measurement model
+   (the capture's sample rate, record length and measured noise per channel), from independent
+   points of its attractor and independent noise, and the floor is the distance between those
+   captures.  Independent captures and not a bootstrap of one: the section points of one record
+   are serially dependent (a periodic orbit visits the same ``p`` points; a chaotic one is
+   correlated over a few periods), so resampling one record underestimates how much a second
+   record would differ; two records of the same length and noise reproduce exactly the
+   variability the capture itself has.
+6. **LLE**: ``timeseries_lle`` of :mod:`precise_impact.analysis.lyapunov.timeseries` (another
+   part of issue 24) on the recorded state ``(x, x')`` in ``tau`` with neighbours at equal
+   forcing phase, when that module is installed; otherwise the field is ``None`` and ``notes``
+   says so.
+
+A set of captures at several forcing frequencies gives a measured bifurcation diagram laid
+over the computed one (:func:`measured_bifurcation`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Sequence
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from precise_impact.analysis.periodicity import detect_period
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ParameterError
+from precise_impact.lab.capture import Capture, design_of
+from precise_impact.verification.scores import sliced_wasserstein, wasserstein_1d
+
+__all__ = [
+    "ForcingEstimate",
+    "CaptureScore",
+    "MeasuredBifurcation",
+    "estimate_forcing",
+    "fit_sinusoid",
+    "noise_sigma",
+    "poincare_section",
+    "detect_impacts",
+    "analyse_capture",
+    "score_capture",
+    "measured_bifurcation",
+    "SECTION_HALF_WINDOW",
+    "PERIOD_SIGMAS",
+    "IMPACT_SIGMAS",
+]
+
+#: Samples on each side of a section time in its local fit (capped at a tenth of a period).
+SECTION_HALF_WINDOW = 8
+#: Tolerance of the period test, in standard deviations of the difference of two section points.
+PERIOD_SIGMAS = 6.0
+#: Impact threshold, in standard deviations of a one-sample difference of x'.
+IMPACT_SIGMAS = 8.0
+
+
+# ============================================================================ forcing
+@dataclasses.dataclass
+class ForcingEstimate(ResultMixin):
+    """The forcing as the capture's time base sees it: ``V_3 = A cos(omega t + phase0)``.
+
+    Attributes
+    ----------
+    omega : float
+        Angular frequency [rad/s].
+    frequency_hz : float
+        ``omega / 2 pi``.
+    phase0 : float
+        Forcing phase at ``t = 0`` [rad], in ``[0, 2 pi)``.
+    amplitude : float
+        ``A`` [V] (of ``V_3``; of ``V_s``'s fundamental when estimated from ``V_s``).
+    omega_stderr : float
+        Standard error of ``omega`` from the fit's covariance and residual [rad/s].
+    source : str
+        ``'V_3'`` or ``'V_s'``.
+    phase_source : str
+        How ``phase0`` was referred to the forcing.
+    """
+
+    omega: float
+    frequency_hz: float
+    phase0: float
+    amplitude: float
+    omega_stderr: float
+    source: str
+    phase_source: str
+    iterations: int = 0
+
+
+def _spectral_peak(t: np.ndarray, y: np.ndarray, lo: float | None, hi: float | None) -> float:
+    """Angular frequency of the largest peak of ``y``'s Hann-windowed spectrum (zero-padded
+    4x, parabolic interpolation of the log magnitude) within ``[lo, hi]`` rad/s."""
+    n = len(y)
+    dt = float(t[1] - t[0])
+    m = 1 << int(math.ceil(math.log2(4 * n)))
+    spec = np.abs(np.fft.rfft((y - y.mean()) * np.hanning(n), m))
+    w = 2 * math.pi * np.fft.rfftfreq(m, dt)
+    mask = np.ones_like(w, dtype=bool)
+    mask[0] = False
+    if lo is not None:
+        mask &= w >= lo
+    if hi is not None:
+        mask &= w <= hi
+    if not mask.any():
+        raise ParameterError("omega_hint", (lo, hi), "a band the capture's spectrum covers")
+    k = int(np.flatnonzero(mask)[np.argmax(spec[mask])])
+    if 0 < k < len(spec) - 1:
+        a, b, c = np.log(spec[k - 1 : k + 2] + 1e-300)
+        den = a - 2 * b + c
+        d = 0.5 * (a - c) / den if den != 0 else 0.0
+        return float(w[k] + d * (w[1] - w[0]))
+    return float(w[k])
+
+
+def fit_sinusoid(
+    t: np.ndarray, y: np.ndarray, omega0: float, harmonics: int = 1, max_iter: int = 30
+) -> dict[str, Any]:
+    """Least-squares fit of ``c + sum_h a_h cos(h w t) + b_h sin(h w t)`` with the frequency
+    ``w`` refined by Gauss-Newton on all parameters from ``omega0``.
+
+    Returns ``{'omega', 'a', 'b', 'c', 'omega_stderr', 'sigma', 'iterations'}`` (``a``, ``b``
+    per harmonic, referred to ``t = 0``).
+    """
+    t = np.asarray(t, float)
+    y = np.asarray(y, float)
+    tm = 0.5 * (t[0] + t[-1])
+    tc = t - tm  # centred: the frequency and the phase decouple
+    w = float(omega0)
+    H = int(harmonics)
+    hs = np.arange(1, H + 1)
+    it = 0
+    coef = np.zeros(2 * H + 1)
+    J = np.empty((len(t), 2 * H + 2))
+    for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
+        ph = np.outer(tc, hs * w)
+        C, S = np.cos(ph), np.sin(ph)
+        B = np.column_stack([np.ones_like(tc), C, S])
+        coef, *_ = np.linalg.lstsq(B, y, rcond=None)
+        a, b = coef[1 : H + 1], coef[H + 1 :]
+        dw = (-S * a + C * b) * (tc[:, None] * hs)
+        J[:, :-1] = B
+        J[:, -1] = dw.sum(axis=1)
+        r = y - B @ coef
+        step, *_ = np.linalg.lstsq(J, r, rcond=None)
+        w += float(step[-1])
+        if abs(step[-1]) <= 1e-13 * abs(w):
+            break
+    ph = np.outer(tc, hs * w)
+    B = np.column_stack([np.ones_like(tc), np.cos(ph), np.sin(ph)])
+    coef, *_ = np.linalg.lstsq(B, y, rcond=None)
+    r = y - B @ coef
+    dof = max(1, len(t) - (2 * H + 2))
+    sigma = float(np.sqrt(r @ r / dof))
+    a, b = coef[1 : H + 1], coef[H + 1 :]
+    J[:, :-1] = B
+    J[:, -1] = ((-np.sin(ph) * a + np.cos(ph) * b) * (tc[:, None] * hs)).sum(axis=1)
+    try:
+        cov = np.linalg.inv(J.T @ J) * sigma**2
+        stderr = float(math.sqrt(max(cov[-1, -1], 0.0)))
+    except np.linalg.LinAlgError:
+        stderr = math.nan
+    # refer the harmonics to t = 0: cos(h w (t - tm)) = cos(h w t - h w tm)
+    shift = hs * w * tm
+    A0 = a * np.cos(shift) - b * np.sin(shift)
+    B0 = a * np.sin(shift) + b * np.cos(shift)
+    return {
+        "omega": w,
+        "a": A0,
+        "b": B0,
+        "c": float(coef[0]),
+        "omega_stderr": stderr,
+        "sigma": sigma,
+        "iterations": it,
+    }
+
+
+def _phase(a: float, b: float) -> float:
+    """``phi`` of ``a cos(wt) + b sin(wt) = A cos(wt + phi)``, in ``[0, 2 pi)``."""
+    return float(np.mod(math.atan2(-b, a), 2 * math.pi))
+
+
+def estimate_forcing(
+    capture: Capture,
+    omega_hint: float | None = None,
+    source: str = "auto",
+    lag: float | None = None,
+) -> ForcingEstimate:
+    """The forcing's frequency and phase from ``V_3`` (or ``V_s``).
+
+    Parameters
+    ----------
+    capture : Capture
+    omega_hint : float or None
+        The design's ``Omega`` [rad/s]: the spectral search is limited to +-20 % of it
+        (needed for ``V_s``, whose subharmonics can be stronger than its line at ``Omega``).
+    source : {'auto', 'V_3', 'V_s'}
+        ``'auto'``: ``V_3`` if the capture has it.
+    lag : float or None
+        For ``V_s``: the phase of ``V_s``'s fundamental minus the forcing's (the model's; see
+        :func:`score_capture`); ``None`` leaves ``phase0`` as ``V_s``'s own phase.
+    """
+    if source not in ("auto", "V_3", "V_s"):
+        raise ParameterError("source", source, "'auto', 'V_3' or 'V_s'")
+    if source == "auto":
+        source = "V_3" if capture.V_3 is not None else "V_s"
+    if source == "V_3" and capture.V_3 is None:
+        raise ParameterError("source", "V_3", "a capture with a V_3 channel")
+    y = capture.V_3 if source == "V_3" else capture.V_s
+    assert y is not None
+    band = (0.8 * omega_hint, 1.2 * omega_hint) if omega_hint else (None, None)
+    if source == "V_s" and omega_hint is None:
+        raise ParameterError("omega_hint", None, "the design's Omega to find the forcing in V_s")
+    w0 = _spectral_peak(capture.t, y, *band)
+    fit = fit_sinusoid(capture.t, y, w0, harmonics=1 if source == "V_3" else 3)
+    phi = _phase(fit["a"][0], fit["b"][0])
+    phase_source = "V_3 fit"
+    if source == "V_s":
+        if lag is None:
+            phase_source = "V_s fundamental (not referred to the forcing)"
+        else:
+            phi = float(np.mod(phi - lag, 2 * math.pi))
+            phase_source = "V_s fundamental minus the model's lag of V_s behind V_3"
+    return ForcingEstimate(
+        omega=fit["omega"],
+        frequency_hz=fit["omega"] / (2 * math.pi),
+        phase0=phi,
+        amplitude=float(math.hypot(fit["a"][0], fit["b"][0])),
+        omega_stderr=fit["omega_stderr"],
+        source=source,
+        phase_source=phase_source,
+        iterations=fit["iterations"],
+    )
+
+
+# ================================================================ noise, section, impacts
+def noise_sigma(y: np.ndarray) -> float:
+    """White-noise standard deviation of a sampled signal: ``1.4826 MAD(second differences)
+    / sqrt(6)`` (a second difference of white noise has variance ``6 sigma^2``; the median
+    ignores the impacts' jumps; the signal's own curvature adds ``y'' dt^2``, negligible at
+    tens of samples per period)."""
+    d2 = np.diff(np.asarray(y, float), 2)
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return 1.4826 * mad / math.sqrt(6)
+
+
+def _series(capture: Capture, design: Any):
+    comp = design_of(design)
+    m = capture.to_mechanical(comp)
+    return comp, m
+
+
+def detect_impacts(
+    x: np.ndarray,
+    v: np.ndarray,
+    x_w: float,
+    sigma_x: float,
+    sigma_v: float,
+    dt_tau: float,
+    half_window: int = SECTION_HALF_WINDOW,
+) -> dict[str, Any]:
+    """Impacts in a sampled ``(x, x')``: a one-sample drop of ``x'`` by more than
+    :data:`IMPACT_SIGMAS` ``sqrt(2) sigma_v`` with ``x`` within reach of the wall on both sides.
+
+    Returns ``{'index', 'v', 'threshold'}``: the sample before each impact, its velocity (half
+    the jump between the one-sided local linear fits at the interval's middle, i.e. ``v`` for
+    ``R = 1``) and the jump threshold in units of ``x'``.
+    """
+    dv = np.diff(v)
+    thr = IMPACT_SIGMAS * math.sqrt(2) * sigma_v
+    reach = 0.5 * np.abs(dv) * dt_tau + 6 * sigma_x + 1e-12
+    near = (x[:-1] > x_w - reach) & (x[1:] > x_w - reach)
+    idx = np.flatnonzero((dv < -thr) & near)
+    # one impact per jump: a jump spread over two samples (an impact at a sample instant)
+    if len(idx) > 1:
+        keep = np.concatenate(([True], np.diff(idx) > 1))
+        idx = idx[keep]
+    vel = np.empty(len(idx))
+    bounds = np.concatenate(([-1], idx, [len(v) - 1]))
+    for k, j in enumerate(idx):
+        lo = max(bounds[k] + 1, j - half_window + 1)
+        hi = min(bounds[k + 2], j + 1 + half_window)
+        vl = _line_at(np.arange(lo, j + 1), v[lo : j + 1], j + 0.5)
+        vr = _line_at(np.arange(j + 1, hi), v[j + 1 : hi], j + 0.5)
+        vel[k] = 0.5 * (vl - vr)
+    return {"index": idx, "v": vel, "threshold": thr}
+
+
+def _line_at(i: np.ndarray, y: np.ndarray, at: float) -> float:
+    if len(i) == 0:
+        return math.nan
+    if len(i) == 1:
+        return float(y[0])
+    p = np.polyfit(i - at, y, 1)
+    return float(p[1])
+
+
+def poincare_section(
+    x: np.ndarray,
+    v: np.ndarray,
+    t: np.ndarray,
+    omega: float,
+    phase0: float,
+    section_phase: float = 0.0,
+    impacts: np.ndarray | None = None,
+    half_window: int = SECTION_HALF_WINDOW,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(t_k, x_k, v_k)`` where the forcing phase ``omega t + phase0`` is ``section_phase`` mod
+    2 pi: local linear least-squares fits of ``+-half_window`` samples (one side only where an
+    impact falls in the window; ``impacts`` are the sample indices before each impact)."""
+    dt = float(t[1] - t[0])
+    k0 = math.ceil((omega * (t[0] + half_window * dt) + phase0 - section_phase) / (2 * math.pi))
+    k1 = math.floor((omega * (t[-1] - half_window * dt) + phase0 - section_phase) / (2 * math.pi))
+    if k1 < k0:
+        return np.empty(0), np.empty(0), np.empty(0)
+    ks = np.arange(k0, k1 + 1)
+    tk = (2 * math.pi * ks - phase0 + section_phase) / omega
+    fi = (tk - t[0]) / dt
+    i0 = np.floor(fi).astype(int)
+    offs = np.arange(-half_window + 1, half_window + 1)
+    J = np.clip(i0[:, None] + offs, 0, len(t) - 1)
+    u = J - fi[:, None]
+
+    def fit(y: np.ndarray) -> np.ndarray:
+        Y = y[J]
+        um, ym = u.mean(axis=1), Y.mean(axis=1)
+        cov = ((u - um[:, None]) * (Y - ym[:, None])).sum(axis=1)
+        var = ((u - um[:, None]) ** 2).sum(axis=1)
+        return ym - cov / var * um
+
+    xs, vs = fit(x), fit(v)
+    if impacts is not None and len(impacts):
+        flag = np.zeros(len(t), dtype=int)
+        flag[impacts] = 1
+        c = np.concatenate(([0], np.cumsum(flag)))
+        lo, hi = J[:, 0], J[:, -1]
+        hit = np.flatnonzero(c[hi] - c[lo] > 0)  # an impact between lo and hi
+        for q in hit:
+            js = J[q]
+            m = int(impacts[np.searchsorted(impacts, js[0])])  # impact between m and m+1
+            side = js[js <= m] if fi[q] <= m + 0.5 else js[js > m]
+            if len(side) < 2:
+                side = js[js <= m] if len(js[js <= m]) >= len(js[js > m]) else js[js > m]
+            xs[q] = _line_at(side.astype(float), x[side], fi[q])
+            vs[q] = _line_at(side.astype(float), v[side], fi[q])
+    return tk, xs, vs
+
+
+def _period(xs: np.ndarray, vs: np.ndarray, tol: float, max_period: int) -> int:
+    """:func:`~precise_impact.analysis.periodicity.detect_period` with an absolute tolerance
+    ``tol``: it tests ``|d| <= rtol (1 + |x| + |v|)``, so the points are divided by a scale
+    ``S`` that makes ``|x|/S + |v|/S <= 1e-9`` and ``rtol = tol / S`` (the test is then
+    ``|d| <= tol (1 + 1e-9)``)."""
+    if not len(xs):
+        return 0
+    S = 1e9 * float(np.max(np.abs(xs)) + np.max(np.abs(vs)) + 1e-300)
+    return int(detect_period(xs / S, vs / S, max_period=max_period, rtol=tol / S))
+
+
+def analyse_capture(
+    capture: Capture,
+    design: Any,
+    forcing: ForcingEstimate | None = None,
+    section_phase: float = 0.0,
+    max_period: int = 16,
+) -> dict[str, Any]:
+    """Forcing, noise, impacts, Poincare section and period of one capture (no model)."""
+    comp = design_of(design)
+    if forcing is None:
+        forcing = estimate_forcing(capture, float(comp.Omega))
+    m = capture.to_mechanical(comp, forcing.omega, forcing.phase0)
+    sx_v, sq_v = noise_sigma(capture.V_s), noise_sigma(capture.V_q)
+    scale_x = abs(float(capture.V_s.std()) / max(float(m.x.std()), 1e-300))
+    scale_v = abs(float(capture.V_q.std()) / max(float(m.v.std()), 1e-300))
+    sx, sv = sx_v / scale_x, sq_v / scale_v
+    dt_tau = capture.sample_interval * m.omega
+    imp = detect_impacts(m.x, m.v, m.x_w, sx, sv, dt_tau)
+    hw = max(
+        1,
+        min(SECTION_HALF_WINDOW, int(0.05 * 2 * math.pi / forcing.omega / capture.sample_interval)),
+    )
+    tk, xs, vs = poincare_section(
+        m.x, m.v, capture.t, forcing.omega, forcing.phase0, section_phase, imp["index"], hw
+    )
+    # a section point is a linear fit of 2 hw samples: its deviation ~ sigma sqrt(2 / hw)
+    # (intercept at the window centre of a least-squares line); two points differ by sqrt(2) x that
+    s_pt = max(sx, sv) * math.sqrt(2.0 / (2 * hw)) * 2.0
+    tol = PERIOD_SIGMAS * math.sqrt(2) * s_pt
+    period = _period(xs, vs, tol, max_period)
+    periods = capture.duration * forcing.omega / (2 * math.pi)
+    return {
+        "forcing": forcing,
+        "eta": forcing.omega / m.omega,
+        "noise": {"V_s": sx_v, "V_q": sq_v, "x": sx, "v": sv},
+        "section": {"t": tk, "x": xs, "v": vs, "phase": section_phase},
+        "period": period,
+        "period_tolerance": tol,
+        "impacts": {
+            "count": len(imp["index"]),
+            "per_period": len(imp["index"]) / periods if periods > 0 else math.nan,
+            "t": capture.t[imp["index"]] + 0.5 * capture.sample_interval,
+            "v": imp["v"],
+            "threshold_v": imp["threshold"],
+        },
+        "periods": periods,
+    }
+
+
+# ============================================================================ scoring
+@dataclasses.dataclass
+class CaptureScore(ResultMixin):
+    """A capture scored against a model at the level of the attractor.
+
+    Attributes
+    ----------
+    forcing : ForcingEstimate
+    eta : float
+        Measured ``Omega / omega`` (``omega`` of the design).
+    period : int
+        Detected period of the capture's Poincare section (0: none up to ``max_period``).
+    period_model : int
+        The same on the model's first synthetic capture.
+    impacts : dict
+        ``count``, ``per_period``, velocity ``mean``/``std``/``quantiles``, ``threshold_v``,
+        the model's ``per_period_model``.
+    sliced_wasserstein : float
+        Mean SW distance of the capture's section cloud to the model captures' clouds.
+    sw_floor : float
+        Mean SW distance between the model captures' clouds (the noise floor), ``sw_floor_max``
+        the largest pair.
+    impact_v_wasserstein, impact_v_floor : float
+        The same for the impact velocities (1-Wasserstein).
+    separated : bool
+        ``sliced_wasserstein > 2 sw_floor_max``: the capture is off the model's attractor beyond
+        what the measurement alone explains.
+    section, section_model : dict
+        The section clouds (``x``, ``v``).
+    lle : dict or None
+        The time-series LLE (when :mod:`precise_impact.analysis.lyapunov.timeseries` exists).
+    notes : list of str
+    """
+
+    scene: str
+    model: str
+    forcing: ForcingEstimate
+    eta: float
+    eta_model: float
+    periods: float
+    noise: dict
+    period: int
+    period_model: int
+    period_tolerance: float
+    impacts: dict
+    sliced_wasserstein: float
+    sw_floor: float
+    sw_floor_max: float
+    impact_v_wasserstein: float
+    impact_v_floor: float
+    separated: bool
+    floor_method: str
+    section: dict
+    section_model: dict
+    source: dict
+    lle: dict | None = None
+    notes: list = dataclasses.field(default_factory=list)
+
+    def to_dict(self, arrays: bool = False) -> dict[str, Any]:
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        if not arrays:
+            d["section"] = {"points": len(self.section["x"]), "phase": self.section["phase"]}
+            d["section_model"] = {"points": len(self.section_model["x"])}
+            d["impacts"] = {k: v for k, v in self.impacts.items() if k not in ("t", "v", "v_model")}
+        return d
+
+    def plot(self, path: Any = None, units: str = "dimensionless"):
+        """Poincare sections (capture over model), impact-velocity distributions, and the
+        figures; written to ``path`` if given."""
+        from precise_impact.io.figures import check_plot_path, finish, new_figure
+
+        check_plot_path(path)
+        fig, axes = new_figure(1, 2, figsize=(10.0, 4.4))
+        ax = axes[0, 0]
+        sm = self.section_model
+        ax.plot(sm["x"], sm["v"], ".", ms=5, color="0.6", label=f"model ({self.model})")
+        ax.plot(self.section["x"], self.section["v"], ".", ms=3, color="C3", label="capture")
+        ax.set_xlabel("x (section)")
+        ax.set_ylabel("x' (section)")
+        ax.set_title(
+            f"Poincare section at forcing phase {self.section['phase']:.2f}\n"
+            f"period {self.period} (model {self.period_model}); SW {self.sliced_wasserstein:.3g}"
+            f" vs floor {self.sw_floor:.3g}",
+            fontsize=9,
+        )
+        ax.legend(fontsize=8, loc="best")
+        ax.grid(alpha=0.3)
+        ax = axes[0, 1]
+        vc = np.asarray(self.impacts.get("v", []), float)
+        vm = np.asarray(self.impacts.get("v_model", []), float)
+        hi = max([1e-3, *(a.max() for a in (vc, vm) if len(a))])
+        bins = np.linspace(0, hi * 1.05, 40)
+        if len(vm):
+            ax.hist(vm, bins=bins, density=True, color="0.6", alpha=0.7, label="model")
+        if len(vc):
+            ax.hist(
+                vc, bins=bins, density=True, histtype="step", color="C3", lw=1.5, label="capture"
+            )
+        ax.set_xlabel("impact velocity")
+        ax.set_ylabel("density")
+        ax.set_title(
+            f"impacts/period {self.impacts['per_period']:.3f} (model "
+            f"{self.impacts.get('per_period_model', math.nan):.3f}); W1 "
+            f"{self.impact_v_wasserstein:.3g} vs floor {self.impact_v_floor:.3g}",
+            fontsize=9,
+        )
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        fig.suptitle(
+            f"capture vs {self.scene} on {self.model}: eta {self.eta:.5f} measured "
+            f"(f = {self.forcing.frequency_hz:.6g} Hz from {self.forcing.source}); "
+            + ("separated" if self.separated else "within the noise floor"),
+            fontsize=10,
+        )
+        return finish(fig, path)
+
+
+def _velocity_stats(v: np.ndarray) -> dict[str, Any]:
+    v = np.asarray(v, float)
+    v = v[np.isfinite(v)]
+    if not len(v):
+        return {"mean": None, "std": None, "quantiles": None}
+    return {
+        "mean": float(v.mean()),
+        "std": float(v.std()),
+        "quantiles": {f"{q:g}": float(np.quantile(v, q)) for q in (0.05, 0.25, 0.5, 0.75, 0.95)},
+    }
+
+
+def _lle_slot(capture: Capture, comp: Any, forcing: ForcingEstimate, notes: list) -> dict | None:
+    """The time-series LLE of the capture in ``1/tau`` (the variational LLE's unit):
+    :func:`precise_impact.analysis.lyapunov.timeseries.timeseries_lle` on the recorded state
+    ``(x, x')`` with neighbours at equal forcing phase, when that module is installed."""
+    try:
+        from precise_impact.analysis.lyapunov.timeseries import timeseries_lle
+    except ImportError:
+        notes.append(
+            "lle: left out (precise_impact.analysis.lyapunov.timeseries is not installed here)"
+        )
+        return None
+    m = capture.to_mechanical(comp, forcing.omega, forcing.phase0)
+    dt_tau = capture.sample_interval * m.omega
+    try:
+        res = timeseries_lle(
+            np.column_stack([m.x, m.v]),
+            dt_tau,
+            period=2 * math.pi / m.eta,
+            phase0=float(m.phase[0]) if m.phase is not None else 0.0,
+        )
+    except Exception as e:  # the estimator's own refusal is reported; the score stands
+        notes.append(f"lle: {type(e).__name__}: {e}")
+        return None
+    return res.to_dict()
+
+
+def score_capture(
+    capture: Capture | str | os.PathLike,
+    scene: Any = "fig6-period3-ideal",
+    model: str | None = None,
+    *,
+    channels: Any = None,
+    section_phase: float = 0.0,
+    max_period: int = 16,
+    floor_captures: int = 3,
+    transient: int = 100,
+    eta: Any = None,
+    seed: int = 0,
+    lle: bool = True,
+) -> CaptureScore:
+    """Score a capture against ``scene`` on ``model`` at the level of the attractor.
+
+    Parameters
+    ----------
+    capture : Capture or path
+        A capture (or a file :func:`~precise_impact.lab.scope_files.read_capture` reads, with
+        ``channels``).
+    scene : str, Path or Scene, default ``'fig6-period3-ideal'``
+        The design (component values) and parameters the capture is compared with.
+    model : str or None
+        The circuit model of the reference (``circuit``, ``switched-capacitor``, ``spice``);
+        ``None`` is the scene's.
+    section_phase : float, default 0
+        Forcing phase of the Poincare section [rad].
+    max_period : int, default 16
+        Largest period detected.
+    floor_captures : int, default 3
+        Synthetic captures of the model (2..8): the reference cloud and the noise floor.
+    transient : int, default 100
+        Model periods discarded before each synthetic capture.
+    eta : decimal, ``'measured'`` or None
+        The model's forcing ratio: the scene's (``None``) or the capture's measured one.
+    seed : int
+        Seed of the model captures.
+    lle : bool
+        Estimate the LLE from the time series when the estimator is installed.
+
+    Returns
+    -------
+    CaptureScore
+    """
+    from precise_impact.lab.scope_files import read_capture
+    from precise_impact.lab.synth import Measurement, synth_capture
+    from precise_impact.scenes.scene import Scene, load_scene
+
+    if not isinstance(capture, Capture):
+        capture = read_capture(capture, channels)
+    if not isinstance(floor_captures, int) or not 2 <= floor_captures <= 8:
+        raise ParameterError("floor_captures", floor_captures, "an integer 2..8")
+    if not isinstance(max_period, int) or not 1 <= max_period <= 64:
+        raise ParameterError("max_period", max_period, "an integer 1..64")
+    if not (isinstance(section_phase, (int, float)) and math.isfinite(section_phase)):
+        raise ParameterError("section_phase", section_phase, "a finite phase in rad")
+    sc = scene if isinstance(scene, Scene) else load_scene(scene)
+    model = model or sc.model
+    comp = sc.design()
+    notes: list[str] = []
+    forcing = estimate_forcing(capture, float(comp.Omega))
+    eta_meas = forcing.omega / float(comp.omega())
+    if eta == "measured":
+        eta_model: Any = Fraction(eta_meas).limit_denominator(10**9)
+    else:
+        eta_model = eta
+    periods = capture.duration * forcing.omega / (2 * math.pi)
+    if periods < 2 * max_period + max_period + 2:
+        notes.append(
+            f"record of {periods:.1f} periods: periods up to {max_period} need "
+            f">= {3 * max_period + 2}"
+        )
+    # the capture's noise, measured, is the synthetic captures' noise
+    sig = {k: noise_sigma(v) for k, v in capture.channels.items()}
+    sig.setdefault("V_3", sig["V_s"])
+    meas = Measurement(
+        bits=0,
+        noise=0.0,
+        noise_v=sig,
+        sample_rate=capture.sample_rate,
+        periods=max(2.0, periods),
+        seed=seed,
+    )
+    refs = []
+    for i in range(floor_captures):
+        refs.append(
+            synth_capture(
+                sc,
+                model,
+                eta=eta_model,
+                measurement=dataclasses.replace(meas, seed=seed + 1 + i),
+                transient=transient,
+            )
+        )
+    ref_an = [analyse_capture(r, comp, None, section_phase, max_period) for r in refs]
+    if capture.V_3 is None:
+        # the model's lag of V_s's fundamental behind V_3, to refer V_s's phase to the forcing
+        lags = []
+        for r, a in zip(refs, ref_an, strict=True):
+            fit = fit_sinusoid(r.t, r.V_s, a["forcing"].omega, harmonics=3)
+            lags.append(_phase(fit["a"][0], fit["b"][0]) - a["forcing"].phase0)
+        lag = float(np.angle(np.mean(np.exp(1j * np.asarray(lags)))))
+        forcing = estimate_forcing(capture, float(comp.Omega), "V_s", lag=lag)
+    an = analyse_capture(capture, comp, forcing, section_phase, max_period)
+    cloud = np.column_stack([an["section"]["x"], an["section"]["v"]])
+    clouds = [np.column_stack([a["section"]["x"], a["section"]["v"]]) for a in ref_an]
+    sw = float(np.mean([sliced_wasserstein(cloud, c) for c in clouds]))
+    pairs = [(i, j) for i in range(len(clouds)) for j in range(i + 1, len(clouds))]
+    floors = [sliced_wasserstein(clouds[i], clouds[j]) for i, j in pairs]
+    vimp = an["impacts"]["v"]
+    vms = [a["impacts"]["v"] for a in ref_an]
+    w1 = float(np.mean([wasserstein_1d(vimp, vm) for vm in vms]))
+    w1_floor = float(np.mean([wasserstein_1d(vms[i], vms[j]) for i, j in pairs]))
+    impacts = {
+        "count": an["impacts"]["count"],
+        "per_period": an["impacts"]["per_period"],
+        "per_period_model": float(np.mean([a["impacts"]["per_period"] for a in ref_an])),
+        "threshold_v": an["impacts"]["threshold_v"],
+        **_velocity_stats(vimp),
+        "t": an["impacts"]["t"],
+        "v": vimp,
+        "v_model": np.concatenate(vms) if vms else np.empty(0),
+    }
+    lle_res = _lle_slot(capture, comp, forcing, notes) if lle else None
+    sep = bool(sw > 2 * max(floors))
+    return CaptureScore(
+        scene=sc.name,
+        model=model,
+        forcing=forcing,
+        eta=eta_meas,
+        eta_model=float(Fraction(refs[0].source["truth"]["eta"])),
+        periods=periods,
+        noise=an["noise"],
+        period=an["period"],
+        period_model=ref_an[0]["period"],
+        period_tolerance=an["period_tolerance"],
+        impacts=impacts,
+        sliced_wasserstein=sw,
+        sw_floor=float(np.mean(floors)),
+        sw_floor_max=float(max(floors)),
+        impact_v_wasserstein=w1,
+        impact_v_floor=w1_floor,
+        separated=sep,
+        floor_method=(
+            f"{floor_captures} independent synthetic captures of the model through the capture's "
+            "measurement model (sample rate, record length, measured noise per channel): the "
+            "floor is the mean (and max) distance between them"
+        ),
+        section={**an["section"]},
+        section_model={"x": clouds[0][:, 0], "v": clouds[0][:, 1]},
+        source={k: v for k, v in capture.source.items() if k != "truth"},
+        lle=lle_res,
+        notes=notes,
+    )
+
+
+# ============================================================================ bifurcation
+@dataclasses.dataclass
+class MeasuredBifurcation(ResultMixin):
+    """Section ``x`` of several captures against their measured ``eta``, with the computed
+    diagram of the mechanics.
+
+    Attributes
+    ----------
+    eta : list of float
+        Measured ``eta`` of each capture.
+    x : list of arrays
+        Each capture's Poincare-section ``x``.
+    period : list of int
+        Each capture's detected period.
+    computed_eta, computed_x : numpy.ndarray
+        The computed diagram (:func:`~precise_impact.analysis.orbits.branch.brute_force_diagram`):
+        ``computed_x[i]`` the stroboscopic ``x`` at ``computed_eta[i]``.
+    """
+
+    scene: str
+    eta: list
+    x: list
+    period: list
+    computed_eta: np.ndarray
+    computed_x: np.ndarray
+    sources: list
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "scene": self.scene,
+            "captures": [
+                {"eta": e, "period": p, "points": len(x), "source": s}
+                for e, p, x, s in zip(self.eta, self.period, self.x, self.sources, strict=True)
+            ],
+            "computed_eta": self.computed_eta,
+            "computed_points": int(self.computed_x.size),
+        }
+
+    def plot(self, path: Any = None):
+        """Computed diagram (grey dots) with the measured section points (red) on top."""
+        from precise_impact.io.figures import check_plot_path, finish, new_figure
+
+        check_plot_path(path)
+        fig, axes = new_figure(1, 1, figsize=(8.0, 5.0))
+        ax = axes[0, 0]
+        ce = np.repeat(self.computed_eta, self.computed_x.shape[1])
+        ax.plot(ce, self.computed_x.ravel(), ",", color="0.45", alpha=0.8)
+        ax.plot([], [], ".", color="0.45", label="computed (mechanics)")
+        for i, (e, x) in enumerate(zip(self.eta, self.x, strict=True)):
+            ax.plot(
+                np.full(len(x), e), x, ".", ms=3, color="C3", label="captures" if i == 0 else None
+            )
+        ax.set_xlabel("eta (captures: measured Omega / design omega)")
+        ax.set_ylabel("x at the forcing phase 0")
+        ax.set_title(
+            f"measured bifurcation diagram over the computed one ({self.scene})", fontsize=10
+        )
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        return finish(fig, path)
+
+
+def measured_bifurcation(
+    captures: Sequence[Capture | str | os.PathLike],
+    scene: Any = "fig6-period3-ideal",
+    channels: Any = None,
+    computed: int = 80,
+    computed_periods: int = 48,
+    max_period: int = 16,
+) -> MeasuredBifurcation:
+    """A measured bifurcation diagram: each capture's measured ``eta`` and Poincare-section ``x``,
+    over the computed diagram of the scene's mechanics across the captures' ``eta`` range
+    (``computed`` values, ``computed_periods`` recorded after 400 transient ones)."""
+    from precise_impact.analysis.orbits.branch import brute_force_diagram
+    from precise_impact.lab.scope_files import read_capture
+    from precise_impact.scenes.scene import Scene, load_scene
+
+    if not captures:
+        raise ParameterError("captures", [], "at least one capture")
+    if not isinstance(computed, int) or not 0 <= computed <= 2000:
+        raise ParameterError("computed", computed, "an integer 0..2000")
+    sc = scene if isinstance(scene, Scene) else load_scene(scene)
+    comp = sc.design()
+    w = float(comp.omega())
+    etas, xs, pers, srcs = [], [], [], []
+    for c in captures:
+        cap = c if isinstance(c, Capture) else read_capture(c, channels)
+        an = analyse_capture(cap, comp, None, 0.0, max_period)
+        etas.append(an["forcing"].omega / w)
+        xs.append(an["section"]["x"])
+        pers.append(an["period"])
+        srcs.append(str(cap.source.get("path", cap.source.get("instrument", ""))))
+    lo, hi = min(etas), max(etas)
+    pad = max(0.01, 0.05 * (hi - lo))
+    if computed:
+        ce, cx = brute_force_diagram(
+            sc.params,
+            ("eta", lo - pad, hi + pad, computed),
+            periods=computed_periods,
+            transient=400,
+        )
+    else:
+        ce, cx = np.empty(0), np.empty((0, 0))
+    return MeasuredBifurcation(
+        scene=sc.name,
+        eta=etas,
+        x=xs,
+        period=pers,
+        computed_eta=np.asarray(ce, float),
+        computed_x=np.asarray(cx, float),
+        sources=srcs,
+    )

@@ -1,0 +1,363 @@
+"""An oscilloscope capture of the circuit: time in seconds, V_s, V_q (and the forcing V_3) in volts.
+
+A :class:`Capture` is what every reader of :mod:`precise_impact.lab.scope_files` returns and what
+:func:`precise_impact.lab.synth.synth_capture` writes: uniformly sampled channels named by their
+role in the circuit (``V_s`` the position integrator's output, ``V_q`` the velocity integrator's,
+``V_3`` the forcing source), SI units, the sample interval, and where it came from.
+
+:meth:`Capture.to_mechanical` maps it to the dimensionless ``(tau, x, x')`` of the oscillator
+through the one home of that mapping
+(:func:`precise_impact.models.circuit.components.circuit_scales`): ``tau = omega t``,
+``x = -V_s / V_unit``, ``x' = V_q / (omega R8 C1 V_unit)``, and the forcing phase
+``Omega t + phi0`` when the forcing is known (estimated by :mod:`precise_impact.lab.attractor`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.core.params import Params
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ParameterError
+from precise_impact.io.atomic import atomic_write
+
+__all__ = [
+    "Capture",
+    "MechanicalSeries",
+    "CHANNELS",
+    "MIN_SAMPLES",
+    "design_of",
+]
+
+#: The channels a capture may carry, by their role in the circuit (paper Fig. 2).
+CHANNELS = ("V_s", "V_q", "V_3")
+#: Fewest samples a capture may have (a few forcing periods at a few samples each).
+MIN_SAMPLES = 16
+#: Largest relative deviation of a sample step from the median step for a capture to count as
+#: uniformly sampled.  Scope exports round times to 4-7 significant digits; 1e-3 of a step
+#: accepts that rounding (<= 5e-5 relative of a time value, i.e. of a step for records of up
+#: to 1e4 steps between printed digits) and refuses a missing or doubled sample (deviation 1).
+UNIFORM_RTOL = 1e-3
+
+
+@dataclasses.dataclass
+class Capture(ResultMixin):
+    """A capture of the circuit's voltages.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Sample times [s] (float64, uniformly spaced; the trigger is at ``t = 0`` for scope files).
+    V_s, V_q : numpy.ndarray
+        Position and velocity integrator outputs [V].
+    V_3 : numpy.ndarray or None
+        The forcing source [V], when it was recorded.
+    sample_interval : float
+        Time between samples [s] (the file's own value where it states one).
+    units : dict
+        ``{'t': 's', 'V_s': 'V', ...}`` (always SI after reading: readers convert).
+    source : dict
+        Where it came from: ``format``, ``path``, ``instrument``, the file's channel names for
+        each role (``channel_map``), header fields; for a synthetic capture also ``truth`` (the
+        forcing frequency and phase as the scope's time base sees them, the model, ...) and the
+        ``measurement`` model.
+
+    See Also
+    --------
+    precise_impact.lab.scope_files.read_capture : read one from a file.
+    precise_impact.lab.synth.synth_capture : a synthetic one from a model.
+    precise_impact.lab.attractor.score_capture : score it against a model.
+    """
+
+    t: np.ndarray
+    V_s: np.ndarray
+    V_q: np.ndarray
+    V_3: np.ndarray | None = None
+    sample_interval: float = math.nan
+    units: dict = dataclasses.field(default_factory=dict)
+    source: dict = dataclasses.field(default_factory=dict)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def make(
+        cls,
+        t: Any,
+        V_s: Any,
+        V_q: Any,
+        V_3: Any = None,
+        sample_interval: float | None = None,
+        source: dict | None = None,
+        what: str = "capture",
+    ) -> Capture:
+        """A validated capture (SI units): ``t`` strictly increasing and uniform to
+        :data:`UNIFORM_RTOL`, channels of ``t``'s length, finite, at least :data:`MIN_SAMPLES`.
+
+        ``what`` names the input in the one-line refusal (a reader passes the file's path).
+        """
+        t = np.asarray(t, dtype=float).ravel()
+        chans = {"V_s": V_s, "V_q": V_q, "V_3": V_3}
+        arr: dict[str, np.ndarray | None] = {}
+        for name, v in chans.items():
+            if v is None:
+                arr[name] = None
+                continue
+            a = np.asarray(v, dtype=float).ravel()
+            if a.shape != t.shape:
+                raise ParameterError(
+                    what,
+                    f"{name}: {a.size} samples",
+                    f"as many samples as the time axis ({t.size})",
+                )
+            if not np.all(np.isfinite(a)):
+                bad = int(np.argmin(np.isfinite(a)))
+                raise ParameterError(
+                    what,
+                    f"{name}[{bad}] = {a[bad]}",
+                    "finite voltages (a damaged or clipped file?)",
+                )
+            arr[name] = a
+        if t.size < MIN_SAMPLES:
+            raise ParameterError(what, f"{t.size} samples", f">= {MIN_SAMPLES} samples")
+        if not np.all(np.isfinite(t)):
+            raise ParameterError(what, "non-finite time", "finite sample times")
+        steps = np.diff(t)
+        dt_med = float(np.median(steps))
+        if not dt_med > 0:
+            raise ParameterError(what, f"median step {dt_med:g} s", "increasing sample times")
+        dev = np.abs(steps - dt_med) / dt_med
+        if float(dev.max()) > UNIFORM_RTOL:
+            k = int(np.argmax(dev))
+            raise ParameterError(
+                what,
+                f"step {k}: {steps[k]:.6g} s vs median {dt_med:.6g} s",
+                f"uniformly sampled times (each step within {UNIFORM_RTOL:g} of the median; "
+                "missing or repeated samples?)",
+            )
+        dt = dt_med if sample_interval is None else float(sample_interval)
+        if not (dt > 0 and abs(dt - dt_med) <= 1e-3 * dt_med):
+            raise ParameterError(
+                what,
+                f"sample interval {dt:g} s",
+                f"the time axis's own step ({dt_med:.6g} s) to 1e-3 (a header that disagrees "
+                "with the data: wrong unit?)",
+            )
+        units = {"t": "s", "V_s": "V", "V_q": "V"}
+        if arr["V_3"] is not None:
+            units["V_3"] = "V"
+        return cls(
+            t=t,
+            V_s=arr["V_s"],  # type: ignore[arg-type]
+            V_q=arr["V_q"],  # type: ignore[arg-type]
+            V_3=arr["V_3"],
+            sample_interval=dt,
+            units=units,
+            source=dict(source or {}),
+        )
+
+    # ------------------------------------------------------------------ views
+    @property
+    def channels(self) -> dict[str, np.ndarray]:
+        """``{'V_s': ..., 'V_q': ..., ['V_3': ...]}``."""
+        out = {"V_s": self.V_s, "V_q": self.V_q}
+        if self.V_3 is not None:
+            out["V_3"] = self.V_3
+        return out
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def duration(self) -> float:
+        """Record length [s] (``n_samples * sample_interval``)."""
+        return float(self.n_samples * self.sample_interval)
+
+    @property
+    def sample_rate(self) -> float:
+        """Samples per second."""
+        return 1.0 / self.sample_interval
+
+    def to_dict(self, arrays: bool = False) -> dict[str, Any]:
+        """A summary (sizes, sample interval, each channel's range, units, source); with
+        ``arrays=True`` the samples too."""
+        out: dict[str, Any] = {
+            "n_samples": self.n_samples,
+            "sample_interval": self.sample_interval,
+            "duration": self.duration,
+            "t_first": float(self.t[0]),
+            "channels": {
+                k: {"min": float(v.min()), "max": float(v.max()), "mean": float(v.mean())}
+                for k, v in self.channels.items()
+            },
+            "units": self.units,
+            "source": self.source,
+        }
+        if arrays:
+            out["t"] = self.t
+            out.update(self.channels)
+        return out
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | os.PathLike, fmt: str | None = None) -> Path:
+        """Write the capture: ``.npz`` (arrays + JSON metadata), ``.csv`` (generic time-first
+        CSV), ``.json`` (the summary), or a vendor layout by ``fmt``
+        (:data:`precise_impact.lab.scope_files.WRITE_FORMATS`)."""
+        path = Path(path)
+        if fmt is None and path.suffix.lower() == ".json":
+            return super().save(path)
+        from precise_impact.lab.scope_files import write_capture
+
+        return write_capture(self, path, fmt)
+
+    def npz_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays :meth:`save` puts in an ``.npz`` file (``meta`` is JSON text)."""
+        arrays: dict[str, np.ndarray] = {"t": self.t, **self.channels}
+        meta = {"sample_interval": self.sample_interval, "units": self.units, "source": self.source}
+        arrays["meta"] = np.asarray(json.dumps(ResultMixin_jsonable(meta), allow_nan=False))
+        return arrays
+
+    def write_npz(self, path: str | os.PathLike) -> Path:
+        """The ``.npz`` form (read back by :func:`precise_impact.lab.scope_files.read_capture`)."""
+        path = Path(path)
+        arrays = self.npz_arrays()
+        atomic_write(path, lambda fh: np.savez_compressed(fh, **arrays), binary=True)
+        return path
+
+    # ------------------------------------------------------------------ mapping
+    def to_mechanical(
+        self,
+        design: Any,
+        forcing_omega: float | None = None,
+        forcing_phase0: float | None = None,
+    ) -> MechanicalSeries:
+        """The capture in the oscillator's dimensionless variables.
+
+        Parameters
+        ----------
+        design : Components, Params, Scene or scene name
+            The circuit's component values (:func:`design_of`); its ``omega``, ``R8 C1`` and
+            ``V_unit`` give the scales
+            (:func:`~precise_impact.models.circuit.components.circuit_scales`).
+        forcing_omega : float or None
+            The forcing's angular frequency [rad/s] in the capture's time base (estimated, e.g.
+            :func:`precise_impact.lab.attractor.estimate_forcing`); ``None`` takes the design's
+            ``Omega``.
+        forcing_phase0 : float or None
+            The forcing phase at ``t = 0`` [rad] (``V_3 = V_A cos(Omega t + phase0)``); ``None``
+            leaves :attr:`MechanicalSeries.phase` out.
+        """
+        from precise_impact.models.circuit.components import circuit_scales
+
+        comp = design_of(design)
+        sc = circuit_scales(comp)
+        Om = float(comp.Omega) if forcing_omega is None else float(forcing_omega)
+        tau = self.t / sc.seconds_per_tau
+        x = self.V_s / sc.volts_per_x
+        v = self.V_q / sc.volts_per_v
+        phase = None
+        if forcing_phase0 is not None:
+            phase = np.mod(Om * self.t + float(forcing_phase0), 2 * math.pi)
+        return MechanicalSeries(
+            tau=tau,
+            x=x,
+            v=v,
+            phase=phase,
+            eta=Om / sc.omega,
+            omega=sc.omega,
+            x_w=float(-comp.V_wall / comp.V_unit),
+            a=float(comp.V_A * comp.R7 / (comp.R1 * comp.V_unit)),
+        )
+
+    # ------------------------------------------------------------------ plot
+    def plot(self, path: Any = None, periods: float | None = None, title: str | None = None):
+        """The channels against time (the first ``periods`` forcing periods of the design's
+        nominal forcing if the capture carries a synthetic truth, else the first 2000 samples);
+        written to ``path`` if given."""
+        from precise_impact.io.figures import check_plot_path, finish, new_figure
+
+        check_plot_path(path)
+        n = min(self.n_samples, 2000)
+        f = (self.source.get("truth") or {}).get("forcing_frequency_hz")
+        if periods is not None and f:
+            n = min(self.n_samples, max(2, int(periods / f / self.sample_interval)))
+        chans = self.channels
+        fig, axes = new_figure(len(chans), 1, figsize=(8.0, 1.8 * len(chans) + 0.8), sharex=True)
+        scale, unit = _time_unit(float(self.t[n - 1] - self.t[0]))
+        for ax, (name, v) in zip(axes[:, 0], chans.items(), strict=True):
+            ax.plot(self.t[:n] * scale, v[:n], lw=0.8)
+            ax.set_ylabel(f"{name} [V]")
+            ax.grid(alpha=0.3)
+        axes[-1, 0].set_xlabel(f"time [{unit}]")
+        src = self.source.get("instrument") or self.source.get("format") or "capture"
+        fig.suptitle(
+            title or f"{src}: {self.n_samples} samples at {self.sample_rate:.4g} Sa/s", fontsize=10
+        )
+        return finish(fig, path)
+
+
+def ResultMixin_jsonable(obj: Any) -> Any:  # noqa: N802 - local alias of to_jsonable
+    from precise_impact.core.result import to_jsonable
+
+    return to_jsonable(obj)
+
+
+def _time_unit(span: float) -> tuple[float, str]:
+    for scale, unit in ((1.0, "s"), (1e3, "ms"), (1e6, "us"), (1e9, "ns")):
+        if span * scale >= 1:
+            return scale, unit
+    return 1e9, "ns"
+
+
+@dataclasses.dataclass
+class MechanicalSeries(ResultMixin):
+    """A capture in the oscillator's dimensionless variables.
+
+    Attributes
+    ----------
+    tau, x, v : numpy.ndarray
+        ``tau = omega t``, ``x``, ``x'``.
+    phase : numpy.ndarray or None
+        The forcing phase ``Omega t + phase0`` mod 2 pi at each sample (``None``: not given).
+    eta : float
+        ``Omega / omega`` (the forcing used for ``phase``).
+    omega : float
+        The design's natural angular frequency [rad/s].
+    x_w, a : float
+        The wall and the forcing amplitude the design realises.
+    """
+
+    tau: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    phase: np.ndarray | None
+    eta: float
+    omega: float
+    x_w: float
+    a: float
+
+
+def design_of(design: Any):
+    """Component values from a :class:`~precise_impact.models.circuit.components.Components`,
+    a :class:`~precise_impact.core.params.Params` (the nominal design), a
+    :class:`~precise_impact.scenes.scene.Scene` or a scene name / path."""
+    from precise_impact.models.circuit.components import Components, nominal_components
+    from precise_impact.scenes.scene import Scene, load_scene
+
+    if isinstance(design, Components):
+        return design
+    if isinstance(design, Params):
+        return nominal_components(design)
+    if isinstance(design, (str, Path)):
+        design = load_scene(design)
+    if isinstance(design, Scene):
+        return design.design()
+    raise ParameterError(
+        "design", type(design).__name__, "Components, Params, a Scene or a scene name"
+    )

@@ -1,0 +1,130 @@
+"""Attractor-level scores of captures, on synthetic captures whose truth is known: the ideal
+circuit through an 8-bit ADC with 1 % noise, 200 forcing periods (issue 24's done-when)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from precise_impact.cli.main import main
+from precise_impact.lab.attractor import (
+    analyse_capture,
+    estimate_forcing,
+    fit_sinusoid,
+    measured_bifurcation,
+    noise_sigma,
+    score_capture,
+)
+from precise_impact.lab.capture import Capture
+from precise_impact.lab.synth import synth_capture
+
+BENCH = {"bits": 8, "noise": 0.01, "periods": 200}
+
+
+@pytest.fixture(scope="module")
+def ideal():
+    return {
+        eta: synth_capture("fig6-period3-ideal", eta=eta, seed=7, **BENCH)
+        for eta in ("0.74", "0.712")
+    }
+
+
+@pytest.fixture(scope="module")
+def datasheet():
+    return synth_capture("fig6-period2-datasheet", seed=8, **BENCH)
+
+
+def _no_v3(c: Capture) -> Capture:
+    return Capture.make(c.t, c.V_s, c.V_q, source=c.source)
+
+
+def test_fit_sinusoid_is_exact_on_a_clean_sine():
+    t = np.arange(4000) * 1e-4
+    y = 0.3 + 1.7 * np.cos(741.3 * t + 0.4)
+    f = fit_sinusoid(t, y, 741.3 * 1.001)  # started 1e-3 off: ~0.2 FFT bins
+    assert f["omega"] == pytest.approx(741.3, rel=1e-12)  # converged to rounding
+    assert math.hypot(f["a"][0], f["b"][0]) == pytest.approx(1.7, rel=1e-10)
+
+
+def test_noise_sigma_of_white_noise():
+    y = np.random.default_rng(1).normal(scale=0.02, size=200_000)
+    # MAD of 2e5 Gaussian second differences: relative standard error ~0.3 %
+    assert noise_sigma(y) == pytest.approx(0.02, rel=0.02)
+
+
+@pytest.mark.parametrize("eta", ["0.74", "0.712"])
+@pytest.mark.parametrize("source", ["V_3", "V_s"])
+def test_forcing_frequency_within_1e_4(ideal, eta, source):
+    c = ideal[eta]
+    truth = c.source["truth"]
+    cap = c if source == "V_3" else _no_v3(c)
+    f = estimate_forcing(cap, 740.0)  # the hint is the design's Omega at 0.74: +-20 % band
+    rel = abs(f.omega / truth["forcing_omega_rad_s"] - 1)
+    assert rel < 1e-4
+    # the fit's own error bar covers the error (5 standard errors)
+    assert abs(f.omega - truth["forcing_omega_rad_s"]) < 5 * f.omega_stderr + 1e-12
+    if source == "V_3":
+        dphi = (f.phase0 - truth["forcing_phase0_rad"] + math.pi) % (2 * math.pi) - math.pi
+        assert abs(dphi) < 1e-2
+
+
+def test_timebase_error_is_what_the_file_says(ideal):
+    # a 50 ppm fast scope clock: the file's frequency is 1/(1 + 5e-5) of the true one, and the
+    # estimate follows the file (its error stays far below the 5e-5 shift)
+    c = synth_capture("fig6-period3-ideal", seed=3, timebase_ppm=50.0, **BENCH)
+    f = estimate_forcing(c, 740.0)
+    assert abs(f.omega / 740.0 - 1 / (1 + 5e-5)) < 5e-6
+
+
+def test_period_3_at_074_and_not_at_0712(ideal):
+    assert analyse_capture(ideal["0.74"], "fig6-period3-ideal")["period"] == 3
+    assert analyse_capture(ideal["0.712"], "fig6-period3-ideal")["period"] == 0
+    # without V_3 (phase from V_s alone), the period is the same
+    assert analyse_capture(_no_v3(ideal["0.74"]), "fig6-period3-ideal")["period"] == 3
+
+
+def test_impacts_found_with_their_velocities(ideal):
+    c = ideal["0.74"]
+    an = analyse_capture(c, "fig6-period3-ideal")
+    truth = c.source["truth"]
+    assert an["impacts"]["count"] == len(truth["impacts_t"])
+    # each impact within one sample of the truth, its velocity within the fit's noise
+    dt = c.sample_interval
+    assert np.max(np.abs(an["impacts"]["t"] - truth["impacts_t"])) <= dt
+    assert np.max(np.abs(an["impacts"]["v"] - truth["impacts_v_before"])) < 0.1
+
+
+def test_score_separates_datasheet_from_ideal_beyond_the_floor(ideal, datasheet):
+    same = score_capture(ideal["0.74"], "fig6-period3-ideal", floor_captures=3, lle=False)
+    other = score_capture(datasheet, "fig6-period3-ideal", floor_captures=3, lle=False)
+    assert not same.separated and same.sliced_wasserstein < 2 * same.sw_floor_max
+    assert other.separated and other.sliced_wasserstein > 20 * other.sw_floor_max
+    assert other.period == 2 and other.period_model == 3
+    assert other.impacts["per_period"] == pytest.approx(1.0, abs=0.01)
+    d = other.to_dict()
+    json.dumps(d, allow_nan=False)
+    assert "floor" in d["floor_method"]
+
+
+def test_measured_bifurcation(ideal, tmp_path):
+    res = measured_bifurcation(list(ideal.values()), "fig6-period3-ideal", computed=12)
+    assert [round(e, 4) for e in res.eta] == [0.74, 0.712]
+    assert res.period == [3, 0]
+    assert res.computed_x.shape == (12, 48)
+    res.plot(tmp_path / "b.png")
+    json.dumps(res.to_dict(), allow_nan=False)
+
+
+def test_cli_synth_then_score_json(tmp_path, capsys):
+    f = tmp_path / "cap.csv"
+    assert (
+        main(["capture", "synth", "--out", str(f), "--format", "keysight", "--periods", "60"]) == 0
+    )
+    capsys.readouterr()
+    assert main(["capture", "score", str(f), "--json", "--floor-captures", "2"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["period"] == 3 and d["source"]["format"] == "keysight"
+    assert main(["capture", "score", str(f), "--floor-captures", "9"]) == 2

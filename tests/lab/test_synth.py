@@ -1,0 +1,54 @@
+"""Synthetic captures: the measurement model applied to a model's trajectory, truth recorded."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from precise_impact.errors import ParameterError
+from precise_impact.lab.capture import Capture
+from precise_impact.lab.synth import Measurement, synth_capture
+
+
+def test_clean_capture_is_the_model_in_volts():
+    # unquantised, noiseless: V_3 is exactly V_A cos(Omega t_true) at the recorded phase
+    c = synth_capture("fig6-period3-ideal", periods=20, bits=0, noise=0.0, transient=20)
+    tr = c.source["truth"]
+    ph = tr["forcing_omega_rad_s"] * c.t + tr["forcing_phase0_rad"]
+    assert np.max(np.abs(c.V_3 - np.cos(ph))) < 1e-9  # V_A = 1 V; phase from ~1e3 rad: 1e-12
+    # the wall: V_s never below V_wall = -2 V by more than the Hermite error
+    assert c.V_s.min() > -2 - 1e-6
+    assert isinstance(c, Capture) and c.units["V_s"] == "V"
+
+
+def test_timebase_error_scales_the_forcing_frequency():
+    c = synth_capture("fig6-period3-ideal", periods=5, transient=5, timebase_ppm=100.0)
+    assert c.source["truth"]["forcing_omega_rad_s"] == pytest.approx(740 / (1 + 1e-4), rel=1e-15)
+
+
+def test_quantisation_and_noise_levels():
+    c = synth_capture("fig6-period3-ideal", periods=20, transient=20, bits=8, noise=0.0, seed=1)
+    rng = c.source["measurement"]["channel_ranges"]["V_s"]
+    lsb = rng["full_scale"] / 256
+    codes = (c.V_s - rng["low"]) / lsb - 0.5
+    assert np.max(np.abs(codes - np.round(codes))) < 1e-6
+    assert len(np.unique(np.round(codes))) <= 256
+
+
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        ({"bits": 30}, "bits"),
+        ({"noise": -0.1}, "noise"),
+        ({"periods": 1}, "periods"),
+        ({"sample_rate": 0.0}, "sample_rate"),
+        ({"gain_error": {"V_x": 0.1}}, "gain_error"),
+        ({"timebase_ppm": math.nan}, "timebase_ppm"),
+    ],
+)
+def test_bad_measurement_refused(kw, name):
+    with pytest.raises(ParameterError) as e:
+        Measurement(**kw).check()
+    assert e.value.name == name
