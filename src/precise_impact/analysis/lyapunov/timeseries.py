@@ -38,10 +38,11 @@ measures (``benchmarks/bench_timeseries_lle.py``).
 
 Error bar
 ---------
-``lle_stderr`` is the batch-means error of the slope over ``n_blocks`` blocks of reference
-points contiguous in time (each block's own divergence curve fitted over the common range)
-combined in quadrature with the fit-range systematic (the largest change of the slope when
-the fit range is moved by ``fit_shift`` of the rise either way).
+``lle_stderr`` is the delete-one-block jackknife error of the slope over ``n_blocks`` blocks
+of reference points contiguous in time (the curve of the other blocks fitted over the same
+range, each block left out in turn) combined in quadrature with the fit-range systematic (the
+largest change of the slope when the fit range is moved by ``fit_shift`` of the rise either
+way).  :attr:`TimeSeriesLLE.ci95` is ``lle -+ t_{0.975, n_blocks-1} lle_stderr``.
 
 Why not nolds
 -------------
@@ -126,7 +127,7 @@ class TimeSeriesLLE(ResultMixin):
     saturation : float
         Mean log distance of random pairs (at equal phase): where ``S`` levels off.
     block_slopes : numpy.ndarray
-        Each block's slope over ``fit_range``.
+        The jackknife slopes: the fit with each block of references left out in turn.
     n_references : int
         Reference points used.
     stats : dict
@@ -158,9 +159,19 @@ class TimeSeriesLLE(ResultMixin):
             f"n_references={self.n_references})"
         )
 
-    def covers(self, value: float, k: float = 1.0) -> bool:
-        """Whether ``value`` lies within ``k`` error bars of ``lle``."""
-        return self.status == "ok" and abs(self.lle - value) <= k * self.lle_stderr
+    @property
+    def ci95(self) -> tuple[float, float]:
+        """The 95 % interval: ``lle -+ t_{0.975, n_blocks - 1} lle_stderr`` (Student's t on
+        the batch means; 2.26 for 10 blocks)."""
+        from scipy.stats import t as student
+
+        k = float(student.ppf(0.975, max(1, len(self.block_slopes) - 1)))
+        return (self.lle - k * self.lle_stderr, self.lle + k * self.lle_stderr)
+
+    def covers(self, value: float) -> bool:
+        """Whether ``value`` lies in :attr:`ci95` (never, without an exponent)."""
+        lo, hi = self.ci95
+        return self.status == "ok" and lo <= value <= hi
 
     def plot(self, path: str | os.PathLike | None = None, truth: float | None = None):
         """The divergence curve ``S(t)`` with its error band, the fit range and the fitted
@@ -191,9 +202,15 @@ class TimeSeriesLLE(ResultMixin):
         ax.axhline(self.saturation, color="0.5", ls=":", lw=0.8, label="random pairs")
         if self.status == "ok":
             tt = np.linspace(lo, hi, 50)
+            line = self.intercept + self.lle * tt
+            floor = self.stats.get("noise_floor")
+            if floor is not None and math.isfinite(floor):
+                ax.plot(tt, 0.5 * np.logaddexp(2 * line, 2 * floor), color="tab:orange",
+                        lw=1.2, label="fitted: exponential through the noise floor")  # fmt: skip
+                ax.axhline(floor, color="tab:orange", ls=":", lw=0.8, label="noise floor")
             ax.plot(
                 tt,
-                self.intercept + self.lle * tt,
+                line,
                 color="tab:red",
                 lw=1.6,
                 label=f"slope {self.lle:.4g} +- {self.lle_stderr:.2g}",
@@ -238,7 +255,9 @@ def delay_embed(series: Any, dim: int, lag: int = 1) -> np.ndarray:
         raise ParameterError("lag", lag, "an integer >= 1")
     n = len(s) - (dim - 1) * lag
     if n < 1:
-        raise ParameterError("series", f"{len(s)} samples", f"more than (dim-1) lag = {(dim - 1) * lag}")
+        raise ParameterError(
+            "series", f"{len(s)} samples", f"more than (dim-1) lag = {(dim - 1) * lag}"
+        )
     return np.stack([s[k * lag : k * lag + n] for k in range(dim)], axis=1)
 
 
@@ -290,7 +309,35 @@ def _select(t: np.ndarray, s: np.ndarray, lo: float, hi: float):
     return t[sel], s[sel]
 
 
-def _fit_linear(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[float, float, float]:
+def _filtered_noise(resid: np.ndarray, wn: float) -> np.ndarray:
+    """Standard deviation of white noise left in each low-passed component, from the part the
+    filter removed: a robust (median absolute deviation) scale of the residual, divided by
+    the residual's share of white noise and multiplied by the passed share.  The shares are
+    those of the filter run forwards and backwards, ``|H|^2 = 1 / (1 + (f / f_c)^8)``, over
+    the band up to Nyquist (``wn = f_c / f_Nyquist``)."""
+    f = np.linspace(0.0, 1.0, 4001)
+    h2 = 1.0 / (1.0 + (f / wn) ** 8)
+    passed, removed = float(np.mean(h2**2)), float(np.mean((1 - h2) ** 2))
+    mad = np.median(np.abs(resid - np.median(resid, axis=0)), axis=0) * 1.482602218505602
+    return mad * math.sqrt(passed / removed)
+
+
+def _noise_floor(noise_sd: np.ndarray) -> float:
+    """``E[ln |n1 - n2|]`` for two independent noise vectors of component deviations
+    ``noise_sd``: ``ln s + (digamma(d / 2) + ln 2) / 2`` with ``s^2 = 2 mean(sd^2)`` (exact for
+    equal deviations: ``|n1 - n2| / s`` is chi-distributed with ``d`` degrees of freedom)."""
+    from scipy.special import digamma
+
+    d = len(noise_sd)
+    s2 = 2.0 * float(np.mean(np.square(noise_sd)))
+    if s2 <= 0:
+        return -math.inf
+    return 0.5 * math.log(s2) + 0.5 * (float(digamma(d / 2)) + math.log(2.0))
+
+
+def _fit_linear(
+    t: np.ndarray, s: np.ndarray, lo: float, hi: float, floor: float | None = None
+) -> tuple[float, float, float]:
     """Least-squares line over ``[lo, hi]``: ``(slope, intercept, nan)``."""
     tt, ss = _select(t, s, lo, hi)
     if len(tt) < 2:
@@ -299,7 +346,9 @@ def _fit_linear(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[flo
     return float(slope), float(icpt), math.nan
 
 
-def _fit_floor(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[float, float, float]:
+def _fit_floor(
+    t: np.ndarray, s: np.ndarray, lo: float, hi: float, floor: float | None = None
+) -> tuple[float, float, float]:
     """``S(t) = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` over ``[lo, hi]``: an exponential
     separation seen through a noise floor ``b`` (the measured distance of a pair is the
     true one and the noise's in quadrature).  ``(lambda, a, b)``."""
@@ -309,6 +358,21 @@ def _fit_floor(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[floa
     if len(tt) < 4:
         return math.nan, math.nan, math.nan
     lam0, a0 = np.polyfit(tt, ss, 1)
+    if floor is not None:  # the floor measured from the noise: two parameters
+        if not math.isfinite(floor):
+            return float(lam0), float(a0), floor
+
+        def resid2(p: np.ndarray) -> np.ndarray:
+            return 0.5 * np.logaddexp(2 * (p[0] + p[1] * tt), 2 * floor) - ss
+
+        a_start = max(float(a0), float(ss[0]) - 1.0)
+        try:
+            sol = least_squares(resid2, [a_start, float(lam0)], method="lm")
+        except (ValueError, np.linalg.LinAlgError):
+            return math.nan, math.nan, math.nan
+        if not sol.success or not np.all(np.isfinite(sol.x)):
+            return math.nan, math.nan, math.nan
+        return float(sol.x[1]), float(sol.x[0]), floor
     b0 = float(ss[0]) - 1.0
 
     def resid(p: np.ndarray) -> np.ndarray:
@@ -358,11 +422,12 @@ def timeseries_lle(
     fit_fractions: tuple[float, float] | None = None,
     fit_shift: float = 0.1,
     radius: float | None = None,
-    max_neighbors: int = 8,
+    max_neighbors: int = 4,
     min_rise: float = 1.0,
     n_blocks: int = 10,
     scale: bool = True,
     lowpass: Any = "auto",
+    floor_from_noise: bool = True,
 ) -> TimeSeriesLLE:
     """Largest Lyapunov exponent of a uniformly sampled record (Rosenstein or Kantz).
 
@@ -392,19 +457,29 @@ def timeseries_lle(
     lag_step : int or None, default ``None``
         Lag spacing in (grid) samples; ``None``: an eighth of a period (with ``period``),
         else ``max(1, max_lag / 200)``.
+    fit : str, default ``'floor'``
+        The model fitted to ``S(t)``: ``'floor'``, an exponential seen through a noise
+        floor, ``S = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` (the measured distance of a
+        pair is the true one and the noise's in quadrature: the slow start of a noisy
+        curve is modelled, not fitted as a low slope); ``'linear'``, Rosenstein's straight
+        line.
     fit_range : (float, float) or None, default ``None``
         Times to fit.  ``None``: the curve's own rising part, from where it has risen
-        ``fit_fractions[0]`` of the way from its start ``S(0)`` to the random-pair level
-        to where it has risen ``fit_fractions[1]`` (falls, for a falling curve).
-    fit_fractions : (float, float), default ``(0.2, 0.6)``
-        The automatic fit range (``0 <= lo < hi <= 1``); see the truth table.
+        ``fit_fractions[0]`` of the way from its start ``S(t_1)`` (the first lag: at lag 0
+        the neighbours were chosen for their small noisy distance) to the random-pair level
+        to where it has risen ``fit_fractions[1]`` (falls, towards its lowest value, for a
+        falling curve).
+    fit_fractions : (float, float) or None, default ``None``
+        The automatic fit range (``0 <= lo < hi <= 1``); ``None``: ``(0, 0.5)`` for
+        ``fit='floor'`` (the floor is part of the model; saturation is not, so the range
+        stops half-way up), ``(0.2, 0.6)`` for ``'linear'``.
     fit_shift : float, default 0.1
         The fit range is also moved by this fraction of the rise each way; the largest
         change of the slope is the fit-range systematic.
     radius : float or None, default ``None``
         Kantz's neighbourhood radius (in the scaled units); ``None``: twice the median
         nearest-neighbour distance.
-    max_neighbors : int, default 8
+    max_neighbors : int, default 4
         Kantz: at most this many nearest neighbours within ``radius`` per reference.
     min_rise : float, default 1.0
         A curve that moves less than this many e-folds from ``S(0)`` over the followed
@@ -413,6 +488,14 @@ def timeseries_lle(
         Blocks of references for the batch-means error (``>= 2``).
     scale : bool, default ``True``
         Divide each component by its standard deviation first.
+    lowpass : float, ``'auto'`` or None, default ``'auto'``
+        Zero-phase low-pass (4th-order Butterworth run forwards and backwards) applied to
+        every component before anything else, cutoff in cycles per unit time.  A linear
+        time-invariant filter applied to both members of a pair filters their difference,
+        so it changes ``S`` by a constant, not its slope, while white noise drops by
+        ``sqrt(Nyquist / cutoff)``.  ``'auto'``: the :data:`AUTO_LOWPASS_HARMONIC`-th
+        forcing harmonic when ``period`` is given and the record has the samples for it,
+        else no filter; ``None``: no filter.
 
     Returns
     -------
@@ -458,21 +541,29 @@ def timeseries_lle(
         raise ParameterError("n_blocks", n_blocks, "an integer >= 2")
     if not (isinstance(max_neighbors, (int, np.integer)) and max_neighbors >= 1):
         raise ParameterError("max_neighbors", max_neighbors, "an integer >= 1")
+    if period is not None:
+        period = _check_positive("period", period)
     cutoff = _cutoff(lowpass, period, dt)
     if cutoff is not None:
         from scipy.signal import butter, sosfiltfilt
 
         sos = butter(4, cutoff * 2 * dt, output="sos")
+        y_raw = y
         y = sosfiltfilt(sos, y, axis=0)
+        noise_sd = _filtered_noise(y_raw - y, cutoff * 2 * dt)
+    else:
+        noise_sd = None
     if scale:
         sd = y.std(axis=0)
         if np.any(sd == 0):
             raise ParameterError("states", "a constant component", "every component varying")
         y = (y - y.mean(axis=0)) / sd
+        if noise_sd is not None:
+            noise_sd = noise_sd / sd
 
     if period is not None:
-        period = _check_positive("period", period)
-        spp = per_period if per_period is not None else max(4, round(period / dt))
+        # after the low-pass, 64 grid points per period keep every harmonic it passes
+        spp = per_period if per_period is not None else max(4, min(64, round(period / dt)))
         if not (isinstance(spp, (int, np.integer)) and spp >= 4):
             raise ParameterError("per_period", per_period, "an integer >= 4")
         yg, n_periods = _phase_grid(y, dt, period, float(phase0), int(spp))
@@ -505,7 +596,9 @@ def timeseries_lle(
         yg, n_ref, spp if period is not None else 0, theiler_n, method, radius, max_neighbors
     )
     if len(refs) < 2 * n_blocks:
-        raise ParameterError("states", f"{len(refs)} reference points with a neighbour", f">= {2 * n_blocks}")
+        raise ParameterError(
+            "states", f"{len(refs)} reference points with a neighbour", f">= {2 * n_blocks}"
+        )
 
     block_of = np.minimum((refs * n_blocks) // n_ref, n_blocks - 1)
     sums = np.zeros((n_blocks, len(lag_idx)))
@@ -581,13 +674,32 @@ def timeseries_lle(
             _window(t, sc, sign * y0, delta, max(0.0, lo_f + d * (lo_f > 0)), min(1.0, hi_f + d))
             for d in (-fit_shift, fit_shift)
         ]
-    model = _FITS[fit]
+    fixed_floor = None
+    if fit == "floor" and floor_from_noise and noise_sd is not None:
+        stats["noise_sd"] = [float(v) for v in noise_sd]
+        measured = _noise_floor(noise_sd)
+        # the noise floor is where a rising curve starts from; a falling curve (a stable
+        # orbit approached) goes below it, and a floor above the start is not a floor
+        if sign > 0 and measured < y0:
+            fixed_floor = measured
+
+    def model(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[float, float, float]:
+        return _FITS[fit](t, s, lo, hi, fixed_floor)
+
     slope, icpt, floor = model(t, curve, lo, hi)
-    slopes_b = np.array([model(t, per_block[b], lo, hi)[0] for b in range(n_blocks)])
+    # delete-one-block jackknife of the whole fit (Efron & Stein 1981): each block left out
+    # in turn, the curve of the other blocks fitted over the same range; a nonlinear fit of
+    # one block's own noisy curve would inflate the spread
+    tot_s, tot_c = sums.sum(0), counts.sum(0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slopes_b = np.array(
+            [model(t, (tot_s - sums[b]) / (tot_c - counts[b]), lo, hi)[0] for b in range(n_blocks)]
+        )
     good = np.isfinite(slopes_b)
+    nb = int(good.sum())
     stat = (
-        float(np.std(slopes_b[good], ddof=1) / math.sqrt(good.sum()))
-        if good.sum() >= 2
+        float(math.sqrt((nb - 1) / nb * np.sum((slopes_b[good] - slopes_b[good].mean()) ** 2)))
+        if nb >= 2
         else math.inf
     )
     syst = max((abs(model(t, curve, a, b)[0] - slope) for a, b in shifted), default=0.0)
