@@ -1,0 +1,764 @@
+"""The largest Lyapunov exponent from a measured time series: Rosenstein's and Kantz's
+nearest-neighbour divergence estimators, for a forced system with neighbours at equal phase.
+
+What is estimated
+-----------------
+Pairs of nearby points of the record are followed forward in time and the average
+logarithm of their distance, ``S(t)``, is plotted against the time ``t`` they have been
+followed (the *divergence curve*).  On a chaotic attractor ``S(t)`` rises with slope
+``lambda_1`` (the largest exponent) from the noise floor until the pairs are as far apart as
+two random points of the attractor; the estimate is the least-squares slope of ``S`` over
+the rising part (the *fit range*).
+
+* ``method='rosenstein'`` (Rosenstein, Collins & De Luca 1993): one nearest neighbour per
+  reference point, ``S(t) = < ln |y_i(t) - y_j(t)| >_i``.
+* ``method='kantz'`` (Kantz 1994): every neighbour within a radius ``epsilon``,
+  ``S(t) = < ln ( < |y_i(t) - y_j(t)| >_{j in U_i} ) >_i``.
+
+Neighbours at the same forcing phase
+------------------------------------
+The impact oscillator is forced: ``(x, v)`` alone is not its state, ``(x, v, phase)`` is.
+Two points close in ``(x, v)`` but at different forcing phases are not neighbours in phase
+space, and a delay embedding of a scalar channel mixes phases as well.  A capture records
+the state itself (``V_s ~ x``, ``V_q ~ v``) and the forcing phase is known (``V_3``) or
+estimated, so with ``period`` given the record is resampled (linear interpolation) onto a
+grid of exactly ``per_period`` samples per forcing period starting at phase 0; each phase
+bin is then a Poincare section, neighbours are searched only within a reference's own
+section (a KD-tree per section, :class:`scipy.spatial.cKDTree`), and the pair is followed
+on the common grid, so both members see the same forcing at every lag.  Without ``period``
+(an autonomous system, or an embedding made by :func:`delay_embed`) neighbours are searched
+in the whole record, away from the reference in time by the Theiler window.  The state
+components are divided by their standard deviations (volts and volts-per-second, or x and
+v, on one footing); the exponent does not depend on the norm.
+
+The non-smooth flow: two neighbours hit the wall at slightly different times and, between
+the two impacts, their velocities differ by ``(1 + R) |v|``; such short excursions touch a
+fraction ``~ d / |v|`` of the pairs and enter ``S`` as a small bias, which the truth table
+measures (``benchmarks/bench_timeseries_lle.py``).
+
+Error bar
+---------
+``lle_stderr`` is the delete-one-block jackknife error of the slope over ``n_blocks`` blocks
+of reference points contiguous in time (the curve of the other blocks fitted over the same
+range, each block left out in turn) combined in quadrature with the fit-range systematic (the
+largest change of the slope when the fit range is moved by ``fit_shift`` of the rise either
+way).  :attr:`TimeSeriesLLE.ci95` is ``lle -+ t_{0.975, n_blocks-1} lle_stderr``.
+
+Why not nolds
+-------------
+nolds 0.6.3 (``lyap_r`` = Rosenstein, ``lyap_e`` = Eckmann) was measured and not used:
+``import nolds`` fails on Python 3.11 (``TypeError: 'nolds.datasets' is not a package``:
+its ``__init__`` loads data files with ``importlib.resources`` on a module); loaded from its
+file, ``lyap_r`` takes one scalar channel and delay-embeds it (no way to give the recorded
+state, nor to keep neighbours at equal forcing phase), builds the full ``m x m`` distance
+matrix (200 periods at 100 samples/period: 20 000 points, 3.2 GB), and fits the line over
+the whole followed range from ``fit_offset`` (no rising range is chosen, so saturation
+enters the slope: the low bias it is known for).  The truth table has a row for it run on
+decimated data.  The algorithm itself is a dozen lines; written here on KD-trees.
+
+References
+----------
+.. [1] M. T. Rosenstein, J. J. Collins, C. J. De Luca, "A practical method for calculating
+       largest Lyapunov exponents from small data sets", Physica D 65 (1993) 117-134.
+.. [2] H. Kantz, "A robust method to estimate the maximal Lyapunov exponent of a time
+       series", Phys. Lett. A 185 (1994) 77-87.
+.. [3] J. Theiler, "Spurious dimension from correlation integrals of filtered noise",
+       Phys. Rev. A 34 (1986) 2427 (the window excluding temporal neighbours).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from typing import Any
+
+import numpy as np
+
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ParameterError
+
+__all__ = [
+    "TIMESERIES_METHODS",
+    "TimeSeriesLLE",
+    "delay_embed",
+    "timeseries_lle",
+]
+
+#: The estimators (``method=``).
+TIMESERIES_METHODS = ("rosenstein", "kantz")
+
+#: The automatic low-pass cutoff, in forcing harmonics (``lowpass='auto'`` with ``period``).
+AUTO_LOWPASS_HARMONIC = 4.0
+
+#: Reasons a divergence curve gives no exponent (``TimeSeriesLLE.status``).
+_FLAT = "flat"
+
+
+@dataclasses.dataclass(frozen=True, repr=False)
+class TimeSeriesLLE(ResultMixin):
+    """A largest-Lyapunov-exponent estimate from a time series (:func:`timeseries_lle`).
+
+    Attributes
+    ----------
+    lle : float
+        The exponent in inverse units of ``dt`` (NaN when ``status != 'ok'``).
+    lle_stderr : float
+        Its error bar: batch means over blocks and the fit-range systematic in quadrature.
+    stat_stderr, fit_systematic : float
+        The two parts of ``lle_stderr``.
+    method : str
+        ``'rosenstein'`` or ``'kantz'``.
+    status : str
+        ``'ok'``, or ``'flat'`` (the curve neither rose nor fell by ``min_rise`` e-folds:
+        neighbours stay at the noise floor, as on a periodic attractor; no exponent).
+    reason : str
+        Why, in words, when ``status != 'ok'`` (else empty).
+    lags : numpy.ndarray
+        Times the pairs were followed (units of ``dt``).
+    divergence : numpy.ndarray
+        ``S(t)``, the mean log distance at each lag.
+    divergence_stderr : numpy.ndarray
+        Its batch-means error at each lag.
+    fit_range : (float, float)
+        The times ``[t_lo, t_hi]`` fitted.
+    intercept : float
+        The fitted line's value at ``t = 0``.
+    saturation : float
+        Mean log distance of random pairs (at equal phase): where ``S`` levels off.
+    block_slopes : numpy.ndarray
+        The jackknife slopes: the fit with each block of references left out in turn.
+    n_references : int
+        Reference points used.
+    stats : dict
+        Settings and counts (samples per period, Theiler window, radius, neighbours...).
+    """
+
+    lle: float
+    lle_stderr: float
+    stat_stderr: float
+    fit_systematic: float
+    method: str
+    status: str
+    reason: str
+    lags: np.ndarray
+    divergence: np.ndarray
+    divergence_stderr: np.ndarray
+    fit_range: tuple[float, float]
+    intercept: float
+    saturation: float
+    block_slopes: np.ndarray
+    n_references: int
+    stats: dict
+
+    def __repr__(self) -> str:
+        return (
+            f"TimeSeriesLLE(method={self.method!r}, lle={self.lle:.6g}, "
+            f"lle_stderr={self.lle_stderr:.3g}, status={self.status!r}, "
+            f"fit_range=({self.fit_range[0]:.4g}, {self.fit_range[1]:.4g}), "
+            f"n_references={self.n_references})"
+        )
+
+    @property
+    def ci95(self) -> tuple[float, float]:
+        """The 95 % interval: ``lle -+ t_{0.975, n_blocks - 1} lle_stderr`` (Student's t on
+        the batch means; 2.26 for 10 blocks)."""
+        from scipy.stats import t as student
+
+        k = float(student.ppf(0.975, max(1, len(self.block_slopes) - 1)))
+        return (self.lle - k * self.lle_stderr, self.lle + k * self.lle_stderr)
+
+    def covers(self, value: float) -> bool:
+        """Whether ``value`` lies in :attr:`ci95` (never, without an exponent)."""
+        lo, hi = self.ci95
+        return self.status == "ok" and lo <= value <= hi
+
+    def plot(self, path: str | os.PathLike | None = None, truth: float | None = None):
+        """The divergence curve ``S(t)`` with its error band, the fit range and the fitted
+        line (and, if given, a line of slope ``truth`` through the same point).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+        truth : float or None, default ``None``
+            A reference exponent (e.g. the variational one) drawn for comparison.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from precise_impact.io.figures import finish, new_figure
+
+        fig, axes = new_figure(1, 1, figsize=(7.5, 4.6))
+        ax = axes[0][0] if isinstance(axes, np.ndarray) or isinstance(axes, list) else axes
+        t = np.asarray(self.lags, dtype=float)
+        s = np.asarray(self.divergence, dtype=float)
+        e = np.nan_to_num(np.asarray(self.divergence_stderr, dtype=float))
+        ax.fill_between(t, s - e, s + e, color="0.85", lw=0, label="S(t) +- stderr")
+        ax.plot(t, s, "k.-", ms=2.5, lw=0.8, label=f"S(t), {self.method}")
+        lo, hi = self.fit_range
+        ax.axvspan(lo, hi, color="tab:blue", alpha=0.08, label="fit range")
+        ax.axhline(self.saturation, color="0.5", ls=":", lw=0.8, label="random pairs")
+        if self.status == "ok":
+            tt = np.linspace(lo, hi, 50)
+            line = self.intercept + self.lle * tt
+            floor = self.stats.get("noise_floor")
+            if floor is not None and math.isfinite(floor):
+                ax.plot(tt, 0.5 * np.logaddexp(2 * line, 2 * floor), color="tab:orange",
+                        lw=1.2, label="fitted: exponential through the noise floor")  # fmt: skip
+                ax.axhline(floor, color="tab:orange", ls=":", lw=0.8, label="noise floor")
+            ax.plot(
+                tt,
+                line,
+                color="tab:red",
+                lw=1.6,
+                label=f"slope {self.lle:.4g} +- {self.lle_stderr:.2g}",
+            )
+            if truth is not None:
+                mid = 0.5 * (lo + hi)
+                y_mid = self.intercept + self.lle * mid
+                ax.plot(
+                    tt,
+                    y_mid + truth * (tt - mid),
+                    color="tab:green",
+                    ls="--",
+                    lw=1.2,
+                    label=f"reference slope {truth:.4g}",
+                )
+        else:
+            ax.set_title(f"no exponent: {self.reason[:90]}", fontsize=8)
+        ax.set_xlabel("time followed")
+        ax.set_ylabel("mean ln distance")
+        ax.grid(True, lw=0.3, alpha=0.5)
+        ax.legend(fontsize=8, loc="lower right")
+        return finish(fig, path)
+
+
+def delay_embed(series: Any, dim: int, lag: int = 1) -> np.ndarray:
+    """Delay vectors ``(s_n, s_{n+lag}, ..., s_{n+(dim-1) lag})`` of a scalar series (Takens),
+    for a channel without its partner; shape ``(len(series) - (dim - 1) lag, dim)``.
+
+    Parameters
+    ----------
+    series : array_like
+        One channel, uniformly sampled.
+    dim : int
+        Embedding dimension, ``>= 1``.
+    lag : int, default 1
+        Delay in samples, ``>= 1``.
+    """
+    s = np.asarray(series, dtype=float).ravel()
+    if not (isinstance(dim, (int, np.integer)) and dim >= 1):
+        raise ParameterError("dim", dim, "an integer >= 1")
+    if not (isinstance(lag, (int, np.integer)) and lag >= 1):
+        raise ParameterError("lag", lag, "an integer >= 1")
+    n = len(s) - (dim - 1) * lag
+    if n < 1:
+        raise ParameterError(
+            "series", f"{len(s)} samples", f"more than (dim-1) lag = {(dim - 1) * lag}"
+        )
+    return np.stack([s[k * lag : k * lag + n] for k in range(dim)], axis=1)
+
+
+def _check_positive(name: str, value: Any) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(name, value, "a finite number > 0") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ParameterError(name, value, "a finite number > 0")
+    return v
+
+
+def _phase_grid(y: np.ndarray, dt: float, period: float, phase0: float, per_period: int):
+    """``y`` resampled at ``per_period`` samples per forcing period, phase 0 first, whole
+    periods only: array ``(M * per_period, d)``."""
+    n = len(y)
+    cycles = np.arange(n) * (dt / period) + phase0 / (2 * math.pi)  # forcing cycles
+    k0 = math.ceil(cycles[0] - 1e-12)
+    k1 = math.floor(cycles[-1] + 1e-12)
+    m = k1 - k0
+    if m < 1:
+        return np.empty((0, y.shape[1])), 0
+    g = k0 + np.arange(m * per_period) / per_period
+    out = np.empty((len(g), y.shape[1]))
+    for c in range(y.shape[1]):
+        out[:, c] = np.interp(g, cycles, y[:, c])
+    return out, m
+
+
+def _cutoff(lowpass: Any, period: Any, dt: float) -> float | None:
+    """The low-pass cutoff frequency (cycles per unit of ``dt``) or ``None`` (no filter)."""
+    if lowpass is None:
+        return None
+    if isinstance(lowpass, str) and lowpass == "auto":
+        if period is None:
+            return None
+        fc = AUTO_LOWPASS_HARMONIC / float(period)
+        return fc if fc * 2 * dt < 0.8 else None  # too few samples per period to filter
+    fc = _check_positive("lowpass", lowpass)
+    if not fc * 2 * dt < 1:
+        raise ParameterError("lowpass", lowpass, f"below the Nyquist frequency {0.5 / dt:.6g}")
+    return fc
+
+
+def _select(t: np.ndarray, s: np.ndarray, lo: float, hi: float):
+    sel = (t >= lo - 1e-12) & (t <= hi + 1e-12) & np.isfinite(s)
+    sel[0] = False  # lag 0: the neighbour was chosen for its small (noisy) distance
+    return t[sel], s[sel]
+
+
+def _filtered_noise(resid: np.ndarray, wn: float) -> np.ndarray:
+    """Standard deviation of white noise left in each low-passed component, from the part the
+    filter removed: a robust (median absolute deviation) scale of the residual, divided by
+    the residual's share of white noise and multiplied by the passed share.  The shares are
+    those of the filter run forwards and backwards, ``|H|^2 = 1 / (1 + (f / f_c)^8)``, over
+    the band up to Nyquist (``wn = f_c / f_Nyquist``)."""
+    f = np.linspace(0.0, 1.0, 4001)
+    h2 = 1.0 / (1.0 + (f / wn) ** 8)
+    passed, removed = float(np.mean(h2**2)), float(np.mean((1 - h2) ** 2))
+    mad = np.median(np.abs(resid - np.median(resid, axis=0)), axis=0) * 1.482602218505602
+    return mad * math.sqrt(passed / removed)
+
+
+def _noise_floor(noise_sd: np.ndarray) -> float:
+    """``E[ln |n1 - n2|]`` for two independent noise vectors of component deviations
+    ``noise_sd``: ``ln s + (digamma(d / 2) + ln 2) / 2`` with ``s^2 = 2 mean(sd^2)`` (exact for
+    equal deviations: ``|n1 - n2| / s`` is chi-distributed with ``d`` degrees of freedom)."""
+    from scipy.special import digamma
+
+    d = len(noise_sd)
+    s2 = 2.0 * float(np.mean(np.square(noise_sd)))
+    if s2 <= 0:
+        return -math.inf
+    return 0.5 * math.log(s2) + 0.5 * (float(digamma(d / 2)) + math.log(2.0))
+
+
+def _fit_linear(
+    t: np.ndarray, s: np.ndarray, lo: float, hi: float, floor: float | None = None
+) -> tuple[float, float, float]:
+    """Least-squares line over ``[lo, hi]``: ``(slope, intercept, nan)``."""
+    tt, ss = _select(t, s, lo, hi)
+    if len(tt) < 2:
+        return math.nan, math.nan, math.nan
+    slope, icpt = np.polyfit(tt, ss, 1)
+    return float(slope), float(icpt), math.nan
+
+
+def _fit_floor(
+    t: np.ndarray, s: np.ndarray, lo: float, hi: float, floor: float | None = None
+) -> tuple[float, float, float]:
+    """``S(t) = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` over ``[lo, hi]``: an exponential
+    separation seen through a noise floor ``b`` (the measured distance of a pair is the
+    true one and the noise's in quadrature).  ``(lambda, a, b)``."""
+    from scipy.optimize import least_squares
+
+    tt, ss = _select(t, s, lo, hi)
+    if len(tt) < 4:
+        return math.nan, math.nan, math.nan
+    lam0, a0 = np.polyfit(tt, ss, 1)
+    if floor is not None:  # the floor measured from the noise: two parameters
+        if not math.isfinite(floor):
+            return float(lam0), float(a0), floor
+
+        def resid2(p: np.ndarray) -> np.ndarray:
+            return 0.5 * np.logaddexp(2 * (p[0] + p[1] * tt), 2 * floor) - ss
+
+        a_start = max(float(a0), float(ss[0]) - 1.0)
+        try:
+            sol = least_squares(resid2, [a_start, float(lam0)], method="lm")
+        except (ValueError, np.linalg.LinAlgError):
+            return math.nan, math.nan, math.nan
+        if not sol.success or not np.all(np.isfinite(sol.x)):
+            return math.nan, math.nan, math.nan
+        return float(sol.x[1]), float(sol.x[0]), floor
+    b0 = float(ss[0]) - 1.0
+
+    def resid(p: np.ndarray) -> np.ndarray:
+        return 0.5 * np.logaddexp(2 * (p[0] + p[1] * tt), 2 * p[2]) - ss
+
+    try:
+        sol = least_squares(resid, [a0, lam0, b0], method="lm")
+    except (ValueError, np.linalg.LinAlgError):
+        return math.nan, math.nan, math.nan
+    if not sol.success or not np.all(np.isfinite(sol.x)):
+        return math.nan, math.nan, math.nan
+    a, lam, b = (float(v) for v in sol.x)
+    return lam, a, b
+
+
+#: The fitted models of the divergence curve (``fit=``).
+_FITS = {"floor": _fit_floor, "linear": _fit_linear}
+#: Their default fit ranges, as fractions of the rise (``fit_fractions=None``).
+_FIT_FRACTIONS = {"floor": (0.0, 0.5), "linear": (0.2, 0.6)}
+
+
+def _window(t: np.ndarray, s: np.ndarray, y0: float, delta: float, f_lo: float, f_hi: float):
+    """First times the curve has moved ``f_lo`` and ``f_hi`` of ``delta`` from ``y0``."""
+    prog = (s - y0) / delta
+    prog = np.maximum.accumulate(np.nan_to_num(prog, nan=-np.inf))
+    i_lo = int(np.searchsorted(prog, f_lo))
+    i_hi = int(np.searchsorted(prog, f_hi))
+    i_lo = min(i_lo, len(t) - 1)
+    i_hi = min(max(i_hi, i_lo + 2), len(t) - 1)
+    i_lo = min(i_lo, i_hi - 2) if i_hi >= 2 else 0
+    return float(t[max(i_lo, 0)]), float(t[i_hi])
+
+
+def timeseries_lle(
+    states: Any,
+    dt: Any,
+    *,
+    method: str = "rosenstein",
+    period: Any = None,
+    phase0: float = 0.0,
+    per_period: int | None = None,
+    theiler: Any = None,
+    max_lag: Any = None,
+    lag_step: int | None = None,
+    fit_range: tuple[float, float] | None = None,
+    fit: str = "floor",
+    fit_fractions: tuple[float, float] | None = None,
+    fit_shift: float = 0.1,
+    radius: float | None = None,
+    max_neighbors: int = 4,
+    min_rise: float = 1.0,
+    n_blocks: int = 10,
+    scale: bool = True,
+    lowpass: Any = "auto",
+    floor_from_noise: bool = True,
+) -> TimeSeriesLLE:
+    """Largest Lyapunov exponent of a uniformly sampled record (Rosenstein or Kantz).
+
+    Parameters
+    ----------
+    states : array_like, shape ``(N,)`` or ``(N, d)``
+        The record, one row per sample, one column per state component (any dimension;
+        e.g. ``(x, v)`` or a capture's ``(V_s, V_q)``; a scalar channel can be embedded
+        first with :func:`delay_embed`).
+    dt : float
+        Sample interval (the exponent comes out in its inverse units).
+    method : str, default ``'rosenstein'``
+        One of :data:`TIMESERIES_METHODS`.
+    period : float or None, default ``None``
+        Forcing period in the units of ``dt``.  Given: neighbours are searched at equal
+        forcing phase (module docstring); ``None``: an autonomous record.
+    phase0 : float, default 0
+        Forcing phase (radians) at the first sample; phase ``0`` is the first grid point.
+    per_period : int or None, default ``None``
+        Samples per period of the phase grid (``>= 4``); ``None``: ``round(period / dt)``.
+    theiler : float or None, default ``None``
+        Theiler window, in units of ``dt``: neighbours closer than this in time are not
+        used.  ``None``: two forcing periods (with ``period``), else ``N // 50`` samples.
+    max_lag : float or None, default ``None``
+        Longest time pairs are followed.  ``None``: a quarter of the record, at most 50
+        forcing periods (with ``period``) or ``N // 4`` samples.
+    lag_step : int or None, default ``None``
+        Lag spacing in (grid) samples; ``None``: an eighth of a period (with ``period``),
+        else ``max(1, max_lag / 200)``.
+    fit : str, default ``'floor'``
+        The model fitted to ``S(t)``: ``'floor'``, an exponential seen through a noise
+        floor, ``S = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` (the measured distance of a
+        pair is the true one and the noise's in quadrature: the slow start of a noisy
+        curve is modelled, not fitted as a low slope); ``'linear'``, Rosenstein's straight
+        line.
+    fit_range : (float, float) or None, default ``None``
+        Times to fit.  ``None``: the curve's own rising part, from where it has risen
+        ``fit_fractions[0]`` of the way from its start ``S(t_1)`` (the first lag: at lag 0
+        the neighbours were chosen for their small noisy distance) to the random-pair level
+        to where it has risen ``fit_fractions[1]`` (falls, towards its lowest value, for a
+        falling curve).
+    fit_fractions : (float, float) or None, default ``None``
+        The automatic fit range (``0 <= lo < hi <= 1``); ``None``: ``(0, 0.5)`` for
+        ``fit='floor'`` (the floor is part of the model; saturation is not, so the range
+        stops half-way up), ``(0.2, 0.6)`` for ``'linear'``.
+    fit_shift : float, default 0.1
+        The fit range is also moved by this fraction of the rise each way; the largest
+        change of the slope is the fit-range systematic.
+    radius : float or None, default ``None``
+        Kantz's neighbourhood radius (in the scaled units); ``None``: twice the median
+        nearest-neighbour distance.
+    max_neighbors : int, default 4
+        Kantz: at most this many nearest neighbours within ``radius`` per reference.
+    min_rise : float, default 1.0
+        A curve that moves less than this many e-folds from ``S(0)`` over the followed
+        lags gives no exponent (``status='flat'``): the neighbours stay at the noise floor.
+    n_blocks : int, default 10
+        Blocks of references for the batch-means error (``>= 2``).
+    scale : bool, default ``True``
+        Divide each component by its standard deviation first.
+    lowpass : float, ``'auto'`` or None, default ``'auto'``
+        Zero-phase low-pass (4th-order Butterworth run forwards and backwards) applied to
+        every component before anything else, cutoff in cycles per unit time.  A linear
+        time-invariant filter applied to both members of a pair filters their difference,
+        so it changes ``S`` by a constant, not its slope, while white noise drops by
+        ``sqrt(Nyquist / cutoff)``.  ``'auto'``: the :data:`AUTO_LOWPASS_HARMONIC`-th
+        forcing harmonic when ``period`` is given and the record has the samples for it,
+        else no filter; ``None``: no filter.
+
+    Returns
+    -------
+    TimeSeriesLLE
+
+    Raises
+    ------
+    ParameterError
+        Bad input (non-finite samples, too short a record, a constant component...).
+
+    References
+    ----------
+    .. [1] M. T. Rosenstein, J. J. Collins, C. J. De Luca, Physica D 65 (1993) 117-134.
+    .. [2] H. Kantz, Phys. Lett. A 185 (1994) 77-87.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(4000) * 0.01
+    >>> rng = np.random.default_rng(1)
+    >>> r = timeseries_lle(rng.normal(size=(4000, 2)), 0.01, max_lag=2.0)
+    >>> r.status
+    'flat'
+    """
+    if method not in TIMESERIES_METHODS:
+        raise ParameterError("method", method, "one of " + ", ".join(TIMESERIES_METHODS))
+    dt = _check_positive("dt", dt)
+    y = np.asarray(states, dtype=float)
+    if y.ndim == 1:
+        y = y[:, None]
+    if y.ndim != 2 or y.shape[1] < 1:
+        raise ParameterError("states", f"shape {y.shape}", "an array of shape (N,) or (N, d)")
+    if not np.all(np.isfinite(y)):
+        raise ParameterError("states", "non-finite samples", "finite numbers only")
+    if fit not in _FITS:
+        raise ParameterError("fit", fit, "one of " + ", ".join(_FITS))
+    if fit_fractions is None:
+        fit_fractions = _FIT_FRACTIONS[fit]
+    lo_f, hi_f = (float(v) for v in fit_fractions)
+    if not 0 <= lo_f < hi_f <= 1:
+        raise ParameterError("fit_fractions", fit_fractions, "0 <= lo < hi <= 1")
+    if not (isinstance(n_blocks, (int, np.integer)) and n_blocks >= 2):
+        raise ParameterError("n_blocks", n_blocks, "an integer >= 2")
+    if not (isinstance(max_neighbors, (int, np.integer)) and max_neighbors >= 1):
+        raise ParameterError("max_neighbors", max_neighbors, "an integer >= 1")
+    if period is not None:
+        period = _check_positive("period", period)
+    cutoff = _cutoff(lowpass, period, dt)
+    if cutoff is not None:
+        from scipy.signal import butter, sosfiltfilt
+
+        sos = butter(4, cutoff * 2 * dt, output="sos")
+        y_raw = y
+        y = sosfiltfilt(sos, y, axis=0)
+        noise_sd = _filtered_noise(y_raw - y, cutoff * 2 * dt)
+    else:
+        noise_sd = None
+    if scale:
+        sd = y.std(axis=0)
+        if np.any(sd == 0):
+            raise ParameterError("states", "a constant component", "every component varying")
+        y = (y - y.mean(axis=0)) / sd
+        if noise_sd is not None:
+            noise_sd = noise_sd / sd
+
+    if period is not None:
+        # after the low-pass, 64 grid points per period keep every harmonic it passes
+        spp = per_period if per_period is not None else max(4, min(64, round(period / dt)))
+        if not (isinstance(spp, (int, np.integer)) and spp >= 4):
+            raise ParameterError("per_period", per_period, "an integer >= 4")
+        yg, n_periods = _phase_grid(y, dt, period, float(phase0), int(spp))
+        step_t = period / spp
+        theiler_n = int(math.ceil((2 * period if theiler is None else float(theiler)) / step_t))
+        if max_lag is None:
+            max_lag = min(n_periods // 4, 50) * period
+        ls = max(1, spp // 8) if lag_step is None else int(lag_step)
+    else:
+        spp, yg, n_periods, step_t = 1, y, 0, dt
+        theiler_n = int(math.ceil(float(theiler) / dt)) if theiler is not None else len(y) // 50
+        if max_lag is None:
+            max_lag = (len(y) // 4) * dt
+        ls = max(1, int(float(max_lag) / dt) // 200) if lag_step is None else int(lag_step)
+    if ls < 1:
+        raise ParameterError("lag_step", lag_step, "an integer >= 1")
+    n = len(yg)
+    L = int(float(max_lag) / step_t)
+    lag_idx = np.arange(0, L + 1, ls)
+    if L < 2 * ls or n - L < 2 * theiler_n + 4 * n_blocks:
+        raise ParameterError(
+            "states",
+            f"{len(y)} samples",
+            "a record long enough to follow pairs for max_lag past the Theiler window "
+            f"(max_lag = {float(max_lag):.4g}, Theiler window {theiler_n * step_t:.4g}, "
+            f"{n_periods} whole periods)",
+        )
+    n_ref = n - L  # references (and neighbours) that can be followed for every lag
+    refs, nbrs, w, r0 = _neighbours(
+        yg, n_ref, spp if period is not None else 0, theiler_n, method, radius, max_neighbors
+    )
+    if len(refs) < 2 * n_blocks:
+        raise ParameterError(
+            "states", f"{len(refs)} reference points with a neighbour", f">= {2 * n_blocks}"
+        )
+
+    block_of = np.minimum((refs * n_blocks) // n_ref, n_blocks - 1)
+    sums = np.zeros((n_blocks, len(lag_idx)))
+    counts = np.zeros((n_blocks, len(lag_idx)))
+    chunk = max(1, 2_000_000 // (len(lag_idx) * yg.shape[1] * nbrs.shape[1]))
+    for a in range(0, len(refs), chunk):
+        r = refs[a : a + chunk]
+        yi = yg[r[:, None] + lag_idx[None, :]]  # (c, l, d)
+        dist = np.zeros((len(r), len(lag_idx)))
+        for k in range(nbrs.shape[1]):
+            jk = nbrs[a : a + chunk, k]
+            yj = yg[jk[:, None] + lag_idx[None, :]]
+            dist += w[a : a + chunk, k, None] * np.sqrt(((yi - yj) ** 2).sum(axis=2))
+        with np.errstate(divide="ignore"):
+            ld = np.log(dist)
+        ok = np.isfinite(ld)
+        b = block_of[a : a + chunk]
+        np.add.at(sums, b, np.where(ok, ld, 0.0))
+        np.add.at(counts, b, ok)
+    t = lag_idx * step_t
+    with np.errstate(invalid="ignore", divide="ignore"):
+        curve = sums.sum(0) / counts.sum(0)
+        per_block = sums / counts
+    be = per_block.std(axis=0, ddof=1) / math.sqrt(n_blocks)
+
+    sat = _saturation(yg, n_ref, spp if period is not None else 0)
+    # S at lag 0 is low by construction (each neighbour was chosen for its small noisy
+    # distance); the curve starts at the first lag, where the noise is independent again
+    y0 = float(curve[1])
+    tail = curve[1:][np.isfinite(curve[1:])]
+    rise = float(np.max(tail) - y0)
+    fall = float(y0 - np.min(tail))
+    stats = {
+        "samples_per_period": spp if period is not None else None,
+        "periods": n_periods if period is not None else None,
+        "lowpass": cutoff,
+        "theiler": theiler_n * step_t,
+        "max_lag": float(t[-1]),
+        "lag_step": ls * step_t,
+        "neighbours_per_reference": float(np.mean((w > 0).sum(axis=1))),
+        "radius": None if method == "rosenstein" else r0,
+        "fit": fit,
+        "fit_fractions": (lo_f, hi_f),
+        "zero_distances": int(len(refs) * len(lag_idx) - counts.sum()),
+        "rise": rise,
+        "fall": fall,
+    }
+    if max(rise, fall) < min_rise and fit_range is None:
+        reason = (
+            f"the divergence curve moves {max(rise, fall):.2f} e-folds (< min_rise = {min_rise}) "
+            "over the lags followed: neighbours stay at the noise floor (periodic or "
+            "quasi-periodic data, or too much noise); no exponent"
+        )
+        nan = math.nan
+        return TimeSeriesLLE(
+            nan, nan, nan, nan, method, _FLAT, reason, t, curve, be, (0.0, float(t[-1])),
+            nan, sat, np.full(n_blocks, nan), len(refs), stats,
+        )  # fmt: skip
+    sign = 1.0 if rise >= fall else -1.0  # falling: a stable orbit approached
+    if fit_range is not None:
+        lo, hi = (float(v) for v in fit_range)
+        if not 0 <= lo < hi:
+            raise ParameterError("fit_range", fit_range, "0 <= t_lo < t_hi")
+        width = hi - lo
+        shifted = [(max(0.0, lo + d * width), hi + d * width) for d in (-fit_shift, fit_shift)]
+    else:
+        # rising: towards the random-pair level (or the curve's top); falling: its bottom
+        top = max(sat, float(np.max(tail))) if math.isfinite(sat) else float(np.max(tail))
+        delta = top - y0 if sign > 0 else fall
+        sc = sign * curve
+        lo, hi = _window(t, sc, sign * y0, delta, lo_f, hi_f)
+        shifted = [
+            _window(t, sc, sign * y0, delta, max(0.0, lo_f + d * (lo_f > 0)), min(1.0, hi_f + d))
+            for d in (-fit_shift, fit_shift)
+        ]
+    fixed_floor = None
+    if fit == "floor" and floor_from_noise and noise_sd is not None:
+        stats["noise_sd"] = [float(v) for v in noise_sd]
+        measured = _noise_floor(noise_sd)
+        # the noise floor is where a rising curve starts from; a falling curve (a stable
+        # orbit approached) goes below it, and a floor above the start is not a floor
+        if sign > 0 and measured < y0:
+            fixed_floor = measured
+
+    def model(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[float, float, float]:
+        return _FITS[fit](t, s, lo, hi, fixed_floor)
+
+    slope, icpt, floor = model(t, curve, lo, hi)
+    # delete-one-block jackknife of the whole fit (Efron & Stein 1981): each block left out
+    # in turn, the curve of the other blocks fitted over the same range; a nonlinear fit of
+    # one block's own noisy curve would inflate the spread
+    tot_s, tot_c = sums.sum(0), counts.sum(0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slopes_b = np.array(
+            [model(t, (tot_s - sums[b]) / (tot_c - counts[b]), lo, hi)[0] for b in range(n_blocks)]
+        )
+    good = np.isfinite(slopes_b)
+    nb = int(good.sum())
+    stat = (
+        float(math.sqrt((nb - 1) / nb * np.sum((slopes_b[good] - slopes_b[good].mean()) ** 2)))
+        if nb >= 2
+        else math.inf
+    )
+    syst = max((abs(model(t, curve, a, b)[0] - slope) for a, b in shifted), default=0.0)
+    syst = 0.0 if not math.isfinite(syst) else syst
+    stats["noise_floor"] = floor
+    return TimeSeriesLLE(
+        slope, math.hypot(stat, syst), stat, syst, method, "ok", "", t, curve, be,
+        (lo, hi), icpt, sat, slopes_b, len(refs), stats,
+    )  # fmt: skip
+
+
+def _neighbours(y, n_ref, spp, theiler_n, method, radius, max_neighbors):
+    """Reference indices, their neighbours ``(n, k)`` and weights ``(n, k)`` (Rosenstein: one
+    neighbour, weight 1; Kantz: up to ``max_neighbors`` within ``radius``, weights
+    ``1 / count``).  With ``spp > 0`` the search is within each phase section."""
+    from scipy.spatial import cKDTree
+
+    k_query = max_neighbors if method == "kantz" else 1
+    k_ask = k_query + 2 * (theiler_n // max(spp, 1)) + 2 if spp else k_query + 2 * theiler_n + 2
+    groups = [np.arange(p, n_ref, spp) for p in range(spp)] if spp else [np.arange(n_ref)]
+    all_r, all_j, all_d = [], [], []
+    for g in groups:
+        if len(g) < 2:
+            continue
+        tree = cKDTree(y[g])
+        kk = min(k_ask, len(g))
+        d, ix = tree.query(y[g], k=kk)
+        d = d.reshape(len(g), kk)
+        ix = ix.reshape(len(g), kk)
+        j = g[ix]
+        far = np.abs(j - g[:, None]) > theiler_n
+        d = np.where(far, d, np.inf)
+        order = np.argsort(d, axis=1, kind="stable")[:, :k_query]
+        all_r.append(g)
+        all_j.append(np.take_along_axis(j, order, 1))
+        all_d.append(np.take_along_axis(d, order, 1))
+    refs = np.concatenate(all_r)
+    nb = np.concatenate(all_j)
+    dd = np.concatenate(all_d)
+    if method == "kantz":
+        r0 = float(np.median(dd[np.isfinite(dd[:, 0]), 0])) * 2 if radius is None else float(radius)
+        inside = dd <= r0
+    else:
+        r0 = math.nan
+        inside = np.isfinite(dd)
+    has = inside[:, 0]
+    refs, nb, inside = refs[has], nb[has], inside[has]
+    w = inside / inside.sum(axis=1, keepdims=True)
+    nb = np.where(inside, nb, refs[:, None])
+    order = np.argsort(refs, kind="stable")
+    return refs[order], nb[order], w[order], r0
+
+
+def _saturation(y, n_ref, spp):
+    """Mean log distance of pairs half the record apart (equal phase with ``spp``)."""
+    half = (n_ref // 2 // spp) * spp if spp else n_ref // 2
+    half = max(half, 1)
+    a = y[: len(y) - half]
+    b = y[half:]
+    d = np.sqrt(((a - b) ** 2).sum(axis=1))
+    d = d[d > 0]
+    return float(np.mean(np.log(d))) if len(d) else math.nan
