@@ -124,7 +124,8 @@ def test_cli_synth_then_score_json(tmp_path, capsys):
         main(["capture", "synth", "--out", str(f), "--format", "keysight", "--periods", "60"]) == 0
     )
     capsys.readouterr()
-    assert main(["capture", "score", str(f), "--json", "--floor-captures", "2"]) == 0
+    argv = ["capture", "score", str(f), "--json", "--floor-captures", "2", "--no-lle"]
+    assert main(argv) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["period"] == 3 and d["source"]["format"] == "keysight"
     assert main(["capture", "score", str(f), "--floor-captures", "9"]) == 2
@@ -139,3 +140,15 @@ def test_period_survives_one_over_f_noise():
     assert an["period"] == 3 and an["noise"]["section_excess"] > 2
     chaos = synth_capture("fig6-period3-ideal", eta="0.712", seed=4, flicker=0.01, **BENCH)
     assert analyse_capture(chaos, "fig6-period3-ideal")["period"] == 0
+
+
+@pytest.mark.slow
+def test_lle_slot_calls_the_time_series_estimator(ideal):
+    # the chaos at 0.712: the estimate is the time-series module's (validated there); here
+    # only that the score carries it, in 1/tau, near the variational 0.0302 (20 %)
+    pytest.importorskip("precise_impact.analysis.lyapunov.timeseries")
+    s = score_capture(ideal["0.712"], "fig6-period3-ideal", eta="0.712", floor_captures=2)
+    assert s.lle is not None and s.lle["status"] == "ok"
+    assert abs(s.lle["lle"] / 0.0302 - 1) < 0.2
+    json.dumps(s.to_dict(), allow_nan=False)
+    assert "lags" not in s.to_dict()["lle"]

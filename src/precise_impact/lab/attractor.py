@@ -535,6 +535,8 @@ class CaptureScore(ResultMixin):
             d["section"] = {"points": len(self.section["x"]), "phase": self.section["phase"]}
             d["section_model"] = {"points": len(self.section_model["x"])}
             d["impacts"] = {k: v for k, v in self.impacts.items() if k not in ("t", "v", "v_model")}
+            if self.lle is not None:  # the estimate, not its divergence curves
+                d["lle"] = {k: v for k, v in self.lle.items() if not isinstance(v, (list, tuple))}
         return d
 
     def plot(self, path: Any = None, units: str = "dimensionless"):
