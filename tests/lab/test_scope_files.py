@@ -163,3 +163,31 @@ def test_cli_exit_2_one_line(cap, tmp_path, capsys, problem):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and problem.split()[-1] in err
+
+
+def _write_isf(path, cap, y, ch, yunit="V", ymult=1e-4):
+    """A Tektronix .isf file in the layout of Tek's FAQ "What format is an ISF file?" (the
+    WFMPRE preamble, then ':CURVE #<digits><bytes>' and big-endian int16 codes)."""
+    codes = np.round(np.asarray(y) / ymult).astype(">i2")
+    n = codes.size
+    pre = (
+        f":WFMPRE:BYT_NR 2;BIT_NR 16;ENCDG BIN;BN_FMT RI;BYT_OR MSB;NR_PT {n};"
+        f'WFID "Ch{ch}, DC coupling, 1.0E0 V/div, 1.0E-3 s/div, {n} points, Sample mode";'
+        f"PT_FMT Y;XINCR {cap.sample_interval:.6E};PT_OFF 0;XZERO {cap.t[0]:.6E};XUNIT "
+        f'"s";YMULT {ymult:.6E};YZERO 0.0E0;YOFF 0.0E0;YUNIT "{yunit}";'
+        f":CURVE #{len(str(2 * n))}{2 * n}"
+    )
+    path.write_bytes(pre.encode() + codes.tobytes() + b"\n")
+
+
+def test_tektronix_isf_folder(cap, tmp_path):
+    pytest.importorskip("RigolWFM")
+    d = tmp_path / "isf"
+    d.mkdir()
+    _write_isf(d / "TEK00000.ISF", cap, cap.V_q, 2)  # file order differs from channel order
+    _write_isf(d / "TEK00001.ISF", cap, cap.V_s, 1)
+    r = read_capture(d, "V_s=CH1,V_q=CH2")
+    assert np.max(np.abs(r.V_s - cap.V_s)) <= 0.5e-4 + 1e-12  # half a code of 1e-4 V
+    assert np.max(np.abs(r.t - cap.t)) < 1e-9
+    _write_isf(d / "TEK00001.ISF", cap, cap.V_s, 1, yunit="A")
+    assert "wrong unit" in _refused(d, channels="V_s=CH1,V_q=CH2")
