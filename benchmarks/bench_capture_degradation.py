@@ -91,6 +91,8 @@ def point(meas: dict, seeds: int) -> dict:
 
 
 def plot(rows: list[dict], path: Path) -> None:
+    from matplotlib.ticker import NullFormatter
+
     from precise_impact.io.figures import new_figure, save_figure
 
     fig, axes = new_figure(3, len(AXES), figsize=(4.0 * len(AXES), 9.0))
@@ -122,6 +124,7 @@ def plot(rows: list[dict], path: Path) -> None:
                 "bits": "ADC bits",
                 "noise": "white noise / full scale",
                 "periods": "record length [forcing periods]",
+                "flicker": "1/f noise / full scale (symlog)",
             }[axis]
         )
         ax.legend(fontsize=7)
@@ -132,15 +135,17 @@ def plot(rows: list[dict], path: Path) -> None:
             for a in axes[:, j]:
                 a.set_xscale("symlog", linthresh=1e-3)
         for a in axes[:, j]:
-            a.grid(alpha=0.3, which="both")
-        axes[0, j].set_title(
-            f"varying {axis} (others: "
-            + ", ".join(f"{k} {v}" for k, v in BASE.items() if k != axis)
-            + ")",
-            fontsize=9,
-        )
+            a.grid(alpha=0.3, which="major")
+            a.set_xticks(x)
+            a.set_xticklabels([f"{v:g}" for v in x], fontsize=8)
+            a.xaxis.set_minor_formatter(NullFormatter())
+        if axis == "flicker":
+            for a in axes[:, j]:
+                a.set_xlim(-2e-4, max(x) * 1.3)
+        axes[0, j].set_title(f"varying {axis}", fontsize=10)
     fig.suptitle(
-        "capture scores against bits, noise and record length (ideal circuit, eta 0.74 / "
+        "capture scores against bits, white noise, record length and 1/f noise, one at a time "
+        "around 8 bits, 1 % white noise, 200 periods, no 1/f noise (ideal circuit, eta 0.74 / "
         "0.712, 20 kSa/s)",
         fontsize=11,
     )

@@ -94,7 +94,12 @@ def test_impacts_found_with_their_velocities(ideal):
     # each impact within one sample of the truth, its velocity within the fit's noise
     dt = c.sample_interval
     assert np.max(np.abs(an["impacts"]["t"] - truth["impacts_t"])) <= dt
-    assert np.max(np.abs(an["impacts"]["v"] - truth["impacts_v_before"])) < 0.1
+    err = an["impacts"]["v"] - truth["impacts_v_before"]
+    # 1 % noise: a quadratic extrapolated from 8 samples each side scatters by ~0.04 (max
+    # ~3.5 sd over 133 impacts); unbiased: the mean within 3 standard errors (0.04/sqrt 133).
+    # Linear fits at the interval's middle were biased by +0.022 (x'' over the window).
+    assert np.max(np.abs(err)) < 0.2
+    assert abs(np.mean(err)) < 0.012
 
 
 def test_score_separates_datasheet_from_ideal_beyond_the_floor(ideal, datasheet):
