@@ -157,3 +157,12 @@ def test_lle_slot_calls_the_time_series_estimator(ideal):
     assert abs(s.lle["lle"] / 0.0302 - 1) < 0.2
     json.dumps(s.to_dict(), allow_nan=False)
     assert "lags" not in s.to_dict()["lle"]
+
+
+def test_floor_carries_the_scopes_own_noise():
+    # 3 % of full scale of 1/f noise: model captures with white noise only put the floor at
+    # 1/2.5 of an ideal capture's distance from the ideal model ('separated', wrongly); with
+    # V_3's residual as their noise the ideal capture is within its floor
+    c = synth_capture("fig6-period3-ideal", seed=100, flicker=0.03, **BENCH)
+    s = score_capture(c, "fig6-period3-ideal", floor_captures=3, seed=300, lle=False)
+    assert not s.separated and s.period == 3
