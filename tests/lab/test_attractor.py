@@ -118,7 +118,7 @@ def test_measured_bifurcation(ideal, tmp_path):
     res = measured_bifurcation(list(ideal.values()), "fig6-period3-ideal", computed=12)
     assert [round(e, 4) for e in res.eta] == [0.74, 0.712]
     assert res.period == [3, 0]
-    assert res.computed_x.shape == (12, 48)
+    assert res.computed_x.shape == (12, 100)
     res.plot(tmp_path / "b.png")
     json.dumps(res.to_dict(), allow_nan=False)
 

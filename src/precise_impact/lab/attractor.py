@@ -922,7 +922,7 @@ class MeasuredBifurcation(ResultMixin):
         fig, axes = new_figure(1, 1, figsize=(8.0, 5.0))
         ax = axes[0, 0]
         ce = np.repeat(self.computed_eta, self.computed_x.shape[1])
-        ax.plot(ce, self.computed_x.ravel(), ".", ms=1.5, color="0.35", alpha=0.6, mew=0)
+        ax.plot(ce, self.computed_x.ravel(), ".", ms=2.5, color="0.3", alpha=0.5, mew=0)
         ax.plot([], [], ".", color="0.45", label="computed (mechanics)")
         for i, (e, x) in enumerate(zip(self.eta, self.x, strict=True)):
             ax.plot(
@@ -943,7 +943,7 @@ def measured_bifurcation(
     scene: Any = "fig6-period3-ideal",
     channels: Any = None,
     computed: int = 80,
-    computed_periods: int = 48,
+    computed_periods: int = 100,
     max_period: int = 16,
 ) -> MeasuredBifurcation:
     """A measured bifurcation diagram: each capture's measured ``eta`` and Poincare-section ``x``,
