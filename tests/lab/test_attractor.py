@@ -102,7 +102,7 @@ def test_impacts_found_with_their_velocities(ideal):
     assert abs(np.mean(err)) < 0.012
 
 
-def test_score_separates_datasheet_from_ideal_beyond_the_floor(ideal, datasheet):
+def test_score_separates_datasheet_from_ideal_beyond_the_floor(ideal, datasheet, tmp_path):
     same = score_capture(ideal["0.74"], "fig6-period3-ideal", floor_captures=3, lle=False)
     other = score_capture(datasheet, "fig6-period3-ideal", floor_captures=3, lle=False)
     assert not same.separated and same.sliced_wasserstein < 2 * same.sw_floor_max
@@ -112,6 +112,8 @@ def test_score_separates_datasheet_from_ideal_beyond_the_floor(ideal, datasheet)
     d = other.to_dict()
     json.dumps(d, allow_nan=False)
     assert "floor" in d["floor_method"]
+    other.plot(tmp_path / "score.png")
+    assert (tmp_path / "score.png").stat().st_size > 1000
 
 
 def test_measured_bifurcation(ideal, tmp_path):

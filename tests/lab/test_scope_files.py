@@ -191,3 +191,29 @@ def test_tektronix_isf_folder(cap, tmp_path):
     assert np.max(np.abs(r.t - cap.t)) < 1e-9
     _write_isf(d / "TEK00001.ISF", cap, cap.V_s, 1, yunit="A")
     assert "wrong unit" in _refused(d, channels="V_s=CH1,V_q=CH2")
+
+
+def test_rigol_mso5000_and_headerless_csv(cap, tmp_path):
+    # MSO5000 / DHO: 'Time(s),CH1V,CH2V,CH3V' then time-first rows
+    p = tmp_path / "RigolDS0.csv"
+    rows = np.column_stack([cap.t, cap.V_s, cap.V_q, cap.V_3])
+    with open(p, "w") as fh:
+        fh.write("Time(s),CH1V,CH2V,CH3V,\n")
+        np.savetxt(fh, rows, delimiter=",", fmt="%.9e")
+    assert sniff_format(p) == "rigol-mso5000"
+    r = read_capture(p)
+    assert r.source["instrument"] == "Rigol MSO5000" and r.n_samples == cap.n_samples
+    assert np.max(np.abs(r.V_q - cap.V_q)) < 1e-8
+    # no header at all: time first, channels in order
+    q = tmp_path / "bare.csv"
+    with open(q, "w") as fh:
+        np.savetxt(fh, rows[:, :3], delimiter=",", fmt="%.9e")
+    r2 = read_capture(q)
+    assert r2.V_3 is None and np.max(np.abs(r2.V_s - cap.V_s)) < 1e-8
+
+
+def test_plots_write(cap, tmp_path):
+    cap.plot(tmp_path / "cap.png", periods=3)
+    assert (tmp_path / "cap.png").stat().st_size > 1000
+    with pytest.raises(ParameterError):
+        cap.plot(tmp_path / "cap.txt")

@@ -52,3 +52,17 @@ def test_bad_measurement_refused(kw, name):
     with pytest.raises(ParameterError) as e:
         Measurement(**kw).check()
     assert e.value.name == name
+
+
+def test_spice_model_capture():
+    # the ngspice model through the same path (skipped without ngspice)
+    import precise_impact as pi
+
+    try:
+        pi.models.circuit.spice.find_ngspice()
+    except pi.OptionalDependencyError:
+        pytest.skip("ngspice not installed")
+    c = synth_capture("fig6-period3-ideal", model="spice", periods=12, transient=10, noise=0.0)
+    truth = c.source["truth"]
+    assert truth["model"] == "spice" and len(truth["impacts_t"]) > 0
+    assert c.V_s.min() > -2 - 0.05  # the wall at V_wall = -2 V, within the 8-bit step
