@@ -217,3 +217,18 @@ def test_plots_write(cap, tmp_path):
     assert (tmp_path / "cap.png").stat().st_size > 1000
     with pytest.raises(ParameterError):
         cap.plot(tmp_path / "cap.txt")
+
+
+def test_coarsely_printed_times_and_a_missing_row(cap, tmp_path):
+    p = _write(cap, tmp_path, "keysight")
+    lines = p.read_text().splitlines()
+    # times printed to 4 significant digits: steps of 5e-5 s vary by up to 2e-5 s
+    body = [f"{float(r.split(',')[0]):.3e}," + r.split(",", 1)[1] for r in lines[2:]]
+    p.write_text("\n".join(lines[:2] + body) + "\n")
+    r = read_capture(p)
+    assert r.sample_interval == pytest.approx(cap.sample_interval, rel=1e-4)
+    assert np.max(np.abs(r.t - cap.t)) < 0.25 * cap.sample_interval
+    # a row missing in the middle is half a sample off any grid: refused
+    del lines[500]
+    p.write_text("\n".join(lines) + "\n")
+    assert "uniformly sampled" in _refused(p)

@@ -41,6 +41,10 @@ Layouts (``fmt``), as the instruments write them:
            InfiniiVision 2000 X-Series manual as RigolWFM's ``agilent_agxx_bin`` schema gives it),
            Tektronix ``.isf``/``.wfm``, Siglent, LeCroy, Yokogawa ``.bin``/``.trc``/``.wfm``.
 
+Times: instruments print times to 4-7 significant digits, so a long record's printed steps are
+uneven; the time axis is replaced by its least-squares uniform grid when every printed time is
+within a quarter sample of it (a missing or repeated row is not, and is refused).
+
 Channels: the file's channels map to ``V_s``, ``V_q`` (and ``V_3``) in file order unless
 ``channels`` names them: ``'CH2,CH1'`` (in role order) or ``'V_s=CH2,V_q=CH1,V_3=CH4'``.
 """
@@ -237,6 +241,7 @@ def _finish(
             f"{len(t)} samples, header says {n_expected}",
             "as many samples as the header's record length (a truncated file?)",
         )
+    t = _time_grid(np.asarray(t, float))
     roles = parse_channels(channels, list(data), path)
     src = dict(source, path=str(path), channel_map=roles, file_channels=list(data))
     return Capture.make(
@@ -248,6 +253,23 @@ def _finish(
         source=src,
         what=str(path),
     )
+
+
+def _time_grid(t: np.ndarray) -> np.ndarray:
+    """The printed time axis replaced by its least-squares uniform grid when every printed time
+    lies within a quarter sample of it (instruments print times to 4-7 significant digits: a
+    long record's steps then differ by more than the uniformity test allows).  A missing or
+    repeated sample moves the printed times half a sample or more off any grid: left as is,
+    for :meth:`Capture.make` to refuse."""
+    n = len(t)
+    if n < 3 or not np.all(np.isfinite(t)):
+        return t
+    k = np.arange(n, dtype=float)
+    slope, icpt = np.polyfit(k, t, 1)
+    if not slope > 0:
+        return t
+    grid = icpt + slope * k
+    return grid if float(np.max(np.abs(t - grid))) < 0.25 * slope else t
 
 
 def _read_lines(path: Path) -> list[list[str]]:
