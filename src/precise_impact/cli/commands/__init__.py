@@ -22,6 +22,7 @@ from precise_impact.cli.commands import (
     run,
     scenes,
     simulate,
+    spice,
     sweep,
     sync,
 )
@@ -45,4 +46,5 @@ COMMANDS = (
     bench,
     reproduce,
     accuracy,
+    spice,
 )
