@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from precise_impact.lab.netlist import _impacts, compress_like_ltspice, read_raw
+from precise_impact.lab.netlist import compress_like_ltspice, impacts_from_waveform, read_raw
 from precise_impact.models.circuit.spice import spice_netlist
 from precise_impact.scenes.scene import load_scene
 
@@ -78,10 +78,10 @@ def compression() -> dict:
     el = time.perf_counter() - t0
     omega = 1000.0  # design: 10 kOhm, 100 nF
     tau, x, v, pol = omega * t, -ys[0], ys[1], ys[2]
-    ti, vb, _ = _impacts(tau, x, v, tau, pol)
-    tc, vbc, _ = _impacts(tau[keep], x[keep], v[keep], tau[keep], pol[keep])
+    ti, vb, _ = impacts_from_waveform(tau, x, v, tau, pol)
+    tc, vbc, _ = impacts_from_waveform(tau[keep], x[keep], v[keep], tau[keep], pol[keep])
     # without the logic node (velocity reversal only)
-    tn, _, _ = _impacts(tau[keep], x[keep], v[keep])
+    tn, _, _ = impacts_from_waveform(tau[keep], x[keep], v[keep])
     period = 2 * np.pi / 740.0
     tk = np.arange(1, 21) * period
     ik = np.clip(np.searchsorted(t, tk), 0, len(t) - 1)

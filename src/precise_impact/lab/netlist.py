@@ -890,7 +890,7 @@ def _mapping(
     return m, fit
 
 
-def _impacts(tau, x, v, aux_t=None, aux=None):
+def impacts_from_waveform(tau, x, v, aux_t=None, aux=None):
     """Impacts of the mapped waveform: groups of intervals with ``dv/dtau < -_JUMP_SLOPE``;
     the time is the logic node's mid-level crossing (``aux``) or v's zero crossing inside the
     group; v before/after extrapolated linearly from the two points outside it."""
@@ -1129,7 +1129,7 @@ def score_netlist(
         tau_k = omega * tk + t0_tau
         p0 = params.replace(x0=float(x_k[0]), v0=float(v_k[0]), t0=float(tau_k[0]))
         tau_k = float(p0.t0) + np.arange(len(tk)) * (2 * math.pi / eta)
-        ti, vb, va = _impacts(tau, x, v, tau if aux is not None else None, aux)
+        ti, vb, va = impacts_from_waveform(tau, x, v, tau if aux is not None else None, aux)
         tr = Trajectory(
             params=p0,
             model="spice",
