@@ -67,6 +67,7 @@ __all__ = [
     "score_netlist",
     "format_result",
     "fit_forcing",
+    "impacts_from_waveform",
     "lt_compression",
     "compress_like_ltspice",
     "NETLIST_SUFFIXES",
@@ -163,16 +164,21 @@ _MAP_KEYS = {"nodes", "gains", "offsets", "components", "parameters", "scene", "
 
 
 def load_map(path: str | Path) -> NodeMap:
-    """A :class:`NodeMap` from a TOML file::
+    r"""A :class:`NodeMap` from a TOML file.
+
+    The file::
 
         scene = "fig6-period3-ideal"       # optional: target parameters and design
         [nodes]
-        x = "s"; v = "q"; forcing = "v3"; impact = "pol"   # forcing, impact optional
+        x = "s"                            # V_s
+        v = "q"                            # V_q
+        forcing = "v3"                     # optional: V_3
+        impact = "pol"                     # optional: a logic node toggling at each impact
         [gains]                            # optional: V = gain * V_node + offset
         x = 1.0
         [offsets]
         v = 0.0
-        [components]                       # optional design values
+        [components]                       # optional design values (Components.make names)
         R3 = "10e3"
         [parameters]                       # optional, when there is no design
         eta = "0.74"
@@ -180,10 +186,34 @@ def load_map(path: str | Path) -> NodeMap:
         forcing_gain = 1.0                 # R7/R1 for fitted scales
         forcing_phase = 0.0                # rad, instead of the fitted phase
 
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    NodeMap
+        The nodes, corrections and target it names.
+
     Raises
     ------
     ParameterError
         Unreadable file, unknown table or key, missing ``x``/``v`` node (one line).
+
+    See Also
+    --------
+    precise_impact.lab.netlist.score_netlist : takes it as ``map=``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact.lab.netlist import load_map
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "map.toml").write_text('[nodes]\nx = "s"\nv = "q"\nforcing = "v3"\n')
+    >>> m = load_map(d / "map.toml")
+    >>> m.x, m.v, m.forcing
+    ('s', 'q', 'v3')
     """
     p = Path(path)
     try:
@@ -278,14 +308,45 @@ class Waveforms:
 
 
 def read_raw(path: str | Path, step: int | None = None) -> list[Waveforms]:
-    """The transient runs of a ``.raw`` file (LTspice, ngspice, QSPICE; binary or ASCII), one
-    :class:`Waveforms` per plot and step, in file order (``step``: only that one, 0-based).
+    r"""The transient runs of a ``.raw`` file (LTspice, ngspice, QSPICE; binary or ASCII).
+
+    Read with spicelib's ``RawRead`` (module docstring: what was measured, why it was chosen).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.raw`` file.
+    step : int or None, default ``None``
+        Only this run (0-based over the file's plots and steps, in file order); ``None``: all.
+
+    Returns
+    -------
+    list of Waveforms
+        One per plot and step (a stepped LTspice run, or several plots in one ngspice file).
 
     Raises
     ------
     ParameterError
         One line naming the problem: missing/empty/truncated/garbage file, not a transient
         analysis, complex data, ``step`` out of range.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.score_netlist : scores them.
+    precise_impact.lab.netlist.run_netlist : writes one by running a netlist.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact.lab.netlist import read_raw, run_netlist
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> net = d / "rc.cir"
+    >>> _ = net.write_text("* RC\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 100n\n"
+    ...                    ".tran 1u 2m\n.end\n")
+    >>> _ = run_netlist(net, workdir=d)
+    >>> (run,) = read_raw(d / "user.raw")
+    >>> run.dialect, run.node("out", "x").shape == run.time.shape
+    ('ngspice', True)
     """
     RawRead = _need_spicelib()
     p = Path(path)
@@ -460,25 +521,59 @@ def run_netlist(
     timeout: float = 600,
     executable: str | None = None,
 ) -> tuple[list[Waveforms], dict]:
-    """Run a netlist with ``ngspice -b -r`` and read its raw file.
+    r"""Run a netlist with ``ngspice -b -r`` and read its raw file.
+
+    The netlist is copied into the working directory and run as it is, except: its
+    ``.control`` blocks are left out (their ``quit`` stops ngspice before ``-r`` writes the
+    file; the ``.tran`` line runs), ``.backanno`` is dropped, and LTspice's ``.tran 0 TSTOP``
+    (TSTEP = 0, refused by ngspice) gets TSTEP = TSTOP/10000; each change is a note.
 
     Parameters
     ----------
-    path : path
+    path : str or Path
         ``.cir``, ``.net``, ``.sp`` (``.spi``, ``.ckt``).
-    workdir : path or None
-        Where the run's files are kept (``None``: a temporary directory).
-    ltspice : bool or None
+    workdir : str, Path or None, default ``None``
+        Where the run's files are kept (``user.<ext>``, ``user.raw``, ``ngspice.log``,
+        ``.spiceinit``); ``None``: a temporary directory.
+    ltspice : bool or None, default ``None``
         Run in ngspice's LTspice compatibility mode (``set ngbehavior=ltpsa`` in a generated
         ``.spiceinit``); ``None``: for ``.net`` files and netlists exported from ``.asc``.
-    ascii_raw : bool
+    ascii_raw : bool, default ``False``
         Write the raw file as ASCII (``set filetype=ascii``) instead of binary.
+    timeout : float, default 600
+        Seconds ngspice may run.
+    executable : str or None, default ``None``
+        The ngspice program (``None``: ``ngspice`` on ``PATH``).
 
     Returns
     -------
-    (runs, info)
-        The :class:`Waveforms` and ``{"ngspice_log", "notes", "ltspice_mode", "options",
-        "elapsed_s"}``.
+    tuple
+        ``(runs, info)``: the :class:`Waveforms` and ``{"ngspice_log", "notes",
+        "ltspice_mode", "options", "elapsed_s"}``.
+
+    Raises
+    ------
+    ParameterError
+        Unknown extension, empty or binary file, no ``.tran`` analysis.
+    NgspiceNotFoundError
+        No ngspice.
+    SpiceError
+        ngspice failed (its first error line) or timed out.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.read_raw : reads the file it writes.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact.lab.netlist import run_netlist
+    >>> net = pathlib.Path(tempfile.mkdtemp()) / "rc.net"      # an LTspice export
+    >>> _ = net.write_text("V1 in 0 SINE(0 1 1k)\nR1 in out 1k\nC1 out 0 100n\n"
+    ...                    ".tran 0 2m\n.backanno\n.end\n")
+    >>> (run,), info = run_netlist(net)
+    >>> info["ltspice_mode"], info["notes"]
+    ('ltpsa', ['.tran step 0 given 2e-07 s for ngspice'])
     """
     p = Path(path)
     _check_file(p, NETLIST_SUFFIXES, "SPICE netlist")
@@ -564,9 +659,39 @@ def compress_like_ltspice(
     """Indices of the points LTspice's default waveform compression keeps.
 
     LTspice drops points that linear interpolation between the kept ones reproduces within
-    ``plotreltol`` (default 0.0025, relative) or ``plotvntol`` (default 10 uV, absolute) for
-    every saved trace, over windows of at most ``plotwinsize`` (default 300) points; this is
-    that rule, greedy from each kept point (``.options plotwinsize=0`` turns it off).
+    ``plotreltol`` (relative) or ``plotvntol`` (absolute, volts) for every saved trace, over
+    windows of at most ``plotwinsize`` points (LTspice help, "Compression"); this is that
+    rule, greedy from each kept point (``.options plotwinsize=0`` turns LTspice's off).
+
+    Parameters
+    ----------
+    t : numpy array
+        Time points.
+    ys : list of numpy arrays
+        The saved traces (each as long as ``t``).
+    reltol : float, default 0.0025
+        ``plotreltol``.
+    vntol : float, default 1e-5
+        ``plotvntol`` [V].
+    window : int, default 300
+        ``plotwinsize``.
+
+    Returns
+    -------
+    numpy array
+        Increasing indices into ``t``, first and last included.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.lt_compression : detects compressed files.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from precise_impact.lab.netlist import compress_like_ltspice
+    >>> t = np.linspace(0, 1, 1001)
+    >>> len(compress_like_ltspice(t, [2 * t + 1]))  # a line: the ends of each 300-point window
+    5
     """
     n = len(t)
     keep = [0]
@@ -593,15 +718,42 @@ def compress_like_ltspice(
 
 
 def lt_compression(runs: list[Waveforms], options: Mapping[str, str] | None = None) -> dict:
-    """Whether the waveforms are LTspice-compressed, and what that costs.
+    r"""Whether the waveforms are LTspice-compressed, and what that costs.
 
     LTspice writes ``Flags: ... nocompression`` into the raw header when ``.options
-    plotwinsize=0`` turned compression off, and compresses otherwise (LTspice help,
-    "Compression": lossy, window ``plotwinsize`` 300 points, ``plotreltol``, ``plotvntol``).
-    Decided from that flag; a netlist's ``.options`` (``options``, or an LTspice ``.net``/
-    ``.log`` beside the raw file) is reported beside it.  Files of other simulators are never
-    compressed.  ``step_spread`` is the largest over the median time step (compressed files
-    have long linear segments: hundreds).
+    plotwinsize=0`` turned compression off, and compresses otherwise (lossy; window
+    ``plotwinsize`` 300 points, ``plotreltol``, ``plotvntol``).  Decided from that flag; a
+    netlist's ``.options`` (``options``, or an LTspice ``.net``/``.log`` beside the raw file)
+    is reported beside it.  Files of other simulators are never compressed.
+
+    Parameters
+    ----------
+    runs : list of Waveforms
+        From :func:`read_raw`.
+    options : mapping or None, default ``None``
+        The netlist's ``.options`` (name -> value), if known.
+
+    Returns
+    -------
+    dict
+        ``compressed`` (bool), ``why``, ``flags``, ``step_spread`` (largest over median time
+        step); compressed: ``cost`` (:data:`COMPRESSION_IMPACT_COST`) and a one-line
+        ``warning``.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.compress_like_ltspice : the compression rule, for measuring.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact.lab.netlist import lt_compression, read_raw, run_netlist
+    >>> net = pathlib.Path(tempfile.mkdtemp()) / "rc.cir"
+    >>> _ = net.write_text("* RC\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 100n\n"
+    ...                    ".tran 1u 2m\n.end\n")
+    >>> runs, _ = run_netlist(net)
+    >>> lt_compression(runs)["compressed"]                    # ngspice never compresses
+    False
     """
     w = runs[0]
     opts = dict(options or {})
@@ -641,10 +793,44 @@ def lt_compression(runs: list[Waveforms], options: Mapping[str, str] | None = No
 
 # ================================================================== fits
 def fit_forcing(t: np.ndarray, y: np.ndarray, omega_guess: float | None = None) -> dict:
-    """Fit ``y = A cos(W t + phi) + C`` (time-weighted least squares, Gauss-Newton on ``W``).
+    """Fit ``y = A cos(W t + phi) + C`` by time-weighted least squares (Gauss-Newton on ``W``).
 
-    Returns ``Omega``, ``amplitude``, ``phase`` (rad, in (-pi, pi]), ``offset`` and their
-    standard errors (``*_stderr``, from the residual and the Jacobian), ``rms_residual``.
+    Each point is weighted by the time it stands for (half its two intervals), so a
+    simulator's dense steps near an impact do not dominate.
+
+    Parameters
+    ----------
+    t : numpy array
+        Time [s], increasing.
+    y : numpy array
+        The forcing node's voltage.
+    omega_guess : float or None, default ``None``
+        Starting ``W`` [rad/s]; ``None``: from the upward mean crossings.
+
+    Returns
+    -------
+    dict
+        ``Omega`` [rad/s], ``amplitude``, ``phase`` (rad at t = 0, in (-pi, pi]), ``offset``
+        with their standard errors (``*_stderr``, from the weighted residual and the Jacobian)
+        and ``rms_residual``.
+
+    Raises
+    ------
+    ParameterError
+        Fewer than two forcing cycles.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.score_netlist : fitted scales use it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from precise_impact.lab.netlist import fit_forcing
+    >>> t = np.linspace(0, 0.05, 4001)
+    >>> f = fit_forcing(t, 2.0 * np.cos(740.0 * t + 0.3))
+    >>> round(f["Omega"], 9), round(f["amplitude"], 9), round(f["phase"], 9)
+    (740.0, 2.0, 0.3)
     """
     t = np.asarray(t, float)
     y = np.asarray(y, float)
@@ -695,7 +881,7 @@ def fit_forcing(t: np.ndarray, y: np.ndarray, omega_guess: float | None = None) 
     gp = np.array([b, -a]) / amp**2 if amp > 0 else np.zeros(2)
     sW = math.sqrt(max(cov[3, 3], 0.0))
     return {
-        "Omega": W,
+        "Omega": float(W),
         "Omega_stderr": sW,
         "amplitude": amp,
         "amplitude_stderr": math.sqrt(max(float(ga @ var_ab @ ga), 0.0)),
@@ -891,9 +1077,25 @@ def _mapping(
 
 
 def impacts_from_waveform(tau, x, v, aux_t=None, aux=None):
-    """Impacts of the mapped waveform: groups of intervals with ``dv/dtau < -_JUMP_SLOPE``;
-    the time is the logic node's mid-level crossing (``aux``) or v's zero crossing inside the
-    group; v before/after extrapolated linearly from the two points outside it."""
+    """Impacts of a mapped waveform (dimensionless ``tau``, ``x``, ``v``).
+
+    An impact is a group of intervals with ``dv/dtau < -1000`` (free flight: below ~10);
+    its time is the logic node's mid-level crossing nearest to it (``aux``) or v's zero
+    crossing inside the group; v before/after are extrapolated linearly from the two points
+    on each side of the group.
+
+    Parameters
+    ----------
+    tau, x, v : numpy arrays
+        The mapped waveform.
+    aux_t, aux : numpy arrays or None, default ``None``
+        Times and values of a logic node toggling at each impact.
+
+    Returns
+    -------
+    tuple of numpy arrays
+        ``(t, v_before, v_after)``.
+    """
     dtau = np.diff(tau)
     with np.errstate(divide="ignore", invalid="ignore"):
         slope = np.where(dtau > 0, np.diff(v) / dtau, -np.inf * np.sign(np.diff(v)))
@@ -1021,17 +1223,54 @@ def score_netlist(
         Writes ``scores.json``, ``phase_portraits.png`` and ``separation.png``.
     units : {'dimensionless', 'circuit'}
         Axes of those figures.
+    timeout : float, default 600
+        Seconds ngspice may run.
+    executable : str or None, default ``None``
+        The ngspice program.
+    progress : bool or None, default ``None``
+        One line per finished step on stderr (``None``: only when stderr is a terminal).
 
     Returns
     -------
     NetlistScoreResult
+        Scores per run, the mapping with its uncertainties, the reference, the warnings.
 
     Raises
     ------
     ParameterError
-        Bad input or a damaged, truncated, wrong-unit or wrong-node file: one line.
+        Bad input or a damaged, truncated, wrong-unit or wrong-node file: one line, before
+        the reference is computed.
     SpiceError
         ngspice could not run the netlist.
+
+    See Also
+    --------
+    precise_impact.verification.compare.compare : the same scores for the built-in models.
+    precise_impact.verification.scores.score : the scores.
+    precise_impact.lab.netlist.load_map : the TOML mapping.
+
+    Notes
+    -----
+    Samples are taken at ``k T`` of SPICE time (``T = 2 pi / Omega``), from the first one
+    inside the run: ngspice writes no point at t = 0 under ``uic``, so its runs start at
+    ``t = T``.  Times on a breakpoint are read exactly, others linearly interpolated
+    (``samples_interpolated``).  The reference starts from the first sample, mapped, at
+    ``tau = omega t + phi / eta`` (``phi``: the forcing's fitted phase).
+
+    Examples
+    --------
+    The project's own netlist, run as a user's file (ngspice):
+
+    >>> import tempfile, pathlib
+    >>> import precise_impact as pi
+    >>> from precise_impact.lab.netlist import score_netlist
+    >>> from precise_impact.models.circuit.spice import spice_netlist
+    >>> sc = pi.load_scene("fig6-period3-ideal")
+    >>> net = pathlib.Path(tempfile.mkdtemp()) / "mine.cir"
+    >>> _ = net.write_text(spice_netlist(sc.design(), None, 11, 10e-6))
+    >>> r = score_netlist(net, "s", "q", "v3", scene=sc.name, progress=False)
+    >>> r.runs[0]["periods"], r.mapping["mode"], r.runs[0]["scores"]["initial_separation"] < 1e-15
+    (10, 'components', True)
     """
     cmp = importlib.import_module("precise_impact.verification.compare")
     from precise_impact.verification.metrics import reference_bits
@@ -1213,8 +1452,19 @@ def score_netlist(
 
 
 def format_result(res: NetlistScoreResult) -> str:
-    """A few lines: source, mapping, reference, then one line per run
-    (:func:`precise_impact.verification.compare.format_scores`' form) and the warnings."""
+    """The text ``spice score`` prints.
+
+    Parameters
+    ----------
+    res : NetlistScoreResult
+        From :func:`score_netlist`.
+
+    Returns
+    -------
+    str
+        Source, mapping, reference, forcing fit, one line per run
+        (:mod:`~precise_impact.verification.compare`'s form), the warnings.
+    """
     cmp = importlib.import_module("precise_impact.verification.compare")
     m, r = res.mapping, res.reference
     scale = f"scales from {m['mode']}: omega = {m['omega']:.10g} rad/s"
