@@ -230,32 +230,24 @@ def test_ltspice_netlist_runs_in_ngspice_lt_mode(tmp_path):
 
 # ------------------------------------------------------------------ scoring
 @needs_ngspice
-def test_own_raw_file_scores_from_its_first_sample_with_strict_json(raws, capsys):
-    argv = [
-        "spice",
-        "score",
-        str(raws / "b.raw"),
-        "--x-node",
-        "s",
-        "--v-node",
-        "q",
-        "--forcing-node",
-        "v3",
-        "--impact-node",
-        "pol",
-        "--scene",
-        SCENE,
-        "--json",
-    ]
+def test_two_plot_raw_scores_each_run_from_its_first_sample_strict_json(raws, tmp_path, capsys):
+    m = tmp_path / "map.toml"
+    m.write_text(f'scene = "{SCENE}"\n[nodes]\nx = "s"\nv = "q"\nforcing = "v3"\nimpact = "pol"\n')
+    argv = ["spice", "score", str(raws / "m.raw"), "--map", str(m), "--periods", "8", "--json"]
     assert main(argv) == 0
     d = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(c))
-    (run,) = d["runs"]
-    # ngspice writes no t = 0 under uic: the first sample is t = T, read exactly (breakpoint)
-    assert run["first_sample_s"] == pytest.approx(2 * math.pi / 740, rel=1e-15)
-    assert run["samples_interpolated"] == 0 and run["periods"] == 11
-    sc = run["scores"]
-    assert sc["initial_separation"] < 1e-15  # the first sample, mapped, is the reference's start
-    assert sc["impacts_per_period_model"] == sc["impacts_per_period_reference"]
+    a, b = d["runs"]
+    for run in (a, b):
+        # ngspice writes no t = 0 under uic: the first sample is t = T, read exactly (breakpoint)
+        assert run["first_sample_s"] == pytest.approx(2 * math.pi / 740, rel=1e-15)
+        assert run["samples_interpolated"] == 0 and run["periods"] == 8
+        # the first sample, mapped, is the reference's start (float64 -> exact decimal: < 1 ulp)
+        assert run["scores"]["initial_separation"] < 1e-15
+    assert a["initial_state"] != b["initial_state"]  # each run its own reference
+    sa, sb = a["scores"], b["scores"]
+    assert sa["impacts_per_period_model"] == sa["impacts_per_period_reference"]
+    # the second plot is R3 + 10 %: far off (measured 0.35 vs 1e-3)
+    assert sb["sliced_wasserstein"] > 100 * sa["sliced_wasserstein"]
     assert d["compression"]["compressed"] is False and d["mapping"]["mode"] == "components"
 
 

@@ -962,26 +962,51 @@ class NetlistScoreResult(ResultMixin):
         }
 
     def plot(
-        self, path: str | Path | None = None, what: str = "portraits", units: str = "dimensionless"
+        self,
+        path: str | Path | None = None,
+        what: str = "portraits",
+        units: str = "dimensionless",
+        run: int = 0,
     ):
-        """The reference and each run in the phase plane (``what='portraits'``) or their
-        separation from the reference against time (``'separation'``), drawn by
-        :mod:`precise_impact.verification.compare`'s figure functions; saved to ``path``."""
+        """One run (``run``, index into :attr:`runs`) and its reference in the phase plane
+        (``what='portraits'``) or its separation from the reference against time
+        (``'separation'``), drawn by :mod:`precise_impact.verification.compare`'s figure
+        functions.
+
+        Parameters
+        ----------
+        path : str, Path or None, default ``None``
+            Where to save it (format from the suffix); ``None``: only returned.
+        what : {'portraits', 'separation'}, default ``'portraits'``
+            Which figure.
+        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+            Axes (``'circuit'`` needs a design).
+        run : int, default 0
+            Which run of a stepped or multi-plot file.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
+        """
         from precise_impact.verification.compare import portraits_figure, separation_figure
 
         if what not in ("portraits", "separation"):
             raise ParameterError("what", what, "'portraits' or 'separation'")
         pl = self._plots
+        if isinstance(run, bool) or not isinstance(run, int) or not 0 <= run < len(pl["runs"]):
+            raise ParameterError("run", run, f"an integer 0 .. {len(pl['runs']) - 1}")
+        r = pl["runs"][run]
         design = pl.get("design")
         u = plot_units(units, components=design if units == "circuit" else None)
-        scene = pl["scene"]
-        results = {r["name"]: r["scores"] for r in self.runs}
+        # compare's figure functions read the scene's name and parameters only
+        scene = types.SimpleNamespace(name=f"{r['name']} vs {pl['target']}", params=r["ref"].params)
+        results = {r["name"]: self.runs[run]["scores"]}
+        trajs = {r["name"]: r["traj"]}
         if what == "portraits":
-            fig = portraits_figure(scene, pl["ref"], pl["trajs"], pl["k"], results, u)
+            fig = portraits_figure(scene, r["ref"], trajs, pl["k"], results, u)
         else:
-            fig = separation_figure(
-                scene, pl["ref"], pl["check"], pl["trajs"], self.lle["lle"], results, u
-            )
+            fig = separation_figure(scene, r["ref"], r["check"], trajs, self.lle["lle"], results, u)
         if path is not None:
             save_figure(fig, path)
         return fig
@@ -1350,9 +1375,8 @@ def score_netlist(
     if not 0 <= k < n_per:
         raise ParameterError("transient", transient, f"0 <= transient < periods ({n_per})")
 
-    out_runs, trajs = [], {}
-    ref = check = None
-    ref_info: dict = {}
+    out_runs: list[dict] = []
+    plots: list[dict] = []
     lle: dict = {}
     for w, vs, vq, aux, m, _fit in mapped:
         tk = _samples(w.time, period_s, w.time[0], n_per)
@@ -1369,6 +1393,11 @@ def score_netlist(
         p0 = params.replace(x0=float(x_k[0]), v0=float(v_k[0]), t0=float(tau_k[0]))
         tau_k = float(p0.t0) + np.arange(len(tk)) * (2 * math.pi / eta)
         ti, vb, va = impacts_from_waveform(tau, x, v, tau if aux is not None else None, aux)
+        # only what lies between the first and the last sample is scored
+        keep = (ti >= tau_k[0]) & (ti <= tau_k[-1])
+        ti, vb, va = ti[keep], vb[keep], va[keep]
+        inside = (w.time >= tk[0] - _SNAP * period_s) & (w.time <= tk[-1] + _SNAP * period_s)
+        tau, x, v = tau[inside], x[inside], v[inside]
         tr = Trajectory(
             params=p0,
             model="spice",
@@ -1386,8 +1415,9 @@ def score_netlist(
             elapsed_s=float(info.get("elapsed_s", 0.0)),
             stats={"source": w.path},
         )
-        if ref is None or len(mapped) > 1:
-            ref, check, ref_info = cmp._reference(p0, n_per, 50, bits, progress)
+        # each run from its own first sample: its own reference; the LLE (an attractor's) once
+        ref, check, ref_info = cmp._reference(p0, n_per, 50, bits, progress)
+        if not lle:
             lle = cmp._reference_lle(p0, progress)
         regime = "periodic" if detected_period(ref, k) > 0 else "chaotic"
         ref2 = None
@@ -1410,9 +1440,10 @@ def score_netlist(
                 "regime": regime,
                 "scores": sc,
                 "mapping": m,
+                "reference": ref_info,
             }
         )
-        trajs[name] = tr
+        plots.append({"name": name, "ref": ref, "check": check, "traj": tr})
         _progress(f"{name}: " + cmp._one_line(sc), progress)
 
     res = NetlistScoreResult(
@@ -1422,31 +1453,24 @@ def score_netlist(
         params={**params.decimal(), "target": target},
         mapping=m0,
         forcing=fit0,
-        reference=ref_info,
+        reference=out_runs[0]["reference"],
         lle=lle,
         runs=out_runs,
         compression=compression,
         warnings=warnings,
     )
-    scene_ns = types.SimpleNamespace(
-        name=f"{p.name} vs {target}", params=ref.params if ref else params
-    )
-    res._plots = {
-        "ref": ref,
-        "check": check,
-        "trajs": trajs,
-        "k": k,
-        "scene": scene_ns,
-        "design": design,
-    }
+    res._plots = {"runs": plots, "k": k, "target": target, "params": params, "design": design}
     if out is not None:
         from precise_impact.io.jsonout import write_json
 
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)
-        res.plot(o / "phase_portraits.png", "portraits", units)
-        res.plot(o / "separation.png", "separation", units)
-        res.files = [str(o / n) for n in ("scores.json", "phase_portraits.png", "separation.png")]
+        res.files = [str(o / "scores.json")]
+        for i in range(len(plots)):
+            tag = "" if len(plots) == 1 else f"_{i}"
+            for what, stem in (("portraits", "phase_portraits"), ("separation", "separation")):
+                res.plot(o / f"{stem}{tag}.png", what, units, run=i)
+                res.files.append(str(o / f"{stem}{tag}.png"))
         write_json(o / "scores.json", res.to_dict(), indent=2)
     return res
 

@@ -59,8 +59,9 @@ def register(sub) -> argparse.ArgumentParser:
     add_out(
         sc,
         "dir",
-        "write scores.json, phase_portraits.png and separation.png here",
-        writes=("scores.json", "phase_portraits.png", "separation.png"),
+        "write scores.json, phase_portraits.png and separation.png here (one pair per run, "
+        "_0, _1 ..., for a stepped file)",
+        writes=("scores.json", "phase_portraits*.png", "separation*.png"),
     )
     add_units(sc)
     s.set_defaults(run=run)
