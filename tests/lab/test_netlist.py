@@ -122,7 +122,17 @@ def _bad_files(raws: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
     )
     (tmp / "own.cir").write_text(own_netlist(3))
     good = ["--v-node", "q", "--scene", SCENE]
+    (tmp / "inverted.toml").write_text(
+        f'scene = "{SCENE}"\n[nodes]\nx = "s"\nv = "q"\n[gains]\nx = -1.0\n'
+    )
+    b_raw = str(raws / "b.raw")
     return {
+        "x and v swapped": ([b_raw, "--x-node", "q", "--v-node", "s", "--scene", SCENE], "swap"),
+        "inverted x probe": ([b_raw, "--map", str(tmp / "inverted.toml")], "sign flipped"),
+        "wrong forcing channel": (
+            [b_raw, "--x-node", "s", *good, "--forcing-node", "pol"],
+            "sinusoidal",
+        ),
         "truncated": ([str(tmp / "trunc.raw"), "--x-node", "s", *good], "raw file"),
         "garbage": ([str(tmp / "garbage.raw"), "--x-node", "s", *good], "raw file"),
         "empty": ([str(tmp / "empty.raw"), "--x-node", "s", *good], "empty"),
@@ -138,6 +148,9 @@ def _bad_files(raws: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
 @pytest.mark.parametrize(
     "case",
     [
+        "x and v swapped",
+        "inverted x probe",
+        "wrong forcing channel",
         "truncated",
         "garbage",
         "empty",

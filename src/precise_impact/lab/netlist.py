@@ -905,12 +905,12 @@ def fit_forcing(t: np.ndarray, y: np.ndarray, omega_guess: float | None = None) 
     }
 
 
-def _fit_rc(t: np.ndarray, vs: np.ndarray, vq: np.ndarray) -> tuple[float, float]:
+def _fit_rc(t: np.ndarray, vs: np.ndarray, vq: np.ndarray) -> tuple[float, float, float]:
     """``R8 C1`` from the integrator ``V_s(t) = V_s(t_0) - (1/(R8 C1)) integral V_q dt``: least
     squares of ``V_s`` against the trapezoid integral of ``V_q`` (the reversals take
     nanoseconds: the integral crosses them without error worth the name); with the fit's
     standard error (residual scatter only: it does not include the trapezoid rule's error,
-    O(h^2) per unit time)."""
+    O(h^2) per unit time) and the fit's R^2 (1 for an integrator pair)."""
     q = np.concatenate(([0.0], np.cumsum(0.5 * (vq[1:] + vq[:-1]) * np.diff(t))))
     A = np.stack([q, np.ones_like(q)], axis=1)
     coef, *_ = np.linalg.lstsq(A, vs, rcond=None)
@@ -918,7 +918,9 @@ def _fit_rc(t: np.ndarray, vs: np.ndarray, vq: np.ndarray) -> tuple[float, float
     r = vs - A @ coef
     qc = q - q.mean()
     se = math.sqrt(float(r @ r) / max(len(q) - 2, 1) / float(qc @ qc))
-    return -1.0 / k, se / k**2
+    vc = vs - vs.mean()
+    r2 = 1.0 - float(r @ r) / float(vc @ vc) if float(vc @ vc) > 0 else 0.0
+    return (-1.0 / k if k else math.inf), (se / k**2 if k else math.inf), r2
 
 
 # ================================================================== scoring
@@ -1052,15 +1054,53 @@ def _target(nmap: NodeMap, scene: str | None):
     )
 
 
+#: Smallest R^2 of ``V_s = c - integral V_q dt / (R8 C1)`` for the x and v nodes to be taken as
+#: the integrator pair (the project's netlist: 1 - 1e-10; x and v swapped or a wrong node: far
+#: below, or a negative R8 C1).
+INTEGRATOR_MIN_R2 = 0.9
+#: Largest rms residual of the forcing fit, relative to its amplitude (a source: ~1e-15).
+FORCING_MAX_RESIDUAL = 0.05
+
+
+def _check_channels(w: Waveforms, nmap: NodeMap, vs: np.ndarray, vq: np.ndarray) -> None:
+    """The x and v nodes are an integrator pair (``V_s' = -V_q / (R8 C1)``, R8 C1 > 0), or one
+    line saying which way they are not."""
+    rc, _, r2 = _fit_rc(w.time, vs, vq)
+    if r2 >= INTEGRATOR_MIN_R2 and rc < 0:
+        raise ParameterError(
+            "x-node",
+            nmap.x,
+            f"the integrator output of v-node {nmap.v!r} (V_x' = -V_v/(R8 C1) with R8 C1 > 0; "
+            f"fitted R8 C1 = {rc:.3g} s: x and v swapped, or a sign flipped -- a gain of -1 "
+            "in [gains] corrects an inverted probe)",
+        )
+    if not r2 >= INTEGRATOR_MIN_R2 or not math.isfinite(rc):
+        raise ParameterError(
+            "x-node",
+            nmap.x,
+            f"the integral of v-node {nmap.v!r} (V_x' = -V_v/(R8 C1)): the fit explains "
+            f"{max(r2, 0.0):.0%} of V_x ({INTEGRATOR_MIN_R2:.0%} needed): x and v swapped, or a wrong channel?",
+        )
+
+
 def _mapping(
     params: Params, design, mode: str, w: Waveforms, nmap: NodeMap, vs, vq
 ) -> tuple[dict, dict | None]:
-    """The volts/seconds -> (x, v, tau) scales and the forcing fit."""
+    """The volts/seconds -> (x, v, tau) scales and the forcing fit; wrong channels refused."""
+    _check_channels(w, nmap, vs, vq)
     fit = None
     if nmap.forcing is not None:
         f = nmap.corrected("forcing", w.node(nmap.forcing, "forcing"))
         guess = float(design.Omega) if design is not None else None
         fit = fit_forcing(w.time, f, guess)
+        rel = fit["rms_residual"] / max(fit["amplitude"], 1e-300)
+        if not rel < FORCING_MAX_RESIDUAL:
+            raise ParameterError(
+                "forcing-node",
+                nmap.forcing,
+                f"a sinusoidal forcing node (the fit leaves {rel:.0%} of its amplitude; "
+                f"{FORCING_MAX_RESIDUAL:.0%} allowed)",
+            )
     if mode == "auto":
         mode = "components" if design is not None else "fitted"
     if mode == "components":
@@ -1089,7 +1129,7 @@ def _mapping(
     eta, a = float(params.eta), float(params.a)
     omega = fit["Omega"] / eta
     vu = fit["amplitude"] * nmap.forcing_gain / a
-    rc, rc_se = _fit_rc(w.time, vs, vq)
+    rc, rc_se, _ = _fit_rc(w.time, vs, vq)
     # the trapezoid integral's own error, relative (omega h)^2 / 12 for a sinusoid at omega;
     # doubled for the impacts' higher harmonics (measured: 1.4e-5 at h = 1e-5 s, omega = 1e3)
     h = float(np.max(np.diff(w.time)))
