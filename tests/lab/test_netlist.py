@@ -127,7 +127,7 @@ def _bad_files(raws: Path, tmp: Path) -> dict[str, tuple[list[str], str]]:
     )
     b_raw = str(raws / "b.raw")
     return {
-        "x and v swapped": ([b_raw, "--x-node", "q", "--v-node", "s", "--scene", SCENE], "swap"),
+        "x and v swapped": ([b_raw, "--x-node", "q", "--v-node", "s", "--scene", SCENE], "swapped"),
         "inverted x probe": ([b_raw, "--map", str(tmp / "inverted.toml")], "sign flipped"),
         "wrong forcing channel": (
             [b_raw, "--x-node", "s", *good, "--forcing-node", "pol"],

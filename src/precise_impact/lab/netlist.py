@@ -1079,7 +1079,8 @@ def _check_channels(w: Waveforms, nmap: NodeMap, vs: np.ndarray, vq: np.ndarray)
             "x-node",
             nmap.x,
             f"the integral of v-node {nmap.v!r} (V_x' = -V_v/(R8 C1)): the fit explains "
-            f"{max(r2, 0.0):.0%} of V_x ({INTEGRATOR_MIN_R2:.0%} needed): x and v swapped, or a wrong channel?",
+            f"{max(r2, 0.0):.0%} of V_x ({INTEGRATOR_MIN_R2:.0%} needed): x and v swapped, or "
+            "a wrong channel?",
         )
 
 
