@@ -280,7 +280,12 @@ def test_own_netlist_within_compare_and_r3_plus_10_percent_ranked_further(tmp_pa
     assert "\nR3 p n2 10000.0\n" in text
     edited.write_text(text.replace("\nR3 p n2 10000.0\n", "\nR3 p n2 11000.0\n"))
     kw = dict(x_node="s", v_node="q", forcing_node="v3", scene=SCENE, periods=20)
-    a = score_netlist(own, out=tmp_path / "own", **kw).runs[0]["scores"]
+    ra = score_netlist(own, out=tmp_path / "own", **kw)
+    a = ra.runs[0]["scores"]
+    # the panel's verdict counts the periods from the run's start (t0 = one period), not tau = 0
+    titles = " ".join(ax.get_title() for ax in ra.plot().axes)
+    n = (a["horizons"]["0.001"] - ra.runs[0]["initial_state"]["t0"]) * 0.74 / (2 * math.pi)
+    assert f"({n:.1f} periods)" in titles
     b = score_netlist(edited, **kw).runs[0]["scores"]
     for f in ("scores.json", "phase_portraits.png", "separation.png"):
         assert (tmp_path / "own" / f).stat().st_size > 0

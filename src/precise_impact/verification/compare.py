@@ -511,16 +511,18 @@ def format_scores(result: CompareResult) -> str:
 
 
 # ----------------------------------------------------------------- figures
-def _verdict(sc: dict, eta: float) -> str:
+def _verdict(sc: dict, eta: float, t0: float = 0.0) -> str:
     """One line per panel: how the model stands against the reference (a horizon is a time
-    tau; shown with the forcing periods it spans, ``tau eta / (2 pi)``)."""
+    tau; shown with the forcing periods it spans after the start ``t0``,
+    ``(tau - t0) eta / (2 pi)``)."""
     if sc.get("regime") == "periodic":
         return f"max state error {sc['max_state_error']:.1e}, period {sc.get('period_model')}"
     h = sc.get("horizons", {}).get("0.001", math.nan)
     if h == math.inf:
         return "within 1e-3 of the reference throughout"
     return (
-        f"within 1e-3 of the reference until tau = {h:.4g} ({h * eta / (2 * math.pi):.1f} periods)"
+        f"within 1e-3 of the reference until tau = {h:.4g} "
+        f"({(h - t0) * eta / (2 * math.pi):.1f} periods)"
     )
 
 
@@ -541,7 +543,10 @@ def portraits_figure(
         f"{decimal_str(scene.params.eta)})",
         reference=ref,
         t_from=t_from,
-        verdicts={m: _verdict(sc, float(scene.params.eta)) for m, sc in results.items()},
+        verdicts={
+            m: _verdict(sc, float(scene.params.eta), float(scene.params.t0))
+            for m, sc in results.items()
+        },
     )
 
 
