@@ -289,6 +289,12 @@ def test_own_netlist_within_compare_and_r3_plus_10_percent_ranked_further(tmp_pa
     b = score_netlist(edited, **kw).runs[0]["scores"]
     for f in ("scores.json", "phase_portraits.png", "separation.png"):
         assert (tmp_path / "own" / f).stat().st_size > 0
+    # the same file as an LTspice export (.net): ngspice's LTspice mode, the same numbers
+    lt = tmp_path / "own.net"
+    lt.write_text(text)
+    rl = score_netlist(lt, **kw)
+    assert rl.ngspice["ltspice_mode"] == "ltpsa" and ra.ngspice["ltspice_mode"] is None
+    assert rl.runs[0]["scores"]["sliced_wasserstein"] == a["sliced_wasserstein"]
     fitted = score_netlist(own, scales="fitted", **kw)
     assert a["regime"] == c["regime"] == "chaotic"
     # within compare's: the attractor distances within 1.5x of compare's (measured 0.95x),

@@ -951,6 +951,9 @@ class NetlistScoreResult(ResultMixin):
         :func:`lt_compression`.
     warnings : list of str
         One line each.
+    ngspice : dict or None
+        For a netlist run here: ``ltspice_mode`` (the ``ngbehavior`` used or ``None``),
+        ``elapsed_s``, ``log`` (the tail of ngspice's output), the netlist's ``options``.
     files : list of str or None
         Figures written.
     """
@@ -966,6 +969,7 @@ class NetlistScoreResult(ResultMixin):
     runs: list
     compression: dict
     warnings: list
+    ngspice: dict | None = None
     files: list | None = None
     _plots: dict = dataclasses.field(default_factory=dict, repr=False)
 
@@ -1512,6 +1516,16 @@ def score_netlist(
         runs=out_runs,
         compression=compression,
         warnings=warnings,
+        ngspice=(
+            None
+            if kind == "raw"
+            else {
+                "ltspice_mode": info.get("ltspice_mode"),
+                "elapsed_s": info.get("elapsed_s"),
+                "log": info.get("ngspice_log"),
+                "options": info.get("options"),
+            }
+        ),
     )
     res._plots = {"runs": plots, "k": k, "target": target, "params": params, "design": design}
     if out is not None:
