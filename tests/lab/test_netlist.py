@@ -86,6 +86,19 @@ def test_rawread_binary_exact_and_ascii_within_an_ulp_of_ngspice(raws):
 
 
 @needs_ngspice
+def test_run_netlist_raw_files_are_ngspice_write_output(raws):
+    # ngspice -b -r (what run_netlist runs, its .control block left out) against the 'write'
+    # of the same run: binary bit for bit, ASCII within one ulp
+    (want,) = read_raw(raws / "b.raw")
+    for ascii_raw, rtol in ((False, 0.0), (True, 1.2e-15)):
+        (got,), info = run_netlist(raws / "c.cir", ascii_raw=ascii_raw)
+        assert info["notes"] == ["its .control block was not run (the .tran line is)"]
+        np.testing.assert_allclose(got.time, want.time, rtol=rtol, atol=0)
+        for n in ("v(s)", "v(q)", "v(pol)", "v(v3)"):
+            np.testing.assert_allclose(got.traces[n][0], want.traces[n][0], rtol=rtol, atol=0)
+
+
+@needs_ngspice
 def test_multi_plot_file_gives_one_run_per_plot_and_step_picks_one(raws):
     runs = read_raw(raws / "m.raw")
     assert [r.label for r in runs] == ["plot 0 step 0", "plot 1 step 0"]

@@ -19,6 +19,8 @@ ngspice-39, spicelib 1.6.4): the project's netlist of ``fig6-period3-ideal``, 20
 filetype=ascii``, 2.25 MB) and ``wrdata`` text at 17 digits.  RawRead reads the binary file in
 ~0.03 s and agrees with ``wrdata`` bit for bit on every vector (max |diff| = 0); the ASCII file
 in ~0.1 s, within 1 ulp (max relative difference 5.5e-16: ngspice prints 16 digits there).
+The files ``ngspice -b -r`` writes (what :func:`run_netlist` runs) equal those of ``write``
+for the same run: bit for bit binary, within 4.4e-16 ASCII (``tests/lab/test_netlist.py``).
 It was chosen because it is maintained, reads every dialect users bring (LTspice's UTF-16
 headers, its stepped files, ngspice's multi-plot files) and is exact on binary files; spicelib
 cannot auto-detect ngspice-39's dialect (no ``Command:`` line), so :func:`read_raw` retries
