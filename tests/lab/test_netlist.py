@@ -238,6 +238,22 @@ def test_ltspice_compression_is_detected_from_the_header_flag(tmp_path):
 
 
 @needs_ngspice
+def test_relative_includes_resolve_from_the_netlists_directory(tmp_path):
+    # the netlist runs as a copy in a working directory of its own: '.include models/rc.lib'
+    # must still find the user's file beside the netlist
+    (tmp_path / "models").mkdir()
+    (tmp_path / "models" / "rc.lib").write_text("* sub\n.subckt RCX a b\nR1 a b 1k\n.ends\n")
+    net = tmp_path / "top.cir"
+    net.write_text(
+        "* uses an include\n.include models/rc.lib\nV1 in 0 SIN(0 1 1k)\nX1 in out RCX\n"
+        "C1 out 0 100n\n.tran 1u 2m\n.end\n"
+    )
+    (run,), _ = run_netlist(net)
+    # RC low-pass at 1 kHz, tau = 0.1 ms: steady amplitude 1/sqrt(1 + (2 pi f tau)^2) = 0.847
+    assert 0.8 < run.node("out", "x")[len(run.time) // 2 :].max() < 0.9
+
+
+@needs_ngspice
 def test_ltspice_netlist_runs_in_ngspice_lt_mode(tmp_path):
     # an LTspice export: LTspice's B-source function uplim and '.tran 0 TSTOP'
     net = tmp_path / "osc.net"

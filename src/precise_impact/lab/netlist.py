@@ -466,10 +466,11 @@ def props_points(header: Mapping) -> int | None:
 
 
 # ================================================================== running
-def _prepare_netlist(text: str, ltspice: bool) -> tuple[str, list[str]]:
+def _prepare_netlist(text: str, base: Path) -> tuple[str, list[str]]:
     """The netlist ngspice runs in batch mode with ``-r``: ``.control`` blocks removed (their
     ``quit`` would stop before the raw file is written), LTspice's ``.tran 0 TSTOP`` given a
-    step; the notes saying what was changed."""
+    step, relative ``.include`` / ``.lib`` paths made absolute from ``base`` (the netlist's own
+    directory: the copy runs elsewhere); the notes saying what was changed."""
     notes: list[str] = []
     out: list[str] = []
     in_ctrl = False
@@ -477,7 +478,9 @@ def _prepare_netlist(text: str, ltspice: bool) -> tuple[str, list[str]]:
         low = line.strip().lower()
         if low.startswith(".control"):
             in_ctrl = True
-            notes.append("its .control block was not run (the .tran line is)")
+            note = "its .control block was not run (the .tran line is)"
+            if note not in notes:
+                notes.append(note)
             continue
         if in_ctrl:
             if low.startswith(".endc"):
@@ -485,6 +488,10 @@ def _prepare_netlist(text: str, ltspice: bool) -> tuple[str, list[str]]:
             continue
         if low.startswith(".backanno"):
             continue
+        m = re.match(r"(\s*\.(?:include|inc|lib)\s+)(\"[^\"]+\"|'[^']+'|\S+)(.*)$", line, re.I)
+        if m and not Path(m.group(2).strip("\"'")).is_absolute():
+            path = (base / m.group(2).strip("\"'")).resolve()
+            line = f'{m.group(1)}"{path}"{m.group(3)}'
         if low.startswith(".tran"):
             tok = line.split()
             nums = [t for t in tok[1:] if not t.lower().startswith(("uic", "startup", "steady"))]
@@ -599,7 +606,7 @@ def run_netlist(
     if not re.search(r"^\s*\.tran\b", text, re.I | re.M):
         raise ParameterError("file", str(p), "a netlist with a .tran analysis (none found)")
     lt = _is_ltspice(p, text) if ltspice is None else bool(ltspice)
-    run_text, notes = _prepare_netlist(text, lt)
+    run_text, notes = _prepare_netlist(text, p.resolve().parent)
     exe = find_ngspice(executable)
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
         raise ParameterError("timeout", timeout, "seconds > 0")
