@@ -196,6 +196,11 @@ def test_map_file_refusals(tmp_path):
     nm = load_map(m)
     assert nm == NodeMap(x="s", v="q", forcing="v3", gains={"x": 2.0}, forcing_phase=0.0)
     assert nm.corrected("x", np.array([1.5]))[0] == 3.0
+    # a design without a scene must be whole: refused before the file is looked at
+    with pytest.raises(ParameterError, match="map.components.R1"):
+        score_netlist(tmp_path / "none.raw", map=NodeMap(x="s", v="q", components={"R3": "11e3"}))
+    with pytest.raises(ParameterError, match="scene"):
+        score_netlist(tmp_path / "none.raw", "s", "q")
 
 
 # ------------------------------------------------------------------ LTspice

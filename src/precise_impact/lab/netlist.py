@@ -1055,7 +1055,15 @@ def _target(nmap: NodeMap, scene: str | None):
         params = sc.params if not nmap.parameters else sc.params.replace(**nmap.parameters)
         return params, design, sc.name
     if nmap.components:
-        design = Components.make(**nmap.components)
+        try:
+            design = Components.make(**nmap.components)
+        except ParameterError as e:
+            raise ParameterError(
+                f"map.components.{e.name}",
+                e.value,
+                f"{e.allowed} (without a scene [components] is the whole design: R1 .. R8, C1, "
+                "C2, V_A, Omega, V_wall; or give scene = ... and only the values that differ)",
+            ) from e
         return dimensionless(design), design, "user design"
     if nmap.parameters:
         return Params.make(**nmap.parameters), None, "user parameters"
