@@ -16,9 +16,10 @@ binary and ASCII, stepped LTspice runs and multi-plot ngspice files); no parser 
 here.  Measured (``benchmarks/bench_netlist.py`` -> ``benchmarks/results/netlist.md``;
 ngspice-39, spicelib 1.6.4): the project's netlist of ``fig6-period3-ideal``, 20 periods,
 18340 points, written by ngspice as a binary raw (734 kB), an ASCII raw (``set
-filetype=ascii``, 2.25 MB) and ``wrdata`` text at 17 digits.  RawRead reads the binary file in
-~0.03 s and agrees with ``wrdata`` bit for bit on every vector (max |diff| = 0); the ASCII file
-in ~0.1 s, within 1 ulp (max relative difference 5.5e-16: ngspice prints 16 digits there).
+filetype=ascii``, 2.25 MB) and ``wrdata`` text at 17 digits.  RawRead reads the binary file
+in 0.03-0.06 s and agrees with ``wrdata`` bit for bit on every vector (max |diff| = 0); the
+ASCII file in 0.1-0.2 s (two runs on a shared 2-core machine), within 1 ulp (max relative
+difference 5.5e-16: ngspice prints 16 digits there).
 The files ``ngspice -b -r`` writes (what :func:`run_netlist` runs) equal those of ``write``
 for the same run: bit for bit binary, within 4.4e-16 ASCII (``tests/lab/test_netlist.py``).
 It was chosen because it is maintained, reads every dialect users bring (LTspice's UTF-16
