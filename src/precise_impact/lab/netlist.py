@@ -148,6 +148,11 @@ class NodeMap:
         ``R7 / R1`` for fitted scales (``V_unit = V_A R7 / (R1 a)``); 1 in the paper's design.
     forcing_phase : float or None
         Phase of ``V_3`` in rad at SPICE time 0, instead of the fitted one.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.load_map : reads one from TOML.
+    precise_impact.lab.netlist.score_netlist : uses it.
     """
 
     x: str
@@ -288,6 +293,10 @@ class Waveforms:
     precision : str
         ``'float32'`` when the traces are stored in single precision (LTspice's default; its
         ``.options numdgt=7`` stores doubles), else ``'float64'``.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.read_raw : returns them.
     """
 
     time: np.ndarray
@@ -966,6 +975,11 @@ class NetlistScoreResult(ResultMixin):
         ``elapsed_s``, ``log`` (the tail of ngspice's output), the netlist's ``options``.
     files : list of str or None
         Figures written.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.score_netlist : returns it.
+    precise_impact.verification.compare.CompareResult : the built-in models' counterpart.
     """
 
     source: str
