@@ -320,6 +320,13 @@ def test_own_netlist_within_compare_and_r3_plus_10_percent_ranked_further(tmp_pa
     titles = " ".join(ax.get_title() for ax in ra.plot().axes)
     n = (a["horizons"]["0.001"] - ra.runs[0]["initial_state"]["t0"]) * 0.74 / (2 * math.pi)
     assert f"({n:.1f} periods)" in titles
+    # a result like the others: short repr, save() = to_dict(), a runs table
+    assert len(repr(ra)) <= 400 and repr(ra).startswith("NetlistScoreResult(")
+    saved = json.loads(ra.save(tmp_path / "r.json").read_text())
+    assert saved == json.loads(json.dumps(ra.to_dict(), allow_nan=False))
+    pd = pytest.importorskip("pandas")
+    df = ra.to_dataframe()
+    assert isinstance(df, pd.DataFrame) and len(df) == 1 and ra.tables() == ("runs",)
     b = score_netlist(edited, **kw).runs[0]["scores"]
     for f in ("scores.json", "phase_portraits.png", "separation.png"):
         assert (tmp_path / "own" / f).stat().st_size > 0

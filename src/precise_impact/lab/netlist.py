@@ -52,7 +52,7 @@ import numpy as np
 
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import OptionalDependencyError, ParameterError, SpiceError
 from precise_impact.io.figures import plot_units, save_figure
@@ -1001,6 +1001,24 @@ class NetlistScoreResult(ResultMixin):
         """Every field but the trajectories kept for :meth:`plot` (strict JSON)."""
         return {
             f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "_plots"
+        }
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``runs``: one row per run (plot/step), its start and its
+        scalar scores (nested ones as ``horizons.0.001``, ``divergence.rate`` ...)."""
+        return {
+            "runs": lambda: record_columns(
+                [
+                    {
+                        "name": r["name"],
+                        "periods": r["periods"],
+                        "regime": r["regime"],
+                        **flat(r["initial_state"]),
+                        **flat(r["scores"]),
+                    }
+                    for r in self.runs
+                ]
+            )
         }
 
     def plot(
