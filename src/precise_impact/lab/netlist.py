@@ -36,7 +36,6 @@ LTspice compresses waveforms lossily unless ``.options plotwinsize=0``: see
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
 import re
 import subprocess
@@ -1404,7 +1403,12 @@ def score_netlist(
     >>> r.runs[0]["periods"], r.mapping["mode"], r.runs[0]["scores"]["initial_separation"] < 1e-15
     (10, 'components', True)
     """
-    cmp = importlib.import_module("precise_impact.verification.compare")
+    from precise_impact.verification.compare import (
+        REF_PERTURBATION,
+        demonstrated_reference,
+        reference_lle,
+        score_line,
+    )
     from precise_impact.verification.metrics import reference_bits
     from precise_impact.verification.scores import detected_period, score
 
@@ -1523,15 +1527,15 @@ def score_netlist(
             stats={"source": w.path},
         )
         # each run from its own first sample: its own reference; the LLE (an attractor's) once
-        ref, check, ref_info = cmp._reference(p0, n_per, 50, bits, progress)
+        ref, check, ref_info = demonstrated_reference(p0, n_per, 50, bits, progress)
         if not lle:
-            lle = cmp._reference_lle(p0, progress)
+            lle = reference_lle(p0, progress)
         regime = "periodic" if detected_period(ref, k) > 0 else "chaotic"
         ref2 = None
         if regime == "chaotic":
             from precise_impact.solvers.simulate import make_solver
 
-            p2 = p0.replace(x0=p0.x0 + cmp.REF_PERTURBATION)
+            p2 = p0.replace(x0=p0.x0 + REF_PERTURBATION)
             ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, n_per)
         sc = score(tr, ref, regime=regime, lle=lle["lle"], ref2=ref2, transient=k)
         name = p.name if len(mapped) == 1 else f"{p.name} {w.label}"
@@ -1552,7 +1556,7 @@ def score_netlist(
             }
         )
         plots.append({"name": name, "ref": ref, "check": check, "traj": tr})
-        _progress(f"{name}: " + cmp._one_line(sc), progress)
+        _progress(f"{name}: " + score_line(sc), progress)
 
     res = NetlistScoreResult(
         source=str(p),
@@ -1607,7 +1611,8 @@ def format_result(res: NetlistScoreResult) -> str:
         Source, mapping, reference, forcing fit, one line per run
         (:mod:`~precise_impact.verification.compare`'s form), the warnings.
     """
-    cmp = importlib.import_module("precise_impact.verification.compare")
+    from precise_impact.verification.compare import score_line
+
     m, r = res.mapping, res.reference
     scale = f"scales from {m['mode']}: omega = {m['omega']:.10g} rad/s"
     if m["mode"] == "fitted":
@@ -1635,7 +1640,7 @@ def format_result(res: NetlistScoreResult) -> str:
     for run in res.runs:
         lines.append(
             f"  {run['label']:<20} {run['periods']} periods, {run['regime']}: "
-            + cmp._one_line(run["scores"])
+            + score_line(run["scores"])
         )
     lines += [f"warning: {w}" for w in res.warnings]
     return "\n".join(lines)
