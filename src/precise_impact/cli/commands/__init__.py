@@ -12,6 +12,7 @@ from precise_impact.cli.commands import (
     accuracy,
     bench,
     bifurcation,
+    budget,
     certify,
     compare,
     continuation,
@@ -45,4 +46,5 @@ COMMANDS = (
     bench,
     reproduce,
     accuracy,
+    budget,
 )

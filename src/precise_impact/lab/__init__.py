@@ -1,0 +1,1 @@
+"""What users bring from the bench: netlists, raw files, captures, tolerance budgets."""

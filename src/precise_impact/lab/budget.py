@@ -1,0 +1,1040 @@
+"""Tolerance budget: how the paper's landmarks move with every component of a circuit design.
+
+Landmarks (forcing frequencies of the bifurcation diagram, in Hz of the signal generator):
+
+* ``grazing``: the non-impacting orbit's maximum touches the wall;
+* ``pd_1_1``: the period-doubling point of the one-impact period-1 orbit;
+* ``p3_low``, ``p3_high``: the ends of the existence interval of the stable admissible
+  period-3 orbit of Fig. 6 (two grazings at the paper's parameters);
+* ``lle_0712``: the largest Lyapunov exponent with the generator set to ``eta = 0.712`` of
+  the design (not a branch point: Monte Carlo only).
+
+A landmark at mechanical parameters ``theta = (zeta, a, x_w)`` is ``eta_L(theta)``, located by
+continuation and polished by Newton on its augmented system
+(:mod:`precise_impact.analysis.orbits.landmarks`); in hertz it is
+``f_L = eta_L(theta(c)) omega(c) / (2 pi)`` with ``theta(c)``, ``omega(c)`` the effective
+system the circuit's components ``c`` realise (:func:`effective_parameters`, the KCL of
+:func:`~precise_impact.models.circuit.switched.effective_system`, with the switches'
+``R_on`` and optionally the op-amps' gain-bandwidth).  Derivatives: the implicit-function
+theorem on the augmented system's exact Jacobian (dual numbers), chained with the exact
+derivative of the components-to-parameters map (the same dual numbers through the KCL).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Mapping, Sequence
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.analysis.orbits.landmarks import BranchPoint, landmark_from_continuation
+from precise_impact.core.dual import Dual, seed
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ConvergenceError, OptionalDependencyError, ParameterError
+from precise_impact.models.circuit.components import Components
+from precise_impact.models.circuit.effects import switch
+
+__all__ = [
+    "tolerance_budget",
+    "ToleranceBudget",
+    "effective_parameters",
+    "LANDMARKS",
+    "PARTS",
+    "parse_tolerances",
+]
+
+PARTS = ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2")
+SOURCES = ("V_A", "V_wall")
+#: The inputs of the parameter map a budget differentiates in (``Omega``, the generator, is
+#: the reference the landmarks are compared with, not a part).
+INPUTS = PARTS + SOURCES
+#: The landmarks a budget can compute.
+LANDMARKS = ("grazing", "pd_1_1", "p3_low", "p3_high", "lle_0712")
+BRANCH_LANDMARKS = ("grazing", "pd_1_1", "p3_low", "p3_high")
+_DESCRIPTION = {
+    "grazing": "grazing frequency (non-impacting orbit touches the wall)",
+    "pd_1_1": "period doubling of the 1:1 orbit",
+    "p3_low": "lower end of the Fig. 6 period-3 orbit",
+    "p3_high": "upper end of the Fig. 6 period-3 orbit",
+    "lle_0712": "largest Lyapunov exponent at eta = 0.712",
+}
+#: The paper's mechanical system (Fig. 6: zeta = 0.05, a = 1, x_w = 2, R = 1) and where the
+#: continuation finds each landmark there: (kind, start, stop, period, impacts).
+_PAPER_THETA = (0.05, 1.0, 2.0)
+_SEARCH = {
+    "grazing": ("graze_free", 0.70, 0.72, 1, 0),
+    "pd_1_1": ("period-doubling", 1.0, 0.9, 1, 1),
+    "p3_low": ("graze", 0.74, 0.70, 3, None),
+    "p3_high": ("graze", 0.74, 0.80, 3, None),
+}
+FIG6_ETA = 0.74
+LLE_ETA = 0.712
+
+
+# ------------------------------------------------------------------------ the parameter map
+def effective_parameters(
+    values: Mapping[str, Any], ron: Any = 0, gbw: Any = None, V_unit: Any = 1
+) -> dict:
+    """``{zeta, eta, a, x_w, omega}`` the circuit with component ``values`` realises.
+
+    Written for any number type with ``+ - * /`` and :func:`math.sqrt`-like ``** 0.5``
+    (floats, :class:`~precise_impact.core.dual.Dual` for exact derivatives).  Without ``gbw``:
+    the switched-capacitor circuit between switchings with the switches' ``ron`` in series
+    with C2 (the KCL of :func:`~precise_impact.models.circuit.switched.effective_system`,
+    :func:`~precise_impact.models.circuit.effects.switch.vq`); with ``gbw`` (Hz): the op-amp
+    network's quasi-static single-pole model with the default open-loop gain 2e5
+    (:func:`~precise_impact.models.circuit.network.network_rhs`).  ``omega^2 = det A``,
+    ``2 zeta omega = -tr A``, ``eta = Omega / omega``; ``a`` is the forcing whose mechanical
+    response has the circuit's amplitude of ``-V_s / V_unit`` at ``Omega``.
+    """
+    c = dict(values)
+    W = c["Omega"]
+    if gbw is None:
+        A, bc, bs = _switched_matrix(c, ron)
+    else:
+        A, bc, bs = _network_matrix(c, gbw)
+    (a11, a12), (a21, a22) = A
+    w2 = a11 * a22 - a12 * a21
+    omega = w2**0.5
+    zeta = -(a11 + a22) / (2 * omega)
+    eta = W / omega
+    # X = (i W - A)^-1 (bc - i bs): the V_s component, in real arithmetic
+    d_re = a11 * a22 - a12 * a21 - W * W
+    d_im = -W * (a11 + a22)
+    r0 = (bc[0], -bs[0])
+    r1 = (bc[1], -bs[1])
+    # first row of the adjugate of (iW - A): (iW - a22, a12)
+    n_re = -a22 * r0[0] - W * r0[1] + a12 * r1[0]
+    n_im = W * r0[0] - a22 * r0[1] + a12 * r1[1]
+    amp2 = (n_re * n_re + n_im * n_im) / (d_re * d_re + d_im * d_im)
+    m = 1 - eta * eta
+    D = m * m + (2 * zeta * eta) ** 2
+    a = (amp2 * D) ** 0.5 * c["V_A"] / V_unit
+    return {"zeta": zeta, "eta": eta, "a": a, "x_w": -c["V_wall"] / V_unit, "omega": omega}
+
+
+def _switched_matrix(c: dict, ron: Any):
+    rho = c["R5"] / c["R4"]
+    k = switch.coupling(ron, c["R2"], c["R3"])
+
+    def rhs(V_s, V_C, V3):
+        V_q = switch.vq(1, V_C, V3, V_s, k, c["R1"], c["R6"], c["R7"], rho)
+        V_p = -c["R2"] * (V3 / c["R1"] - rho * V_q / c["R6"] + V_s / c["R7"])
+        return -V_q / (c["R8"] * c["C1"]), V_p / (c["R3"] * c["C2"])
+
+    col1, col2, b = rhs(1.0, 0.0, 0.0), rhs(0.0, 1.0, 0.0), rhs(0.0, 0.0, 1.0)
+    A = ((col1[0], col2[0]), (col1[1], col2[1]))
+    return A, b, (0.0, 0.0)
+
+
+class _LinearHy:
+    """A stand-in for heyoka's expression namespace that evaluates the network's right-hand
+    side on numbers, with the source's ``cos`` and ``sin`` set to chosen values (the network
+    is linear in the states and the source, so columns of ones give its matrices)."""
+
+    time = 0.0
+
+    def __init__(self, cos_value: float, sin_value: float) -> None:
+        self._c, self._s = cos_value, sin_value
+
+    def cos(self, _x: Any) -> float:
+        return self._c
+
+    def sin(self, _x: Any) -> float:
+        return self._s
+
+    @staticmethod
+    def sum(terms: Sequence[Any]) -> Any:
+        out = terms[0]
+        for t in terms[1:]:
+            out = out + t
+        return out
+
+
+def _network_matrix(c: dict, gbw: Any):
+    from precise_impact.models.circuit.network import OpAmp, network_rhs
+
+    op = OpAmp(gbw=Fraction(float(gbw)), gbw_mode="quasi-static")  # the effect takes floats
+
+    def rhs(V_s, V_q, cos_v, sin_v):
+        dVs, dVq, _ = network_rhs(_LinearHy(cos_v, sin_v), c, V_s, V_q, op)
+        return dVs, dVq
+
+    col1, col2 = rhs(1.0, 0.0, 0.0, 0.0), rhs(0.0, 1.0, 0.0, 0.0)
+    bc = rhs(0.0, 0.0, 1.0, 0.0)
+    bs = rhs(0.0, 0.0, 0.0, 1.0)
+    A = ((col1[0] - 0.0, col2[0]), (col1[1], col2[1]))
+    return A, bc, bs
+
+
+# ------------------------------------------------------------------------ tolerances
+def parse_tolerances(spec: Any, defaults: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Relative tolerances (fractions) of every input from ``spec``.
+
+    ``spec``: ``None`` (the defaults), a number or ``'1%'`` (every part), or a mapping /
+    ``'R=1%,C=5%,R6=0.1%'`` string whose keys are a part name, ``R`` (all resistors), ``C``
+    (both capacitors), ``V_A`` or ``V_wall``.  Percent signs mark percent; bare numbers in a
+    string are percent too; numbers in a mapping are fractions.
+    """
+    out = {n: 0.0 for n in INPUTS}
+    out.update({n: float(v) for n, v in (defaults or {}).items() if n in out})
+    if spec is None:
+        return out
+    if isinstance(spec, (int, float, Fraction)) and not isinstance(spec, bool):
+        items: list[tuple[str, Any]] = [("*", _frac(spec, "tolerance"))]
+    elif isinstance(spec, str):
+        items = []
+        for part in [s.strip() for s in spec.split(",") if s.strip()]:
+            key, _, val = part.rpartition("=")
+            items.append((key.strip() or "*", _pct(val, part)))
+    elif isinstance(spec, Mapping):
+        items = [(str(k), _frac(v, str(k))) for k, v in spec.items()]
+    else:
+        raise ParameterError("tolerances", repr(spec), "a percentage, 'R=1%,C=5%' or a mapping")
+    for key, v in items:
+        names = {
+            "*": PARTS,
+            "R": PARTS[:8],
+            "C": PARTS[8:],
+        }.get(key, (key,))
+        for n in names:
+            if n not in out:
+                raise ParameterError(
+                    "tolerances", key, "keys: R, C, " + ", ".join(INPUTS) + " (or one value)"
+                )
+            out[n] = v
+    return out
+
+
+def _pct(text: str, whole: str) -> float:
+    t = text.strip()
+    try:
+        v = float(t[:-1]) / 100 if t.endswith("%") else float(t) / 100
+    except ValueError:
+        raise ParameterError("tolerance", whole, "a percentage such as 1% or R=1%,C=5%") from None
+    return _frac(v, whole)
+
+
+def _frac(v: Any, name: str) -> float:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        raise ParameterError("tolerance", name, "a number") from None
+    if not (0 <= f <= 0.2):
+        raise ParameterError(
+            "tolerance", f"{f:g}", "0 .. 20 % (the budget linearises about the design)"
+        )
+    return f
+
+
+# ------------------------------------------------------------------------ the result
+@dataclasses.dataclass
+class ToleranceBudget(ResultMixin):
+    """A tolerance budget (see :func:`tolerance_budget`).
+
+    Attributes
+    ----------
+    design : dict
+        The design's component values (decimal strings) and switch ``ron``.
+    tolerances : dict
+        Relative tolerance of each input (fractions; uniform within the band).
+    nominal : dict
+        The effective system at the design (``zeta, eta, a, x_w, omega``) and the generator
+        frequency ``f_design`` [Hz].
+    landmarks : dict
+        Per landmark: ``eta``, ``frequency_hz``, ``dfreq_dlnc`` (Hz per unit relative change of
+        each input), ``deta_dtheta`` (IFT), the FD check, Monte Carlo and Sobol figures.
+    table : list of dict
+        The ranked rows: landmark, component, tolerance, shift in Hz and ppm at +tolerance.
+    existence : dict
+        The Fig. 6 period-3 orbit at the design: margins, probability over the draws, the
+        largest ``R_on / R3`` and the smallest GBW for which it exists, required tolerances.
+    seed, mc, sobol : int
+        The Monte Carlo seed and sample sizes.
+    elapsed_s : float
+        Wall time.
+    """
+
+    design: dict
+    tolerances: dict
+    nominal: dict
+    landmarks: dict
+    table: list
+    existence: dict
+    seed: int
+    mc: int
+    sobol: int
+    elapsed_s: float
+    scans: dict = dataclasses.field(default_factory=dict, repr=False)
+
+    def _tables(self):
+        return {"ranked": self._ranked_columns}
+
+    def _ranked_columns(self) -> dict:
+        keys = ["landmark", "component", "tolerance_pct", "shift_hz", "shift_ppm", "rank"]
+        return {k: np.asarray([r[k] for r in self.table]) for k in keys}
+
+    def ranked(self, n: int | None = None) -> list[str]:
+        """The table's sentences, largest first ("R6 at 1 % moves ... by ... Hz")."""
+        rows = self.table if n is None else self.table[:n]
+        return [
+            f"{r['component']} at {r['tolerance_pct']:g} % moves the "
+            f"{_DESCRIPTION[r['landmark']]} by {r['shift_hz']:+.4g} Hz ({r['shift_ppm']:+.0f} ppm)"
+            for r in rows
+        ]
+
+    def markdown(self) -> str:
+        """The budget as a Markdown report."""
+        lines = ["# Tolerance budget", ""]
+        nom = self.nominal
+        lines += [
+            f"Design: omega = {nom['omega']:.6g} rad/s, zeta = {nom['zeta']:.6g}, "
+            f"a = {nom['a']:.6g}, x_w = {nom['x_w']:.6g}; generator at eta = {nom['eta']:.6g} "
+            f"({nom['f_design']:.6g} Hz); R_on = {self.design.get('ron', '0')} ohm.",
+            "",
+            "| landmark | eta | f [Hz] | IFT vs FD (max rel) | MC spread [Hz] "
+            "| linear spread [Hz] |",
+            "|---|---|---|---|---|---|",
+        ]
+        for name, L in self.landmarks.items():
+            if "eta" not in L:
+                continue
+            mc = L.get("monte_carlo", {})
+            nan = float("nan")
+            lines.append(
+                f"| {name} | {L['eta']:.10g} | {L['frequency_hz']:.8g} | "
+                f"{L.get('fd_check', {}).get('max_rel_error', float('nan')):.2e} | "
+                f"{mc.get('std_hz', nan):.4g} +- {mc.get('std_stderr_hz', nan):.2g} | "
+                f"{L.get('linear_std_hz', float('nan')):.4g} |"
+            )
+        lle = self.landmarks.get("lle_0712")
+        if lle and "monte_carlo" in lle:
+            m = lle["monte_carlo"]
+            lines += [
+                "",
+                f"LLE at eta = 0.712: nominal {lle['nominal']:.5g} +- {lle['nominal_stderr']:.2g}; "
+                f"over {m['n']} draws mean {m['mean']:.5g} +- {m['mean_stderr']:.2g}, "
+                f"std {m['std']:.4g}, range {m['min']:.4g} .. {m['max']:.4g}, "
+                f"{m['chaotic_fraction'] * 100:.0f} % of draws chaotic (LLE > 0).",
+            ]
+        lines += ["", "## Ranked (shift of each landmark at + the part's tolerance)", ""]
+        lines += ["| rank | landmark | component | tol [%] | shift [Hz] | shift [ppm] |"]
+        lines += ["|---|---|---|---|---|---|"]
+        for r in self.table:
+            lines.append(
+                f"| {r['rank']} | {r['landmark']} | {r['component']} | {r['tolerance_pct']:g} | "
+                f"{r['shift_hz']:+.4g} | {r['shift_ppm']:+.0f} |"
+            )
+        ex = self.existence
+        lines += ["", "## The Fig. 6 period-3 orbit", ""]
+        for k, v in ex.items():
+            if isinstance(v, (dict, list)):
+                continue
+            lines.append(f"- {k}: {v}")
+        lines += ["", "## Sobol indices (first order S1 / total ST)", ""]
+        for name, L in self.landmarks.items():
+            s = L.get("sobol")
+            if not s:
+                continue
+            top = sorted(s["ST"].items(), key=lambda kv: -kv[1])[:5]
+            lines.append(
+                f"- {name}: "
+                + ", ".join(f"{k} {s['S1'][k]:.3f}/{v:.3f}" for k, v in top)
+                + f" (N = {s['N']})"
+            )
+        return "\n".join(lines) + "\n"
+
+    def plot(self, path: str | Path | None = None):
+        """The period-3 existence interval against ``R_on / R3`` and against the op-amps'
+        GBW, with the design's forcing; saved to ``path`` if given."""
+        import matplotlib
+
+        if path is not None:
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+        for ax, key, xlabel, logx in (
+            (axes[0], "ron", "R_on / R3", False),
+            (axes[1], "gbw", "op-amp gain-bandwidth [Hz]", True),
+        ):
+            s = self.scans.get(key)
+            if not s:
+                ax.set_visible(False)
+                continue
+            x = np.asarray(s["x"], dtype=float)
+            lo, hi, d = (np.asarray(s[k], dtype=float) for k in ("eta_low", "eta_high", "eta"))
+            ax.fill_between(x, lo, hi, color="tab:green", alpha=0.25, label="period-3 exists")
+            ax.plot(x, lo, color="tab:green")
+            ax.plot(x, hi, color="tab:green")
+            ax.plot(x, d, color="k", lw=1.5, label="the design's forcing eta")
+            lim = s.get("limit")
+            if lim is not None:
+                ax.axvline(lim, color="tab:red", ls="--", label=f"limit {lim:.4g}")
+            for xv, lab in s.get("marks", []):
+                ax.axvline(xv, color="tab:blue", ls=":", label=lab)
+            if logx:
+                ax.set_xscale("log")
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel("eta = Omega / omega_eff")
+            ax.legend(fontsize=8, loc="best")
+        fig.suptitle("Fig. 6 period-3 orbit: existence interval in eta at the design")
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=110)
+            plt.close(fig)
+        return fig
+
+
+# ------------------------------------------------------------------------ the budget
+def _design_of(scene_or_components: Any) -> tuple[Components, Fraction, dict, str]:
+    """``(design, ron, default tolerances, label)`` from a scene, a scene name/path or
+    components."""
+    from precise_impact.scenes.scene import Scene, load_scene
+
+    if isinstance(scene_or_components, Components):
+        return scene_or_components, Fraction(0), {}, "components"
+    sc = scene_or_components
+    if not isinstance(sc, Scene):
+        sc = load_scene(sc)
+    if sc.kind != "single" or sc.model not in ("circuit", "switched-capacitor", "spice"):
+        # a mechanical scene: its nominal circuit
+        pass
+    design = sc.design()
+    ron = Fraction(sc.effects.get("switch", {}).get("ron", 0))
+    tol = sc.effects.get("tolerance")
+    defaults = {}
+    if tol is not None:
+        defaults = {n: float(tol.get("resistor_pct", 1)) / 100 for n in PARTS[:8]}
+        defaults.update({n: float(tol.get("capacitor_pct", 5)) / 100 for n in PARTS[8:]})
+    return design, ron, defaults, sc.name
+
+
+def _theta(p: dict) -> np.ndarray:
+    return np.array([float(p[k]) for k in ("zeta", "a", "x_w")])
+
+
+def _move(bp: BranchPoint, theta: np.ndarray, steps: int = 8) -> BranchPoint:
+    """The landmark carried from its parameters to ``theta`` by Newton on a straight path
+    (natural-parameter continuation in theta), halving steps that fail."""
+    start = bp.theta.copy()
+    s, ds = 0.0, 1.0 / steps
+    cur = bp
+    while s < 1.0:
+        t = min(1.0, s + ds)
+        try:
+            nxt = cur.solve(start + t * (theta - start))
+            if not nxt.admissible():
+                raise ConvergenceError(f"the {bp.kind} landmark's orbit is no longer admissible")
+            cur = nxt
+            s = t
+            ds = min(ds * 2, 1.0)
+        except (ConvergenceError, np.linalg.LinAlgError, ValueError, ZeroDivisionError):
+            ds /= 2
+            if ds < 1e-4:
+                raise ConvergenceError(
+                    f"the {bp.kind} landmark could not be carried to theta = {theta.tolist()}"
+                ) from None
+    return cur
+
+
+def tolerance_budget(
+    scene_or_components: Any = "fig6-period2-datasheet",
+    tolerances: Any = None,
+    landmarks: Sequence[str] = LANDMARKS,
+    seed: int = 0,
+    *,
+    mc: int = 400,
+    sobol: int = 256,
+    lle_mc: int = 32,
+    lle_periods: int = 2000,
+    ron: Any = None,
+    scans: bool = True,
+    fd_check: bool = True,
+    progress: Any = None,
+) -> ToleranceBudget:
+    """The tolerance budget of a circuit design for the paper's landmarks.
+
+    Parameters
+    ----------
+    scene_or_components : str, Path, Scene or Components, default ``'fig6-period2-datasheet'``
+        The design: a scene (its components, its switches' ``R_on``, its tolerance effect's
+        percentages as the default tolerances) or component values (``R_on = 0``).
+    tolerances : None, number, str or mapping
+        Relative tolerances (:func:`parse_tolerances`); default the scene's (1 % resistors,
+        5 % capacitors for the datasheet scenes) or 1 % / 5 %.
+    landmarks : sequence of str
+        Which of :data:`LANDMARKS`.
+    seed : int
+        Seed of the Monte Carlo draws (``numpy.random.default_rng``) and the Sobol sample.
+    mc : int, default 400
+        Monte Carlo draws for the branch-point landmarks (``0``: none).
+    sobol : int, default 256
+        Sobol base sample ``N`` (SALib; ``N (2 D + 2)`` evaluations; ``0``: none).
+    lle_mc : int, default 32
+        Draws for the LLE at 0.712 (each a ``lle_periods``-period run of the fast engine).
+    ron : decimal or None
+        The switches' on-resistance in ohms replacing the scene's.
+    scans : bool, default ``True``
+        The ``R_on / R3`` and GBW scans of the period-3 orbit's existence (the limits).
+    fd_check : bool, default ``True``
+        Finite differences of re-continued landmarks against the IFT derivatives.
+    progress : callable or None
+        ``progress(message)`` on long steps.
+
+    Returns
+    -------
+    ToleranceBudget
+
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+    OptionalDependencyError
+        SALib missing while ``sobol > 0``.
+    """
+    t_start = time.perf_counter()
+    design, ron0, defaults, label = _design_of(scene_or_components)
+    if not defaults:
+        defaults = {n: 0.01 for n in PARTS[:8]} | {n: 0.05 for n in PARTS[8:]}
+    tol = parse_tolerances(tolerances, defaults)
+    bad = [n for n in landmarks if n not in LANDMARKS]
+    if bad or not landmarks:
+        raise ParameterError(
+            "landmarks", ",".join(bad) or "(none)", "any of " + ", ".join(LANDMARKS)
+        )
+    for name, v, hi in (("mc", mc, 100000), ("sobol", sobol, 65536), ("lle_mc", lle_mc, 10000)):
+        if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= hi:
+            raise ParameterError(name, repr(v), f"an integer 0 .. {hi}")
+    if sobol and sobol & (sobol - 1):
+        raise ParameterError("sobol", str(sobol), "a power of 2 (Sobol sequences)")
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise ParameterError("seed", repr(seed), "an integer >= 0")
+    if ron is not None:
+        ron0 = Fraction(str(ron)) if not isinstance(ron, Fraction) else ron
+        if ron0 < 0:
+            raise ParameterError("ron", str(ron), ">= 0 ohm")
+    if sobol:
+        _require_salib()
+    say = progress or (lambda _m: None)
+
+    c0 = {n: float(getattr(design, n)) for n in INPUTS + ("Omega",)}
+    vu = float(design.V_unit)
+    ronf = float(ron0)
+    x0 = np.array([c0[n] for n in INPUTS])
+    duals = dict(zip(INPUTS, seed_inputs(x0), strict=True))
+    duals["Omega"] = c0["Omega"]
+    ep = effective_parameters(duals, ronf, V_unit=vu)
+    theta0 = np.array([ep[k].v for k in ("zeta", "a", "x_w")])
+    dtheta = np.array([ep[k].g for k in ("zeta", "a", "x_w")])  # 3 x len(INPUTS)
+    omega0, domega = ep["omega"].v, ep["omega"].g
+    eta_d = ep["eta"].v
+    f_design = c0["Omega"] / (2 * math.pi)
+    nominal = {
+        "zeta": theta0[0],
+        "a": theta0[1],
+        "x_w": theta0[2],
+        "eta": eta_d,
+        "omega": omega0,
+        "f_design": f_design,
+        "ron_damping": 2 * ronf / c0["R3"],
+    }
+    sig = np.array([tol[n] for n in INPUTS])
+    result_lm: dict = {}
+    points: dict[str, BranchPoint] = {}
+    for name in [n for n in landmarks if n in BRANCH_LANDMARKS]:
+        say(f"landmark {name}: continuation at the paper's parameters, carried to the design")
+        kind, start, stop, period, impacts = _SEARCH[name]
+        try:
+            bp, _ = landmark_from_continuation(kind, _PAPER_THETA, start, stop, period, impacts)
+            bp = _move(bp, theta0)
+        except (ConvergenceError, ValueError) as e:
+            result_lm[name] = {"absent": str(e)}
+            continue
+        points[name] = bp
+        g = bp.sensitivity()  # d eta_L / d theta
+        deta_dc = g @ dtheta  # d eta_L / d c
+        f = bp.eta * omega0 / (2 * math.pi)
+        df_dc = (deta_dc * omega0 + bp.eta * domega) / (2 * math.pi)
+        dlnc = df_dc * x0  # Hz per unit relative change
+        result_lm[name] = {
+            "description": _DESCRIPTION[name],
+            "eta": bp.eta,
+            "frequency_hz": f,
+            "deta_dtheta": dict(zip(("zeta", "a", "x_w"), g.tolist(), strict=True)),
+            "dfreq_dlnc": dict(zip(INPUTS, dlnc.tolist(), strict=True)),
+            "linear_std_hz": float(np.sqrt(np.sum((dlnc * sig) ** 2) / 3)),
+            "worst_case_linear_hz": float(np.sum(np.abs(dlnc * sig))),
+            "multipliers": [abs(complex(m)) for m in bp.multipliers()],
+        }
+        if fd_check:
+            say(f"landmark {name}: finite differences of re-continued landmarks")
+            result_lm[name]["fd_check"] = _fd_check(name, bp, g, theta0)
+    if "p3_low" in points and "p3_high" in points:
+        if points["p3_high"].eta - points["p3_low"].eta < 1e-6:
+            why = (
+                "the period-3 interval has closed at this design (its two grazing ends met "
+                f"at eta = {points['p3_low'].eta:.6g}): no Fig. 6 orbit"
+            )
+            for k in ("p3_low", "p3_high"):
+                points.pop(k)
+                result_lm[k] = {"absent": why}
+    table = _ranked(result_lm, tol)
+
+    rng = np.random.default_rng(seed)
+    active = [i for i, n in enumerate(INPUTS) if sig[i] > 0]
+    if mc and points:
+        say(f"Monte Carlo: {mc} draws (seed {seed})")
+        u = rng.uniform(-1.0, 1.0, size=(mc, len(INPUTS)))
+        vals = _evaluate(points, x0 * (1 + u * sig), c0, ronf, vu)
+        for name in points:
+            fs = vals[name]
+            ok = fs[np.isfinite(fs)]
+            n = len(ok)
+            std = float(np.std(ok, ddof=1)) if n > 1 else math.nan
+            result_lm[name]["monte_carlo"] = {
+                "n": int(n),
+                "failed": int(mc - n),
+                "mean_hz": float(np.mean(ok)) if n else math.nan,
+                "std_hz": std,
+                # std of a std of n draws: ~ std / sqrt(2 (n - 1)) (near-normal sums)
+                "std_stderr_hz": std / math.sqrt(2 * (n - 1)) if n > 1 else math.nan,
+                "min_hz": float(np.min(ok)) if n else math.nan,
+                "max_hz": float(np.max(ok)) if n else math.nan,
+            }
+        result_lm["_p3_draws"] = _p3_fraction(vals, f_design)
+    if sobol and points and active:
+        say(f"Sobol indices: N = {sobol}, {len(active)} inputs")
+        _sobol(points, result_lm, x0, sig, active, c0, ronf, vu, sobol, seed)
+    for name in points:
+        result_lm[name]["worst_case"] = _corners(
+            points[name], result_lm[name], x0, sig, c0, ronf, vu
+        )
+    if "lle_0712" in landmarks:
+        say(f"LLE at eta = 0.712: {lle_mc} draws")
+        result_lm["lle_0712"] = _lle_mc(design, x0, sig, c0, ronf, vu, lle_mc, lle_periods, seed)
+    p3_draws = result_lm.pop("_p3_draws", None)
+    existence = _existence(points, nominal, result_lm, sig, p3_draws)
+    scan_data: dict = {}
+    if scans and "p3_low" in points and "p3_high" in points:
+        say("scans: R_on / R3 and GBW limits of the period-3 orbit")
+        scan_data, limits = _scans(points, c0, vu, ronf)
+        existence.update(limits)
+    return ToleranceBudget(
+        design={**design.decimal(), "ron": str(float(ron0)), "source": label},
+        tolerances={n: tol[n] for n in INPUTS},
+        nominal=nominal,
+        landmarks=result_lm,
+        table=table,
+        existence=existence,
+        seed=seed,
+        mc=mc,
+        sobol=sobol,
+        elapsed_s=time.perf_counter() - t_start,
+        scans=scan_data,
+    )
+
+
+def _require_salib() -> None:
+    try:
+        import SALib  # noqa: F401
+    except ImportError:
+        raise OptionalDependencyError(
+            "SALib", "pip install 'precise_impact[lab]'", "Sobol indices (or sobol=0)"
+        ) from None
+
+
+def seed_inputs(x0: np.ndarray) -> list[Dual]:
+    return seed(x0)
+
+
+def _fd_check(name: str, bp: BranchPoint, g: np.ndarray, theta0: np.ndarray) -> dict:
+    """Central differences of the landmark re-located (continuation + Newton) at
+    ``theta0 +- h e_k``.  ``h = eps^(1/3) |theta_k|``: truncation ``h^2 |eta'''| / 6`` and
+    rounding ``eps |eta| / h`` are both ~ 1e-11 relative, far below the 1e-6 asked."""
+    kind, start, stop, period, impacts = _SEARCH[name]
+    fd = []
+    for k in range(3):
+        h = 6.0554544523933395e-06 * abs(theta0[k])  # eps^(1/3)
+        vals = []
+        for s in (1, -1):
+            th = theta0.copy()
+            th[k] += s * h
+            moved = _move(bp, th, steps=1)  # the landmark carried there by Newton
+            vals.append(moved.eta)
+        fd.append((vals[0] - vals[1]) / (2 * h))
+    fd_arr = np.array(fd)
+    scale = np.max(np.abs(g))
+    rel = np.abs(fd_arr - g) / scale
+    return {
+        "fd": fd_arr.tolist(),
+        "ift": g.tolist(),
+        "rel_error": rel.tolist(),
+        "max_rel_error": float(np.max(rel)),
+        "step_rule": "h = eps^(1/3) |theta_k| (truncation ~ rounding ~ 1e-11)",
+    }
+
+
+def _evaluate(points: dict, draws: np.ndarray, c0: dict, ron: float, vu: float) -> dict:
+    """Landmark frequencies [Hz] at component draws (rows over :data:`INPUTS`): the parameter
+    map in float64, then each landmark by chord Newton from the design's solution (its exact
+    ``F_y`` fixed), full Newton when the chord fails; NaN where neither converges."""
+    chords = {n: bp.jacobian()[1] for n, bp in points.items()}
+    out = {n: np.full(len(draws), math.nan) for n in points}
+    for i, row in enumerate(draws):
+        vals = dict(zip(INPUTS, row.tolist(), strict=True))
+        vals["Omega"] = c0["Omega"]
+        ep = effective_parameters(vals, ron, V_unit=vu)
+        th = _theta(ep)
+        for n, bp in points.items():
+            try:
+                q = bp.solve(th, chord=chords[n], iterations=60)
+            except (ConvergenceError, np.linalg.LinAlgError, ValueError, ZeroDivisionError):
+                try:
+                    q = _move(bp, th, steps=2)
+                except ConvergenceError:
+                    continue
+            out[n][i] = q.eta * ep["omega"] / (2 * math.pi)
+    return out
+
+
+def _p3_fraction(vals: dict, f_design: float) -> dict | None:
+    if "p3_low" not in vals or "p3_high" not in vals:
+        return None
+    lo, hi = vals["p3_low"], vals["p3_high"]
+    ok = np.isfinite(lo) & np.isfinite(hi)
+    inside = ok & (lo < f_design) & (f_design < hi)
+    n = int(np.sum(ok))
+    p = float(np.sum(inside)) / n if n else math.nan
+    return {
+        "fraction": p,
+        "stderr": math.sqrt(p * (1 - p) / n) if n else math.nan,
+        "n": n,
+    }
+
+
+def _sobol(points, result_lm, x0, sig, active, c0, ron, vu, N, seed_) -> None:
+    from SALib.analyze import sobol as sobol_analyze
+    from SALib.sample import sobol as sobol_sample
+
+    names = [INPUTS[i] for i in active]
+    problem = {
+        "num_vars": len(active),
+        "names": names,
+        "bounds": [[-1.0, 1.0]] * len(active),
+    }
+    U = sobol_sample.sample(problem, N, calc_second_order=False, seed=seed_)
+    full = np.zeros((len(U), len(INPUTS)))
+    full[:, active] = U
+    vals = _evaluate(points, x0 * (1 + full * sig), c0, ron, vu)
+    for name in points:
+        Y = vals[name]
+        if not np.all(np.isfinite(Y)):
+            result_lm[name]["sobol"] = {"N": N, "failed": int(np.sum(~np.isfinite(Y)))}
+            continue
+        Si = sobol_analyze.analyze(problem, Y, calc_second_order=False, seed=seed_)
+        result_lm[name]["sobol"] = {
+            "N": N,
+            "evaluations": len(U),
+            "S1": dict(zip(names, np.asarray(Si["S1"]).tolist(), strict=True)),
+            "ST": dict(zip(names, np.asarray(Si["ST"]).tolist(), strict=True)),
+            "S1_conf": dict(zip(names, np.asarray(Si["S1_conf"]).tolist(), strict=True)),
+        }
+
+
+def _corners(bp, L, x0, sig, c0, ron, vu) -> dict:
+    """The two corners of the tolerance box along the signs of the landmark's gradient,
+    evaluated nonlinearly (the extreme corners of a near-linear landmark)."""
+    s = np.sign(np.array([L["dfreq_dlnc"][n] for n in INPUTS]))
+    rows = np.array([x0 * (1 + s * sig), x0 * (1 - s * sig)])
+    v = _evaluate({"x": bp}, rows, c0, ron, vu)["x"]
+    return {
+        "high_hz": float(v[0]),
+        "low_hz": float(v[1]),
+        "high_corner": {n: int(s[i] * (sig[i] > 0)) for i, n in enumerate(INPUTS)},
+    }
+
+
+def _lle_mc(design, x0, sig, c0, ron, vu, n, periods, seed_) -> dict:
+    """The LLE with the generator at ``eta = 0.712`` of the ideal design, over ``n`` draws:
+    each draw's effective system run by the fast engine (its variational LLE, batch-means
+    standard error)."""
+    from precise_impact.analysis.lyapunov.fast import fast_batch_rows
+    from precise_impact.models.circuit.opamp import design_omega
+
+    omega_design = float(design_omega(design))
+    W = LLE_ETA * omega_design
+    rng = np.random.default_rng([seed_, 712])
+    u = rng.uniform(-1.0, 1.0, size=(n, len(INPUTS)))
+    rows = [x0] + [x0 * (1 + ui * sig) for ui in u]
+    pts = []
+    for row in rows:
+        vals = dict(zip(INPUTS, row.tolist(), strict=True))
+        vals["Omega"] = W
+        ep = effective_parameters(vals, ron, V_unit=vu)
+        pts.append([ep["eta"], ep["zeta"], ep["a"], ep["x_w"], 1.0, 0.0, 0.0, 0.0])
+
+    def fallback(idx):
+        raise ConvergenceError("the fast engine did not resolve an LLE point")
+
+    res = fast_batch_rows(np.array(pts), fallback, periods=periods, transient=1000)
+    lle = np.array([r["lle"] for r in res], dtype=float)
+    err = np.array([r["stderr"] for r in res], dtype=float)
+    d = lle[1:]
+    return {
+        "description": _DESCRIPTION["lle_0712"],
+        "nominal": float(lle[0]),
+        "nominal_stderr": float(err[0]),
+        "nominal_eta": pts[0][0],
+        "monte_carlo": {
+            "n": int(n),
+            "seed": [seed_, 712],
+            "mean": float(np.mean(d)) if n else math.nan,
+            "mean_stderr": float(np.std(d, ddof=1) / math.sqrt(n)) if n > 1 else math.nan,
+            "std": float(np.std(d, ddof=1)) if n > 1 else math.nan,
+            "min": float(np.min(d)) if n else math.nan,
+            "max": float(np.max(d)) if n else math.nan,
+            "chaotic_fraction": float(np.mean(d > 0)) if n else math.nan,
+            "median_run_stderr": float(np.median(err[1:])) if n else math.nan,
+        },
+    }
+
+
+def _ranked(result_lm: dict, tol: dict) -> list:
+    rows = []
+    for name, L in result_lm.items():
+        if "dfreq_dlnc" not in L:
+            continue
+        f = L["frequency_hz"]
+        for n, d in L["dfreq_dlnc"].items():
+            if tol[n] <= 0 and d == 0:
+                continue
+            t = tol[n]
+            shift = d * t
+            rows.append(
+                {
+                    "landmark": name,
+                    "component": n,
+                    "tolerance_pct": t * 100,
+                    "shift_hz": shift,
+                    "shift_ppm": shift / f * 1e6,
+                    "per_percent_ppm": d * 0.01 / f * 1e6,
+                }
+            )
+    rows = [r for r in rows if r["tolerance_pct"] > 0]
+    rows.sort(key=lambda r: -abs(r["shift_ppm"]))
+    for i, r in enumerate(rows, 1):
+        r["rank"] = i
+    return rows
+
+
+def _existence(points, nominal, result_lm, sig, p3_draws) -> dict:
+    """The Fig. 6 orbit at the design's generator frequency: margins to both ends, the
+    tolerances that keep it in the worst case (linear corners), the fraction of draws."""
+    out: dict = {
+        "meaning": (
+            "a stable admissible period-3 orbit (two impacts) at the design's forcing: "
+            "f_low < f_design < f_high, ends = grazing bifurcations of the Fig. 6 branch"
+        )
+    }
+    if "p3_low" not in points or "p3_high" not in points:
+        out["exists"] = False
+        out["why"] = result_lm.get("p3_low", {}).get("absent") or result_lm.get("p3_high", {}).get(
+            "absent"
+        )
+        return out
+    f = nominal["f_design"]
+    lo, hi = result_lm["p3_low"], result_lm["p3_high"]
+    m_lo, m_hi = f - lo["frequency_hz"], hi["frequency_hz"] - f
+    out["exists"] = bool(m_lo > 0 and m_hi > 0)
+    out["margin_low_hz"] = m_lo
+    out["margin_high_hz"] = m_hi
+    # linear worst case per class: shift of each margin per unit tolerance of R's and C's
+    dR = {
+        s: sum(abs(L["dfreq_dlnc"][INPUTS[i]]) for i in range(8))
+        for s, L in (("low", lo), ("high", hi))
+    }
+    dC = {
+        s: sum(abs(L["dfreq_dlnc"][INPUTS[i]]) for i in range(8, 10))
+        for s, L in (("low", lo), ("high", hi))
+    }
+    margin = {"low": m_lo, "high": m_hi}
+    tR = min(max(margin[s], 0) / dR[s] if dR[s] else math.inf for s in margin)
+    tC = min(max(margin[s], 0) / dC[s] if dC[s] else math.inf for s in margin)
+    out["worst_case_resistor_tolerance_pct_alone"] = tR * 100
+    out["worst_case_capacitor_tolerance_pct_alone"] = tC * 100
+    # equal tolerance on every part
+    tall = min(max(margin[s], 0) / (dR[s] + dC[s]) for s in margin)
+    out["worst_case_common_tolerance_pct"] = tall * 100
+    # 3 sigma (root sum of squares of uniform bands) with the budget's tolerances scaled
+    rss = {
+        s: math.sqrt(sum((L["dfreq_dlnc"][n] * sig[i]) ** 2 / 3 for i, n in enumerate(INPUTS)))
+        for s, L in (("low", lo), ("high", hi))
+    }
+    out["three_sigma_scale_of_budget"] = min(
+        max(margin[s], 0) / (3 * rss[s]) if rss[s] else math.inf for s in margin
+    )
+    if p3_draws is not None:
+        out["fraction_of_draws_with_period3"] = p3_draws["fraction"]
+        out["fraction_stderr"] = p3_draws["stderr"]
+        out["draws"] = p3_draws["n"]
+    return out
+
+
+def _scans(points: dict, c0: dict, vu: float, ron0: float) -> tuple[dict, dict]:
+    """The period-3 existence interval against ``R_on / R3`` (switched-capacitor KCL) and
+    against GBW (op-amp network), the limits by bisection on the margin."""
+    lo0, hi0 = points["p3_low"], points["p3_high"]
+    R3 = c0["R3"]
+
+    def at(kw: dict, state: dict) -> tuple[float, float, float]:
+        ep = effective_parameters({**c0}, V_unit=vu, **kw)
+        th = _theta(ep)
+        state["lo"] = _move(state["lo"], th, steps=1)
+        state["hi"] = _move(state["hi"], th, steps=1)
+        return ep["eta"], state["lo"].eta, state["hi"].eta
+
+    def scan(xs, kwf):
+        """Landmarks carried along ``xs``; NaN from the first point where either end can no
+        longer be carried (its orbit stops being admissible: the branch ends there)."""
+        state = {"lo": lo0, "hi": hi0}
+        rows: list = []
+        for x in xs:
+            if rows and not math.isfinite(rows[-1][2]):
+                rows.append((x, math.nan, math.nan, math.nan))
+                continue
+            try:
+                rows.append((x, *at(kwf(x), state)))
+            except ConvergenceError:
+                rows.append((x, math.nan, math.nan, math.nan))
+        return rows
+
+    def limit(rows, kwf):
+        """The first x where the design's eta leaves (lo, hi): bisection to 1e-10 relative."""
+
+        def margin(r):
+            return min(r[1] - r[2], r[3] - r[1])
+
+        for a, b in zip(rows[:-1], rows[1:], strict=True):
+            if margin(a) > 0 and not margin(b) > 0:
+                xa, xb = a[0], b[0]
+                state = {"lo": lo0, "hi": hi0}
+                at(kwf(xa), state)
+                base = dict(state)
+                for _ in range(60):
+                    xm = 0.5 * (xa + xb)
+                    st = dict(base)
+                    try:
+                        r = (xm, *at(kwf(xm), st))
+                    except ConvergenceError:
+                        xb = xm
+                        continue
+                    if margin(r) > 0:
+                        xa, base = xm, st
+                    else:
+                        xb = xm
+                    if abs(xb - xa) <= 1e-10 * abs(xa):
+                        break
+                return 0.5 * (xa + xb)
+        return None
+
+    xs = np.linspace(0.0, 0.05, 51)
+    rows = scan(xs, lambda x: {"ron": x * R3})
+    lim = limit(rows, lambda x: {"ron": x * R3})
+    ron_scan = {
+        "x": [r[0] for r in rows],
+        "eta": [r[1] for r in rows],
+        "eta_low": [r[2] for r in rows],
+        "eta_high": [r[3] for r in rows],
+        "limit": lim,
+        "marks": [(ron0 / R3, f"design R_on / R3 = {ron0 / R3:.4g}")] if ron0 else [],
+    }
+    gs = np.logspace(3.5, 8, 46)
+    growsr = scan(gs[::-1], lambda g: {"gbw": g})[::-1]
+    glim = _gbw_limit(growsr, lo0, hi0, at)
+    gbw_scan = {
+        "x": [r[0] for r in growsr],
+        "eta": [r[1] for r in growsr],
+        "eta_low": [r[2] for r in growsr],
+        "eta_high": [r[3] for r in growsr],
+        "limit": glim,
+        "marks": [(3e6, "TL072 3 MHz")],
+    }
+
+    def why(rows, x):
+        """Is the limit a crossing of the design's eta, or the end of the tracked interval?"""
+        nxt = [r for r in rows if r[0] > x]
+        return (
+            "the interval's ends stop being continuable (the Fig. 6 branch's grazing end "
+            "turns inadmissible)"
+            if nxt and not math.isfinite(nxt[0][2])
+            else "the design's eta leaves the interval"
+        )
+
+    limits = {
+        "max_ron_over_R3": lim,
+        "max_ron_reason": None if lim is None else why(rows, lim),
+        "min_gbw_reason": None
+        if glim is None
+        else why([(-r[0], *r[1:]) for r in growsr[::-1]], -glim),
+        "max_ron_ohm": None if lim is None else lim * R3,
+        "min_gbw_hz": glim,
+    }
+    return {"ron": ron_scan, "gbw": gbw_scan}, limits
+
+
+def _gbw_limit(rows, lo0, hi0, at):
+    def margin(r):
+        return min(r[1] - r[2], r[3] - r[1])
+
+    for a, b in zip(rows[:-1], rows[1:], strict=True):  # increasing GBW
+        if not margin(a) > 0 and margin(b) > 0:
+            xa, xb = math.log(a[0]), math.log(b[0])  # xa fails, xb holds
+            state = {"lo": lo0, "hi": hi0}
+            at({"gbw": b[0]}, state)
+            base = dict(state)
+            for _ in range(60):
+                xm = 0.5 * (xa + xb)
+                st = dict(base)
+                try:
+                    r = (math.exp(xm), *at({"gbw": math.exp(xm)}, st))
+                except ConvergenceError:
+                    xa = xm
+                    continue
+                if margin(r) > 0:
+                    xb, base = xm, st
+                else:
+                    xa = xm
+                if abs(xb - xa) <= 1e-10:
+                    break
+            return math.exp(0.5 * (xa + xb))
+    return None
+
+
+def estimate_seconds(
+    landmarks: Sequence[str], mc: int, sobol: int, lle_mc: int, lle_periods: int, scans: bool
+) -> float:
+    """A rough wall-time estimate (measured on one core: ~1 ms a landmark evaluation per
+    draw, ~1 ms per 100 LLE periods, ~30 s of scans, ~3 s of continuations)."""
+    n = len([x for x in landmarks if x in BRANCH_LANDMARKS])
+    evals = n * (mc + sobol * (2 * len(PARTS) + 2))
+    lle = lle_mc * (lle_periods + 1000) * 1e-5 if "lle_0712" in landmarks else 0.0
+    return 3.0 + 1e-3 * evals + lle + (30.0 if scans else 0.0)
+
+
+def check_budget(max_time: float | None, **kw: Any) -> None:
+    """Refuse a budget whose estimate exceeds ``max_time`` seconds, before any work."""
+    from precise_impact.errors import OverBudgetError
+
+    est = estimate_seconds(**kw)
+    if max_time is not None and est > max_time:
+        raise OverBudgetError(
+            "max_time",
+            f"{max_time:g} s",
+            f"a budget above the estimate (~{est:.0f} s); fewer --mc / --sobol / --lle-mc draws",
+        )
