@@ -191,6 +191,8 @@ JSON_COMMANDS = {
     "sync": ["sync", "--k", "0.05", "0.05", "1", "--periods", "5", "--ensemble", "1"]
     + ["--fig7", "0.031", "0.032", "--model", "fast", "--out", "{out}"],
     "bench": ["bench", "work-precision", "--quick"],
+    "budget": ["budget", "--landmarks", "grazing", "--mc", "10", "--sobol", "0", "--lle-mc", "0"]
+    + ["--no-scans", "--out", "{out}"],
 }
 #: Over ~5 s each: CI runs them in its slow step.
 SLOW_JSON = {"bench", "compare"}

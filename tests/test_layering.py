@@ -3,7 +3,7 @@
 Layers, bottom to top (a module may import its own layer and the ones below):
 
   1. errors, io, version   2. core   3. solvers   4. models   5. analysis   6. scenes
-  7. verification   8. testing   9. cli, __main__
+  7. verification, lab   8. testing   9. cli, __main__
 
 ``precise_impact/__init__.py`` is the facade and may import from every layer.  The
 check reads the source of the *installed* package (located through
@@ -34,6 +34,7 @@ LAYERS = {
     "analysis": 5,
     "scenes": 6,
     "verification": 7,
+    "lab": 7,  # what users bring from the bench: builds on scenes, models and analysis
     "testing": 8,
     "cli": 9,
     "__main__": 9,

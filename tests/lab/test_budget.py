@@ -200,3 +200,62 @@ def test_cli_bad_input(args, code, tmp_path):
     )
     assert p.returncode == code, p.stderr
     assert len(p.stderr.strip().splitlines()) == 1
+
+
+def test_fold_end_ift_vs_finite_differences():
+    """At R_on / R3 = 0.01 (zeta = 0.0599) the period-3 orbit's lower end is a fold, not a
+    grazing: the fold's augmented system (1 - tr M + det M = 0) against central differences of
+    the end re-located by a fresh continuation of the orbit (h = eps^(1/3) theta_k)."""
+    import dataclasses
+
+    from precise_impact.analysis.orbits.landmarks import end_point, interval_ends, seed_landmark
+
+    theta = np.array([0.059940089850262016, 1.0001095140033414, 2.0])
+    eta_d = 0.7407396303695382
+    paper = seed_landmark("orbit", THETA, 0.74, 3, None)
+
+    def end_at(th):
+        o = paper
+        for t in np.linspace(0, 1, 9)[1:]:
+            o = dataclasses.replace(o, eta_fixed=0.74 + t * (eta_d - 0.74)).solve(
+                THETA + t * (th - THETA)
+            )
+        ends = interval_ends(o)
+        return end_point(o, ends["low"]), ends["low"]
+
+    bp, end = end_at(theta)
+    assert end[0] == "fold" and bp.kind == "fold"
+    assert bp.eta == pytest.approx(end[1], abs=1e-9)
+    g = bp.sensitivity()
+
+    def central(k, h):
+        etas = []
+        for s in (1, -1):
+            th = theta.copy()
+            th[k] += s * h
+            etas.append(end_at(th)[0].eta)
+        return (etas[0] - etas[1]) / (2 * h)
+
+    for k in range(3):
+        # This fold was born at a grazing nearby (R_on / R3 ~ 0.0085): |eta'''| ~ 1e7, so a
+        # plain central difference at h = eps^(1/3) has a truncation error ~4e-6 relative
+        # (measured).  Richardson's (4 D(h/2) - D(h)) / 3 removes the h^2 term: ~4e-10.
+        h = 2.0 ** (-52 / 3) * theta[k]
+        fd = (4 * central(k, h / 2) - central(k, h)) / 3
+        assert abs(fd - g[k]) <= 1e-6 * np.max(np.abs(g)), (k, fd, g[k])
+
+
+@pytest.mark.slow
+def test_existence_limits_bracket_the_boundary():
+    """The largest R_on / R3 and the smallest GBW keeping the Fig. 6 orbit: the orbit exists
+    (stable, admissible) just inside each limit and not just outside (bisection to 1e-9)."""
+    res = tolerance_budget(
+        "fig6-period3-ideal", landmarks=("p3_low", "p3_high"), mc=0, sobol=0, lle_mc=0
+    )
+    ex = res.existence
+    assert 0.01 < ex["max_ron_over_R3"] < 0.03
+    assert 1e4 < ex["min_gbw_hz"] < 3e6
+    ron = res.scans["ron"]
+    ok = [x for x, e in zip(ron["x"], ron["exists"], strict=True) if e]
+    bad = [x for x, e in zip(ron["x"], ron["exists"], strict=True) if not e]
+    assert max(ok) < ex["max_ron_over_R3"] < min(bad)

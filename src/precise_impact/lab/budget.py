@@ -32,7 +32,13 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.analysis.orbits.landmarks import BranchPoint, landmark_from_continuation
+from precise_impact.analysis.orbits.landmarks import (
+    BranchPoint,
+    end_point,
+    interval_ends,
+    landmark_from_continuation,
+    seed_landmark,
+)
 from precise_impact.core.dual import Dual, seed
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ConvergenceError, OptionalDependencyError, ParameterError
@@ -369,7 +375,16 @@ class ToleranceBudget(ResultMixin):
                 continue
             x = np.asarray(s["x"], dtype=float)
             lo, hi, d = (np.asarray(s[k], dtype=float) for k in ("eta_low", "eta_high", "eta"))
-            ax.fill_between(x, lo, hi, color="tab:green", alpha=0.25, label="period-3 exists")
+            ok = np.asarray(s.get("exists", np.isfinite(lo)), dtype=bool)
+            ax.fill_between(
+                x,
+                lo,
+                hi,
+                where=ok,
+                color="tab:green",
+                alpha=0.25,
+                label="stable admissible period-3 interval",
+            )
             ax.plot(x, lo, color="tab:green")
             ax.plot(x, hi, color="tab:green")
             ax.plot(x, d, color="k", lw=1.5, label="the design's forcing eta")
@@ -417,6 +432,35 @@ def _design_of(scene_or_components: Any) -> tuple[Components, Fraction, dict, st
 
 def _theta(p: dict) -> np.ndarray:
     return np.array([float(p[k]) for k in ("zeta", "a", "x_w")])
+
+
+def _paper_orbit() -> BranchPoint:
+    """The Fig. 6 period-3 orbit (two impacts) at the paper's parameters, eta = 0.74."""
+    return seed_landmark("orbit", _PAPER_THETA, FIG6_ETA, 3, None)
+
+
+def _carry_orbit(orbit: BranchPoint, theta: np.ndarray, eta: float) -> BranchPoint:
+    """The orbit carried to ``(theta, eta)`` by Newton along the straight path (step halving),
+    staying admissible; :class:`ConvergenceError` if it cannot be."""
+    t0, e0 = orbit.theta.copy(), orbit.eta
+    s, ds, cur = 0.0, 0.25, orbit
+    while s < 1.0:
+        t = min(1.0, s + ds)
+        try:
+            nxt = dataclasses.replace(cur, eta_fixed=e0 + t * (eta - e0)).solve(
+                t0 + t * (theta - t0)
+            )
+            if not nxt.admissible():
+                raise ConvergenceError("the orbit stopped being admissible")
+            cur, s, ds = nxt, t, min(2 * ds, 1.0)
+        except (ConvergenceError, np.linalg.LinAlgError, ValueError, ZeroDivisionError):
+            ds /= 2
+            if ds < 1e-4:
+                raise ConvergenceError(
+                    f"the period-3 orbit cannot be carried to eta = {eta:.8g}, "
+                    f"theta = {np.round(theta, 8).tolist()}"
+                ) from None
+    return cur
 
 
 def _move(bp: BranchPoint, theta: np.ndarray, steps: int = 8) -> BranchPoint:
@@ -547,12 +591,38 @@ def tolerance_budget(
     sig = np.array([tol[n] for n in INPUTS])
     result_lm: dict = {}
     points: dict[str, BranchPoint] = {}
-    for name in [n for n in landmarks if n in BRANCH_LANDMARKS]:
-        say(f"landmark {name}: continuation at the paper's parameters, carried to the design")
-        kind, start, stop, period, impacts = _SEARCH[name]
+    orbit_d: BranchPoint | None = None
+    p3_why = ""
+    if {"p3_low", "p3_high"} & set(landmarks):
+        say("the Fig. 6 period-3 orbit carried to the design; its interval by continuation")
         try:
-            bp, _ = landmark_from_continuation(kind, _PAPER_THETA, start, stop, period, impacts)
-            bp = _move(bp, theta0)
+            orbit_d = _carry_orbit(_paper_orbit(), theta0, eta_d)
+            if not orbit_d.stable():
+                p3_why = "the period-3 orbit carried to the design's eta is unstable"
+                orbit_d = None
+        except ConvergenceError as e:
+            p3_why = f"no period-3 orbit at the design's eta ({e})"
+        ends = interval_ends(orbit_d) if orbit_d is not None else {}
+    for name in [n for n in landmarks if n in BRANCH_LANDMARKS]:
+        say(f"landmark {name}: located by continuation, polished on its augmented system")
+        try:
+            if name in ("p3_low", "p3_high"):
+                end = ends.get(name[3:]) if orbit_d is not None else None
+                if end is None:
+                    raise ConvergenceError(
+                        p3_why or f"the branch's {name[3:]} end is not in eta +- 0.06"
+                    )
+                bp0 = end_point(orbit_d, end)
+                if bp0 is None:
+                    raise ConvergenceError(
+                        f"the {name[3:]} end is a {end[0]} at eta = {end[1]:.10g} (no augmented "
+                        "system for it here)"
+                    )
+                bp = bp0
+            else:
+                kind, start, stop, period, impacts = _SEARCH[name]
+                bp, _ = landmark_from_continuation(kind, _PAPER_THETA, start, stop, period, impacts)
+                bp = _move(bp, theta0)
         except (ConvergenceError, ValueError) as e:
             result_lm[name] = {"absent": str(e)}
             continue
@@ -564,6 +634,7 @@ def tolerance_budget(
         dlnc = df_dc * x0  # Hz per unit relative change
         result_lm[name] = {
             "description": _DESCRIPTION[name],
+            "type": {"graze_free": "grazing", "graze": "grazing"}.get(bp.kind, bp.kind),
             "eta": bp.eta,
             "frequency_hz": f,
             "deta_dtheta": dict(zip(("zeta", "a", "x_w"), g.tolist(), strict=True)),
@@ -575,15 +646,6 @@ def tolerance_budget(
         if fd_check:
             say(f"landmark {name}: finite differences of re-continued landmarks")
             result_lm[name]["fd_check"] = _fd_check(name, bp, g, theta0)
-    if "p3_low" in points and "p3_high" in points:
-        if points["p3_high"].eta - points["p3_low"].eta < 1e-6:
-            why = (
-                "the period-3 interval has closed at this design (its two grazing ends met "
-                f"at eta = {points['p3_low'].eta:.6g}): no Fig. 6 orbit"
-            )
-            for k in ("p3_low", "p3_high"):
-                points.pop(k)
-                result_lm[k] = {"absent": why}
     table = _ranked(result_lm, tol)
 
     rng = np.random.default_rng(seed)
@@ -591,7 +653,10 @@ def tolerance_budget(
     if mc and points:
         say(f"Monte Carlo: {mc} draws (seed {seed})")
         u = rng.uniform(-1.0, 1.0, size=(mc, len(INPUTS)))
-        vals = _evaluate(points, x0 * (1 + u * sig), c0, ronf, vu)
+        draws = x0 * (1 + u * sig)
+        vals = _evaluate(points, draws, c0, ronf, vu)
+        if orbit_d is not None:
+            vals["_orbit"] = _evaluate({"_orbit": orbit_d}, draws, c0, ronf, vu)["_orbit"]
         for name in points:
             fs = vals[name]
             ok = fs[np.isfinite(fs)]
@@ -608,6 +673,16 @@ def tolerance_budget(
                 "max_hz": float(np.max(ok)) if n else math.nan,
             }
         result_lm["_p3_draws"] = _p3_fraction(vals, f_design)
+        if "_orbit" in vals:
+            e = vals["_orbit"]
+            result_lm["_p3_draws"] = dict(
+                result_lm["_p3_draws"] or {},
+                orbit_fraction=float(np.mean(np.isfinite(e))),
+                orbit_fraction_stderr=float(
+                    math.sqrt(np.mean(np.isfinite(e)) * (1 - np.mean(np.isfinite(e))) / len(e))
+                ),
+                orbit_n=len(e),
+            )
     if sobol and points and active:
         say(f"Sobol indices: N = {sobol}, {len(active)} inputs")
         _sobol(points, result_lm, x0, sig, active, c0, ronf, vu, sobol, seed)
@@ -621,9 +696,9 @@ def tolerance_budget(
     p3_draws = result_lm.pop("_p3_draws", None)
     existence = _existence(points, nominal, result_lm, sig, p3_draws)
     scan_data: dict = {}
-    if scans and "p3_low" in points and "p3_high" in points:
+    if scans and orbit_d is not None:
         say("scans: R_on / R3 and GBW limits of the period-3 orbit")
-        scan_data, limits = _scans(points, c0, vu, ronf)
+        scan_data, limits = _scans(orbit_d, c0, vu, ronf)
         existence.update(limits)
     return ToleranceBudget(
         design={**design.decimal(), "ron": str(float(ron0)), "source": label},
@@ -654,20 +729,26 @@ def seed_inputs(x0: np.ndarray) -> list[Dual]:
 
 
 def _fd_check(name: str, bp: BranchPoint, g: np.ndarray, theta0: np.ndarray) -> dict:
-    """Central differences of the landmark re-located (continuation + Newton) at
-    ``theta0 +- h e_k``.  ``h = eps^(1/3) |theta_k|``: truncation ``h^2 |eta'''| / 6`` and
-    rounding ``eps |eta| / h`` are both ~ 1e-11 relative, far below the 1e-6 asked."""
-    kind, start, stop, period, impacts = _SEARCH[name]
-    fd = []
-    for k in range(3):
-        h = 6.0554544523933395e-06 * abs(theta0[k])  # eps^(1/3)
+    """Finite differences of the landmark re-located (Newton on its augmented system from the
+    design's solution) at ``theta0 +- h e_k``, Richardson-extrapolated:
+    ``(4 D(h/2) - D(h)) / 3`` with ``D`` the central difference and ``h = eps^(1/3)
+    |theta_k|``.  The extrapolation removes the ``h^2 eta''' / 6`` term, which is not small
+    near a codimension-two point (a fold born at a grazing has ``|eta'''| ~ 1e7``: plain
+    central differences were 4e-6 off there); what remains is ``O(h^4)`` and the rounding
+    ``~ eps |eta| / h ~ 1e-11``."""
+
+    def central(k: int, h: float) -> float:
         vals = []
         for s in (1, -1):
             th = theta0.copy()
             th[k] += s * h
-            moved = _move(bp, th, steps=1)  # the landmark carried there by Newton
-            vals.append(moved.eta)
-        fd.append((vals[0] - vals[1]) / (2 * h))
+            vals.append(_move(bp, th, steps=1).eta)
+        return (vals[0] - vals[1]) / (2 * h)
+
+    fd = []
+    for k in range(3):
+        h = 6.0554544523933395e-06 * abs(theta0[k])  # eps^(1/3)
+        fd.append((4 * central(k, h / 2) - central(k, h)) / 3)
     fd_arr = np.array(fd)
     scale = np.max(np.abs(g))
     rel = np.abs(fd_arr - g) / scale
@@ -676,7 +757,7 @@ def _fd_check(name: str, bp: BranchPoint, g: np.ndarray, theta0: np.ndarray) -> 
         "ift": g.tolist(),
         "rel_error": rel.tolist(),
         "max_rel_error": float(np.max(rel)),
-        "step_rule": "h = eps^(1/3) |theta_k| (truncation ~ rounding ~ 1e-11)",
+        "step_rule": "Richardson (4 D(h/2) - D(h)) / 3, h = eps^(1/3) |theta_k|",
     }
 
 
@@ -692,6 +773,8 @@ def _evaluate(points: dict, draws: np.ndarray, c0: dict, ron: float, vu: float) 
         ep = effective_parameters(vals, ron, V_unit=vu)
         th = _theta(ep)
         for n, bp in points.items():
+            if bp.kind == "orbit":  # the orbit at this draw's eta: exists if stable, admissible
+                bp = dataclasses.replace(bp, eta_fixed=ep["eta"])
             try:
                 q = bp.solve(th, chord=chords[n], iterations=60)
             except (ConvergenceError, np.linalg.LinAlgError, ValueError, ZeroDivisionError):
@@ -699,6 +782,8 @@ def _evaluate(points: dict, draws: np.ndarray, c0: dict, ron: float, vu: float) 
                     q = _move(bp, th, steps=2)
                 except ConvergenceError:
                     continue
+            if not q.admissible() or (q.kind == "orbit" and not q.stable()):
+                continue  # the landmark changed nature (another flight grazes first ...)
             out[n][i] = q.eta * ep["omega"] / (2 * math.pi)
     return out
 
@@ -839,7 +924,8 @@ def _existence(points, nominal, result_lm, sig, p3_draws) -> dict:
     out: dict = {
         "meaning": (
             "a stable admissible period-3 orbit (two impacts) at the design's forcing: "
-            "f_low < f_design < f_high, ends = grazing bifurcations of the Fig. 6 branch"
+            "f_low < f_design < f_high, the ends being the first grazing, fold or period doubling "
+            "along the Fig. 6 branch each way"
         )
     }
     if "p3_low" not in points or "p3_high" not in points:
@@ -879,141 +965,103 @@ def _existence(points, nominal, result_lm, sig, p3_draws) -> dict:
     out["three_sigma_scale_of_budget"] = min(
         max(margin[s], 0) / (3 * rss[s]) if rss[s] else math.inf for s in margin
     )
-    if p3_draws is not None:
+    if p3_draws is not None and "orbit_fraction" in p3_draws:
+        out["fraction_of_draws_with_stable_period3_orbit"] = p3_draws["orbit_fraction"]
+        out["orbit_fraction_stderr"] = p3_draws["orbit_fraction_stderr"]
+    if p3_draws is not None and "fraction" in p3_draws:
         out["fraction_of_draws_with_period3"] = p3_draws["fraction"]
-        out["fraction_stderr"] = p3_draws["stderr"]
-        out["draws"] = p3_draws["n"]
+        out["interval_fraction_stderr"] = p3_draws["stderr"]
+        out["draws_with_both_ends"] = p3_draws["n"]
     return out
 
 
-def _scans(points: dict, c0: dict, vu: float, ron0: float) -> tuple[dict, dict]:
-    """The period-3 existence interval against ``R_on / R3`` (switched-capacitor KCL) and
-    against GBW (op-amp network), the limits by bisection on the margin."""
-    lo0, hi0 = points["p3_low"], points["p3_high"]
+def _scans(orbit_d: BranchPoint, c0: dict, vu: float, ron0: float) -> tuple[dict, dict]:
+    """The Fig. 6 orbit along ``R_on / R3`` (switched-capacitor KCL) and along the op-amps'
+    GBW (the network's quasi-static model): at each value the orbit carried to the design's
+    eta there (exists: converged, admissible, stable), its interval's ends by continuation
+    (for the plot), and the limit by bisection on existence (to 1e-9 relative)."""
     R3 = c0["R3"]
 
-    def at(kw: dict, state: dict) -> tuple[float, float, float]:
+    def system(kw: dict) -> tuple[np.ndarray, float]:
         ep = effective_parameters({**c0}, V_unit=vu, **kw)
-        th = _theta(ep)
-        state["lo"] = _move(state["lo"], th, steps=1)
-        state["hi"] = _move(state["hi"], th, steps=1)
-        return ep["eta"], state["lo"].eta, state["hi"].eta
+        return _theta(ep), float(ep["eta"])
 
-    def scan(xs, kwf):
-        """Landmarks carried along ``xs``; NaN from the first point where either end can no
-        longer be carried (its orbit stops being admissible: the branch ends there)."""
-        state = {"lo": lo0, "hi": hi0}
+    def exists_at(orbit: BranchPoint, kw: dict) -> BranchPoint | None:
+        th, eta = system(kw)
+        try:
+            o = _carry_orbit(orbit, th, eta)
+        except ConvergenceError:
+            return None
+        return o if o.stable() else None
+
+    def scan(xs, kwf) -> tuple[list, float | None]:
         rows: list = []
+        orbit: BranchPoint | None = orbit_d
+        last_ok = None
+        limit = None
         for x in xs:
-            if rows and not math.isfinite(rows[-1][2]):
-                rows.append((x, math.nan, math.nan, math.nan))
-                continue
-            try:
-                rows.append((x, *at(kwf(x), state)))
-            except ConvergenceError:
-                rows.append((x, math.nan, math.nan, math.nan))
-        return rows
-
-    def limit(rows, kwf):
-        """The first x where the design's eta leaves (lo, hi): bisection to 1e-10 relative."""
-
-        def margin(r):
-            return min(r[1] - r[2], r[3] - r[1])
-
-        for a, b in zip(rows[:-1], rows[1:], strict=True):
-            if margin(a) > 0 and not margin(b) > 0:
-                xa, xb = a[0], b[0]
-                state = {"lo": lo0, "hi": hi0}
-                at(kwf(xa), state)
-                base = dict(state)
-                for _ in range(60):
-                    xm = 0.5 * (xa + xb)
-                    st = dict(base)
-                    try:
-                        r = (xm, *at(kwf(xm), st))
-                    except ConvergenceError:
-                        xb = xm
-                        continue
-                    if margin(r) > 0:
-                        xa, base = xm, st
-                    else:
-                        xb = xm
-                    if abs(xb - xa) <= 1e-10 * abs(xa):
-                        break
-                return 0.5 * (xa + xb)
-        return None
-
-    xs = np.linspace(0.0, 0.05, 51)
-    rows = scan(xs, lambda x: {"ron": x * R3})
-    lim = limit(rows, lambda x: {"ron": x * R3})
-    ron_scan = {
-        "x": [r[0] for r in rows],
-        "eta": [r[1] for r in rows],
-        "eta_low": [r[2] for r in rows],
-        "eta_high": [r[3] for r in rows],
-        "limit": lim,
-        "marks": [(ron0 / R3, f"design R_on / R3 = {ron0 / R3:.4g}")] if ron0 else [],
-    }
-    gs = np.logspace(3.5, 8, 46)
-    growsr = scan(gs[::-1], lambda g: {"gbw": g})[::-1]
-    glim = _gbw_limit(growsr, lo0, hi0, at)
-    gbw_scan = {
-        "x": [r[0] for r in growsr],
-        "eta": [r[1] for r in growsr],
-        "eta_low": [r[2] for r in growsr],
-        "eta_high": [r[3] for r in growsr],
-        "limit": glim,
-        "marks": [(3e6, "TL072 3 MHz")],
-    }
-
-    def why(rows, x):
-        """Is the limit a crossing of the design's eta, or the end of the tracked interval?"""
-        nxt = [r for r in rows if r[0] > x]
-        return (
-            "the interval's ends stop being continuable (the Fig. 6 branch's grazing end "
-            "turns inadmissible)"
-            if nxt and not math.isfinite(nxt[0][2])
-            else "the design's eta leaves the interval"
-        )
-
-    limits = {
-        "max_ron_over_R3": lim,
-        "max_ron_reason": None if lim is None else why(rows, lim),
-        "min_gbw_reason": None
-        if glim is None
-        else why([(-r[0], *r[1:]) for r in growsr[::-1]], -glim),
-        "max_ron_ohm": None if lim is None else lim * R3,
-        "min_gbw_hz": glim,
-    }
-    return {"ron": ron_scan, "gbw": gbw_scan}, limits
-
-
-def _gbw_limit(rows, lo0, hi0, at):
-    def margin(r):
-        return min(r[1] - r[2], r[3] - r[1])
-
-    for a, b in zip(rows[:-1], rows[1:], strict=True):  # increasing GBW
-        if not margin(a) > 0 and margin(b) > 0:
-            xa, xb = math.log(a[0]), math.log(b[0])  # xa fails, xb holds
-            state = {"lo": lo0, "hi": hi0}
-            at({"gbw": b[0]}, state)
-            base = dict(state)
-            for _ in range(60):
-                xm = 0.5 * (xa + xb)
-                st = dict(base)
+            th, eta = system(kwf(x))
+            o = exists_at(orbit, kwf(x)) if orbit is not None else None
+            lo = hi = math.nan
+            if o is not None:
                 try:
-                    r = (math.exp(xm), *at({"gbw": math.exp(xm)}, st))
-                except ConvergenceError:
-                    xa = xm
-                    continue
-                if margin(r) > 0:
-                    xb, base = xm, st
-                else:
-                    xa = xm
-                if abs(xb - xa) <= 1e-10:
-                    break
-            return math.exp(0.5 * (xa + xb))
-    return None
+                    ends = interval_ends(o)
+                    lo = ends["low"][1] if ends["low"] else math.nan
+                    hi = ends["high"][1] if ends["high"] else math.nan
+                except (ConvergenceError, ValueError):
+                    pass
+                orbit, last_ok = o, x
+            elif orbit is not None and last_ok is not None:
+                limit = _bisect(last_ok, x, orbit, kwf, exists_at)
+                orbit = None
+            rows.append((x, eta, lo, hi, o is not None))
+        return rows, limit
+
+    xs = np.linspace(0.0, 0.03, 61)
+    ron_rows, ron_lim = scan(xs, lambda x: {"ron": x * R3})
+    gs = np.logspace(8, 3.5, 46)  # from an ideal op-amp down
+    gbw_rows, gbw_lim = scan(gs, lambda g: {"gbw": g})
+    gbw_rows = gbw_rows[::-1]
+
+    def table(rows, lim, marks):
+        return {
+            "x": [r[0] for r in rows],
+            "eta": [r[1] for r in rows],
+            "eta_low": [r[2] for r in rows],
+            "eta_high": [r[3] for r in rows],
+            "exists": [r[4] for r in rows],
+            "limit": lim,
+            "marks": marks,
+        }
+
+    ron_marks = [(ron0 / R3, f"design R_on / R3 = {ron0 / R3:.4g}")] if ron0 else []
+    ron_marks.append((0.016, "ADG5233 160 ohm / 10 kOhm"))
+    limits = {
+        "max_ron_over_R3": ron_lim,
+        "max_ron_ohm": None if ron_lim is None else ron_lim * R3,
+        "ron_scan_range": [0.0, 0.03],
+        "min_gbw_hz": gbw_lim,
+        "gbw_scan_range_hz": [float(gs[-1]), float(gs[0])],
+    }
+    return {
+        "ron": table(ron_rows, ron_lim, ron_marks),
+        "gbw": table(gbw_rows, gbw_lim, [(3e6, "TL072 3 MHz")]),
+    }, limits
+
+
+def _bisect(x_ok: float, x_bad: float, orbit: BranchPoint, kwf, exists_at) -> float:
+    """The boundary of existence between ``x_ok`` (the orbit exists, ``orbit`` is it there)
+    and ``x_bad``: bisection, the orbit carried from the last good point each time."""
+    for _ in range(80):
+        xm = 0.5 * (x_ok + x_bad)
+        o = exists_at(orbit, kwf(xm))
+        if o is not None:
+            x_ok, orbit = xm, o
+        else:
+            x_bad = xm
+        if abs(x_bad - x_ok) <= 1e-9 * max(abs(x_ok), abs(x_bad)):
+            break
+    return 0.5 * (x_ok + x_bad)
 
 
 def estimate_seconds(

@@ -34,8 +34,9 @@ from precise_impact.errors import ConvergenceError
 
 __all__ = ["BranchPoint", "KINDS", "THETA"]
 
-#: The defining conditions a :class:`BranchPoint` may have.
-KINDS = ("graze_free", "graze", "period-doubling", "fold")
+#: The defining conditions a :class:`BranchPoint` may have (``orbit``: none, ``eta`` held at
+#: ``eta_fixed``: the orbit itself, for carrying it through parameter changes).
+KINDS = ("graze_free", "graze", "period-doubling", "fold", "orbit")
 #: The parameters a landmark is differentiated in (``R`` stays fixed).
 THETA = ("zeta", "a", "x_w")
 
@@ -70,6 +71,7 @@ class BranchPoint:
     theta: np.ndarray
     R: float = 1.0
     flight_index: int = 0
+    eta_fixed: float = math.nan
 
     @property
     def eta(self) -> float:
@@ -103,7 +105,9 @@ class BranchPoint:
                 F += [xe - xw, -R * ve - y[2 * j + 1]]
                 flights.append(fl)
                 ends.append((ti, te, ve))
-        if self.kind in ("graze_free", "graze"):
+        if self.kind == "orbit":
+            F.append(eta - self.eta_fixed)
+        elif self.kind in ("graze_free", "graze"):
             tm = y[2 * max(n, 1)]
             xm, vm = flights[self.flight_index if n else 0].at(tm)
             F += [vm, xm - xw]
@@ -207,6 +211,21 @@ class BranchPoint:
             not maxima or maxima[0][0] <= xw + 1e-3
         )
 
+    def states(self) -> np.ndarray:
+        """The ``p`` stroboscopic states ``(x, v)`` at ``t = k 2 pi / eta`` (``t0 = 0``)."""
+        from precise_impact.analysis.orbits.shooting import ShootingSystem
+
+        zeta, a, xw = (float(t) for t in self.theta)
+        n = self.impacts
+        base = {"eta": self.eta, "zeta": zeta, "a": a, "x_w": xw, "R": self.R, "t0": 0.0}
+        sysm = ShootingSystem(base, "eta", self.period, n)
+        u = self.y[: 2 * max(n, 1)]
+        return sysm.states(u, self.eta)
+
+    def stable(self) -> bool:
+        """All Floquet multipliers inside the unit circle."""
+        return bool(np.max(np.abs(self.multipliers())) < 1)
+
     def _ends(self) -> list:
         zeta, a, xw = (float(t) for t in self.theta)
         y, eta, n = self.y, self.eta, self.impacts
@@ -303,6 +322,7 @@ def seed_landmark(
         eta=Fraction(eta_inside),
     )
     orbit = find_orbit(params, period, guess=guess, impacts=impacts)
+    impacts = int(orbit.impacts) if impacts is None else impacts
     sysm = ShootingSystem(
         {"eta": eta_inside, "zeta": zeta, "a": a, "x_w": xw, "R": R, "t0": float(params.t0)},
         "eta",
@@ -312,6 +332,9 @@ def seed_landmark(
     x0, v0 = np.ravel(orbit.x)[0], np.ravel(orbit.v)[0]
     u = from_orbit(sysm, params, float(x0), float(v0), eta_inside)
     orb = BranchPoint("graze", period, impacts, np.append(u, [0.0, eta_inside]), theta, R)
+    if kind == "orbit":
+        y = np.append(u, eta_inside)
+        return BranchPoint(kind, period, impacts, y, theta, R, eta_fixed=eta_inside).solve()
     if kind == "graze":
         xm, tm, k = orb.interior_maxima()[0]
         y = np.append(u, [tm, eta_inside])
@@ -376,3 +399,107 @@ def landmark_from_continuation(
         return seed_landmark(kind, theta, eta_in, R=R), float(bif.value)
     n = bif.impacts
     return seed_landmark(kind, theta, eta_in, period, n, guess=guess, R=R), float(bif.value)
+
+
+#: Bifurcation types of :func:`~precise_impact.analysis.orbits.continue_orbit` that end the
+#: stable admissible part of a branch, and the augmented system of each (``None``: located
+#: by the continuation only).
+ENDS = {
+    "grazing": "graze",
+    "period-doubling": "period-doubling",
+    "fold": "fold",
+    "neimark-sacker": None,
+}
+
+
+def interval_ends(orbit: BranchPoint, span: float = 0.06, max_points: int = 400) -> dict[str, Any]:
+    """The ends of the stable admissible interval in ``eta`` of the branch through ``orbit``
+    (a ``kind='orbit'`` point): continuation from its ``eta`` both ways (its state as the
+    guess, so the same orbit), on each side the first admissible bifurcation along the branch
+    that ends its stable admissible part (a grazing, or a fold / period-doubling /
+    Neimark-Sacker point).
+
+    Returns
+    -------
+    dict
+        ``{'low': (type, eta, Bifurcation) or None, 'high': ...}``.
+    """
+    from fractions import Fraction
+
+    from precise_impact.analysis.orbits.continuation import continue_orbit
+    from precise_impact.core.params import Params
+
+    zeta, a, xw = (float(t) for t in orbit.theta)
+    eta0 = orbit.eta
+    x0, v0 = (float(c) for c in orbit.states()[0])
+    params = Params.make(
+        zeta=Fraction(zeta),
+        a=Fraction(a),
+        x_w=Fraction(xw),
+        R=Fraction(orbit.R),
+        eta=Fraction(eta0),
+    )
+    out: dict[str, Any] = {}
+    for side, stop in (("low", eta0 - span), ("high", eta0 + span)):
+        res = continue_orbit(
+            params,
+            "eta",
+            Fraction(eta0),
+            Fraction(stop),
+            orbit.period,
+            impacts=orbit.impacts,
+            guess=(Fraction(x0), Fraction(v0)),
+            max_points=max_points,
+            doublings=0,
+            virtual=0,
+            progress=False,
+            transient=0,
+        )
+        near = _first_end(res)
+        out[side] = None if near is None else (near.type, float(near.value), near)
+    return out
+
+
+def _first_end(res: Any) -> Any:
+    """The bifurcation where branch 0 first stops being stable and admissible, walking along
+    its points (``bifurcations`` are sorted by value, not by arclength: past a fold the
+    branch comes back)."""
+    br = res.branches[0]
+    vals, stable, adm = (list(getattr(br, k)) for k in ("values", "stable", "admissible"))
+    for i in range(1, len(vals)):
+        if stable[i] and adm[i]:
+            continue
+        lo, hi = sorted((float(vals[i - 1]), float(vals[i])))
+        cands = [b for b in res.bifurcations if b.branch == 0 and b.type in ENDS]
+        if not cands:
+            return None
+        # located between these two points (a fold's value lies just beyond both: eta is
+        # extremal there), so the nearest to the segment
+        return min(cands, key=lambda b: max(lo - b.value, b.value - hi, 0.0))
+    return None
+
+
+def end_point(orbit: BranchPoint, end: tuple, inside: float = 2e-3) -> BranchPoint | None:
+    """The augmented-system landmark of an interval end from :func:`interval_ends` (``None``
+    for an end without one: a Neimark-Sacker point or a tangential impact)."""
+    kind = ENDS.get(end[0])
+    bif = end[2]
+    if kind is None or (kind == "graze" and "velocity" in bif.detail):
+        return None
+    step = min(inside, abs(orbit.eta - end[1]) / 2)
+    eta_in = end[1] + (step if orbit.eta > end[1] else -step)
+    carried = orbit
+    # the orbit carried to eta_in by Newton on the fixed-eta system, then the landmark
+    for t in np.linspace(0, 1, 9)[1:]:
+        target = orbit.eta + t * (eta_in - orbit.eta)
+        carried = dataclasses.replace(carried, eta_fixed=target).solve()
+    y = carried.y
+    if kind == "graze":
+        xm, tm, k = carried.interior_maxima()[0]
+        yy = np.append(y[:-1], [tm, y[-1]])
+        return BranchPoint(
+            kind, orbit.period, orbit.impacts, yy, orbit.theta.copy(), orbit.R, flight_index=k
+        ).solve()
+    return BranchPoint(
+        kind, orbit.period, orbit.impacts, y.copy(), orbit.theta.copy(), orbit.R
+    ).solve()
