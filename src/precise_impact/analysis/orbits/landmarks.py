@@ -73,6 +73,15 @@ class BranchPoint:
     flight_index: int = 0
     eta_fixed: float = math.nan
 
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"kind {self.kind!r}: one of {', '.join(KINDS)}")
+        if (self.kind == "graze_free") != (self.impacts == 0) and self.kind != "orbit":
+            raise ValueError(
+                f"a {self.kind} landmark needs "
+                + ("a non-impacting orbit" if self.kind == "graze_free" else "impacts")
+            )
+
     @property
     def eta(self) -> float:
         return float(self.y[-1])
