@@ -132,6 +132,16 @@ def test_budget_fd_check_and_monte_carlo_vs_linear_small_tolerance():
         assert abs(mc["std_hz"] - L["linear_std_hz"]) <= 4 * mc["std_stderr_hz"], name
     assert res.table and res.table[0]["rank"] == 1
     assert "moves the" in res.ranked(1)[0]
+    df = res.to_dataframe()
+    assert list(df.columns) == [
+        "rank",
+        "landmark",
+        "component",
+        "tolerance [%]",
+        "shift [Hz]",
+        "shift [ppm]",
+    ]
+    assert len(df) == len(res.table)
     json_text = __import__("json").dumps(res.to_dict(), allow_nan=False)
     assert "grazing" in json_text
 
@@ -188,6 +198,8 @@ def test_bad_budget_arguments():
         (["--tolerance", "R=50%"], 2),
         (["--landmarks", "bogus"], 2),
         (["--sobol", "3"], 2),
+        (["--ron", "abc"], 2),
+        (["--scene", "no-such-scene"], 2),
         (["--mc", "100000", "--sobol", "65536", "--max-time", "5"], 3),
     ],
 )

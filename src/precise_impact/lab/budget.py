@@ -282,8 +282,17 @@ class ToleranceBudget(ResultMixin):
         return {"ranked": self._ranked_columns}
 
     def _ranked_columns(self) -> dict:
-        keys = ["landmark", "component", "tolerance_pct", "shift_hz", "shift_ppm", "rank"]
-        return {k: np.asarray([r[k] for r in self.table]) for k in keys}
+        from precise_impact.core.result import columns
+
+        t = self.table
+        return columns(
+            ("rank", None, [r["rank"] for r in t]),
+            ("landmark", None, [r["landmark"] for r in t]),
+            ("component", None, [r["component"] for r in t]),
+            ("tolerance", "%", [r["tolerance_pct"] for r in t]),
+            ("shift", "Hz", [r["shift_hz"] for r in t]),
+            ("shift", "ppm", [r["shift_ppm"] for r in t]),
+        )
 
     def ranked(self, n: int | None = None) -> list[str]:
         """The table's sentences, largest first ("R6 at 1 % moves ... by ... Hz")."""
@@ -573,7 +582,9 @@ def tolerance_budget(
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ParameterError("seed", repr(seed), "an integer >= 0")
     if ron is not None:
-        ron0 = Fraction(str(ron)) if not isinstance(ron, Fraction) else ron
+        from precise_impact.core.params import exact
+
+        ron0 = exact("ron", ron)
         if ron0 < 0:
             raise ParameterError("ron", str(ron), ">= 0 ohm")
     if sobol:
