@@ -190,6 +190,10 @@ def test_bad_budget_arguments():
         tolerance_budget("fig6-period3-ideal", sobol=100)
     with pytest.raises(ParameterError):
         tolerance_budget("no-such-scene")
+    with pytest.raises(ParameterError):  # a coupled pair: two circuits
+        tolerance_budget("fig7-k0.031-ideal")
+    with pytest.raises(ParameterError):
+        tolerance_budget("fig6-period3-ideal", ron="abc")
 
 
 @pytest.mark.parametrize(

@@ -439,9 +439,11 @@ def _design_of(scene_or_components: Any) -> tuple[Components, Fraction, dict, st
     sc = scene_or_components
     if not isinstance(sc, Scene):
         sc = load_scene(sc)
-    if sc.kind != "single" or sc.model not in ("circuit", "switched-capacitor", "spice"):
-        # a mechanical scene: its nominal circuit
-        pass
+    if sc.kind != "single":
+        raise ParameterError(
+            "scene", sc.name, "a single-oscillator scene (a coupled pair has two circuits)"
+        )
+    # a mechanical scene's design is the nominal circuit realising its parameters
     design = sc.design()
     ron = Fraction(sc.effects.get("switch", {}).get("ron", 0))
     tol = sc.effects.get("tolerance")
