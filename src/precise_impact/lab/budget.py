@@ -313,19 +313,21 @@ class ToleranceBudget(ResultMixin):
             f"({nom['f_design']:.6g} Hz); R_on = {self.design.get('ron', '0')} ohm.",
             "",
             "| landmark | type | eta | f [Hz] | IFT vs FD (max rel) | MC spread [Hz] "
-            "| linear spread [Hz] | MC failed |",
-            "|---|---|---|---|---|---|---|---|",
+            "| linear spread [Hz] | MC failed | worst corners [Hz] |",
+            "|---|---|---|---|---|---|---|---|---|",
         ]
         for name, L in self.landmarks.items():
             if "eta" not in L:
                 continue
             mc = L.get("monte_carlo", {})
+            wc = L.get("worst_case", {})
             nan = float("nan")
             lines.append(
                 f"| {name} | {L['type']} | {L['eta']:.10g} | {L['frequency_hz']:.8g} | "
                 f"{L.get('fd_check', {}).get('max_rel_error', float('nan')):.2e} | "
                 f"{mc.get('std_hz', nan):.4g} +- {mc.get('std_stderr_hz', nan):.2g} | "
-                f"{L.get('linear_std_hz', nan):.4g} | {mc.get('failed', 0)} |"
+                f"{L.get('linear_std_hz', nan):.4g} | {mc.get('failed', 0)} | "
+                f"{wc.get('low_hz', nan):.6g} .. {wc.get('high_hz', nan):.6g} |"
             )
         lle = self.landmarks.get("lle_0712")
         if lle and "monte_carlo" in lle:
@@ -337,6 +339,8 @@ class ToleranceBudget(ResultMixin):
                 f"std {m['std']:.4g}, range {m['min']:.4g} .. {m['max']:.4g}, "
                 f"{m['chaotic_fraction'] * 100:.0f} % of draws chaotic (LLE > 0).",
             ]
+        lines += ["", "## Largest effects", ""]
+        lines += [f"- {t}" for t in self.ranked(8)]
         lines += ["", "## Ranked (shift of each landmark at + the part's tolerance)", ""]
         lines += ["| rank | landmark | component | tol [%] | shift [Hz] | shift [ppm] |"]
         lines += ["|---|---|---|---|---|---|"]
