@@ -194,6 +194,8 @@ JSON_COMMANDS = {
     "bench": ["bench", "work-precision", "--quick"],
     "spice": ["spice", "score", str(Path(__file__).parent / "lab/data/fig6_period3_ideal.cir")]
     + ["--x-node", "s", "--v-node", "q", "--forcing-node", "v3", "--scene", "fig6-period3-ideal"],
+    "budget": ["budget", "--landmarks", "grazing", "--mc", "10", "--sobol", "0", "--lle-mc", "0"]
+    + ["--no-scans", "--out", "{out}"],
 }
 #: Over ~5 s each: CI runs them in its slow step.
 SLOW_JSON = {"bench", "compare", "spice"}

@@ -12,6 +12,7 @@ from precise_impact.cli.commands import (
     accuracy,
     bench,
     bifurcation,
+    budget,
     certify,
     compare,
     continuation,
@@ -47,4 +48,5 @@ COMMANDS = (
     reproduce,
     accuracy,
     spice,
+    budget,
 )
