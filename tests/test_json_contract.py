@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -191,10 +192,14 @@ JSON_COMMANDS = {
     "sync": ["sync", "--k", "0.05", "0.05", "1", "--periods", "5", "--ensemble", "1"]
     + ["--fig7", "0.031", "0.032", "--model", "fast", "--out", "{out}"],
     "bench": ["bench", "work-precision", "--quick"],
+    "spice": ["spice", "score", str(Path(__file__).parent / "lab/data/fig6_period3_ideal.cir")]
+    + ["--x-node", "s", "--v-node", "q", "--forcing-node", "v3", "--scene", "fig6-period3-ideal"],
+    "budget": ["budget", "--landmarks", "grazing", "--mc", "10", "--sobol", "0", "--lle-mc", "0"]
+    + ["--no-scans", "--out", "{out}"],
     "capture": ["capture", "synth", "--out", "{out}/cap.npz", "--periods", "5", "--transient", "5"],
 }
 #: Over ~5 s each: CI runs them in its slow step.
-SLOW_JSON = {"bench", "compare"}
+SLOW_JSON = {"bench", "compare", "spice"}
 
 
 def _json_commands() -> set[str]:

@@ -3,7 +3,7 @@
 Layers, bottom to top (a module may import its own layer and the ones below):
 
   1. errors, io, version   2. core   3. solvers   4. models   5. analysis   6. scenes
-  7. verification   8. testing   9. cli, __main__
+  7. verification   8. testing, lab   9. cli, __main__
 
 ``precise_impact/__init__.py`` is the facade and may import from every layer.  The
 check reads the source of the *installed* package (located through
@@ -35,7 +35,7 @@ LAYERS = {
     "scenes": 6,
     "verification": 7,
     "testing": 8,
-    "lab": 8,
+    "lab": 8,  # what users bring from the bench: builds on verification (the reference, scores)
     "cli": 9,
     "__main__": 9,
 }

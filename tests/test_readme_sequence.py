@@ -65,6 +65,9 @@ QUICK = {
     "bifurcation --eta 0.68 0.82 400": [
         ("0.82 400", "0.82 4 --periods 40 --transient 40 --workers 1")
     ],
+    "budget --out results/budget": [
+        ("--out", "--landmarks grazing --mc 20 --sobol 0 --lle-mc 0 --no-scans --out")
+    ],
     "sweep --axis eta 0.68 0.82 100": [
         ("0.82 100", "0.82 3"),
         ("2.5 100", "2.5 3 --periods 40 --transient 40 --workers 1"),

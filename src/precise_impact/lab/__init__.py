@@ -1,1 +1,1 @@
-"""What users bring from the bench: netlists, raw files, scope captures, tolerance budgets."""
+"""What users bring from the bench: netlists, raw files, captures, tolerance budgets."""

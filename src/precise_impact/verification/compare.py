@@ -53,6 +53,9 @@ __all__ = [
     "report_markdown",
     "REF_PERTURBATION",
     "MODEL_PERTURBATION",
+    "demonstrated_reference",
+    "reference_lle",
+    "score_line",
 ]
 
 #: x0 offset of the second reference (chaotic scenes): decorrelates within ~30 periods.
@@ -199,10 +202,10 @@ def compare(
         find_ngspice()  # a missing ngspice is refused before the reference runs, not after
 
     bits = reference_bits(periods)
-    ref, check, ref_info = _reference(params, periods, per_period, bits, progress)
+    ref, check, ref_info = demonstrated_reference(params, periods, per_period, bits, progress)
     period = detected_period(ref, k)
     regime = "periodic" if period > 0 else "chaotic"
-    lle = _reference_lle(params, progress)
+    lle = reference_lle(params, progress)
     ref2 = None
     if regime == "chaotic":
         p2 = params.replace(x0=params.x0 + REF_PERTURBATION)
@@ -220,7 +223,7 @@ def compare(
         if mech is not None:
             sc["points"] = point_scores(scene, m, mech)
         results[m] = sc
-        _progress(f"{m}: " + _one_line(sc), progress)
+        _progress(f"{m}: " + score_line(sc), progress)
 
     result = {
         "scene": scene.name,
@@ -239,8 +242,12 @@ def compare(
     return CompareResult(**result)
 
 
-def _reference(params: Any, periods: int, per_period: int, bits: int, progress: bool | None):
-    """The heyoka reference at ``bits``, its check at ``bits + 64``, and how they agree."""
+def demonstrated_reference(
+    params: Any, periods: int, per_period: int, bits: int, progress: bool | None
+):
+    """The heyoka reference at ``bits``, its check at ``bits + 64``, and how they agree:
+    ``(ref, check, info)`` (the one reference routine of :func:`compare` and of
+    :func:`precise_impact.lab.netlist.score_netlist`)."""
 
     t0 = time.perf_counter()
     ref = make_solver("heyoka", f"mp:{bits}").solve(params, periods, per_period=per_period)
@@ -263,7 +270,7 @@ def _reference(params: Any, periods: int, per_period: int, bits: int, progress: 
     return ref, check, ref_info
 
 
-def _reference_lle(params: Any, progress: bool | None) -> dict[str, Any]:
+def reference_lle(params: Any, progress: bool | None) -> dict[str, Any]:
     """The reference LLE (variational, default run) with its error bar and cost."""
 
     t0 = time.perf_counter()
@@ -460,7 +467,9 @@ def _json_default(o):
     return str(o)
 
 
-def _one_line(sc: dict) -> str:
+def score_line(sc: dict) -> str:
+    """One line of a model's scores (:func:`~precise_impact.verification.scores.score`'s dict):
+    periodic -- state error, impact errors, period; chaotic -- horizon, rate, cloud distances."""
     if sc["regime"] == "periodic":
         im = sc["impacts"]
         return (
@@ -498,7 +507,7 @@ def format_scores(result: CompareResult) -> str:
         f"{result['lle']['stderr']:.4f}",
     ]
     for m, sc in result["models"].items():
-        lines.append(f"  {m:<20} {_one_line(sc)}")
+        lines.append(f"  {m:<20} {score_line(sc)}")
         if "points" in sc:
             g, d = sc["points"]["grazing"], sc["points"]["period-doubling"]
             pd = (
@@ -511,16 +520,18 @@ def format_scores(result: CompareResult) -> str:
 
 
 # ----------------------------------------------------------------- figures
-def _verdict(sc: dict, eta: float) -> str:
+def _verdict(sc: dict, eta: float, t0: float = 0.0) -> str:
     """One line per panel: how the model stands against the reference (a horizon is a time
-    tau; shown with the forcing periods it spans, ``tau eta / (2 pi)``)."""
+    tau; shown with the forcing periods it spans after the start ``t0``,
+    ``(tau - t0) eta / (2 pi)``)."""
     if sc.get("regime") == "periodic":
         return f"max state error {sc['max_state_error']:.1e}, period {sc.get('period_model')}"
     h = sc.get("horizons", {}).get("0.001", math.nan)
     if h == math.inf:
         return "within 1e-3 of the reference throughout"
     return (
-        f"within 1e-3 of the reference until tau = {h:.4g} ({h * eta / (2 * math.pi):.1f} periods)"
+        f"within 1e-3 of the reference until tau = {h:.4g} "
+        f"({(h - t0) * eta / (2 * math.pi):.1f} periods)"
     )
 
 
@@ -541,7 +552,10 @@ def portraits_figure(
         f"{decimal_str(scene.params.eta)})",
         reference=ref,
         t_from=t_from,
-        verdicts={m: _verdict(sc, float(scene.params.eta)) for m, sc in results.items()},
+        verdicts={
+            m: _verdict(sc, float(scene.params.eta), float(scene.params.t0))
+            for m, sc in results.items()
+        },
     )
 
 

@@ -12,6 +12,7 @@ from precise_impact.cli.commands import (
     accuracy,
     bench,
     bifurcation,
+    budget,
     capture,
     certify,
     compare,
@@ -23,6 +24,7 @@ from precise_impact.cli.commands import (
     run,
     scenes,
     simulate,
+    spice,
     sweep,
     sync,
 )
@@ -46,5 +48,7 @@ COMMANDS = (
     bench,
     reproduce,
     accuracy,
+    spice,
+    budget,
     capture,
 )

@@ -1,0 +1,1646 @@
+"""Your own netlist: run a user's ngspice/LTspice netlist (or read its ``.raw`` waveforms) and
+score it against the demonstrated mechanical reference from the same initial state.
+
+The node voltages carrying position, velocity and forcing are named by the user
+(:class:`NodeMap`, from keywords or a small TOML file, :func:`load_map`); volts and seconds
+are mapped to ``(x, x', tau)`` either from the design's component values
+(:func:`~precise_impact.models.circuit.components.to_mechanical`) or from scales fitted to
+the waveform itself (forcing frequency, amplitude and phase; the integrator's ``R8 C1`` from
+``V_s' = -V_q / (R8 C1)``), each reported with its standard error.  The run is then scored
+by :func:`precise_impact.verification.scores.score` against the heyoka reference that
+:mod:`precise_impact.verification.compare` makes (its ``_reference`` routine, the same
+precision rule, the same figures).
+
+Raw files are read with spicelib's ``RawRead`` (LTspice, ngspice, QSPICE and Xyce dialects,
+binary and ASCII, stepped LTspice runs and multi-plot ngspice files); no parser is written
+here.  Measured (``benchmarks/bench_netlist.py`` -> ``benchmarks/results/netlist.md``;
+ngspice-39, spicelib 1.6.4): the project's netlist of ``fig6-period3-ideal``, 20 periods,
+18340 points, written by ngspice as a binary raw (734 kB), an ASCII raw (``set
+filetype=ascii``, 2.25 MB) and ``wrdata`` text at 17 digits.  RawRead reads the binary file
+in 0.03-0.06 s and agrees with ``wrdata`` bit for bit on every vector (max |diff| = 0); the
+ASCII file in 0.1-0.2 s (two runs on a shared 2-core machine), within 1 ulp (max relative
+difference 5.5e-16: ngspice prints 16 digits there).
+The files ``ngspice -b -r`` writes (what :func:`run_netlist` runs) equal those of ``write``
+for the same run: bit for bit binary, within 4.4e-16 ASCII (``tests/lab/test_netlist.py``).
+It was chosen because it is maintained, reads every dialect users bring (LTspice's UTF-16
+headers, its stepped files, ngspice's multi-plot files) and is exact on binary files; spicelib
+cannot auto-detect ngspice-39's dialect (no ``Command:`` line), so :func:`read_raw` retries
+with ``dialect='ngspice'``.  The project's own ngspice backend
+(:mod:`precise_impact.models.circuit.spice`) reads ``wrdata`` text columns with
+``np.fromfile``: not a raw-file parser, left as it is.
+
+LTspice compresses waveforms lossily unless ``.options plotwinsize=0``: see
+:func:`lt_compression` and :data:`COMPRESSION_IMPACT_COST`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import subprocess
+import tempfile
+import time as _time
+import tomllib
+import types
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.core.params import Params, check_count
+from precise_impact.core.precision import Precision
+from precise_impact.core.result import ResultMixin, flat, record_columns
+from precise_impact.core.trajectory import Trajectory
+from precise_impact.errors import OptionalDependencyError, ParameterError, SpiceError
+from precise_impact.io.figures import plot_units, save_figure
+from precise_impact.io.progress import say as _progress
+from precise_impact.models.circuit.components import Components, dimensionless
+from precise_impact.models.circuit.spice import find_ngspice
+
+__all__ = [
+    "NodeMap",
+    "Waveforms",
+    "NetlistScoreResult",
+    "load_map",
+    "read_raw",
+    "run_netlist",
+    "score_netlist",
+    "format_result",
+    "fit_forcing",
+    "impacts_from_waveform",
+    "lt_compression",
+    "compress_like_ltspice",
+    "NETLIST_SUFFIXES",
+    "RAW_SUFFIXES",
+    "COMPRESSION_IMPACT_COST",
+]
+
+#: Netlist file suffixes run through ngspice (``.net``: LTspice's export).
+NETLIST_SUFFIXES = (".cir", ".net", ".sp", ".spi", ".ckt")
+#: Waveform files read without running anything.
+RAW_SUFFIXES = (".raw",)
+#: ngspice compatibility mode for LTspice netlists (ngspice >= 39: ``lt`` LTspice syntax, ``ps``
+#: PSPICE, ``a`` applied to the whole netlist -- needed for LTspice's B-source functions such as
+#: ``uplim``, measured: ``lt`` alone refuses them).
+LTSPICE_BEHAVIOR = "ltpsa"
+#: What LTspice's default waveform compression costs, measured by ``benchmarks/bench_netlist.py``
+#: (``benchmarks/results/netlist.md``): the project's netlist of fig6-period3-ideal, 20 periods,
+#: dense ngspice waveform (TMAX 1 us, 171111 points) compressed with LTspice's default tolerances
+#: (:func:`compress_like_ltspice`; 1.5 % of the points kept).  Impact times: unchanged when read
+#: from the polarity node (the steep edge keeps its points), 1.7e-8 tau from the velocity
+#: reversal alone; impact velocity 6.9e-7; the stroboscopic states, read inside the compressed
+#: linear segments (up to 0.19 tau long), are off by up to 4.4e-3 -- that is the real cost: the
+#: same run scored from the compressed file has sliced W 1.5e-3 instead of 1.4e-5 and leaves
+#: 1e-3 of the reference after 8.2 time units instead of never.
+COMPRESSION_IMPACT_COST = {
+    "max_dt_tau": 1.7e-8,
+    "max_dt_s": 1.7e-11,
+    "max_dv_before": 6.9e-7,
+    "max_state_error": 4.4e-3,
+    "points_kept": 0.015,
+    "sliced_w_compressed": 1.5e-3,
+    "sliced_w_uncompressed": 1.4e-5,
+}
+
+_JUMP_SLOPE = 1e3  # |dv/dtau| above this (smooth flight: < ~10) marks an impact's reversal
+_SNAP = 1e-9  # a time point within _SNAP * T of a sample time is that sample (breakpoints)
+
+
+def _need_spicelib():
+    try:
+        from spicelib import RawRead
+    except ImportError as e:  # pragma: no cover - spicelib is in the 'lab' extra
+        raise OptionalDependencyError(
+            "spicelib", "pip install 'precise_impact[lab]'", "reading SPICE .raw files"
+        ) from e
+    return RawRead
+
+
+# ================================================================== mapping
+@dataclasses.dataclass
+class NodeMap:
+    """Which nodes carry position, velocity, forcing (and optionally the impact logic), how
+    their volts are corrected, and the design/parameters the run should realise.
+
+    Attributes
+    ----------
+    x, v : str
+        Nodes of ``V_s`` (``x = -V_s / V_unit``) and ``V_q`` (``x' = V_q / (omega R8 C1 V_unit)``).
+    forcing : str or None
+        Node of the forcing ``V_3 = V_A cos(Omega t + phi)``: its frequency, amplitude and
+        phase are fitted (needed for fitted scales; gives the phase otherwise).
+    impact : str or None
+        A logic node that toggles at each impact (the project's ``pol``): impact times are its
+        mid-level crossings; without it they are found from the velocity's reversal.
+    gains, offsets : dict
+        ``V = gain * V_node + offset`` per role (``'x'``, ``'v'``, ``'forcing'``), e.g. a probe.
+    components : dict
+        Design component values (``Components.make`` names: ``R1`` .. ``R8``, ``C1``, ``C2``,
+        ``V_A``, ``Omega``, ``V_wall``, ``V_unit``).
+    parameters : dict
+        Mechanical parameters (``zeta``, ``a``, ``eta``, ``x_w``, ``R``) when there is no design.
+    scene : str or None
+        A scene whose parameters and design are the target.
+    forcing_gain : float
+        ``R7 / R1`` for fitted scales (``V_unit = V_A R7 / (R1 a)``); 1 in the paper's design.
+    forcing_phase : float or None
+        Phase of ``V_3`` in rad at SPICE time 0, instead of the fitted one.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.load_map : reads one from TOML.
+    precise_impact.lab.netlist.score_netlist : uses it.
+    """
+
+    x: str
+    v: str
+    forcing: str | None = None
+    impact: str | None = None
+    gains: dict = dataclasses.field(default_factory=dict)
+    offsets: dict = dataclasses.field(default_factory=dict)
+    components: dict = dataclasses.field(default_factory=dict)
+    parameters: dict = dataclasses.field(default_factory=dict)
+    scene: str | None = None
+    forcing_gain: float = 1.0
+    forcing_phase: float | None = None
+
+    def corrected(self, role: str, volts: np.ndarray) -> np.ndarray:
+        """``gain * volts + offset`` of ``role``."""
+        return float(self.gains.get(role, 1.0)) * volts + float(self.offsets.get(role, 0.0))
+
+
+_MAP_KEYS = {"nodes", "gains", "offsets", "components", "parameters", "scene", "scales"}
+
+
+def load_map(path: str | Path) -> NodeMap:
+    r"""A :class:`NodeMap` from a TOML file.
+
+    The file::
+
+        scene = "fig6-period3-ideal"       # optional: target parameters and design
+        [nodes]
+        x = "s"                            # V_s
+        v = "q"                            # V_q
+        forcing = "v3"                     # optional: V_3
+        impact = "pol"                     # optional: a logic node toggling at each impact
+        [gains]                            # optional: V = gain * V_node + offset
+        x = 1.0
+        [offsets]
+        v = 0.0
+        [components]                       # optional design values (Components.make names)
+        R3 = "10e3"
+        [parameters]                       # optional, when there is no design
+        eta = "0.74"
+        [scales]
+        forcing_gain = 1.0                 # R7/R1 for fitted scales
+        forcing_phase = 0.0                # rad, instead of the fitted phase
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    NodeMap
+        The nodes, corrections and target it names.
+
+    Raises
+    ------
+    ParameterError
+        Unreadable file, unknown table or key, missing ``x``/``v`` node (one line).
+
+    See Also
+    --------
+    precise_impact.lab.netlist.score_netlist : takes it as ``map=``.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact.lab.netlist import load_map
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "map.toml").write_text('[nodes]\nx = "s"\nv = "q"\nforcing = "v3"\n')
+    >>> m = load_map(d / "map.toml")
+    >>> m.x, m.v, m.forcing
+    ('s', 'q', 'v3')
+    """
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text())
+    except (OSError, UnicodeDecodeError) as e:
+        raise ParameterError("map", str(p), f"a readable TOML file ({e.__class__.__name__})") from e
+    except tomllib.TOMLDecodeError as e:
+        raise ParameterError("map", str(p), f"valid TOML ({e})") from e
+    unknown = sorted(set(data) - _MAP_KEYS)
+    if unknown:
+        raise ParameterError(
+            f"map.{unknown[0]}", data[unknown[0]], "one of " + ", ".join(sorted(_MAP_KEYS))
+        )
+    nodes = data.get("nodes", {})
+    bad = sorted(set(nodes) - {"x", "v", "forcing", "impact"})
+    if bad:
+        raise ParameterError(f"map.nodes.{bad[0]}", nodes[bad[0]], "x, v, forcing or impact")
+    for k in ("x", "v"):
+        if not isinstance(nodes.get(k), str):
+            raise ParameterError(f"map.nodes.{k}", nodes.get(k), "a node name (string)")
+    sc = data.get("scales", {})
+    return NodeMap(
+        x=nodes["x"],
+        v=nodes["v"],
+        forcing=nodes.get("forcing"),
+        impact=nodes.get("impact"),
+        gains=_numbers(data.get("gains", {}), "map.gains"),
+        offsets=_numbers(data.get("offsets", {}), "map.offsets"),
+        components=dict(data.get("components", {})),
+        parameters=dict(data.get("parameters", {})),
+        scene=data.get("scene"),
+        forcing_gain=float(sc.get("forcing_gain", 1.0)),
+        forcing_phase=None if sc.get("forcing_phase") is None else float(sc["forcing_phase"]),
+    )
+
+
+def _numbers(d: Mapping, where: str) -> dict:
+    out = {}
+    for k, v in d.items():
+        if k not in ("x", "v", "forcing"):
+            raise ParameterError(f"{where}.{k}", v, "x, v or forcing")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ParameterError(f"{where}.{k}", v, "a finite number")
+        out[k] = float(v)
+    return out
+
+
+# ================================================================== raw files
+@dataclasses.dataclass
+class Waveforms:
+    """One transient run read from a raw file (one plot, one step).
+
+    Attributes
+    ----------
+    time : numpy array
+        Seconds.
+    traces : dict
+        Lower-case trace name -> ``(values, kind)`` (``kind``: ``'voltage'``, ``'current'``...).
+    label : str
+        ``'plot P step S'`` (with the step's parameter values for stepped LTspice runs).
+    dialect, path : str
+        Which simulator wrote the file, and the file.
+    header : dict
+        The raw file's header lines.
+    precision : str
+        ``'float32'`` when the traces are stored in single precision (LTspice's default; its
+        ``.options numdgt=7`` stores doubles), else ``'float64'``.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.read_raw : returns them.
+    """
+
+    time: np.ndarray
+    traces: dict
+    label: str
+    dialect: str
+    path: str
+    header: dict
+    precision: str = "float64"
+
+    def node(self, name: str, role: str) -> np.ndarray:
+        """The voltage of node ``name`` (``'s'``, ``'v(s)'``, any case); :class:`ParameterError`
+        naming ``role`` when it is missing or not a voltage."""
+        key = name.strip().lower()
+        cands = [key] if key.startswith(("v(", "i(")) else [f"v({key})", key]
+        for c in cands:
+            if c in self.traces:
+                vals, kind = self.traces[c]
+                if kind != "voltage":
+                    raise ParameterError(
+                        f"{role}-node", name, f"a node voltage ({c!r} in {self.path} is a {kind})"
+                    )
+                return vals
+        volts = sorted(k for k, (_, kd) in self.traces.items() if kd == "voltage")
+        shown = ", ".join(volts[:12]) + (" ..." if len(volts) > 12 else "")
+        raise ParameterError(
+            f"{role}-node", name, f"a node of {Path(self.path).name} (its voltages: {shown})"
+        )
+
+
+def read_raw(path: str | Path, step: int | None = None) -> list[Waveforms]:
+    r"""The transient runs of a ``.raw`` file (LTspice, ngspice, QSPICE; binary or ASCII).
+
+    Read with spicelib's ``RawRead`` (module docstring: what was measured, why it was chosen).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.raw`` file.
+    step : int or None, default ``None``
+        Only this run (0-based over the file's plots and steps, in file order); ``None``: all.
+
+    Returns
+    -------
+    list of Waveforms
+        One per plot and step (a stepped LTspice run, or several plots in one ngspice file).
+
+    Raises
+    ------
+    ParameterError
+        One line naming the problem: missing/empty/truncated/garbage file, not a transient
+        analysis, complex data, ``step`` out of range.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.score_netlist : scores them.
+    precise_impact.lab.netlist.run_netlist : writes one by running a netlist.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact.lab.netlist import read_raw, run_netlist
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> net = d / "rc.cir"
+    >>> _ = net.write_text("* RC\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 100n\n"
+    ...                    ".tran 1u 2m\n.end\n")
+    >>> _ = run_netlist(net, workdir=d)
+    >>> (run,) = read_raw(d / "user.raw")
+    >>> run.dialect, run.node("out", "x").shape == run.time.shape
+    ('ngspice', True)
+    """
+    RawRead = _need_spicelib()
+    p = Path(path)
+    _check_file(p, RAW_SUFFIXES, "raw file")
+    rr = None
+    last: Exception | None = None
+    for dialect in (None, "ngspice", "ltspice"):
+        try:
+            rr = RawRead(str(p), dialect=dialect, verbose=False)
+            break
+        except Exception as e:  # spicelib raises several types for unreadable input
+            last = e
+    if rr is None:
+        msg = " ".join(str(last).split())[:160]
+        raise ParameterError("raw file", str(p), f"a SPICE raw file spicelib can read ({msg})")
+    return _runs(rr, p, step)
+
+
+def _check_file(p: Path, suffixes: tuple, what: str) -> None:
+    if p.suffix.lower() not in suffixes:
+        raise ParameterError(
+            "file", str(p), f"a {what} ({', '.join(suffixes)}); unknown extension {p.suffix!r}"
+        )
+    if not p.is_file():
+        raise ParameterError("file", str(p), f"an existing {what}")
+    if p.stat().st_size == 0:
+        raise ParameterError("file", str(p), f"a {what}; this file is empty")
+
+
+def _runs(rr: Any, p: Path, step: int | None) -> list[Waveforms]:
+    try:
+        runs = _read_runs(rr, p)
+    except ParameterError:
+        raise
+    except Exception as e:  # spicelib reads lazily: a truncated data section fails here
+        msg = " ".join(str(e).split())[:160]
+        raise ParameterError("raw file", str(p), f"an undamaged raw file ({msg})") from e
+    for w in runs:
+        n = len(w.time)
+        if n < 3 or not np.all(np.isfinite(w.time)) or np.any(np.diff(w.time) < 0):
+            raise ParameterError(
+                "raw file",
+                str(p),
+                f"time increasing through >= 3 finite points ({w.label}: damaged or truncated)",
+            )
+        expect = props_points(w.header)
+        if expect is not None and expect != n and w.dialect != "ltspice":
+            raise ParameterError(
+                "raw file", str(p), f"{expect} points as its header says; {n} read (truncated)"
+            )
+    if step is not None:
+        if isinstance(step, bool) or not isinstance(step, int) or not 0 <= step < len(runs):
+            raise ParameterError(
+                "step", step, f"an integer 0 .. {len(runs) - 1} (runs in the file)"
+            )
+        return [runs[step]]
+    return runs
+
+
+def _read_runs(rr: Any, p: Path) -> list[Waveforms]:
+    """Every plot and step of ``rr`` as :class:`Waveforms`."""
+    runs: list[Waveforms] = []
+    for pi_, plot in enumerate(rr.plots):
+        props = dict(plot.get_raw_properties()) if hasattr(plot, "get_raw_properties") else {}
+        names = list(plot.get_trace_names())
+        if not names:
+            continue
+        axis = plot.get_trace(0)
+        kind0 = str(getattr(axis, "whattype", "") or "").lower()
+        if names[0].lower() != "time" and kind0 != "time":
+            raise ParameterError(
+                "raw file",
+                str(p),
+                f"a transient analysis (its plot {pi_} {props.get('Plotname', '')!r} runs over "
+                f"{names[0]!r}, not time)",
+            )
+        if "complex" in str(props.get("Flags", "")).lower():
+            raise ParameterError("raw file", str(p), "real transient data (this one is complex)")
+        steps = list(plot.get_steps()) if hasattr(plot, "get_steps") else [0]
+        step_info = getattr(plot, "steps", None)
+        for s in steps:
+            t = np.abs(np.asarray(plot.get_wave(0, s), dtype=float))  # LTspice: sign flags
+            traces = {}
+            single = False
+            for j, n in enumerate(names[1:], start=1):
+                tr = plot.get_trace(j)
+                vals = np.asarray(plot.get_wave(j, s))
+                single = single or vals.dtype == np.float32  # LTspice's default (numdgt <= 6)
+                if np.iscomplexobj(vals):
+                    raise ParameterError("raw file", str(p), "real transient data (complex trace)")
+                traces[n.lower()] = (vals.astype(float), str(tr.whattype).lower())
+            label = f"plot {pi_} step {s}"
+            if step_info and s < len(step_info):
+                label += " (" + ", ".join(f"{k}={v}" for k, v in step_info[s].items()) + ")"
+            prec = "float32" if single else "float64"
+            runs.append(Waveforms(t, traces, label, str(rr.dialect), str(p), props, prec))
+    if not runs:
+        raise ParameterError("raw file", str(p), "a raw file with at least one plot")
+    return runs
+
+
+def props_points(header: Mapping) -> int | None:
+    try:
+        return int(str(header.get("No. Points", "")).strip())
+    except ValueError:
+        return None
+
+
+# ================================================================== running
+def _prepare_netlist(text: str, base: Path) -> tuple[str, list[str]]:
+    """The netlist ngspice runs in batch mode with ``-r``: ``.control`` blocks removed (their
+    ``quit`` would stop before the raw file is written), LTspice's ``.tran 0 TSTOP`` given a
+    step, relative ``.include`` / ``.lib`` paths made absolute from ``base`` (the netlist's own
+    directory: the copy runs elsewhere); the notes saying what was changed."""
+    notes: list[str] = []
+    out: list[str] = []
+    in_ctrl = False
+    for line in text.splitlines():
+        low = line.strip().lower()
+        if low.startswith(".control"):
+            in_ctrl = True
+            note = "its .control block was not run (the .tran line is)"
+            if note not in notes:
+                notes.append(note)
+            continue
+        if in_ctrl:
+            if low.startswith(".endc"):
+                in_ctrl = False
+            continue
+        if low.startswith(".backanno"):
+            continue
+        m = re.match(r"(\s*\.(?:include|inc|lib)\s+)(\"[^\"]+\"|'[^']+'|\S+)(.*)$", line, re.I)
+        if m and not Path(m.group(2).strip("\"'")).is_absolute():
+            path = (base / m.group(2).strip("\"'")).resolve()
+            line = f'{m.group(1)}"{path}"{m.group(3)}'
+        if low.startswith(".tran"):
+            tok = line.split()
+            nums = [t for t in tok[1:] if not t.lower().startswith(("uic", "startup", "steady"))]
+            if len(nums) == 1 or (len(nums) >= 2 and _spice_number(nums[0]) == 0):
+                tstop = nums[0] if len(nums) == 1 else nums[1]
+                step = _spice_number(tstop) / 10000
+                rest = nums[2:] if len(nums) >= 2 else []
+                flags = [t for t in tok[1:] if t not in nums]
+                line = " ".join([".tran", repr(step), tstop, *rest, *flags])
+                notes.append(f".tran step 0 given {step:g} s for ngspice")
+        out.append(line)
+    return "\n".join(out) + "\n", notes
+
+
+_SUFFIX = {
+    "t": 1e12,
+    "g": 1e9,
+    "meg": 1e6,
+    "k": 1e3,
+    "m": 1e-3,
+    "u": 1e-6,
+    "µ": 1e-6,
+    "n": 1e-9,
+    "p": 1e-12,
+    "f": 1e-15,
+}
+
+
+def _spice_number(s: str) -> float:
+    m = re.fullmatch(r"([-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)(meg|[tgkmuµnpf])?[a-z]*", s.lower())
+    if not m:
+        return math.nan
+    return float(m.group(1)) * _SUFFIX.get(m.group(2) or "", 1.0)
+
+
+def _is_ltspice(p: Path, text: str) -> bool:
+    head = text[:400].lower()
+    return p.suffix.lower() == ".net" or ".backanno" in text.lower() or ".asc" in head
+
+
+def run_netlist(
+    path: str | Path,
+    workdir: str | Path | None = None,
+    *,
+    ltspice: bool | None = None,
+    ascii_raw: bool = False,
+    timeout: float = 600,
+    executable: str | None = None,
+) -> tuple[list[Waveforms], dict]:
+    r"""Run a netlist with ``ngspice -b -r`` and read its raw file.
+
+    The netlist is copied into the working directory and run as it is, except: its
+    ``.control`` blocks are left out (their ``quit`` stops ngspice before ``-r`` writes the
+    file; the ``.tran`` line runs), ``.backanno`` is dropped, and LTspice's ``.tran 0 TSTOP``
+    (TSTEP = 0, refused by ngspice) gets TSTEP = TSTOP/10000; each change is a note.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.cir``, ``.net``, ``.sp`` (``.spi``, ``.ckt``).
+    workdir : str, Path or None, default ``None``
+        Where the run's files are kept (``user.<ext>``, ``user.raw``, ``ngspice.log``,
+        ``.spiceinit``); ``None``: a temporary directory.
+    ltspice : bool or None, default ``None``
+        Run in ngspice's LTspice compatibility mode (``set ngbehavior=ltpsa`` in a generated
+        ``.spiceinit``); ``None``: for ``.net`` files and netlists exported from ``.asc``.
+    ascii_raw : bool, default ``False``
+        Write the raw file as ASCII (``set filetype=ascii``) instead of binary.
+    timeout : float, default 600
+        Seconds ngspice may run.
+    executable : str or None, default ``None``
+        The ngspice program (``None``: ``ngspice`` on ``PATH``).
+
+    Returns
+    -------
+    tuple
+        ``(runs, info)``: the :class:`Waveforms` and ``{"ngspice_log", "notes",
+        "ltspice_mode", "options", "elapsed_s"}``.
+
+    Raises
+    ------
+    ParameterError
+        Unknown extension, empty or binary file, no ``.tran`` analysis.
+    NgspiceNotFoundError
+        No ngspice.
+    SpiceError
+        ngspice failed (its first error line) or timed out.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.read_raw : reads the file it writes.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact.lab.netlist import run_netlist
+    >>> net = pathlib.Path(tempfile.mkdtemp()) / "rc.net"      # an LTspice export
+    >>> _ = net.write_text("V1 in 0 SINE(0 1 1k)\nR1 in out 1k\nC1 out 0 100n\n"
+    ...                    ".tran 0 2m\n.backanno\n.end\n")
+    >>> (run,), info = run_netlist(net)
+    >>> info["ltspice_mode"], info["notes"]
+    ('ltpsa', ['.tran step 0 given 2e-07 s for ngspice'])
+    """
+    p = Path(path)
+    _check_file(p, NETLIST_SUFFIXES, "SPICE netlist")
+    try:
+        text = p.read_text(errors="strict")
+    except UnicodeDecodeError:
+        text = p.read_bytes().decode("utf-16", errors="replace")
+        if "\x00" in text or not text.strip():
+            raise ParameterError("file", str(p), "a text netlist (this one is binary)") from None
+    if not re.search(r"^\s*\.tran\b", text, re.I | re.M):
+        raise ParameterError("file", str(p), "a netlist with a .tran analysis (none found)")
+    lt = _is_ltspice(p, text) if ltspice is None else bool(ltspice)
+    run_text, notes = _prepare_netlist(text, p.resolve().parent)
+    exe = find_ngspice(executable)
+    if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
+        raise ParameterError("timeout", timeout, "seconds > 0")
+    with tempfile.TemporaryDirectory(prefix="precise_impact_netlist_") as tmp:
+        wd = Path(workdir) if workdir is not None else Path(tmp)
+        wd.mkdir(parents=True, exist_ok=True)
+        cir = wd / ("user" + p.suffix.lower())
+        cir.write_text(run_text)
+        init = ["set filetype=ascii" if ascii_raw else "set filetype=binary"]
+        if lt:
+            init.insert(0, f"set ngbehavior={LTSPICE_BEHAVIOR}")
+        (wd / ".spiceinit").write_text("\n".join(init) + "\n")
+        raw = wd / "user.raw"
+        if raw.exists():
+            raw.unlink()
+        t0 = _time.perf_counter()
+        try:
+            proc = subprocess.run(
+                [exe, "-b", "-r", raw.name, cir.name],
+                cwd=wd,
+                capture_output=True,
+                text=True,
+                timeout=timeout,
+            )
+        except subprocess.TimeoutExpired as e:
+            raise SpiceError(f"ngspice did not finish {p.name} within timeout={timeout} s") from e
+        elapsed = _time.perf_counter() - t0
+        log = proc.stdout + proc.stderr
+        (wd / "ngspice.log").write_text(log)
+        errs = [
+            ln for ln in log.splitlines() if re.search(r"\berror\b|aborted|too small", ln, re.I)
+        ]
+        if proc.returncode != 0 or not raw.exists() or errs:
+            first = (errs or log.strip().splitlines()[-1:] or ["no output"])[0].strip()
+            raise SpiceError(f"ngspice could not run {p.name} (exit {proc.returncode}): {first}")
+        runs = read_raw(raw)
+        if workdir is None:
+            for w in runs:
+                w.path = f"{p.name} (run by ngspice)"
+    info = {
+        "ngspice_log": log if workdir is None else str(wd / "ngspice.log"),
+        "notes": notes,
+        "ltspice_mode": LTSPICE_BEHAVIOR if lt else None,
+        "options": _options(text),
+        "elapsed_s": elapsed,
+    }
+    if workdir is None:
+        info["ngspice_log"] = "\n".join(log.strip().splitlines()[-5:])
+    return runs, info
+
+
+def _options(text: str) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for line in text.splitlines():
+        if line.strip().lower().startswith((".options", ".option", ".opt ")):
+            for tok in line.split()[1:]:
+                k, _, v = tok.partition("=")
+                out[k.lower()] = v
+    return out
+
+
+# ================================================================== LTspice compression
+def compress_like_ltspice(
+    t: np.ndarray,
+    ys: list[np.ndarray],
+    reltol: float = 0.0025,
+    vntol: float = 1e-5,
+    window: int = 300,
+) -> np.ndarray:
+    """Indices of the points LTspice's default waveform compression keeps.
+
+    LTspice drops points that linear interpolation between the kept ones reproduces within
+    ``plotreltol`` (relative) or ``plotvntol`` (absolute, volts) for every saved trace, over
+    windows of at most ``plotwinsize`` points (LTspice help, "Compression"); this is that
+    rule, greedy from each kept point (``.options plotwinsize=0`` turns LTspice's off).
+
+    Parameters
+    ----------
+    t : numpy array
+        Time points.
+    ys : list of numpy arrays
+        The saved traces (each as long as ``t``).
+    reltol : float, default 0.0025
+        ``plotreltol``.
+    vntol : float, default 1e-5
+        ``plotvntol`` [V].
+    window : int, default 300
+        ``plotwinsize``.
+
+    Returns
+    -------
+    numpy array
+        Increasing indices into ``t``, first and last included.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.lt_compression : detects compressed files.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from precise_impact.lab.netlist import compress_like_ltspice
+    >>> t = np.linspace(0, 1, 1001)
+    >>> len(compress_like_ltspice(t, [2 * t + 1]))  # a line: the ends of each 300-point window
+    5
+    """
+    n = len(t)
+    keep = [0]
+    i = 0
+    while i < n - 1:
+        j = min(i + 2, n - 1)
+        best = i + 1
+        while j < n and j - i <= window:
+            ok = True
+            for y in ys:
+                seg_t = t[i + 1 : j]
+                lin = y[i] + (y[j] - y[i]) * (seg_t - t[i]) / (t[j] - t[i])
+                tol = np.maximum(reltol * np.abs(y[i + 1 : j]), vntol)
+                if np.any(np.abs(y[i + 1 : j] - lin) > tol):
+                    ok = False
+                    break
+            if not ok:
+                break
+            best = j
+            j += 1
+        keep.append(best)
+        i = best
+    return np.asarray(keep)
+
+
+def lt_compression(runs: list[Waveforms], options: Mapping[str, str] | None = None) -> dict:
+    r"""Whether the waveforms are LTspice-compressed, and what that costs.
+
+    LTspice writes ``Flags: ... nocompression`` into the raw header when ``.options
+    plotwinsize=0`` turned compression off, and compresses otherwise (lossy; window
+    ``plotwinsize`` 300 points, ``plotreltol``, ``plotvntol``).  Decided from that flag; a
+    netlist's ``.options`` (``options``, or an LTspice ``.net``/``.log`` beside the raw file)
+    is reported beside it.  Files of other simulators are never compressed.
+
+    Parameters
+    ----------
+    runs : list of Waveforms
+        From :func:`read_raw`.
+    options : mapping or None, default ``None``
+        The netlist's ``.options`` (name -> value), if known.
+
+    Returns
+    -------
+    dict
+        ``compressed`` (bool), ``why``, ``flags``, ``step_spread`` (largest over median time
+        step); compressed: ``cost`` (:data:`COMPRESSION_IMPACT_COST`) and a one-line
+        ``warning``.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.compress_like_ltspice : the compression rule, for measuring.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact.lab.netlist import lt_compression, read_raw, run_netlist
+    >>> net = pathlib.Path(tempfile.mkdtemp()) / "rc.cir"
+    >>> _ = net.write_text("* RC\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 100n\n"
+    ...                    ".tran 1u 2m\n.end\n")
+    >>> runs, _ = run_netlist(net)
+    >>> lt_compression(runs)["compressed"]                    # ngspice never compresses
+    False
+    """
+    w = runs[0]
+    opts = dict(options or {})
+    src = Path(w.path)
+    if not opts:
+        for sib in (src.with_suffix(".net"), src.with_suffix(".log")):
+            if sib.is_file():
+                try:
+                    opts = _options(sib.read_text(errors="replace"))
+                except OSError:
+                    pass
+                break
+    dt = np.diff(w.time)
+    spread = float(np.max(dt) / max(float(np.median(dt)), 1e-300)) if len(dt) else math.nan
+    flags = str(w.header.get("Flags", "")).lower().split()
+    out: dict[str, Any] = {"step_spread": spread, "flags": " ".join(flags)}
+    if opts.get("plotwinsize") is not None:
+        out["netlist_plotwinsize"] = opts["plotwinsize"]
+    if w.dialect != "ltspice":
+        return {"compressed": False, "why": f"written by {w.dialect} (no compression)", **out}
+    if "nocompression" in flags:
+        return {"compressed": False, "why": "LTspice header flag 'nocompression'", **out}
+    cost = COMPRESSION_IMPACT_COST
+    return {
+        "compressed": True,
+        "why": "LTspice file without the header flag 'nocompression' (.options plotwinsize=0)",
+        **out,
+        "cost": dict(cost),
+        "warning": (
+            "LTspice compressed this waveform (no .options plotwinsize=0): measured on the "
+            f"project's netlist it moves impact times by ~{cost['max_dt_tau']:.0e} tau but the "
+            f"stroboscopic states by up to {cost['max_state_error']:.0e} (sliced W "
+            f"{cost['sliced_w_compressed']:.1e} instead of {cost['sliced_w_uncompressed']:.1e}); "
+            "rerun with .options plotwinsize=0"
+        ),
+    }
+
+
+# ================================================================== fits
+def fit_forcing(t: np.ndarray, y: np.ndarray, omega_guess: float | None = None) -> dict:
+    """Fit ``y = A cos(W t + phi) + C`` by time-weighted least squares (Gauss-Newton on ``W``).
+
+    Each point is weighted by the time it stands for (half its two intervals), so a
+    simulator's dense steps near an impact do not dominate.
+
+    Parameters
+    ----------
+    t : numpy array
+        Time [s], increasing.
+    y : numpy array
+        The forcing node's voltage.
+    omega_guess : float or None, default ``None``
+        Starting ``W`` [rad/s]; ``None``: from the upward mean crossings.
+
+    Returns
+    -------
+    dict
+        ``Omega`` [rad/s], ``amplitude``, ``phase`` (rad at t = 0, in (-pi, pi]), ``offset``
+        with their standard errors (``*_stderr``, from the weighted residual and the Jacobian)
+        and ``rms_residual``.
+
+    Raises
+    ------
+    ParameterError
+        Fewer than two forcing cycles.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.score_netlist : fitted scales use it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from precise_impact.lab.netlist import fit_forcing
+    >>> t = np.linspace(0, 0.05, 4001)
+    >>> f = fit_forcing(t, 2.0 * np.cos(740.0 * t + 0.3))
+    >>> round(f["Omega"], 9), round(f["amplitude"], 9), round(f["phase"], 9)
+    (740.0, 2.0, 0.3)
+    """
+    t = np.asarray(t, float)
+    y = np.asarray(y, float)
+    w = np.empty_like(t)
+    w[1:-1] = (t[2:] - t[:-2]) / 2
+    w[0], w[-1] = (t[1] - t[0]) / 2, (t[-1] - t[-2]) / 2
+    sw = np.sqrt(np.maximum(w, 0) / max(w.sum(), 1e-300))
+    if omega_guess is None:
+        s = y - y.mean()
+        up = np.nonzero((s[:-1] < 0) & (s[1:] >= 0))[0]
+        if len(up) < 2:
+            raise ParameterError(
+                "forcing-node", "", "a periodic forcing with >= 2 cycles in the run"
+            )
+        tc = t[up] - s[up] * (t[up + 1] - t[up]) / (s[up + 1] - s[up])
+        omega_guess = 2 * math.pi * (len(tc) - 1) / (tc[-1] - tc[0])
+    W = float(omega_guess)
+    tm = 0.5 * (t[0] + t[-1])  # centred time: decorrelates W from the phase
+    for _ in range(30):
+        c, s_ = np.cos(W * (t - tm)), np.sin(W * (t - tm))
+        A = np.stack([c, s_, np.ones_like(t)], axis=1)
+        coef, *_ = np.linalg.lstsq(A * sw[:, None], y * sw, rcond=None)
+        a, b, _c0 = coef
+        dW = (-a * s_ + b * c) * (t - tm)
+        J = np.stack([c, s_, np.ones_like(t), dW], axis=1)
+        r = y - A @ coef
+        step, *_ = np.linalg.lstsq(J * sw[:, None], r * sw, rcond=None)
+        W += step[3]
+        if abs(step[3]) <= 1e-15 * abs(W):
+            break
+    c, s_ = np.cos(W * (t - tm)), np.sin(W * (t - tm))
+    A = np.stack([c, s_, np.ones_like(t)], axis=1)
+    coef, *_ = np.linalg.lstsq(A * sw[:, None], y * sw, rcond=None)
+    a, b, c0 = (float(v) for v in coef)
+    r = y - A @ coef
+    J = np.stack([c, s_, np.ones_like(t), (-a * s_ + b * c) * (t - tm)], axis=1) * sw[:, None]
+    n_eff = len(t)
+    s2 = float(np.sum((r * sw) ** 2)) * n_eff / max(n_eff - 4, 1)
+    try:
+        cov = np.linalg.inv(J.T @ J) * s2 / n_eff
+    except np.linalg.LinAlgError:
+        cov = np.full((4, 4), np.nan)
+    amp = math.hypot(a, b)
+    # a cos + b sin = amp cos(W(t - tm) - atan2(b, a)): the phase at t = 0
+    phase = math.remainder(-math.atan2(b, a) - W * tm, 2 * math.pi)
+    var_ab = np.array([[cov[0, 0], cov[0, 1]], [cov[1, 0], cov[1, 1]]])
+    ga = np.array([a, b]) / amp if amp > 0 else np.zeros(2)
+    gp = np.array([b, -a]) / amp**2 if amp > 0 else np.zeros(2)
+    sW = math.sqrt(max(cov[3, 3], 0.0))
+    return {
+        "Omega": float(W),
+        "Omega_stderr": sW,
+        "amplitude": amp,
+        "amplitude_stderr": math.sqrt(max(float(ga @ var_ab @ ga), 0.0)),
+        "phase": phase,
+        "phase_stderr": math.hypot(math.sqrt(max(float(gp @ var_ab @ gp), 0.0)), sW * abs(tm)),
+        "offset": c0,
+        "offset_stderr": math.sqrt(max(cov[2, 2], 0.0)),
+        "rms_residual": float(np.sqrt(np.sum((r * sw) ** 2))),
+    }
+
+
+def _fit_rc(t: np.ndarray, vs: np.ndarray, vq: np.ndarray) -> tuple[float, float, float]:
+    """``R8 C1`` from the integrator ``V_s(t) = V_s(t_0) - (1/(R8 C1)) integral V_q dt``: least
+    squares of ``V_s`` against the trapezoid integral of ``V_q`` (the reversals take
+    nanoseconds: the integral crosses them without error worth the name); with the fit's
+    standard error (residual scatter only: it does not include the trapezoid rule's error,
+    O(h^2) per unit time) and the fit's R^2 (1 for an integrator pair)."""
+    q = np.concatenate(([0.0], np.cumsum(0.5 * (vq[1:] + vq[:-1]) * np.diff(t))))
+    A = np.stack([q, np.ones_like(q)], axis=1)
+    coef, *_ = np.linalg.lstsq(A, vs, rcond=None)
+    k = float(coef[0])  # = -1 / (R8 C1)
+    r = vs - A @ coef
+    qc = q - q.mean()
+    se = math.sqrt(float(r @ r) / max(len(q) - 2, 1) / float(qc @ qc))
+    vc = vs - vs.mean()
+    r2 = 1.0 - float(r @ r) / float(vc @ vc) if float(vc @ vc) > 0 else 0.0
+    return (-1.0 / k if k else math.inf), (se / k**2 if k else math.inf), r2
+
+
+# ================================================================== scoring
+@dataclasses.dataclass
+class NetlistScoreResult(ResultMixin):
+    """What :func:`score_netlist` returns.
+
+    Attributes
+    ----------
+    source, kind : str
+        The file and ``'netlist'`` (run here by ngspice) or ``'raw'`` (read).
+    dialect : str
+        The simulator that wrote the waveforms.
+    params : dict
+        Target parameters (exact decimals) the reference realises (initial state: the first
+        sample, mapped).
+    mapping : dict
+        ``mode`` (``'components'`` / ``'fitted'``), ``omega`` [rad/s], ``seconds_per_tau``,
+        ``volts_per_x``, ``volts_per_v`` and, fitted, their standard errors.
+    forcing : dict or None
+        The forcing fit (:func:`fit_forcing`) when a forcing node was given.
+    reference, lle : dict
+        How the reference was made (:mod:`~precise_impact.verification.compare`) and its LLE.
+    runs : list of dict
+        Per plot/step: ``label``, ``points``, ``periods``, ``initial_state``, ``regime``,
+        ``scores`` (:func:`~precise_impact.verification.scores.score`), sampling notes.
+    compression : dict
+        :func:`lt_compression`.
+    warnings : list of str
+        One line each.
+    ngspice : dict or None
+        For a netlist run here: ``ltspice_mode`` (the ``ngbehavior`` used or ``None``),
+        ``elapsed_s``, ``log`` (the tail of ngspice's output), the netlist's ``options``.
+    files : list of str or None
+        Figures written.
+
+    See Also
+    --------
+    precise_impact.lab.netlist.score_netlist : returns it.
+    precise_impact.verification.compare.CompareResult : the built-in models' counterpart.
+    """
+
+    source: str
+    kind: str
+    dialect: str
+    params: dict
+    mapping: dict
+    forcing: dict | None
+    reference: dict
+    lle: dict
+    runs: list
+    compression: dict
+    warnings: list
+    ngspice: dict | None = None
+    files: list | None = None
+    _plots: dict = dataclasses.field(default_factory=dict, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every field but the trajectories kept for :meth:`plot` (strict JSON)."""
+        return {
+            f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "_plots"
+        }
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``runs``: one row per run (plot/step), its start and its
+        scalar scores (nested ones as ``horizons.0.001``, ``divergence.rate`` ...)."""
+        return {
+            "runs": lambda: record_columns(
+                [
+                    {
+                        "name": r["name"],
+                        "periods": r["periods"],
+                        "regime": r["regime"],
+                        **flat(r["initial_state"]),
+                        **flat(r["scores"]),
+                    }
+                    for r in self.runs
+                ]
+            )
+        }
+
+    def plot(
+        self,
+        path: str | Path | None = None,
+        what: str = "portraits",
+        units: str = "dimensionless",
+        run: int = 0,
+    ):
+        """One run (``run``, index into :attr:`runs`) and its reference in the phase plane
+        (``what='portraits'``) or its separation from the reference against time
+        (``'separation'``), drawn by :mod:`precise_impact.verification.compare`'s figure
+        functions.
+
+        Parameters
+        ----------
+        path : str, Path or None, default ``None``
+            Where to save it (format from the suffix); ``None``: only returned.
+        what : {'portraits', 'separation'}, default ``'portraits'``
+            Which figure.
+        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+            Axes (``'circuit'`` needs a design).
+        run : int, default 0
+            Which run of a stepped or multi-plot file.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
+        """
+        from precise_impact.verification.compare import portraits_figure, separation_figure
+
+        if what not in ("portraits", "separation"):
+            raise ParameterError("what", what, "'portraits' or 'separation'")
+        pl = self._plots
+        if isinstance(run, bool) or not isinstance(run, int) or not 0 <= run < len(pl["runs"]):
+            raise ParameterError("run", run, f"an integer 0 .. {len(pl['runs']) - 1}")
+        r = pl["runs"][run]
+        design = pl.get("design")
+        u = plot_units(units, components=design if units == "circuit" else None)
+        # compare's figure functions read the scene's name and parameters only
+        scene = types.SimpleNamespace(name=f"{r['name']} vs {pl['target']}", params=r["ref"].params)
+        results = {r["name"]: self.runs[run]["scores"]}
+        trajs = {r["name"]: r["traj"]}
+        if what == "portraits":
+            fig = portraits_figure(scene, r["ref"], trajs, pl["k"], results, u)
+        else:
+            fig = separation_figure(scene, r["ref"], r["check"], trajs, self.lle["lle"], results, u)
+        if path is not None:
+            save_figure(fig, path)
+        return fig
+
+
+def _target(nmap: NodeMap, scene: str | None):
+    """``(params, design or None, scene name)`` from the scene, the map's components or its
+    parameters."""
+    from precise_impact.scenes.scene import load_scene
+
+    name = scene or nmap.scene
+    if name is not None:
+        sc = load_scene(name)
+        if sc.kind != "single":
+            raise ParameterError("scene", sc.name, "a single-oscillator scene")
+        design = sc.design()
+        if nmap.components:
+            design = design.replace(**nmap.components)
+        params = sc.params if not nmap.parameters else sc.params.replace(**nmap.parameters)
+        return params, design, sc.name
+    if nmap.components:
+        try:
+            design = Components.make(**nmap.components)
+        except ParameterError as e:
+            raise ParameterError(
+                f"map.components.{e.name}",
+                e.value,
+                f"{e.allowed} (without a scene [components] is the whole design: R1 .. R8, C1, "
+                "C2, V_A, Omega, V_wall; or give scene = ... and only the values that differ)",
+            ) from e
+        return dimensionless(design), design, "user design"
+    if nmap.parameters:
+        return Params.make(**nmap.parameters), None, "user parameters"
+    raise ParameterError(
+        "scene",
+        None,
+        "a scene (--scene) or [components] / [parameters] in the --map file: the "
+        "target the circuit should realise",
+    )
+
+
+#: Smallest R^2 of ``V_s = c - integral V_q dt / (R8 C1)`` for the x and v nodes to be taken as
+#: the integrator pair (the project's netlist: 1 - 1e-10; x and v swapped or a wrong node: far
+#: below, or a negative R8 C1).
+INTEGRATOR_MIN_R2 = 0.9
+#: Largest rms residual of the forcing fit, relative to its amplitude (a source: ~1e-15).
+FORCING_MAX_RESIDUAL = 0.05
+
+
+def _check_channels(w: Waveforms, nmap: NodeMap, vs: np.ndarray, vq: np.ndarray) -> None:
+    """The x and v nodes are an integrator pair (``V_s' = -V_q / (R8 C1)``, R8 C1 > 0), or one
+    line saying which way they are not."""
+    rc, _, r2 = _fit_rc(w.time, vs, vq)
+    if r2 >= INTEGRATOR_MIN_R2 and rc < 0:
+        raise ParameterError(
+            "x-node",
+            nmap.x,
+            f"the integrator output of v-node {nmap.v!r} (V_x' = -V_v/(R8 C1) with R8 C1 > 0; "
+            f"fitted R8 C1 = {rc:.3g} s: x and v swapped, or a sign flipped -- a gain of -1 "
+            "in [gains] corrects an inverted probe)",
+        )
+    if not r2 >= INTEGRATOR_MIN_R2 or not math.isfinite(rc):
+        raise ParameterError(
+            "x-node",
+            nmap.x,
+            f"the integral of v-node {nmap.v!r} (V_x' = -V_v/(R8 C1)): the fit explains "
+            f"{max(r2, 0.0):.0%} of V_x ({INTEGRATOR_MIN_R2:.0%} needed): x and v swapped, or "
+            "a wrong channel?",
+        )
+
+
+def _mapping(
+    params: Params, design, mode: str, w: Waveforms, nmap: NodeMap, vs, vq
+) -> tuple[dict, dict | None]:
+    """The volts/seconds -> (x, v, tau) scales and the forcing fit; wrong channels refused."""
+    _check_channels(w, nmap, vs, vq)
+    fit = None
+    if nmap.forcing is not None:
+        f = nmap.corrected("forcing", w.node(nmap.forcing, "forcing"))
+        guess = float(design.Omega) if design is not None else None
+        fit = fit_forcing(w.time, f, guess)
+        rel = fit["rms_residual"] / max(fit["amplitude"], 1e-300)
+        if not rel < FORCING_MAX_RESIDUAL:
+            raise ParameterError(
+                "forcing-node",
+                nmap.forcing,
+                f"a sinusoidal forcing node (the fit leaves {rel:.0%} of its amplitude; "
+                f"{FORCING_MAX_RESIDUAL:.0%} allowed)",
+            )
+    if mode == "auto":
+        mode = "components" if design is not None else "fitted"
+    if mode == "components":
+        if design is None:
+            raise ParameterError(
+                "scales", mode, "'fitted' (no design: give a scene or [components])"
+            )
+        omega = float(design.omega())
+        vu = float(design.V_unit)
+        rc = float(design.R8 * design.C1)
+        m = {
+            "mode": "components",
+            "omega": omega,
+            "seconds_per_tau": 1 / omega,
+            "volts_per_x": -vu,
+            "volts_per_v": omega * rc * vu,
+            "how": "to_mechanical with the design values",
+        }
+        if fit is not None:
+            m["forcing_Omega_vs_design"] = fit["Omega"] / float(design.Omega) - 1
+        return m, fit
+    if mode != "fitted":
+        raise ParameterError("scales", mode, "'auto', 'components' or 'fitted'")
+    if fit is None:
+        raise ParameterError("forcing-node", None, "a forcing node for fitted scales")
+    eta, a = float(params.eta), float(params.a)
+    omega = fit["Omega"] / eta
+    vu = fit["amplitude"] * nmap.forcing_gain / a
+    rc, rc_se, _ = _fit_rc(w.time, vs, vq)
+    # the trapezoid integral's own error, relative (omega h)^2 / 12 for a sinusoid at omega;
+    # doubled for the impacts' higher harmonics (measured: 1.4e-5 at h = 1e-5 s, omega = 1e3)
+    h = float(np.max(np.diff(w.time)))
+    rc_se = math.hypot(rc_se, abs(rc) * (omega * h) ** 2 / 6)
+    m = {
+        "mode": "fitted",
+        "omega": omega,
+        "omega_stderr": fit["Omega_stderr"] / eta,
+        "seconds_per_tau": 1 / omega,
+        "V_unit": vu,
+        "V_unit_stderr": fit["amplitude_stderr"] * nmap.forcing_gain / a,
+        "R8C1": rc,
+        "R8C1_stderr": rc_se,
+        "R8C1_how": "least squares of V_s on the trapezoid integral of V_q; error: the fit's "
+        "standard error and the trapezoid bound (omega h_max)^2 / 6",
+        "volts_per_x": -vu,
+        "volts_per_v": omega * rc * vu,
+        "how": "omega = Omega_fit / eta, V_unit = A_fit (R7/R1) / a, R8 C1 from "
+        "V_s' = -V_q/(R8 C1)",
+    }
+    return m, fit
+
+
+def impacts_from_waveform(tau, x, v, aux_t=None, aux=None):
+    """Impacts of a mapped waveform (dimensionless ``tau``, ``x``, ``v``).
+
+    An impact is a group of intervals with ``dv/dtau < -1000`` (free flight: below ~10);
+    its time is the logic node's mid-level crossing nearest to it (``aux``) or v's zero
+    crossing inside the group; v before/after are extrapolated linearly from the two points
+    on each side of the group.
+
+    Parameters
+    ----------
+    tau, x, v : numpy arrays
+        The mapped waveform.
+    aux_t, aux : numpy arrays or None, default ``None``
+        Times and values of a logic node toggling at each impact.
+
+    Returns
+    -------
+    tuple of numpy arrays
+        ``(t, v_before, v_after)``.
+    """
+    dtau = np.diff(tau)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.where(dtau > 0, np.diff(v) / dtau, -np.inf * np.sign(np.diff(v)))
+    jump = np.nonzero(slope < -_JUMP_SLOPE)[0]
+    groups: list[list[int]] = []
+    for i in jump:
+        if groups and (i - groups[-1][-1] <= 3 or tau[i] - tau[groups[-1][-1] + 1] < 1e-4):
+            groups[-1].append(int(i))
+        else:
+            groups.append([int(i)])
+    cross_t = None
+    if aux is not None:
+        mid = 0.5 * (np.max(aux) + np.min(aux))
+        s = aux - mid
+        c = np.nonzero((s[:-1] < 0) != (s[1:] < 0))[0]
+        cross_t = aux_t[c] + s[c] / (s[c] - s[c + 1]) * (aux_t[c + 1] - aux_t[c])
+    ti, vb, va = [], [], []
+    n = len(tau)
+    for g in groups:
+        i0, i1 = g[0], g[-1] + 1
+        if i0 < 1 or i1 + 1 >= n:
+            continue
+        if cross_t is not None and len(cross_t):
+            j = int(np.argmin(np.abs(cross_t - 0.5 * (tau[i0] + tau[i1]))))
+            tc = float(cross_t[j])
+        else:
+            seg = v[i0 : i1 + 1]
+            k = np.nonzero((seg[:-1] > 0) & (seg[1:] <= 0))[0]
+            if not len(k):
+                continue
+            a = i0 + int(k[0])
+            tc = float(tau[a] - v[a] * (tau[a + 1] - tau[a]) / (v[a + 1] - v[a]))
+        vb.append(_lin(tau, v, i0 - 1, i0, tc))
+        va.append(_lin(tau, v, i1, i1 + 1, tc))
+        ti.append(tc)
+    return np.asarray(ti), np.asarray(vb), np.asarray(va)
+
+
+def _lin(ts, ys, i0, i1, t):
+    if ts[i1] == ts[i0]:
+        return float(ys[i1])
+    return float(ys[i1] + (ys[i1] - ys[i0]) * (t - ts[i1]) / (ts[i1] - ts[i0]))
+
+
+def _samples(ts: np.ndarray, period_s: float, t_first: float, periods: int | None):
+    """Sample times ``k period_s`` (k from the first one inside the run), the values' indices
+    or interpolation weights; at most ``periods`` + 1 samples."""
+    k0 = math.ceil((ts[0] - _SNAP * period_s) / period_s)
+    k1 = math.floor((ts[-1] + _SNAP * period_s) / period_s)
+    if periods is not None:
+        k1 = min(k1, k0 + periods)
+    if k1 - k0 < 2:
+        raise ParameterError(
+            "file",
+            "",
+            f"a run of >= 2 forcing periods after its first sample (it spans "
+            f"{(ts[-1] - ts[0]) / period_s:.3g})",
+        )
+    tk = np.arange(k0, k1 + 1) * period_s
+    return tk
+
+
+def _at(ts: np.ndarray, ys: np.ndarray, tk: np.ndarray, period_s: float):
+    """``ys`` at ``tk``: the last point at that time when one lies within ``_SNAP`` of it (a
+    breakpoint), else linear interpolation; and how many were interpolated."""
+    out = np.interp(tk, ts, ys)
+    idx = np.clip(np.searchsorted(ts, tk, side="right") - 1, 0, len(ts) - 1)
+    nxt = np.clip(idx + 1, 0, len(ts) - 1)
+    snap = np.abs(ts[idx] - tk) <= _SNAP * period_s
+    snap2 = ~snap & (np.abs(ts[nxt] - tk) <= _SNAP * period_s)
+    out = np.where(snap, ys[idx], out)
+    out = np.where(snap2, ys[nxt], out)
+    return out, int(np.sum(~snap & ~snap2))
+
+
+def score_netlist(
+    path: str | Path,
+    x_node: str | None = None,
+    v_node: str | None = None,
+    forcing_node: str | None = None,
+    *,
+    impact_node: str | None = None,
+    map: str | Path | NodeMap | None = None,
+    scene: str | None = None,
+    scales: str = "auto",
+    step: int | None = None,
+    periods: int | None = None,
+    transient: int | None = None,
+    ltspice: bool | None = None,
+    workdir: str | Path | None = None,
+    out: str | Path | None = None,
+    units: str = "dimensionless",
+    timeout: float = 600,
+    executable: str | None = None,
+    progress: bool | None = None,
+) -> NetlistScoreResult:
+    """Score a user's SPICE netlist (run by ngspice) or raw waveform file against the
+    demonstrated mechanical reference.
+
+    Parameters
+    ----------
+    path : path
+        A netlist (:data:`NETLIST_SUFFIXES`; LTspice ``.net`` run in ngspice's LTspice mode)
+        or a ``.raw`` file (read, not run).
+    x_node, v_node, forcing_node, impact_node : str or None
+        Node names of ``V_s``, ``V_q``, ``V_3`` and an optional impact logic node; override
+        the ``map``'s.
+    map : path, NodeMap or None
+        A TOML mapping (:func:`load_map`).
+    scene : str or None
+        The target scene (its parameters and design); else the map's.
+    scales : {'auto', 'components', 'fitted'}
+        Volts/seconds from the design values, or fitted to the waveform (needs the forcing
+        node); ``'auto'``: the design's when there is one.
+    step : int or None
+        Only this run of a stepped/multi-plot file (0-based); ``None``: every one.
+    periods, transient : int or None
+        At most this many forcing periods scored (default: all in the run); periods
+        discarded before the scores (default ``periods // 5``).
+    ltspice : bool or None
+        See :func:`run_netlist`.
+    workdir : path or None
+        Keep ngspice's files here.
+    out : directory or None
+        Writes ``scores.json``, ``phase_portraits.png`` and ``separation.png``.
+    units : {'dimensionless', 'circuit'}
+        Axes of those figures.
+    timeout : float, default 600
+        Seconds ngspice may run.
+    executable : str or None, default ``None``
+        The ngspice program.
+    progress : bool or None, default ``None``
+        One line per finished step on stderr (``None``: only when stderr is a terminal).
+
+    Returns
+    -------
+    NetlistScoreResult
+        Scores per run, the mapping with its uncertainties, the reference, the warnings.
+
+    Raises
+    ------
+    ParameterError
+        Bad input or a damaged, truncated, wrong-unit or wrong-node file: one line, before
+        the reference is computed.
+    SpiceError
+        ngspice could not run the netlist.
+
+    See Also
+    --------
+    precise_impact.verification.compare.compare : the same scores for the built-in models.
+    precise_impact.verification.scores.score : the scores.
+    precise_impact.lab.netlist.load_map : the TOML mapping.
+
+    Notes
+    -----
+    Samples are taken at ``k T`` of SPICE time (``T = 2 pi / Omega``), from the first one
+    inside the run: ngspice writes no point at t = 0 under ``uic``, so its runs start at
+    ``t = T``.  Times on a breakpoint are read exactly, others linearly interpolated
+    (``samples_interpolated``).  The reference starts from the first sample, mapped, at
+    ``tau = omega t + phi / eta`` (``phi``: the forcing's fitted phase).
+
+    Examples
+    --------
+    The project's own netlist, run as a user's file (ngspice):
+
+    >>> import tempfile, pathlib
+    >>> import precise_impact as pi
+    >>> from precise_impact.lab.netlist import score_netlist
+    >>> from precise_impact.models.circuit.spice import spice_netlist
+    >>> sc = pi.load_scene("fig6-period3-ideal")
+    >>> net = pathlib.Path(tempfile.mkdtemp()) / "mine.cir"
+    >>> _ = net.write_text(spice_netlist(sc.design(), None, 11, 10e-6))
+    >>> r = score_netlist(net, "s", "q", "v3", scene=sc.name, progress=False)
+    >>> r.runs[0]["periods"], r.mapping["mode"], r.runs[0]["scores"]["initial_separation"] < 1e-15
+    (10, 'components', True)
+    """
+    from precise_impact.verification.compare import (
+        REF_PERTURBATION,
+        demonstrated_reference,
+        reference_lle,
+        score_line,
+    )
+    from precise_impact.verification.metrics import reference_bits
+    from precise_impact.verification.scores import detected_period, score
+
+    p = Path(path)
+    nmap = map if isinstance(map, NodeMap) else (load_map(map) if map is not None else None)
+    if nmap is None:
+        if x_node is None or v_node is None:
+            raise ParameterError(
+                "x-node", x_node, "node names for x and v (--x-node, --v-node or --map)"
+            )
+        nmap = NodeMap(x=x_node, v=v_node)
+    nmap = dataclasses.replace(
+        nmap,
+        x=x_node or nmap.x,
+        v=v_node or nmap.v,
+        forcing=forcing_node or nmap.forcing,
+        impact=impact_node or nmap.impact,
+    )
+    if scales not in ("auto", "components", "fitted"):
+        raise ParameterError("scales", scales, "'auto', 'components' or 'fitted'")
+    if periods is not None:
+        periods = check_count(periods, "periods", 10**6)
+        if periods < 2:
+            raise ParameterError("periods", periods, ">= 2")
+    params, design, target = _target(nmap, scene)
+    plot_units(units, components=design if units == "circuit" else None)  # before any work
+    suffix = p.suffix.lower()
+    if suffix in RAW_SUFFIXES:
+        runs, info, kind = read_raw(p, step), {"options": {}, "notes": []}, "raw"
+    elif suffix in NETLIST_SUFFIXES:
+        runs, info = run_netlist(
+            p, workdir, ltspice=ltspice, timeout=timeout, executable=executable
+        )
+        kind = "netlist"
+        if step is not None:
+            if not 0 <= step < len(runs):
+                raise ParameterError("step", step, f"an integer 0 .. {len(runs) - 1}")
+            runs = [runs[step]]
+    else:
+        _check_file(p, RAW_SUFFIXES + NETLIST_SUFFIXES, "netlist or raw file")
+        raise AssertionError  # pragma: no cover
+    warnings: list[str] = list(info.get("notes", []))
+    compression = (
+        lt_compression(runs, info.get("options"))
+        if kind == "raw"
+        else {"compressed": False, "why": "run here by ngspice (no compression)"}
+    )
+    if compression.get("compressed"):
+        warnings.append(compression["warning"])
+        _progress("warning: " + compression["warning"], progress)
+
+    # every run's nodes are checked before the reference is computed
+    mapped = []
+    for w in runs:
+        vs = nmap.corrected("x", w.node(nmap.x, "x"))
+        vq = nmap.corrected("v", w.node(nmap.v, "v"))
+        aux = w.node(nmap.impact, "impact") if nmap.impact else None
+        m, fit = _mapping(params, design, scales, w, nmap, vs, vq)
+        mapped.append((w, vs, vq, aux, m, fit))
+    m0, fit0 = mapped[0][4], mapped[0][5]
+    eta = float(params.eta)
+    period_s = 2 * math.pi / (m0["omega"] * eta)
+    phase = (
+        nmap.forcing_phase if nmap.forcing_phase is not None else (fit0["phase"] if fit0 else 0.0)
+    )
+    if fit0 is None and nmap.forcing_phase is None:
+        warnings.append("no forcing node: the forcing is taken as cos(Omega t) from SPICE time 0")
+    ts0 = mapped[0][0].time
+    tk = _samples(ts0, period_s, ts0[0], periods)
+    n_per = len(tk) - 1
+    for w, *_ in mapped[1:]:
+        n_per = min(n_per, len(_samples(w.time, period_s, w.time[0], periods)) - 1)
+    bits = reference_bits(n_per)
+    k = n_per // 5 if transient is None else int(transient)
+    if not 0 <= k < n_per:
+        raise ParameterError("transient", transient, f"0 <= transient < periods ({n_per})")
+
+    out_runs: list[dict] = []
+    plots: list[dict] = []
+    lle: dict = {}
+    for w, vs, vq, aux, m, _fit in mapped:
+        tk = _samples(w.time, period_s, w.time[0], n_per)
+        tk = tk[: n_per + 1]
+        vs_k, n_i1 = _at(w.time, vs, tk, period_s)
+        vq_k, n_i2 = _at(w.time, vq, tk, period_s)
+        omega = m["omega"]
+        t0_tau = phase / eta
+        tau = omega * w.time + t0_tau
+        x = vs / m["volts_per_x"]
+        v = vq / m["volts_per_v"]
+        x_k, v_k = vs_k / m["volts_per_x"], vq_k / m["volts_per_v"]
+        tau_k = omega * tk + t0_tau
+        p0 = params.replace(x0=float(x_k[0]), v0=float(v_k[0]), t0=float(tau_k[0]))
+        tau_k = float(p0.t0) + np.arange(len(tk)) * (2 * math.pi / eta)
+        ti, vb, va = impacts_from_waveform(tau, x, v, tau if aux is not None else None, aux)
+        # only what lies between the first and the last sample is scored
+        keep = (ti >= tau_k[0]) & (ti <= tau_k[-1])
+        ti, vb, va = ti[keep], vb[keep], va[keep]
+        inside = (w.time >= tk[0] - _SNAP * period_s) & (w.time <= tk[-1] + _SNAP * period_s)
+        tau, x, v = tau[inside], x[inside], v[inside]
+        tr = Trajectory(
+            params=p0,
+            model="spice",
+            precision=Precision.parse("float64"),
+            tol=None,
+            t=tau_k,
+            x=x_k,
+            v=v_k,
+            impacts_t=ti,
+            impacts_v_before=vb,
+            impacts_v_after=va,
+            dense_t=tau,
+            dense_x=x,
+            dense_v=v,
+            elapsed_s=float(info.get("elapsed_s", 0.0)),
+            stats={"source": w.path},
+        )
+        # each run from its own first sample: its own reference; the LLE (an attractor's) once
+        ref, check, ref_info = demonstrated_reference(p0, n_per, 50, bits, progress)
+        if not lle:
+            lle = reference_lle(p0, progress)
+        regime = "periodic" if detected_period(ref, k) > 0 else "chaotic"
+        ref2 = None
+        if regime == "chaotic":
+            from precise_impact.solvers.simulate import make_solver
+
+            p2 = p0.replace(x0=p0.x0 + REF_PERTURBATION)
+            ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, n_per)
+        sc = score(tr, ref, regime=regime, lle=lle["lle"], ref2=ref2, transient=k)
+        name = p.name if len(mapped) == 1 else f"{p.name} {w.label}"
+        out_runs.append(
+            {
+                "name": name,
+                "label": w.label,
+                "points": int(len(w.time)),
+                "periods": n_per,
+                "first_sample_s": float(tk[0]),
+                "initial_state": {"x0": float(x_k[0]), "v0": float(v_k[0]), "t0": float(p0.t0)},
+                "samples_interpolated": max(n_i1, n_i2),
+                "data_precision": w.precision,
+                "regime": regime,
+                "scores": sc,
+                "mapping": m,
+                "reference": ref_info,
+            }
+        )
+        plots.append({"name": name, "ref": ref, "check": check, "traj": tr})
+        _progress(f"{name}: " + score_line(sc), progress)
+
+    res = NetlistScoreResult(
+        source=str(p),
+        kind=kind,
+        dialect=runs[0].dialect,
+        params={**params.decimal(), "target": target},
+        mapping=m0,
+        forcing=fit0,
+        reference=out_runs[0]["reference"],
+        lle=lle,
+        runs=out_runs,
+        compression=compression,
+        warnings=warnings,
+        ngspice=(
+            None
+            if kind == "raw"
+            else {
+                "ltspice_mode": info.get("ltspice_mode"),
+                "elapsed_s": info.get("elapsed_s"),
+                "log": info.get("ngspice_log"),
+                "options": info.get("options"),
+            }
+        ),
+    )
+    res._plots = {"runs": plots, "k": k, "target": target, "params": params, "design": design}
+    if out is not None:
+        from precise_impact.io.jsonout import write_json
+
+        o = Path(out)
+        o.mkdir(parents=True, exist_ok=True)
+        res.files = [str(o / "scores.json")]
+        for i in range(len(plots)):
+            tag = "" if len(plots) == 1 else f"_{i}"
+            for what, stem in (("portraits", "phase_portraits"), ("separation", "separation")):
+                res.plot(o / f"{stem}{tag}.png", what, units, run=i)
+                res.files.append(str(o / f"{stem}{tag}.png"))
+        write_json(o / "scores.json", res.to_dict(), indent=2)
+    return res
+
+
+def format_result(res: NetlistScoreResult) -> str:
+    """The text ``spice score`` prints.
+
+    Parameters
+    ----------
+    res : NetlistScoreResult
+        From :func:`score_netlist`.
+
+    Returns
+    -------
+    str
+        Source, mapping, reference, forcing fit, one line per run
+        (:mod:`~precise_impact.verification.compare`'s form), the warnings.
+    """
+    from precise_impact.verification.compare import score_line
+
+    m, r = res.mapping, res.reference
+    scale = f"scales from {m['mode']}: omega = {m['omega']:.10g} rad/s"
+    if m["mode"] == "fitted":
+        scale += (
+            f" +- {m['omega_stderr']:.2g}, V_unit = {m['V_unit']:.8g} +- "
+            f"{m['V_unit_stderr']:.2g} V,"
+            f" R8 C1 = {m['R8C1']:.8g} +- {m['R8C1_stderr']:.2g} s"
+        )
+    lines = [
+        f"{res.source} ({res.kind}, {res.dialect}) against {res.params['target']}: "
+        + ", ".join(
+            f"{k} = {v}" for k, v in res.params.items() if k in ("zeta", "a", "eta", "x_w")
+        ),
+        scale,
+        f"reference heyoka {r['precision']} agrees with {r['check_precision']} to "
+        f"{r['agreement_max']:.1e}; LLE {res.lle['lle']:.4f} +- {res.lle['stderr']:.4f}",
+    ]
+    if res.forcing:
+        f = res.forcing
+        lines.append(
+            f"forcing fit: Omega = {f['Omega']:.10g} +- {f['Omega_stderr']:.2g} rad/s, amplitude "
+            f"{f['amplitude']:.8g} +- {f['amplitude_stderr']:.2g} V, phase {f['phase']:.3g} +- "
+            f"{f['phase_stderr']:.2g} rad"
+        )
+    for run in res.runs:
+        lines.append(
+            f"  {run['label']:<20} {run['periods']} periods, {run['regime']}: "
+            + score_line(run["scores"])
+        )
+    lines += [f"warning: {w}" for w in res.warnings]
+    return "\n".join(lines)
