@@ -12,6 +12,7 @@ import shutil
 import subprocess
 import sys
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,6 +28,7 @@ SUBPACKAGES = (
     "analysis",
     "scenes",
     "verification",
+    "lab",
     "io",
     "cli",
 )
@@ -167,6 +169,44 @@ def results(tmp_path_factory):
         pi.certify_coupled(p, "0.1", "reduced", 3, y0=("0.5", "0.1"), precision="mp:128"),
         pi.prove_orbit(pi.Params.make(eta="0.70"), 1, guess=("102/53", "49/265"), impacts=0),
     ]
+    # the bench (issue 24): a short synthetic capture, its score, two captures as a measured
+    # diagram, the time-series LLE of a model run, the grazing-only budget, a netlist (~4 s)
+    cap = pi.synth_capture("fig6-period3-ideal", periods=20, transient=10, seed=1)
+    caps = [
+        pi.synth_capture("fig6-period3-ideal", eta=e, periods=20, transient=10)
+        for e in ("0.73", "0.74")
+    ]
+    dense = pi.simulate(pi.Params.make(eta="0.712"), 60, per_period=40)
+    dx, dv = (np.asarray(a, dtype=float) for a in (dense.dense_x, dense.dense_v))
+    dt = float(dense.dense_t[1]) - float(dense.dense_t[0])
+    made += [
+        cap,
+        pi.score_capture(cap, "fig6-period3-ideal", lle=False, floor_captures=2, transient=10),
+        pi.measured_bifurcation(caps, "fig6-period3-ideal", computed=4, computed_periods=20),
+        pi.timeseries_lle(np.column_stack([dx, dv]), dt, period=40 * dt),
+        pi.tolerance_budget(
+            "fig6-period2-datasheet",
+            landmarks=("grazing",),
+            mc=0,
+            sobol=0,
+            lle_mc=0,
+            scans=False,
+            fd_check=False,
+            progress=False,
+        ),
+    ]
+    if shutil.which("ngspice") is not None:  # CI installs it; the count test names it if not
+        made.append(
+            pi.score_netlist(
+                Path(__file__).parent / "lab/data/fig6_period3_ideal.cir",
+                "s",
+                "q",
+                "v3",
+                scene="fig6-period3-ideal",
+                periods=5,
+                progress=False,
+            )
+        )
     return {type(r).__name__: r for r in made}
 
 
@@ -240,7 +280,7 @@ def test_array_results_save_npz_that_loads_back(results, tmp_path):
 
 
 def _every_result(results):
-    """Every result type (19): the public ones, ReproduceResult (24 s to run) built from its
+    """Every result type (25): the public ones, ReproduceResult (24 s to run) built from its
     fields, and SyncRun."""
     out = dict(results)
     out["ReproduceResult"] = pi.ReproduceResult(
@@ -271,7 +311,7 @@ def _every_result(results):
 
 
 def test_every_result_type_to_dict_loads_with_a_strict_parser(results):
-    """All 19 result types (SyncRun and ReproduceResult included): ``to_dict()`` is text a
+    """All 25 result types (SyncRun and ReproduceResult included): ``to_dict()`` is text a
     strict parser (no NaN / Infinity tokens) loads."""
 
     def refuse(token):
@@ -300,11 +340,11 @@ def test_every_result_type_has_a_short_repr(results):
 
 
 def test_to_dataframe_on_every_result_type_with_rows(results):
-    """Every result type with samples or rows converts to a DataFrame (15 of the 19; the 4
+    """Every result type with samples or rows converts to a DataFrame (21 of the 25; the 4
     single-object types say they have none); columns carry units, numbers are float64."""
     pd = pytest.importorskip("pandas")
     everything = _every_result(results)
-    assert len(everything) == 19
+    assert len(everything) == 25
     covered = 0
     for name, r in everything.items():
         if name in NO_ROWS:
@@ -323,7 +363,7 @@ def test_to_dataframe_on_every_result_type_with_rows(results):
         pd.testing.assert_frame_equal(r.to_dataframe(), r.to_dataframe(r.tables()[0]))
         with pytest.raises(pi.ParameterError, match="what"):
             r.to_dataframe("no-such-table")
-    assert covered == 15
+    assert covered == 21
     tr = results["Trajectory"]
     df = tr.to_dataframe()
     assert list(df.columns) == ["period", "t [1]", "x [1]", "v [1]"]

@@ -16,6 +16,7 @@ from precise_impact.analysis.lyapunov import (
     StartEstimate,
     lyapunov,
 )
+from precise_impact.analysis.lyapunov.timeseries import TimeSeriesLLE, timeseries_lle
 from precise_impact.analysis.orbits import (
     Bifurcation,
     Branch,
@@ -56,6 +57,17 @@ from precise_impact.errors import (
     ReferenceDataError,
     SpiceError,
 )
+from precise_impact.lab.attractor import (
+    CaptureScore,
+    MeasuredBifurcation,
+    measured_bifurcation,
+    score_capture,
+)
+from precise_impact.lab.budget import ToleranceBudget, tolerance_budget
+from precise_impact.lab.capture import Capture
+from precise_impact.lab.netlist import NetlistScoreResult, read_raw, score_netlist
+from precise_impact.lab.scope_files import read_capture, write_capture
+from precise_impact.lab.synth import Measurement, synth_capture
 from precise_impact.models.circuit.components import Components, nominal_components
 from precise_impact.models.circuit.coupled import CoupledCircuitTrajectory, simulate_coupled_circuit
 from precise_impact.models.circuit.effects.catalogue import EFFECTS
@@ -166,6 +178,8 @@ __all__ = [
     "brute_force_diagram",
     "prove_orbit",
     "ProvenOrbit",
+    "timeseries_lle",
+    "TimeSeriesLLE",
     # scenes
     "Scene",
     "builtin_scenes",
@@ -183,5 +197,20 @@ __all__ = [
     "work_precision",
     "ReproduceResult",
     "reproduce",
+    # lab: what users bring from the bench
+    "score_netlist",
+    "NetlistScoreResult",
+    "read_raw",
+    "Capture",
+    "read_capture",
+    "write_capture",
+    "Measurement",
+    "synth_capture",
+    "score_capture",
+    "CaptureScore",
+    "measured_bifurcation",
+    "MeasuredBifurcation",
+    "tolerance_budget",
+    "ToleranceBudget",
     "__version__",
 ]

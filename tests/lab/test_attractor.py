@@ -136,6 +136,27 @@ def test_cli_synth_then_score_json(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["period"] == 3 and d["source"]["format"] == "keysight"
     assert main(["capture", "score", str(f), "--floor-captures", "9"]) == 2
+    # the report: --out DIR writes the score, its Markdown report and the figure
+    out = tmp_path / "report"
+    argv = ["capture", "score", str(f), "--floor-captures", "2", "--no-lle", "--out", str(out)]
+    assert main(argv) == 0
+    names = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    assert names == ["capture_score.json", "capture_score.md", "capture_score.png"]
+    assert json.loads((out / "capture_score.json").read_text())["period"] == 3
+    md = (out / "capture_score.md").read_text()
+    assert "| period of the section | 3 | 3 |" in md and "within the noise floor" in md
+    assert main(argv) == 2  # its files are there: --force
+
+
+def test_report_names_the_separation_and_the_model_frequency(ideal, datasheet):
+    """The Markdown report of a separated capture: verdict, both periods, and the model's
+    forcing frequency eta_model omega / 2 pi (the capture's Hz scaled by eta_model / eta)."""
+    other = score_capture(datasheet, "fig6-period3-ideal", floor_captures=2, lle=False)
+    md = other.markdown("fig.png")
+    assert "**separated**" in md and "| period of the section | 2 | 3 |" in md
+    f = other.forcing.frequency_hz * other.eta_model / other.eta
+    assert f"{f:.9g}" in md and "![sections and impact velocities](fig.png)" in md
+    assert other.summary_lines()[2].endswith("SEPARATED from the model")
 
 
 def test_period_survives_one_over_f_noise():

@@ -380,3 +380,38 @@ def test_ltspice_files_compressed_and_not_score_as_measured(tmp_path):
     # float32 traces (6e-8 relative) move the attractor distance by far less than it is
     assert su == pytest.approx(so, rel=0.05)
     assert sk > 10 * su
+
+
+def test_spice_netlist_writes_the_scenes_netlist_that_spice_score_runs(tmp_path, capsys):
+    """``spice netlist`` (the README's starting point) writes exactly ``spice_netlist`` of the
+    scene's design, effects and start, and ``spice score`` runs it back: the ideal circuit
+    agrees with the mechanics from its first sample (sliced W of the sections below the
+    1e-2 that ngspice's default tolerances reach over 10 periods; measured ~1e-3)."""
+    path = tmp_path / "fig6.cir"
+    assert (
+        main(["spice", "netlist", "fig6-period3-ideal", "--periods", "11", "--out", str(path)]) == 0
+    )
+    assert path.read_text() == own_netlist(11)
+    capsys.readouterr()
+    assert main(["spice", "netlist", "fig6-period3-ideal", "--out", str(path)]) == 2  # no --force
+    assert "out" in capsys.readouterr().err
+    assert (
+        main(
+            [
+                "spice",
+                "netlist",
+                "fig6-period3-ideal",
+                "--periods",
+                "0",
+                "--out",
+                str(tmp_path / "z.cir"),
+            ]
+        )
+        == 2
+    )
+    assert "periods" in capsys.readouterr().err and not (tmp_path / "z.cir").exists()
+    argv = ["spice", "score", str(path), "--x-node", "s", "--v-node", "q", "--forcing-node", "v3"]
+    assert main(argv + ["--scene", "fig6-period3-ideal", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    (run,) = d["runs"]
+    assert run["scores"]["sliced_wasserstein"] < 1e-2

@@ -58,7 +58,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.periodicity import detect_period_noisy
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.lab.capture import Capture, design_of
 from precise_impact.models.circuit.components import circuit_scales
@@ -557,6 +557,21 @@ class CaptureScore(ResultMixin):
     lle: dict | None = None
     notes: list = dataclasses.field(default_factory=list)
 
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables ``section`` (the capture's Poincare section, dimensionless)
+        and ``section_model`` (the model captures' section)."""
+
+        def cloud(sec: dict) -> dict:
+            return {
+                unit_column("x", "1"): np.asarray(sec["x"], dtype=float),
+                unit_column("v", "1"): np.asarray(sec["v"], dtype=float),
+            }
+
+        return {
+            "section": lambda: cloud(self.section),
+            "section_model": lambda: cloud(self.section_model),
+        }
+
     def to_dict(self, arrays: bool = False) -> dict[str, Any]:
         d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         if not arrays:
@@ -566,6 +581,98 @@ class CaptureScore(ResultMixin):
             if self.lle is not None:  # the estimate, not its divergence curves
                 d["lle"] = {k: v for k, v in self.lle.items() if not isinstance(v, (list, tuple))}
         return d
+
+    def summary_lines(self) -> list[str]:
+        """The score in a few lines of text (what ``capture score`` prints)."""
+        f = self.forcing
+        out = [
+            f"forcing: {f.frequency_hz:.9g} Hz (+- {f.omega_stderr / 2 / math.pi:.2g}) from "
+            f"{f.source}, phase {f.phase0:.4f} rad; eta measured {self.eta:.6f}",
+            f"period {self.period} (model {self.period_model}); impacts/period "
+            f"{self.impacts['per_period']:.4f} (model {self.impacts['per_period_model']:.4f})",
+            f"sliced Wasserstein {self.sliced_wasserstein:.4g} vs floor {self.sw_floor:.4g} "
+            f"(max {self.sw_floor_max:.4g}); impact velocities W1 "
+            f"{self.impact_v_wasserstein:.4g} vs floor {self.impact_v_floor:.4g}: "
+            + ("SEPARATED from the model" if self.separated else "within the model's noise floor"),
+        ]
+        if self.lle is not None and self.lle.get("lle") is not None:
+            out.append(
+                f"LLE (time series, {self.lle.get('method')}): {self.lle['lle']:.4g} +- "
+                f"{self.lle.get('lle_stderr') or float('nan'):.2g} per unit tau"
+            )
+        elif self.lle is not None:
+            out.append(f"LLE: none ({self.lle.get('status')}: {self.lle.get('reason')})")
+        return out + ["note: " + n for n in self.notes]
+
+    def markdown(self, figure: str | None = None) -> str:
+        """A report of the score (Markdown): the capture, the model, each figure beside the
+        model's and its noise floor, the verdict; ``figure``: a figure file to link."""
+        f = self.forcing
+        src = self.source or {}
+        lle = self.lle or {}
+        rows = [
+            (
+                "forcing frequency [Hz]",
+                f"{f.frequency_hz:.9g} +- {f.omega_stderr / 2 / math.pi:.2g}",
+                f"{f.frequency_hz * self.eta_model / self.eta:.9g}",  # eta_model omega / 2 pi
+                f"from {f.source}",
+            ),
+            ("eta (Omega / omega)", f"{self.eta:.6f}", f"{self.eta_model:g}", ""),
+            ("period of the section", str(self.period), str(self.period_model), "0: none <= max"),
+            (
+                "impacts per period",
+                f"{self.impacts['per_period']:.4f}",
+                f"{self.impacts['per_period_model']:.4f}",
+                "",
+            ),
+            (
+                "section distance (sliced W)",
+                f"{self.sliced_wasserstein:.4g}",
+                f"floor {self.sw_floor:.4g} (max {self.sw_floor_max:.4g})",
+                "floor: below",
+            ),
+            (
+                "impact velocities (W1)",
+                f"{self.impact_v_wasserstein:.4g}",
+                f"floor {self.impact_v_floor:.4g}",
+                "",
+            ),
+        ]
+        if lle.get("lle") is not None:
+            rows.append(
+                (
+                    "LLE, time series [1/tau]",
+                    f"{lle['lle']:.4g} +- {lle.get('lle_stderr') or float('nan'):.2g}",
+                    "",
+                    str(lle.get("method", "")),
+                )
+            )
+        elif lle:
+            rows.append(
+                ("LLE, time series", "none", "", f"{lle.get('status')}: {lle.get('reason')}")
+            )
+        lines = [
+            f"# Capture score: {src.get('path', src.get('format', 'capture'))}",
+            "",
+            f"Against scene `{self.scene}` on model `{self.model}`, {self.periods:.1f} forcing "
+            f"periods captured ({src.get('format', '?')} layout).",
+            "",
+            "| figure | capture | model | note |",
+            "|---|---|---|---|",
+        ]
+        lines += [f"| {a} | {b} | {c} | {d} |" for a, b, c, d in rows]
+        verdict = (
+            "**separated**: the capture is off the model's attractor beyond what the "
+            "measurement alone explains (section distance > 2 x the largest floor)"
+            if self.separated
+            else "**within the noise floor**: the measurement cannot tell it from the model"
+        )
+        lines += ["", "Noise floor: " + self.floor_method + ".", "", "Verdict: " + verdict + "."]
+        if self.notes:
+            lines += [""] + [f"- {n}" for n in self.notes]
+        if figure:
+            lines += ["", f"![sections and impact velocities]({figure})"]
+        return "\n".join(lines) + "\n"
 
     def plot(self, path: Any = None, units: str = "dimensionless"):
         """Poincare sections (capture over model), impact-velocity distributions, and the
@@ -902,6 +1009,30 @@ class MeasuredBifurcation(ResultMixin):
     computed_eta: np.ndarray
     computed_x: np.ndarray
     sources: list
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables ``points`` (every capture's section points: capture index,
+        measured ``eta``, detected period, ``x``) and ``computed`` (the mechanics' diagram)."""
+
+        def points() -> dict:
+            n = [len(x) for x in self.x]
+            return {
+                "capture": np.repeat(np.arange(len(n)), n),
+                unit_column("eta", "1"): np.repeat(np.asarray(self.eta, dtype=float), n),
+                "period": np.repeat(np.asarray(self.period, dtype=int), n),
+                unit_column("x", "1"): np.concatenate([np.asarray(x, dtype=float) for x in self.x])
+                if n
+                else np.zeros(0),
+            }
+
+        def computed() -> dict:
+            k = self.computed_x.shape[1] if self.computed_x.ndim == 2 else 1
+            return {
+                unit_column("eta", "1"): np.repeat(np.asarray(self.computed_eta, dtype=float), k),
+                unit_column("x", "1"): np.asarray(self.computed_x, dtype=float).ravel(),
+            }
+
+        return {"points": points, "computed": computed}
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.params import Params
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 
@@ -183,6 +183,19 @@ class Capture(ResultMixin):
     def sample_rate(self) -> float:
         """Samples per second."""
         return 1.0 / self.sample_interval
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``samples``: time [s] and each recorded channel [V]."""
+
+        def samples() -> dict:
+            cols = {unit_column("t", "s"): np.asarray(self.t, dtype=float)}
+            for name in ("V_s", "V_q", "V_3"):
+                values = getattr(self, name)
+                if values is not None:
+                    cols[unit_column(name, "V")] = np.asarray(values, dtype=float)
+            return cols
+
+        return {"samples": samples}
 
     def to_dict(self, arrays: bool = False) -> dict[str, Any]:
         """A summary (sizes, sample interval, each channel's range, units, source); with

@@ -1,4 +1,5 @@
-"""Lyapunov exponents: variational (saltation) and two-trajectory (Benettin) methods."""
+"""Lyapunov exponents: variational (saltation), two-trajectory (Benettin) and from a measured
+time series (Rosenstein, Kantz: :mod:`.timeseries`)."""
 
 from __future__ import annotations
 

@@ -173,6 +173,17 @@ class TimeSeriesLLE(ResultMixin):
         lo, hi = self.ci95
         return self.status == "ok" and lo <= value <= hi
 
+    def _tables(self) -> dict:
+        """``to_dataframe()`` table ``divergence``: the mean log distance ``S`` and its error
+        at each lag (lags in the units of ``dt``)."""
+        return {
+            "divergence": lambda: {
+                "lag": np.asarray(self.lags, dtype=float),
+                "S": np.asarray(self.divergence, dtype=float),
+                "S_stderr": np.asarray(self.divergence_stderr, dtype=float),
+            }
+        }
+
     def plot(self, path: str | os.PathLike | None = None, truth: float | None = None):
         """The divergence curve ``S(t)`` with its error band, the fit range and the fitted
         line (and, if given, a line of slope ``truth`` through the same point).

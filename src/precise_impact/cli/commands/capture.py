@@ -111,7 +111,12 @@ def register(sub) -> argparse.ArgumentParser:
         "--no-lle", action="store_true", help="skip the time-series LLE (a few seconds)"
     )
     add_json(sc)
-    add_out(sc, "file", "write the score's figure (.png/.pdf/.svg) here")
+    add_out(
+        sc,
+        "dir",
+        "write capture_score.json, capture_score.md (the report) and capture_score.png here",
+        writes=("capture_score.json", "capture_score.md", "capture_score.png"),
+    )
     sc.set_defaults(capture_run=run_score)
 
     b = cs.add_parser(
@@ -179,12 +184,9 @@ def run_synth(ns: argparse.Namespace) -> int:
 
 
 def run_score(ns: argparse.Namespace) -> int:
-    from precise_impact.io.figures import check_plot_path
     from precise_impact.lab.attractor import score_capture
     from precise_impact.lab.scope_files import read_capture
 
-    if ns.out is not None:
-        check_plot_path(ns.out)
     phase = _float("phase", ns.phase, -1e3, 1e3)
     k = _int("floor-captures", ns.floor_captures, 2, 8)
     seed = _int("seed", ns.seed, 0, 2**63 - 1)
@@ -202,37 +204,27 @@ def run_score(ns: argparse.Namespace) -> int:
         seed=seed,
         lle=not ns.no_lle,
     )
+    written = []
     if ns.out is not None:
-        res.plot(ns.out)
+        from pathlib import Path
+
+        from precise_impact.io.atomic import atomic_write
+
+        out = Path(ns.out)
+        res.save(out / "capture_score.json")
+        res.plot(out / "capture_score.png")
+        text = res.markdown("capture_score.png")
+        atomic_write(out / "capture_score.md", lambda fh: fh.write(text), binary=False)
+        written = [
+            str(out / n) for n in ("capture_score.json", "capture_score.md", "capture_score.png")
+        ]
     if ns.json:
         print_json(res.to_dict())
         return 0
-    f = res.forcing
-    print(
-        f"forcing: {f.frequency_hz:.9g} Hz (+- {f.omega_stderr / 2 / math.pi:.2g}) from "
-        f"{f.source}, phase {f.phase0:.4f} rad; eta measured {res.eta:.6f}"
-    )
-    print(
-        f"period {res.period} (model {res.period_model}); impacts/period "
-        f"{res.impacts['per_period']:.4f} (model {res.impacts['per_period_model']:.4f})"
-    )
-    print(
-        f"sliced Wasserstein {res.sliced_wasserstein:.4g} vs floor {res.sw_floor:.4g} "
-        f"(max {res.sw_floor_max:.4g}); impact velocities W1 {res.impact_v_wasserstein:.4g} vs "
-        f"floor {res.impact_v_floor:.4g}: "
-        + ("SEPARATED from the model" if res.separated else "within the model's noise floor")
-    )
-    if res.lle is not None and res.lle.get("lle") is not None:
-        print(
-            f"LLE (time series, {res.lle.get('method')}): {res.lle['lle']:.4g} +- "
-            f"{res.lle.get('lle_stderr') or float('nan'):.2g} per unit tau"
-        )
-    elif res.lle is not None:
-        print(f"LLE: none ({res.lle.get('status')}: {res.lle.get('reason')})")
-    for n in res.notes:
-        print("note: " + n)
-    if ns.out is not None:
-        print(f"written: {ns.out}")
+    for line in res.summary_lines():
+        print(line)
+    if written:
+        print("written: " + ", ".join(written))
     return 0
 
 

@@ -1,4 +1,5 @@
-"""``precise-impact spice score NETLIST|RAW``: score your own SPICE netlist or raw waveforms."""
+"""``precise-impact spice netlist|score``: the project's netlist of a scene as a starting point;
+score your own SPICE netlist or raw waveforms against the mechanics."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import heyoka
 
 from precise_impact.cli.args import add_json, add_out, add_periods, add_units
 from precise_impact.core.params import check_count
+from precise_impact.io.atomic import atomic_write
 from precise_impact.io.jsonout import print_json
 
 __all__ = ["register", "run"]
@@ -19,6 +21,22 @@ def register(sub) -> argparse.ArgumentParser:
         "spice", help="your own circuit: score an ngspice/LTspice netlist or .raw waveform file"
     )
     ssub = s.add_subparsers(dest="spice_command", required=True)
+    nl = ssub.add_parser(
+        "netlist",
+        help="write a scene's ngspice netlist (the paper's Fig. 2 with the scene's design, "
+        "effects and start) to edit and score",
+    )
+    nl.add_argument(
+        "scene", help="built-in scene name (see: precise-impact scenes) or a .toml file"
+    )
+    add_periods(nl, None, "forcing periods simulated", default_text="default: the scene's")
+    nl.add_argument(
+        "--tmax",
+        default=None,
+        help="largest time step of .tran in seconds (default: the scene's, else 1e-5)",
+    )
+    add_out(nl, "file", "the netlist file to write (.cir)", required=True)
+    nl.set_defaults(run=run_netlist)
     sc = ssub.add_parser(
         "score",
         help="run a netlist with ngspice (or read a .raw file) and score it against the "
@@ -66,6 +84,21 @@ def register(sub) -> argparse.ArgumentParser:
     add_units(sc)
     s.set_defaults(run=run)
     return s
+
+
+def run_netlist(ns: argparse.Namespace) -> int:
+    """Run ``spice netlist``: the scene's netlist, written atomically; returns the exit status."""
+    from precise_impact.models.circuit.spice import spice_netlist
+    from precise_impact.scenes.scene import load_scene
+
+    scene, _dropped = load_scene(ns.scene).fitted_to("spice")
+    periods = scene.periods if ns.periods is None else check_count(ns.periods, "periods", 10**6, 1)
+    tmax = ns.tmax if ns.tmax is not None else (scene.tmax if scene.tmax is not None else "1e-5")
+    p = scene.params
+    text = spice_netlist(scene.design(), scene.effects, periods, tmax, p.x0, p.v0, p.t0)
+    atomic_write(ns.out, lambda fh: fh.write(text), binary=False)
+    print(f"written: {ns.out} ({periods} periods; nodes: x s, v q, forcing v3, impacts pol)")
+    return 0
 
 
 def run(ns: argparse.Namespace) -> int:
