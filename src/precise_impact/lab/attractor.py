@@ -529,8 +529,15 @@ class CaptureScore(ResultMixin):
     section, section_model : dict
         The section clouds (``x``, ``v``).
     lle : dict or None
-        The time-series LLE (when :mod:`precise_impact.analysis.lyapunov.timeseries` exists).
+        The time-series LLE (:func:`~precise_impact.analysis.lyapunov.timeseries.timeseries_lle`;
+        ``None`` with ``lle=False``).
     notes : list of str
+        What the scorer noticed (e.g. a threshold, a missing forcing channel).
+
+    See Also
+    --------
+    score_capture : makes it.
+    precise_impact.analysis.lyapunov.timeseries.timeseries_lle : the LLE estimator.
     """
 
     scene: str
@@ -832,6 +839,9 @@ def score_capture(
     model : str or None
         The circuit model of the reference (``circuit``, ``switched-capacitor``, ``spice``);
         ``None`` is the scene's.
+    channels : str, sequence, dict or None, default ``None``
+        When ``capture`` is a path: the file's channels for ``V_s``, ``V_q`` (and ``V_3``),
+        :func:`~precise_impact.lab.scope_files.parse_channels`.
     section_phase : float, default 0
         Forcing phase of the Poincare section [rad].
     max_period : int, default 16
@@ -842,14 +852,32 @@ def score_capture(
         Model periods discarded before each synthetic capture.
     eta : decimal, ``'measured'`` or None
         The model's forcing ratio: the scene's (``None``) or the capture's measured one.
-    seed : int
+    seed : int, default 0
         Seed of the model captures.
-    lle : bool
-        Estimate the LLE from the time series when the estimator is installed.
+    lle : bool, default True
+        Estimate the LLE from the time series
+        (:func:`~precise_impact.analysis.lyapunov.timeseries.timeseries_lle`; a periodic
+        capture gives none, with the reason).
 
     Returns
     -------
     CaptureScore
+        The forcing estimate, the section's period, impact statistics, the sliced Wasserstein
+        distance of the sections with its noise floor and the verdict (``separated``), the
+        LLE; ``markdown()`` is the report, ``plot()`` the figure.
+
+    See Also
+    --------
+    precise_impact.lab.synth.synth_capture : captures with a known truth.
+    measured_bifurcation : several captures over the computed diagram.
+
+    Examples
+    --------
+    >>> from precise_impact import score_capture, synth_capture
+    >>> cap = synth_capture("fig6-period2-datasheet", periods=60, transient=50)
+    >>> s = score_capture(cap, "fig6-period3-ideal", floor_captures=2, transient=50, lle=False)
+    >>> s.period, s.period_model, s.separated
+    (2, 3, True)
     """
     from precise_impact.lab.scope_files import read_capture
     from precise_impact.lab.synth import Measurement, synth_capture
@@ -1000,6 +1028,10 @@ class MeasuredBifurcation(ResultMixin):
     computed_eta, computed_x : numpy.ndarray
         The computed diagram (:func:`~precise_impact.analysis.orbits.branch.brute_force_diagram`):
         ``computed_x[i]`` the stroboscopic ``x`` at ``computed_eta[i]``.
+
+    See Also
+    --------
+    measured_bifurcation : makes it.
     """
 
     scene: str
@@ -1078,8 +1110,45 @@ def measured_bifurcation(
     max_period: int = 16,
 ) -> MeasuredBifurcation:
     """A measured bifurcation diagram: each capture's measured ``eta`` and Poincare-section ``x``,
-    over the computed diagram of the scene's mechanics across the captures' ``eta`` range
-    (``computed`` values, ``computed_periods`` recorded after 400 transient ones)."""
+    over the computed diagram of the scene's mechanics across the captures' ``eta`` range.
+
+    Parameters
+    ----------
+    captures : sequence of Capture or paths
+        Captures at several forcing frequencies (files are read with
+        :func:`~precise_impact.lab.scope_files.read_capture` and ``channels``).
+    scene : str, Path or Scene, default ``'fig6-period3-ideal'``
+        The design: its ``omega`` turns each capture's measured frequency into ``eta``, its
+        mechanics give the computed diagram.
+    channels : str, sequence, dict or None, default ``None``
+        The files' channels for ``V_s``, ``V_q`` (and ``V_3``):
+        :func:`~precise_impact.lab.scope_files.parse_channels`.
+    computed : int, default 80
+        ``eta`` values of the computed diagram, spread over the captures' range.
+    computed_periods : int, default 100
+        Stroboscopic points recorded per computed ``eta`` (after 400 transient periods).
+    max_period : int, default 16
+        Longest period looked for in each capture's section.
+
+    Returns
+    -------
+    MeasuredBifurcation
+        The measured points with their periods, and the computed diagram; ``plot()`` lays
+        one over the other.
+
+    See Also
+    --------
+    score_capture : one capture against the model's attractor.
+    precise_impact.analysis.orbits.branch.brute_force_diagram : the computed diagram.
+
+    Examples
+    --------
+    >>> from precise_impact import measured_bifurcation, synth_capture
+    >>> caps = [synth_capture(eta=e, periods=30, transient=20) for e in ("0.712", "0.74")]
+    >>> res = measured_bifurcation(caps, computed=4, computed_periods=20)
+    >>> [round(e, 3) for e in res.eta], res.period  # chaos: no period; period 3
+    ([0.712, 0.74], [0, 3])
+    """
     from precise_impact.analysis.orbits.branch import brute_force_diagram
     from precise_impact.lab.scope_files import read_capture
     from precise_impact.scenes.scene import Scene, load_scene

@@ -264,6 +264,10 @@ class ToleranceBudget(ResultMixin):
         The Monte Carlo seed and sample sizes.
     elapsed_s : float
         Wall time.
+
+    See Also
+    --------
+    tolerance_budget : makes it.
     """
 
     design: dict
@@ -550,6 +554,8 @@ def tolerance_budget(
         Sobol base sample ``N`` (SALib; ``N (2 D + 2)`` evaluations; ``0``: none).
     lle_mc : int, default 32
         Draws for the LLE at 0.712 (each a ``lle_periods``-period run of the fast engine).
+    lle_periods : int, default 2000
+        Forcing periods of each LLE run.
     ron : decimal or None
         The switches' on-resistance in ohms replacing the scene's.
     scans : bool, default ``True``
@@ -562,6 +568,9 @@ def tolerance_budget(
     Returns
     -------
     ToleranceBudget
+        The landmarks at the design with their derivatives by every component, the ranked
+        table (``ranked()``), Monte Carlo spreads, Sobol indices, worst-case corners, the
+        existence limits of the Fig. 6 orbit; ``markdown()``, ``plot()``.
 
     Raises
     ------
@@ -569,6 +578,19 @@ def tolerance_budget(
         Bad input, before any work.
     OptionalDependencyError
         SALib missing while ``sobol > 0``.
+
+    See Also
+    --------
+    effective_parameters : the components-to-parameters map it differentiates.
+    precise_impact.analysis.orbits.landmarks : the branch points as augmented systems.
+
+    Examples
+    --------
+    >>> from precise_impact import tolerance_budget
+    >>> b = tolerance_budget("fig6-period2-datasheet", landmarks=("grazing",), mc=0, sobol=0,
+    ...                      lle_mc=0, scans=False, fd_check=False)
+    >>> b.ranked()[0].split(" moves ")[0], b.ranked()[0].split(" by ")[1]
+    ('C2 at 5 %', '-2.861 Hz (-25246 ppm)')
     """
     t_start = time.perf_counter()
     design, ron0, defaults, label = _design_of(scene_or_components)

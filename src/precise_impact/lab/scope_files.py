@@ -357,6 +357,21 @@ def read_capture(
         ``channels`` (wrong channel).
     OptionalDependencyError
         A binary file without RigolWFM installed.
+
+    See Also
+    --------
+    write_capture : the same layouts, written.
+    precise_impact.lab.attractor.score_capture : score what was read.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact import read_capture, synth_capture, write_capture
+    >>> f = write_capture(synth_capture(periods=5, transient=5),
+    ...                   pathlib.Path(tempfile.mkdtemp()) / "tek.csv", "tek")
+    >>> cap = read_capture(f, "V_s=CH1,V_q=CH2")
+    >>> cap.source["format"], cap.units["V_s"]
+    ('tek', 'V')
     """
     if fmt not in READ_FORMATS:
         raise ParameterError("format", fmt, "one of " + ", ".join(READ_FORMATS))
@@ -747,10 +762,44 @@ _LABELS = {"V_s": "CH1", "V_q": "CH2", "V_3": "CH3"}
 
 
 def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = None) -> Path:
-    """Write ``capture`` in one of :data:`WRITE_FORMATS` (default by suffix: ``.npz``, ``.csv``).
+    """Write ``capture`` in one of :data:`WRITE_FORMATS`, in the instrument's own layout.
 
     Vendor layouts label ``V_s``, ``V_q``, ``V_3`` as ``CH1``, ``CH2``, ``CH3``; ``tek-tbs``
     writes a directory ``path`` holding ``F0000CH1.CSV`` ... (one file per channel).
+
+    Parameters
+    ----------
+    capture : Capture
+        What to write (e.g. from :func:`~precise_impact.lab.synth.synth_capture`).
+    path : path
+        The file (or, for ``tek-tbs``, the directory) to write.
+    fmt : str or None, default ``None``
+        One of :data:`WRITE_FORMATS`; ``None``: by suffix (``.npz`` NPZ, ``.bin`` Keysight
+        binary, else generic CSV).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ParameterError
+        An unknown ``fmt``.
+
+    See Also
+    --------
+    read_capture : reads every layout written here (and more).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from precise_impact import read_capture, synth_capture, write_capture
+    >>> cap = synth_capture(periods=5, transient=5)
+    >>> f = write_capture(cap, pathlib.Path(tempfile.mkdtemp()) / "scope.csv", "rigol")
+    >>> back = read_capture(f)
+    >>> back.source["format"], back.n_samples == cap.n_samples
+    ('rigol', True)
     """
     path = Path(path)
     fmt = fmt or {".npz": "npz", ".bin": "keysight-bin"}.get(path.suffix.lower(), "csv")

@@ -80,6 +80,10 @@ class Measurement:
         Time-base error: the scope's clock runs this many ppm fast.
     seed : int
         Seed of the noise and of the record's start on the attractor.
+
+    See Also
+    --------
+    synth_capture : a capture of a model through it.
     """
 
     bits: int = 8
@@ -227,6 +231,9 @@ def synth_capture(
         The channels recorded (``V_s`` and ``V_q`` always).
     transient : int, default 100
         Forcing periods run before the record may start.
+    **measurement_kw
+        Fields of :class:`Measurement` (``bits``, ``noise``, ``periods``, ``seed`` ...) when
+        ``measurement`` is ``None``.
 
     Returns
     -------
@@ -234,6 +241,19 @@ def synth_capture(
         With ``source['truth']`` (forcing ``omega_rad_s`` and ``phase0_rad`` in the file's time
         base, ``forcing_frequency_hz``, impacts in the record, scene, model, parameters) and
         ``source['measurement']``.
+
+    See Also
+    --------
+    Measurement : the measurement model.
+    precise_impact.lab.scope_files.write_capture : write it in an instrument's layout.
+    precise_impact.lab.attractor.score_capture : score it.
+
+    Examples
+    --------
+    >>> from precise_impact import synth_capture
+    >>> cap = synth_capture("fig6-period3-ideal", periods=10, transient=5, bits=8, noise=0.01)
+    >>> sorted(cap.channels), round(cap.source["truth"]["forcing_frequency_hz"], 3)
+    (['V_3', 'V_q', 'V_s'], 117.775)
     """
     from precise_impact.models.circuit.components import circuit_scales, to_circuit
     from precise_impact.models.circuit.effects.catalogue import CIRCUIT_MODELS

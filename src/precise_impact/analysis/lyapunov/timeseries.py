@@ -132,6 +132,11 @@ class TimeSeriesLLE(ResultMixin):
         Reference points used.
     stats : dict
         Settings and counts (samples per period, Theiler window, radius, neighbours...).
+
+    See Also
+    --------
+    timeseries_lle : makes it.
+    precise_impact.analysis.lyapunov.lyapunov : the variational LLE it is validated against.
     """
 
     lle: float
@@ -468,18 +473,18 @@ def timeseries_lle(
     lag_step : int or None, default ``None``
         Lag spacing in (grid) samples; ``None``: an eighth of a period (with ``period``),
         else ``max(1, max_lag / 200)``.
-    fit : str, default ``'floor'``
-        The model fitted to ``S(t)``: ``'floor'``, an exponential seen through a noise
-        floor, ``S = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` (the measured distance of a
-        pair is the true one and the noise's in quadrature: the slow start of a noisy
-        curve is modelled, not fitted as a low slope); ``'linear'``, Rosenstein's straight
-        line.
     fit_range : (float, float) or None, default ``None``
         Times to fit.  ``None``: the curve's own rising part, from where it has risen
         ``fit_fractions[0]`` of the way from its start ``S(t_1)`` (the first lag: at lag 0
         the neighbours were chosen for their small noisy distance) to the random-pair level
         to where it has risen ``fit_fractions[1]`` (falls, towards its lowest value, for a
         falling curve).
+    fit : str, default ``'floor'``
+        The model fitted to ``S(t)``: ``'floor'``, an exponential seen through a noise
+        floor, ``S = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` (the measured distance of a
+        pair is the true one and the noise's in quadrature: the slow start of a noisy
+        curve is modelled, not fitted as a low slope); ``'linear'``, Rosenstein's straight
+        line.
     fit_fractions : (float, float) or None, default ``None``
         The automatic fit range (``0 <= lo < hi <= 1``); ``None``: ``(0, 0.5)`` for
         ``fit='floor'`` (the floor is part of the model; saturation is not, so the range
@@ -507,6 +512,10 @@ def timeseries_lle(
         ``sqrt(Nyquist / cutoff)``.  ``'auto'``: the :data:`AUTO_LOWPASS_HARMONIC`-th
         forcing harmonic when ``period`` is given and the record has the samples for it,
         else no filter; ``None``: no filter.
+    floor_from_noise : bool, default True
+        With ``fit='floor'`` and a low-pass applied: fix the fit's noise floor at the level
+        the removed noise implies (the standard deviation of what the filter took out, after
+        the filter), instead of fitting it, when that level lies below the curve's start.
 
     Returns
     -------
@@ -516,6 +525,12 @@ def timeseries_lle(
     ------
     ParameterError
         Bad input (non-finite samples, too short a record, a constant component...).
+
+    See Also
+    --------
+    delay_embed : a scalar channel embedded first.
+    precise_impact.analysis.lyapunov.lyapunov : the variational LLE (the truth on model data).
+    precise_impact.lab.attractor.score_capture : calls it on a capture.
 
     References
     ----------
