@@ -103,6 +103,7 @@ def detect_period_noisy(
     Examples
     --------
     >>> import numpy as np
+    >>> from precise_impact.analysis.periodicity import detect_period_noisy
     >>> rng = np.random.default_rng(0)
     >>> xs = np.tile([0.1, 0.7, -0.4], 60) + 0.01 * rng.normal(size=180)
     >>> detect_period_noisy(xs, xs, 0.01, 0.01)
