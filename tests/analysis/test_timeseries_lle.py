@@ -124,6 +124,7 @@ def test_capture_at_0712_within_20_percent(method, variational_0712, tmp_path):
     d = r.to_dict()
     json.dumps(d, allow_nan=False)
     assert d["method"] == method and len(d["divergence"]) == len(d["lags"])
+    assert d["ci95"] == list(r.ci95)
 
 
 def test_generic_dimension_and_delay_embedding():
@@ -196,3 +197,35 @@ def test_done_when_ten_seeds():
         )
     print(f"{sum(good)}/10 good, {time.perf_counter() - t0:.1f} s")
     assert sum(good) >= 9
+
+
+def test_without_scipy_one_line_names_the_install(monkeypatch):
+    import sys
+
+    from precise_impact.errors import OptionalDependencyError
+
+    monkeypatch.setitem(sys.modules, "scipy", None)  # import scipy -> ImportError
+    with pytest.raises(OptionalDependencyError, match=r"precise_impact\[lab\]"):
+        timeseries_lle(_tent(1.8, 500), 1.0)
+
+
+def test_bias_correction_only_inside_the_table():
+    from precise_impact.analysis.lyapunov.timeseries import TRUTH_TABLE_BIAS
+
+    states, dt, period, phase0 = _capture_states("0.712", 102, bits=8, noise=0.01, periods=100)
+    raw = timeseries_lle(states, dt, period=period, phase0=phase0)
+    cor = timeseries_lle(states, dt, period=period, phase0=phase0, correct=True)
+    b, sb = TRUTH_TABLE_BIAS["rosenstein"]
+    assert cor.stats["correction"].startswith("divided by")
+    assert cor.lle == pytest.approx(raw.lle / (1 + b), rel=1e-12)
+    assert cor.stats["raw_lle"] == raw.lle
+    # the table's spread is added to the error bar, never taken away
+    assert cor.lle_stderr > raw.lle_stderr / (1 + b)
+    # a falling curve (a stable orbit approached) is outside the table: left as measured
+    period = 2 * math.pi / 0.712
+    tr = pi.simulate(
+        pi.Params.make(eta="0.712", a="0.5", x0="1.5"), periods=40, model="fast", per_period=64
+    )
+    y = np.column_stack([np.asarray(tr.dense_x, float), np.asarray(tr.dense_v, float)])
+    r = timeseries_lle(y, period / 64, period=period, theiler=0.5 * period, correct=True)
+    assert r.stats["correction"].startswith("not applied") and r.lle == r.stats["raw_lle"]
