@@ -1,7 +1,9 @@
 """Truth table of the time-series LLE estimators (issue 24), results in
 benchmarks/results/timeseries_lle.{json,md,png}.
 
-Run:  python benchmarks/bench_timeseries_lle.py [--quick]
+Run:  python benchmarks/bench_timeseries_lle.py [--quick] [--replot]
+
+``--replot`` redraws the .md and .png from the stored .json.
 
 Each row: synthetic captures of the ideal circuit (``synth_capture``, model ``'circuit'``) at
 eta = 0.712 through a measurement model, mapped back to (x, v, phase) with the true forcing, and
@@ -130,7 +132,13 @@ def summarise(runs, truth):
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--replot", action="store_true", help="redraw .md/.png from the .json")
     args = ap.parse_args()
+    if args.replot:
+        data = json.loads((OUT / "timeseries_lle.json").read_text())
+        write_md(data)
+        write_png(data)
+        return 0
     warnings.simplefilter("ignore", DeprecationWarning)
     seeds = 3 if args.quick else 5
     t_start = time.perf_counter()
@@ -312,7 +320,12 @@ def write_png(data):
         ax.set_xlabel({"spp": "samples per period", "noise": "noise / full scale",
                        "bits": "ADC bits", "periods": "record length [periods]"}[dim])  # fmt: skip
         if dim in ("spp", "periods"):
+            from matplotlib.ticker import NullFormatter, ScalarFormatter
+
             ax.set_xscale("log")
+            ax.set_xticks(VARY[dim])
+            ax.xaxis.set_major_formatter(ScalarFormatter())
+            ax.xaxis.set_minor_formatter(NullFormatter())
         ax.grid(True, lw=0.3, alpha=0.5)
     axes[0].set_ylabel("relative error of the LLE")
     axes[0].legend(fontsize=8)

@@ -229,3 +229,18 @@ def test_bias_correction_only_inside_the_table():
     y = np.column_stack([np.asarray(tr.dense_x, float), np.asarray(tr.dense_v, float)])
     r = timeseries_lle(y, period / 64, period=period, theiler=0.5 * period, correct=True)
     assert r.stats["correction"].startswith("not applied") and r.lle == r.stats["raw_lle"]
+
+
+def test_shipped_correction_is_the_truth_tables():
+    # TRUTH_TABLE_BIAS is what benchmarks/bench_timeseries_lle.py measured (to its 3 digits)
+    from pathlib import Path
+
+    from precise_impact.analysis.lyapunov.timeseries import TRUTH_TABLE_BIAS
+
+    table = Path(__file__).resolve().parents[2] / "benchmarks/results/timeseries_lle.json"
+    if not table.exists():
+        pytest.skip("no truth table in this checkout")
+    corr = json.loads(table.read_text())["correction"]
+    for method, (bias, spread) in TRUTH_TABLE_BIAS.items():
+        assert bias == pytest.approx(corr[method]["bias"], abs=1e-3)
+        assert spread == pytest.approx(corr[method]["spread"], abs=1e-3)
