@@ -191,6 +191,7 @@ JSON_COMMANDS = {
     "sync": ["sync", "--k", "0.05", "0.05", "1", "--periods", "5", "--ensemble", "1"]
     + ["--fig7", "0.031", "0.032", "--model", "fast", "--out", "{out}"],
     "bench": ["bench", "work-precision", "--quick"],
+    "capture": ["capture", "synth", "--out", "{out}/cap.npz", "--periods", "5", "--transient", "5"],
 }
 #: Over ~5 s each: CI runs them in its slow step.
 SLOW_JSON = {"bench", "compare"}

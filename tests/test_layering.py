@@ -35,6 +35,7 @@ LAYERS = {
     "scenes": 6,
     "verification": 7,
     "testing": 8,
+    "lab": 8,
     "cli": 9,
     "__main__": 9,
 }

@@ -94,7 +94,12 @@ def test_impacts_found_with_their_velocities(ideal):
     # each impact within one sample of the truth, its velocity within the fit's noise
     dt = c.sample_interval
     assert np.max(np.abs(an["impacts"]["t"] - truth["impacts_t"])) <= dt
-    assert np.max(np.abs(an["impacts"]["v"] - truth["impacts_v_before"])) < 0.1
+    err = an["impacts"]["v"] - truth["impacts_v_before"]
+    # 1 % noise: a quadratic extrapolated from 8 samples each side scatters by ~0.04 (max
+    # ~3.5 sd over 133 impacts); unbiased: the mean within 3 standard errors (0.04/sqrt 133).
+    # Linear fits at the interval's middle were biased by +0.022 (x'' over the window).
+    assert np.max(np.abs(err)) < 0.2
+    assert abs(np.mean(err)) < 0.012
 
 
 def test_score_separates_datasheet_from_ideal_beyond_the_floor(ideal, datasheet):
@@ -124,7 +129,31 @@ def test_cli_synth_then_score_json(tmp_path, capsys):
         main(["capture", "synth", "--out", str(f), "--format", "keysight", "--periods", "60"]) == 0
     )
     capsys.readouterr()
-    assert main(["capture", "score", str(f), "--json", "--floor-captures", "2"]) == 0
+    argv = ["capture", "score", str(f), "--json", "--floor-captures", "2", "--no-lle"]
+    assert main(argv) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["period"] == 3 and d["source"]["format"] == "keysight"
     assert main(["capture", "score", str(f), "--floor-captures", "9"]) == 2
+
+
+def test_period_survives_one_over_f_noise():
+    # 1 % of full scale of 1/f noise on top of the bench's white noise: the white noise alone
+    # (second differences) understates a section point's noise 3.4x and the chi-square test
+    # missed period 3; the excess measured on V_3's residual restores it
+    c = synth_capture("fig6-period3-ideal", seed=4, flicker=0.01, **BENCH)
+    an = analyse_capture(c, "fig6-period3-ideal")
+    assert an["period"] == 3 and an["noise"]["section_excess"] > 2
+    chaos = synth_capture("fig6-period3-ideal", eta="0.712", seed=4, flicker=0.01, **BENCH)
+    assert analyse_capture(chaos, "fig6-period3-ideal")["period"] == 0
+
+
+@pytest.mark.slow
+def test_lle_slot_calls_the_time_series_estimator(ideal):
+    # the chaos at 0.712: the estimate is the time-series module's (validated there); here
+    # only that the score carries it, in 1/tau, near the variational 0.0302 (20 %)
+    pytest.importorskip("precise_impact.analysis.lyapunov.timeseries")
+    s = score_capture(ideal["0.712"], "fig6-period3-ideal", eta="0.712", floor_captures=2)
+    assert s.lle is not None and s.lle["status"] == "ok"
+    assert abs(s.lle["lle"] / 0.0302 - 1) < 0.2
+    json.dumps(s.to_dict(), allow_nan=False)
+    assert "lags" not in s.to_dict()["lle"]

@@ -31,6 +31,8 @@ DIGITS = {"rigol": 5e-5, "tek": 5e-4, "siglent": 5e-5, "tek-tbs": 5e-5}
 
 @pytest.mark.parametrize("fmt", WRITE_FORMATS)
 def test_round_trip_every_layout(cap, tmp_path, fmt):
+    if fmt == "keysight-bin":
+        pytest.importorskip("RigolWFM")
     p = _write(cap, tmp_path, fmt)
     r = read_capture(p)
     assert r.n_samples == cap.n_samples
@@ -85,14 +87,21 @@ def test_damaged_files(cap, tmp_path):
     lines[10] = lines[10].replace(",", ",#", 1)
     p.write_text("\n".join(lines) + "\n")
     assert "line 11" in _refused(p) and "damaged" in _refused(p)
+    z = tmp_path / "bad.npz"
+    z.write_bytes(b"PK\x03\x04 not a zip")
+    assert "NPZ" in _refused(z)
+
+
+def test_damaged_and_truncated_binary(cap, tmp_path):
+    pytest.importorskip("RigolWFM")
     b = _write(cap, tmp_path, "keysight-bin")
     blob = bytearray(b.read_bytes())
     blob[0:2] = b"XX"
     b.write_bytes(bytes(blob))
     assert "damaged" in _refused(b)
-    z = tmp_path / "bad.npz"
-    z.write_bytes(b"PK\x03\x04 not a zip")
-    assert "NPZ" in _refused(z)
+    b = _write(cap, tmp_path, "keysight-bin")
+    b.write_bytes(b.read_bytes()[:-1000])
+    assert "truncated" in _refused(b)
 
 
 def test_truncated_files(cap, tmp_path):
@@ -105,9 +114,6 @@ def test_truncated_files(cap, tmp_path):
     lines = p.read_text().splitlines()
     p.write_text("\n".join(lines[:-100]) + "\n")  # whole rows missing: the header's length
     assert "header says" in _refused(p)
-    b = _write(cap, tmp_path, "keysight-bin")
-    b.write_bytes(b.read_bytes()[:-1000])
-    assert "truncated" in _refused(b)
 
 
 @pytest.mark.parametrize(
@@ -157,3 +163,31 @@ def test_cli_exit_2_one_line(cap, tmp_path, capsys, problem):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and problem.split()[-1] in err
+
+
+def _write_isf(path, cap, y, ch, yunit="V", ymult=1e-4):
+    """A Tektronix .isf file in the layout of Tek's FAQ "What format is an ISF file?" (the
+    WFMPRE preamble, then ':CURVE #<digits><bytes>' and big-endian int16 codes)."""
+    codes = np.round(np.asarray(y) / ymult).astype(">i2")
+    n = codes.size
+    pre = (
+        f":WFMPRE:BYT_NR 2;BIT_NR 16;ENCDG BIN;BN_FMT RI;BYT_OR MSB;NR_PT {n};"
+        f'WFID "Ch{ch}, DC coupling, 1.0E0 V/div, 1.0E-3 s/div, {n} points, Sample mode";'
+        f"PT_FMT Y;XINCR {cap.sample_interval:.6E};PT_OFF 0;XZERO {cap.t[0]:.6E};XUNIT "
+        f'"s";YMULT {ymult:.6E};YZERO 0.0E0;YOFF 0.0E0;YUNIT "{yunit}";'
+        f":CURVE #{len(str(2 * n))}{2 * n}"
+    )
+    path.write_bytes(pre.encode() + codes.tobytes() + b"\n")
+
+
+def test_tektronix_isf_folder(cap, tmp_path):
+    pytest.importorskip("RigolWFM")
+    d = tmp_path / "isf"
+    d.mkdir()
+    _write_isf(d / "TEK00000.ISF", cap, cap.V_q, 2)  # file order differs from channel order
+    _write_isf(d / "TEK00001.ISF", cap, cap.V_s, 1)
+    r = read_capture(d, "V_s=CH1,V_q=CH2")
+    assert np.max(np.abs(r.V_s - cap.V_s)) <= 0.5e-4 + 1e-12  # half a code of 1e-4 V
+    assert np.max(np.abs(r.t - cap.t)) < 1e-9
+    _write_isf(d / "TEK00001.ISF", cap, cap.V_s, 1, yunit="A")
+    assert "wrong unit" in _refused(d, channels="V_s=CH1,V_q=CH2")

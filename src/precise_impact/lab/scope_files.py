@@ -660,6 +660,19 @@ def _read_tbs(paths: list[Path], channels: Any) -> Capture:
     )
 
 
+def _isf_preamble(p: Path) -> tuple[str | None, str | None]:
+    """Channel name (``WFID "Ch2, ..."``) and unit (``YUNIT "V"``) of a Tektronix ``.isf``
+    file's ASCII preamble (RigolWFM 1.6 names every ISF channel ``CH 1`` and takes its unit as
+    volts), ``(None, None)`` for other files."""
+    if p.suffix.lower() != ".isf":
+        return None, None
+    with open(p, "rb") as fh:
+        head = fh.read(2048).split(b":CURVE", 1)[0].decode("latin-1")
+    m = re.search(r'WFID\s+"\s*(CH\d|MATH\d?|REF\d)', head, re.I)
+    u = re.search(r'YUNIT\s+"([^"]*)"', head, re.I)
+    return (m.group(1).upper() if m else None), (u.group(1).strip().lower() if u else None)
+
+
 def _read_binary(paths: list[Path], channels: Any) -> Capture:
     try:
         import RigolWFM.wfm as rwfm
@@ -682,13 +695,14 @@ def _read_binary(paths: list[Path], channels: Any) -> Capture:
                 "a binary waveform file RigolWFM reads (damaged or truncated?)",
             ) from None
         instrument = f"{w.header_name} ({w.parser_name})"
+        isf_name, isf_unit = _isf_preamble(p)
         for c in w.channels:
             if not getattr(c, "enabled", True) or c.volts is None or c.times is None:
                 continue
-            unit = getattr(c.unit, "name", str(c.unit)).lower()
+            unit = isf_unit or getattr(c.unit, "name", str(c.unit)).lower()
             if unit not in ("v", "volt", "volts", "1"):
                 raise _bad(p, f"{c.name} in {unit!r}", "channels in V (wrong unit)")
-            name = str(c.name).upper().replace(" ", "")
+            name = isf_name or str(c.name).upper().replace(" ", "")
             t = np.asarray(c.times, float)
             if t_ref is not None and (len(t) != len(t_ref)):
                 raise _bad(

@@ -2,7 +2,8 @@
 
 :func:`synth_capture` runs a scene on any model of the circuit (``circuit`` ideal op-amps,
 ``switched-capacitor`` with datasheet parts, ``spice`` through ngspice) through the project's
-scene machinery (:func:`precise_impact.verification.compare._run_model`), samples the trajectory
+scene machinery (:func:`precise_impact.verification.compare.scene_for_model` and
+:func:`precise_impact.scenes.run.run_scene`, as ``compare`` runs each model), samples the trajectory
 at the scope's sample times, maps it to volts with the design's component values
 (:func:`precise_impact.models.circuit.components.to_circuit`) and applies a
 :class:`Measurement`:
@@ -236,8 +237,9 @@ def synth_capture(
     """
     from precise_impact.models.circuit.components import circuit_scales, to_circuit
     from precise_impact.models.circuit.effects.catalogue import CIRCUIT_MODELS
+    from precise_impact.scenes.run import run_scene
     from precise_impact.scenes.scene import Scene, load_scene
-    from precise_impact.verification.compare import _run_model
+    from precise_impact.verification.compare import scene_for_model
 
     meas = (measurement or Measurement(**measurement_kw)).check()
     if measurement is not None and measurement_kw:
@@ -273,7 +275,11 @@ def synth_capture(
     dt_true = dt / (1 + e)
     t_true = t_true0 + np.arange(n) * dt_true
     run_periods = int(math.ceil((t_true[-1] + dt_true) / T)) + 1
-    tr = _run_model(sc, model, run_periods, DENSE_PER_PERIOD, params=params)
+    # the scene on the model (its effects that fit it kept), as compare runs each model
+    fitted = scene_for_model(sc, model, run_periods)[0]
+    tr = run_scene(
+        dataclasses.replace(fitted, periods=run_periods, per_period=DENSE_PER_PERIOD, params=params)
+    )
     tau = w * t_true
     x, v = sample_trajectory(tr, tau)
     _, Vs, Vq = to_circuit(comp, tau, x, v, w)

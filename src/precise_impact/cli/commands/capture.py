@@ -93,7 +93,7 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_json(s, "print the capture's summary as one JSON object")
     add_out(s, "file", "the capture file to write", required=True)
-    s.set_defaults(run=run_synth)
+    s.set_defaults(capture_run=run_synth)
 
     sc = cs.add_parser("score", help="score a capture against a model's attractor")
     sc.add_argument("file", help="capture file (or a Tektronix ALLnnnn directory)")
@@ -107,9 +107,12 @@ def register(sub) -> argparse.ArgumentParser:
     sc.add_argument("--phase", default="0", help="forcing phase of the Poincare section, rad")
     sc.add_argument("--floor-captures", default="3", help="model captures for the floor (2..8)")
     sc.add_argument("--seed", default="0", help="seed of the model captures (default 0)")
+    sc.add_argument(
+        "--no-lle", action="store_true", help="skip the time-series LLE (a few seconds)"
+    )
     add_json(sc)
     add_out(sc, "file", "write the score's figure (.png/.pdf/.svg) here")
-    sc.set_defaults(run=run_score)
+    sc.set_defaults(capture_run=run_score)
 
     b = cs.add_parser(
         "bifurcation", help="captures at several frequencies over the computed diagram"
@@ -120,7 +123,8 @@ def register(sub) -> argparse.ArgumentParser:
     b.add_argument("--computed", default="80", help="computed eta values (default 80, 0: none)")
     add_json(b)
     add_out(b, "file", "write the figure (.png/.pdf/.svg) here")
-    b.set_defaults(run=run_bifurcation)
+    b.set_defaults(capture_run=run_bifurcation)
+    c.set_defaults(run=run)
     return c
 
 
@@ -130,8 +134,9 @@ def _scene_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--eta", default=None, help="the model's eta: a decimal or 'measured'")
 
 
-def run(ns: argparse.Namespace) -> int:  # pragma: no cover - dispatched to the sub-commands
-    return int(ns.run(ns))
+def run(ns: argparse.Namespace) -> int:
+    """Run ``capture SUB``; returns the exit status."""
+    return int(ns.capture_run(ns))
 
 
 def run_synth(ns: argparse.Namespace) -> int:
@@ -188,7 +193,14 @@ def run_score(ns: argparse.Namespace) -> int:
     scene = load_scene(ns.scene)  # a bad scene is refused before the file is read
     cap = read_capture(ns.file, ns.channels, ns.format)
     res = score_capture(
-        cap, scene, ns.model, section_phase=phase, floor_captures=k, eta=ns.eta, seed=seed
+        cap,
+        scene,
+        ns.model,
+        section_phase=phase,
+        floor_captures=k,
+        eta=ns.eta,
+        seed=seed,
+        lle=not ns.no_lle,
     )
     if ns.out is not None:
         res.plot(ns.out)
@@ -210,6 +222,13 @@ def run_score(ns: argparse.Namespace) -> int:
         f"floor {res.impact_v_floor:.4g}: "
         + ("SEPARATED from the model" if res.separated else "within the model's noise floor")
     )
+    if res.lle is not None and res.lle.get("lle") is not None:
+        print(
+            f"LLE (time series, {res.lle.get('method')}): {res.lle['lle']:.4g} +- "
+            f"{res.lle.get('lle_stderr') or float('nan'):.2g} per unit tau"
+        )
+    elif res.lle is not None:
+        print(f"LLE: none ({res.lle.get('status')}: {res.lle.get('reason')})")
     for n in res.notes:
         print("note: " + n)
     if ns.out is not None:
