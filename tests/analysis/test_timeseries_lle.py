@@ -94,7 +94,7 @@ def test_non_impacting_orbit_converges_at_minus_zeta(method, x0):
     r = timeseries_lle(y, period / 64, period=period, method=method, theiler=0.5 * period)
     assert r.status == "ok"
     assert r.covers(-0.05), r
-    assert abs(r.lle + 0.05) < 0.005 * 0.05  # measured: 1.4e-4 relative
+    assert abs(r.lle + 0.05) < 0.005 * 0.05  # measured: 1.2e-3 .. 1.8e-3 relative
 
 
 @pytest.mark.parametrize("method", METHODS)
