@@ -59,6 +59,7 @@ import numpy as np
 
 from precise_impact.analysis.periodicity import detect_period_noisy
 from precise_impact.core.result import ResultMixin, unit_column
+from precise_impact.io.markdown import table as md_table
 from precise_impact.errors import ParameterError
 from precise_impact.lab.capture import Capture, design_of
 from precise_impact.models.circuit.components import circuit_scales
@@ -664,10 +665,8 @@ class CaptureScore(ResultMixin):
             f"Against scene `{self.scene}` on model `{self.model}`, {self.periods:.1f} forcing "
             f"periods captured ({src.get('format', '?')} layout).",
             "",
-            "| figure | capture | model | note |",
-            "|---|---|---|---|",
         ]
-        lines += [f"| {a} | {b} | {c} | {d} |" for a, b, c, d in rows]
+        lines += md_table(("figure", "capture", "model", "note"), rows)
         verdict = (
             "**separated**: the capture is off the model's attractor beyond what the "
             "measurement alone explains (section distance > 2 x the largest floor)"
