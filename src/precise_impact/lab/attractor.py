@@ -59,8 +59,8 @@ import numpy as np
 
 from precise_impact.analysis.periodicity import detect_period_noisy
 from precise_impact.core.result import ResultMixin, unit_column
-from precise_impact.io.markdown import table as md_table
 from precise_impact.errors import ParameterError
+from precise_impact.io.markdown import table as md_table
 from precise_impact.lab.capture import Capture, design_of
 from precise_impact.models.circuit.components import circuit_scales
 from precise_impact.verification.scores import sliced_wasserstein, wasserstein_1d
