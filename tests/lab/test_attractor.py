@@ -189,3 +189,52 @@ def test_floor_carries_the_scopes_own_noise():
     c = synth_capture("fig6-period3-ideal", seed=100, flicker=0.03, **BENCH)
     s = score_capture(c, "fig6-period3-ideal", floor_captures=3, seed=300, lle=False)
     assert not s.separated and s.period == 3
+
+
+# ------------------------------------------------------------------ wrong channels, clipping, NaN
+@pytest.mark.parametrize(
+    "channels", ["V_s=V_q,V_q=V_s", "V_s=V_3,V_q=V_q,V_3=V_s", "V_s=V_s,V_q=V_3,V_3=V_q"]
+)
+def test_cli_score_refuses_swapped_or_wrong_probes(ideal, tmp_path, capsys, channels):
+    # was: exit 0, "impacts/period 0.0000 ... W1 nan ... SEPARATED"; now one line naming the
+    # channels, exit 2, from the integrator relation V_s' = -V_q / (R8 C1)
+    f = tmp_path / "s7.csv"
+    ideal["0.74"].save(f)
+    capsys.readouterr()
+    rc = main(["capture", "score", str(f), "--channels", channels, "--no-lle"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1
+    assert "V_s" in err[0] and "V_q" in err[0] and "R8 C1" in err[0]
+
+
+def test_cli_score_refuses_a_clipped_capture(tmp_path, capsys):
+    # was: scored "SEPARATED" with SW 9e5; the 1e6 V offset puts every sample on a rail
+    f = tmp_path / "clip.csv"
+    args = ["--periods", "20", "--offset-error", "1e6", "--out", str(f)]
+    assert main(["capture", "synth", *args]) == 0
+    capsys.readouterr()
+    rc = main(["capture", "score", str(f), "--no-lle"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "rail" in err[0]
+
+
+def test_no_impacts_gives_none_not_nan():
+    # a small harmonic orbit of the design (V_s' = -V_q/(R8 C1)) far from the wall: no
+    # impacts, so the impact-velocity distance is None with its reason (was W1 nan)
+    from precise_impact.lab.capture import design_of
+    from precise_impact.models.circuit.components import circuit_scales
+
+    comp = design_of("fig6-period3-ideal")
+    sc = circuit_scales(comp)
+    Om = float(comp.Omega)
+    t = np.arange(200 * 100) * (2 * math.pi / Om / 100)
+    x = -0.5 + 0.05 * np.cos(Om * t)
+    v = -0.05 * (Om / sc.omega) * np.sin(Om * t)
+    cap = Capture.make(t, x * sc.volts_per_x, v * sc.volts_per_v, np.cos(Om * t))
+    s = score_capture(cap, floor_captures=2, transient=20, lle=False)
+    assert s.impacts["count"] == 0
+    assert s.impact_v_wasserstein is None and "no impacts" in s.impact_v_reason
+    text = "\n".join(s.summary_lines()) + s.markdown()
+    assert "nan" not in text.lower()
+    d = json.loads(json.dumps(s.to_dict(), allow_nan=False, default=str))
+    assert d["impact_v_wasserstein"] is None

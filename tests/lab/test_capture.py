@@ -66,3 +66,16 @@ def test_summary_is_strict_json(tmp_path):
     json.dumps(c.to_dict(), allow_nan=False)
     assert c.duration == pytest.approx(100 * 1e-4) and c.sample_rate == pytest.approx(1e4)
     c.save(tmp_path / "c.json")
+
+
+def test_wall_and_amplitude_come_from_dimensionless(monkeypatch):
+    # x_w and a have one home (components.dimensionless); the capture used to rebuild them by hand
+    import precise_impact.models.circuit.components as comps
+
+    comp = design_of("fig6-period3-ideal")
+    p = comps.dimensionless(comp)
+    m = _cap().to_mechanical(comp)
+    assert (m.x_w, m.a) == (float(p.x_w), float(p.a))
+    monkeypatch.setattr(comps, "dimensionless", lambda c: p.replace(x_w="1.5", a="0.25"))
+    m = _cap().to_mechanical(comp)
+    assert (m.x_w, m.a) == (1.5, 0.25)

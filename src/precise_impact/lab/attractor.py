@@ -61,7 +61,7 @@ from precise_impact.analysis.periodicity import detect_period_noisy
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.io.markdown import table as md_table
-from precise_impact.lab.capture import Capture, design_of
+from precise_impact.lab.capture import CLIP_MAX_FRACTION, Capture, check_channels, design_of
 from precise_impact.models.circuit.components import circuit_scales
 from precise_impact.verification.scores import sliced_wasserstein, wasserstein_1d
 
@@ -522,8 +522,11 @@ class CaptureScore(ResultMixin):
     sw_floor_halves : float
         SW distance between the capture's first and second half, divided by ``sqrt 2`` (the
         floor of clouds twice as large): a floor that does not depend on the noise model.
-    impact_v_wasserstein, impact_v_floor : float
-        The same for the impact velocities (1-Wasserstein).
+    impact_v_wasserstein, impact_v_floor : float or None
+        The same for the impact velocities (1-Wasserstein); ``None`` when the capture or the
+        model has no impacts (``impact_v_reason`` says which).
+    impact_v_reason : str
+        Why the impact-velocity distance is ``None`` (empty when it is not).
     separated : bool
         ``sliced_wasserstein > 2 sw_floor_max``: the capture is off the model's attractor beyond
         what the measurement alone explains.
@@ -555,8 +558,9 @@ class CaptureScore(ResultMixin):
     sw_floor: float
     sw_floor_max: float
     sw_floor_halves: float
-    impact_v_wasserstein: float
-    impact_v_floor: float
+    impact_v_wasserstein: float | None
+    impact_v_floor: float | None
+    impact_v_reason: str
     separated: bool
     floor_method: str
     section: dict
@@ -590,6 +594,12 @@ class CaptureScore(ResultMixin):
                 d["lle"] = {k: v for k, v in self.lle.items() if not isinstance(v, (list, tuple))}
         return d
 
+    def _w1_text(self) -> str:
+        """The impact-velocity distance with its floor, or ``none (why)``."""
+        if self.impact_v_wasserstein is None or self.impact_v_floor is None:
+            return f"none ({self.impact_v_reason})"
+        return f"{self.impact_v_wasserstein:.4g} vs floor {self.impact_v_floor:.4g}"
+
     def summary_lines(self) -> list[str]:
         """The score in a few lines of text (what ``capture score`` prints)."""
         f = self.forcing
@@ -599,8 +609,7 @@ class CaptureScore(ResultMixin):
             f"period {self.period} (model {self.period_model}); impacts/period "
             f"{self.impacts['per_period']:.4f} (model {self.impacts['per_period_model']:.4f})",
             f"sliced Wasserstein {self.sliced_wasserstein:.4g} vs floor {self.sw_floor:.4g} "
-            f"(max {self.sw_floor_max:.4g}); impact velocities W1 "
-            f"{self.impact_v_wasserstein:.4g} vs floor {self.impact_v_floor:.4g}: "
+            f"(max {self.sw_floor_max:.4g}); impact velocities W1 {self._w1_text()}: "
             + ("SEPARATED from the model" if self.separated else "within the model's noise floor"),
         ]
         if self.lle is not None and self.lle.get("lle") is not None:
@@ -641,9 +650,9 @@ class CaptureScore(ResultMixin):
             ),
             (
                 "impact velocities (W1)",
-                f"{self.impact_v_wasserstein:.4g}",
-                f"floor {self.impact_v_floor:.4g}",
-                "",
+                "none" if self.impact_v_wasserstein is None else f"{self.impact_v_wasserstein:.4g}",
+                "" if self.impact_v_floor is None else f"floor {self.impact_v_floor:.4g}",
+                self.impact_v_reason,
             ),
         ]
         if lle.get("lle") is not None:
@@ -716,8 +725,7 @@ class CaptureScore(ResultMixin):
         ax.set_ylabel("density")
         ax.set_title(
             f"impacts/period {self.impacts['per_period']:.3f} (model "
-            f"{self.impacts.get('per_period_model', math.nan):.3f}); W1 "
-            f"{self.impact_v_wasserstein:.3g} vs floor {self.impact_v_floor:.3g}",
+            f"{self.impacts.get('per_period_model', math.nan):.3f}); W1 {self._w1_text()}",
             fontsize=9,
         )
         ax.legend(fontsize=8)
@@ -894,6 +902,11 @@ def score_capture(
     model = model or sc.model
     comp = sc.design()
     notes: list[str] = []
+    # wrong, swapped or inverted probes and clipped channels are refused before any scoring
+    chk = check_channels(capture, comp)
+    for k, share in chk["clipped"].items():
+        if share > 0.5 * CLIP_MAX_FRACTION:
+            notes.append(f"{k}: {share:.0%} of its samples at one rail (clipping?)")
     forcing = estimate_forcing(capture, float(comp.Omega))
     eta_meas = forcing.omega / float(comp.omega())
     if eta == "measured":
@@ -952,8 +965,17 @@ def score_capture(
     floors = [sliced_wasserstein(clouds[i], clouds[j]) for i, j in pairs]
     vimp = an["impacts"]["v"]
     vms = [a["impacts"]["v"] for a in ref_an]
-    w1 = float(np.mean([wasserstein_1d(vimp, vm) for vm in vms]))
-    w1_floor = float(np.mean([wasserstein_1d(vms[i], vms[j]) for i, j in pairs]))
+    # the impact-velocity distance needs impacts on both sides: none, with the reason, else
+    w1: float | None = None
+    w1_floor: float | None = None
+    w1_reason = ""
+    if not len(vimp):
+        w1_reason = "no impacts detected in the capture"
+    elif not all(len(vm) for vm in vms):
+        w1_reason = "no impacts in the model's captures"
+    else:
+        w1 = float(np.mean([wasserstein_1d(vimp, vm) for vm in vms]))
+        w1_floor = float(np.mean([wasserstein_1d(vms[i], vms[j]) for i, j in pairs]))
     impacts = {
         "count": an["impacts"]["count"],
         "per_period": an["impacts"]["per_period"],
@@ -994,6 +1016,7 @@ def score_capture(
         sw_floor_halves=float(halves),
         impact_v_wasserstein=w1,
         impact_v_floor=w1_floor,
+        impact_v_reason=w1_reason,
         separated=sep,
         floor_method=(
             f"{floor_captures} independent synthetic captures of the model through the capture's "

@@ -34,6 +34,8 @@ __all__ = [
     "CHANNELS",
     "MIN_SAMPLES",
     "design_of",
+    "check_channels",
+    "integrator_pair_fit",
 ]
 
 #: The channels a capture may carry, by their role in the circuit (paper Fig. 2).
@@ -266,10 +268,11 @@ class Capture(ResultMixin):
             The forcing phase at ``t = 0`` [rad] (``V_3 = V_A cos(Omega t + phase0)``); ``None``
             leaves :attr:`MechanicalSeries.phase` out.
         """
-        from precise_impact.models.circuit.components import circuit_scales
+        from precise_impact.models.circuit.components import circuit_scales, dimensionless
 
         comp = design_of(design)
         sc = circuit_scales(comp)
+        mech = dimensionless(comp)  # the one home of x_w = -V_wall/V_unit, a = V_A R7/(R1 V_unit)
         Om = float(comp.Omega) if forcing_omega is None else float(forcing_omega)
         tau = self.t / sc.seconds_per_tau
         x = self.V_s / sc.volts_per_x
@@ -284,8 +287,8 @@ class Capture(ResultMixin):
             phase=phase,
             eta=Om / sc.omega,
             omega=sc.omega,
-            x_w=float(-comp.V_wall / comp.V_unit),
-            a=float(comp.V_A * comp.R7 / (comp.R1 * comp.V_unit)),
+            x_w=float(mech.x_w),
+            a=float(mech.a),
         )
 
     # ------------------------------------------------------------------ plot
@@ -374,3 +377,124 @@ def design_of(design: Any):
     raise ParameterError(
         "design", type(design).__name__, "Components, Params, a Scene or a scene name"
     )
+
+
+# ============================================================== wrong channels, clipping
+#: Smallest share of ``V_s``'s variance (its white noise taken out) that ``-integral V_q dt /
+#: (R8 C1)`` must explain, segment by segment, for the two channels to be taken as the
+#: integrator pair.  Measured on synthetic captures at eta = 0.74: the right pair 0.9994 (8 bit,
+#: 1 % noise), 0.987 (4 bit), 0.79 (10 % white + 1 % 1/f noise, 0.3 V offsets); a wrong pair
+#: 0.05..0.55 (V_s/V_q swapped 0.55, V_3 as V_s 0.50, V_3 as V_q 0.05, V_q as V_s and V_3 as V_q
+#: 0.26): the threshold sits between the two groups.
+INTEGRATOR_MIN_R2 = 0.7
+#: The integrator's fitted ``R8 C1`` may differ from the design's by this factor at most
+#: (probe gain errors of +-49 % give at most 1.49 / 0.51 = 2.9; a 10x probe set to 1x gives 10).
+INTEGRATOR_MAX_RATIO = 3.0
+#: Largest share of a channel's samples at one of its extreme values (the ADC's rail) before
+#: the capture is refused as clipped (an 8-bit sinusoid fitted to the screen puts ~4 % of its
+#: samples on its top code; noise spreads them).
+CLIP_MAX_FRACTION = 0.2
+
+
+def integrator_pair_fit(
+    t: np.ndarray,
+    vs: np.ndarray,
+    vq: np.ndarray,
+    segment: int | None = None,
+    noise_vs: float = 0.0,
+) -> tuple[float, float]:
+    """``(R8 C1, R^2)`` of ``V_s = c - integral V_q dt / (R8 C1)``.
+
+    The one home of the integrator-pair relation of the circuit's position and velocity
+    channels.  ``segment`` samples per independent constant (``None``: one constant for the
+    whole record, as a simulator's noise-free run allows); a capture uses segments of about a
+    forcing period, so that neither the random walk of the integrated noise (``sigma dt
+    sqrt(n)``) nor a probe offset on ``V_q`` (a drift ``offset t``) accumulates over more than
+    one segment.  ``R^2`` is the share of ``V_s``'s within-segment variance explained; a
+    negative ``R8 C1`` means the two channels are swapped or one is inverted.  ``noise_vs``:
+    ``V_s``'s white-noise RMS [V], whose variance (which no relation can explain) is taken out
+    of both the residual and the total before the share is formed.
+    """
+    t = np.asarray(t, float)
+    vs = np.asarray(vs, float)
+    vq = np.asarray(vq, float)
+    q = np.concatenate(([0.0], np.cumsum(0.5 * (vq[1:] + vq[:-1]) * np.diff(t))))
+    n = len(t)
+    seg = n if segment is None else max(2, min(int(segment), n))
+    m = (n // seg) * seg
+    if m < seg or m < 4:
+        return math.nan, 0.0
+    qs = q[:m].reshape(-1, seg)
+    ys = vs[:m].reshape(-1, seg)
+    qs = qs - qs.mean(axis=1, keepdims=True)
+    ys = ys - ys.mean(axis=1, keepdims=True)
+    qq, yy = float(np.sum(qs * qs)), float(np.sum(ys * ys))
+    if not (qq > 0 and yy > 0):
+        return math.nan, 0.0
+    k = float(np.sum(qs * ys)) / qq  # = -1 / (R8 C1)
+    r = ys - k * qs
+    white = m * (1 - 1 / seg) * float(noise_vs) ** 2  # expected within-segment noise sum
+    r2 = 1.0 - max(float(np.sum(r * r)) - white, 0.0) / max(yy - white, 1e-300 * yy)
+    return (-1.0 / k if k else math.inf), r2
+
+
+def check_channels(capture: Capture, design: Any, names: dict | None = None) -> dict:
+    """Refuse a capture whose channels are not the circuit's ``V_s``, ``V_q`` (swapped, wrong or
+    inverted probes, another node) or that is clipped, with one line naming the channels.
+
+    ``V_s`` must be the integral of ``V_q``: ``V_s' = -V_q / (R8 C1)`` with ``R8 C1`` of the
+    design's sign and within :data:`INTEGRATOR_MAX_RATIO` of its value
+    (:func:`integrator_pair_fit`, segments of one design period); no channel may have more
+    than :data:`CLIP_MAX_FRACTION` of its samples at one extreme value.  Returns
+    ``{'R8C1', 'R8C1_design', 'r2', 'clipped'}`` (``clipped``: each channel's largest share
+    of samples at one rail).
+    """
+    from precise_impact.models.circuit.components import circuit_scales
+
+    names = dict(names or capture.source.get("channel_map") or {})
+    label = {k: f"{k} ({names[k]})" if names.get(k) and names[k] != k else k for k in CHANNELS}
+    what = str(capture.source.get("path") or "capture")
+    clipped = {}
+    for k, y in capture.channels.items():
+        n = len(y)
+        share = max(int(np.sum(y == y.max())), int(np.sum(y == y.min()))) / n
+        clipped[k] = share
+        if share > CLIP_MAX_FRACTION:
+            raise ParameterError(
+                what,
+                f"channel {label[k]}: {share:.0%} of its samples at one rail",
+                f"an unclipped capture (<= {CLIP_MAX_FRACTION:.0%} at the ADC's rails: widen "
+                "the vertical range or fix the offset)",
+            )
+    comp = design_of(design)
+    sc = circuit_scales(comp)
+    rc_design = sc.volts_per_v / (sc.omega * -sc.volts_per_x)  # R8 C1 with V_unit's sign
+    seg = max(8, round(2 * math.pi / (sc.omega * capture.sample_interval)))
+    from precise_impact.lab.attractor import noise_sigma
+
+    rc, r2 = integrator_pair_fit(capture.t, capture.V_s, capture.V_q, seg, noise_sigma(capture.V_s))
+    pair = f"{label['V_s']} and {label['V_q']}"
+    if not (r2 >= INTEGRATOR_MIN_R2 and math.isfinite(rc)):
+        raise ParameterError(
+            what,
+            f"channels {pair}: -integral V_q dt/(R8 C1) explains {max(r2, 0.0):.0%} of V_s",
+            f">= {INTEGRATOR_MIN_R2:.0%} (V_s the integral of V_q): a wrong channel? give "
+            "--channels V_s=..,V_q=..[,V_3=..]",
+        )
+    ratio = rc / rc_design
+    if ratio < 0:
+        raise ParameterError(
+            what,
+            f"channels {pair}: V_s' = -V_q/(R8 C1) with R8 C1 = {rc:.3g} s (design "
+            f"{rc_design:.3g} s)",
+            "the design's sign: V_s and V_q swapped or one probe inverted (--channels)",
+        )
+    if not 1 / INTEGRATOR_MAX_RATIO <= ratio <= INTEGRATOR_MAX_RATIO:
+        raise ParameterError(
+            what,
+            f"channels {pair}: R8 C1 = {rc:.3g} s from the capture, {ratio:.3g} x the design's "
+            f"{rc_design:.3g} s",
+            f"within {INTEGRATOR_MAX_RATIO:g}x of the design (a probe's attenuation, or another "
+            "scene's design?)",
+        )
+    return {"R8C1": rc, "R8C1_design": rc_design, "r2": r2, "clipped": clipped}
