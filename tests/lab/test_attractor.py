@@ -208,14 +208,24 @@ def test_cli_score_refuses_swapped_or_wrong_probes(ideal, tmp_path, capsys, chan
 
 
 def test_cli_score_refuses_a_clipped_capture(tmp_path, capsys):
-    # was: scored "SEPARATED" with SW 9e5; the 1e6 V offset puts every sample on a rail
+    # was: a capture wiped by a 1e6 V offset scored "SEPARATED" with SW 9e5; a 1 V full scale
+    # on the 4.5 V signals puts a third of each channel's samples on one rail
     f = tmp_path / "clip.csv"
-    args = ["--periods", "20", "--offset-error", "1e6", "--out", str(f)]
+    args = ["--periods", "20", "--full-scale", "1", "--out", str(f)]
     assert main(["capture", "synth", *args]) == 0
     capsys.readouterr()
     rc = main(["capture", "score", str(f), "--no-lle"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "rail" in err[0]
+
+
+def test_a_large_probe_offset_is_not_a_wrong_channel():
+    # V_q's offset is its record mean (V_s is bounded): removed before the integral, so a
+    # 1e6 V offset on every channel (csv keeps every digit) is still the integrator pair
+    from precise_impact.lab.capture import check_channels
+
+    cap = synth_capture("fig6-period3-ideal", periods=30, transient=20, offset_error=1e6)
+    assert check_channels(cap, "fig6-period3-ideal")["r2"] > 0.99
 
 
 def test_no_impacts_gives_none_not_nan():
@@ -238,3 +248,17 @@ def test_no_impacts_gives_none_not_nan():
     assert "nan" not in text.lower()
     d = json.loads(json.dumps(s.to_dict(), allow_nan=False, default=str))
     assert d["impact_v_wasserstein"] is None
+
+
+def test_score_stops_at_its_budget(ideal, monkeypatch):
+    # was: no capture subcommand had a time budget.  A clock that advances 10 s per reading
+    # makes the budget run out at the first check, between the model captures
+    import itertools
+
+    import precise_impact.core.budget as budget
+    from precise_impact.errors import BudgetExceededError
+
+    ticks = itertools.count()
+    monkeypatch.setattr(budget.time, "monotonic", lambda: 10.0 * next(ticks))
+    with pytest.raises(BudgetExceededError, match="capture score: max_time = 5 s"):
+        score_capture(ideal["0.74"], floor_captures=2, transient=20, lle=False, max_time=5)

@@ -66,3 +66,66 @@ def test_spice_model_capture():
     truth = c.source["truth"]
     assert truth["model"] == "spice" and len(truth["impacts_t"]) > 0
     assert c.V_s.min() > -2 - 0.05  # the wall at V_wall = -2 V, within the 8-bit step
+
+
+# ---------------------------------------------------------------- bounds, budgets, round trips
+@pytest.mark.parametrize(
+    "args, name, status",
+    [
+        (["--sample-rate", "1e-6"], "sample_rate", 2),  # was exit 3 naming periods
+        (["--sample-rate", "1"], "sample_rate", 2),  # was "capture ... >= 16 samples"
+        (["--full-scale", "V_s=1,V_s=2"], "full-scale", 2),  # was: the last one kept
+        (["--gain-error", "V_q=0.1,V_q=0.2"], "gain-error", 2),
+        (["--offset-error", "V_3=1,V_3=1"], "offset-error", 2),
+        (["--trigger-offset", "1e6", "--sample-rate", "1e9", "--periods", "2"], "trigger", 2),
+        (["--periods", "1e5", "--max-time", "1"], "max_time", 3),  # was > 20 s, no budget
+    ],
+)
+def test_cli_synth_bounds_before_any_work(tmp_path, capsys, args, name, status):
+    from precise_impact.cli.main import main
+
+    f = tmp_path / "c.csv"
+    assert main(["capture", "synth", *args, "--out", str(f)]) == status
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and name in err[0]
+    assert not f.exists()
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"trigger_offset": 1e6},  # was written with %.10g times: 'median step 0 s'
+        {"trigger_offset": -1e6},
+        {"offset_error": 1e6},  # was written with %.7g volts: the signal wiped
+        {"offset_error": -1e6, "bits": 0},
+        {"bits": 24, "noise": 0.0},
+    ],
+)
+def test_every_file_synth_writes_reads_back(tmp_path, kw):
+    from precise_impact.errors import ParameterError
+    from precise_impact.lab.scope_files import WRITE_FORMATS, read_capture
+
+    cap = synth_capture(periods=3, transient=2, **kw)
+    for fmt in WRITE_FORMATS:
+        if fmt == "keysight-bin":
+            pytest.importorskip("RigolWFM")
+        p = (
+            tmp_path
+            / f"c_{fmt}{ {'npz': '.npz', 'keysight-bin': '.bin', 'tek-tbs': ''}.get(fmt, '.csv') }"
+        )
+        try:
+            cap.save(p, fmt)
+        except ParameterError as e:  # a layout whose digits cannot carry it refuses to write
+            assert e.name == "format" and fmt not in ("csv", "npz")
+            assert not p.exists()
+            continue
+        r = read_capture(p)
+        # times: the reader fits t0 + k dt to the printed times (its rounding, ulps of t)
+        assert np.max(np.abs(r.t - cap.t)) <= 1e-3 * cap.sample_interval, fmt
+        if fmt in ("csv", "npz"):  # every bit of the voltages kept
+            for k in ("V_s", "V_q", "V_3"):
+                assert np.array_equal(getattr(r, k), getattr(cap, k)), (fmt, k)
+        else:  # within the layout's digits: 1e-3 of each channel's peak-to-peak
+            for k in ("V_s", "V_q", "V_3"):
+                y = getattr(cap, k)
+                assert np.max(np.abs(getattr(r, k) - y)) <= 1e-3 * np.ptp(y), (fmt, k)

@@ -58,6 +58,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.periodicity import detect_period_noisy
+from precise_impact.core.budget import Deadline, parse_max_time
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.io.markdown import table as md_table
@@ -833,6 +834,7 @@ def score_capture(
     eta: Any = None,
     seed: int = 0,
     lle: bool = True,
+    max_time: Any = None,
 ) -> CaptureScore:
     """Score a capture against ``scene`` on ``model`` at the level of the attractor.
 
@@ -861,6 +863,10 @@ def score_capture(
         The model's forcing ratio: the scene's (``None``) or the capture's measured one.
     seed : int, default 0
         Seed of the model captures.
+    max_time : float or None, default ``None``
+        Time budget [s] of the whole score, enforced while it runs (each model capture's
+        run is checked against what is left before it starts;
+        :class:`~precise_impact.errors.BudgetExceededError` once it has run out).
     lle : bool, default True
         Estimate the LLE from the time series
         (:func:`~precise_impact.analysis.lyapunov.timeseries.timeseries_lle`; a periodic
@@ -890,6 +896,7 @@ def score_capture(
     from precise_impact.lab.synth import Measurement, synth_capture
     from precise_impact.scenes.scene import Scene, load_scene
 
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "capture score")
     if not isinstance(capture, Capture):
         capture = read_capture(capture, channels)
     if not isinstance(floor_captures, int) or not 2 <= floor_captures <= 8:
@@ -944,7 +951,9 @@ def score_capture(
             eta=eta_model,
             measurement=dataclasses.replace(meas, seed=seed + 1 + i),
             transient=transient,
+            max_time=deadline if max_time is not None else None,
         )
+        deadline.check(f"model capture {i + 1} of {floor_captures}")
         if surrogate is not None:
             r = _add_surrogate(r, surrogate, noise, rng)
         refs.append(_requantised(r, capture, noise))
@@ -1130,6 +1139,7 @@ def measured_bifurcation(
     computed: int = 80,
     computed_periods: int = 100,
     max_period: int = 16,
+    max_time: Any = None,
 ) -> MeasuredBifurcation:
     """A measured bifurcation diagram: each capture's measured ``eta`` and Poincare-section ``x``,
     over the computed diagram of the scene's mechanics across the captures' ``eta`` range.
@@ -1151,6 +1161,8 @@ def measured_bifurcation(
         Stroboscopic points recorded per computed ``eta`` (after 400 transient periods).
     max_period : int, default 16
         Longest period looked for in each capture's section.
+    max_time : float or None, default ``None``
+        Time budget [s], enforced between captures and passed to the computed diagram.
 
     Returns
     -------
@@ -1179,11 +1191,15 @@ def measured_bifurcation(
         raise ParameterError("captures", [], "at least one capture")
     if not isinstance(computed, int) or not 0 <= computed <= 2000:
         raise ParameterError("computed", computed, "an integer 0..2000")
+    deadline = Deadline(
+        None if max_time is None else parse_max_time(max_time), "capture bifurcation"
+    )
     sc = scene if isinstance(scene, Scene) else load_scene(scene)
     comp = sc.design()
     w = float(comp.omega())
     etas, xs, pers, srcs = [], [], [], []
     for c in captures:
+        deadline.check(f"after {len(etas)} of {len(captures)} captures")
         cap = c if isinstance(c, Capture) else read_capture(c, channels)
         an = analyse_capture(cap, comp, None, 0.0, max_period)
         etas.append(an["forcing"].omega / w)
@@ -1193,6 +1209,13 @@ def measured_bifurcation(
     lo, hi = min(etas), max(etas)
     pad = max(0.01, 0.05 * (hi - lo))
     if computed:
+        from precise_impact.core.budget import run_cost
+        from precise_impact.core.precision import Precision
+
+        deadline.admit(
+            run_cost(Precision.parse("float64"), computed_periods + 400, runs=computed),
+            f"the computed diagram ({computed} eta values)",
+        )
         ce, cx = brute_force_diagram(
             sc.params,
             ("eta", lo - pad, hi + pad, computed),

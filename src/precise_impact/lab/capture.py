@@ -382,11 +382,12 @@ def design_of(design: Any):
 # ============================================================== wrong channels, clipping
 #: Smallest share of ``V_s``'s variance (its white noise taken out) that ``-integral V_q dt /
 #: (R8 C1)`` must explain, segment by segment, for the two channels to be taken as the
-#: integrator pair.  Measured on synthetic captures at eta = 0.74: the right pair 0.9994 (8 bit,
-#: 1 % noise), 0.987 (4 bit), 0.79 (10 % white + 1 % 1/f noise, 0.3 V offsets); a wrong pair
-#: 0.05..0.55 (V_s/V_q swapped 0.55, V_3 as V_s 0.50, V_3 as V_q 0.05, V_q as V_s and V_3 as V_q
-#: 0.26): the threshold sits between the two groups.
-INTEGRATOR_MIN_R2 = 0.7
+#: integrator pair.  Measured on synthetic captures (100-200 periods): the right pair 0.9875 to
+#: 1.000 (8 and 4 bits, 10 % white + 1 % 1/f noise with 0.3 V offsets, fig4/5/6 scenes, ideal
+#: and datasheet); wrong pairs up to 0.95 but those above 0.886 have a negative R8 C1 (V_s and
+#: V_q swapped: the sign check refuses them), those with the design's sign at most 0.879 (V_q
+#: as V_s, V_3 as V_q on the near-harmonic fig4 orbit).  0.95 lies between the groups.
+INTEGRATOR_MIN_R2 = 0.95
 #: The integrator's fitted ``R8 C1`` may differ from the design's by this factor at most
 #: (probe gain errors of +-49 % give at most 1.49 / 0.51 = 2.9; a 10x probe set to 1x gives 10).
 INTEGRATOR_MAX_RATIO = 3.0
@@ -410,7 +411,8 @@ def integrator_pair_fit(
     whole record, as a simulator's noise-free run allows); a capture uses segments of about a
     forcing period, so that neither the random walk of the integrated noise (``sigma dt
     sqrt(n)``) nor a probe offset on ``V_q`` (a drift ``offset t``) accumulates over more than
-    one segment.  ``R^2`` is the share of ``V_s``'s within-segment variance explained; a
+    one segment (with segments, ``V_q``'s record mean, its offset, is removed first).
+    ``R^2`` is the share of ``V_s``'s within-segment variance explained; a
     negative ``R8 C1`` means the two channels are swapped or one is inverted.  ``noise_vs``:
     ``V_s``'s white-noise RMS [V], whose variance (which no relation can explain) is taken out
     of both the residual and the total before the share is formed.
@@ -418,9 +420,13 @@ def integrator_pair_fit(
     t = np.asarray(t, float)
     vs = np.asarray(vs, float)
     vq = np.asarray(vq, float)
-    q = np.concatenate(([0.0], np.cumsum(0.5 * (vq[1:] + vq[:-1]) * np.diff(t))))
     n = len(t)
     seg = n if segment is None else max(2, min(int(segment), n))
+    if segment is not None:
+        # V_s is bounded, so V_q's mean over a record of many segments is its probe offset
+        # (the true mean is (V_s(end) - V_s(0)) R8 C1 / T ~ 0): removed before integrating
+        vq = vq - float(np.mean(vq))
+    q = np.concatenate(([0.0], np.cumsum(0.5 * (vq[1:] + vq[:-1]) * np.diff(t))))
     m = (n // seg) * seg
     if m < seg or m < 4:
         return math.nan, 0.0

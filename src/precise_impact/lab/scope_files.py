@@ -813,18 +813,22 @@ def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = N
     if fmt == "npz":
         return capture.write_npz(path)
     if fmt == "keysight-bin":
+        _check_printable(capture, fmt, path)
         return _write_ag10(path, capture, labels, cols)
     if fmt == "tek-tbs":
+        _check_printable(capture, fmt, path)
         path.mkdir(parents=True, exist_ok=True)
         for lab, y in zip(labels, cols, strict=True):
             _write_text(path / f"F0000{lab}.CSV", _tbs_text(t, y, dt, lab))
         return path
+    _check_printable(capture, fmt, path)
     out = io.StringIO()
     vals = np.column_stack(cols)
     if fmt == "csv":
+        # the project's own layout keeps every bit: %.17g round-trips any float64
         out.write("time [s]," + ",".join(f"{k} [V]" for k in ch) + "\n")
         np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.10g"] + ["%.7g"] * len(ch)
+            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.17g"] + ["%.17g"] * len(ch)
         )
     elif fmt == "rigol":
         out.write("X," + ",".join(labels) + ",Start,Increment,\n")
@@ -888,6 +892,73 @@ def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = N
         )
     _write_text(path, out.getvalue())
     return path
+
+
+#: What each layout prints: the time column's format (``None``: start and increment in the
+#: header, ``'f8'`` binary float64) and the voltage columns' (``'f4'``: binary float32), as the
+#: instruments write them.
+_PRINTED = {
+    "csv": ("%.17g", "%.17g"),
+    "rigol": (None, "%.5e"),
+    "keysight": ("%.9e", "%.6e"),
+    "tek": ("%.7e", "%.5g"),
+    "siglent": ("%.8E", "%.5E"),
+    "tek-tbs": ("%.10e", "%.5e"),
+    "keysight-bin": ("f8", "f4"),
+}
+#: Largest rounding of a printed voltage, relative to its channel's peak-to-peak (a 10-bit
+#: code: finer than any scorer's use of the channel, coarser than every layout's digits on a
+#: signal within its full scale).
+PRINT_MAX_ROUNDING = 1e-3
+
+
+def _printed(y: np.ndarray, how: str) -> np.ndarray:
+    if how == "f4":
+        return np.asarray(y, "<f4").astype(float)
+    if how == "f8":
+        return np.asarray(y, float)
+    return np.char.mod(how, np.asarray(y, float)).astype(float)
+
+
+def _check_printable(capture: Capture, fmt: str, path: Path) -> None:
+    """Refuse, before writing, a capture that ``fmt``'s printed digits cannot carry: the times
+    as printed must still be uniform to :data:`~precise_impact.lab.capture.UNIFORM_RTOL` (what
+    the reader checks), each channel's rounding within :data:`PRINT_MAX_ROUNDING` of its
+    peak-to-peak (a large offset on a small signal loses the signal)."""
+    from precise_impact.lab.capture import UNIFORM_RTOL
+
+    t_fmt, v_fmt = _PRINTED[fmt]
+    t, dt = capture.t, capture.sample_interval
+    if t_fmt is not None:
+        steps = np.diff(_printed(t, t_fmt))
+        med = float(np.median(steps))
+        if not (med > 0 and float(np.max(np.abs(steps - med))) <= UNIFORM_RTOL * med):
+            raise ParameterError(
+                "format",
+                fmt,
+                f"a layout whose {t_fmt} times resolve the sample step {dt:.3g} s at "
+                f"t = {float(np.max(np.abs(t))):.3g} s ({path.name}): write csv or npz, or a "
+                "smaller trigger offset",
+            )
+    else:
+        t0, dtp = _printed(np.array([t[0], dt]), "%.6e")
+        if abs(t0 - t[0]) > UNIFORM_RTOL * dt or abs(dtp - dt) > 0.1 * UNIFORM_RTOL * dt:
+            raise ParameterError(
+                "format",
+                fmt,
+                f"a layout whose header (%.6e) resolves the start {t[0]:.6g} s to a sample "
+                f"step {dt:.3g} s: write csv or npz",
+            )
+    for k, y in capture.channels.items():
+        pp = float(np.max(y) - np.min(y))
+        err = float(np.max(np.abs(_printed(y, v_fmt) - y)))
+        if err > PRINT_MAX_ROUNDING * pp:
+            raise ParameterError(
+                "format",
+                fmt,
+                f"a layout whose {v_fmt} volts keep {k} (peak-to-peak {pp:.3g} V around "
+                f"{float(np.mean(y)):.3g} V): it rounds by {err:.3g} V; write csv or npz",
+            )
 
 
 def _write_text(path: Path, text: str) -> None:

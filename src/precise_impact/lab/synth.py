@@ -36,9 +36,10 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.budget import Deadline, parse_max_time
 from precise_impact.core.params import decimal_str
 from precise_impact.errors import ParameterError
-from precise_impact.lab.capture import CHANNELS, Capture
+from precise_impact.lab.capture import CHANNELS, MIN_SAMPLES, UNIFORM_RTOL, Capture
 
 __all__ = ["Measurement", "synth_capture", "sample_trajectory", "DEFAULT_SAMPLES_PER_PERIOD"]
 
@@ -212,6 +213,7 @@ def synth_capture(
     measurement: Measurement | None = None,
     channels: tuple[str, ...] | str = ("V_s", "V_q", "V_3"),
     transient: int = 100,
+    max_time: float | Deadline | None = None,
     **measurement_kw: Any,
 ) -> Capture:
     """A capture of ``scene`` on ``model`` through ``measurement``.
@@ -231,6 +233,12 @@ def synth_capture(
         The channels recorded (``V_s`` and ``V_q`` always).
     transient : int, default 100
         Forcing periods run before the record may start.
+    max_time : float, Deadline or None, default ``None``
+        Time budget [s] (or a :class:`~precise_impact.core.budget.Deadline` shared with the
+        caller): the model run's estimate is checked against it before any work and the
+        synthesis stops once it has run out
+        (:class:`~precise_impact.errors.BudgetExceededError`, the CLI's exit 3); ``None``: the
+        scene runner's default budget.
     **measurement_kw
         Fields of :class:`Measurement` (``bits``, ``noise``, ``periods``, ``seed`` ...) when
         ``measurement`` is ``None``.
@@ -262,6 +270,8 @@ def synth_capture(
     from precise_impact.verification.compare import scene_for_model
 
     meas = (measurement or Measurement(**measurement_kw)).check()
+    if max_time is not None and not isinstance(max_time, Deadline):
+        max_time = Deadline(parse_max_time(max_time), "capture synth")
     if measurement is not None and measurement_kw:
         raise ParameterError("measurement", sorted(measurement_kw), "a Measurement or its fields")
     if isinstance(channels, str):
@@ -287,8 +297,29 @@ def synth_capture(
     fs = meas.sample_rate or _rate_125(DEFAULT_SAMPLES_PER_PERIOD / T)
     dt = 1.0 / fs
     n = int(math.ceil(meas.periods * T / dt))
+    # the record, checked before any work: enough samples, sampled above Nyquist, not too many
+    lo_fs = max(2.0 / T, MIN_SAMPLES / (meas.periods * T))
+    if not lo_fs <= fs:
+        raise ParameterError(
+            "sample_rate",
+            fs,
+            f">= {lo_fs:.6g} Sa/s for this record (>= 2 samples per forcing period of "
+            f"{T:.6g} s and >= {MIN_SAMPLES} samples in {meas.periods:g} periods)",
+        )
     if n > 5 * 10**7:
         raise ParameterError("sample_rate", fs, f"a record of <= 5e7 samples (asked {n})")
+    # float64 file times trigger_offset + k dt must resolve a step to the reader's uniformity
+    # tolerance: an ulp of the largest time <= UNIFORM_RTOL / 10 of dt
+    t_max = abs(meas.trigger_offset) + n * dt
+    if math.ulp(t_max) > 0.1 * UNIFORM_RTOL * dt:
+        lim = 0.1 * UNIFORM_RTOL * dt / math.ulp(1.0) / 2
+        raise ParameterError(
+            "trigger_offset",
+            meas.trigger_offset,
+            f"|trigger offset| <~ {lim:.3g} s at this sample interval ({dt:.3g} s): float64 "
+            "times further from 0 no longer resolve a sample step",
+        )
+    deadline = max_time if max_time is not None else Deadline(None, "capture synth")
     e = meas.timebase_ppm * 1e-6
     rng = np.random.default_rng(meas.seed)
     t_true0 = transient * T + rng.random() * T
@@ -298,8 +329,13 @@ def synth_capture(
     # the scene on the model (its effects that fit it kept), as compare runs each model
     fitted = scene_for_model(sc, model, run_periods)[0]
     tr = run_scene(
-        dataclasses.replace(fitted, periods=run_periods, per_period=DENSE_PER_PERIOD, params=params)
+        dataclasses.replace(
+            fitted, periods=run_periods, per_period=DENSE_PER_PERIOD, params=params
+        ),
+        # the run's estimate against the whole budget (before any work); the deadline after
+        max_time=deadline.max_time,
     )
+    deadline.check("after the model run")
     tau = w * t_true
     x, v = sample_trajectory(tr, tau)
     _, Vs, Vq = to_circuit(comp, tau, x, v, w)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from precise_impact.cli.args import Parser, add_json, add_out
+from precise_impact.cli.args import Parser, add_json, add_max_time, add_out, max_time
 from precise_impact.errors import ParameterError
 from precise_impact.io.jsonout import print_json
 
@@ -49,6 +49,8 @@ def _per_channel(name: str, text: str | None, lo: float, hi: float):
         k, _, v = part.partition("=")
         if k.strip() not in ("V_s", "V_q", "V_3"):
             raise ParameterError(name, text, "a number or V_s=..,V_q=..,V_3=..")
+        if k.strip() in out:
+            raise ParameterError(name, text, f"each channel once ({k.strip()} given twice)")
         out[k.strip()] = _float(name, v, lo, hi)
     return out
 
@@ -91,6 +93,7 @@ def register(sub) -> argparse.ArgumentParser:
         choices=WRITE_FORMATS,
         help="file layout (default by suffix: .npz, .bin keysight-bin, else csv)",
     )
+    add_max_time(s)
     add_json(s, "print the capture's summary as one JSON object")
     add_out(s, "file", "the capture file to write", required=True)
     s.set_defaults(capture_run=run_synth)
@@ -110,6 +113,7 @@ def register(sub) -> argparse.ArgumentParser:
     sc.add_argument(
         "--no-lle", action="store_true", help="skip the time-series LLE (a few seconds)"
     )
+    add_max_time(sc)
     add_json(sc)
     add_out(
         sc,
@@ -126,6 +130,7 @@ def register(sub) -> argparse.ArgumentParser:
     b.add_argument("--scene", default="fig6-period3-ideal", help="the design (default fig6-...)")
     b.add_argument("--channels", default=None, help="as for score")
     b.add_argument("--computed", default="80", help="computed eta values (default 80, 0: none)")
+    add_max_time(b)
     add_json(b)
     add_out(b, "file", "write the figure (.png/.pdf/.svg) here")
     b.set_defaults(capture_run=run_bifurcation)
@@ -169,6 +174,7 @@ def run_synth(ns: argparse.Namespace) -> int:
         measurement=meas,
         channels=ns.channels,
         transient=_int("transient", ns.transient, 0, 100000),
+        max_time=max_time(ns),
     )
     path = cap.save(ns.out, ns.format)
     if ns.json:
@@ -187,6 +193,7 @@ def run_score(ns: argparse.Namespace) -> int:
     from precise_impact.lab.attractor import score_capture
     from precise_impact.lab.scope_files import read_capture
 
+    budget = max_time(ns)
     phase = _float("phase", ns.phase, -1e3, 1e3)
     k = _int("floor-captures", ns.floor_captures, 2, 8)
     seed = _int("seed", ns.seed, 0, 2**63 - 1)
@@ -203,6 +210,7 @@ def run_score(ns: argparse.Namespace) -> int:
         eta=ns.eta,
         seed=seed,
         lle=not ns.no_lle,
+        max_time=budget,
     )
     written = []
     if ns.out is not None:
@@ -232,11 +240,11 @@ def run_bifurcation(ns: argparse.Namespace) -> int:
     from precise_impact.io.figures import check_plot_path
     from precise_impact.lab.attractor import measured_bifurcation
 
+    budget = max_time(ns)
     if ns.out is not None:
         check_plot_path(ns.out)
-    res = measured_bifurcation(
-        ns.files, ns.scene, ns.channels, computed=_int("computed", ns.computed, 0, 2000)
-    )
+    computed = _int("computed", ns.computed, 0, 2000)
+    res = measured_bifurcation(ns.files, ns.scene, ns.channels, computed=computed, max_time=budget)
     if ns.out is not None:
         res.plot(ns.out)
     if ns.json:
