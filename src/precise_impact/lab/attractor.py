@@ -149,16 +149,49 @@ def _spectral_peak(t: np.ndarray, y: np.ndarray, lo: float | None, hi: float | N
 
 
 def fit_sinusoid(
-    t: np.ndarray, y: np.ndarray, omega0: float, harmonics: int = 1, max_iter: int = 30
+    t: np.ndarray,
+    y: np.ndarray,
+    omega0: float,
+    harmonics: int = 1,
+    max_iter: int = 30,
+    weights: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """Least-squares fit of ``c + sum_h a_h cos(h w t) + b_h sin(h w t)`` with the frequency
     ``w`` refined by Gauss-Newton on all parameters from ``omega0``.
 
-    Returns ``{'omega', 'a', 'b', 'c', 'omega_stderr', 'sigma', 'iterations'}`` (``a``, ``b``
-    per harmonic, referred to ``t = 0``).
+    The one forcing-sinusoid fitter of the package (the captures' :func:`estimate_forcing`
+    and the netlists' :func:`precise_impact.lab.netlist.fit_forcing` use it).
+
+    Parameters
+    ----------
+    t, y : numpy.ndarray
+        Times and values.
+    omega0 : float
+        Starting angular frequency.
+    harmonics : int, default 1
+        Harmonics fitted.
+    max_iter : int, default 30
+        Gauss-Newton iterations at most (stops when a step is below ``1e-13 w``).
+    weights : numpy.ndarray or None, default ``None``
+        Per-point weights (e.g. the time each point stands for on a simulator's non-uniform
+        grid); ``None``: equal.  They are normalised to a mean of 1.
+
+    Returns
+    -------
+    dict
+        ``{'omega', 'a', 'b', 'c', 'omega_stderr', 'sigma', 'iterations'}`` (``a``, ``b`` per
+        harmonic, referred to ``t = 0``), and for error propagation ``'tm'`` (the centre time
+        the fit is parametrised about), ``'a_centred'``, ``'b_centred'`` (referred to ``tm``),
+        ``'cov'`` (covariance of ``[c, a_centred..., b_centred..., w]``: ``sigma^2 (J^T W
+        J)^-1``) and ``'rms'`` (the weighted rms residual, ``sqrt(sum W r^2 / n)``).
     """
     t = np.asarray(t, float)
     y = np.asarray(y, float)
+    if weights is None:
+        sq = None
+    else:
+        wts = np.maximum(np.asarray(weights, float), 0.0)
+        sq = np.sqrt(wts * (len(t) / max(float(wts.sum()), 1e-300)))
     tm = 0.5 * (t[0] + t[-1])
     tc = t - tm  # centred: the frequency and the phase decouple
     w = float(omega0)
@@ -167,33 +200,43 @@ def fit_sinusoid(
     it = 0
     coef = np.zeros(2 * H + 1)
     J = np.empty((len(t), 2 * H + 2))
+
+    def solve(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        if sq is None:
+            return np.linalg.lstsq(A, rhs, rcond=None)[0]
+        return np.linalg.lstsq(A * sq[:, None], rhs * sq, rcond=None)[0]
+
     for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
         ph = np.outer(tc, hs * w)
         C, S = np.cos(ph), np.sin(ph)
         B = np.column_stack([np.ones_like(tc), C, S])
-        coef, *_ = np.linalg.lstsq(B, y, rcond=None)
+        coef = solve(B, y)
         a, b = coef[1 : H + 1], coef[H + 1 :]
         dw = (-S * a + C * b) * (tc[:, None] * hs)
         J[:, :-1] = B
         J[:, -1] = dw.sum(axis=1)
         r = y - B @ coef
-        step, *_ = np.linalg.lstsq(J, r, rcond=None)
+        step = solve(J, r)
         w += float(step[-1])
         if abs(step[-1]) <= 1e-13 * abs(w):
             break
     ph = np.outer(tc, hs * w)
     B = np.column_stack([np.ones_like(tc), np.cos(ph), np.sin(ph)])
-    coef, *_ = np.linalg.lstsq(B, y, rcond=None)
+    coef = solve(B, y)
     r = y - B @ coef
+    if sq is not None:
+        r = r * sq
     dof = max(1, len(t) - (2 * H + 2))
     sigma = float(np.sqrt(r @ r / dof))
     a, b = coef[1 : H + 1], coef[H + 1 :]
     J[:, :-1] = B
     J[:, -1] = ((-np.sin(ph) * a + np.cos(ph) * b) * (tc[:, None] * hs)).sum(axis=1)
+    Jw = J if sq is None else J * sq[:, None]
     try:
-        cov = np.linalg.inv(J.T @ J) * sigma**2
+        cov = np.linalg.inv(Jw.T @ Jw) * sigma**2
         stderr = float(math.sqrt(max(cov[-1, -1], 0.0)))
     except np.linalg.LinAlgError:
+        cov = np.full((2 * H + 2, 2 * H + 2), math.nan)
         stderr = math.nan
     # refer the harmonics to t = 0: cos(h w (t - tm)) = cos(h w t - h w tm)
     shift = hs * w * tm
@@ -207,6 +250,11 @@ def fit_sinusoid(
         "omega_stderr": stderr,
         "sigma": sigma,
         "iterations": it,
+        "tm": tm,
+        "a_centred": a,
+        "b_centred": b,
+        "cov": cov,
+        "rms": float(np.sqrt(r @ r / len(t))),
     }
 
 
@@ -304,14 +352,21 @@ def detect_impacts(
     sigma_v: float,
     dt_tau: float,
     half_window: int = SECTION_HALF_WINDOW,
+    R: float = 1.0,
 ) -> dict[str, Any]:
     """Impacts in a sampled ``(x, x')``: a one-sample drop of ``x'`` by more than
     :data:`IMPACT_SIGMAS` ``sqrt(2) sigma_v`` with ``x`` within reach of the wall on both sides.
 
-    Returns ``{'index', 'v', 'threshold'}``: the sample before each impact, its velocity (half
-    the jump between the one-sided local linear fits at the interval's middle, i.e. ``v`` for
-    ``R = 1``) and the jump threshold in units of ``x'``.
+    Returns ``{'index', 'v', 'at', 'threshold'}``: the sample before each impact, its velocity
+    before the impact, the impact instant (fractional sample index) and the jump threshold in
+    units of ``x'``.  The velocity is the least-squares ``v-`` of the two one-sided fits at the
+    impact instant, ``v_l = v-`` and ``v_r = v+ = k v-`` with ``k = -R`` from the reset law
+    (:func:`precise_impact.core.impact.reset_velocity`): ``v- = (v_l + k v_r) / (1 + k^2)``
+    (``(v_l - v_r) / 2`` for ``R = 1``; that half-jump was ``(1 + R) / 2 v-`` for ``R < 1``).
     """
+    from precise_impact.core.impact import reset_velocity
+
+    k_reset = float(reset_velocity(1.0, R))
     dv = np.diff(v)
     thr = IMPACT_SIGMAS * math.sqrt(2) * sigma_v
     reach = 0.5 * np.abs(dv) * dt_tau + 6 * sigma_x + 1e-12
@@ -334,7 +389,7 @@ def detect_impacts(
         s = _wall_crossing(il, x[lo : j + 1], x_w, j)
         vl = _poly_at(il, v[lo : j + 1], s)
         vr = _poly_at(ir, v[j + 1 : hi], s)
-        vel[k] = 0.5 * (vl - vr)
+        vel[k] = (vl + k_reset * vr) / (1.0 + k_reset * k_reset)
         at[k] = s
     return {"index": idx, "v": vel, "at": at, "threshold": thr}
 
@@ -449,8 +504,14 @@ def analyse_capture(
     forcing: ForcingEstimate | None = None,
     section_phase: float = 0.0,
     max_period: int = 16,
+    R: float | None = None,
 ) -> dict[str, Any]:
-    """Forcing, noise, impacts, Poincare section and period of one capture (no model)."""
+    """Forcing, noise, impacts, Poincare section and period of one capture (no model).
+
+    ``R``: the restitution coefficient of the impacts' reset law (``None``: the design's
+    when ``design`` is a Params or Scene, else 1: the circuit's reversal is elastic)."""
+    if R is None:
+        R = float(getattr(getattr(design, "params", design), "R", 1))
     comp = design_of(design)
     if forcing is None:
         forcing = estimate_forcing(capture, float(comp.Omega))
@@ -460,7 +521,7 @@ def analyse_capture(
     sx = noise["V_s"]["sigma"] / abs(sc.volts_per_x)
     sv = noise["V_q"]["sigma"] / abs(sc.volts_per_v)
     dt_tau = capture.sample_interval * m.omega
-    imp = detect_impacts(m.x, m.v, m.x_w, sx, sv, dt_tau)
+    imp = detect_impacts(m.x, m.v, m.x_w, sx, sv, dt_tau, R=R)
     per_period = 2 * math.pi / forcing.omega / capture.sample_interval
     hw = max(1, min(SECTION_HALF_WINDOW, int(0.05 * per_period)))
     tk, xs, vs = poincare_section(
@@ -957,7 +1018,8 @@ def score_capture(
         if surrogate is not None:
             r = _add_surrogate(r, surrogate, noise, rng)
         refs.append(_requantised(r, capture, noise))
-    ref_an = [analyse_capture(r, comp, None, section_phase, max_period) for r in refs]
+    R = float(sc.params.R)
+    ref_an = [analyse_capture(r, comp, None, section_phase, max_period, R) for r in refs]
     if capture.V_3 is None:
         # the model's lag of V_s's fundamental behind V_3, to refer V_s's phase to the forcing
         lags = []
@@ -966,7 +1028,7 @@ def score_capture(
             lags.append(_phase(fit["a"][0], fit["b"][0]) - a["forcing"].phase0)
         lag = float(np.angle(np.mean(np.exp(1j * np.asarray(lags)))))
         forcing = estimate_forcing(capture, float(comp.Omega), "V_s", lag=lag)
-    an = analyse_capture(capture, comp, forcing, section_phase, max_period)
+    an = analyse_capture(capture, comp, forcing, section_phase, max_period, R)
     cloud = np.column_stack([an["section"]["x"], an["section"]["v"]])
     clouds = [np.column_stack([a["section"]["x"], a["section"]["v"]]) for a in ref_an]
     sw = float(np.mean([sliced_wasserstein(cloud, c) for c in clouds]))
@@ -1201,7 +1263,7 @@ def measured_bifurcation(
     for c in captures:
         deadline.check(f"after {len(etas)} of {len(captures)} captures")
         cap = c if isinstance(c, Capture) else read_capture(c, channels)
-        an = analyse_capture(cap, comp, None, 0.0, max_period)
+        an = analyse_capture(cap, comp, None, 0.0, max_period, float(sc.params.R))
         etas.append(an["forcing"].omega / w)
         xs.append(an["section"]["x"])
         pers.append(an["period"])

@@ -56,6 +56,7 @@ from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import OptionalDependencyError, ParameterError, SpiceError
 from precise_impact.io.figures import plot_units, save_figure
 from precise_impact.io.progress import say as _progress
+from precise_impact.lab.attractor import fit_sinusoid
 from precise_impact.models.circuit.components import Components, dimensionless
 from precise_impact.models.circuit.spice import find_ngspice
 
@@ -867,7 +868,6 @@ def fit_forcing(t: np.ndarray, y: np.ndarray, omega_guess: float | None = None) 
     w = np.empty_like(t)
     w[1:-1] = (t[2:] - t[:-2]) / 2
     w[0], w[-1] = (t[1] - t[0]) / 2, (t[-1] - t[-2]) / 2
-    sw = np.sqrt(np.maximum(w, 0) / max(w.sum(), 1e-300))
     if omega_guess is None:
         s = y - y.mean()
         up = np.nonzero((s[:-1] < 0) & (s[1:] >= 0))[0]
@@ -877,49 +877,28 @@ def fit_forcing(t: np.ndarray, y: np.ndarray, omega_guess: float | None = None) 
             )
         tc = t[up] - s[up] * (t[up + 1] - t[up]) / (s[up + 1] - s[up])
         omega_guess = 2 * math.pi * (len(tc) - 1) / (tc[-1] - tc[0])
-    W = float(omega_guess)
-    tm = 0.5 * (t[0] + t[-1])  # centred time: decorrelates W from the phase
-    for _ in range(30):
-        c, s_ = np.cos(W * (t - tm)), np.sin(W * (t - tm))
-        A = np.stack([c, s_, np.ones_like(t)], axis=1)
-        coef, *_ = np.linalg.lstsq(A * sw[:, None], y * sw, rcond=None)
-        a, b, _c0 = coef
-        dW = (-a * s_ + b * c) * (t - tm)
-        J = np.stack([c, s_, np.ones_like(t), dW], axis=1)
-        r = y - A @ coef
-        step, *_ = np.linalg.lstsq(J * sw[:, None], r * sw, rcond=None)
-        W += step[3]
-        if abs(step[3]) <= 1e-15 * abs(W):
-            break
-    c, s_ = np.cos(W * (t - tm)), np.sin(W * (t - tm))
-    A = np.stack([c, s_, np.ones_like(t)], axis=1)
-    coef, *_ = np.linalg.lstsq(A * sw[:, None], y * sw, rcond=None)
-    a, b, c0 = (float(v) for v in coef)
-    r = y - A @ coef
-    J = np.stack([c, s_, np.ones_like(t), (-a * s_ + b * c) * (t - tm)], axis=1) * sw[:, None]
-    n_eff = len(t)
-    s2 = float(np.sum((r * sw) ** 2)) * n_eff / max(n_eff - 4, 1)
-    try:
-        cov = np.linalg.inv(J.T @ J) * s2 / n_eff
-    except np.linalg.LinAlgError:
-        cov = np.full((4, 4), np.nan)
+    # the one sinusoid fitter (lab.attractor.fit_sinusoid), weighted by the time each point
+    # stands for; its covariance is [c, a, b, W] about the centre time tm
+    fit = fit_sinusoid(t, y, float(omega_guess), harmonics=1, weights=w)
+    W, tm, cov = float(fit["omega"]), float(fit["tm"]), fit["cov"]
+    a, b, c0 = float(fit["a_centred"][0]), float(fit["b_centred"][0]), float(fit["c"])
     amp = math.hypot(a, b)
     # a cos + b sin = amp cos(W(t - tm) - atan2(b, a)): the phase at t = 0
     phase = math.remainder(-math.atan2(b, a) - W * tm, 2 * math.pi)
-    var_ab = np.array([[cov[0, 0], cov[0, 1]], [cov[1, 0], cov[1, 1]]])
+    var_ab = np.asarray(cov[1:3, 1:3], float)
     ga = np.array([a, b]) / amp if amp > 0 else np.zeros(2)
     gp = np.array([b, -a]) / amp**2 if amp > 0 else np.zeros(2)
-    sW = math.sqrt(max(cov[3, 3], 0.0))
+    sW = math.sqrt(max(float(cov[3, 3]), 0.0))
     return {
-        "Omega": float(W),
+        "Omega": W,
         "Omega_stderr": sW,
         "amplitude": amp,
         "amplitude_stderr": math.sqrt(max(float(ga @ var_ab @ ga), 0.0)),
         "phase": phase,
         "phase_stderr": math.hypot(math.sqrt(max(float(gp @ var_ab @ gp), 0.0)), sW * abs(tm)),
         "offset": c0,
-        "offset_stderr": math.sqrt(max(cov[2, 2], 0.0)),
-        "rms_residual": float(np.sqrt(np.sum((r * sw) ** 2))),
+        "offset_stderr": math.sqrt(max(float(cov[0, 0]), 0.0)),
+        "rms_residual": float(fit["rms"]),
     }
 
 
