@@ -62,7 +62,7 @@ from precise_impact.core.budget import Deadline, parse_max_time
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.io.markdown import table as md_table
-from precise_impact.lab.capture import CLIP_MAX_FRACTION, Capture, check_channels, design_of
+from precise_impact.lab.capture import Capture, check_channels, design_of
 from precise_impact.models.circuit.components import circuit_scales
 from precise_impact.verification.scores import sliced_wasserstein, wasserstein_1d
 
@@ -998,7 +998,7 @@ def score_capture(
     # wrong, swapped or inverted probes and clipped channels are refused before any scoring
     chk = check_channels(capture, comp)
     for k, share in chk["clipped"].items():
-        if share > 0.5 * CLIP_MAX_FRACTION:
+        if share > 0.5 * chk["clip_limit"][k]:
             notes.append(f"{k}: {share:.0%} of its samples at one rail (clipping?)")
     forcing = estimate_forcing(capture, float(comp.Omega))
     eta_meas = forcing.omega / float(comp.omega())

@@ -415,7 +415,8 @@ def integrator_pair_fit(
     ``R^2`` is the share of ``V_s``'s within-segment variance explained; a
     negative ``R8 C1`` means the two channels are swapped or one is inverted.  ``noise_vs``:
     ``V_s``'s white-noise RMS [V], whose variance (which no relation can explain) is taken out
-    of both the residual and the total before the share is formed.
+    of both the residual and the total before the share is formed (a capture passes its white
+    noise and ADC step together, ``sqrt(white^2 + q^2/12)``).
     """
     t = np.asarray(t, float)
     vs = np.asarray(vs, float)
@@ -451,34 +452,44 @@ def check_channels(capture: Capture, design: Any, names: dict | None = None) -> 
     ``V_s`` must be the integral of ``V_q``: ``V_s' = -V_q / (R8 C1)`` with ``R8 C1`` of the
     design's sign and within :data:`INTEGRATOR_MAX_RATIO` of its value
     (:func:`integrator_pair_fit`, segments of one design period); no channel may have more
-    than :data:`CLIP_MAX_FRACTION` of its samples at one extreme value.  Returns
-    ``{'R8C1', 'R8C1_design', 'r2', 'clipped'}`` (``clipped``: each channel's largest share
-    of samples at one rail).
+    than :data:`CLIP_MAX_FRACTION` of its samples at one extreme value (or twice the share a
+    sinusoid spends on the extreme code of a coarse ADC, when larger).  Returns
+    ``{'R8C1', 'R8C1_design', 'r2', 'clipped', 'clip_limit'}`` (``clipped``: each channel's
+    largest share of samples at one rail; ``clip_limit``: the share refused).
     """
     from precise_impact.models.circuit.components import circuit_scales
 
     names = dict(names or capture.source.get("channel_map") or {})
     label = {k: f"{k} ({names[k]})" if names.get(k) and names[k] != k else k for k in CHANNELS}
     what = str(capture.source.get("path") or "capture")
-    clipped = {}
+    from precise_impact.lab.attractor import adc_step, channel_noise
+
+    clipped, limits = {}, {}
     for k, y in capture.channels.items():
         n = len(y)
         share = max(int(np.sum(y == y.max())), int(np.sum(y == y.min()))) / n
-        clipped[k] = share
-        if share > CLIP_MAX_FRACTION:
+        # a coarse ADC's extreme code holds a sinusoid's peak for a share arccos(1 - 2/K)/pi
+        # of the time (K codes spanned: 0.18 for the 13 codes of 4 bits): twice that, or
+        # CLIP_MAX_FRACTION, whichever is larger, is clipping
+        q = adc_step(y)
+        codes = float(np.ptp(y)) / q + 1 if q > 0 else math.inf
+        natural = math.acos(1 - 2 / codes) / math.pi if codes > 2 else 0.5
+        limit = max(CLIP_MAX_FRACTION, 2 * natural)
+        clipped[k], limits[k] = share, limit
+        if share > limit:
             raise ParameterError(
                 what,
                 f"channel {label[k]}: {share:.0%} of its samples at one rail",
-                f"an unclipped capture (<= {CLIP_MAX_FRACTION:.0%} at the ADC's rails: widen "
+                f"an unclipped capture (<= {limit:.0%} at the ADC's rails: widen "
                 "the vertical range or fix the offset)",
             )
     comp = design_of(design)
     sc = circuit_scales(comp)
     rc_design = sc.volts_per_v / (sc.omega * -sc.volts_per_x)  # R8 C1 with V_unit's sign
     seg = max(8, round(2 * math.pi / (sc.omega * capture.sample_interval)))
-    from precise_impact.lab.attractor import noise_sigma
-
-    rc, r2 = integrator_pair_fit(capture.t, capture.V_s, capture.V_q, seg, noise_sigma(capture.V_s))
+    rc, r2 = integrator_pair_fit(
+        capture.t, capture.V_s, capture.V_q, seg, channel_noise(capture.V_s)["sigma"]
+    )
     pair = f"{label['V_s']} and {label['V_q']}"
     if not (r2 >= INTEGRATOR_MIN_R2 and math.isfinite(rc)):
         raise ParameterError(
@@ -503,4 +514,10 @@ def check_channels(capture: Capture, design: Any, names: dict | None = None) -> 
             f"within {INTEGRATOR_MAX_RATIO:g}x of the design (a probe's attenuation, or another "
             "scene's design?)",
         )
-    return {"R8C1": rc, "R8C1_design": rc_design, "r2": r2, "clipped": clipped}
+    return {
+        "R8C1": rc,
+        "R8C1_design": rc_design,
+        "r2": r2,
+        "clipped": clipped,
+        "clip_limit": limits,
+    }
