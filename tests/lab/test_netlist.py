@@ -529,3 +529,19 @@ def test_zero_gain_is_refused_as_such(tmp_path):
     (tmp_path / "m.toml").write_text('[nodes]\nx = "s"\nv = "q"\n[gains]\nx = 0\n')
     with pytest.raises(ParameterError, match="gain must be non-zero"):
         load_map(tmp_path / "m.toml")
+
+
+def test_spice_score_refuses_a_tran_too_large_for_memory_naming_it(tmp_path, monkeypatch):
+    """Under the default budget the 1e8-point run is refused by its memory estimate: the
+    line names the file and its .tran, not 'periods'."""
+    import precise_impact.core.budget as cb
+    import precise_impact.lab.netlist as nl
+    from precise_impact.errors import OverBudgetError
+
+    monkeypatch.setattr(nl.subprocess, "run", _never_run)
+    monkeypatch.setattr(cb, "_memory", lambda: 8e9)  # an 8 GB machine
+    net = tmp_path / "long.cir"
+    net.write_text(own_netlist(3).replace(".tran", ".tran 1e-05 1000 *", 1))
+    with pytest.raises(OverBudgetError) as e:
+        run_netlist(net, max_time=3600)
+    assert e.value.name == "file" and "1e+08 time points" in str(e.value)

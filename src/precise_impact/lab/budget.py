@@ -785,6 +785,7 @@ def tolerance_budget(
             "multipliers": [abs(complex(m)) for m in bp.multipliers()],
         }
         if fd_check:
+            deadline.check(f"before the finite differences of {name}")
             say(f"landmark {name}: finite differences of re-continued landmarks")
             result_lm[name]["fd_check"] = _fd_check(name, bp, g, theta0)
     table = _ranked(result_lm, tol)

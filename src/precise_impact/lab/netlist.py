@@ -751,7 +751,15 @@ def run_netlist(
                 f"a budget above the estimate ({cost.describe()}); raise --max-time or "
                 "shorten .tran (TSTOP) or lengthen its step",
             )
-        check_cost(cost, None)
+        try:
+            check_cost(cost, None)  # half the machine's memory: the raw file is read whole
+        except OverBudgetError:
+            raise OverBudgetError(
+                "file",
+                p.name,
+                f"a .tran run whose waveforms fit in half this machine's memory "
+                f"({cost.describe()}); shorten TSTOP or lengthen the step",
+            ) from None
         timeout = min(timeout, budget)
     with tempfile.TemporaryDirectory(prefix="precise_impact_netlist_") as tmp:
         wd = Path(workdir) if workdir is not None else Path(tmp)
