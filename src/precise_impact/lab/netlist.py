@@ -899,11 +899,10 @@ def lt_compression(runs: list[Waveforms], options: Mapping[str, str] | None = No
     LTspice compresses lossily unless ``.options plotwinsize=0`` (window ``plotwinsize`` 300
     points, ``plotreltol``, ``plotvntol``: LTspice's help, page "Compression").  The help does
     not document the raw header; files LTspice writes with compression off carry ``Flags: ...
-    nocompression`` (reported by third-party raw-file readers for LTspice XVII and 24-26; not
-    checked here against an LTspice run, there is no LTspice on this machine).  Decided from
-    that flag; a
-    netlist's ``.options`` (``options``, or an LTspice ``.net``/``.log`` beside the raw file)
-    is reported beside it.  Files of other simulators are never compressed.
+    nocompression`` (as a third-party raw-file reader reports from LTspice 26.0.2 for macOS;
+    not checked here against an LTspice run: there is no LTspice on this machine).  Decided
+    from that flag; a netlist's ``.options`` (``options``, or an LTspice ``.net``/``.log``
+    beside the raw file) is reported beside it.  Files of other simulators are never compressed.
 
     Parameters
     ----------
