@@ -545,3 +545,16 @@ def test_spice_score_refuses_a_tran_too_large_for_memory_naming_it(tmp_path, mon
     with pytest.raises(OverBudgetError) as e:
         run_netlist(net, max_time=3600)
     assert e.value.name == "file" and "1e+08 time points" in str(e.value)
+
+
+def test_node_check_reads_element_terminals_only_where_decidable():
+    from precise_impact.lab.netlist import check_nodes
+
+    text = "* t\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\n+ \nXU1 out mid opamp\nC1 mid 0 1n\n"
+    text += ".tran 1u 1m\n"
+    check_nodes(text, {"x": "out", "v": "V(MID)", "forcing": "in", "impact": None})
+    check_nodes(text, {"x": "xu1.inner"})  # inside a subcircuit: ngspice decides
+    check_nodes(text + ".include models.lib\n", {"x": "elsewhere"})  # nodes may be there
+    with pytest.raises(ParameterError, match="none of its element lines") as e:
+        check_nodes(text, {"v": "t"})  # the title line is not an element
+    assert e.value.name == "v-node"

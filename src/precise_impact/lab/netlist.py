@@ -615,8 +615,8 @@ def netlist_nodes(text: str) -> set[str]:
 def check_nodes(text: str, nodes: Mapping[str, str | None], name: str = "netlist") -> None:
     """Refuse, before ngspice runs, a node that appears on none of the netlist's element
     lines (one line naming the role and node).  Nodes given as ``v(name)`` are looked up by
-    ``name``; a netlist with ``.include`` / ``.lib`` may define nodes elsewhere and is not
-    checked."""
+    ``name``; hierarchical names (``x1.out``) and netlists with ``.include`` / ``.lib``
+    (nodes defined elsewhere) are not checked: ngspice's output decides for them."""
     if re.search(r"^\s*\.(include|inc|lib)\b", text, re.I | re.M):
         return
     known = netlist_nodes(text)
@@ -626,6 +626,8 @@ def check_nodes(text: str, nodes: Mapping[str, str | None], name: str = "netlist
         key = node.strip().lower()
         m = re.fullmatch(r"v\((.+)\)", key)
         key = m.group(1) if m else key
+        if "." in key or ":" in key:  # a node inside a subcircuit (x1.out): not on a top line
+            continue
         if key not in known:
             raise ParameterError(
                 f"{role}-node", node, f"a node of {name} (it is on none of its element lines)"
