@@ -17,7 +17,7 @@ here.  Measured (``benchmarks/bench_netlist.py`` -> ``benchmarks/results/netlist
 ngspice-39, spicelib 1.6.4): the project's netlist of ``fig6-period3-ideal``, 20 periods,
 18340 points, written by ngspice as a binary raw (734 kB), an ASCII raw (``set
 filetype=ascii``, 2.25 MB) and ``wrdata`` text at 17 digits.  RawRead reads the binary file
-in 0.03-0.06 s and agrees with ``wrdata`` bit for bit on every vector (max |diff| = 0); the
+in 0.03-0.06 s and agrees with ``wrdata`` bit for bit on every vector (largest difference 0); the
 ASCII file in 0.1-0.2 s (two runs on a shared 2-core machine), within 1 ulp (max relative
 difference 5.5e-16: ngspice prints 16 digits there).
 The files ``ngspice -b -r`` writes (what :func:`run_netlist` runs) equal those of ``write``
