@@ -415,3 +415,146 @@ def test_spice_netlist_writes_the_scenes_netlist_that_spice_score_runs(tmp_path,
     d = json.loads(capsys.readouterr().out)
     (run,) = d["runs"]
     assert run["scores"]["sliced_wasserstein"] < 1e-2
+
+
+# ---------------------------------------------------------------- review 24 items 5, 8, 10 (netfix)
+def test_compression_warning_says_its_cost_is_measured_on_an_emulation(tmp_path):
+    """The cost quoted is that of compress_like_ltspice (an emulation of LTspice's documented
+    rule), not of LTspice output: the warning and the result say so."""
+    t = np.linspace(0, 1e-2, 2001)
+    ys = {"V(s)": np.sin(740 * t), "V(q)": np.cos(740 * t)}
+    comp = lt_compression(read_raw(_lt_raw(tmp_path / "c.raw", t, ys, "real forward")))
+    assert "emulation" in comp["warning"] and "not LTspice output" in comp["warning"]
+    assert "compress_like_ltspice" in comp["cost"]["measured_on"]
+    assert len(comp["warning"].splitlines()) == 1
+
+
+@needs_ngspice
+def test_components_mapping_is_circuit_scales(raws, monkeypatch):
+    """The components-mode volts -> (x, v, tau) scales come from circuit_scales (the one home),
+    bit for bit the numbers of the hand-written formulas they replace."""
+    import precise_impact.lab.netlist as nl
+    from precise_impact.models.circuit.components import circuit_scales
+
+    calls = []
+
+    def spy(design):
+        calls.append(design)
+        return circuit_scales(design)
+
+    monkeypatch.setattr(nl, "circuit_scales", spy)
+    r = score_netlist(raws / "b.raw", "s", "q", "v3", scene=SCENE, progress=False)
+    design = load_scene(SCENE).design()
+    cs = circuit_scales(design)
+    m = r.mapping
+    assert calls and m["mode"] == "components"
+    assert (m["omega"], m["seconds_per_tau"], m["volts_per_x"], m["volts_per_v"]) == (
+        cs.omega,
+        cs.seconds_per_tau,
+        cs.volts_per_x,
+        cs.volts_per_v,
+    )
+    # the formulas the mapping had by hand before (bit-identical numbers)
+    omega, vu = float(design.omega()), float(design.V_unit)
+    assert m["volts_per_v"] == omega * float(design.R8 * design.C1) * vu
+    assert m["volts_per_x"] == -vu
+
+
+def _never_run(*a, **k):
+    raise AssertionError("ngspice was run")
+
+
+def test_spice_score_refuses_an_oversized_tran_before_running(tmp_path, monkeypatch, capsys):
+    """`.tran 1e-05 1000` is 1e8 time points: refused from its estimate (one line, exit 3)
+    before ngspice starts, instead of running into the 600 s timeout."""
+    import precise_impact.lab.netlist as nl
+
+    monkeypatch.setattr(nl.subprocess, "run", _never_run)
+    net = tmp_path / "long.cir"
+    net.write_text(own_netlist(3).replace(".tran", ".tran 1e-05 1000 *", 1))
+    assert nl.tran_cost(net.read_text()).seconds == pytest.approx(
+        1e8 * nl.NGSPICE_SECONDS_PER_POINT
+    )
+    argv = ["spice", "score", str(net), "--x-node", "s", "--v-node", "q", "--scene", SCENE]
+    assert main([*argv, "--max-time", "60"]) == 3
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "1e+08 time points" in err and "max_time" in err
+
+
+@needs_ngspice
+def test_ngspice_timeout_is_a_budget(tmp_path):
+    """ngspice stopped by its time limit is a budget exceeded (the CLI's exit 3), not a
+    failure of the netlist."""
+    from precise_impact.errors import BudgetExceededError
+
+    net = tmp_path / "slow.cir"
+    net.write_text(own_netlist(20, 1e-6))  # ~4.7 s of ngspice
+    with pytest.raises(BudgetExceededError, match="did not finish"):
+        run_netlist(net, timeout=0.2)
+
+
+@pytest.mark.parametrize(
+    ("extra", "word"),
+    [
+        (["--x-node", "nosuch", "--v-node", "q"], "x-node"),
+        (["--x-node", "s", "--v-node", "q", "--forcing-node", "v(nosuch)"], "forcing-node"),
+        (["--x-node", "s", "--v-node", "q", "--step", "5"], "step"),
+    ],
+)
+def test_spice_score_refuses_missing_nodes_and_steps_before_running(
+    extra, word, tmp_path, monkeypatch, capsys
+):
+    import precise_impact.lab.netlist as nl
+
+    monkeypatch.setattr(nl.subprocess, "run", _never_run)
+    net = tmp_path / "own.cir"
+    net.write_text(own_netlist(3))
+    assert main(["spice", "score", str(net), *extra, "--scene", SCENE]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and word in err
+
+
+def test_periods_have_one_range_in_the_cli_and_the_api(tmp_path, capsys):
+    net = tmp_path / "own.cir"
+    net.write_text(own_netlist(3))
+    argv = ["spice", "score", str(net), "--x-node", "s", "--v-node", "q", "--scene", SCENE]
+    assert main([*argv, "--periods", "1"]) == 2
+    cli = capsys.readouterr().err.strip()
+    with pytest.raises(ParameterError) as e:
+        score_netlist(net, "s", "q", scene=SCENE, periods=1, progress=False)
+    assert str(e.value) in cli and "2 <= periods <= 1000000" in cli
+
+
+def test_zero_gain_is_refused_as_such(tmp_path):
+    (tmp_path / "m.toml").write_text('[nodes]\nx = "s"\nv = "q"\n[gains]\nx = 0\n')
+    with pytest.raises(ParameterError, match="gain must be non-zero"):
+        load_map(tmp_path / "m.toml")
+
+
+def test_spice_score_refuses_a_tran_too_large_for_memory_naming_it(tmp_path, monkeypatch):
+    """Under the default budget the 1e8-point run is refused by its memory estimate: the
+    line names the file and its .tran, not 'periods'."""
+    import precise_impact.core.budget as cb
+    import precise_impact.lab.netlist as nl
+    from precise_impact.errors import OverBudgetError
+
+    monkeypatch.setattr(nl.subprocess, "run", _never_run)
+    monkeypatch.setattr(cb, "_memory", lambda: 8e9)  # an 8 GB machine
+    net = tmp_path / "long.cir"
+    net.write_text(own_netlist(3).replace(".tran", ".tran 1e-05 1000 *", 1))
+    with pytest.raises(OverBudgetError) as e:
+        run_netlist(net, max_time=3600)
+    assert e.value.name == "file" and "1e+08 time points" in str(e.value)
+
+
+def test_node_check_reads_element_terminals_only_where_decidable():
+    from precise_impact.lab.netlist import check_nodes
+
+    text = "* t\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\n+ \nXU1 out mid opamp\nC1 mid 0 1n\n"
+    text += ".tran 1u 1m\n"
+    check_nodes(text, {"x": "out", "v": "V(MID)", "forcing": "in", "impact": None})
+    check_nodes(text, {"x": "xu1.inner"})  # inside a subcircuit: ngspice decides
+    check_nodes(text + ".include models.lib\n", {"x": "elsewhere"})  # nodes may be there
+    with pytest.raises(ParameterError, match="none of its element lines") as e:
+        check_nodes(text, {"v": "t"})  # the title line is not an element
+    assert e.value.name == "v-node"

@@ -39,9 +39,11 @@ from precise_impact.analysis.orbits.landmarks import (
     landmark_from_continuation,
     seed_landmark,
 )
+from precise_impact.core.budget import Deadline, parse_max_time
 from precise_impact.core.dual import Dual, seed
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ConvergenceError, OptionalDependencyError, ParameterError
+from precise_impact.io.markdown import table as md_table
 from precise_impact.models.circuit.components import Components
 from precise_impact.models.circuit.effects import switch
 
@@ -52,6 +54,8 @@ __all__ = [
     "LANDMARKS",
     "PARTS",
     "parse_tolerances",
+    "max_ron",
+    "check_ron",
 ]
 
 PARTS = ("R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "C1", "C2")
@@ -316,23 +320,44 @@ class ToleranceBudget(ResultMixin):
             f"a = {nom['a']:.6g}, x_w = {nom['x_w']:.6g}; generator at eta = {nom['eta']:.6g} "
             f"({nom['f_design']:.6g} Hz); R_on = {self.design.get('ron', '0')} ohm.",
             "",
-            "| landmark | type | eta | f [Hz] | IFT vs FD (max rel) | MC spread [Hz] "
-            "| linear spread [Hz] | MC failed | worst corners [Hz] |",
-            "|---|---|---|---|---|---|---|---|---|",
         ]
+        rows = []
         for name, L in self.landmarks.items():
             if "eta" not in L:
                 continue
-            mc = L.get("monte_carlo", {})
-            wc = L.get("worst_case", {})
-            nan = float("nan")
-            lines.append(
-                f"| {name} | {L['type']} | {L['eta']:.10g} | {L['frequency_hz']:.8g} | "
-                f"{L.get('fd_check', {}).get('max_rel_error', float('nan')):.2e} | "
-                f"{mc.get('std_hz', nan):.4g} +- {mc.get('std_stderr_hz', nan):.2g} | "
-                f"{L.get('linear_std_hz', nan):.4g} | {mc.get('failed', 0)} | "
-                f"{wc.get('low_hz', nan):.6g} .. {wc.get('high_hz', nan):.6g} |"
+            mc = L.get("monte_carlo")
+            wc = L.get("worst_case")
+            fd = L.get("fd_check")
+            rows.append(
+                [
+                    name,
+                    L["type"],
+                    f"{L['eta']:.10g}",
+                    f"{L['frequency_hz']:.8g}",
+                    f"{fd['max_rel_error']:.2e}" if fd else "not run",
+                    f"{mc['std_hz']:.4g} +- {mc['std_stderr_hz']:.2g}"
+                    if mc and mc["n"] > 1
+                    else ("not run" if not mc else f"{mc['n']} draws converged"),
+                    f"{L['linear_std_hz']:.4g}",
+                    str(mc["failed"]) if mc else "-",
+                    f"{wc['low_hz']:.6g} .. {wc['high_hz']:.6g}" if wc else "not run",
+                ]
             )
+        lines += md_table(
+            [
+                "landmark",
+                "type",
+                "eta",
+                "f [Hz]",
+                "IFT vs FD (max rel, per component)",
+                "MC spread [Hz]",
+                "linear spread [Hz]",
+                "MC failed",
+                "worst corners [Hz]",
+            ],
+            rows,
+            align="ll",
+        )
         lle = self.landmarks.get("lle_0712")
         if lle and "monte_carlo" in lle:
             m = lle["monte_carlo"]
@@ -346,13 +371,21 @@ class ToleranceBudget(ResultMixin):
         lines += ["", "## Largest effects", ""]
         lines += [f"- {t}" for t in self.ranked(8)]
         lines += ["", "## Ranked (shift of each landmark at + the part's tolerance)", ""]
-        lines += ["| rank | landmark | component | tol [%] | shift [Hz] | shift [ppm] |"]
-        lines += ["|---|---|---|---|---|---|"]
-        for r in self.table:
-            lines.append(
-                f"| {r['rank']} | {r['landmark']} | {r['component']} | {r['tolerance_pct']:g} | "
-                f"{r['shift_hz']:+.4g} | {r['shift_ppm']:+.0f} |"
-            )
+        lines += md_table(
+            ["rank", "landmark", "component", "tol [%]", "shift [Hz]", "shift [ppm]"],
+            [
+                [
+                    r["rank"],
+                    r["landmark"],
+                    r["component"],
+                    f"{r['tolerance_pct']:g}",
+                    f"{r['shift_hz']:+.4g}",
+                    f"{r['shift_ppm']:+.0f}",
+                ]
+                for r in self.table
+            ],
+            align="rll",
+        )
         ex = self.existence
         lines += ["", "## The Fig. 6 period-3 orbit", ""]
         for k, v in ex.items():
@@ -385,15 +418,49 @@ class ToleranceBudget(ResultMixin):
             )
         return "\n".join(lines) + "\n"
 
-    def plot(self, path: str | Path | None = None):
-        """The period-3 existence interval against ``R_on / R3`` and against the op-amps'
-        GBW, with the design's forcing; saved to ``path`` if given."""
+    def plot(self, path: str | Path | None = None, what: str = "existence", n: int = 12):
+        """A figure of the budget, saved to ``path`` if given.
+
+        Parameters
+        ----------
+        path : str, Path or None
+            Where to save it (PNG).
+        what : {'existence', 'ranked'}
+            ``'existence'``: the period-3 interval in eta against ``R_on / R3`` and against
+            the op-amps' GBW, with the design's forcing (needs the scans); ``'ranked'``: the
+            ``n`` largest shifts of the ranked table, in ppm of each landmark's frequency, at
+            + each part's tolerance.
+        n : int, default 12
+            Rows of the ``'ranked'`` figure.
+        """
         import matplotlib
 
+        if what not in ("existence", "ranked"):
+            raise ParameterError("what", what, "'existence' or 'ranked'")
         if path is not None:
             matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
+        if what == "ranked":
+            rows = self.table[:n][::-1]
+            fig, ax = plt.subplots(figsize=(8, 0.35 * len(rows) + 1.4), layout="constrained")
+            colors = {k: f"C{i}" for i, k in enumerate(LANDMARKS)}
+            ax.barh(
+                range(len(rows)),
+                [r["shift_ppm"] for r in rows],
+                color=[colors[r["landmark"]] for r in rows],
+            )
+            ax.set_yticks(
+                range(len(rows)),
+                [f"{r['component']} {r['tolerance_pct']:g} %: {r['landmark']}" for r in rows],
+            )
+            ax.axvline(0, color="k", lw=0.8)
+            ax.set_xlabel("shift of the landmark's frequency at + the part's tolerance [ppm]")
+            ax.set_title(f"Largest effects ({self.design.get('source', 'design')})")
+            if path is not None:
+                fig.savefig(path, dpi=110)
+                plt.close(fig)
+            return fig
         fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
         for ax, key, xlabel, logx in (
             (axes[0], "ron", "R_on / R3", False),
@@ -413,14 +480,21 @@ class ToleranceBudget(ResultMixin):
                 where=ok,
                 color="tab:green",
                 alpha=0.25,
-                label="stable admissible period-3 interval",
+                label="period-3 interval in eta, computed only while it\ncontains the "
+                "design's eta (not drawn beyond)",
             )
             ax.plot(x, lo, color="tab:green")
             ax.plot(x, hi, color="tab:green")
             ax.plot(x, d, color="k", lw=1.5, label="the design's forcing eta")
             lim = s.get("limit")
             if lim is not None:
-                ax.axvline(lim, color="tab:red", ls="--", label=f"limit {lim:.4g}")
+                ax.axvline(
+                    lim,
+                    color="tab:red",
+                    ls="--",
+                    label=f"{lim:.4g}: the design's eta leaves the interval\n(the orbit may "
+                    "exist at other eta)",
+                )
             for xv, lab in s.get("marks", []):
                 ax.axvline(xv, color="tab:blue", ls=":", label=lab)
             if logx:
@@ -428,7 +502,10 @@ class ToleranceBudget(ResultMixin):
             ax.set_xlabel(xlabel)
             ax.set_ylabel("eta = Omega / omega_eff")
             ax.legend(fontsize=8, loc="best")
-        fig.suptitle("Fig. 6 period-3 orbit: existence interval in eta at the design")
+        fig.suptitle(
+            "Fig. 6 period-3 orbit at the design's forcing: its existence interval in eta, "
+            "scanned until the design's eta leaves it"
+        )
         fig.tight_layout()
         if path is not None:
             fig.savefig(path, dpi=110)
@@ -533,6 +610,7 @@ def tolerance_budget(
     scans: bool = True,
     fd_check: bool = True,
     progress: Any = None,
+    max_time: Any = None,
 ) -> ToleranceBudget:
     """The tolerance budget of a circuit design for the paper's landmarks.
 
@@ -551,19 +629,25 @@ def tolerance_budget(
     mc : int, default 400
         Monte Carlo draws for the branch-point landmarks (``0``: none).
     sobol : int, default 256
-        Sobol base sample ``N`` (SALib; ``N (2 D + 2)`` evaluations; ``0``: none).
+        Sobol base sample ``N``, a power of 2 (SALib; ``N (2 D + 2)`` evaluations); ``0``:
+        none (no Sobol indices, SALib not needed).
     lle_mc : int, default 32
         Draws for the LLE at 0.712 (each a ``lle_periods``-period run of the fast engine).
     lle_periods : int, default 2000
         Forcing periods of each LLE run.
     ron : decimal or None
-        The switches' on-resistance in ohms replacing the scene's.
+        The switches' on-resistance in ohms replacing the scene's: ``0 <= ron <``
+        :func:`max_ron` of the design (where the effective damping reaches ``zeta = 1``).
     scans : bool, default ``True``
         The ``R_on / R3`` and GBW scans of the period-3 orbit's existence (the limits).
     fd_check : bool, default ``True``
         Finite differences of re-continued landmarks against the IFT derivatives.
     progress : callable or None
         ``progress(message)`` on long steps.
+    max_time : decimal or None
+        Seconds the run may take, enforced while it works (between landmarks, draws,
+        Sobol evaluations, LLE batches and scan points): past it
+        :class:`~precise_impact.errors.BudgetExceededError` and no result.
 
     Returns
     -------
@@ -578,6 +662,8 @@ def tolerance_budget(
         Bad input, before any work.
     OptionalDependencyError
         SALib missing while ``sobol > 0``.
+    BudgetExceededError
+        ``max_time`` ran out (nothing returned).
 
     See Also
     --------
@@ -615,8 +701,10 @@ def tolerance_budget(
         ron0 = exact("ron", ron)
         if ron0 < 0:
             raise ParameterError("ron", str(ron), ">= 0 ohm")
+    check_ron(design, ron0, ron)
     if sobol:
         _require_salib()
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "budget")
     say = progress or (lambda _m: None)
 
     c0 = {n: float(getattr(design, n)) for n in INPUTS + ("Omega",)}
@@ -656,6 +744,7 @@ def tolerance_budget(
             p3_why = f"no period-3 orbit at the design's eta ({e})"
         ends = interval_ends(orbit_d) if orbit_d is not None else {}
     for name in [n for n in landmarks if n in BRANCH_LANDMARKS]:
+        deadline.check(f"before landmark {name}")
         say(f"landmark {name}: located by continuation, polished on its augmented system")
         try:
             if name in ("p3_low", "p3_high"):
@@ -696,6 +785,7 @@ def tolerance_budget(
             "multipliers": [abs(complex(m)) for m in bp.multipliers()],
         }
         if fd_check:
+            deadline.check(f"before the finite differences of {name}")
             say(f"landmark {name}: finite differences of re-continued landmarks")
             result_lm[name]["fd_check"] = _fd_check(name, bp, g, theta0)
     table = _ranked(result_lm, tol)
@@ -706,9 +796,9 @@ def tolerance_budget(
         say(f"Monte Carlo: {mc} draws (seed {seed})")
         u = rng.uniform(-1.0, 1.0, size=(mc, len(INPUTS)))
         draws = x0 * (1 + u * sig)
-        vals = _evaluate(points, draws, c0, ronf, vu)
+        vals = _evaluate(points, draws, c0, ronf, vu, deadline)
         if orbit_d is not None:
-            vals["_orbit"] = _evaluate({"_orbit": orbit_d}, draws, c0, ronf, vu)["_orbit"]
+            vals["_orbit"] = _evaluate({"_orbit": orbit_d}, draws, c0, ronf, vu, deadline)["_orbit"]
         for name in points:
             fs = vals[name]
             ok = fs[np.isfinite(fs)]
@@ -737,28 +827,30 @@ def tolerance_budget(
             )
     if sobol and points and active:
         say(f"Sobol indices: N = {sobol}, {len(active)} inputs")
-        _sobol(points, result_lm, x0, sig, active, c0, ronf, vu, sobol, seed, orbit_d)
+        _sobol(points, result_lm, x0, sig, active, c0, ronf, vu, sobol, seed, orbit_d, deadline)
     for name in points:
         result_lm[name]["worst_case"] = _corners(
             points[name], result_lm[name], x0, sig, c0, ronf, vu
         )
     if "lle_0712" in landmarks:
         say(f"LLE at eta = 0.712: {lle_mc} draws")
-        result_lm["lle_0712"] = _lle_mc(design, x0, sig, c0, ronf, vu, lle_mc, lle_periods, seed)
+        result_lm["lle_0712"] = _lle_mc(
+            design, x0, sig, c0, ronf, vu, lle_mc, lle_periods, seed, deadline
+        )
     p3_draws = result_lm.pop("_p3_draws", None)
     sobol_existence = result_lm.pop("_sobol_existence", None)
-    existence = _existence(points, nominal, result_lm, sig, p3_draws)
+    existence = _plain(_existence(points, nominal, result_lm, sig, p3_draws))
     if sobol_existence is not None:
         existence["sobol_indices_of_existence"] = sobol_existence
     scan_data: dict = {}
     if scans and orbit_d is not None:
         say("scans: R_on / R3 and GBW limits of the period-3 orbit")
-        scan_data, limits = _scans(orbit_d, c0, vu, ronf)
-        existence.update(limits)
+        scan_data, limits = _scans(orbit_d, c0, vu, ronf, deadline)
+        existence.update(_plain(limits))
     return ToleranceBudget(
         design={**design.decimal(), "ron": str(float(ron0)), "source": label},
         tolerances={n: tol[n] for n in INPUTS},
-        nominal=nominal,
+        nominal=_plain(nominal),
         landmarks=result_lm,
         table=table,
         existence=existence,
@@ -768,6 +860,60 @@ def tolerance_budget(
         elapsed_s=time.perf_counter() - t_start,
         scans=scan_data,
     )
+
+
+def _plain(d: dict) -> dict:
+    """``d`` with numpy scalars as Python ``float`` / ``bool`` / ``int`` (they print as
+    numbers, not ``np.float64(...)``)."""
+    out: dict = {}
+    for k, v in d.items():
+        if isinstance(v, np.bool_):
+            v = bool(v)
+        elif isinstance(v, np.integer):
+            v = int(v)
+        elif isinstance(v, np.floating):
+            v = float(v)
+        out[k] = v
+    return out
+
+
+def max_ron(design: Components) -> float:
+    """The largest switch ``R_on`` [ohm] the budget accepts for ``design``: where the
+    effective damping of :func:`effective_parameters` reaches ``zeta = 1`` (the switch's
+    ``R_on`` adds about ``2 R_on / R3`` to ``2 zeta``; past critical damping the circuit
+    is no longer an oscillator, and no landmark exists).  Bisection to 1e-9 relative."""
+    c = {n: float(getattr(design, n)) for n in INPUTS + ("Omega",)}
+    vu = float(design.V_unit)
+
+    def zeta(r: float) -> float:
+        return float(effective_parameters(c, r, V_unit=vu)["zeta"])
+
+    if zeta(0.0) >= 1:
+        return 0.0
+    lo, hi = 0.0, c["R3"]
+    while zeta(hi) < 1:
+        lo, hi = hi, 2 * hi
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if zeta(mid) < 1:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo <= 1e-9 * hi:
+            break
+    return lo
+
+
+def check_ron(design: Components, ron: Any, given: Any = None) -> None:
+    """One line naming ``ron`` unless ``0 <= ron <`` :func:`max_ron` of ``design``."""
+    bound = max_ron(design)
+    if not 0 <= float(ron) < bound:
+        raise ParameterError(
+            "ron",
+            str(ron if given is None else given),
+            f"0 <= ron < {bound:.6g} ohm (zeta reaches 1 there: an overdamped circuit has "
+            "none of the landmarks)",
+        )
 
 
 def _require_salib() -> None:
@@ -805,24 +951,35 @@ def _fd_check(name: str, bp: BranchPoint, g: np.ndarray, theta0: np.ndarray) -> 
         h = 6.0554544523933395e-06 * abs(theta0[k])  # eps^(1/3)
         fd.append((4 * central(k, h / 2) - central(k, h)) / 3)
     fd_arr = np.array(fd)
-    scale = np.max(np.abs(g))
+    # per component: |FD_k - IFT_k| / |IFT_k| (a zero component against the largest one)
+    scale = np.where(g != 0, np.abs(g), np.max(np.abs(g)))
     rel = np.abs(fd_arr - g) / scale
     return {
         "fd": fd_arr.tolist(),
         "ift": g.tolist(),
         "rel_error": rel.tolist(),
         "max_rel_error": float(np.max(rel)),
+        "rel_error_meaning": "per component, |FD_k - IFT_k| / |IFT_k|",
         "step_rule": "Richardson (4 D(h/2) - D(h)) / 3, h = eps^(1/3) |theta_k|",
     }
 
 
-def _evaluate(points: dict, draws: np.ndarray, c0: dict, ron: float, vu: float) -> dict:
+def _evaluate(
+    points: dict,
+    draws: np.ndarray,
+    c0: dict,
+    ron: float,
+    vu: float,
+    deadline: Deadline | None = None,
+) -> dict:
     """Landmark frequencies [Hz] at component draws (rows over :data:`INPUTS`): the parameter
     map in float64, then each landmark by chord Newton from the design's solution (its exact
     ``F_y`` fixed), full Newton when the chord fails; NaN where neither converges."""
     chords = {n: bp.jacobian()[1] for n, bp in points.items()}
     out = {n: np.full(len(draws), math.nan) for n in points}
     for i, row in enumerate(draws):
+        if deadline is not None:
+            deadline.check(f"evaluation {i + 1} of {len(draws)}")
         vals = dict(zip(INPUTS, row.tolist(), strict=True))
         vals["Omega"] = c0["Omega"]
         ep = effective_parameters(vals, ron, V_unit=vu)
@@ -830,13 +987,23 @@ def _evaluate(points: dict, draws: np.ndarray, c0: dict, ron: float, vu: float) 
         for n, bp in points.items():
             if bp.kind == "orbit":  # the orbit at this draw's eta: exists if stable, admissible
                 bp = dataclasses.replace(bp, eta_fixed=ep["eta"])
-            try:  # chord Newton: converges at the rate |theta - theta_0| (~0.05 at 5 %)
-                q = bp.solve(th, chord=chords[n], iterations=30)
-            except (ConvergenceError, np.linalg.LinAlgError, ValueError, ZeroDivisionError):
-                try:  # one full Newton from the design's solution
-                    q = bp.solve(th, iterations=20)
+            # a draw where the landmark changed nature makes Newton diverge: its iterates run
+            # to eta ~ 1e300, the closed-form flight overflows (cos_sin(eta t)) and divides
+            # inf / inf; solve() then reports no convergence and the draw counts as failed.
+            # Those NaN are the expected signal, not an error: no RuntimeWarning for them.
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                try:  # chord Newton: converges at the rate |theta - theta_0| (~0.05 at 5 %)
+                    q = bp.solve(th, chord=chords[n], iterations=30)
                 except (ConvergenceError, np.linalg.LinAlgError, ValueError, ZeroDivisionError):
-                    continue
+                    try:  # one full Newton from the design's solution
+                        q = bp.solve(th, iterations=20)
+                    except (
+                        ConvergenceError,
+                        np.linalg.LinAlgError,
+                        ValueError,
+                        ZeroDivisionError,
+                    ):
+                        continue
             if not q.admissible() or (q.kind == "orbit" and not q.stable()):
                 continue  # the landmark changed nature (another flight grazes first ...)
             out[n][i] = q.eta * ep["omega"] / (2 * math.pi)
@@ -858,7 +1025,9 @@ def _p3_fraction(vals: dict, f_design: float) -> dict | None:
     }
 
 
-def _sobol(points, result_lm, x0, sig, active, c0, ron, vu, N, seed_, orbit=None) -> None:
+def _sobol(
+    points, result_lm, x0, sig, active, c0, ron, vu, N, seed_, orbit=None, deadline=None
+) -> None:
     """SALib's Sobol indices of each landmark frequency over the tolerance box (uniform
     parts), and of the Fig. 6 orbit's existence at the design's eta (an indicator: which
     parts decide whether it holds) when ``orbit`` is given."""
@@ -877,7 +1046,7 @@ def _sobol(points, result_lm, x0, sig, active, c0, ron, vu, N, seed_, orbit=None
     pts = dict(points)
     if orbit is not None:
         pts["_orbit"] = orbit
-    vals = _evaluate(pts, x0 * (1 + full * sig), c0, ron, vu)
+    vals = _evaluate(pts, x0 * (1 + full * sig), c0, ron, vu, deadline)
     if orbit is not None:
         Y = np.isfinite(vals["_orbit"]).astype(float)
         if 0 < Y.mean() < 1:
@@ -916,7 +1085,7 @@ def _corners(bp, L, x0, sig, c0, ron, vu) -> dict:
     }
 
 
-def _lle_mc(design, x0, sig, c0, ron, vu, n, periods, seed_) -> dict:
+def _lle_mc(design, x0, sig, c0, ron, vu, n, periods, seed_, deadline=None) -> dict:
     """The LLE with the generator at ``eta = 0.712`` of the ideal design, over ``n`` draws:
     each draw's effective system run by the fast engine (its variational LLE, batch-means
     standard error)."""
@@ -938,7 +1107,14 @@ def _lle_mc(design, x0, sig, c0, ron, vu, n, periods, seed_) -> dict:
     def fallback(idx):
         raise ConvergenceError("the fast engine did not resolve an LLE point")
 
-    res = fast_batch_rows(np.array(pts), fallback, periods=periods, transient=1000)
+    res: list = []
+    chunk = 8  # rows are independent: the same numbers in chunks, the deadline between them
+    for i in range(0, len(pts), chunk):
+        if deadline is not None:
+            deadline.check(f"LLE draw {i} of {len(pts) - 1}")
+        res += fast_batch_rows(
+            np.array(pts[i : i + chunk]), fallback, periods=periods, transient=1000
+        )
     lle = np.array([r["lle"] for r in res], dtype=float)
     err = np.array([r["stderr"] for r in res], dtype=float)
     d = lle[1:]
@@ -1046,7 +1222,9 @@ def _existence(points, nominal, result_lm, sig, p3_draws) -> dict:
     return out
 
 
-def _scans(orbit_d: BranchPoint, c0: dict, vu: float, ron0: float) -> tuple[dict, dict]:
+def _scans(
+    orbit_d: BranchPoint, c0: dict, vu: float, ron0: float, deadline: Deadline | None = None
+) -> tuple[dict, dict]:
     """The Fig. 6 orbit along ``R_on / R3`` (switched-capacitor KCL) and along the op-amps'
     GBW (the network's quasi-static model): at each value the orbit carried to the design's
     eta there (exists: converged, admissible, stable), its interval's ends by continuation
@@ -1059,8 +1237,9 @@ def _scans(orbit_d: BranchPoint, c0: dict, vu: float, ron0: float) -> tuple[dict
 
     def exists_at(orbit: BranchPoint, kw: dict) -> BranchPoint | None:
         th, eta = system(kw)
-        try:
-            o = _carry_orbit(orbit, th, eta)
+        try:  # past the limit Newton diverges (see _evaluate): its overflow is the signal
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                o = _carry_orbit(orbit, th, eta)
         except ConvergenceError:
             return None
         return o if o.stable() else None
@@ -1071,6 +1250,8 @@ def _scans(orbit_d: BranchPoint, c0: dict, vu: float, ron0: float) -> tuple[dict
         last_ok = None
         limit = None
         for x in xs:
+            if deadline is not None:
+                deadline.check(f"existence scan at {float(x):.4g}")
             th, eta = system(kwf(x))
             o = exists_at(orbit, kwf(x)) if orbit is not None else None
             lo = hi = math.nan
@@ -1109,10 +1290,10 @@ def _scans(orbit_d: BranchPoint, c0: dict, vu: float, ron0: float) -> tuple[dict
     if abs(ron0 - 160.0) > 1e-9 or R3 != 1e4:
         ron_marks.append((160.0 / R3, "ADG5233 160 ohm"))
     limits = {
-        "max_ron_over_R3": ron_lim,
-        "max_ron_ohm": None if ron_lim is None else ron_lim * R3,
+        "max_ron_over_R3": None if ron_lim is None else float(ron_lim),
+        "max_ron_ohm": None if ron_lim is None else float(ron_lim * R3),
         "ron_scan_range": [0.0, 0.03],
-        "min_gbw_hz": gbw_lim,
+        "min_gbw_hz": None if gbw_lim is None else float(gbw_lim),
         "gbw_scan_range_hz": [float(gs[-1]), float(gs[0])],
     }
     return {

@@ -17,7 +17,7 @@ here.  Measured (``benchmarks/bench_netlist.py`` -> ``benchmarks/results/netlist
 ngspice-39, spicelib 1.6.4): the project's netlist of ``fig6-period3-ideal``, 20 periods,
 18340 points, written by ngspice as a binary raw (734 kB), an ASCII raw (``set
 filetype=ascii``, 2.25 MB) and ``wrdata`` text at 17 digits.  RawRead reads the binary file
-in 0.03-0.06 s and agrees with ``wrdata`` bit for bit on every vector (max |diff| = 0); the
+in 0.03-0.06 s and agrees with ``wrdata`` bit for bit on every vector (largest difference 0); the
 ASCII file in 0.1-0.2 s (two runs on a shared 2-core machine), within 1 ulp (max relative
 difference 5.5e-16: ngspice prints 16 digits there).
 The files ``ngspice -b -r`` writes (what :func:`run_netlist` runs) equal those of ``write``
@@ -49,15 +49,22 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.core.budget import Cost, check_cost, parse_max_time
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, flat, record_columns
 from precise_impact.core.trajectory import Trajectory
-from precise_impact.errors import OptionalDependencyError, ParameterError, SpiceError
+from precise_impact.errors import (
+    BudgetExceededError,
+    OptionalDependencyError,
+    OverBudgetError,
+    ParameterError,
+    SpiceError,
+)
 from precise_impact.io.figures import plot_units, save_figure
 from precise_impact.io.progress import say as _progress
 from precise_impact.lab.attractor import fit_sinusoid
-from precise_impact.models.circuit.components import Components, dimensionless
+from precise_impact.models.circuit.components import Components, circuit_scales, dimensionless
 from precise_impact.models.circuit.spice import find_ngspice
 
 __all__ = [
@@ -76,6 +83,12 @@ __all__ = [
     "NETLIST_SUFFIXES",
     "RAW_SUFFIXES",
     "COMPRESSION_IMPACT_COST",
+    "read_netlist",
+    "check_nodes",
+    "check_periods",
+    "tran_cost",
+    "NGSPICE_SECONDS_PER_POINT",
+    "MAX_PERIODS",
 ]
 
 #: Netlist file suffixes run through ngspice (``.net``: LTspice's export).
@@ -87,15 +100,19 @@ RAW_SUFFIXES = (".raw",)
 #: ``uplim``, measured: ``lt`` alone refuses them).
 LTSPICE_BEHAVIOR = "ltpsa"
 #: What LTspice's default waveform compression costs, measured by ``benchmarks/bench_netlist.py``
-#: (``benchmarks/results/netlist.md``): the project's netlist of fig6-period3-ideal, 20 periods,
-#: dense ngspice waveform (TMAX 1 us, 171111 points) compressed with LTspice's default tolerances
-#: (:func:`compress_like_ltspice`; 1.5 % of the points kept).  Impact times: unchanged when read
+#: (``benchmarks/results/netlist.md``) on an *emulation* of LTspice's documented rule
+#: (:func:`compress_like_ltspice`, written from LTspice's help page "Compression"), not on
+#: LTspice output (no LTspice was run): the project's netlist of fig6-period3-ideal, 20
+#: periods, dense ngspice waveform (TMAX 1 us, 171111 points) compressed with LTspice's default
+#: tolerances (1.5 % of the points kept).  Impact times: unchanged when read
 #: from the polarity node (the steep edge keeps its points), 1.7e-8 tau from the velocity
 #: reversal alone; impact velocity 6.9e-7; the stroboscopic states, read inside the compressed
 #: linear segments (up to 0.19 tau long), are off by up to 4.4e-3 -- that is the real cost: the
 #: same run scored from the compressed file has sliced W 1.5e-3 instead of 1.4e-5 and leaves
 #: 1e-3 of the reference after 8.2 time units instead of never.
 COMPRESSION_IMPACT_COST = {
+    "measured_on": "compress_like_ltspice (an emulation of LTspice's documented rule, not LTspice "
+    "output)",
     "max_dt_tau": 1.7e-8,
     "max_dt_s": 1.7e-11,
     "max_dv_before": 6.9e-7,
@@ -269,6 +286,10 @@ def _numbers(d: Mapping, where: str) -> dict:
             raise ParameterError(f"{where}.{k}", v, "x, v or forcing")
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ParameterError(f"{where}.{k}", v, "a finite number")
+        if where.endswith("gains") and v == 0:
+            raise ParameterError(
+                f"{where}.{k}", v, "a non-zero finite number (gain must be non-zero)"
+            )
         out[k] = float(v)
     return out
 
@@ -542,6 +563,107 @@ def _is_ltspice(p: Path, text: str) -> bool:
     return p.suffix.lower() == ".net" or ".backanno" in text.lower() or ".asc" in head
 
 
+#: ngspice's wall time per transient time point, measured on the project's netlist of
+#: fig6-period3-ideal (ngspice-39, 20 periods: 18340 points in 0.51 s at TMAX 10 us, 171111
+#: in 4.7 s at 1 us: 2.8e-5 s each), rounded up; a user's larger circuit costs more per point.
+NGSPICE_SECONDS_PER_POINT = 3e-5
+
+
+def read_netlist(path: str | Path) -> str:
+    """The text of a netlist file (UTF-8, or LTspice's UTF-16), with one ``.tran``; else one
+    line (:class:`ParameterError`)."""
+    p = Path(path)
+    _check_file(p, NETLIST_SUFFIXES, "SPICE netlist")
+    try:
+        text = p.read_text(errors="strict")
+    except UnicodeDecodeError:
+        text = p.read_bytes().decode("utf-16", errors="replace")
+        if "\x00" in text or not text.strip():
+            raise ParameterError("file", str(p), "a text netlist (this one is binary)") from None
+    if not re.search(r"^\s*\.tran\b", text, re.I | re.M):
+        raise ParameterError("file", str(p), "a netlist with a .tran analysis (none found)")
+    return text
+
+
+def _element_lines(text: str) -> list[list[str]]:
+    """The tokens of the netlist's element lines (``+`` continuations joined; comments,
+    dot commands and ``.control`` blocks left out), lower case."""
+    lines: list[str] = []
+    in_ctrl = False
+    for raw in text.splitlines()[1:]:  # SPICE: the first line is the title
+        line = raw.split(";")[0].strip()
+        low = line.lower()
+        if low.startswith(".control"):
+            in_ctrl = True
+        if in_ctrl:
+            in_ctrl = not low.startswith(".endc")
+            continue
+        if not line or line.startswith("*"):
+            continue
+        if line.startswith("+") and lines:
+            lines[-1] += " " + line[1:]
+        elif not line.startswith("."):
+            lines.append(line)
+    return [re.split(r"[\s,()=]+", ln.lower()) for ln in lines]
+
+
+def netlist_nodes(text: str) -> set[str]:
+    """Every token that can be a node of the netlist's element lines (names, terminals and
+    values: a superset of its nodes), lower case."""
+    return {t for toks in _element_lines(text) for t in toks[1:] if t}
+
+
+def check_nodes(text: str, nodes: Mapping[str, str | None], name: str = "netlist") -> None:
+    """Refuse, before ngspice runs, a node that appears on none of the netlist's element
+    lines (one line naming the role and node).  Nodes given as ``v(name)`` are looked up by
+    ``name``; hierarchical names (``x1.out``) and netlists with ``.include`` / ``.lib``
+    (nodes defined elsewhere) are not checked: ngspice's output decides for them."""
+    if re.search(r"^\s*\.(include|inc|lib)\b", text, re.I | re.M):
+        return
+    known = netlist_nodes(text)
+    for role, node in nodes.items():
+        if node is None:
+            continue
+        key = node.strip().lower()
+        m = re.fullmatch(r"v\((.+)\)", key)
+        key = m.group(1) if m else key
+        if "." in key or ":" in key:  # a node inside a subcircuit (x1.out): not on a top line
+            continue
+        if key not in known:
+            raise ParameterError(
+                f"{role}-node", node, f"a node of {name} (it is on none of its element lines)"
+            )
+
+
+def tran_cost(text: str, name: str = "netlist") -> Cost:
+    """The size of the netlist's ``.tran`` run: ``TSTOP / min(TSTEP, TMAX)`` time points
+    (LTspice's ``TSTEP = 0``: ``TSTOP / 10000``, as :func:`run_netlist` gives it), priced
+    at :data:`NGSPICE_SECONDS_PER_POINT`, 8 bytes per point and node (the raw file, read
+    into memory).  A lower bound on the points: ngspice adds steps at each breakpoint."""
+    m = re.search(r"^\s*\.tran\b(.*)$", text, re.I | re.M)
+    toks = m.group(1).split() if m else []
+    nums = [
+        _spice_number(t) for t in toks if not t.lower().startswith(("uic", "startup", "steady"))
+    ]
+    nums = [v for v in nums if math.isfinite(v)]
+    if not nums:
+        return Cost(0.0, 0.0, f"{name}: .tran without a stop time")
+    if len(nums) == 1:
+        tstep, tstop = nums[0] / 10000, nums[0]
+    else:
+        tstep, tstop = nums[0], nums[1]
+        if tstep == 0:
+            tstep = tstop / 10000
+    step = min(tstep, nums[3]) if len(nums) > 3 and nums[3] > 0 else tstep
+    points = tstop / step if step > 0 else math.inf  # ngspice steps from 0 whatever TSTART
+    n_nodes = max(len({t for toks in _element_lines(text) for t in toks[1:3]}), 1)
+    return Cost(
+        points * NGSPICE_SECONDS_PER_POINT,
+        points * 8 * (n_nodes + 1),
+        f"{name}: .tran {tstop:g} s in steps of {step:g} s = {points:.3g} time points",
+    )
+
+
 def run_netlist(
     path: str | Path,
     workdir: str | Path | None = None,
@@ -550,6 +672,7 @@ def run_netlist(
     ascii_raw: bool = False,
     timeout: float = 600,
     executable: str | None = None,
+    max_time: float | None = None,
 ) -> tuple[list[Waveforms], dict]:
     r"""Run a netlist with ``ngspice -b -r`` and read its raw file.
 
@@ -574,6 +697,10 @@ def run_netlist(
         Seconds ngspice may run.
     executable : str or None, default ``None``
         The ngspice program (``None``: ``ngspice`` on ``PATH``).
+    max_time : float or None, default ``None``
+        A time budget in seconds: the run's size estimated from its ``.tran``
+        (:func:`tran_cost`) is refused above it before ngspice starts, and ngspice is
+        stopped when it runs out (``None``: only ``timeout``).
 
     Returns
     -------
@@ -585,10 +712,14 @@ def run_netlist(
     ------
     ParameterError
         Unknown extension, empty or binary file, no ``.tran`` analysis.
+    OverBudgetError
+        The ``.tran`` estimate is over ``max_time`` (or half the memory), before ngspice runs.
+    BudgetExceededError
+        ngspice ran out of ``timeout`` / ``max_time``.
     NgspiceNotFoundError
         No ngspice.
     SpiceError
-        ngspice failed (its first error line) or timed out.
+        ngspice failed (its first error line).
 
     See Also
     --------
@@ -606,20 +737,33 @@ def run_netlist(
     ('ltpsa', ['.tran step 0 given 2e-07 s for ngspice'])
     """
     p = Path(path)
-    _check_file(p, NETLIST_SUFFIXES, "SPICE netlist")
-    try:
-        text = p.read_text(errors="strict")
-    except UnicodeDecodeError:
-        text = p.read_bytes().decode("utf-16", errors="replace")
-        if "\x00" in text or not text.strip():
-            raise ParameterError("file", str(p), "a text netlist (this one is binary)") from None
-    if not re.search(r"^\s*\.tran\b", text, re.I | re.M):
-        raise ParameterError("file", str(p), "a netlist with a .tran analysis (none found)")
+    text = read_netlist(p)
     lt = _is_ltspice(p, text) if ltspice is None else bool(ltspice)
     run_text, notes = _prepare_netlist(text, p.resolve().parent)
     exe = find_ngspice(executable)
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
         raise ParameterError("timeout", timeout, "seconds > 0")
+    budget = None
+    if max_time is not None:
+        budget = parse_max_time(max_time)
+        cost = tran_cost(text, p.name)  # before ngspice runs: its time, then its memory
+        if cost.seconds > budget:
+            raise OverBudgetError(
+                "max_time",
+                f"{budget:g} s",
+                f"a budget above the estimate ({cost.describe()}); raise --max-time or "
+                "shorten .tran (TSTOP) or lengthen its step",
+            )
+        try:
+            check_cost(cost, None)  # half the machine's memory: the raw file is read whole
+        except OverBudgetError:
+            raise OverBudgetError(
+                "file",
+                p.name,
+                f"a .tran run whose waveforms fit in half this machine's memory "
+                f"({cost.describe()}); shorten TSTOP or lengthen the step",
+            ) from None
+        timeout = min(timeout, budget)
     with tempfile.TemporaryDirectory(prefix="precise_impact_netlist_") as tmp:
         wd = Path(workdir) if workdir is not None else Path(tmp)
         wd.mkdir(parents=True, exist_ok=True)
@@ -642,7 +786,12 @@ def run_netlist(
                 timeout=timeout,
             )
         except subprocess.TimeoutExpired as e:
-            raise SpiceError(f"ngspice did not finish {p.name} within timeout={timeout} s") from e
+            # a budget ran out (the CLI: one line, exit 3), whichever of the two it was
+            which = "max_time" if budget is not None and timeout == budget else "timeout"
+            raise BudgetExceededError(
+                f"ngspice did not finish {p.name} within {which} = {timeout:g} s (estimate: "
+                f"{tran_cost(text, p.name).describe()}); raise --max-time or shorten .tran"
+            ) from e
         elapsed = _time.perf_counter() - t0
         log = proc.stdout + proc.stderr
         (wd / "ngspice.log").write_text(log)
@@ -750,11 +899,13 @@ def compress_like_ltspice(
 def lt_compression(runs: list[Waveforms], options: Mapping[str, str] | None = None) -> dict:
     r"""Whether the waveforms are LTspice-compressed, and what that costs.
 
-    LTspice writes ``Flags: ... nocompression`` into the raw header when ``.options
-    plotwinsize=0`` turned compression off, and compresses otherwise (lossy; window
-    ``plotwinsize`` 300 points, ``plotreltol``, ``plotvntol``).  Decided from that flag; a
-    netlist's ``.options`` (``options``, or an LTspice ``.net``/``.log`` beside the raw file)
-    is reported beside it.  Files of other simulators are never compressed.
+    LTspice compresses lossily unless ``.options plotwinsize=0`` (window ``plotwinsize`` 300
+    points, ``plotreltol``, ``plotvntol``: LTspice's help, page "Compression").  The help does
+    not document the raw header; files LTspice writes with compression off carry ``Flags: ...
+    nocompression`` (as a third-party raw-file reader reports from LTspice 26.0.2 for macOS;
+    not checked here against an LTspice run: there is no LTspice on this machine).  Decided
+    from that flag; a netlist's ``.options`` (``options``, or an LTspice ``.net``/``.log``
+    beside the raw file) is reported beside it.  Files of other simulators are never compressed.
 
     Parameters
     ----------
@@ -813,8 +964,10 @@ def lt_compression(runs: list[Waveforms], options: Mapping[str, str] | None = No
         **out,
         "cost": dict(cost),
         "warning": (
-            "LTspice compressed this waveform (no .options plotwinsize=0): measured on the "
-            f"project's netlist it moves impact times by ~{cost['max_dt_tau']:.0e} tau but the "
+            "LTspice compressed this waveform (no 'nocompression' flag; .options "
+            "plotwinsize=0 turns it off): on the project's netlist an emulation of LTspice's "
+            "documented rule (compress_like_ltspice, not LTspice output) moves impact times by "
+            f"~{cost['max_dt_tau']:.0e} tau but the "
             f"stroboscopic states by up to {cost['max_state_error']:.0e} (sliced W "
             f"{cost['sliced_w_compressed']:.1e} instead of {cost['sliced_w_uncompressed']:.1e}); "
             "rerun with .options plotwinsize=0"
@@ -1141,16 +1294,14 @@ def _mapping(
             raise ParameterError(
                 "scales", mode, "'fitted' (no design: give a scene or [components])"
             )
-        omega = float(design.omega())
-        vu = float(design.V_unit)
-        rc = float(design.R8 * design.C1)
+        cs = circuit_scales(design)
         m = {
             "mode": "components",
-            "omega": omega,
-            "seconds_per_tau": 1 / omega,
-            "volts_per_x": -vu,
-            "volts_per_v": omega * rc * vu,
-            "how": "to_mechanical with the design values",
+            "omega": cs.omega,
+            "seconds_per_tau": cs.seconds_per_tau,
+            "volts_per_x": cs.volts_per_x,
+            "volts_per_v": cs.volts_per_v,
+            "how": "circuit_scales of the design values (as to_mechanical)",
         }
         if fit is not None:
             m["forcing_Omega_vs_design"] = fit["Omega"] / float(design.Omega) - 1
@@ -1281,6 +1432,16 @@ def _at(ts: np.ndarray, ys: np.ndarray, tk: np.ndarray, period_s: float):
     return out, int(np.sum(~snap & ~snap2))
 
 
+#: The range of ``periods`` scored (the one place: the CLI and :func:`score_netlist`).
+MIN_PERIODS, MAX_PERIODS = 2, 10**6
+
+
+def check_periods(value: Any) -> int:
+    """``periods`` as an integer in ``MIN_PERIODS .. MAX_PERIODS`` (a score needs two forcing
+    periods), or one line naming it."""
+    return check_count(value, "periods", MAX_PERIODS, MIN_PERIODS)
+
+
 def score_netlist(
     path: str | Path,
     x_node: str | None = None,
@@ -1301,6 +1462,7 @@ def score_netlist(
     timeout: float = 600,
     executable: str | None = None,
     progress: bool | None = None,
+    max_time: float | None = None,
 ) -> NetlistScoreResult:
     """Score a user's SPICE netlist (run by ngspice) or raw waveform file against the
     demonstrated mechanical reference.
@@ -1323,7 +1485,8 @@ def score_netlist(
     step : int or None
         Only this run of a stepped/multi-plot file (0-based); ``None``: every one.
     periods, transient : int or None
-        At most this many forcing periods scored (default: all in the run); periods
+        At most this many forcing periods scored, ``MIN_PERIODS .. MAX_PERIODS`` (default:
+        all in the run); periods
         discarded before the scores (default ``periods // 5``).
     ltspice : bool or None
         See :func:`run_netlist`.
@@ -1339,6 +1502,8 @@ def score_netlist(
         The ngspice program.
     progress : bool or None, default ``None``
         One line per finished step on stderr (``None``: only when stderr is a terminal).
+    max_time : float or None, default ``None``
+        Time budget of the ngspice run in seconds (see :func:`run_netlist`).
 
     Returns
     -------
@@ -1409,17 +1574,31 @@ def score_netlist(
     if scales not in ("auto", "components", "fitted"):
         raise ParameterError("scales", scales, "'auto', 'components' or 'fitted'")
     if periods is not None:
-        periods = check_count(periods, "periods", 10**6)
-        if periods < 2:
-            raise ParameterError("periods", periods, ">= 2")
+        periods = check_periods(periods)
+    if max_time is not None:
+        max_time = parse_max_time(max_time)
     params, design, target = _target(nmap, scene)
     plot_units(units, components=design if units == "circuit" else None)  # before any work
     suffix = p.suffix.lower()
     if suffix in RAW_SUFFIXES:
         runs, info, kind = read_raw(p, step), {"options": {}, "notes": []}, "raw"
     elif suffix in NETLIST_SUFFIXES:
+        text = read_netlist(p)
+        roles = {"x": nmap.x, "v": nmap.v, "forcing": nmap.forcing, "impact": nmap.impact}
+        check_nodes(text, roles, p.name)  # before ngspice runs
+        n_tran = len(re.findall(r"^\s*\.tran\b", text, re.I | re.M))
+        if step is not None and not re.search(r"^\s*\.step\b", text, re.I | re.M):
+            if not 0 <= step < n_tran:
+                raise ParameterError(
+                    "step", step, f"an integer 0 .. {n_tran - 1} ({p.name} has no .step)"
+                )
         runs, info = run_netlist(
-            p, workdir, ltspice=ltspice, timeout=timeout, executable=executable
+            p,
+            workdir,
+            ltspice=ltspice,
+            timeout=timeout,
+            executable=executable,
+            max_time=max_time,
         )
         kind = "netlist"
         if step is not None:

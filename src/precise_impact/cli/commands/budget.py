@@ -41,10 +41,18 @@ def register(sub) -> argparse.ArgumentParser:
         metavar="LIST",
         help="comma-separated subset of " + ", ".join(LANDMARKS) + " (default all)",
     )
-    bp.add_argument("--ron", default=None, metavar="OHM", help="switch R_on replacing the scene's")
+    bp.add_argument(
+        "--ron",
+        default=None,
+        metavar="OHM",
+        help="switch R_on replacing the scene's (below where zeta reaches 1: ~1.05 R3)",
+    )
     bp.add_argument("--mc", default="400", metavar="N", help="Monte Carlo draws (default 400)")
     bp.add_argument(
-        "--sobol", default="256", metavar="N", help="Sobol base sample, a power of 2 (default 256)"
+        "--sobol",
+        default="256",
+        metavar="N",
+        help="Sobol base sample, a power of 2, or 0 for none (no Sobol indices; default 256)",
     )
     bp.add_argument(
         "--lle-mc", default="32", metavar="N", help="draws for the LLE at 0.712 (default 32)"
@@ -92,18 +100,23 @@ def run(ns: argparse.Namespace) -> int:
         scans=not ns.no_scans,
     )
     say = None if ns.json else (lambda m: print(f"budget: {m}", file=sys.stderr, flush=True))
-    res = tolerance_budget(
-        ns.scene,
-        tolerances=ns.tolerance,
-        landmarks=landmarks,
-        seed=seed,
-        mc=mc,
-        sobol=sobol,
-        lle_mc=lle_mc,
-        ron=ns.ron,
-        scans=not ns.no_scans,
-        progress=say,
-    )
+    try:
+        res = tolerance_budget(
+            ns.scene,
+            tolerances=ns.tolerance,
+            landmarks=landmarks,
+            seed=seed,
+            mc=mc,
+            sobol=sobol,
+            lle_mc=lle_mc,
+            ron=ns.ron,
+            scans=not ns.no_scans,
+            progress=say,
+            max_time=max_time(ns),
+        )
+    except KeyboardInterrupt as e:  # files are written only when the budget is complete
+        e.kept = "interrupted; nothing written (a budget is written only when complete)"  # type: ignore[attr-defined]
+        raise
     out = Path(ns.out)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "tolerance_budget.json", res.to_dict(), indent=1)

@@ -7,7 +7,14 @@ import argparse
 
 import heyoka
 
-from precise_impact.cli.args import add_json, add_out, add_periods, add_units
+from precise_impact.cli.args import (
+    add_json,
+    add_max_time,
+    add_out,
+    add_periods,
+    add_units,
+    max_time,
+)
 from precise_impact.core.params import check_count
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.jsonout import print_json
@@ -82,6 +89,7 @@ def register(sub) -> argparse.ArgumentParser:
         writes=("scores.json", "phase_portraits*.png", "separation*.png"),
     )
     add_units(sc)
+    add_max_time(sc)
     s.set_defaults(run=run)
     return s
 
@@ -103,10 +111,10 @@ def run_netlist(ns: argparse.Namespace) -> int:
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``spice score``; returns the exit status."""
-    from precise_impact.lab.netlist import format_result, score_netlist
+    from precise_impact.lab.netlist import check_periods, format_result, score_netlist
 
     step = None if ns.step is None else check_count(ns.step, "step", 10**6)
-    periods = None if ns.periods is None else check_count(ns.periods, "periods", 10**6)
+    periods = None if ns.periods is None else check_periods(ns.periods)
     if ns.json:
         heyoka.set_logger_level_error()
     res = score_netlist(
@@ -124,6 +132,7 @@ def run(ns: argparse.Namespace) -> int:
         out=ns.out,
         units=ns.units,
         progress=not ns.json,
+        max_time=max_time(ns),
     )
     if ns.json:
         print_json(res.to_dict())
