@@ -213,14 +213,18 @@ def test_bias_correction_only_inside_the_table():
     from precise_impact.analysis.lyapunov.timeseries import TRUTH_TABLE_BIAS
 
     states, dt, period, phase0 = _capture_states("0.712", 102, bits=8, noise=0.01, periods=100)
-    raw = timeseries_lle(states, dt, period=period, phase0=phase0)
-    cor = timeseries_lle(states, dt, period=period, phase0=phase0, correct=True)
+    raw = timeseries_lle(states, dt, period=period, phase0=phase0, correct=False)
+    cor = timeseries_lle(states, dt, period=period, phase0=phase0)  # corrected by default
     b, sb = TRUTH_TABLE_BIAS["rosenstein"]
     assert cor.stats["correction"].startswith("divided by")
     assert cor.lle == pytest.approx(raw.lle / (1 + b), rel=1e-12)
-    assert cor.stats["raw_lle"] == raw.lle
-    # the table's spread is added to the error bar, never taken away
-    assert cor.lle_stderr > raw.lle_stderr / (1 + b)
+    assert cor.stats["raw_lle"] == raw.lle and cor.stats["bias"] == b and raw.stats["bias"] == 0
+    # the bar: the jackknife error and the table's spread of the bias in quadrature (the
+    # fit-range proxy left out), as the result says
+    assert cor.lle_stderr == pytest.approx(math.hypot(cor.stat_stderr, abs(cor.lle) * sb), 1e-12)
+    assert cor.stat_stderr == pytest.approx(raw.stat_stderr / (1 + b), rel=1e-12)
+    assert "spread of the bias" in cor.to_dict()["stats"]["error_bar"]
+    assert "fit-range systematic" in raw.to_dict()["stats"]["error_bar"]
     # a falling curve (a stable orbit approached) is outside the table: left as measured
     period = 2 * math.pi / 0.712
     tr = pi.simulate(
@@ -244,3 +248,51 @@ def test_shipped_correction_is_the_truth_tables():
     for method, (bias, spread) in TRUTH_TABLE_BIAS.items():
         assert bias == pytest.approx(corr[method]["bias"], abs=1e-3)
         assert spread == pytest.approx(corr[method]["spread"], abs=1e-3)
+
+
+def _design_mapped(periods: int, seed: int = 1):
+    """A capture at eta = 0.712 mapped with the 0.74 design (review of issue 24, item 2): the
+    forcing period given is 0.712 / 0.74 - 1 = -3.8 % off, the phase grid drifts."""
+    from precise_impact.lab.synth import synth_capture
+
+    c = synth_capture(SCENE, eta="0.712", periods=periods, seed=seed, bits=8, noise=0.01,
+                      channels=("V_s", "V_q"))  # fmt: skip
+    m = c.to_mechanical(SCENE)
+    assert m.eta == pytest.approx(0.74)
+    return np.column_stack([m.x, m.v]), c.sample_interval * m.omega, 2 * math.pi / m.eta
+
+
+def _assert_drift_named(r, periods):
+    # the drift is the relative period error, to the coherence grid's step 0.25 / periods
+    drift = r.stats["phase_drift"]
+    assert drift == pytest.approx(0.712 / 0.74 - 1, abs=0.5 / periods + 1e-3), drift
+    assert "drifts by" in r.reason and "forcing period" in r.reason
+
+
+def test_wrong_period_200_periods_is_unfit_not_ok():
+    # was: status 'ok' with lle nan, stderr inf, ci95 (nan, nan)
+    states, dt, period = _design_mapped(200)
+    r = timeseries_lle(states, dt, period=period)
+    assert r.status == "unfit" and math.isnan(r.lle) and math.isnan(r.lle_stderr)
+    assert "no exponent" in r.reason and not r.covers(0.0304)
+    _assert_drift_named(r, 200)
+    json.dumps(r.to_dict(), allow_nan=False)
+
+
+def test_wrong_period_120_periods_is_uncertain_with_the_number_kept():
+    # was: status 'ok', 0.0159 +- 0.222, a 95 % interval (-0.49, 0.52) that covers anything
+    states, dt, period = _design_mapped(120)
+    r = timeseries_lle(states, dt, period=period)
+    assert r.status == "uncertain"
+    assert math.isfinite(r.lle) and math.isfinite(r.lle_stderr)
+    lo, hi = r.ci95
+    assert hi - lo > abs(r.lle) and "wider than the estimate" in r.reason
+    _assert_drift_named(r, 120)
+    json.dumps(r.to_dict(), allow_nan=False)
+
+
+def test_right_period_shows_no_drift():
+    states, dt, period, phase0 = _capture_states("0.712", 101, bits=8, noise=0.01, periods=120)
+    r = timeseries_lle(states, dt, period=period, phase0=phase0)
+    assert r.status == "ok" and r.reason == ""
+    assert abs(r.stats["phase_drift"]) <= 0.25 / 120 + 1e-12  # one step of the coherence grid
