@@ -345,6 +345,7 @@ def delay_embed(series: Any, dim: int, lag: int = 1) -> np.ndarray:
 
     Examples
     --------
+    >>> from precise_impact.analysis.lyapunov.timeseries import delay_embed
     >>> delay_embed([0.0, 1.0, 2.0, 3.0], 2).tolist()
     [[0.0, 1.0], [1.0, 2.0], [2.0, 3.0]]
     """
@@ -642,6 +643,7 @@ def timeseries_lle(
     white noise (no exponent):
 
     >>> import numpy as np
+    >>> from precise_impact.analysis.lyapunov.timeseries import timeseries_lle
     >>> x = [0.3123]
     >>> for _ in range(5999):
     ...     x.append(1.8 * min(x[-1], 1 - x[-1]))
