@@ -10,9 +10,9 @@ followed (the *divergence curve*).  On a chaotic attractor ``S(t)`` rises with s
 two random points of the attractor; the estimate is the least-squares slope of ``S`` over
 the rising part (the *fit range*).
 
-* ``method='rosenstein'`` (Rosenstein, Collins & De Luca 1993): one nearest neighbour per
+* ``method='rosenstein'`` (Rosenstein, Collins & De Luca 1993 [1]_): one nearest neighbour per
   reference point, ``S(t) = < ln |y_i(t) - y_j(t)| >_i``.
-* ``method='kantz'`` (Kantz 1994): every neighbour within a radius ``epsilon``,
+* ``method='kantz'`` (Kantz 1994 [2]_): every neighbour within a radius ``epsilon``,
   ``S(t) = < ln ( < |y_i(t) - y_j(t)| >_{j in U_i} ) >_i``.
 
 Neighbours at the same forcing phase
@@ -27,7 +27,7 @@ bin is then a Poincare section, neighbours are searched only within a reference'
 section (a KD-tree per section, :class:`scipy.spatial.cKDTree`), and the pair is followed
 on the common grid, so both members see the same forcing at every lag.  Without ``period``
 (an autonomous system, or an embedding made by :func:`delay_embed`) neighbours are searched
-in the whole record, away from the reference in time by the Theiler window.  The state
+in the whole record, away from the reference in time by the Theiler window [3]_.  The state
 components are divided by their standard deviations (volts and volts-per-second, or x and
 v, on one footing); the exponent does not depend on the norm.
 
@@ -559,18 +559,18 @@ def timeseries_lle(
     lag_step : int or None, default ``None``
         Lag spacing in (grid) samples; ``None``: an eighth of a period (with ``period``),
         else ``max(1, max_lag / 200)``.
-    fit_range : (float, float) or None, default ``None``
-        Times to fit.  ``None``: the curve's own rising part, from where it has risen
-        ``fit_fractions[0]`` of the way from its start ``S(t_1)`` (the first lag: at lag 0
-        the neighbours were chosen for their small noisy distance) to the random-pair level
-        to where it has risen ``fit_fractions[1]`` (falls, towards its lowest value, for a
-        falling curve).
     fit : str, default ``'floor'``
         The model fitted to ``S(t)``: ``'floor'``, an exponential seen through a noise
         floor, ``S = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` (the measured distance of a
         pair is the true one and the noise's in quadrature: the slow start of a noisy
         curve is modelled, not fitted as a low slope); ``'linear'``, Rosenstein's straight
         line.
+    fit_range : (float, float) or None, default ``None``
+        Times to fit.  ``None``: the curve's own rising part, from where it has risen
+        ``fit_fractions[0]`` of the way from its start ``S(t_1)`` (the first lag: at lag 0
+        the neighbours were chosen for their small noisy distance) to the random-pair level
+        to where it has risen ``fit_fractions[1]`` (falls, towards its lowest value, for a
+        falling curve).
     fit_fractions : (float, float) or None, default ``None``
         The automatic fit range (``0 <= lo < hi <= 1``); ``None``: ``(0, 0.5)`` for
         ``fit='floor'`` (the floor is part of the model; saturation is not, so the range
