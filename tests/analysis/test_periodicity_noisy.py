@@ -45,3 +45,14 @@ def test_short_records_and_bad_noise():
     assert detect_period_noisy(xs, xs, 0.01, 0.01) == 0
     with pytest.raises(ParameterError):
         detect_period_noisy(xs, xs, 0.0, 0.01)
+
+
+@pytest.mark.parametrize("bad", [float("inf"), float("nan"), -0.01, 0.0, "x"])
+@pytest.mark.parametrize("which", ["sigma_x", "sigma_v"])
+def test_non_finite_or_negative_noise_is_refused(bad, which):
+    # sigma = inf made every chi2 zero: any sequence, chaos included, came out 'period 1'
+    xs = np.tile([0.1, 0.7, -0.4], 20)
+    kw = {"sigma_x": 0.01, "sigma_v": 0.01, which: bad}
+    with pytest.raises(ParameterError) as e:
+        detect_period_noisy(xs, xs, **kw)
+    assert e.value.name == which and "finite" in e.value.allowed and "> 0" in e.value.allowed

@@ -180,7 +180,11 @@ def test_bad_records_are_refused():
 def test_done_when_ten_seeds():
     # issue 24's done-when: 8-bit, 1 % noise, 200-period captures of the ideal circuit at
     # eta = 0.712; the time-series LLE within 20 % of the variational value with a 95 %
-    # interval that covers it, in at least 9 of 10 seeds (Rosenstein, the default)
+    # interval that covers it, in at least 9 of 10 seeds (Rosenstein, the default).
+    # NB synth_capture's seed moves the record's start by < 1 period: these ten records share
+    # one stretch of the attractor and differ by their noise.  Over independent stretches
+    # (the truth table's records) a 200-period record's exponent scatters by ~14-18 %
+    # (the finite-time exponent itself by ~11 %): benchmarks/results/timeseries_lle.md
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
@@ -210,17 +214,22 @@ def test_without_scipy_one_line_names_the_install(monkeypatch):
 
 
 def test_bias_correction_only_inside_the_table():
-    from precise_impact.analysis.lyapunov.timeseries import TRUTH_TABLE_BIAS
+    from precise_impact.analysis.lyapunov.timeseries import TRUTH_TABLE_BIAS, TRUTH_TABLE_PERIODS
 
     states, dt, period, phase0 = _capture_states("0.712", 102, bits=8, noise=0.01, periods=100)
-    raw = timeseries_lle(states, dt, period=period, phase0=phase0)
-    cor = timeseries_lle(states, dt, period=period, phase0=phase0, correct=True)
+    raw = timeseries_lle(states, dt, period=period, phase0=phase0, correct=False)
+    cor = timeseries_lle(states, dt, period=period, phase0=phase0)  # corrected by default
     b, sb = TRUTH_TABLE_BIAS["rosenstein"]
     assert cor.stats["correction"].startswith("divided by")
     assert cor.lle == pytest.approx(raw.lle / (1 + b), rel=1e-12)
-    assert cor.stats["raw_lle"] == raw.lle
-    # the table's spread is added to the error bar, never taken away
-    assert cor.lle_stderr > raw.lle_stderr / (1 + b)
+    assert cor.stats["raw_lle"] == raw.lle and cor.stats["bias"] == b and raw.stats["bias"] == 0
+    # the bar: the jackknife error and the table's record-to-record scatter (scaled to the
+    # record's length) in quadrature, the fit-range proxy left out, as the result says
+    table = abs(cor.lle) * sb * math.sqrt(TRUTH_TABLE_PERIODS / cor.stats["periods"])
+    assert cor.lle_stderr == pytest.approx(math.hypot(cor.stat_stderr, table), rel=1e-12)
+    assert cor.stat_stderr == pytest.approx(raw.stat_stderr / (1 + b), rel=1e-12)
+    assert "scatter of single" in cor.to_dict()["stats"]["error_bar"]
+    assert "fit-range systematic" in raw.to_dict()["stats"]["error_bar"]
     # a falling curve (a stable orbit approached) is outside the table: left as measured
     period = 2 * math.pi / 0.712
     tr = pi.simulate(
@@ -244,3 +253,79 @@ def test_shipped_correction_is_the_truth_tables():
     for method, (bias, spread) in TRUTH_TABLE_BIAS.items():
         assert bias == pytest.approx(corr[method]["bias"], abs=1e-3)
         assert spread == pytest.approx(corr[method]["spread"], abs=1e-3)
+
+
+def _design_mapped(periods: int, seed: int = 1):
+    """A capture at eta = 0.712 mapped with the 0.74 design (review of issue 24, item 2): the
+    forcing period given is 0.712 / 0.74 - 1 = -3.8 % off, the phase grid drifts."""
+    from precise_impact.lab.synth import synth_capture
+
+    c = synth_capture(SCENE, eta="0.712", periods=periods, seed=seed, bits=8, noise=0.01,
+                      channels=("V_s", "V_q"))  # fmt: skip
+    m = c.to_mechanical(SCENE)
+    assert m.eta == pytest.approx(0.74)
+    return np.column_stack([m.x, m.v]), c.sample_interval * m.omega, 2 * math.pi / m.eta
+
+
+def _assert_drift_named(r, periods):
+    # the drift is the relative period error, to the coherence grid's step 0.25 / periods
+    drift = r.stats["phase_drift"]
+    assert drift == pytest.approx(0.712 / 0.74 - 1, abs=0.5 / periods + 1e-3), drift
+    assert "drifts by" in r.reason and "forcing period" in r.reason
+
+
+def test_wrong_period_200_periods_is_unfit_not_ok():
+    # was: status 'ok' with lle nan, stderr inf, ci95 (nan, nan)
+    states, dt, period = _design_mapped(200)
+    r = timeseries_lle(states, dt, period=period)
+    assert r.status == "unfit" and math.isnan(r.lle) and math.isnan(r.lle_stderr)
+    assert "no exponent" in r.reason and not r.covers(0.0304)
+    _assert_drift_named(r, 200)
+    json.dumps(r.to_dict(), allow_nan=False)
+
+
+def test_wrong_period_120_periods_is_uncertain_with_the_number_kept():
+    # was: status 'ok', 0.0159 +- 0.222, a 95 % interval (-0.49, 0.52) that covers anything
+    states, dt, period = _design_mapped(120)
+    r = timeseries_lle(states, dt, period=period)
+    assert r.status == "uncertain"
+    assert math.isfinite(r.lle) and math.isfinite(r.lle_stderr)
+    lo, hi = r.ci95
+    assert hi - lo > abs(r.lle) and "wider than the estimate" in r.reason
+    _assert_drift_named(r, 120)
+    json.dumps(r.to_dict(), allow_nan=False)
+
+
+def test_right_period_shows_no_drift():
+    states, dt, period, phase0 = _capture_states("0.712", 101, bits=8, noise=0.01, periods=200)
+    r = timeseries_lle(states, dt, period=period, phase0=phase0)
+    assert r.status == "ok" and r.reason == ""
+    assert abs(r.stats["phase_drift"]) <= 0.25 / 200 + 1e-12  # one step of the coherence grid
+
+
+def test_default_bar_covers_the_truth_table():
+    # the default 95 % interval (bias-corrected, the table's record-to-record scatter in the
+    # bar) rebuilt from every stored record of benchmarks/results/timeseries_lle.json (each its
+    # own stretch of the attractor) holds the variational LLE in >= 90 % of them (measured 97 %)
+    from pathlib import Path
+
+    from precise_impact.analysis.lyapunov.timeseries import _apply_correction, _t975
+
+    table = Path(__file__).resolve().parents[2] / "benchmarks/results/timeseries_lle.json"
+    if not table.exists():
+        pytest.skip("no truth table in this checkout")
+    data = json.loads(table.read_text())
+    truth = data["truth"]["lle"]
+    hits = total = 0
+    for row in data["rows"]:
+        for run in row["runs"]:
+            if run["corrected"]:
+                lle, stat, syst = _apply_correction(
+                    row["method"], run["raw_lle"], run["stat"], run["periods"]
+                )
+                half = _t975(10) * math.hypot(stat, syst)
+            else:
+                lle, half = run["raw_lle"], _t975(10) * run["raw_stderr"]
+            hits += lle - half <= truth <= lle + half
+            total += 1
+    assert total >= 100 and hits / total >= 0.9, (hits, total)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["detect_period", "detect_period_noisy"]
@@ -111,10 +113,16 @@ def detect_period_noisy(
     """
     xs = np.asarray(xs, dtype=float)
     vs = np.asarray(vs, dtype=float)
-    if not (sigma_x > 0 and sigma_v > 0):
-        from precise_impact.errors import ParameterError
+    from precise_impact.errors import ParameterError
 
-        raise ParameterError("sigma", (sigma_x, sigma_v), "noise deviations > 0")
+    for name, sig in (("sigma_x", sigma_x), ("sigma_v", sigma_v)):
+        # inf would make every chi2 zero (every sequence 'period 1'); NaN every test false
+        try:
+            ok = math.isfinite(float(sig)) and float(sig) > 0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ParameterError(name, sig, "a finite noise deviation > 0")
     n = len(xs)
     for p in range(1, max_period + 1):
         if n < 3 * p:
