@@ -3,6 +3,7 @@ circuit through an 8-bit ADC with 1 % noise, 200 forcing periods (issue 24's don
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -157,6 +158,11 @@ def test_report_names_the_separation_and_the_model_frequency(ideal, datasheet):
     f = other.forcing.frequency_hz * other.eta_model / other.eta
     assert f"{f:.9g}" in md and "![sections and impact velocities](fig.png)" in md
     assert other.summary_lines()[2].endswith("SEPARATED from the model")
+    # an 'uncertain' time-series LLE keeps its number and says why, in both outputs
+    lle = {"lle": 0.02, "lle_stderr": 0.03, "method": "rosenstein", "status": "uncertain"}
+    u = dataclasses.replace(other, lle={**lle, "reason": "interval wider than the estimate"})
+    assert "(uncertain: interval wider than the estimate)" in "\n".join(u.summary_lines())
+    assert "rosenstein; uncertain: interval wider than the estimate" in u.markdown()
 
 
 def test_period_survives_one_over_f_noise():

@@ -696,9 +696,11 @@ class CaptureScore(ResultMixin):
             + ("SEPARATED from the model" if self.separated else "within the model's noise floor"),
         ]
         if self.lle is not None and self.lle.get("lle") is not None:
+            status = self.lle.get("status", "ok")
             out.append(
                 f"LLE (time series, {self.lle.get('method')}): {self.lle['lle']:.4g} +- "
                 f"{self.lle.get('lle_stderr') or float('nan'):.2g} per unit tau"
+                + ("" if status == "ok" else f" ({status}: {self.lle.get('reason')})")
             )
         elif self.lle is not None:
             out.append(f"LLE: none ({self.lle.get('status')}: {self.lle.get('reason')})")
@@ -744,7 +746,12 @@ class CaptureScore(ResultMixin):
                     "LLE, time series [1/tau]",
                     f"{lle['lle']:.4g} +- {lle.get('lle_stderr') or float('nan'):.2g}",
                     "",
-                    str(lle.get("method", "")),
+                    str(lle.get("method", ""))
+                    + (
+                        ""
+                        if lle.get("status", "ok") == "ok"
+                        else f"; {lle.get('status')}: {lle.get('reason')}"
+                    ),
                 )
             )
         elif lle:
