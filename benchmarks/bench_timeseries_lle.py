@@ -41,8 +41,8 @@ import precise_impact as pi
 from precise_impact.analysis.lyapunov.timeseries import (
     TRUTH_TABLE_BIAS,
     TRUTH_TABLE_PERIODS,
-    _apply_correction,
-    _t975,
+    apply_correction,
+    student_t975,
     timeseries_lle,
 )
 from precise_impact.core.result import to_jsonable
@@ -130,13 +130,13 @@ def default_interval(r, method):
     raw estimate and jackknife error (as timeseries_lle forms it)."""
     if not r.get("corrected"):
         return r["ci95"]
-    lle, stat, syst = _apply_correction(method, r["raw_lle"], r["stat"], r["periods"])
-    k = _t975(10) * math.hypot(stat, syst)
+    lle, stat, syst = apply_correction(method, r["raw_lle"], r["stat"], r["periods"])
+    k = student_t975(10) * math.hypot(stat, syst)
     return [lle - k, lle + k]
 
 
 def raw_interval(r):
-    k = _t975(10) * r["raw_stderr"]
+    k = student_t975(10) * r["raw_stderr"]
     return [r["raw_lle"] - k, r["raw_lle"] + k]
 
 
@@ -166,7 +166,7 @@ def coverage(row, truth):
     ivs = [default_interval(r, m) for r in runs]
     cov = sum(lo <= truth <= hi for lo, hi in ivs)
     cov_raw = sum(lo <= truth <= hi for lo, hi in (raw_interval(r) for r in runs))
-    half = [(hi - lo) / 2 / _t975(10) / abs(truth) for lo, hi in ivs]
+    half = [(hi - lo) / 2 / student_t975(10) / abs(truth) for lo, hi in ivs]
     centre = [((lo + hi) / 2 - truth) / abs(truth) for lo, hi in ivs]
     return cov, cov_raw, float(np.median(half)), float(np.mean(centre))
 

@@ -309,7 +309,7 @@ def test_default_bar_covers_the_truth_table():
     # own stretch of the attractor) holds the variational LLE in >= 90 % of them (measured 97 %)
     from pathlib import Path
 
-    from precise_impact.analysis.lyapunov.timeseries import _apply_correction, _t975
+    from precise_impact.analysis.lyapunov.timeseries import apply_correction, student_t975
 
     table = Path(__file__).resolve().parents[2] / "benchmarks/results/timeseries_lle.json"
     if not table.exists():
@@ -320,12 +320,12 @@ def test_default_bar_covers_the_truth_table():
     for row in data["rows"]:
         for run in row["runs"]:
             if run["corrected"]:
-                lle, stat, syst = _apply_correction(
+                lle, stat, syst = apply_correction(
                     row["method"], run["raw_lle"], run["stat"], run["periods"]
                 )
-                half = _t975(10) * math.hypot(stat, syst)
+                half = student_t975(10) * math.hypot(stat, syst)
             else:
-                lle, half = run["raw_lle"], _t975(10) * run["raw_stderr"]
+                lle, half = run["raw_lle"], student_t975(10) * run["raw_stderr"]
             hits += lle - half <= truth <= lle + half
             total += 1
     assert total >= 100 and hits / total >= 0.9, (hits, total)

@@ -956,14 +956,14 @@ def score_capture(
         The model's forcing ratio: the scene's (``None``) or the capture's measured one.
     seed : int, default 0
         Seed of the model captures.
-    max_time : float or None, default ``None``
-        Time budget [s] of the whole score, enforced while it runs (each model capture's
-        run is checked against what is left before it starts;
-        :class:`~precise_impact.errors.BudgetExceededError` once it has run out).
     lle : bool, default True
         Estimate the LLE from the time series
         (:func:`~precise_impact.analysis.lyapunov.timeseries.timeseries_lle`; a periodic
         capture gives none, with the reason).
+    max_time : float or None, default ``None``
+        Time budget [s] of the whole score, enforced while it runs (each model capture's
+        run is checked against what is left before it starts;
+        :class:`~precise_impact.errors.BudgetExceededError` once it has run out).
 
     Returns
     -------

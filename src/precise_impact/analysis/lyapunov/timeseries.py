@@ -117,7 +117,9 @@ from precise_impact.errors import OptionalDependencyError, ParameterError
 __all__ = [
     "TIMESERIES_METHODS",
     "TimeSeriesLLE",
+    "apply_correction",
     "delay_embed",
+    "student_t975",
     "timeseries_lle",
 ]
 
@@ -237,7 +239,7 @@ class TimeSeriesLLE(ResultMixin):
     def ci95(self) -> tuple[float, float]:
         """The 95 % interval: ``lle -+ t_{0.975, n_blocks - 1} lle_stderr`` (Student's t on
         the batch means; 2.26 for 10 blocks)."""
-        k = _t975(len(self.block_slopes))
+        k = student_t975(len(self.block_slopes))
         return (self.lle - k * self.lle_stderr, self.lle + k * self.lle_stderr)
 
     def covers(self, value: float) -> bool:
@@ -864,7 +866,7 @@ def timeseries_lle(
         # over independent stretches of the attractor); that scatter replaces the fit-range
         # proxy (benchmarks/results/timeseries_lle.md)
         b, sb = TRUTH_TABLE_BIAS[method]
-        slope, stat_c, syst_c = _apply_correction(method, slope, stat, n_periods)
+        slope, stat_c, syst_c = apply_correction(method, slope, stat, n_periods)
         icpt = icpt / (1 + b)
         err = math.hypot(stat_c, syst_c)
         slopes_b = slopes_b / (1 + b)
@@ -885,7 +887,7 @@ def timeseries_lle(
         )
         slope = err = math.nan
     else:
-        k = _t975(len(slopes_b))
+        k = student_t975(len(slopes_b))
         if 2 * k * err > abs(slope):
             status = _UNCERTAIN
             reason = (
@@ -911,7 +913,7 @@ def timeseries_lle(
     )  # fmt: skip
 
 
-def _apply_correction(
+def apply_correction(
     method: str, raw: float, stat: float, periods: float
 ) -> tuple[float, float, float]:
     """The truth table's correction of a raw estimate with jackknife error ``stat`` from a
@@ -923,7 +925,7 @@ def _apply_correction(
     return lle, stat / (1 + b), abs(lle) * sb * math.sqrt(TRUTH_TABLE_PERIODS / max(periods, 1))
 
 
-def _t975(n_blocks: int) -> float:
+def student_t975(n_blocks: int) -> float:
     """Student's ``t_{0.975}`` with ``n_blocks - 1`` degrees of freedom."""
     from scipy.stats import t as student
 

@@ -45,7 +45,8 @@ def register(sub) -> argparse.ArgumentParser:
         "--ron",
         default=None,
         metavar="OHM",
-        help="switch R_on replacing the scene's (below where zeta reaches 1: ~1.05 R3)",
+        help="switch R_on replacing the scene's (below where zeta reaches 1: 1.05 R3 for the "
+        "paper's designs)",
     )
     bp.add_argument("--mc", default="400", metavar="N", help="Monte Carlo draws (default 400)")
     bp.add_argument(
