@@ -424,8 +424,13 @@ def _check_counts(
     if per_period < 1:
         raise ParameterError("per_period", per_period, "an integer with 1 <= per_period <= 100000")
     sq = exact("spread", spread)
-    if not sq > 0:
-        raise ParameterError("spread", spread, "half-width of the initial-condition box, > 0")
+    # the slaves start at x0 + spread j / 10**6 (|j| <= 10**6, ensemble_y0): every start must
+    # be a state the pair accepts (0, or 1e-100 <= |y| <= 1e100; spread 1.8e-100 gave a start
+    # of 1.2e-104, refused naming y0[1] instead of spread)
+    if not Fraction(1, 10**94) <= sq <= 10**94:
+        raise ParameterError(
+            "spread", spread, "half-width of the initial-condition box, 1e-94 <= spread <= 1e94"
+        )
     lle_periods = check_count(lle_periods, "lle_periods")
     if 0 < lle_periods < 4:  # the variational estimate runs 4 initial conditions
         raise ParameterError(
@@ -537,7 +542,9 @@ def sync_scan(
     per_period : int, default 20
         Dense samples per period checked in the tail (stroboscopic ones included); ``>= 1``.
     spread : decimal, default 1
-        Half-width of the slave initial-condition box around ``(x0, v0)``; ``> 0``.
+        Half-width of the slave initial-condition box around ``(x0, v0)``;
+        ``1e-94 <= spread <= 1e94`` (every start ``x0 + spread j / 10**6`` stays a state the
+        pair accepts).
     lle_periods : int, default 20000
         Periods for the single oscillator's LLE (:func:`~precise_impact.analysis.lyapunov.lyapunov`,
         method ``'fast'`` with the fast engine, ``'variational'`` otherwise); 0 skips it.
