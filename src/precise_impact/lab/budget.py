@@ -433,17 +433,15 @@ class ToleranceBudget(ResultMixin):
         n : int, default 12
             Rows of the ``'ranked'`` figure.
         """
-        import matplotlib
+        from precise_impact.io.figures import finish, new_figure
 
         if what not in ("existence", "ranked"):
             raise ParameterError("what", what, "'existence' or 'ranked'")
-        if path is not None:
-            matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
 
         if what == "ranked":
             rows = self.table[:n][::-1]
-            fig, ax = plt.subplots(figsize=(8, 0.35 * len(rows) + 1.4), layout="constrained")
+            fig, grid = new_figure(1, 1, figsize=(8, 0.35 * len(rows) + 1.4))
+            ax = grid[0, 0]
             colors = {k: f"C{i}" for i, k in enumerate(LANDMARKS)}
             ax.barh(
                 range(len(rows)),
@@ -457,11 +455,9 @@ class ToleranceBudget(ResultMixin):
             ax.axvline(0, color="k", lw=0.8)
             ax.set_xlabel("shift of the landmark's frequency at + the part's tolerance [ppm]")
             ax.set_title(f"Largest effects ({self.design.get('source', 'design')})")
-            if path is not None:
-                fig.savefig(path, dpi=110)
-                plt.close(fig)
-            return fig
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+            return finish(fig, path, dpi=110)
+        fig, grid = new_figure(1, 2, figsize=(11, 4.2), layout=None)
+        axes = grid[0]
         for ax, key, xlabel, logx in (
             (axes[0], "ron", "R_on / R3", False),
             (axes[1], "gbw", "op-amp gain-bandwidth [Hz]", True),
@@ -507,10 +503,7 @@ class ToleranceBudget(ResultMixin):
             "scanned until the design's eta leaves it"
         )
         fig.tight_layout()
-        if path is not None:
-            fig.savefig(path, dpi=110)
-            plt.close(fig)
-        return fig
+        return finish(fig, path, dpi=110)
 
 
 # ------------------------------------------------------------------------ the budget
