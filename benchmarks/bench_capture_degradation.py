@@ -5,8 +5,9 @@ Run:  python benchmarks/bench_capture_degradation.py [--quick] [--out DIR]
 Writes ``capture_degradation.{json,md,png}`` (default ``benchmarks/results/``).  Around the
 issue's bench (the ideal circuit of ``fig6-period3-ideal`` through an 8-bit ADC with 1 % white
 noise, 200 forcing periods, 20 kSa/s) one of bits, noise or record length is varied at a time;
-for each value and each of ``--seeds`` seeds (independent records: another start on the
-attractor and other noise):
+for each value and each of ``--seeds`` seeds (independent records: seed k starts after
+``100 + 450 k`` forcing periods, so no two records of a point share a stretch of the attractor,
+and draws its own noise):
 
 * ``freq_err_v3`` / ``freq_err_vs``: the largest relative error of the forcing frequency from
   ``V_3`` / from ``V_s`` alone, over the seeds and eta = 0.74 and 0.712;
@@ -68,7 +69,8 @@ def point(meas: dict, seeds: int) -> dict:
     first = {}
     for seed in range(seeds):
         for eta in ("0.74", "0.712"):
-            c = synth_capture(IDEAL, eta=eta, seed=100 + seed, **meas)
+            # a stretch of its own (records up to 400 periods: 450 apart) and its own noise
+            c = synth_capture(IDEAL, eta=eta, seed=100 + seed, transient=100 + 450 * seed, **meas)
             errs3.append(_rel(estimate_forcing(c, 740.0), c))
             no3 = Capture.make(c.t, c.V_s, c.V_q, source=c.source)
             errs_s.append(_rel(estimate_forcing(no3, 740.0), c))

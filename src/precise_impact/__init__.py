@@ -16,6 +16,7 @@ from precise_impact.analysis.lyapunov import (
     StartEstimate,
     lyapunov,
 )
+from precise_impact.analysis.lyapunov.finite_time import finite_time_lle
 from precise_impact.analysis.lyapunov.timeseries import TimeSeriesLLE, timeseries_lle
 from precise_impact.analysis.orbits import (
     Bifurcation,
@@ -180,6 +181,7 @@ __all__ = [
     "ProvenOrbit",
     "timeseries_lle",
     "TimeSeriesLLE",
+    "finite_time_lle",
     # scenes
     "Scene",
     "builtin_scenes",

@@ -179,8 +179,9 @@ def test_period_survives_one_over_f_noise():
 @pytest.mark.slow
 def test_lle_slot_calls_the_time_series_estimator(ideal):
     # the chaos at 0.712: the estimate is the time-series module's (validated there); here
-    # only that the score carries it, in 1/tau, within 20 % of the variational LLE, computed
-    # (compiled closed form, 4000 periods: +- ~2 %), not quoted
+    # only that the score carries it, in 1/tau: its 95 % interval covers the record's own
+    # finite-time exponent and the attractor's variational LLE (computed: compiled closed
+    # form, 4000 periods, +- ~2 %; the truth table's intervals cover both in 99 % of records)
     import warnings
 
     import precise_impact as pi
@@ -191,7 +192,9 @@ def test_lle_slot_calls_the_time_series_estimator(ideal):
         ref = pi.lyapunov(pi.Params.make(eta="0.712"), model="fast", periods=4000, transient=100)
     s = score_capture(ideal["0.712"], "fig6-period3-ideal", eta="0.712", floor_captures=2)
     assert s.lle is not None and s.lle["status"] == "ok"
-    assert abs(s.lle["lle"] / float(ref.lle) - 1) < 0.2
+    lo, hi = s.lle["ci95"]
+    own = ideal["0.712"].source["truth"]["lle_record"]
+    assert lo <= own <= hi and lo <= float(ref.lle) <= hi, (s.lle["ci95"], own, ref.lle)
     json.dumps(s.to_dict(), allow_nan=False)
     assert "lags" not in s.to_dict()["lle"]
 
