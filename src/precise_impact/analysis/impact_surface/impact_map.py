@@ -167,6 +167,8 @@ def impact_map(
     bits: int | None = None,
     chunk: int = 8,
     max_periods: int = 10_000,
+    max_time: float | None = None,
+    progress: Any = False,
 ) -> list[ImpactEvent]:
     """The next ``n`` events of the impact map from the impact point ``(phase, v)``.
 
@@ -189,6 +191,11 @@ def impact_map(
         Forcing periods run at a time.
     max_periods : int, default 10000
         Give up (:class:`~precise_impact.errors.BudgetExceededError`) past this many periods.
+    max_time : float or None
+        Wall-time budget in seconds, checked between chunks
+        (:class:`~precise_impact.errors.BudgetExceededError` past it).
+    progress : bool, None or callable, default ``False``
+        Report the events found on stderr (:class:`~precise_impact.io.progress.Progress`).
 
     Returns
     -------
@@ -228,10 +235,22 @@ def impact_map(
     t_mp = t_mp / (ctx.mpf(params.eta.numerator) / params.eta.denominator)
     t = _exact(t_mp) if engine in ("closed-form", "certified") else Fraction(float(t_mp))
     vv = Fraction(str(v)) if isinstance(v, (float, str)) else _exact(v)
+    import time
+
+    from precise_impact.io.progress import Progress
+
+    t_start = time.monotonic()
+    bar = Progress(n, "impact-map events", enabled=progress)
     out: list[ImpactEvent] = []
     done = 0
     periods = chunk
     while len(out) < n:
+        bar.update(len(out))
+        if max_time is not None and time.monotonic() - t_start > float(max_time):
+            bar.close()
+            raise BudgetExceededError(
+                f"max_time = {max_time} s reached after {len(out)} of {n} impact-map events"
+            )
         events = _run(params, engine, t, vv, periods, bits)
         last_imp = max((i for i, e in enumerate(events) if e.kind == IMPACT), default=None)
         if last_imp is None:
@@ -250,6 +269,10 @@ def impact_map(
             raise BudgetExceededError(f"{len(out)} of {n} events within {max_periods} periods")
         e = events[last_imp]
         t, vv = _exact(e.t), _exact(e.v)
+        if engine in ("fast", "heyoka"):
+            periods = max(periods, min(4 * periods, 512))  # float engines: longer chunks
+    bar.update(n)
+    bar.close()
     return out[:n]
 
 
