@@ -168,10 +168,12 @@ def test_chaotic_within_horizon():
     assert worst < mpmath.mpf("1e-40"), worst
 
 
-def test_chatter_and_sticking_are_not_ordinary_points():
-    # the Budd-Dux chatter case (zeta = 0, R = 0.5, omega = 4.85, sigma = -0.3)
+@pytest.mark.parametrize("engine", ["heyoka", "fast"])
+def test_chatter_and_sticking_are_not_ordinary_points(engine):
+    # the Budd-Dux chatter case (zeta = 0, R = 0.5, omega = 4.85, sigma = -0.3); the fast
+    # engine hands chattering orbits to heyoka (its contact rule)
     params = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.3")
-    ev = impact_map(params, 0.1, 0.5, 6, engine="heyoka")
+    ev = impact_map(params, 0.1, 0.5, 6, engine=engine)
     kinds = [e.kind for e in ev]
     assert "chatter" in kinds and "sticking" in kinds
     for e in ev:
@@ -182,6 +184,14 @@ def test_chatter_and_sticking_are_not_ordinary_points():
             assert abs(np.cos(4.85 * e.t_end) + 0.3) < 1e-9
     times = [float(e.t) for e in ev]
     assert times == sorted(times)
+
+
+def test_engines_without_contact_rule_refuse_chatter():
+    # the closed form stops where the mass comes to rest on the wall: one clear error, not
+    # chatter impacts reported as ordinary points
+    params = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.3")
+    with pytest.raises(pi.BudgetExceededError, match="chattering sequence or sticking"):
+        impact_map(params, 0.1, 0.5, 3, engine="closed-form")
 
 
 def test_jacobian_against_finite_differences_and_determinant():

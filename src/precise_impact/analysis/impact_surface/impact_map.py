@@ -24,7 +24,7 @@ from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, as_params
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import ParameterError
+from precise_impact.errors import BudgetExceededError, CertificationError, ParameterError
 
 __all__ = [
     "ENGINES",
@@ -93,6 +93,15 @@ def _check(params: Any, phase: Any, v: Any, n: int, engine: str) -> Params:
     return params
 
 
+def _no_contact_rule(engine: str, e: Exception) -> BudgetExceededError:
+    """The closed form and the certified engine stop where the mass comes to rest on the wall
+    (the end of a chattering sequence, sticking): they have no contact rule."""
+    return BudgetExceededError(
+        f"engine {engine!r} stops at a chattering sequence or sticking (it has no contact "
+        f"rule): use engine='heyoka' or 'fast'; the engine said: {e}"
+    )
+
+
 def _run(params: Params, engine: str, t: Fraction, v: Fraction, periods: int, bits: int | None):
     """Events after the impact ``(t, v)`` over ``periods`` forcing periods (start excluded)."""
     from precise_impact.solvers.simulate import simulate
@@ -111,13 +120,21 @@ def _run(params: Params, engine: str, t: Fraction, v: Fraction, periods: int, bi
     if engine == "certified":
         from precise_impact.solvers.certified.single import certify
 
-        ct = certify(start, periods, precision=precision)
+        try:
+            ct = certify(start, periods, precision=precision)
+        except CertificationError as e:
+            raise _no_contact_rule(engine, e) from e
         digits = ctx.dps + 10
         times = [ctx.mpf(i[0].mid().str(digits, radius=False)) for i in ct.impacts]
         vels = [ctx.mpf(i[1].mid().str(digits, radius=False)) for i in ct.impacts]
         stats: dict = {}
     else:
-        tr = simulate(start, periods, model=model, precision=precision)
+        try:
+            tr = simulate(start, periods, model=model, precision=precision)
+        except BudgetExceededError as e:
+            if engine != "closed-form":
+                raise
+            raise _no_contact_rule(engine, e) from e
         fr = tr.precision.to_fraction
         times = [conv(fr(x)) for x in tr.impacts_t]
         vels = [conv(fr(x)) for x in tr.impacts_v_before]
@@ -221,8 +238,6 @@ def impact_map(
     >>> [e.kind for e in ev]
     ['impact', 'impact']
     """
-    from precise_impact.errors import BudgetExceededError
-
     params = _check(params, phase, v, n, engine)
     ph = Fraction(str(phase)) if isinstance(phase, (float, str)) else _exact(phase)
     # the start time 2 pi phase / eta to the engine's precision (float engines: rounded once)
