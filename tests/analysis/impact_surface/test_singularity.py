@@ -100,3 +100,23 @@ def test_images_are_the_one_sided_limits(chaotic_set):
 def test_bad_input():
     with pytest.raises(pi.ParameterError, match="step"):
         singularity_set(pi.Params.make(), step=1.0)
+
+
+def test_virtual_points_have_an_earlier_impact():
+    # Budd-Dux style (zeta = 0, R = 0.5, omega = 2.8, sigma = 0): the dotted parts of the set are
+    # tangencies that an earlier impact on the same flight pre-empts; the map (heyoka, whose
+    # contact rule also covers the chattering this model does) finds that impact (or the first
+    # impact of a chattering sequence) before the tangency, at every sampled virtual point
+    params = pi.Params.make(zeta=0, R="0.5", eta="2.8", x_w="0", x0="0")
+    r = singularity_set(params, v_max=2.0, step=0.02)
+    virtual = [
+        (ph, v, s)
+        for b in r.branches
+        for ph, v, s, ok in zip(b["phase"], b["v"], b["s"], b["physical"], strict=True)
+        if not ok
+    ]
+    assert len(virtual) > 10
+    for ph, v, s in virtual[:: max(1, len(virtual) // 8)]:
+        e = impact_map(params, ph, v, 1, engine="heyoka")[0]
+        t0 = 2 * np.pi * ph / 2.8
+        assert e.kind in ("impact", "chatter") and float(e.t) - t0 < s - 1e-6
