@@ -55,6 +55,16 @@ class ImpactEvent:
     ``'chatter'`` (a chattering sequence from its first impact ``(t, v)`` accumulating at
     ``t_end``; ``count`` impacts resolved) or ``'sticking'`` (at rest on the wall from ``t`` to
     ``t_end``, ``None`` if never released).
+
+    See Also
+    --------
+    precise_impact.analysis.impact_surface.impact_map.impact_map : returns them.
+
+    Examples
+    --------
+    >>> from precise_impact.analysis.impact_surface.impact_map import ImpactEvent
+    >>> ImpactEvent("impact", 1.0, 0.5, 0.1).kind
+    'impact'
     """
 
     kind: str
@@ -340,6 +350,18 @@ class ImpactMapResult(ResultMixin):
     engine : str
     kind, t, phase, v, t_end : list
         One entry per event (:class:`ImpactEvent`).
+
+    See Also
+    --------
+    precise_impact.analysis.impact_surface.impact_map.impact_map_orbit : returns it.
+    precise_impact.analysis.impact_surface.singularity.SingularityResult : drawn over its plot.
+
+    Examples
+    --------
+    >>> from precise_impact.analysis.impact_surface.impact_map import impact_map_orbit
+    >>> r = impact_map_orbit({"eta": "0.74"}, 0.3, 1.0, 3, engine="heyoka")
+    >>> r.kind
+    ['impact', 'impact', 'impact']
     """
 
     params: Params

@@ -192,6 +192,18 @@ class SingularityResult(ResultMixin):
         after: the same flight's next impact), ``None`` where there is none within 50 periods.
     max_step : float
         The largest distance between neighbouring points (continuity).
+
+    See Also
+    --------
+    precise_impact.analysis.impact_surface.singularity.singularity_set : returns it.
+    precise_impact.analysis.impact_surface.impact_map.ImpactMapResult : the scatter under it.
+
+    Examples
+    --------
+    >>> from precise_impact.analysis.impact_surface.singularity import singularity_set
+    >>> r = singularity_set({"eta": "0.74"}, seed_phases=4, seed_speeds=20, max_points=40)
+    >>> all(len(b["phase"]) == len(b["v"]) for b in r.branches)
+    True
     """
 
     params: Params
