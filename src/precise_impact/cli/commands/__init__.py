@@ -17,6 +17,7 @@ from precise_impact.cli.commands import (
     certify,
     compare,
     continuation,
+    impact_map,
     lle,
     orbit,
     reference,
@@ -24,6 +25,7 @@ from precise_impact.cli.commands import (
     run,
     scenes,
     simulate,
+    singularity,
     spice,
     sweep,
     sync,
@@ -51,4 +53,6 @@ COMMANDS = (
     spice,
     budget,
     capture,
+    impact_map,
+    singularity,
 )

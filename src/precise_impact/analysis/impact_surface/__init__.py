@@ -1,0 +1,1 @@
+"""The impact surface: the impact map, its singularity set and their plots."""
