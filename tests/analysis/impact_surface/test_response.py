@@ -19,8 +19,9 @@ from precise_impact.analysis.impact_surface.response import (
     response_curve,
 )
 from precise_impact.analysis.orbits.newton import find_orbit
+from precise_impact.cli.main import main
 from precise_impact.core import flight
-from precise_impact.errors import ConvergenceError, ParameterError
+from precise_impact.errors import BudgetExceededError, ConvergenceError, ParameterError
 
 # The continuation locates a test-function zero by regula falsi to ~4 eps in arclength, then
 # corrects onto the branch with residual <= 1e-10 (scaled); a fold's parameter is quadratic in
@@ -59,6 +60,24 @@ def test_sigma_folds_and_period_doublings_agree_with_budd_dux(sigma_curve):
         found[b.type] += 1
     # the physical fold (V > 0), both period-doublings (physical and virtual), both V = 0 grazings
     assert found == {"fold": 1, "period-doubling": 2, "grazing": 2}
+
+
+def test_one_impact_per_two_periods_agrees_with_budd_dux():
+    # (1,2) at omega = 5.6: measured fold 9.6e-16, period-doublings 4e-17, grazings 3e-16
+    p = pi.Params.make(zeta="0", a="1", R="0.8", eta="5.6", x_w="-0.3", x0="-2")
+    rc = response_curve(p, 2, "x_w", "-1", "0.3", at="-0.3")
+    refs = budd_dux_points("5.6", "0.8", n=2, dps=50)
+    kinds = []
+    for b in rc.bifurcations:
+        if b.type == "grazing" and abs(b.impact_v[0]) > 1e-9:
+            continue  # an interior grazing: no closed form here
+        ref = min(
+            (q for q in refs if q["type"] == b.type), key=lambda q: abs(float(q["x_w"]) - b.value)
+        )
+        assert abs(b.value - float(ref["x_w"])) <= TOL, (b.type, b.value, ref["x_w"])
+        kinds.append(b.type)
+    assert sorted(kinds) == ["fold", "grazing", "grazing", "period-doubling", "period-doubling"]
+    assert {"stable", "unstable", "unphysical", "virtual"} <= set(rc.kind)
 
 
 def test_closed_form_fold_is_a_multiplier_plus_one():
@@ -206,6 +225,8 @@ def test_bad_input():
         response_curve(p, 1, "x_w", "-2", "0.5")  # no orbit at x_w = -2 (outside the ellipse)
     with pytest.raises(ParameterError, match="R"):
         budd_dux_points("2.8", "1")
+    with pytest.raises(BudgetExceededError, match="max_time"):
+        response_curve(p, 1, "x_w", "-2", "0.5", at="-1", max_time="1e-9")
 
 
 def _cli(*args):
@@ -217,7 +238,7 @@ def _cli(*args):
     )
 
 
-def test_cli_json_and_bad_input(tmp_path):
+def test_cli_json_and_bad_input(tmp_path, capsys):
     base = ("--eta", "2.8", "--zeta", "0", "--R", "0.8", "--max-points", "150")
     r = _cli("--param", "x_w", "-2", "0.5", "--at", "-1", *base, "--json", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
@@ -225,7 +246,11 @@ def test_cli_json_and_bad_input(tmp_path):
     fold = [b for b in obj["bifurcations"] if b["type"] == "fold" and b["admissible"]]
     assert abs(fold[0]["x_w"] - -1.7802356013215904924) <= TOL
     assert (tmp_path / "response.png").exists() and (tmp_path / "response.json").exists()
-    r = _cli("--param", "zeta", "0", "1", *base)
-    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "x_w or eta" in r.stderr
-    r = _cli("--param", "x_w", "-2", "0.5", "--at", "7", *base)
-    assert r.returncode == 2 and "at" in r.stderr
+    # bad input: one line naming the parameter, exit 2, before any work (in-process: fast)
+    for args, word in (
+        (("zeta", "0", "1"), "x_w or eta"),
+        (("x_w", "-2", "0.5", "--at", "7"), "at"),
+    ):
+        assert main(["response", "--param", *args, *base]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and word in err
