@@ -41,7 +41,12 @@ from precise_impact.core import flight
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
 from precise_impact.core.result import ResultMixin, columns
-from precise_impact.errors import BudgetExceededError, ConvergenceError, ParameterError
+from precise_impact.errors import (
+    BudgetExceededError,
+    ConvergenceError,
+    IntegrationError,
+    ParameterError,
+)
 from precise_impact.io.figures import finish, legend_outside, new_figure
 
 __all__ = [
@@ -653,73 +658,89 @@ def response_curve(
     if parameter == "x_w":
         changes["x0"] = min(params.x0, at_q, lo_q, hi_q)
     p_at = params.replace(**changes)
-    orbits = one_impact_orbits(p_at, dps=30, grid=400, period=n)
-    if not orbits:
-        raise ConvergenceError(
-            f"no physical (1,{n}) orbit at {parameter} = {decimal_str(at_q)}: choose 'at' "
-            "where one exists (one_impact_orbits lists them)"
-        )
-    vals_l: list = []
-    V_l: list = []
-    x_l: list = []
-    v_l: list = []
-    kind_l: list = []
-    br_l: list = []
-    reasons: list = []
-    bifs: list = []
-    k = 0
-    for orb in orbits:
-        if budget is not None and time.perf_counter() - t_start > budget:
-            raise BudgetExceededError(f"max_time = {max_time} s ran out")
-        g = (float(orb.x), float(orb.v))
-        if _on_curve(vals_l, x_l, br_l, float(at_q), g[0]):
-            continue  # the second orbit at ``at`` already lies on a traced branch
-        pieces = []
-        for j, end in enumerate(e for e in (hi_q, lo_q) if e != at_q):
-            if budget is not None and time.perf_counter() - t_start > budget:
-                raise BudgetExceededError(f"max_time = {max_time} s ran out")
-            res = continue_orbit(
-                p_at,
-                parameter,
-                at_q,
-                end,
-                n,
-                impacts=1,
-                guess=g,
-                virtual="10",
-                max_points=max_points,
-                doublings=0,
-                progress=progress,
-                within=(lo_q, hi_q),
-            )
-            b = res.branches[0]
-            lam, V, kd = np.asarray(b.values, float), np.asarray(b.impact_v, float)[:, 0], _kinds(b)
-            xs, vs = np.asarray(b.x, float)[:, 0], np.asarray(b.v, float)[:, 0]
-            cut = _closed(lam, xs, vs)
-            reason = b.stop_reason
-            if cut is not None:
-                lam, V, kd, xs, vs = (a[: cut + 1] for a in (lam, V, kd, xs, vs))
-                reason = "closed (came back to its first point)"
-            for bf in res.bifurcations:
-                if bf.branch == 0:
-                    bf.branch = k
-                    bifs.append(bf)
-            if j == 1:
-                lam, V, kd, xs, vs = (a[::-1] for a in (lam, V, kd, xs, vs))
-            pieces.append((lam, V, kd, xs, vs))
-            reasons.append(reason)
-            if cut is not None:
-                break  # a closed curve: the other direction is the same curve
-        if len(pieces) == 2:
-            pieces = [pieces[1], pieces[0]]
-        for lam, V, kd, xs, vs in pieces:
-            x_l.extend(xs)
-            v_l.extend(vs)
-            vals_l.extend(lam)
-            V_l.extend(V)
-            kind_l.extend(kd)
-            br_l.extend([k] * len(lam))
-        k += 1
+    # an orbit whose impact falls on the stroboscopic phase t0 (always so at zeta = 0, R = 1,
+    # where the impact phase is 0 or pi) starts Newton on the wall in a tangential contact:
+    # then the section is moved by a quarter period (V and the bifurcations do not depend
+    # on it)
+    for attempt in (0, 1):
+        try:
+            orbits = one_impact_orbits(p_at, dps=30, grid=400, period=n)
+            if not orbits:
+                raise ConvergenceError(
+                    f"no physical (1,{n}) orbit at {parameter} = {decimal_str(at_q)}: choose 'at' "
+                    "where one exists (one_impact_orbits lists them)"
+                )
+            vals_l: list = []
+            V_l: list = []
+            x_l: list = []
+            v_l: list = []
+            kind_l: list = []
+            br_l: list = []
+            reasons: list = []
+            bifs: list = []
+            k = 0
+            for orb in orbits:
+                if budget is not None and time.perf_counter() - t_start > budget:
+                    raise BudgetExceededError(f"max_time = {max_time} s ran out")
+                g = (float(orb.x), float(orb.v))
+                if _on_curve(vals_l, x_l, br_l, float(at_q), g[0]):
+                    continue  # the second orbit at ``at`` already lies on a traced branch
+                pieces = []
+                for j, end in enumerate(e for e in (hi_q, lo_q) if e != at_q):
+                    if budget is not None and time.perf_counter() - t_start > budget:
+                        raise BudgetExceededError(f"max_time = {max_time} s ran out")
+                    res = continue_orbit(
+                        p_at,
+                        parameter,
+                        at_q,
+                        end,
+                        n,
+                        impacts=1,
+                        guess=g,
+                        virtual="10",
+                        max_points=max_points,
+                        doublings=0,
+                        progress=progress,
+                        within=(lo_q, hi_q),
+                    )
+                    b = res.branches[0]
+                    lam, V, kd = (
+                        np.asarray(b.values, float),
+                        np.asarray(b.impact_v, float)[:, 0],
+                        _kinds(b),
+                    )
+                    xs, vs = np.asarray(b.x, float)[:, 0], np.asarray(b.v, float)[:, 0]
+                    cut = _closed(lam, xs, vs)
+                    reason = b.stop_reason
+                    if cut is not None:
+                        lam, V, kd, xs, vs = (a[: cut + 1] for a in (lam, V, kd, xs, vs))
+                        reason = "closed (came back to its first point)"
+                    for bf in res.bifurcations:
+                        if bf.branch == 0:
+                            bf.branch = k
+                            bifs.append(bf)
+                    if j == 1:
+                        lam, V, kd, xs, vs = (a[::-1] for a in (lam, V, kd, xs, vs))
+                    pieces.append((lam, V, kd, xs, vs))
+                    reasons.append(reason)
+                    if cut is not None:
+                        break  # a closed curve: the other direction is the same curve
+                if len(pieces) == 2:
+                    pieces = [pieces[1], pieces[0]]
+                for lam, V, kd, xs, vs in pieces:
+                    x_l.extend(xs)
+                    v_l.extend(vs)
+                    vals_l.extend(lam)
+                    V_l.extend(V)
+                    kind_l.extend(kd)
+                    br_l.extend([k] * len(lam))
+                k += 1
+            break
+        except IntegrationError:
+            if attempt == 1 or not orbits:
+                raise
+            quarter = Fraction(round(math.pi / 2 / float(p_at.eta) * 10**6), 10**6)
+            p_at = p_at.replace(t0=p_at.t0 + quarter)
     return ResponseCurve(
         params=p_at,
         n=n,
