@@ -266,3 +266,10 @@ def test_elastic_undamped_orbits_impacting_at_the_section_phase():
     assert c["elliptic"] > 10 and c["unstable"] > 10 and c["stable"] == 0
     assert rc.params.t0 != 0
     assert {"grazing", "period-doubling"} <= {b.type for b in rc.bifurcations}
+
+
+def test_continue_orbit_within_is_checked_before_work():
+    p = pi.Params.make(zeta="0", a="1", R="0.8", eta="2.8", x_w="-0.5", x0="-2")
+    for bad in (("2", "5"), ("1.5",), ("0", "5")):
+        with pytest.raises(ParameterError, match="within"):
+            pi.continue_orbit(p, "eta", "2.8", "1.5", 1, within=bad)

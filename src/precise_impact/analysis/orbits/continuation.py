@@ -454,13 +454,13 @@ def continue_orbit(
     doublings = check_count(doublings, "doublings", 8)
     virtual = _check_virtual(virtual)
     _check_ends(parameter, p_start, lam0, lam1)
+    lo, hi = sorted((float(lam0), float(lam1)))
+    if within is not None:
+        lo, hi = _check_within(within, parameter, lam0, lam1)
 
     orbit = find_orbit(
         p_start, period, guess=guess, transient=transient, impacts=impacts, max_time=max_time
     )
-    lo, hi = sorted((float(lam0), float(lam1)))
-    if within is not None:
-        lo, hi = _check_within(within, parameter, lam0, lam1)
     curve, first = _first_point(p_start, parameter, period, orbit, lam0, lam1)
 
     bar = Progress(max_points * (1 + doublings), f"continuation in {parameter}", enabled=progress)
