@@ -197,6 +197,8 @@ JSON_COMMANDS = {
     "budget": ["budget", "--landmarks", "grazing", "--mc", "10", "--sobol", "0", "--lle-mc", "0"]
     + ["--no-scans", "--out", "{out}"],
     "capture": ["capture", "synth", "--out", "{out}/cap.npz", "--periods", "5", "--transient", "5"],
+    "response": ["response", "--param", "x_w", "-2", "0.5", "--at", "-1", "--eta", "2.8"]
+    + ["--zeta", "0", "--R", "0.8", "--max-points", "30"],
 }
 #: Over ~5 s each: CI runs them in its slow step.
 SLOW_JSON = {"bench", "compare", "spice"}

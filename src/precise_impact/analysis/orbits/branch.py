@@ -68,6 +68,13 @@ class Branch(ResultMixin):
         when ``zeta = 0`` and ``R = 1`` make ``det M = 1`` identically and the multipliers
         are a complex pair on the unit circle (then ``stable`` is false and ``lle`` is 0).
         ``None`` (a branch built by hand): derived from ``stable``.
+    impact_v : numpy.ndarray of float, shape ``(m, n)``, or None, default ``None``
+        Each impact's approach velocity ``v^-`` (negative: the orbit arrives from beyond
+        the wall, a virtual orbit); ``None`` for a branch built by hand.
+    wall_margin : numpy.ndarray of float, shape ``(m,)``, or None, default ``None``
+        ``x_w`` minus the highest interior maximum of the orbit's flights (negative: a
+        flight crosses the wall; ``inf``: no interior maximum); ``None`` for a branch
+        built by hand.
 
     See Also
     --------
@@ -88,6 +95,8 @@ class Branch(ResultMixin):
     lle: np.ndarray
     stop_reason: str
     stability: np.ndarray | None = None
+    impact_v: np.ndarray | None = None
+    wall_margin: np.ndarray | None = None
 
     def _tables(self) -> dict:
         """``to_dataframe()`` table ``points``: one row per orbit of the branch, its
@@ -163,6 +172,8 @@ class Branch(ResultMixin):
             lle=np.array([p.lle for p in pts]),
             stop_reason=reason,
             stability=np.array([p.stability for p in pts], dtype=object),
+            impact_v=np.array([p.impact_v for p in pts], dtype=float).reshape(len(pts), impacts),
+            wall_margin=np.array([p.tests["graze_interior"] for p in pts]),
         )
 
 
@@ -193,6 +204,8 @@ class Bifurcation(ResultMixin):
         The test function's value at the returned point (how close to zero it got).
     detail : str
         Which grazing (interior maximum or impact velocity), or the branch switched to.
+    impact_v : list of float or None, default ``None``
+        The orbit's impact approach velocities ``v^-`` at the point (negative: virtual).
 
     See Also
     --------
@@ -212,6 +225,7 @@ class Bifurcation(ResultMixin):
     admissible: bool
     test: float
     detail: str = ""
+    impact_v: list | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """``{"type", NAME: value, "parameter", "value", ...}`` (NAME the continued parameter)."""

@@ -128,6 +128,8 @@ class _Point:
         vals = system.values(lam)
         T = system.forcing_period(vals)
         zeta, R = vals[1], vals[4]
+        # each impact's arrival velocity v^- from its flight (negative: from beyond the wall)
+        self.impact_v = [c[2] for c in system._cycle(u, vals)[0]] if system.impacts else []
         neutral = area_preserving(zeta, R, system.impacts)
         # det M in closed form (exact up to one rounding of exp): never rounding noise of either
         # sign
@@ -299,6 +301,11 @@ def _corrected(curve: _Curve, p: _Point, pred, ds: float):
     """The prediction corrected onto the branch: point, Newton iterations, tangent (or ``None``)."""
     y, it = curve.correct(pred, p.tau, p.y, ds)
     tau = None
+    # a corrector that lands farther from the prediction than the step itself has jumped to
+    # another part of the curve (a fold's other sheet, or back along the branch): refused,
+    # the step is halved
+    if y is not None and float(np.linalg.norm(y - pred)) > abs(ds):
+        return y, it, None
     if y is not None and _ordered(curve.s, y):
         tau = curve.tangent(y, p.tau)
     return y, it, tau
@@ -350,6 +357,7 @@ def continue_orbit(
     virtual: Any = "0.1",
     progress: bool | None = None,
     max_time: Any = None,
+    within: tuple | None = None,
     **param_values: Any,
 ) -> ContinuationResult:
     """A branch of periodic orbits continued in one parameter, with its bifurcations.
@@ -387,6 +395,11 @@ def continue_orbit(
     max_time : decimal or None, default ``None``
         Time budget in seconds of the starting orbit's transient (``None``: none; see
         :func:`~precise_impact.analysis.orbits.newton.find_orbit`).
+    within : pair of decimal or None, default ``None``
+        ``(lo, hi)``: the range the branch may run in, containing ``start`` and ``stop``
+        (``None``: from ``start`` to ``stop``).  The branch starts at ``start`` towards
+        ``stop`` and may come back past ``start`` after a fold, until it leaves
+        ``[lo, hi]`` (a response curve started inside its range).
     **param_values
         Parameter values replacing those of ``params``.
 
@@ -441,11 +454,13 @@ def continue_orbit(
     doublings = check_count(doublings, "doublings", 8)
     virtual = _check_virtual(virtual)
     _check_ends(parameter, p_start, lam0, lam1)
+    lo, hi = sorted((float(lam0), float(lam1)))
+    if within is not None:
+        lo, hi = _check_within(within, parameter, lam0, lam1)
 
     orbit = find_orbit(
         p_start, period, guess=guess, transient=transient, impacts=impacts, max_time=max_time
     )
-    lo, hi = sorted((float(lam0), float(lam1)))
     curve, first = _first_point(p_start, parameter, period, orbit, lam0, lam1)
 
     bar = Progress(max_points * (1 + doublings), f"continuation in {parameter}", enabled=progress)
@@ -521,6 +536,22 @@ def _check_range(params: Params, parameter: str, start: Any, stop: Any):
             "stop", str(stop), f"a value of {parameter} other than start = {start}"
         )
     return p_start, lam0, lam1
+
+
+def _check_within(within: Any, parameter: str, lam0: Any, lam1: Any) -> tuple[float, float]:
+    """``within`` checked (a pair containing ``start`` and ``stop``) and as floats."""
+    try:
+        a, b = within
+    except (TypeError, ValueError):
+        raise ParameterError("within", repr(within), "a pair (lo, hi) of decimals") from None
+    qa, qb = sorted((exact("within", a), exact("within", b)))
+    if not qa <= min(lam0, lam1) <= max(lam0, lam1) <= qb:
+        raise ParameterError(
+            "within", repr(within), f"a range of {parameter} containing start and stop"
+        )
+    if parameter == "eta" and not qa > 0:
+        raise ParameterError("within", repr(within), "eta > 0 over the whole range")
+    return float(qa), float(qb)
 
 
 def _check_virtual(virtual: Any) -> float:
@@ -600,6 +631,7 @@ def _bifurcation(cv: _Curve, a: _Point, b: _Point, test: str, parameter: str, k:
         admissible=bool(min(z.tests["graze_interior"], z.tests["graze_impact"]) >= -1e-9),
         test=float(z.tests[test]),
         detail=detail,
+        impact_v=[float(w) for w in z.impact_v],
     )
     return bif, z
 
