@@ -1,0 +1,128 @@
+"""Domains of attraction: labels against long single runs, executors, resume, bad input."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+
+import numpy as np
+import pytest
+
+import precise_impact as pi
+from precise_impact.analysis.impact_surface.basins import (
+    _CACHES,
+    SAME_ORBIT,
+    _close,
+    basins,
+    point_attractor,
+)
+from precise_impact.errors import ParameterError
+
+CHATTER = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")  # Budd-Dux
+PAPER = pi.Params.make(eta="0.74")  # (2,3) and (16,16) coexist
+
+
+def _same(a: dict, b: dict) -> bool:
+    """Two independent identifications name the same attractor (periodic: same (m, n) and the
+    same refined fastest impact to SAME_ORBIT; Newton leaves both at rounding level)."""
+    if a["kind"] != b["kind"]:
+        return False
+    if a["kind"] != "periodic":
+        return True
+    return (a["impacts"], a["period"]) == (b["impacts"], b["period"]) and _close(
+        a["rep_phase"], a["rep_v"], b["rep_phase"], b["rep_v"], SAME_ORBIT
+    )
+
+
+def _agreement(params, grid, transient, n_sample, seed):
+    r = basins(params, grid, transient=transient, progress=False)
+    cu, cv = r.coordinates()
+    _CACHES.clear()  # the long runs refine every cycle again, from scratch
+    rng = np.random.default_rng(seed)
+    picks = rng.choice(r.labels.size, size=min(n_sample, r.labels.size), replace=False)
+    away = disagree = 0
+    for k in picks:
+        i, j = np.unravel_index(k, r.labels.shape)
+        long = point_attractor(params, r.section, cu[j], cv[i], transient=10 * transient)
+        att = r.attractors[r.labels[i, j]]
+        mine = {
+            "kind": att["kind"], "impacts": att["impacts"], "period": att["period"],
+            "rep_phase": att["phase"], "rep_v": att["v"],
+        }  # fmt: skip
+        if not r.boundary[i, j]:
+            away += 1
+            disagree += not _same(mine, long)
+    return r, away, disagree
+
+
+def test_chatter_map_agrees_with_long_runs():
+    # 40 x 40 on the Budd-Dux chatter case, 100 random points re-run with 10x the transient
+    r, away, disagree = _agreement(CHATTER, ((0, 1, 40), (0, 0.6, 40)), 60, 100, 1)
+    assert disagree == 0 and away == 100
+    assert [a["name"] for a in r.attractors] == ["chatter + sticking"]
+    assert r.stuck.all() and (r.capture > 0).all()
+    json.dumps(r.to_dict(), allow_nan=False)
+
+
+def test_paper_map_agrees_with_long_runs():
+    # two coexisting periodic attractors: every point away from the boundary agrees
+    r, away, disagree = _agreement(PAPER, ((0, 1, 10), (0, 3, 10)), 100, 30, 2)
+    names = sorted(a["name"] for a in r.attractors)
+    assert "(2,3) stable" in names
+    assert disagree == 0 and away > 0
+    assert 0 <= r.stats["boundary_fraction"] < 1
+
+
+def test_one_orbit_one_label_and_exact_floquet_lle():
+    r = basins(PAPER, ((0, 1, 6), (0.5, 2.5, 4)), transient=100, refine=False, progress=False)
+    per = [a for a in r.attractors if a["kind"] == "periodic"]
+    assert len({(a["impacts"], a["period"], round(a["v"], 6)) for a in per}) == len(per)
+    o = pi.find_orbit(PAPER, 3)  # the (2,3) orbit: its LLE is ln|mu| / (3 T) from find_orbit
+    (two_three,) = [a for a in per if (a["impacts"], a["period"]) == (2, 3)]
+    assert two_three["lle"] == pytest.approx(o.lle, rel=1e-9)  # Newton to rounding either way
+
+
+def test_stroboscopic_section_same_attractors_and_outside():
+    r = basins(PAPER, ((1.0, 3.0, 4), (-1, 1, 3)), section="stroboscopic", transient=100,
+               refine=False, progress=False)  # fmt: skip
+    assert (r.labels[:, 2:] == -1).all()  # x = 2.25, 2.75 > x_w = 2: outside
+    assert (r.labels[:, :2] >= 0).all()
+    impact = basins(PAPER, ((0, 1, 6), (0.5, 2.5, 4)), transient=100, refine=False, progress=False)
+    names = {a["name"] for a in impact.attractors}
+    assert {a["name"] for a in r.attractors} <= names | {"unresolved"}
+
+
+def test_resume_is_bit_identical(tmp_path):
+    g = ((0, 1, 8), (0, 0.6, 5))
+    a = basins(CHATTER, g, transient=40, tile_size=7, out=tmp_path, progress=False)
+    with pytest.raises(ParameterError):  # a partial run
+        basins(CHATTER, ((0, 1, 9), (0, 0.6, 5)), transient=40, tile_size=7, out=tmp_path / "b",
+               max_tiles=2, progress=False)  # fmt: skip
+    b = basins(CHATTER, g, transient=40, tile_size=7, out=tmp_path, progress=False)
+    assert b.stats["tiles_computed"] == 0
+    assert np.array_equal(a.labels, b.labels) and np.array_equal(a.capture, b.capture)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("distributed") is None, reason="Dask is optional")
+def test_dask_map_equals_serial():
+    g = ((0, 1, 20), (0, 0.6, 20))
+    a = basins(CHATTER, g, transient=40, tile_size=50, progress=False)
+    b = basins(CHATTER, g, transient=40, tile_size=50, dask="local", workers=2, progress=False)
+    assert b.stats["backend"] == "dask" and b.stats["workers"] == 2
+    assert np.array_equal(a.labels, b.labels) and np.array_equal(a.capture, b.capture)
+
+
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        ({"section": "poincare"}, "section"),
+        ({"grid": ((0, 1, 4),)}, "grid"),
+        ({"grid": ((0, 2, 4), (0, 1, 4))}, "grid"),
+        ({"grid": ((1, 0, 4), (0, 1, 4))}, "phase"),
+        ({"transient": 0}, "transient"),
+    ],
+)
+def test_bad_input_names_the_parameter(kw, name):
+    args = {"grid": ((0, 1, 4), (0, 1, 4))} | kw
+    with pytest.raises(ParameterError, match=name):
+        basins(CHATTER, **args, progress=False)
