@@ -126,3 +126,46 @@ def test_bad_input_names_the_parameter(kw, name):
     args = {"grid": ((0, 1, 4), (0, 1, 4))} | kw
     with pytest.raises(ParameterError, match=name):
         basins(CHATTER, **args, progress=False)
+
+
+def test_cli_basins_json_and_resume(tmp_path, capsys):
+    from precise_impact.cli.main import main
+
+    argv = ["basins", "--eta", "4.85", "--zeta", "0", "--R", "0.5", "--x_w=-0.3", "--x0=-0.5",
+            "--u", "0", "1", "6", "--v", "0", "0.6", "5", "--transient", "30", "--tile", "7",
+            "--out", str(tmp_path), "--json"]  # fmt: skip
+    assert main(argv) == 0
+    first = json.loads(capsys.readouterr().out)
+    assert [a["name"] for a in first["attractors"]] == ["chatter + sticking"]
+    assert (tmp_path / "basins.png").exists() and (tmp_path / "basins.json").exists()
+    assert main(argv) == 0  # resumed: every tile from the store
+    again = json.loads(capsys.readouterr().out)
+    assert again["stats"]["tiles_computed"] == 0 and again["attractors"] == first["attractors"]
+
+
+@pytest.mark.parametrize(
+    "extra, code",
+    [(["--section", "stroboscopic"], 2), (["--u", "0", "1", "1000", "--max-time", "1"], 3)],
+)
+def test_cli_bad_input_and_budget_before_work(tmp_path, extra, code, capsys):
+    from precise_impact.cli.main import main
+
+    assert main(["basins", "--out", str(tmp_path), *extra]) == code
+    assert capsys.readouterr().err.count("\n") == 1  # one line
+    assert not (tmp_path / "basins.json").exists()
+
+
+def test_chaotic_and_non_impacting_points():
+    chaos = point_attractor(pi.Params.make(eta="0.712"), "stroboscopic", 0.0, 0.0,
+                            chaos_periods=4000)  # fmt: skip
+    assert chaos["kind"] == "chaotic"
+    assert 0.02 < chaos["lle"] < 0.04  # the paper's LLE ~0.0302 over 4000 periods (3 sigma)
+    lin = pi.Params.make(eta="0.5", x_w="1000")  # never reaches the wall: linear
+    quiet = point_attractor(lin, "stroboscopic", 0.0, 0.0)
+    assert quiet["kind"] == "non-impacting" and quiet["lle"] == -0.05  # -zeta, exactly
+
+
+@pytest.mark.slow
+def test_bigger_map_agrees_on_1000_points():
+    r, away, disagree = _agreement(PAPER, ((0, 1, 40), (0, 3, 40)), 100, 1000, 3)
+    assert disagree == 0 and away >= 500

@@ -45,7 +45,8 @@ import numpy as np
 
 from precise_impact.analysis.orbits.newton import find_orbit
 from precise_impact.analysis.periodicity import detect_period
-from precise_impact.analysis.scan import NpzTileStore, run_scan
+from precise_impact.analysis.scan import NpzTileStore, check_workers, run_scan
+from precise_impact.core.budget import Cost, check_cost, parse_max_time
 from precise_impact.core.impact import (
     chatter_accumulation_time,
     release_time,
@@ -77,6 +78,10 @@ _STABILITY = ("stable", "unstable", "elliptic", "parabolic")
 
 #: Per-point fields of a tile (one value per point).
 FIELDS = ("kind", "impacts", "period", "stability", "lle", "rep_phase", "rep_v", "stuck", "capture")
+
+#: Seconds per forcing period of one start in the compiled engine (a lower bound: measured
+#: 1-2 us per period at eta = 0.74; Newton refinements and LLEs come on top).
+SECONDS_PER_PERIOD = 1e-6
 
 #: Relative agreement of two refined orbits' representative impacts taken as the same orbit
 #: (Newton leaves them at rounding level, ~1e-14; distinct orbits are far apart).
@@ -365,12 +370,16 @@ class _Spec:
         return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def _points_job(spec: _Spec, points: np.ndarray, transient: int, lo: int, hi: int) -> dict:
-    """The rows of ``points[lo:hi]`` (pairs ``(u, v)``) as the tile's arrays."""
-    out = {f: [] for f in FIELDS}
-    for u, v in points[lo:hi]:
+def _points_job(spec: _Spec, index: np.ndarray | None, transient: int, lo: int, hi: int) -> dict:
+    """The rows of flat grid points ``lo .. hi - 1`` (or of ``index[lo:hi]``) as a tile's arrays;
+    the coordinates are computed here, so a task carries the spec, not the points."""
+    cu, cv = spec.coords()
+    ks = np.arange(lo, hi) if index is None else index[lo:hi]
+    out: dict = {f: [] for f in FIELDS}
+    for k in ks:
+        i, j = divmod(int(k), len(cu))
         row, stuck, capture = _point(
-            spec.pars, spec.t0, spec.section, float(u), float(v), transient,
+            spec.pars, spec.t0, spec.section, float(cu[j]), float(cv[i]), transient,
             spec.max_period, spec.chaos_periods,
         )  # fmt: skip
         for f, val in zip(FIELDS[:7], row, strict=True):
@@ -626,6 +635,7 @@ def basins(
     dask: str | None = None,
     out: str | os.PathLike | None = None,
     max_tiles: int | None = None,
+    max_time: Any = None,
     progress: ProgressArg = None,
 ) -> BasinsResult:
     """Domains of attraction on the impact surface or the stroboscopic section.
@@ -657,6 +667,10 @@ def basins(
         Local worker processes, or a Dask cluster (``'local'`` or ``'tcp://HOST:PORT'``).
     out : path or None, default ``None``
         Directory of the finished tiles: a rerun resumes from them.
+    max_time : decimal or None, default ``None``
+        Time budget in seconds: a map whose estimate (:data:`SECONDS_PER_PERIOD` per period
+        of every point's transient, over the workers) is over it is refused before any work
+        (:class:`~precise_impact.errors.OverBudgetError`).
     max_tiles : int or None
         Compute at most this many tiles (a partial run: :class:`ParameterError` asks to
         rerun for the rest).
@@ -672,6 +686,8 @@ def basins(
     ------
     ParameterError
         Bad input, before any work.
+    OverBudgetError
+        The estimate is over ``max_time``, before any work.
     KeyboardInterrupt
         Ctrl-C: the finished tiles stay in ``out``.
 
@@ -705,12 +721,16 @@ def basins(
     refine_factor = check_count(refine_factor, "refine_factor", 1000, minimum=1)
     spec = _Spec(_floats(params), float(params.t0), section, axes, transient, max_period,
                  chaos_periods)  # fmt: skip
-    cu, cv = spec.coords()
-    U, V = np.meshgrid(cu, cv)
-    points = np.column_stack([U.ravel(), V.ravel()])
-    n = len(points)
+    n = spec.shape[0] * spec.shape[1]
+    if max_time is not None:
+        n_workers = check_workers(workers) if dask is None else 1
+        seconds = n * (transient + 3 * max_period) * SECONDS_PER_PERIOD / n_workers
+        check_cost(
+            Cost(seconds, n * (len(FIELDS) + 1) * 8.0, f"{n} points x {transient} periods"),
+            parse_max_time(max_time),
+        )
     outp = Path(out) if out is not None else None
-    job = functools.partial(_points_job, spec, points, transient)
+    job = functools.partial(_points_job, spec, None, transient)
     data, run = _scan(
         job, n, tile_size, outp / "tiles_main" if outp else None, spec.digest(), workers, dask,
         progress, "basins", max_tiles,
@@ -727,7 +747,7 @@ def basins(
         idx = np.flatnonzero(mask)
         refined = len(idx)
         if refined:
-            job2 = functools.partial(_points_job, spec, points[idx], transient * refine_factor)
+            job2 = functools.partial(_points_job, spec, idx, transient * refine_factor)
             sub, run2 = _scan(
                 job2, refined, max(1, tile_size // refine_factor), outp / "tiles_refine"
                 if outp else None, spec.digest() + f"r{refine_factor}:" + hashlib.sha256(

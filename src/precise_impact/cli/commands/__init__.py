@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from precise_impact.cli.commands import (
     accuracy,
+    basins,
     bench,
     bifurcation,
     budget,
@@ -51,4 +52,5 @@ COMMANDS = (
     spice,
     budget,
     capture,
+    basins,
 )
