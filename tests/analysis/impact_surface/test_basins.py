@@ -10,11 +10,11 @@ import pytest
 
 import precise_impact as pi
 from precise_impact.analysis.impact_surface.basins import (
-    _CACHES,
     SAME_ORBIT,
-    _close,
     basins,
+    clear_caches,
     point_attractor,
+    same_impact,
 )
 from precise_impact.errors import ParameterError
 
@@ -29,7 +29,7 @@ def _same(a: dict, b: dict) -> bool:
         return False
     if a["kind"] != "periodic":
         return True
-    return (a["impacts"], a["period"]) == (b["impacts"], b["period"]) and _close(
+    return (a["impacts"], a["period"]) == (b["impacts"], b["period"]) and same_impact(
         a["rep_phase"], a["rep_v"], b["rep_phase"], b["rep_v"], SAME_ORBIT
     )
 
@@ -37,7 +37,7 @@ def _same(a: dict, b: dict) -> bool:
 def _agreement(params, grid, transient, n_sample, seed):
     r = basins(params, grid, transient=transient, progress=False)
     cu, cv = r.coordinates()
-    _CACHES.clear()  # the long runs refine every cycle again, from scratch
+    clear_caches()  # the long runs refine every cycle again, from scratch
     rng = np.random.default_rng(seed)
     picks = rng.choice(r.labels.size, size=min(n_sample, r.labels.size), replace=False)
     away = disagree = 0
@@ -132,7 +132,7 @@ def test_cli_basins_json_and_resume(tmp_path, capsys):
     from precise_impact.cli.main import main
 
     argv = ["basins", "--eta", "4.85", "--zeta", "0", "--R", "0.5", "--x_w=-0.3", "--x0=-0.5",
-            "--u", "0", "1", "6", "--v", "0", "0.6", "5", "--transient", "30", "--tile", "7",
+            "--phase", "0", "1", "6", "--v", "0", "0.6", "5", "--transient", "30", "--tile", "7",
             "--out", str(tmp_path), "--json"]  # fmt: skip
     assert main(argv) == 0
     first = json.loads(capsys.readouterr().out)
@@ -145,7 +145,7 @@ def test_cli_basins_json_and_resume(tmp_path, capsys):
 
 @pytest.mark.parametrize(
     "extra, code",
-    [(["--section", "stroboscopic"], 2), (["--u", "0", "1", "1000", "--max-time", "1"], 3)],
+    [(["--section", "stroboscopic"], 2), (["--phase", "0", "1", "1000", "--max-time", "1"], 3)],
 )
 def test_cli_bad_input_and_budget_before_work(tmp_path, extra, code, capsys):
     from precise_impact.cli.main import main
@@ -167,5 +167,6 @@ def test_chaotic_and_non_impacting_points():
 
 @pytest.mark.slow
 def test_bigger_map_agrees_on_1000_points():
-    r, away, disagree = _agreement(PAPER, ((0, 1, 40), (0, 3, 40)), 100, 1000, 3)
-    assert disagree == 0 and away >= 500
+    # measured: 800 of the 1000 away from the boundary, 0 disagreements, boundary fraction 0.207
+    r, away, disagree = _agreement(PAPER, ((0, 1, 100), (0, 3, 100)), 100, 1000, 3)
+    assert disagree == 0 and away >= 700

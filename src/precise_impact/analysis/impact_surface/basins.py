@@ -58,7 +58,16 @@ from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
 from precise_impact.io.progress import ProgressArg
 
-__all__ = ["BASIN_KINDS", "SECTIONS", "BasinsResult", "basins", "point_attractor"]
+__all__ = [
+    "BASIN_KINDS",
+    "SAME_ORBIT",
+    "SECTIONS",
+    "BasinsResult",
+    "basins",
+    "clear_caches",
+    "point_attractor",
+    "same_impact",
+]
 
 #: The sections a map can be drawn on.
 SECTIONS = ("impact", "stroboscopic")
@@ -159,6 +168,20 @@ def _impacts_of_cycle(pars, t, x, v, p):
     return ni, _phase(float(it[j]), pars[0]), float(iv[j])
 
 
+def _least_period(pars, t, x, v, p) -> int:
+    """The least period ``d | p`` of the refined orbit through ``(x, v)`` at ``t``: Newton on
+    ``P^p`` also converges to an orbit of a period dividing ``p`` (a slowly spiralling
+    transient can look like period ``p`` to the cycle detection); to ``1e-9`` relative (Newton
+    leaves the orbit at rounding level, ~1e-15)."""
+    for d in range(1, p):
+        if p % d:
+            continue
+        st, _, _, _, _, xs, vs, _ = _strobe(pars, t, x, v, d, 10**6)
+        if st == 0 and abs(xs[-1] - x) + abs(vs[-1] - v) <= 1e-9 * (1 + abs(x) + abs(v)):
+            return d
+    return p
+
+
 def _periodic(pars, t, x, v, p) -> tuple:
     """Refine the cycle through ``(x, v)`` at ``t`` by Newton; its row."""
     eta, zeta, a, xw, R = pars
@@ -167,7 +190,7 @@ def _periodic(pars, t, x, v, p) -> tuple:
         return (_NONIMP, 0, p, 0, -zeta, math.nan, math.nan)
     cache = _cache(pars)
     for row in cache.orbits:  # the same cycle refined before (in this process)
-        if row[1] == m0 and row[2] == p and _close(row[5], row[6], ph0, v0, 1e-5):
+        if row[1] == m0 and row[2] == p and same_impact(row[5], row[6], ph0, v0, 1e-5):
             return row
     try:
         params = Params.make(
@@ -177,6 +200,7 @@ def _periodic(pars, t, x, v, p) -> tuple:
         orb = find_orbit(params, p, guess=(x, v))
     except (ConvergenceError, IntegrationError, ParameterError):
         return (_UNRESOLVED, m0, p, 0, math.nan, ph0, v0)
+    p = _least_period(pars, t, orb.x, orb.v, p)
     m, ph, vr = _impacts_of_cycle(pars, t, orb.x, orb.v, p)
     if m == 0:
         return (_NONIMP, 0, p, 0, -zeta, math.nan, math.nan)
@@ -185,9 +209,51 @@ def _periodic(pars, t, x, v, p) -> tuple:
     return row
 
 
-def _close(ph1, v1, ph2, v2, tol) -> bool:
+def same_impact(ph1: float, v1: float, ph2: float, v2: float, tol: float = SAME_ORBIT) -> bool:
+    """Whether two impacts ``(phase, v)`` are the same point of the impact surface to ``tol``.
+
+    Parameters
+    ----------
+    ph1, v1, ph2, v2 : float
+        The phases (in [0, 1), compared on the circle) and incoming speeds.
+    tol : float, default :data:`SAME_ORBIT`
+        Phase distance and relative speed difference allowed.
+
+    Returns
+    -------
+    bool
+
+    See Also
+    --------
+    basins : labels periodic orbits by their fastest impact with this test.
+
+    Examples
+    --------
+    >>> from precise_impact.analysis.impact_surface.basins import same_impact
+    >>> same_impact(0.999999999, 1.0, 1e-9, 1.0), same_impact(0.2, 1.0, 0.3, 1.0)
+    (True, False)
+    """
     d = abs(ph1 - ph2)
     return min(d, 1 - d) <= tol and abs(v1 - v2) <= tol * (1 + abs(v1))
+
+
+def clear_caches() -> None:
+    """Forget the periodic orbits refined and the release states' attractors of this process.
+
+    :func:`basins` refines a cycle by Newton once per process and reuses it for every start
+    whose cycle has the same impacts; clearing makes the next identifications from scratch
+    (an independent check).
+
+    See Also
+    --------
+    point_attractor : one start, identified after a clear from scratch.
+
+    Examples
+    --------
+    >>> from precise_impact.analysis.impact_surface.basins import clear_caches
+    >>> clear_caches()
+    """
+    _CACHES.clear()
 
 
 def _chaos(pars, t, x, v, periods: int) -> tuple:
@@ -427,7 +493,7 @@ def _label(data: dict) -> tuple[np.ndarray, list[dict]]:
             if kind[k] != _PERIODIC or (
                 att["impacts"] == data["impacts"][k]
                 and att["period"] == data["period"][k]
-                and _close(
+                and same_impact(
                     att["phase"], att["v"], data["rep_phase"][k], data["rep_v"][k], SAME_ORBIT
                 )
             ):

@@ -21,8 +21,12 @@ def register(sub) -> argparse.ArgumentParser:
     )
     b.add_argument("--section", choices=SECTIONS, default="impact", help="default impact")
     b.add_argument(
-        "--u", nargs=3, default=None, metavar=("MIN", "MAX", "N"),
-        help="columns: phase (default 0 1 100) or x on the stroboscopic section (required there)",
+        "--phase", nargs=3, default=["0", "1", "100"], metavar=("MIN", "MAX", "N"),
+        help="columns on the impact section: the impact phase in [0, 1] (default 0 1 100)",
+    )  # fmt: skip
+    b.add_argument(
+        "--x", nargs=3, default=None, metavar=("MIN", "MAX", "N"),
+        help="columns on the stroboscopic section: x at t0 (required there)",
     )  # fmt: skip
     b.add_argument(
         "--v", nargs=3, default=["0", "1", "100"], metavar=("MIN", "MAX", "N"),
@@ -48,11 +52,13 @@ def register(sub) -> argparse.ArgumentParser:
 def run(ns: argparse.Namespace) -> int:
     """Run ``basins``; returns the exit status."""
     params = params_from(ns)
-    if ns.section == "stroboscopic" and ns.u is None:
-        raise ParameterError("u", None, "an x axis MIN MAX N on the stroboscopic section")
-    u = ns.u or ["0", "1", "100"]
+    if ns.section == "stroboscopic" and ns.x is None:
+        raise ParameterError("x", None, "an axis MIN MAX N on the stroboscopic section")
+    if ns.section == "impact" and ns.x is not None:
+        raise ParameterError("x", " ".join(ns.x), "given only with --section stroboscopic")
+    u = ns.x if ns.section == "stroboscopic" else ns.phase
     grid = tuple((a[0], a[1], check_count(a[2], name + " n", 10**5, minimum=1))
-                 for a, name in ((u, "u"), (ns.v, "v")))  # fmt: skip
+                 for a, name in ((u, "phase" if ns.x is None else "x"), (ns.v, "v")))  # fmt: skip
     res = basins(
         params, grid, section=ns.section, transient=check_count(ns.transient, "transient", 10**7),
         max_period=check_count(ns.max_period, "max_period", 1000), refine=not ns.no_refine,
