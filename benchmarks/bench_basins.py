@@ -2,8 +2,15 @@
 
 Run:  python benchmarks/bench_basins.py [--n 1000] [--workers 2] [--dask-workers 2]
 
-The Budd-Dux chatter case (eta = 4.85, R = 0.5, x_w = -0.3, zeta = 0, a = 1) on the impact
-surface, phase in [0, 1) x v in (0, 0.6], an ``n x n`` map end to end three ways:
+Two cases on the impact surface, each map end to end three ways:
+
+* ``chatter``: Budd and Dux's chatter case (eta = 4.85, R = 0.5, x_w = -0.3, zeta = 0, a = 1),
+  phase in [0, 1) x v in (0, 0.6], ``--n x --n`` points (default 1000 x 1000), transient 60;
+* ``paper``: the paper's eta = 0.74 (two stable periodic orbits: Newton refinements and the
+  boundary re-runs at scale), phase x v in (0, 3], ``--n-paper`` squared points (default
+  200 x 200), transient 100.
+
+The three ways:
 
 * one process (the reference of the scaling efficiency);
 * ``--workers`` local worker processes (``run_scan``'s process pool);
@@ -105,30 +112,23 @@ class LoopbackCluster:
                 p.wait()
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--n", type=int, default=1000, help="points per axis (default 1000)")
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--dask-workers", type=int, default=2)
-    ap.add_argument("--transient", type=int, default=60)
-    ap.add_argument("--tile-size", type=int, default=2000)
-    ap.add_argument("--skip-serial", action="store_true")
-    args = ap.parse_args()
-    params = Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
-    grid = ((0, 1, args.n), (0, 0.6, args.n))
-    kw = dict(transient=args.transient, tile_size=args.tile_size, progress=True)
+def run_case(name, params, grid, transient, args) -> tuple[dict, object]:
+    """One map three ways; its figures and the first result."""
+    n_points = grid[0][2] * grid[1][2]
+    kw = dict(transient=transient, tile_size=args.tile_size, progress=True)
     runs: dict = {}
-    basins(params, ((0, 1, 4), (0, 0.6, 4)), transient=5, progress=False)  # compile once
     results = {}
     if not args.skip_serial:
         t = time.perf_counter()
         results["serial"] = basins(params, grid, workers=1, **kw)
         runs["serial"] = {"wall_s": time.perf_counter() - t, "workers": 1}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
     t = time.perf_counter()
     results["processes"] = basins(params, grid, workers=args.workers, **kw)
     runs["processes"] = {"wall_s": time.perf_counter() - t, "workers": args.workers}
-    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    runs["processes"]["worker_peak_rss_MiB"] = children
+    runs["processes"]["worker_peak_rss_MiB"] = max(
+        before, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    )  # the largest child so far (this case's pool, or an earlier case's if larger)
     cluster = LoopbackCluster(args.dask_workers)
     try:
         t = time.perf_counter()
@@ -141,44 +141,44 @@ def main() -> int:
         }
     finally:
         cluster.close()
-    n_points = args.n * args.n
     ref = runs.get("serial", {}).get("wall_s")
-    for name, r in runs.items():
-        res = results[name]
+    for key, r in runs.items():
+        res = results[key]
         r["time_per_point_us"] = 1e6 * r["wall_s"] / n_points
         r["scan_time_per_point_us"] = 1e6 * res.stats["time_per_point_s"]
         r["efficiency"] = ref / (r["workers"] * r["wall_s"]) if ref else None
     first = next(iter(results.values()))
-    agree = all(np.array_equal(first.labels, r.labels) for r in results.values())
-    agree_capture = all(np.array_equal(first.capture, r.capture) for r in results.values())
-    report = {
-        "case": "Budd-Dux chatter: eta=4.85 R=0.5 x_w=-0.3 zeta=0 a=1, impact surface",
+    case = {
+        "case": name,
+        "params": first.params,
         "grid": [list(g) for g in grid],
         "points": n_points,
-        "transient": args.transient,
+        "transient": transient,
         "tile_size": args.tile_size,
-        "cpus": os.cpu_count(),
-        "load_average_1_5_15_at_end": list(os.getloadavg()),
         "runs": runs,
-        "driver_peak_rss_MiB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-        "labels_agree": bool(agree),
-        "capture_agree": bool(agree_capture),
+        "labels_agree": all(np.array_equal(first.labels, r.labels) for r in results.values()),
+        "capture_agree": all(np.array_equal(first.capture, r.capture) for r in results.values()),
         "attractors": first.to_dict()["attractors"],
         "boundary_fraction": first.stats["boundary_fraction"],
+        "refined": first.stats["refined"],
+        "changed": first.stats["changed"],
+        "load_average_1_5_15_at_end": list(os.getloadavg()),
     }
-    OUT.mkdir(exist_ok=True)
-    text = json.dumps(report, indent=1, allow_nan=False)
-    atomic_write(OUT / "basins.json", lambda fh: fh.write(text), binary=False)
+    return case, first
+
+
+def _table(c: dict) -> list[str]:
+    p = c["params"]
     lines = [
-        "# Domains of attraction at scale (bench_basins.py)",
+        f"## {c['case']}: eta={p['eta']} zeta={p['zeta']} R={p['R']} x_w={p['x_w']} a={p['a']}",
         "",
-        f"{report['case']}; {args.n} x {args.n} = {n_points} points, transient {args.transient}"
-        f" periods, tiles of {args.tile_size}; {os.cpu_count()} CPUs.",
+        f"{c['grid'][0][2]} x {c['grid'][1][2]} = {c['points']} points on the impact surface, "
+        f"transient {c['transient']} periods, tiles of {c['tile_size']}.",
         "",
         "| run | workers | wall [s] | time/point [us] | efficiency | worker peak RSS [MiB] |",
         "|---|---|---|---|---|---|",
     ]
-    for name, r in runs.items():
+    for name, r in c["runs"].items():
         eff = "-" if r["efficiency"] is None else f"{r['efficiency']:.2f}"
         rss = r.get("worker_peak_rss_MiB", "-")
         if isinstance(rss, list):
@@ -191,19 +191,60 @@ def main() -> int:
         )
     lines += [
         "",
-        "Load average (1, 5, 15 min) at the end: "
-        + ", ".join(f"{x:.2f}" for x in report["load_average_1_5_15_at_end"])
-        + " on "
-        + f"{os.cpu_count()} CPUs (a shared machine: other jobs take cores from the runs).",
-        "",
-        f"Driver peak RSS {report['driver_peak_rss_MiB']:.0f} MiB.  Labels identical across the "
-        f"runs: {agree} (capture counts: {agree_capture}).  Attractors: "
-        + ", ".join(f"{a['name']} ({a['points']} points)" for a in first.attractors)
-        + f"; boundary fraction {first.stats['boundary_fraction']:.4f}.",
+        f"Labels identical across the runs: {c['labels_agree']} (capture counts: "
+        f"{c['capture_agree']}).  Attractors: "
+        + ", ".join(f"{a['name']} ({a['points']} points)" for a in c["attractors"])
+        + f"; {c['refined']} boundary points re-run with 10x the transient ({c['changed']} "
+        f"changed), boundary fraction {c['boundary_fraction']:.4f}.  Load average at the end "
+        + ", ".join(f"{x:.2f}" for x in c["load_average_1_5_15_at_end"])
+        + ".",
         "",
     ]
+    return lines
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--n", type=int, default=1000, help="chatter: points per axis (default 1000)")
+    ap.add_argument("--n-paper", type=int, default=200, help="paper: points per axis (default 200)")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--dask-workers", type=int, default=2)
+    ap.add_argument("--tile-size", type=int, default=2000)
+    ap.add_argument("--skip-serial", action="store_true")
+    args = ap.parse_args()
+    chatter = Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
+    paper = Params.make(eta="0.74")
+    basins(chatter, ((0, 1, 4), (0, 0.6, 4)), transient=5, progress=False)  # compile once
+    cases, figs = [], []
+    for name, params, grid, transient in (
+        ("chatter", chatter, ((0, 1, args.n), (0, 0.6, args.n)), 60),
+        ("paper", paper, ((0, 1, args.n_paper), (0, 3, args.n_paper)), 100),
+    ):
+        case, first = run_case(name, params, grid, transient, args)
+        cases.append(case)
+        figs.append(first)
+    report = {
+        "cpus": os.cpu_count(),
+        "driver_peak_rss_MiB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "cases": cases,
+    }
+    OUT.mkdir(exist_ok=True)
+    text = json.dumps(report, indent=1, allow_nan=False)
+    atomic_write(OUT / "basins.json", lambda fh: fh.write(text), binary=False)
+    lines = [
+        "# Domains of attraction at scale (bench_basins.py)",
+        "",
+        f"{os.cpu_count()} CPUs, shared with other jobs (see the load averages); efficiency = "
+        "T_serial / (workers x T_run); Dask: a loopback `dask scheduler` + `dask worker` cluster "
+        f"of single-threaded worker processes.  Driver peak RSS "
+        f"{report['driver_peak_rss_MiB']:.0f} MiB.",
+        "",
+    ]
+    for c in cases:
+        lines += _table(c)
     atomic_write(OUT / "basins.md", lambda fh: fh.write("\n".join(lines)), binary=False)
-    first.plot(OUT / "basins.png")
+    figs[0].plot(OUT / "basins.png")
+    figs[1].plot(OUT / "basins_paper.png")
     print("\n".join(lines))
     return 0
 

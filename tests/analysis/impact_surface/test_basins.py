@@ -93,14 +93,17 @@ def test_stroboscopic_section_same_attractors_and_outside():
 
 
 def test_resume_is_bit_identical(tmp_path):
-    g = ((0, 1, 8), (0, 0.6, 5))
+    g = ((0, 1, 8), (0, 0.6, 5))  # 40 points, tiles of 7: 6 tiles
+    with pytest.raises(ParameterError, match="max_tiles"):  # a partial run keeps its tiles
+        basins(CHATTER, g, transient=40, tile_size=7, out=tmp_path, max_tiles=2, progress=False)
+    assert len(list((tmp_path / "tiles_main" / "tiles").glob("*.npz"))) == 2
     a = basins(CHATTER, g, transient=40, tile_size=7, out=tmp_path, progress=False)
-    with pytest.raises(ParameterError):  # a partial run
-        basins(CHATTER, ((0, 1, 9), (0, 0.6, 5)), transient=40, tile_size=7, out=tmp_path / "b",
-               max_tiles=2, progress=False)  # fmt: skip
+    assert a.stats["tiles_computed"] == 4  # the 2 finished tiles were reused
     b = basins(CHATTER, g, transient=40, tile_size=7, out=tmp_path, progress=False)
     assert b.stats["tiles_computed"] == 0
-    assert np.array_equal(a.labels, b.labels) and np.array_equal(a.capture, b.capture)
+    c = basins(CHATTER, g, transient=40, tile_size=7, progress=False)  # no store at all
+    for r in (b, c):
+        assert np.array_equal(a.labels, r.labels) and np.array_equal(a.capture, r.capture)
 
 
 @pytest.mark.skipif(importlib.util.find_spec("distributed") is None, reason="Dask is optional")
