@@ -197,6 +197,8 @@ JSON_COMMANDS = {
     "budget": ["budget", "--landmarks", "grazing", "--mc", "10", "--sobol", "0", "--lle-mc", "0"]
     + ["--no-scans", "--out", "{out}"],
     "capture": ["capture", "synth", "--out", "{out}/cap.npz", "--periods", "5", "--transient", "5"],
+    "basins": ["basins", "--eta", "0.74", "--phase", "0", "1", "3", "--v", "0", "2", "2"]
+    + ["--transient", "20", "--out", "{out}"],
 }
 #: Over ~5 s each: CI runs them in its slow step.
 SLOW_JSON = {"bench", "compare", "spice"}
