@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from precise_impact.cli.commands import (
     accuracy,
+    basins,
     bench,
     bifurcation,
     budget,
@@ -57,4 +58,5 @@ COMMANDS = (
     capture,
     impact_map,
     singularity,
+    basins,
 )

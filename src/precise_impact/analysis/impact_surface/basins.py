@@ -1,0 +1,864 @@
+"""Domains of attraction on the impact surface or the stroboscopic section.
+
+Every grid point is run to its attractor by the compiled fast engine (float64) and labelled by
+the existing machinery:
+
+* a *periodic* orbit: a cycle found by :func:`~precise_impact.analysis.periodicity.detect_period`
+  on the stroboscopic samples, refined by Newton
+  (:func:`~precise_impact.analysis.orbits.newton.find_orbit`: Floquet multipliers, stability,
+  exact LLE ``ln |mu| / (p T)``) and identified by its refined impacts (the fastest one as a point
+  ``(phase, v)`` of the impact surface), so that the same orbit reached from many starts, on
+  either section, gets one label;
+* *chatter ending in sticking*: the engine stops at an impact sequence whose speed falls
+  geometrically while the wall force pushes into the wall
+  (:func:`~precise_impact.core.impact.wall_acceleration` ``> 0``); the accumulation time is
+  :func:`~precise_impact.core.impact.chatter_accumulation_time` and the mass sits on the wall
+  until :func:`~precise_impact.core.impact.release_time`.  Every start that sticks leaves the
+  wall from the *same* state (``x_w``, 0 at the release phase), so all of them share the
+  attractor of that release state: "chatter + sticking" if it sticks again (a periodic orbit
+  through sticking), else the orbit it goes to;
+* a *non-impacting* orbit (a cycle without impacts: LLE ``-zeta`` exactly);
+* *chaos*: no period up to ``max_period`` and an LLE from the compiled variational kernel
+  (:func:`~precise_impact.solvers.fast.lle.lle_batch`) positive by more than three standard
+  errors of its batch means;
+* *unresolved*: no period and no positive LLE (quasi-periodic, or a long transient), or a
+  grazing contact the float64 engine does not decide.
+
+Boundaries: after the map, every point with a 4-neighbour of another label (or unresolved) is
+run again with ``refine_factor`` times the transient and relabelled (the boundary points sit
+near the singularity set, where the map is discontinuous and transients are long).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import json
+import math
+import os
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from precise_impact.analysis.orbits.newton import find_orbit
+from precise_impact.analysis.periodicity import detect_period
+from precise_impact.analysis.scan import NpzTileStore, check_workers, run_scan
+from precise_impact.core.budget import Cost, check_cost, parse_max_time
+from precise_impact.core.impact import (
+    chatter_accumulation_time,
+    release_time,
+    reset_velocity,
+    wall_acceleration,
+)
+from precise_impact.core.params import Params, check_count, params_or_values
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
+from precise_impact.io.progress import ProgressArg
+
+__all__ = [
+    "BASIN_KINDS",
+    "SAME_ORBIT",
+    "SECTIONS",
+    "BasinsResult",
+    "basins",
+    "clear_caches",
+    "point_attractor",
+    "same_impact",
+]
+
+#: The sections a map can be drawn on.
+SECTIONS = ("impact", "stroboscopic")
+
+#: Kind codes of a point's attractor.
+BASIN_KINDS = {
+    0: "outside",  # a stroboscopic start beyond the wall (x > x_w)
+    1: "periodic",
+    2: "non-impacting",
+    3: "chatter + sticking",
+    4: "chaotic",
+    5: "unresolved",
+    6: "grazing contact",
+}
+_OUTSIDE, _PERIODIC, _NONIMP, _CHATTER, _CHAOS, _UNRESOLVED, _GRAZING = range(7)
+_STABILITY = ("stable", "unstable", "elliptic", "parabolic")
+
+#: Per-point fields of a tile (one value per point).
+FIELDS = ("kind", "impacts", "period", "stability", "lle", "rep_phase", "rep_v", "stuck", "capture")
+
+#: Seconds per forcing period of one start in the compiled engine (a lower bound: measured
+#: 1-2 us per period at eta = 0.74; Newton refinements and LLEs come on top).
+SECONDS_PER_PERIOD = 1e-6
+
+#: Relative agreement of two refined orbits' representative impacts taken as the same orbit
+#: (Newton leaves them at rounding level, ~1e-14; distinct orbits are far apart).
+SAME_ORBIT = 1e-7
+
+
+# ------------------------------------------------------------------ one point
+def _floats(params: Params) -> tuple[float, float, float, float, float]:
+    return tuple(float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R"))  # type: ignore[return-value]
+
+
+def _strobe(pars, t, x, v, n, max_impacts):
+    """``n`` stroboscopic periods from ``(x, v)`` at ``t`` (retrying with a larger impact store)."""
+    from precise_impact.solvers.fast.single import strobe
+
+    eta, zeta, a, xw, R = pars
+    cap = 256 + 4 * n
+    while True:
+        it, iv = np.empty(cap), np.empty(cap)
+        xs, vs, ts = np.empty(n + 1), np.empty(n + 1), np.empty(n + 1)
+        st, ni, k = strobe(eta, zeta, a, xw, R, t, x, v, n, 1, max_impacts, it, iv, xs, vs, ts)
+        if ni <= cap:
+            return int(st), int(ni), int(k), it[:ni], iv[:ni], xs[: k + 1], vs[: k + 1], ts[: k + 1]
+        cap = 2 * ni
+
+
+def _phase(t: float, eta: float) -> float:
+    return (eta * t / (2 * math.pi)) % 1.0
+
+
+def _sticks(pars, it, iv) -> bool:
+    """The contact rule: the last impacts' speeds fall by ``R`` each (a chatter sequence) and the
+    wall force pushes into the wall at the last one."""
+    eta, zeta, a, xw, R = pars
+    if len(iv) < 3 or not R < 1:
+        return False
+    g = wall_acceleration(it[-1], eta, zeta, a, xw, math.cos)
+    r = iv[-3:]
+    return bool(g > 0 and r[-1] < 1e-4 * max(1.0, abs(a), abs(xw)) and r[-1] < r[-2] < r[-3])
+
+
+def _release(pars, t_last: float, v_last: float) -> float | None:
+    """Time the mass leaves the wall after the chatter ending at ``(t_last, v_last)``."""
+    eta, zeta, a, xw, R = pars
+    g = wall_acceleration(t_last, eta, zeta, a, xw, math.cos)
+    t_acc = chatter_accumulation_time(t_last, v_last, R, g)
+    s = release_time(
+        Fraction(t_acc), Fraction(eta), Fraction(a), Fraction(xw)
+    )  # exact inputs, mp closed form
+    return None if s is None else float(s)
+
+
+@dataclasses.dataclass
+class _Cache:
+    """Per process: the refined orbits seen (to skip Newton for a cycle seen before) and the
+    release state's attractor."""
+
+    orbits: list = dataclasses.field(default_factory=list)
+    release: dict = dataclasses.field(default_factory=dict)
+
+
+_CACHES: dict = {}
+
+
+def _cache(pars) -> _Cache:
+    return _CACHES.setdefault(pars, _Cache())
+
+
+def _impacts_of_cycle(pars, t, x, v, p):
+    """Impacts of ``p`` periods from ``(x, v)`` at ``t``: ``(m, phase, v)`` of the fastest."""
+    st, ni, k, it, iv, *_ = _strobe(pars, t, x, v, p, 10**6)
+    if st != 0 or ni == 0:
+        return ni, math.nan, math.nan
+    j = int(np.argmax(iv))
+    return ni, _phase(float(it[j]), pars[0]), float(iv[j])
+
+
+def _least_period(pars, t, x, v, p) -> int:
+    """The least period ``d | p`` of the refined orbit through ``(x, v)`` at ``t``: Newton on
+    ``P^p`` also converges to an orbit of a period dividing ``p`` (a slowly spiralling
+    transient can look like period ``p`` to the cycle detection); to ``1e-9`` relative (Newton
+    leaves the orbit at rounding level, ~1e-15)."""
+    for d in range(1, p):
+        if p % d:
+            continue
+        st, _, _, _, _, xs, vs, _ = _strobe(pars, t, x, v, d, 10**6)
+        if st == 0 and abs(xs[-1] - x) + abs(vs[-1] - v) <= 1e-9 * (1 + abs(x) + abs(v)):
+            return d
+    return p
+
+
+def _periodic(pars, t, x, v, p) -> tuple:
+    """Refine the cycle through ``(x, v)`` at ``t`` by Newton; its row."""
+    eta, zeta, a, xw, R = pars
+    m0, ph0, v0 = _impacts_of_cycle(pars, t, x, v, p)
+    if m0 == 0:
+        return (_NONIMP, 0, p, 0, -zeta, math.nan, math.nan)
+    cache = _cache(pars)
+    for row in cache.orbits:  # the same cycle refined before (in this process)
+        if row[1] == m0 and row[2] == p and same_impact(row[5], row[6], ph0, v0, 1e-5):
+            return row
+    try:
+        params = Params.make(
+            eta=Fraction(eta), zeta=Fraction(zeta), a=Fraction(a), x_w=Fraction(xw),
+            R=Fraction(R), t0=Fraction(t), x0=Fraction(x), v0=Fraction(v),
+        )  # fmt: skip
+        orb = find_orbit(params, p, guess=(x, v))
+    except (ConvergenceError, IntegrationError, ParameterError):
+        return (_UNRESOLVED, m0, p, 0, math.nan, ph0, v0)
+    p = _least_period(pars, t, orb.x, orb.v, p)
+    m, ph, vr = _impacts_of_cycle(pars, t, orb.x, orb.v, p)
+    if m == 0:
+        return (_NONIMP, 0, p, 0, -zeta, math.nan, math.nan)
+    row = (_PERIODIC, m, p, _STABILITY.index(orb.stability), float(orb.lle), ph, vr)
+    cache.orbits.append(row)
+    return row
+
+
+def same_impact(ph1: float, v1: float, ph2: float, v2: float, tol: float = SAME_ORBIT) -> bool:
+    """Whether two impacts ``(phase, v)`` are the same point of the impact surface to ``tol``.
+
+    Parameters
+    ----------
+    ph1, v1, ph2, v2 : float
+        The phases (in [0, 1), compared on the circle) and incoming speeds.
+    tol : float, default :data:`SAME_ORBIT`
+        Phase distance and relative speed difference allowed.
+
+    Returns
+    -------
+    bool
+
+    See Also
+    --------
+    basins : labels periodic orbits by their fastest impact with this test.
+
+    Examples
+    --------
+    >>> from precise_impact.analysis.impact_surface.basins import same_impact
+    >>> same_impact(0.999999999, 1.0, 1e-9, 1.0), same_impact(0.2, 1.0, 0.3, 1.0)
+    (True, False)
+    """
+    d = abs(ph1 - ph2)
+    return min(d, 1 - d) <= tol and abs(v1 - v2) <= tol * (1 + abs(v1))
+
+
+def clear_caches() -> None:
+    """Forget the periodic orbits refined and the release states' attractors of this process.
+
+    :func:`basins` refines a cycle by Newton once per process and reuses it for every start
+    whose cycle has the same impacts; clearing makes the next identifications from scratch
+    (an independent check).
+
+    See Also
+    --------
+    point_attractor : one start, identified after a clear from scratch.
+
+    Examples
+    --------
+    >>> from precise_impact.analysis.impact_surface.basins import clear_caches
+    >>> clear_caches()
+    """
+    _CACHES.clear()
+
+
+def _chaos(pars, t, x, v, periods: int) -> tuple:
+    from precise_impact.solvers.fast.lle import lle_batch_serial
+
+    blocks = 10
+    status, log1, _, _, bsums, *_ = lle_batch_serial(
+        np.array([pars]), np.array([[t, x, v]]), periods, 0, blocks, 10**9, 1
+    )
+    T = 2 * math.pi / pars[0]
+    if int(status[0]) != 0:
+        return (_UNRESOLVED, 0, 0, 0, math.nan, math.nan, math.nan)
+    lle = float(log1[0]) / (periods * T)
+    per_block = np.asarray(bsums[0], dtype=float) / ((periods // blocks) * T)
+    err = float(np.std(per_block, ddof=1) / math.sqrt(blocks))
+    kind = _CHAOS if lle > 0 and lle > 3 * err else _UNRESOLVED
+    return (kind, 0, 0, 0, lle, math.nan, math.nan)
+
+
+def _run(pars, t, x, v, transient, max_period, chaos_periods, may_stick=True):
+    """``(row, stuck, capture)`` of the attractor from ``(x, v)`` at ``t`` (after any impact
+    reset); ``may_stick=False`` is the release state's own run (sticking again: chatter)."""
+    T = 2 * math.pi / pars[0]
+    n = transient + 3 * max_period
+    st, ni, k, it, iv, xs, vs, ts = _strobe(pars, t, x, v, n, 10**3 * n)
+    if st in (1, 2) and _sticks(pars, it, iv):
+        if not may_stick:
+            return (_CHATTER, 0, 0, 0, math.nan, _phase(float(it[-1]), pars[0]), 0.0), 1, ni
+        row = _release_attractor(pars, transient, max_period, chaos_periods)
+        return row, 1, ni
+    if st != 0:
+        return (_GRAZING, 0, 0, 0, math.nan, math.nan, math.nan), 0, -1
+    p = detect_period(xs[-3 * max_period :], vs[-3 * max_period :], max_period)
+    t_end = float(ts[-1])
+    if p > 0:
+        return _periodic(pars, t_end, float(xs[-1]), float(vs[-1]), p), 0, -1
+    del T
+    return _chaos(pars, t_end, float(xs[-1]), float(vs[-1]), chaos_periods), 0, -1
+
+
+def _release_attractor(pars, transient, max_period, chaos_periods) -> tuple:
+    """The attractor of every start that sticks: from the release state ``(x_w, 0)``."""
+    key = (transient, max_period, chaos_periods)
+    cache = _cache(pars).release
+    if key not in cache:
+        eta, zeta, a, xw, R = pars
+        s = release_time(Fraction(0), Fraction(eta), Fraction(a), Fraction(xw))
+        if s is None:  # the wall force never turns away: stuck for good
+            cache[key] = (_CHATTER, 0, 0, 0, math.nan, math.nan, 0.0)
+        else:
+            t, x, v = _leave_wall(pars, float(s))
+            row, _, _ = _run(pars, t, x, v, transient, max_period, chaos_periods, False)
+            cache[key] = row
+    return cache[key]
+
+
+def _leave_wall(pars, s: float) -> tuple[float, float, float]:
+    """The state a short time ``h`` after release at ``s`` from rest on the wall, by Taylor's
+    series: there ``x' = x'' = 0``, ``x''' = G'(s)``, ``x'''' = G''(s) - 2 zeta G'(s)`` with
+    ``G = a cos(eta t) - x_w`` (the fast engine cannot start on a tangential contact).  With
+    ``h = T / 1000`` the neglected fifth-order term is ``~(eta h)^5 / 120 ~ 1e-14``."""
+    eta, zeta, a, xw, R = pars
+    h = 2 * math.pi / eta / 1000
+    g1 = -a * eta * math.sin(eta * s)
+    g2 = -a * eta * eta * math.cos(eta * s) - 2 * zeta * g1
+    x = xw + g1 * h**3 / 6 + g2 * h**4 / 24
+    v = g1 * h**2 / 2 + g2 * h**3 / 6
+    return s + h, min(x, xw), v
+
+
+def point_attractor(
+    params: Any,
+    section: str,
+    u: float,
+    v: float,
+    *,
+    transient: int = 200,
+    max_period: int = 16,
+    chaos_periods: int = 1000,
+) -> dict:
+    """The attractor one start of a domain map goes to.
+
+    Parameters
+    ----------
+    params : Params or mapping
+        The system (``t0``: the stroboscopic section's time).
+    section : ``'impact'`` or ``'stroboscopic'``
+        ``'impact'``: ``(u, v) = (phase, v)``, an impact at time ``phase 2 pi / eta`` with
+        incoming speed ``v > 0`` (the state after it is ``(x_w, -R v)``); ``'stroboscopic'``:
+        ``(u, v) = (x, v)`` at ``t0`` (``x > x_w`` is outside).
+    u, v : float
+        The start.
+    transient : int, default 200
+        Forcing periods run before the attractor is identified.
+    max_period : int, default 16
+        Longest period looked for.
+    chaos_periods : int, default 1000
+        Periods of the LLE of a start without a period.
+
+    Returns
+    -------
+    dict
+        ``kind`` (a value of :data:`BASIN_KINDS`), ``impacts``, ``period``, ``stability``,
+        ``lle``, ``rep_phase``, ``rep_v`` (the orbit's fastest impact), ``stuck`` (the start
+        sticks to the wall on the way), ``capture`` (impacts before it sticks, -1: never).
+
+    See Also
+    --------
+    basins : the map of many starts.
+    precise_impact.analysis.orbits.newton.find_orbit : the Newton refinement of a cycle.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> from precise_impact.analysis.impact_surface.basins import point_attractor
+    >>> p = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
+    >>> point_attractor(p, "impact", 0.3, 0.2)["kind"]
+    'chatter + sticking'
+    """
+    params = params_or_values(params, {})
+    pars = _floats(params)
+    row, stuck, capture = _point(
+        pars, float(params.t0), section, float(u), float(v), transient, max_period, chaos_periods
+    )
+    return _row_dict(row, stuck, capture)
+
+
+def _row_dict(row, stuck, capture) -> dict:
+    kind, m, p, stab, lle, ph, vr = row
+    return {
+        "kind": BASIN_KINDS[int(kind)],
+        "impacts": int(m),
+        "period": int(p),
+        "stability": _STABILITY[int(stab)] if kind == _PERIODIC else None,
+        "lle": float(lle),
+        "rep_phase": float(ph),
+        "rep_v": float(vr),
+        "stuck": bool(stuck),
+        "capture": int(capture),
+    }
+
+
+def _point(pars, t0, section, u, v, transient, max_period, chaos_periods):
+    eta, zeta, a, xw, R = pars
+    if section == "impact":
+        t = u * 2 * math.pi / eta
+        x, vel = xw, reset_velocity(v, R)
+    else:
+        if u > xw:
+            return (_OUTSIDE, 0, 0, 0, math.nan, math.nan, math.nan), 0, -1
+        t, x, vel = t0, u, v
+        if u == xw and v > 0:
+            vel = reset_velocity(v, R)
+    return _run(pars, t, x, vel, transient, max_period, chaos_periods)
+
+
+# ------------------------------------------------------------------ the tiles
+@dataclasses.dataclass(frozen=True)
+class _Spec:
+    pars: tuple
+    t0: float
+    section: str
+    axes: tuple  # ((name, start, stop, n), (name, start, stop, n))
+    transient: int
+    max_period: int
+    chaos_periods: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.axes[1][3], self.axes[0][3])  # rows: v, columns: phase / x
+
+    def coords(self) -> tuple[np.ndarray, np.ndarray]:
+        c = []
+        for _, lo, hi, n in self.axes:
+            c.append(lo + (np.arange(n) + 0.5) * (hi - lo) / n)  # cell centres
+        return c[0], c[1]
+
+    def digest(self) -> str:
+        text = json.dumps(dataclasses.asdict(self), sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _points_job(spec: _Spec, index: np.ndarray | None, transient: int, lo: int, hi: int) -> dict:
+    """The rows of flat grid points ``lo .. hi - 1`` (or of ``index[lo:hi]``) as a tile's arrays;
+    the coordinates are computed here, so a task carries the spec, not the points."""
+    cu, cv = spec.coords()
+    ks = np.arange(lo, hi) if index is None else index[lo:hi]
+    out: dict = {f: [] for f in FIELDS}
+    for k in ks:
+        i, j = divmod(int(k), len(cu))
+        row, stuck, capture = _point(
+            spec.pars, spec.t0, spec.section, float(cu[j]), float(cv[i]), transient,
+            spec.max_period, spec.chaos_periods,
+        )  # fmt: skip
+        for f, val in zip(FIELDS[:7], row, strict=True):
+            out[f].append(val)
+        out["stuck"].append(stuck)
+        out["capture"].append(capture)
+    arrays = {f: np.asarray(out[f], dtype=float) for f in FIELDS}
+    arrays["index"] = np.arange(lo, hi)
+    return arrays
+
+
+def _scan(job, n_points, tile_size, store_dir, digest, workers, dask, progress, label, max_tiles):
+    store = None
+    if store_dir is not None:
+        store = NpzTileStore(Path(store_dir), digest, FIELDS, n_points, tile_size)
+    run = run_scan(
+        job, n_points, tile_size, workers=workers, dask=dask, store=store, progress=progress,
+        label=label, max_tiles=max_tiles,
+    )  # fmt: skip
+    tiles = []
+    for t in range(run.tiles_total):
+        if store is not None:
+            arrays, _ = store.read(t)
+        else:
+            arrays = run.values[t]
+        tiles.append(arrays)
+    if any(a is None for a in tiles):  # a partial run (max_tiles)
+        return None, run
+    return {f: np.concatenate([a[f] for a in tiles]) for f in FIELDS}, run
+
+
+# ------------------------------------------------------------------ labels
+def _label(data: dict) -> tuple[np.ndarray, list[dict]]:
+    """One label per attractor over the whole map: periodic orbits by ``(impacts, period)`` and
+    their refined fastest impact (to :data:`SAME_ORBIT`); every other kind one label."""
+    kind = data["kind"].astype(int)
+    labels = np.full(kind.shape, -1, dtype=int)
+    table: list[dict] = []
+    for k in range(kind.size):
+        if kind[k] == _OUTSIDE:
+            continue
+        for j, att in enumerate(table):
+            if att["_code"] != kind[k]:
+                continue
+            if kind[k] != _PERIODIC or (
+                att["impacts"] == data["impacts"][k]
+                and att["period"] == data["period"][k]
+                and same_impact(
+                    att["phase"], att["v"], data["rep_phase"][k], data["rep_v"][k], SAME_ORBIT
+                )
+            ):
+                labels[k] = j
+                att["points"] += 1
+                break
+        else:
+            labels[k] = len(table)
+            table.append(_attractor_entry(data, k))
+    for att in table:
+        att.pop("_code")
+    _name(table)
+    return labels, table
+
+
+def _attractor_entry(data, k) -> dict:
+    code = int(data["kind"][k])
+    per = code == _PERIODIC
+    return {
+        "_code": code,
+        "kind": BASIN_KINDS[code],
+        "impacts": int(data["impacts"][k]) if per else None,
+        "period": int(data["period"][k]) if per or code == _NONIMP else None,
+        "stability": _STABILITY[int(data["stability"][k])] if per else None,
+        "lle": float(data["lle"][k]),
+        "phase": float(data["rep_phase"][k]),
+        "v": float(data["rep_v"][k]),
+        "points": 1,
+    }
+
+
+def _name(table: list[dict]) -> None:
+    seen: dict = {}
+    for att in table:
+        if att["kind"] == "periodic":
+            base = f"({att['impacts']},{att['period']}) {att['stability']}"
+        else:
+            base = att["kind"]
+        seen[base] = seen.get(base, 0) + 1
+        att["name"] = base if seen[base] == 1 else f"{base} #{seen[base]}"
+
+
+def boundary_mask(labels: np.ndarray, unresolved: np.ndarray | None = None) -> np.ndarray:
+    """Points with a 4-neighbour of another label (or unresolved themselves)."""
+    lab = np.asarray(labels)
+    b = np.zeros(lab.shape, dtype=bool)
+    d0 = lab[1:, :] != lab[:-1, :]
+    d1 = lab[:, 1:] != lab[:, :-1]
+    b[1:, :] |= d0
+    b[:-1, :] |= d0
+    b[:, 1:] |= d1
+    b[:, :-1] |= d1
+    if unresolved is not None:
+        b |= unresolved
+    return b
+
+
+# ------------------------------------------------------------------ result
+@dataclasses.dataclass
+class BasinsResult(ResultMixin):
+    """A domain-of-attraction map.
+
+    Attributes
+    ----------
+    params : dict
+        The system (exact decimals as strings).
+    section : str
+        ``'impact'`` (axes phase, v) or ``'stroboscopic'`` (axes x, v at ``t0``).
+    axes : list
+        ``[(name, start, stop, n), ...]``: columns then rows; points at cell centres.
+    labels : numpy.ndarray
+        Shape ``(n_v, n_u)``: the index of each point's attractor in ``attractors`` (-1
+        outside).
+    attractors : list of dict
+        ``name``, ``kind``, ``impacts``, ``period`` (``(m, n)`` = (impacts, periods)),
+        ``stability``, ``lle``, ``phase``, ``v`` (its fastest impact), ``points``.
+    stuck : numpy.ndarray
+        Points whose orbit sticks to the wall on the way (bool).
+    capture : numpy.ndarray
+        Impacts before it sticks (-1: never).
+    boundary : numpy.ndarray
+        Points with a 4-neighbour of another label after refinement (bool).
+    stats : dict
+        ``points``, ``refined`` (boundary points re-run), ``changed`` (of them relabelled),
+        ``boundary_fraction``, ``elapsed_s``, ``time_per_point_s``, ``workers``, ``backend``.
+    """
+
+    params: dict
+    section: str
+    axes: list
+    labels: np.ndarray
+    attractors: list
+    stuck: np.ndarray
+    capture: np.ndarray
+    boundary: np.ndarray
+    stats: dict
+
+    def to_dict(self) -> dict:
+        return {
+            "params": self.params,
+            "section": self.section,
+            "axes": self.axes,
+            "attractors": self.attractors,
+            "labels": self.labels.tolist(),
+            "stats": self.stats,
+        }
+
+    def _tables(self) -> dict:
+        return {
+            "attractors": lambda: {k: [a[k] for a in self.attractors] for k in self.attractors[0]}
+        }
+
+    def coordinates(self) -> tuple[np.ndarray, np.ndarray]:
+        """The columns' and rows' coordinates (cell centres)."""
+        c = []
+        for _, lo, hi, n in self.axes:
+            c.append(lo + (np.arange(n) + 0.5) * (hi - lo) / n)
+        return c[0], c[1]
+
+    def plot(self, path: str | os.PathLike | None = None, capture: bool | None = None):
+        """The map, one colour per attractor with a legend naming each; with ``capture`` (default:
+        when some points stick) a second panel of the impacts before sticking."""
+        from matplotlib.colors import BoundaryNorm, ListedColormap
+        from matplotlib.patches import Patch
+
+        from precise_impact.io.figures import finish, legend_outside, new_figure
+
+        if capture is None:
+            capture = bool(self.stuck.any())
+        fig, axes = new_figure(1, 2 if capture else 1, figsize=(12.5 if capture else 8, 4.8))
+        (un, u0, u1, _), (vn, v0, v1, _) = self.axes
+        ext = [u0, u1, v0, v1]
+        palette = [
+            "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+            "#17becf", "#bcbd22", "#7f7f7f", "#aec7e8", "#ffbb78",
+        ]  # fmt: skip
+        special = {"chatter + sticking": "#f2d04b", "chaotic": "#000000", "unresolved": "#bbbbbb",
+                   "grazing contact": "#666666", "non-impacting": "#98df8a"}  # fmt: skip
+        colors = []
+        for i, att in enumerate(self.attractors):
+            colors.append(special.get(att["kind"], palette[i % len(palette)]))
+        n = max(1, len(colors))
+        cmap = ListedColormap(colors or ["white"])
+        cmap.set_bad("white")
+        norm = BoundaryNorm(np.arange(-0.5, n + 0.5), n)
+        ax = axes[0, 0]
+        ax.imshow(
+            np.ma.masked_less(self.labels, 0), origin="lower", aspect="auto", extent=ext,
+            cmap=cmap, norm=norm, interpolation="nearest",
+        )  # fmt: skip
+        share = np.bincount(self.labels[self.labels >= 0].ravel(), minlength=n) / max(
+            1, int((self.labels >= 0).sum())
+        )
+        handles = [
+            Patch(color=c, label=f"{a['name']} ({100 * s:.1f} %)")
+            for a, c, s in zip(self.attractors, colors, share, strict=True)
+        ]
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+        del legend_outside
+        ax.set_xlabel(un)
+        ax.set_ylabel(vn)
+        p = self.params
+        ax.set_title(
+            f"domains of attraction, {self.section} section\n"
+            f"eta={p['eta']} zeta={p['zeta']} R={p['R']} x_w={p['x_w']} a={p['a']}",
+            fontsize=9,
+        )
+        if capture:
+            ax2 = axes[0, 1]
+            cap = np.ma.masked_less(self.capture.astype(float), 0)
+            im = ax2.imshow(cap, origin="lower", aspect="auto", extent=ext, cmap="viridis",
+                            interpolation="nearest")  # fmt: skip
+            fig.colorbar(im, ax=ax2, label="impacts before sticking")
+            ax2.set_xlabel(un)
+            ax2.set_ylabel(vn)
+            ax2.set_title("capture by chatter (white: never sticks)", fontsize=9)
+        return finish(fig, path)
+
+
+# ------------------------------------------------------------------ the map
+def _check_axis(axis: Any, name: str) -> tuple:
+    try:
+        lo, hi, n = axis
+        lo, hi = float(lo), float(hi)
+    except (TypeError, ValueError):
+        raise ParameterError(name, axis, "a triple (start, stop, n)") from None
+    n = check_count(n, name + " n", 10**5, minimum=1)
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ParameterError(name, axis, "finite start < stop")
+    return (name, lo, hi, n)
+
+
+def basins(
+    params: Any,
+    grid: Any,
+    *,
+    section: str = "impact",
+    transient: int = 200,
+    max_period: int = 16,
+    chaos_periods: int = 1000,
+    refine: bool = True,
+    refine_factor: int = 10,
+    tile_size: int = 200,
+    workers: int | None = 1,
+    dask: str | None = None,
+    out: str | os.PathLike | None = None,
+    max_tiles: int | None = None,
+    max_time: Any = None,
+    progress: ProgressArg = None,
+) -> BasinsResult:
+    """Domains of attraction on the impact surface or the stroboscopic section.
+
+    Parameters
+    ----------
+    params : Params or mapping
+        The system (``t0`` is the stroboscopic section's time).
+    grid : pair of (start, stop, n)
+        The columns' axis (``phase`` in [0, 1) on the impact section, ``x <= x_w`` on the
+        stroboscopic one) and the rows' (``v``: the incoming speed ``> 0``, or the velocity).
+        Points at cell centres.
+    section : ``'impact'`` or ``'stroboscopic'``, default ``'impact'``
+        Where the starts are (module docstring).
+    transient : int, default 200
+        Forcing periods before the attractor is identified.
+    max_period : int, default 16
+        Longest period looked for.
+    chaos_periods : int, default 1000
+        Periods of the LLE of a start without a period.
+    refine : bool, default ``True``
+        Re-run the boundary points (a 4-neighbour of another label, or unresolved) with
+        ``refine_factor`` times the transient and relabel them.
+    refine_factor : int, default 10
+        The longer transient of the boundary re-run.
+    tile_size : int, default 200
+        Points per tile (unit of work, checkpoint and resume).
+    workers, dask : as :func:`~precise_impact.analysis.scan.run_scan`
+        Local worker processes, or a Dask cluster (``'local'`` or ``'tcp://HOST:PORT'``).
+    out : path or None, default ``None``
+        Directory of the finished tiles: a rerun resumes from them.
+    max_time : decimal or None, default ``None``
+        Time budget in seconds: a map whose estimate (:data:`SECONDS_PER_PERIOD` per period
+        of every point's transient, over the workers) is over it is refused before any work
+        (:class:`~precise_impact.errors.OverBudgetError`).
+    max_tiles : int or None
+        Compute at most this many tiles (a partial run: :class:`ParameterError` asks to
+        rerun for the rest).
+    progress : bool, None or callable
+        :data:`~precise_impact.io.progress.ProgressArg`.
+
+    Returns
+    -------
+    BasinsResult
+        Labels, the table of attractors, the boundary and the figures of the run.
+
+    Raises
+    ------
+    ParameterError
+        Bad input, before any work.
+    OverBudgetError
+        The estimate is over ``max_time``, before any work.
+    KeyboardInterrupt
+        Ctrl-C: the finished tiles stay in ``out``.
+
+    See Also
+    --------
+    point_attractor : one start.
+    precise_impact.analysis.scan.run_scan : the scan runner.
+    precise_impact.analysis.orbits.newton.find_orbit : the refinement of each cycle.
+
+    Examples
+    --------
+    >>> import precise_impact as pi
+    >>> from precise_impact.analysis.impact_surface.basins import basins
+    >>> p = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
+    >>> r = basins(p, ((0, 1, 4), (0, 0.5, 3)), transient=50, progress=False)
+    >>> r.labels.shape, [a["name"] for a in r.attractors]
+    ((3, 4), ['chatter + sticking'])
+    """
+    params = params_or_values(params, {})
+    if section not in SECTIONS:
+        raise ParameterError("section", section, "'impact' or 'stroboscopic'")
+    if isinstance(grid, (str, bytes)) or len(grid) != 2:
+        raise ParameterError("grid", grid, "a pair of axes (start, stop, n)")
+    names = ("phase", "v") if section == "impact" else ("x", "v")
+    axes = tuple(_check_axis(g, nm) for g, nm in zip(grid, names, strict=True))
+    if section == "impact" and (axes[0][1] < 0 or axes[0][2] > 1 or axes[1][1] < 0):
+        raise ParameterError("grid", grid, "phase within [0, 1] and v >= 0 on the impact section")
+    transient = check_count(transient, "transient", 10**7, minimum=1)
+    max_period = check_count(max_period, "max_period", 1000, minimum=1)
+    chaos_periods = check_count(chaos_periods, "chaos_periods", 10**8, minimum=10)
+    refine_factor = check_count(refine_factor, "refine_factor", 1000, minimum=1)
+    spec = _Spec(_floats(params), float(params.t0), section, axes, transient, max_period,
+                 chaos_periods)  # fmt: skip
+    n = spec.shape[0] * spec.shape[1]
+    if max_time is not None:
+        n_workers = check_workers(workers) if dask is None else 1
+        seconds = n * (transient + 3 * max_period) * SECONDS_PER_PERIOD / n_workers
+        check_cost(
+            Cost(seconds, n * (len(FIELDS) + 1) * 8.0, f"{n} points x {transient} periods"),
+            parse_max_time(max_time),
+        )
+    outp = Path(out) if out is not None else None
+    job = functools.partial(_points_job, spec, None, transient)
+    data, run = _scan(
+        job, n, tile_size, outp / "tiles_main" if outp else None, spec.digest(), workers, dask,
+        progress, "basins", max_tiles,
+    )  # fmt: skip
+    if data is None:
+        raise ParameterError("max_tiles", max_tiles, "enough tiles for the map (rerun with out=)")
+    elapsed, n_run = run.elapsed_s, run.tiles_computed
+    labels, _ = _label(data)
+    refined = changed = 0
+    if refine:
+        unresolved = np.isin(data["kind"], (_UNRESOLVED, _GRAZING)).reshape(spec.shape)
+        mask = boundary_mask(labels.reshape(spec.shape), unresolved).ravel()
+        mask &= data["kind"] != _OUTSIDE
+        idx = np.flatnonzero(mask)
+        refined = len(idx)
+        if refined:
+            job2 = functools.partial(_points_job, spec, idx, transient * refine_factor)
+            sub, run2 = _scan(
+                job2, refined, max(1, tile_size // refine_factor), outp / "tiles_refine"
+                if outp else None, spec.digest() + f"r{refine_factor}:" + hashlib.sha256(
+                    idx.tobytes()).hexdigest()[:16], workers, dask, progress, "basins refine",
+                None,
+            )  # fmt: skip
+            assert sub is not None
+            elapsed += run2.elapsed_s
+            old = labels.copy()
+            for f in FIELDS:
+                data[f][idx] = sub[f]
+            labels, _ = _label(data)
+            changed = _changed(old, labels, idx, data)
+    labels, table = _label(data)
+    lab2 = labels.reshape(spec.shape)
+    unresolved = np.isin(data["kind"], (_UNRESOLVED, _GRAZING)).reshape(spec.shape)
+    bnd = boundary_mask(lab2, unresolved) & (lab2 >= 0)
+    inside = int((lab2 >= 0).sum())
+    stats = {
+        "points": n,
+        "refined": refined,
+        "changed": changed,
+        "boundary_fraction": float(bnd.sum() / max(1, inside)),
+        "elapsed_s": elapsed,
+        "time_per_point_s": elapsed / max(1, n),
+        "tiles_computed": n_run,
+        "workers": run.workers,
+        "backend": run.backend,
+        "transient": transient,
+        "refine_factor": refine_factor if refine else None,
+    }
+    return BasinsResult(
+        params={k: str(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")},
+        section=section,
+        axes=[list(a) for a in axes],
+        labels=lab2,
+        attractors=table,
+        stuck=data["stuck"].reshape(spec.shape).astype(bool),
+        capture=data["capture"].reshape(spec.shape).astype(int),
+        boundary=bnd,
+        stats=stats,
+    )
+
+
+def _changed(old: np.ndarray, new: np.ndarray, idx: np.ndarray, data: dict) -> int:
+    """Refined points whose attractor changed (labels are renumbered: compare by name)."""
+    del data
+    return int(np.sum(old[idx] != new[idx]))
