@@ -195,6 +195,28 @@ def results(tmp_path_factory):
             progress=False,
         ),
     ]
+    # the impact surface (issue 25): a short impact-map orbit, the singularity set of a
+    # coarse continuation, a 4 x 3 domain map, a (1,1) response curve (~3 s)
+    made += [
+        pi.impact_map_orbit(pi.Params.make(eta="0.74"), "0.1", "0.5", 3),
+        pi.singularity_set(pi.Params.make(eta="0.74"), v_max=1.0, step=0.05),
+        pi.basins(
+            pi.Params.make(eta="0.74"),
+            ((0, 1, 4), (0.5, 2.5, 3)),
+            transient=60,
+            refine=False,
+            progress=False,
+        ),  # fmt: skip
+        pi.response_curve(
+            pi.Params.make(zeta="0", R="0.8", eta="2.8"),
+            1,
+            "x_w",
+            "-2",
+            "0.5",
+            at="-1",
+            max_points=60,
+        ),  # fmt: skip
+    ]
     if shutil.which("ngspice") is not None:  # CI installs it; the count test names it if not
         made.append(
             pi.score_netlist(
@@ -280,7 +302,7 @@ def test_array_results_save_npz_that_loads_back(results, tmp_path):
 
 
 def _every_result(results):
-    """Every result type (25): the public ones, ReproduceResult (24 s to run) built from its
+    """Every result type (29): the public ones, ReproduceResult (24 s to run) built from its
     fields, and SyncRun."""
     out = dict(results)
     out["ReproduceResult"] = pi.ReproduceResult(
@@ -311,7 +333,7 @@ def _every_result(results):
 
 
 def test_every_result_type_to_dict_loads_with_a_strict_parser(results):
-    """All 25 result types (SyncRun and ReproduceResult included): ``to_dict()`` is text a
+    """All 29 result types (SyncRun and ReproduceResult included): ``to_dict()`` is text a
     strict parser (no NaN / Infinity tokens) loads."""
 
     def refuse(token):
@@ -340,11 +362,11 @@ def test_every_result_type_has_a_short_repr(results):
 
 
 def test_to_dataframe_on_every_result_type_with_rows(results):
-    """Every result type with samples or rows converts to a DataFrame (21 of the 25; the 4
+    """Every result type with samples or rows converts to a DataFrame (25 of the 29; the 4
     single-object types say they have none); columns carry units, numbers are float64."""
     pd = pytest.importorskip("pandas")
     everything = _every_result(results)
-    assert len(everything) == 25
+    assert len(everything) == 29
     covered = 0
     for name, r in everything.items():
         if name in NO_ROWS:
@@ -363,7 +385,7 @@ def test_to_dataframe_on_every_result_type_with_rows(results):
         pd.testing.assert_frame_equal(r.to_dataframe(), r.to_dataframe(r.tables()[0]))
         with pytest.raises(pi.ParameterError, match="what"):
             r.to_dataframe("no-such-table")
-    assert covered == 21
+    assert covered == 25
     tr = results["Trajectory"]
     df = tr.to_dataframe()
     assert list(df.columns) == ["period", "t [1]", "x [1]", "v [1]"]

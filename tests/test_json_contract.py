@@ -199,6 +199,9 @@ JSON_COMMANDS = {
     "capture": ["capture", "synth", "--out", "{out}/cap.npz", "--periods", "5", "--transient", "5"],
     "response": ["response", "--param", "x_w", "-2", "0.5", "--at", "-1", "--eta", "2.8"]
     + ["--zeta", "0", "--R", "0.8", "--max-points", "30"],
+    "impact-map": ["impact-map", "--eta", "0.74", "--n", "20", "--transient", "0"],
+    "singularity": ["singularity", "--eta", "0.74", "--v-max", "1", "--step", "0.05"]
+    + ["--orbit", "0"],
     "basins": ["basins", "--eta", "0.74", "--phase", "0", "1", "3", "--v", "0", "2", "2"]
     + ["--transient", "20", "--out", "{out}"],
 }

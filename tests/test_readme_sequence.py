@@ -68,6 +68,8 @@ QUICK = {
     "budget --out results/budget": [
         ("--out", "--landmarks grazing --mc 20 --sobol 0 --lle-mc 0 --no-scans --out")
     ],
+    "impact-map --eta 0.712": [("--singularity", "--n 200 --singularity")],
+    "basins --eta 4.85": [("0 1 200", "0 1 12"), ("0.6 150", "0.6 9")],
     "sweep --axis eta 0.68 0.82 100": [
         ("0.82 100", "0.82 3"),
         ("2.5 100", "2.5 3 --periods 40 --transient 40 --workers 1"),

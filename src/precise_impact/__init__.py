@@ -8,6 +8,15 @@ names below are the public API; the layering is described in ``docs/design.rst``
 """
 
 from precise_impact.analysis.bifurcation import BifurcationResult, bifurcation
+from precise_impact.analysis.impact_surface.basins import BasinsResult, basins
+from precise_impact.analysis.impact_surface.impact_map import (
+    ImpactMapResult,
+    impact_map,
+    impact_map_jacobian,
+    impact_map_orbit,
+)
+from precise_impact.analysis.impact_surface.response import ResponseCurve, response_curve
+from precise_impact.analysis.impact_surface.singularity import SingularityResult, singularity_set
 from precise_impact.analysis.lyapunov import (
     LYAPUNOV_ENGINES,
     LYAPUNOV_METHODS,
@@ -182,6 +191,16 @@ __all__ = [
     "timeseries_lle",
     "TimeSeriesLLE",
     "finite_time_lle",
+    "impact_map",
+    "impact_map_jacobian",
+    "impact_map_orbit",
+    "ImpactMapResult",
+    "singularity_set",
+    "SingularityResult",
+    "basins",
+    "BasinsResult",
+    "response_curve",
+    "ResponseCurve",
     # scenes
     "Scene",
     "builtin_scenes",

@@ -579,6 +579,12 @@ class BasinsResult(ResultMixin):
     stats : dict
         ``points``, ``refined`` (boundary points re-run), ``changed`` (of them relabelled),
         ``boundary_fraction``, ``elapsed_s``, ``time_per_point_s``, ``workers``, ``backend``.
+
+    See Also
+    --------
+    basins : makes it.
+    precise_impact.analysis.impact_surface.singularity.singularity_set : where boundaries run.
+    precise_impact.analysis.orbits.newton.find_orbit : refines the periodic attractors.
     """
 
     params: dict
@@ -733,13 +739,13 @@ def basins(
         Local worker processes, or a Dask cluster (``'local'`` or ``'tcp://HOST:PORT'``).
     out : path or None, default ``None``
         Directory of the finished tiles: a rerun resumes from them.
+    max_tiles : int or None
+        Compute at most this many tiles (a partial run: :class:`ParameterError` asks to
+        rerun for the rest).
     max_time : decimal or None, default ``None``
         Time budget in seconds: a map whose estimate (:data:`SECONDS_PER_PERIOD` per period
         of every point's transient, over the workers) is over it is refused before any work
         (:class:`~precise_impact.errors.OverBudgetError`).
-    max_tiles : int or None
-        Compute at most this many tiles (a partial run: :class:`ParameterError` asks to
-        rerun for the rest).
     progress : bool, None or callable
         :data:`~precise_impact.io.progress.ProgressArg`.
 

@@ -6,7 +6,13 @@ import argparse
 from pathlib import Path
 
 from precise_impact.analysis.impact_surface.basins import SECTIONS, basins
-from precise_impact.cli.args import add_json, add_max_time, add_out, add_param_flags, params_from
+from precise_impact.cli.args import (
+    add_json,
+    add_max_time,
+    add_out,
+    add_param_flags,
+    orbit_params_from,
+)
 from precise_impact.core.params import check_count
 from precise_impact.errors import ParameterError
 from precise_impact.io.jsonout import print_json, write_json
@@ -51,7 +57,8 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``basins``; returns the exit status."""
-    params = params_from(ns)
+    # the start is the grid's (or the impact's): x0 only defaults to the wall when it is < 0
+    params = orbit_params_from(ns)
     if ns.section == "stroboscopic" and ns.x is None:
         raise ParameterError("x", None, "an axis MIN MAX N on the stroboscopic section")
     if ns.section == "impact" and ns.x is not None:

@@ -8,7 +8,13 @@ import dataclasses
 from pathlib import Path
 
 from precise_impact.analysis.impact_surface.impact_map import ENGINES, impact_map_orbit
-from precise_impact.cli.args import add_json, add_max_time, add_out, add_param_flags, params_from
+from precise_impact.cli.args import (
+    add_json,
+    add_max_time,
+    add_out,
+    add_param_flags,
+    orbit_params_from,
+)
 from precise_impact.core.params import check_count, exact
 from precise_impact.errors import ParameterError
 from precise_impact.io.jsonout import print_json, write_json
@@ -46,7 +52,8 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``impact-map``; returns the exit status."""
-    params = params_from(ns)
+    # the start is the grid's (or the impact's): x0 only defaults to the wall when it is < 0
+    params = orbit_params_from(ns)
     phase = exact("phase", ns.phase)
     if not 0 <= phase < 1:
         raise ParameterError("phase", ns.phase, "0 <= phase < 1")

@@ -7,7 +7,13 @@ import argparse
 from pathlib import Path
 
 from precise_impact.analysis.impact_surface.singularity import singularity_set
-from precise_impact.cli.args import add_json, add_max_time, add_out, add_param_flags, params_from
+from precise_impact.cli.args import (
+    add_json,
+    add_max_time,
+    add_out,
+    add_param_flags,
+    orbit_params_from,
+)
 from precise_impact.core.params import check_count, exact
 from precise_impact.errors import ParameterError
 from precise_impact.io.jsonout import print_json, write_json
@@ -40,7 +46,8 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``singularity``; returns the exit status."""
-    params = params_from(ns)
+    # the start is the grid's (or the impact's): x0 only defaults to the wall when it is < 0
+    params = orbit_params_from(ns)
     v_max = exact("v-max", ns.v_max)
     if not 0 < v_max <= 1000:
         raise ParameterError("v-max", ns.v_max, "0 < v-max <= 1000")
