@@ -706,10 +706,10 @@ class BasinsResult(ResultMixin):
             np.ma.masked_less(self.labels, 0), origin="lower", aspect="auto", extent=ext,
             cmap=cmap, norm=norm, interpolation="nearest",
         )  # fmt: skip
+        k = int(self.stats.get("subgrid") or 1)
         if self.sub_u.size:  # the sub-grid: one small square per sub-point, its cell's size / k
             from matplotlib.collections import PolyCollection
 
-            k = int(self.stats.get("subgrid") or 1)
             hu, hv = (u1 - u0) / self.axes[0][3] / k / 2, (v1 - v0) / self.axes[1][3] / k / 2
             inside = self.sub_label >= 0
             su, sv = self.sub_u[inside], self.sub_v[inside]
@@ -717,10 +717,16 @@ class BasinsResult(ResultMixin):
                 [np.stack([su + a * hu, sv + b * hv], axis=1)
                  for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))], axis=1,
             )  # fmt: skip
-            ax.add_collection(PolyCollection(
-                corners, facecolors=[colors[i] for i in self.sub_label[inside]],
-                edgecolors="none", antialiaseds=False, zorder=3,
-            ))  # fmt: skip
+            ax.add_collection(
+                PolyCollection(
+                    corners,
+                    facecolors=[colors[i] for i in self.sub_label[inside]],
+                    edgecolors="none",
+                    antialiaseds=False,
+                    zorder=2,  # over the image, under the spines (2.5)
+                ),
+                autolim=False,
+            )  # fmt: skip (the map's extent stays the view)
         share = np.bincount(self.labels[self.labels >= 0].ravel(), minlength=n) / max(
             1, int((self.labels >= 0).sum())
         )
@@ -734,7 +740,9 @@ class BasinsResult(ResultMixin):
         ax.set_ylabel(vn)
         p = self.params
         ax.set_title(
-            f"domains of attraction, {self.section} section\n"
+            f"domains of attraction, {self.section} section"
+            + (f", boundary cells on a {k} x {k} sub-grid" if self.sub_u.size else "")
+            + "\n"
             f"eta={p['eta']} zeta={p['zeta']} R={p['R']} x_w={p['x_w']} a={p['a']}",
             fontsize=9,
         )
