@@ -149,7 +149,11 @@ def test_cli_basins_json_and_resume(tmp_path, capsys):
 
 @pytest.mark.parametrize(
     "extra, code",
-    [(["--section", "stroboscopic"], 2), (["--phase", "0", "1", "1000", "--max-time", "1"], 3)],
+    [
+        (["--section", "stroboscopic"], 2),
+        (["--phase", "0", "1", "1000", "--max-time", "1"], 3),
+        (["--subgrid", "1"], 2),
+    ],
 )
 def test_cli_bad_input_and_budget_before_work(tmp_path, extra, code, capsys):
     from precise_impact.cli.main import main
@@ -205,3 +209,54 @@ def test_ctrl_c_exits_130_and_keeps_finished_tiles(tmp_path):
     for f in kept:
         with np.load(f) as z:
             assert z["kind"].shape == (500,)
+
+
+def test_subgrid_points_agree_with_long_single_runs():
+    # 3 x 3 sub-points in every boundary cell of a 6 x 6 map at eta = 0.74, each checked against
+    # an independent single run (caches cleared, 2x the sub-grid's transient of 100 x 10)
+    g = ((0, 1, 6), (0, 3, 6))
+    r = basins(PAPER, g, transient=100, subgrid=3, progress=False)
+    n_cells = int(r.boundary.sum())
+    assert n_cells > 0 and r.stats["subgrid"] == 3
+    assert r.sub_u.size == r.sub_v.size == r.sub_label.size == 9 * n_cells
+    assert r.stats["subgrid_points"] == 9 * n_cells and r.sub_agree.size == n_cells
+    cu, cv = r.coordinates()
+    du, dv = 1 / 6, 3 / 6
+    for k in range(n_cells):  # the sub-points lie inside their own boundary cell
+        i, j = np.unravel_index(np.flatnonzero(r.boundary.ravel())[k], r.boundary.shape)
+        su, sv = r.sub_u[9 * k : 9 * k + 9], r.sub_v[9 * k : 9 * k + 9]
+        assert (np.abs(su - cu[j]) < du / 2).all() and (np.abs(sv - cv[i]) < dv / 2).all()
+    clear_caches()
+    for u, v, lab in zip(r.sub_u, r.sub_v, r.sub_label, strict=True):
+        long = point_attractor(PAPER, "impact", u, v, transient=2000)
+        att = r.attractors[lab]
+        mine = {
+            "kind": att["kind"], "impacts": att["impacts"], "period": att["period"],
+            "rep_phase": att["phase"], "rep_v": att["v"],
+        }  # fmt: skip
+        assert _same(mine, long), (u, v)
+    per = r.sub_label.reshape(n_cells, 9)
+    cells = r.labels.ravel()[r.boundary.ravel()]
+    assert np.array_equal(r.sub_agree, (per == cells[:, None]).mean(axis=1))
+    assert r.stats["mixed_cells"] == sum(len(set(p)) > 1 for p in per.tolist())
+    d = r.to_dict()
+    json.dumps(d, allow_nan=False)
+    assert len(d["sub_label"]) == 9 * n_cells and r.tables() == ("attractors", "subgrid")
+    assert len(r._tables()["subgrid"]()["phase [1]"]) == 9 * n_cells
+
+
+def test_subgrid_off_is_identical():
+    g = ((0, 1, 5), (0, 3, 4))
+    a = basins(PAPER, g, transient=60, progress=False)
+    b = basins(PAPER, g, transient=60, subgrid=0, progress=False)
+    da, db = a.to_dict(), b.to_dict()
+    for d in (da, db):
+        d["stats"].pop("elapsed_s"), d["stats"].pop("time_per_point_s")
+    assert da == db and db["sub_u"] == [] and db["stats"]["subgrid_points"] == 0
+
+
+@pytest.mark.parametrize("bad", [1, -1, 100, "x", 2.5, True])
+def test_bad_subgrid_names_the_parameter(bad):
+    with pytest.raises(ParameterError, match="subgrid") as e:
+        basins(PAPER, ((0, 1, 4), (0, 3, 4)), subgrid=bad, progress=False)
+    assert str(e.value).count("\n") == 0

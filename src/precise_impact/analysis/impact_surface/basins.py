@@ -27,6 +27,12 @@ the existing machinery:
 Boundaries: after the map, every point with a 4-neighbour of another label (or unresolved) is
 run again with ``refine_factor`` times the transient and relabelled (the boundary points sit
 near the singularity set, where the map is discontinuous and transients are long).
+
+Sub-grid (``subgrid=k``, ``k >= 2``): after that, every boundary cell is sampled again at the
+centres of a ``k x k`` sub-grid inside the cell (with the boundary re-run's longer transient),
+each sub-point labelled against the same table of attractors (an attractor met only on
+sub-points is added to it), so a boundary is resolved ``k`` times finer where it runs and
+nowhere else.
 """
 
 from __future__ import annotations
@@ -436,17 +442,29 @@ class _Spec:
         return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def _points_job(spec: _Spec, index: np.ndarray | None, transient: int, lo: int, hi: int) -> dict:
+def _points_job(
+    spec: _Spec,
+    index: np.ndarray | None,
+    transient: int,
+    lo: int,
+    hi: int,
+    points: np.ndarray | None = None,
+) -> dict:
     """The rows of flat grid points ``lo .. hi - 1`` (or of ``index[lo:hi]``) as a tile's arrays;
-    the coordinates are computed here, so a task carries the spec, not the points."""
+    the coordinates are computed here, so a task carries the spec, not the points.  With
+    ``points`` (shape ``(n, 2)``: explicit ``(u, v)`` starts, the sub-grid) the rows of
+    ``points[lo:hi]`` instead."""
     cu, cv = spec.coords()
-    ks = np.arange(lo, hi) if index is None else index[lo:hi]
+    if points is not None:
+        uv = [(float(u), float(v)) for u, v in points[lo:hi]]
+    else:
+        ks = np.arange(lo, hi) if index is None else index[lo:hi]
+        uv = [(float(cu[int(k) % len(cu)]), float(cv[int(k) // len(cu)])) for k in ks]
     out: dict = {f: [] for f in FIELDS}
-    for k in ks:
-        i, j = divmod(int(k), len(cu))
+    for u, v in uv:
         row, stuck, capture = _point(
-            spec.pars, spec.t0, spec.section, float(cu[j]), float(cv[i]), transient,
-            spec.max_period, spec.chaos_periods,
+            spec.pars, spec.t0, spec.section, u, v, transient, spec.max_period,
+            spec.chaos_periods,
         )  # fmt: skip
         for f, val in zip(FIELDS[:7], row, strict=True):
             out[f].append(val)
@@ -478,12 +496,27 @@ def _scan(job, n_points, tile_size, store_dir, digest, workers, dask, progress, 
 
 
 # ------------------------------------------------------------------ labels
-def _label(data: dict) -> tuple[np.ndarray, list[dict]]:
+def _label(data: dict, sub: dict | None = None) -> tuple:
     """One label per attractor over the whole map: periodic orbits by ``(impacts, period)`` and
-    their refined fastest impact (to :data:`SAME_ORBIT`); every other kind one label."""
+    their refined fastest impact (to :data:`SAME_ORBIT`); every other kind one label.  With
+    ``sub`` (the sub-grid's rows) also their labels, against the same table (an attractor seen
+    only there is appended with ``points`` 0): ``(labels, table, sub_labels)``."""
+    table: list[dict] = []
+    labels = _assign(data, table, True)
+    sub_labels = _assign(sub, table, False) if sub is not None else None
+    for att in table:
+        att.pop("_code")
+    _name(table)
+    if sub is not None:
+        return labels, table, sub_labels
+    return labels, table
+
+
+def _assign(data: dict, table: list[dict], count: bool) -> np.ndarray:
+    """Labels of ``data``'s rows in ``table`` (extended by new attractors); ``count``: add
+    them to the attractors' ``points``."""
     kind = data["kind"].astype(int)
     labels = np.full(kind.shape, -1, dtype=int)
-    table: list[dict] = []
     for k in range(kind.size):
         if kind[k] == _OUTSIDE:
             continue
@@ -498,15 +531,13 @@ def _label(data: dict) -> tuple[np.ndarray, list[dict]]:
                 )
             ):
                 labels[k] = j
-                att["points"] += 1
+                att["points"] += count
                 break
         else:
             labels[k] = len(table)
             table.append(_attractor_entry(data, k))
-    for att in table:
-        att.pop("_code")
-    _name(table)
-    return labels, table
+            table[-1]["points"] = int(count)
+    return labels
 
 
 def _attractor_entry(data, k) -> dict:
@@ -578,7 +609,15 @@ class BasinsResult(ResultMixin):
         Points with a 4-neighbour of another label after refinement (bool).
     stats : dict
         ``points``, ``refined`` (boundary points re-run), ``changed`` (of them relabelled),
-        ``boundary_fraction``, ``elapsed_s``, ``time_per_point_s``, ``workers``, ``backend``.
+        ``boundary_fraction``, ``elapsed_s``, ``time_per_point_s``, ``workers``, ``backend``;
+        ``subgrid`` (``k``, 0: off), ``subgrid_points`` (``k * k`` per boundary cell),
+        ``mixed_cells`` (boundary cells whose sub-points carry more than one label) and
+        ``subgrid_agreement`` (the fraction of sub-points with their cell's label).
+    sub_u, sub_v, sub_label : numpy.ndarray
+        The sub-grid (``subgrid >= 2``; empty when off): the starts inside the boundary cells
+        (cell by cell, row-major as ``labels``) and their attractor's index (-1 outside).
+    sub_agree : numpy.ndarray
+        Per boundary cell (row-major), the fraction of its sub-points with the cell's label.
 
     See Also
     --------
@@ -596,6 +635,10 @@ class BasinsResult(ResultMixin):
     capture: np.ndarray
     boundary: np.ndarray
     stats: dict
+    sub_u: np.ndarray = dataclasses.field(default_factory=lambda: np.empty(0))
+    sub_v: np.ndarray = dataclasses.field(default_factory=lambda: np.empty(0))
+    sub_label: np.ndarray = dataclasses.field(default_factory=lambda: np.empty(0, dtype=int))
+    sub_agree: np.ndarray = dataclasses.field(default_factory=lambda: np.empty(0))
 
     def to_dict(self) -> dict:
         return {
@@ -605,12 +648,25 @@ class BasinsResult(ResultMixin):
             "attractors": self.attractors,
             "labels": self.labels.tolist(),
             "stats": self.stats,
+            "sub_u": self.sub_u.tolist(),
+            "sub_v": self.sub_v.tolist(),
+            "sub_label": self.sub_label.tolist(),
+            "sub_agree": self.sub_agree.tolist(),
         }
 
     def _tables(self) -> dict:
-        return {
+        names = [a["name"] for a in self.attractors]
+        tables = {
             "attractors": lambda: {k: [a[k] for a in self.attractors] for k in self.attractors[0]}
         }
+        if self.sub_u.size:  # the sub-grid, when there is one
+            tables["subgrid"] = lambda: {
+                f"{self.axes[0][0]} [1]": self.sub_u.tolist(),
+                f"{self.axes[1][0]} [1]": self.sub_v.tolist(),
+                "label": self.sub_label.tolist(),
+                "name": [names[k] if k >= 0 else "outside" for k in self.sub_label.tolist()],
+            }
+        return tables
 
     def coordinates(self) -> tuple[np.ndarray, np.ndarray]:
         """The columns' and rows' coordinates (cell centres)."""
@@ -650,6 +706,27 @@ class BasinsResult(ResultMixin):
             np.ma.masked_less(self.labels, 0), origin="lower", aspect="auto", extent=ext,
             cmap=cmap, norm=norm, interpolation="nearest",
         )  # fmt: skip
+        k = int(self.stats.get("subgrid") or 1)
+        if self.sub_u.size:  # the sub-grid: one small square per sub-point, its cell's size / k
+            from matplotlib.collections import PolyCollection
+
+            hu, hv = (u1 - u0) / self.axes[0][3] / k / 2, (v1 - v0) / self.axes[1][3] / k / 2
+            inside = self.sub_label >= 0
+            su, sv = self.sub_u[inside], self.sub_v[inside]
+            corners = np.stack(  # each sub-point's own sub-cell, in data coordinates
+                [np.stack([su + a * hu, sv + b * hv], axis=1)
+                 for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))], axis=1,
+            )  # fmt: skip
+            ax.add_collection(
+                PolyCollection(
+                    corners,
+                    facecolors=[colors[i] for i in self.sub_label[inside]],
+                    edgecolors="none",
+                    antialiaseds=False,
+                    zorder=2,  # over the image, under the spines (2.5)
+                ),
+                autolim=False,
+            )  # fmt: skip (the map's extent stays the view)
         share = np.bincount(self.labels[self.labels >= 0].ravel(), minlength=n) / max(
             1, int((self.labels >= 0).sum())
         )
@@ -663,7 +740,9 @@ class BasinsResult(ResultMixin):
         ax.set_ylabel(vn)
         p = self.params
         ax.set_title(
-            f"domains of attraction, {self.section} section\n"
+            f"domains of attraction, {self.section} section"
+            + (f", boundary cells on a {k} x {k} sub-grid" if self.sub_u.size else "")
+            + "\n"
             f"eta={p['eta']} zeta={p['zeta']} R={p['R']} x_w={p['x_w']} a={p['a']}",
             fontsize=9,
         )
@@ -702,6 +781,7 @@ def basins(
     chaos_periods: int = 1000,
     refine: bool = True,
     refine_factor: int = 10,
+    subgrid: int = 0,
     tile_size: int = 200,
     workers: int | None = 1,
     dask: str | None = None,
@@ -733,6 +813,11 @@ def basins(
         ``refine_factor`` times the transient and relabel them.
     refine_factor : int, default 10
         The longer transient of the boundary re-run.
+    subgrid : int, default 0
+        ``k >= 2`` (at most 32): sample every boundary cell (after the re-run) again at the
+        centres of a ``k x k`` sub-grid inside it, with the boundary re-run's transient, and
+        label the sub-points against the same attractors (``sub_u``, ``sub_v``, ``sub_label``
+        of the result); 0: off.
     tile_size : int, default 200
         Points per tile (unit of work, checkpoint and resume).
     workers, dask : as :func:`~precise_impact.analysis.scan.run_scan`
@@ -791,6 +876,13 @@ def basins(
     max_period = check_count(max_period, "max_period", 1000, minimum=1)
     chaos_periods = check_count(chaos_periods, "chaos_periods", 10**8, minimum=10)
     refine_factor = check_count(refine_factor, "refine_factor", 1000, minimum=1)
+    subgrid_in = subgrid
+    try:  # an int, numpy integer or integer string, like the other counts
+        subgrid = check_count(subgrid, "subgrid", 32)
+    except ParameterError:
+        subgrid = 1
+    if subgrid == 1:
+        raise ParameterError("subgrid", subgrid_in, "0 (off) or an integer 2 <= subgrid <= 32")
     spec = _Spec(_floats(params), float(params.t0), section, axes, transient, max_period,
                  chaos_periods)  # fmt: skip
     n = spec.shape[0] * spec.shape[1]
@@ -838,6 +930,11 @@ def basins(
     unresolved = np.isin(data["kind"], (_UNRESOLVED, _GRAZING)).reshape(spec.shape)
     bnd = boundary_mask(lab2, unresolved) & (lab2 >= 0)
     inside = int((lab2 >= 0).sum())
+    sub = _subgrid(spec, bnd, lab2, subgrid, transient * (refine_factor if refine else 1),
+                   tile_size, outp, workers, dask, progress, data)  # fmt: skip
+    if sub is not None:
+        labels, table, sub_label = _label(data, sub["data"])
+        elapsed += sub["elapsed"]
     stats = {
         "points": n,
         "refined": refined,
@@ -850,7 +947,21 @@ def basins(
         "backend": run.backend,
         "transient": transient,
         "refine_factor": refine_factor if refine else None,
+        "subgrid": subgrid,
+        "subgrid_points": 0,
+        "mixed_cells": 0,
+        "subgrid_agreement": None,
     }
+    extra: dict = {}
+    if sub is not None:
+        cells = lab2.ravel()[sub["cells"]]  # each boundary cell's label (unchanged by _label)
+        per = sub_label.reshape(len(cells), subgrid * subgrid)
+        agree = (per == cells[:, None]).mean(axis=1)
+        mixed = int(sum(len(np.unique(r)) > 1 for r in per))
+        stats["subgrid_points"] = int(sub_label.size)
+        stats["mixed_cells"] = mixed
+        stats["subgrid_agreement"] = float((per == cells[:, None]).mean()) if per.size else None
+        extra = {"sub_u": sub["u"], "sub_v": sub["v"], "sub_label": sub_label, "sub_agree": agree}
     return BasinsResult(
         params={k: str(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")},
         section=section,
@@ -861,7 +972,35 @@ def basins(
         capture=data["capture"].reshape(spec.shape).astype(int),
         boundary=bnd,
         stats=stats,
+        **extra,
     )
+
+
+def _subgrid(spec, bnd, lab2, k, transient, tile_size, outp, workers, dask, progress, data):
+    """Run the ``k x k`` sub-grids of the boundary cells; ``None`` when off or no boundary."""
+    if k == 0 or not bnd.any():
+        return None
+    cells = np.flatnonzero(bnd.ravel())
+    (_, u0, u1, nu), (_, v0, v1, nv) = spec.axes
+    du, dv = (u1 - u0) / nu, (v1 - v0) / nv
+    off = (np.arange(k) + 0.5) / k  # sub-cell centres, in cell widths
+    i, j = np.divmod(cells, nu)
+    # per cell, row-major over the sub-grid (rows: v, columns: u), like the map
+    su = u0 + (j[:, None, None] + off[None, None, :]) * du + 0 * off[None, :, None]
+    sv = v0 + (i[:, None, None] + off[None, :, None]) * dv + 0 * off[None, None, :]
+    pts = np.stack([su.ravel(), sv.ravel()], axis=1)
+    tile = max(1, tile_size // max(1, transient // spec.transient))
+    digest = (spec.digest() + f"s{k}t{transient}:"
+              + hashlib.sha256(pts.tobytes()).hexdigest()[:16])  # fmt: skip
+    job = functools.partial(_points_job, spec, None, transient, points=pts)
+    sub, run = _scan(
+        job, len(pts), tile, outp / "tiles_subgrid" if outp else None, digest, workers, dask,
+        progress, "basins subgrid", None,
+    )  # fmt: skip
+    assert sub is not None
+    del lab2, data
+    return {"data": sub, "u": pts[:, 0], "v": pts[:, 1], "cells": cells,
+            "elapsed": run.elapsed_s}  # fmt: skip
 
 
 def _changed(old: np.ndarray, new: np.ndarray, idx: np.ndarray, data: dict) -> int:
