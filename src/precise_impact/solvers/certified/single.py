@@ -780,8 +780,9 @@ def certify(
         Forcing periods (``1 <= periods <= 100000``).
     precision : str, default ``'auto'``
         Working precision of the balls, ``'mp:BITS'`` (``64 <= BITS <= max_bits``).
-        ``'auto'`` chooses it: a pilot run of ``min(periods, 40)`` periods at 128 bits (doubled
-        until it is proven, up to ``max_bits``) measures the growth of the radius per period,
+        ``'auto'`` chooses it: a pilot run at 128 bits (doubled until it is proven, up to
+        ``max_bits``) of ``min(periods, 40)`` periods (``'interval'``) or a tenth of the run,
+        40 to 200 periods (``'lohner'``), measures the growth of the radius per period,
         and the bits are set so that the last sample's radius is below ``target_radius`` with
         two decimal digits to spare (rounded up to a multiple of 64).
     target_radius : decimal, default ``'1e-30'``
@@ -882,6 +883,8 @@ def certify(
     )  # no underflow below 1e-308
     if bits is None:
         n_pilot = min(periods, PILOT_PERIODS[method])
+        if method == "lohner":  # a tenth of the run, at least 40 periods, at most 200
+            n_pilot = min(periods, max(40, periods // 10), PILOT_PERIODS[method])
         pilot_bits, failed = 128, ""
         while True:  # a pilot without a proof retries at twice the bits, as the run does
             try:
