@@ -86,7 +86,7 @@ def main() -> None:
     )
     fixed = {}
     for bits in (256, r_auto.bits, 1024, 2048):
-        t, r = _timed(lambda b=bits: pi.certify(p, PERIODS, bits=b), args.rounds)
+        t, r = _timed(lambda b=bits: pi.certify(p, PERIODS, precision=f"mp:{b}"), args.rounds)
         fixed[bits] = {
             "seconds": t,
             "bits_used": r.bits,
@@ -117,7 +117,9 @@ def main() -> None:
     # it e decays like exp(-(zeta + k) t) and master and slave impacts come closer than 2^-bits:
     # the engine then doubles the bits, as it must.)
     t_pair, pair = _timed(
-        lambda: pi.certify_coupled(p, "0.02", "reduced", PERIODS, y0=("0.5", "0.1"), bits=512),
+        lambda: pi.certify_coupled(
+            p, "0.02", "reduced", PERIODS, y0=("0.5", "0.1"), precision="mp:512"
+        ),
         args.rounds,
     )
 
