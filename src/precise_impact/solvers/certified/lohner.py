@@ -180,7 +180,8 @@ class LohnerEngine:
         bits = self.bits
         s = flint.arb(J.mid())
         half = bits // 2 + 64
-        prec = max(32, int(-log10_abs(J.rad()) * 3.32) - 8)  # bits of mid J already right
+        lr = log10_abs(J.rad())  # -inf for an exact point
+        prec = max(32, int(-lr * 3.32) - 8) if math.isfinite(lr) else bits  # bits of mid J right
         while prec < half:
             prec = min(2 * prec - 8, half)
             with _Prec(prec + 16):
