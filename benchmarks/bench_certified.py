@@ -13,11 +13,16 @@ Side by side in ONE run (medians of ``--rounds`` repeats, after a warm-up of eac
   growth of the two heyoka runs' disagreement -- the naive enclosure's wrapping shows as the
   excess;
 * **pair**: the certified master-slave pair (reduced form, k = 0.02, off the diagonal), 300
-  periods at 512 bits.
+  periods at 512 bits;
+* **long horizons, side by side**: ``certify(method='lohner')`` (point + matrix x box in a QR
+  frame, the default) and ``method='interval'`` (the two balls of 0.x), 3,000 and 10,000
+  periods with the automatic bits for radius <= 1e-30 (one run each, pilot included), and the
+  growth of each enclosure over the 3,000 periods.
 
-Results: ``benchmarks/results/certified.{json,md}`` and ``certified_growth.png``.
+Results: ``benchmarks/results/certified.{json,md}``, ``certified_growth.png`` and
+``certified_long.png``.
 
-Run:  python benchmarks/bench_certified.py [--rounds 3]
+Run:  python benchmarks/bench_certified.py [--rounds 3] [--no-long]
 """
 
 from __future__ import annotations
@@ -70,13 +75,18 @@ def _slope(values):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--no-long", dest="long", action="store_false", help="skip the long runs")
     args = ap.parse_args()
     p = pi.Params.make(eta="0.712")
+    long_runs = _long_horizons(p) if args.long else {}
 
     t_auto, r_auto = _timed(lambda: pi.certify(p, PERIODS, target_radius="1e-30"), args.rounds)
+    t_auto_iv, r_auto_iv = _timed(
+        lambda: pi.certify(p, PERIODS, target_radius="1e-30", method="interval"), args.rounds
+    )
     fixed = {}
     for bits in (256, r_auto.bits, 1024, 2048):
-        t, r = _timed(lambda b=bits: pi.certify(p, PERIODS, bits=b), args.rounds)
+        t, r = _timed(lambda b=bits: pi.certify(p, PERIODS, precision=f"mp:{b}"), args.rounds)
         fixed[bits] = {
             "seconds": t,
             "bits_used": r.bits,
@@ -107,7 +117,9 @@ def main() -> None:
     # it e decays like exp(-(zeta + k) t) and master and slave impacts come closer than 2^-bits:
     # the engine then doubles the bits, as it must.)
     t_pair, pair = _timed(
-        lambda: pi.certify_coupled(p, "0.02", "reduced", PERIODS, y0=("0.5", "0.1"), bits=512),
+        lambda: pi.certify_coupled(
+            p, "0.02", "reduced", PERIODS, y0=("0.5", "0.1"), precision="mp:512"
+        ),
         args.rounds,
     )
 
@@ -120,6 +132,16 @@ def main() -> None:
             "bits_choice": r_auto.bits_choice,
             "max_radius": r_auto.max_radius(),
             "impacts": len(r_auto.impacts),
+            "method": r_auto.method,
+            "growth_digits_per_period": cert_growth,
+        },
+        "certified_auto_interval": {
+            "seconds": t_auto_iv,
+            "bits": r_auto_iv.bits,
+            "bits_choice": r_auto_iv.bits_choice,
+            "max_radius": r_auto_iv.max_radius(),
+            "impacts": len(r_auto_iv.impacts),
+            "growth_digits_per_period": r_auto_iv.growth_digits_per_period(),
         },
         "certified_fixed_bits": fixed,
         "heyoka_demonstration": {
@@ -134,6 +156,7 @@ def main() -> None:
         "ratio_single_heyoka_run_over_certified": t_lo / t_auto,
         "growth_digits_per_period": {
             "certified_radius": cert_growth,
+            "certified_radius_interval": r_auto_iv.growth_digits_per_period(),
             "true_lle": true_growth,
             "heyoka_disagreement": heyoka_growth,
         },
@@ -145,6 +168,7 @@ def main() -> None:
             "master_impacts": len(pair.master_impacts),
             "slave_impacts": len(pair.slave_impacts),
         },
+        "long_horizons": long_runs,
         "rounds": args.rounds,
         "versions": {"precise_impact": pi.__version__},
     }
@@ -183,8 +207,11 @@ def main() -> None:
         for b, v in fixed.items()
     )
     row_auto = (
-        f"| **certify, automatic bits for radius <= 1e-30** ({r_auto.bits} bits, pilot included) "
-        f"| **{t_auto * 1e3:.0f} ms** | {r_auto.max_radius():.1e} | {len(r_auto.impacts)} |"
+        f"| **certify, automatic bits for radius <= 1e-30** ({r_auto.method}, {r_auto.bits} bits,"
+        f" pilot included) | **{t_auto * 1e3:.0f} ms** | {r_auto.max_radius():.1e} "
+        f"| {len(r_auto.impacts)} |\n"
+        f"| certify, automatic bits, interval scheme ({r_auto_iv.bits} bits, pilot included) "
+        f"| {t_auto_iv * 1e3:.0f} ms | {r_auto_iv.max_radius():.1e} | {len(r_auto_iv.impacts)} |"
     )
     row_demo = (
         f"| **heyoka demonstration (both runs)** | **{t_demo * 1e3:.0f} ms** "
@@ -211,16 +238,99 @@ eta = 0.712 (chaotic), {PERIODS} periods, one run, medians of {args.rounds} afte
 * The proof costs **{t_demo / t_auto:.1f}x less** than the two-precision demonstration of the same
   digits (heyoka mp:{lo} and mp:{lo + 64}, the smallest pair agreeing to 1e-30 at every sample),
   and {t_lo / t_auto:.1f}x less than the cheaper heyoka run alone.
-* Radius growth: the certified enclosure loses **{cert_growth:.3f}** decimal digits per period;
+* Radius growth over these {PERIODS} periods: the Lohner enclosure loses **{cert_growth:.3f}**
+  decimal digits per period, the interval scheme {r_auto_iv.growth_digits_per_period():.3f};
   the true sensitivity (LLE T / ln 10, LLE = 0.0302) is **{true_growth:.3f}**; the two heyoka
-  runs' disagreement grows by {heyoka_growth:.3f}.  The excess of the enclosure over the
-  sensitivity is the wrapping of a box by the flow's rotation and the impact-time balls; the
-  automatic bits account for it (they are chosen from the measured growth).
+  runs' disagreement grows by {heyoka_growth:.3f}.  The interval scheme's excess is the
+  wrapping of its box by the flow's rotation every period; the Lohner enclosure carries the
+  box in the frame the flow and the saltation matrices turn it to (QR every period).
 
 ![growth](certified_growth.png)
-"""
+{_long_md(long_runs, true_growth)}"""
     (OUT / "certified.md").write_text(md)
     print(md)
+
+
+LONG = (3000, 10000)
+
+
+def _long_horizons(p) -> dict:
+    """Both methods at 3,000 and 10,000 periods, automatic bits for 1e-30 (one run each)."""
+    out: dict = {}
+    for method in ("lohner", "interval"):
+        for n in LONG:
+            t0 = time.perf_counter()
+            try:
+                r = pi.certify(p, n, target_radius="1e-30", method=method)
+            except (pi.ParameterError, pi.CertificationError) as e:
+                out[f"{method}_{n}"] = {"refused": str(e), "seconds": time.perf_counter() - t0}
+                continue
+            dt = time.perf_counter() - t0
+            out[f"{method}_{n}"] = {
+                "seconds": dt,
+                "run_seconds": r.elapsed_s,
+                "bits": r.bits,
+                "bits_choice": r.bits_choice,
+                "log10_max_radius": r.max_log10_radius(),
+                "growth_digits_per_period": r.growth_digits_per_period(),
+                "impacts": len(r.impacts),
+                "log10_radii": r.log10_radii()[1:] if n == LONG[0] else None,
+            }
+            print(method, n, f"{dt:.1f} s", r.bits, f"{r.growth_digits_per_period():.4f}")
+    runs = [(m, out.get(f"{m}_{LONG[0]}", {})) for m in ("lohner", "interval")]
+    if all("log10_radii" in v for _, v in runs):
+        fig, axes = new_figure(figsize=(7, 4))
+        ax = axes[0, 0]
+        for m, v in runs:
+            ax.plot(
+                range(1, LONG[0] + 1),
+                v["log10_radii"],
+                label=f"{m}: {v['growth_digits_per_period']:.3f} digits/period ({v['bits']} bits)",
+            )
+        lle_growth = 0.0302 * 2 * math.pi / 0.712 / math.log(10)
+        y0 = runs[0][1]["log10_radii"][0]
+        ax.plot([1, LONG[0]], [y0, y0 + lle_growth * (LONG[0] - 1)], "k--", label="true 0.116")
+        ax.axhline(-30, color="grey", lw=0.8)
+        ax.set_xlabel("forcing period")
+        ax.set_ylabel("log10 radius")
+        ax.set_title(f"eta = 0.712: {LONG[0]} certified periods, automatic bits for 1e-30")
+        ax.legend(fontsize=8)
+        save_figure(fig, OUT / "certified_long.png", dpi=110)
+    for _, v in runs:
+        v.pop("log10_radii", None)
+    return out
+
+
+def _long_md(long_runs: dict, true_growth: float) -> str:
+    if not long_runs:
+        return ""
+    rows = []
+    for key, v in long_runs.items():
+        method, n = key.split("_")
+        if "refused" in v:
+            rows.append(f"| {method} | {n} | refused in {v['seconds']:.1f} s: {v['refused']} | | |")
+        else:
+            rows.append(
+                f"| {method} | {n} | **{v['seconds']:.1f} s** ({v['bits']} bits) "
+                f"| 1e{v['log10_max_radius']:.1f} | {v['growth_digits_per_period']:.4f} |"
+            )
+    lo = long_runs.get(f"lohner_{LONG[0]}", {})
+    g = lo.get("growth_digits_per_period", float("nan"))
+    table = "\n".join(rows)
+    return f"""
+## Long horizons: the Lohner enclosure beside the interval scheme
+
+Automatic bits for radius <= 1e-30 on every sample, one run each, pilot included.
+
+| method | periods | time (bits) | largest radius | growth, digits/period |
+|---|---:|---|---:|---:|
+{table}
+
+* Over {LONG[0]} periods the Lohner enclosure grows **{g:.4f}** decimal digits per period,
+  {g / true_growth:.2f}x the true sensitivity {true_growth:.3f} (the done-when allows 1.3x).
+
+![long](certified_long.png)
+"""
 
 
 if __name__ == "__main__":

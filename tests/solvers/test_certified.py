@@ -102,7 +102,7 @@ def test_a_near_tangency_beyond_the_precision_is_refused_then_resolved(sign, imp
 
 
 def test_automatic_bits_reach_the_target_and_say_so():
-    r = certify(pi.Params.make(eta="0.712"), 300)
+    r = certify(pi.Params.make(eta="0.712"), 300, method="interval")
     assert r.max_radius() <= 1e-30 and r.bits_choice.startswith("automatic")
     # the naive enclosure loses more than the true sensitivity LLE T / ln 10 = 0.116 digits/period
     assert 0.116 < r.growth_digits_per_period() < 0.5
@@ -359,9 +359,13 @@ def test_radii_below_the_float_range_are_strings_never_zero():
 
 def test_automatic_bits_escalate_when_the_pilot_fails():
     """eta = 1, R = 0.8: the 128-bit pilot cannot prove a departure at t ~ 226 (period 36).
-    Before, certify gave up (CLI exit 3) although 256 bits certify it; now the pilot doubles."""
-    r = certify(pi.Params.make(eta="1", R="0.8"), 40)
+    Before, certify gave up (CLI exit 3) although 256 bits certify it; now the pilot doubles.
+    (The interval scheme's boxes; the Lohner enclosure proves it at 128 bits.)"""
+    r = certify(pi.Params.make(eta="1", R="0.8"), 40, method="interval")
     assert r.bits >= 256 and "no proof at 128 bits" in r.bits_choice
+    assert r.max_log10_radius() <= -30
+    r = certify(pi.Params.make(eta="1", R="0.8"), 40)
+    assert r.method == "lohner" and "no proof" not in r.bits_choice
     assert r.max_log10_radius() <= -30
 
 

@@ -135,7 +135,12 @@ def test_a_periodic_run_within_reach_is_certified_not_refused():
     """eta = 0.74 (period-1 orbit): no proof at 64 nor 128 bits for 1000 periods (the boxes
     grow 0.058 digits per period by the wrapping effect), the growth measured after the
     128-bit attempt (~590 proven periods) projects ~210 bits: doubled on, certified at 256
-    even with max_bits = 256 (a projection within 2 x max_bits is never refused)."""
-    r = pi.certify(pi.Params.make(eta="0.74"), 1000, precision="mp:64", max_bits=256)
+    even with max_bits = 256 (a projection within 2 x max_bits is never refused).  The Lohner
+    enclosure, whose radius does not grow on the stable orbit, proves it at 64 bits."""
+    r = pi.certify(
+        pi.Params.make(eta="0.74"), 1000, precision="mp:64", max_bits=256, method="interval"
+    )
     assert r.periods == 1000 and r.bits == 256
     assert "no proof at 128 bits" in r.bits_choice
+    r = pi.certify(pi.Params.make(eta="0.74"), 1000, precision="mp:64", max_bits=256)
+    assert r.method == "lohner" and r.bits == 64 and r.bits_choice == "given"

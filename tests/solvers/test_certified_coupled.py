@@ -51,7 +51,7 @@ def test_diagonal_is_the_single_oscillator_exactly():
     """On the diagonal the slave is the master in every form (all coupling terms vanish)."""
     p = pi.Params.make(eta="0.74")
     r = pi.certify_coupled(p, "0.3", "paper", 30, precision="mp:192")
-    s = pi.certify(p, 30, precision="mp:192")
+    s = pi.certify(p, 30, precision="mp:192", method="interval")  # the pair's scheme
     assert len(r.master_impacts) == len(r.slave_impacts) == len(s.impacts) == 20
 
     def same(a, b):  # the same ball: midpoint and radius

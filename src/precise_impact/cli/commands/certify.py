@@ -57,6 +57,13 @@ def register(sub) -> argparse.ArgumentParser:
         help="bits are doubled after a failed proof up to this (default 8192)",
     )
     ce.add_argument(
+        "--method",
+        default=None,
+        choices=("lohner", "interval"),
+        help="the single oscillator's enclosure: lohner (default: point + matrix x box in a "
+        "QR frame, grows at the dynamics' rate) or interval (two balls, wrapped every period)",
+    )
+    ce.add_argument(
         "--k",
         default=None,
         metavar="K",
@@ -107,6 +114,8 @@ def run(ns: argparse.Namespace) -> int:
             raise ParameterError(
                 "target", ns.target, "only for the single oscillator (the pair takes --precision)"
             )
+        if ns.method is not None:
+            raise ParameterError("method", ns.method, "only for the single oscillator, not --k")
         r = certify_coupled(
             params,
             ns.k,
@@ -136,12 +145,13 @@ def run(ns: argparse.Namespace) -> int:
             max_bits=max_bits,
             progress=progress,
             max_time=max_time(ns),
+            method="lohner" if ns.method is None else ns.method,
         )
         d = r.to_dict()
         lines = [
             f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits "
             f"({r.bits_choice}) in {r.elapsed_s:.2f} s",
-            f"largest radius {d['max_radius']}; radius growth "
+            f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
             f"{r.growth_digits_per_period():.3f} decimal digits per period",
         ]
         names = "xv"
