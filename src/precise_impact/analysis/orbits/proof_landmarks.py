@@ -180,9 +180,9 @@ class ProvenLandmark(ResultMixin):
         Decimal ``(midpoint, radius)`` of the proven enclosure of the landmark's forcing
         frequency (radius rounded up, so ``[mid - rad, mid + rad]`` contains it).
     eta_lower, eta_upper : str
-        The enclosure's ends, rounded outward to 50 significant digits.
+        The enclosure's ends as decimals, rounded outward (4 digits below its width).
     width : float
-        ``eta_upper - eta_lower`` (rounded up).
+        ``eta_upper - eta_lower`` of those decimals (rounded up).
     unknowns : dict
         Every unknown of the augmented system: name -> ``(midpoint, radius)`` decimal strings.
     box_radius : str
@@ -399,6 +399,11 @@ def prove_landmark(
             )
         e = K[-1]
         lo_q, hi_q = exact_value(e.lower()), exact_value(e.upper())
+        # the ends rounded outward to 4 digits below the width (the stated interval is the
+        # decimal one, so its width is computed from the decimals)
+        scale = max(abs(lo_q), abs(hi_q), Fraction(1, 10**300))
+        digits = 4 + max(1, math.ceil(math.log10(float(scale / max(hi_q - lo_q, scale / 10**400)))))
+        lo_s, hi_s = _round_dec(lo_q, -1, digits), _round_dec(hi_q, 1, digits)
         eta_mid = exact_value(e.mid())
         unknowns = {n: ball_str(b) for n, b in zip(names, K, strict=True)}
         eta_str = ball_str(e)
@@ -410,9 +415,9 @@ def prove_landmark(
         theta={n: _dec(q) for n, q in th.items()},
         bits=bits,
         eta=eta_str,
-        eta_lower=_round_dec(lo_q, -1),
-        eta_upper=_round_dec(hi_q, 1),
-        width=_float_up(hi_q - lo_q),
+        eta_lower=lo_s,
+        eta_upper=hi_s,
+        width=_float_up(Fraction(hi_s) - Fraction(lo_s)),
         unknowns=unknowns,
         box_radius=_dec(r),
         contraction=contraction,
