@@ -93,6 +93,32 @@ def test_the_two_grazings_bounding_the_fig6_period_3_window_to_1e_30():
     assert 0.73 < proven["low"] < 0.74 < proven["high"] < 0.78
 
 
+def test_a_fold_is_proven_with_the_branch_turning_in_a_state_coordinate():
+    # the period-3 orbit carried to a design where its low end is a fold (the tolerance
+    # budget's case, tests/lab/test_tolerance_budget.py)
+    import dataclasses
+
+    paper = np.array(PAPER)
+    theta = np.array([0.059940089850262016, 1.0001095140033414, 2.0])
+    eta_d = 0.7407396303695382
+    o = seed_landmark("orbit", PAPER, 0.74, 3, None)
+    for t in np.linspace(0, 1, 9)[1:]:
+        o = dataclasses.replace(o, eta_fixed=0.74 + t * (eta_d - 0.74)).solve(
+            paper + t * (theta - paper)
+        )
+    end = interval_ends(o)["low"]
+    bp = end_point(o, end)
+    assert end[0] == "fold" and bp.kind == "fold"
+    pl = prove_landmark(bp, "1e-30")
+    assert pl.width <= 1e-30 and pl.test_function == "1 - tr M + det M"
+    assert pl.sides[0]["coordinate"] != "eta"  # eta is extremal at a fold: a state is held
+    _check_crossing(pl)
+    # Newton's stopping rule |dy| <= 8 eps (1 + max |y|) (impact times ~16) bounds the float64
+    # fold here (measured 10.6 ulp: the fold's augmented system is the worst conditioned)
+    tol = 8 * 2.0**-52 * (1 + float(np.max(np.abs(bp.y))))
+    assert abs(Fraction(bp.eta) - _mid(pl)) <= Fraction(tol)
+
+
 def test_a_degenerate_grazing_is_refused():
     # zeta = 0.6 (sqrt(1 - zeta^2) = 0.8), a = 0.96, x_w = 1: the resonance peak
     # a / (2 zeta sqrt(1 - zeta^2)) = 1 touches the wall exactly, at eta^2 = 1 - 2 zeta^2 =
@@ -136,7 +162,11 @@ def test_locate_names_what_the_end_is():
 
 def test_cli_certify_point(capsys):
     assert main(["certify", "--point", "grazing", "--json"]) == 0
-    d = json.loads(capsys.readouterr().out)
+
+    def strict(token):
+        raise ValueError(f"non-strict JSON token {token}")
+
+    d = json.loads(capsys.readouterr().out, parse_constant=strict)
     assert d["kind"] == "graze_free" and d["width"] <= 1e-40
     assert d["eta_lower"].startswith("0.71068736909392")
     args = ["certify", "--point", "grazing", "--eta", "0.74", "--side", "high"]

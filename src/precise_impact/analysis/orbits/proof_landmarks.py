@@ -18,8 +18,11 @@ balls around their exact decimal values, so the statement holds at the exact par
 The landmark is also proven a crossing, not a touch: the defining condition ``g`` (the last
 component of ``F``: ``x(t_m) - x_w`` for a grazing, ``1 + tr M + det M`` for a period
 doubling, ``1 - tr M + det M`` for a fold) is enclosed at the branch's orbits on either side
-(the branch coordinate ``s`` that moves most along it held at ``s* -+ 2 r``, each orbit itself
-proven by the same test), and the two enclosures have opposite signs.
+(the branch coordinate ``s``, ``eta`` unless the branch turns there, held at ``s* -+ 2 r``,
+each orbit itself proven by the same test), and the two enclosures have opposite signs; one
+more Krawczyk test, with ``s`` the whole ball ``[s* - 2r, s* + 2r]``, proves that the branch
+equations have exactly one zero for each such ``s`` in a tube containing both orbits and the
+landmark's box: the sign change happens along the branch through the landmark.
 """
 
 from __future__ import annotations
@@ -193,7 +196,10 @@ class ProvenLandmark(ResultMixin):
         The defining condition ``g``.
     sides : list of dict
         The sign change: per side the branch coordinate held (``coordinate``, ``value``), the
-        enclosure of ``g`` there (``g``: ``(midpoint, radius)``) and its proven ``sign``.
+        enclosure of ``g`` there (``g``: ``(midpoint, radius)``) and its proven ``sign``.  Both
+        orbits and the landmark lie on one branch: for every value of the coordinate between
+        the two, the branch equations have exactly one zero in a common tube (Krawczyk with
+        the coordinate a ball), so ``g`` changes sign along the branch through the landmark.
     eta_float64 : float
         The float64 landmark the proof started from.
     float64_offset_ulps : float
@@ -360,22 +366,25 @@ def prove_landmark(
         what = f"{bp.kind} landmark at eta ~ {bp.eta:.17g}"
         c = _newton(full, y0, bits, what)
         K, contraction = _krawczyk(full, c, r, what, names)
-        # the sign change: the branch's orbits at s = s* -+ 2 r (s the coordinate moving most)
+        # the sign change: the branch's orbits at s = s* -+ 2 r (s the coordinate moving most),
+        # each proven unique in a small box, and all of them (s in [s* - 2r, s* + 2r], the
+        # landmark's box included) on one branch: unique zeros of the branch equations for
+        # every s of that range in one tube (Krawczyk with s a ball)
+        rq = to_ball(r)
+        tube_r = r * 4 * max(1, math.ceil(_slope(bp, k)))
+        S = c[k] + flint_ball(0, (2 * rq).upper())
+        tube, _ = _krawczyk(
+            _branch(lm, tb, k, S), c, tube_r, f"{what}: the branch through it", names
+        )
         sides = []
         for sgn in (-1, 1):
-            s_val = c[k] + sgn * 2 * to_ball(r)
-
-            def side(ys: list, grad: bool, s_val=s_val) -> tuple[list, list]:
-                F, J = _evaluate(lm, ys, tb, grad)
-                g = ys[k] - s_val
-                row = [to_ball(Fraction(int(i == k))) for i in range(len(ys))]
-                return [*F[:-1], g], ([*J[:-1], row] if grad else [])
-
+            s_val = c[k] + sgn * 2 * rq
+            label = f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
             start = _predict(bp, y0, k, float(exact_value((s_val - c[k]).mid())))
-            cs = _newton(side, start, bits, f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r")
-            Ks, _ = _krawczyk(
-                side, cs, r / 4, f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
-            )
+            cs = _newton(_branch(lm, tb, k, s_val), start, bits, label)
+            Ks, _ = _krawczyk(_branch(lm, tb, k, s_val), cs, r / 4, label)
+            if not all(t.contains(b) for t, b in zip(tube, Ks, strict=True)):  # pragma: no cover
+                raise CertificationError(f"{label}: the orbit is not in the branch's tube")
             gval = _evaluate(lm, Ks, tb, False)[0][-1]
             sign = 1 if gval > 0 else (-1 if gval < 0 else 0)
             sides.append(
@@ -386,6 +395,8 @@ def prove_landmark(
                     "sign": sign,
                 }
             )
+        if not all(t.contains(b) for t, b in zip(tube, K, strict=True)):  # pragma: no cover
+            raise CertificationError(f"{what}: the landmark is not in the branch's tube")
         if sides[0]["sign"] == 0 or sides[1]["sign"] == 0:
             raise CertificationError(
                 f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
@@ -535,6 +546,33 @@ def _krawczyk(fun: Any, c: list, r: Fraction, what: str, names: list | None = No
             "for the working precision: no proof"
         )
     return [Y[i].intersection(K[i]) for i in range(m)], contraction
+
+
+def flint_ball(mid: Any, rad: Any) -> Any:
+    """``flint.arb(mid, rad)``."""
+    import flint
+
+    return flint.arb(mid, rad)
+
+
+def _branch(lm: BranchPoint, theta: list, k: int, s: Any) -> Any:
+    """The branch equations (all of ``F`` but the test function) and ``y_k = s`` (a ball)."""
+    import flint
+
+    def fun(ys: list, grad: bool) -> tuple[list, list]:
+        F, J = _evaluate(lm, ys, theta, grad)
+        row = [flint.arb(int(i == k)) for i in range(len(ys))]
+        return [*F[:-1], ys[k] - s], ([*J[:-1], row] if grad else [])
+
+    return fun
+
+
+def _slope(bp: BranchPoint, k: int) -> float:
+    """``max_j |t_j / t_k|`` of the branch's tangent ``t``: how far the branch moves in any
+    unknown per unit of ``y_k``."""
+    _, Fy, _ = bp.jacobian()
+    t = _null_vector(Fy[:-1])
+    return float(np.max(np.abs(t)) / abs(t[k]))
 
 
 def _branch_coordinate(bp: BranchPoint) -> int:
