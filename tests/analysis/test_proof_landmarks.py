@@ -176,3 +176,5 @@ def test_cli_certify_point(capsys):
     assert main(["certify", "--point", "period-doubling"]) == 2  # needs --side
     assert main(["certify", "--point", "grazing", "--width", "1e-3"]) == 2
     assert main(["certify", "--width", "1e-30"]) == 2  # only with --point
+    assert main(["certify", "--orbit-period", "3"]) == 2
+    assert main(["certify", "--point", "grazing", "--k", "0.1"]) == 2  # a trajectory's flag

@@ -108,9 +108,12 @@ def run(ns: argparse.Namespace) -> int:
     """Run ``certify``; returns the exit status."""
     params = params_from(ns)
     if ns.point is not None:
+        for flag in ("k", "form", "y0", "precision", "bits", "target"):
+            if getattr(ns, flag) is not None:
+                raise ParameterError(flag, str(getattr(ns, flag)), "not with --point")
         return _run_point(ns, params)
-    for flag in ("side", "width"):
-        if getattr(ns, flag) not in (None, "1e-40"):
+    for flag, default in (("side", None), ("width", "1e-40"), ("orbit_period", "1")):
+        if getattr(ns, flag) != default:
             raise ParameterError(flag, getattr(ns, flag), "only with --point")
     max_bits = check_count(ns.max_bits, "max_bits", MAX_BITS, minimum=64)
     if ns.bits is not None:  # the 0.2 spelling
