@@ -95,7 +95,7 @@ class BranchPoint:
         n, p = self.impacts, self.period
         P, Q = flight.steady_coefficients(eta, zeta, a)
         wd = flight.damped_frequency(zeta, ops)
-        pT = p * 2 * math.pi / eta
+        pT = p * 2 * ops.pi / eta  # math.pi in FLOAT and DUAL; a ball of pi in arb
         F: list = []
         if n == 0:
             fl = flight.Flight(P, Q, eta, zeta, wd, ops, 0.0, y[0], y[1])

@@ -82,6 +82,29 @@ def register(sub) -> argparse.ArgumentParser:
         help="the slave's start (position, velocity variable); default: on the master "
         "(the diagonal)",
     )
+    pt = ce.add_argument_group("a proven bifurcation point (instead of a trajectory)")
+    pt.add_argument(
+        "--point",
+        default=None,
+        choices=("grazing", "period-doubling", "fold"),
+        help="prove this landmark (Krawczyk on its augmented system): without --side the "
+        "non-impacting orbit's grazing nearest --eta; with --side that end of the "
+        "--orbit-period orbit's interval around --eta",
+    )
+    pt.add_argument("--side", default=None, choices=("low", "high"), help="with --point: which end")
+    pt.add_argument(
+        "--orbit-period",
+        dest="orbit_period",
+        default="1",
+        metavar="P",
+        help="with --point --side: the orbit's period in forcing periods (default 1)",
+    )
+    pt.add_argument(
+        "--width",
+        default="1e-40",
+        metavar="W",
+        help="with --point: largest width of the proven interval (default 1e-40)",
+    )
     add_max_time(ce)
     add_json(ce)
     ce.set_defaults(run=run)
@@ -91,6 +114,14 @@ def register(sub) -> argparse.ArgumentParser:
 def run(ns: argparse.Namespace) -> int:
     """Run ``certify``; returns the exit status."""
     params = params_from(ns)
+    if ns.point is not None:
+        for flag in ("k", "form", "y0", "precision", "bits", "target"):
+            if getattr(ns, flag) is not None:
+                raise ParameterError(flag, str(getattr(ns, flag)), "not with --point")
+        return _run_point(ns, params)
+    for flag, default in (("side", None), ("width", "1e-40"), ("orbit_period", "1")):
+        if getattr(ns, flag) != default:
+            raise ParameterError(flag, getattr(ns, flag), "only with --point")
     max_bits = check_count(ns.max_bits, "max_bits", MAX_BITS, minimum=64)
     if ns.bits is not None:  # the 0.2 spelling
         if ns.precision is not None:
@@ -161,4 +192,47 @@ def run(ns: argparse.Namespace) -> int:
     last = d["samples"][-1]
     lines += [f"{n}({last['period']} T) = {last[n]} +- {last[n + '_rad']}" for n in names]
     print("\n".join(lines))
+    return 0
+
+
+def _run_point(ns: argparse.Namespace, params) -> int:
+    """``certify --point``: a landmark located in float64, then proven."""
+    from precise_impact.analysis.orbits.proof_landmarks import (
+        check_width,
+        locate_landmark,
+        prove_landmark,
+    )
+
+    period = check_count(ns.orbit_period, "orbit_period", 1000, minimum=1)
+    check_width(ns.width)  # refused before any work
+    theta = {"zeta": params.zeta, "a": params.a, "x_w": params.x_w, "R": params.R}
+    if ns.side is None and ns.point != "grazing":
+        raise ParameterError("side", "none", f"low or high with --point {ns.point}")
+    bp = locate_landmark(
+        ns.point,
+        tuple(float(theta[n]) for n in ("zeta", "a", "x_w")),
+        float(params.eta),
+        period,
+        ns.side,
+        R=float(params.R),
+    )
+    r = prove_landmark(bp, ns.width, theta=theta)
+    if ns.json:
+        print_json(r.to_dict())
+        return 0
+    side = r.sides
+    print(
+        "\n".join(
+            [
+                f"proven {ns.point} ({r.kind}, period {r.period}, {r.impacts} impacts) at "
+                f"{r.bits} bits in {r.elapsed_s:.2f} s",
+                f"eta in [{r.eta_lower}, {r.eta_upper}] (width {r.width:.3g}; "
+                f"Krawczyk contraction {r.contraction:.3g})",
+                f"{r.test_function}: {side[0]['g'][0]} at {side[0]['coordinate']} - 2r, "
+                f"{side[1]['g'][0]} at + 2r (a crossing)",
+                f"float64 landmark {r.eta_float64!r} ({r.float64_offset_ulps:.2f} ulp from the "
+                "proven midpoint)",
+            ]
+        )
+    )
     return 0

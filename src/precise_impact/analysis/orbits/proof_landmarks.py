@@ -1,0 +1,722 @@
+"""Proven bifurcation points: a Krawczyk test on the landmarks' augmented systems in arb.
+
+A landmark located in float64 (:mod:`~precise_impact.analysis.orbits.landmarks`: a grazing,
+a period-doubling, a fold) is a regular zero ``y*`` of its augmented system ``F(y) = 0``.
+:func:`prove_landmark` proves it with the Krawczyk operator (Krawczyk 1969; Moore et al.
+2009, sec. 8.2): on a box ``Y = c + [-r, r]^m`` around the centre ``c`` refined by Newton at
+the working precision,
+
+``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)``,   ``C ~ F'(c)^-1`` (a point matrix),
+
+``F(c)`` evaluated in python-flint balls and ``F'(Y)`` enclosed over the whole box by forward
+-mode dual numbers whose values and derivatives are balls (the interval extension of the
+exact Jacobian :meth:`BranchPoint.jacobian` computes in float64).  ``K(Y)`` inside the
+interior of ``Y`` proves exactly one zero in ``Y``, and it lies in ``K(Y)``; ``F'(Y)`` is then
+nonsingular on ``Y``, so the zero is regular.  The parameters ``(zeta, a, x_w, R)`` enter as
+balls around their exact decimal values, so the statement holds at the exact parameters.
+
+The landmark is also proven a crossing, not a touch: the defining condition ``g`` (the last
+component of ``F``: ``x(t_m) - x_w`` for a grazing, ``1 + tr M + det M`` for a period
+doubling, ``1 - tr M + det M`` for a fold) is enclosed at the branch's orbits on either side
+(the branch coordinate ``s``, ``eta`` unless the branch turns there, held at ``s* -+ 2 r``,
+each orbit itself proven by the same test), and the two enclosures have opposite signs; one
+more Krawczyk test, with ``s`` the whole ball ``[s* - 2r, s* + 2r]``, proves that the branch
+equations have exactly one zero for each such ``s`` in a tube containing both orbits and the
+landmark's box: the sign change happens along the branch through the landmark.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from precise_impact.analysis.orbits.landmarks import BranchPoint
+from precise_impact.core import flight
+from precise_impact.core.params import exact
+from precise_impact.core.result import ResultMixin
+from precise_impact.errors import CertificationError, ParameterError
+from precise_impact.solvers.certified.single import ball_str, exact_value, to_ball, working_bits
+
+__all__ = ["prove_landmark", "locate_landmark", "ProvenLandmark", "landmark_unknowns", "POINTS"]
+
+#: The test function each kind's last equation is.
+_TEST = {
+    "graze_free": "x(t_m) - x_w",
+    "graze": "x(t_m) - x_w",
+    "period-doubling": "1 + tr M + det M",
+    "fold": "1 - tr M + det M",
+}
+
+
+# ------------------------------------------------------------------ dual numbers of balls
+class _BallDual:
+    """``value + gradient . d`` with ball value and ball gradient (python-flint arb): the
+    interval extension of forward-mode differentiation (every operation's chain rule
+    evaluated in ball arithmetic, so the gradient encloses the derivative at every point of
+    the value's ball)."""
+
+    __slots__ = ("v", "g")
+
+    def __init__(self, v: Any, g: list) -> None:
+        self.v, self.g = v, g
+
+    def __add__(self, o: Any) -> _BallDual:
+        if isinstance(o, _BallDual):
+            return _BallDual(self.v + o.v, [a + b for a, b in zip(self.g, o.g, strict=True)])
+        return _BallDual(self.v + o, self.g)
+
+    __radd__ = __add__
+
+    def __sub__(self, o: Any) -> _BallDual:
+        if isinstance(o, _BallDual):
+            return _BallDual(self.v - o.v, [a - b for a, b in zip(self.g, o.g, strict=True)])
+        return _BallDual(self.v - o, self.g)
+
+    def __rsub__(self, o: Any) -> _BallDual:
+        return _BallDual(o - self.v, [-a for a in self.g])
+
+    def __neg__(self) -> _BallDual:
+        return _BallDual(-self.v, [-a for a in self.g])
+
+    def __pos__(self) -> _BallDual:
+        return self
+
+    def __mul__(self, o: Any) -> _BallDual:
+        if isinstance(o, _BallDual):
+            return _BallDual(
+                self.v * o.v, [a * o.v + b * self.v for a, b in zip(self.g, o.g, strict=True)]
+            )
+        return _BallDual(self.v * o, [a * o for a in self.g])
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, o: Any) -> _BallDual:
+        if isinstance(o, _BallDual):
+            q = self.v / o.v
+            return _BallDual(q, [(a - b * q) / o.v for a, b in zip(self.g, o.g, strict=True)])
+        return _BallDual(self.v / o, [a / o for a in self.g])
+
+    def __rtruediv__(self, o: Any) -> _BallDual:
+        q = o / self.v
+        return _BallDual(q, [-a * q / self.v for a in self.g])
+
+    def __eq__(self, o: Any) -> bool:  # type: ignore[override]
+        # arb equality: True only for equal exact points (a ball around 0 is not "== 0")
+        return bool(self.v == (o.v if isinstance(o, _BallDual) else o))
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+class _BallDualOps:
+    """The ops namespace of :mod:`precise_impact.core.flight` for :class:`_BallDual` and arb."""
+
+    name = "arb-dual"
+
+    @property
+    def pi(self) -> Any:
+        import flint
+
+        return flint.arb.pi()
+
+    @staticmethod
+    def exp(x: Any) -> Any:
+        if isinstance(x, _BallDual):
+            e = x.v.exp()
+            return _BallDual(e, [a * e for a in x.g])
+        return _arb(x).exp()
+
+    @staticmethod
+    def sqrt(x: Any) -> Any:
+        if isinstance(x, _BallDual):
+            r = flight.ARB.sqrt(x.v)
+            return _BallDual(r, [a / (2 * r) for a in x.g])
+        return flight.ARB.sqrt(_arb(x))
+
+    @staticmethod
+    def cos_sin(x: Any) -> tuple[Any, Any]:
+        if isinstance(x, _BallDual):
+            s, c = x.v.sin_cos()
+            return _BallDual(c, [-a * s for a in x.g]), _BallDual(s, [a * c for a in x.g])
+        s, c = _arb(x).sin_cos()
+        return c, s
+
+    @classmethod
+    def cos(cls, x: Any) -> Any:
+        return cls.cos_sin(x)[0]
+
+    @classmethod
+    def sin(cls, x: Any) -> Any:
+        return cls.cos_sin(x)[1]
+
+
+def _arb(x: Any) -> Any:
+    import flint
+
+    return x if isinstance(x, flint.arb) else flint.arb(x)
+
+
+_OPS = _BallDualOps()
+
+
+# ------------------------------------------------------------------------------ the result
+@dataclasses.dataclass
+class ProvenLandmark(ResultMixin):
+    """A bifurcation point proven to exist, unique in its box, regular, and a crossing of its
+    test function (:func:`prove_landmark`).
+
+    Attributes
+    ----------
+    kind : str
+        ``graze_free``, ``graze``, ``period-doubling`` or ``fold``.
+    period, impacts : int
+        Of the orbit at the landmark.
+    theta : dict
+        ``zeta``, ``a``, ``x_w``, ``R`` as exact decimals (the values proven at).
+    bits : int
+        Working precision.
+    eta : tuple of str
+        Decimal ``(midpoint, radius)`` of the proven enclosure of the landmark's forcing
+        frequency (radius rounded up, so ``[mid - rad, mid + rad]`` contains it).
+    eta_lower, eta_upper : str
+        The enclosure's ends as decimals, rounded outward (4 digits below its width).
+    width : float
+        ``eta_upper - eta_lower`` of those decimals (rounded up).
+    unknowns : dict
+        Every unknown of the augmented system: name -> ``(midpoint, radius)`` decimal strings.
+    box_radius : str
+        Half-width ``r`` of the Krawczyk box ``Y`` (every coordinate).
+    contraction : float
+        ``max_i rad K(Y)_i / r`` (``< 1`` proves).
+    test_function : str
+        The defining condition ``g``.
+    sides : list of dict
+        The sign change: per side the branch coordinate held (``coordinate``, ``value``), the
+        enclosure of ``g`` there (``g``: ``(midpoint, radius)``) and its proven ``sign``.  Both
+        orbits and the landmark lie on one branch: for every value of the coordinate between
+        the two, the branch equations have exactly one zero in a common tube (Krawczyk with
+        the coordinate a ball), so ``g`` changes sign along the branch through the landmark.
+    eta_float64 : float
+        The float64 landmark the proof started from.
+    float64_offset_ulps : float
+        ``|eta_float64 - mid| / ulp(eta_float64)``: how far the float64 value is from the
+        proven one, in units of its last place.
+    elapsed_s : float
+        Wall time (diagnostic).
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.proof_landmarks.prove_landmark : returns it.
+    precise_impact.analysis.orbits.landmarks.BranchPoint : the float64 landmark.
+    precise_impact.analysis.orbits.proof.ProvenOrbit : a proven periodic orbit.
+    """
+
+    kind: str
+    period: int
+    impacts: int
+    theta: dict
+    bits: int
+    eta: tuple
+    eta_lower: str
+    eta_upper: str
+    width: float
+    unknowns: dict
+    box_radius: str
+    contraction: float
+    test_function: str
+    sides: list
+    eta_float64: float
+    float64_offset_ulps: float
+    elapsed_s: float
+
+    def contains(self, value: Any) -> bool:
+        """``True`` if the exact value (a decimal string, Fraction, float or mpmath number)
+        lies in ``[eta_lower, eta_upper]``."""
+        q = Fraction(str(value)) if not isinstance(value, (Fraction, float, int)) else value
+        return Fraction(self.eta_lower) <= Fraction(q) <= Fraction(self.eta_upper)
+
+
+def landmark_unknowns(bp: BranchPoint) -> list[str]:
+    """The names of a landmark's unknowns, in the order of ``bp.y``.
+
+    Parameters
+    ----------
+    bp : BranchPoint
+        The landmark.
+
+    Returns
+    -------
+    list of str
+        ``t_i, v_i`` per impact (``x_0, v_0`` without impacts), ``t_m`` for a grazing, ``eta``.
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.landmarks.BranchPoint : whose ``y`` they name.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from precise_impact.analysis.orbits.landmarks import BranchPoint
+    >>> bp = BranchPoint("period-doubling", 1, 1, np.zeros(3), np.array([0.05, 1.0, 2.0]))
+    >>> landmark_unknowns(bp)
+    ['t_1', 'v_1', 'eta']
+    """
+    n = bp.impacts
+    names = ["x_0", "v_0"] if n == 0 else [f"{c}_{i + 1}" for i in range(n) for c in ("t", "v")]
+    if bp.kind in ("graze_free", "graze"):
+        names.append("t_m")
+    return [*names, "eta"]
+
+
+# ------------------------------------------------------------------------------ the proof
+def prove_landmark(
+    bp: BranchPoint,
+    width: Any = "1e-40",
+    *,
+    theta: Any = None,
+    bits: int | None = None,
+) -> ProvenLandmark:
+    """Prove a located landmark: a box of at most ``width`` in every unknown that contains
+    exactly one zero of its augmented system (Krawczyk), and the test function's sign change
+    on either side.
+
+    Parameters
+    ----------
+    bp : BranchPoint
+        The landmark located in float64 (kind ``graze_free``, ``graze``,
+        ``period-doubling`` or ``fold``): from
+        :func:`~precise_impact.analysis.orbits.landmarks.seed_landmark`,
+        :func:`~precise_impact.analysis.orbits.landmarks.landmark_from_continuation` or
+        :func:`~precise_impact.analysis.orbits.landmarks.end_point`.
+    width : decimal, default ``"1e-40"``
+        Largest width of the proven intervals (``1e-300 <= width <= 1e-6``): the Krawczyk
+        box is ``y* + [-width/2, width/2]`` in every unknown.
+    theta : mapping or None, default ``None``
+        Exact ``zeta``, ``a``, ``x_w``, ``R`` (decimal strings or Fractions) to prove at;
+        ``None``: ``bp.theta`` and ``bp.R`` read as their shortest decimals (``0.05`` is
+        ``1/20``), so the float64 landmark of the paper's parameters is proven at them.
+    bits : int or None, default ``None``
+        Working precision (``64 <= bits <= 4096``); ``None``: ``log2(1 / width) + 96``
+        (rounding ``2^-bits`` far below the box, so the test closes unless the point is
+        degenerate).
+
+    Returns
+    -------
+    ProvenLandmark
+        The enclosure of ``eta`` (and every unknown), its width, the sign change.
+
+    Raises
+    ------
+    ParameterError
+        Bad input (a kind without a test function, a width or bits out of range), before
+        any work.
+    CertificationError
+        The proof cannot close: a singular Jacobian (a degenerate point: two landmarks
+        merging, a touch instead of a crossing), ``K(Y)`` not inside ``Y`` (the point is not
+        a zero to the box's accuracy), or no sign change of the test function.  Nothing is
+        returned then.
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.proof.prove_orbit : the same test on a periodic orbit.
+    precise_impact.analysis.orbits.landmarks.BranchPoint : the augmented systems.
+    precise_impact.core.flow.grazing_frequencies : the closed form of the free grazing.
+
+    References
+    ----------
+    .. [1] R. Krawczyk, "Newton-Algorithmen zur Bestimmung von Nullstellen mit
+           Fehlerschranken", Computing 4 (1969) 187-201.
+    .. [2] R. E. Moore, R. B. Kearfott, M. J. Cloud, *Introduction to Interval Analysis*,
+           SIAM 2009, sec. 8.2.
+
+    Examples
+    --------
+    >>> from precise_impact.analysis.orbits.landmarks import seed_landmark
+    >>> bp = seed_landmark("graze_free", (0.05, 1.0, 2.0), 0.7106)
+    >>> pl = prove_landmark(bp, "1e-40")
+    >>> pl.eta_lower[:12], pl.width <= 1e-40
+    ('0.7106873690', True)
+    """
+    t_start = time.perf_counter()
+    if bp.kind not in _TEST:
+        raise ParameterError("kind", bp.kind, "graze_free, graze, period-doubling or fold")
+    w = check_width(width)
+    if bits is None:
+        bits = int(math.ceil(math.log2(float(1 / w) if w > Fraction(1, 10**300) else 1e300))) + 96
+    elif not isinstance(bits, int) or isinstance(bits, bool) or not 64 <= bits <= 4096:
+        raise ParameterError("bits", str(bits), "an integer, 64 <= bits <= 4096")
+    th = _exact_theta(bp, theta)
+    r = w / 2
+    y0 = np.asarray(bp.y, dtype=float)
+    k = _branch_coordinate(bp)
+    names = landmark_unknowns(bp)
+
+    with working_bits(bits):
+        tb = [to_ball(th[n]) for n in ("zeta", "a", "x_w")]
+        Rb = to_ball(th["R"])
+        lm = dataclasses.replace(bp, R=Rb)
+
+        def full(ys: list, grad: bool) -> tuple[list, list]:
+            return _evaluate(lm, ys, tb, grad)
+
+        what = f"{bp.kind} landmark at eta ~ {bp.eta:.17g}"
+        c = _newton(full, y0, bits, what)
+        K, contraction = _krawczyk(full, c, r, what, names)
+        # the sign change: the branch's orbits at s = s* -+ 2 r (s the coordinate moving most),
+        # each proven unique in a small box, and all of them (s in [s* - 2r, s* + 2r], the
+        # landmark's box included) on one branch: unique zeros of the branch equations for
+        # every s of that range in one tube (Krawczyk with s a ball)
+        rq = to_ball(r)
+        tube_r = r * 4 * max(1, math.ceil(_slope(bp, k)))
+        S = c[k] + flint_ball(0, (2 * rq).upper())
+        tube, _ = _krawczyk(
+            _branch(lm, tb, k, S), c, tube_r, f"{what}: the branch through it", names
+        )
+        sides = []
+        for sgn in (-1, 1):
+            s_val = c[k] + sgn * 2 * rq
+            label = f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
+            start = _predict(bp, y0, k, float(exact_value((s_val - c[k]).mid())))
+            cs = _newton(_branch(lm, tb, k, s_val), start, bits, label)
+            Ks, _ = _krawczyk(_branch(lm, tb, k, s_val), cs, r / 4, label)
+            if not all(t.contains(b) for t, b in zip(tube, Ks, strict=True)):  # pragma: no cover
+                raise CertificationError(f"{label}: the orbit is not in the branch's tube")
+            gval = _evaluate(lm, Ks, tb, False)[0][-1]
+            sign = 1 if gval > 0 else (-1 if gval < 0 else 0)
+            sides.append(
+                {
+                    "coordinate": names[k],
+                    "value": ball_str(s_val, 50)[0],
+                    "g": ball_str(gval),
+                    "sign": sign,
+                }
+            )
+        if not all(t.contains(b) for t, b in zip(tube, K, strict=True)):  # pragma: no cover
+            raise CertificationError(f"{what}: the landmark is not in the branch's tube")
+        if sides[0]["sign"] == 0 or sides[1]["sign"] == 0:
+            raise CertificationError(
+                f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
+                "is not proven nonzero beside the box (enclosures "
+                f"{sides[0]['g']} and {sides[1]['g']}): no proof"
+            )
+        if sides[0]["sign"] == sides[1]["sign"]:
+            raise CertificationError(
+                f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
+                "has the same sign on both sides (a touch, not a crossing): degenerate point"
+            )
+        e = K[-1]
+        lo_q, hi_q = exact_value(e.lower()), exact_value(e.upper())
+        # the ends rounded outward to 4 digits below the width (the stated interval is the
+        # decimal one, so its width is computed from the decimals)
+        scale = max(abs(lo_q), abs(hi_q), Fraction(1, 10**300))
+        digits = 4 + max(1, math.ceil(math.log10(float(scale / max(hi_q - lo_q, scale / 10**400)))))
+        lo_s, hi_s = _round_dec(lo_q, -1, digits), _round_dec(hi_q, 1, digits)
+        eta_mid = exact_value(e.mid())
+        unknowns = {n: ball_str(b) for n, b in zip(names, K, strict=True)}
+        eta_str = ball_str(e)
+    ulp = math.ulp(bp.eta)
+    return ProvenLandmark(
+        kind=bp.kind,
+        period=int(bp.period),
+        impacts=int(bp.impacts),
+        theta={n: _dec(q) for n, q in th.items()},
+        bits=bits,
+        eta=eta_str,
+        eta_lower=lo_s,
+        eta_upper=hi_s,
+        width=_float_up(Fraction(hi_s) - Fraction(lo_s)),
+        unknowns=unknowns,
+        box_radius=_dec(r),
+        contraction=contraction,
+        test_function=_TEST[bp.kind],
+        sides=sides,
+        eta_float64=bp.eta,
+        float64_offset_ulps=float(abs(Fraction(bp.eta) - eta_mid) / Fraction(ulp)),
+        elapsed_s=time.perf_counter() - t_start,
+    )
+
+
+def check_width(width: Any) -> Fraction:
+    """``width`` of :func:`prove_landmark` as a Fraction, refused outside ``[1e-300, 1e-6]``."""
+    w = exact("width", width, 400)
+    if not Fraction(1, 10**300) <= w <= Fraction(1, 10**6):
+        raise ParameterError("width", str(width), "1e-300 <= width <= 1e-6")
+    return w
+
+
+def _exact_theta(bp: BranchPoint, theta: Any) -> dict:
+    """``zeta, a, x_w, R`` as Fractions: given, or ``bp``'s floats as their shortest decimals."""
+    floats = dict(zip(("zeta", "a", "x_w"), (float(t) for t in bp.theta), strict=True))
+    floats["R"] = float(bp.R)
+    out = {}
+    for n, f in floats.items():
+        given = None if theta is None else theta.get(n)
+        out[n] = exact(n, repr(f) if given is None else given, 100)
+    return out
+
+
+def _evaluate(bp: BranchPoint, ys: list, theta: list, grad: bool) -> tuple[list, list]:
+    """``F(ys)`` in balls, and ``F'`` enclosed over the balls ``ys`` when ``grad``."""
+    import flint
+
+    m = len(ys)
+    if grad:
+        zero, one = flint.arb(0), flint.arb(1)
+        args: list = [
+            _BallDual(y, [one if j == i else zero for j in range(m)]) for i, y in enumerate(ys)
+        ]
+    else:
+        args = list(ys)
+    F = bp.residual(args, theta, _OPS)
+    vals = [f.v if isinstance(f, _BallDual) else _arb(f) for f in F]
+    if not grad:
+        return vals, []
+    J = [f.g if isinstance(f, _BallDual) else [flint.arb(0)] * m for f in F]
+    return vals, J
+
+
+def _point_inverse(J: list, what: str) -> Any:
+    """``C``: the midpoint matrix's inverse rounded to points (any ``C`` is valid in Krawczyk's
+    operator; a near-inverse makes it contract)."""
+    import flint
+
+    mid = flint.arb_mat([[x.mid() for x in row] for row in J])
+    try:
+        inv = mid.inv()
+    except ZeroDivisionError as e:
+        raise CertificationError(
+            f"{what}: the Jacobian of the augmented system is singular (a degenerate point: "
+            "the landmark is not a regular zero): no proof"
+        ) from e
+    m = len(J)
+    C = flint.arb_mat([[inv[i, j].mid() for j in range(m)] for i in range(m)])
+    if not all(C[i, j].is_finite() for i in range(m) for j in range(m)):  # pragma: no cover
+        raise CertificationError(f"{what}: the Jacobian's inverse is not finite: no proof")
+    return C
+
+
+def _newton(fun: Any, y0: np.ndarray, bits: int, what: str) -> list:
+    """The float64 zero refined by Newton on points to the working precision."""
+    import flint
+
+    y = [to_ball(Fraction(float(v))) for v in y0]
+    # quadratic from ~1e-16: log2(bits / 50) + 3 steps reach the working precision
+    for _ in range(int(math.log2(max(bits, 64) / 50)) + 4):
+        F, J = fun(y, True)
+        C = _point_inverse(J, what)
+        dy = C * flint.arb_mat([[f] for f in F])
+        y = [flint.arb((y[i] - dy[i, 0]).mid()) for i in range(len(y))]
+    return y
+
+
+def _krawczyk(fun: Any, c: list, r: Fraction, what: str, names: list | None = None):
+    """``K(Y)`` on ``Y = c + [-r, r]^m`` and the contraction; :class:`CertificationError` unless
+    ``K(Y)`` lies in the interior of ``Y``."""
+    import flint
+
+    m = len(c)
+    rb = to_ball(r).upper()
+    Y = [ci + flint.arb(0, rb) for ci in c]
+    Fc, Jc = fun(c, True)
+    C = _point_inverse(Jc, what)
+    _, JY = fun(Y, True)
+    eye = flint.arb_mat([[int(i == j) for j in range(m)] for i in range(m)])
+    B = eye - C * flint.arb_mat(JY)
+    dY = flint.arb_mat([[flint.arb(0, rb)] for _ in range(m)])
+    Kc = C * flint.arb_mat([[f] for f in Fc])
+    KB = B * dY
+    K = [c[i] - Kc[i, 0] + KB[i, 0] for i in range(m)]
+    contraction = max(float(exact_value(abs(K[i] - c[i]).upper())) for i in range(m)) / float(r)
+    inside = [Y[i].contains_interior(K[i]) for i in range(m)]
+    if not all(inside):
+        bad = [names[i] if names else str(i) for i in range(m) if not inside[i]]
+        finite = all(K[i].is_finite() for i in range(m))
+        why = (
+            "the Jacobian enclosure over the box is not finite (a singular point in it)"
+            if not finite
+            else f"K(Y) is not inside Y in {', '.join(bad)} (contraction {contraction:.3g})"
+        )
+        raise CertificationError(
+            f"{what}: the Krawczyk test on a box of radius {float(r):.3g} did not close: "
+            f"{why}; a degenerate point (Jacobian singular or nearly so) or a box too small "
+            "for the working precision: no proof"
+        )
+    return [Y[i].intersection(K[i]) for i in range(m)], contraction
+
+
+def flint_ball(mid: Any, rad: Any) -> Any:
+    """``flint.arb(mid, rad)``."""
+    import flint
+
+    return flint.arb(mid, rad)
+
+
+def _branch(lm: BranchPoint, theta: list, k: int, s: Any) -> Any:
+    """The branch equations (all of ``F`` but the test function) and ``y_k = s`` (a ball)."""
+    import flint
+
+    def fun(ys: list, grad: bool) -> tuple[list, list]:
+        F, J = _evaluate(lm, ys, theta, grad)
+        row = [flint.arb(int(i == k)) for i in range(len(ys))]
+        return [*F[:-1], ys[k] - s], ([*J[:-1], row] if grad else [])
+
+    return fun
+
+
+def _slope(bp: BranchPoint, k: int) -> float:
+    """``max_j |t_j / t_k|`` of the branch's tangent ``t``: how far the branch moves in any
+    unknown per unit of ``y_k``."""
+    _, Fy, _ = bp.jacobian()
+    t = _null_vector(Fy[:-1])
+    return float(np.max(np.abs(t)) / abs(t[k]))
+
+
+def _branch_coordinate(bp: BranchPoint) -> int:
+    """The unknown the branch moves most in at the landmark (the null vector of the branch
+    equations, all but the last row of ``F_y``): ``eta`` unless the branch turns there (a
+    fold)."""
+    _, Fy, _ = bp.jacobian()
+    t = _null_vector(Fy[:-1])
+    if abs(t[-1]) >= 1e-3 * float(np.max(np.abs(t))):
+        return len(t) - 1
+    return int(np.argmax(np.abs(t)))
+
+
+def _null_vector(A: np.ndarray) -> np.ndarray:
+    """The unit null vector of an ``(m-1) x m`` matrix of full rank (last right singular
+    vector)."""
+    return np.linalg.svd(A)[2][-1]
+
+
+def _predict(bp: BranchPoint, y0: np.ndarray, k: int, ds: float) -> np.ndarray:
+    """The branch point at ``y_k = y*_k + ds`` to first order (along the tangent)."""
+    _, Fy, _ = bp.jacobian()
+    t = _null_vector(Fy[:-1])
+    return y0 + (ds / t[k]) * t
+
+
+def _dec(q: Fraction) -> str:
+    from precise_impact.core.params import decimal_str
+
+    return decimal_str(q)
+
+
+def _round_dec(q: Fraction, direction: int, digits: int = 50) -> str:
+    """``q`` rounded to ``digits`` significant digits towards ``direction`` (-1 down, +1 up)."""
+    from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal, localcontext
+
+    with localcontext() as ctx:
+        ctx.prec = digits
+        ctx.rounding = ROUND_CEILING if direction > 0 else ROUND_FLOOR
+        d = Decimal(q.numerator) / Decimal(q.denominator)
+    return format(d, "f") if d != 0 else "0"
+
+
+def _float_up(q: Fraction) -> float:
+    """The smallest float64 ``>= q``."""
+    f = float(q)
+    return math.nextafter(f, math.inf) if Fraction(f) < q else f
+
+
+#: The landmark names of :func:`locate_landmark` (and ``certify --point``) and the branch-end
+#: types of the continuation each one is.
+POINTS = {"grazing": "grazing", "period-doubling": "period-doubling", "fold": "fold"}
+
+
+def locate_landmark(
+    point: str,
+    theta: Any = (0.05, 1.0, 2.0),
+    eta: float = 0.712,
+    period: int = 1,
+    side: str | None = None,
+    R: float = 1.0,
+) -> BranchPoint:
+    """Locate a landmark in float64, ready for :func:`prove_landmark`.
+
+    Without ``side``: the grazing of the non-impacting period-1 orbit nearest ``eta``
+    (Newton on its augmented system; ``point`` must be ``'grazing'``).  With ``side``: the
+    period-``period`` orbit at ``eta``
+    (:func:`~precise_impact.analysis.orbits.landmarks.seed_landmark`), the end of its stable
+    admissible interval on that side
+    (:func:`~precise_impact.analysis.orbits.landmarks.interval_ends`, continuation within
+    ``+- 0.06``), which must be a ``point``, polished on its augmented system
+    (:func:`~precise_impact.analysis.orbits.landmarks.end_point`): how the tolerance budget
+    finds the Fig. 6 period-3 window.
+
+    Parameters
+    ----------
+    point : {'grazing', 'period-doubling', 'fold'}
+        The landmark.
+    theta : sequence of float, default ``(0.05, 1.0, 2.0)``
+        ``(zeta, a, x_w)``.
+    eta : float, default 0.712
+        Where to start: near the free grazing, or inside the orbit's interval.
+    period : int, default 1
+        The orbit's period (with ``side``).
+    side : {'low', 'high'} or None, default ``None``
+        Which end of the orbit's interval in ``eta``.
+    R : float, default 1.0
+        Restitution coefficient.
+
+    Returns
+    -------
+    BranchPoint
+        The landmark.
+
+    Raises
+    ------
+    ParameterError
+        Bad input.
+    ConvergenceError
+        No orbit at ``eta``, or that end is not a ``point`` (the message names what it is).
+
+    See Also
+    --------
+    precise_impact.analysis.orbits.proof_landmarks.prove_landmark : proves it.
+    precise_impact.analysis.orbits.landmarks.landmark_from_continuation : another way to one.
+
+    Examples
+    --------
+    >>> bp = locate_landmark("period-doubling", eta=0.99, side="low")
+    >>> bp.kind, round(bp.eta, 6)
+    ('period-doubling', 0.986317)
+    """
+    from precise_impact.analysis.orbits.landmarks import end_point, interval_ends, seed_landmark
+    from precise_impact.errors import ConvergenceError
+
+    if point not in POINTS:
+        raise ParameterError("point", str(point), ", ".join(POINTS))
+    if side not in (None, "low", "high"):
+        raise ParameterError("side", str(side), "low or high")
+    if side is None:
+        if point != "grazing":
+            raise ParameterError(
+                "side", "none", f"low or high for a {point} (an end of the orbit's interval)"
+            )
+        return seed_landmark("graze_free", theta, float(eta), R=R)
+    try:
+        orbit = seed_landmark("orbit", theta, float(eta), int(period), None, R=R)
+    except ValueError as e:  # a non-impacting orbit: its grazing is the side=None landmark
+        raise ConvergenceError(
+            f"the period-{period} orbit at eta = {eta} does not impact ({e}); its grazing: no side"
+        ) from e
+    end = interval_ends(orbit)[side]
+    if end is None:
+        raise ConvergenceError(
+            f"the period-{period} orbit at eta = {eta} has no {side} end within eta +- 0.06"
+        )
+    if end[0] != POINTS[point]:
+        raise ConvergenceError(
+            f"the {side} end of the period-{period} orbit at eta = {eta} is a {end[0]} at "
+            f"eta = {end[1]:.10g}, not a {point}"
+        )
+    bp = end_point(orbit, end)
+    if bp is None:
+        raise ConvergenceError(
+            f"the {side} end at eta = {end[1]:.10g} is a tangential impact: no augmented system"
+        )
+    return bp
