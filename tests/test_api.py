@@ -168,6 +168,7 @@ def results(tmp_path_factory):
         pi.certify(p, 3, precision="mp:128"),
         pi.certify_coupled(p, "0.1", "reduced", 3, y0=("0.5", "0.1"), precision="mp:128"),
         pi.prove_orbit(pi.Params.make(eta="0.70"), 1, guess=("102/53", "49/265"), impacts=0),
+        pi.prove_landmark(pi.locate_landmark("grazing"), "1e-40"),  # 0.1 s
     ]
     # the bench (issue 24): a short synthetic capture, its score, two captures as a measured
     # diagram, the time-series LLE of a model run, the grazing-only budget, a netlist (~4 s)
@@ -302,7 +303,7 @@ def test_array_results_save_npz_that_loads_back(results, tmp_path):
 
 
 def _every_result(results):
-    """Every result type (29): the public ones, ReproduceResult (24 s to run) built from its
+    """Every result type (30): the public ones, ReproduceResult (24 s to run) built from its
     fields, and SyncRun."""
     out = dict(results)
     out["ReproduceResult"] = pi.ReproduceResult(
@@ -333,7 +334,7 @@ def _every_result(results):
 
 
 def test_every_result_type_to_dict_loads_with_a_strict_parser(results):
-    """All 29 result types (SyncRun and ReproduceResult included): ``to_dict()`` is text a
+    """All 30 result types (SyncRun and ReproduceResult included): ``to_dict()`` is text a
     strict parser (no NaN / Infinity tokens) loads."""
 
     def refuse(token):
@@ -344,7 +345,7 @@ def test_every_result_type_to_dict_loads_with_a_strict_parser(results):
 
 
 #: Result types without samples or rows (one orbit, one point, one run): no to_dataframe.
-NO_ROWS = {"Bifurcation", "PeriodicOrbit", "ProvenOrbit", "SyncRun"}
+NO_ROWS = {"Bifurcation", "PeriodicOrbit", "ProvenOrbit", "ProvenLandmark", "SyncRun"}
 
 
 def test_every_result_type_has_a_short_repr(results):
@@ -362,11 +363,11 @@ def test_every_result_type_has_a_short_repr(results):
 
 
 def test_to_dataframe_on_every_result_type_with_rows(results):
-    """Every result type with samples or rows converts to a DataFrame (25 of the 29; the 4
+    """Every result type with samples or rows converts to a DataFrame (25 of the 30; the 5
     single-object types say they have none); columns carry units, numbers are float64."""
     pd = pytest.importorskip("pandas")
     everything = _every_result(results)
-    assert len(everything) == 29
+    assert len(everything) == 30
     covered = 0
     for name, r in everything.items():
         if name in NO_ROWS:

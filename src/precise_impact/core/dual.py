@@ -5,6 +5,11 @@ A :class:`Dual` carries a value and its gradient with respect to chosen seeds; e
 operation applies the chain rule exactly, so the derivative has the rounding error of the
 value's own evaluation (a few ulps), never a step's truncation error (unlike a finite
 difference, whose step trades ``h^2`` truncation against ``eps / h`` rounding).
+
+The chain rules are written once, generic in the value's arithmetic: :class:`Dual` carries
+float64, :class:`BallDual` python-flint balls (value and gradient both balls, so the gradient
+encloses the derivative at every point of the value's ball: the interval extension of
+forward-mode differentiation, Moore et al. 2009 sec. 5.4, used for Krawczyk's ``F'(Y)``).
 """
 
 from __future__ import annotations
@@ -15,62 +20,83 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Dual", "DualOps", "DUAL", "seed", "value", "gradient"]
+from precise_impact.core import flight
+
+__all__ = [
+    "Dual",
+    "DualOps",
+    "DUAL",
+    "BallDual",
+    "BallDualOps",
+    "BALL_DUAL",
+    "seed",
+    "value",
+    "gradient",
+]
 
 
 class Dual:
-    """``value + gradient . d``: a number with its exact first derivatives."""
+    """``value + gradient . d``: a number with its exact first derivatives (float64 value,
+    gradient a float64 array)."""
 
     __slots__ = ("v", "g")
 
-    def __init__(self, v: float, g: np.ndarray) -> None:
-        self.v = float(v)
+    #: The value's arithmetic (an ops namespace of :mod:`precise_impact.core.flight`).
+    scalar: Any = flight.FLOAT
+
+    @staticmethod
+    def coerce(x: Any) -> Any:
+        """A plain number as the value's type."""
+        return float(x)
+
+    def __init__(self, v: Any, g: np.ndarray) -> None:
+        self.v = self.coerce(v)
         self.g = g
 
     # arithmetic ------------------------------------------------------------------------
     def __add__(self, o: Any) -> Dual:
         if isinstance(o, Dual):
-            return Dual(self.v + o.v, self.g + o.g)
-        return Dual(self.v + float(o), self.g)
+            return type(self)(self.v + o.v, self.g + o.g)
+        return type(self)(self.v + self.coerce(o), self.g)
 
     __radd__ = __add__
 
     def __sub__(self, o: Any) -> Dual:
         if isinstance(o, Dual):
-            return Dual(self.v - o.v, self.g - o.g)
-        return Dual(self.v - float(o), self.g)
+            return type(self)(self.v - o.v, self.g - o.g)
+        return type(self)(self.v - self.coerce(o), self.g)
 
     def __rsub__(self, o: Any) -> Dual:
-        return Dual(float(o) - self.v, -self.g)
+        return type(self)(self.coerce(o) - self.v, -self.g)
 
     def __neg__(self) -> Dual:
-        return Dual(-self.v, -self.g)
+        return type(self)(-self.v, -self.g)
 
     def __pos__(self) -> Dual:
         return self
 
     def __mul__(self, o: Any) -> Dual:
         if isinstance(o, Dual):
-            return Dual(self.v * o.v, self.g * o.v + o.g * self.v)
-        f = float(o)
-        return Dual(self.v * f, self.g * f)
+            return type(self)(self.v * o.v, self.g * o.v + o.g * self.v)
+        f = self.coerce(o)
+        return type(self)(self.v * f, self.g * f)
 
     __rmul__ = __mul__
 
     def __truediv__(self, o: Any) -> Dual:
         if isinstance(o, Dual):
             q = self.v / o.v
-            return Dual(q, (self.g - o.g * q) / o.v)
-        f = float(o)
-        return Dual(self.v / f, self.g / f)
+            return type(self)(q, (self.g - o.g * q) / o.v)
+        f = self.coerce(o)
+        return type(self)(self.v / f, self.g / f)
 
     def __rtruediv__(self, o: Any) -> Dual:
-        q = float(o) / self.v
-        return Dual(q, -self.g * (q / self.v))
+        q = self.coerce(o) / self.v
+        return type(self)(q, -self.g * (q / self.v))
 
     def __pow__(self, n: Any) -> Dual:
         n = float(n)
-        return Dual(self.v**n, self.g * (n * self.v ** (n - 1)))
+        return type(self)(self.v**n, self.g * (n * self.v ** (n - 1)))
 
     def __abs__(self) -> Dual:
         return -self if self.v < 0 else self
@@ -97,57 +123,48 @@ class Dual:
     __hash__ = None  # type: ignore[assignment]
 
     def __float__(self) -> float:
-        return self.v
+        return float(self.v)
 
     def __repr__(self) -> str:
-        return f"Dual({self.v!r}, {self.g!r})"
-
-
-def _exp(x: Any) -> Any:
-    if isinstance(x, Dual):
-        e = math.exp(x.v)
-        return Dual(e, x.g * e)
-    return math.exp(x)
-
-
-def _sqrt(x: Any) -> Any:
-    if isinstance(x, Dual):
-        r = math.sqrt(x.v)
-        return Dual(r, x.g / (2 * r))
-    return math.sqrt(x)
-
-
-def _cos(x: Any) -> Any:
-    if isinstance(x, Dual):
-        return Dual(math.cos(x.v), x.g * -math.sin(x.v))
-    return math.cos(x)
-
-
-def _sin(x: Any) -> Any:
-    if isinstance(x, Dual):
-        return Dual(math.sin(x.v), x.g * math.cos(x.v))
-    return math.sin(x)
+        return f"{type(self).__name__}({self.v!r}, {self.g!r})"
 
 
 class DualOps:
     """The ops namespace of :mod:`precise_impact.core.flight` for :class:`Dual` (and float)
-    numbers."""
+    numbers: each function applies its chain rule to a dual and the value's arithmetic
+    (``dual.scalar``) to a plain number."""
 
     name = "dual"
-    exp = staticmethod(_exp)
-    sqrt = staticmethod(_sqrt)
-    cos = staticmethod(_cos)
-    sin = staticmethod(_sin)
-    pi = math.pi
+    dual: Any = Dual
+    pi: Any = math.pi
     u = 2.0**-53
 
-    @staticmethod
-    def cos_sin(x: Any) -> tuple[Any, Any]:
-        return _cos(x), _sin(x)
+    def exp(self, x: Any) -> Any:
+        if isinstance(x, Dual):
+            e = x.scalar.exp(x.v)
+            return type(x)(e, x.g * e)
+        return self.dual.scalar.exp(self.dual.coerce(x))
 
-    @staticmethod
-    def num(q: Any) -> float:
-        return float(q)
+    def sqrt(self, x: Any) -> Any:
+        if isinstance(x, Dual):
+            r = x.scalar.sqrt(x.v)
+            return type(x)(r, x.g / (2 * r))
+        return self.dual.scalar.sqrt(self.dual.coerce(x))
+
+    def cos_sin(self, x: Any) -> tuple[Any, Any]:
+        if isinstance(x, Dual):
+            c, s = x.scalar.cos_sin(x.v)
+            return type(x)(c, x.g * -s), type(x)(s, x.g * c)
+        return self.dual.scalar.cos_sin(self.dual.coerce(x))
+
+    def cos(self, x: Any) -> Any:
+        return self.cos_sin(x)[0]
+
+    def sin(self, x: Any) -> Any:
+        return self.cos_sin(x)[1]
+
+    def num(self, q: Any) -> Any:
+        return self.dual.scalar.num(q)
 
     @staticmethod
     def context():
@@ -155,6 +172,39 @@ class DualOps:
 
 
 DUAL = DualOps()
+
+
+class BallDual(Dual):
+    """A dual number of python-flint balls: value and gradient (an object array of balls)
+    evaluated in ball arithmetic, so the gradient encloses the derivative over the value's
+    whole ball. Comparisons are arb's: true only when proven (``==`` only for equal exact
+    points)."""
+
+    __slots__ = ()
+    scalar: Any = flight.ARB
+
+    @staticmethod
+    def coerce(x: Any) -> Any:
+        import flint
+
+        return x if isinstance(x, flint.arb) else flint.arb(x)
+
+
+class BallDualOps(DualOps):
+    """The ops namespace of :mod:`precise_impact.core.flight` for :class:`BallDual` and arb."""
+
+    name = "arb-dual"
+    dual = BallDual
+    u = 0.0  # balls carry their own rounding
+
+    @property
+    def pi(self) -> Any:  # type: ignore[override]
+        import flint
+
+        return flint.arb.pi()
+
+
+BALL_DUAL = BallDualOps()
 
 
 def seed(values: Any, size: int | None = None, offset: int = 0) -> list[Dual]:

@@ -10,6 +10,11 @@ from precise_impact.analysis.orbits.continuation import continue_orbit
 from precise_impact.analysis.orbits.newton import ConvergenceError, find_orbit
 from precise_impact.analysis.orbits.one_impact import one_impact_orbits
 from precise_impact.analysis.orbits.proof import ProvenOrbit, prove_orbit
+from precise_impact.analysis.orbits.proof_landmarks import (
+    ProvenLandmark,
+    locate_landmark,
+    prove_landmark,
+)
 from precise_impact.analysis.orbits.result import PeriodicOrbit
 
 __all__ = [
@@ -24,4 +29,7 @@ __all__ = [
     "brute_force_diagram",
     "prove_orbit",
     "ProvenOrbit",
+    "locate_landmark",
+    "prove_landmark",
+    "ProvenLandmark",
 ]

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.orbits.landmarks import BranchPoint
-from precise_impact.core import flight
+from precise_impact.core.dual import BALL_DUAL, BallDual
 from precise_impact.core.params import exact
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import CertificationError, ParameterError
@@ -51,116 +51,6 @@ _TEST = {
     "period-doubling": "1 + tr M + det M",
     "fold": "1 - tr M + det M",
 }
-
-
-# ------------------------------------------------------------------ dual numbers of balls
-class _BallDual:
-    """``value + gradient . d`` with ball value and ball gradient (python-flint arb): the
-    interval extension of forward-mode differentiation (every operation's chain rule
-    evaluated in ball arithmetic, so the gradient encloses the derivative at every point of
-    the value's ball)."""
-
-    __slots__ = ("v", "g")
-
-    def __init__(self, v: Any, g: list) -> None:
-        self.v, self.g = v, g
-
-    def __add__(self, o: Any) -> _BallDual:
-        if isinstance(o, _BallDual):
-            return _BallDual(self.v + o.v, [a + b for a, b in zip(self.g, o.g, strict=True)])
-        return _BallDual(self.v + o, self.g)
-
-    __radd__ = __add__
-
-    def __sub__(self, o: Any) -> _BallDual:
-        if isinstance(o, _BallDual):
-            return _BallDual(self.v - o.v, [a - b for a, b in zip(self.g, o.g, strict=True)])
-        return _BallDual(self.v - o, self.g)
-
-    def __rsub__(self, o: Any) -> _BallDual:
-        return _BallDual(o - self.v, [-a for a in self.g])
-
-    def __neg__(self) -> _BallDual:
-        return _BallDual(-self.v, [-a for a in self.g])
-
-    def __pos__(self) -> _BallDual:
-        return self
-
-    def __mul__(self, o: Any) -> _BallDual:
-        if isinstance(o, _BallDual):
-            return _BallDual(
-                self.v * o.v, [a * o.v + b * self.v for a, b in zip(self.g, o.g, strict=True)]
-            )
-        return _BallDual(self.v * o, [a * o for a in self.g])
-
-    __rmul__ = __mul__
-
-    def __truediv__(self, o: Any) -> _BallDual:
-        if isinstance(o, _BallDual):
-            q = self.v / o.v
-            return _BallDual(q, [(a - b * q) / o.v for a, b in zip(self.g, o.g, strict=True)])
-        return _BallDual(self.v / o, [a / o for a in self.g])
-
-    def __rtruediv__(self, o: Any) -> _BallDual:
-        q = o / self.v
-        return _BallDual(q, [-a * q / self.v for a in self.g])
-
-    def __eq__(self, o: Any) -> bool:  # type: ignore[override]
-        # arb equality: True only for equal exact points (a ball around 0 is not "== 0")
-        return bool(self.v == (o.v if isinstance(o, _BallDual) else o))
-
-    __hash__ = None  # type: ignore[assignment]
-
-
-class _BallDualOps:
-    """The ops namespace of :mod:`precise_impact.core.flight` for :class:`_BallDual` and arb."""
-
-    name = "arb-dual"
-
-    @property
-    def pi(self) -> Any:
-        import flint
-
-        return flint.arb.pi()
-
-    @staticmethod
-    def exp(x: Any) -> Any:
-        if isinstance(x, _BallDual):
-            e = x.v.exp()
-            return _BallDual(e, [a * e for a in x.g])
-        return _arb(x).exp()
-
-    @staticmethod
-    def sqrt(x: Any) -> Any:
-        if isinstance(x, _BallDual):
-            r = flight.ARB.sqrt(x.v)
-            return _BallDual(r, [a / (2 * r) for a in x.g])
-        return flight.ARB.sqrt(_arb(x))
-
-    @staticmethod
-    def cos_sin(x: Any) -> tuple[Any, Any]:
-        if isinstance(x, _BallDual):
-            s, c = x.v.sin_cos()
-            return _BallDual(c, [-a * s for a in x.g]), _BallDual(s, [a * c for a in x.g])
-        s, c = _arb(x).sin_cos()
-        return c, s
-
-    @classmethod
-    def cos(cls, x: Any) -> Any:
-        return cls.cos_sin(x)[0]
-
-    @classmethod
-    def sin(cls, x: Any) -> Any:
-        return cls.cos_sin(x)[1]
-
-
-def _arb(x: Any) -> Any:
-    import flint
-
-    return x if isinstance(x, flint.arb) else flint.arb(x)
-
-
-_OPS = _BallDualOps()
 
 
 # ------------------------------------------------------------------------------ the result
@@ -467,15 +357,16 @@ def _evaluate(bp: BranchPoint, ys: list, theta: list, grad: bool) -> tuple[list,
     if grad:
         zero, one = flint.arb(0), flint.arb(1)
         args: list = [
-            _BallDual(y, [one if j == i else zero for j in range(m)]) for i, y in enumerate(ys)
+            BallDual(y, np.array([one if j == i else zero for j in range(m)], dtype=object))
+            for i, y in enumerate(ys)
         ]
     else:
         args = list(ys)
-    F = bp.residual(args, theta, _OPS)
-    vals = [f.v if isinstance(f, _BallDual) else _arb(f) for f in F]
+    F = bp.residual(args, theta, BALL_DUAL)
+    vals = [f.v if isinstance(f, BallDual) else BallDual.coerce(f) for f in F]
     if not grad:
         return vals, []
-    J = [f.g if isinstance(f, _BallDual) else [flint.arb(0)] * m for f in F]
+    J = [list(f.g) if isinstance(f, BallDual) else [flint.arb(0)] * m for f in F]
     return vals, J
 
 
