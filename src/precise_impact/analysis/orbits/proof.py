@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from fractions import Fraction
 from typing import Any
 
+from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
 from precise_impact.analysis.orbits.newton import find_orbit
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, exact, params_or_values
@@ -23,7 +24,6 @@ from precise_impact.solvers.certified.single import (
     exact_value,
     flow_matrix,
     run_balls,
-    to_ball,
     working_bits,
 )
 
@@ -181,8 +181,17 @@ def prove_orbit(
     o = find_orbit(params, period, guess=guess, impacts=impacts, transient=transient)
 
     with working_bits(bits):
-        z = _refine_centre(params, period, bits, o.x, o.v)
-        box, n_impacts, proven, contraction, MZ, c = _krawczyk(params, period, bits, z, r, radius)
+        runs: list = []
+        fun = _orbit_residual(params, period, bits, runs)
+        what = f"the period-{period} orbit at eta = {params.eta}"
+        z = newton_points(fun, (o.x, o.v), bits, what)
+        _, box, contraction, inside = krawczyk(fun, z, r, what)
+        centre_impacts, box_impacts = runs[-2][0], runs[-1][0]
+        if len(box_impacts) != len(centre_impacts):  # pragma: no cover - proven or raised
+            raise ParameterError(
+                "radius", str(radius), "a box small enough for one impact sequence"
+            )
+        n_impacts, proven, (_, MZ, c) = len(centre_impacts), all(inside), runs[-1]
         mult, ups, lows = _multipliers(MZ)
         stable, lle = _stability_and_lle(ups, lows, period * c.T)
         xs, vs = ball_str(box[0]), ball_str(box[1])
@@ -216,69 +225,20 @@ def _box_radius(radius: Any, bits: int) -> Fraction:
     return r
 
 
-def _refine_centre(params: Params, period: int, bits: int, x: float, v: float) -> list:
-    """The float64 orbit ``(x, v)`` refined by Newton on point runs to the working precision."""
-    import flint
+def _orbit_residual(params: Params, period: int, bits: int, runs: list):
+    """``F(z) = P^p(z) - z`` and ``F' = M - I`` (flow and saltation product over the balls ``z``)
+    for :mod:`~precise_impact.analysis.orbits.krawczyk`; each run's ``(impacts, M, constants)``
+    is appended to ``runs``."""
 
-    z = [to_ball(Fraction(x)), to_ball(Fraction(v))]
-    # Newton on point runs: quadratic from float64 to the working precision
-    for _ in range(int(math.log2(bits / 50)) + 3):
+    def fun(z: list, grad: bool) -> tuple[list, list]:
         samples, imps, c = run_balls(params, period, bits, start=(z[0], z[1]))
         fx, fv = _final(samples)
         M = _jacobian(c, imps, period)
+        runs.append((imps, M, c))
         F = [fx - z[0], fv - z[1]]
-        a, b, cc, d = M[0][0] - 1, M[0][1], M[1][0], M[1][1] - 1
-        det = a * d - b * cc
-        dz = [(d * F[0] - b * F[1]) / det, (-cc * F[0] + a * F[1]) / det]
-        z = [flint.arb((z[i] - dz[i]).mid()) for i in range(2)]
-    return z
+        return F, [[M[0][0] - 1, M[0][1]], [M[1][0], M[1][1] - 1]]
 
-
-def _krawczyk(params: Params, period: int, bits: int, z: list, r: Fraction, radius: Any):
-    """Krawczyk test on ``z + [-r, r]^2``: box, impacts, proven, contraction, ``M(Z)``, system."""
-    import flint
-
-    samples, imps, c = run_balls(params, period, bits, start=(z[0], z[1]))
-    fx, fv = _final(samples)
-    F = [fx - z[0], fv - z[1]]
-    Mz = _jacobian(c, imps, period)
-    a, b, cc, d = (
-        flint.arb(Mz[0][0].mid()) - 1,
-        flint.arb(Mz[0][1].mid()),
-        flint.arb(Mz[1][0].mid()),
-        flint.arb(Mz[1][1].mid()) - 1,
-    )
-    det = a * d - b * cc
-    C = [
-        [flint.arb((d / det).mid()), flint.arb((-b / det).mid())],
-        [flint.arb((-cc / det).mid()), flint.arb((a / det).mid())],
-    ]
-    rb = to_ball(r)
-    box = [z[0] + flint.arb(0, rb.mid()), z[1] + flint.arb(0, rb.mid())]
-    bs, bimps, c = run_balls(params, period, bits, start=(box[0], box[1]))
-    if len(bimps) != len(imps):  # pragma: no cover - the engine proves the sequence or raises
-        raise ParameterError("radius", str(radius), "a box small enough for one impact sequence")
-    MZ = _jacobian(c, bimps, period)
-    one = flint.arb(1)
-    B = [
-        [
-            (one if i == j else 0)
-            - (
-                C[i][0] * (MZ[0][j] - (1 if j == 0 else 0))
-                + C[i][1] * (MZ[1][j] - (1 if j == 1 else 0))
-            )
-            for j in range(2)
-        ]
-        for i in range(2)
-    ]
-    dZ = [box[0] - z[0], box[1] - z[1]]
-    K = [
-        z[i] - (C[i][0] * F[0] + C[i][1] * F[1]) + B[i][0] * dZ[0] + B[i][1] * dZ[1]
-        for i in range(2)
-    ]
-    proven = all(box[i].contains_interior(K[i]) for i in range(2))
-    contraction = float(max(exact_value(abs(K[i] - z[i]).upper()) for i in range(2)) / r)
-    return box, len(imps), proven, contraction, MZ, c
+    return fun
 
 
 def _multipliers(MZ: list) -> tuple[list, list, list]:
@@ -318,10 +278,10 @@ def _stability_and_lle(ups: list, lows: list, pT: Any) -> tuple[bool | None, tup
     big = max(range(2), key=lambda i: float(exact_value(ups[i])))
     lle = ((flint.arb(lows[big]).log() / pT), (flint.arb(ups[big]).log() / pT))
     lo, hi = exact_value(lle[0].lower()), exact_value(lle[1].upper())
-    return stable, (_float_down(lo), _float_up(hi))
+    return stable, (float_down(lo), float_up(hi))
 
 
-def _float_down(q: Fraction) -> float:
+def float_down(q: Fraction) -> float:
     """The largest float64 ``<= q``.  ``float()`` rounds to nearest: an enclosure's ends
     rounded that way can lose the value they enclose (eta = 0.985, p = 2: both ends of the
     LLE interval became one float, 1.1e-19 from the truth).  Rounded outward the float64
@@ -331,7 +291,7 @@ def _float_down(q: Fraction) -> float:
     return math.nextafter(f, -math.inf) if Fraction(f) > q else f
 
 
-def _float_up(q: Fraction) -> float:
-    """The smallest float64 ``>= q`` (see :func:`_float_down`)."""
+def float_up(q: Fraction) -> float:
+    """The smallest float64 ``>= q`` (see :func:`float_down`)."""
     f = float(q)
     return math.nextafter(f, math.inf) if Fraction(f) < q else f

@@ -35,7 +35,9 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
 from precise_impact.analysis.orbits.landmarks import BranchPoint
+from precise_impact.analysis.orbits.proof import float_up
 from precise_impact.core.dual import BALL_DUAL, BallDual
 from precise_impact.core.params import exact
 from precise_impact.core.result import ResultMixin
@@ -133,27 +135,28 @@ class ProvenLandmark(ResultMixin):
 def landmark_unknowns(bp: BranchPoint) -> list[str]:
     """The names of a landmark's unknowns, in the order of ``bp.y``.
 
-    Parameters
-    ----------
-    bp : BranchPoint
-        The landmark.
+        Parameters
+        ----------
+        bp : BranchPoint
+            The landmark.
 
-    Returns
-    -------
-    list of str
-        ``t_i, v_i`` per impact (``x_0, v_0`` without impacts), ``t_m`` for a grazing, ``eta``.
+        Returns
+        -------
+        list of str
+            ``t_i, v_i`` per impact (``x_0, v_0`` without impacts), ``t_m`` for a grazing, ``eta``.
 
-    See Also
-    --------
-    precise_impact.analysis.orbits.landmarks.BranchPoint : whose ``y`` they name.
+        See Also
+        --------
+        precise_impact.analysis.orbits.landmarks.BranchPoint : whose ``y`` they name.
 
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from precise_impact.analysis.orbits.landmarks import BranchPoint
-    >>> bp = BranchPoint("period-doubling", 1, 1, np.zeros(3), np.array([0.05, 1.0, 2.0]))
-    >>> landmark_unknowns(bp)
-    ['t_1', 'v_1', 'eta']
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from precise_impact.analysis.orbits.landmarks import BranchPoint
+    from precise_impact.analysis.orbits.proof import float_up
+        >>> bp = BranchPoint("period-doubling", 1, 1, np.zeros(3), np.array([0.05, 1.0, 2.0]))
+        >>> landmark_unknowns(bp)
+        ['t_1', 'v_1', 'eta']
     """
     n = bp.impacts
     names = ["x_0", "v_0"] if n == 0 else [f"{c}_{i + 1}" for i in range(n) for c in ("t", "v")]
@@ -254,7 +257,7 @@ def prove_landmark(
             return _evaluate(lm, ys, tb, grad)
 
         what = f"{bp.kind} landmark at eta ~ {bp.eta:.17g}"
-        c = _newton(full, y0, bits, what)
+        c = newton_points(full, y0, bits, what)
         K, contraction = _krawczyk(full, c, r, what, names)
         # the sign change: the branch's orbits at s = s* -+ 2 r (s the coordinate moving most),
         # each proven unique in a small box, and all of them (s in [s* - 2r, s* + 2r], the
@@ -271,7 +274,7 @@ def prove_landmark(
             s_val = c[k] + sgn * 2 * rq
             label = f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
             start = _predict(bp, y0, k, float(exact_value((s_val - c[k]).mid())))
-            cs = _newton(_branch(lm, tb, k, s_val), start, bits, label)
+            cs = newton_points(_branch(lm, tb, k, s_val), start, bits, label)
             Ks, _ = _krawczyk(_branch(lm, tb, k, s_val), cs, r / 4, label)
             if not all(t.contains(b) for t, b in zip(tube, Ks, strict=True)):  # pragma: no cover
                 raise CertificationError(f"{label}: the orbit is not in the branch's tube")
@@ -318,7 +321,7 @@ def prove_landmark(
         eta=eta_str,
         eta_lower=lo_s,
         eta_upper=hi_s,
-        width=_float_up(Fraction(hi_s) - Fraction(lo_s)),
+        width=float_up(Fraction(hi_s) - Fraction(lo_s)),
         unknowns=unknowns,
         box_radius=_dec(r),
         contraction=contraction,
@@ -370,60 +373,13 @@ def _evaluate(bp: BranchPoint, ys: list, theta: list, grad: bool) -> tuple[list,
     return vals, J
 
 
-def _point_inverse(J: list, what: str) -> Any:
-    """``C``: the midpoint matrix's inverse rounded to points (any ``C`` is valid in Krawczyk's
-    operator; a near-inverse makes it contract)."""
-    import flint
-
-    mid = flint.arb_mat([[x.mid() for x in row] for row in J])
-    try:
-        inv = mid.inv()
-    except ZeroDivisionError as e:
-        raise CertificationError(
-            f"{what}: the Jacobian of the augmented system is singular (a degenerate point: "
-            "the landmark is not a regular zero): no proof"
-        ) from e
-    m = len(J)
-    C = flint.arb_mat([[inv[i, j].mid() for j in range(m)] for i in range(m)])
-    if not all(C[i, j].is_finite() for i in range(m) for j in range(m)):  # pragma: no cover
-        raise CertificationError(f"{what}: the Jacobian's inverse is not finite: no proof")
-    return C
-
-
-def _newton(fun: Any, y0: np.ndarray, bits: int, what: str) -> list:
-    """The float64 zero refined by Newton on points to the working precision."""
-    import flint
-
-    y = [to_ball(Fraction(float(v))) for v in y0]
-    # quadratic from ~1e-16: log2(bits / 50) + 3 steps reach the working precision
-    for _ in range(int(math.log2(max(bits, 64) / 50)) + 4):
-        F, J = fun(y, True)
-        C = _point_inverse(J, what)
-        dy = C * flint.arb_mat([[f] for f in F])
-        y = [flint.arb((y[i] - dy[i, 0]).mid()) for i in range(len(y))]
-    return y
-
-
 def _krawczyk(fun: Any, c: list, r: Fraction, what: str, names: list | None = None):
-    """``K(Y)`` on ``Y = c + [-r, r]^m`` and the contraction; :class:`CertificationError` unless
-    ``K(Y)`` lies in the interior of ``Y``."""
-    import flint
-
-    m = len(c)
-    rb = to_ball(r).upper()
-    Y = [ci + flint.arb(0, rb) for ci in c]
-    Fc, Jc = fun(c, True)
-    C = _point_inverse(Jc, what)
-    _, JY = fun(Y, True)
-    eye = flint.arb_mat([[int(i == j) for j in range(m)] for i in range(m)])
-    B = eye - C * flint.arb_mat(JY)
-    dY = flint.arb_mat([[flint.arb(0, rb)] for _ in range(m)])
-    Kc = C * flint.arb_mat([[f] for f in Fc])
-    KB = B * dY
-    K = [c[i] - Kc[i, 0] + KB[i, 0] for i in range(m)]
-    contraction = max(float(exact_value(abs(K[i] - c[i]).upper())) for i in range(m)) / float(r)
-    inside = [Y[i].contains_interior(K[i]) for i in range(m)]
+    """:func:`~precise_impact.analysis.orbits.krawczyk.krawczyk` on ``c + [-r, r]^m``: the box
+    intersected with ``K(Y)`` and the contraction; :class:`CertificationError` unless ``K(Y)``
+    lies in the interior of ``Y``."""
+    K, Y, contraction, inside = krawczyk(fun, c, r, what)
     if not all(inside):
+        m = len(c)
         bad = [names[i] if names else str(i) for i in range(m) if not inside[i]]
         finite = all(K[i].is_finite() for i in range(m))
         why = (
@@ -436,7 +392,7 @@ def _krawczyk(fun: Any, c: list, r: Fraction, what: str, names: list | None = No
             f"{why}; a degenerate point (Jacobian singular or nearly so) or a box too small "
             "for the working precision: no proof"
         )
-    return [Y[i].intersection(K[i]) for i in range(m)], contraction
+    return [Y[i].intersection(K[i]) for i in range(len(c))], contraction
 
 
 def flint_ball(mid: Any, rad: Any) -> Any:
@@ -505,12 +461,6 @@ def _round_dec(q: Fraction, direction: int, digits: int = 50) -> str:
         ctx.rounding = ROUND_CEILING if direction > 0 else ROUND_FLOOR
         d = Decimal(q.numerator) / Decimal(q.denominator)
     return format(d, "f") if d != 0 else "0"
-
-
-def _float_up(q: Fraction) -> float:
-    """The smallest float64 ``>= q``."""
-    f = float(q)
-    return math.nextafter(f, math.inf) if Fraction(f) < q else f
 
 
 #: The landmark names of :func:`locate_landmark` (and ``certify --point``) and the branch-end
