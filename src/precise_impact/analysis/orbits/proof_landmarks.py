@@ -135,28 +135,28 @@ class ProvenLandmark(ResultMixin):
 def landmark_unknowns(bp: BranchPoint) -> list[str]:
     """The names of a landmark's unknowns, in the order of ``bp.y``.
 
-        Parameters
-        ----------
-        bp : BranchPoint
-            The landmark.
+    Parameters
+    ----------
+    bp : BranchPoint
+        The landmark.
 
-        Returns
-        -------
-        list of str
-            ``t_i, v_i`` per impact (``x_0, v_0`` without impacts), ``t_m`` for a grazing, ``eta``.
+    Returns
+    -------
+    list of str
+        ``t_i, v_i`` per impact (``x_0, v_0`` without impacts), ``t_m`` for a grazing, ``eta``.
 
-        See Also
-        --------
-        precise_impact.analysis.orbits.landmarks.BranchPoint : whose ``y`` they name.
+    See Also
+    --------
+    precise_impact.analysis.orbits.landmarks.BranchPoint : whose ``y`` they name.
 
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from precise_impact.analysis.orbits.landmarks import BranchPoint
-    from precise_impact.analysis.orbits.proof import float_up
-        >>> bp = BranchPoint("period-doubling", 1, 1, np.zeros(3), np.array([0.05, 1.0, 2.0]))
-        >>> landmark_unknowns(bp)
-        ['t_1', 'v_1', 'eta']
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from precise_impact.analysis.orbits.landmarks import BranchPoint
+    >>> from precise_impact.analysis.orbits.proof_landmarks import landmark_unknowns
+    >>> bp = BranchPoint("period-doubling", 1, 1, np.zeros(3), np.array([0.05, 1.0, 2.0]))
+    >>> landmark_unknowns(bp)
+    ['t_1', 'v_1', 'eta']
     """
     n = bp.impacts
     names = ["x_0", "v_0"] if n == 0 else [f"{c}_{i + 1}" for i in range(n) for c in ("t", "v")]
@@ -229,6 +229,7 @@ def prove_landmark(
     Examples
     --------
     >>> from precise_impact.analysis.orbits.landmarks import seed_landmark
+    >>> from precise_impact.analysis.orbits.proof_landmarks import prove_landmark
     >>> bp = seed_landmark("graze_free", (0.05, 1.0, 2.0), 0.7106)
     >>> pl = prove_landmark(bp, "1e-40")
     >>> pl.eta_lower[:12], pl.width <= 1e-40
@@ -522,6 +523,7 @@ def locate_landmark(
 
     Examples
     --------
+    >>> from precise_impact.analysis.orbits.proof_landmarks import locate_landmark
     >>> bp = locate_landmark("period-doubling", eta=0.99, side="low")
     >>> bp.kind, round(bp.eta, 6)
     ('period-doubling', 0.986317)
