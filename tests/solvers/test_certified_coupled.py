@@ -47,11 +47,14 @@ def test_pair_contains_heyoka_mp(form, k):
             assert abs(mpmath.mpf(str(ht)) - _mp(t)) <= float(exact_value(t.rad())) + 1e-60
 
 
-def test_diagonal_is_the_single_oscillator_exactly():
-    """On the diagonal the slave is the master in every form (all coupling terms vanish)."""
+@pytest.mark.parametrize("method", ["lohner", "interval"])
+def test_diagonal_is_the_single_oscillator_exactly(method):
+    """On the diagonal the slave is the master in every form (all coupling terms vanish):
+    the single oscillator's run of the same method, ball for ball."""
     p = pi.Params.make(eta="0.74")
-    r = pi.certify_coupled(p, "0.3", "paper", 30, precision="mp:192")
-    s = pi.certify(p, 30, precision="mp:192", method="interval")  # the pair's scheme
+    r = pi.certify_coupled(p, "0.3", "paper", 30, precision="mp:192", method=method)
+    s = pi.certify(p, 30, precision="mp:192", method=method)
+    assert r.method == s.method == method
     assert len(r.master_impacts) == len(r.slave_impacts) == len(s.impacts) == 20
 
     def same(a, b):  # the same ball: midpoint and radius
