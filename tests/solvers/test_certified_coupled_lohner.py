@@ -166,7 +166,12 @@ def test_method_checked_and_in_the_json(capsys):
     with pytest.raises(ParameterError, match="method"):
         pi.certify_coupled(pi.Params.make(), "0.1", periods=2, y0=Y0, method="qr")
     r = pi.certify_coupled(pi.Params.make(eta="0.74"), "0.1", periods=2, y0=Y0)
-    assert r.to_dict()["method"] == "lohner"
+    d = r.to_dict()
+    assert d["method"] == "lohner"
+    assert d["growth_digits_per_period"] == r.growth_digits_per_period()
+    # two samples after the first: the slope of their largest log10 radii
+    lr = r.log10_radii()
+    assert r.growth_digits_per_period() == pytest.approx(lr[2] - lr[1], rel=1e-12)
     from precise_impact.cli.main import main
 
     argv = ["certify", "--periods", "3", "--k", "0.1", "--y0", "0.5", "0.1", "--json"]

@@ -162,8 +162,9 @@ def run(ns: argparse.Namespace) -> int:
         lines = [
             f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, "
             f"{len(r.master_impacts)} master and {len(r.slave_impacts)} slave impacts, at "
-            f"{r.bits} bits in {r.elapsed_s:.2f} s; largest radius {d['max_radius']}; "
-            f"{r.method} enclosure"
+            f"{r.bits} bits in {r.elapsed_s:.2f} s",
+            f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
+            f"{r.growth_digits_per_period():.3f} decimal digits per period",
         ]
         names = "xvyw"
     else:

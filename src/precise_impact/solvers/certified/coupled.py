@@ -56,6 +56,7 @@ from precise_impact.solvers.certified.single import (
     check_certifiable,
     describe,
     exact_value,
+    growth_slope,
     log10_abs,
     max_radius_str,
     out_of_reach,
@@ -247,7 +248,17 @@ class CertifiedCoupledTrajectory(ResultMixin):
 
     def max_log10_radius(self) -> float:
         """``log10`` of the largest radius of any sample coordinate, at any magnitude."""
-        return max(log10_abs(b.rad()) for s in self.samples for b in s[2:])
+        return max(self.log10_radii())
+
+    def log10_radii(self) -> list[float]:
+        """``log10`` of each sample's largest radius of ``x, v, y, w`` (``-inf`` for exact
+        points), at any magnitude."""
+        return [max(log10_abs(b.rad()) for b in s[2:]) for s in self.samples]
+
+    def growth_digits_per_period(self) -> float:
+        """Decimal digits of radius lost per forcing period (least squares over the samples
+        after the first, :func:`~precise_impact.solvers.certified.single.growth_slope`)."""
+        return growth_slope(self.log10_radii())
 
     def plot(
         self,
@@ -282,7 +293,8 @@ class CertifiedCoupledTrajectory(ResultMixin):
         """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``method``,
         ``samples`` (``{"period", "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}``),
         ``master_impacts`` and ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``),
-        ``max_radius``, ``max_log10_radius`` (``None`` for exact points), ``elapsed_s``; midpoints
+        ``max_radius``, ``max_log10_radius`` (``None`` for exact points),
+        ``growth_digits_per_period``, ``elapsed_s``; midpoints
         and rigorous radii as decimal strings (``max_radius`` in scientific notation, rounded up,
         never 0 for a ball of any radius): strict JSON."""
         rows = []
@@ -323,6 +335,7 @@ class CertifiedCoupledTrajectory(ResultMixin):
             "slave_impacts": imps(self.slave_impacts),
             "max_radius": max_radius_str(b for s in self.samples for b in s[2:]),
             "max_log10_radius": _finite_or_none(self.max_log10_radius()),
+            "growth_digits_per_period": self.growth_digits_per_period(),
             "elapsed_s": self.elapsed_s,
         }
 
@@ -547,6 +560,13 @@ class _LohnerPair:
         walk = _Walk(c, iso, consts, self.form, k, bits, _Pair(c, consts, tk, *state))
         walk.events = []
         walk.advance(point(tk.lower()), tk1, upper(tk1), point(c.T / 16), check)
+        for _, hit, _ in walk.events[:1]:
+            # the scan starts at the lower end of t_k: an impact must follow all of it (then
+            # every state of the box has no crossing on [t_k-, t_k] and the walk is its flow)
+            if not hit > tk:
+                raise CertificationError(
+                    describe(hit, "an impact on a sample time") + f" at {bits} bits"
+                )
         walk.end = walk.pair.state(tk1)  # type: ignore[attr-defined]
         walk.tk1 = tk1  # type: ignore[attr-defined]
         return walk
