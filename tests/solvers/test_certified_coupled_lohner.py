@@ -179,3 +179,29 @@ def test_method_checked_and_in_the_json(capsys):
     assert json.loads(capsys.readouterr().out)["method"] == "interval"
     assert main(argv) == 0
     assert json.loads(capsys.readouterr().out)["method"] == "lohner"
+
+
+def test_low_pass_escalates_when_128_bits_cannot_order_the_impacts(monkeypatch):
+    """k = 0.1 synchronises the slave: |e| decays like exp(-0.15 t), below the 128-bit low
+    pass's resolution (~1e-38) after ~90 periods, where the box's master and slave impacts can
+    no longer be ordered at 128 bits: those periods' low passes are redone at 256 bits (at
+    least one, measured 18 of 149), and the balls (150 periods at 512 bits) still hold the
+    interval pair's midpoints at 1024 bits."""
+    from precise_impact.solvers.certified import coupled
+
+    los: list = []
+    low_pass = coupled._LohnerPair.low_pass
+
+    def spy(self, n, hull):
+        lo, w = low_pass(self, n, hull)
+        los.append(lo)
+        return lo, w
+
+    monkeypatch.setattr(coupled._LohnerPair, "low_pass", spy)
+    p = pi.Params.make(eta="0.712")
+    lo = pi.certify_coupled(p, "0.1", "reduced", 150, y0=Y0, precision="mp:512", max_bits=512)
+    assert set(los) == {128, 256}
+    iv = pi.certify_coupled(
+        p, "0.1", "reduced", 150, y0=Y0, precision="mp:1024", max_bits=1024, method="interval"
+    )
+    _contains_run(lo, iv)
