@@ -461,9 +461,7 @@ def _run(
     samples: list = []
     try:
         if method == "lohner":
-            return _LohnerPair(params, kq, form, y0q, bits).run(
-                periods, progress, deadline, samples
-            )
+            return LohnerPair(params, kq, form, y0q, bits).run(periods, progress, deadline, samples)
         return _walk(params, kq, form, y0q, periods, bits, progress, deadline, samples)
     except CertificationError as e:
         e.partial = samples  # the proven samples, for out_of_reach
@@ -518,7 +516,7 @@ def _walk(params, kq, form, y0q, periods, bits, progress, deadline, samples: lis
     return samples, walk.mimp, walk.simp
 
 
-class _LohnerPair:
+class LohnerPair:
     """The pair's Lohner enclosure (:mod:`~precise_impact.solvers.certified.lohner`, here with
     ``n = 4`` on ``(x, v, e, e')``): the state at each sample as ``m + B r`` and one period
     mapped by the mean-value form.
