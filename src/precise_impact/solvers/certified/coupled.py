@@ -369,8 +369,12 @@ class _Walk:
         self.pair = pair
         self.mimp: list = []
         self.simp: list = []
-        #: ``(master, hit, (x, v, e, e'))`` before each impact, when a list (the Lohner pass)
-        self.events: list | None = None
+        #: ``(master, hit, (x, v, e, e'))`` before each impact, if ``record`` (the Lohner pair)
+        self.record = False
+        self.events: list = []
+        #: the sample time ``t_(n+1)`` and the state there, once a period is walked (Lohner)
+        self.tk1: Any = None
+        self.end: Any = None
 
     def unordered(self, t) -> CertificationError:
         return CertificationError(
@@ -428,7 +432,7 @@ class _Walk:
         """Reset the master at ``hit``; (its gap, bound, the slave's gap, bound)."""
         c = self.c
         z = self.pair.state(hit)
-        if self.events is not None:
+        if self.record:
             self.events.append((True, hit, z))
         xa, va, ea, epa = master_reset(c, *z)
         self.mimp.append((hit, z[1], va))
@@ -439,7 +443,7 @@ class _Walk:
         """Reset the slave at ``hit``; (its gap, bound, the master's gap, bound)."""
         c = self.c
         z = self.pair.state(hit)
-        if self.events is not None:
+        if self.record:
             self.events.append((False, hit, z))
         wb, wa, (x, v, e_at, ep_at) = slave_impact_state(c, self.form, self.k, *z)
         self.simp.append((hit, wb, wa))
@@ -556,7 +560,7 @@ class LohnerPair:
         tk = c.t0 + n * c.T
         tk1 = c.t0 + (n + 1) * c.T
         walk = _Walk(c, iso, consts, self.form, k, bits, _Pair(c, consts, tk, *state))
-        walk.events = []
+        walk.record = True
         walk.advance(point(tk.lower()), tk1, upper(tk1), point(c.T / 16), check)
         for _, hit, _ in walk.events[:1]:
             # the scan starts at the lower end of t_k: an impact must follow all of it (then
@@ -565,8 +569,8 @@ class LohnerPair:
                 raise CertificationError(
                     describe(hit, "an impact on a sample time") + f" at {bits} bits"
                 )
-        walk.end = walk.pair.state(tk1)  # type: ignore[attr-defined]
-        walk.tk1 = tk1  # type: ignore[attr-defined]
+        walk.end = walk.pair.state(tk1)
+        walk.tk1 = tk1
         return walk
 
     def low_pass(self, n: int, hull) -> tuple:
@@ -620,7 +624,7 @@ class LohnerPair:
             M[i, i] = one
         prev = c.t0 + n * c.T
         pre = []
-        for master, hit, (x, v, e, ep) in walk.events:  # type: ignore[union-attr]
+        for master, hit, (x, v, e, ep) in walk.events:
             M = phi(hit - prev) * M
             if master:
                 x = c.xw  # on the wall
@@ -638,7 +642,7 @@ class LohnerPair:
             S = saltation_matrix(reset_jacobian(g), fm, fp, normal)
             M = flint.arb_mat(S) * M
             prev = hit
-        return phi(walk.tk1 - prev) * M, pre  # type: ignore[attr-defined]
+        return phi(walk.tk1 - prev) * M, pre
 
     def impact_rows(self, bits: int, pre, B) -> list:
         """Per impact: the gradient rows (times ``B``) of its time and its before/after
@@ -684,8 +688,8 @@ class LohnerPair:
         w0 = self.period(bits, 0, state, True)
         mimp.extend(w0.mimp)
         simp.extend(w0.simp)
-        z = w0.end  # type: ignore[attr-defined]
-        sample(1, w0.tk1, z)  # type: ignore[attr-defined]
+        z = w0.end
+        sample(1, w0.tk1, z)
         one, zero = flint.arb(1), flint.arb(0)
         m = [point(b) for b in z]
         r = [b - mb for b, mb in zip(z, m, strict=True)]
@@ -709,8 +713,8 @@ class LohnerPair:
                 dw = sum((wrow[j] * r[j] for j in range(4)), zero)
                 dimp = [[sum((g[j] * r[j] for j in range(4)), zero) for g in rw] for rw in rows]
             wp = self.period(bits, n, m, True)
-            kinds = [e[0] for e in wp.events]  # type: ignore[union-attr]
-            if kinds != [e[0] for e in wl.events]:  # type: ignore[union-attr]
+            kinds = [e[0] for e in wp.events]
+            if kinds != [e[0] for e in wl.events]:
                 raise CertificationError(  # pragma: no cover - m lies in the proven box
                     f"the point pass's impacts differ from the box's in period {n + 1} "
                     f"at {bits} bits"
@@ -721,14 +725,14 @@ class LohnerPair:
                 (t, b, a), (tl, bl, al) = (next(im), next(lm)) if master else (next(isl), next(ls))
                 box = ((t + d[0]).intersection(tl), (b + d[1]).intersection(bl))
                 (mimp if master else simp).append((*box, (a + d[2]).intersection(al)))
-            y = wp.end  # type: ignore[attr-defined]
-            zl = wl.end  # type: ignore[attr-defined]
+            y = wp.end
+            zl = wl.end
             zs = [(a + b).intersection(q) for a, b, q in zip(y, Mr, zl, strict=True)]
             ys = (y[0] + y[2] + dy).intersection(zl[0] + zl[2])
             ws = (slave_velocity(form, k, y[2], y[1] + y[3]) + dw).intersection(
                 slave_velocity(form, k, zl[2], zl[1] + zl[3])
             )
-            sample(n + 1, wp.tk1, zs, ys, ws)  # type: ignore[attr-defined]
+            sample(n + 1, wp.tk1, zs, ys, ws)
             if max(b.rad() for b in zl) < max((a + b).rad() for a, b in zip(y, Mr, strict=True)):
                 # the interval image is tighter: restart the frame from it
                 m = [point(b) for b in zs]
