@@ -37,6 +37,7 @@ from precise_impact.errors import BudgetExceededError, ParameterError
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.certified.lohner import (
     LOW_BITS,
+    LOW_STEPS,
     LohnerEngine,
     _flint,
     _Prec,
@@ -553,15 +554,16 @@ class LohnerPair:
                 self._ctx[bits] = _setup(self.params, self.kq, self.form, bits)
         return self._ctx[bits]
 
-    def period(self, bits: int, n: int, state, check: bool) -> _Walk:
+    def period(self, bits: int, n: int, state, check: bool, steps: int = 16) -> _Walk:
         """The interval walk over period ``n + 1`` from ``state`` (balls at ``t0 + n T``), at
-        ``bits`` (the caller holds that precision), recording the impacts' states."""
+        ``bits`` (the caller holds that precision), in scan steps of ``T / steps``, recording
+        the impacts' states."""
         c, iso, k, consts = self.ctx(bits)
         tk = c.t0 + n * c.T
         tk1 = c.t0 + (n + 1) * c.T
         walk = _Walk(c, iso, consts, self.form, k, bits, _Pair(c, consts, tk, *state))
         walk.record = True
-        walk.advance(point(tk.lower()), tk1, upper(tk1), point(c.T / 16), check)
+        walk.advance(point(tk.lower()), tk1, upper(tk1), point(c.T / steps), check)
         for _, hit, _ in walk.events[:1]:
             # the scan starts at the lower end of t_k: an impact must follow all of it (then
             # every state of the box has no crossing on [t_k-, t_k] and the walk is its flow)
@@ -578,7 +580,7 @@ class LohnerPair:
         while True:
             try:
                 with _Prec(lo):
-                    return lo, self.period(lo, n, hull, True)
+                    return lo, self.period(lo, n, hull, True, LOW_STEPS)
             except CertificationError:
                 if lo >= self.bits:
                     raise
