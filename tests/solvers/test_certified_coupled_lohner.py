@@ -216,3 +216,26 @@ def test_1000_chaotic_periods_grow_at_the_true_rate():
     p = pi.Params.make(eta="0.712")
     r = pi.certify_coupled(p, "0", "first-order", 1000, y0=Y0, precision="mp:1024", max_bits=1024)
     assert r.growth_digits_per_period() <= 1.3 * 0.116
+
+
+def test_frame_restarts_from_the_sample_balls(monkeypatch):
+    """A restart from the intersected sample balls (``B = I``; taken when the low pass's
+    interval image is the tighter, rare at eta = 0.712: never in 39 periods even at 64 bits)
+    forced every period: the run is still an enclosure (the interval pair's midpoints at 512
+    bits inside, 40 periods at 128 bits)."""
+    from precise_impact.solvers.certified import coupled
+
+    calls: list = []
+
+    def always(interval, lohner):
+        calls.append(1)
+        return True
+
+    monkeypatch.setattr(coupled.LohnerPair, "restart", staticmethod(always))
+    p = pi.Params.make(eta="0.712")
+    lo = pi.certify_coupled(p, K, "paper", 40, y0=Y0, precision="mp:128", max_bits=128)
+    iv = pi.certify_coupled(
+        p, K, "paper", 40, y0=Y0, precision="mp:512", max_bits=512, method="interval"
+    )
+    assert len(calls) == 39
+    _contains_run(lo, iv)

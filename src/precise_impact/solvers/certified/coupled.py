@@ -575,6 +575,12 @@ class LohnerPair:
         walk.tk1 = tk1
         return walk
 
+    @staticmethod
+    def restart(interval, lohner) -> bool:
+        """Whether the frame restarts from the sample's balls (``B = I``): the low pass's
+        interval image of the box is the tighter one."""
+        return max(b.rad() for b in interval) < max(b.rad() for b in lohner)
+
     def low_pass(self, n: int, hull) -> tuple:
         lo = min(self.bits, LOW_BITS)
         while True:
@@ -735,8 +741,7 @@ class LohnerPair:
                 slave_velocity(form, k, zl[2], zl[1] + zl[3])
             )
             sample(n + 1, wp.tk1, zs, ys, ws)
-            if max(b.rad() for b in zl) < max((a + b).rad() for a, b in zip(y, Mr, strict=True)):
-                # the interval image is tighter: restart the frame from it
+            if self.restart(zl, [a + b for a, b in zip(y, Mr, strict=True)]):
                 m = [point(b) for b in zs]
                 r = [b - mb for b, mb in zip(zs, m, strict=True)]
                 B = flint.arb_mat(4, 4)
