@@ -42,7 +42,7 @@ from precise_impact.core.params import Params
 from precise_impact.errors import CertificationError
 from precise_impact.solvers.certified.single import log10_abs
 
-__all__ = ["LOW_BITS", "LohnerEngine"]
+__all__ = ["LOW_BITS", "LohnerEngine", "qr_frame"]
 
 #: Bits of the low pass (impact isolation and Jacobian over the box), doubled on a failure up
 #: to the working bits: its balls multiply ``r``, so their width only enters relative to it.
@@ -345,3 +345,25 @@ def _inverse(Q):
     """The 2x2 inverse, enclosed."""
     d = Q[0][0] * Q[1][1] - Q[0][1] * Q[1][0]
     return [[Q[1][1] / d, -Q[0][1] / d], [-Q[1][0] / d, Q[0][0] / d]]
+
+
+def qr_frame(MB, r):
+    """The n-dimensional frame of :func:`_frame`: ``(Q, Q^-1)`` as python-flint ``arb_mat``,
+    ``Q`` exact points from the QR factorisation of ``mid(MB)`` (an ``arb_mat``) with its
+    columns ordered by their share of the box ``r`` (``|column j| rad r_j``, the largest
+    first), ``Q^-1`` enclosed (at the current precision)."""
+    import numpy as np
+
+    flint = _flint()
+    n = MB.nrows()
+    A = np.array([[float(MB[i, j].mid()) for j in range(n)] for i in range(n)])
+    w = [
+        0.5 * math.log10(float(A[:, j] @ A[:, j]) or 1e-300) + log10_abs(r[j].rad())
+        for j in range(n)
+    ]
+    order = sorted(range(n), key=lambda j: -w[j])
+    Qf, _ = np.linalg.qr(A[:, order])
+    if not np.all(np.isfinite(Qf)):  # pragma: no cover - a float overflow in mid(MB)
+        Qf = np.eye(n)
+    Q = flint.arb_mat([[float(Qf[i, j]) for j in range(n)] for i in range(n)])
+    return Q, Q.inv()

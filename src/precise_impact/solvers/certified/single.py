@@ -524,14 +524,7 @@ class CertifiedTrajectory(ResultMixin):
     def growth_digits_per_period(self) -> float:
         """Decimal digits of radius lost per forcing period (least squares over the samples
         after the first)."""
-        r = self.log10_radii()[1:]
-        ks = [k for k in range(1, len(r) + 1) if math.isfinite(r[k - 1])]
-        if len(ks) < 2:
-            return 0.0
-        ys = [r[k - 1] for k in ks]
-        km, ym = sum(ks) / len(ks), sum(ys) / len(ys)
-        den = sum((k - km) ** 2 for k in ks)
-        return sum((k - km) * (y - ym) for k, y in zip(ks, ys, strict=True)) / den if den else 0.0
+        return growth_slope(self.log10_radii())
 
     def contains(self, k: int, x: Any, v: Any) -> bool:
         """Whether the exact decimals ``x, v`` lie in sample ``k``'s balls.
@@ -602,6 +595,20 @@ class CertifiedTrajectory(ResultMixin):
             "elapsed_s": self.elapsed_s,
             "method": self.method,
         }
+
+
+def growth_slope(log10_radii: list[float]) -> float:
+    """Decimal digits of radius lost per period: the least-squares slope of ``log10_radii``
+    (one per sample, period 0 first) over the samples after the first (exact points, ``-inf``,
+    left out)."""
+    r = log10_radii[1:]
+    ks = [k for k in range(1, len(r) + 1) if math.isfinite(r[k - 1])]
+    if len(ks) < 2:
+        return 0.0
+    ys = [r[k - 1] for k in ks]
+    km, ym = sum(ks) / len(ks), sum(ys) / len(ys)
+    den = sum((k - km) ** 2 for k in ks)
+    return sum((k - km) * (y - ym) for k, y in zip(ks, ys, strict=True)) / den if den else 0.0
 
 
 class working_bits:
