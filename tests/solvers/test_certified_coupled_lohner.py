@@ -192,8 +192,8 @@ def test_low_pass_escalates_when_128_bits_cannot_order_the_impacts(monkeypatch):
     los: list = []
     low_pass = coupled.LohnerPair.low_pass
 
-    def spy(self, n, hull):
-        lo, w = low_pass(self, n, hull)
+    def spy(self, n, m, B, r):
+        lo, w = low_pass(self, n, m, B, r)
         los.append(lo)
         return lo, w
 
@@ -231,7 +231,7 @@ def test_frame_restarts_from_the_sample_balls(monkeypatch):
         calls.append(1)
         return True
 
-    monkeypatch.setattr(coupled.LohnerPair, "restart", staticmethod(always))
+    monkeypatch.setattr(coupled, "interval_is_tighter", always)
     p = pi.Params.make(eta="0.712")
     lo = pi.certify_coupled(p, K, "paper", 40, y0=Y0, precision="mp:128", max_bits=128)
     iv = pi.certify_coupled(

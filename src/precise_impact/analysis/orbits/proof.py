@@ -15,14 +15,13 @@ from typing import Any
 
 from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
 from precise_impact.analysis.orbits.newton import find_orbit
-from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.solvers.certified.single import (
     ball_str,
     exact_value,
-    flow_matrix,
+    period_jacobian,
     run_balls,
     working_bits,
 )
@@ -81,21 +80,9 @@ class ProvenOrbit(ResultMixin):
     elapsed_s: float
 
 
-def _mat_mul(A, B):
-    return [[A[i][0] * B[0][j] + A[i][1] * B[1][j] for j in range(2)] for i in range(2)]
-
-
 def _jacobian(c, impacts, period):
     """``M``: flow and saltation matrices along the impacts (balls), from ``t0`` to ``t0 + p T``."""
-
-    one, zero = c.eta * 0 + 1, c.eta * 0
-    M = [[one, zero], [zero, one]]
-    prev = c.t0
-    for t, vb, _ in impacts:
-        S = oscillator_saltation(t, vb, c.eta, c.zeta, c.a, c.xw, c.R, lambda z: z.cos())
-        M = _mat_mul(S, _mat_mul(flow_matrix(c, t - prev), M))
-        prev = t
-    return _mat_mul(flow_matrix(c, c.t0 + period * c.T - prev), M)
+    return period_jacobian(c, c.t0, impacts, c.t0 + period * c.T)
 
 
 def _final(samples):

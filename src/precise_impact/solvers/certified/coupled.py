@@ -41,7 +41,10 @@ from precise_impact.solvers.certified.lohner import (
     LohnerEngine,
     _flint,
     _Prec,
-    qr_frame,
+    box_frame,
+    hull,
+    interval_is_tighter,
+    reframe,
 )
 from precise_impact.solvers.certified.single import (
     MAX_BITS,
@@ -575,18 +578,16 @@ class LohnerPair:
         walk.tk1 = tk1
         return walk
 
-    @staticmethod
-    def restart(interval, lohner) -> bool:
-        """Whether the frame restarts from the sample's balls (``B = I``): the low pass's
-        interval image of the box is the tighter one."""
-        return max(b.rad() for b in interval) < max(b.rad() for b in lohner)
-
-    def low_pass(self, n: int, hull) -> tuple:
+    def low_pass(self, n: int, m: list, B, r: list) -> tuple:
+        """The interval walk over period ``n + 1`` from the hull of ``m + B r`` at the fewest
+        bits from :data:`LOW_BITS` (doubled on a failure, the hull formed again at those bits,
+        up to the working bits) that prove it."""
         lo = min(self.bits, LOW_BITS)
         while True:
             try:
+                box = hull(m, B, r, lo)
                 with _Prec(lo):
-                    return lo, self.period(lo, n, hull, True, LOW_STEPS)
+                    return lo, self.period(lo, n, box, True, LOW_STEPS)
             except CertificationError:
                 if lo >= self.bits:
                     raise
@@ -698,18 +699,10 @@ class LohnerPair:
         simp.extend(w0.simp)
         z = w0.end
         sample(1, w0.tk1, z)
-        one, zero = flint.arb(1), flint.arb(0)
-        m = [point(b) for b in z]
-        r = [b - mb for b, mb in zip(z, m, strict=True)]
-        B = flint.arb_mat(4, 4)
-        for i in range(4):
-            B[i, i] = one
+        zero = flint.arb(0)
+        m, B, r = box_frame(list(z))
         for n in range(1, periods):
-            # the hull: the products at the low bits, the sum at the working bits
-            with _Prec(min(bits, LOW_BITS)):
-                Br = [sum((B[i, j] * r[j] for j in range(4)), zero) for i in range(4)]
-            hull = [a + b for a, b in zip(m, Br, strict=True)]
-            lo, wl = self.low_pass(n, hull)
+            lo, wl = self.low_pass(n, m, B, r)
             with _Prec(lo):
                 A, pre = self.jacobian(lo, n, wl)
                 MB = A * B
@@ -741,24 +734,10 @@ class LohnerPair:
                 slave_velocity(form, k, zl[2], zl[1] + zl[3])
             )
             sample(n + 1, wp.tk1, zs, ys, ws)
-            if self.restart(zl, [a + b for a, b in zip(y, Mr, strict=True)]):
-                m = [point(b) for b in zs]
-                r = [b - mb for b, mb in zip(zs, m, strict=True)]
-                B = flint.arb_mat(4, 4)
-                for i in range(4):
-                    B[i, i] = one
+            if interval_is_tighter(zl, [a + b for a, b in zip(y, Mr, strict=True)]):
+                m, B, r = box_frame(zs)
             else:
-                mn = [point(b) for b in y]
-                e = [b - mb for b, mb in zip(y, mn, strict=True)]
-                with _Prec(lo):
-                    Q, Qi = qr_frame(MB, r)
-                    N = Qi * MB
-                    r = [
-                        sum((N[i, j] * r[j] + Qi[i, j] * e[j] for j in range(4)), zero)
-                        for i in range(4)
-                    ]
-                    B = Q
-                m = mn
+                m, B, r = reframe(MB, r, list(y), lo)
         return samples, mimp, simp
 
 

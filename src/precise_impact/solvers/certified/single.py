@@ -19,6 +19,7 @@ from precise_impact.core import flight
 from precise_impact.core.budget import Deadline, enforce_max_time, parse_max_time
 from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.flow import steady_state
+from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, ball_columns
@@ -634,6 +635,30 @@ def flow_matrix(c: Constants, tau):
     """The homogeneous (and tangent) flow ``Phi(tau)`` of a flight as a 2x2 list of balls."""
     p00, p01, p10, p11 = flight.flow_matrix(tau, c.zeta, c.w, flight.ARB)
     return [[p00, p01], [p10, p11]]
+
+
+def _mat_mul(A, B):
+    return [[A[i][0] * B[0][j] + A[i][1] * B[1][j] for j in range(2)] for i in range(2)]
+
+
+def period_jacobian(c: Constants, t_start, impacts, t_end, pre: list | None = None):
+    """``Phi(t_end - s_n) S_n ... S_1 Phi(s_1 - t_start)`` (2x2 lists of balls): the flight
+    flows (:func:`precise_impact.core.flight.flow_matrix`) and saltation matrices
+    (:func:`precise_impact.core.impact.oscillator_saltation`) along ``impacts`` (time ball,
+    v- ball, v+ ball), each enclosed over its balls, so the product encloses the map's
+    Jacobian over every state they came from.  ``pre`` (a list) receives the product up to
+    just before each impact."""
+    one, zero = c.eta * 0 + 1, c.eta * 0
+    M = [[one, zero], [zero, one]]
+    prev = t_start
+    for t, vb, _ in impacts:
+        M = _mat_mul(flow_matrix(c, t - prev), M)
+        if pre is not None:
+            pre.append(M)
+        S = oscillator_saltation(t, vb, c.eta, c.zeta, c.a, c.xw, c.R, lambda z: z.cos())
+        M = _mat_mul(S, M)
+        prev = t
+    return _mat_mul(flow_matrix(c, t_end - prev), M)
 
 
 def run_balls(
