@@ -13,11 +13,13 @@ Side by side in ONE run (medians of ``--rounds`` repeats, after a warm-up of eac
   growth of the two heyoka runs' disagreement -- the naive enclosure's wrapping shows as the
   excess;
 * **pair**: the certified master-slave pair (reduced form, k = 0.02, off the diagonal), 300
-  periods at 512 bits;
+  periods at 512 bits, both methods (medians), and 1,000 periods at 2048 bits (one run each:
+  the interval pair fails at 1024 bits near period 680), with each enclosure's growth;
 * **long horizons, side by side**: ``certify(method='lohner')`` (point + matrix x box in a QR
   frame, the default) and ``method='interval'`` (the two balls of 0.x), 3,000 and 10,000
-  periods with the automatic bits for radius <= 1e-30 (one run each, pilot included), and the
-  growth of each enclosure over the 3,000 periods.
+  periods with the automatic bits for radius <= 1e-30 (pilot included; one run each, the
+  Lohner 3,000-period run a median of ``--rounds``), and the growth of each enclosure over the
+  3,000 periods.
 
 Results: ``benchmarks/results/certified.{json,md}``, ``certified_growth.png`` and
 ``certified_long.png``.
@@ -78,7 +80,7 @@ def main() -> None:
     ap.add_argument("--no-long", dest="long", action="store_false", help="skip the long runs")
     args = ap.parse_args()
     p = pi.Params.make(eta="0.712")
-    long_runs = _long_horizons(p) if args.long else {}
+    long_runs = _long_horizons(p, args.rounds) if args.long else {}
 
     t_auto, r_auto = _timed(lambda: pi.certify(p, PERIODS, target_radius="1e-30"), args.rounds)
     t_auto_iv, r_auto_iv = _timed(
@@ -116,12 +118,16 @@ def main() -> None:
     # k = 0.02 is below the synchronisation threshold (~0.035): both chaotic, impacts apart.  (Above
     # it e decays like exp(-(zeta + k) t) and master and slave impacts come closer than 2^-bits:
     # the engine then doubles the bits, as it must.)
-    t_pair, pair = _timed(
-        lambda: pi.certify_coupled(
-            p, "0.02", "reduced", PERIODS, y0=("0.5", "0.1"), precision="mp:512"
-        ),
-        args.rounds,
-    )
+    pairs = {}
+    for method in ("lohner", "interval"):
+        pairs[method] = _timed(
+            lambda method=method: pi.certify_coupled(
+                p, "0.02", "reduced", PERIODS, y0=("0.5", "0.1"), precision="mp:512", method=method
+            ),
+            args.rounds,
+        )
+    t_pair, pair = pairs["lohner"]
+    pair_long = _pair_long(p) if args.long else {}
 
     res = {
         "periods": PERIODS,
@@ -161,13 +167,18 @@ def main() -> None:
             "heyoka_disagreement": heyoka_growth,
         },
         "pair": {
-            "seconds": t_pair,
-            "k": "0.02",
-            "bits": pair.bits,
-            "log10_max_radius": pair.max_log10_radius(),
-            "master_impacts": len(pair.master_impacts),
-            "slave_impacts": len(pair.slave_impacts),
+            method: {
+                "seconds": t,
+                "k": "0.02",
+                "bits": r.bits,
+                "log10_max_radius": r.max_log10_radius(),
+                "growth_digits_per_period": r.growth_digits_per_period(),
+                "master_impacts": len(r.master_impacts),
+                "slave_impacts": len(r.slave_impacts),
+            }
+            for method, (t, r) in pairs.items()
         },
+        "pair_long": pair_long,
         "long_horizons": long_runs,
         "rounds": args.rounds,
         "versions": {"precise_impact": pi.__version__},
@@ -217,11 +228,13 @@ def main() -> None:
         f"| **heyoka demonstration (both runs)** | **{t_demo * 1e3:.0f} ms** "
         f"| {max(float(d) for d in dis):.1e} | |"
     )
-    row_pair = (
-        f"| certified pair (reduced, k = 0.02, {pair.bits} bits) | {t_pair * 1e3:.0f} ms "
-        f"| 1e{pair.max_log10_radius():.1f} "
-        f"| {len(pair.master_impacts)} + {len(pair.slave_impacts)} |"
+    row_pair = "\n".join(
+        f"| certified pair, {method} (reduced, k = 0.02, {r.bits} bits) | {t * 1e3:.0f} ms "
+        f"| 1e{r.max_log10_radius():.1f} "
+        f"| {len(r.master_impacts)} + {len(r.slave_impacts)} |"
+        for method, (t, r) in pairs.items()
     )
+    g_pair = {m: r.growth_digits_per_period() for m, (_, r) in pairs.items()}
     md = f"""# Certified trajectories vs the heyoka run that demonstrates the same digits
 
 eta = 0.712 (chaotic), {PERIODS} periods, one run, medians of {args.rounds} after a warm-up.
@@ -244,30 +257,41 @@ eta = 0.712 (chaotic), {PERIODS} periods, one run, medians of {args.rounds} afte
   runs' disagreement grows by {heyoka_growth:.3f}.  The interval scheme's excess is the
   wrapping of its box by the flow's rotation every period; the Lohner enclosure carries the
   box in the frame the flow and the saltation matrices turn it to (QR every period).
+* The pair's enclosure (4-D: master and error, through both oscillators' impacts) over the
+  same {PERIODS} periods: Lohner **{g_pair["lohner"]:.3f}** digits per period, interval
+  {g_pair["interval"]:.3f}.
 
 ![growth](certified_growth.png)
-{_long_md(long_runs, true_growth)}"""
+{_long_md(long_runs, true_growth)}{_pair_long_md(pair_long, true_growth)}"""
     (OUT / "certified.md").write_text(md)
     print(md)
 
 
 LONG = (3000, 10000)
+PAIR_LONG = 1000
 
 
-def _long_horizons(p) -> dict:
-    """Both methods at 3,000 and 10,000 periods, automatic bits for 1e-30 (one run each)."""
+def _long_horizons(p, rounds: int) -> dict:
+    """Both methods at 3,000 and 10,000 periods, automatic bits for 1e-30: one run each, but the
+    Lohner 3,000-period run ``rounds`` times (median, with the spread: this machine's speed
+    varies by +-20 % from run to run, measured 2.16-3.12 s for the same run)."""
     out: dict = {}
     for method in ("lohner", "interval"):
         for n in LONG:
-            t0 = time.perf_counter()
+            repeats = rounds if (method, n) == ("lohner", LONG[0]) else 1
+            times = []
             try:
-                r = pi.certify(p, n, target_radius="1e-30", method=method)
+                for _ in range(repeats):
+                    t0 = time.perf_counter()
+                    r = pi.certify(p, n, target_radius="1e-30", method=method)
+                    times.append(time.perf_counter() - t0)
             except (pi.ParameterError, pi.CertificationError) as e:
                 out[f"{method}_{n}"] = {"refused": str(e), "seconds": time.perf_counter() - t0}
                 continue
-            dt = time.perf_counter() - t0
+            dt = statistics.median(times)
             out[f"{method}_{n}"] = {
                 "seconds": dt,
+                "seconds_each": times,
                 "run_seconds": r.elapsed_s,
                 "bits": r.bits,
                 "bits_choice": r.bits_choice,
@@ -301,6 +325,60 @@ def _long_horizons(p) -> dict:
     return out
 
 
+def _pair_long(p) -> dict:
+    """The pair (reduced, k = 0.02, y0 = (0.5, 0.1)) over 1,000 periods at 2048 bits, both
+    methods, one run each."""
+    out: dict = {}
+    for method in ("lohner", "interval"):
+        t0 = time.perf_counter()
+        try:
+            r = pi.certify_coupled(
+                p,
+                "0.02",
+                "reduced",
+                PAIR_LONG,
+                y0=("0.5", "0.1"),
+                precision="mp:2048",
+                method=method,
+                max_bits=2048,
+            )
+        except (pi.ParameterError, pi.CertificationError) as e:
+            out[method] = {"refused": str(e), "seconds": time.perf_counter() - t0}
+            continue
+        dt = time.perf_counter() - t0
+        out[method] = {
+            "seconds": dt,
+            "bits": r.bits,
+            "log10_max_radius": r.max_log10_radius(),
+            "growth_digits_per_period": r.growth_digits_per_period(),
+        }
+        print("pair", method, PAIR_LONG, f"{dt:.1f} s", f"{r.growth_digits_per_period():.4f}")
+    return out
+
+
+def _pair_long_md(pair_long: dict, true_growth: float) -> str:
+    if not pair_long:
+        return ""
+    rows = "\n".join(
+        f"| {m} | refused in {v['seconds']:.1f} s: {v['refused']} | | |"
+        if "refused" in v
+        else f"| {m} | **{v['seconds']:.1f} s** ({v['bits']} bits) | 1e{v['log10_max_radius']:.1f} "
+        f"| {v['growth_digits_per_period']:.4f} |"
+        for m, v in pair_long.items()
+    )
+    return f"""
+## The pair over {PAIR_LONG} periods
+
+Reduced form, k = 0.02, slave from (0.5, 0.1), 2048 bits, one run each.
+
+| method | time (bits) | largest radius | growth, digits/period |
+|---|---|---:|---:|
+{rows}
+
+True sensitivity of the master: {true_growth:.3f} digits per period.
+"""
+
+
 def _long_md(long_runs: dict, true_growth: float) -> str:
     if not long_runs:
         return ""
@@ -310,8 +388,14 @@ def _long_md(long_runs: dict, true_growth: float) -> str:
         if "refused" in v:
             rows.append(f"| {method} | {n} | refused in {v['seconds']:.1f} s: {v['refused']} | | |")
         else:
+            each = v.get("seconds_each", [])
+            spread = (
+                f", median of {len(each)}: {min(each):.1f}-{max(each):.1f} s"
+                if len(each) > 1
+                else ""
+            )
             rows.append(
-                f"| {method} | {n} | **{v['seconds']:.1f} s** ({v['bits']} bits) "
+                f"| {method} | {n} | **{v['seconds']:.1f} s** ({v['bits']} bits{spread}) "
                 f"| 1e{v['log10_max_radius']:.1f} | {v['growth_digits_per_period']:.4f} |"
             )
     lo = long_runs.get(f"lohner_{LONG[0]}", {})
@@ -320,7 +404,8 @@ def _long_md(long_runs: dict, true_growth: float) -> str:
     return f"""
 ## Long horizons: the Lohner enclosure beside the interval scheme
 
-Automatic bits for radius <= 1e-30 on every sample, one run each, pilot included.
+Automatic bits for radius <= 1e-30 on every sample, pilot included; one run each, the
+Lohner {LONG[0]}-period run the median of several (this machine's speed varies by +-20 %).
 
 | method | periods | time (bits) | largest radius | growth, digits/period |
 |---|---:|---|---:|---:|

@@ -163,3 +163,29 @@ def test_3000_chaotic_periods_grow_at_most_13_tenths_of_the_true_rate():
     r = certify(pi.Params.make(eta="0.712"), 3000)
     assert r.max_radius() <= 1e-30 and r.bits <= 1408
     assert TRUE_GROWTH * 0.9 < r.growth_digits_per_period() <= ALLOWED_GROWTH
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_the_frame_is_orthonormal_pivoted_and_its_inverse_enclosed(n):
+    """``qr_frame`` (one Lohner frame for the single oscillator, n = 2 by the package's
+    tangent QR, and the pair, n = 4): exact points ``Q`` orthonormal to float64 rounding
+    (a few ulps: ``|Q^T Q - I| <= 8 n eps``), the first column along the column carrying
+    the largest share ``|A_j| rad r_j`` of the box, and ``Q Q^-1`` holding ``I`` exactly."""
+    import numpy as np
+
+    from precise_impact.solvers.certified.lohner import qr_frame
+
+    rng = np.random.default_rng(n)
+    A = rng.normal(size=(n, n))
+    radii = [10.0 ** -(40 + 3 * j) for j in range(n)]
+    radii[n - 1] = 1e-20  # the last column carries the box: it leads the frame
+    MB = flint.arb_mat([[float(A[i, j]) for j in range(n)] for i in range(n)])
+    r = [flint.arb(0, rad) for rad in radii]
+    Q, Qi = qr_frame(MB, r)
+    Qf = np.array([[float(Q[i, j].mid()) for j in range(n)] for i in range(n)])
+    assert all(Q[i, j].rad() == 0 for i in range(n) for j in range(n))  # exact points
+    assert np.abs(Qf.T @ Qf - np.eye(n)).max() <= 8 * n * 2.0**-52
+    lead = A[:, n - 1] / np.linalg.norm(A[:, n - 1])
+    assert abs(abs(Qf[:, 0] @ lead) - 1) <= 8 * n * 2.0**-52
+    QQi = Q * Qi
+    assert all(QQi[i, j].contains(int(i == j)) for i in range(n) for j in range(n))
