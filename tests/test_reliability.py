@@ -431,7 +431,10 @@ def test_a_second_run_into_a_busy_out_directory_is_refused(tmp_path):
 
     out = tmp_path / "out"
     first = subprocess.Popen(  # a long run holding --out (minutes; stopped below)
-        [sys.executable, "-m", "precise_impact", "bifurcation", "--eta", "0.70", "0.72", "2"]
+        # 40 values x 200000 periods: ~6 minutes on one core (2 values took 17 s, and CI's
+        # serial run once spent that long on the refusals below: the SIGTERM then met the
+        # run's own teardown, exit 0)
+        [sys.executable, "-m", "precise_impact", "bifurcation", "--eta", "0.70", "0.72", "40"]
         + ["--periods", "200000", "--transient", "5", "--workers", "1", "--out", str(out)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
