@@ -7,7 +7,6 @@ import math
 from fractions import Fraction
 
 import mpmath
-import numpy as np
 import pytest
 
 from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
@@ -20,13 +19,8 @@ flint = pytest.importorskip("flint")
 
 def _cubic(ys, grad):
     """``x^2 - 2 = 0``, ``y - x^3 = 0``: the zero (sqrt 2, 2 sqrt 2), Jacobian by BallDual."""
-    m = len(ys)
     if grad:
-        zero, one = flint.arb(0), flint.arb(1)
-        ys = [
-            BallDual(y, np.array([one if j == i else zero for j in range(m)], dtype=object))
-            for i, y in enumerate(ys)
-        ]
+        ys = seed(ys, dual=BallDual)
     x, y = ys
     F = [x * x - 2, y - x * x * x]
     if not grad:
@@ -58,7 +52,7 @@ def test_a_box_too_wide_for_the_zero_does_not_close():
 def test_a_double_root_is_refused_not_proven():
     # x^2 = 0: F'(0) = 0, the centre's Jacobian is singular
     def square(ys, grad):
-        x = BallDual(ys[0], np.array([flint.arb(1)], dtype=object)) if grad else ys[0]
+        x = seed(ys, dual=BallDual)[0] if grad else ys[0]
         f = x * x
         return ([f.v], [list(f.g)]) if grad else ([f], [])
 
@@ -86,7 +80,7 @@ def test_ball_duals_enclose_the_float_duals_and_a_50_digit_derivative():
         )
         text = mpmath.nstr(d, 50)
     with working_bits(200):
-        tb = BallDual(flint.arb(t0), np.array([flint.arb(1)], dtype=object))
+        (tb,) = seed([flint.arb(t0)], dual=BallDual)
         fb = f(tb, BALL_DUAL)
         ref = flint.arb(text)  # parsed at 200 bits
         # the ball (radius ~1e-59) within the 50 printed digits of mpmath's derivative

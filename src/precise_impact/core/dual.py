@@ -207,15 +207,20 @@ class BallDualOps(DualOps):
 BALL_DUAL = BallDualOps()
 
 
-def seed(values: Any, size: int | None = None, offset: int = 0) -> list[Dual]:
-    """Duals of ``values`` seeded in directions ``offset, offset + 1, ...`` of ``size``."""
-    values = [float(v) for v in values]
+def seed(values: Any, size: int | None = None, offset: int = 0, dual: type[Dual] = Dual) -> list:
+    """Duals of ``values`` seeded in directions ``offset, offset + 1, ...`` of ``size``
+    (:class:`Dual`, or ``dual=BallDual`` for balls)."""
+    values = [dual.coerce(v) for v in values]
     size = len(values) + offset if size is None else size
     out = []
     for i, v in enumerate(values):
-        g = np.zeros(size)
-        g[offset + i] = 1.0
-        out.append(Dual(v, g))
+        g: np.ndarray
+        if dual is Dual:
+            g = np.zeros(size)
+            g[offset + i] = 1.0
+        else:
+            g = np.array([dual.coerce(int(j == offset + i)) for j in range(size)], dtype=object)
+        out.append(dual(v, g))
     return out
 
 

@@ -38,7 +38,7 @@ import numpy as np
 from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
 from precise_impact.analysis.orbits.landmarks import BranchPoint
 from precise_impact.analysis.orbits.proof import float_up
-from precise_impact.core.dual import BALL_DUAL, BallDual
+from precise_impact.core.dual import BALL_DUAL, BallDual, seed
 from precise_impact.core.params import exact
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import CertificationError, ParameterError
@@ -358,14 +358,7 @@ def _evaluate(bp: BranchPoint, ys: list, theta: list, grad: bool) -> tuple[list,
     import flint
 
     m = len(ys)
-    if grad:
-        zero, one = flint.arb(0), flint.arb(1)
-        args: list = [
-            BallDual(y, np.array([one if j == i else zero for j in range(m)], dtype=object))
-            for i, y in enumerate(ys)
-        ]
-    else:
-        args = list(ys)
+    args = seed(ys, dual=BallDual) if grad else list(ys)
     F = bp.residual(args, theta, BALL_DUAL)
     vals = [f.v if isinstance(f, BallDual) else BallDual.coerce(f) for f in F]
     if not grad:

@@ -39,6 +39,7 @@ from precise_impact.solvers.certified.lohner import (
     LOW_BITS,
     LOW_STEPS,
     LohnerEngine,
+    _eye,
     _flint,
     _Prec,
     box_frame,
@@ -628,9 +629,7 @@ class LohnerPair:
             return slave_impact_state(c, form, k, x, v, e, ep)[2]
 
         one, zero = flint.arb(1), flint.arb(0)
-        M = flint.arb_mat(4, 4)
-        for i in range(4):
-            M[i, i] = one
+        M = _eye(4)
         prev = c.t0 + n * c.T
         pre = []
         for master, hit, (x, v, e, ep) in walk.events:

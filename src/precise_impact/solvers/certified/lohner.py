@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 
 from precise_impact.core import flight
+from precise_impact.core.flow import acceleration
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.core.params import Params
 from precise_impact.errors import CertificationError
@@ -70,6 +71,10 @@ def _flint():
 
         _FLINT.append(f())
     return _FLINT[0]
+
+
+def _cos(x):
+    return x.cos()
 
 
 def _eye(n: int):
@@ -300,7 +305,7 @@ class LohnerEngine:
                 grads = []
                 for (J, vb, _), P in zip(limps, pre, strict=True):
                     PB = flint.arb_mat(P) * B
-                    acc = cl.a * (cl.eta * J).cos() - 2 * cl.zeta * vb - cl.xw
+                    acc = acceleration(J, cl.xw, vb, cl.eta, cl.zeta, cl.a, _cos)  # on the wall
                     ds = [-PB[0, 0] / vb, -PB[0, 1] / vb]  # grad of the impact time
                     dv = [PB[1, 0] + acc * ds[0], PB[1, 1] + acc * ds[1]]  # of v- on the wall
                     grads.append((sum_dot(ds, r), sum_dot(dv, r)))
