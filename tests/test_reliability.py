@@ -431,11 +431,13 @@ def test_a_second_run_into_a_busy_out_directory_is_refused(tmp_path):
 
     out = tmp_path / "out"
     first = subprocess.Popen(  # a long run holding --out (minutes; stopped below)
-        # 40 values x 200000 periods: ~6 minutes on one core (2 values took 17 s, and CI's
-        # serial run once spent that long on the refusals below: the SIGTERM then met the
-        # run's own teardown, exit 0)
+        # 40 values x 2e7 transient periods: ~8 minutes on one core (the fast engine does
+        # ~1.7e6 periods/s: 40 x 200000 periods took 4.6 s, and CI's run spent that long on
+        # the refusals below: the SIGTERM met the run's end, once exit 0, once -2, raised just
+        # after main() returned, outside every handler, fixed in cli/entry.run); the estimate
+        # (~22 min) is under the default --max-time, so the run starts
         [sys.executable, "-m", "precise_impact", "bifurcation", "--eta", "0.70", "0.72", "40"]
-        + ["--periods", "200000", "--transient", "5", "--workers", "1", "--out", str(out)],
+        + ["--periods", "5", "--transient", "20000000", "--workers", "1", "--out", str(out)],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,

@@ -13,9 +13,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import re
-import signal
 import sys
-import threading
 import warnings
 from collections.abc import Sequence
 
@@ -23,7 +21,7 @@ import heyoka
 
 from precise_impact.cli.args import EXIT_BAD_INPUT, Parser, check_outputs
 from precise_impact.cli.commands import COMMANDS
-from precise_impact.cli.entry import EXIT_INTERRUPTED
+from precise_impact.cli.entry import EXIT_INTERRUPTED, interrupts
 from precise_impact.errors import (
     BudgetExceededError,
     ConvergenceError,
@@ -105,17 +103,6 @@ def _say(message: str) -> None:
     print("precise-impact: " + " ".join(message.splitlines()), file=sys.stderr)
 
 
-def _terminate_as_interrupt() -> None:
-    """SIGTERM ends a run like Ctrl-C: the same cleanup, one line, exit 130."""
-    if threading.current_thread() is not threading.main_thread():
-        return  # signal handlers only from the main thread (e.g. main() called in a test thread)
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, handler)
-
-
 @contextlib.contextmanager
 def _deprecations_as_lines():
     """The package's own :class:`DeprecationWarning` (an old scene name, ...): one line on
@@ -143,7 +130,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     # heyoka logs its warnings (e.g. root finding near grazing) to stdout, which would
     # corrupt --json output; the CLI keeps only errors.
     heyoka.set_logger_level_error()
-    _terminate_as_interrupt()
+    with interrupts():  # Ctrl-C and SIGTERM: KeyboardInterrupt, never half-way through an import
+        return _run(ns)
+
+
+def _run(ns: argparse.Namespace) -> int:
+    """Run the parsed command; every error the package names becomes one line and a status."""
     try:
         with _deprecations_as_lines(), check_outputs(ns):  # --out locked until the run ends
             return ns.run(ns)
