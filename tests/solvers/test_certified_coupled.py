@@ -93,7 +93,11 @@ def test_pair_bad_input_one_line_exit_2():
         (["--k", "0.1", "--y0", "3", "0"], "y0[0]"),
         (["--y0", "0.5", "0"], "y0"),
         (["--k", "0.1", "--form", "nonsense"], "form"),
-        (["--k", "0.1", "--target", "1e-40", "--y0", "0.5", "0"], "target"),
+        (
+            ["--k", "0.1", "--precision", "mp:256", "--target", "1e-40", "--y0", "0.5", "0"],
+            "target",
+        ),
+        (["--k", "0.1", "--precision", "auto", "--target", "1e-2", "--y0", "0.5", "0"], "target"),
     ):
         r = subprocess.run(
             [sys.executable, "-m", "precise_impact", "certify", "--periods", "2", *argv],

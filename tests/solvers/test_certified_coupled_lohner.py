@@ -7,6 +7,8 @@ the diagonal against the single oscillator's Lohner run, ball for ball: there to
 
 import hashlib
 import json
+import math
+import re
 
 import pytest
 
@@ -239,3 +241,64 @@ def test_frame_restarts_from_the_sample_balls(monkeypatch):
     )
     assert len(calls) == 39
     _contains_run(lo, iv)
+
+
+# --- automatic bits (precision='auto', the single oscillator's pilot: choose_bits) ---------
+def test_auto_bits_on_the_diagonal_are_the_single_oscillators():
+    """On the diagonal the pair is the single oscillator's run: the same pilot, the same
+    projection, the same bits and the same balls as ``certify`` (an independent entry: its own
+    pilot call through ``single._run``)."""
+    p = pi.Params.make(eta="0.712")
+    c = pi.certify_coupled(p, K, periods=120, precision="auto", target_radius="1e-40")
+    s = pi.certify(p, 120, precision="auto", target_radius="1e-40")
+    assert c.bits == s.bits and c.bits_choice == s.bits_choice, (c.bits_choice, s.bits_choice)
+    assert c.bits_choice.startswith("automatic") and c.to_dict()["bits_choice"] == c.bits_choice
+
+    def same(x, y):  # exactly the same ball: midpoint and radius
+        return (exact_value(x.mid()), exact_value(x.rad())) == (
+            exact_value(y.mid()),
+            exact_value(y.rad()),
+        )
+
+    for a, b in zip(c.samples, s.samples, strict=True):
+        assert same(a[2], b[2]) and same(a[3], b[3]) and same(a[4], b[2]), a[0]
+
+
+def test_auto_bits_meet_the_target_without_waste_off_the_diagonal():
+    """300 chaotic periods off the diagonal at k = 0.02: the pilot (40 periods, the least)
+    measures the pair's growth and the bits chosen give every sample a radius <= 1e-30 (the
+    balls' own proven radii) at the first try.  And no more bits than the projection explains:
+    below the target the radius may lie by the 2 digits spared, the rounding up to 64 bits
+    (19.3 digits), the pilot's excess growth over the run's own (0.214 against 0.132 digits
+    per period here, x 260 periods) and 5 digits for the log radius's excursions about its
+    straight line (+-2.5 measured over this run, at the pilot's end and at the last sample)."""
+    p = pi.Params.make(eta="0.712")
+    r = pi.certify_coupled(p, K, "reduced", 300, y0=Y0, precision="auto", target_radius="1e-30")
+    assert r.bits_choice.startswith("automatic") and "missed" not in r.bits_choice
+    assert "pilot of 40 periods" in r.bits_choice
+    assert r.max_log10_radius() <= -30, r.max_log10_radius()
+    g_pilot = float(re.search(r"growth ([0-9.]+) digits", r.bits_choice).group(1))
+    excess = max(g_pilot - r.growth_digits_per_period(), 0.0) * (300 - 40)
+    lowest = -30 - 2 - 64 * math.log10(2) - excess - 5
+    assert r.max_log10_radius() >= lowest, (r.max_log10_radius(), lowest, r.bits_choice)
+    # the given-bits run at the chosen bits is the same run
+    g = pi.certify_coupled(p, K, "reduced", 300, y0=Y0, precision=f"mp:{r.bits}")
+    assert g.bits_choice == "given" and g.max_log10_radius() == r.max_log10_radius()
+
+
+def test_auto_bits_refused_when_out_of_reach_and_on_the_cli(capsys):
+    p = pi.Params.make(eta="0.712")
+    with pytest.raises(ParameterError, match="target_radius"):  # before any work
+        pi.certify_coupled(p, K, periods=10, y0=Y0, precision="auto", target_radius="1e-2")
+    with pytest.raises(ParameterError, match="target_radius.*max_bits = 256"):  # the projection
+        pi.certify_coupled(
+            p, K, periods=200, y0=Y0, precision="auto", target_radius="1e-3000", max_bits=256
+        )
+    from precise_impact.cli.main import main
+
+    argv = ["certify", "--k", K, "--y0", *Y0, "--periods", "40", "--target", "1e-50", "--json"]
+    assert main(argv) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["bits_choice"].startswith("automatic") and float(d["max_radius"]) <= 1e-50
+    assert main(["certify", "--k", K, "--y0", *Y0, "--periods", "2"]) == 0  # default mp:256
+    assert "at 256 bits (given)" in capsys.readouterr().out

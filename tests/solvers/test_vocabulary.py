@@ -37,13 +37,15 @@ def test_a_bad_precision_is_refused_before_work_naming_it(bad):
         certify(P, 5, precision=bad)
 
 
-def test_the_pair_takes_mp_bits_and_refuses_auto():
+def test_the_pair_takes_mp_bits_and_auto():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         r = certify_coupled(P, "0.1", periods=3, precision="mp:192")
-    assert r.bits == 192
-    with pytest.raises(ParameterError, match=r"^precision = 'auto' is not allowed: 'mp:BITS'"):
-        certify_coupled(P, "0.1", periods=3, precision="auto")
+    assert r.bits == 192 and r.bits_choice == "given"
+    r = certify_coupled(P, "0.1", periods=3, precision="auto")  # the pilot's choice
+    assert r.bits_choice.startswith("automatic") and r.max_radius() <= 1e-30
+    with pytest.raises(ParameterError, match=r"^precision = 'mp:8' is not allowed: 'auto' or"):
+        certify_coupled(P, "0.1", periods=3, precision="mp:8")
 
 
 def test_cli_precision_flag_and_the_deprecated_bits_flag():

@@ -33,8 +33,9 @@ def register(sub) -> argparse.ArgumentParser:
         "--precision",
         default=None,
         metavar="P",
-        help="working precision of the balls: auto (chosen from --target and the measured radius "
-        "growth; the single oscillator's default) or mp:BITS (the pair's default mp:256)",
+        help="working precision of the balls: auto (chosen from --target and the radius growth "
+        "measured by a pilot run; the single oscillator's default, and the pair's with --target) "
+        "or mp:BITS (the pair's default mp:256)",
     )
     ce.add_argument(
         "--bits",
@@ -46,8 +47,8 @@ def register(sub) -> argparse.ArgumentParser:
         "--target",
         default=None,
         metavar="R",
-        help="radius wanted at every sample, the single oscillator's automatic bits "
-        "(default 1e-30; not with --precision mp:BITS / --bits, which fix the bits)",
+        help="radius wanted at every sample by the automatic bits (default 1e-30; with --k it "
+        "makes the pair's bits automatic; not with --precision mp:BITS / --bits, which fix them)",
     )
     ce.add_argument(
         "--max-bits",
@@ -142,17 +143,16 @@ def run(ns: argparse.Namespace) -> int:
         raise ParameterError("form", ns.form, "only with --k (the coupled pair)")
     progress = None if ns.json else True
     if ns.k is not None:
-        if ns.target is not None:
-            raise ParameterError(
-                "target", ns.target, "only for the single oscillator (the pair takes --precision)"
-            )
+        if ns.precision is None:  # the pair's default: mp:256, automatic with a --target
+            ns.precision = "mp:256" if ns.target is None else "auto"
         r = certify_coupled(
             params,
             ns.k,
             "first-order" if ns.form is None else ns.form,
             ns.periods,
             y0=ns.y0,
-            precision="mp:256" if ns.precision is None else ns.precision,
+            precision=ns.precision,
+            target_radius="1e-30" if ns.target is None else ns.target,
             max_bits=max_bits,
             progress=progress,
             max_time=max_time(ns),
@@ -162,7 +162,7 @@ def run(ns: argparse.Namespace) -> int:
         lines = [
             f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, "
             f"{len(r.master_impacts)} master and {len(r.slave_impacts)} slave impacts, at "
-            f"{r.bits} bits in {r.elapsed_s:.2f} s",
+            f"{r.bits} bits ({r.bits_choice}) in {r.elapsed_s:.2f} s",
             f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
             f"{r.growth_digits_per_period():.3f} decimal digits per period",
         ]

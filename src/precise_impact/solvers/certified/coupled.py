@@ -59,11 +59,14 @@ from precise_impact.solvers.certified.single import (
     ball_str,
     certified_bits,
     check_certifiable,
+    check_target,
+    choose_bits,
     describe,
     exact_value,
     growth_slope,
     log10_abs,
     max_radius_str,
+    missed_target,
     out_of_reach,
     point,
     run_balls,
@@ -158,6 +161,9 @@ class CertifiedCoupledTrajectory(ResultMixin):
         Wall time (diagnostic).
     method : str
         The enclosure, ``'lohner'`` or ``'interval'`` (:func:`certify_coupled`).
+    bits_choice : str
+        How :attr:`bits` was chosen: ``'given'``, or ``'automatic: ...'`` (the pilot's growth
+        and the projection), each retry at twice the bits appended with its reason.
 
     See Also
     --------
@@ -176,6 +182,7 @@ class CertifiedCoupledTrajectory(ResultMixin):
     slave_impacts: list
     elapsed_s: float
     method: str = "interval"
+    bits_choice: str = "given"
     claim: Digits | None = dataclasses.field(default=None, repr=False, compare=False)
 
     def claimed_digits(self) -> Digits:
@@ -295,7 +302,8 @@ class CertifiedCoupledTrajectory(ResultMixin):
         return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
     def to_dict(self) -> dict:
-        """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``method``,
+        """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``bits_choice``,
+        ``method``,
         ``samples`` (``{"period", "t", "x", "v", "y", "w", "x_rad", "v_rad", "y_rad", "w_rad"}``),
         ``master_impacts`` and ``slave_impacts`` (``{"t", "t_rad", "before", "after", "rad"}``),
         ``max_radius``, ``max_log10_radius`` (``None`` for exact points),
@@ -333,6 +341,7 @@ class CertifiedCoupledTrajectory(ResultMixin):
             "y0": None if self.y0 is None else [decimal_str(q) for q in self.y0],
             "periods": self.periods,
             "bits": self.bits,
+            "bits_choice": self.bits_choice,
             "method": self.method,
             "digits": self.claimed_digits().summary(),
             "samples": rows,
@@ -748,6 +757,7 @@ def certify_coupled(
     *,
     y0: Sequence[Any] | None = None,
     precision: str = "mp:256",
+    target_radius: Any = "1e-30",
     max_bits: int = 4096,
     progress: bool | None = None,
     max_time: Any = None,
@@ -775,9 +785,19 @@ def certify_coupled(
         The slave's start ``(position, velocity variable)`` in ``form``'s variables, exact,
         position ``< x_w``; ``None``: on the diagonal (the slave is the master, exactly).
     precision : str, default ``'mp:256'``
-        Working precision of the balls, ``'mp:BITS'`` (``64 <= BITS <= max_bits``).
+        Working precision of the balls, ``'mp:BITS'`` (``64 <= BITS <= max_bits``), or
+        ``'auto'``: chosen as :func:`~precise_impact.solvers.certified.single.certify` does
+        (:func:`~precise_impact.solvers.certified.single.choose_bits`): a pilot run of the pair
+        at 128 bits (doubled until it is proven) over a tenth of the run, 40 to 200 periods
+        (``'lohner'``; ``'interval'``: 40), measures the radius growth per period, and the bits
+        are set so that the last sample's radius is below ``target_radius`` with two decimal
+        digits to spare; a run that misses the target is retried at twice the bits.
+    target_radius : decimal, default ``'1e-30'``
+        The radius wanted at every sample when ``precision`` is ``'auto'``
+        (``1e-3000 <= target_radius <= 1e-3``).
     max_bits : int, default 4096
-        After a failed proof the bits are doubled up to this (``<= 16384``).
+        After a failed proof (or a missed target) the bits are doubled up to this
+        (``<= 16384``).
     progress : bool or None, default ``None``
         A progress line on stderr (``None``: only when stderr is a terminal).
     max_time : decimal or None, default ``None``
@@ -850,7 +870,8 @@ def certify_coupled(
         warn_renamed("bits=", "precision=", "certify_coupled")
         bits = check_count(bits, "bits", max_bits, minimum=MIN_BITS)
     else:
-        bits = certified_bits(precision, max_bits, allow_auto=False)
+        bits = certified_bits(precision, max_bits)
+    log_target = check_target(target_radius)
     y0q = check_y0(y0, params)
     check_certifiable(params)
     if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
@@ -875,41 +896,48 @@ def certify_coupled(
                 decimal_str(y0q[0]),
                 f"y0[0] < x_w = {decimal_str(params.x_w)} for the certified pair",
             )
+    coupled = y0q is not None
     enforce_max_time(
-        max_time, "certify", periods=periods, precision=f"mp:{bits}", coupled=y0q is not None
+        max_time, "certify", periods=periods, precision=f"mp:{bits or 128}", coupled=coupled
     )
     deadline = Deadline(None if max_time is None else parse_max_time(max_time), "certify")
+
+    def attempt(n: int, b: int, bar: Progress | None) -> CertifiedCoupledTrajectory:
+        t0 = time.perf_counter()
+        with working_bits(b):
+            if not coupled:  # the diagonal: the slave is the master, exactly (module docstring)
+                if method == "lohner":
+                    ss, imps = LohnerEngine(params, b).run(n, None, deadline)
+                else:
+                    ss, imps, _ = run_balls(params, n, b, deadline=deadline)
+                samples = [(j, t, x, v, x, v) for j, t, x, v in ss]
+                mimp = simp = list(imps)
+                if bar is not None:
+                    bar.update(n)
+            else:
+                samples, mimp, simp = _run(params, kq, form, y0q, n, b, bar, deadline, method)
+        return CertifiedCoupledTrajectory(
+            params, form, kq, y0q, n, b, samples, mimp, simp, time.perf_counter() - t0, method
+        )
+
+    choice = "given"
+    if bits is None:
+        bits, choice = choose_bits(
+            lambda n, b: attempt(n, b, None), periods, method, log_target, max_bits, target_radius
+        )
+        enforce_max_time(
+            max_time, "certify", periods=periods, precision=f"mp:{bits}", coupled=coupled
+        )
     bar = Progress(periods, "certified periods (pair)", enabled=progress)
     while True:
-        t0 = time.perf_counter()
         try:
-            with working_bits(bits):
-                if y0q is None:  # the diagonal: the slave is the master, exactly (module docstring)
-                    if method == "lohner":
-                        ss, imps = LohnerEngine(params, bits).run(periods, None, deadline)
-                    else:
-                        ss, imps, _ = run_balls(params, periods, bits, deadline=deadline)
-                    samples = [(n, t, x, v, x, v) for n, t, x, v in ss]
-                    mimp = simp = list(imps)
-                    bar.update(periods)
-                else:
-                    samples, mimp, simp = _run(
-                        params, kq, form, y0q, periods, bits, bar, deadline, method
-                    )
-            bar.close()
-            return CertifiedCoupledTrajectory(
-                params,
-                form,
-                kq,
-                y0q,
-                periods,
-                bits,
-                samples,
-                mimp,
-                simp,
-                time.perf_counter() - t0,
-                method,
-            )
+            res = attempt(periods, bits, bar)
+            missed = missed_target(choice, res.max_log10_radius(), log_target, bits, max_bits)
+            if not missed:
+                bar.close()
+                res.bits_choice = choice
+                return res
+            choice += missed
         except BudgetExceededError:
             bar.close()  # end a line redrawn in place before the one-line refusal
             raise
@@ -920,7 +948,8 @@ def certify_coupled(
             if refusal is not None:
                 bar.close()
                 raise CertificationError(refusal) from None
-            bits *= 2
+            choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
+        bits *= 2
 
 
 class CertifiedCoupledSolver:

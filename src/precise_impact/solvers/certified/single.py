@@ -12,6 +12,7 @@ import math
 import os
 import threading
 import time
+from collections.abc import Callable
 from fractions import Fraction
 from typing import Any
 
@@ -56,6 +57,9 @@ __all__ = [
     "describe",
     "check_certifiable",
     "out_of_reach",
+    "check_target",
+    "choose_bits",
+    "missed_target",
 ]
 
 #: Bounds of the working precision (bits).
@@ -788,6 +792,82 @@ def certified_bits(precision: Any, max_bits: int, allow_auto: bool = True) -> in
     raise ParameterError("precision", precision, allowed)
 
 
+def check_target(target_radius: Any) -> float:
+    """``log10`` of the radius wanted by the automatic bits (exact, so no underflow below
+    1e-308); refused naming ``target_radius`` outside ``1e-3000 .. 1e-3``."""
+    target = exact("target_radius", target_radius, 3000)
+    if not Fraction(1, 10**3000) <= target <= Fraction(1, 1000):
+        raise ParameterError(
+            "target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3"
+        )
+    return math.log10(target.numerator) - math.log10(target.denominator)
+
+
+def choose_bits(
+    pilot: Callable[[int, int], Any],
+    periods: int,
+    method: str,
+    log_target: float,
+    max_bits: int,
+    target_radius: Any,
+) -> tuple[int, str]:
+    """The automatic working bits of a certified run and how they were chosen.
+
+    ``pilot(n, bits)`` certifies the first ``n`` periods at ``bits`` and returns a result with
+    ``growth_digits_per_period()`` and ``log10_radii()`` (or raises
+    :class:`~precise_impact.errors.CertificationError`: retried at twice the bits, up to
+    ``max_bits``).  The pilot runs :data:`PILOT_PERIODS` periods (``'lohner'``: a tenth of the
+    run, 40 to 200) from 128 bits; the radius is projected as
+    ``10^(r_pilot + g (periods - n) - 0.30103 (bits - pilot_bits))`` with ``g`` the pilot's
+    growth, and the bits are set for ``10^log_target`` with two decimal digits to spare,
+    rounded up to a multiple of 64.  A projection above ``max_bits`` is refused naming
+    ``target_radius``.  Shared by :func:`certify` and
+    :func:`~precise_impact.solvers.certified.coupled.certify_coupled`."""
+    n_pilot = min(periods, PILOT_PERIODS[method])
+    if method == "lohner":  # a tenth of the run, at least 40 periods, at most 200
+        n_pilot = min(periods, max(40, periods // 10), PILOT_PERIODS[method])
+    pilot_bits, failed = 128, ""
+    while True:  # a pilot without a proof retries at twice the bits, as the run does
+        try:
+            res = pilot(n_pilot, pilot_bits)
+            break
+        except CertificationError as e:
+            if 2 * pilot_bits > max_bits:
+                raise CertificationError(
+                    f"{e} (the pilot of {n_pilot} periods, up to max_bits = {max_bits})"
+                ) from None
+            failed += f"no proof at {pilot_bits} bits ({e}); "
+            pilot_bits *= 2
+    g = max(res.growth_digits_per_period(), 0.0)
+    r_pilot = max(res.log10_radii()[-1], -300.0)
+    need = r_pilot + g * (periods - n_pilot) - log_target + 2  # two digits to spare
+    bits = int(64 * math.ceil(max(pilot_bits, pilot_bits + need / 0.30103) / 64))
+    choice = (
+        f"automatic: radius growth {g:.3f} digits/period "
+        f"(pilot of {n_pilot} periods at {pilot_bits} bits"
+        + (f"; {failed[:-2]}" if failed else "")
+        + f") -> {bits} bits for radius 1e{log_target:.0f} after {periods} periods"
+    )
+    if bits > max_bits:
+        raise ParameterError(
+            "target_radius",
+            str(target_radius),
+            f"a target reachable within max_bits = {max_bits} (needs ~{bits} bits)",
+        )
+    return bits, choice
+
+
+def missed_target(
+    choice: str, log10_radius: float, log_target: float, bits: int, max_bits: int
+) -> str:
+    """Why an automatic run is retried at twice the bits (its largest radius missed the
+    target and the doubled bits are allowed); ``''``: the run is kept (given bits, target met,
+    or no room to double)."""
+    if choice.startswith("given") or log10_radius <= log_target or 2 * bits > max_bits:
+        return ""
+    return f"; radius 1e{log10_radius:.1f} missed the target at {bits} bits, retried at {2 * bits}"
+
+
 def certify(
     params: Any = None,
     periods: int = 300,
@@ -901,53 +981,18 @@ def certify(
         bits = certified_bits(precision, max_bits)
     if method not in METHODS:
         raise ParameterError("method", str(method), "'lohner' or 'interval'")
-    target = exact("target_radius", target_radius, 3000)
-    if not Fraction(1, 10**3000) <= target <= Fraction(1, 1000):
-        raise ParameterError(
-            "target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3"
-        )
+    log_target = check_target(target_radius)
     check_certifiable(params)  # (x0 <= x_w holds for every Params)
     enforce_max_time(max_time, "certify", periods=periods, precision=f"mp:{bits or 128}")
     deadline = Deadline(None if max_time is None else parse_max_time(max_time), "certify")
     choice = "given"
-    log_target = math.log10(target.numerator) - math.log10(
-        target.denominator
-    )  # no underflow below 1e-308
     if bits is None:
-        n_pilot = min(periods, PILOT_PERIODS[method])
-        if method == "lohner":  # a tenth of the run, at least 40 periods, at most 200
-            n_pilot = min(periods, max(40, periods // 10), PILOT_PERIODS[method])
-        pilot_bits, failed = 128, ""
-        while True:  # a pilot without a proof retries at twice the bits, as the run does
-            try:
-                runs = _run(params, n_pilot, pilot_bits, None, deadline, method)
-                break
-            except CertificationError as e:
-                if 2 * pilot_bits > max_bits:
-                    raise CertificationError(
-                        f"{e} (the pilot of {n_pilot} periods, up to max_bits = {max_bits})"
-                    ) from None
-                failed += f"no proof at {pilot_bits} bits ({e}); "
-                pilot_bits *= 2
-        pilot = CertifiedTrajectory(params, n_pilot, pilot_bits, "pilot", *runs, 0.0, method)
-        g = max(pilot.growth_digits_per_period(), 0.0)
-        r_pilot = max(pilot.log10_radii()[-1], -300.0)
-        # radius ~ 10^(r_pilot + g (N - n_pilot) - 0.30103 (bits - pilot_bits)); two digits
-        # to spare
-        need = r_pilot + g * (periods - n_pilot) - log_target + 2
-        bits = int(64 * math.ceil(max(pilot_bits, pilot_bits + need / 0.30103) / 64))
-        choice = (
-            f"automatic: radius growth {g:.3f} digits/period "
-            f"(pilot of {n_pilot} periods at {pilot_bits} bits"
-            + (f"; {failed[:-2]}" if failed else "")
-            + f") -> {bits} bits for radius 1e{log_target:.0f} after {periods} periods"
-        )
-        if bits > max_bits:
-            raise ParameterError(
-                "target_radius",
-                str(target_radius),
-                f"a target reachable within max_bits = {max_bits} (needs ~{bits} bits)",
-            )
+
+        def pilot(n: int, b: int) -> CertifiedTrajectory:
+            runs = _run(params, n, b, None, deadline, method)
+            return CertifiedTrajectory(params, n, b, "pilot", *runs, 0.0, method)
+
+        bits, choice = choose_bits(pilot, periods, method, log_target, max_bits, target_radius)
         enforce_max_time(max_time, "certify", periods=periods, precision=f"mp:{bits}")
     bar = Progress(periods, "certified periods", enabled=progress)
     while True:
@@ -957,17 +1002,11 @@ def certify(
             res = CertifiedTrajectory(
                 params, periods, bits, choice, samples, impacts, time.perf_counter() - t0, method
             )
-            if (
-                choice.startswith("given")
-                or res.max_log10_radius() <= log_target
-                or 2 * bits > max_bits
-            ):
+            missed = missed_target(choice, res.max_log10_radius(), log_target, bits, max_bits)
+            if not missed:
                 bar.close()  # the run reported every period; show a throttled last one
                 return res
-            choice += (
-                f"; radius 1e{res.max_log10_radius():.1f} missed the target at {bits} bits, "
-                f"retried at {2 * bits}"
-            )
+            choice += missed
         except BudgetExceededError:
             bar.close()  # end a line redrawn in place before the one-line refusal
             raise
