@@ -38,7 +38,6 @@ from precise_impact.io.progress import Progress
 from precise_impact.solvers.certified.lohner import (
     LOW_BITS,
     LOW_STEPS,
-    LohnerEngine,
     _eye,
     _flint,
     _Prec,
@@ -69,11 +68,11 @@ from precise_impact.solvers.certified.single import (
     missed_target,
     out_of_reach,
     point,
-    run_balls,
     to_ball,
     upper,
     working_bits,
 )
+from precise_impact.solvers.certified.single import _run as run_single  # the diagonal
 
 __all__ = ["certify_coupled", "CertifiedCoupledTrajectory", "CertifiedCoupledSolver"]
 
@@ -904,17 +903,14 @@ def certify_coupled(
 
     def attempt(n: int, b: int, bar: Progress | None) -> CertifiedCoupledTrajectory:
         t0 = time.perf_counter()
-        with working_bits(b):
-            if not coupled:  # the diagonal: the slave is the master, exactly (module docstring)
-                if method == "lohner":
-                    ss, imps = LohnerEngine(params, b).run(n, None, deadline)
-                else:
-                    ss, imps, _ = run_balls(params, n, b, deadline=deadline)
-                samples = [(j, t, x, v, x, v) for j, t, x, v in ss]
-                mimp = simp = list(imps)
-                if bar is not None:
-                    bar.update(n)
-            else:
+        if not coupled:  # the diagonal: the slave is the master, exactly (module docstring)
+            ss, imps = run_single(params, n, b, None, deadline, method)
+            samples = [(j, t, x, v, x, v) for j, t, x, v in ss]
+            mimp = simp = list(imps)
+            if bar is not None:
+                bar.update(n)
+        else:
+            with working_bits(b):
                 samples, mimp, simp = _run(params, kq, form, y0q, n, b, bar, deadline, method)
         return CertifiedCoupledTrajectory(
             params, form, kq, y0q, n, b, samples, mimp, simp, time.perf_counter() - t0, method

@@ -777,13 +777,12 @@ def check_certifiable(params: Params) -> None:
 PILOT_PERIODS = {"interval": 40, "lohner": 200}
 
 
-def certified_bits(precision: Any, max_bits: int, allow_auto: bool = True) -> int | None:
+def certified_bits(precision: Any, max_bits: int) -> int | None:
     """The working bits a certified engine runs at: ``'mp:BITS'`` -> ``BITS``, ``'auto'`` ->
-    ``None`` (chosen by a pilot run); anything else is refused naming ``precision``."""
-    allowed = (
-        "'auto' or " if allow_auto else ""
-    ) + f"'mp:BITS' with {MIN_BITS} <= BITS <= {max_bits}"
-    if allow_auto and precision == "auto":
+    ``None`` (chosen by a pilot run, :func:`choose_bits`); anything else is refused naming
+    ``precision``."""
+    allowed = f"'auto' or 'mp:BITS' with {MIN_BITS} <= BITS <= {max_bits}"
+    if precision == "auto":
         return None
     if isinstance(precision, str) and precision.startswith("mp:"):
         b = precision[3:]
