@@ -72,8 +72,16 @@ def tangential():
 def test_continuation_through_a_tangential_impact(tangential):
     res = tangential
     graze = [b for b in res.bifurcations if b.type == "grazing"]
-    assert graze and graze[0].test == 0.0  # located exactly by the tangency condition v^- = 0
-    assert all(math.isnan(c) for m in graze[0].multipliers for c in m)  # undefined there
+    # located by the tangency condition v^- = 0 to rounding: the regula falsi stops at an
+    # arclength bracket of 4 eps (1 + |y|), where v^- is 64 eps at most (measured: exactly 0
+    # on the landed main, -1.07e-14 = 48 eps once the start's transient ran on the local
+    # clock); exactly there the multipliers are undefined (NaN), beside it the larger one is
+    # huge (it grows without bound towards the tangency, ~1 / v^-)
+    assert graze and abs(graze[0].test) <= 64 * 2.0**-52
+    mus = [
+        abs(complex(*m)) if not any(map(math.isnan, m)) else math.nan for m in graze[0].multipliers
+    ]
+    assert all(math.isnan(m) for m in mus) or max(mus) > 1e8, mus
     json.dumps(res.to_dict(), allow_nan=False)  # strict JSON: null for the undefined values
     assert res.start > res.stop and min(res.branches[0].values) == pytest.approx(0.95)
 
@@ -94,7 +102,8 @@ def test_virtual_orbits_are_counted_apart(tangential, capsys):
         f"{n['stable']} stable, {n['unstable']} unstable, {n['virtual']} virtual"
         in out.splitlines()[1]
     )
-    assert "undefined (a tangential impact" in out
+    # the tangential point: multipliers undefined (exactly on it) or its detail (beside it)
+    assert "undefined (a tangential impact" in out or "the impact becomes tangential" in out
 
 
 # ---- item 5: the transient in chunks, with a budget ----------------------------------------

@@ -32,11 +32,12 @@ def test_period_3_found_and_chaos_never_periodic(strobes, noise):
 
 def test_a_relative_tolerance_wide_enough_for_the_noise_fakes_a_period(strobes):
     # what the chi-square test replaces: every point within 6 sigma sqrt 2 of its p-th
-    # predecessor (scaled by 1 + |x| + |v|) calls the chaos at 0.712 'period 1' at 10 % noise
+    # predecessor (scaled by 1 + |x| + |v|) calls the chaos at 0.712 periodic at 10 % noise
+    # ('period 1' or 'period 3' depending on the chaotic record: any period is a fake one)
     x, v = strobes["0.712"]
     rng = np.random.default_rng(5)
     xn, vn = x + 0.1 * rng.normal(size=len(x)), v + 0.1 * rng.normal(size=len(v))
-    assert detect_period(xn, vn, max_period=16, rtol=6 * 2**0.5 * 0.1) == 1
+    assert detect_period(xn, vn, max_period=16, rtol=6 * 2**0.5 * 0.1) > 0
     assert detect_period_noisy(xn, vn, 0.1, 0.1, max_period=16) == 0
 
 

@@ -309,7 +309,7 @@ def _fast_point(params: Params, periods: int, transient: int) -> tuple:
     from precise_impact.solvers.fast.single import STATUS_OK
 
     pars, starts = kernel_inputs(params, 1)
-    st, l1, l2, imps, bsums, _, xt, _ = lle_batch_serial(
+    st, l1, l2, imps, bsums, _, xt, *_ = lle_batch_serial(
         pars, starts, periods, transient, min(10, periods), 10**7, periods
     )
     why = bounce_refusal(pars[0], starts[0], st[0], l1[0], l2[0], periods + transient, 10**7)

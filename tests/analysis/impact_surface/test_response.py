@@ -258,13 +258,13 @@ def test_cli_json_and_bad_input(tmp_path, capsys):
 
 def test_elastic_undamped_orbits_impacting_at_the_section_phase():
     # zeta = 0, R = 1: the impact phase is 0 or pi, on the section t0 = 0 itself, where Newton
-    # started on the wall in a tangential contact (IntegrationError); the section is moved by a
-    # quarter period and the curve is two lines, one elliptic (neutral) and one unstable
+    # started on the wall in a tangential contact (IntegrationError, before the compiled engine
+    # decided such contacts in double-double: then the section was moved by a quarter period);
+    # the curve is two lines, one elliptic (neutral) and one unstable, on either section
     p = pi.Params.make(zeta="0", a="1", R="1", eta="2.8", x_w="-1", x0="-2")
     rc = response_curve(p, 1, "x_w", "-2", "0.5", at="-1", max_points=200)
     c = rc.counts()
     assert c["elliptic"] > 10 and c["unstable"] > 10 and c["stable"] == 0
-    assert rc.params.t0 != 0
     assert {"grazing", "period-doubling"} <= {b.type for b in rc.bifurcations}
 
 

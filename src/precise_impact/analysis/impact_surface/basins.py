@@ -22,7 +22,9 @@ the existing machinery:
   (:func:`~precise_impact.solvers.fast.lle.lle_batch`) positive by more than three standard
   errors of its batch means;
 * *unresolved*: no period and no positive LLE (quasi-periodic, or a long transient), or a
-  grazing contact the float64 engine does not decide.
+  contact within double-double's rounding of the wall, which the compiled engine does not decide
+  (near-tangential contacts float64 cannot decide are refined in double-double,
+  :mod:`precise_impact.solvers.fast.dd`).
 
 Boundaries: after the map, every point with a 4-neighbour of another label (or unresolved) is
 run again with ``refine_factor`` times the transient and relabelled (the boundary points sit
@@ -102,6 +104,9 @@ SECONDS_PER_PERIOD = 1e-6
 #: (Newton leaves them at rounding level, ~1e-14; distinct orbits are far apart).
 SAME_ORBIT = 1e-7
 
+#: No log of refined flights (the compiled strobe's ``rlog`` with no room: counted only).
+_NO_LOG = np.empty((0, 4))
+
 
 # ------------------------------------------------------------------ one point
 def _floats(params: Params) -> tuple[float, float, float, float, float]:
@@ -117,7 +122,9 @@ def _strobe(pars, t, x, v, n, max_impacts):
     while True:
         it, iv = np.empty(cap), np.empty(cap)
         xs, vs, ts = np.empty(n + 1), np.empty(n + 1), np.empty(n + 1)
-        st, ni, k = strobe(eta, zeta, a, xw, R, t, x, v, n, 1, max_impacts, it, iv, xs, vs, ts)
+        st, ni, k, _ = strobe(
+            eta, zeta, a, xw, R, t, x, v, n, 1, max_impacts, it, iv, xs, vs, ts, _NO_LOG
+        )
         if ni <= cap:
             return int(st), int(ni), int(k), it[:ni], iv[:ni], xs[: k + 1], vs[: k + 1], ts[: k + 1]
         cap = 2 * ni

@@ -133,7 +133,7 @@ def fast_spectrum(
         if not params.zeta < 1 or (params.zeta == 0 and params.eta == 1):
             raise Unresolved("fast", "zeta >= 1")
         start = time.perf_counter()
-        status, log1, log2, imps, fine, fine_imps, xt, vt = lle_batch(
+        status, log1, log2, *_ = out = lle_batch(
             pars,
             starts,
             per,
@@ -158,7 +158,7 @@ def fast_spectrum(
             transient,
             attractors,
             elapsed,
-            (status, log1, log2, imps, fine, fine_imps, xt, vt),
+            out,
         )
 
     def variational() -> LyapunovResult:
@@ -214,7 +214,7 @@ def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out)
     """The :class:`LyapunovResult` of a resolved compiled run (``out``: ``lle_batch``'s arrays)."""
     from precise_impact.solvers.fast.single import STATUS_TEXT
 
-    status, log1, log2, imps, fine, fine_imps, xt, vt = out
+    status, log1, log2, imps, fine, fine_imps, xt, vt, refined = out
     bsums = fine.reshape(n, blocks, m).sum(axis=2)
     T = 2 * math.pi / float(params.eta)
     time_total = per * T * n
@@ -247,7 +247,7 @@ def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out)
         initial_conditions=n,
         strobe_x=xt[0],
         strobe_v=vt[0],
-        stats={"engine": "fast", "per_start": per_start},
+        stats={"engine": "fast", "per_start": per_start, "refined_flights": int(refined.sum())},
     )
     if attractors:
         bm = fine / ((per // (blocks * m)) * T)  # batch means per start, the finer blocks
@@ -380,7 +380,7 @@ def fast_batch_rows(
     run = lle_batch if parallel else lle_batch_serial
 
     def compiled() -> list:
-        status, log1, log2, imps, bsums, _, xt, vt = run(
+        status, log1, log2, imps, bsums, _, xt, vt, refined = run(
             rows[ok_pts, :5], rows[ok_pts, 5:], periods, transient, blocks, max_impacts, keep
         )
         results: list = [None] * len(rows)
@@ -414,6 +414,7 @@ def fast_batch_rows(
                 "x_last": float(xt[j][-1]),
                 "v_last": float(vt[j][-1]),
                 "grazing": 0,
+                "refined_flights": int(refined[j]),
                 "engine": "fast",
                 "status": "ok",
             }

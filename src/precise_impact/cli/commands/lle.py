@@ -104,8 +104,10 @@ def run(ns: argparse.Namespace) -> int:
                 + (f"{rate:.4f} impacts/period, " if rate is not None and rate == rate else "")
                 + f"attractor #{s.get('attractor')}"
             )
+    refined = r.stats.get("refined_flights")
     print(
         f"{r.periods} periods after {r.transient} transient, {r.n_impacts} impacts, "
-        f"{r.elapsed_s:.3f} s"
+        + ("" if refined is None else f"{refined} flights refined in double-double, ")
+        + f"{r.elapsed_s:.3f} s"
     )
     return 0

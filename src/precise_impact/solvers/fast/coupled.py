@@ -28,6 +28,7 @@ from precise_impact.solvers.fast.crossing import (
     phi_damped,
     refine_crossing,
 )
+from precise_impact.solvers.fast.dd import dd_period
 from precise_impact.solvers.fast.single import (
     STATUS_BUDGET,
     STATUS_CONTACT,
@@ -238,14 +239,14 @@ def coupled_strobe(
     h_max = 0.25 * min(2.0 * math.pi / eta, 2.0 * math.pi / max(1.0, math.sqrt(c0)))
     v_floor = 1e-9 * max(1.0, abs(a), abs(xw))
     touch = 64.0 * 2.220446049250313e-16 * (1.0 + abs(xw))
-    T = 2.0 * math.pi / eta
+    T, T_lo = dd_period(eta)
     t, x, v = t0, x0, v0
     e, ep = y0 - x0, compiled_slave_derivative(form, k, y0 - x0, w0) - v0
     xs[0], vs[0], ys[0], ws[0], ts[0] = x0, v0, y0, w0, t0
     nm = ns = nb = 0
     cap_m, cap_s = m_imp.shape[0], s_imp.shape[0]
     for kk in range(1, n + 1):
-        t1 = sample_time(t0, T, step, kk)
+        t1 = sample_time(t0, T, T_lo, step, kk)
         while True:
             st, hit, tc, xc, vc, ec, epc = _cflight(
                 t,

@@ -39,6 +39,7 @@ from precise_impact.solvers.fast.control import (
     store_count,
 )
 from precise_impact.solvers.fast.crossing import JIT, mul2
+from precise_impact.solvers.fast.dd import dd_period
 from precise_impact.solvers.fast.single import (
     FLIGHT_SAMPLES,
     STATUS_BUDGET,
@@ -50,7 +51,9 @@ from precise_impact.solvers.fast.single import (
     _flight,
     _setup,
     compiled_saltation,
+    rebase,
     sample_time,
+    slow_impact,
 )
 
 EPS = 2.220446049250313e-16  # float64's machine epsilon (the bounce prediction's floor)
@@ -94,8 +97,9 @@ def lle_orbit(
     at the identity at ``t0`` and is never restarted (the transient's logs are discarded,
     not its basis).
 
-    Returns ``(status, log1, log2, impacts, x, v)`` summed over the ``periods`` measured
-    periods (``impacts``: those in the measured periods); ``block_sums[j]`` gets the
+    Returns ``(status, log1, log2, impacts, x, v, refined)`` summed over the ``periods``
+    measured periods (``impacts``: those in the measured periods; ``refined``: the flights
+    refined in double-double, the whole run); ``block_sums[j]`` gets the
     first-exponent logs of block ``j`` (``blocks`` equal blocks, for batch means),
     ``block_impacts[j]`` the impacts in block ``j``, and ``xs_tail, vs_tail`` the
     stroboscopic samples of the last ``len(xs_tail)`` periods.  Every
@@ -105,19 +109,21 @@ def lle_orbit(
 
     Notes
     -----
-    The tangent basis is kept at the flight's anchor, ``W``: at a sample the basis is
-    ``w = Phi W``.  A QR ``w = q r`` there replaces ``W`` by ``W r^-1`` (so that
+    The clock is local (:func:`~precise_impact.solvers.fast.single.rebase`: absolute time
+    ``t + base T``).  The tangent basis is kept at the flight's anchor, ``W``: at a sample the
+    basis is ``w = Phi W``.  A QR ``w = q r`` there replaces ``W`` by ``W r^-1`` (so that
     ``Phi W = q``); at an impact the basis becomes ``S Phi W`` and the new anchor's ``W``.
     """
     P, Q, w, S, err_scale, h_max, v_floor, steps = _setup(eta, zeta, a, xw)
-    T = 2.0 * math.pi / eta
+    T, T_lo = dd_period(eta)
     # samples per flight from one anchor: Phi(k T) ~ exp(-zeta k T) must not underflow
     # (measured at eta = 0.005: 16 samples of exp(-62.8) each, status non-finite)
     n_buf = FLIGHT_SAMPLES
     if zeta * T * FLIGHT_SAMPLES > 600.0:
         n_buf = max(1, int(600.0 / (zeta * T)))
     buf = np.empty((n_buf, 6))
-    t, x, v = t0, x0, v0
+    t, x, v, base = t0, x0, v0, 0
+    n_ref = 0
     W00, W01, W10, W11 = (
         1.0,
         0.0,
@@ -135,7 +141,6 @@ def lle_orbit(
     D = 0.0
     lnR2 = 2.0 * math.log(R) if R > 0.0 else -math.inf
     predicted = False  # the current R = 1 bounce sequence has been predicted
-    t_end = t0 + (transient + periods) * T
     n_imp = 0
     n_meas = 0
     total = transient + periods
@@ -150,11 +155,13 @@ def lle_orbit(
         if k >= next_poll:  # publish the progress, look at the stop flag (both atomic)
             store_count(counts, slot, k - 1)
             if load_flag(stop, 0) != STOP_NONE:
-                return STATUS_INTERRUPTED, log1, log2, n_meas, x, v
+                return STATUS_INTERRUPTED, log1, log2, n_meas, x, v, n_ref
             next_poll = k + POLL_PERIODS
-        st, ns, hit, tc, vc, F00, F01, F10, F11 = _flight(
-            t, x, v, t0, T, 1, k, total, eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf
-        )
+        st, ns, hit, tc, vc, F00, F01, F10, F11, ref = _flight(
+            t, x, v, t0, T, T_lo, 1, k - base, total - base,
+            eta, zeta, a, xw, P, Q, w, S, err_scale, h_max, steps, buf,
+        )  # fmt: skip
+        n_ref += ref
         for i in range(ns):
             xk, vk = buf[i, 0], buf[i, 1]
             p00, p01, p10, p11 = buf[i, 2], buf[i, 3], buf[i, 4], buf[i, 5]
@@ -163,7 +170,7 @@ def lle_orbit(
             if jt >= 0:
                 xs_tail[jt], vs_tail[jt] = xk, vk
             if not (math.isfinite(xk) and math.isfinite(vk)):
-                return STATUS_NONFINITE, log1, log2, n_meas, xk, vk
+                return STATUS_NONFINITE, log1, log2, n_meas, xk, vk, n_ref
             # Gram-Schmidt QR of the basis (core.linalg.gram_schmidt2) every QR_EVERY samples,
             # at the end of the transient and of every block, and whenever the basis has
             # grown large (saltations at slow impacts): the logs of a product of
@@ -185,7 +192,7 @@ def lle_orbit(
                 d0, d1 = c01 - proj * q0, c11 - proj * q1
                 r22 = math.sqrt(d0 * d0 + d1 * d1)
                 if not 1e-150 < r11 < math.inf:  # under- or overflowed: not resolved here
-                    return STATUS_NONFINITE, log1, log2, n_meas, xk, vk
+                    return STATUS_NONFINITE, log1, log2, n_meas, xk, vk, n_ref
                 # W <- W r^-1: first column / r11, second (column - proj * new first) / r22
                 W00, W10 = W00 / r11, W10 / r11
                 if r22 > 0.0:
@@ -196,7 +203,7 @@ def lle_orbit(
                     det = p00 * p11 - p01 * p10
                     W01, W11 = (p11 * u0 - p01 * u1) / det, (p00 * u1 - p10 * u0) / det
                 c00, c10, c01, c11 = q0, q1, u0, u1
-                ts = sample_time(t0, T, 1, k)
+                ts = sample_time(t0, T, T_lo, 1, k - base)
                 if k > transient:
                     l1 = math.log(r11)
                     log1 += l1
@@ -207,11 +214,12 @@ def lle_orbit(
                 D = 2.0 * zeta * (ts - t)  # det(Phi W) = det(q u) = 1 after the QR
             k += 1
         if st != STATUS_OK:
-            return st, log1, log2, n_meas, x, v
-        if not hit:  # re-anchor at the last sample
-            ts = sample_time(t0, T, 1, k - 1)
+            return st, log1, log2, n_meas, x, v, n_ref
+        if not hit:  # re-anchor at the last sample, its whole periods moved into base
+            ts = sample_time(t0, T, T_lo, 1, k - 1 - base)
             D -= 2.0 * zeta * (ts - t)
-            t, x, v = ts, buf[ns - 1, 0], buf[ns - 1, 1]
+            t, base = rebase(ts, t0, T, T_lo, base)
+            x, v = buf[ns - 1, 0], buf[ns - 1, 1]
             W00, W01, W10, W11 = c00, c01, c10, c11
             continue
         if R >= 1.0:
@@ -223,14 +231,15 @@ def lle_orbit(
             if _short_flight(vc, gc, eta):
                 if not predicted:
                     predicted = True
+                    t_end = t0 + (total - base) * T  # local, as tc
                     nb, end, _ = _bounce_count(tc, vc, t_end, eta, zeta, a, xw, EPS)
                     rest = end == BOUNCES_REST or end == BOUNCES_ENDLESS
                     if rest or nb > max_impacts - n_imp:
-                        return STATUS_ENDLESS_BOUNCES, tc, vc, n_meas, x, v
+                        return STATUS_ENDLESS_BOUNCES, tc + base * T, vc, n_meas, x, v, n_ref
             else:
                 predicted = False
-        if vc < v_floor:
-            return STATUS_SLOW_IMPACT, log1, log2, n_meas, x, v
+        if slow_impact(tc, vc, v_floor, eta, zeta, a, xw, R):
+            return STATUS_SLOW_IMPACT, log1, log2, n_meas, x, v, n_ref
         # the basis just before the impact, then through the saltation matrix
         s00, s01, s10, s11 = compiled_saltation(tc, vc, eta, zeta, a, xw, R)
         W00, W01, W10, W11 = mul2(s00, s01, s10, s11, *mul2(F00, F01, F10, F11, W00, W01, W10, W11))
@@ -242,10 +251,11 @@ def lle_orbit(
             if j < blocks:
                 block_impacts[j] += 1
         if n_imp >= max_impacts:
-            return STATUS_BUDGET, log1, log2, n_meas, x, v
-        t, x, v = tc, xw, -R * vc
+            return STATUS_BUDGET, log1, log2, n_meas, x, v, n_ref
+        t, base = rebase(tc, t0, T, T_lo, base)
+        x, v = xw, -R * vc
     store_count(counts, slot, total)
-    return STATUS_OK, log1, log2, n_meas, x, v
+    return STATUS_OK, log1, log2, n_meas, x, v, n_ref
 
 
 def _batch(
@@ -264,11 +274,12 @@ def _batch(
     bimps,
     xt,
     vt,
+    refined,
     stop,
     counts,
     i,
 ):
-    st, l1, l2, ni, _, _ = lle_orbit(
+    st, l1, l2, ni, _, _, nr = lle_orbit(
         pars[i, 0],
         pars[i, 1],
         pars[i, 2],
@@ -289,7 +300,7 @@ def _batch(
         counts,
         i,
     )
-    status[i], log1[i], log2[i], imps[i] = st, l1, l2, ni
+    status[i], log1[i], log2[i], imps[i], refined[i] = st, l1, l2, ni, nr
     if abort and st != STATUS_OK and st != STATUS_INTERRUPTED and load_flag(stop, 0) == STOP_NONE:
         store_count(stop, 0, STOP_ABORT)  # the batch goes to the fallback: stop the others
 
@@ -318,6 +329,7 @@ def _make_batch(parallel: bool):
         bimps,
         xt,
         vt,
+        refined,
         stop,
         counts,
     ):
@@ -338,6 +350,7 @@ def _make_batch(parallel: bool):
                 bimps,
                 xt,
                 vt,
+                refined,
                 stop,
                 counts,
                 i,
@@ -348,7 +361,7 @@ def _make_batch(parallel: bool):
 
 #: The compiled batch kernels, by ``parallel``: ``kernel(pars, starts, periods, transient,
 #: blocks, max_impacts, abort_on_failure, status, log1, log2, impacts, block_sums,
-#: block_impacts, xs_tail, vs_tail, stop, counts)`` fills the caller's arrays and returns
+#: block_impacts, xs_tail, vs_tail, refined, stop, counts)`` fills the caller's arrays and returns
 #: nothing; :func:`lle_batch` is the way to call them (signals, progress).
 LLE_KERNELS = {True: _make_batch(True), False: _make_batch(False)}
 
@@ -356,7 +369,8 @@ LLE_KERNELS = {True: _make_batch(True), False: _make_batch(False)}
 def batch_outputs(n: int, blocks: int, keep: int) -> tuple[np.ndarray, ...]:
     """The batch kernels' output arrays for ``n`` orbits, zeroed: ``status, log1, log2,
     impacts`` (per orbit), ``block sums, block impacts`` (``n x blocks``) and the last ``keep``
-    stroboscopic ``x, v`` (``n x keep``); the kernels write into them (nothing is returned)."""
+    stroboscopic ``x, v`` (``n x keep``) and the flights refined in double-double (per orbit);
+    the kernels write into them (nothing is returned)."""
     return (
         np.zeros(n, np.int64),
         np.zeros(n),
@@ -366,6 +380,7 @@ def batch_outputs(n: int, blocks: int, keep: int) -> tuple[np.ndarray, ...]:
         np.zeros((n, blocks), np.int64),
         np.zeros((n, keep)),
         np.zeros((n, keep)),
+        np.zeros(n, np.int64),
     )
 
 
@@ -405,8 +420,8 @@ def lle_batch(
     Returns
     -------
     tuple
-        ``(status, log1, log2, impacts, block_sums, block_impacts, xs_tail, vs_tail)``, one
-        row per orbit.
+        ``(status, log1, log2, impacts, block_sums, block_impacts, xs_tail, vs_tail, refined)``,
+        one row per orbit.
 
     Raises
     ------
@@ -511,7 +526,7 @@ def fast_lle(
         blocks = periods
     max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
     pars, starts = kernel_inputs(params, n)
-    status, log1, log2, imps, bsums, _, _, _ = lle_batch(
+    status, log1, log2, imps, bsums, _, _, _, refined = lle_batch(
         pars, starts, periods, transient, blocks, max_impacts, 1
     )
     T = 2 * math.pi / float(params.eta)
@@ -534,5 +549,6 @@ def fast_lle(
         "stderr": float(np.std(bm, ddof=1) / math.sqrt(len(bm))) if len(bm) > 1 else math.nan,
         "per_start": per,
         "impacts": int(imps.sum()),
+        "refined_flights": int(refined.sum()),
         "status": [p["status"] for p in per],
     }
