@@ -91,3 +91,41 @@ def test_ball_duals_enclose_the_float_duals_and_a_50_digit_derivative():
     assert abs(float(fb.g[0].mid()) - fd.g[0]) < 64 * 2**-53 * 4
     assert abs(float(fb.v.mid()) - fd.v) < 64 * 2**-53 * 8
     assert math.isfinite(fd.g[0])
+
+
+@pytest.mark.parametrize(
+    ("bits", "r"),
+    [
+        (2200, Fraction(1, 2**1100)),  # prove_orbit's default box at 2200 bits: 7e-332
+        (4096, Fraction(1, 2**2048)),  # and at 4096: 3e-617
+        (2200, Fraction(1, 10**400)),
+        (4096, Fraction(1, 10**400)),
+    ],
+)
+def test_boxes_below_the_float_range_are_proven_exactly(bits, r):
+    """Issue 35 item 2: the contraction was ``float(...) / float(r)``, a ZeroDivisionError once
+    ``r < 1e-308`` (prove_orbit at 2200 bits).  Now an exact rational, checked here against
+    the bound of the quadratic contraction, and K against sqrt 2 from mpmath at 1500 digits."""
+    from precise_impact.core.precision import log10_fraction
+    from precise_impact.solvers.certified.single import exact_value
+
+    with working_bits(bits):
+        c = newton_points(_cubic, (1.4, 2.8), bits, "cubic")
+        K, _, contraction, inside = krawczyk(_cubic, c, r, "cubic")
+        assert all(inside) and isinstance(contraction, Fraction)
+        # max |K - c| / r <= (|C F(c)| + rad K) / r: rad K <= 13 r^2 (first test) and the
+        # Newton point's residual ~2^-bits, so <= 14 r + 2^(8 - bits) / r, far below 1
+        assert 0 < contraction <= 14 * r + Fraction(2**8, 2**bits) / r
+        assert log10_fraction(contraction) < -250
+        rb = flint.arb(flint.fmpq(r.numerator, r.denominator))
+        for k, scale in ((0, 1), (1, 13)):  # rad K as bounded above, in arb, not in floats
+            bound = scale * rb * rb + flint.arb(2) ** (8 - bits)
+            assert K[k].rad() < bound.lower() and K[k].rad() < flint.arb(10) ** -600
+        lo = [exact_value(b.lower()) for b in K]
+        hi = [exact_value(b.upper()) for b in K]
+    with mpmath.workdps(1500):
+        s2 = mpmath.sqrt(2)
+        refs = [Fraction(mpmath.nstr(s2, 1500)), Fraction(mpmath.nstr(2 * s2, 1500))]
+    err = Fraction(1, 10**1495)  # the 1500 printed digits' rounding
+    for q, a, b in zip(refs, lo, hi, strict=True):
+        assert a - err <= q <= b + err

@@ -183,3 +183,61 @@ def test_prove_orbit_refuses_a_box_below_the_working_precision():
     with pytest.raises(ParameterError) as e:
         prove_orbit(eta="0.74", radius="1e-400", bits=128)
     assert e.value.name == "radius" and "2^-96" in str(e.value)
+
+
+# ---- issue 35 item 2: proofs at high precision (radii below the float range) -----------------
+def _q(m) -> Fraction:
+    """An mpmath number as the exact rational it is (from ``_mpf_``: mpmath 1.4's ``man_exp``
+    drops the sign)."""
+    sign, man, exp, _ = m._mpf_
+    return (-1) ** sign * Fraction(int(man)) * Fraction(2) ** int(exp)
+
+
+def _in_box(ball: tuple, q: Fraction) -> bool:
+    """``q`` in the decimal box ``(mid, rad)``, decided exactly."""
+    return abs(Fraction(ball[0]) - q) <= Fraction(ball[1])
+
+
+@pytest.fixture(scope="module")
+def unstable_1_1():
+    """The unstable 1:1 orbit of eta = 0.712 in closed form at 1500 digits (~5000 bits: its
+    error 1e-1500 is far below the 4096-bit box, 3e-617)."""
+    p = Params.make(eta="0.712")
+    (u,) = [o for o in one_impact_orbits(p, dps=1500, grid=200) if not o.stable]
+    return p, u
+
+
+@pytest.mark.parametrize("bits", [2200, 4096])
+def test_prove_orbit_below_the_float_range_holds_the_closed_form(unstable_1_1, bits):
+    """``prove_orbit(..., bits=2200)`` raised ZeroDivisionError (the Krawczyk contraction
+    divided by ``float(r)``, 0.0 below 1e-308).  The default box ``2^(-bits/2)`` (7e-332,
+    3e-617) is proven, its stated radius is below 1e-300 and holds the closed form; the
+    multipliers' enclosures hold the closed-form ones."""
+    p, u = unstable_1_1
+    o = pi.prove_orbit(p, 1, guess=(float(u.x), float(u.v)), impacts=1, bits=bits)
+    assert o.proven and o.stable is False and o.impacts == 1
+    r = Fraction(1, 2 ** (bits // 2))
+    for ball, ref in ((o.x, u.x), (o.v, u.v)):
+        # the stated radius: the box's r, plus the decimal rounding of the midpoint (3 digits)
+        assert r <= Fraction(ball[1]) <= r * (1 + Fraction(1, 100))
+        assert Fraction(ball[1]) < Fraction(1, 10**300) and _in_box(ball, _q(ref))
+    assert all(Fraction(enc["rad"]) < Fraction(1, 10**300) for enc in o.multipliers)
+    for mu in u.multipliers:  # real here (-29.4, -0.014); each in one enclosure
+        assert any(_in_box((enc["re"], enc["rad"]), _q(mpmath.re(mu))) for enc in o.multipliers)
+    # the contraction ~ r: its float view a bound (the smallest subnormal), its log10 exact
+    assert o.contraction == math.ulp(0.0) and o.log10_contraction < -300
+    json.loads(json.dumps(o.to_dict(), allow_nan=False))
+
+
+def test_the_issue_35_orbit_at_2200_bits_and_a_box_of_1e_400():
+    """The case of the issue, eta = 0.74, p = 3 at 2200 bits, with the default box (7e-332)
+    and one of 1e-400; the reference: mpmath's Newton at 2048 bits (616 digits, another
+    arithmetic and another zero finder), inside both boxes."""
+    p = Params.make(eta="0.74")
+    ref = find_orbit(p, 3, precision="mp:2048")
+    for radius, r in ((None, Fraction(1, 2**1100)), ("1e-400", Fraction(1, 10**400))):
+        o = pi.prove_orbit(p, 3, bits=2200, radius=radius)
+        assert o.proven and o.impacts == 2 and o.stable is True
+        for ball, q in ((o.x, ref.x), (o.v, ref.v)):
+            assert r <= Fraction(ball[1]) <= r * (1 + Fraction(1, 100)) and _in_box(ball, _q(q))
+        assert 0 < o.contraction < 1 and o.log10_contraction < -250

@@ -46,7 +46,7 @@ def _check_crossing(pl):
     signs = [s["sign"] for s in pl.sides]
     assert sorted(signs) == [-1, 1]
     for s in pl.sides:  # each enclosure of g excludes 0 (its radius below its magnitude)
-        assert float(s["g"][1]) < abs(float(s["g"][0]))
+        assert Fraction(s["g"][1]) < abs(Fraction(s["g"][0]))  # exactly: g ~ 1e-400 below
 
 
 def test_free_grazing_contains_the_closed_form_to_1e_40():
@@ -178,3 +178,60 @@ def test_cli_certify_point(capsys):
     assert main(["certify", "--width", "1e-30"]) == 2  # only with --point
     assert main(["certify", "--orbit-period", "3"]) == 2
     assert main(["certify", "--point", "grazing", "--k", "0.1"]) == 2  # a trajectory's flag
+
+
+# ---- issue 35 item 2: widths below the float range --------------------------------------------
+@pytest.mark.parametrize(
+    ("width", "bits"), [("1e-300", 2200), ("1e-400", None), ("1e-600", 2200), ("1e-1000", 4096)]
+)
+def test_free_grazing_proven_below_the_float_range(width, bits):
+    """A width of 1e-300 at 2200 bits ended in OverflowError (``float(scale / width)`` past
+    1e308) and widths below 1e-300 were refused; now 1e-1000 <= width.  The interval holds
+    the closed form at 1500 digits, its width (exact, from the decimals) is below the request,
+    the float view is a bound (the smallest subnormal, never 0.0), log10_width its size."""
+    w = Fraction(width)
+    pl = prove_landmark(seed_landmark("graze_free", PAPER, 0.7106), width, bits=bits)
+    assert pl.bits == (bits or 1329 + 96)  # log2(1e400) = 1328.8, rounded up, + 96
+    exact_width = Fraction(pl.eta_upper) - Fraction(pl.eta_lower)
+    assert 0 < exact_width <= w and exact_width < Fraction(1, 10**300)
+    with mpmath.workdps(30):
+        lg = mpmath.log10(mpmath.mpf(exact_width.numerator) / exact_width.denominator)
+    assert pl.width == math.ulp(0.0) and abs(pl.log10_width - float(lg)) < 1e-12
+    assert pl.log10_contraction < 0 and 0 < pl.contraction < 1
+    closed = pi.grazing_frequencies(pi.Params.make(), dps=1500)[0]
+    assert pl.contains(Fraction(mpmath.nstr(closed, 1500)))  # 1e-1500 far below the width
+    # and not its neighbour a width away
+    assert not pl.contains(Fraction(mpmath.nstr(closed, 1500)) + 2 * exact_width)
+    _check_crossing(pl)
+    json.loads(json.dumps(pl.to_dict(), allow_nan=False))
+
+
+def test_cli_certify_point_width_1e_400(capsys):
+    """``certify --point grazing --width 1e-400``: refused before (1e-300 <= width); the
+    printed width and contraction from the exact decimals and the log10 (a float print was
+    '5e-324' or '0'), --json strict; 0, negative and non-finite widths exit 2."""
+    assert main(["certify", "--point", "grazing", "--width", "1e-400"]) == 0
+    out = capsys.readouterr().out
+    printed = out.split("(width ")[1].split(";")[0]
+    assert printed.endswith(("e-428", "e-427")) and Fraction(printed) <= Fraction(1, 10**400)
+    assert main(["certify", "--point", "grazing", "--width", "1e-400", "--json"]) == 0
+
+    def strict(token):
+        raise ValueError(f"non-strict JSON token {token}")
+
+    d = json.loads(capsys.readouterr().out, parse_constant=strict)
+    assert Fraction(d["eta_upper"]) - Fraction(d["eta_lower"]) <= Fraction(1, 10**400)
+    assert d["log10_width"] < -400 and d["width"] > 0
+    for bad in ("0", "-1e-400", "inf", "nan", "1e-1001"):
+        assert main(["certify", "--point", "grazing", "--width", bad]) == 2, bad
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "width" in err
+
+
+def test_a_box_too_small_for_the_bits_names_its_radius_below_the_float_range():
+    """1e-400 at 1024 bits (rounding ~1e-308 far above the box): no proof, and the message
+    states the box's radius and the contraction (it printed ``float(r)``, '0', before)."""
+    bp = seed_landmark("graze_free", PAPER, 0.7106)
+    with pytest.raises(CertificationError, match=r"radius 5\.00e-401 did not close") as e:
+        prove_landmark(bp, "1e-400", bits=1024)
+    assert "(contraction " in str(e.value) and "e+" in str(e.value).split("(contraction ")[1]

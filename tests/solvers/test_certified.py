@@ -3,6 +3,7 @@ heyoka's multiprecision references (another method, another code), closed forms,
 Newton orbits, and constructed near-tangencies whose truth is known exactly."""
 
 import json
+import math
 import subprocess
 import sys
 import threading
@@ -301,7 +302,8 @@ def test_targets_below_the_float_range_are_met_not_underflowed():
     exact dyadic radius instead (a float comparison would pass 0.0 <= 0.0 for any radius)."""
     r = certify(pi.Params.make(eta="0.712"), 20, target_radius="1e-400")
     assert r.max_log10_radius() <= -400 and r.bits >= 1400  # 400 digits need >= 1329 bits
-    assert r.max_radius() == 0.0  # the float view underflows, as documented
+    # the float view: rounded up, a bound (the smallest subnormal), never 0.0 (was 0.0)
+    assert r.max_radius() == math.ulp(0.0) and all(x == math.ulp(0.0) for x in r.radii()[1:])
     assert 0.116 < r.growth_digits_per_period() < 0.5
 
 
@@ -434,3 +436,97 @@ def test_certify_cli_json_is_strict_for_exact_points(capsys):
     assert rc == 0
     d = json.loads(out, parse_constant=no_constants)
     assert d["max_radius"] == "0" and d["max_log10_radius"] is None
+
+
+# ---- issue 35 item 2: radii below the float range, stated and checked exactly ----------------
+@pytest.fixture(scope="module")
+def closed_form_refs():
+    """The closed-form engine's samples of eta = 0.74 at mp:4096 and mp:8192 (another engine in
+    mpmath, not arb): x, v as exact rationals per sample.  Their own error: 5 periods of a
+    periodic regime lose < 3 digits, so <= 1e-1200 (mp:4096) and <= 1e-2400 (mp:8192)."""
+    p = pi.Params.make(eta="0.74")
+    out = {}
+    for bits, err in ((4096, Fraction(1, 10**1200)), (8192, Fraction(1, 10**2400))):
+        h = pi.simulate(p, 5, model="analytical", precision=f"mp:{bits}")
+        out[bits] = ([(Fraction(str(h.x[k])), Fraction(str(h.v[k]))) for k in range(6)], err)
+    return p, out
+
+
+def _check_stated_radii(r, refs, err):
+    """Every sample of ``r`` (k >= 1): the radius ``to_dict`` states is the ball's own (rounded
+    up, plus the midpoint's decimal rounding: within 10 %), below 1e-300, and the stated
+    ``mid +- rad`` holds the reference (widened by the reference's error)."""
+    from precise_impact.solvers.certified.single import exact_value
+
+    d = r.to_dict()
+    for k in range(1, 6):
+        row, (_, _, bx, bv) = d["samples"][k], r.samples[k]
+        for name, ball, ref in (("x", bx, refs[k][0]), ("v", bv, refs[k][1])):
+            rad, stated = exact_value(ball.rad()), Fraction(row[name + "_rad"])
+            assert 0 < rad <= stated <= rad * Fraction(11, 10), (k, name, row[name + "_rad"])
+            assert stated < Fraction(1, 10**300) and ball.rad() < flint.arb(10) ** -300
+            assert abs(Fraction(row[name]) - ref) <= stated + err
+    assert Fraction(d["max_radius"]) < Fraction(1, 10**300) and d["max_log10_radius"] < -300
+    json.loads(json.dumps(d, allow_nan=False))
+
+
+@pytest.mark.parametrize("method", ["lohner", "interval"])
+@pytest.mark.parametrize("how", ["mp:2200", "mp:4096", "1e-400"])
+def test_certify_states_radii_below_the_float_range(closed_form_refs, method, how):
+    """The sample radii of to_dict were those of ball_str, whose midpoint digits stopped at 303
+    (``float(scale / rad)`` was capped at 1e300): every radius below 1e-300 was stated as
+    ~1e-303 (2.56e-303 for a ball of 1e-421 at 1408 bits).  Now the ball's own radius."""
+    p, refs = closed_form_refs
+    kw = {"target_radius": how} if how.startswith("1e") else {"precision": how}
+    r = certify(p, 5, method=method, **kw)
+    assert r.bits == {"mp:2200": 2200, "mp:4096": 4096, "1e-400": 1408}[how]
+    if how == "1e-400":
+        assert r.max_log10_radius() < -400
+    _check_stated_radii(r, *refs[8192 if r.bits == 4096 else 4096])
+
+
+def test_certify_cli_target_1e_400(capsys):
+    """``certify --target 1e-400``: the printed '+-' of the last sample was 2.56e-303 (the
+    midpoint's 303 digits) for a ball of 1e-421; --json strict; a target of 0, a negative or a
+    non-finite one exits 2."""
+    rc, out, _ = _cli(["certify", "--eta", "0.74", "--periods", "3", "--target", "1e-400"], capsys)
+    assert rc == 0
+    pm = [Fraction(line.split(" +- ")[1]) for line in out.splitlines() if " +- " in line]
+    assert len(pm) == 2 and all(0 < q < Fraction(1, 10**400) for q in pm), out[-300:]
+    largest = Fraction(out.split("largest radius ")[1].split(";")[0])
+    assert 0 < largest < Fraction(1, 10**400)
+    argv = ["certify", "--eta", "0.74", "--periods", "3", "--target", "1e-400", "--json"]
+    rc, out, _ = _cli(argv, capsys)
+
+    def no_constants(name):
+        raise AssertionError(f"non-JSON token {name}")
+
+    d = json.loads(out, parse_constant=no_constants)
+    assert rc == 0 and Fraction(d["samples"][3]["x_rad"]) < Fraction(1, 10**400)
+    for bad in ("0", "-1e-400", "inf", "nan", "1e-3001"):
+        rc, out, err = _cli(["certify", "--periods", "3", "--target", bad], capsys)
+        assert rc == 2 and err.count("\n") == 1 and "target_radius" in err and out == "", bad
+
+
+def test_dataframe_radii_below_the_float_range_are_bounds_not_zero():
+    """to_dataframe's radius columns (float64) were ``float(rad) * (1 + 2^-50)``: 0.0 for a
+    ball of 1e-659, stating an exact point.  Now rounded up to a float64 (the smallest
+    subnormal): 0.0 only for sample 0, the exact start."""
+    pytest.importorskip("pandas")
+    r = certify(pi.Params.make(eta="0.74"), 3, precision="mp:2200")
+    df = r.to_dataframe()
+    for col in ("rad_x [1]", "rad_v [1]"):
+        assert df[col].iloc[0] == 0.0 and all(df[col].iloc[1:] == math.ulp(0.0)), df[col]
+    imps = r.to_dataframe("impacts")
+    assert all(imps["rad_t [1]"] > 0) and all(imps["rad_v_before [1]"] > 0)
+
+
+def test_log10_str_prints_any_magnitude():
+    """A ratio or radius known by its log10 printed in scientific notation at any magnitude
+    (the CLI's Krawczyk contraction below 1e-308), its mantissa rounded to 3 digits."""
+    from precise_impact.solvers.certified.single import log10_str
+
+    assert log10_str(-330.0) == "1.00e-330" and log10_str(-math.inf) == "0"
+    assert log10_str(math.log10(2.5) - 400) == "2.50e-400"
+    assert log10_str(math.log10(9.9996) - 5) == "1.00e-04"  # 9.9996 rounds up to 10
+    assert log10_str(math.log10(6.0) + 93) == "6.00e+93" == f"{6e93:.2e}"

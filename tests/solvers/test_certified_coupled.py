@@ -169,3 +169,42 @@ def test_pair_cli_json():
         "rad",
     }
     assert float(d["samples"][4]["y_rad"]) < 1e-25
+
+
+@pytest.mark.parametrize("method", ["lohner", "interval"])
+def test_pair_radii_below_the_float_range(method):
+    """Issue 35 item 2, the pair off the diagonal (k = 0.02, reduced form, 5 periods of
+    eta = 0.74) at 2200 and 4096 bits and with the automatic bits for a target of 1e-400:
+    every radius to_dict states is the ball's own (within 10 %: rounded up, plus the
+    midpoint's decimal rounding; it was ~1e-303, the midpoint's digits stopping at 303),
+    below 1e-300; the 4096-bit midpoints lie in the 2200-bit balls (another precision), and
+    the master's balls hold the closed-form engine at mp:4096 (mpmath, another engine)."""
+    p, y0 = pi.Params.make(eta="0.74"), ("0.5", "0.1")
+    runs = {
+        how: pi.certify_coupled(p, "0.02", "reduced", 5, y0=y0, method=method, **kw)
+        for how, kw in (
+            ("mp:2200", {"precision": "mp:2200"}),
+            ("mp:4096", {"precision": "mp:4096"}),
+            ("1e-400", {"precision": "auto", "target_radius": "1e-400"}),
+        )
+    }
+    assert runs["1e-400"].max_log10_radius() < -400 and runs["1e-400"].bits >= 1329
+    for r in runs.values():
+        d = r.to_dict()
+        json.loads(json.dumps(d, allow_nan=False))
+        assert Fraction(d["max_radius"]) < Fraction(1, 10**300) and d["max_log10_radius"] < -300
+        for row, (_, _, *balls) in zip(d["samples"][1:], r.samples[1:], strict=True):
+            for n, b in zip("xvyw", balls, strict=True):
+                rad, stated = exact_value(b.rad()), Fraction(row[n + "_rad"])
+                assert 0 < rad <= stated <= rad * Fraction(11, 10) < Fraction(1, 10**300), n
+    lo, hi = runs["mp:2200"], runs["mp:4096"]
+    for a, b in zip(lo.samples, hi.samples, strict=True):
+        for ba, bb in zip(a[2:], b[2:], strict=True):
+            assert abs(exact_value(bb.mid()) - exact_value(ba.mid())) <= exact_value(ba.rad())
+    h = pi.simulate(p, 5, model="analytical", precision="mp:4096")
+    err = Fraction(1, 10**1200)  # its error: 2^-4096 grown < 1e3 over 5 periodic periods
+    for k, (_, _, x, v, _, _) in enumerate(lo.samples):
+        for ball, ref in ((x, h.x[k]), (v, h.v[k])):
+            assert (
+                abs(exact_value(ball.mid()) - Fraction(str(ref))) <= exact_value(ball.rad()) + err
+            )

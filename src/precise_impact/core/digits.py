@@ -69,6 +69,7 @@ from precise_impact.core.flight import (
 )
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import oscillator_saltation
+from precise_impact.core.precision import log10_fraction
 
 __all__ = [
     "Digits",
@@ -133,10 +134,7 @@ def _log10_radius(rad: Any) -> float:
     (mpmath 1.3 cannot make an mpf from a Fraction at all)."""
     if hasattr(rad, "_mpf_"):
         return _log10_abs(rad)
-    q = Fraction(rad)
-    if not q:
-        return -math.inf
-    return math.log10(abs(q.numerator)) - math.log10(q.denominator)
+    return log10_fraction(Fraction(rad))
 
 
 @dataclasses.dataclass
@@ -598,7 +596,7 @@ def proven(traj: Any, x_rad: list, v_rad: list, **slave: tuple) -> Digits:
     cap = max_digits(P)
     # log10 of eps exactly: float(eps) underflows to 0 above ~1074 bits (mp:8192 raised
     # "math domain error" in a certified pair's to_dict)
-    log_eps = math.log10(P.eps_fraction.numerator) - math.log10(P.eps_fraction.denominator)
+    log_eps = log10_fraction(P.eps_fraction)
 
     def d(z: Any, rad: Any) -> int:
         m = P.to_mpf(z)

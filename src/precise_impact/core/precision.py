@@ -22,7 +22,17 @@ from precise_impact.core.mpcontext import mp_context
 from precise_impact.core.params import check_tol
 from precise_impact.errors import ParameterError
 
-__all__ = ["Precision", "PRECISION_HELP", "MAX_MP_BITS", "has_quad", "quad_or_mp"]
+__all__ = [
+    "Precision",
+    "PRECISION_HELP",
+    "MAX_MP_BITS",
+    "has_quad",
+    "quad_or_mp",
+    "exact_value",
+    "float_down",
+    "float_up",
+    "log10_fraction",
+]
 
 PRECISION_HELP = (
     "one of 'float64', 'longdouble', 'float128', or 'mp:BITS' with an integer 64 <= BITS <= 8192"
@@ -341,6 +351,41 @@ class Precision:
 def _mp_ops(bits: int) -> Any:
     """One :class:`~precise_impact.core.flight.MpmathOps` a precision (a context costs ~6 ms)."""
     return flight.MpmathOps(bits=bits)
+
+
+def exact_value(exact_arb: Any) -> Fraction:
+    """An exact python-flint arb (a dyadic point, e.g. a midpoint or a radius) as the Fraction
+    it is (from ``man_exp()``: no rounding, at any magnitude)."""
+    man, exp = exact_arb.man_exp()
+    man, exp = int(man), int(exp)
+    return Fraction(man * 2**exp) if exp >= 0 else Fraction(man, 2 ** (-exp))
+
+
+def float_down(q: Fraction) -> float:
+    """The largest float64 ``<= q``.  ``float()`` rounds to nearest: an enclosure's ends
+    rounded that way can lose the value they enclose (eta = 0.985, p = 2: both ends of the
+    LLE interval became one float, 1.1e-19 from the truth).  Rounded outward the float64
+    interval is at least as wide as the ball and never narrower than the rounding itself
+    (one ulp at most on each side)."""
+    f = float(q)
+    return math.nextafter(f, -math.inf) if Fraction(f) > q else f
+
+
+def float_up(q: Fraction) -> float:
+    """The smallest float64 ``>= q`` (see :func:`float_down`): a bound stays a bound, and a
+    positive value below the float range (a radius of 1e-400) is the smallest subnormal,
+    ``5e-324``, never ``0.0`` (which would state exactness)."""
+    f = float(q)
+    return math.nextafter(f, math.inf) if Fraction(f) < q else f
+
+
+def log10_fraction(q: Fraction) -> float:
+    """``log10 |q|`` of a rational at any magnitude (``-inf`` for 0): from the integers'
+    own logarithms, so neither ``q`` nor ``1 / q`` passes through a float (which under- or
+    overflows beyond 1e+-308)."""
+    if q == 0:
+        return -math.inf
+    return math.log10(abs(q.numerator)) - math.log10(q.denominator)
 
 
 def _mk(raw: tuple) -> mpmath.mpf:

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.params import Params, decimal_str
-from precise_impact.core.precision import Precision
+from precise_impact.core.precision import Precision, exact_value, float_up
 from precise_impact.errors import OptionalDependencyError, ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.jsonout import finite_or_marker, write_json
@@ -203,8 +203,9 @@ def ball_columns(names: tuple[str, ...], rows: Any) -> dict:
             out[name] = np.asarray(vals, dtype=int)
             continue
         out[unit_column(name, "1")] = np.array([float(b.mid()) for b in vals], dtype=float)
-        # the radius rounded up (a bound on the midpoint's error stays a bound)
-        rad = [float(b.rad()) * (1 + 2**-50) for b in vals]
+        # the radius rounded up (a bound on the midpoint's error stays a bound; below 1e-308
+        # the smallest subnormal, never 0.0)
+        rad = [float_up(exact_value(b.rad())) for b in vals]
         out[unit_column("rad_" + name, "1")] = np.array(rad, dtype=float)
     return out
 

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.solvers.certified.single import radius_str
+
 __all__ = ["LANDMARKS_FILE", "generate_landmarks", "check_landmarks", "paper_landmarks"]
 
 LANDMARKS_FILE = "landmarks.json"
@@ -145,7 +147,7 @@ def check_landmarks(case: str, case_dir: Path) -> list[str]:
         name = r["name"]
         lo, hi = Fraction(r["eta_lower"]), Fraction(r["eta_upper"])
         if not hi - lo <= Fraction(r["requested_width"]):
-            problems.append(f"{case}: {name}: stored width {float(hi - lo):.3e} above requested")
+            problems.append(f"{case}: {name}: stored width {radius_str(hi - lo)} above requested")
         th = r["theta"]
         bp = BranchPoint(
             r["kind"],

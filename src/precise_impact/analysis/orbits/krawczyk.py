@@ -65,10 +65,11 @@ def newton_points(fun: Residual, y0: Any, bits: int, what: str) -> list:
     return y
 
 
-def krawczyk(fun: Residual, c: list, r: Fraction, what: str) -> tuple[list, list, float, list]:
+def krawczyk(fun: Residual, c: list, r: Fraction, what: str) -> tuple[list, list, Fraction, list]:
     """Krawczyk's operator on ``Y = c + [-r, r]^m``.
 
     Returns ``(K, Y, contraction, inside)``: the operator's balls, the box, ``max |K - c| / r``
+    (an exact rational: it is ``~r`` itself, 1e-331 at 2200 bits, below the float range)
     and, per unknown, whether ``K`` lies in the interior of ``Y`` (all true: the proof).
     """
     import flint
@@ -85,6 +86,7 @@ def krawczyk(fun: Residual, c: list, r: Fraction, what: str) -> tuple[list, list
     Kc = C * flint.arb_mat([[f] for f in Fc])
     KB = B * dY
     K = [c[i] - Kc[i, 0] + KB[i, 0] for i in range(m)]
-    contraction = max(float(exact_value(abs(K[i] - c[i]).upper())) for i in range(m)) / float(r)
+    # exactly, in rationals: float(r) was 0.0 below 1e-308 (a ZeroDivisionError at 2200 bits)
+    contraction = max(exact_value(abs(K[i] - c[i]).upper()) for i in range(m)) / r
     inside = [bool(Y[i].contains_interior(K[i])) for i in range(m)]
     return K, Y, contraction, inside

@@ -7,7 +7,6 @@ local uniqueness and enclosed Floquet multipliers follow (Krawczyk 1969; Moore).
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Sequence
 from fractions import Fraction
@@ -16,6 +15,7 @@ from typing import Any
 from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
 from precise_impact.analysis.orbits.newton import find_orbit
 from precise_impact.core.params import Params, check_count, exact, params_or_values
+from precise_impact.core.precision import float_down, float_up, log10_fraction
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
 from precise_impact.solvers.certified.single import (
@@ -48,7 +48,11 @@ class ProvenOrbit(ResultMixin):
     proven : bool
         ``K(Z)`` lies in the interior of ``Z``: exactly one fixed point of ``P^p`` in the box.
     contraction : float
-        ``max rad K(Z)_i / r``: how far inside the box the Krawczyk image lies (``< 1`` proves).
+        ``max |K(Z)_i - z_i| / r``: how far inside the box the Krawczyk image lies (``< 1``
+        proves), rounded up: a bound (it is about ``r``, so below 1e-308, from ~2100 bits on,
+        it is the smallest subnormal ``5e-324``, never 0.0; its size is ``log10_contraction``).
+    log10_contraction : float
+        ``log10`` of the contraction at any magnitude (``-inf``: ``K(Z)`` is the point ``z``).
     multipliers : list of dict
         Each multiplier's enclosure: ``{"re", "im", "rad", "abs_upper"}`` (decimal strings; a
         complex ball ``re + i im`` with radius ``rad`` per part).
@@ -74,6 +78,7 @@ class ProvenOrbit(ResultMixin):
     v: tuple
     proven: bool
     contraction: float
+    log10_contraction: float
     multipliers: list
     stable: Any
     lle: tuple
@@ -190,7 +195,8 @@ def prove_orbit(
         x=xs,
         v=vs,
         proven=bool(proven),
-        contraction=contraction,
+        contraction=float_up(contraction),
+        log10_contraction=log10_fraction(contraction),
         multipliers=mult,
         stable=stable,
         lle=lle,
@@ -247,7 +253,7 @@ def _multipliers(MZ: list) -> tuple[list, list, list]:
             {
                 "re": re_m,
                 "im": im_m,
-                "rad": max(re_r, im_r, key=float),
+                "rad": max(re_r, im_r, key=Fraction),  # exactly: float() is 0.0 below 1e-308
                 "abs_upper": ball_str(flint.arb(au), 12)[0],
             }
         )
@@ -262,23 +268,7 @@ def _stability_and_lle(ups: list, lows: list, pT: Any) -> tuple[bool | None, tup
     stable = (
         True if all(u < unit for u in ups) else (False if any(lo > unit for lo in lows) else None)
     )
-    big = max(range(2), key=lambda i: float(exact_value(ups[i])))
+    big = max(range(2), key=lambda i: exact_value(ups[i]))
     lle = ((flint.arb(lows[big]).log() / pT), (flint.arb(ups[big]).log() / pT))
     lo, hi = exact_value(lle[0].lower()), exact_value(lle[1].upper())
     return stable, (float_down(lo), float_up(hi))
-
-
-def float_down(q: Fraction) -> float:
-    """The largest float64 ``<= q``.  ``float()`` rounds to nearest: an enclosure's ends
-    rounded that way can lose the value they enclose (eta = 0.985, p = 2: both ends of the
-    LLE interval became one float, 1.1e-19 from the truth).  Rounded outward the float64
-    interval is at least as wide as the ball and never narrower than the rounding itself
-    (one ulp at most on each side)."""
-    f = float(q)
-    return math.nextafter(f, -math.inf) if Fraction(f) > q else f
-
-
-def float_up(q: Fraction) -> float:
-    """The smallest float64 ``>= q`` (see :func:`float_down`)."""
-    f = float(q)
-    return math.nextafter(f, math.inf) if Fraction(f) < q else f

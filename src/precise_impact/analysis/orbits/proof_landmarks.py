@@ -37,12 +37,19 @@ import numpy as np
 
 from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
 from precise_impact.analysis.orbits.landmarks import BranchPoint
-from precise_impact.analysis.orbits.proof import float_up
 from precise_impact.core.dual import BALL_DUAL, BallDual, seed
 from precise_impact.core.params import exact
+from precise_impact.core.precision import float_up, log10_fraction
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import CertificationError, ParameterError
-from precise_impact.solvers.certified.single import ball_str, exact_value, to_ball, working_bits
+from precise_impact.solvers.certified.single import (
+    ball_str,
+    exact_value,
+    log10_str,
+    radius_str,
+    to_ball,
+    working_bits,
+)
 
 __all__ = ["prove_landmark", "locate_landmark", "ProvenLandmark", "landmark_unknowns", "POINTS"]
 
@@ -77,13 +84,19 @@ class ProvenLandmark(ResultMixin):
     eta_lower, eta_upper : str
         The enclosure's ends as decimals, rounded outward (4 digits below its width).
     width : float
-        ``eta_upper - eta_lower`` of those decimals (rounded up).
+        ``eta_upper - eta_lower`` of those decimals, rounded up to a float64: a bound (below
+        1e-308 the smallest subnormal ``5e-324``, never 0.0; its size is ``log10_width``).
+    log10_width : float
+        ``log10`` of that width, at any magnitude (``-400`` for a width of 1e-400).
     unknowns : dict
         Every unknown of the augmented system: name -> ``(midpoint, radius)`` decimal strings.
     box_radius : str
         Half-width ``r`` of the Krawczyk box ``Y`` (every coordinate).
     contraction : float
-        ``max_i rad K(Y)_i / r`` (``< 1`` proves).
+        ``max_i |K(Y)_i - y_i| / r`` (``< 1`` proves), rounded up (as ``width``: ``5e-324``
+        below the float range).
+    log10_contraction : float
+        ``log10`` of the contraction, at any magnitude (``-inf``: ``K(Y)`` is the point).
     test_function : str
         The defining condition ``g``.
     sides : list of dict
@@ -116,9 +129,11 @@ class ProvenLandmark(ResultMixin):
     eta_lower: str
     eta_upper: str
     width: float
+    log10_width: float
     unknowns: dict
     box_radius: str
     contraction: float
+    log10_contraction: float
     test_function: str
     sides: list
     eta_float64: float
@@ -186,7 +201,7 @@ def prove_landmark(
         :func:`~precise_impact.analysis.orbits.landmarks.landmark_from_continuation` or
         :func:`~precise_impact.analysis.orbits.landmarks.end_point`.
     width : decimal, default ``"1e-40"``
-        Largest width of the proven intervals (``1e-300 <= width <= 1e-6``): the Krawczyk
+        Largest width of the proven intervals (``1e-1000 <= width <= 1e-6``): the Krawczyk
         box is ``y* + [-width/2, width/2]`` in every unknown.
     theta : mapping or None, default ``None``
         Exact ``zeta``, ``a``, ``x_w``, ``R`` (decimal strings or Fractions) to prove at;
@@ -240,7 +255,8 @@ def prove_landmark(
         raise ParameterError("kind", bp.kind, "graze_free, graze, period-doubling or fold")
     w = check_width(width)
     if bits is None:
-        bits = int(math.ceil(math.log2(float(1 / w) if w > Fraction(1, 10**300) else 1e300))) + 96
+        # log2(1 / w) from the integers (float(1 / w) overflows past 1e308)
+        bits = math.ceil(math.log2(w.denominator) - math.log2(w.numerator)) + 96
     elif not isinstance(bits, int) or isinstance(bits, bool) or not 64 <= bits <= 4096:
         raise ParameterError("bits", str(bits), "an integer, 64 <= bits <= 4096")
     th = _exact_theta(bp, theta)
@@ -274,6 +290,8 @@ def prove_landmark(
         for sgn in (-1, 1):
             s_val = c[k] + sgn * 2 * rq
             label = f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
+            # the float64 prediction (a shift of 2r below the float range is 0.0: the start is
+            # then y0 itself, as good a start as float64 can give)
             start = _predict(bp, y0, k, float(exact_value((s_val - c[k]).mid())))
             cs = newton_points(_branch(lm, tb, k, s_val), start, bits, label)
             Ks, _ = _krawczyk(_branch(lm, tb, k, s_val), cs, r / 4, label)
@@ -306,13 +324,14 @@ def prove_landmark(
         lo_q, hi_q = exact_value(e.lower()), exact_value(e.upper())
         # the ends rounded outward to 4 digits below the width (the stated interval is the
         # decimal one, so its width is computed from the decimals)
-        scale = max(abs(lo_q), abs(hi_q), Fraction(1, 10**300))
-        digits = 4 + max(1, math.ceil(math.log10(float(scale / max(hi_q - lo_q, scale / 10**400)))))
+        scale = max(abs(lo_q), abs(hi_q), Fraction(1, 10**1200))
+        digits = 4 + max(1, math.ceil(log10_fraction(scale / max(hi_q - lo_q, scale / 10**1300))))
         lo_s, hi_s = _round_dec(lo_q, -1, digits), _round_dec(hi_q, 1, digits)
         eta_mid = exact_value(e.mid())
         unknowns = {n: ball_str(b) for n, b in zip(names, K, strict=True)}
         eta_str = ball_str(e)
     ulp = math.ulp(bp.eta)
+    width = Fraction(hi_s) - Fraction(lo_s)
     return ProvenLandmark(
         kind=bp.kind,
         period=int(bp.period),
@@ -322,10 +341,12 @@ def prove_landmark(
         eta=eta_str,
         eta_lower=lo_s,
         eta_upper=hi_s,
-        width=float_up(Fraction(hi_s) - Fraction(lo_s)),
+        width=float_up(width),
+        log10_width=log10_fraction(width),
         unknowns=unknowns,
         box_radius=_dec(r),
-        contraction=contraction,
+        contraction=float_up(contraction),
+        log10_contraction=log10_fraction(contraction),
         test_function=_TEST[bp.kind],
         sides=sides,
         eta_float64=bp.eta,
@@ -335,10 +356,11 @@ def prove_landmark(
 
 
 def check_width(width: Any) -> Fraction:
-    """``width`` of :func:`prove_landmark` as a Fraction, refused outside ``[1e-300, 1e-6]``."""
-    w = exact("width", width, 400)
-    if not Fraction(1, 10**300) <= w <= Fraction(1, 10**6):
-        raise ParameterError("width", str(width), "1e-300 <= width <= 1e-6")
+    """``width`` of :func:`prove_landmark` as a Fraction, refused outside ``[1e-1000, 1e-6]``
+    (the automatic bits, ``log2(1 / width) + 96``, stay within 4096)."""
+    w = exact("width", width, 1100)
+    if not Fraction(1, 10**1000) <= w <= Fraction(1, 10**6):
+        raise ParameterError("width", str(width), "1e-1000 <= width <= 1e-6")
     return w
 
 
@@ -379,10 +401,11 @@ def _krawczyk(fun: Any, c: list, r: Fraction, what: str, names: list | None = No
         why = (
             "the Jacobian enclosure over the box is not finite (a singular point in it)"
             if not finite
-            else f"K(Y) is not inside Y in {', '.join(bad)} (contraction {contraction:.3g})"
+            else f"K(Y) is not inside Y in {', '.join(bad)} "
+            f"(contraction {log10_str(log10_fraction(contraction))})"
         )
         raise CertificationError(
-            f"{what}: the Krawczyk test on a box of radius {float(r):.3g} did not close: "
+            f"{what}: the Krawczyk test on a box of radius {radius_str(r)} did not close: "
             f"{why}; a degenerate point (Jacobian singular or nearly so) or a box too small "
             "for the working precision: no proof"
         )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from fractions import Fraction
 
 from precise_impact.cli.args import (
     add_json,
@@ -17,7 +18,7 @@ from precise_impact.core.params import check_count
 from precise_impact.errors import ParameterError
 from precise_impact.io.jsonout import print_json
 from precise_impact.solvers.certified.coupled import certify_coupled
-from precise_impact.solvers.certified.single import MAX_BITS, certify
+from precise_impact.solvers.certified.single import MAX_BITS, certify, log10_str, radius_str
 
 
 def register(sub) -> argparse.ArgumentParser:
@@ -47,7 +48,8 @@ def register(sub) -> argparse.ArgumentParser:
         "--target",
         default=None,
         metavar="R",
-        help="radius wanted at every sample by the automatic bits (default 1e-30; with --k it "
+        help="radius wanted at every sample by the automatic bits, 1e-3000 to 1e-3 (default "
+        "1e-30; with --k it "
         "makes the pair's bits automatic; not with --precision mp:BITS / --bits, which fix them)",
     )
     ce.add_argument(
@@ -105,7 +107,7 @@ def register(sub) -> argparse.ArgumentParser:
         "--width",
         default="1e-40",
         metavar="W",
-        help="with --point: largest width of the proven interval (default 1e-40)",
+        help="with --point: largest width of the proven interval, 1e-1000 to 1e-6 (default 1e-40)",
     )
     add_max_time(ce)
     add_json(ce)
@@ -228,8 +230,10 @@ def _run_point(ns: argparse.Namespace, params) -> int:
             [
                 f"proven {ns.point} ({r.kind}, period {r.period}, {r.impacts} impacts) at "
                 f"{r.bits} bits in {r.elapsed_s:.2f} s",
-                f"eta in [{r.eta_lower}, {r.eta_upper}] (width {r.width:.3g}; "
-                f"Krawczyk contraction {r.contraction:.3g})",
+                # from the exact decimals and the log10: the floats are 5e-324 below 1e-308
+                f"eta in [{r.eta_lower}, {r.eta_upper}] (width "
+                f"{radius_str(Fraction(r.eta_upper) - Fraction(r.eta_lower))}; "
+                f"Krawczyk contraction {log10_str(r.log10_contraction)})",
                 f"{r.test_function}: {side[0]['g'][0]} at {side[0]['coordinate']} - 2r, "
                 f"{side[1]['g'][0]} at + 2r (a crossing)",
                 f"float64 landmark {r.eta_float64!r} ({r.float64_offset_ulps:.2f} ulp from the "

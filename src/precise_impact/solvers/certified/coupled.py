@@ -62,6 +62,7 @@ from precise_impact.solvers.certified.single import (
     choose_bits,
     describe,
     exact_value,
+    float_up,
     growth_slope,
     log10_abs,
     max_radius_str,
@@ -254,8 +255,9 @@ class CertifiedCoupledTrajectory(ResultMixin):
         return self._mids(self.slave_impacts, 0)
 
     def max_radius(self) -> float:
-        """The largest radius of any sample coordinate (a float rounded up; 0.0 below 1e-308)."""
-        return max(float(exact_value(b.rad())) for s in self.samples for b in s[2:]) * (1 + 2**-50)
+        """The largest radius of any sample coordinate (a float rounded up: ``5e-324`` below
+        1e-308, never 0.0; its size is :meth:`max_log10_radius`)."""
+        return float_up(max(exact_value(b.rad()) for s in self.samples for b in s[2:]))
 
     def max_log10_radius(self) -> float:
         """``log10`` of the largest radius of any sample coordinate, at any magnitude."""

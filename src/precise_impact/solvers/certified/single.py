@@ -22,7 +22,12 @@ from precise_impact.core.compat import UNSET, warn_renamed
 from precise_impact.core.flow import steady_state
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
-from precise_impact.core.precision import Precision
+from precise_impact.core.precision import (
+    Precision,
+    exact_value,
+    float_up,
+    log10_fraction,
+)
 from precise_impact.core.result import ResultMixin, ball_columns
 from precise_impact.core.trajectory import Trajectory
 from precise_impact.errors import (
@@ -45,7 +50,9 @@ __all__ = [
     "run_balls",
     "to_ball",
     "exact_value",
+    "float_up",
     "log10_abs",
+    "log10_str",
     "MAX_BITS",
     "MIN_BITS",
     "Constants",
@@ -68,6 +75,9 @@ MIN_BITS, MAX_BITS = 64, 16384
 #: tangency the working precision cannot resolve (halves of a forcing period: 2^-60 T ~ 1e-17 T
 #: beyond the bits' own limit is never needed).
 _MAX_DEPTH_EXTRA = 40
+#: Most significant digits :func:`ball_str` gives a midpoint: MAX_BITS (16384) bits hold 4932
+#: decimal digits, so a radius below that relative accuracy is stated as ~1e-5000 relative.
+_MAX_DIGITS = 5000
 _LOCK = threading.RLock()
 
 
@@ -87,19 +97,26 @@ def to_ball(q: Fraction):
     return flint.arb(flint.fmpq(q.numerator, q.denominator))
 
 
-def exact_value(exact_arb) -> Fraction:
-    """An exact arb (a dyadic point, e.g. a midpoint or a radius) as the Fraction it is."""
-    man, exp = exact_arb.man_exp()
-    man, exp = int(man), int(exp)
-    return Fraction(man * 2**exp) if exp >= 0 else Fraction(man, 2 ** (-exp))
-
-
 def log10_abs(x) -> float:
     """``log10 |x|`` of an exact arb (a dyadic point such as a radius) at any magnitude
     (``-inf`` for 0): no float underflow below 1e-308."""
     man, exp = x.man_exp()
     man, exp = abs(int(man)), int(exp)
     return -math.inf if man == 0 else math.log10(man) + exp * math.log10(2)
+
+
+def log10_str(lg: float, digits: int = 3) -> str:
+    """``10^lg`` in scientific notation with ``digits`` significant digits (``'1.26e-331'``),
+    at any magnitude (``'0'`` for ``-inf``): how a ratio or radius known by its ``log10``
+    (:func:`log10_abs`, :func:`~precise_impact.core.precision.log10_fraction`) is printed
+    below the float range."""
+    if lg == -math.inf:
+        return "0"
+    e = math.floor(lg)
+    m = round(10 ** (lg - e), digits - 1)
+    if m >= 10:  # 9.999 rounded up to 10.0
+        m, e = m / 10, e + 1
+    return f"{m:.{digits - 1}f}e{e:+03d}"
 
 
 def ball_str(b, digits: int | None = None) -> tuple[str, str]:
@@ -126,12 +143,10 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
         if rad == 0:
             digits = 40
         else:
+            # three digits below the ball's accuracy, from the exact ratio's log10 (a float
+            # ratio overflowed past 1e300: every radius below 1e-300 was stated as ~1e-303)
             scale = max(abs(mid), rad)
-            digits = max(
-                3,
-                int(math.ceil(math.log10(float(scale / rad)) if scale / rad < 10**300 else 300))
-                + 3,
-            )
+            digits = max(3, min(_MAX_DIGITS, math.ceil(log10_fraction(scale / rad))) + 3)
     with localcontext() as ctx:
         ctx.prec = digits
         dm = Decimal(mid.numerator) / Decimal(mid.denominator)  # rounded to `digits`
@@ -146,12 +161,13 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
 
 
 def radius_str(r) -> str:
-    """A radius (an exact non-negative arb, e.g. ``b.rad()``) as a decimal string in scientific
-    notation, 3 significant digits rounded up: ``'0'`` only for an exact 0, never rounded to 0
-    at any magnitude (a float underflows to 0.0 below 1e-308 and would state exactness)."""
+    """A radius (an exact non-negative arb, e.g. ``b.rad()``, or a Fraction) as a decimal
+    string in scientific notation, 3 significant digits rounded up: ``'0'`` only for an exact
+    0, never rounded to 0 at any magnitude (a float underflows to 0.0 below 1e-308 and would
+    state exactness)."""
     from decimal import ROUND_CEILING, Decimal, localcontext
 
-    q = exact_value(r)
+    q = r if isinstance(r, Fraction) else exact_value(r)
     if q == 0:
         return "0"
     with localcontext() as ctx:
@@ -233,7 +249,7 @@ def _interval(lo, hi):
 def describe(t, what: str) -> str:
     """``"<what> at t = <mid> +- <rad>"`` for an error message."""
     m, _ = ball_str(t, 20)
-    return f"{what} at t = {m} (a ball of radius {float(exact_value(t.rad())):.2e})"
+    return f"{what} at t = {m} (a ball of radius {radius_str(t.rad())})"
 
 
 class Isolator:
@@ -507,19 +523,17 @@ class CertifiedTrajectory(ResultMixin):
         return plot_certified(self, path, units=units, components=components)
 
     def radii(self) -> list[float]:
-        """``max(rad x, rad v)`` per sample (floats, rounded up; a radius below 1e-308 underflows
-        to 0.0: :meth:`log10_radii` never does)."""
-        return [
-            float(exact_value(max(s[2].rad(), s[3].rad()))) * (1 + 2**-50) for s in self.samples
-        ]
+        """``max(rad x, rad v)`` per sample (floats rounded up: bounds; a radius below 1e-308
+        is the smallest subnormal ``5e-324``, never 0.0: its size is :meth:`log10_radii`)."""
+        return [float_up(exact_value(max(s[2].rad(), s[3].rad()))) for s in self.samples]
 
     def log10_radii(self) -> list[float]:
         """``log10 max(rad x, rad v)`` per sample (``-inf`` for an exact point), any magnitude."""
         return [log10_abs(max(s[2].rad(), s[3].rad())) for s in self.samples]
 
     def max_radius(self) -> float:
-        """The largest radius of any sample (a float: 0.0 if below 1e-308, see
-        :meth:`max_log10_radius`)."""
+        """The largest radius of any sample (a float rounded up: ``5e-324`` if below 1e-308,
+        see :meth:`max_log10_radius`)."""
         return max(self.radii())
 
     def max_log10_radius(self) -> float:
@@ -799,7 +813,7 @@ def check_target(target_radius: Any) -> float:
         raise ParameterError(
             "target_radius", str(target_radius), "1e-3000 <= target_radius <= 1e-3"
         )
-    return math.log10(target.numerator) - math.log10(target.denominator)
+    return log10_fraction(target)
 
 
 def choose_bits(
@@ -838,7 +852,9 @@ def choose_bits(
             failed += f"no proof at {pilot_bits} bits ({e}); "
             pilot_bits *= 2
     g = max(res.growth_digits_per_period(), 0.0)
-    r_pilot = max(res.log10_radii()[-1], -300.0)
+    r_pilot = res.log10_radii()[-1]
+    if not math.isfinite(r_pilot):  # an exact last sample: the pilot's rounding level
+        r_pilot = -0.30103 * pilot_bits
     need = r_pilot + g * (periods - n_pilot) - log_target + 2  # two digits to spare
     bits = int(64 * math.ceil(max(pilot_bits, pilot_bits + need / 0.30103) / 64))
     choice = (
