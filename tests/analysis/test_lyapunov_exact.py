@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import math
 
 import numpy as np
@@ -328,3 +329,86 @@ def test_scan_error_bars_on_a_periodic_orbit_are_not_below_rounding(model, tmp_p
     lle, se = float(res.lle[0]), float(res.stderr[0])
     assert se >= math.ulp(lle)  # never below the rounding of the value itself
     assert abs(lle - exact) <= 3 * se, (lle, exact, se)
+
+
+# ---- issue 35 item 3: every error bar floored at rounding ------------------------------------
+_ON_ORBIT = dict(
+    eta="0.985",
+    x0="1.87625018312819154297862241925096210037679685",
+    v0="0.463898952758872403230465857529624539609968745",
+    t0="6.53871372486529141198453150794614207185072957",
+)
+
+
+@pytest.fixture(scope="module")
+def on_orbit():
+    """Started exactly on the (1,2) orbit at eta = 0.985 (issue 35 item 3), and its Floquet
+    exponent from the 128-bit Newton orbit (-0.0263450205894733 to 16 digits)."""
+    p = pi.Params.make(**_ON_ORBIT)
+    return p, float(pi.find_orbit(p, 2, precision="mp:128").lle)
+
+
+def _error_bars(p) -> list[tuple[str, float, float]]:
+    """``(path, lle, stderr)`` of every path that reports an LLE with an error bar."""
+    from precise_impact.analysis.lyapunov.batch import batch_lle
+    from precise_impact.analysis.lyapunov.fast import fast_batch_rows, point_rows
+    from precise_impact.solvers.fast.lle import fast_lle
+
+    out = []
+    for method, model in (
+        ("variational", "heyoka"),
+        ("variational", "fast"),
+        ("two-trajectory", "heyoka"),
+    ):
+        r = pi.lyapunov(p, method, model=model, periods=1000, transient=100)
+        out.append((f"{method}/{model}", r.lle, r.lle_stderr))
+        ft = r.stats.get("finite_time", {})
+        if "stderr" in ft:
+            out.append((f"{method}/{model} finite_time", ft["lle"], ft["stderr"]))
+        out += [(f"{method}/{model} start", s["lle"], s["stderr"]) for s in r.stats["per_start"]]
+        out += [
+            (f"{method}/{model} attractor", g["lle"], g["stderr"]) for g in r.stats["attractors"]
+        ]
+    d = fast_lle(p, periods=1000, transient=100)
+    out.append(("fast_lle", d["lle"], d["stderr"]))
+    (row,) = fast_batch_rows(point_rows([p]), lambda idx: [p], 1000, 100)
+    out.append(("sweep row fast", row["lle"], row["stderr"]))
+    (row,) = batch_lle([p], periods=1000, transient=100)
+    out.append(("sweep row heyoka", row["lle"], row["stderr"]))
+    for model in ("fast", "heyoka"):
+        b = pi.bifurcation(
+            p, ("eta", "0.985", "0.985", 1), periods=1000, transient=100, model=model, workers=1
+        )
+        out.append((f"bifurcation {model}", float(b.lle[0]), float(b.lle_stderr[0])))
+    return out
+
+
+def test_every_error_bar_is_floored_at_rounding_and_covers_the_floquet_value(on_orbit):
+    """Issue 35 item 3: started on the orbit, the blocks of every finite-time path are equal to
+    rounding, so batch means alone gave 6.7e-19 (fast_lle: 4.7e-19, 415 standard errors from the
+    Floquet value).  Every path's bar is now at least the rounding of its sum, sqrt(n) eps |lle|
+    (core.stats.lle_stderr), never below one ulp, and covers the exact value in 3 bars."""
+    p, exact = on_orbit
+    rows = _error_bars(p)
+    assert len(rows) >= 20
+    for path, lle, se in rows:
+        assert se >= math.ulp(lle), (path, lle, se)
+        assert abs(lle - exact) <= 3 * se, (path, lle, exact, se)
+
+
+def test_the_issues_command_covers_the_floquet_value(on_orbit, capsys):
+    """The issue's own command: lle over 20,000 periods (heyoka, four starts) on the orbit; every
+    bar in its JSON (the headline, the finite-time one, each start's and attractor's) covers
+    the Floquet value and none is below one ulp."""
+    from precise_impact.cli.main import main
+
+    _, exact = on_orbit
+    args = ["lle", "--zeta", "0.05", "--a", "1", "--x_w", "2", "--R", "1", "--periods", "20000"]
+    args += [a for k, v in _ON_ORBIT.items() for a in (f"--{k}", v)] + ["--json"]
+    assert main(args) == 0
+    d = json.loads(capsys.readouterr().out)
+    s = d["stats"]
+    bars = [(d["lle"], d["lle_stderr"]), (s["finite_time"]["lle"], s["finite_time"]["stderr"])]
+    bars += [(r["lle"], r["stderr"]) for r in s["per_start"] + s["attractors"]]
+    for lle, se in bars:
+        assert math.ulp(lle) <= se and abs(lle - exact) <= 3 * se, (lle, se, exact)

@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.lyapunov.fast import bounce_refusal
-from precise_impact.analysis.lyapunov.result import means_stderr
 from precise_impact.analysis.lyapunov.variational import variational_spectrum
 from precise_impact.analysis.scan import (
     PointJob,
@@ -31,6 +30,7 @@ from precise_impact.core.budget import enforce_max_time
 from precise_impact.core.flow import grazing_frequencies
 from precise_impact.core.params import Params, as_params, check_count, decimal_str, exact_grid
 from precise_impact.core.result import ResultMixin, columns
+from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import EndlessBouncesError, IntegrationError, ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import new_figure
@@ -320,7 +320,9 @@ def _fast_point(params: Params, periods: int, transient: int) -> tuple:
     T = 2 * math.pi / float(params.eta)
     nb = min(10, periods)
     bm = bsums[0] / ((periods // nb) * T)
-    return xt[0], float(l1[0] / (periods * T)), means_stderr(bm), float(imps[0] / periods), "ok"
+    lle = float(l1[0] / (periods * T))
+    se = lle_stderr(bm, lle, periods + float(imps[0]))  # one log per period and per impact
+    return xt[0], lle, se, float(imps[0] / periods), "ok"
 
 
 def _refused(periods: int, why: str) -> tuple:

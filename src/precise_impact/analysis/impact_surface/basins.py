@@ -63,6 +63,7 @@ from precise_impact.core.impact import (
 )
 from precise_impact.core.params import Params, check_count, params_or_values
 from precise_impact.core.result import ResultMixin
+from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
 from precise_impact.io.progress import ProgressArg
 
@@ -273,7 +274,7 @@ def _chaos(pars, t, x, v, periods: int) -> tuple:
     from precise_impact.solvers.fast.lle import lle_batch_serial
 
     blocks = 10
-    status, log1, _, _, bsums, *_ = lle_batch_serial(
+    status, log1, _, imps, bsums, *_ = lle_batch_serial(
         np.array([pars]), np.array([[t, x, v]]), periods, 0, blocks, 10**9, 1
     )
     T = 2 * math.pi / pars[0]
@@ -281,7 +282,7 @@ def _chaos(pars, t, x, v, periods: int) -> tuple:
         return (_UNRESOLVED, 0, 0, 0, math.nan, math.nan, math.nan)
     lle = float(log1[0]) / (periods * T)
     per_block = np.asarray(bsums[0], dtype=float) / ((periods // blocks) * T)
-    err = float(np.std(per_block, ddof=1) / math.sqrt(blocks))
+    err = lle_stderr(per_block, lle, periods + float(imps[0]))  # floored at the sum's rounding
     kind = _CHAOS if lle > 0 and lle > 3 * err else _UNRESOLVED
     return (kind, 0, 0, 0, lle, math.nan, math.nan)
 

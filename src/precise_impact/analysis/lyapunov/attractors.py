@@ -20,6 +20,8 @@ from precise_impact.analysis.orbits.newton import find_orbit
 from precise_impact.analysis.orbits.result import floquet_resolution, floquet_second_exponent
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.mpcontext import mp_context
+from precise_impact.core.precision import Precision
+from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import IntegrationError
 
 __all__ = [
@@ -256,7 +258,8 @@ def attribute(
     periods = [int(k) for k in periods]
     dur = [k * T for k in periods]
     blocks = [np.asarray(ps[2], float).ravel() for ps in per_start]
-    starts = _per_start(result, per_start, blocks, periods, impact_blocks)
+    eps = float(Precision.parse(precision).eps_fraction)
+    starts = _per_start(result, per_start, blocks, periods, impact_blocks, eps)
     groups, loose = _periodic_groups(params, tails, precision)
     free, tests = _split_loose(starts, tails, loose, alpha)
     groups = sorted(groups + free, key=lambda g: min(g["starts"]))
@@ -265,7 +268,12 @@ def attribute(
         g["starts"].sort()
         st = g["starts"]
         g["lle"] = _weighted([starts[j]["lle"] for j in st], [dur[j] for j in st])
-        g["stderr"] = means_stderr(np.concatenate([blocks[j] for j in st]))
+        g["stderr"] = lle_stderr(
+            np.concatenate([blocks[j] for j in st]),
+            g["lle"],
+            sum(starts[j]["_terms"] for j in st),
+            eps,
+        )
         rates = [starts[j]["impact_rate"] for j in st]
         g["impact_rate"] = (
             _weighted(rates, [periods[j] for j in st]) if all(map(math.isfinite, rates)) else None
@@ -286,9 +294,11 @@ def _per_start(
     blocks: list[np.ndarray],
     periods: list[int],
     impact_blocks: Sequence[Any] | None,
+    eps: float,
 ) -> list[dict]:
-    """Step 1 of :func:`attribute`: each start's LLE, its batch-means error, impact rate and
-    the rate's error (floor ``1 / N``: an integer count over ``N`` periods)."""
+    """Step 1 of :func:`attribute`: each start's LLE, its batch-means error floored at the
+    rounding of its sum (``eps``: the working precision's; one log per period and per impact),
+    impact rate and the rate's error (floor ``1 / N``: an integer count over ``N`` periods)."""
     n = len(blocks)
     starts = []
     for j in range(n):
@@ -302,10 +312,13 @@ def _per_start(
         else:
             rate = result.n_impacts / max(sum(periods), 1) if n == 1 else math.nan
             rate_se = math.nan
+        lle = float(per_start[j][0])
+        terms = periods[j] * (1.0 + (rate if math.isfinite(rate) else 0.0))
         starts.append(
             {
-                "lle": float(per_start[j][0]),
-                "stderr": means_stderr(blocks[j]),
+                "lle": lle,
+                "stderr": lle_stderr(blocks[j], lle, terms, eps),
+                "_terms": terms,
                 "impact_rate": rate,
                 "impact_rate_stderr": rate_se,
                 "periods": periods[j],

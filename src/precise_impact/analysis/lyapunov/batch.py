@@ -7,14 +7,13 @@ advancing together in heyoka's SIMD lanes; the hard cases in ``docs/numerics.rst
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 
-from precise_impact.analysis.lyapunov.result import means_stderr, rounding_stderr
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.params import Params, check_count
+from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import IntegrationError, ParameterError
 from precise_impact.solvers.heyoka.batch import default_batch_size, integrate_group
 
@@ -107,13 +106,12 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
         )
         tot = periods * T[i]
         lle = float(l1[:, i].sum() / tot)
-        # one term per step: periods + impacts (rounding floor, rounding_stderr)
-        floor = rounding_stderr(lle, periods + float(impacts[i]))
         results.append(
             {
                 "lle": lle,
                 "lambda2": float(l2[:, i].sum() / tot),
-                "stderr": math.hypot(means_stderr(blocks), floor),
+                # one term per step: periods + impacts (core.stats.lle_stderr)
+                "stderr": lle_stderr(blocks, lle, periods + float(impacts[i])),
                 "period": detect_period(xs[:, i], vs[:, i], max_period),
                 "impacts_per_period": float(impacts[i] / periods),
                 "x_last": float(xs[-1, i]),

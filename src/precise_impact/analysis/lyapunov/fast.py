@@ -20,12 +20,13 @@ from precise_impact.analysis.lyapunov.attractors import (
     attribute,
 )
 from precise_impact.analysis.lyapunov.batch import batch_lle, refused_row
-from precise_impact.analysis.lyapunov.result import LyapunovResult, means_stderr, rounding_stderr
+from precise_impact.analysis.lyapunov.result import LyapunovResult
 from precise_impact.analysis.lyapunov.variational import variational_spectrum
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.core.budget import Deadline, estimate_cost, parse_max_time
 from precise_impact.core.impact import elastic_bounce_count, elastic_bounce_refusal
 from precise_impact.core.params import as_params, check_count
+from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import EndlessBouncesError, ParameterError
 from precise_impact.io.progress import ProgressArg, check_progress, say
 from precise_impact.solvers.base import Unresolved, note_fallback, with_fallback
@@ -237,7 +238,7 @@ def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out)
         precision="float64",
         lle=lam1,
         spectrum=(lam1, lam2),
-        lle_stderr=means_stderr(block_means),
+        lle_stderr=lle_stderr(block_means, lam1, per * n + float(imps.sum())),
         periods=per * n,
         transient=transient,
         n_impacts=int(imps.sum()),
@@ -403,12 +404,11 @@ def fast_batch_rows(
             T = 2 * math.pi / eta[i]
             bm = bsums[j] / (per_block * T)
             lle = float(log1[j] / (periods * T))
-            # one term per flight: periods + impacts (rounding floor, rounding_stderr)
-            floor = rounding_stderr(lle, periods + float(imps[j]))
             results[i] = {
                 "lle": lle,
                 "lambda2": float(log2[j] / (periods * T)),
-                "stderr": math.hypot(means_stderr(bm), floor),
+                # one term per flight: periods + impacts (core.stats.lle_stderr)
+                "stderr": lle_stderr(bm, lle, periods + float(imps[j])),
                 "period": detect_period(xt[j], vt[j], max_period),
                 "impacts_per_period": float(imps[j] / periods),
                 "x_last": float(xt[j][-1]),

@@ -12,8 +12,17 @@ import numpy as np
 from precise_impact.core.compat import RenamedAttribute
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin, columns, to_jsonable
+from precise_impact.core.stats import lle_stderr, means_stderr, rounding_stderr
 
-__all__ = ["Attractor", "LyapunovResult", "StartEstimate", "block_stderr", "means_stderr"]
+__all__ = [
+    "Attractor",
+    "LyapunovResult",
+    "StartEstimate",
+    "block_stderr",
+    "lle_stderr",
+    "means_stderr",
+    "rounding_stderr",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -308,26 +317,6 @@ class LyapunovResult(ResultMixin):
             "elapsed_s": self.elapsed_s,
             "stats": to_jsonable(self.stats),
         }
-
-
-def means_stderr(blocks: Sequence[float]) -> float:
-    """Standard error of the mean of independent block estimates, ``std(ddof=1) / sqrt(n)``
-    (batch means; NaN for fewer than two blocks): written once for every Lyapunov method."""
-    b = np.asarray(blocks, dtype=float).ravel()
-    return float(np.std(b, ddof=1) / math.sqrt(len(b))) if len(b) > 1 else math.nan
-
-
-def rounding_stderr(lle: float, n_terms: float) -> float:
-    """The rounding a float64 finite-time LLE carries: ``sqrt(n) eps |lle|``.
-
-    The estimate is a sum of ``n_terms`` logarithms (one per flight or QR step) divided by the
-    time; each term and each addition rounds to ~1 ulp of the running sum, a random walk of
-    ``sqrt(n)`` steps of ``eps |sum|``, and ``|sum| / t = |lle|``.  Batch means cannot see it:
-    on a periodic orbit the blocks are equal to rounding and their standard error falls below
-    one ulp of the value (issue 28: 1.0e-18 beside a 1.1e-16 miss of the Floquet exponent).
-    Combined in quadrature with the batch-means error, it is the floor of every scan row's
-    ``stderr``."""
-    return math.sqrt(max(float(n_terms), 1.0)) * float(np.finfo(float).eps) * abs(float(lle))
 
 
 def block_stderr(

@@ -23,9 +23,10 @@ from precise_impact.analysis.lyapunov.attractors import (
     TEST_BLOCKS,
     attribute,
 )
-from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr, means_stderr
+from precise_impact.analysis.lyapunov.result import LyapunovResult, block_stderr
 from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count
 from precise_impact.core.precision import Precision
+from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import MissedImpactError, ParameterError
 from precise_impact.solvers.heyoka.variational import (
     CHUNK,
@@ -296,9 +297,10 @@ def variational_spectrum(
     diag["max_period_log"] = float(np.max(l1)) if len(l1) else -math.inf
     diag["finite_logs"] = bool(np.all(np.isfinite(l1)))
     all_blocks = np.concatenate(blocks)
-    se = means_stderr(all_blocks)
     total = float(np.sum(dt))
     lam1, lam2 = float(np.sum(l1) / total), float(np.sum(l2) / total)
+    # one log per step and per impact, each rounded in the working precision
+    se = lle_stderr(all_blocks, lam1, len(l1) + impacts, float(P.eps))
     result = LyapunovResult(
         params=params,
         method="variational",

@@ -26,6 +26,7 @@ from precise_impact.core.impact import (
     short_elastic_flight,
 )
 from precise_impact.core.params import as_params, check_count
+from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import Interrupted
 from precise_impact.io.progress import ProgressArg
 from precise_impact.solvers.fast.control import (
@@ -543,10 +544,13 @@ def fast_lle(
     ]
     ok = [i for i in range(n) if status[i] == STATUS_OK]
     bm = (bsums[ok] / (per_block * T)).ravel() if ok else np.array([])
+    lle = float(np.mean([per[i]["lle"] for i in ok])) if ok else math.nan
+    # batch means, floored at the rounding of the sums: one log per period and per impact
+    terms = len(ok) * periods + float(sum(imps[i] for i in ok))
     return {
-        "lle": float(np.mean([per[i]["lle"] for i in ok])) if ok else math.nan,
+        "lle": lle,
         "lambda2": float(np.mean([per[i]["lambda2"] for i in ok])) if ok else math.nan,
-        "stderr": float(np.std(bm, ddof=1) / math.sqrt(len(bm))) if len(bm) > 1 else math.nan,
+        "stderr": lle_stderr(bm, lle, terms) if ok else math.nan,
         "per_start": per,
         "impacts": int(imps.sum()),
         "refined_flights": int(refined.sum()),
