@@ -13,6 +13,7 @@ import pytest
 
 import precise_impact as pi
 from precise_impact.analysis.impact_surface.response import (
+    _graze_limit,
     budd_dux_locate,
     budd_dux_orbit,
     budd_dux_points,
@@ -273,3 +274,28 @@ def test_continue_orbit_within_is_checked_before_work():
     for bad in (("2", "5"), ("1.5",), ("0", "5")):
         with pytest.raises(ParameterError, match="within"):
             pi.continue_orbit(p, "eta", "2.8", "1.5", 1, within=bad)
+
+
+@pytest.mark.parametrize(
+    ("eta", "R", "n"),
+    [("2.0", "0.8", 1), ("4.0", "0.8", 2), ("6.0", "0.8", 3), ("2.0", "0.5", 1), ("2/3", "0.8", 1)],
+)
+def test_no_landmark_but_grazings_at_the_half_turn_resonance(eta, R, n):
+    # 2 n / omega odd: Phi(n T) = -I, so M = -S and both multipliers equal r on the whole
+    # curve (1 + tr + det = (1 + r)^2, 1 - tr + det = (1 - r)^2): no fold, no period-doubling.
+    # Before: a period-doubling at x_w = -1/3 with test -7.15e4 and folds at V ~ 1e-50.
+    pts = budd_dux_points(eta, R, n, dps=50)
+    assert sorted(p["type"] for p in pts) == ["grazing", "grazing"]
+    e, r = Fraction(eta), Fraction(R)
+    gamma = 1 / (1 - e * e)
+    assert sorted(float(p["x_w"]) for p in pts) == sorted([float(gamma), float(-gamma)])
+    ops = flight.MpmathOps(dps=50)
+    args = (ops.num(e), ops.num(r), n, ops.num(1), ops)
+    for theta0 in (ops.ctx.zero, ops.ctx.pi):
+        # the limits at V = 0 against the closed form (1 -+ r)^2; l'Hopital keeps ~dps/4 digits
+        for kind, ref in (("fold", (1 - r) ** 2), ("period-doubling", (1 + r) ** 2)):
+            lim = _graze_limit(kind, theta0, args)
+            assert abs(lim - ops.num(ref)) < mpmath.mpf(10) ** -10, (kind, theta0, lim)
+        # and at a phase away from it the test itself agrees: both multipliers r
+        _, _, tr, det = budd_dux_orbit(theta0 + ops.num(Fraction(1, 3)), *args)
+        assert abs(tr - 2 * ops.num(r)) < mpmath.mpf(10) ** -40
