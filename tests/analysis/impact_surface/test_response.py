@@ -299,3 +299,39 @@ def test_no_landmark_but_grazings_at_the_half_turn_resonance(eta, R, n):
         # and at a phase away from it the test itself agrees: both multipliers r
         _, _, tr, det = budd_dux_orbit(theta0 + ops.num(Fraction(1, 3)), *args)
         assert abs(tr - 2 * ops.num(r)) < mpmath.mpf(10) ** -40
+
+
+_WIDE = dict(zeta=0, a=1, R="0.8", eta="3.7", x_w="0.2", x0="-0.5")
+# the arbiter's (independent multiprecision) grazing: the interior maximum touches the wall,
+# the orbit admissible on one side only; located by regula falsi to ~100 eps (1e-10 spare)
+_GRAZE = -0.0498233720452
+
+
+def _landmarks(rc):
+    graze = [b for b in rc.bifurcations if b.type == "grazing" and abs(b.value - _GRAZE) < 1e-3]
+    pds = sorted(b.value for b in rc.bifurcations if b.type == "period-doubling")
+    return graze, pds
+
+
+def test_wide_range_keeps_the_interior_grazing_and_the_virtual_period_doubling():
+    # over -0.5..3.5 the steps are 4x longer: before, the step from no interior maximum
+    # (test +inf) to one above the wall was no sign change (grazing lost), and the virtual
+    # period-doubling at +0.0613 sat in one step with the pole at the V = 0 grazing +0.0788
+    rc = response_curve(pi.Params.make(**_WIDE), 2, "x_w", "-0.5", "3.5", at="0.2")
+    graze, pds = _landmarks(rc)
+    assert len(graze) == 1 and abs(graze[0].value - _GRAZE) < 1e-10, graze
+    refs = sorted(
+        float(q["x_w"]) for q in budd_dux_points("3.7", "0.8", 2) if q["type"] == "period-doubling"
+    )
+    assert len(pds) == 2 and max(abs(x - y) for x, y in zip(pds, refs, strict=True)) < TOL, pds
+
+
+@pytest.mark.slow
+def test_landmarks_do_not_depend_on_the_range():
+    p = pi.Params.make(**_WIDE)
+    found = []
+    for stop in ("0.5", "3.5"):
+        graze, pds = _landmarks(response_curve(p, 2, "x_w", "-0.5", stop, at="0.2"))
+        assert len(graze) == 1 and abs(graze[0].value - _GRAZE) < 1e-10, (stop, graze)
+        found.append(pds)
+    assert len(found[0]) == 2 and np.allclose(found[0], found[1], rtol=0, atol=TOL), found
