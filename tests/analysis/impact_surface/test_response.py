@@ -273,3 +273,64 @@ def test_continue_orbit_within_is_checked_before_work():
     for bad in (("2", "5"), ("1.5",), ("0", "5")):
         with pytest.raises(ParameterError, match="within"):
             pi.continue_orbit(p, "eta", "2.8", "1.5", 1, within=bad)
+
+
+@pytest.mark.parametrize(
+    ("eta", "R", "n"),
+    [("2.0", "0.8", 1), ("4.0", "0.8", 2), ("6.0", "0.8", 3), ("2.0", "0.5", 1), ("2/3", "0.8", 1)],
+)
+def test_no_landmark_but_grazings_at_the_half_turn_resonance(eta, R, n):
+    # 2 n / omega odd: Phi(n T) = -I, so M = -S and both multipliers equal r on the whole
+    # curve (1 + tr + det = (1 + r)^2, 1 - tr + det = (1 - r)^2): no fold, no period-doubling.
+    # Before: a period-doubling at x_w = -1/3 with test -7.15e4 and folds at V ~ 1e-50.
+    pts = budd_dux_points(eta, R, n, dps=50)
+    assert sorted(p["type"] for p in pts) == ["grazing", "grazing"]
+    e, r = Fraction(eta), Fraction(R)
+    gamma = 1 / (1 - e * e)
+    assert sorted(float(p["x_w"]) for p in pts) == sorted([float(gamma), float(-gamma)])
+    ops = flight.MpmathOps(dps=50)
+    args = (ops.num(e), ops.num(r), n, ops.num(1), ops)
+    for theta0 in (ops.ctx.zero, ops.ctx.pi):
+        # the tests a hair (1e-20) beside V = 0 and a third away agree with the closed forms
+        # (1 -+ r)^2: the rounded pi's Phi_01 ~ 1e-50 times the saltation's 1 / V ~ 1e20 leaves
+        # 1e-30; no limit of a multiplier +-1 anywhere near the grazings
+        for d in (mpmath.mpf(10) ** -20, -(mpmath.mpf(10) ** -20), ops.num(Fraction(1, 3))):
+            _, _, tr, det = budd_dux_orbit(theta0 + d, *args)
+            for test, ref in ((1 - tr + det, (1 - r) ** 2), (1 + tr + det, (1 + r) ** 2)):
+                assert abs(test - ops.num(ref)) < mpmath.mpf(10) ** -25, (theta0, d, test)
+
+
+_WIDE = dict(zeta=0, a=1, R="0.8", eta="3.7", x_w="0.2", x0="-0.5")
+# the arbiter's (independent multiprecision) grazing: the interior maximum touches the wall,
+# the orbit admissible on one side only; located by regula falsi to ~100 eps (1e-10 spare)
+_GRAZE = -0.0498233720452
+
+
+def _landmarks(rc):
+    graze = [b for b in rc.bifurcations if b.type == "grazing" and abs(b.value - _GRAZE) < 1e-3]
+    pds = sorted(b.value for b in rc.bifurcations if b.type == "period-doubling")
+    return graze, pds
+
+
+def test_wide_range_keeps_the_interior_grazing_and_the_virtual_period_doubling():
+    # over -0.5..3.5 the steps are 4x longer: before, the step from no interior maximum
+    # (test +inf) to one above the wall was no sign change (grazing lost), and the virtual
+    # period-doubling at +0.0613 sat in one step with the pole at the V = 0 grazing +0.0788
+    rc = response_curve(pi.Params.make(**_WIDE), 2, "x_w", "-0.5", "3.5", at="0.2")
+    graze, pds = _landmarks(rc)
+    assert len(graze) == 1 and abs(graze[0].value - _GRAZE) < 1e-10, graze
+    refs = sorted(
+        float(q["x_w"]) for q in budd_dux_points("3.7", "0.8", 2) if q["type"] == "period-doubling"
+    )
+    assert len(pds) == 2 and max(abs(x - y) for x, y in zip(pds, refs, strict=True)) < TOL, pds
+
+
+@pytest.mark.slow
+def test_landmarks_do_not_depend_on_the_range():
+    p = pi.Params.make(**_WIDE)
+    found = []
+    for stop in ("0.5", "3.5"):
+        graze, pds = _landmarks(response_curve(p, 2, "x_w", "-0.5", stop, at="0.2"))
+        assert len(graze) == 1 and abs(graze[0].value - _GRAZE) < 1e-10, (stop, graze)
+        found.append(pds)
+    assert len(found[0]) == 2 and np.allclose(found[0], found[1], rtol=0, atol=TOL), found

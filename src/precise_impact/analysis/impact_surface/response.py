@@ -151,7 +151,9 @@ def budd_dux_points(
     Folds: the turning points ``tan theta = beta omega`` of the ellipse (closed form), checked
     to carry a multiplier ``+1``; period-doublings: the zeros of ``1 + trace + det`` in
     ``theta`` (sign changes on ``samples`` phases, refined by :func:`mpmath.findroot`);
-    grazings: ``V = 0`` at ``theta = 0, pi``.  All at ``dps`` digits.
+    grazings: ``V = 0`` at ``theta = 0, pi``.  All at ``dps`` digits.  A fold or
+    period-doubling at ``V = 0`` (the tests' ``1 / V``) is decided by the test's limit there:
+    at ``2 n / omega`` odd (``Phi(n T) = -I``, both multipliers ``r``) only the grazings.
 
     Parameters
     ----------
@@ -204,13 +206,23 @@ def budd_dux_points(
     mp = ops.ctx
     e, r, av = ops.num(eq), ops.num(Rq), ops.num(aq)
     gamma = av / (1 - e * e)
-    ch, sh = ops.cos_sin(n * ops.pi / e)
+    ch, sh = _half_turn(eq, n, ops)
     beta = (1 + r) / (1 - r) * ch / sh
+    # a test "vanishes" below half the working digits (the tests at the points themselves are
+    # ~1e-dps; a limit by mp.diff keeps more than half the digits)
+    tol = mp.mpf(10) ** (-(dps // 2))
     out = []
     tf = mp.atan(beta * e)
     for theta in (tf, tf + mp.pi):
-        s, V, tr, det = budd_dux_orbit(theta, e, r, n, av, ops)
-        out.append({"type": "fold", "theta": theta, "x_w": s, "V": V, "test": 1 - tr + det})
+        if beta == 0:  # the turning points are the grazings theta = 0, pi (V = 0): the limit
+            test = _graze_limit("fold", theta, (e, r, n, av, ops))
+            if not abs(test) <= tol:
+                continue  # no multiplier +1 there (at Phi(n T) = -I both multipliers are r)
+            s, V = gamma * mp.cos(theta), mp.zero
+        else:
+            s, V, tr, det = budd_dux_orbit(theta, e, r, n, av, ops)
+            test = 1 - tr + det
+        out.append({"type": "fold", "theta": theta, "x_w": s, "V": V, "test": test})
     for theta in (mp.zero, mp.pi):
         out.append(
             {
@@ -221,31 +233,76 @@ def budd_dux_points(
                 "test": mp.zero,
             }
         )
+    out += _period_doublings(e, r, n, av, ops, samples, tol)
+    out.sort(key=lambda p: p["theta"])
+    return out
 
-    # period-doubling: zeros of V (1 + trace + det), smooth through the pole of the test at
-    # V = 0 (the saltation matrix's 1 / V), whose own zeros theta = 0, pi are skipped
-    def h_in(o, ee, rr, aa):
-        def h(th):
-            _, V, tr, det = budd_dux_orbit(th, ee, rr, n, aa, o)
-            return V * (1 + tr + det)
 
-        return h
+def _half_turn(eq: Fraction, n: int, ops: Any) -> tuple:
+    """``(cos, sin)(n pi / omega)``, exact where ``2 n / omega`` is an odd integer (``Phi(n T)
+    = -I``, ``beta = 0``: the rounded ``pi`` would leave ``cos ~ 10^-dps``, and the folds
+    ``tan theta = beta omega`` a rounding's distance from the grazings)."""
+    k = Fraction(2 * n) / eq
+    if k.denominator == 1 and k.numerator % 2 == 1:
+        return ops.num(0), ops.num(1 if k.numerator % 4 == 1 else -1)
+    return ops.cos_sin(n * ops.pi / ops.num(eq))
 
-    h = h_in(ops, e, r, av)
-    hf = h_in(flight.FLOAT, float(e), float(r), float(av))
 
+def _h(kind: str, args: tuple):
+    """``theta -> V * test``: smooth through ``V = 0``, where the test has the saltation
+    matrix's ``1 / V`` (``args = (eta, R, n, a, ops)``)."""
+
+    def h(th):
+        _, V, tr, det = budd_dux_orbit(th, *args)
+        return V * (1 - tr + det if kind == "fold" else 1 + tr + det)
+
+    return h
+
+
+def _graze_limit(kind: str, theta0: Any, args: tuple) -> Any:
+    """The test's limit at a grazing ``theta0`` (``V(theta0) = 0``), never the test evaluated
+    a rounding away from it: ``(V test)' / V'`` (l'Hopital) where ``V test`` vanishes, infinite
+    (``mp.inf``, a pole: no bifurcation) where it does not."""
+    eta, R, n, a, ops = args
+    mp = ops.ctx
+    h = _h(kind, args)
+    # h(theta0) and h'(theta0) from theta0 +- d (h at theta0 itself has the saltation's 0 / 0):
+    # errors d^2 ~ 10^(-dps/2) and rounding 10^-dps / d ~ 10^(-3 dps/4)
+    d = mp.mpf(10) ** (-(mp.dps // 4))
+    hp, hm = h(theta0 + d), h(theta0 - d)
+    dh = (hp - hm) / (2 * d)
+    dV = -2 * eta * a / (1 - eta * eta) * mp.cos(theta0) / (1 - R)
+    if abs(hp + hm) / 2 > mp.mpf(10) ** (-(mp.dps // 2) + 2) * (1 + abs(dh)):
+        return mp.inf
+    return dh / dV
+
+
+def _period_doublings(e, r, n, av, ops, samples: int, tol: Any) -> list[dict]:
+    """The zeros of ``V (1 + trace + det)`` (:func:`_h`) in ``theta``: sign changes on
+    ``samples`` phases (float), refined at the working precision; a zero at ``V = 0`` (``theta
+    = 0, pi``, a zero of the factor ``V``) is kept only if the test's limit there vanishes."""
+    mp = ops.ctx
+    args = (e, r, n, av, ops)
+    h = _h("period-doubling", args)
+    hf = _h("period-doubling", (float(e), float(r), n, float(av), flight.FLOAT))
     grid = [2 * math.pi * (k + 0.5) / samples for k in range(samples + 1)]
     fl = [hf(th) for th in grid]
+    out = []
     for k in range(samples):
         t0, t1 = grid[k], grid[k + 1]
-        if not (fl[k] < 0) != (fl[k + 1] < 0) or t0 < math.pi < t1:
+        if not (fl[k] < 0) != (fl[k + 1] < 0):
             continue
         theta = mp.findroot(h, (mp.mpf(t0), mp.mpf(t1)), solver="anderson")
-        s, V, tr, det = budd_dux_orbit(theta, e, r, n, av, ops)
-        out.append(
-            {"type": "period-doubling", "theta": theta, "x_w": s, "V": V, "test": 1 + tr + det}
-        )
-    out.sort(key=lambda p: p["theta"])
+        graze = [g for g in (mp.pi, 2 * mp.pi) if t0 < g < t1 and abs(theta - g) <= tol]
+        if graze:  # the root is V's: the limit decides
+            test = _graze_limit("period-doubling", graze[0], args)
+            if not abs(test) <= tol:
+                continue
+            theta, s, V = graze[0], av / (1 - e * e) * mp.cos(graze[0]), mp.zero
+        else:
+            s, V, tr, det = budd_dux_orbit(theta, *args)
+            test = 1 + tr + det
+        out.append({"type": "period-doubling", "theta": theta, "x_w": s, "V": V, "test": test})
     return out
 
 

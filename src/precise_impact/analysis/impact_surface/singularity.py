@@ -152,29 +152,30 @@ def _newton(fl: _Flights, z: np.ndarray, extra=None, tol: float = 1e-14, it: int
 
 
 def _seeds(fl: _Flights, v_max: float, n_phase: int, n_v: int):
-    """Starting points: on a phase grid, a sign change in ``v`` of the first maximum's height
-    above the wall, refined by Newton at fixed phase."""
+    """Starting points: on a phase grid, a sign change in ``v`` of the ``k``-th maximum's height
+    above the wall, for every maximum up to the first that reaches the wall (a later one grazes
+    only a virtual flight; the first alone misses the grazes of flights whose earlier maxima
+    stay below the wall), refined by Newton at fixed phase."""
     out = []
     T = 2 * math.pi / fl.eta
     vs = np.linspace(v_max / n_v, v_max, n_v)
     for phase in np.arange(n_phase) / n_phase:
-        prev = None
+        prev: list = []
         for v in vs:
             f = fl.flight(phase, v, flight.NUMPY)
             t0 = phase * fl.c
             ts = t0 + np.linspace(1e-9, 3 * max(T, 2 * math.pi), 1500)
             x, xd = f.at(ts)
             k = np.nonzero((xd[:-1] > 0) & (xd[1:] <= 0))[0]
-            if len(k) == 0:
-                prev = None
-                continue
-            i = k[0]
-            h = x[i] - fl.x_w
-            if prev is not None and (h > 0) != (prev[0] > 0):
-                z, ok = _newton(fl, np.array([phase, v, ts[i] - t0]))
-                if ok and z[1] > 0 and z[2] > 0:
-                    out.append(z)
-            prev = (h, v)
+            h = x[k] - fl.x_w
+            above = np.nonzero(h > 0)[0]
+            n = above[0] + 1 if len(above) else len(k)
+            for j in range(min(n, len(prev))):
+                if (h[j] > 0) != (prev[j] > 0):
+                    z, ok = _newton(fl, np.array([phase, v, ts[k[j]] - t0]))
+                    if ok and 0 < z[1] <= v_max and z[2] > 0:
+                        out.append(z)
+            prev = list(h[:n])
     return out
 
 

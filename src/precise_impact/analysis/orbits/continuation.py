@@ -155,7 +155,9 @@ class _Point:
 
 
 def _sign_change(a: float, b: float) -> bool:
-    return math.isfinite(a) and math.isfinite(b) and (a == 0 or (a < 0) != (b < 0)) and b != 0
+    """``a`` to ``b`` changes sign; ``+inf`` (a grazing test with no interior maximum) counts
+    as positive, so a step from no maximum to one above the wall is a sign change too."""
+    return not (math.isnan(a) or math.isnan(b)) and (a == 0 or (a < 0) != (b < 0)) and b != 0
 
 
 def _locate(curve: _Curve, p0: _Point, p1: _Point, test: str):
@@ -173,8 +175,8 @@ def _locate(curve: _Curve, p0: _Point, p1: _Point, test: str):
             break
         pt = _Point(system, y, p0.tau)
         f = pt.tests[test]
-        if not math.isfinite(f):
-            break
+        if math.isnan(f):
+            break  # (+inf, no interior maximum, is positive: bisection while an end is inf)
         best = pt
         if f == 0:
             break
@@ -191,6 +193,30 @@ def _locate(curve: _Curve, p0: _Point, p1: _Point, test: str):
         if abs(hi - lo) <= 4 * _EPS * (1 + float(np.max(np.abs(y)))):
             break
     return best
+
+
+def _pairs(curve: _Curve, a: _Point, b: _Point) -> list:
+    """``(test, p, q)``: the intervals on which each test's sign is compared.  The grazing
+    tests on ``(a, b)``; the multiplier tests too, unless an impact turns tangential between
+    ``a`` and ``b`` (``graze_impact`` changes sign): there they have a pole (the saltation
+    matrix's ``1 / v^-``), whose sign change would cancel a root's in the same step however
+    wide the steps are (a wider range, longer steps), so each side of that point is compared
+    on its own, from points ``1e-6`` of the step beside it."""
+    sides = [(a, b)]
+    if _sign_change(a.tests["graze_impact"], b.tests["graze_impact"]):
+        z = _locate(curve, a, b, "graze_impact")
+        s_z, s_b = float(a.tau @ (z.y - a.y)), float(a.tau @ (b.y - a.y))
+        near = [_point_at(curve, a, s_z + d * 1e-6 * s_b) for d in (-1, 1)]
+        if None not in near:
+            sides = [(a, near[0]), (near[1], b)]
+    out = [(t, a, b) for t in _TESTS if t.startswith("graze")]
+    return out + [(t, p, q) for p, q in sides for t in _TESTS if not t.startswith("graze")]
+
+
+def _point_at(curve: _Curve, p0: _Point, s: float) -> _Point | None:
+    """The branch point at arclength ``s`` along ``p0.tau`` (``None``: not found)."""
+    y, _ = curve.correct(p0.y + s * p0.tau, p0.tau, p0.y, s)
+    return None if y is None else _Point(curve.s, y, p0.tau)
 
 
 def _is_root(z: _Point, test: str) -> bool:
@@ -475,8 +501,8 @@ def continue_orbit(
         branches.append(
             Branch.from_points(parameter, cv.s.period, cv.s.impacts, origin, pts, reason)
         )
-        for a, b in zip(pts[:-1], pts[1:], strict=True):
-            for test in _TESTS:
+        for a0, b0 in zip(pts[:-1], pts[1:], strict=True):
+            for test, a, b in _pairs(cv, a0, b0):
                 if not _sign_change(a.tests[test], b.tests[test]):
                     continue
                 found = _bifurcation(cv, a, b, test, parameter, k)
@@ -612,6 +638,16 @@ def _bifurcation(cv: _Curve, a: _Point, b: _Point, test: str, parameter: str, k:
     z = _locate(cv, a, b, test)
     if not test.startswith("graze") and not _is_root(z, test):
         return None  # a pole, not a root: the saltation matrix's 1 / v^- at a grazing impact
+    if test.startswith("graze") and not abs(z.tests[test]) <= 1e-8 * (1 + abs(z.lam)):
+        return None  # a jump (an interior maximum born above the wall), not a tangency
+    if (
+        test == "graze_interior"
+        and math.inf in (a.tests[test], b.tests[test])
+        and min((abs(w) for w in z.impact_v), default=math.inf) <= 1e-6
+    ):
+        # the maximum is born at the flight's end as the impact turns tangential (v^- = 0):
+        # the graze_impact point itself, located there from v^- without the jump
+        return None
     kind = test
     detail = ""
     if test.startswith("graze"):
