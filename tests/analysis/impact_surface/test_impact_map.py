@@ -17,6 +17,13 @@ from precise_impact.analysis.impact_surface.impact_map import (
     impact_map_orbit,
 )
 from precise_impact.core import flight
+from precise_impact.solvers.fast.control import (
+    POLL_PERIODS,
+    STATUS_INTERRUPTED,
+    STOP_INTERRUPT,
+    new_flag,
+)
+from precise_impact.solvers.fast.surface import impact_orbit
 
 DPS = 50
 
@@ -170,12 +177,15 @@ def test_chaotic_within_horizon():
 
 @pytest.mark.parametrize("engine", ["heyoka", "fast"])
 def test_chatter_and_sticking_are_not_ordinary_points(engine):
-    # the Budd-Dux chatter case (zeta = 0, R = 0.5, omega = 4.85, sigma = -0.3); the fast
-    # engine hands chattering orbits to heyoka (its contact rule)
+    # the Budd-Dux chatter case (zeta = 0, R = 0.5, omega = 4.85, sigma = -0.3): nine ordinary
+    # impacts, then a chattering sequence (the geometric run of 10 impacts the accumulation is
+    # extrapolated from) and sticking; the fast engine's kernel hands the run of short flights
+    # into the wall to the heyoka path (its contact rule)
     params = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.3")
-    ev = impact_map(params, 0.1, 0.5, 6, engine=engine)
+    ev = impact_map(params, 0.1, 0.5, 16, engine=engine)
     kinds = [e.kind for e in ev]
     assert "chatter" in kinds and "sticking" in kinds
+    assert kinds[:11] == ["impact"] * 9 + ["chatter", "sticking"]
     for e in ev:
         if e.kind == "chatter":
             assert e.t < e.t_end and e.count > 1
@@ -184,6 +194,78 @@ def test_chatter_and_sticking_are_not_ordinary_points(engine):
             assert abs(np.cos(4.85 * e.t_end) + 0.3) < 1e-9
     times = [float(e.t) for e in ev]
     assert times == sorted(times)
+
+
+def test_fast_and_heyoka_agree_through_chatter():
+    # the same events from the compiled kernel (+ the heyoka path for the chattering) as from
+    # the heyoka path alone: kinds and counts equal; times and speeds to 1e-12 (measured
+    # 4e-14 for impacts and chatter starts; 1.2e-13 for the accumulation time, extrapolated by
+    # Richardson from impact times that differ by rounding: its noise test is 4 eps t)
+    params = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.3")
+    fast = impact_map(params, 0.1, 0.5, 30, engine="fast")
+    hey = impact_map(params, 0.1, 0.5, 30, engine="heyoka")
+    assert [(e.kind, e.count) for e in fast] == [(e.kind, e.count) for e in hey]
+    for f, h in zip(fast, hey, strict=True):
+        assert abs(f.t - h.t) < 1e-12 and abs(f.v - h.v) < 1e-12, (f, h)
+        if h.t_end is not None:
+            assert abs(f.t_end - h.t_end) < 1e-12, (f, h)
+
+
+def test_fast_kernel_on_the_issue_case_against_never_miss_reference():
+    # omega = 2.8, r = 0.8, sigma = 0, zeta = 0 (chaotic): the compiled kernel against the
+    # mpmath flight over 20 impacts.  Float64 rounding at the start (~1e-16) grows with the
+    # map's stretching: measured 1.6e-13 after 20 impacts (heyoka 2.5e-13); 1e-12 leaves a
+    # factor 6
+    params = pi.Params.make(zeta=0, a=1, eta="2.8", R="0.8", x_w=0)
+    ph, v = attractor_point(params)
+    ref = reference_orbit(params, ph, v, 20, dps=30)
+    ev = impact_map(params, ph, v, 20, engine="fast")
+    assert [e.kind for e in ev] == ["impact"] * 20
+    worst = max(_dist(e, r) for e, r in zip(ev, ref, strict=True))
+    assert worst < 1e-12, worst
+
+
+def test_fast_kernel_phase_from_the_local_clock_on_long_runs():
+    # 100,000 impacts of the period-3 orbit (stable: errors do not grow): the phase comes from
+    # the kernel's local clock, so the last period's impacts repeat the first ones to rounding
+    # (measured 4e-16 in phase, 1.2e-13 in v: the start is heyoka's attractor point, within
+    # ~1e-13 of the orbit).  The phase of the absolute time t ~ 1.3e6 would be off by
+    # eta ulp(t) / (2 pi) ~ 3e-11 (measured 2.6e-11): the 1e-12 bound fails on it
+    params = CASES["period3"]
+    ph, v = attractor_point(params)
+    n = 100_000
+    r = impact_map_orbit(params, ph, v, n, engine="fast", max_periods=10**6)
+    assert r.kind == ["impact"] * n
+    P, V = np.array(r.phase), np.array(r.v)
+    p = next(j for j in range(1, 20) if abs(P[j] - P[0]) < 1e-9 and abs(V[j] - V[0]) < 1e-9)
+    m = (n // p) * p
+    dp = np.abs(P[m - p : m] - P[:p])
+    assert np.max(np.minimum(dp, 1 - dp)) < 1e-12
+    assert np.max(np.abs(V[m - p : m] - V[:p])) < 1e-12
+    assert r.t[-1] > 1e6  # long enough for the absolute clock to fail the phase bound
+
+
+@pytest.mark.parametrize("engine", ["heyoka", "fast"])
+def test_no_impact_within_max_periods(engine):
+    # a wall beyond the steady amplitude (a / |1 - eta^2| ~ 2.2 < 5): after the start impact the
+    # mass falls back and never reaches x_w = 5 again; both paths give the same error
+    params = pi.Params.make(eta="0.74", x_w=5)
+    with pytest.raises(pi.BudgetExceededError, match="no ordinary impact within 200 forcing"):
+        impact_map(params, 0.3, 1.0, 3, engine=engine, max_periods=200)
+
+
+def test_fast_kernel_stops_on_its_flag():
+    # the stop flag set before the call: the kernel returns STATUS_INTERRUPTED at its first
+    # look (after POLL_PERIODS flights), the impacts so far recorded and published
+    stop = new_flag()
+    stop[0] = STOP_INTERRUPT
+    counts = np.zeros(1, np.int64)
+    out = [np.empty(10_000) for _ in range(3)]
+    st, imps, keep, _, _ = impact_orbit(
+        2.8, 0.0, 1.0, 0.0, 0.8, 0.7, 0, 1.0, 10_000, 10**6, *out, stop, counts
+    )
+    assert st == STATUS_INTERRUPTED
+    assert 0 < imps < POLL_PERIODS and keep == imps == counts[0]
 
 
 def test_engines_without_contact_rule_refuse_chatter():
