@@ -12,7 +12,8 @@ Layouts (``fmt``), as the instruments write them:
 
 ``rigol``  Rigol DS1000Z ("Save > CSV"): ``X,CH1,CH2,Start,Increment,`` then
            ``Sequence,Volt,Volt,<start>,<increment>`` then ``<index>,<v1>,<v2>,`` rows; time is
-           ``start + index * increment``.  Layout as parsed by
+           ``start + index * increment`` (X in ``Second``, as some firmwares write it: the
+           times themselves, from ``start`` in steps of ``increment``).  Layout as parsed by
            github.com/vidavidorra/rigol-csv-analyser (its header comment quotes a DS1054Z file).
 ``rigol-mso5000``  Rigol MSO5000 / DHO: ``Time(s),CH1V,CH2V[,t0 = ..., tInc = ...]`` then
            ``<t>,<v1>,<v2>`` rows (the header form parsed by the Rigol readers found in public
@@ -514,9 +515,27 @@ def _read_rigol(path: Path, channels: Any) -> Capture:
     a = _rows_numeric(path, rows[2:], 3, list(range(len(names) + 1)))
     scale = [_unit(path, h1[1 + i], "volt", n) for i, n in enumerate(names)]
     data = {n: a[:, i + 1] * scale[i] for i, n in enumerate(names)}
-    t = start + a[:, 0] * inc
+    t = _rigol_time(path, h1[0], a[:, 0], start, inc)
     src = {"format": "rigol", "instrument": "Rigol DS1000Z", "start": start, "increment": inc}
-    return _finish(path, t, data, channels, src, dt=inc)
+    return _finish(path, t, data, channels, dict(src, x_unit=h1[0]), dt=inc)
+
+
+def _rigol_time(path: Path, unit: str, x: np.ndarray, start: float, inc: float) -> np.ndarray:
+    """The sample times of a Rigol CSV's X column, read by the unit its second header row states:
+    ``Sequence`` a sample index (``start + x * increment``), a time unit (``Second``, ``s``,
+    ``ms``, ...: some DS1000Z firmwares) the times themselves, which must start at the header's
+    ``Start`` (to a sample and Start's 7 printed digits; their step is checked against
+    ``Increment`` by :meth:`Capture.make`)."""
+    if unit.lower() == "sequence":
+        return start + x * inc
+    t = x * _unit(path, unit, "time", "X")
+    if len(t) and not abs(t[0] - start) <= inc + 1e-6 * abs(start):
+        raise _bad(
+            path,
+            f"X from {t[0]:.6g} s, Start {start:.6g} s",
+            f"an X column in {unit!r} that starts at the header's Start (a damaged file?)",
+        )
+    return t
 
 
 def _read_rigol_mso5000(path: Path, channels: Any) -> Capture:
