@@ -64,7 +64,7 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.errors import OptionalDependencyError, ParameterError
+from precise_impact.errors import OptionalDependencyError, ParameterError, check_type
 from precise_impact.io.atomic import atomic_write
 from precise_impact.lab.capture import CHANNELS, Capture
 
@@ -89,6 +89,8 @@ READ_FORMATS = (
     "siglent",
     "binary",
 )
+#: What a capture-file argument may be.
+FILE_ARG = "a file path (str or os.PathLike) or a list of them (one per channel)"
 WRITE_FORMATS = ("csv", "npz", "rigol", "keysight", "tek-tbs", "tek", "siglent", "keysight-bin")
 BINARY_SUFFIXES = (".wfm", ".bin", ".isf", ".trc", ".wvf")
 
@@ -131,6 +133,14 @@ def _unit(path: Any, unit: str, kind: str, column: str) -> float:
         return table[u]
     want = "s, ms, us, ns" if kind == "time" else "V, mV, uV"
     return _raise(_bad(path, f"{column} in '{unit}'", f"a {kind} axis in {want} (wrong unit)"))
+
+
+def _exists(p: Path) -> bool:
+    """Whether ``p`` exists; a name the system cannot even look up (too long) does not."""
+    try:
+        return p.exists()
+    except OSError:
+        return False
 
 
 def _raise(e: Exception) -> Any:
@@ -377,11 +387,12 @@ def read_capture(
     if fmt not in READ_FORMATS:
         raise ParameterError("format", fmt, "one of " + ", ".join(READ_FORMATS))
     if not isinstance(path, (str, os.PathLike)):
-        paths = [Path(p) for p in path]
+        check_type(path, (list, tuple), "path", FILE_ARG)
+        paths = [Path(check_type(p, (str, os.PathLike), "path", FILE_ARG)) for p in path]
         if not paths:
             raise ParameterError("file", [], "at least one file")
         for p in paths:
-            if not p.exists():
+            if not _exists(p):
                 raise ParameterError("file", str(p), "an existing file")
         if len(paths) == 1:
             return read_capture(paths[0], channels, fmt)
@@ -390,7 +401,7 @@ def read_capture(
             return _read_tbs(paths, channels)
         return _read_binary(paths, channels)
     p = Path(path)
-    if not p.exists():
+    if not _exists(p):
         raise ParameterError("file", str(p), "an existing file or directory")
     kind = sniff_format(p) if fmt == "auto" else fmt
     if p.is_dir():
@@ -820,6 +831,8 @@ def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = N
     >>> back.source["format"], back.n_samples == cap.n_samples
     ('rigol', True)
     """
+    check_type(capture, Capture, "capture", "a Capture (read_capture, synth_capture)")
+    check_type(path, (str, os.PathLike), "path", "a file path (str or os.PathLike)")
     path = Path(path)
     fmt = fmt or {".npz": "npz", ".bin": "keysight-bin"}.get(path.suffix.lower(), "csv")
     if fmt not in WRITE_FORMATS:
