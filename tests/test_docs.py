@@ -8,12 +8,16 @@ and a Returns section (RT01), for every function in ``precise_impact.__all__`` a
 
 from __future__ import annotations
 
+import ast
 import inspect
+import re
+from pathlib import Path
 
 import pytest
 
 import precise_impact
 import precise_impact.testing
+from precise_impact.scenes.scene import SCENE_ALIASES
 
 numpydoc_validate = pytest.importorskip("numpydoc.validate")
 
@@ -94,3 +98,62 @@ def test_public_class_has_see_also(name):
         assert not has, f"{name} has See Also now: remove it from CLASSES_WITHOUT_SEE_ALSO"
     else:
         assert has, f"{name}: no See Also section"
+
+
+#: The deprecated spellings (core/compat.py's renames, the CLI's old flags, the old scene names)
+#: as a user would write them: one word per concept in everything a user reads (issue 35, 7e).
+DEPRECATED_SPELLINGS = [
+    r"method=[\"']fast[\"']",  # lyapunov(method='fast') -> model='fast'
+    r"--method fast",  # lle --method fast -> --model fast
+    r"\bcertify(_coupled)?\([^)\n]*\bbits=",  # -> precision='mp:B'
+    r"certify\b[^\n]*--bits",  # -> --precision mp:B
+    r"AnalyticalSolver\([^)\n]*\b(backend|dps|bits)=",  # -> precision=
+    r"\b(simulate_coupled|sync_scan)\([^)\n]*\bengine=",  # -> model=
+    r"\bfind_orbit\([^)\n]*\bseed=",  # -> guess_from=
+    *(re.escape(old) for old in SCENE_ALIASES),
+]
+_DEPRECATED = re.compile("|".join(DEPRECATED_SPELLINGS))
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _docstrings(path: Path) -> list[str]:
+    """Every module, class and function docstring of a source file."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    nodes = [tree, *ast.walk(tree)]
+    kinds = (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)
+    return [d for n in nodes if isinstance(n, kinds) and (d := ast.get_docstring(n))]
+
+
+def _user_text() -> list[tuple[str, str]]:
+    """(where, text) of the README, the documentation pages and the package's docstrings."""
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.rst"))]
+    pages += sorted((ROOT / "docs").rglob("*.inc"))
+    out = [(str(p.relative_to(ROOT)), p.read_text(encoding="utf-8")) for p in pages]
+    for src in sorted((ROOT / "src" / "precise_impact").rglob("*.py")):
+        out += [(str(src.relative_to(ROOT)), d) for d in _docstrings(src)]
+    return out
+
+
+def test_user_text_has_no_deprecated_spelling():
+    found = [
+        f"{where}: {line.strip()}"
+        for where, text in _user_text()
+        for line in text.splitlines()
+        # a line naming the old spelling as deprecated documents it, it does not use it
+        if _DEPRECATED.search(line) and "deprecat" not in line.lower()
+    ]
+    assert not found, "deprecated spellings in user text:\n" + "\n".join(found)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "lyapunov(method='fast')",
+        "lle --method fast",
+        "pi.certify(p, 1, bits=128)",
+        "simulate_coupled(p, engine='fast')",
+        "fig4-periodic-datasheet",
+    ],
+)
+def test_deprecated_spelling_pattern_catches(text):
+    assert _DEPRECATED.search(text)

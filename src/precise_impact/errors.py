@@ -10,6 +10,8 @@ the one exception here that is not an error: it is a ``KeyboardInterrupt`` (not 
 
 from __future__ import annotations
 
+from typing import Any
+
 __all__ = [
     "PreciseImpactError",
     "ParameterError",
@@ -64,6 +66,19 @@ class ParameterError(PreciseImpactError, ValueError):
         self.value = value
         self.allowed = allowed
         super().__init__(f"{name} = {one_line(value)} is not allowed: {allowed}")
+
+
+def check_type(value: Any, types: type | tuple[type, ...], name: str, wanted: str) -> Any:
+    """``value`` when it is one of ``types``, else the one-line :class:`ParameterError` naming
+    the argument ``name``, the type given and what was ``wanted``: the one type check of the
+    public entry points' leading arguments, so that a wrong kind of argument is refused before
+    any work (``prove_landmark(Params.make())``: ``bp = 'Params' is not allowed: a BranchPoint
+    from locate_landmark, ...``), not as an ``AttributeError`` deep inside.  A ``bool`` is
+    never a number here."""
+    kinds = types if isinstance(types, tuple) else (types,)
+    if isinstance(value, kinds) and not (isinstance(value, bool) and bool not in kinds):
+        return value
+    raise ParameterError(name, type(value).__name__, wanted)
 
 
 def one_line(value: object, limit: int = 80) -> str:

@@ -232,3 +232,41 @@ def test_coarsely_printed_times_and_a_missing_row(cap, tmp_path):
     del lines[500]
     p.write_text("\n".join(lines) + "\n")
     assert "uniformly sampled" in _refused(p)
+
+
+def _rigol_in_seconds(cap, tmp_path, unit="Second", scale=1.0, shift=0.0, stretch=1.0):
+    """The Rigol CSV with its X column in time (``unit``; the DS1000Z firmwares that write
+    ``Second`` under X) instead of the sample index:
+    X = (start + shift + index * increment * stretch) / scale."""
+    lines = _write(cap, tmp_path, "rigol").read_text().splitlines()
+    head = lines[1].split(",")
+    start, inc = float(head[-2]), float(head[-1])
+    rows = []
+    for line in lines[2:]:
+        i, rest = line.split(",", 1)
+        rows.append(f"{(start + shift + int(i) * inc * stretch) / scale:.9e},{rest}")
+    p = tmp_path / f"rigol_{unit}.csv"
+    p.write_text("\n".join([lines[0], ",".join([unit, *head[1:]]), *rows]) + "\n")
+    return p
+
+
+@pytest.mark.parametrize("unit, scale", [("Second", 1.0), ("s", 1.0), ("ms", 1e-3)])
+def test_rigol_x_in_seconds(cap, tmp_path, unit, scale):
+    # was refused: 'a header that disagrees with the data: wrong unit?' (X read as an index)
+    r = read_capture(_rigol_in_seconds(cap, tmp_path, unit, scale))
+    assert r.n_samples == cap.n_samples
+    assert r.sample_interval == pytest.approx(cap.sample_interval, rel=1e-6)
+    # the times as printed: 10 significant digits of ~1e-2 s, the grid fitted through them
+    assert np.max(np.abs(r.t - cap.t)) < 1e-9
+    assert np.max(np.abs(r.V_s - cap.V_s)) < 3 * DIGITS["rigol"]
+    assert r.source["x_unit"] == unit
+
+
+def test_rigol_x_contradiction_refused(cap, tmp_path):
+    # times a whole second after the header's Start: a real contradiction, one line
+    msg = _refused(_rigol_in_seconds(cap, tmp_path, shift=1.0))
+    assert "X from 0.998 s, Start -0.002 s" in msg and "starts at the header's Start" in msg
+    # an X column in hertz (an FFT export) is a wrong unit
+    assert "wrong unit" in _refused(_rigol_in_seconds(cap, tmp_path, unit="Hertz"))
+    # a time X column whose step is not the header's Increment: the step check refuses it
+    assert "disagrees" in _refused(_rigol_in_seconds(cap, tmp_path, stretch=2.0))

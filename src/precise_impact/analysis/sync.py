@@ -547,7 +547,8 @@ def sync_scan(
         pair accepts).
     lle_periods : int, default 20000
         Periods for the single oscillator's LLE (:func:`~precise_impact.analysis.lyapunov.lyapunov`,
-        method ``'fast'`` with the fast engine, ``'variational'`` otherwise); 0 skips it.
+        method ``'variational'``, ``model='fast'`` with the fast engine, heyoka otherwise); 0 skips
+        it.
     lle_transient : int, default 1000
         Transient periods discarded before the LLE.
     precision : str, default ``'float64'``
@@ -556,7 +557,7 @@ def sync_scan(
         Deprecated spelling of ``model`` (a :class:`DeprecationWarning`).
     model : str or None, default ``None``
         ``'fast'`` (compiled closed forms, :mod:`~precise_impact.solvers.fast.coupled`, and the
-        LLE by ``method='fast'``), ``'heyoka'``, or ``None``: ``'fast'`` in float64, heyoka
+        LLE by ``model='fast'``), ``'heyoka'``, or ``None``: ``'fast'`` in float64, heyoka
         otherwise.
     workers : int or None, default 1
         Worker processes over the k-grid (``None``: every core); the numbers do not

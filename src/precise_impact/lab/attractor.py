@@ -60,11 +60,14 @@ import numpy as np
 from precise_impact.analysis.periodicity import detect_period_noisy
 from precise_impact.core.budget import Deadline, parse_max_time
 from precise_impact.core.result import ResultMixin, unit_column
-from precise_impact.errors import ParameterError
+from precise_impact.errors import ParameterError, check_type
 from precise_impact.io.markdown import table as md_table
 from precise_impact.lab.capture import Capture, check_channels, design_of
 from precise_impact.models.circuit.components import circuit_scales
 from precise_impact.verification.scores import sliced_wasserstein, wasserstein_1d
+
+#: What a capture argument may be.
+_CAPTURE_ARG = "a Capture or a capture file's path (str or os.PathLike)"
 
 __all__ = [
     "ForcingEstimate",
@@ -991,6 +994,7 @@ def score_capture(
 
     deadline = Deadline(None if max_time is None else parse_max_time(max_time), "capture score")
     if not isinstance(capture, Capture):
+        check_type(capture, (str, os.PathLike, list, tuple), "capture", _CAPTURE_ARG)
         capture = read_capture(capture, channels)
     if not isinstance(floor_captures, int) or not 2 <= floor_captures <= 8:
         raise ParameterError("floor_captures", floor_captures, "an integer 2..8")
@@ -1308,8 +1312,11 @@ def measured_bifurcation(
     from precise_impact.lab.scope_files import read_capture
     from precise_impact.scenes.scene import Scene, load_scene
 
+    check_type(captures, (list, tuple), "captures", "a list of captures: " + _CAPTURE_ARG)
     if not captures:
         raise ParameterError("captures", [], "at least one capture")
+    for c in captures:
+        check_type(c, (Capture, str, os.PathLike), "captures", _CAPTURE_ARG)
     if not isinstance(computed, int) or not 0 <= computed <= 2000:
         raise ParameterError("computed", computed, "an integer 0..2000")
     deadline = Deadline(

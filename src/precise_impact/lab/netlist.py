@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import re
 import subprocess
 import tempfile
@@ -60,6 +61,7 @@ from precise_impact.errors import (
     OverBudgetError,
     ParameterError,
     SpiceError,
+    check_type,
 )
 from precise_impact.io.figures import plot_units, save_figure
 from precise_impact.io.progress import say as _progress
@@ -389,6 +391,7 @@ def read_raw(path: str | Path, step: int | None = None) -> list[Waveforms]:
     >>> run.dialect, run.node("out", "x").shape == run.time.shape
     ('ngspice', True)
     """
+    check_type(path, (str, os.PathLike), "path", "a .raw file's path (str or os.PathLike)")
     RawRead = _need_spicelib()
     p = Path(path)
     _check_file(p, RAW_SUFFIXES, "raw file")
@@ -1556,6 +1559,7 @@ def score_netlist(
     from precise_impact.verification.metrics import reference_bits
     from precise_impact.verification.scores import detected_period, score
 
+    check_type(path, (str, os.PathLike), "path", "a netlist or .raw file (str or os.PathLike)")
     p = Path(path)
     nmap = map if isinstance(map, NodeMap) else (load_map(map) if map is not None else None)
     if nmap is None:

@@ -12,7 +12,8 @@ Layouts (``fmt``), as the instruments write them:
 
 ``rigol``  Rigol DS1000Z ("Save > CSV"): ``X,CH1,CH2,Start,Increment,`` then
            ``Sequence,Volt,Volt,<start>,<increment>`` then ``<index>,<v1>,<v2>,`` rows; time is
-           ``start + index * increment``.  Layout as parsed by
+           ``start + index * increment`` (X in ``Second``, as some firmwares write it: the
+           times themselves, from ``start`` in steps of ``increment``).  Layout as parsed by
            github.com/vidavidorra/rigol-csv-analyser (its header comment quotes a DS1054Z file).
 ``rigol-mso5000``  Rigol MSO5000 / DHO: ``Time(s),CH1V,CH2V[,t0 = ..., tInc = ...]`` then
            ``<t>,<v1>,<v2>`` rows (the header form parsed by the Rigol readers found in public
@@ -63,7 +64,7 @@ from typing import Any
 
 import numpy as np
 
-from precise_impact.errors import OptionalDependencyError, ParameterError
+from precise_impact.errors import OptionalDependencyError, ParameterError, check_type
 from precise_impact.io.atomic import atomic_write
 from precise_impact.lab.capture import CHANNELS, Capture
 
@@ -88,6 +89,8 @@ READ_FORMATS = (
     "siglent",
     "binary",
 )
+#: What a capture-file argument may be.
+FILE_ARG = "a file path (str or os.PathLike) or a list of them (one per channel)"
 WRITE_FORMATS = ("csv", "npz", "rigol", "keysight", "tek-tbs", "tek", "siglent", "keysight-bin")
 BINARY_SUFFIXES = (".wfm", ".bin", ".isf", ".trc", ".wvf")
 
@@ -130,6 +133,14 @@ def _unit(path: Any, unit: str, kind: str, column: str) -> float:
         return table[u]
     want = "s, ms, us, ns" if kind == "time" else "V, mV, uV"
     return _raise(_bad(path, f"{column} in '{unit}'", f"a {kind} axis in {want} (wrong unit)"))
+
+
+def _exists(p: Path) -> bool:
+    """Whether ``p`` exists; a name the system cannot even look up (too long) does not."""
+    try:
+        return p.exists()
+    except OSError:
+        return False
 
 
 def _raise(e: Exception) -> Any:
@@ -376,11 +387,12 @@ def read_capture(
     if fmt not in READ_FORMATS:
         raise ParameterError("format", fmt, "one of " + ", ".join(READ_FORMATS))
     if not isinstance(path, (str, os.PathLike)):
-        paths = [Path(p) for p in path]
+        check_type(path, (list, tuple), "path", FILE_ARG)
+        paths = [Path(check_type(p, (str, os.PathLike), "path", FILE_ARG)) for p in path]
         if not paths:
             raise ParameterError("file", [], "at least one file")
         for p in paths:
-            if not p.exists():
+            if not _exists(p):
                 raise ParameterError("file", str(p), "an existing file")
         if len(paths) == 1:
             return read_capture(paths[0], channels, fmt)
@@ -389,7 +401,7 @@ def read_capture(
             return _read_tbs(paths, channels)
         return _read_binary(paths, channels)
     p = Path(path)
-    if not p.exists():
+    if not _exists(p):
         raise ParameterError("file", str(p), "an existing file or directory")
     kind = sniff_format(p) if fmt == "auto" else fmt
     if p.is_dir():
@@ -514,9 +526,27 @@ def _read_rigol(path: Path, channels: Any) -> Capture:
     a = _rows_numeric(path, rows[2:], 3, list(range(len(names) + 1)))
     scale = [_unit(path, h1[1 + i], "volt", n) for i, n in enumerate(names)]
     data = {n: a[:, i + 1] * scale[i] for i, n in enumerate(names)}
-    t = start + a[:, 0] * inc
+    t = _rigol_time(path, h1[0], a[:, 0], start, inc)
     src = {"format": "rigol", "instrument": "Rigol DS1000Z", "start": start, "increment": inc}
-    return _finish(path, t, data, channels, src, dt=inc)
+    return _finish(path, t, data, channels, dict(src, x_unit=h1[0]), dt=inc)
+
+
+def _rigol_time(path: Path, unit: str, x: np.ndarray, start: float, inc: float) -> np.ndarray:
+    """The sample times of a Rigol CSV's X column, read by the unit its second header row states:
+    ``Sequence`` a sample index (``start + x * increment``), a time unit (``Second``, ``s``,
+    ``ms``, ...: some DS1000Z firmwares) the times themselves, which must start at the header's
+    ``Start`` (to a sample and Start's 7 printed digits; their step is checked against
+    ``Increment`` by :meth:`Capture.make`)."""
+    if unit.lower() == "sequence":
+        return start + x * inc
+    t = x * _unit(path, unit, "time", "X")
+    if len(t) and not abs(t[0] - start) <= inc + 1e-6 * abs(start):
+        raise _bad(
+            path,
+            f"X from {t[0]:.6g} s, Start {start:.6g} s",
+            f"an X column in {unit!r} that starts at the header's Start (a damaged file?)",
+        )
+    return t
 
 
 def _read_rigol_mso5000(path: Path, channels: Any) -> Capture:
@@ -801,6 +831,8 @@ def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = N
     >>> back.source["format"], back.n_samples == cap.n_samples
     ('rigol', True)
     """
+    check_type(capture, Capture, "capture", "a Capture (read_capture, synth_capture)")
+    check_type(path, (str, os.PathLike), "path", "a file path (str or os.PathLike)")
     path = Path(path)
     fmt = fmt or {".npz": "npz", ".bin": "keysight-bin"}.get(path.suffix.lower(), "csv")
     if fmt not in WRITE_FORMATS:

@@ -61,10 +61,10 @@ from precise_impact.core.impact import (
     reset_velocity,
     wall_acceleration,
 )
-from precise_impact.core.params import Params, check_count, params_or_values
+from precise_impact.core.params import Params, check_count, exact, params_or_values
 from precise_impact.core.result import ResultMixin
 from precise_impact.core.stats import lle_stderr
-from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError
+from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError, check_type
 from precise_impact.io.progress import ProgressArg
 
 __all__ = [
@@ -388,6 +388,13 @@ def point_attractor(
     'chatter + sticking'
     """
     params = params_or_values(params, {})
+    if not isinstance(section, str) or section not in SECTIONS:
+        raise ParameterError("section", str(section)[:40], "'impact' or 'stroboscopic'")
+    u, v = exact("u", u), exact("v", v)
+    if section == "impact" and not (0 <= u <= 1 and 0 < v <= 10**6):
+        raise ParameterError("u, v", f"{float(u):g}, {float(v):g}", "0 <= u <= 1, 0 < v <= 1e6")
+    if not (abs(u) <= 10**6 and abs(v) <= 10**6):
+        raise ParameterError("u, v", f"{float(u):g}, {float(v):g}", "|u|, |v| <= 1e6")
     pars = _floats(params)
     row, stuck, capture = _point(
         pars, float(params.t0), section, float(u), float(v), transient, max_period, chaos_periods
@@ -874,7 +881,8 @@ def basins(
     params = params_or_values(params, {})
     if section not in SECTIONS:
         raise ParameterError("section", section, "'impact' or 'stroboscopic'")
-    if isinstance(grid, (str, bytes)) or len(grid) != 2:
+    check_type(grid, (tuple, list), "grid", "a pair of axes (start, stop, n)")
+    if len(grid) != 2:
         raise ParameterError("grid", grid, "a pair of axes (start, stop, n)")
     names = ("phase", "v") if section == "impact" else ("x", "v")
     axes = tuple(_check_axis(g, nm) for g, nm in zip(grid, names, strict=True))

@@ -25,7 +25,7 @@ from mpmath import libmp
 from precise_impact.core import flight
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import oscillator_saltation
-from precise_impact.core.params import Params, as_params
+from precise_impact.core.params import Params, as_params, exact
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import BudgetExceededError, CertificationError, ParameterError
 from precise_impact.io.progress import Progress
@@ -105,7 +105,10 @@ def _exact(x: Any) -> Fraction:
 
 def _check(params: Any, phase: Any, v: Any, n: int, engine: str) -> Params:
     params = as_params(params)
-    if engine not in ENGINES:
+    for name, x in (("phase", phase), ("v", v)):
+        if not hasattr(x, "_mpf_"):  # an mpf is taken as it is
+            exact(name, x)  # a number, or refused by name
+    if not isinstance(engine, str) or engine not in ENGINES:
         raise ParameterError("engine", engine, "one of " + ", ".join(ENGINES))
     if not 0 <= float(phase) < 1:
         raise ParameterError("phase", phase, "0 <= phase < 1")

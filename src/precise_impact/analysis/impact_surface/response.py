@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import os
 import time
 from fractions import Fraction
@@ -46,6 +47,7 @@ from precise_impact.errors import (
     ConvergenceError,
     IntegrationError,
     ParameterError,
+    check_type,
 )
 from precise_impact.io.figures import finish, legend_outside, new_figure
 
@@ -124,6 +126,9 @@ def budd_dux_orbit(theta: Any, eta: Any, R: Any, n: int = 1, a: Any = 1, ops: An
     >>> round(s, 6), round(V, 6), round(det, 12)
     (-1.552456, 3.72227, 0.64)
     """
+    if ops is None:  # floats: each a real number, refused by name before any arithmetic
+        for name, x in (("theta", theta), ("eta", eta), ("R", R), ("a", a)):
+            exact(name, check_type(x, numbers.Real, name, "a real number (float or Fraction)"))
     ops = flight.FLOAT if ops is None else ops
     gamma = a / (1 - eta * eta)
     ch, sh = ops.cos_sin(n * ops.pi / eta)

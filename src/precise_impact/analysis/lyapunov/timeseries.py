@@ -122,7 +122,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import OptionalDependencyError, ParameterError
+from precise_impact.errors import OptionalDependencyError, ParameterError, check_type
 
 __all__ = [
     "TIMESERIES_METHODS",
@@ -402,7 +402,7 @@ def delay_embed(series: Any, dim: int, lag: int = 1) -> np.ndarray:
 def _check_positive(name: str, value: Any) -> float:
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an int past 1e308
         raise ParameterError(name, value, "a finite number > 0") from None
     if not (math.isfinite(v) and v > 0):
         raise ParameterError(name, value, "a finite number > 0")
@@ -702,13 +702,20 @@ def timeseries_lle(
             "scipy", "pip install 'precise_impact[lab]'", "timeseries_lle"
         ) from None
     dt = _check_positive("dt", dt)
-    y = np.asarray(states, dtype=float)
+    wanted = "an array of shape (N,) or (N, d) of numbers"
+    check_type(states, (np.ndarray, list, tuple), "states", wanted)
+    try:
+        y = np.asarray(states, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError("states", "not numbers", wanted) from None
     if y.ndim == 1:
         y = y[:, None]
     if y.ndim != 2 or y.shape[1] < 1:
         raise ParameterError("states", f"shape {y.shape}", "an array of shape (N,) or (N, d)")
     if not np.all(np.isfinite(y)):
         raise ParameterError("states", "non-finite samples", "finite numbers only")
+    if not math.isfinite(dt * len(y)):  # the lags are multiples of it
+        raise ParameterError("dt", dt, f"a record length N dt = {len(y)} dt below 1e308")
     if fit not in _FITS:
         raise ParameterError("fit", fit, "one of " + ", ".join(_FITS))
     if fit_fractions is None:

@@ -30,9 +30,10 @@ import numpy as np
 from precise_impact.core import flight
 from precise_impact.core.dual import DUAL, Dual, seed
 from precise_impact.core.impact import oscillator_saltation
-from precise_impact.errors import ConvergenceError
+from precise_impact.core.params import exact
+from precise_impact.errors import ConvergenceError, ParameterError, check_type
 
-__all__ = ["BranchPoint", "KINDS", "THETA"]
+__all__ = ["BranchPoint", "KINDS", "THETA", "check_theta"]
 
 #: The defining conditions a :class:`BranchPoint` may have (``orbit``: none, ``eta`` held at
 #: ``eta_fixed``: the orbit itself, for carrying it through parameter changes).
@@ -292,6 +293,15 @@ def _mul(A: list, B: list) -> list:
     return [[A[i][0] * B[0][j] + A[i][1] * B[1][j] for j in range(2)] for i in range(2)]
 
 
+def check_theta(theta: Any) -> np.ndarray:
+    """``theta = (zeta, a, x_w)`` as a float array, or one :class:`ParameterError` naming it."""
+    wanted = "(zeta, a, x_w): three numbers"
+    check_type(theta, (tuple, list, np.ndarray), "theta", wanted)
+    if len(theta) != 3:
+        raise ParameterError("theta", f"{len(theta)} values", wanted)
+    return np.array([float(exact(f"theta[{i}]", t)) for i, t in enumerate(theta)])
+
+
 def seed_landmark(
     kind: str,
     theta: Any,
@@ -312,10 +322,10 @@ def seed_landmark(
     from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
     from precise_impact.core.params import Params
 
-    if kind not in KINDS:
-        raise ValueError(f"kind must be one of {KINDS}")
-    zeta, a, xw = (float(t) for t in theta)
-    theta = np.array([zeta, a, xw])
+    if not isinstance(kind, str) or kind not in KINDS:
+        raise ParameterError("kind", str(kind)[:40], "one of " + ", ".join(KINDS))
+    theta = check_theta(theta)
+    zeta, a, xw = theta
     if kind == "graze_free":
         P, Q = flight.steady_coefficients(eta_inside, zeta, a)
         y = np.array([P, eta_inside * Q, 0.0, eta_inside])

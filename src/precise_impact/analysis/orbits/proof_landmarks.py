@@ -36,12 +36,12 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
-from precise_impact.analysis.orbits.landmarks import BranchPoint
+from precise_impact.analysis.orbits.landmarks import BranchPoint, check_theta
 from precise_impact.core.dual import BALL_DUAL, BallDual, seed
 from precise_impact.core.params import exact
 from precise_impact.core.precision import float_up, log10_fraction
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import CertificationError, ParameterError
+from precise_impact.errors import CertificationError, ParameterError, check_type
 from precise_impact.solvers.certified.single import (
     ball_str,
     exact_value,
@@ -251,6 +251,7 @@ def prove_landmark(
     ('0.7106873690', True)
     """
     t_start = time.perf_counter()
+    check_type(bp, BranchPoint, "bp", "a BranchPoint from locate_landmark or seed_landmark")
     if bp.kind not in _TEST:
         raise ParameterError("kind", bp.kind, "graze_free, graze, period-doubling or fold")
     w = check_width(width)
@@ -547,8 +548,9 @@ def locate_landmark(
     from precise_impact.analysis.orbits.landmarks import end_point, interval_ends, seed_landmark
     from precise_impact.errors import ConvergenceError
 
-    if point not in POINTS:
-        raise ParameterError("point", str(point), ", ".join(POINTS))
+    if not isinstance(point, str) or point not in POINTS:
+        raise ParameterError("point", str(point)[:40], ", ".join(POINTS))
+    theta = check_theta(theta)
     if side not in (None, "low", "high"):
         raise ParameterError("side", str(side), "low or high")
     if side is None:
