@@ -134,3 +134,60 @@ except KeyboardInterrupt:
     r = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr[-800:]
     assert float(r.stdout) < 1.0, r.stdout  # not after the 5 s sleep: at once
+
+
+def _startup_seconds() -> float:
+    """The interpreter's own start-up on this machine (the longest of three bare starts, site
+    and .pth files included): before it ends no code of the package can run."""
+    import time
+
+    times = []
+    for _ in range(3):
+        t = time.perf_counter()
+        subprocess.run([sys.executable, "-c", "pass"], check=True)
+        times.append(time.perf_counter() - t)
+    return max(times)
+
+
+@pytest.mark.parametrize("after", [0.05, 0.1, 0.2, 0.3])
+def test_ctrl_c_in_the_first_moments_of_a_command_is_exit_130_without_traceback(after):
+    """Issue 35 item 7: Ctrl-C in the first ~0.3 s of a command printed a KeyboardInterrupt
+    traceback from ``import precise_impact`` (its public API loaded eagerly, ~0.4 s, before the
+    entry's handler existed).  The API now loads on first use (PEP 562), so the entry installs
+    its handler ~0.05 s after the interpreter's own start-up; a SIGINT that long after it, and
+    later, ends the command with one line and exit 130."""
+    import time
+
+    start = _startup_seconds()
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "precise_impact",
+            "lle",
+            "--model",
+            "fast",
+            "--periods",
+            "100000000",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(start + after)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130 and "Traceback" not in err, (after, p.returncode, err[-500:])
+
+
+def test_import_precise_impact_loads_no_engine():
+    """The public API is loaded on first use: ``import precise_impact`` alone imports neither
+    heyoka, numba, numpy nor matplotlib (what made the first 0.4 s unprotected)."""
+    program = (
+        "import sys, precise_impact; "
+        "print(sorted(m for m in ('heyoka', 'numba', 'numpy', 'matplotlib') if m in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", program], capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "[]", out.stdout
