@@ -1,0 +1,67 @@
+"""Work priced before it starts (issue 35 item 6): the commands that take a grid, a count of
+events or points refuse a request over ``--max-time`` or half the machine's memory with exit 3
+and one line naming the estimate and the flag, fast and without allocating the grid."""
+
+from __future__ import annotations
+
+import time
+import tracemalloc
+
+import pytest
+
+from precise_impact.cli.main import main
+
+
+def _refused(argv, capsys):
+    """Run ``argv``; its status, its stderr, the seconds and the peak traced bytes."""
+    tracemalloc.start()
+    t = time.perf_counter()
+    try:
+        rc = main(argv)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    return rc, capsys.readouterr().err.strip(), time.perf_counter() - t, peak
+
+
+@pytest.mark.parametrize(
+    ("argv", "names"),
+    [
+        # the issue's 10^10-point map: ~2.5 TB of arrays, refused on memory, naming the grid
+        (
+            ["basins", "--eta", "0.74", "--phase", "0", "1", "100000", "--v", "0", "3", "100000"],
+            ("grid points", "10000000000 points", "TB"),
+        ),
+        # 10^6 points x 248 periods x 10 us = 2480 s: over a 600 s budget
+        (
+            ["basins", "--eta", "0.74", "--phase", "0", "1", "1000", "--v", "0", "3", "1000",
+             "--max-time", "600"],
+            ("--max-time", "1000000 points", "41.3 min"),
+        ),  # fmt: skip
+        # 10^6 closed-form events x 50 ms = 13.9 h, over the default hour
+        (
+            ["impact-map", "--eta", "0.74", "--n", "1000000", "--engine", "closed-form"],
+            ("--max-time", "1000000 events on closed-form", "13.9 h"),
+        ),
+        # 10^6 orbit events x 2 ms under the set (1300 points x 3.5 ms + 5 s): 2010 s, over 600 s
+        (
+            ["singularity", "--eta", "0.74", "--orbit", "1000000", "--max-time", "600"],
+            ("--max-time", "1000000 orbit events", "33.5 min"),
+        ),
+        # 2 x 100000 points x 40 ms = 2.22 h
+        (
+            ["response", "--param", "x_w", "-2", "0.5", "--at", "-1", "--zeta", "0", "--a", "1",
+             "--R", "0.8", "--eta", "2.8", "--max-points", "100000"],
+            ("--max-time", "2 x 100000 points", "2.22 h"),
+        ),  # fmt: skip
+    ],
+)
+def test_huge_request_refused_before_any_work(argv, names, capsys, tmp_path):
+    rc, err, seconds, peak = _refused([*argv, "--out", str(tmp_path / "o")], capsys)
+    assert rc == 3, err
+    assert len(err.splitlines()) == 1 and err.startswith("precise-impact: over budget:"), err
+    for name in names:
+        assert name in err, (name, err)
+    assert seconds < 5, seconds
+    assert peak < 50e6, peak  # nothing of the grid's or the record's size
+    assert not any((tmp_path / "o").glob("*/*"))  # no tile, no result written
