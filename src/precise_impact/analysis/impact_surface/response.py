@@ -85,6 +85,7 @@ SECONDS_PER_POINT = 0.04
 #: Bytes per point held (its orbit, eigenvalues and classification; priced generously).
 BYTES_PER_POINT = 4000.0
 
+
 def budd_dux_orbit(theta: Any, eta: Any, R: Any, n: int = 1, a: Any = 1, ops: Any = None) -> tuple:
     """The undamped (``zeta = 0``) ``(1,n)`` orbit with impact phase ``theta`` in closed form.
 

@@ -75,7 +75,7 @@ def run(ns: argparse.Namespace) -> int:
     orbit = None
     if n_orbit > 0 and ns.out is not None:
         orbit = impact_map_orbit(
-            params, 0.3, 1.0, n_orbit, engine="fast", max_time=max_time,
+            params, 0.3, 1.0, n_orbit, engine="fast", max_time=max_time(ns),
             progress=None if ns.json else True,
         )  # fmt: skip
     if ns.out is not None:
