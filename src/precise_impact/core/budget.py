@@ -26,6 +26,7 @@ __all__ = [
     "estimate_cost",
     "run_cost",
     "check_cost",
+    "check_work",
     "enforce_max_time",
     "parse_max_time",
     "DEFAULT_MAX_TIME",
@@ -285,23 +286,37 @@ def _memory() -> float | None:
 
 
 def check_cost(
-    cost: Cost, max_time: float | None = DEFAULT_MAX_TIME, flag: str = "max_time"
+    cost: Cost,
+    max_time: float | None = DEFAULT_MAX_TIME,
+    flag: str = "max_time",
+    size: str = "periods",
 ) -> None:
     """Refuse a run whose estimate exceeds the time budget or half the machine's memory.
+
+    Parameters
+    ----------
+    cost : Cost
+        The estimate.
+    max_time : float or None, default :data:`DEFAULT_MAX_TIME`
+        Seconds; ``None``: only the memory is checked.
+    flag : str, default ``'max_time'``
+        The budget's parameter (named in the time refusal: ``--max-time``).
+    size : str, default ``'periods'``
+        The parameter that sets the size (named in the memory refusal: ask for fewer).
 
     Raises
     ------
     OverBudgetError
-        A :class:`~precise_impact.errors.ParameterError` naming ``flag`` (time) or ``periods``
+        A :class:`~precise_impact.errors.ParameterError` naming ``flag`` (time) or ``size``
         (memory), with the estimate; before any work.
     """
     mem = _memory()
     if mem is not None and cost.bytes > mem / 2:
         raise OverBudgetError(
-            "periods",
+            size,
             cost.what,
             f"a run whose samples fit in half this machine's memory "
-            f"({_size(mem)}): {cost.describe()}; fewer periods or output points",
+            f"({_size(mem)}): {cost.describe()}; fewer {size.replace('_', ' ')}",
         )
     if max_time is not None and cost.seconds > max_time:
         raise OverBudgetError(
@@ -310,6 +325,51 @@ def check_cost(
             f"a budget above the estimate ({cost.describe()}); "
             f"raise --{flag.replace('_', '-')} (at most {MAX_TIME:g} s) or ask for less",
         )
+
+
+def check_work(
+    what: str,
+    units: float,
+    seconds_each: float,
+    bytes_each: float,
+    max_time: Any,
+    size: str,
+    scale: float = 1.0,
+) -> Cost:
+    """Price ``units`` of work (grid points, events, continuation points) and refuse it over
+    budget, before any work: the one refusal of the commands that take a grid, a count or a
+    record.
+
+    Parameters
+    ----------
+    what : str
+        The work, for the message (e.g. ``'10000000000 basin points x 200 periods'``).
+    units : float
+        How many units (a float: a product of counts may be huge).
+    seconds_each, bytes_each : float
+        Measured cost of one unit (each caller states its figure) and the bytes it holds.
+    max_time : decimal or None
+        Seconds (``1 <= max_time <=`` :data:`MAX_TIME`); ``None``: only the memory is checked
+        (half this machine's memory, as :func:`check_cost`).
+    size : str
+        The parameter that sets ``units`` (named when the memory is over).
+    scale : float, default 1.0
+        The budget is ``max_time * scale`` (worker processes).
+
+    Returns
+    -------
+    Cost
+        The estimate (within the budget).
+
+    Raises
+    ------
+    OverBudgetError
+        Over the time budget (naming ``max_time``) or the memory (naming ``size``).
+    """
+    cost = Cost(units * seconds_each, units * bytes_each, what)
+    budget = None if max_time is None else parse_max_time(max_time) * scale
+    check_cost(cost, budget, size=size)
+    return cost
 
 
 def parse_max_time(value) -> float:

@@ -39,7 +39,7 @@ from precise_impact.analysis.orbits.landmarks import (
     landmark_from_continuation,
     seed_landmark,
 )
-from precise_impact.core.budget import Deadline, parse_max_time
+from precise_impact.core.budget import Cost, Deadline, check_cost, parse_max_time
 from precise_impact.core.dual import Dual, seed
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ConvergenceError, OptionalDependencyError, ParameterError
@@ -1322,13 +1322,7 @@ def estimate_seconds(
 
 
 def check_budget(max_time: float | None, **kw: Any) -> None:
-    """Refuse a budget whose estimate exceeds ``max_time`` seconds, before any work."""
-    from precise_impact.errors import OverBudgetError
-
-    est = estimate_seconds(**kw)
-    if max_time is not None and est > max_time:
-        raise OverBudgetError(
-            "max_time",
-            f"{max_time:g} s",
-            f"a budget above the estimate (~{est:.0f} s); fewer --mc / --sobol / --lle-mc draws",
-        )
+    """Refuse a budget whose estimate exceeds ``max_time`` seconds, before any work (the
+    shared refusal, :func:`~precise_impact.core.budget.check_cost`: one line, exit 3)."""
+    what = f"budget: {kw.get('mc', 0)} Monte Carlo + {kw.get('sobol', 0)} Sobol draws"
+    check_cost(Cost(estimate_seconds(**kw), 0.0, what), max_time, size="mc")

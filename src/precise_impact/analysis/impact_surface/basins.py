@@ -54,7 +54,7 @@ import numpy as np
 from precise_impact.analysis.orbits.newton import find_orbit
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.analysis.scan import NpzTileStore, check_workers, run_scan
-from precise_impact.core.budget import Cost, check_cost, parse_max_time
+from precise_impact.core.budget import check_work
 from precise_impact.core.impact import (
     chatter_accumulation_time,
     release_time,
@@ -97,9 +97,15 @@ _STABILITY = ("stable", "unstable", "elliptic", "parabolic")
 #: Per-point fields of a tile (one value per point).
 FIELDS = ("kind", "impacts", "period", "stability", "lle", "rep_phase", "rep_v", "stuck", "capture")
 
-#: Seconds per forcing period of one start in the compiled engine (a lower bound: measured
-#: 1-2 us per period at eta = 0.74; Newton refinements and LLEs come on top).
-SECONDS_PER_PERIOD = 1e-6
+#: Seconds per forcing period of one start, classification included: measured on this
+#: project's 2-core machine (eta = 0.74, grid 30 x 30 on phase 0..1, v 0..3, transient 200,
+#: one worker, warm): 1.52 s for 900 points, 6.8 us per period of ``transient + 3 max_period``;
+#: a 1000 x 1000 grid under load 270000 points in 588 s, 8.8 us; priced at 10 us (the
+#: refinement of the boundary comes on top; the old figure, 1 us, was 9x under).
+SECONDS_PER_PERIOD = 1e-5
+#: Bytes held per grid point: the :data:`FIELDS` and the label (8 bytes each), the tile's
+#: copy of them and the coordinates: priced at 3 x (9 + 1) x 8 = 240.
+BYTES_PER_POINT = 240.0
 
 #: Relative agreement of two refined orbits' representative impacts taken as the same orbit
 #: (Newton leaves them at rounding level, ~1e-14; distinct orbits are far apart).
@@ -844,8 +850,10 @@ def basins(
         rerun for the rest).
     max_time : decimal or None, default ``None``
         Time budget in seconds: a map whose estimate (:data:`SECONDS_PER_PERIOD` per period
-        of every point's transient, over the workers) is over it is refused before any work
-        (:class:`~precise_impact.errors.OverBudgetError`).
+        of every point's ``transient + 3 max_period``, over the workers) is over it is refused
+        before any work (:class:`~precise_impact.errors.OverBudgetError`); ``None``: no time
+        budget.  A grid whose arrays (:data:`BYTES_PER_POINT` a point) would not fit in half
+        this machine's memory is refused either way.
     progress : bool, None or callable
         :data:`~precise_impact.io.progress.ProgressArg`.
 
@@ -902,13 +910,16 @@ def basins(
     spec = _Spec(_floats(params), float(params.t0), section, axes, transient, max_period,
                  chaos_periods)  # fmt: skip
     n = spec.shape[0] * spec.shape[1]
-    if max_time is not None:
-        n_workers = check_workers(workers) if dask is None else 1
-        seconds = n * (transient + 3 * max_period) * SECONDS_PER_PERIOD / n_workers
-        check_cost(
-            Cost(seconds, n * (len(FIELDS) + 1) * 8.0, f"{n} points x {transient} periods"),
-            parse_max_time(max_time),
-        )
+    # priced before any array of the grid's size exists (time over the workers; memory always)
+    check_work(
+        f"basins: {n} points x {transient + 3 * max_period} periods",
+        n,
+        (transient + 3 * max_period) * SECONDS_PER_PERIOD,
+        BYTES_PER_POINT,
+        max_time,
+        "grid points",
+        scale=check_workers(workers) if dask is None else 1,
+    )
     outp = Path(out) if out is not None else None
     job = functools.partial(_points_job, spec, None, transient)
     data, run = _scan(

@@ -23,6 +23,7 @@ import numpy as np
 from mpmath import libmp
 
 from precise_impact.core import flight
+from precise_impact.core.budget import check_work
 from precise_impact.core.flow import acceleration
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, as_params, exact
@@ -46,6 +47,15 @@ ENGINES = {
     "heyoka": ("heyoka", "float64"),
     "certified": ("certified", "mp:192"),
 }
+
+#: Seconds per event of each engine, measured on this project's 2-core machine (eta = 0.74,
+#: start (0.3, 1.0), warm): closed-form 1000 in 34 s (34 ms; 20 in 0.84 s, 42 ms), certified
+#: 5 in 0.40 s (79 ms); the compiled path (benchmarks/results/impact_map.md, loaded machine):
+#: fast 74,600 events/s (13 us), heyoka 9,500/s (0.1 ms); priced rounded up.  The bits of the
+#: mp engines scale it (priced as at their default).
+SECONDS_PER_EVENT = {"closed-form": 0.05, "fast": 2e-5, "heyoka": 2e-4, "certified": 0.1}
+#: Bytes held per event (an :class:`ImpactEvent`, its fractions and the result's columns).
+BYTES_PER_EVENT = 2000.0
 
 #: Event kinds.
 IMPACT, CHATTER, STICKING = "impact", "chatter", "sticking"
@@ -240,7 +250,9 @@ def impact_map(
     max_periods : int, default 10000
         Give up (:class:`~precise_impact.errors.BudgetExceededError`) past this many periods.
     max_time : float or None
-        Wall-time budget in seconds, checked between chunks
+        Wall-time budget in seconds: ``n`` events priced at the engine's
+        :data:`SECONDS_PER_EVENT` over it are refused before any work
+        (:class:`~precise_impact.errors.OverBudgetError`), and it is checked between chunks
         (:class:`~precise_impact.errors.BudgetExceededError` past it).
     progress : bool, None or callable, default ``False``
         Report the events found on stderr (:class:`~precise_impact.io.progress.Progress`).
@@ -423,8 +435,10 @@ def _iterate(
     max_time: float | None = None,
     progress: Any = False,
 ) -> _Columns:
-    """The events of :func:`impact_map` as columns."""
+    """The events of :func:`impact_map` as columns (priced before any work)."""
     params = _check(params, phase, v, n, engine)
+    check_work(f"impact-map: {n} events on {engine}", n, SECONDS_PER_EVENT[engine],
+               BYTES_PER_EVENT, max_time, "n")  # fmt: skip
     t, vv = _start(params, phase, v, engine, bits)
     t_start = time.monotonic()
     bar = Progress(n, "impact-map events", enabled=progress)

@@ -39,6 +39,7 @@ from precise_impact.analysis.orbits.branch import Bifurcation
 from precise_impact.analysis.orbits.continuation import continue_orbit
 from precise_impact.analysis.orbits.one_impact import one_impact_orbits
 from precise_impact.core import flight
+from precise_impact.core.budget import Cost, check_cost
 from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, check_count, decimal_str, exact, params_or_values
 from precise_impact.core.result import ResultMixin, columns
@@ -77,6 +78,14 @@ _MARK = {
 }
 _PARAMS = ("x_w", "eta")
 _LABEL = {"x_w": "sigma = x_w", "eta": "omega = eta"}
+
+
+#: Seconds per continuation point of a (1,1) response curve, measured on this project's
+#: 2-core machine (zeta 0, a 1, R 0.8, eta 2.8, x_w -2 .. 0.5 from -1, warm): 102 points in
+#: 3.5-3.7 s, 36 ms; priced at 40 ms and linear in n (an assumption: flights n periods long).
+SECONDS_PER_POINT = 0.04
+#: Bytes per point held (its orbit, eigenvalues and classification; priced generously).
+BYTES_PER_POINT = 4000.0
 
 
 def budd_dux_orbit(theta: Any, eta: Any, R: Any, n: int = 1, a: Any = 1, ops: Any = None) -> tuple:
@@ -716,6 +725,13 @@ def response_curve(
     budget = None if max_time is None else float(exact("max_time", max_time))
     if budget is not None and not budget > 0:
         raise ParameterError("max_time", str(max_time), "a positive number of seconds")
+    # priced before any work: both directions of max_points from the start, each point
+    # SECONDS_PER_POINT x n (its flights are n periods long)
+    check_cost(
+        Cost(2 * max_points * n * SECONDS_PER_POINT, 2 * max_points * BYTES_PER_POINT,
+             f"response: 2 x {max_points} points of (1,{n}) orbits"),
+        budget, size="max_points",
+    )  # fmt: skip
     changes: dict = {parameter: at_q}
     if parameter == "x_w":
         changes["x0"] = min(params.x0, at_q, lo_q, hi_q)

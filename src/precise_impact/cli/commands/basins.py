@@ -11,6 +11,7 @@ from precise_impact.cli.args import (
     add_max_time,
     add_out,
     add_param_flags,
+    max_time,
     orbit_params_from,
 )
 from precise_impact.core.params import check_count
@@ -76,7 +77,7 @@ def run(ns: argparse.Namespace) -> int:
         subgrid=ns.subgrid,
         tile_size=check_count(ns.tile, "tile", 10**7, minimum=1),
         workers=check_count(ns.workers, "workers", 1024, minimum=1), dask=ns.dask, out=ns.out,
-        max_time=ns.max_time, progress=not ns.json,
+        max_time=max_time(ns), progress=not ns.json,
     )  # fmt: skip
     out = Path(ns.out)
     write_json(out / "basins.json", res.to_dict(), indent=1)

@@ -13,6 +13,7 @@ from precise_impact.cli.args import (
     add_max_time,
     add_out,
     add_param_flags,
+    max_time,
     orbit_params_from,
 )
 from precise_impact.core.params import check_count, exact
@@ -64,14 +65,13 @@ def run(ns: argparse.Namespace) -> int:
     transient = check_count(ns.transient, "transient", 10**6)
     if transient >= n:
         raise ParameterError("transient", ns.transient, f"0 <= transient < n = {n}")
-    max_time = None if ns.max_time is None else float(exact("max-time", ns.max_time))
     r = impact_map_orbit(
         params,
         float(phase),
         float(v),
         n,
         engine=ns.engine,
-        max_time=max_time,
+        max_time=max_time(ns),
         progress=None if ns.json else True,
     )
     sing = None
