@@ -129,3 +129,21 @@ def test_spice_score_refused_before_ngspice(capsys, tmp_path):
     assert rc == 3, err
     assert len(err.splitlines()) == 1 and "--max-time" in err and "1e+09 time points" in err
     assert seconds < 5 and peak < 50e6, (seconds, peak)
+
+
+def test_capture_bifurcation_refused_before_reading_a_capture(capsys, tmp_path, monkeypatch):
+    """Issue 35 item 6: ``capture bifurcation`` priced its computed diagram only after reading and
+    analysing every capture.  Now the captures' bytes (1 us each, measured 0.48) and the diagram
+    (run_cost of 2000 eta values x 500 periods: ~14 s) are priced first: over a 5 s budget it
+    is refused before any capture is read (read_capture is never called)."""
+    import precise_impact.lab.scope_files as scope_files
+
+    cap = tmp_path / "c.csv"
+    cap.write_bytes(b"x" * 3_000_000)  # its size is all the pricing reads
+    read = []
+    monkeypatch.setattr(scope_files, "read_capture", lambda *a, **k: read.append(a))
+    argv = ["capture", "bifurcation", str(cap), "--computed", "2000", "--max-time", "5"]
+    rc, err, took, peak = _refused(argv, capsys)
+    assert rc == 3 and len(err.splitlines()) == 1, err
+    assert "--max-time" in err and "2000 computed eta values" in err and "3 MB" in err, err
+    assert read == [] and took < 5 and peak < 50e6

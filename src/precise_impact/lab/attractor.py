@@ -58,7 +58,8 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.periodicity import detect_period_noisy
-from precise_impact.core.budget import Deadline, parse_max_time
+from precise_impact.core.budget import Deadline, check_work, parse_max_time, run_cost
+from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ParameterError, check_type
 from precise_impact.io.markdown import table as md_table
@@ -1257,6 +1258,40 @@ class MeasuredBifurcation(ResultMixin):
         return finish(fig, path)
 
 
+#: Seconds per byte of a capture file read and analysed (a 1.5 MB Rigol CSV of 200 periods:
+#: 0.73 s on this project's 2-core machine under load, 0.48 us/byte; priced at 1 us) and the
+#: bytes held per byte of file (the text becomes float64 columns: priced at 4).
+CAPTURE_SECONDS_PER_BYTE, CAPTURE_BYTES_PER_BYTE = 1e-6, 4.0
+
+
+_FLOAT64 = Precision.parse("float64")
+
+
+def _capture_bytes(c: Any) -> float:
+    """A capture's size as a file would hold it: the file's bytes, or ~40 text bytes per
+    sample of a capture already in memory."""
+    if isinstance(c, Capture):
+        return 40.0 * len(c.t)
+    return float(os.path.getsize(c)) if os.path.exists(c) else 0.0
+
+
+def _price_bifurcation(captures, computed: int, computed_periods: int, max_time: Any) -> None:
+    """Refuse a measured bifurcation over budget before reading anything (issue 35 item 6)."""
+    size = sum(_capture_bytes(c) for c in captures)
+    seconds = size * CAPTURE_SECONDS_PER_BYTE
+    # the computed diagram as the run itself admits it (core.budget.run_cost, float64 runs)
+    seconds += run_cost(_FLOAT64, computed_periods + 400, runs=computed).seconds if computed else 0
+    check_work(
+        f"capture bifurcation: {len(captures)} captures ({size / 1e6:.0f} MB) + {computed} "
+        "computed eta values",
+        1,
+        seconds,
+        size * CAPTURE_BYTES_PER_BYTE,
+        None if max_time is None else parse_max_time(max_time),
+        "captures",
+    )
+
+
 def measured_bifurcation(
     captures: Sequence[Capture | str | os.PathLike],
     scene: Any = "fig6-period3-ideal",
@@ -1319,6 +1354,7 @@ def measured_bifurcation(
         check_type(c, (Capture, str, os.PathLike), "captures", _CAPTURE_ARG)
     if not isinstance(computed, int) or not 0 <= computed <= 2000:
         raise ParameterError("computed", computed, "an integer 0..2000")
+    _price_bifurcation(captures, computed, computed_periods, max_time)
     deadline = Deadline(
         None if max_time is None else parse_max_time(max_time), "capture bifurcation"
     )
@@ -1337,11 +1373,8 @@ def measured_bifurcation(
     lo, hi = min(etas), max(etas)
     pad = max(0.01, 0.05 * (hi - lo))
     if computed:
-        from precise_impact.core.budget import run_cost
-        from precise_impact.core.precision import Precision
-
         deadline.admit(
-            run_cost(Precision.parse("float64"), computed_periods + 400, runs=computed),
+            run_cost(_FLOAT64, computed_periods + 400, runs=computed),
             f"the computed diagram ({computed} eta values)",
         )
         ce, cx = brute_force_diagram(
