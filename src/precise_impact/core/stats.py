@@ -18,7 +18,7 @@ __all__ = ["means_stderr", "rounding_stderr", "lle_stderr"]
 _EPS = float(np.finfo(float).eps)
 
 
-def means_stderr(blocks: Sequence[float]) -> float:
+def means_stderr(blocks: Sequence[float] | np.ndarray) -> float:
     """Standard error of the mean of independent block estimates, ``std(ddof=1) / sqrt(n)``
     (batch means; NaN for fewer than two blocks): written once for every Lyapunov method."""
     b = np.asarray(blocks, dtype=float).ravel()
@@ -37,7 +37,9 @@ def rounding_stderr(lle: float, n_terms: float, eps: float = _EPS) -> float:
     return math.sqrt(max(float(n_terms), 1.0)) * float(eps) * abs(float(lle))
 
 
-def lle_stderr(blocks: Sequence[float], lle: float, n_terms: float, eps: float = _EPS) -> float:
+def lle_stderr(
+    blocks: Sequence[float] | np.ndarray, lle: float, n_terms: float, eps: float = _EPS
+) -> float:
     """The error bar of a finite-time LLE: the batch-means error of ``blocks`` and the
     rounding of its ``n_terms``-term sum (:func:`rounding_stderr`) in quadrature.
 
