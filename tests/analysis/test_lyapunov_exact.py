@@ -412,3 +412,20 @@ def test_the_issues_command_covers_the_floquet_value(on_orbit, capsys):
     bars += [(r["lle"], r["stderr"]) for r in s["per_start"] + s["attractors"]]
     for lle, se in bars:
         assert math.ulp(lle) <= se and abs(lle - exact) <= 3 * se, (lle, se, exact)
+
+
+def test_error_bars_near_a_zero_exponent_carry_each_logs_own_rounding():
+    """Near the period doubling at R = 0.8, eta = 0.960657 (Floquet LLE -9.5e-5, 128 bits), on the
+    orbit: sqrt(n) eps |lle| vanishes with the exponent, but each logarithm's own ~eps error
+    repeats every cycle (n eps / t).  The heyoka sweep row was 58.8 bars off (bar 1.3e-18);
+    with the n / t term 1.1 bars, and both engines' rows cover the value in 3 bars."""
+    from precise_impact.analysis.lyapunov.fast import fast_batch_rows, point_rows
+
+    p = pi.Params.make(R="0.8", eta="0.960657")
+    orbit = pi.find_orbit(p, 1, precision="mp:128")
+    exact = float(orbit.lle)
+    q = p.replace(x0=str(orbit.x), v0=str(orbit.v))
+    (heyoka,) = batch_lle([q], periods=2000, transient=1000)
+    (fast,) = fast_batch_rows(point_rows([q]), lambda idx: [q], 2000, 1000)
+    for row in (heyoka, fast):
+        assert abs(row["lle"] - exact) <= 3 * row["stderr"], (row["lle"], exact, row["stderr"])

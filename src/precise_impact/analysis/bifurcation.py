@@ -321,7 +321,8 @@ def _fast_point(params: Params, periods: int, transient: int) -> tuple:
     nb = min(10, periods)
     bm = bsums[0] / ((periods // nb) * T)
     lle = float(l1[0] / (periods * T))
-    se = lle_stderr(bm, lle, periods + float(imps[0]))  # one log per period and per impact
+    # one log per period and per impact
+    se = lle_stderr(bm, lle, periods + float(imps[0]), time=periods * T)
     return xt[0], lle, se, float(imps[0] / periods), "ok"
 
 

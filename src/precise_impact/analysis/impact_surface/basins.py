@@ -288,7 +288,8 @@ def _chaos(pars, t, x, v, periods: int) -> tuple:
         return (_UNRESOLVED, 0, 0, 0, math.nan, math.nan, math.nan)
     lle = float(log1[0]) / (periods * T)
     per_block = np.asarray(bsums[0], dtype=float) / ((periods // blocks) * T)
-    err = lle_stderr(per_block, lle, periods + float(imps[0]))  # floored at the sum's rounding
+    # floored at the sum's rounding
+    err = lle_stderr(per_block, lle, periods + float(imps[0]), time=periods * T)
     kind = _CHAOS if lle > 0 and lle > 3 * err else _UNRESOLVED
     return (kind, 0, 0, 0, lle, math.nan, math.nan)
 

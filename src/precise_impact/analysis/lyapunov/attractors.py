@@ -259,7 +259,7 @@ def attribute(
     dur = [k * T for k in periods]
     blocks = [np.asarray(ps[2], float).ravel() for ps in per_start]
     eps = float(Precision.parse(precision).eps_fraction)
-    starts = _per_start(result, per_start, blocks, periods, impact_blocks, eps)
+    starts = _per_start(result, per_start, blocks, periods, impact_blocks, eps, dur)
     groups, loose = _periodic_groups(params, tails, precision)
     free, tests = _split_loose(starts, tails, loose, alpha)
     groups = sorted(groups + free, key=lambda g: min(g["starts"]))
@@ -273,6 +273,7 @@ def attribute(
             g["lle"],
             sum(starts[j]["_terms"] for j in st),
             eps,
+            sum(dur[j] for j in st),
         )
         rates = [starts[j]["impact_rate"] for j in st]
         g["impact_rate"] = (
@@ -295,6 +296,7 @@ def _per_start(
     periods: list[int],
     impact_blocks: Sequence[Any] | None,
     eps: float,
+    dur: list[float],
 ) -> list[dict]:
     """Step 1 of :func:`attribute`: each start's LLE, its batch-means error floored at the
     rounding of its sum (``eps``: the working precision's; one log per period and per impact),
@@ -317,7 +319,7 @@ def _per_start(
         starts.append(
             {
                 "lle": lle,
-                "stderr": lle_stderr(blocks[j], lle, terms, eps),
+                "stderr": lle_stderr(blocks[j], lle, terms, eps, dur[j]),
                 "_terms": terms,
                 "impact_rate": rate,
                 "impact_rate_stderr": rate_se,

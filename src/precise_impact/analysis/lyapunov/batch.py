@@ -111,7 +111,7 @@ def _run_group(group, B, periods, transient, segments, max_period, max_impacts):
                 "lle": lle,
                 "lambda2": float(l2[:, i].sum() / tot),
                 # one term per step: periods + impacts (core.stats.lle_stderr)
-                "stderr": lle_stderr(blocks, lle, periods + float(impacts[i])),
+                "stderr": lle_stderr(blocks, lle, periods + float(impacts[i]), time=tot),
                 "period": detect_period(xs[:, i], vs[:, i], max_period),
                 "impacts_per_period": float(impacts[i] / periods),
                 "x_last": float(xs[-1, i]),

@@ -238,7 +238,7 @@ def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out)
         precision="float64",
         lle=lam1,
         spectrum=(lam1, lam2),
-        lle_stderr=lle_stderr(block_means, lam1, per * n + float(imps.sum())),
+        lle_stderr=lle_stderr(block_means, lam1, per * n + float(imps.sum()), time=time_total),
         periods=per * n,
         transient=transient,
         n_impacts=int(imps.sum()),
@@ -408,7 +408,7 @@ def fast_batch_rows(
                 "lle": lle,
                 "lambda2": float(log2[j] / (periods * T)),
                 # one term per flight: periods + impacts (core.stats.lle_stderr)
-                "stderr": lle_stderr(bm, lle, periods + float(imps[j])),
+                "stderr": lle_stderr(bm, lle, periods + float(imps[j]), time=periods * T),
                 "period": detect_period(xt[j], vt[j], max_period),
                 "impacts_per_period": float(imps[j] / periods),
                 "x_last": float(xt[j][-1]),

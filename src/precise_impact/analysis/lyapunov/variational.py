@@ -300,7 +300,7 @@ def variational_spectrum(
     total = float(np.sum(dt))
     lam1, lam2 = float(np.sum(l1) / total), float(np.sum(l2) / total)
     # one log per step and per impact, each rounded in the working precision
-    se = lle_stderr(all_blocks, lam1, len(l1) + impacts, float(P.eps))
+    se = lle_stderr(all_blocks, lam1, len(l1) + impacts, float(P.eps), total)
     result = LyapunovResult(
         params=params,
         method="variational",

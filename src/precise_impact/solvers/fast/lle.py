@@ -550,7 +550,7 @@ def fast_lle(
     return {
         "lle": lle,
         "lambda2": float(np.mean([per[i]["lambda2"] for i in ok])) if ok else math.nan,
-        "stderr": lle_stderr(bm, lle, terms) if ok else math.nan,
+        "stderr": lle_stderr(bm, lle, terms, time=len(ok) * time_total) if ok else math.nan,
         "per_start": per,
         "impacts": int(imps.sum()),
         "refined_flights": int(refined.sum()),
