@@ -14,6 +14,7 @@ import _thread
 import os
 import queue
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -149,13 +150,13 @@ def test_an_interrupt_stops_the_tiles_of_worker_processes():
 class _Run:
     """A CLI run in a subprocess whose stderr is read line by line as it comes."""
 
-    def __init__(self, *args):
+    def __init__(self, *args, env=None):
         self.p = subprocess.Popen(
             [sys.executable, "-m", "precise_impact", *args],
             stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE,
             text=True,
-            env=dict(os.environ, PYTHONPATH=SRC),
+            env=dict(os.environ, PYTHONPATH=SRC, **(env or {})),
             # a default SIGINT disposition even when the test runner ignores it
             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.default_int_handler),
         )
@@ -219,6 +220,31 @@ def _lle_interrupted(sig, delay):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_lle_fast_stops_on_a_signal_with_exit_130(sig):
     _lle_interrupted(sig, 0.0)
+
+
+def test_a_signal_during_the_kernels_compilation_exits_at_once(tmp_path):
+    """On a fresh install numba compiles the kernel (~30 s) when the run starts; the
+    compilation ran in the kernel's helper thread and a SIGTERM then waited for it (CI: exit
+    26.7 s after the signal).  Now it compiles in the main thread, where the signal is raised
+    between two of the compiler's Python steps.  A fresh numba cache makes the install fresh;
+    the first file in it says the compilation is under way."""
+    cache = tmp_path / "numba"
+    cache.mkdir()
+    run = _Run(
+        "lle", "--model", "fast", "--eta", "0.8", "--periods", "1000000",
+        env={"NUMBA_CACHE_DIR": str(cache)},
+    )  # fmt: skip
+    end = time.monotonic() + 120
+    while not any(f.is_file() for f in cache.rglob("*")):
+        assert time.monotonic() < end and run.p.poll() is None, "".join(run.err)[-800:]
+        time.sleep(0.05)
+    took, err = run.stop(signal.SIGTERM)
+    assert run.p.returncode == 130, err[-800:]
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err[-800:]
+    once = r"precise-impact: interrupted after 0 of \d+ periods per start \(4 starts\)"
+    assert re.fullmatch(once, lines[0]), lines
+    assert took < EXIT_BOUND / 4, took  # 0.8-1.3 s measured
 
 
 def _sweep_args(out):

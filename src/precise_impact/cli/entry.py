@@ -15,6 +15,12 @@ While a run works, an interrupt that lands inside an ``import`` (a command's fir
 imports matplotlib, ~0.3 s) waits until the import is done (:func:`interrupt`): raised inside
 a class body there it surfaced as "RuntimeError: Error calling __set_name__ ..." with a
 traceback and exit 1 (measured: 1 of 60 SIGTERMs at random moments of a bifurcation run).
+An interrupt while numba compiles a kernel (~30 s on a fresh install) ends the process without
+waiting for the compilation, which cannot be stopped safely (:func:`_leave`).
+An interrupt that lands in a finalizer (``__del__``) waits for it to return the same way:
+Python prints an exception raised there ("Exception ignored in ...") and drops it, and the run
+went on to its end (seen while numba compiled a kernel: llvmlite frees its objects in
+``__del__``).
 
 Not covered: the interpreter's own start-up and the ~10 ms of ``import precise_impact`` before
 this module is reached (Python's default: a KeyboardInterrupt traceback, or a kill by SIGTERM);
@@ -48,9 +54,11 @@ _deferred: list[int] = []
 
 
 def _importing(frame) -> bool:
-    """Whether ``frame`` runs inside an import (the import machinery is on its stack)."""
+    """Whether ``frame`` runs inside an import (the import machinery is on its stack) or a
+    finalizer (``__del__``, whose exceptions Python prints and drops)."""
     while frame is not None:
-        if frame.f_code.co_filename in _IMPORT_FRAMES:
+        code = frame.f_code
+        if code.co_filename in _IMPORT_FRAMES or code.co_name == "__del__":
             return True
         frame = frame.f_back
     return False
@@ -104,14 +112,32 @@ def interrupts() -> Iterator[None]:
             signal.raise_signal(signal.SIGINT)
 
 
-def _exit_now(signum, frame):  # pragma: no cover - runs in a subprocess (tests/test_interrupts)
+def _flush() -> None:
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
         except (OSError, ValueError):
             pass
+
+
+def _exit_now(signum, frame):  # pragma: no cover - runs in a subprocess (tests/test_interrupts)
+    _flush()
     os.write(2, b"precise-impact: interrupted after the run ended; its results are kept\n")
     os._exit(EXIT_INTERRUPTED)
+
+
+def _compiling() -> bool:
+    """Whether an interrupt left numba compiling a kernel in a helper thread
+    (:func:`precise_impact.solvers.fast.control.run_kernel`); never imports the engine."""
+    control = sys.modules.get("precise_impact.solvers.fast.control")
+    return control is not None and control.compiling()
+
+
+def _leave(status: int) -> None:  # pragma: no cover - runs in a subprocess
+    """End the process now, with ``status``, what was printed flushed: the interpreter's
+    teardown would wait for the compilation (~30 s) or meet its lock half-way."""
+    _flush()
+    os._exit(status)
 
 
 def _ignore_signals() -> None:  # pragma: no cover - runs in a subprocess
@@ -150,6 +176,8 @@ def run() -> None:
         # worker): a signal there ends the process at once.
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, _exit_now)
+        if _compiling():
+            _leave(status)
     except KeyboardInterrupt:  # in the few bytecodes between main()'s return and the line above
         _exit_now(signal.SIGINT, None)
     sys.exit(status)

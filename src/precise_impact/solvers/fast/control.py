@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numba
 import numpy as np
 from numba import types
 from numba.core import cgutils
@@ -103,19 +104,33 @@ def new_flag() -> np.ndarray:
     return np.zeros(1, np.int64)
 
 
-def _in_thread(call: Callable[[], Any], box: dict, done: threading.Event) -> None:
+#: Helper threads left compiling a kernel by an interrupt (:func:`run_kernel`): the command
+#: line ends its process without waiting for them (:mod:`precise_impact.cli.entry`).
+_abandoned: list[threading.Thread] = []
+
+
+def compiling() -> bool:
+    """Whether a compilation abandoned by an interrupt still runs in a helper thread."""
+    return any(t.is_alive() for t in _abandoned)
+
+
+def _in_thread(kernel: Any, args: tuple, box: dict, entered: threading.Event) -> None:
     try:
         # the interrupt is the main thread's to take: never this thread's system calls
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-        box["value"] = call()
+        kernel.compile(tuple(numba.typeof(a) for a in args))  # or loaded from the cache
+        entered.set()
+        box["value"] = kernel(*args)
     except BaseException as e:  # handed to the waiting thread
         box["error"] = e
     finally:
-        done.set()
+        entered.set()
+        box["done"].set()
 
 
 def run_kernel(
-    call: Callable[[], Any],
+    kernel: Any,
+    args: tuple,
     stop: np.ndarray,
     counts: np.ndarray | None = None,
     total: int = 0,
@@ -123,13 +138,22 @@ def run_kernel(
     label: str = "periods",
     what: Callable[[int], str] | None = None,
 ) -> Any:
-    """``call()`` (a compiled kernel, ``nogil``, polling ``stop``) so that Ctrl-C and SIGTERM
-    stop it cleanly, with progress from ``counts``.
+    """``kernel(*args)`` (a compiled kernel, ``nogil``, polling ``stop``) so that Ctrl-C and
+    SIGTERM stop it cleanly, with progress from ``counts``.
+
+    The kernel is compiled (or loaded from numba's cache) in the helper thread first. A
+    compilation takes ~30 s on a fresh install; an interrupt during it does not wait for it
+    (it did: exit 27 s after SIGTERM in CI), and cannot stop it (numba's compiler, interrupted
+    by an exception, freed its LLVM objects twice: "double free", a crash): the interrupt is
+    raised at once, with nothing done, and the compilation finishes in its thread
+    (:func:`compiling`).
 
     Parameters
     ----------
-    call : callable
-        Runs the kernel; its result is returned.
+    kernel : numba dispatcher
+        The compiled kernel; its result is returned.
+    args : tuple
+        Its arguments, ``stop`` and ``counts`` among them.
     stop : numpy.ndarray
         The kernel's stop flag (:func:`new_flag`); set to :data:`STOP_INTERRUPT` on an
         interrupt.
@@ -150,7 +174,7 @@ def run_kernel(
     Returns
     -------
     object
-        ``call()``'s result.
+        ``kernel(*args)``'s result.
 
     Raises
     ------
@@ -161,13 +185,13 @@ def run_kernel(
     Notes
     -----
     Outside the main thread (a test runner's thread, a Dask worker) no signal can reach
-    this code: ``call()`` runs right there (without progress).
+    this code: the kernel runs right there (without progress).
     """
     if threading.current_thread() is not threading.main_thread():
-        return call()
-    box: dict[str, Any] = {}
-    done = threading.Event()
-    worker = threading.Thread(target=_in_thread, args=(call, box, done), daemon=True)
+        return kernel(*args)
+    done, entered = threading.Event(), threading.Event()
+    box: dict[str, Any] = {"done": done}
+    worker = threading.Thread(target=_in_thread, args=(kernel, args, box, entered), daemon=True)
     bar = Progress(total, label, progress) if counts is not None and total > 0 else None
     start = time.perf_counter()
     interrupt: BaseException | None = None
@@ -178,8 +202,10 @@ def run_kernel(
                 while not done.wait(WAIT_INTERVAL):
                     if bar is not None and time.perf_counter() - start > PROGRESS_AFTER:
                         bar.update(int(counts.sum()))  # type: ignore[union-attr]
-            else:  # stopping: the kernel sees the flag within POLL_PERIODS periods
+            elif entered.is_set():  # stopping: the kernel sees the flag within POLL_PERIODS periods
                 done.wait()
+            else:  # still compiling: not waited for
+                _abandoned.append(worker)
             break
         except BaseException as e:  # Ctrl-C; SIGTERM arrives as one too (precise_impact.cli.main)
             stop[0] = STOP_INTERRUPT  # (anything else raised here, too: never left running)

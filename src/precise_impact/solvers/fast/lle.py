@@ -438,7 +438,8 @@ def lle_batch(
     kernel = LLE_KERNELS[bool(parallel)]
     try:
         run_kernel(
-            lambda: kernel(*args, *out, stop, counts),
+            kernel,
+            (*args, *out, stop, counts),
             stop,
             counts,
             n * length,

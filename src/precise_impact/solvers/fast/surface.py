@@ -175,7 +175,8 @@ def run_impact_orbit(
     out_ph, out_t, out_v = np.empty(n), np.empty(n), np.empty(n)
     stop, counts = new_flag(), np.zeros(1, np.int64)
     st, imps, keep, t_last, b_last = run_kernel(
-        lambda: impact_orbit(*pars, t, base, v, n, k_last, out_ph, out_t, out_v, stop, counts),
+        impact_orbit,
+        (*pars, t, base, v, n, k_last, out_ph, out_t, out_v, stop, counts),
         stop,
         what=lambda done: f"interrupted after {int(counts[0])} impact-map events",
     )
