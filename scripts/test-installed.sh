@@ -8,8 +8,10 @@
 #   ruff check, ruff format --check and mypy on the sources (zero findings),
 #   precise-impact --version, precise-impact reference verify, the README's testing example
 #   (the code block itself, read from README.md), the whole test suite against the installed
-#   package (pyproject's pytest settings: markers, -m 'not slow'), then the slow tests but the
-#   ~10-minute hypothesis long run (-m slow), and the documentation
+#   package (pyproject's pytest settings: markers, -m 'not slow'), then a venv set up exactly as
+#   the README says (its `pip install -e '.[...]'` line) in which the slow README-sequence test
+#   runs the README's commands, the slow tests but the ~10-minute hypothesis long run
+#   (-m slow), and the documentation
 #   build (html and doctest, warnings are errors) when docs/conf.py exists.
 # Then the lowest declared dependency versions (ci/lowest-constraints.txt) in a second
 # venv run a fast subset.  Every step is timed.
@@ -99,6 +101,18 @@ PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovid
 # pyproject's settings applied (its markers and addopts -m 'not slow'), not pytest's defaults
 grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
 grep -Eq "[0-9]+ deselected" "$work/pytest.log" || { echo "addopts -m 'not slow' was not applied"; exit 1; }
+took
+
+step "a venv set up exactly as the README says (its pip install line, run in a copy of the checkout)"
+# the slow README-sequence test runs the README's commands with this venv's interpreter: an
+# example needing a package the README's set-up does not install fails there (issue 35 item 7a)
+readme_pip=$(grep -Eo "pip install -e '[^']*'" "$repo/README.md" | head -n 1)
+[ -n "$readme_pip" ] || { echo "no 'pip install -e' line in README.md"; exit 1; }
+echo "   $readme_pip"
+"$py" -m venv "$work/readme"
+"$work/readme/bin/python" -m pip install -q --upgrade pip
+(cd "$work/src" && eval "\"$work/readme/bin/python\" -m $readme_pip -q")
+export PRECISE_IMPACT_README_PYTHON="$work/readme/bin/python"
 took
 
 step "the slow tests (marked slow: long references, coverage statistics, the main job, the README's commands in order, ten signals per long command), installed package"

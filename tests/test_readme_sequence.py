@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import fnmatch
 import io
+import json
 import os
 import re
 import shlex
@@ -126,6 +127,16 @@ def _snapshot(d: Path | None) -> dict[str, float]:
     }
 
 
+#: The interpreter of a venv set up exactly as the README says (its ``pip install`` line, run
+#: by scripts/test-installed.sh): the slow sequence runs the commands there, so an example
+#: that needs a package the README's set-up does not install fails (issue 35 item 7a).
+README_PYTHON = os.environ.get("PRECISE_IMPACT_README_PYTHON")
+
+
+def _python() -> str:
+    return README_PYTHON or sys.executable
+
+
 def _env() -> dict[str, str]:
     env = dict(os.environ)
     if not os.environ.get("PRECISE_IMPACT_TEST_INSTALLED"):
@@ -155,7 +166,7 @@ def _run_sequence(tmp_path: Path, quick: bool) -> list[tuple[str, float]]:
     cmds = readme_commands()
     unknown = [c for c in cmds if not c.startswith("precise-impact ") and not _is_setup(c)]
     assert not unknown, f"README commands neither run here nor set-up: {unknown}"
-    exe = f"{shlex.quote(sys.executable)} -m precise_impact"
+    exe = f"{shlex.quote(_python())} -m precise_impact"
     timings = []
     if quick:  # the files reproduce leaves in results/, which later commands share
         (tmp_path / "results").mkdir()
@@ -215,6 +226,71 @@ def test_readme_sequence_quick(tmp_path):
     assert (tmp_path / "results" / "report.md").read_text() == "from reproduce\n"
 
 
+def _name(requirement: str) -> str:
+    """A requirement's distribution name, normalised (PEP 503)."""
+    return re.sub(r"[-_.]+", "-", re.split(r"[<>=!~\[ ;]", requirement, maxsplit=1)[0]).lower()
+
+
+def _extra_packages(extras: set[str] | None = None) -> set[str]:
+    """The distributions named by pyproject's extras (all of them by default)."""
+    import tomllib
+
+    table = tomllib.loads((README.parent / "pyproject.toml").read_text(encoding="utf-8"))
+    opt = table["project"]["optional-dependencies"]
+    names = set()
+    for extra, deps in opt.items():
+        if extras is None or extra in extras:
+            names |= {re.split(r"[<>=!~\[ ;]", d, maxsplit=1)[0].lower() for d in deps}
+    core = {
+        re.split(r"[<>=!~\[ ;]", d, maxsplit=1)[0].lower() for d in table["project"]["dependencies"]
+    }
+    return names - core
+
+
+#: Run in the README's venv: each installed distribution and what it requires unconditionally
+#: (a requirement behind ``extra == ...`` is not installed by the bare package), names
+#: normalised as pyproject's.
+_LIST_DISTRIBUTIONS = """
+import json, re, importlib.metadata as m
+def norm(n):
+    return re.sub(r"[-_.]+", "-", n).lower()
+out = {}
+for d in m.distributions():
+    reqs = [r for r in (d.requires or []) if "extra ==" not in r]
+    names = [re.split(r"[<>=!~\\[ ;(]", r, maxsplit=1)[0] for r in reqs]
+    out[norm(d.metadata["Name"])] = [norm(n) for n in names]
+print(json.dumps(out))
+"""
+
+
+def _readme_extras() -> set[str]:
+    """The extras of the README's ``pip install -e '.[...]'`` set-up line."""
+    pips = [c for c in readme_commands() if c.startswith("pip install -e")]
+    assert len(pips) == 1, pips
+    m = re.search(r"\.\[([^\]]*)\]", pips[0])
+    return {e.strip() for e in m.group(1).split(",")} if m else set()
+
+
+@pytest.mark.slow  # beside the sequence, once scripts/test-installed.sh has made the venv
+@pytest.mark.skipif(
+    README_PYTHON is None, reason="needs the README's venv (scripts/test-installed.sh)"
+)
+def test_the_readme_venv_holds_only_what_the_readme_installs():
+    """The venv the slow sequence runs in is the README's: the packages of its extras are in
+    it and those of the other extras (pytest, dask, ...) are not, or it hides a missing one."""
+    out = subprocess.run(
+        [README_PYTHON, "-c", _LIST_DISTRIBUTIONS], capture_output=True, text=True, check=True
+    )
+    installed = json.loads(out.stdout)
+    have = set(installed)
+    required = {r for reqs in installed.values() for r in reqs}  # by an installed package
+    wanted = _extra_packages(_readme_extras())
+    others = _extra_packages() - wanted
+    assert wanted <= have, wanted - have
+    # another extra's package is there only as a dependency (SALib requires pandas: fine)
+    assert not (others & have) - required, (others & have) - required
+
+
 @pytest.mark.slow  # reproduce --quick and bench work-precision --quick: minutes in all
 def test_readme_sequence(tmp_path):
     timings = _run_sequence(tmp_path, quick=False)
@@ -222,7 +298,7 @@ def test_readme_sequence(tmp_path):
     print(f"{sum(t for _, t in timings):7.1f} s  in all")
     # a second run of the main job into the same directory is refused, naming its own file
     r = subprocess.run(
-        [sys.executable, "-m", "precise_impact", "reproduce", "--quick", "--out", "results"],
+        [_python(), "-m", "precise_impact", "reproduce", "--quick", "--out", "results"],
         cwd=tmp_path,
         env=_env(),
         capture_output=True,
