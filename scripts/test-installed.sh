@@ -96,11 +96,15 @@ PY
 took
 
 step "the test suite against the installed package"
-PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider \
-  --rootdir "$repo" -c "$repo/pyproject.toml" 2>&1 | tee "$work/pytest.log"
+# on every core (pytest-xdist), the 20 slowest tests listed at the end
+PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -n auto \
+  --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" 2>&1 | tee "$work/pytest.log"
 # pyproject's settings applied (its markers and addopts -m 'not slow'), not pytest's defaults
 grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
-grep -Eq "[0-9]+ deselected" "$work/pytest.log" || { echo "addopts -m 'not slow' was not applied"; exit 1; }
+# (pytest-xdist's summary leaves out the deselected count: a collection in this process says it)
+python -m pytest "$repo/tests" -p no:cacheprovider --collect-only -q --rootdir "$repo" \
+  -c "$repo/pyproject.toml" 2>&1 | grep -Eq "[0-9]+ deselected" \
+  || { echo "addopts -m 'not slow' was not applied"; exit 1; }
 took
 
 step "a venv set up exactly as the README says (its pip install line, run in a copy of the checkout)"
@@ -117,8 +121,8 @@ took
 
 step "the slow tests (marked slow: long references, coverage statistics, the main job, the README's commands in order, ten signals per long command), installed package"
 # a manual run (pytest -m slow): the hypothesis long run (test_fuzz_long_run, ~10 min)
-PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -q \
-  --rootdir "$repo" -c "$repo/pyproject.toml" -m slow -k "not fuzz_long_run"
+PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -q -n auto \
+  --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m slow -k "not fuzz_long_run"
 took
 
 if [ -f "$repo/docs/conf.py" ]; then

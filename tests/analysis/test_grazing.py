@@ -98,6 +98,16 @@ def test_grazing_frequency_of_the_paper_parameters():
         assert abs(amp - 2) < mpmath.mpf("1e-25")
 
 
+def test_a_wall_at_the_rest_position_has_no_grazing_frequency():
+    """x_w = 0 divided by zero (ZeroDivisionError in ``bifurcation --x_w 0``, found by the CLI
+    fuzz): every steady state of amplitude > 0 crosses a wall at the rest position."""
+    assert grazing_frequencies(Params.make(x_w="0")) == []
+    assert grazing_frequencies(Params.make(x_w="0", a="0")) == []
+    # a wall just beside it: one grazing, where the amplitude ~ a / eta^2 falls to x_w
+    (eta,) = grazing_frequencies(Params.make(x_w="1e-6"))
+    assert abs(eta - 1e3) < 1e-3
+
+
 # ----------------------------------------------------------------------------- no impact missed
 def segment_wise(p: Params, tr, backend: str, dps: int | None) -> tuple[float, int]:
     """Restart the robust finder from heyoka's post-impact state at every impact.

@@ -219,7 +219,8 @@ def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
     -------
     list of mpmath.mpf
         The positive roots ``eta`` in increasing order (empty if the amplitude never
-        reaches the wall).
+        reaches the wall, or if ``x_w = 0``: the wall sits at the rest position, and every
+        steady state crosses it).
 
     See Also
     --------
@@ -241,6 +242,8 @@ def grazing_frequencies(params, dps: int = 30) -> list[mpmath.mpf]:
     z = ctx.mpf(params.zeta.numerator) / params.zeta.denominator
     a = ctx.mpf(params.a.numerator) / params.a.denominator
     xw = ctx.mpf(params.x_w.numerator) / params.x_w.denominator
+    if xw == 0:  # the wall at the rest position: every steady state crosses it (or rests on it)
+        return []
     b = 1 - 2 * z**2
     disc = b**2 - 1 + (a / xw) ** 2
     if disc < 0:
