@@ -13,7 +13,7 @@
 #   runs the README's commands, the slow tests but the ~10-minute hypothesis long run
 #   (-m slow), and the documentation
 #   build (html and doctest, warnings are errors) when docs/conf.py exists.
-# Then the lowest declared dependency versions (ci/lowest-constraints.txt) in a second
+# Then the lowest declared dependency versions (.ci/lowest-constraints.txt) in a second
 # venv run a fast subset.  Every step is timed.
 #
 # Usage: bash scripts/test-installed.sh        (from anywhere; needs python3 >= 3.11 with venv)
@@ -152,11 +152,11 @@ PY
   took
 fi
 
-step "lowest declared dependency versions: $(grep -v '^#' "$repo/ci/lowest-constraints.txt" | tr '\n' ' ')"
+step "lowest declared dependency versions: $(grep -v '^#' "$repo/.ci/lowest-constraints.txt" | tr '\n' ' ')"
 "$py" -m venv "$work/lowest"
 "$work/lowest/bin/python" -m pip install -q --upgrade pip
-"$work/lowest/bin/python" -m pip install -q -c "$repo/ci/lowest-constraints.txt" "${wheel}[test,dask,bench]"
-"$work/lowest/bin/python" - "$repo/ci/lowest-constraints.txt" <<'PY'
+"$work/lowest/bin/python" -m pip install -q -c "$repo/.ci/lowest-constraints.txt" "${wheel}[test,dask,bench]"
+"$work/lowest/bin/python" - "$repo/.ci/lowest-constraints.txt" <<'PY'
 import sys
 from importlib.metadata import version
 pins = [l.split("==") for l in open(sys.argv[1]) if "==" in l and not l.startswith("#")]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import re
+import subprocess
 import sys
 import tomllib
 from importlib import metadata
@@ -43,9 +44,9 @@ def _release(v: str) -> tuple[int, ...]:
 
 
 def test_lowest_constraints_pin_exactly_the_floors():
-    """ci/lowest-constraints.txt (what CI installs) pins each declared floor, no more, no less."""
+    """.ci/lowest-constraints.txt (what CI installs) pins each declared floor, no more, no less."""
     pins = {}
-    for line in (CHECKOUT / "ci" / "lowest-constraints.txt").read_text().splitlines():
+    for line in (CHECKOUT / ".ci" / "lowest-constraints.txt").read_text().splitlines():
         line = line.split("#")[0].strip()
         if line:
             name, _, version = line.partition("==")
@@ -156,3 +157,35 @@ def test_the_wheel_lists_every_package_and_ships_reference_data():
     assert not (src / "precise_impact" / "data").exists(), (
         "one copy of the datasets, at the top level"
     )
+
+
+#: What the repository's top level holds: the design card's five (pyproject.toml, src, tests,
+#: reference_data, README.md), the project's papers (CHANGELOG, LICENSE, CITATION), its docs,
+#: benchmarks and scripts, CI's directory and git's files.  A figure a doctest left at the root
+#: was committed twice (issue 36): a new entry must be added here on purpose.
+ROOT_ENTRIES = {
+    "pyproject.toml",
+    "src",
+    "tests",
+    "reference_data",
+    "README.md",
+    "CHANGELOG.md",
+    "LICENSE",
+    "CITATION.cff",
+    "docs",
+    "benchmarks",
+    "scripts",
+    ".ci",
+    ".gitignore",
+    ".gitattributes",
+}
+
+
+def test_nothing_at_the_repository_root_but_what_it_needs():
+    if not (CHECKOUT / ".git").exists():
+        pytest.skip("not a git checkout")
+    out = subprocess.run(
+        ["git", "-C", str(CHECKOUT), "ls-files"], capture_output=True, text=True, check=True
+    ).stdout
+    tracked = {line.split("/", 1)[0] for line in out.splitlines() if line}
+    assert tracked <= ROOT_ENTRIES, sorted(tracked - ROOT_ENTRIES)
