@@ -23,14 +23,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.orbits.continuation import continue_orbit
+from precise_impact.analysis.orbits.newton import find_orbit
+from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
 from precise_impact.core import flight
 from precise_impact.core.dual import DUAL, Dual, seed
 from precise_impact.core.impact import oscillator_saltation
-from precise_impact.core.params import exact
+from precise_impact.core.params import Params, exact
 from precise_impact.errors import ConvergenceError, ParameterError, check_type
 
 __all__ = ["BranchPoint", "KINDS", "THETA", "check_theta"]
@@ -223,8 +227,6 @@ class BranchPoint:
 
     def states(self) -> np.ndarray:
         """The ``p`` stroboscopic states ``(x, v)`` at ``t = k 2 pi / eta`` (``t0 = 0``)."""
-        from precise_impact.analysis.orbits.shooting import ShootingSystem
-
         zeta, a, xw = (float(t) for t in self.theta)
         n = self.impacts
         base = {"eta": self.eta, "zeta": zeta, "a": a, "x_w": xw, "R": self.R, "t0": 0.0}
@@ -316,12 +318,6 @@ def seed_landmark(
     located): the orbit's impact sequence (one simulated cycle from ``guess``, refined by
     Newton), the highest interior maximum for a grazing, then Newton on the augmented system.
     """
-    from fractions import Fraction
-
-    from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
-    from precise_impact.core.params import Params
-
     if not isinstance(kind, str) or kind not in KINDS:
         raise ParameterError("kind", str(kind)[:40], "one of " + ", ".join(KINDS))
     theta = check_theta(theta)
@@ -384,11 +380,6 @@ def landmark_from_continuation(
     ConvergenceError
         The continuation found no such landmark in the range.
     """
-    from fractions import Fraction
-
-    from precise_impact.analysis.orbits.continuation import continue_orbit
-    from precise_impact.core.params import Params
-
     zeta, a, xw = (float(t) for t in theta)
     params = Params.make(
         zeta=Fraction(zeta), a=Fraction(a), x_w=Fraction(xw), R=Fraction(R), eta=Fraction(start)
@@ -443,11 +434,6 @@ def interval_ends(orbit: BranchPoint, span: float = 0.06, max_points: int = 400)
     dict
         ``{'low': (type, eta, Bifurcation) or None, 'high': ...}``.
     """
-    from fractions import Fraction
-
-    from precise_impact.analysis.orbits.continuation import continue_orbit
-    from precise_impact.core.params import Params
-
     zeta, a, xw = (float(t) for t in orbit.theta)
     eta0 = orbit.eta
     x0, v0 = (float(c) for c in orbit.states()[0])

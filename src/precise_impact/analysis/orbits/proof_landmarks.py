@@ -30,18 +30,30 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal, localcontext
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
-from precise_impact.analysis.orbits.landmarks import BranchPoint, check_theta
+from precise_impact.analysis.orbits.landmarks import (
+    BranchPoint,
+    check_theta,
+    end_point,
+    interval_ends,
+    seed_landmark,
+)
 from precise_impact.core.dual import BALL_DUAL, BallDual, seed
-from precise_impact.core.params import exact
+from precise_impact.core.params import decimal_str, exact
 from precise_impact.core.precision import float_up, log10_fraction
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import CertificationError, ParameterError, check_type
+from precise_impact.errors import (
+    CertificationError,
+    ConvergenceError,
+    ParameterError,
+    check_type,
+)
 from precise_impact.solvers.certified.single import (
     ball_str,
     exact_value,
@@ -378,7 +390,7 @@ def _exact_theta(bp: BranchPoint, theta: Any) -> dict:
 
 def _evaluate(bp: BranchPoint, ys: list, theta: list, grad: bool) -> tuple[list, list]:
     """``F(ys)`` in balls, and ``F'`` enclosed over the balls ``ys`` when ``grad``."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     m = len(ys)
     args = seed(ys, dual=BallDual) if grad else list(ys)
@@ -415,14 +427,14 @@ def _krawczyk(fun: Any, c: list, r: Fraction, what: str, names: list | None = No
 
 def flint_ball(mid: Any, rad: Any) -> Any:
     """``flint.arb(mid, rad)``."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     return flint.arb(mid, rad)
 
 
 def _branch(lm: BranchPoint, theta: list, k: int, s: Any) -> Any:
     """The branch equations (all of ``F`` but the test function) and ``y_k = s`` (a ball)."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     def fun(ys: list, grad: bool) -> tuple[list, list]:
         F, J = _evaluate(lm, ys, theta, grad)
@@ -465,15 +477,11 @@ def _predict(bp: BranchPoint, y0: np.ndarray, k: int, ds: float) -> np.ndarray:
 
 
 def _dec(q: Fraction) -> str:
-    from precise_impact.core.params import decimal_str
-
     return decimal_str(q)
 
 
 def _round_dec(q: Fraction, direction: int, digits: int = 50) -> str:
     """``q`` rounded to ``digits`` significant digits towards ``direction`` (-1 down, +1 up)."""
-    from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal, localcontext
-
     with localcontext() as ctx:
         ctx.prec = digits
         ctx.rounding = ROUND_CEILING if direction > 0 else ROUND_FLOOR
@@ -545,9 +553,6 @@ def locate_landmark(
     >>> bp.kind, round(bp.eta, 6)
     ('period-doubling', 0.986317)
     """
-    from precise_impact.analysis.orbits.landmarks import end_point, interval_ends, seed_landmark
-    from precise_impact.errors import ConvergenceError
-
     if not isinstance(point, str) or point not in POINTS:
         raise ParameterError("point", str(point)[:40], ", ".join(POINTS))
     theta = check_theta(theta)
