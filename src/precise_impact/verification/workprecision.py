@@ -105,7 +105,7 @@ def scipy_solve(
     defaults to ``rtol * 1e-3``.  Samples at ``k 2 pi / eta`` (float64).
     """
     try:
-        from scipy.integrate import solve_ivp
+        from scipy.integrate import solve_ivp  # noqa: PLC0415 -- optional: loaded on first use
     except ImportError:
         raise OptionalDependencyError(
             "scipy", "pip install 'precise_impact[bench]'", "scipy_solve"
@@ -177,7 +177,7 @@ def scipy_solve(
 
 def _have_scipy() -> bool:
     try:
-        import scipy.integrate  # noqa: F401
+        import scipy.integrate  # noqa: F401, PLC0415 -- optional: probed, not needed
     except ImportError:
         return False
     return True
