@@ -158,7 +158,7 @@ def run() -> None:
     noted: list[int] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: noted.append(signum))
-    from precise_impact.cli.main import main
+    from precise_impact.cli.main import main  # noqa: PLC0415 -- start-up: imported once signals are taken
 
     if noted:
         print("precise-impact: interrupted before the run started", file=sys.stderr)
