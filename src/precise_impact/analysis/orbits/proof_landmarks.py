@@ -267,11 +267,7 @@ def prove_landmark(
     if bp.kind not in _TEST:
         raise ParameterError("kind", bp.kind, "graze_free, graze, period-doubling or fold")
     w = check_width(width)
-    if bits is None:
-        # log2(1 / w) from the integers (float(1 / w) overflows past 1e308)
-        bits = math.ceil(math.log2(w.denominator) - math.log2(w.numerator)) + 96
-    elif not isinstance(bits, int) or isinstance(bits, bool) or not 64 <= bits <= 4096:
-        raise ParameterError("bits", str(bits), "an integer, 64 <= bits <= 4096")
+    bits = _proof_bits(w, bits)
     th = _exact_theta(bp, theta)
     r = w / 2
     y0 = np.asarray(bp.y, dtype=float)
@@ -289,60 +285,13 @@ def prove_landmark(
         what = f"{bp.kind} landmark at eta ~ {bp.eta:.17g}"
         c = newton_points(full, y0, bits, what)
         K, contraction = _krawczyk(full, c, r, what, names)
-        # the sign change: the branch's orbits at s = s* -+ 2 r (s the coordinate moving most),
-        # each proven unique in a small box, and all of them (s in [s* - 2r, s* + 2r], the
-        # landmark's box included) on one branch: unique zeros of the branch equations for
-        # every s of that range in one tube (Krawczyk with s a ball)
-        rq = to_ball(r)
-        tube_r = r * 4 * max(1, math.ceil(_slope(bp, k)))
-        S = c[k] + flint_ball(0, (2 * rq).upper())
-        tube, _ = _krawczyk(
-            _branch(lm, tb, k, S), c, tube_r, f"{what}: the branch through it", names
-        )
-        sides = []
-        for sgn in (-1, 1):
-            s_val = c[k] + sgn * 2 * rq
-            label = f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
-            # the float64 prediction (a shift of 2r below the float range is 0.0: the start is
-            # then y0 itself, as good a start as float64 can give)
-            start = _predict(bp, y0, k, float(exact_value((s_val - c[k]).mid())))
-            cs = newton_points(_branch(lm, tb, k, s_val), start, bits, label)
-            Ks, _ = _krawczyk(_branch(lm, tb, k, s_val), cs, r / 4, label)
-            if not all(t.contains(b) for t, b in zip(tube, Ks, strict=True)):  # pragma: no cover
-                raise CertificationError(f"{label}: the orbit is not in the branch's tube")
-            gval = _evaluate(lm, Ks, tb, False)[0][-1]
-            sign = 1 if gval > 0 else (-1 if gval < 0 else 0)
-            sides.append(
-                {
-                    "coordinate": names[k],
-                    "value": ball_str(s_val, 50)[0],
-                    "g": ball_str(gval),
-                    "sign": sign,
-                }
-            )
+        tube, sides = _sign_change(bp, lm, tb, c, k, r, bits, what, names)
         if not all(t.contains(b) for t, b in zip(tube, K, strict=True)):  # pragma: no cover
             raise CertificationError(f"{what}: the landmark is not in the branch's tube")
-        if sides[0]["sign"] == 0 or sides[1]["sign"] == 0:
-            raise CertificationError(
-                f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
-                "is not proven nonzero beside the box (enclosures "
-                f"{sides[0]['g']} and {sides[1]['g']}): no proof"
-            )
-        if sides[0]["sign"] == sides[1]["sign"]:
-            raise CertificationError(
-                f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
-                "has the same sign on both sides (a touch, not a crossing): degenerate point"
-            )
-        e = K[-1]
-        lo_q, hi_q = exact_value(e.lower()), exact_value(e.upper())
-        # the ends rounded outward to 4 digits below the width (the stated interval is the
-        # decimal one, so its width is computed from the decimals)
-        scale = max(abs(lo_q), abs(hi_q), Fraction(1, 10**1200))
-        digits = 4 + max(1, math.ceil(log10_fraction(scale / max(hi_q - lo_q, scale / 10**1300))))
-        lo_s, hi_s = _round_dec(lo_q, -1, digits), _round_dec(hi_q, 1, digits)
-        eta_mid = exact_value(e.mid())
+        _check_crossing(bp, sides)
+        lo_s, hi_s, eta_mid = _eta_interval(K[-1])
         unknowns = {n: ball_str(b) for n, b in zip(names, K, strict=True)}
-        eta_str = ball_str(e)
+        eta_str = ball_str(K[-1])
     ulp = math.ulp(bp.eta)
     width = Fraction(hi_s) - Fraction(lo_s)
     return ProvenLandmark(
@@ -366,6 +315,87 @@ def prove_landmark(
         float64_offset_ulps=float(abs(Fraction(bp.eta) - eta_mid) / Fraction(ulp)),
         elapsed_s=time.perf_counter() - t_start,
     )
+
+
+def _proof_bits(w: Fraction, bits: Any) -> int:
+    """The working bits: ``log2(1 / w) + 96`` when ``bits`` is None, else ``bits`` checked."""
+    if bits is None:
+        # log2(1 / w) from the integers (float(1 / w) overflows past 1e308)
+        bits = math.ceil(math.log2(w.denominator) - math.log2(w.numerator)) + 96
+    elif not isinstance(bits, int) or isinstance(bits, bool) or not 64 <= bits <= 4096:
+        raise ParameterError("bits", str(bits), "an integer, 64 <= bits <= 4096")
+    return bits
+
+
+def _sign_change(
+    bp: BranchPoint,
+    lm: BranchPoint,
+    tb: list,
+    c: list,
+    k: int,
+    r: Fraction,
+    bits: int,
+    what: str,
+    names: list,
+) -> tuple[list, list]:
+    """The branch's tube through the landmark and the test function's sign at ``s* -+ 2 r``."""
+    # the sign change: the branch's orbits at s = s* -+ 2 r (s the coordinate moving most),
+    # each proven unique in a small box, and all of them (s in [s* - 2r, s* + 2r], the
+    # landmark's box included) on one branch: unique zeros of the branch equations for
+    # every s of that range in one tube (Krawczyk with s a ball)
+    y0 = np.asarray(bp.y, dtype=float)
+    rq = to_ball(r)
+    tube_r = r * 4 * max(1, math.ceil(_slope(bp, k)))
+    S = c[k] + flint_ball(0, (2 * rq).upper())
+    tube, _ = _krawczyk(_branch(lm, tb, k, S), c, tube_r, f"{what}: the branch through it", names)
+    sides = []
+    for sgn in (-1, 1):
+        s_val = c[k] + sgn * 2 * rq
+        label = f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
+        # the float64 prediction (a shift of 2r below the float range is 0.0: the start is
+        # then y0 itself, as good a start as float64 can give)
+        start = _predict(bp, y0, k, float(exact_value((s_val - c[k]).mid())))
+        cs = newton_points(_branch(lm, tb, k, s_val), start, bits, label)
+        Ks, _ = _krawczyk(_branch(lm, tb, k, s_val), cs, r / 4, label)
+        if not all(t.contains(b) for t, b in zip(tube, Ks, strict=True)):  # pragma: no cover
+            raise CertificationError(f"{label}: the orbit is not in the branch's tube")
+        gval = _evaluate(lm, Ks, tb, False)[0][-1]
+        sign = 1 if gval > 0 else (-1 if gval < 0 else 0)
+        sides.append(
+            {
+                "coordinate": names[k],
+                "value": ball_str(s_val, 50)[0],
+                "g": ball_str(gval),
+                "sign": sign,
+            }
+        )
+    return tube, sides
+
+
+def _check_crossing(bp: BranchPoint, sides: list) -> None:
+    """Refuse a test function not proven nonzero beside the box, or of one sign on both sides."""
+    if sides[0]["sign"] == 0 or sides[1]["sign"] == 0:
+        raise CertificationError(
+            f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
+            "is not proven nonzero beside the box (enclosures "
+            f"{sides[0]['g']} and {sides[1]['g']}): no proof"
+        )
+    if sides[0]["sign"] == sides[1]["sign"]:
+        raise CertificationError(
+            f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
+            "has the same sign on both sides (a touch, not a crossing): degenerate point"
+        )
+
+
+def _eta_interval(e: Any) -> tuple[str, str, Fraction]:
+    """The enclosure ``e`` of eta as outward-rounded decimal ends, and its exact midpoint."""
+    lo_q, hi_q = exact_value(e.lower()), exact_value(e.upper())
+    # the ends rounded outward to 4 digits below the width (the stated interval is the
+    # decimal one, so its width is computed from the decimals)
+    scale = max(abs(lo_q), abs(hi_q), Fraction(1, 10**1200))
+    digits = 4 + max(1, math.ceil(log10_fraction(scale / max(hi_q - lo_q, scale / 10**1300))))
+    lo_s, hi_s = _round_dec(lo_q, -1, digits), _round_dec(hi_q, 1, digits)
+    return lo_s, hi_s, exact_value(e.mid())
 
 
 def check_width(width: Any) -> Fraction:
