@@ -2,8 +2,7 @@
 
 A zero ``y*`` of ``F`` (a periodic orbit's ``P^p(z) - z``, a landmark's augmented system) is
 proven on a box ``Y = c + [-r, r]^m`` around a centre ``c`` refined by Newton on points:
-
-``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)``,   ``C ~ F'(c)^-1`` (a point matrix).
+``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)``, ``C ~ F'(c)^-1`` (a point matrix).
 
 ``K(Y)`` inside the interior of ``Y`` proves exactly one zero in ``Y``, lying in ``K(Y)``, and
 ``F'`` nonsingular on ``Y`` (Krawczyk 1969; Moore, Kearfott, Cloud, *Introduction to Interval

@@ -1,22 +1,13 @@
 """Branch points as augmented systems with exact Jacobians, and their parameter sensitivities.
 
-A landmark of the bifurcation diagram in ``eta`` (a grazing, a period-doubling, a fold) is a
-regular zero of an augmented system ``F(y; theta) = 0``: the impact-sequence equations of the
-orbit (:mod:`~precise_impact.analysis.orbits.shooting`, the same equations continuation
-solves) plus the branch point's defining condition, in the unknowns ``y = (orbit, [t_m],
-eta)`` at parameters ``theta = (zeta, a, x_w)``.  The defining conditions:
-
-* ``graze_free``: the non-impacting period-1 orbit's maximum touches the wall:
-  ``x'(t_m) = 0``, ``x(t_m) = x_w`` (extra unknown ``t_m``);
-* ``graze``: an interior maximum of flight ``k`` of an impacting orbit touches the wall
-  (same two conditions on that flight);
-* ``period-doubling``: ``1 + tr M + det M = 0``; ``fold``: ``1 - tr M + det M = 0``
-  (``M`` the monodromy matrix: flow and saltation matrices, conjugate to the stroboscopic one).
-
-``F`` is evaluated once in forward-mode dual numbers (:mod:`precise_impact.core.dual`)
-through the closed-form flight (:mod:`precise_impact.core.flight`), which gives ``F_y`` and
-``F_theta`` exactly (to rounding).  Newton on ``F`` locates the landmark to rounding, and the
-implicit-function theorem gives ``d eta / d theta = -(F_y^-1 F_theta)[eta]``.
+A landmark in ``eta`` (a grazing, a period-doubling, a fold) is a regular zero of an augmented
+system ``F(y; theta) = 0``: the orbit's impact-sequence equations
+(:mod:`~precise_impact.analysis.orbits.shooting`) plus the branch point's defining condition,
+unknowns ``y = (orbit, [t_m], eta)``, parameters ``theta = (zeta, a, x_w)``.  ``F`` is
+evaluated in forward-mode dual numbers (:mod:`precise_impact.core.dual`), so ``F_y`` and
+``F_theta`` are exact to rounding: Newton locates the landmark, and the implicit-function
+theorem gives ``d eta / d theta``.  The conditions (``graze_free``, ``graze``,
+``period-doubling``, ``fold``): ``docs/numerics.rst``, "Landmarks as augmented systems".
 """
 
 from __future__ import annotations

@@ -1,28 +1,12 @@
 """Proven bifurcation points: a Krawczyk test on the landmarks' augmented systems in arb.
 
-A landmark located in float64 (:mod:`~precise_impact.analysis.orbits.landmarks`: a grazing,
-a period-doubling, a fold) is a regular zero ``y*`` of its augmented system ``F(y) = 0``.
-:func:`prove_landmark` proves it with the Krawczyk operator (Krawczyk 1969; Moore et al.
-2009, sec. 8.2): on a box ``Y = c + [-r, r]^m`` around the centre ``c`` refined by Newton at
-the working precision,
-
-``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)``,   ``C ~ F'(c)^-1`` (a point matrix),
-
-``F(c)`` evaluated in python-flint balls and ``F'(Y)`` enclosed over the whole box by forward
--mode dual numbers whose values and derivatives are balls (the interval extension of the
-exact Jacobian :meth:`BranchPoint.jacobian` computes in float64).  ``K(Y)`` inside the
-interior of ``Y`` proves exactly one zero in ``Y``, and it lies in ``K(Y)``; ``F'(Y)`` is then
-nonsingular on ``Y``, so the zero is regular.  The parameters ``(zeta, a, x_w, R)`` enter as
-balls around their exact decimal values, so the statement holds at the exact parameters.
-
-The landmark is also proven a crossing, not a touch: the defining condition ``g`` (the last
-component of ``F``: ``x(t_m) - x_w`` for a grazing, ``1 + tr M + det M`` for a period
-doubling, ``1 - tr M + det M`` for a fold) is enclosed at the branch's orbits on either side
-(the branch coordinate ``s``, ``eta`` unless the branch turns there, held at ``s* -+ 2 r``,
-each orbit itself proven by the same test), and the two enclosures have opposite signs; one
-more Krawczyk test, with ``s`` the whole ball ``[s* - 2r, s* + 2r]``, proves that the branch
-equations have exactly one zero for each such ``s`` in a tube containing both orbits and the
-landmark's box: the sign change happens along the branch through the landmark.
+A landmark located in float64 (:mod:`~precise_impact.analysis.orbits.landmarks`) is a regular
+zero ``y*`` of its augmented system ``F(y) = 0``.  :func:`prove_landmark` proves it with the
+Krawczyk operator (:mod:`~precise_impact.analysis.orbits.krawczyk`; Krawczyk 1969; Moore et
+al. 2009, sec. 8.2) in python-flint balls at the exact decimal parameters: exactly one zero
+in the box, regular, and a crossing, not a touch (the test function ``g`` proven of opposite
+signs at the branch's orbits on either side, all on one branch).  The operator, the
+enclosures and the sign change: ``docs/numerics.rst``, "Proven bifurcation points".
 """
 
 from __future__ import annotations
