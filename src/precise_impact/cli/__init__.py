@@ -12,7 +12,7 @@ __all__ = ["main"]
 
 def __getattr__(name: str) -> Any:
     if name == "main":
-        from precise_impact.cli.main import main
+        from precise_impact.cli.main import main  # noqa: PLC0415 -- start-up: loaded when the command runs
 
         return main
     raise AttributeError(f"module 'precise_impact.cli' has no attribute {name!r}")

@@ -3,29 +3,11 @@ moment once the package is imported ends the process with one line and exit 130 
 last teardown step, is ignored), never a traceback or a kill.
 
 :func:`~precise_impact.cli.main.main` handles Ctrl-C and SIGTERM while it works; this wrapper
-covers the moments it cannot: the command line's imports (heyoka, numba's glue: ~0.3 s; a
-signal there is noted and ends the process once they are done: raised inside an extension's
-initialisation it became "ImportError: initialization failed") and the interpreter's teardown
-after ``main`` has returned (pools joined, buffers flushed), where a signal killed the process
-with status -2/-15 after its results were written. After ``main`` a signal flushes what was
-printed and ends the process at once (``os._exit``): the results are complete files by then
-(atomic writes), and a teardown that waits on something is not made to wait longer.
-
-While a run works, an interrupt that lands inside an ``import`` (a command's first plot
-imports matplotlib, ~0.3 s) waits until the import is done (:func:`interrupt`): raised inside
-a class body there it surfaced as "RuntimeError: Error calling __set_name__ ..." with a
-traceback and exit 1 (measured: 1 of 60 SIGTERMs at random moments of a bifurcation run).
-An interrupt while numba compiles a kernel (~30 s on a fresh install) ends the process without
-waiting for the compilation, which cannot be stopped safely (:func:`_leave`).
-An interrupt that lands in a finalizer (``__del__``) waits for it to return the same way:
-Python prints an exception raised there ("Exception ignored in ...") and drops it, and the run
-went on to its end (seen while numba compiled a kernel: llvmlite frees its objects in
-``__del__``).
-
-Not covered: the interpreter's own start-up and the ~10 ms of ``import precise_impact`` before
-this module is reached (Python's default: a KeyboardInterrupt traceback, or a kill by SIGTERM);
-no work has started then.  The package's public names load on first use (PEP 562), so that
-window is no longer the ~0.4 s of heyoka, numba, numpy and matplotlib.
+covers what it cannot: the command line's imports (a signal there is noted and ends the
+process once they are done), an interrupt inside an ``import``, a numba compilation or a
+finalizer during the run (:func:`interrupt`, :func:`_leave`), and the interpreter's teardown
+after ``main`` has returned (a signal then flushes the output and ends at once, ``os._exit``).
+Why each case and what was measured: ``docs/guide/cli.rst``, "Interrupts and signals".
 """
 
 from __future__ import annotations
@@ -158,7 +140,7 @@ def run() -> None:
     noted: list[int] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: noted.append(signum))
-    from precise_impact.cli.main import main
+    from precise_impact.cli.main import main  # noqa: PLC0415 -- start-up: imported once signals are taken
 
     if noted:
         print("precise-impact: interrupted before the run started", file=sys.stderr)

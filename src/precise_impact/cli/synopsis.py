@@ -14,6 +14,8 @@ import argparse
 import re
 from collections.abc import Iterator
 
+from precise_impact.cli.main import build_parser
+
 __all__ = ["BEGIN", "END", "commands", "reference_rst", "replace_between_markers", "synopsis"]
 
 BEGIN = "<!-- synopsis:begin -->"
@@ -22,8 +24,6 @@ PROG = "precise-impact"
 
 
 def _parser() -> argparse.ArgumentParser:
-    from precise_impact.cli.main import build_parser
-
     return build_parser()
 
 

@@ -5,6 +5,7 @@ A proven bound ``|y - truth|`` for every stored decimal, re-proven by ``referenc
 
 from __future__ import annotations
 
+import datetime as _dt
 import json
 import time
 from decimal import ROUND_CEILING, Decimal, localcontext
@@ -23,8 +24,8 @@ from precise_impact.core.params import Params
 from precise_impact.io.atomic import sha256_file as _sha256
 from precise_impact.io.jsonout import write_json
 from precise_impact.solvers.certified.single import certify, exact_value
-from precise_impact.verification.reference import CERTIFICATE_FILE as CERTIFICATE  # noqa: E402
-from precise_impact.verification.reference import MANIFEST, _versions, read_manifest
+from precise_impact.verification.manifest import CERTIFICATE_FILE as CERTIFICATE  # noqa: E402
+from precise_impact.verification.manifest import MANIFEST, _versions, read_manifest
 
 #: Working precision of the certificates: radii ~1e-70 after 300 chaotic periods, far below the
 #: references' own errors (1e-54 at eta = 0.712), in ~0.3 s per case.
@@ -127,8 +128,6 @@ def add_certificate(case_dir: str | Path, bits: int = CERTIFICATE_BITS) -> dict:
         "sha256": _sha256(case_dir / CERTIFICATE),
         "bytes": (case_dir / CERTIFICATE).stat().st_size,
     }
-    import datetime as _dt
-
     m["proof"] = {
         "file": CERTIFICATE,
         "bits": bits,

@@ -41,7 +41,7 @@ from precise_impact.scenes.run import run_scene
 from precise_impact.scenes.scene import Scene, load_scene
 from precise_impact.solvers.base import MODEL_ALIASES, MODELS, model_capabilities
 from precise_impact.solvers.simulate import make_solver
-from precise_impact.verification.metrics import reference_bits, sample_errors
+from precise_impact.verification.metrics import reference_bits, sample_errors, scene_for_model
 from precise_impact.verification.points import mechanical_points, point_scores
 from precise_impact.verification.scores import detected_period, divergence_rate, score, separation
 
@@ -81,23 +81,6 @@ def check_models(models: str | Sequence[str]) -> list[str]:
     return models
 
 
-def scene_for_model(
-    scene: Scene, model: str, periods: int | None = None
-) -> tuple[Scene, list[str]]:
-    """``scene`` on ``model``, keeping only the scene's effects that fit ``model``.
-
-    A model that does not take the scene's precision runs in one it takes: a
-    multiprecision-only model (``certified``) at the reference's bits for ``periods``
-    (:func:`~precise_impact.verification.metrics.reference_bits`), a float64-only one in
-    float64 (:meth:`~precise_impact.scenes.scene.Scene.model_settings`).
-
-    Returns the scene and the names of the effects dropped (e.g. the comparator of a
-    switched-capacitor scene when run on the op-amp ``circuit`` model).
-    """
-    bits = reference_bits(scene.periods if periods is None else periods)
-    return scene.fitted_to(model, mp_bits=bits)
-
-
 def _run_model(scene: Scene, model: str, periods: int, per_period: int, params=None) -> Trajectory:
 
     if not model_capabilities(model).dense:
@@ -132,7 +115,7 @@ def compare(
     models : sequence of str or str
         Names from :data:`precise_impact.solvers.base.MODELS`, every registered model (or
         one string ``'a,b'``); a model that does not take the scene's precision runs in one
-        it takes (:func:`scene_for_model`).
+        it takes (:func:`~precise_impact.verification.metrics.scene_for_model`).
     out : directory or None, default ``None``
         Writes ``report.md``, ``scores.json``, ``phase_portraits.png``,
         ``separation.png``; ``None`` writes nothing.

@@ -7,12 +7,22 @@ reference datasets, the work-precision harness and the main job.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from precise_impact.core.mpcontext import mp_context, mp_import
 from precise_impact.core.precision import MAX_MP_BITS
 from precise_impact.core.trajectory import Trajectory
 
-__all__ = ["DIGITS_LOST_PER_PERIOD", "max_reference_periods", "reference_bits", "sample_errors"]
+if TYPE_CHECKING:
+    from precise_impact.scenes.scene import Scene
+
+__all__ = [
+    "DIGITS_LOST_PER_PERIOD",
+    "max_reference_periods",
+    "reference_bits",
+    "sample_errors",
+    "scene_for_model",
+]
 
 
 #: Decimal digits lost per forcing period in the chaotic regime (measured: float64
@@ -60,3 +70,20 @@ def sample_errors(traj: Trajectory, ref: Trajectory) -> list[float]:
         x, v = mp_import(ctx, x), mp_import(ctx, v)
         out.append(float(max(abs(x - xr), abs(v - vr))))
     return out
+
+
+def scene_for_model(
+    scene: Scene, model: str, periods: int | None = None
+) -> tuple[Scene, list[str]]:
+    """``scene`` on ``model``, keeping only the scene's effects that fit ``model``.
+
+    A model that does not take the scene's precision runs in one it takes: a
+    multiprecision-only model (``certified``) at the reference's bits for ``periods``
+    (:func:`~precise_impact.verification.metrics.reference_bits`), a float64-only one in
+    float64 (:meth:`~precise_impact.scenes.scene.Scene.model_settings`).
+
+    Returns the scene and the names of the effects dropped (e.g. the comparator of a
+    switched-capacitor scene when run on the op-amp ``circuit`` model).
+    """
+    bits = reference_bits(scene.periods if periods is None else periods)
+    return scene.fitted_to(model, mp_bits=bits)

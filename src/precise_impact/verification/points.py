@@ -19,6 +19,7 @@ from precise_impact.core.flow import grazing_frequencies, steady_state
 from precise_impact.core.params import Params
 from precise_impact.errors import IntegrationError
 from precise_impact.scenes.run import run_scene
+from precise_impact.verification.metrics import scene_for_model
 
 __all__ = ["mechanical_points", "model_grazing", "model_period_doubling", "point_scores"]
 
@@ -321,8 +322,6 @@ def point_scores(scene: Any, model: str, mechanics: dict | None = None) -> dict:
         ``{"grazing": {"mechanics", "model", "shift", "resolution", "evaluations"},
         "period-doubling": {... , "fit_residual"} or None}``.
     """
-    from precise_impact.verification.compare import scene_for_model
-
     base = scene_for_model(scene, model)[0]
     mech = mechanical_points(scene.params) if mechanics is None else mechanics
 

@@ -8,13 +8,29 @@ paper's parameters, each located in float64 and proven by
 
 from __future__ import annotations
 
+import json
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
+import mpmath
 import numpy as np
 
+from precise_impact.analysis.orbits.landmarks import (
+    BranchPoint,
+    end_point,
+    interval_ends,
+    landmark_from_continuation,
+    seed_landmark,
+)
+from precise_impact.analysis.orbits.proof_landmarks import prove_landmark
+from precise_impact.core.flow import grazing_frequencies
+from precise_impact.core.params import Params
+from precise_impact.errors import PreciseImpactError
+from precise_impact.io.jsonout import write_json
+from precise_impact.io.progress import say
 from precise_impact.solvers.certified.single import radius_str
+from precise_impact.verification.manifest import write_manifest
 
 __all__ = ["LANDMARKS_FILE", "generate_landmarks", "check_landmarks", "paper_landmarks"]
 
@@ -36,13 +52,6 @@ _CLOSED_DPS = 70
 def paper_landmarks() -> dict:
     """The four landmarks of the paper's parameters, located in float64 as the tolerance
     budget locates them: name -> :class:`~precise_impact.analysis.orbits.landmarks.BranchPoint`."""
-    from precise_impact.analysis.orbits.landmarks import (
-        end_point,
-        interval_ends,
-        landmark_from_continuation,
-        seed_landmark,
-    )
-
     out = {"grazing": seed_landmark("graze_free", _PAPER, 0.7106)}
     out["pd_1_1"] = landmark_from_continuation("period-doubling", _PAPER, 1.0, 0.9, 1, 1)[0]
     orbit = seed_landmark("orbit", _PAPER, 0.74, 3, None)
@@ -53,18 +62,11 @@ def paper_landmarks() -> dict:
 
 
 def _closed_form() -> str:
-    import mpmath
-
-    from precise_impact.core.flow import grazing_frequencies
-    from precise_impact.core.params import Params
-
     g = grazing_frequencies(Params.make(**_THETA), dps=_CLOSED_DPS + 10)[0]
     return mpmath.nstr(g, _CLOSED_DPS, min_fixed=-1, max_fixed=2)
 
 
 def _record(name: str, bp: Any, width: str) -> dict:
-    from precise_impact.analysis.orbits.proof_landmarks import prove_landmark
-
     pl = prove_landmark(bp, width, theta=_THETA)
     d = pl.to_dict()
     d.pop("elapsed_s", None)
@@ -83,11 +85,6 @@ def _record(name: str, bp: Any, width: str) -> dict:
 
 def generate_landmarks(case: str, case_dir: Path, progress: bool) -> dict:
     """Write ``landmarks.json`` and the manifest of the ``landmarks`` case."""
-    from precise_impact.core.params import Params
-    from precise_impact.io.jsonout import write_json
-    from precise_impact.io.progress import say
-    from precise_impact.verification.reference import write_manifest
-
     rows = []
     for name, bp in paper_landmarks().items():
         rows.append(_record(name, bp, _WANTED[name][1]))
@@ -132,12 +129,6 @@ def check_landmarks(case: str, case_dir: Path) -> list[str]:
     (each contains the box's unique zero, so two true enclosures always overlap); the free
     grazing's must contain the closed form, recomputed.
     """
-    import json
-
-    from precise_impact.analysis.orbits.landmarks import BranchPoint
-    from precise_impact.analysis.orbits.proof_landmarks import prove_landmark
-    from precise_impact.errors import PreciseImpactError
-
     with open(case_dir / LANDMARKS_FILE) as fh:
         rows = json.load(fh)["landmarks"]
     problems = []

@@ -6,17 +6,16 @@ demonstrated accuracy, sha256), written last so a verified manifest means a comp
 
 from __future__ import annotations
 
-import datetime as _dt
+import importlib.util
 import json
 import math
 import os
-import platform
 import time
 from collections.abc import Callable, Sequence
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import mpmath
 import numpy as np
 
 from precise_impact.analysis.bifurcation import bifurcation
@@ -30,12 +29,20 @@ from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _log
 from precise_impact.solvers.heyoka.coupled import simulate_coupled
 from precise_impact.solvers.simulate import simulate
+from precise_impact.verification.certificate import add_certificate, check_certificate
+from precise_impact.verification.manifest import (
+    CERTIFICATE_FILE,
+    FORMAT_VERSION,
+    MANIFEST,
+    read_manifest,
+    write_manifest,
+)
 from precise_impact.verification.metrics import (
     DIGITS_LOST_PER_PERIOD,
     reference_bits,
     sample_errors,
 )
-from precise_impact.version import __version__
+from precise_impact.verification.proven_landmarks import check_landmarks, generate_landmarks
 
 __all__ = [
     "CASES",
@@ -50,8 +57,6 @@ __all__ = [
     "verify",
     "read_manifest",
 ]
-
-FORMAT_VERSION = 1
 
 #: The single-oscillator cases: case name -> eta (exact decimal).
 SINGLE_CASES = {"single-0.70": "0.70", "single-0.712": "0.712", "single-0.74": "0.74"}
@@ -76,10 +81,6 @@ BIF_KEEP_X = 8
 #: Periods recomputed by :func:`verify` for each single case (float128).
 VERIFY_PERIODS = 20
 
-MANIFEST = "manifest.json"
-#: The proof beside a single case (:mod:`precise_impact.verification.certificate`).
-CERTIFICATE_FILE = "certificate.json"
-
 
 #: Environment variable naming a dataset directory that replaces the shipped one everywhere.
 REFERENCE_ENV = "PRECISE_IMPACT_REFERENCE"
@@ -91,8 +92,6 @@ def shipped_root() -> Path:
     The repository keeps one copy, at its top level (``reference_data/``), which the wheel
     installs as that package directory; an editable checkout reads it in place.
     """
-    from importlib import resources
-
     packaged = Path(str(resources.files("precise_impact") / "data" / "reference"))
     if packaged.is_dir():
         return packaged
@@ -115,42 +114,11 @@ def default_root() -> Path:
 _sha256 = sha256_file
 
 
-def _versions() -> dict[str, str]:
-    import heyoka
-
-    return {
-        "precise_impact": __version__,
-        "heyoka": getattr(heyoka, "__version__", "unknown"),
-        "numpy": np.__version__,
-        "mpmath": mpmath.__version__,
-        "python": platform.python_version(),
-    }
-
-
 _write_json = write_json
 
 
 def _write_npz(path: Path, **arrays: np.ndarray) -> None:
     atomic_write(path, lambda fh: np.savez_compressed(fh, **arrays), binary=True)
-
-
-def write_manifest(case_dir: Path, files: Sequence[str], manifest: dict) -> dict:
-    """Checksum ``files`` and write the manifest last (atomically)."""
-    manifest = dict(manifest)
-    manifest["format_version"] = FORMAT_VERSION
-    manifest["versions"] = _versions()
-    manifest["generated_utc"] = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
-    manifest["files"] = {
-        name: {"sha256": _sha256(case_dir / name), "bytes": (case_dir / name).stat().st_size}
-        for name in files
-    }
-    _write_json(case_dir / MANIFEST, manifest)
-    return manifest
-
-
-def read_manifest(case_dir: Path) -> dict:
-    with open(Path(case_dir) / MANIFEST) as fh:
-        return json.load(fh)
 
 
 def checksum_problems(case_dir: Path, case: str) -> list[str]:
@@ -299,7 +267,6 @@ def _gen_single(case: str, case_dir: Path, progress: bool) -> dict:
         ["samples.json", "dense.npz"],
         _single_manifest(case, eta, params, P, bits, ref, errs, imp_dis),
     )
-    from precise_impact.verification.certificate import add_certificate
 
     _log(f"  {case}: certifying (proven error bounds of the stored decimals)", progress)
     return add_certificate(case_dir)
@@ -488,7 +455,6 @@ def _gen_bifurcation(case: str, case_dir: Path, progress: bool) -> dict:
 
 
 def _gen_landmarks(case: str, case_dir: Path, progress: bool) -> dict:
-    from precise_impact.verification.proven_landmarks import generate_landmarks
 
     return generate_landmarks(case, case_dir, progress)
 
@@ -560,7 +526,7 @@ def generate(
     names = _check_cases(cases)
     out = Path(out)
     result: dict[str, dict] = {}
-    import heyoka
+    import heyoka  # noqa: PLC0415 -- heavy: heyoka, loaded when a case is generated
 
     heyoka.set_logger_level_error()
     for case in names:
@@ -717,8 +683,6 @@ def verify(
     """
     root = default_root() if root is None else Path(root)
     problems: list[str] = []
-    import importlib.util
-
     if importlib.util.find_spec("flint") is None:  # the proofs need python-flint (a dependency)
         raise OptionalDependencyError(
             "python-flint", "re-checking the references' proofs", "pip install python-flint"
@@ -733,14 +697,10 @@ def verify(
             if case in SINGLE_CASES:
                 problems += _recompute_single(case, case_dir)
                 if CERTIFICATE_FILE in read_manifest(case_dir)["files"]:
-                    from precise_impact.verification.certificate import check_certificate
-
                     problems += check_certificate(case, case_dir)
             elif case == "coupled-fig7":
                 problems += _recompute_coupled(case, case_dir)
             elif case == "landmarks":  # the proven intervals, re-proven
-                from precise_impact.verification.proven_landmarks import check_landmarks
-
                 problems += check_landmarks(case, case_dir)
             else:
                 problems += _sanity(case, case_dir)

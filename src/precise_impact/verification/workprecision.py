@@ -105,7 +105,7 @@ def scipy_solve(
     defaults to ``rtol * 1e-3``.  Samples at ``k 2 pi / eta`` (float64).
     """
     try:
-        from scipy.integrate import solve_ivp
+        from scipy.integrate import solve_ivp  # noqa: PLC0415 -- optional: loaded on first use
     except ImportError:
         raise OptionalDependencyError(
             "scipy", "pip install 'precise_impact[bench]'", "scipy_solve"
@@ -177,7 +177,7 @@ def scipy_solve(
 
 def _have_scipy() -> bool:
     try:
-        import scipy.integrate  # noqa: F401
+        import scipy.integrate  # noqa: F401, PLC0415 -- optional: probed, not needed
     except ImportError:
         return False
     return True
@@ -456,7 +456,21 @@ def _spice_rows(run: _CaseRun, cfg: dict, notes: list[str]) -> None:
 def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]:
     """Smallest mp:64k precision reaching 1e-15 at period N, per N; certification time."""
     params = Params.make(eta="0.712")
-    Nmax = max(Ns)
+    runs = _chaos_runs(params, max(Ns), progress)
+    top = max(runs)
+    rows = [_chaos_row(params, runs, top, N, progress) for N in Ns]
+    return {
+        "lambda": LAMBDA,
+        "margin_digits": MARGIN_DIGITS,
+        "target": CHAOS_TARGET,
+        "reference_precision": f"mp:{top}",
+        "rows": rows,
+        "certify": _chaos_certify(params, certify_N, progress),
+    }
+
+
+def _chaos_runs(params: Params, Nmax: int, progress: bool) -> dict[int, Any]:
+    """mp:64, mp:128, ... runs of ``Nmax`` periods, up to the first converged reference."""
     runs: dict[int, Any] = {}
     b = 64
     top_need = 64 * math.ceil(predicted_bits(Nmax) / 64) + 64
@@ -475,40 +489,45 @@ def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]
         if b > 2048:
             break
         b += 64
-    top = max(runs)
-    rows = []
-    for N in Ns:
-        chosen, diff_at = None, None
-        ctx = mp_context(top + 32)
-        _, xt, vt = runs[top].state_mpf(N)
-        for bb in sorted(runs):
-            if bb == top:
-                continue
-            _, x, v = runs[bb].state_mpf(N)
-            x, v = mp_import(ctx, x), mp_import(ctx, v)
-            d = float(max(abs(x - xt), abs(v - vt)))
-            if d <= CHAOS_TARGET:
-                chosen, diff_at = bb, d
-                break
-        if chosen is None:
-            chosen, diff_at = top, 0.0
-        solver = HeyokaSolver(f"mp:{chosen}")
-        t0 = time.perf_counter()
-        solver.solve(params, N)
-        el = time.perf_counter() - t0
-        pred = predicted_bits(N)
-        rows.append(
-            {
-                "N": N,
-                "bits": chosen,
-                "agreement": diff_at,
-                "time_s": el,
-                "predicted_bits": pred,
-                "predicted_bits_64": 64 * math.ceil(pred / 64),
-            }
-        )
-        _progress(f"[chaos] N={N}: mp:{chosen} (predicted {pred:.0f} bits), {el:.2f} s", progress)
-    # Certification of certify_N periods: predicted precision and +64 bits, agreement <= 1e-15.
+    return runs
+
+
+def _chaos_row(params: Params, runs: dict[int, Any], top: int, N: int, progress: bool) -> dict:
+    """The smallest precision of ``runs`` within the target of the ``top`` one at period
+    ``N``, and the time of one run of ``N`` periods at it."""
+    chosen, diff_at = None, None
+    ctx = mp_context(top + 32)
+    _, xt, vt = runs[top].state_mpf(N)
+    for bb in sorted(runs):
+        if bb == top:
+            continue
+        _, x, v = runs[bb].state_mpf(N)
+        x, v = mp_import(ctx, x), mp_import(ctx, v)
+        d = float(max(abs(x - xt), abs(v - vt)))
+        if d <= CHAOS_TARGET:
+            chosen, diff_at = bb, d
+            break
+    if chosen is None:
+        chosen, diff_at = top, 0.0
+    solver = HeyokaSolver(f"mp:{chosen}")
+    t0 = time.perf_counter()
+    solver.solve(params, N)
+    el = time.perf_counter() - t0
+    pred = predicted_bits(N)
+    _progress(f"[chaos] N={N}: mp:{chosen} (predicted {pred:.0f} bits), {el:.2f} s", progress)
+    return {
+        "N": N,
+        "bits": chosen,
+        "agreement": diff_at,
+        "time_s": el,
+        "predicted_bits": pred,
+        "predicted_bits_64": 64 * math.ceil(pred / 64),
+    }
+
+
+def _chaos_certify(params: Params, certify_N: int, progress: bool) -> dict:
+    """Certification of ``certify_N`` periods: the predicted precision and +64 bits agree to
+    the target."""
     bc = 64 * math.ceil(predicted_bits(certify_N) / 64)
     t0 = time.perf_counter()
     a = HeyokaSolver(f"mp:{bc}").solve(params, certify_N)
@@ -525,20 +544,13 @@ def _chaos_cost(Ns: list[int], certify_N: int, progress: bool) -> dict[str, Any]
         progress,
     )
     return {
-        "lambda": LAMBDA,
-        "margin_digits": MARGIN_DIGITS,
-        "target": CHAOS_TARGET,
-        "reference_precision": f"mp:{top}",
-        "rows": rows,
-        "certify": {
-            "periods": certify_N,
-            "precision": f"mp:{bc}",
-            "check": f"mp:{bc + 64}",
-            "agreement": agree,
-            "certified": agree <= CHAOS_TARGET,
-            "time_s": cert_s,
-            "target_s": 10.0,
-        },
+        "periods": certify_N,
+        "precision": f"mp:{bc}",
+        "check": f"mp:{bc + 64}",
+        "agreement": agree,
+        "certified": agree <= CHAOS_TARGET,
+        "time_s": cert_s,
+        "target_s": 10.0,
     }
 
 

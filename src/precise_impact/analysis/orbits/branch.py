@@ -568,7 +568,7 @@ def brute_force_diagram(
 def _diagram_tile(params, parameter, vals, periods, transient, model, lo, hi) -> np.ndarray:
     """The runner's job: the diagram's rows ``lo .. hi - 1``."""
     if model == "fast":
-        from precise_impact.solvers.fast.single import FastSolver
+        from precise_impact.solvers.fast.single import FastSolver  # noqa: PLC0415 -- heavy: numba ~0.5 s, loaded on first use
 
         solver = FastSolver(fallback=False)
     else:

@@ -2,8 +2,7 @@
 
 A zero ``y*`` of ``F`` (a periodic orbit's ``P^p(z) - z``, a landmark's augmented system) is
 proven on a box ``Y = c + [-r, r]^m`` around a centre ``c`` refined by Newton on points:
-
-``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)``,   ``C ~ F'(c)^-1`` (a point matrix).
+``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)``, ``C ~ F'(c)^-1`` (a point matrix).
 
 ``K(Y)`` inside the interior of ``Y`` proves exactly one zero in ``Y``, lying in ``K(Y)``, and
 ``F'`` nonsingular on ``Y`` (Krawczyk 1969; Moore, Kearfott, Cloud, *Introduction to Interval
@@ -33,7 +32,7 @@ def point_inverse(J: list, what: str) -> Any:
     """``C``: the midpoint matrix's inverse rounded to points (any ``C`` is valid in Krawczyk's
     operator; a near-inverse makes it contract); :class:`CertificationError` naming ``what``
     when the midpoint matrix is singular (a degenerate zero)."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     mid = flint.arb_mat([[x.mid() for x in row] for row in J])
     try:
@@ -52,7 +51,7 @@ def point_inverse(J: list, what: str) -> Any:
 
 def newton_points(fun: Residual, y0: Any, bits: int, what: str) -> list:
     """A float64 zero ``y0`` refined by Newton on points to ``bits`` (exact ball centres)."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     y = [to_ball(Fraction(float(v))) for v in y0]
     # quadratic from ~1e-16: log2(bits / 50) + 3 steps reach the working precision, one more
@@ -72,7 +71,7 @@ def krawczyk(fun: Residual, c: list, r: Fraction, what: str) -> tuple[list, list
     (an exact rational: it is ``~r`` itself, 1e-331 at 2200 bits, below the float range)
     and, per unknown, whether ``K`` lies in the interior of ``Y`` (all true: the proof).
     """
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     m = len(c)
     rb = to_ball(r).upper()

@@ -1,36 +1,31 @@
 """Branch points as augmented systems with exact Jacobians, and their parameter sensitivities.
 
-A landmark of the bifurcation diagram in ``eta`` (a grazing, a period-doubling, a fold) is a
-regular zero of an augmented system ``F(y; theta) = 0``: the impact-sequence equations of the
-orbit (:mod:`~precise_impact.analysis.orbits.shooting`, the same equations continuation
-solves) plus the branch point's defining condition, in the unknowns ``y = (orbit, [t_m],
-eta)`` at parameters ``theta = (zeta, a, x_w)``.  The defining conditions:
-
-* ``graze_free``: the non-impacting period-1 orbit's maximum touches the wall:
-  ``x'(t_m) = 0``, ``x(t_m) = x_w`` (extra unknown ``t_m``);
-* ``graze``: an interior maximum of flight ``k`` of an impacting orbit touches the wall
-  (same two conditions on that flight);
-* ``period-doubling``: ``1 + tr M + det M = 0``; ``fold``: ``1 - tr M + det M = 0``
-  (``M`` the monodromy matrix: flow and saltation matrices, conjugate to the stroboscopic one).
-
-``F`` is evaluated once in forward-mode dual numbers (:mod:`precise_impact.core.dual`)
-through the closed-form flight (:mod:`precise_impact.core.flight`), which gives ``F_y`` and
-``F_theta`` exactly (to rounding).  Newton on ``F`` locates the landmark to rounding, and the
-implicit-function theorem gives ``d eta / d theta = -(F_y^-1 F_theta)[eta]``.
+A landmark in ``eta`` (a grazing, a period-doubling, a fold) is a regular zero of an augmented
+system ``F(y; theta) = 0``: the orbit's impact-sequence equations
+(:mod:`~precise_impact.analysis.orbits.shooting`) plus the branch point's defining condition,
+unknowns ``y = (orbit, [t_m], eta)``, parameters ``theta = (zeta, a, x_w)``.  ``F`` is
+evaluated in forward-mode dual numbers (:mod:`precise_impact.core.dual`), so ``F_y`` and
+``F_theta`` are exact to rounding: Newton locates the landmark, and the implicit-function
+theorem gives ``d eta / d theta``.  The conditions (``graze_free``, ``graze``,
+``period-doubling``, ``fold``): ``docs/numerics.rst``, "Landmarks as augmented systems".
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.orbits.continuation import continue_orbit
+from precise_impact.analysis.orbits.newton import find_orbit
+from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
 from precise_impact.core import flight
 from precise_impact.core.dual import DUAL, Dual, seed
 from precise_impact.core.impact import oscillator_saltation
-from precise_impact.core.params import exact
+from precise_impact.core.params import Params, exact
 from precise_impact.errors import ConvergenceError, ParameterError, check_type
 
 __all__ = ["BranchPoint", "KINDS", "THETA", "check_theta"]
@@ -223,8 +218,6 @@ class BranchPoint:
 
     def states(self) -> np.ndarray:
         """The ``p`` stroboscopic states ``(x, v)`` at ``t = k 2 pi / eta`` (``t0 = 0``)."""
-        from precise_impact.analysis.orbits.shooting import ShootingSystem
-
         zeta, a, xw = (float(t) for t in self.theta)
         n = self.impacts
         base = {"eta": self.eta, "zeta": zeta, "a": a, "x_w": xw, "R": self.R, "t0": 0.0}
@@ -316,12 +309,6 @@ def seed_landmark(
     located): the orbit's impact sequence (one simulated cycle from ``guess``, refined by
     Newton), the highest interior maximum for a grazing, then Newton on the augmented system.
     """
-    from fractions import Fraction
-
-    from precise_impact.analysis.orbits.newton import find_orbit
-    from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
-    from precise_impact.core.params import Params
-
     if not isinstance(kind, str) or kind not in KINDS:
         raise ParameterError("kind", str(kind)[:40], "one of " + ", ".join(KINDS))
     theta = check_theta(theta)
@@ -384,11 +371,6 @@ def landmark_from_continuation(
     ConvergenceError
         The continuation found no such landmark in the range.
     """
-    from fractions import Fraction
-
-    from precise_impact.analysis.orbits.continuation import continue_orbit
-    from precise_impact.core.params import Params
-
     zeta, a, xw = (float(t) for t in theta)
     params = Params.make(
         zeta=Fraction(zeta), a=Fraction(a), x_w=Fraction(xw), R=Fraction(R), eta=Fraction(start)
@@ -443,11 +425,6 @@ def interval_ends(orbit: BranchPoint, span: float = 0.06, max_points: int = 400)
     dict
         ``{'low': (type, eta, Bifurcation) or None, 'high': ...}``.
     """
-    from fractions import Fraction
-
-    from precise_impact.analysis.orbits.continuation import continue_orbit
-    from precise_impact.core.params import Params
-
     zeta, a, xw = (float(t) for t in orbit.theta)
     eta0 = orbit.eta
     x0, v0 = (float(c) for c in orbit.states()[0])

@@ -42,7 +42,11 @@ MAX_BITS = 2048
 
 
 def _map(params: Params, z: np.ndarray, period: int):
-    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT, orbit_map
+    from precise_impact.solvers.fast.single import (  # noqa: PLC0415 -- heavy: numba ~0.5 s, loaded on first use
+        STATUS_OK,
+        STATUS_TEXT,
+        orbit_map,
+    )
 
     f = float
     st, x, v, m00, m01, m10, m11, n = orbit_map(
@@ -70,8 +74,6 @@ def _mpq(q, ctx) -> Any:
 
 def _fraction(z) -> Any:
     """An mpmath number as the exact Fraction it is (mantissa x 2^exponent)."""
-    from fractions import Fraction
-
     sign, man, exp, _ = z._mpf_
     q = Fraction(int(man)) * Fraction(2) ** int(exp)
     return -q if sign else q
@@ -397,7 +399,7 @@ def _transient_end(params: Params, transient: int) -> np.ndarray:
     """The state after ``transient`` periods from ``(x0, v0)`` at ``t0``, run in chunks of
     :data:`TRANSIENT_CHUNK` periods restarted at ``t0`` (the flow is ``T``-periodic); one run,
     bit-identical to before, up to one chunk."""
-    from precise_impact.solvers.fast.single import FastSolver
+    from precise_impact.solvers.fast.single import FastSolver  # noqa: PLC0415 -- heavy: numba ~0.5 s, loaded on first use
 
     solver = FastSolver()
     q = params

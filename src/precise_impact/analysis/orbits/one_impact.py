@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Iterator
 from fractions import Fraction
+from types import SimpleNamespace
 from typing import Any
 
 import mpmath
@@ -111,93 +112,133 @@ def one_impact_orbits(
     ss = steady_state(params)
     out = []
     with _own_context(dps) as (ops, mp):
-        eta, zeta, a, xw, R = (_q(getattr(params, n), mp) for n in ("eta", "zeta", "a", "x_w", "R"))
-        P, Q = _q(ss.P, mp), _q(ss.Q, mp)
-        T = 2 * mp.pi / eta
-        nT = n * T
-        w = flight.damped_frequency(zeta, ops)
-        e, c, s, half = _decay_cos_sin(params, n, nT, w, mp)
-        sw = s / w
-        p00, p01, p10, p11 = e * (c + zeta * sw), e * sw, -e * sw, e * (c - zeta * sw)
-        # The impact phase t* and velocity v solve the two flight equations (land on the wall
-        # after n T with the velocity v that the impact reverses):
-        #   (E1)  (p00 - 1) (x_w - X) - p01 (R v + V) = 0
-        #   (E2)  (1 + p11 R) v = V (1 - p11) + p10 (x_w - X)
-        # X, V: the steady state at t*.  Eliminating v gives C1 (x_w - X) + C2 V = 0 with
-        # C1 = 1 - R e^2 - (1 - R) e c - (1 + R) e zeta s / w (det Phi = e^2) and
-        # C2 = (1 + R) p01; for zeta = 0, C1 = 2 (1 - R) sin^2(w n T / 2) without cancellation.
-        if params.zeta == 0:
-            C1 = 2 * (1 - R) * half * half
-        else:
-            C1 = 1 - R * e * e - (1 - R) * e * c - (1 + R) * e * zeta * sw
-        C2 = p01 * (1 + R)
-        # v from E1 and E2 together (least squares of two consistent equations): E1 alone
-        # divides by p01 R, which vanishes at the resonances w n T = k pi (eta = 2n/k at
-        # zeta = 0, sin = 0 exactly) and at R = 0; E2 alone by 1 + p11 R, which vanishes at
-        # zeta = 0, R = 1, cos = -1.  a1^2 + a2^2 = 0 only when all of those hold at once.
-        a1, a2 = p01 * R, 1 + p11 * R
-        norm = a1 * a1 + a2 * a2
-        Ac, As = C1 * P - C2 * eta * Q, C1 * Q + C2 * eta * P
+        k = _coefficients(params, ss, n, ops, mp)
+        Ac, As = k.C1 * k.P - k.C2 * k.eta * k.Q, k.C1 * k.Q + k.C2 * k.eta * k.P
         rho, psi = mp.hypot(Ac, As), mp.atan2(As, Ac)
-        if norm == 0 or rho == 0:
-            _degenerate(params, ss, norm)
+        if k.norm == 0 or rho == 0:
+            _degenerate(params, ss, k.norm)
             return []
-        if abs(C1 * xw / rho) > 1:
+        if abs(k.C1 * k.xw / rho) > 1:
             return []
-        delta = mp.acos(C1 * xw / rho)
+        delta = mp.acos(k.C1 * k.xw / rho)
         for theta in (psi + delta, psi - delta):
-            ts = mp.fmod(theta / eta, T)
-            if ts < 0:
-                ts += T
-            X = P * mp.cos(eta * ts) + Q * mp.sin(eta * ts)
-            V = eta * (Q * mp.cos(eta * ts) - P * mp.sin(eta * ts))
-            b1 = (p00 - 1) * (xw - X) - p01 * V
-            b2 = V * (1 - p11) + p10 * (xw - X)
-            v = (a1 * b1 + a2 * b2) / norm
-            if not v > 0:
-                continue
-            if params.R == 0 and _sticks(eta, a, xw, ts, mp):
-                continue  # a plastic impact that the force holds on the wall: not a flight
-            y0, u0 = xw - X, -R * v - V
-
-            def x_at(t, ts=ts, y0=y0, u0=u0):
-                f00, f01, _, _ = _phi(t - ts, zeta, w, ops)
-                return P * mp.cos(eta * t) + Q * mp.sin(eta * t) + f00 * y0 + f01 * u0
-
-            if any(x_at(ts + nT * j / (n * grid)) >= xw for j in range(1, n * grid)):
-                continue  # the flight would cross the wall: not a 1:n orbit
-            t0 = _q(params.t0, mp)
-            tau = mp.fmod(t0 - ts, nT)
-            if tau < 0:
-                tau += nT
-            f00, f01, f10, f11 = _phi(tau, zeta, w, ops)
-            t_s = ts + tau
-            x0 = P * mp.cos(eta * t_s) + Q * mp.sin(eta * t_s) + f00 * y0 + f01 * u0
-            v0 = eta * (Q * mp.cos(eta * t_s) - P * mp.sin(eta * t_s)) + f10 * y0 + f11 * u0
-            S = oscillator_saltation(ts, v, eta, zeta, a, xw, R, mp.cos)
-            M = mp.matrix(S) * mp.matrix([[p00, p01], [p10, p11]])  # S Phi(nT)
-            mu = sorted(mp.eig(M)[0], key=lambda m: -abs(m))
-            kind = classify(mu, area_preserving(params.zeta, params.R, 1))
-            lle = 0.0 if kind == "elliptic" else float(mp.log(abs(mu[0])) / nT)
-            out.append(
-                PeriodicOrbit(
-                    params=params,
-                    period=n,
-                    impacts=1,
-                    t=float(t0),
-                    x=mp_export(x0),
-                    v=mp_export(v0),
-                    multipliers=[mp_export(m) for m in mu],
-                    stable=kind == "stable",
-                    lle=lle,
-                    residual=_residual(P, Q, eta, zeta, w, R, xw, t0, x0, v0, ts, nT, ops),
-                    iterations=0,
-                    method="closed form",
-                    precision=f"mp:{mp.prec}",
-                    stability=kind,
-                )
-            )
+            impact = _impact(params, k, theta, n, grid, ops, mp)
+            if impact is not None:
+                out.append(_orbit(params, k, n, impact, ops, mp))
     return out
+
+
+def _coefficients(params: Any, ss: Any, n: int, ops: Any, mp: Any) -> SimpleNamespace:
+    """The parameters, steady state, ``Phi(n T)`` and ``C1, C2`` at the working precision."""
+    eta, zeta, a, xw, R = (_q(getattr(params, n), mp) for n in ("eta", "zeta", "a", "x_w", "R"))
+    P, Q = _q(ss.P, mp), _q(ss.Q, mp)
+    T = 2 * mp.pi / eta
+    nT = n * T
+    w = flight.damped_frequency(zeta, ops)
+    e, c, s, half = _decay_cos_sin(params, n, nT, w, mp)
+    sw = s / w
+    p00, p01, p10, p11 = e * (c + zeta * sw), e * sw, -e * sw, e * (c - zeta * sw)
+    # The impact phase t* and velocity v solve the two flight equations (land on the wall
+    # after n T with the velocity v that the impact reverses):
+    #   (E1)  (p00 - 1) (x_w - X) - p01 (R v + V) = 0
+    #   (E2)  (1 + p11 R) v = V (1 - p11) + p10 (x_w - X)
+    # X, V: the steady state at t*.  Eliminating v gives C1 (x_w - X) + C2 V = 0 with
+    # C1 = 1 - R e^2 - (1 - R) e c - (1 + R) e zeta s / w (det Phi = e^2) and
+    # C2 = (1 + R) p01; for zeta = 0, C1 = 2 (1 - R) sin^2(w n T / 2) without cancellation.
+    if params.zeta == 0:
+        C1 = 2 * (1 - R) * half * half
+    else:
+        C1 = 1 - R * e * e - (1 - R) * e * c - (1 + R) * e * zeta * sw
+    C2 = p01 * (1 + R)
+    # v from E1 and E2 together (least squares of two consistent equations): E1 alone
+    # divides by p01 R, which vanishes at the resonances w n T = k pi (eta = 2n/k at
+    # zeta = 0, sin = 0 exactly) and at R = 0; E2 alone by 1 + p11 R, which vanishes at
+    # zeta = 0, R = 1, cos = -1.  a1^2 + a2^2 = 0 only when all of those hold at once.
+    a1, a2 = p01 * R, 1 + p11 * R
+    norm = a1 * a1 + a2 * a2
+    return SimpleNamespace(
+        eta=eta,
+        zeta=zeta,
+        a=a,
+        xw=xw,
+        R=R,
+        P=P,
+        Q=Q,
+        T=T,
+        nT=nT,
+        w=w,
+        p00=p00,
+        p01=p01,
+        p10=p10,
+        p11=p11,
+        C1=C1,
+        C2=C2,
+        a1=a1,
+        a2=a2,
+        norm=norm,
+    )
+
+
+def _impact(params: Any, k: SimpleNamespace, theta: Any, n: int, grid: int, ops: Any, mp: Any):
+    """``(t*, v, y0, u0)`` of the candidate phase ``theta``, or None when not a 1:n orbit."""
+    eta, zeta, a, xw, R, P, Q, T, nT, w = (k.eta, k.zeta, k.a, k.xw, k.R, k.P, k.Q, k.T, k.nT, k.w)
+    ts = mp.fmod(theta / eta, T)
+    if ts < 0:
+        ts += T
+    X = P * mp.cos(eta * ts) + Q * mp.sin(eta * ts)
+    V = eta * (Q * mp.cos(eta * ts) - P * mp.sin(eta * ts))
+    b1 = (k.p00 - 1) * (xw - X) - k.p01 * V
+    b2 = V * (1 - k.p11) + k.p10 * (xw - X)
+    v = (k.a1 * b1 + k.a2 * b2) / k.norm
+    if not v > 0:
+        return None
+    if params.R == 0 and _sticks(eta, a, xw, ts, mp):
+        return None  # a plastic impact that the force holds on the wall: not a flight
+    y0, u0 = xw - X, -R * v - V
+
+    def x_at(t, ts=ts, y0=y0, u0=u0):
+        f00, f01, _, _ = _phi(t - ts, zeta, w, ops)
+        return P * mp.cos(eta * t) + Q * mp.sin(eta * t) + f00 * y0 + f01 * u0
+
+    if any(x_at(ts + nT * j / (n * grid)) >= xw for j in range(1, n * grid)):
+        return None  # the flight would cross the wall: not a 1:n orbit
+    return ts, v, y0, u0
+
+
+def _orbit(params: Any, k: SimpleNamespace, n: int, impact: tuple, ops: Any, mp: Any):
+    """The :class:`PeriodicOrbit` through the impact ``(t*, v, y0, u0)``: point at ``t0``,
+    multipliers of ``S Phi(n T)``, residual."""
+    eta, zeta, a, xw, R, P, Q, nT, w = k.eta, k.zeta, k.a, k.xw, k.R, k.P, k.Q, k.nT, k.w
+    ts, v, y0, u0 = impact
+    t0 = _q(params.t0, mp)
+    tau = mp.fmod(t0 - ts, nT)
+    if tau < 0:
+        tau += nT
+    f00, f01, f10, f11 = _phi(tau, zeta, w, ops)
+    t_s = ts + tau
+    x0 = P * mp.cos(eta * t_s) + Q * mp.sin(eta * t_s) + f00 * y0 + f01 * u0
+    v0 = eta * (Q * mp.cos(eta * t_s) - P * mp.sin(eta * t_s)) + f10 * y0 + f11 * u0
+    S = oscillator_saltation(ts, v, eta, zeta, a, xw, R, mp.cos)
+    M = mp.matrix(S) * mp.matrix([[k.p00, k.p01], [k.p10, k.p11]])  # S Phi(nT)
+    mu = sorted(mp.eig(M)[0], key=lambda m: -abs(m))
+    kind = classify(mu, area_preserving(params.zeta, params.R, 1))
+    lle = 0.0 if kind == "elliptic" else float(mp.log(abs(mu[0])) / nT)
+    return PeriodicOrbit(
+        params=params,
+        period=n,
+        impacts=1,
+        t=float(t0),
+        x=mp_export(x0),
+        v=mp_export(v0),
+        multipliers=[mp_export(m) for m in mu],
+        stable=kind == "stable",
+        lle=lle,
+        residual=_residual(P, Q, eta, zeta, w, R, xw, t0, x0, v0, ts, nT, ops),
+        iterations=0,
+        method="closed form",
+        precision=f"mp:{mp.prec}",
+        stability=kind,
+    )
 
 
 def _decay_cos_sin(params: Any, n: int, nT: Any, w: Any, mp: Any) -> tuple:

@@ -236,7 +236,7 @@ def _orbit_residual(params: Params, period: int, bits: int, runs: list):
 
 def _multipliers(MZ: list) -> tuple[list, list, list]:
     """The two multipliers of ``MZ`` enclosed: their records, ``|mu|`` upper and lower bounds."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     tr = MZ[0][0] + MZ[1][1]
     dt = MZ[0][0] * MZ[1][1] - MZ[0][1] * MZ[1][0]
@@ -262,7 +262,7 @@ def _multipliers(MZ: list) -> tuple[list, list, list]:
 
 def _stability_and_lle(ups: list, lows: list, pT: Any) -> tuple[bool | None, tuple[float, float]]:
     """Stability (``None``: undecided) and the LLE interval from the multipliers' moduli."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     unit = flint.arb(1)
     stable = (

@@ -1,28 +1,12 @@
 """Proven bifurcation points: a Krawczyk test on the landmarks' augmented systems in arb.
 
-A landmark located in float64 (:mod:`~precise_impact.analysis.orbits.landmarks`: a grazing,
-a period-doubling, a fold) is a regular zero ``y*`` of its augmented system ``F(y) = 0``.
-:func:`prove_landmark` proves it with the Krawczyk operator (Krawczyk 1969; Moore et al.
-2009, sec. 8.2): on a box ``Y = c + [-r, r]^m`` around the centre ``c`` refined by Newton at
-the working precision,
-
-``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)``,   ``C ~ F'(c)^-1`` (a point matrix),
-
-``F(c)`` evaluated in python-flint balls and ``F'(Y)`` enclosed over the whole box by forward
--mode dual numbers whose values and derivatives are balls (the interval extension of the
-exact Jacobian :meth:`BranchPoint.jacobian` computes in float64).  ``K(Y)`` inside the
-interior of ``Y`` proves exactly one zero in ``Y``, and it lies in ``K(Y)``; ``F'(Y)`` is then
-nonsingular on ``Y``, so the zero is regular.  The parameters ``(zeta, a, x_w, R)`` enter as
-balls around their exact decimal values, so the statement holds at the exact parameters.
-
-The landmark is also proven a crossing, not a touch: the defining condition ``g`` (the last
-component of ``F``: ``x(t_m) - x_w`` for a grazing, ``1 + tr M + det M`` for a period
-doubling, ``1 - tr M + det M`` for a fold) is enclosed at the branch's orbits on either side
-(the branch coordinate ``s``, ``eta`` unless the branch turns there, held at ``s* -+ 2 r``,
-each orbit itself proven by the same test), and the two enclosures have opposite signs; one
-more Krawczyk test, with ``s`` the whole ball ``[s* - 2r, s* + 2r]``, proves that the branch
-equations have exactly one zero for each such ``s`` in a tube containing both orbits and the
-landmark's box: the sign change happens along the branch through the landmark.
+A landmark located in float64 (:mod:`~precise_impact.analysis.orbits.landmarks`) is a regular
+zero ``y*`` of its augmented system ``F(y) = 0``.  :func:`prove_landmark` proves it with the
+Krawczyk operator (:mod:`~precise_impact.analysis.orbits.krawczyk`; Krawczyk 1969; Moore et
+al. 2009, sec. 8.2) in python-flint balls at the exact decimal parameters: exactly one zero
+in the box, regular, and a crossing, not a touch (the test function ``g`` proven of opposite
+signs at the branch's orbits on either side, all on one branch).  The operator, the
+enclosures and the sign change: ``docs/numerics.rst``, "Proven bifurcation points".
 """
 
 from __future__ import annotations
@@ -30,18 +14,30 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal, localcontext
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from precise_impact.analysis.orbits.krawczyk import krawczyk, newton_points
-from precise_impact.analysis.orbits.landmarks import BranchPoint, check_theta
+from precise_impact.analysis.orbits.landmarks import (
+    BranchPoint,
+    check_theta,
+    end_point,
+    interval_ends,
+    seed_landmark,
+)
 from precise_impact.core.dual import BALL_DUAL, BallDual, seed
-from precise_impact.core.params import exact
+from precise_impact.core.params import decimal_str, exact
 from precise_impact.core.precision import float_up, log10_fraction
 from precise_impact.core.result import ResultMixin
-from precise_impact.errors import CertificationError, ParameterError, check_type
+from precise_impact.errors import (
+    CertificationError,
+    ConvergenceError,
+    ParameterError,
+    check_type,
+)
 from precise_impact.solvers.certified.single import (
     ball_str,
     exact_value,
@@ -255,11 +251,7 @@ def prove_landmark(
     if bp.kind not in _TEST:
         raise ParameterError("kind", bp.kind, "graze_free, graze, period-doubling or fold")
     w = check_width(width)
-    if bits is None:
-        # log2(1 / w) from the integers (float(1 / w) overflows past 1e308)
-        bits = math.ceil(math.log2(w.denominator) - math.log2(w.numerator)) + 96
-    elif not isinstance(bits, int) or isinstance(bits, bool) or not 64 <= bits <= 4096:
-        raise ParameterError("bits", str(bits), "an integer, 64 <= bits <= 4096")
+    bits = _proof_bits(w, bits)
     th = _exact_theta(bp, theta)
     r = w / 2
     y0 = np.asarray(bp.y, dtype=float)
@@ -277,60 +269,13 @@ def prove_landmark(
         what = f"{bp.kind} landmark at eta ~ {bp.eta:.17g}"
         c = newton_points(full, y0, bits, what)
         K, contraction = _krawczyk(full, c, r, what, names)
-        # the sign change: the branch's orbits at s = s* -+ 2 r (s the coordinate moving most),
-        # each proven unique in a small box, and all of them (s in [s* - 2r, s* + 2r], the
-        # landmark's box included) on one branch: unique zeros of the branch equations for
-        # every s of that range in one tube (Krawczyk with s a ball)
-        rq = to_ball(r)
-        tube_r = r * 4 * max(1, math.ceil(_slope(bp, k)))
-        S = c[k] + flint_ball(0, (2 * rq).upper())
-        tube, _ = _krawczyk(
-            _branch(lm, tb, k, S), c, tube_r, f"{what}: the branch through it", names
-        )
-        sides = []
-        for sgn in (-1, 1):
-            s_val = c[k] + sgn * 2 * rq
-            label = f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
-            # the float64 prediction (a shift of 2r below the float range is 0.0: the start is
-            # then y0 itself, as good a start as float64 can give)
-            start = _predict(bp, y0, k, float(exact_value((s_val - c[k]).mid())))
-            cs = newton_points(_branch(lm, tb, k, s_val), start, bits, label)
-            Ks, _ = _krawczyk(_branch(lm, tb, k, s_val), cs, r / 4, label)
-            if not all(t.contains(b) for t, b in zip(tube, Ks, strict=True)):  # pragma: no cover
-                raise CertificationError(f"{label}: the orbit is not in the branch's tube")
-            gval = _evaluate(lm, Ks, tb, False)[0][-1]
-            sign = 1 if gval > 0 else (-1 if gval < 0 else 0)
-            sides.append(
-                {
-                    "coordinate": names[k],
-                    "value": ball_str(s_val, 50)[0],
-                    "g": ball_str(gval),
-                    "sign": sign,
-                }
-            )
+        tube, sides = _sign_change(bp, lm, tb, c, k, r, bits, what, names)
         if not all(t.contains(b) for t, b in zip(tube, K, strict=True)):  # pragma: no cover
             raise CertificationError(f"{what}: the landmark is not in the branch's tube")
-        if sides[0]["sign"] == 0 or sides[1]["sign"] == 0:
-            raise CertificationError(
-                f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
-                "is not proven nonzero beside the box (enclosures "
-                f"{sides[0]['g']} and {sides[1]['g']}): no proof"
-            )
-        if sides[0]["sign"] == sides[1]["sign"]:
-            raise CertificationError(
-                f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
-                "has the same sign on both sides (a touch, not a crossing): degenerate point"
-            )
-        e = K[-1]
-        lo_q, hi_q = exact_value(e.lower()), exact_value(e.upper())
-        # the ends rounded outward to 4 digits below the width (the stated interval is the
-        # decimal one, so its width is computed from the decimals)
-        scale = max(abs(lo_q), abs(hi_q), Fraction(1, 10**1200))
-        digits = 4 + max(1, math.ceil(log10_fraction(scale / max(hi_q - lo_q, scale / 10**1300))))
-        lo_s, hi_s = _round_dec(lo_q, -1, digits), _round_dec(hi_q, 1, digits)
-        eta_mid = exact_value(e.mid())
+        _check_crossing(bp, sides)
+        lo_s, hi_s, eta_mid = _eta_interval(K[-1])
         unknowns = {n: ball_str(b) for n, b in zip(names, K, strict=True)}
-        eta_str = ball_str(e)
+        eta_str = ball_str(K[-1])
     ulp = math.ulp(bp.eta)
     width = Fraction(hi_s) - Fraction(lo_s)
     return ProvenLandmark(
@@ -356,6 +301,87 @@ def prove_landmark(
     )
 
 
+def _proof_bits(w: Fraction, bits: Any) -> int:
+    """The working bits: ``log2(1 / w) + 96`` when ``bits`` is None, else ``bits`` checked."""
+    if bits is None:
+        # log2(1 / w) from the integers (float(1 / w) overflows past 1e308)
+        bits = math.ceil(math.log2(w.denominator) - math.log2(w.numerator)) + 96
+    elif not isinstance(bits, int) or isinstance(bits, bool) or not 64 <= bits <= 4096:
+        raise ParameterError("bits", str(bits), "an integer, 64 <= bits <= 4096")
+    return bits
+
+
+def _sign_change(
+    bp: BranchPoint,
+    lm: BranchPoint,
+    tb: list,
+    c: list,
+    k: int,
+    r: Fraction,
+    bits: int,
+    what: str,
+    names: list,
+) -> tuple[list, list]:
+    """The branch's tube through the landmark and the test function's sign at ``s* -+ 2 r``."""
+    # the sign change: the branch's orbits at s = s* -+ 2 r (s the coordinate moving most),
+    # each proven unique in a small box, and all of them (s in [s* - 2r, s* + 2r], the
+    # landmark's box included) on one branch: unique zeros of the branch equations for
+    # every s of that range in one tube (Krawczyk with s a ball)
+    y0 = np.asarray(bp.y, dtype=float)
+    rq = to_ball(r)
+    tube_r = r * 4 * max(1, math.ceil(_slope(bp, k)))
+    S = c[k] + flint_ball(0, (2 * rq).upper())
+    tube, _ = _krawczyk(_branch(lm, tb, k, S), c, tube_r, f"{what}: the branch through it", names)
+    sides = []
+    for sgn in (-1, 1):
+        s_val = c[k] + sgn * 2 * rq
+        label = f"{what}: the branch at {names[k]} {'-+'[sgn > 0]} 2r"
+        # the float64 prediction (a shift of 2r below the float range is 0.0: the start is
+        # then y0 itself, as good a start as float64 can give)
+        start = _predict(bp, y0, k, float(exact_value((s_val - c[k]).mid())))
+        cs = newton_points(_branch(lm, tb, k, s_val), start, bits, label)
+        Ks, _ = _krawczyk(_branch(lm, tb, k, s_val), cs, r / 4, label)
+        if not all(t.contains(b) for t, b in zip(tube, Ks, strict=True)):  # pragma: no cover
+            raise CertificationError(f"{label}: the orbit is not in the branch's tube")
+        gval = _evaluate(lm, Ks, tb, False)[0][-1]
+        sign = 1 if gval > 0 else (-1 if gval < 0 else 0)
+        sides.append(
+            {
+                "coordinate": names[k],
+                "value": ball_str(s_val, 50)[0],
+                "g": ball_str(gval),
+                "sign": sign,
+            }
+        )
+    return tube, sides
+
+
+def _check_crossing(bp: BranchPoint, sides: list) -> None:
+    """Refuse a test function not proven nonzero beside the box, or of one sign on both sides."""
+    if sides[0]["sign"] == 0 or sides[1]["sign"] == 0:
+        raise CertificationError(
+            f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
+            "is not proven nonzero beside the box (enclosures "
+            f"{sides[0]['g']} and {sides[1]['g']}): no proof"
+        )
+    if sides[0]["sign"] == sides[1]["sign"]:
+        raise CertificationError(
+            f"{bp.kind} landmark at eta ~ {bp.eta!r}: the test function {_TEST[bp.kind]} "
+            "has the same sign on both sides (a touch, not a crossing): degenerate point"
+        )
+
+
+def _eta_interval(e: Any) -> tuple[str, str, Fraction]:
+    """The enclosure ``e`` of eta as outward-rounded decimal ends, and its exact midpoint."""
+    lo_q, hi_q = exact_value(e.lower()), exact_value(e.upper())
+    # the ends rounded outward to 4 digits below the width (the stated interval is the
+    # decimal one, so its width is computed from the decimals)
+    scale = max(abs(lo_q), abs(hi_q), Fraction(1, 10**1200))
+    digits = 4 + max(1, math.ceil(log10_fraction(scale / max(hi_q - lo_q, scale / 10**1300))))
+    lo_s, hi_s = _round_dec(lo_q, -1, digits), _round_dec(hi_q, 1, digits)
+    return lo_s, hi_s, exact_value(e.mid())
+
+
 def check_width(width: Any) -> Fraction:
     """``width`` of :func:`prove_landmark` as a Fraction, refused outside ``[1e-1000, 1e-6]``
     (the automatic bits, ``log2(1 / width) + 96``, stay within 4096)."""
@@ -378,7 +404,7 @@ def _exact_theta(bp: BranchPoint, theta: Any) -> dict:
 
 def _evaluate(bp: BranchPoint, ys: list, theta: list, grad: bool) -> tuple[list, list]:
     """``F(ys)`` in balls, and ``F'`` enclosed over the balls ``ys`` when ``grad``."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     m = len(ys)
     args = seed(ys, dual=BallDual) if grad else list(ys)
@@ -415,14 +441,14 @@ def _krawczyk(fun: Any, c: list, r: Fraction, what: str, names: list | None = No
 
 def flint_ball(mid: Any, rad: Any) -> Any:
     """``flint.arb(mid, rad)``."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     return flint.arb(mid, rad)
 
 
 def _branch(lm: BranchPoint, theta: list, k: int, s: Any) -> Any:
     """The branch equations (all of ``F`` but the test function) and ``y_k = s`` (a ball)."""
-    import flint
+    import flint  # noqa: PLC0415 -- heavy: python-flint ~0.1 s, loaded on first proof
 
     def fun(ys: list, grad: bool) -> tuple[list, list]:
         F, J = _evaluate(lm, ys, theta, grad)
@@ -465,15 +491,11 @@ def _predict(bp: BranchPoint, y0: np.ndarray, k: int, ds: float) -> np.ndarray:
 
 
 def _dec(q: Fraction) -> str:
-    from precise_impact.core.params import decimal_str
-
     return decimal_str(q)
 
 
 def _round_dec(q: Fraction, direction: int, digits: int = 50) -> str:
     """``q`` rounded to ``digits`` significant digits towards ``direction`` (-1 down, +1 up)."""
-    from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal, localcontext
-
     with localcontext() as ctx:
         ctx.prec = digits
         ctx.rounding = ROUND_CEILING if direction > 0 else ROUND_FLOOR
@@ -545,9 +567,6 @@ def locate_landmark(
     >>> bp.kind, round(bp.eta, 6)
     ('period-doubling', 0.986317)
     """
-    from precise_impact.analysis.orbits.landmarks import end_point, interval_ends, seed_landmark
-    from precise_impact.errors import ConvergenceError
-
     if not isinstance(point, str) or point not in POINTS:
         raise ParameterError("point", str(point)[:40], ", ".join(POINTS))
     theta = check_theta(theta)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import mpmath
+
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin
 
@@ -91,8 +93,6 @@ class PeriodicOrbit(ResultMixin):
         float64)."""
         if isinstance(z, float):
             return z
-        import mpmath
-
         bits = int(self.precision.split(":")[1]) if self.precision.startswith("mp:") else 53
         return mpmath.nstr(z, int(bits * 0.30103) + 2, strip_zeros=False)
 

@@ -8,6 +8,7 @@ grazing (the multi-segment formulation of COCO's hybrid toolbox and TC-HAT); der
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -275,9 +276,7 @@ def from_orbit(system: ShootingSystem, params: Any, x: float, v: float, lam: flo
     times and velocities (``n = 0``: the point itself)."""
     if system.impacts == 0:
         return np.array([x, v], dtype=float)
-    from fractions import Fraction
-
-    from precise_impact.solvers.fast.single import FastSolver
+    from precise_impact.solvers.fast.single import FastSolver  # noqa: PLC0415 -- heavy: numba ~0.5 s, loaded on first use
 
     q = params.replace(x0=Fraction(x), v0=Fraction(v), **{system.parameter: Fraction(lam)})
     tr = FastSolver().solve(q, system.period)

@@ -103,17 +103,29 @@ def run(ns: argparse.Namespace) -> int:
         max_time=max_time(ns),
     )
     if ns.out is not None:
-        diagram = None
-        if n_diagram:
-            diagram = brute_force_diagram(
-                res.params, name, float(res.start), float(res.stop), n_diagram
-            )
-        files = res.save_all(ns.out, diagram=diagram)
-        if not ns.json:
-            print("wrote " + ", ".join(str(f) for f in files.values()))
+        _save(res, ns, name, n_diagram)
     if ns.json:
         print_json(res.to_dict())
         return 0
+    _print_branches(res, name)
+    _print_bifurcations(res, name)
+    return 0
+
+
+def _save(res, ns: argparse.Namespace, name: str, n_diagram: int) -> None:
+    """Write the result (and the brute-force diagram, if asked) into ``--out``."""
+    diagram = None
+    if n_diagram:
+        diagram = brute_force_diagram(
+            res.params, name, float(res.start), float(res.stop), n_diagram
+        )
+    files = res.save_all(ns.out, diagram=diagram)
+    if not ns.json:
+        print("wrote " + ", ".join(str(f) for f in files.values()))
+
+
+def _print_branches(res, name: str) -> None:
+    """One line per branch: period, impacts, range, stability counts, origin and stop."""
     for k, b in enumerate(res.branches):
         n = b.counts()  # virtual orbits counted once, as virtual, never as stable or unstable
         print(
@@ -123,6 +135,10 @@ def run(ns: argparse.Namespace) -> int:
             + (f"{n['elliptic']} elliptic (neutral), " if n["elliptic"] else "")
             + f"{n['virtual']} virtual ({b.origin}; {b.stop_reason})"
         )
+
+
+def _print_bifurcations(res, name: str) -> None:
+    """One line per bifurcation: type, branch, value, multipliers (or that there is none)."""
     if not res.bifurcations:
         print("no bifurcation in the range")
     for bif in res.bifurcations:
@@ -136,4 +152,3 @@ def run(ns: argparse.Namespace) -> int:
             f"{bif.type} on branch {bif.branch} at {name} = {bif.value!r}{where}: "
             f"multipliers {mus}" + (f"; {bif.detail}" if bif.detail else "")
         )
-    return 0

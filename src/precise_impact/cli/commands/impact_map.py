@@ -8,6 +8,7 @@ import dataclasses
 from pathlib import Path
 
 from precise_impact.analysis.impact_surface.impact_map import ENGINES, impact_map_orbit
+from precise_impact.analysis.impact_surface.singularity import singularity_set
 from precise_impact.cli.args import (
     add_json,
     add_max_time,
@@ -76,8 +77,6 @@ def run(ns: argparse.Namespace) -> int:
     )
     sing = None
     if ns.singularity:
-        from precise_impact.analysis.impact_surface.singularity import singularity_set
-
         sing = singularity_set(params)
     if ns.out is not None:
         out = Path(ns.out)
