@@ -61,6 +61,7 @@ __all__ = [
     "plot_differences",
     "register_circuit_units",
     "plot_coupled",
+    "CoupledPlotMixin",
     "plot_certified",
     "figure_legend",
     "draw_density",
@@ -812,6 +813,38 @@ def plot_coupled(
     )
     title = f"{type(tr).__name__}: master-slave difference over {len(tr.t) - 1} periods"
     return finish(plot_differences([(t, d, head)], u, title, threshold=threshold), path, dpi=150)
+
+
+class CoupledPlotMixin:
+    """The ``plot`` of the master-slave results (``CoupledTrajectory``,
+    ``CertifiedCoupledTrajectory``, ``CoupledCircuitTrajectory``): :func:`plot_coupled`."""
+
+    def plot(
+        self,
+        path: str | os.PathLike | None = None,
+        units: str = "dimensionless",
+        components: Any = None,
+        threshold: float | None = None,
+    ):
+        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
+            the nominal design of :attr:`params`).
+        components : Components or None
+            The design for ``units='circuit'``.
+        threshold : float or None
+            Drawn as a dashed line.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
 
 def plot_certified(tr: Any, path: Any = None, units: str = "dimensionless", components: Any = None):

@@ -7,7 +7,6 @@ arithmetic; an impact order that cannot be proven stops the run (``docs/numerics
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from collections.abc import Sequence
 from fractions import Fraction
@@ -33,7 +32,8 @@ from precise_impact.core.impact import reset_velocity, saltation_matrix
 from precise_impact.core.params import Params, check_count, decimal_str, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, ball_columns
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import ParameterError
+from precise_impact.io.figures import CoupledPlotMixin
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.certified.lohner import (
     LOW_BITS,
@@ -61,13 +61,12 @@ from precise_impact.solvers.certified.single import (
     check_target,
     choose_bits,
     describe,
+    doubling,
     exact_value,
     float_up,
     growth_slope,
     log10_abs,
     max_radius_str,
-    missed_target,
-    out_of_reach,
     point,
     to_ball,
     upper,
@@ -135,7 +134,7 @@ class _Pair:
 
 
 @dataclasses.dataclass
-class CertifiedCoupledTrajectory(ResultMixin):
+class CertifiedCoupledTrajectory(CoupledPlotMixin, ResultMixin):
     """The master-slave pair with proven enclosures (:func:`certify_coupled`).
 
     Attributes
@@ -272,35 +271,6 @@ class CertifiedCoupledTrajectory(ResultMixin):
         """Decimal digits of radius lost per forcing period (least squares over the samples
         after the first, :func:`~precise_impact.solvers.certified.single.growth_slope`)."""
         return growth_slope(self.log10_radii())
-
-    def plot(
-        self,
-        path: str | os.PathLike | None = None,
-        units: str = "dimensionless",
-        components: Any = None,
-        threshold: float | None = None,
-    ):
-        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
-
-        Parameters
-        ----------
-        path : str, os.PathLike or None, default ``None``
-            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
-        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
-            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
-            the nominal design of :attr:`params`).
-        components : Components or None
-            The design for ``units='circuit'``.
-        threshold : float or None
-            Drawn as a dashed line.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        from precise_impact.io.figures import plot_coupled
-
-        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
     def to_dict(self) -> dict:
         """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``bits_choice``,
@@ -927,27 +897,9 @@ def certify_coupled(
             max_time, "certify", periods=periods, precision=f"mp:{bits}", coupled=coupled
         )
     bar = Progress(periods, "certified periods (pair)", enabled=progress)
-    while True:
-        try:
-            res = attempt(periods, bits, bar)
-            missed = missed_target(choice, res.max_log10_radius(), log_target, bits, max_bits)
-            if not missed:
-                bar.close()
-                res.bits_choice = choice
-                return res
-            choice += missed
-        except BudgetExceededError:
-            bar.close()  # end a line redrawn in place before the one-line refusal
-            raise
-        except CertificationError as e:
-            if 2 * bits > max_bits:
-                raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
-            refusal = out_of_reach(e, bits, periods, max_bits)
-            if refusal is not None:
-                bar.close()
-                raise CertificationError(refusal) from None
-            choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
-        bits *= 2
+    return doubling(
+        lambda b, _: attempt(periods, b, bar), bits, choice, periods, max_bits, log_target, bar
+    )
 
 
 class CertifiedCoupledSolver:

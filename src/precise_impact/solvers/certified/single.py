@@ -58,6 +58,7 @@ __all__ = [
     "Constants",
     "Flight",
     "Isolator",
+    "doubling",
     "point",
     "upper",
     "lower",
@@ -883,6 +884,44 @@ def missed_target(
     return f"; radius 1e{log10_radius:.1f} missed the target at {bits} bits, retried at {2 * bits}"
 
 
+def doubling(
+    attempt: Callable[[int, str], Any],
+    bits: int,
+    choice: str,
+    periods: int,
+    max_bits: int,
+    log_target: float,
+    bar: Progress,
+) -> Any:
+    """Run ``attempt(bits, choice)`` and retry at twice the bits after a failed proof or a
+    missed target, up to ``max_bits``; the result (its ``bits_choice`` the whole story).
+
+    Shared by :func:`certify` and
+    :func:`~precise_impact.solvers.certified.coupled.certify_coupled`.
+    """
+    while True:
+        try:
+            res = attempt(bits, choice)
+            missed = missed_target(choice, res.max_log10_radius(), log_target, bits, max_bits)
+            if not missed:
+                bar.close()  # the run reported every period; show a throttled last one
+                res.bits_choice = choice
+                return res
+            choice += missed
+        except BudgetExceededError:
+            bar.close()  # end a line redrawn in place before the one-line refusal
+            raise
+        except CertificationError as e:
+            if 2 * bits > max_bits:
+                raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
+            refusal = out_of_reach(e, bits, periods, max_bits)
+            if refusal is not None:
+                bar.close()
+                raise CertificationError(refusal) from None
+            choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
+        bits *= 2
+
+
 def certify(
     params: Any = None,
     periods: int = 300,
@@ -1010,30 +1049,15 @@ def certify(
         bits, choice = choose_bits(pilot, periods, method, log_target, max_bits, target_radius)
         enforce_max_time(max_time, "certify", periods=periods, precision=f"mp:{bits}")
     bar = Progress(periods, "certified periods", enabled=progress)
-    while True:
+
+    def attempt(b: int, why: str) -> CertifiedTrajectory:
         t0 = time.perf_counter()
-        try:
-            samples, impacts = _run(params, periods, bits, bar, deadline, method)
-            res = CertifiedTrajectory(
-                params, periods, bits, choice, samples, impacts, time.perf_counter() - t0, method
-            )
-            missed = missed_target(choice, res.max_log10_radius(), log_target, bits, max_bits)
-            if not missed:
-                bar.close()  # the run reported every period; show a throttled last one
-                return res
-            choice += missed
-        except BudgetExceededError:
-            bar.close()  # end a line redrawn in place before the one-line refusal
-            raise
-        except CertificationError as e:
-            if 2 * bits > max_bits:
-                raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
-            refusal = out_of_reach(e, bits, periods, max_bits)
-            if refusal is not None:
-                bar.close()
-                raise CertificationError(refusal) from None
-            choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
-        bits *= 2
+        samples, impacts = _run(params, periods, b, bar, deadline, method)
+        return CertifiedTrajectory(
+            params, periods, b, why, samples, impacts, time.perf_counter() - t0, method
+        )
+
+    return doubling(attempt, bits, choice, periods, max_bits, log_target, bar)
 
 
 class CertifiedSolver:

@@ -8,7 +8,6 @@ Carroll, Phys. Rev. Lett. 64 (1990) 821; Pikovsky, Rosenblum & Kurths (2001), ch
 from __future__ import annotations
 
 import dataclasses
-import os
 import time as _time
 from fractions import Fraction
 from typing import Any
@@ -31,6 +30,7 @@ from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, deci
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
+from precise_impact.io.figures import CoupledPlotMixin
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
 
@@ -163,7 +163,7 @@ def build_coupled_integrator(form: str, precision: Precision):
 
 # ------------------------------------------------------------------ the result
 @dataclasses.dataclass
-class CoupledTrajectory(ResultMixin):
+class CoupledTrajectory(CoupledPlotMixin, ResultMixin):
     """What :func:`simulate_coupled` returns.
 
     Attributes
@@ -269,35 +269,6 @@ class CoupledTrajectory(ResultMixin):
             return np.asarray(a, dtype=float)
         f = np.vectorize(self.precision.to_float, otypes=[float])
         return f(a) if len(a) else np.zeros(0)
-
-    def plot(
-        self,
-        path: str | os.PathLike | None = None,
-        units: str = "dimensionless",
-        components: Any = None,
-        threshold: float | None = None,
-    ):
-        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
-
-        Parameters
-        ----------
-        path : str, os.PathLike or None, default ``None``
-            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
-        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
-            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
-            the nominal design of :attr:`params`).
-        components : Components or None
-            The design for ``units='circuit'``.
-        threshold : float or None
-            Drawn as a dashed line.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        from precise_impact.io.figures import plot_coupled
-
-        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
     def difference(self, dense: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """``(t, |x - y|)`` as float64 (stroboscopic, or dense if ``dense``).
