@@ -84,8 +84,8 @@ def figure(figsize: tuple[float, float] = (7.0, 4.5), layout: str | None = None)
     layout : str or None, default ``None``
         Matplotlib layout engine (``'constrained'``, ``'tight'`` or ``None``).
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
+    from matplotlib.figure import Figure  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
 
     fig = Figure(figsize=figsize, layout=layout)
     FigureCanvasAgg(fig)
@@ -390,7 +390,7 @@ def draw_density(
     darker (drawing millions of markers instead took ~40 s for 400 x 200000 samples).
     ``rows`` stays below the axes' height in pixels at the usual sizes, so that no inked row
     is lost when the image is resampled."""
-    from matplotlib.colors import LinearSegmentedColormap
+    from matplotlib.colors import LinearSegmentedColormap  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
 
     eta = np.asarray(values, dtype=float)
     x = np.asarray(x, dtype=float)
@@ -499,8 +499,8 @@ def period_colormap(period: Any, max_period: int = 32):
     labels : list of str
         The category names, by index (a colour bar's tick labels at ``0..n-1``).
     """
-    import matplotlib
-    from matplotlib.colors import BoundaryNorm, ListedColormap
+    import matplotlib  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
+    from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
 
     per = np.asarray(period, dtype=float)
     finite = per[np.isfinite(per)]

@@ -6,6 +6,11 @@ import argparse
 import sys
 from fractions import Fraction
 
+from precise_impact.analysis.orbits.proof_landmarks import (
+    check_width,
+    locate_landmark,
+    prove_landmark,
+)
 from precise_impact.cli.args import (
     add_json,
     add_max_time,
@@ -201,12 +206,6 @@ def run(ns: argparse.Namespace) -> int:
 
 def _run_point(ns: argparse.Namespace, params) -> int:
     """``certify --point``: a landmark located in float64, then proven."""
-    from precise_impact.analysis.orbits.proof_landmarks import (
-        check_width,
-        locate_landmark,
-        prove_landmark,
-    )
-
     period = check_count(ns.orbit_period, "orbit_period", 1000, minimum=1)
     check_width(ns.width)  # refused before any work
     theta = {"zeta": params.zeta, "a": params.a, "x_w": params.x_w, "R": params.R}

@@ -74,7 +74,7 @@ _INTEGRATORS = IntegratorCache("coupled-circuit")  # compiled once; every caller
 
 
 def _build(P: Precision):
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     def compile_():
         p = {n: hy.par[i] for i, n in enumerate(PARS)}
@@ -219,7 +219,7 @@ def simulate_coupled_circuit(
     t_start = _time.perf_counter()
     res = ta.propagate_grid(grid)
     elapsed = _time.perf_counter() - t_start
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     if res[0] != hy.taylor_outcome.time_limit:
         raise BudgetExceededError(f"coupled circuit stopped early: {res[0]}")

@@ -36,12 +36,22 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from precise_impact.core import flight
 from precise_impact.core.flow import acceleration
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.core.params import Params
 from precise_impact.errors import CertificationError
-from precise_impact.solvers.certified.single import log10_abs
+from precise_impact.solvers.certified.single import (
+    Constants,
+    Flight,
+    Isolator,
+    _Engine,
+    log10_abs,
+    period_jacobian,
+)
+from precise_impact.solvers.certified.single import _flint as _single_flint
 
 __all__ = [
     "LOW_BITS",
@@ -67,9 +77,7 @@ _FLINT: list = []
 def _flint():
     """python-flint (imported once; a missing one is refused by the certified engine first)."""
     if not _FLINT:
-        from precise_impact.solvers.certified.single import _flint as f
-
-        _FLINT.append(f())
+        _FLINT.append(_single_flint())
     return _FLINT[0]
 
 
@@ -149,8 +157,6 @@ class _Prec:
 
 
 def _low_isolator_base():
-    from precise_impact.solvers.certified.single import Isolator
-
     return Isolator
 
 
@@ -205,8 +211,6 @@ class LohnerEngine:
     """
 
     def __init__(self, params: Params, bits: int) -> None:
-        from precise_impact.solvers.certified.single import Constants, Isolator, _Engine
-
         self.p, self.bits = params, bits
         self.c = Constants(params, bits)
         self.iso = Isolator(bits)
@@ -279,8 +283,6 @@ class LohnerEngine:
                 lo = min(2 * lo, self.bits)
 
     def _run(self, periods: int, progress, deadline, samples: list, impacts: list) -> None:
-        from precise_impact.solvers.certified.single import period_jacobian
-
         flint = _flint()
         c = self.c
         # the first period by the interval scheme from the exact start (it handles a start on
@@ -342,8 +344,6 @@ def sum_dot(g, r):
 
 
 def _flight(c, s, x, v):
-    from precise_impact.solvers.certified.single import Flight
-
     return Flight(c, s, x, v)
 
 
@@ -367,8 +367,6 @@ def qr_frame(MB, r):
         q0, q1, u0, u1, _, _ = gram_schmidt2(A[0][i], A[1][i], A[0][j], A[1][j])
         Qf = [[q0, u0], [q1, u1]]
     else:
-        import numpy as np
-
         Qf = np.linalg.qr(np.array(A)[:, order])[0].tolist()
     if not all(math.isfinite(q) for row in Qf for q in row):  # pragma: no cover - overflow
         Qf = [[float(i == j) for j in range(n)] for i in range(n)]

@@ -13,6 +13,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
+from decimal import ROUND_CEILING, Decimal, localcontext
 from fractions import Fraction
 from typing import Any
 
@@ -36,6 +37,7 @@ from precise_impact.errors import (
     OptionalDependencyError,
     ParameterError,
 )
+from precise_impact.io.figures import plot_certified
 from precise_impact.io.progress import Progress
 
 __all__ = [
@@ -84,7 +86,7 @@ _LOCK = threading.RLock()
 
 def _flint():
     try:
-        import flint
+        import flint  # noqa: PLC0415 -- optional: python-flint loaded on first use
     except ImportError as e:  # pragma: no cover - CI installs it
         raise OptionalDependencyError(
             "python-flint", "certified trajectories (ball arithmetic)", "pip install python-flint"
@@ -137,8 +139,6 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
     tuple of str
         Midpoint and radius (the radius with 3 significant digits, rounded up).
     """
-    from decimal import ROUND_CEILING, Decimal, localcontext
-
     mid, rad = exact_value(b.mid()), exact_value(b.rad())
     if digits is None:
         if rad == 0:
@@ -166,8 +166,6 @@ def radius_str(r) -> str:
     string in scientific notation, 3 significant digits rounded up: ``'0'`` only for an exact
     0, never rounded to 0 at any magnitude (a float underflows to 0.0 below 1e-308 and would
     state exactness)."""
-    from decimal import ROUND_CEILING, Decimal, localcontext
-
     q = r if isinstance(r, Fraction) else exact_value(r)
     if q == 0:
         return "0"
@@ -519,8 +517,6 @@ class CertifiedTrajectory(ResultMixin):
         -------
         matplotlib.figure.Figure
         """
-        from precise_impact.io.figures import plot_certified
-
         return plot_certified(self, path, units=units, components=components)
 
     def radii(self) -> list[float]:
@@ -702,7 +698,7 @@ def _run(
 ) -> tuple[list, list]:
     with working_bits(bits):
         if method == "lohner":
-            from precise_impact.solvers.certified.lohner import LohnerEngine
+            from precise_impact.solvers.certified.lohner import LohnerEngine  # noqa: PLC0415 -- import cycle: lohner builds on this module
 
             return LohnerEngine(params, bits).run(periods, progress, deadline)
         return run_balls(params, periods, bits, progress=progress, deadline=deadline)[:2]

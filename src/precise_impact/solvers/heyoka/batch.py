@@ -187,13 +187,13 @@ _INTEGRATORS = IntegratorCache("batch-variational")  # compiled once; every call
 
 def default_batch_size() -> int:
     """heyoka's recommended SIMD width for float64 on this CPU (8 with AVX-512, 4 with AVX2)."""
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     return max(1, int(hy.recommended_simd_size()))
 
 
 def _integrator(batch_size: int):
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     def compile_():
         x, v = hy.make_vars("x", "v")
@@ -229,7 +229,7 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     clock, the impacts in the measured periods, the tangential contacts of the whole run, and
     per lane ``None`` or why it was refused (an ``R = 1`` bounce sequence without end).
     """
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     ta = _integrator(B)
     rec = ta.t_events[0].callback

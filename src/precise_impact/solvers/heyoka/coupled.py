@@ -127,7 +127,7 @@ def build_coupled_integrator(form: str, precision: Precision):
     ``(eta, zeta, a, R, x_w, k)``; events ``[master, slave]``.  Returns a private
     copy (:class:`~precise_impact.solvers.heyoka.cache.IntegratorCache`).
     """
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     check_form(form)
     key = (form, precision.name)
@@ -429,7 +429,7 @@ class HeyokaCoupledSolver:
         ta.reset_cooldowns()
 
         grid = P.array(P.sample_times(params.t0, params.eta, periods, step))
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
         start = _time.perf_counter()
         res = ta.propagate_grid(grid)
@@ -495,7 +495,7 @@ class HeyokaCoupledSolver:
 def __getattr__(name: str):
     # simulate_coupled is the registry's entry point (solvers/simulate.py), over every model
     if name == "simulate_coupled":
-        from precise_impact.solvers.simulate import simulate_coupled
+        from precise_impact.solvers.simulate import simulate_coupled  # noqa: PLC0415 -- import cycle: simulate imports this module
 
         return simulate_coupled
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

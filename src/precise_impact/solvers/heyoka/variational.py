@@ -171,6 +171,7 @@ from precise_impact.errors import (
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
+from precise_impact.solvers.heyoka.single import _below_wall, _Wall
 
 __all__ = [
     "build_variational_integrator",
@@ -362,7 +363,7 @@ def build_variational_integrator(precision: Precision, tol: Any = None):
     direction: maxima of ``x``, :class:`_MaximumGuard`).  ``tol`` as in
     :class:`~precise_impact.HeyokaSolver` (``None``: the precision's epsilon).
     """
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     key = (precision.name, None if tol is None else precision.to_str(tol))
 
@@ -468,7 +469,7 @@ def integrate_orbit(
     Integrated ``CHUNK`` periods per ``propagate_grid`` call on the local clock
     (module docstring, *Time* and *Per-period logs*).
     """
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     conv = P.from_fraction
     one, zero = conv(Fraction(1)), conv(Fraction(0))
@@ -478,8 +479,6 @@ def integrate_orbit(
         # leave a rounding-level distance below the wall: a propagation that starts on it
         # can miss the next impact (measured: x0 = x_w = 0, v0 = 1/4, the force into the
         # wall: the impact at t ~ 0.5 was missed, MissedImpactError 0.976 beyond the wall)
-        from precise_impact.solvers.heyoka.single import _below_wall
-
         x0 = _below_wall(P, params.x_w)
     period = period_float(params.eta)
     chunk, sub = chunk_layout(period, params.zeta)
@@ -614,8 +613,6 @@ def released_at(P: Precision, params: Params, L0: Any) -> Any:
     local time ``L0`` with the force into it (the heyoka solver's sticking decision), or
     ``None`` for a start that does not stick; :class:`ParameterError` if the force never
     turns (the mass stays on the wall for good: no Lyapunov exponents)."""
-    from precise_impact.solvers.heyoka.single import _Wall
-
     wall = _Wall(P, params)
     if not wall.sticks(L0):
         return None
@@ -641,8 +638,6 @@ def _released_start(ta, rec, P, params: Params, grid: list, sub: int, run, sqrt,
     """
     if not (params.x0 == params.x_w and params.v0 == 0):
         return None
-    from precise_impact.solvers.heyoka.single import _below_wall
-
     t_r = released_at(P, params, grid[0])
     if t_r is None:
         return None
