@@ -452,6 +452,150 @@ def chunk_layout(period: float, zeta: Any) -> tuple[int, int]:
     return 1, math.ceil(period / h)
 
 
+class _Orbit:
+    """One orbit of :func:`integrate_orbit`: the integrator, its clock grid and the steps."""
+
+    def __init__(self, ta, rec, guard, P, params: Params, left: int, check_guard: bool) -> None:
+        self.ta, self.rec, self.guard, self.P, self.params = ta, rec, guard, P, params
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
+
+        self.time_limit = hy.taylor_outcome.time_limit
+        self.check_guard = check_guard
+        self.period = period_float(params.eta)
+        self.chunk, self.sub = chunk_layout(self.period, params.zeta)
+        self.grid = local_grid(P, params.t0, params.eta, self.chunk, self.sub)
+        self.L0 = self.grid[0]
+        self.sqrt, self.log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
+        self.grids: dict[int, Any] = {}
+        self.left = left  # periods still to run (the bounce prediction's horizon)
+        self.subgrids = (
+            [P.array(self.grid[j : j + 2]) for j in range(self.sub)] if self.sub > 1 else []
+        )
+
+    def start(self) -> None:
+        """The initial state with the tangents at the identity (an impact at the start applied)."""
+        P, params, ta = self.P, self.params, self.ta
+        conv = P.from_fraction
+        one, zero = conv(Fraction(1)), conv(Fraction(0))
+        x0, v0 = conv(params.x0), conv(params.v0)
+        if impact_at_start(params.x0, params.v0, params.x_w, params.R):
+            v0 = reset_velocity(v0, conv(params.R))
+            # leave a rounding-level distance below the wall: a propagation that starts on it
+            # can miss the next impact (measured: x0 = x_w = 0, v0 = 1/4, the force into the
+            # wall: the impact at t ~ 0.5 was missed, MissedImpactError 0.976 beyond the wall)
+            x0 = _below_wall(P, params.x_w)
+        # the grazing depth at the chunk's last clock value (module docstring, *Time*)
+        self.rec.t_depth = self.guard.t_depth = self.grid[-1]
+        ta.time = self.L0
+        ta.state[:] = P.array([x0, v0, one, zero, zero, one])
+        ta.reset_cooldowns()
+
+    def run(self, g):
+        """Propagate over the grid ``g`` (starting at the clock's value); the grid states."""
+        ta, rec, P = self.ta, self.rec, self.P
+        res = ta.propagate_grid(g)
+        oc = res[0]
+        if rec.refusal is not None:
+            raise EndlessBouncesError(rec.refusal)
+        if rec.exceeded:
+            raise BudgetExceededError(
+                f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}"
+            )
+        if oc != self.time_limit:
+            raise IntegrationError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
+        if self.check_guard and self.guard.missed:
+            t_m, over = self.guard.first_miss
+            raise MissedImpactError(
+                f"a maximum of x lies {over:.3g} beyond the wall x_w = {float(self.params.x_w)!r} "
+                f"at local time {t_m:.17g} with no impact event (more than {GUARD_FACTOR} "
+                "grazing depths): heyoka's event detection missed an impact; the result cannot "
+                "be trusted"
+            )
+        return res[-1]
+
+    def advance(self, k):
+        """``k <= chunk`` periods from ``L0``; the grid states (rows ``1..k``)."""
+        g = self.grids.get(k)
+        if g is None:
+            g = self.grids[k] = self.P.array(self.grid[: k + 1])
+        self.ta.time = self.L0  # the forcing is T-periodic: the clock starts every chunk at L0
+        self.rec.t_end = float(self.L0) + self.left * self.period
+        self.left -= k
+        return self.run(g)
+
+    def one_period(self):
+        """One period in ``sub`` steps, the tangents re-orthonormalised after each (a long
+        period: :func:`chunk_layout`); the state QRs' summed logs and the period-end state."""
+        self.ta.time = self.L0
+        self.rec.t_end = float(self.L0) + self.left * self.period
+        self.left -= 1
+        s1 = s2 = 0.0
+        row = None
+        for g in self.subgrids:
+            row = self.run(g)[-1]
+            a, b = _gram_schmidt(self.ta.state, self.sqrt, self.log)
+            s1, s2 = s1 + float(a), s2 + float(b)
+        return s1, s2, row
+
+    def transient(self, done: int, transient: int) -> None:
+        """Periods ``done..transient``, the tangents kept bounded (their logs discarded later)."""
+        while done < transient:
+            if self.sub > 1:
+                self.one_period()
+                done += 1
+                continue
+            k = min(self.chunk, transient - done)
+            self.advance(k)
+            _gram_schmidt(self.ta.state, self.sqrt, self.log)  # keep the tangents bounded too
+            done += k
+
+    def measure_long(self, out, done: int, periods: int, bar) -> int:
+        """Measured periods one at a time in ``sub`` QR steps (a long period); periods done."""
+        l1, l2, sx, sv, ni = out
+        while done < periods and self.sub > 1:
+            s1, s2, row = self.one_period()
+            _, c1, c2 = self.rec.take_logs()
+            p1 = p2 = 0.0
+            for u, w in zip(c1, c2, strict=True):
+                p1, p2 = p1 + u, p2 + w
+            l1[done], l2[done] = p1 + s1, p2 + s2
+            ni[done] = len(c1)
+            sx[done], sv[done] = row[0], row[1]
+            done += 1
+            bar.update(done)
+        return done
+
+    def measure_chunks(self, out, done: int, periods: int, bar) -> None:
+        """Measured periods ``CHUNK`` at a time, each period's logs attributed by its end."""
+        l1, l2, sx, sv, ni = out
+        P, grid = self.P, self.grid
+        while done < periods:
+            k = min(self.chunk, periods - done)
+            rows = self.advance(k)[1:]
+            # a period's logs: those of the in-callback QRs of its impacts, plus the change
+            # of the tangent state's own QR logs (the state restarted orthonormal at L0)
+            a1, a2 = _state_logs(
+                rows.tolist() if P.kind == "float64" else rows, self.sqrt, self.log
+            )
+            ct, c1, c2 = self.rec.take_logs()
+            s1 = s2 = 0.0
+            j = 0
+            for i in range(k):
+                g = grid[i + 1]
+                p1 = p2 = 0.0
+                while j < len(ct) and ct[j] <= g:
+                    p1 += c1[j]
+                    p2 += c2[j]  # -inf after a plastic impact (R = 0); the state logs stay finite
+                    j += 1
+                    ni[done + i] += 1
+                l1[done + i], l2[done + i] = p1 + (a1[i] - s1), p2 + (a2[i] - s2)
+                s1, s2 = a1[i], a2[i]
+            sx[done : done + k], sv[done : done + k] = rows[:, 0], rows[:, 1]
+            _gram_schmidt(self.ta.state, self.sqrt, self.log)  # its logs: a1[-1], a2[-1], counted
+            done += k
+            bar.update(done)
+
+
 def integrate_orbit(
     ta,
     rec,
@@ -469,98 +613,20 @@ def integrate_orbit(
     Integrated ``CHUNK`` periods per ``propagate_grid`` call on the local clock
     (module docstring, *Time* and *Per-period logs*).
     """
-    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
-
-    conv = P.from_fraction
-    one, zero = conv(Fraction(1)), conv(Fraction(0))
-    x0, v0 = conv(params.x0), conv(params.v0)
-    if impact_at_start(params.x0, params.v0, params.x_w, params.R):
-        v0 = reset_velocity(v0, conv(params.R))
-        # leave a rounding-level distance below the wall: a propagation that starts on it
-        # can miss the next impact (measured: x0 = x_w = 0, v0 = 1/4, the force into the
-        # wall: the impact at t ~ 0.5 was missed, MissedImpactError 0.976 beyond the wall)
-        x0 = _below_wall(P, params.x_w)
-    period = period_float(params.eta)
-    chunk, sub = chunk_layout(period, params.zeta)
-    grid = local_grid(P, params.t0, params.eta, chunk, sub)
-    L0 = grid[0]
-    # the grazing depth at the chunk's last clock value (module docstring, *Time*)
-    rec.t_depth = guard.t_depth = grid[-1]
-    ta.time = L0
-    ta.state[:] = P.array([x0, v0, one, zero, zero, one])
-    ta.reset_cooldowns()
-    sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
-    grids: dict[int, Any] = {}
-    left = [transient + periods]  # periods still to run (the bounce prediction's horizon)
-
-    def run(g):
-        """Propagate over the grid ``g`` (starting at the clock's value); the grid states."""
-        res = ta.propagate_grid(g)
-        oc = res[0]
-        if rec.refusal is not None:
-            raise EndlessBouncesError(rec.refusal)
-        if rec.exceeded:
-            raise BudgetExceededError(
-                f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}"
-            )
-        if oc != hy.taylor_outcome.time_limit:
-            raise IntegrationError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
-        if check_guard and guard.missed:
-            t_m, over = guard.first_miss
-            raise MissedImpactError(
-                f"a maximum of x lies {over:.3g} beyond the wall x_w = {float(params.x_w)!r} "
-                f"at local time {t_m:.17g} with no impact event (more than {GUARD_FACTOR} "
-                "grazing depths): heyoka's event detection missed an impact; the result cannot "
-                "be trusted"
-            )
-        return res[-1]
-
-    def advance(k):
-        """``k <= chunk`` periods from ``L0``; the grid states (rows ``1..k``)."""
-        g = grids.get(k)
-        if g is None:
-            g = grids[k] = P.array(grid[: k + 1])
-        ta.time = L0  # the forcing is T-periodic: the clock starts every chunk at L0
-        rec.t_end = float(L0) + left[0] * period
-        left[0] -= k
-        return run(g)
-
-    subgrids = [P.array(grid[j : j + 2]) for j in range(sub)] if sub > 1 else []
-
-    def one_period():
-        """One period in ``sub`` steps, the tangents re-orthonormalised after each (a long
-        period: :func:`chunk_layout`); the state QRs' summed logs and the period-end state."""
-        ta.time = L0
-        rec.t_end = float(L0) + left[0] * period
-        left[0] -= 1
-        s1 = s2 = 0.0
-        row = None
-        for g in subgrids:
-            row = run(g)[-1]
-            a, b = _gram_schmidt(ta.state, sqrt, log)
-            s1, s2 = s1 + float(a), s2 + float(b)
-        return s1, s2, row
-
-    pre = _released_start(ta, rec, P, params, grid, sub, run, sqrt, log)
+    orb = _Orbit(ta, rec, guard, P, params, transient + periods, check_guard)
+    orb.start()
+    pre = _released_start(ta, rec, P, params, orb.grid, orb.sub, orb.run, orb.sqrt, orb.log)
     done = 0
     if pre is not None:  # the first period went to the sticking start and its release
-        left[0] -= 1
+        orb.left -= 1
         if transient:
             done = 1
-    while done < transient:
-        if sub > 1:
-            one_period()
-            done += 1
-            continue
-        k = min(chunk, transient - done)
-        advance(k)
-        _gram_schmidt(ta.state, sqrt, log)  # keep the tangents bounded during the transient too
-        done += k
+    orb.transient(done, transient)
     # the transient's logs are discarded, not its basis: the tangents keep the orientation
     # they converged to (a restart at the identity costs a 1/t bias the error bar cannot see)
     rec.take_logs()
     impacts0 = rec.count
-    l1, l2, dt = np.empty(periods), np.empty(periods), np.full(periods, period)
+    l1, l2, dt = np.empty(periods), np.empty(periods), np.full(periods, orb.period)
     sx, sv = np.empty(periods), np.empty(periods)
     ni = np.zeros(periods)  # impacts in each measured period (the attractors' impact-rate test)
     bar = Progress(periods, f"variational LLE{label}", progress)
@@ -571,40 +637,9 @@ def integrate_orbit(
         ni[0] = len(c1)
         sx[0], sv[0] = pre[2][0], pre[2][1]
         done = 1
-    while done < periods and sub > 1:
-        s1, s2, row = one_period()
-        _, c1, c2 = rec.take_logs()
-        p1 = p2 = 0.0
-        for u, w in zip(c1, c2, strict=True):
-            p1, p2 = p1 + u, p2 + w
-        l1[done], l2[done] = p1 + s1, p2 + s2
-        ni[done] = len(c1)
-        sx[done], sv[done] = row[0], row[1]
-        done += 1
-        bar.update(done)
-    while done < periods:
-        k = min(chunk, periods - done)
-        rows = advance(k)[1:]
-        # a period's logs: those of the in-callback QRs of its impacts, plus the change
-        # of the tangent state's own QR logs (the state restarted orthonormal at L0)
-        a1, a2 = _state_logs(rows.tolist() if P.kind == "float64" else rows, sqrt, log)
-        ct, c1, c2 = rec.take_logs()
-        s1 = s2 = 0.0
-        j = 0
-        for i in range(k):
-            g = grid[i + 1]
-            p1 = p2 = 0.0
-            while j < len(ct) and ct[j] <= g:
-                p1 += c1[j]
-                p2 += c2[j]  # -inf after a plastic impact (R = 0); the state logs stay finite
-                j += 1
-                ni[done + i] += 1
-            l1[done + i], l2[done + i] = p1 + (a1[i] - s1), p2 + (a2[i] - s2)
-            s1, s2 = a1[i], a2[i]
-        sx[done : done + k], sv[done : done + k] = rows[:, 0], rows[:, 1]
-        _gram_schmidt(ta.state, sqrt, log)  # its logs are a1[-1], a2[-1], already counted
-        done += k
-        bar.update(done)
+    out = (l1, l2, sx, sv, ni)
+    done = orb.measure_long(out, done, periods, bar)
+    orb.measure_chunks(out, done, periods, bar)
     return l1, l2, dt, sx, sv, rec.count - impacts0, ni
 
 
