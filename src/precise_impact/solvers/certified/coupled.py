@@ -654,8 +654,41 @@ class LohnerPair:
             out.append(rows)
         return out
 
+    def mean_value(self, lo: int, n: int, wl: _Walk, B, r: list, k) -> tuple:
+        """The mean-value form of period ``n`` at ``lo`` bits: ``MB = A B``, ``M r`` and the
+        changes of ``y``, ``w`` and of every impact's ``(t, x, v)`` over the box ``r``."""
+        zero = _flint().arb(0)
+        form = self.form
+        with _Prec(lo):
+            A, pre = self.jacobian(lo, n, wl)
+            MB = A * B
+            rows = self.impact_rows(lo, pre, B)
+            Mr = [sum((MB[i, j] * r[j] for j in range(4)), zero) for i in range(4)]
+            yrow = [MB[0, j] + MB[2, j] for j in range(4)]
+            wrow = [slave_velocity(form, k, MB[2, j], MB[1, j] + MB[3, j]) for j in range(4)]
+            dy = sum((yrow[j] * r[j] for j in range(4)), zero)
+            dw = sum((wrow[j] * r[j] for j in range(4)), zero)
+            dimp = [[sum((g[j] * r[j] for j in range(4)), zero) for g in rw] for rw in rows]
+        return MB, Mr, dy, dw, dimp
+
+    def merge_impacts(self, n: int, wp: _Walk, wl: _Walk, dimp: list, mimp: list, simp) -> None:
+        """Period ``n``'s impacts: the point pass's plus their mean-value change, intersected
+        with the box pass's, appended to ``mimp`` (master) and ``simp`` (slave)."""
+        kinds = [e[0] for e in wp.events]
+        if kinds != [e[0] for e in wl.events]:
+            raise CertificationError(  # pragma: no cover - m lies in the proven box
+                f"the point pass's impacts differ from the box's in period {n + 1} "
+                f"at {self.bits} bits"
+            )
+        im, isl = iter(wp.mimp), iter(wp.simp)
+        lm, ls = iter(wl.mimp), iter(wl.simp)
+        for master, d in zip(kinds, dimp, strict=True):
+            (t, b, a), (tl, bl, al) = (next(im), next(lm)) if master else (next(isl), next(ls))
+            box = ((t + d[0]).intersection(tl), (b + d[1]).intersection(bl))
+            (mimp if master else simp).append((*box, (a + d[2]).intersection(al)))
+
     def run(self, periods: int, progress, deadline, samples: list) -> tuple:
-        flint = _flint()
+        _flint()  # python-flint, refused before any work when missing
         bits, form = self.bits, self.form
         c, _, k, _ = self.ctx(bits)
         state, (yp, yv) = _start(self.params, form, k, self.y0q)
@@ -678,33 +711,12 @@ class LohnerPair:
         simp.extend(w0.simp)
         z = w0.end
         sample(1, w0.tk1, z)
-        zero = flint.arb(0)
         m, B, r = box_frame(list(z))
         for n in range(1, periods):
             lo, wl = self.low_pass(n, m, B, r)
-            with _Prec(lo):
-                A, pre = self.jacobian(lo, n, wl)
-                MB = A * B
-                rows = self.impact_rows(lo, pre, B)
-                Mr = [sum((MB[i, j] * r[j] for j in range(4)), zero) for i in range(4)]
-                yrow = [MB[0, j] + MB[2, j] for j in range(4)]
-                wrow = [slave_velocity(form, k, MB[2, j], MB[1, j] + MB[3, j]) for j in range(4)]
-                dy = sum((yrow[j] * r[j] for j in range(4)), zero)
-                dw = sum((wrow[j] * r[j] for j in range(4)), zero)
-                dimp = [[sum((g[j] * r[j] for j in range(4)), zero) for g in rw] for rw in rows]
+            MB, Mr, dy, dw, dimp = self.mean_value(lo, n, wl, B, r, k)
             wp = self.period(bits, n, m, True)
-            kinds = [e[0] for e in wp.events]
-            if kinds != [e[0] for e in wl.events]:
-                raise CertificationError(  # pragma: no cover - m lies in the proven box
-                    f"the point pass's impacts differ from the box's in period {n + 1} "
-                    f"at {bits} bits"
-                )
-            im, isl = iter(wp.mimp), iter(wp.simp)
-            lm, ls = iter(wl.mimp), iter(wl.simp)
-            for master, d in zip(kinds, dimp, strict=True):
-                (t, b, a), (tl, bl, al) = (next(im), next(lm)) if master else (next(isl), next(ls))
-                box = ((t + d[0]).intersection(tl), (b + d[1]).intersection(bl))
-                (mimp if master else simp).append((*box, (a + d[2]).intersection(al)))
+            self.merge_impacts(n, wp, wl, dimp, mimp, simp)
             y = wp.end
             zl = wl.end
             zs = [(a + b).intersection(q) for a, b, q in zip(y, Mr, zl, strict=True)]
@@ -718,6 +730,33 @@ class LohnerPair:
             else:
                 m, B, r = reframe(MB, r, list(y), lo)
         return samples, mimp, simp
+
+
+def _check_pair(params, kq, form: str, y0q) -> None:
+    """Refuse a pair the certified engine cannot carry: ``k > 100``, an overdamped error
+    equation, or a start on or beyond the wall off the diagonal."""
+    if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
+        raise ParameterError("k", decimal_str(kq), "0 <= k <= 100 for the certified pair")
+    c1, c0 = error_coefficients(form, params.zeta, kq)
+    if not c0 > c1 * c1 / 4:
+        raise ParameterError(
+            "k",
+            decimal_str(kq),
+            f"a coupling with c0 > c1^2/4 (underdamped error equation) for the '{form}' form",
+        )
+    if y0q is not None:
+        if not params.x0 < params.x_w:
+            raise ParameterError(
+                "x0",
+                decimal_str(params.x0),
+                f"x0 < x_w = {decimal_str(params.x_w)} for the certified pair off the diagonal",
+            )
+        if not y0q[0] < params.x_w:
+            raise ParameterError(
+                "y0[0]",
+                decimal_str(y0q[0]),
+                f"y0[0] < x_w = {decimal_str(params.x_w)} for the certified pair",
+            )
 
 
 def certify_coupled(
@@ -845,28 +884,7 @@ def certify_coupled(
     log_target = check_target(target_radius)
     y0q = check_y0(y0, params)
     check_certifiable(params)
-    if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
-        raise ParameterError("k", decimal_str(kq), "0 <= k <= 100 for the certified pair")
-    c1, c0 = error_coefficients(form, params.zeta, kq)
-    if not c0 > c1 * c1 / 4:
-        raise ParameterError(
-            "k",
-            decimal_str(kq),
-            f"a coupling with c0 > c1^2/4 (underdamped error equation) for the '{form}' form",
-        )
-    if y0q is not None:
-        if not params.x0 < params.x_w:
-            raise ParameterError(
-                "x0",
-                decimal_str(params.x0),
-                f"x0 < x_w = {decimal_str(params.x_w)} for the certified pair off the diagonal",
-            )
-        if not y0q[0] < params.x_w:
-            raise ParameterError(
-                "y0[0]",
-                decimal_str(y0q[0]),
-                f"y0[0] < x_w = {decimal_str(params.x_w)} for the certified pair",
-            )
+    _check_pair(params, kq, form, y0q)
     coupled = y0q is not None
     enforce_max_time(
         max_time, "certify", periods=periods, precision=f"mp:{bits or 128}", coupled=coupled
