@@ -98,7 +98,7 @@ def sample_time(tb, T, T_lo, step, k):
 # long: one compiled loop (numba): the step-halving search carries its bracket, proof bounds
 # and status in locals across iterations; split into calls it would pass ~15 values per step.
 @numba.njit(**JIT)
-def _flight(
+def _flight(  # noqa: PLR0912, PLR0915 -- numba kernel: one compiled loop
     t0,
     x0,
     v0,
