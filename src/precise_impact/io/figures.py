@@ -1,25 +1,9 @@
 """Figures without pyplot: the one place the package makes, styles and saves plots.
 
 Agg canvases only, so a plot never changes the backend or the rcParams of the user's session.
-
-Every result type that has samples or rows has a ``plot`` method of one shape::
-
-    fig = result.plot()                      # a matplotlib Figure (nothing written)
-    fig = result.plot("out.png")             # the same Figure, also written atomically
-    fig = traj.plot(units="circuit")         # seconds and volts of the circuit
-
-``path`` (optional, first argument) picks the format by its suffix (``.png``, ``.pdf``,
-``.svg``); the Figure is always returned.  Phase portraits and time series take
-``units="dimensionless"`` (default: ``tau``, ``x``, ``x'``) or ``units="circuit"`` (``t`` in
-seconds, ``V_s`` and ``V_q`` in volts, from the design's components through
-:func:`~precise_impact.models.circuit.components.circuit_scales`).
-
-The types with a ``plot``: ``Trajectory``, ``CoupledTrajectory``, ``CertifiedTrajectory``,
-``CertifiedCoupledTrajectory``, ``CoupledCircuitTrajectory``, ``SpiceResult``, ``SyncResult``,
-``Branch``, ``ContinuationResult``, ``BifurcationResult``, ``LyapunovResult``, ``SweepResult``,
-``WorkPrecisionResult``, ``CompareResult``, ``AccuracyResult``, ``ReproduceResult``.  The
-single-point results (``PeriodicOrbit``, ``ProvenOrbit``, ``Bifurcation``, ``SyncRun``) have
-no samples or rows to draw.
+Every result type with samples or rows has a ``plot(path=None, units="dimensionless", ...)``
+returning the Figure (also written atomically to ``path``, format by suffix); the convention,
+the unit modes and the list of types: ``docs/design.rst``, :mod:`precise_impact.io.figures`.
 """
 
 from __future__ import annotations

@@ -1,35 +1,13 @@
 """Lohner-type enclosures through impacts: the certified state as ``m + B r``.
 
-The interval scheme (:class:`~precise_impact.solvers.certified.single._Engine`) carries the
-state as two balls; the flow rotates the box they span and every period wraps it again, so the
-radius grows faster than the dynamics demands (0.26 decimal digits per period at eta = 0.712
-against the true 0.116).  Here the state at each sample time ``t_k`` is carried as
-
-    ``X_k = m + B r``: ``m`` a point (balls of rounding radius), ``B`` an exact 2x2 matrix
-    (the frame), ``r`` a box of balls centred at 0,
-
-and one period maps it by the mean-value form (Lohner's QR variant, as in CAPD's C^0/C^1
-Lohner algorithm for smooth flows, here through impacts):
-
-* a **low pass**: the interval scheme over one period from the hull of ``X_k``, at low bits
-  (128, doubled on a failure up to the working bits): it proves that every state of ``X_k``
-  has the same impacts, each a transversal crossing inside its time ball, and gives the balls
-  of the impact times and velocities over the whole box;
-* the **Jacobian** ``[DP]`` of the stroboscopic map over ``X_k``: the product of the flight
-  flows ``exp(A tau)`` (:func:`precise_impact.core.flight.flow_matrix`) and the saltation
-  matrices (:func:`precise_impact.core.impact.oscillator_saltation`), each enclosed over the
-  low pass's time and velocity balls;
-* a **point pass** at the working bits from ``m``: the same flights, each impact time narrowed
-  by interval Newton inside the low pass's ball (its isolation is the low pass's proof);
-* the update ``P(X_k) in P(m) + ([DP] B) r``; the new frame ``Q`` from a QR factorisation of
-  ``mid([DP] B)`` (columns ordered by their share of the box), ``r' = (Q^-1 [DP] B) r +
-  Q^-1 (P(m) - m')``, ``B' = Q``.
-
-Each sample ball is ``P(m) + ([DP] B) r`` intersected with the low pass's own image of the
-box (the interval scheme's enclosure, whichever is tighter); when the latter is tighter in
-both components the state restarts from it (``B = I``).  Impacts are enclosed the same way:
-``s in s(m) + (grad s [..] B) r`` from the first-order change of the impact time and velocity,
-intersected with the low pass's balls.
+The interval scheme (:class:`~precise_impact.solvers.certified.single._Engine`) wraps the box
+of its two balls every period (0.26 decimal digits per period at eta = 0.712 against the true
+0.116).  Here the state at each sample is ``m + B r`` (a point, an exact frame, a box of balls
+centred at 0), mapped through one period by the mean-value form: a low pass (the interval
+scheme over the box, proving its impacts), the period map's Jacobian over the box (flight
+flows and saltation matrices), a point pass from ``m``, and a new frame by QR (Lohner's QR
+variant, as in CAPD's C^0/C^1 Lohner algorithm for smooth flows, here through impacts).
+The steps in full: ``docs/numerics.rst``, "Certified trajectories".
 """
 
 from __future__ import annotations

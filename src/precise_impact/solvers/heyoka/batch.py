@@ -1,25 +1,11 @@
 """The SIMD batch variational integrator (float64): many parameter points in one heyoka batch.
 
-Used by :func:`~precise_impact.analysis.lyapunov.batch.batch_lle` (the statistics).
-
-The same flow (:func:`~precise_impact.core.flow.acceleration`), impact map and saltation
-matrix (:mod:`precise_impact.core.impact`) as
-:mod:`precise_impact.analysis.lyapunov.variational`, integrated by
-``taylor_adaptive_batch`` so that ``batch_size`` parameter points advance together in
-SIMD lanes; each lane keeps its own step size, events and period boundaries.  Used
-by parameter sweeps, where per-point Python overhead would otherwise dominate.
-
-The hard cases are treated exactly as in :mod:`precise_impact.analysis.lyapunov.variational`
-(see its module docstring): the tangents are re-orthonormalised right after every impact (the
-saltation matrix's ``1/v-`` never accumulates, and heyoka's cooldown
-``10 eps max|state| / v-`` does not see large tangent entries), an event whose
-excursion beyond the wall is below the grazing depth
-``16 u (|x_w| + |a| + A_p (1 + eta |t|))`` (``u = 2^-53``, ``A_p`` the lane's steady
-amplitude) is a tangential contact and not an impact, every period runs on the
-lane's local clock ``[L0, L1]``
-(``L0 = fl(t0 mod T)``), and a non-terminal event on ``v`` checks ``x`` at every
-maximum (a maximum beyond the wall by more than 4 grazing depths is a missed impact:
-:class:`~precise_impact.errors.MissedImpactError`).
+Used by :func:`~precise_impact.analysis.lyapunov.batch.batch_lle` (the statistics) for
+parameter sweeps: ``taylor_adaptive_batch`` advances ``batch_size`` points together in SIMD
+lanes, each with its own steps, events and period boundaries (its local clock).  The flow, the
+impact map, the saltation matrix and the hard cases (QR right after every impact, grazing
+contacts, the missed-impact guard) are those of :mod:`~precise_impact.solvers.heyoka.variational`:
+``docs/numerics.rst``, "SIMD batch (sweeps)".
 """
 
 from __future__ import annotations
@@ -130,7 +116,7 @@ class _BatchSaltation:
         b0 = S[0][0] * p01 + S[0][1] * p11
         a1 = S[1][0] * p00 + S[1][1] * p10
         b1 = S[1][0] * p01 + S[1][1] * p11
-        # QR at once (module docstring of the variational method): the logs carry the growth.
+        # QR at once (docs/numerics.rst, variational equations): the logs carry the growth.
         st[2, i], st[4, i], st[3, i], st[5, i], r11, r22 = gram_schmidt2(a0, a1, b0, b1)
         self.log1[i] += math.log(r11)
         if r22 > 0:

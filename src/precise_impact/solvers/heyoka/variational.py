@@ -2,127 +2,13 @@
 
 Used by :func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum` (the
 algorithm: ensemble, statistics, attractors); this module builds and drives the integrator.
-
-The tangent dynamics between impacts are heyoka's first-order variational
-equations (``var_ode_sys``) of the same flow :func:`precise_impact.core.flow.acceleration`.
-heyoka does not know about the discontinuity: at every impact the terminal-event
-callback maps the tangent matrix through the saltation matrix
-(:func:`precise_impact.core.impact.oscillator_saltation`), ``Phi+ = S Phi-``.  The
-tangent matrix is re-orthonormalised (Gram-Schmidt = QR; Benettin et al.,
-Meccanica 15 (1980) 21-30; Shimada & Nagashima, Prog. Theor. Phys. 61 (1979)
-1605) *right after every impact* and at the end of every ``CHUNK`` (8) periods; the
-logs of the diagonal of R accumulate the two exponents, per period (*Per-period
-logs* below).  A chunk never spans more than ``8 / (zeta + sqrt(max(zeta^2 - 1, 0)))``
-time units (:func:`~precise_impact.solvers.heyoka.variational.chunk_layout`: fewer periods
-per chunk, or a long period cut into steps with a QR after each), since heyoka's error
-control is relative to the whole state and tangents shrunk far below ``(x, v)`` would be
-integrated as noise (measured at eta = 0.001, non-impacting: LLE -0.0045 for -zeta = -0.05).
-Müller, Chaos Solitons Fractals 5 (1995) 1671 introduced the saltation-matrix treatment
-for impacting systems.
-
-Hard cases
-----------
-*Near-grazing impacts: the 1/v- of the saltation matrix.*  For the oscillator
-``S = [[-R, 0], [s, -R]]`` with ``s = (1 + R)(a cos(eta t) - x_w) / v-``
-(:mod:`precise_impact.core.impact`), so ``|s|`` grows without bound as the impact
-velocity ``v- -> 0``.  Three things could go wrong and are prevented:
-
-1. *Overflow.*  ``S Phi`` has entries ``~|s| |Phi|``.  Applying ``S`` and then
-   re-orthonormalising immediately (in the impact callback) leaves entries of
-   size ``<= 1`` after every impact, whose logs ``ln r11``, ``ln r22`` are added
-   to the current period's logs (QR of a product = product of the R factors, so
-   the per-period logs are, in exact arithmetic, the same as with one QR at the
-   period end).  The largest value ever formed is ``|s|`` times an entry ``<= 1``
-   (times the growth of the smooth flow within one period, < 2 here): overflow
-   needs ``v- < ~1e-308`` in float64 and never happens in practice (float64
-   cannot resolve an impact with ``v- < ~1e-8``, see 3.), and the MPFR exponent
-   range of ``mp:BITS`` is astronomically wide.  Every log is finite unless
-   ``R = 0`` (``det S = 0``: ``lambda2 = -inf``, see :func:`_gram_schmidt`).
-2. *heyoka's event machinery sees the tangents.*  heyoka measures errors against
-   the infinity norm of the *whole* state, tangent entries included
-   (``g_eps = eps * max|state|``, ``taylor_adaptive.cpp``), and after a terminal
-   event it ignores the same event for a cooldown of ``10 g_eps / |g'|``
-   (``taylor_deduce_cooldown``, ``src/detail/event_detection.cpp``), here
-   ``10 g_eps / v-``.  Large tangent entries therefore lengthen the cooldown and
-   hide the next impacts: measured with identity tangents scaled by ``1e17`` at
-   eta = 0.712, R = 0.8, the cooldown after the first impact became 5.3 time
-   units (8 of 13 impacts in 20 periods found, the mass went through the wall to
-   x = 2.76) and with ``1e18`` 682 time units (1 of 13).  Renormalising right
-   after each impact keeps ``max|state|`` at the size of ``(x, v)``, so the
-   cooldown is the plain integrator's.
-3. *Contacts at rounding level are not impacts.*  An orbit whose maximum lies
-   within rounding of the wall (exact grazing) may or may not produce an event,
-   at random, with ``v-`` at the rounding level (measured on the grazing steady
-   orbit, x_w = amplitude to 1 ulp: ``v- ~ 1e-8`` in about half of the periods).
-   Applying the impact there kicks ``v`` by ``(1 + R) v-`` and multiplies the
-   tangents by ``|s| ~ 1e8`` on the strength of a rounding error: measured
-   (eta = 0.70, x_w = amplitude rounded down), the grazing steady orbit then
-   leaves for the impacting chaotic attractor within 4 periods (impact speeds
-   1.7e-8, 1.5e-4, 1.3e-2: Nordmark's square-root map amplifies the rounding-level
-   kick) and the LLE comes out as +0.034 instead of -zeta.  As for the robust
-   analytical finder (:class:`~precise_impact.solvers.closed_form.AnalyticalSolver`,
-   ``stats["grazing"]``), an event whose excursion beyond the wall,
-   ``depth = v-^2 / (2 |x''|)`` (``x'' < 0``: a maximum), is below the grazing
-   depth ``delta(t)`` is a tangential *contact*: no reset, no saltation, counted
-   in ``stats["grazing"]``.  Default ``delta(t) = 16 u (|x_w| + |a| + A_p
-   (1 + eta |t|))`` with ``u = 2^-bits`` the unit roundoff and ``A_p`` the
-   steady-state amplitude (:func:`~precise_impact.core.flow.steady_state`): a few
-   roundings of the terms of the Taylor evaluation, plus the rounding of the
-   forcing phase (heyoka evaluates ``cos(eta t)`` with ``t`` rounded, an absolute
-   phase error ``u eta |t|`` that jitters the orbit's amplitude by ``~u eta |t|
-   A_p``), times 16 for safety.  Measured apparent depths of the events on grazing
-   steady orbits (eta = 0.6, 0.70, 0.712, 0.74, 2e4 periods on an absolute clock):
-   ``<= 2.1 u eta |t| A_p`` and ``~5e-16`` in the first periods.  An event with
-   ``v- <= 0`` (rounding) is a contact as well; ``x'' >= 0`` at small ``v-``
-   (pushed into the wall) is always an impact.
-
-*Time.*  The forcing is ``T``-periodic, so every chunk of ``CHUNK`` periods is
-integrated on the same local grid ``L0 .. L0 + CHUNK T`` with the clock set back to
-``L0`` afterwards (:func:`precise_impact.core.clock.local_grid`; the two-trajectory
-method does the same every period): ``|t|`` stays below ``(CHUNK + 1) T``, so the
-forcing-phase rounding ``u eta |t|`` and the grazing depth ``delta(t)`` stay at the
-level of the first chunk for any run length.  The rounding of a whole chunk stays
-in the state when the clock is set back, so the grazing depth is taken at the
-chunk's last clock value, ``delta(L0 + CHUNK T)``, for every event of the run
-(measured on the grazing steady orbit at eta = 0.70: with ``delta(t)`` at the event's
-own clock, a touch early in a chunk had an apparent depth of 1.2e-14 against
-``delta(0.19) = 9e-15`` and was taken for an impact)
-(with absolute time the apparent depth on the grazing orbit grew to 4e-11 after
-2e4 periods).
-
-*Per-period logs.*  A chunk of ``CHUNK`` periods is one ``propagate_grid`` call
-with an output at every period boundary (no Python work per period).  The tangent
-state ``Phi_s`` starts the chunk orthonormal and is only touched by the in-callback
-QR, so the true tangent matrix is ``Phi_s(t) U(t)`` with ``U`` the product of the
-upper-triangular factors taken so far; the diagonal of a product of upper-triangular
-matrices is the product of the diagonals, hence the cumulative logs at a period
-boundary ``g`` are ``ln r_ii(QR(Phi_s(g)))`` plus the in-callback logs of the
-impacts at times ``<= g``, and a period's logs are the differences.  Between impacts
-``Phi_s`` grows at most like the smooth flow over one chunk (its norm stays ~1: the
-flow of the damped oscillator does not amplify, it rotates and shrinks), so
-overflow, and heyoka's cooldown seeing large tangents (2. above), cannot arise.
-The columns align at most by ``exp((lambda1 - lambda2) t)`` between impacts within a
-chunk (``~e^11`` at eta = 0.712 for 8 impact-free periods), which costs ``ln r22``
-at most ~5 of float64's 16 digits relative to a per-period QR, far below the
-statistical error.
-
-*Missed impacts: the guard.*  heyoka's event detection isolates the roots of the
-event polynomial of each step (Descartes' rule of signs with bisection) and
-refines them with TOMS 748; its documentation warns that roots of multiplicity
-> 1 (a tangency) can be missed (heyoka.py tutorial "Event detection",
-"Limitations and caveats: badly-conditioned event equations"), and a root
-whose refinement fails (TOMS 748 reporting an ``errno``, or too many iterations)
-is dropped with a logged warning (``event_detection.cpp``).  Measured: on the
-grazing steady orbit (eta = 0.74, x_w = amplitude rounded to nearest) heyoka
-logged "returned a nonzero errno with message 'Numerical argument out of domain'"
-once in 2000 periods; the dropped root was a maximum at exactly ``x - x_w = 0.0``
-(a rounding-level tangency, a contact).  As a check independent of that machinery, a
-non-terminal event on ``v`` (direction negative: every maximum of ``x``)
-evaluates ``x`` at the maximum (dense output): a maximum beyond the wall by more
-than ``4 delta(t)`` can only be a missed impact (contacts stay within
-``delta(t)``); it raises :class:`MissedImpactError` (``guard=True``) or is counted
-(``guard=False``).  Measured: no float64 or mp miss above rounding level; the
-guard fires on the deliberately inflated-cooldown case of 2. above.
+Between impacts heyoka's first-order variational equations (``var_ode_sys``); at every impact
+the terminal-event callback maps the tangents through the saltation matrix, ``Phi+ = S Phi-``,
+and re-orthonormalises them at once (QR; the logs of R's diagonal accumulate the exponents).
+The hard cases (the ``1/v-`` of ``S`` near grazing, heyoka's cooldown, rounding-level contacts),
+the local clock (*Time*), the *Per-period logs* and the missed-impact *guard*:
+``docs/numerics.rst``, "Variational equations with the saltation matrix".  References:
+Benettin et al., Meccanica 15 (1980) 21-30; Müller, Chaos Solitons Fractals 5 (1995) 1671.
 """
 
 from __future__ import annotations
@@ -203,7 +89,7 @@ class _SaltationRecorder(ImpactRecorder):
     smallest ``v-`` of an impact, ``max_contact_speed`` largest ``v-`` of a contact,
     ``max_saltation`` largest ``|S[1][0]|``.  The logs of the in-callback QR are
     appended to ``qr_t``/``qr_log1``/``qr_log2`` (impact time, ``ln r11``, ``ln r22``)
-    until :meth:`take_logs` hands them over (module docstring, *Per-period logs*).
+    until :meth:`take_logs` hands them over (docs/numerics.rst, *Per-period logs*).
 
     In float64 the callback works on Python floats: the parameters are converted
     once (:meth:`reset`), the state is read with one ``tolist`` and written with one
@@ -286,7 +172,7 @@ class _SaltationRecorder(ImpactRecorder):
             return True
         S = oscillator_saltation(t, vb, eta, zeta, a, x_w, R, self.cos)
         (s00, s01), (s10, s11) = S
-        # Renormalise at once (module docstring, 1. and 2.): the logs carry the growth.
+        # Renormalise at once (docs/numerics.rst, hard cases 1. and 2.): the logs carry the growth.
         q0, q1, u0, u1, r11, r22 = gram_schmidt2(
             s00 * p00 + s01 * p10,
             s10 * p00 + s11 * p10,
@@ -430,7 +316,7 @@ def _state_logs(rows, sqrt, log) -> tuple[list, list]:
 
 
 #: Forcing periods per ``propagate_grid`` call of the variational integration
-#: (module docstring, *Per-period logs*): the clock is set back after each call.
+#: (docs/numerics.rst, *Per-period logs*): the clock is set back after each call.
 CHUNK = 8
 
 
@@ -484,7 +370,7 @@ class _Orbit:
             # can miss the next impact (measured: x0 = x_w = 0, v0 = 1/4, the force into the
             # wall: the impact at t ~ 0.5 was missed, MissedImpactError 0.976 beyond the wall)
             x0 = _below_wall(P, params.x_w)
-        # the grazing depth at the chunk's last clock value (module docstring, *Time*)
+        # the grazing depth at the chunk's last clock value (docs/numerics.rst, *Time*)
         self.rec.t_depth = self.guard.t_depth = self.grid[-1]
         ta.time = self.L0
         ta.state[:] = P.array([x0, v0, one, zero, zero, one])
@@ -611,7 +497,7 @@ def integrate_orbit(
     """Transient, then ``periods`` measured periods; returns per-period logs and samples.
 
     Integrated ``CHUNK`` periods per ``propagate_grid`` call on the local clock
-    (module docstring, *Time* and *Per-period logs*).
+    (docs/numerics.rst, *Time* and *Per-period logs*).
     """
     orb = _Orbit(ta, rec, guard, P, params, transient + periods, check_guard)
     orb.start()
