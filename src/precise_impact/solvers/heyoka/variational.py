@@ -351,7 +351,8 @@ class _Orbit:
         self.chunk, self.sub = chunk_layout(self.period, params.zeta)
         self.grid = local_grid(P, params.t0, params.eta, self.chunk, self.sub)
         self.L0 = self.grid[0]
-        self.sqrt, self.log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
+        fns: tuple[Any, Any] = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
+        self.sqrt, self.log = fns
         self.grids: dict[int, Any] = {}
         self.left = left  # periods still to run (the bounce prediction's horizon)
         self.subgrids = (
