@@ -1,25 +1,9 @@
 """Figures without pyplot: the one place the package makes, styles and saves plots.
 
 Agg canvases only, so a plot never changes the backend or the rcParams of the user's session.
-
-Every result type that has samples or rows has a ``plot`` method of one shape::
-
-    fig = result.plot()                      # a matplotlib Figure (nothing written)
-    fig = result.plot("out.png")             # the same Figure, also written atomically
-    fig = traj.plot(units="circuit")         # seconds and volts of the circuit
-
-``path`` (optional, first argument) picks the format by its suffix (``.png``, ``.pdf``,
-``.svg``); the Figure is always returned.  Phase portraits and time series take
-``units="dimensionless"`` (default: ``tau``, ``x``, ``x'``) or ``units="circuit"`` (``t`` in
-seconds, ``V_s`` and ``V_q`` in volts, from the design's components through
-:func:`~precise_impact.models.circuit.components.circuit_scales`).
-
-The types with a ``plot``: ``Trajectory``, ``CoupledTrajectory``, ``CertifiedTrajectory``,
-``CertifiedCoupledTrajectory``, ``CoupledCircuitTrajectory``, ``SpiceResult``, ``SyncResult``,
-``Branch``, ``ContinuationResult``, ``BifurcationResult``, ``LyapunovResult``, ``SweepResult``,
-``WorkPrecisionResult``, ``CompareResult``, ``AccuracyResult``, ``ReproduceResult``.  The
-single-point results (``PeriodicOrbit``, ``ProvenOrbit``, ``Bifurcation``, ``SyncRun``) have
-no samples or rows to draw.
+Every result type with samples or rows has a ``plot(path=None, units="dimensionless", ...)``
+returning the Figure (also written atomically to ``path``, format by suffix); the convention,
+the unit modes and the list of types: ``docs/design.rst``, :mod:`precise_impact.io.figures`.
 """
 
 from __future__ import annotations
@@ -61,6 +45,7 @@ __all__ = [
     "plot_differences",
     "register_circuit_units",
     "plot_coupled",
+    "CoupledPlotMixin",
     "plot_certified",
     "figure_legend",
     "draw_density",
@@ -83,8 +68,8 @@ def figure(figsize: tuple[float, float] = (7.0, 4.5), layout: str | None = None)
     layout : str or None, default ``None``
         Matplotlib layout engine (``'constrained'``, ``'tight'`` or ``None``).
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
+    from matplotlib.figure import Figure  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
 
     fig = Figure(figsize=figsize, layout=layout)
     FigureCanvasAgg(fig)
@@ -389,7 +374,7 @@ def draw_density(
     darker (drawing millions of markers instead took ~40 s for 400 x 200000 samples).
     ``rows`` stays below the axes' height in pixels at the usual sizes, so that no inked row
     is lost when the image is resampled."""
-    from matplotlib.colors import LinearSegmentedColormap
+    from matplotlib.colors import LinearSegmentedColormap  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
 
     eta = np.asarray(values, dtype=float)
     x = np.asarray(x, dtype=float)
@@ -498,8 +483,8 @@ def period_colormap(period: Any, max_period: int = 32):
     labels : list of str
         The category names, by index (a colour bar's tick labels at ``0..n-1``).
     """
-    import matplotlib
-    from matplotlib.colors import BoundaryNorm, ListedColormap
+    import matplotlib  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
+    from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: PLC0415 -- heavy: matplotlib ~0.3 s, loaded on first plot
 
     per = np.asarray(period, dtype=float)
     finite = per[np.isfinite(per)]
@@ -812,6 +797,38 @@ def plot_coupled(
     )
     title = f"{type(tr).__name__}: master-slave difference over {len(tr.t) - 1} periods"
     return finish(plot_differences([(t, d, head)], u, title, threshold=threshold), path, dpi=150)
+
+
+class CoupledPlotMixin:
+    """The ``plot`` of the master-slave results (``CoupledTrajectory``,
+    ``CertifiedCoupledTrajectory``, ``CoupledCircuitTrajectory``): :func:`plot_coupled`."""
+
+    def plot(
+        self,
+        path: str | os.PathLike | None = None,
+        units: str = "dimensionless",
+        components: Any = None,
+        threshold: float | None = None,
+    ):
+        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
+
+        Parameters
+        ----------
+        path : str, os.PathLike or None, default ``None``
+            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
+        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
+            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
+            the nominal design of :attr:`params`).
+        components : Components or None
+            The design for ``units='circuit'``.
+        threshold : float or None
+            Drawn as a dashed line.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
 
 def plot_certified(tr: Any, path: Any = None, units: str = "dimensionless", components: Any = None):

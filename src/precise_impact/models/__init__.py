@@ -29,20 +29,14 @@ __all__ = [
 
 
 def _circuit(prec: Precision, tol: Any, **options: Any):
-    from precise_impact.models.circuit.opamp import CircuitSolver
-
     return CircuitSolver(prec, tol, **options)
 
 
 def _switched(prec: Precision, tol: Any, **options: Any):
-    from precise_impact.models.circuit.switched import SwitchedCapacitorSolver
-
     return SwitchedCapacitorSolver(prec, tol, **options)
 
 
 def _spice(prec: Precision, tol: Any, **options: Any):
-    from precise_impact.models.circuit.spice import SpiceSolver
-
     return SpiceSolver(**options)
 
 

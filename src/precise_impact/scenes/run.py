@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from precise_impact.core.budget import DEFAULT_MAX_TIME, check_cost, estimate_cost
 from precise_impact.core.params import decimal_str
 from precise_impact.core.trajectory import Trajectory
@@ -208,8 +210,6 @@ def scene_figure(scene: Scene, result, obj: dict, units: str = "dimensionless"):
     """A scene run's figure: a single oscillator's phase portrait and ``x(t)``, or the coupled
     pair's ``|x - y|`` against time; the title (wrapped to fit) names the scene, model and
     effects."""
-    import numpy as np
-
     effects = ", ".join(obj["effects"]) or "none"
     title = f"{scene.name}: {obj['model']}, effects: {effects}"
     if isinstance(result, Trajectory):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import stat
 import tomllib
 import warnings
 from collections.abc import Mapping
@@ -494,8 +495,6 @@ MAX_SCENE_BYTES = 1 << 20
 
 def _read_toml(path: Path) -> dict:
     """Parse a scene file: a regular file, at most MAX_SCENE_BYTES, UTF-8, valid TOML."""
-    import stat
-
     try:
         st = path.stat()  # follows links: a link to /dev/zero is a character device here
     except OSError as e:

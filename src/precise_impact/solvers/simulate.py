@@ -65,17 +65,13 @@ def _analytical(finder: str):
 
 
 def _fast(prec: Precision, tol: Any, **options: Any) -> Solver:
-    from precise_impact.solvers.fast.single import (
-        FastSolver,
-    )  # numba is imported only when asked for
+    from precise_impact.solvers.fast.single import FastSolver  # noqa: PLC0415 -- optional: numba loaded on first use
 
     return FastSolver(**options)
 
 
 def _certified(prec: Precision, tol: Any, **options: Any) -> Solver:
-    from precise_impact.solvers.certified.single import (
-        CertifiedSolver,
-    )  # python-flint is imported only when asked for
+    from precise_impact.solvers.certified.single import CertifiedSolver  # noqa: PLC0415 -- optional: python-flint loaded on first use
 
     return CertifiedSolver(prec.bits, **options)
 
@@ -129,13 +125,13 @@ def _coupled_heyoka(prec: Precision, tol: Any, **options: Any):
 
 
 def _coupled_fast(prec: Precision, tol: Any, **options: Any):
-    from precise_impact.solvers.fast.coupled import FastCoupledSolver  # numba only when asked for
+    from precise_impact.solvers.fast.coupled import FastCoupledSolver  # noqa: PLC0415 -- optional: numba loaded on first use
 
     return FastCoupledSolver(**options)
 
 
 def _coupled_certified(prec: Precision, tol: Any, **options: Any):
-    from precise_impact.solvers.certified.coupled import CertifiedCoupledSolver  # python-flint
+    from precise_impact.solvers.certified.coupled import CertifiedCoupledSolver  # noqa: PLC0415 -- optional: python-flint loaded on first use
 
     return CertifiedCoupledSolver(prec.bits, **options)
 

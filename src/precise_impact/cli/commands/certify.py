@@ -6,6 +6,11 @@ import argparse
 import sys
 from fractions import Fraction
 
+from precise_impact.analysis.orbits.proof_landmarks import (
+    check_width,
+    locate_landmark,
+    prove_landmark,
+)
 from precise_impact.cli.args import (
     add_json,
     add_max_time,
@@ -30,6 +35,17 @@ def register(sub) -> argparse.ArgumentParser:
     )
     add_param_flags(ce)
     add_periods(ce, "300", "forcing periods")
+    _add_enclosure_flags(ce)
+    _add_pair_flags(ce)
+    _add_point_flags(ce)
+    add_max_time(ce)
+    add_json(ce)
+    ce.set_defaults(run=run)
+    return ce
+
+
+def _add_enclosure_flags(ce) -> None:
+    """The balls' precision and enclosure: --precision, --bits, --target, --max-bits, --method."""
     ce.add_argument(
         "--precision",
         default=None,
@@ -67,6 +83,10 @@ def register(sub) -> argparse.ArgumentParser:
         "point + matrix x box in a QR frame, grows at the dynamics' rate) or interval (a ball "
         "per coordinate, wrapped every period)",
     )
+
+
+def _add_pair_flags(ce) -> None:
+    """The master-slave pair: --k, --form, --y0."""
     ce.add_argument(
         "--k",
         default=None,
@@ -86,6 +106,10 @@ def register(sub) -> argparse.ArgumentParser:
         help="the slave's start (position, velocity variable); default: on the master "
         "(the diagonal)",
     )
+
+
+def _add_point_flags(ce) -> None:
+    """A proven bifurcation point: --point, --side, --orbit-period, --width."""
     pt = ce.add_argument_group("a proven bifurcation point (instead of a trajectory)")
     pt.add_argument(
         "--point",
@@ -109,10 +133,6 @@ def register(sub) -> argparse.ArgumentParser:
         metavar="W",
         help="with --point: largest width of the proven interval, 1e-1000 to 1e-6 (default 1e-40)",
     )
-    add_max_time(ce)
-    add_json(ce)
-    ce.set_defaults(run=run)
-    return ce
 
 
 def run(ns: argparse.Namespace) -> int:
@@ -126,6 +146,24 @@ def run(ns: argparse.Namespace) -> int:
     for flag, default in (("side", None), ("width", "1e-40"), ("orbit_period", "1")):
         if getattr(ns, flag) != default:
             raise ParameterError(flag, getattr(ns, flag), "only with --point")
+    max_bits = _check_bits(ns)
+    progress = None if ns.json else True
+    if ns.k is not None:
+        _, d, lines, names = _certify_pair(ns, params, max_bits, progress)
+    else:
+        _, d, lines, names = _certify_single(ns, params, max_bits, progress)
+    if ns.json:
+        print_json(d)
+        return 0
+    last = d["samples"][-1]
+    lines += [f"{n}({last['period']} T) = {last[n]} +- {last[n + '_rad']}" for n in names]
+    print("\n".join(lines))
+    return 0
+
+
+def _check_bits(ns: argparse.Namespace) -> int:
+    """--max-bits checked, --bits turned into --precision (deprecated), --target and --form
+    refused where they would be ignored; the max bits."""
     max_bits = check_count(ns.max_bits, "max_bits", MAX_BITS, minimum=64)
     if ns.bits is not None:  # the 0.2 spelling
         if ns.precision is not None:
@@ -143,70 +181,65 @@ def run(ns: argparse.Namespace) -> int:
         )
     if ns.form is not None and ns.k is None:
         raise ParameterError("form", ns.form, "only with --k (the coupled pair)")
-    progress = None if ns.json else True
-    if ns.k is not None:
-        if ns.precision is None:  # the pair's default: mp:256, automatic with a --target
-            ns.precision = "mp:256" if ns.target is None else "auto"
-        r = certify_coupled(
-            params,
-            ns.k,
-            "first-order" if ns.form is None else ns.form,
-            ns.periods,
-            y0=ns.y0,
-            precision=ns.precision,
-            target_radius="1e-30" if ns.target is None else ns.target,
-            max_bits=max_bits,
-            progress=progress,
-            max_time=max_time(ns),
-            method="lohner" if ns.method is None else ns.method,
-        )
-        d = r.to_dict()
-        lines = [
-            f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, "
-            f"{len(r.master_impacts)} master and {len(r.slave_impacts)} slave impacts, at "
-            f"{r.bits} bits ({r.bits_choice}) in {r.elapsed_s:.2f} s",
-            f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
-            f"{r.growth_digits_per_period():.3f} decimal digits per period",
-        ]
-        names = "xvyw"
-    else:
-        if ns.y0 is not None:
-            raise ParameterError("y0", " ".join(ns.y0), "only with --k (the coupled pair)")
-        r = certify(
-            params,
-            ns.periods,
-            precision="auto" if ns.precision is None else ns.precision,
-            target_radius="1e-30" if ns.target is None else ns.target,
-            max_bits=max_bits,
-            progress=progress,
-            max_time=max_time(ns),
-            method="lohner" if ns.method is None else ns.method,
-        )
-        d = r.to_dict()
-        lines = [
-            f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits "
-            f"({r.bits_choice}) in {r.elapsed_s:.2f} s",
-            f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
-            f"{r.growth_digits_per_period():.3f} decimal digits per period",
-        ]
-        names = "xv"
-    if ns.json:
-        print_json(d)
-        return 0
-    last = d["samples"][-1]
-    lines += [f"{n}({last['period']} T) = {last[n]} +- {last[n + '_rad']}" for n in names]
-    print("\n".join(lines))
-    return 0
+    return max_bits
+
+
+def _certify_pair(ns: argparse.Namespace, params, max_bits: int, progress) -> tuple:
+    """``certify --k``: the certified pair; ``(result, its dict, the summary lines, names)``."""
+    if ns.precision is None:  # the pair's default: mp:256, automatic with a --target
+        ns.precision = "mp:256" if ns.target is None else "auto"
+    r = certify_coupled(
+        params,
+        ns.k,
+        "first-order" if ns.form is None else ns.form,
+        ns.periods,
+        y0=ns.y0,
+        precision=ns.precision,
+        target_radius="1e-30" if ns.target is None else ns.target,
+        max_bits=max_bits,
+        progress=progress,
+        max_time=max_time(ns),
+        method="lohner" if ns.method is None else ns.method,
+    )
+    d = r.to_dict()
+    lines = [
+        f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, "
+        f"{len(r.master_impacts)} master and {len(r.slave_impacts)} slave impacts, at "
+        f"{r.bits} bits ({r.bits_choice}) in {r.elapsed_s:.2f} s",
+        f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
+        f"{r.growth_digits_per_period():.3f} decimal digits per period",
+    ]
+    names = "xvyw"
+    return r, d, lines, names
+
+
+def _certify_single(ns: argparse.Namespace, params, max_bits: int, progress) -> tuple:
+    """``certify``: the single oscillator; ``(result, its dict, the summary lines, names)``."""
+    if ns.y0 is not None:
+        raise ParameterError("y0", " ".join(ns.y0), "only with --k (the coupled pair)")
+    r = certify(
+        params,
+        ns.periods,
+        precision="auto" if ns.precision is None else ns.precision,
+        target_radius="1e-30" if ns.target is None else ns.target,
+        max_bits=max_bits,
+        progress=progress,
+        max_time=max_time(ns),
+        method="lohner" if ns.method is None else ns.method,
+    )
+    d = r.to_dict()
+    lines = [
+        f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits "
+        f"({r.bits_choice}) in {r.elapsed_s:.2f} s",
+        f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
+        f"{r.growth_digits_per_period():.3f} decimal digits per period",
+    ]
+    names = "xv"
+    return r, d, lines, names
 
 
 def _run_point(ns: argparse.Namespace, params) -> int:
     """``certify --point``: a landmark located in float64, then proven."""
-    from precise_impact.analysis.orbits.proof_landmarks import (
-        check_width,
-        locate_landmark,
-        prove_landmark,
-    )
-
     period = check_count(ns.orbit_period, "orbit_period", 1000, minimum=1)
     check_width(ns.width)  # refused before any work
     theta = {"zeta": params.zeta, "a": params.a, "x_w": params.x_w, "R": params.R}

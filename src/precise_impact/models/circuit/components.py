@@ -7,6 +7,7 @@ derived in ``docs/circuit.rst``.
 from __future__ import annotations
 
 import dataclasses
+import math
 from fractions import Fraction
 from typing import Any
 
@@ -181,8 +182,6 @@ OMEGA_RANGE = (1e-6, 1e9)
 
 
 def _isqrt_fraction(q: Fraction) -> Fraction | None:
-    import math
-
     n, d = q.numerator, q.denominator
     rn, rd = math.isqrt(n), math.isqrt(d)
     if rn * rn == n and rd * rd == d:

@@ -7,7 +7,6 @@ not the reduction of eqs. (12); ``docs/circuit.rst``.
 from __future__ import annotations
 
 import dataclasses
-import os
 import time as _time
 from fractions import Fraction
 from typing import Any
@@ -20,6 +19,7 @@ from precise_impact.core.params import Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.io.figures import CoupledPlotMixin
 from precise_impact.models.circuit.components import Components, dimensionless, nominal_components
 from precise_impact.models.circuit.network import NETWORK_PARS
 from precise_impact.models.circuit.opamp import design_omega
@@ -74,7 +74,7 @@ _INTEGRATORS = IntegratorCache("coupled-circuit")  # compiled once; every caller
 
 
 def _build(P: Precision):
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     def compile_():
         p = {n: hy.par[i] for i, n in enumerate(PARS)}
@@ -219,7 +219,7 @@ def simulate_coupled_circuit(
     t_start = _time.perf_counter()
     res = ta.propagate_grid(grid)
     elapsed = _time.perf_counter() - t_start
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     if res[0] != hy.taylor_outcome.time_limit:
         raise BudgetExceededError(f"coupled circuit stopped early: {res[0]}")
@@ -245,7 +245,7 @@ def simulate_coupled_circuit(
 
 
 @dataclasses.dataclass
-class CoupledCircuitTrajectory(ResultMixin):
+class CoupledCircuitTrajectory(CoupledPlotMixin, ResultMixin):
     """What :func:`simulate_coupled_circuit` returns (dimensionless, read out through the design).
 
     Attributes
@@ -299,35 +299,6 @@ class CoupledCircuitTrajectory(ResultMixin):
                 w=z.copy(),
             )
         return self.claim
-
-    def plot(
-        self,
-        path: str | os.PathLike | None = None,
-        units: str = "dimensionless",
-        components: Any = None,
-        threshold: float | None = None,
-    ):
-        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
-
-        Parameters
-        ----------
-        path : str, os.PathLike or None, default ``None``
-            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
-        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
-            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
-            the nominal design of :attr:`params`).
-        components : Components or None
-            The design for ``units='circuit'``.
-        threshold : float or None
-            Drawn as a dashed line.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        from precise_impact.io.figures import plot_coupled
-
-        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
     def _tables(self) -> dict:
         """``to_dataframe()`` tables: ``samples`` (default), ``impacts`` (``who``: master or

@@ -53,7 +53,7 @@ _IDX = {n: i for i, n in enumerate(NETWORK_PARS)}
 def circuit_system(op: OpAmp):
     """heyoka variables and right-hand sides of the network for ``op`` (runtime component
     parameters)."""
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     p = {n: hy.par[i] for i, n in enumerate(NETWORK_PARS)}
     if op.dynamic:
@@ -90,7 +90,7 @@ _INTEGRATORS = IntegratorCache("circuit")  # compiled once; every caller gets it
 
 
 def _build(precision: Precision, tol, op: OpAmp):
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     key = (precision.name, None if tol is None else precision.to_str(tol), op)
 
@@ -242,7 +242,7 @@ class CircuitSolver:
         start = _time.perf_counter()
         res = ta.propagate_grid(grid)
         elapsed = _time.perf_counter() - start
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
         if rec.exceeded:
             raise BudgetExceededError(f"impact budget max_impacts={self.max_impacts} exhausted")

@@ -34,7 +34,7 @@ _I = {n: i for i, n in enumerate(PARS)}
 
 
 def _system():
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     p = {n: hy.par[i] for i, n in enumerate(PARS)}
     V_s, V_C = hy.make_vars("V_s", "V_C")
@@ -167,7 +167,7 @@ _INTEGRATORS = IntegratorCache(
 
 
 def _build(P: Precision, tol):
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     key = (P.name, None if tol is None else P.to_str(tol))
 
@@ -351,7 +351,7 @@ class SwitchedCapacitorSolver:
     def _propagate(self, ta, grid, cmp_, immediate: bool, sw: dict, vq_fn):
         """Integrate through the sample times, switching where the comparator trips: the samples
         ``(t, V_s, V_q)`` and the recorded reconnections of C2."""
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
         samples = []
         switches = ImpactRecorder(max_impacts=self.max_impacts)  # the reconnections of C2

@@ -7,7 +7,6 @@ arithmetic; an impact order that cannot be proven stops the run (``docs/numerics
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from collections.abc import Sequence
 from fractions import Fraction
@@ -33,7 +32,8 @@ from precise_impact.core.impact import reset_velocity, saltation_matrix
 from precise_impact.core.params import Params, check_count, decimal_str, params_or_values
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, ball_columns
-from precise_impact.errors import BudgetExceededError, ParameterError
+from precise_impact.errors import ParameterError
+from precise_impact.io.figures import CoupledPlotMixin
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.certified.lohner import (
     LOW_BITS,
@@ -61,13 +61,12 @@ from precise_impact.solvers.certified.single import (
     check_target,
     choose_bits,
     describe,
+    doubling,
     exact_value,
     float_up,
     growth_slope,
     log10_abs,
     max_radius_str,
-    missed_target,
-    out_of_reach,
     point,
     to_ball,
     upper,
@@ -135,7 +134,7 @@ class _Pair:
 
 
 @dataclasses.dataclass
-class CertifiedCoupledTrajectory(ResultMixin):
+class CertifiedCoupledTrajectory(CoupledPlotMixin, ResultMixin):
     """The master-slave pair with proven enclosures (:func:`certify_coupled`).
 
     Attributes
@@ -272,35 +271,6 @@ class CertifiedCoupledTrajectory(ResultMixin):
         """Decimal digits of radius lost per forcing period (least squares over the samples
         after the first, :func:`~precise_impact.solvers.certified.single.growth_slope`)."""
         return growth_slope(self.log10_radii())
-
-    def plot(
-        self,
-        path: str | os.PathLike | None = None,
-        units: str = "dimensionless",
-        components: Any = None,
-        threshold: float | None = None,
-    ):
-        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
-
-        Parameters
-        ----------
-        path : str, os.PathLike or None, default ``None``
-            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
-        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
-            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
-            the nominal design of :attr:`params`).
-        components : Components or None
-            The design for ``units='circuit'``.
-        threshold : float or None
-            Drawn as a dashed line.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        from precise_impact.io.figures import plot_coupled
-
-        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
     def to_dict(self) -> dict:
         """JSON: ``params``, ``form``, ``k``, ``y0``, ``periods``, ``bits``, ``bits_choice``,
@@ -684,8 +654,41 @@ class LohnerPair:
             out.append(rows)
         return out
 
+    def mean_value(self, lo: int, n: int, wl: _Walk, B, r: list, k) -> tuple:
+        """The mean-value form of period ``n`` at ``lo`` bits: ``MB = A B``, ``M r`` and the
+        changes of ``y``, ``w`` and of every impact's ``(t, x, v)`` over the box ``r``."""
+        zero = _flint().arb(0)
+        form = self.form
+        with _Prec(lo):
+            A, pre = self.jacobian(lo, n, wl)
+            MB = A * B
+            rows = self.impact_rows(lo, pre, B)
+            Mr = [sum((MB[i, j] * r[j] for j in range(4)), zero) for i in range(4)]
+            yrow = [MB[0, j] + MB[2, j] for j in range(4)]
+            wrow = [slave_velocity(form, k, MB[2, j], MB[1, j] + MB[3, j]) for j in range(4)]
+            dy = sum((yrow[j] * r[j] for j in range(4)), zero)
+            dw = sum((wrow[j] * r[j] for j in range(4)), zero)
+            dimp = [[sum((g[j] * r[j] for j in range(4)), zero) for g in rw] for rw in rows]
+        return MB, Mr, dy, dw, dimp
+
+    def merge_impacts(self, n: int, wp: _Walk, wl: _Walk, dimp: list, mimp: list, simp) -> None:
+        """Period ``n``'s impacts: the point pass's plus their mean-value change, intersected
+        with the box pass's, appended to ``mimp`` (master) and ``simp`` (slave)."""
+        kinds = [e[0] for e in wp.events]
+        if kinds != [e[0] for e in wl.events]:
+            raise CertificationError(  # pragma: no cover - m lies in the proven box
+                f"the point pass's impacts differ from the box's in period {n + 1} "
+                f"at {self.bits} bits"
+            )
+        im, isl = iter(wp.mimp), iter(wp.simp)
+        lm, ls = iter(wl.mimp), iter(wl.simp)
+        for master, d in zip(kinds, dimp, strict=True):
+            (t, b, a), (tl, bl, al) = (next(im), next(lm)) if master else (next(isl), next(ls))
+            box = ((t + d[0]).intersection(tl), (b + d[1]).intersection(bl))
+            (mimp if master else simp).append((*box, (a + d[2]).intersection(al)))
+
     def run(self, periods: int, progress, deadline, samples: list) -> tuple:
-        flint = _flint()
+        _flint()  # python-flint, refused before any work when missing
         bits, form = self.bits, self.form
         c, _, k, _ = self.ctx(bits)
         state, (yp, yv) = _start(self.params, form, k, self.y0q)
@@ -708,33 +711,12 @@ class LohnerPair:
         simp.extend(w0.simp)
         z = w0.end
         sample(1, w0.tk1, z)
-        zero = flint.arb(0)
         m, B, r = box_frame(list(z))
         for n in range(1, periods):
             lo, wl = self.low_pass(n, m, B, r)
-            with _Prec(lo):
-                A, pre = self.jacobian(lo, n, wl)
-                MB = A * B
-                rows = self.impact_rows(lo, pre, B)
-                Mr = [sum((MB[i, j] * r[j] for j in range(4)), zero) for i in range(4)]
-                yrow = [MB[0, j] + MB[2, j] for j in range(4)]
-                wrow = [slave_velocity(form, k, MB[2, j], MB[1, j] + MB[3, j]) for j in range(4)]
-                dy = sum((yrow[j] * r[j] for j in range(4)), zero)
-                dw = sum((wrow[j] * r[j] for j in range(4)), zero)
-                dimp = [[sum((g[j] * r[j] for j in range(4)), zero) for g in rw] for rw in rows]
+            MB, Mr, dy, dw, dimp = self.mean_value(lo, n, wl, B, r, k)
             wp = self.period(bits, n, m, True)
-            kinds = [e[0] for e in wp.events]
-            if kinds != [e[0] for e in wl.events]:
-                raise CertificationError(  # pragma: no cover - m lies in the proven box
-                    f"the point pass's impacts differ from the box's in period {n + 1} "
-                    f"at {bits} bits"
-                )
-            im, isl = iter(wp.mimp), iter(wp.simp)
-            lm, ls = iter(wl.mimp), iter(wl.simp)
-            for master, d in zip(kinds, dimp, strict=True):
-                (t, b, a), (tl, bl, al) = (next(im), next(lm)) if master else (next(isl), next(ls))
-                box = ((t + d[0]).intersection(tl), (b + d[1]).intersection(bl))
-                (mimp if master else simp).append((*box, (a + d[2]).intersection(al)))
+            self.merge_impacts(n, wp, wl, dimp, mimp, simp)
             y = wp.end
             zl = wl.end
             zs = [(a + b).intersection(q) for a, b, q in zip(y, Mr, zl, strict=True)]
@@ -748,6 +730,33 @@ class LohnerPair:
             else:
                 m, B, r = reframe(MB, r, list(y), lo)
         return samples, mimp, simp
+
+
+def _check_pair(params, kq, form: str, y0q) -> None:
+    """Refuse a pair the certified engine cannot carry: ``k > 100``, an overdamped error
+    equation, or a start on or beyond the wall off the diagonal."""
+    if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
+        raise ParameterError("k", decimal_str(kq), "0 <= k <= 100 for the certified pair")
+    c1, c0 = error_coefficients(form, params.zeta, kq)
+    if not c0 > c1 * c1 / 4:
+        raise ParameterError(
+            "k",
+            decimal_str(kq),
+            f"a coupling with c0 > c1^2/4 (underdamped error equation) for the '{form}' form",
+        )
+    if y0q is not None:
+        if not params.x0 < params.x_w:
+            raise ParameterError(
+                "x0",
+                decimal_str(params.x0),
+                f"x0 < x_w = {decimal_str(params.x_w)} for the certified pair off the diagonal",
+            )
+        if not y0q[0] < params.x_w:
+            raise ParameterError(
+                "y0[0]",
+                decimal_str(y0q[0]),
+                f"y0[0] < x_w = {decimal_str(params.x_w)} for the certified pair",
+            )
 
 
 def certify_coupled(
@@ -875,28 +884,7 @@ def certify_coupled(
     log_target = check_target(target_radius)
     y0q = check_y0(y0, params)
     check_certifiable(params)
-    if kq > 100:  # |e''| is bounded by c0 |e|, ~k^2: beyond this the crossing scan would crawl
-        raise ParameterError("k", decimal_str(kq), "0 <= k <= 100 for the certified pair")
-    c1, c0 = error_coefficients(form, params.zeta, kq)
-    if not c0 > c1 * c1 / 4:
-        raise ParameterError(
-            "k",
-            decimal_str(kq),
-            f"a coupling with c0 > c1^2/4 (underdamped error equation) for the '{form}' form",
-        )
-    if y0q is not None:
-        if not params.x0 < params.x_w:
-            raise ParameterError(
-                "x0",
-                decimal_str(params.x0),
-                f"x0 < x_w = {decimal_str(params.x_w)} for the certified pair off the diagonal",
-            )
-        if not y0q[0] < params.x_w:
-            raise ParameterError(
-                "y0[0]",
-                decimal_str(y0q[0]),
-                f"y0[0] < x_w = {decimal_str(params.x_w)} for the certified pair",
-            )
+    _check_pair(params, kq, form, y0q)
     coupled = y0q is not None
     enforce_max_time(
         max_time, "certify", periods=periods, precision=f"mp:{bits or 128}", coupled=coupled
@@ -927,27 +915,9 @@ def certify_coupled(
             max_time, "certify", periods=periods, precision=f"mp:{bits}", coupled=coupled
         )
     bar = Progress(periods, "certified periods (pair)", enabled=progress)
-    while True:
-        try:
-            res = attempt(periods, bits, bar)
-            missed = missed_target(choice, res.max_log10_radius(), log_target, bits, max_bits)
-            if not missed:
-                bar.close()
-                res.bits_choice = choice
-                return res
-            choice += missed
-        except BudgetExceededError:
-            bar.close()  # end a line redrawn in place before the one-line refusal
-            raise
-        except CertificationError as e:
-            if 2 * bits > max_bits:
-                raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
-            refusal = out_of_reach(e, bits, periods, max_bits)
-            if refusal is not None:
-                bar.close()
-                raise CertificationError(refusal) from None
-            choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
-        bits *= 2
+    return doubling(
+        lambda b, _: attempt(periods, b, bar), bits, choice, periods, max_bits, log_target, bar
+    )
 
 
 class CertifiedCoupledSolver:

@@ -1,47 +1,35 @@
 """Lohner-type enclosures through impacts: the certified state as ``m + B r``.
 
-The interval scheme (:class:`~precise_impact.solvers.certified.single._Engine`) carries the
-state as two balls; the flow rotates the box they span and every period wraps it again, so the
-radius grows faster than the dynamics demands (0.26 decimal digits per period at eta = 0.712
-against the true 0.116).  Here the state at each sample time ``t_k`` is carried as
-
-    ``X_k = m + B r``: ``m`` a point (balls of rounding radius), ``B`` an exact 2x2 matrix
-    (the frame), ``r`` a box of balls centred at 0,
-
-and one period maps it by the mean-value form (Lohner's QR variant, as in CAPD's C^0/C^1
-Lohner algorithm for smooth flows, here through impacts):
-
-* a **low pass**: the interval scheme over one period from the hull of ``X_k``, at low bits
-  (128, doubled on a failure up to the working bits): it proves that every state of ``X_k``
-  has the same impacts, each a transversal crossing inside its time ball, and gives the balls
-  of the impact times and velocities over the whole box;
-* the **Jacobian** ``[DP]`` of the stroboscopic map over ``X_k``: the product of the flight
-  flows ``exp(A tau)`` (:func:`precise_impact.core.flight.flow_matrix`) and the saltation
-  matrices (:func:`precise_impact.core.impact.oscillator_saltation`), each enclosed over the
-  low pass's time and velocity balls;
-* a **point pass** at the working bits from ``m``: the same flights, each impact time narrowed
-  by interval Newton inside the low pass's ball (its isolation is the low pass's proof);
-* the update ``P(X_k) in P(m) + ([DP] B) r``; the new frame ``Q`` from a QR factorisation of
-  ``mid([DP] B)`` (columns ordered by their share of the box), ``r' = (Q^-1 [DP] B) r +
-  Q^-1 (P(m) - m')``, ``B' = Q``.
-
-Each sample ball is ``P(m) + ([DP] B) r`` intersected with the low pass's own image of the
-box (the interval scheme's enclosure, whichever is tighter); when the latter is tighter in
-both components the state restarts from it (``B = I``).  Impacts are enclosed the same way:
-``s in s(m) + (grad s [..] B) r`` from the first-order change of the impact time and velocity,
-intersected with the low pass's balls.
+The interval scheme (:class:`~precise_impact.solvers.certified.single._Engine`) wraps the box
+of its two balls every period (0.26 decimal digits per period at eta = 0.712 against the true
+0.116).  Here the state at each sample is ``m + B r`` (a point, an exact frame, a box of balls
+centred at 0), mapped through one period by the mean-value form: a low pass (the interval
+scheme over the box, proving its impacts), the period map's Jacobian over the box (flight
+flows and saltation matrices), a point pass from ``m``, and a new frame by QR (Lohner's QR
+variant, as in CAPD's C^0/C^1 Lohner algorithm for smooth flows, here through impacts).
+The steps in full: ``docs/numerics.rst``, "Certified trajectories".
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from precise_impact.core import flight
 from precise_impact.core.flow import acceleration
 from precise_impact.core.linalg import gram_schmidt2
 from precise_impact.core.params import Params
 from precise_impact.errors import CertificationError
-from precise_impact.solvers.certified.single import log10_abs
+from precise_impact.solvers.certified.single import (
+    Constants,
+    Flight,
+    Isolator,
+    _Engine,
+    log10_abs,
+    period_jacobian,
+)
+from precise_impact.solvers.certified.single import _flint as _single_flint
 
 __all__ = [
     "LOW_BITS",
@@ -67,9 +55,7 @@ _FLINT: list = []
 def _flint():
     """python-flint (imported once; a missing one is refused by the certified engine first)."""
     if not _FLINT:
-        from precise_impact.solvers.certified.single import _flint as f
-
-        _FLINT.append(f())
+        _FLINT.append(_single_flint())
     return _FLINT[0]
 
 
@@ -149,8 +135,6 @@ class _Prec:
 
 
 def _low_isolator_base():
-    from precise_impact.solvers.certified.single import Isolator
-
     return Isolator
 
 
@@ -205,8 +189,6 @@ class LohnerEngine:
     """
 
     def __init__(self, params: Params, bits: int) -> None:
-        from precise_impact.solvers.certified.single import Constants, Isolator, _Engine
-
         self.p, self.bits = params, bits
         self.c = Constants(params, bits)
         self.iso = Isolator(bits)
@@ -279,8 +261,6 @@ class LohnerEngine:
                 lo = min(2 * lo, self.bits)
 
     def _run(self, periods: int, progress, deadline, samples: list, impacts: list) -> None:
-        from precise_impact.solvers.certified.single import period_jacobian
-
         flint = _flint()
         c = self.c
         # the first period by the interval scheme from the exact start (it handles a start on
@@ -342,8 +322,6 @@ def sum_dot(g, r):
 
 
 def _flight(c, s, x, v):
-    from precise_impact.solvers.certified.single import Flight
-
     return Flight(c, s, x, v)
 
 
@@ -367,8 +345,6 @@ def qr_frame(MB, r):
         q0, q1, u0, u1, _, _ = gram_schmidt2(A[0][i], A[1][i], A[0][j], A[1][j])
         Qf = [[q0, u0], [q1, u1]]
     else:
-        import numpy as np
-
         Qf = np.linalg.qr(np.array(A)[:, order])[0].tolist()
     if not all(math.isfinite(q) for row in Qf for q in row):  # pragma: no cover - overflow
         Qf = [[float(i == j) for j in range(n)] for i in range(n)]

@@ -13,6 +13,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
+from decimal import ROUND_CEILING, Decimal, localcontext
 from fractions import Fraction
 from typing import Any
 
@@ -36,6 +37,7 @@ from precise_impact.errors import (
     OptionalDependencyError,
     ParameterError,
 )
+from precise_impact.io.figures import plot_certified
 from precise_impact.io.progress import Progress
 
 __all__ = [
@@ -58,6 +60,7 @@ __all__ = [
     "Constants",
     "Flight",
     "Isolator",
+    "doubling",
     "point",
     "upper",
     "lower",
@@ -83,7 +86,7 @@ _LOCK = threading.RLock()
 
 def _flint():
     try:
-        import flint
+        import flint  # noqa: PLC0415 -- optional: python-flint loaded on first use
     except ImportError as e:  # pragma: no cover - CI installs it
         raise OptionalDependencyError(
             "python-flint", "certified trajectories (ball arithmetic)", "pip install python-flint"
@@ -136,8 +139,6 @@ def ball_str(b, digits: int | None = None) -> tuple[str, str]:
     tuple of str
         Midpoint and radius (the radius with 3 significant digits, rounded up).
     """
-    from decimal import ROUND_CEILING, Decimal, localcontext
-
     mid, rad = exact_value(b.mid()), exact_value(b.rad())
     if digits is None:
         if rad == 0:
@@ -165,8 +166,6 @@ def radius_str(r) -> str:
     string in scientific notation, 3 significant digits rounded up: ``'0'`` only for an exact
     0, never rounded to 0 at any magnitude (a float underflows to 0.0 below 1e-308 and would
     state exactness)."""
-    from decimal import ROUND_CEILING, Decimal, localcontext
-
     q = r if isinstance(r, Fraction) else exact_value(r)
     if q == 0:
         return "0"
@@ -518,8 +517,6 @@ class CertifiedTrajectory(ResultMixin):
         -------
         matplotlib.figure.Figure
         """
-        from precise_impact.io.figures import plot_certified
-
         return plot_certified(self, path, units=units, components=components)
 
     def radii(self) -> list[float]:
@@ -701,7 +698,7 @@ def _run(
 ) -> tuple[list, list]:
     with working_bits(bits):
         if method == "lohner":
-            from precise_impact.solvers.certified.lohner import LohnerEngine
+            from precise_impact.solvers.certified.lohner import LohnerEngine  # noqa: PLC0415 -- import cycle: lohner builds on this module
 
             return LohnerEngine(params, bits).run(periods, progress, deadline)
         return run_balls(params, periods, bits, progress=progress, deadline=deadline)[:2]
@@ -883,6 +880,44 @@ def missed_target(
     return f"; radius 1e{log10_radius:.1f} missed the target at {bits} bits, retried at {2 * bits}"
 
 
+def doubling(
+    attempt: Callable[[int, str], Any],
+    bits: int,
+    choice: str,
+    periods: int,
+    max_bits: int,
+    log_target: float,
+    bar: Progress,
+) -> Any:
+    """Run ``attempt(bits, choice)`` and retry at twice the bits after a failed proof or a
+    missed target, up to ``max_bits``; the result (its ``bits_choice`` the whole story).
+
+    Shared by :func:`certify` and
+    :func:`~precise_impact.solvers.certified.coupled.certify_coupled`.
+    """
+    while True:
+        try:
+            res = attempt(bits, choice)
+            missed = missed_target(choice, res.max_log10_radius(), log_target, bits, max_bits)
+            if not missed:
+                bar.close()  # the run reported every period; show a throttled last one
+                res.bits_choice = choice
+                return res
+            choice += missed
+        except BudgetExceededError:
+            bar.close()  # end a line redrawn in place before the one-line refusal
+            raise
+        except CertificationError as e:
+            if 2 * bits > max_bits:
+                raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
+            refusal = out_of_reach(e, bits, periods, max_bits)
+            if refusal is not None:
+                bar.close()
+                raise CertificationError(refusal) from None
+            choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
+        bits *= 2
+
+
 def certify(
     params: Any = None,
     periods: int = 300,
@@ -1010,30 +1045,15 @@ def certify(
         bits, choice = choose_bits(pilot, periods, method, log_target, max_bits, target_radius)
         enforce_max_time(max_time, "certify", periods=periods, precision=f"mp:{bits}")
     bar = Progress(periods, "certified periods", enabled=progress)
-    while True:
+
+    def attempt(b: int, why: str) -> CertifiedTrajectory:
         t0 = time.perf_counter()
-        try:
-            samples, impacts = _run(params, periods, bits, bar, deadline, method)
-            res = CertifiedTrajectory(
-                params, periods, bits, choice, samples, impacts, time.perf_counter() - t0, method
-            )
-            missed = missed_target(choice, res.max_log10_radius(), log_target, bits, max_bits)
-            if not missed:
-                bar.close()  # the run reported every period; show a throttled last one
-                return res
-            choice += missed
-        except BudgetExceededError:
-            bar.close()  # end a line redrawn in place before the one-line refusal
-            raise
-        except CertificationError as e:
-            if 2 * bits > max_bits:
-                raise CertificationError(f"{e} (and up to max_bits = {max_bits})") from None
-            refusal = out_of_reach(e, bits, periods, max_bits)
-            if refusal is not None:
-                bar.close()
-                raise CertificationError(refusal) from None
-            choice += f"; no proof at {bits} bits ({e}), retried at {2 * bits}"
-        bits *= 2
+        samples, impacts = _run(params, periods, b, bar, deadline, method)
+        return CertifiedTrajectory(
+            params, periods, b, why, samples, impacts, time.perf_counter() - t0, method
+        )
+
+    return doubling(attempt, bits, choice, periods, max_bits, log_target, bar)
 
 
 class CertifiedSolver:

@@ -1,21 +1,13 @@
 """Stopping and watching the fast engine's compiled loops: a stop flag they poll, a progress
 counter they publish, and the runner that turns Ctrl-C / SIGTERM into a clean stop.
 
-A Python signal handler runs only in the main thread, between bytecodes: it cannot run while
-that thread is inside a compiled (nopython) loop, and once the loop returns, boxing its
-results calls back into Python, where the pending ``KeyboardInterrupt`` is raised half-way
-through (a ``SystemError`` "returned a result with an exception set", or a segmentation
-fault from a parallel kernel).  So :func:`run_kernel` runs the kernel (compiled with
-``nogil``) in a helper thread that blocks SIGINT and SIGTERM, while the main thread waits in
-Python: the interrupt is raised there at once, sets the kernel's *stop flag*, the kernel
-returns :data:`STATUS_INTERRUPTED` within :data:`POLL_PERIODS` periods, and the interrupt
-goes on (:class:`~precise_impact.errors.Interrupted`) with the work finished so far.  The
-same loop reads the kernel's progress counters and reports them
-(:class:`~precise_impact.io.progress.Progress`).
-
-The flag and the counters are ``int64`` arrays read and written with atomic (relaxed)
-loads and stores (:func:`load_flag`, :func:`store_count`): a plain load of a value the loop
-never writes would be hoisted out of the loop by the compiler, and the flag never seen.
+:func:`run_kernel` runs the kernel (compiled with ``nogil``) in a helper thread that blocks
+SIGINT and SIGTERM while the main thread waits in Python: an interrupt sets the stop flag, the
+kernel returns :data:`STATUS_INTERRUPTED` within :data:`POLL_PERIODS` periods, and
+:class:`~precise_impact.errors.Interrupted` carries the work done so far.  The flag and the
+counters are ``int64`` arrays with atomic loads and stores (:func:`load_flag`,
+:func:`store_count`).  Why (a signal handler cannot run inside a nopython loop; a hoisted
+load): ``docs/design.rst``, "Engines by arithmetic".
 """
 
 from __future__ import annotations

@@ -1,12 +1,11 @@
 """Double-double arithmetic (numba) and the flight's wall gap in it: the fast engine's refinement.
 
-A double-double is an unevaluated sum ``hi + lo`` of two float64 (``|lo| <= ulp(hi) / 2``):
-about 106 bits from float64 operations alone (Dekker's splitting, Knuth's two-sum), so the
-compiled kernel can decide a near-tangential contact that float64 cannot, inside the kernel,
-at the cost of a few hundred flops per evaluation.  :func:`gap_dd` is the compiled copy of
-:class:`precise_impact.core.flight.Flight` in this arithmetic (``tests/solvers/test_dd.py`` pins
-it to the mpmath one).  References: T. J. Dekker, Numer. Math. 18 (1971) 224-242; Y. Hida,
-X. S. Li, D. H. Bailey, *Library for double-double and quad-double arithmetic* (QD, 2001).
+``hi + lo`` of two float64 (``|lo| <= ulp(hi) / 2``): ~106 bits from float64 operations, so the
+kernel decides a near-tangential contact float64 cannot; :func:`gap_dd` is the compiled copy
+of :class:`precise_impact.core.flight.Flight` (pinned to mpmath by
+``tests/solvers/test_fast_refined.py``); ``docs/numerics.rst``, "Refined flights".
+References: T. J. Dekker, Numer. Math. 18 (1971) 224-242; Y. Hida, X. S. Li, D. H. Bailey,
+*Library for double-double and quad-double arithmetic* (QD, 2001).
 """
 
 from __future__ import annotations

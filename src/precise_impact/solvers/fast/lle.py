@@ -72,7 +72,7 @@ QR_EVERY = 4
 # long: one compiled loop (numba) over periods, flights and impacts, carrying the tangent basis,
 # its QR and the per-block sums in locals; the flight itself is _flight.
 @numba.njit(**JIT)
-def lle_orbit(
+def lle_orbit(  # noqa: C901, PLR0912, PLR0915 -- numba kernel: one compiled loop
     eta,
     zeta,
     a,

@@ -33,6 +33,7 @@ from precise_impact.solvers.fast.crossing import (
     refine_crossing,
 )
 from precise_impact.solvers.fast.dd import DD_EPS, dd_period, dd_setup, gap_dd, two_prod
+from precise_impact.solvers.heyoka.single import HeyokaSolver
 
 STATUS_OK = 0
 STATUS_CONTACT = 1  # a tangential contact (rounding-level excursion): rerun with heyoka
@@ -97,7 +98,7 @@ def sample_time(tb, T, T_lo, step, k):
 # long: one compiled loop (numba): the step-halving search carries its bracket, proof bounds
 # and status in locals across iterations; split into calls it would pass ~15 values per step.
 @numba.njit(**JIT)
-def _flight(
+def _flight(  # noqa: PLR0912, PLR0915 -- numba kernel: one compiled loop
     t0,
     x0,
     v0,
@@ -575,8 +576,6 @@ class FastSolver:
         return run(params, periods, per_period)
 
     def _solve_heyoka(self, params, periods: int, per_period: int):
-        from precise_impact.solvers.heyoka.single import HeyokaSolver
-
         traj = HeyokaSolver(self.precision, max_impacts=self.max_impacts).solve(
             params, periods, per_period=per_period
         )
@@ -644,7 +643,7 @@ _MOVED_TO_LLE = ("lle_orbit", "lle_batch", "lle_batch_serial", "fast_lle", "QR_E
 
 def __getattr__(name: str):
     if name in _MOVED_TO_LLE:
-        from precise_impact.solvers.fast import lle
+        from precise_impact.solvers.fast import lle  # noqa: PLC0415 -- import cycle: lle builds on this module
 
         return getattr(lle, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

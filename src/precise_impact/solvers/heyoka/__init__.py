@@ -1,12 +1,9 @@
 """heyoka's Taylor integrators: the reference engine in every precision.
 
-* :mod:`~precise_impact.solvers.heyoka.single` — :class:`HeyokaSolver`, the single oscillator.
-* :mod:`~precise_impact.solvers.heyoka.coupled` — the master-slave pair (:func:`simulate_coupled`).
-* :mod:`~precise_impact.solvers.heyoka.variational` — the variational (tangent + saltation)
-  integrator.
-* :mod:`~precise_impact.solvers.heyoka.batch` — its SIMD batch twin for parameter sweeps.
-* :mod:`~precise_impact.solvers.heyoka.cache` — compiled integrators, a private copy per caller.
-* :mod:`~precise_impact.solvers.heyoka.events` — the one impact recorder of every heyoka engine.
+:mod:`~precise_impact.solvers.heyoka.single` (:class:`HeyokaSolver`), ``coupled`` (the pair,
+:func:`simulate_coupled`), ``variational`` (tangents + saltation) and ``batch`` (its SIMD twin
+for sweeps), ``cache`` (compiled once, a private copy per caller), ``events`` (the one impact
+recorder of every heyoka engine).
 """
 
 from precise_impact.solvers.heyoka.single import HeyokaSolver

@@ -1,25 +1,11 @@
 """The SIMD batch variational integrator (float64): many parameter points in one heyoka batch.
 
-Used by :func:`~precise_impact.analysis.lyapunov.batch.batch_lle` (the statistics).
-
-The same flow (:func:`~precise_impact.core.flow.acceleration`), impact map and saltation
-matrix (:mod:`precise_impact.core.impact`) as
-:mod:`precise_impact.analysis.lyapunov.variational`, integrated by
-``taylor_adaptive_batch`` so that ``batch_size`` parameter points advance together in
-SIMD lanes; each lane keeps its own step size, events and period boundaries.  Used
-by parameter sweeps, where per-point Python overhead would otherwise dominate.
-
-The hard cases are treated exactly as in :mod:`precise_impact.analysis.lyapunov.variational`
-(see its module docstring): the tangents are re-orthonormalised right after every impact (the
-saltation matrix's ``1/v-`` never accumulates, and heyoka's cooldown
-``10 eps max|state| / v-`` does not see large tangent entries), an event whose
-excursion beyond the wall is below the grazing depth
-``16 u (|x_w| + |a| + A_p (1 + eta |t|))`` (``u = 2^-53``, ``A_p`` the lane's steady
-amplitude) is a tangential contact and not an impact, every period runs on the
-lane's local clock ``[L0, L1]``
-(``L0 = fl(t0 mod T)``), and a non-terminal event on ``v`` checks ``x`` at every
-maximum (a maximum beyond the wall by more than 4 grazing depths is a missed impact:
-:class:`~precise_impact.errors.MissedImpactError`).
+Used by :func:`~precise_impact.analysis.lyapunov.batch.batch_lle` (the statistics) for
+parameter sweeps: ``taylor_adaptive_batch`` advances ``batch_size`` points together in SIMD
+lanes, each with its own steps, events and period boundaries (its local clock).  The flow, the
+impact map, the saltation matrix and the hard cases (QR right after every impact, grazing
+contacts, the missed-impact guard) are those of :mod:`~precise_impact.solvers.heyoka.variational`:
+``docs/numerics.rst``, "SIMD batch (sweeps)".
 """
 
 from __future__ import annotations
@@ -130,7 +116,7 @@ class _BatchSaltation:
         b0 = S[0][0] * p01 + S[0][1] * p11
         a1 = S[1][0] * p00 + S[1][1] * p10
         b1 = S[1][0] * p01 + S[1][1] * p11
-        # QR at once (module docstring of the variational method): the logs carry the growth.
+        # QR at once (docs/numerics.rst, variational equations): the logs carry the growth.
         st[2, i], st[4, i], st[3, i], st[5, i], r11, r22 = gram_schmidt2(a0, a1, b0, b1)
         self.log1[i] += math.log(r11)
         if r22 > 0:
@@ -187,13 +173,13 @@ _INTEGRATORS = IntegratorCache("batch-variational")  # compiled once; every call
 
 def default_batch_size() -> int:
     """heyoka's recommended SIMD width for float64 on this CPU (8 with AVX-512, 4 with AVX2)."""
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     return max(1, int(hy.recommended_simd_size()))
 
 
 def _integrator(batch_size: int):
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     def compile_():
         x, v = hy.make_vars("x", "v")
@@ -220,30 +206,10 @@ def _integrator(batch_size: int):
     return _INTEGRATORS.get(batch_size, compile_)
 
 
-def integrate_group(group, B: int, periods: int, transient: int, max_impacts: int):
-    """Integrate ``B`` points (one SIMD lane each) for ``transient + periods`` periods.
-
-    Returns ``(l1, l2, xs, vs, T, impacts, grazing, refused)``: per measured period and lane the
-    logs ``ln r11``, ``ln r22`` (in-callback QRs of the impacts included) and the
-    stroboscopic samples (arrays ``(periods, B)``), each lane's period ``T`` on its local
-    clock, the impacts in the measured periods, the tangential contacts of the whole run, and
-    per lane ``None`` or why it was refused (an ``R = 1`` bounce sequence without end).
-    """
-    import heyoka as hy
-
-    ta = _integrator(B)
-    rec = ta.t_events[0].callback
-    amp = np.array([steady_amplitude(p) for p in group])
-    rec.reset(B, max_impacts, amp)
-    grd = ta.nt_events[0].callback
-    grd.reset(B, amp)
-    ta.pars[:] = np.array([[float(getattr(p, n)) for p in group] for n in RUNTIME_PARAMS])
-    st = np.zeros((6, B))
+def _group_start(ta, group, L0: np.ndarray) -> np.ndarray:
+    """Each lane's start state (tangents at the identity) set in ``ta``; the start times."""
     P64 = Precision.parse("float64")
-    clocks = [local_clock(P64, p.t0, p.eta) for p in group]
-    L0 = np.array([c[0] for c in clocks])
-    L1 = np.array([c[1] for c in clocks])
-    T = L1 - L0  # the period each lane integrates (the local clock's)
+    st = np.zeros((6, len(L0)))
     start = L0.copy()  # a lane that starts stuck on the wall starts at its release
     for i, p in enumerate(group):
         x0, v0 = float(p.x0), float(p.v0)
@@ -258,6 +224,78 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     ta.state[:] = st
     ta.set_time(start)
     ta.reset_cooldowns()
+    return start
+
+
+def _group_propagate(ta, rec, grd, group, target, max_impacts: int) -> None:
+    """All lanes to ``target``; the budget, the outcome and the missed-impact guard checked."""
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
+
+    ta.propagate_until(target)
+    if rec.exceeded:
+        raise BudgetExceededError(
+            f"impact budget max_impacts={max_impacts} exhausted in a batch lane"
+        )
+    if any(r[0] != hy.taylor_outcome.time_limit for r in ta.propagate_res):
+        raise IntegrationError(f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}")
+    if grd.first_miss is not None:
+        i, t_m, over = grd.first_miss
+        raise MissedImpactError(
+            f"batch lane {i} ({group[i]}): a maximum of x lies {over:.3g} beyond the "
+            f"wall at local time {t_m:.17g} with no impact event: heyoka's event "
+            "detection missed an impact"
+        )
+
+
+def _group_inner_qr(s, moved: np.ndarray, s1: np.ndarray, s2: np.ndarray) -> None:
+    """Re-orthonormalise the tangents of the lanes inside their period (``moved``); their
+    logs added to ``s1``, ``s2``."""
+    q0, q1, u0, u1, r11, r22 = gram_schmidt2(s[2], s[4], s[3], s[5], np.sqrt)
+    s[2], s[4] = np.where(moved, q0, s[2]), np.where(moved, q1, s[4])
+    s[3], s[5] = np.where(moved, u0, s[3]), np.where(moved, u1, s[5])
+    with np.errstate(divide="ignore"):
+        s1 += np.where(moved, np.log(r11), 0.0)
+        s2 += np.where(moved, np.log(r22), 0.0)
+
+
+def _group_period(ta, rec, grd, group, k: int, targets: list, m, start, max_impacts: int):
+    """Period ``k`` of every lane in ``len(targets)`` steps; the inner QRs' summed logs."""
+    B, M = len(group), len(targets)
+    s1 = np.zeros(B)
+    s2 = np.zeros(B)
+    for j, target in enumerate(targets, start=1):
+        if k == 1:  # never back before a released lane's start
+            target = np.maximum(target, start)
+        _group_propagate(ta, rec, grd, group, target, max_impacts)
+        if j == M:
+            break
+        # lanes inside their period (at L1 the period's own QR follows)
+        _group_inner_qr(ta.state, j < m, s1, s2)
+    return s1, s2
+
+
+def integrate_group(group, B: int, periods: int, transient: int, max_impacts: int):
+    """Integrate ``B`` points (one SIMD lane each) for ``transient + periods`` periods.
+
+    Returns ``(l1, l2, xs, vs, T, impacts, grazing, refused)``: per measured period and lane the
+    logs ``ln r11``, ``ln r22`` (in-callback QRs of the impacts included) and the
+    stroboscopic samples (arrays ``(periods, B)``), each lane's period ``T`` on its local
+    clock, the impacts in the measured periods, the tangential contacts of the whole run, and
+    per lane ``None`` or why it was refused (an ``R = 1`` bounce sequence without end).
+    """
+    ta = _integrator(B)
+    rec = ta.t_events[0].callback
+    amp = np.array([steady_amplitude(p) for p in group])
+    rec.reset(B, max_impacts, amp)
+    grd = ta.nt_events[0].callback
+    grd.reset(B, amp)
+    ta.pars[:] = np.array([[float(getattr(p, n)) for p in group] for n in RUNTIME_PARAMS])
+    P64 = Precision.parse("float64")
+    clocks = [local_clock(P64, p.t0, p.eta) for p in group]
+    L0 = np.array([c[0] for c in clocks])
+    L1 = np.array([c[1] for c in clocks])
+    T = L1 - L0  # the period each lane integrates (the local clock's)
+    start = _group_start(ta, group, L0)
     total = transient + periods
     l1 = np.zeros((periods, B))
     l2 = np.zeros((periods, B))
@@ -271,37 +309,7 @@ def integrate_group(group, B: int, periods: int, transient: int, max_impacts: in
     targets = [np.where(j < m, L0 + (L1 - L0) * j / m, L1) for j in range(1, M)] + [L1]
     for k in range(1, total + 1):
         rec.t_end = L0 + (total - k + 1) * T
-        s1 = np.zeros(B)
-        s2 = np.zeros(B)
-        for j, target in enumerate(targets, start=1):
-            if k == 1:  # never back before a released lane's start
-                target = np.maximum(target, start)
-            ta.propagate_until(target)
-            if rec.exceeded:
-                raise BudgetExceededError(
-                    f"impact budget max_impacts={max_impacts} exhausted in a batch lane"
-                )
-            if any(r[0] != hy.taylor_outcome.time_limit for r in ta.propagate_res):
-                raise IntegrationError(
-                    f"heyoka batch stopped early: {[r[0] for r in ta.propagate_res]}"
-                )
-            if grd.first_miss is not None:
-                i, t_m, over = grd.first_miss
-                raise MissedImpactError(
-                    f"batch lane {i} ({group[i]}): a maximum of x lies {over:.3g} beyond the "
-                    f"wall at local time {t_m:.17g} with no impact event: heyoka's event "
-                    "detection missed an impact"
-                )
-            if j == M:
-                break
-            s = ta.state
-            moved = j < m  # lanes inside their period (at L1 the period's own QR follows)
-            q0, q1, u0, u1, r11, r22 = gram_schmidt2(s[2], s[4], s[3], s[5], np.sqrt)
-            s[2], s[4] = np.where(moved, q0, s[2]), np.where(moved, q1, s[4])
-            s[3], s[5] = np.where(moved, u0, s[3]), np.where(moved, u1, s[5])
-            with np.errstate(divide="ignore"):
-                s1 += np.where(moved, np.log(r11), 0.0)
-                s2 += np.where(moved, np.log(r22), 0.0)
+        s1, s2 = _group_period(ta, rec, grd, group, k, targets, m, start, max_impacts)
         ta.set_time(L0)  # the forcing is T-periodic: set every lane's clock back one period
         s = ta.state
         q0, q1, u0, u1, r11, r22 = gram_schmidt2(s[2], s[4], s[3], s[5], np.sqrt)

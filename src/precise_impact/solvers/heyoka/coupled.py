@@ -8,7 +8,6 @@ Carroll, Phys. Rev. Lett. 64 (1990) 821; Pikovsky, Rosenblum & Kurths (2001), ch
 from __future__ import annotations
 
 import dataclasses
-import os
 import time as _time
 from fractions import Fraction
 from typing import Any
@@ -31,6 +30,7 @@ from precise_impact.core.params import RUNTIME_PARAMS, Params, check_count, deci
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import BudgetExceededError, IntegrationError, ParameterError
+from precise_impact.io.figures import CoupledPlotMixin
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
 
@@ -127,7 +127,7 @@ def build_coupled_integrator(form: str, precision: Precision):
     ``(eta, zeta, a, R, x_w, k)``; events ``[master, slave]``.  Returns a private
     copy (:class:`~precise_impact.solvers.heyoka.cache.IntegratorCache`).
     """
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     check_form(form)
     key = (form, precision.name)
@@ -163,7 +163,7 @@ def build_coupled_integrator(form: str, precision: Precision):
 
 # ------------------------------------------------------------------ the result
 @dataclasses.dataclass
-class CoupledTrajectory(ResultMixin):
+class CoupledTrajectory(CoupledPlotMixin, ResultMixin):
     """What :func:`simulate_coupled` returns.
 
     Attributes
@@ -269,35 +269,6 @@ class CoupledTrajectory(ResultMixin):
             return np.asarray(a, dtype=float)
         f = np.vectorize(self.precision.to_float, otypes=[float])
         return f(a) if len(a) else np.zeros(0)
-
-    def plot(
-        self,
-        path: str | os.PathLike | None = None,
-        units: str = "dimensionless",
-        components: Any = None,
-        threshold: float | None = None,
-    ):
-        """``|x - y|`` against time on a log axis (:func:`precise_impact.io.figures.plot_coupled`).
-
-        Parameters
-        ----------
-        path : str, os.PathLike or None, default ``None``
-            Also write the figure there (``.png``, ``.pdf``, ``.svg``, atomically).
-        units : {'dimensionless', 'circuit'}, default ``'dimensionless'``
-            ``'circuit'``: seconds and ``|V_s1 - V_s2|`` in volts of ``components`` (default:
-            the nominal design of :attr:`params`).
-        components : Components or None
-            The design for ``units='circuit'``.
-        threshold : float or None
-            Drawn as a dashed line.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        from precise_impact.io.figures import plot_coupled
-
-        return plot_coupled(self, path, units=units, components=components, threshold=threshold)
 
     def difference(self, dense: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """``(t, |x - y|)`` as float64 (stroboscopic, or dense if ``dense``).
@@ -458,7 +429,7 @@ class HeyokaCoupledSolver:
         ta.reset_cooldowns()
 
         grid = P.array(P.sample_times(params.t0, params.eta, periods, step))
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
         start = _time.perf_counter()
         res = ta.propagate_grid(grid)
@@ -524,7 +495,7 @@ class HeyokaCoupledSolver:
 def __getattr__(name: str):
     # simulate_coupled is the registry's entry point (solvers/simulate.py), over every model
     if name == "simulate_coupled":
-        from precise_impact.solvers.simulate import simulate_coupled
+        from precise_impact.solvers.simulate import simulate_coupled  # noqa: PLC0415 -- import cycle: simulate imports this module
 
         return simulate_coupled
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -176,7 +176,7 @@ def build_integrator(
     )
 
     def compile_():
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
         x, v = hy.make_vars("x", "v")
         p = {name: hy.par[i] for i, name in enumerate(RUNTIME_PARAMS)}
@@ -1048,7 +1048,7 @@ class _Propagation:
 
     def after_flight(self, outcome: Any) -> bool:
         """Why the flight stopped: go on, end the run (False) or raise."""
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
         P, ta, rec, i, n_out = self.P, self.ta, self.rec, self.i, self.n_out
         if outcome == hy.taylor_outcome.time_limit:
@@ -1115,7 +1115,7 @@ class OrbitStepper:
         self.rec.reset(self.budget)
 
     def _check(self, outcome, P: Precision) -> None:
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
         if self.rec.exceeded:
             raise BudgetExceededError(
@@ -1137,7 +1137,7 @@ class OrbitStepper:
         heyoka's ``step`` always stops at a terminal event, so after the loop the
         state is the post-impact state at the impact instant.
         """
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
         n = self.count
         while self.count == n and self.ta.time < t_limit:

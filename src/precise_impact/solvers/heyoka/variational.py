@@ -2,127 +2,13 @@
 
 Used by :func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum` (the
 algorithm: ensemble, statistics, attractors); this module builds and drives the integrator.
-
-The tangent dynamics between impacts are heyoka's first-order variational
-equations (``var_ode_sys``) of the same flow :func:`precise_impact.core.flow.acceleration`.
-heyoka does not know about the discontinuity: at every impact the terminal-event
-callback maps the tangent matrix through the saltation matrix
-(:func:`precise_impact.core.impact.oscillator_saltation`), ``Phi+ = S Phi-``.  The
-tangent matrix is re-orthonormalised (Gram-Schmidt = QR; Benettin et al.,
-Meccanica 15 (1980) 21-30; Shimada & Nagashima, Prog. Theor. Phys. 61 (1979)
-1605) *right after every impact* and at the end of every ``CHUNK`` (8) periods; the
-logs of the diagonal of R accumulate the two exponents, per period (*Per-period
-logs* below).  A chunk never spans more than ``8 / (zeta + sqrt(max(zeta^2 - 1, 0)))``
-time units (:func:`~precise_impact.solvers.heyoka.variational.chunk_layout`: fewer periods
-per chunk, or a long period cut into steps with a QR after each), since heyoka's error
-control is relative to the whole state and tangents shrunk far below ``(x, v)`` would be
-integrated as noise (measured at eta = 0.001, non-impacting: LLE -0.0045 for -zeta = -0.05).
-Müller, Chaos Solitons Fractals 5 (1995) 1671 introduced the saltation-matrix treatment
-for impacting systems.
-
-Hard cases
-----------
-*Near-grazing impacts: the 1/v- of the saltation matrix.*  For the oscillator
-``S = [[-R, 0], [s, -R]]`` with ``s = (1 + R)(a cos(eta t) - x_w) / v-``
-(:mod:`precise_impact.core.impact`), so ``|s|`` grows without bound as the impact
-velocity ``v- -> 0``.  Three things could go wrong and are prevented:
-
-1. *Overflow.*  ``S Phi`` has entries ``~|s| |Phi|``.  Applying ``S`` and then
-   re-orthonormalising immediately (in the impact callback) leaves entries of
-   size ``<= 1`` after every impact, whose logs ``ln r11``, ``ln r22`` are added
-   to the current period's logs (QR of a product = product of the R factors, so
-   the per-period logs are, in exact arithmetic, the same as with one QR at the
-   period end).  The largest value ever formed is ``|s|`` times an entry ``<= 1``
-   (times the growth of the smooth flow within one period, < 2 here): overflow
-   needs ``v- < ~1e-308`` in float64 and never happens in practice (float64
-   cannot resolve an impact with ``v- < ~1e-8``, see 3.), and the MPFR exponent
-   range of ``mp:BITS`` is astronomically wide.  Every log is finite unless
-   ``R = 0`` (``det S = 0``: ``lambda2 = -inf``, see :func:`_gram_schmidt`).
-2. *heyoka's event machinery sees the tangents.*  heyoka measures errors against
-   the infinity norm of the *whole* state, tangent entries included
-   (``g_eps = eps * max|state|``, ``taylor_adaptive.cpp``), and after a terminal
-   event it ignores the same event for a cooldown of ``10 g_eps / |g'|``
-   (``taylor_deduce_cooldown``, ``src/detail/event_detection.cpp``), here
-   ``10 g_eps / v-``.  Large tangent entries therefore lengthen the cooldown and
-   hide the next impacts: measured with identity tangents scaled by ``1e17`` at
-   eta = 0.712, R = 0.8, the cooldown after the first impact became 5.3 time
-   units (8 of 13 impacts in 20 periods found, the mass went through the wall to
-   x = 2.76) and with ``1e18`` 682 time units (1 of 13).  Renormalising right
-   after each impact keeps ``max|state|`` at the size of ``(x, v)``, so the
-   cooldown is the plain integrator's.
-3. *Contacts at rounding level are not impacts.*  An orbit whose maximum lies
-   within rounding of the wall (exact grazing) may or may not produce an event,
-   at random, with ``v-`` at the rounding level (measured on the grazing steady
-   orbit, x_w = amplitude to 1 ulp: ``v- ~ 1e-8`` in about half of the periods).
-   Applying the impact there kicks ``v`` by ``(1 + R) v-`` and multiplies the
-   tangents by ``|s| ~ 1e8`` on the strength of a rounding error: measured
-   (eta = 0.70, x_w = amplitude rounded down), the grazing steady orbit then
-   leaves for the impacting chaotic attractor within 4 periods (impact speeds
-   1.7e-8, 1.5e-4, 1.3e-2: Nordmark's square-root map amplifies the rounding-level
-   kick) and the LLE comes out as +0.034 instead of -zeta.  As for the robust
-   analytical finder (:class:`~precise_impact.solvers.closed_form.AnalyticalSolver`,
-   ``stats["grazing"]``), an event whose excursion beyond the wall,
-   ``depth = v-^2 / (2 |x''|)`` (``x'' < 0``: a maximum), is below the grazing
-   depth ``delta(t)`` is a tangential *contact*: no reset, no saltation, counted
-   in ``stats["grazing"]``.  Default ``delta(t) = 16 u (|x_w| + |a| + A_p
-   (1 + eta |t|))`` with ``u = 2^-bits`` the unit roundoff and ``A_p`` the
-   steady-state amplitude (:func:`~precise_impact.core.flow.steady_state`): a few
-   roundings of the terms of the Taylor evaluation, plus the rounding of the
-   forcing phase (heyoka evaluates ``cos(eta t)`` with ``t`` rounded, an absolute
-   phase error ``u eta |t|`` that jitters the orbit's amplitude by ``~u eta |t|
-   A_p``), times 16 for safety.  Measured apparent depths of the events on grazing
-   steady orbits (eta = 0.6, 0.70, 0.712, 0.74, 2e4 periods on an absolute clock):
-   ``<= 2.1 u eta |t| A_p`` and ``~5e-16`` in the first periods.  An event with
-   ``v- <= 0`` (rounding) is a contact as well; ``x'' >= 0`` at small ``v-``
-   (pushed into the wall) is always an impact.
-
-*Time.*  The forcing is ``T``-periodic, so every chunk of ``CHUNK`` periods is
-integrated on the same local grid ``L0 .. L0 + CHUNK T`` with the clock set back to
-``L0`` afterwards (:func:`precise_impact.core.clock.local_grid`; the two-trajectory
-method does the same every period): ``|t|`` stays below ``(CHUNK + 1) T``, so the
-forcing-phase rounding ``u eta |t|`` and the grazing depth ``delta(t)`` stay at the
-level of the first chunk for any run length.  The rounding of a whole chunk stays
-in the state when the clock is set back, so the grazing depth is taken at the
-chunk's last clock value, ``delta(L0 + CHUNK T)``, for every event of the run
-(measured on the grazing steady orbit at eta = 0.70: with ``delta(t)`` at the event's
-own clock, a touch early in a chunk had an apparent depth of 1.2e-14 against
-``delta(0.19) = 9e-15`` and was taken for an impact)
-(with absolute time the apparent depth on the grazing orbit grew to 4e-11 after
-2e4 periods).
-
-*Per-period logs.*  A chunk of ``CHUNK`` periods is one ``propagate_grid`` call
-with an output at every period boundary (no Python work per period).  The tangent
-state ``Phi_s`` starts the chunk orthonormal and is only touched by the in-callback
-QR, so the true tangent matrix is ``Phi_s(t) U(t)`` with ``U`` the product of the
-upper-triangular factors taken so far; the diagonal of a product of upper-triangular
-matrices is the product of the diagonals, hence the cumulative logs at a period
-boundary ``g`` are ``ln r_ii(QR(Phi_s(g)))`` plus the in-callback logs of the
-impacts at times ``<= g``, and a period's logs are the differences.  Between impacts
-``Phi_s`` grows at most like the smooth flow over one chunk (its norm stays ~1: the
-flow of the damped oscillator does not amplify, it rotates and shrinks), so
-overflow, and heyoka's cooldown seeing large tangents (2. above), cannot arise.
-The columns align at most by ``exp((lambda1 - lambda2) t)`` between impacts within a
-chunk (``~e^11`` at eta = 0.712 for 8 impact-free periods), which costs ``ln r22``
-at most ~5 of float64's 16 digits relative to a per-period QR, far below the
-statistical error.
-
-*Missed impacts: the guard.*  heyoka's event detection isolates the roots of the
-event polynomial of each step (Descartes' rule of signs with bisection) and
-refines them with TOMS 748; its documentation warns that roots of multiplicity
-> 1 (a tangency) can be missed (heyoka.py tutorial "Event detection",
-"Limitations and caveats: badly-conditioned event equations"), and a root
-whose refinement fails (TOMS 748 reporting an ``errno``, or too many iterations)
-is dropped with a logged warning (``event_detection.cpp``).  Measured: on the
-grazing steady orbit (eta = 0.74, x_w = amplitude rounded to nearest) heyoka
-logged "returned a nonzero errno with message 'Numerical argument out of domain'"
-once in 2000 periods; the dropped root was a maximum at exactly ``x - x_w = 0.0``
-(a rounding-level tangency, a contact).  As a check independent of that machinery, a
-non-terminal event on ``v`` (direction negative: every maximum of ``x``)
-evaluates ``x`` at the maximum (dense output): a maximum beyond the wall by more
-than ``4 delta(t)`` can only be a missed impact (contacts stay within
-``delta(t)``); it raises :class:`MissedImpactError` (``guard=True``) or is counted
-(``guard=False``).  Measured: no float64 or mp miss above rounding level; the
-guard fires on the deliberately inflated-cooldown case of 2. above.
+Between impacts heyoka's first-order variational equations (``var_ode_sys``); at every impact
+the terminal-event callback maps the tangents through the saltation matrix, ``Phi+ = S Phi-``,
+and re-orthonormalises them at once (QR; the logs of R's diagonal accumulate the exponents).
+The hard cases (the ``1/v-`` of ``S`` near grazing, heyoka's cooldown, rounding-level contacts),
+the local clock (*Time*), the *Per-period logs* and the missed-impact *guard*:
+``docs/numerics.rst``, "Variational equations with the saltation matrix".  References:
+Benettin et al., Meccanica 15 (1980) 21-30; Müller, Chaos Solitons Fractals 5 (1995) 1671.
 """
 
 from __future__ import annotations
@@ -171,6 +57,7 @@ from precise_impact.errors import (
 from precise_impact.io.progress import Progress
 from precise_impact.solvers.heyoka.cache import IntegratorCache
 from precise_impact.solvers.heyoka.events import ImpactRecorder
+from precise_impact.solvers.heyoka.single import _below_wall, _Wall
 
 __all__ = [
     "build_variational_integrator",
@@ -202,7 +89,7 @@ class _SaltationRecorder(ImpactRecorder):
     smallest ``v-`` of an impact, ``max_contact_speed`` largest ``v-`` of a contact,
     ``max_saltation`` largest ``|S[1][0]|``.  The logs of the in-callback QR are
     appended to ``qr_t``/``qr_log1``/``qr_log2`` (impact time, ``ln r11``, ``ln r22``)
-    until :meth:`take_logs` hands them over (module docstring, *Per-period logs*).
+    until :meth:`take_logs` hands them over (docs/numerics.rst, *Per-period logs*).
 
     In float64 the callback works on Python floats: the parameters are converted
     once (:meth:`reset`), the state is read with one ``tolist`` and written with one
@@ -285,7 +172,7 @@ class _SaltationRecorder(ImpactRecorder):
             return True
         S = oscillator_saltation(t, vb, eta, zeta, a, x_w, R, self.cos)
         (s00, s01), (s10, s11) = S
-        # Renormalise at once (module docstring, 1. and 2.): the logs carry the growth.
+        # Renormalise at once (docs/numerics.rst, hard cases 1. and 2.): the logs carry the growth.
         q0, q1, u0, u1, r11, r22 = gram_schmidt2(
             s00 * p00 + s01 * p10,
             s10 * p00 + s11 * p10,
@@ -362,7 +249,7 @@ def build_variational_integrator(precision: Precision, tol: Any = None):
     direction: maxima of ``x``, :class:`_MaximumGuard`).  ``tol`` as in
     :class:`~precise_impact.HeyokaSolver` (``None``: the precision's epsilon).
     """
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
 
     key = (precision.name, None if tol is None else precision.to_str(tol))
 
@@ -429,7 +316,7 @@ def _state_logs(rows, sqrt, log) -> tuple[list, list]:
 
 
 #: Forcing periods per ``propagate_grid`` call of the variational integration
-#: (module docstring, *Per-period logs*): the clock is set back after each call.
+#: (docs/numerics.rst, *Per-period logs*): the clock is set back after each call.
 CHUNK = 8
 
 
@@ -451,6 +338,151 @@ def chunk_layout(period: float, zeta: Any) -> tuple[int, int]:
     return 1, math.ceil(period / h)
 
 
+class _Orbit:
+    """One orbit of :func:`integrate_orbit`: the integrator, its clock grid and the steps."""
+
+    def __init__(self, ta, rec, guard, P, params: Params, left: int, check_guard: bool) -> None:
+        self.ta, self.rec, self.guard, self.P, self.params = ta, rec, guard, P, params
+        import heyoka as hy  # noqa: PLC0415 -- optional: heyoka loaded on first use (the module imports without it)
+
+        self.time_limit = hy.taylor_outcome.time_limit
+        self.check_guard = check_guard
+        self.period = period_float(params.eta)
+        self.chunk, self.sub = chunk_layout(self.period, params.zeta)
+        self.grid = local_grid(P, params.t0, params.eta, self.chunk, self.sub)
+        self.L0 = self.grid[0]
+        fns: tuple[Any, Any] = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
+        self.sqrt, self.log = fns
+        self.grids: dict[int, Any] = {}
+        self.left = left  # periods still to run (the bounce prediction's horizon)
+        self.subgrids = (
+            [P.array(self.grid[j : j + 2]) for j in range(self.sub)] if self.sub > 1 else []
+        )
+
+    def start(self) -> None:
+        """The initial state with the tangents at the identity (an impact at the start applied)."""
+        P, params, ta = self.P, self.params, self.ta
+        conv = P.from_fraction
+        one, zero = conv(Fraction(1)), conv(Fraction(0))
+        x0, v0 = conv(params.x0), conv(params.v0)
+        if impact_at_start(params.x0, params.v0, params.x_w, params.R):
+            v0 = reset_velocity(v0, conv(params.R))
+            # leave a rounding-level distance below the wall: a propagation that starts on it
+            # can miss the next impact (measured: x0 = x_w = 0, v0 = 1/4, the force into the
+            # wall: the impact at t ~ 0.5 was missed, MissedImpactError 0.976 beyond the wall)
+            x0 = _below_wall(P, params.x_w)
+        # the grazing depth at the chunk's last clock value (docs/numerics.rst, *Time*)
+        self.rec.t_depth = self.guard.t_depth = self.grid[-1]
+        ta.time = self.L0
+        ta.state[:] = P.array([x0, v0, one, zero, zero, one])
+        ta.reset_cooldowns()
+
+    def run(self, g):
+        """Propagate over the grid ``g`` (starting at the clock's value); the grid states."""
+        ta, rec, P = self.ta, self.rec, self.P
+        res = ta.propagate_grid(g)
+        oc = res[0]
+        if rec.refusal is not None:
+            raise EndlessBouncesError(rec.refusal)
+        if rec.exceeded:
+            raise BudgetExceededError(
+                f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}"
+            )
+        if oc != self.time_limit:
+            raise IntegrationError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
+        if self.check_guard and self.guard.missed:
+            t_m, over = self.guard.first_miss
+            raise MissedImpactError(
+                f"a maximum of x lies {over:.3g} beyond the wall x_w = {float(self.params.x_w)!r} "
+                f"at local time {t_m:.17g} with no impact event (more than {GUARD_FACTOR} "
+                "grazing depths): heyoka's event detection missed an impact; the result cannot "
+                "be trusted"
+            )
+        return res[-1]
+
+    def advance(self, k):
+        """``k <= chunk`` periods from ``L0``; the grid states (rows ``1..k``)."""
+        g = self.grids.get(k)
+        if g is None:
+            g = self.grids[k] = self.P.array(self.grid[: k + 1])
+        self.ta.time = self.L0  # the forcing is T-periodic: the clock starts every chunk at L0
+        self.rec.t_end = float(self.L0) + self.left * self.period
+        self.left -= k
+        return self.run(g)
+
+    def one_period(self):
+        """One period in ``sub`` steps, the tangents re-orthonormalised after each (a long
+        period: :func:`chunk_layout`); the state QRs' summed logs and the period-end state."""
+        self.ta.time = self.L0
+        self.rec.t_end = float(self.L0) + self.left * self.period
+        self.left -= 1
+        s1 = s2 = 0.0
+        row = None
+        for g in self.subgrids:
+            row = self.run(g)[-1]
+            a, b = _gram_schmidt(self.ta.state, self.sqrt, self.log)
+            s1, s2 = s1 + float(a), s2 + float(b)
+        return s1, s2, row
+
+    def transient(self, done: int, transient: int) -> None:
+        """Periods ``done..transient``, the tangents kept bounded (their logs discarded later)."""
+        while done < transient:
+            if self.sub > 1:
+                self.one_period()
+                done += 1
+                continue
+            k = min(self.chunk, transient - done)
+            self.advance(k)
+            _gram_schmidt(self.ta.state, self.sqrt, self.log)  # keep the tangents bounded too
+            done += k
+
+    def measure_long(self, out, done: int, periods: int, bar) -> int:
+        """Measured periods one at a time in ``sub`` QR steps (a long period); periods done."""
+        l1, l2, sx, sv, ni = out
+        while done < periods and self.sub > 1:
+            s1, s2, row = self.one_period()
+            _, c1, c2 = self.rec.take_logs()
+            p1 = p2 = 0.0
+            for u, w in zip(c1, c2, strict=True):
+                p1, p2 = p1 + u, p2 + w
+            l1[done], l2[done] = p1 + s1, p2 + s2
+            ni[done] = len(c1)
+            sx[done], sv[done] = row[0], row[1]
+            done += 1
+            bar.update(done)
+        return done
+
+    def measure_chunks(self, out, done: int, periods: int, bar) -> None:
+        """Measured periods ``CHUNK`` at a time, each period's logs attributed by its end."""
+        l1, l2, sx, sv, ni = out
+        P, grid = self.P, self.grid
+        while done < periods:
+            k = min(self.chunk, periods - done)
+            rows = self.advance(k)[1:]
+            # a period's logs: those of the in-callback QRs of its impacts, plus the change
+            # of the tangent state's own QR logs (the state restarted orthonormal at L0)
+            a1, a2 = _state_logs(
+                rows.tolist() if P.kind == "float64" else rows, self.sqrt, self.log
+            )
+            ct, c1, c2 = self.rec.take_logs()
+            s1 = s2 = 0.0
+            j = 0
+            for i in range(k):
+                g = grid[i + 1]
+                p1 = p2 = 0.0
+                while j < len(ct) and ct[j] <= g:
+                    p1 += c1[j]
+                    p2 += c2[j]  # -inf after a plastic impact (R = 0); the state logs stay finite
+                    j += 1
+                    ni[done + i] += 1
+                l1[done + i], l2[done + i] = p1 + (a1[i] - s1), p2 + (a2[i] - s2)
+                s1, s2 = a1[i], a2[i]
+            sx[done : done + k], sv[done : done + k] = rows[:, 0], rows[:, 1]
+            _gram_schmidt(self.ta.state, self.sqrt, self.log)  # its logs: a1[-1], a2[-1], counted
+            done += k
+            bar.update(done)
+
+
 def integrate_orbit(
     ta,
     rec,
@@ -466,102 +498,22 @@ def integrate_orbit(
     """Transient, then ``periods`` measured periods; returns per-period logs and samples.
 
     Integrated ``CHUNK`` periods per ``propagate_grid`` call on the local clock
-    (module docstring, *Time* and *Per-period logs*).
+    (docs/numerics.rst, *Time* and *Per-period logs*).
     """
-    import heyoka as hy
-
-    conv = P.from_fraction
-    one, zero = conv(Fraction(1)), conv(Fraction(0))
-    x0, v0 = conv(params.x0), conv(params.v0)
-    if impact_at_start(params.x0, params.v0, params.x_w, params.R):
-        v0 = reset_velocity(v0, conv(params.R))
-        # leave a rounding-level distance below the wall: a propagation that starts on it
-        # can miss the next impact (measured: x0 = x_w = 0, v0 = 1/4, the force into the
-        # wall: the impact at t ~ 0.5 was missed, MissedImpactError 0.976 beyond the wall)
-        from precise_impact.solvers.heyoka.single import _below_wall
-
-        x0 = _below_wall(P, params.x_w)
-    period = period_float(params.eta)
-    chunk, sub = chunk_layout(period, params.zeta)
-    grid = local_grid(P, params.t0, params.eta, chunk, sub)
-    L0 = grid[0]
-    # the grazing depth at the chunk's last clock value (module docstring, *Time*)
-    rec.t_depth = guard.t_depth = grid[-1]
-    ta.time = L0
-    ta.state[:] = P.array([x0, v0, one, zero, zero, one])
-    ta.reset_cooldowns()
-    sqrt, log = (math.sqrt, math.log) if P.kind == "float64" else (np.sqrt, np.log)
-    grids: dict[int, Any] = {}
-    left = [transient + periods]  # periods still to run (the bounce prediction's horizon)
-
-    def run(g):
-        """Propagate over the grid ``g`` (starting at the clock's value); the grid states."""
-        res = ta.propagate_grid(g)
-        oc = res[0]
-        if rec.refusal is not None:
-            raise EndlessBouncesError(rec.refusal)
-        if rec.exceeded:
-            raise BudgetExceededError(
-                f"impact budget max_impacts={rec.max_impacts} exhausted at t={P.to_str(ta.time)}"
-            )
-        if oc != hy.taylor_outcome.time_limit:
-            raise IntegrationError(f"heyoka stopped with outcome {oc} at t={P.to_str(ta.time)}")
-        if check_guard and guard.missed:
-            t_m, over = guard.first_miss
-            raise MissedImpactError(
-                f"a maximum of x lies {over:.3g} beyond the wall x_w = {float(params.x_w)!r} "
-                f"at local time {t_m:.17g} with no impact event (more than {GUARD_FACTOR} "
-                "grazing depths): heyoka's event detection missed an impact; the result cannot "
-                "be trusted"
-            )
-        return res[-1]
-
-    def advance(k):
-        """``k <= chunk`` periods from ``L0``; the grid states (rows ``1..k``)."""
-        g = grids.get(k)
-        if g is None:
-            g = grids[k] = P.array(grid[: k + 1])
-        ta.time = L0  # the forcing is T-periodic: the clock starts every chunk at L0
-        rec.t_end = float(L0) + left[0] * period
-        left[0] -= k
-        return run(g)
-
-    subgrids = [P.array(grid[j : j + 2]) for j in range(sub)] if sub > 1 else []
-
-    def one_period():
-        """One period in ``sub`` steps, the tangents re-orthonormalised after each (a long
-        period: :func:`chunk_layout`); the state QRs' summed logs and the period-end state."""
-        ta.time = L0
-        rec.t_end = float(L0) + left[0] * period
-        left[0] -= 1
-        s1 = s2 = 0.0
-        row = None
-        for g in subgrids:
-            row = run(g)[-1]
-            a, b = _gram_schmidt(ta.state, sqrt, log)
-            s1, s2 = s1 + float(a), s2 + float(b)
-        return s1, s2, row
-
-    pre = _released_start(ta, rec, P, params, grid, sub, run, sqrt, log)
+    orb = _Orbit(ta, rec, guard, P, params, transient + periods, check_guard)
+    orb.start()
+    pre = _released_start(ta, rec, P, params, orb.grid, orb.sub, orb.run, orb.sqrt, orb.log)
     done = 0
     if pre is not None:  # the first period went to the sticking start and its release
-        left[0] -= 1
+        orb.left -= 1
         if transient:
             done = 1
-    while done < transient:
-        if sub > 1:
-            one_period()
-            done += 1
-            continue
-        k = min(chunk, transient - done)
-        advance(k)
-        _gram_schmidt(ta.state, sqrt, log)  # keep the tangents bounded during the transient too
-        done += k
+    orb.transient(done, transient)
     # the transient's logs are discarded, not its basis: the tangents keep the orientation
     # they converged to (a restart at the identity costs a 1/t bias the error bar cannot see)
     rec.take_logs()
     impacts0 = rec.count
-    l1, l2, dt = np.empty(periods), np.empty(periods), np.full(periods, period)
+    l1, l2, dt = np.empty(periods), np.empty(periods), np.full(periods, orb.period)
     sx, sv = np.empty(periods), np.empty(periods)
     ni = np.zeros(periods)  # impacts in each measured period (the attractors' impact-rate test)
     bar = Progress(periods, f"variational LLE{label}", progress)
@@ -572,40 +524,9 @@ def integrate_orbit(
         ni[0] = len(c1)
         sx[0], sv[0] = pre[2][0], pre[2][1]
         done = 1
-    while done < periods and sub > 1:
-        s1, s2, row = one_period()
-        _, c1, c2 = rec.take_logs()
-        p1 = p2 = 0.0
-        for u, w in zip(c1, c2, strict=True):
-            p1, p2 = p1 + u, p2 + w
-        l1[done], l2[done] = p1 + s1, p2 + s2
-        ni[done] = len(c1)
-        sx[done], sv[done] = row[0], row[1]
-        done += 1
-        bar.update(done)
-    while done < periods:
-        k = min(chunk, periods - done)
-        rows = advance(k)[1:]
-        # a period's logs: those of the in-callback QRs of its impacts, plus the change
-        # of the tangent state's own QR logs (the state restarted orthonormal at L0)
-        a1, a2 = _state_logs(rows.tolist() if P.kind == "float64" else rows, sqrt, log)
-        ct, c1, c2 = rec.take_logs()
-        s1 = s2 = 0.0
-        j = 0
-        for i in range(k):
-            g = grid[i + 1]
-            p1 = p2 = 0.0
-            while j < len(ct) and ct[j] <= g:
-                p1 += c1[j]
-                p2 += c2[j]  # -inf after a plastic impact (R = 0); the state logs stay finite
-                j += 1
-                ni[done + i] += 1
-            l1[done + i], l2[done + i] = p1 + (a1[i] - s1), p2 + (a2[i] - s2)
-            s1, s2 = a1[i], a2[i]
-        sx[done : done + k], sv[done : done + k] = rows[:, 0], rows[:, 1]
-        _gram_schmidt(ta.state, sqrt, log)  # its logs are a1[-1], a2[-1], already counted
-        done += k
-        bar.update(done)
+    out = (l1, l2, sx, sv, ni)
+    done = orb.measure_long(out, done, periods, bar)
+    orb.measure_chunks(out, done, periods, bar)
     return l1, l2, dt, sx, sv, rec.count - impacts0, ni
 
 
@@ -614,8 +535,6 @@ def released_at(P: Precision, params: Params, L0: Any) -> Any:
     local time ``L0`` with the force into it (the heyoka solver's sticking decision), or
     ``None`` for a start that does not stick; :class:`ParameterError` if the force never
     turns (the mass stays on the wall for good: no Lyapunov exponents)."""
-    from precise_impact.solvers.heyoka.single import _Wall
-
     wall = _Wall(P, params)
     if not wall.sticks(L0):
         return None
@@ -641,8 +560,6 @@ def _released_start(ta, rec, P, params: Params, grid: list, sub: int, run, sqrt,
     """
     if not (params.x0 == params.x_w and params.v0 == 0):
         return None
-    from precise_impact.solvers.heyoka.single import _below_wall
-
     t_r = released_at(P, params, grid[0])
     if t_r is None:
         return None
