@@ -119,6 +119,61 @@ def test_an_interrupt_inside_an_import_waits_for_the_import(sig, after):
     assert "Traceback" not in r.stderr, r.stderr[-800:]
 
 
+# Where Python prints and drops an exception ("Exception ignored in ..."): the interrupt was
+# lost and the run went on to its end (a fast sweep's SIGTERM inside a worker's fork: logging's
+# at-fork hook; a SIGINT noted in build_parser's imports, cleared as main() began).
+DROPPED_PROGRAM = """
+import multiprocessing, os, pathlib, signal, sys, tempfile, time
+from precise_impact.cli import entry
+
+def kill_and_spin():
+    os.kill(os.getpid(), signal.SIGTERM)
+    for _ in range(1000):  # bytecodes after the signal, still inside the callback
+        pass
+
+class Finalized:
+    def __del__(self):
+        kill_and_spin()
+
+case = "{case}"
+for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM):
+    signal.signal(sig, entry.interrupt)
+t = time.perf_counter()
+try:
+    if case == "before-the-block":  # noted in an import before main()'s block
+        d = tempfile.mkdtemp()
+        pathlib.Path(d, "signalling_mod.py").write_text("import os, signal\\n"
+            "os.kill(os.getpid(), signal.SIGTERM)\\nfor _ in range(1000): pass\\n")
+        sys.path.insert(0, d)
+        import signalling_mod
+    with entry.interrupts():
+        if case == "finalizer":
+            Finalized()
+        elif case == "fork":
+            os.register_at_fork(after_in_parent=kill_and_spin)
+            p = multiprocessing.get_context("fork").Process(target=time.sleep, args=(0.2,))
+            p.start()
+        time.sleep(5)
+    print("not interrupted")
+except KeyboardInterrupt:
+    print(f"interrupted {{time.perf_counter() - t:.3f}}")
+"""
+
+
+@pytest.mark.parametrize("case", ["finalizer", "fork", "before-the-block"])
+def test_an_interrupt_where_python_drops_exceptions_is_raised_after(case):
+    r = subprocess.run(
+        [sys.executable, "-c", DROPPED_PROGRAM.format(case=case)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert r.returncode == 0, r.stderr[-800:]
+    assert "Exception ignored" not in r.stderr, r.stderr[-800:]
+    words = r.stdout.split()
+    assert words[0] == "interrupted" and float(words[1]) < 2.0, (r.stdout, r.stderr[-800:])
+
+
 def test_outside_an_import_the_interrupt_is_raised_at_once():
     program = """
 import os, signal, time

@@ -30,17 +30,26 @@ RECHECK_S = 0.01
 _IMPORT_FRAMES = frozenset(
     {"<frozen importlib._bootstrap>", "<frozen importlib._bootstrap_external>"}
 )
+#: Where an exception raised by the handler is printed and dropped ("Exception ignored in"),
+#: and the interrupt lost: a finalizer, and the fork of a pool's worker (logging's at-fork
+#: hooks: a fast sweep ran on after SIGTERM).  Function names; file name endings.
+_DROPPING_FUNCTIONS = frozenset({"__del__"})
+_DROPPING_FILES = ("multiprocessing/popen_fork.py", "multiprocessing/popen_forkserver.py")
 
 #: Signals noted inside an import and not yet raised (see :func:`interrupt`).
 _deferred: list[int] = []
 
 
 def _importing(frame) -> bool:
-    """Whether ``frame`` runs inside an import (the import machinery is on its stack) or a
-    finalizer (``__del__``, whose exceptions Python prints and drops)."""
+    """Whether ``frame`` runs inside an import (the import machinery is on its stack), a
+    finalizer or a fork (where an exception is printed and dropped)."""
     while frame is not None:
         code = frame.f_code
-        if code.co_filename in _IMPORT_FRAMES or code.co_name == "__del__":
+        if (
+            code.co_filename in _IMPORT_FRAMES
+            or code.co_name in _DROPPING_FUNCTIONS
+            or code.co_filename.endswith(_DROPPING_FILES)
+        ):
             return True
         frame = frame.f_back
     return False
@@ -79,7 +88,8 @@ def interrupts() -> Iterator[None]:
         yield
         return
     before = {sig: signal.getsignal(sig) for sig in _handled()}
-    _deferred.clear()
+    # a signal noted before the block (in build_parser's imports) stays noted: cleared here,
+    # its re-check found nothing to raise and the run went on (exit 0 after a SIGINT)
     for sig in before:
         signal.signal(sig, interrupt)
     try:
