@@ -165,7 +165,7 @@ if wrong:
     sys.exit(f"not the lowest versions: {wrong}")
 print("   installed:", ", ".join(f"{n} {v.strip()}" for n, v in pins))
 PY
-PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cacheprovider \
+PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cacheprovider -n auto \
   --rootdir "$repo" -c "$repo/pyproject.toml" -q \
   "$repo/tests/core/test_params.py" "$repo/tests/solvers/test_heyoka_reference.py" "$repo/tests/solvers/test_closed_form.py" \
   "$repo/tests/analysis/test_variational.py" "$repo/tests/test_threads.py" "$repo/tests/verification/test_reference_data.py" \
