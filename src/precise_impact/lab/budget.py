@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.fast import fast_batch_rows
 from precise_impact.analysis.orbits.landmarks import (
     BranchPoint,
     end_point,
@@ -41,11 +42,16 @@ from precise_impact.analysis.orbits.landmarks import (
 )
 from precise_impact.core.budget import Cost, Deadline, check_cost, parse_max_time
 from precise_impact.core.dual import Dual, seed
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.params import exact
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import ConvergenceError, OptionalDependencyError, ParameterError
+from precise_impact.io.figures import finish, new_figure
 from precise_impact.io.markdown import table as md_table
 from precise_impact.models.circuit.components import Components
 from precise_impact.models.circuit.effects import switch
+from precise_impact.models.circuit.network import OpAmp, network_rhs
+from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.scenes.scene import Scene, load_scene
 
 __all__ = [
     "tolerance_budget",
@@ -167,8 +173,6 @@ class _LinearHy:
 
 
 def _network_matrix(c: dict, gbw: Any):
-    from precise_impact.models.circuit.network import OpAmp, network_rhs
-
     op = OpAmp(gbw=Fraction(float(gbw)), gbw_mode="quasi-static")  # the effect takes floats
 
     def rhs(V_s, V_q, cos_v, sin_v):
@@ -290,8 +294,6 @@ class ToleranceBudget(ResultMixin):
         return {"ranked": self._ranked_columns}
 
     def _ranked_columns(self) -> dict:
-        from precise_impact.core.result import columns
-
         t = self.table
         return columns(
             ("rank", None, [r["rank"] for r in t]),
@@ -433,8 +435,6 @@ class ToleranceBudget(ResultMixin):
         n : int, default 12
             Rows of the ``'ranked'`` figure.
         """
-        from precise_impact.io.figures import finish, new_figure
-
         if what not in ("existence", "ranked"):
             raise ParameterError("what", what, "'existence' or 'ranked'")
 
@@ -510,8 +510,6 @@ class ToleranceBudget(ResultMixin):
 def _design_of(scene_or_components: Any) -> tuple[Components, Fraction, dict, str]:
     """``(design, ron, default tolerances, label)`` from a scene, a scene name/path or
     components."""
-    from precise_impact.scenes.scene import Scene, load_scene
-
     if isinstance(scene_or_components, Components):
         return scene_or_components, Fraction(0), {}, "components"
     sc = scene_or_components
@@ -689,8 +687,6 @@ def tolerance_budget(
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ParameterError("seed", repr(seed), "an integer >= 0")
     if ron is not None:
-        from precise_impact.core.params import exact
-
         ron0 = exact("ron", ron)
         if ron0 < 0:
             raise ParameterError("ron", str(ron), ">= 0 ohm")
@@ -911,7 +907,7 @@ def check_ron(design: Components, ron: Any, given: Any = None) -> None:
 
 def _require_salib() -> None:
     try:
-        import SALib  # noqa: F401
+        import SALib  # noqa: F401, PLC0415 -- optional: loaded on first use
     except ImportError:
         raise OptionalDependencyError(
             "SALib", "pip install 'precise_impact[lab]'", "Sobol indices (or sobol=0)"
@@ -1024,8 +1020,8 @@ def _sobol(
     """SALib's Sobol indices of each landmark frequency over the tolerance box (uniform
     parts), and of the Fig. 6 orbit's existence at the design's eta (an indicator: which
     parts decide whether it holds) when ``orbit`` is given."""
-    from SALib.analyze import sobol as sobol_analyze
-    from SALib.sample import sobol as sobol_sample
+    from SALib.analyze import sobol as sobol_analyze  # noqa: PLC0415 -- optional: loaded on first use
+    from SALib.sample import sobol as sobol_sample  # noqa: PLC0415 -- optional: loaded on first use
 
     names = [INPUTS[i] for i in active]
     problem = {
@@ -1082,9 +1078,6 @@ def _lle_mc(design, x0, sig, c0, ron, vu, n, periods, seed_, deadline=None) -> d
     """The LLE with the generator at ``eta = 0.712`` of the ideal design, over ``n`` draws:
     each draw's effective system run by the fast engine (its variational LLE, batch-means
     standard error)."""
-    from precise_impact.analysis.lyapunov.fast import fast_batch_rows
-    from precise_impact.models.circuit.opamp import design_omega
-
     omega_design = float(design_omega(design))
     W = LLE_ETA * omega_design
     rng = np.random.default_rng([seed_, 712])

@@ -124,9 +124,9 @@ def fast_spectrum(
     )
     while m > 1 and (per // (blocks * m)) * m != per // blocks:
         m -= 1
-    from precise_impact.solvers.fast.control import STATUS_INTERRUPTED
-    from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch
-    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT
+    from precise_impact.solvers.fast.control import STATUS_INTERRUPTED  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
+    from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
+    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     pars, starts = kernel_inputs(params, n)
 
@@ -191,7 +191,7 @@ def fast_spectrum(
 def bounce_refusal(row, start, status, tc, vc, total_periods: int, max_impacts: int):
     """The refusal message of a start the kernel stopped with ``STATUS_ENDLESS_BOUNCES``
     (``tc, vc``: the impact it predicted from; ``row`` = eta, zeta, a, x_w, R), else ``None``."""
-    from precise_impact.solvers.fast.single import STATUS_ENDLESS_BOUNCES
+    from precise_impact.solvers.fast.single import STATUS_ENDLESS_BOUNCES  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     if status != STATUS_ENDLESS_BOUNCES:
         return None
@@ -213,7 +213,7 @@ def _refuse_endless_bounces(pars, starts, status, log1, log2, total_periods, max
 
 def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out) -> LyapunovResult:
     """The :class:`LyapunovResult` of a resolved compiled run (``out``: ``lle_batch``'s arrays)."""
-    from precise_impact.solvers.fast.single import STATUS_TEXT
+    from precise_impact.solvers.fast.single import STATUS_TEXT  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     status, log1, log2, imps, fine, fine_imps, xt, vt, refined = out
     bsums = fine.reshape(n, blocks, m).sum(axis=2)
@@ -364,8 +364,8 @@ def fast_batch_rows(
     list of dict
         As :func:`fast_batch`.
     """
-    from precise_impact.solvers.fast.lle import lle_batch, lle_batch_serial
-    from precise_impact.solvers.fast.single import STATUS_OK
+    from precise_impact.solvers.fast.lle import lle_batch, lle_batch_serial  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
+    from precise_impact.solvers.fast.single import STATUS_OK  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     periods = check_count(periods, "periods", minimum=1)
     transient = check_count(transient, "transient")

@@ -117,12 +117,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import textwrap
 from typing import Any
 
 import numpy as np
 
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import OptionalDependencyError, ParameterError, check_type
+from precise_impact.io.figures import finish, new_figure
 
 __all__ = [
     "TIMESERIES_METHODS",
@@ -308,8 +310,6 @@ class TimeSeriesLLE(ResultMixin):
         -------
         matplotlib.figure.Figure
         """
-        from precise_impact.io.figures import finish, new_figure
-
         fig, axes = new_figure(1, 1, figsize=(7.5, 4.6))
         ax = axes[0][0] if isinstance(axes, np.ndarray) or isinstance(axes, list) else axes
         t = np.asarray(self.lags, dtype=float)
@@ -348,8 +348,6 @@ class TimeSeriesLLE(ResultMixin):
                     label=f"reference slope {truth:.4g}",
                 )
         else:
-            import textwrap
-
             ax.set_title("\n".join(textwrap.wrap("no exponent: " + self.reason, 100)), fontsize=8)
         ax.set_xlabel("time followed")
         ax.set_ylabel("mean ln distance")
@@ -464,7 +462,7 @@ def _noise_floor(noise_sd: np.ndarray) -> float:
     """``E[ln |n1 - n2|]`` for two independent noise vectors of component deviations
     ``noise_sd``: ``ln s + (digamma(d / 2) + ln 2) / 2`` with ``s^2 = 2 mean(sd^2)`` (exact for
     equal deviations: ``|n1 - n2| / s`` is chi-distributed with ``d`` degrees of freedom)."""
-    from scipy.special import digamma
+    from scipy.special import digamma  # noqa: PLC0415 -- optional: loaded on first use
 
     d = len(noise_sd)
     s2 = 2.0 * float(np.mean(np.square(noise_sd)))
@@ -490,7 +488,7 @@ def _fit_floor(
     """``S(t) = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` over ``[lo, hi]``: an exponential
     separation seen through a noise floor ``b`` (the measured distance of a pair is the
     true one and the noise's in quadrature).  ``(lambda, a, b)``."""
-    from scipy.optimize import least_squares
+    from scipy.optimize import least_squares  # noqa: PLC0415 -- optional: loaded on first use
 
     tt, ss = _select(t, s, lo, hi)
     if len(tt) < 4:
@@ -696,7 +694,7 @@ def timeseries_lle(
     if method not in TIMESERIES_METHODS:
         raise ParameterError("method", method, "one of " + ", ".join(TIMESERIES_METHODS))
     try:
-        import scipy  # noqa: F401  (KD-trees, filters, fits)
+        import scipy  # noqa: F401, PLC0415 -- optional: loaded on first use (KD-trees, filters, fits)
     except ImportError:
         raise OptionalDependencyError(
             "scipy", "pip install 'precise_impact[lab]'", "timeseries_lle"
@@ -731,7 +729,7 @@ def timeseries_lle(
         period = _check_positive("period", period)
     cutoff = _cutoff(lowpass, period, dt)
     if cutoff is not None:
-        from scipy.signal import butter, sosfiltfilt
+        from scipy.signal import butter, sosfiltfilt  # noqa: PLC0415 -- optional: loaded on first use
 
         sos = butter(4, cutoff * 2 * dt, output="sos")
         y_raw = y
@@ -974,7 +972,7 @@ def apply_correction(
 
 def student_t975(n_blocks: int) -> float:
     """Student's ``t_{0.975}`` with ``n_blocks - 1`` degrees of freedom."""
-    from scipy.stats import t as student
+    from scipy.stats import t as student  # noqa: PLC0415 -- optional: loaded on first use
 
     return float(student.ppf(0.975, max(1, n_blocks - 1)))
 
@@ -1004,7 +1002,7 @@ def _neighbours(y, n_ref, spp, theiler_n, method, radius, max_neighbors):
     """Reference indices, their neighbours ``(n, k)`` and weights ``(n, k)`` (Rosenstein: one
     neighbour, weight 1; Kantz: up to ``max_neighbors`` within ``radius``, weights
     ``1 / count``).  With ``spp > 0`` the search is within each phase section."""
-    from scipy.spatial import cKDTree
+    from scipy.spatial import cKDTree  # noqa: PLC0415 -- optional: loaded on first use
 
     k_query = max_neighbors if method == "kantz" else 1
     k_ask = k_query + 2 * (theiler_n // max(spp, 1)) + 2 if spp else k_query + 2 * theiler_n + 2
@@ -1062,7 +1060,7 @@ def _phase_drift(y: np.ndarray, spp: int, theiler_n: int, max_refs: int = 20000)
     phase when its grid phases differ by ``-n delta``.  ``delta`` is the maximiser of the
     phase coherence ``|< exp(2 pi i (phi + n delta)) >|`` over ``|delta| <= 0.1``; ``None``
     when the neighbours carry no phase information (coherence at the maximum < 0.2)."""
-    from scipy.spatial import cKDTree
+    from scipy.spatial import cKDTree  # noqa: PLC0415 -- optional: loaded on first use
 
     n = len(y)
     if n < 4 * spp or spp < 4:
