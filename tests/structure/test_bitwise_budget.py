@@ -119,6 +119,8 @@ CASES = {
     "budget_mc": lambda: _budget(mc=40, landmarks=("grazing",), tolerances="0.5%"),
     "budget_no_fd": lambda: _budget(fd_check=False, landmarks=("p3_low", "p3_high")),
     "budget_lle_mc_scans": lambda: _budget(landmarks=("grazing",), lle_mc=2, scans=True),
+    "budget_p3_mc": lambda: _budget(landmarks=("p3_low", "p3_high"), mc=16, fd_check=False),
+    "budget_sobol": lambda: _budget(landmarks=("grazing", "p3_high"), sobol=8, fd_check=False),
     "ts_kantz_tent": lambda: _tslle(
         lambda: _tent(1.8, 3000), 1.0, method="kantz", theiler=10, max_lag=30, lag_step=1
     ),

@@ -671,6 +671,68 @@ def tolerance_budget(
     """
     t_start = time.perf_counter()
     design, ron0, defaults, label = _design_of(scene_or_components)
+    tol, ron0 = _check_arguments(
+        design, ron0, defaults, tolerances, landmarks, mc, sobol, lle_mc, seed, ron
+    )
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "budget")
+    say = progress or (lambda _m: None)
+    lin = _linearise(design, ron0)
+    sig = np.array([tol[n] for n in INPUTS])
+    result_lm: dict = {}
+    points: dict[str, BranchPoint] = {}
+    orbit_d, p3_why, ends = _fig6_orbit(landmarks, lin, say)
+    for name in [n for n in landmarks if n in BRANCH_LANDMARKS]:
+        deadline.check(f"before landmark {name}")
+        say(f"landmark {name}: located by continuation, polished on its augmented system")
+        try:
+            bp = _locate(name, orbit_d, ends, p3_why, lin.theta0)
+        except (ConvergenceError, ValueError) as e:
+            result_lm[name] = {"absent": str(e)}
+            continue
+        points[name] = bp
+        result_lm[name] = _derivatives(name, bp, lin, sig, fd_check, deadline, say)
+    table = _ranked(result_lm, tol)
+
+    rng = np.random.default_rng(seed)
+    active = [i for i, n in enumerate(INPUTS) if sig[i] > 0]
+    if mc and points:
+        say(f"Monte Carlo: {mc} draws (seed {seed})")
+        _monte_carlo(points, orbit_d, result_lm, rng, mc, lin, sig, deadline)
+    if sobol and points and active:
+        say(f"Sobol indices: N = {sobol}, {len(active)} inputs")
+        _sobol(
+            points, result_lm, lin.x0, sig, active, lin.c0, lin.ronf, lin.vu, sobol, seed,
+            orbit_d, deadline,
+        )  # fmt: skip
+    for name in points:
+        result_lm[name]["worst_case"] = _corners(
+            points[name], result_lm[name], lin.x0, sig, lin.c0, lin.ronf, lin.vu
+        )
+    if "lle_0712" in landmarks:
+        say(f"LLE at eta = 0.712: {lle_mc} draws")
+        result_lm["lle_0712"] = _lle_mc(
+            design, lin.x0, sig, lin.c0, lin.ronf, lin.vu, lle_mc, lle_periods, seed, deadline
+        )
+    existence, scan_data = _limits(points, lin, result_lm, sig, orbit_d, scans, deadline, say)
+    return ToleranceBudget(
+        design={**design.decimal(), "ron": str(float(ron0)), "source": label},
+        tolerances={n: tol[n] for n in INPUTS},
+        nominal=_plain(lin.nominal),
+        landmarks=result_lm,
+        table=table,
+        existence=existence,
+        seed=seed,
+        mc=mc,
+        sobol=sobol,
+        elapsed_s=time.perf_counter() - t_start,
+        scans=scan_data,
+    )
+
+
+def _check_arguments(
+    design, ron0, defaults, tolerances, landmarks, mc, sobol, lle_mc, seed, ron
+) -> tuple[dict[str, float], Fraction]:
+    """The tolerances and ``R_on`` of a budget, every argument checked (before any work)."""
     if not defaults:
         defaults = {n: 0.01 for n in PARTS[:8]} | {n: 0.05 for n in PARTS[8:]}
     tol = parse_tolerances(tolerances, defaults)
@@ -693,9 +755,26 @@ def tolerance_budget(
     check_ron(design, ron0, ron)
     if sobol:
         _require_salib()
-    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "budget")
-    say = progress or (lambda _m: None)
+    return tol, ron0
 
+
+@dataclasses.dataclass
+class _Linear:
+    """The design's inputs, mechanical parameters and their exact first derivatives."""
+
+    c0: dict
+    vu: float
+    ronf: float
+    x0: np.ndarray
+    theta0: np.ndarray
+    dtheta: np.ndarray
+    omega0: float
+    domega: np.ndarray
+    nominal: dict
+
+
+def _linearise(design: Components, ron0: Fraction) -> _Linear:
+    """The derivative pass of the parameter map: dual numbers through the KCL at the design."""
     c0 = {n: float(getattr(design, n)) for n in INPUTS + ("Omega",)}
     vu = float(design.V_unit)
     ronf = float(ron0)
@@ -717,138 +796,120 @@ def tolerance_budget(
         "f_design": f_design,
         "ron_damping": 2 * ronf / c0["R3"],
     }
-    sig = np.array([tol[n] for n in INPUTS])
-    result_lm: dict = {}
-    points: dict[str, BranchPoint] = {}
+    return _Linear(c0, vu, ronf, x0, theta0, dtheta, omega0, domega, nominal)
+
+
+def _fig6_orbit(landmarks, lin: _Linear, say) -> tuple[BranchPoint | None, str, dict]:
+    """``(orbit, why not, its interval's ends)``: the Fig. 6 period-3 orbit at the design."""
     orbit_d: BranchPoint | None = None
     p3_why = ""
+    ends: dict = {}
     if {"p3_low", "p3_high"} & set(landmarks):
         say("the Fig. 6 period-3 orbit carried to the design; its interval by continuation")
         try:
-            orbit_d = _carry_orbit(_paper_orbit(), theta0, eta_d)
+            orbit_d = _carry_orbit(_paper_orbit(), lin.theta0, lin.nominal["eta"])
             if not orbit_d.stable():
                 p3_why = "the period-3 orbit carried to the design's eta is unstable"
                 orbit_d = None
         except ConvergenceError as e:
             p3_why = f"no period-3 orbit at the design's eta ({e})"
         ends = interval_ends(orbit_d) if orbit_d is not None else {}
-    for name in [n for n in landmarks if n in BRANCH_LANDMARKS]:
-        deadline.check(f"before landmark {name}")
-        say(f"landmark {name}: located by continuation, polished on its augmented system")
-        try:
-            if name in ("p3_low", "p3_high"):
-                end = ends.get(name[3:]) if orbit_d is not None else None
-                if end is None:
-                    raise ConvergenceError(
-                        p3_why or f"the branch's {name[3:]} end is not in eta +- 0.06"
-                    )
-                bp0 = end_point(orbit_d, end)
-                if bp0 is None:
-                    raise ConvergenceError(
-                        f"the {name[3:]} end is a {end[0]} at eta = {end[1]:.10g} (no augmented "
-                        "system for it here)"
-                    )
-                bp = bp0
-            else:
-                kind, start, stop, period, impacts = _SEARCH[name]
-                bp, _ = landmark_from_continuation(kind, _PAPER_THETA, start, stop, period, impacts)
-                bp = _move(bp, theta0)
-        except (ConvergenceError, ValueError) as e:
-            result_lm[name] = {"absent": str(e)}
-            continue
-        points[name] = bp
-        g = bp.sensitivity()  # d eta_L / d theta
-        deta_dc = g @ dtheta  # d eta_L / d c
-        f = bp.eta * omega0 / (2 * math.pi)
-        df_dc = (deta_dc * omega0 + bp.eta * domega) / (2 * math.pi)
-        dlnc = df_dc * x0  # Hz per unit relative change
-        result_lm[name] = {
-            "description": _DESCRIPTION[name],
-            "type": {"graze_free": "grazing", "graze": "grazing"}.get(bp.kind, bp.kind),
-            "eta": bp.eta,
-            "frequency_hz": f,
-            "deta_dtheta": dict(zip(("zeta", "a", "x_w"), g.tolist(), strict=True)),
-            "dfreq_dlnc": dict(zip(INPUTS, dlnc.tolist(), strict=True)),
-            "linear_std_hz": float(np.sqrt(np.sum((dlnc * sig) ** 2) / 3)),
-            "worst_case_linear_hz": float(np.sum(np.abs(dlnc * sig))),
-            "multipliers": [abs(complex(m)) for m in bp.multipliers()],
-        }
-        if fd_check:
-            deadline.check(f"before the finite differences of {name}")
-            say(f"landmark {name}: finite differences of re-continued landmarks")
-            result_lm[name]["fd_check"] = _fd_check(name, bp, g, theta0)
-    table = _ranked(result_lm, tol)
+    return orbit_d, p3_why, ends
 
-    rng = np.random.default_rng(seed)
-    active = [i for i, n in enumerate(INPUTS) if sig[i] > 0]
-    if mc and points:
-        say(f"Monte Carlo: {mc} draws (seed {seed})")
-        u = rng.uniform(-1.0, 1.0, size=(mc, len(INPUTS)))
-        draws = x0 * (1 + u * sig)
-        vals = _evaluate(points, draws, c0, ronf, vu, deadline)
-        if orbit_d is not None:
-            vals["_orbit"] = _evaluate({"_orbit": orbit_d}, draws, c0, ronf, vu, deadline)["_orbit"]
-        for name in points:
-            fs = vals[name]
-            ok = fs[np.isfinite(fs)]
-            n = len(ok)
-            std = float(np.std(ok, ddof=1)) if n > 1 else math.nan
-            result_lm[name]["monte_carlo"] = {
-                "n": int(n),
-                "failed": int(mc - n),
-                "mean_hz": float(np.mean(ok)) if n else math.nan,
-                "std_hz": std,
-                # std of a std of n draws: ~ std / sqrt(2 (n - 1)) (near-normal sums)
-                "std_stderr_hz": std / math.sqrt(2 * (n - 1)) if n > 1 else math.nan,
-                "min_hz": float(np.min(ok)) if n else math.nan,
-                "max_hz": float(np.max(ok)) if n else math.nan,
-            }
-        result_lm["_p3_draws"] = _p3_fraction(vals, f_design)
-        if "_orbit" in vals:
-            e = vals["_orbit"]
-            result_lm["_p3_draws"] = dict(
-                result_lm["_p3_draws"] or {},
-                orbit_fraction=float(np.mean(np.isfinite(e))),
-                orbit_fraction_stderr=float(
-                    math.sqrt(np.mean(np.isfinite(e)) * (1 - np.mean(np.isfinite(e))) / len(e))
-                ),
-                orbit_n=len(e),
+
+def _locate(name: str, orbit_d, ends: dict, p3_why: str, theta0: np.ndarray) -> BranchPoint:
+    """Landmark ``name`` at the design (raises ConvergenceError / ValueError when absent)."""
+    if name in ("p3_low", "p3_high"):
+        end = ends.get(name[3:]) if orbit_d is not None else None
+        if end is None:
+            raise ConvergenceError(p3_why or f"the branch's {name[3:]} end is not in eta +- 0.06")
+        bp0 = end_point(orbit_d, end)
+        if bp0 is None:
+            raise ConvergenceError(
+                f"the {name[3:]} end is a {end[0]} at eta = {end[1]:.10g} (no augmented "
+                "system for it here)"
             )
-    if sobol and points and active:
-        say(f"Sobol indices: N = {sobol}, {len(active)} inputs")
-        _sobol(points, result_lm, x0, sig, active, c0, ronf, vu, sobol, seed, orbit_d, deadline)
+        return bp0
+    kind, start, stop, period, impacts = _SEARCH[name]
+    bp, _ = landmark_from_continuation(kind, _PAPER_THETA, start, stop, period, impacts)
+    return _move(bp, theta0)
+
+
+def _derivatives(name, bp, lin: _Linear, sig, fd_check, deadline, say) -> dict:
+    """A located landmark's frequency and its derivatives by every input (IFT, chained)."""
+    g = bp.sensitivity()  # d eta_L / d theta
+    deta_dc = g @ lin.dtheta  # d eta_L / d c
+    f = bp.eta * lin.omega0 / (2 * math.pi)
+    df_dc = (deta_dc * lin.omega0 + bp.eta * lin.domega) / (2 * math.pi)
+    dlnc = df_dc * lin.x0  # Hz per unit relative change
+    entry = {
+        "description": _DESCRIPTION[name],
+        "type": {"graze_free": "grazing", "graze": "grazing"}.get(bp.kind, bp.kind),
+        "eta": bp.eta,
+        "frequency_hz": f,
+        "deta_dtheta": dict(zip(("zeta", "a", "x_w"), g.tolist(), strict=True)),
+        "dfreq_dlnc": dict(zip(INPUTS, dlnc.tolist(), strict=True)),
+        "linear_std_hz": float(np.sqrt(np.sum((dlnc * sig) ** 2) / 3)),
+        "worst_case_linear_hz": float(np.sum(np.abs(dlnc * sig))),
+        "multipliers": [abs(complex(m)) for m in bp.multipliers()],
+    }
+    if fd_check:
+        deadline.check(f"before the finite differences of {name}")
+        say(f"landmark {name}: finite differences of re-continued landmarks")
+        entry["fd_check"] = _fd_check(name, bp, g, lin.theta0)
+    return entry
+
+
+def _monte_carlo(points, orbit_d, result_lm, rng, mc, lin: _Linear, sig, deadline) -> None:
+    """The Monte Carlo pass: each landmark's spread over ``mc`` uniform draws of the parts,
+    and how often the Fig. 6 orbit survives (into ``result_lm``)."""
+    x0, c0, ronf, vu = lin.x0, lin.c0, lin.ronf, lin.vu
+    u = rng.uniform(-1.0, 1.0, size=(mc, len(INPUTS)))
+    draws = x0 * (1 + u * sig)
+    vals = _evaluate(points, draws, c0, ronf, vu, deadline)
+    if orbit_d is not None:
+        vals["_orbit"] = _evaluate({"_orbit": orbit_d}, draws, c0, ronf, vu, deadline)["_orbit"]
     for name in points:
-        result_lm[name]["worst_case"] = _corners(
-            points[name], result_lm[name], x0, sig, c0, ronf, vu
+        fs = vals[name]
+        ok = fs[np.isfinite(fs)]
+        n = len(ok)
+        std = float(np.std(ok, ddof=1)) if n > 1 else math.nan
+        result_lm[name]["monte_carlo"] = {
+            "n": int(n),
+            "failed": int(mc - n),
+            "mean_hz": float(np.mean(ok)) if n else math.nan,
+            "std_hz": std,
+            # std of a std of n draws: ~ std / sqrt(2 (n - 1)) (near-normal sums)
+            "std_stderr_hz": std / math.sqrt(2 * (n - 1)) if n > 1 else math.nan,
+            "min_hz": float(np.min(ok)) if n else math.nan,
+            "max_hz": float(np.max(ok)) if n else math.nan,
+        }
+    result_lm["_p3_draws"] = _p3_fraction(vals, lin.nominal["f_design"])
+    if "_orbit" in vals:
+        e = vals["_orbit"]
+        result_lm["_p3_draws"] = dict(
+            result_lm["_p3_draws"] or {},
+            orbit_fraction=float(np.mean(np.isfinite(e))),
+            orbit_fraction_stderr=float(
+                math.sqrt(np.mean(np.isfinite(e)) * (1 - np.mean(np.isfinite(e))) / len(e))
+            ),
+            orbit_n=len(e),
         )
-    if "lle_0712" in landmarks:
-        say(f"LLE at eta = 0.712: {lle_mc} draws")
-        result_lm["lle_0712"] = _lle_mc(
-            design, x0, sig, c0, ronf, vu, lle_mc, lle_periods, seed, deadline
-        )
+
+
+def _limits(points, lin: _Linear, result_lm, sig, orbit_d, scans, deadline, say):
+    """``(existence, scans)``: where the Fig. 6 orbit holds (draws, Sobol, the scans' limits)."""
     p3_draws = result_lm.pop("_p3_draws", None)
     sobol_existence = result_lm.pop("_sobol_existence", None)
-    existence = _plain(_existence(points, nominal, result_lm, sig, p3_draws))
+    existence = _plain(_existence(points, lin.nominal, result_lm, sig, p3_draws))
     if sobol_existence is not None:
         existence["sobol_indices_of_existence"] = sobol_existence
     scan_data: dict = {}
     if scans and orbit_d is not None:
         say("scans: R_on / R3 and GBW limits of the period-3 orbit")
-        scan_data, limits = _scans(orbit_d, c0, vu, ronf, deadline)
+        scan_data, limits = _scans(orbit_d, lin.c0, lin.vu, lin.ronf, deadline)
         existence.update(_plain(limits))
-    return ToleranceBudget(
-        design={**design.decimal(), "ron": str(float(ron0)), "source": label},
-        tolerances={n: tol[n] for n in INPUTS},
-        nominal=_plain(nominal),
-        landmarks=result_lm,
-        table=table,
-        existence=existence,
-        seed=seed,
-        mc=mc,
-        sobol=sobol,
-        elapsed_s=time.perf_counter() - t_start,
-        scans=scan_data,
-    )
+    return existence, scan_data
 
 
 def _plain(d: dict) -> dict:
