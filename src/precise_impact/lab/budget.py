@@ -316,13 +316,28 @@ class ToleranceBudget(ResultMixin):
     def markdown(self) -> str:
         """The budget as a Markdown report."""
         lines = ["# Tolerance budget", ""]
+        lines += self._md_design()
+        lines += self._md_landmarks()
+        lines += self._md_lle()
+        lines += ["", "## Largest effects", ""]
+        lines += [f"- {t}" for t in self.ranked(8)]
+        lines += self._md_ranked()
+        lines += self._md_existence()
+        lines += self._md_sobol()
+        return "\n".join(lines) + "\n"
+
+    def _md_design(self) -> list[str]:
+        """The design's line: omega, the mechanical parameters, the generator, R_on."""
         nom = self.nominal
-        lines += [
+        return [
             f"Design: omega = {nom['omega']:.6g} rad/s, zeta = {nom['zeta']:.6g}, "
             f"a = {nom['a']:.6g}, x_w = {nom['x_w']:.6g}; generator at eta = {nom['eta']:.6g} "
             f"({nom['f_design']:.6g} Hz); R_on = {self.design.get('ron', '0')} ohm.",
             "",
         ]
+
+    def _md_landmarks(self) -> list[str]:
+        """The landmarks' table: where, the FD check, the Monte Carlo and linear spreads."""
         rows = []
         for name, L in self.landmarks.items():
             if "eta" not in L:
@@ -345,7 +360,7 @@ class ToleranceBudget(ResultMixin):
                     f"{wc['low_hz']:.6g} .. {wc['high_hz']:.6g}" if wc else "not run",
                 ]
             )
-        lines += md_table(
+        return md_table(
             [
                 "landmark",
                 "type",
@@ -360,20 +375,25 @@ class ToleranceBudget(ResultMixin):
             rows,
             align="ll",
         )
+
+    def _md_lle(self) -> list[str]:
+        """The LLE Monte Carlo's line (none when it did not run)."""
         lle = self.landmarks.get("lle_0712")
-        if lle and "monte_carlo" in lle:
-            m = lle["monte_carlo"]
-            lines += [
-                "",
-                f"LLE at eta = 0.712: nominal {lle['nominal']:.5g} +- {lle['nominal_stderr']:.2g}; "
-                f"over {m['n']} draws mean {m['mean']:.5g} +- {m['mean_stderr']:.2g}, "
-                f"std {m['std']:.4g}, range {m['min']:.4g} .. {m['max']:.4g}, "
-                f"{m['chaotic_fraction'] * 100:.0f} % of draws chaotic (LLE > 0).",
-            ]
-        lines += ["", "## Largest effects", ""]
-        lines += [f"- {t}" for t in self.ranked(8)]
-        lines += ["", "## Ranked (shift of each landmark at + the part's tolerance)", ""]
-        lines += md_table(
+        if not (lle and "monte_carlo" in lle):
+            return []
+        m = lle["monte_carlo"]
+        return [
+            "",
+            f"LLE at eta = 0.712: nominal {lle['nominal']:.5g} +- {lle['nominal_stderr']:.2g}; "
+            f"over {m['n']} draws mean {m['mean']:.5g} +- {m['mean_stderr']:.2g}, "
+            f"std {m['std']:.4g}, range {m['min']:.4g} .. {m['max']:.4g}, "
+            f"{m['chaotic_fraction'] * 100:.0f} % of draws chaotic (LLE > 0).",
+        ]
+
+    def _md_ranked(self) -> list[str]:
+        """The ranked table: each landmark's shift at + each part's tolerance."""
+        lines = ["", "## Ranked (shift of each landmark at + the part's tolerance)", ""]
+        return lines + md_table(
             ["rank", "landmark", "component", "tol [%]", "shift [Hz]", "shift [ppm]"],
             [
                 [
@@ -388,8 +408,11 @@ class ToleranceBudget(ResultMixin):
             ],
             align="rll",
         )
+
+    def _md_existence(self) -> list[str]:
+        """Where the Fig. 6 orbit holds, its Sobol indices, and the absent landmarks."""
         ex = self.existence
-        lines += ["", "## The Fig. 6 period-3 orbit", ""]
+        lines = ["", "## The Fig. 6 period-3 orbit", ""]
         for k, v in ex.items():
             if isinstance(v, (dict, list)):
                 continue
@@ -405,7 +428,11 @@ class ToleranceBudget(ResultMixin):
         for name, L in self.landmarks.items():
             if "absent" in L:
                 lines.append(f"- {name}: absent ({L['absent']})")
-        lines += ["", "## Sobol indices (first order S1 / total ST)", ""]
+        return lines
+
+    def _md_sobol(self) -> list[str]:
+        """Each landmark's largest Sobol indices (first order / total)."""
+        lines = ["", "## Sobol indices (first order S1 / total ST)", ""]
         for name, L in self.landmarks.items():
             s = L.get("sobol")
             if not s or "ST" not in s:
@@ -418,7 +445,7 @@ class ToleranceBudget(ResultMixin):
                 + ", ".join(f"{k} {s['S1'][k]:.3f}/{v:.3f}" for k, v in top)
                 + f" (N = {s['N']})"
             )
-        return "\n".join(lines) + "\n"
+        return lines
 
     def plot(self, path: str | Path | None = None, what: str = "existence", n: int = 12):
         """A figure of the budget, saved to ``path`` if given.
@@ -1234,6 +1261,15 @@ def _existence(points, nominal, result_lm, sig, p3_draws) -> dict:
     out["exists"] = bool(m_lo > 0 and m_hi > 0)
     out["margin_low_hz"] = m_lo
     out["margin_high_hz"] = m_hi
+    out.update(_worst_case_tolerances(lo, hi, m_lo, m_hi, sig))
+    out.update(_draw_fractions(p3_draws))
+    return out
+
+
+def _worst_case_tolerances(lo: dict, hi: dict, m_lo: float, m_hi: float, sig) -> dict:
+    """The tolerances that keep the orbit in the worst case: R's alone, C's alone, every part,
+    and the 3-sigma scale of the budget's tolerances (linear in the parts)."""
+    out: dict = {}
     # linear worst case per class: shift of each margin per unit tolerance of R's and C's
     dR = {
         s: sum(abs(L["dfreq_dlnc"][INPUTS[i]]) for i in range(8))
@@ -1259,6 +1295,12 @@ def _existence(points, nominal, result_lm, sig, p3_draws) -> dict:
     out["three_sigma_scale_of_budget"] = min(
         max(margin[s], 0) / (3 * rss[s]) if rss[s] else math.inf for s in margin
     )
+    return out
+
+
+def _draw_fractions(p3_draws: dict | None) -> dict:
+    """The Monte Carlo draws' fractions with the orbit / with its whole interval."""
+    out: dict = {}
     if p3_draws is not None and "orbit_fraction" in p3_draws:
         out["fraction_of_draws_with_stable_period3_orbit"] = p3_draws["orbit_fraction"]
         out["orbit_fraction_stderr"] = p3_draws["orbit_fraction_stderr"]
