@@ -1,23 +1,13 @@
 """Tolerance budget: how the paper's landmarks move with every component of a circuit design.
 
-Landmarks (forcing frequencies of the bifurcation diagram, in Hz of the signal generator):
-
-* ``grazing``: the non-impacting orbit's maximum touches the wall;
-* ``pd_1_1``: the period-doubling point of the one-impact period-1 orbit;
-* ``p3_low``, ``p3_high``: the ends of the existence interval of the stable admissible
-  period-3 orbit of Fig. 6 (two grazings at the paper's parameters);
-* ``lle_0712``: the largest Lyapunov exponent with the generator set to ``eta = 0.712`` of
-  the design (not a branch point: Monte Carlo only).
-
-A landmark at mechanical parameters ``theta = (zeta, a, x_w)`` is ``eta_L(theta)``, located by
-continuation and polished by Newton on its augmented system
-(:mod:`precise_impact.analysis.orbits.landmarks`); in hertz it is
-``f_L = eta_L(theta(c)) omega(c) / (2 pi)`` with ``theta(c)``, ``omega(c)`` the effective
-system the circuit's components ``c`` realise (:func:`effective_parameters`, the KCL of
-:func:`~precise_impact.models.circuit.switched.effective_system`, with the switches'
-``R_on`` and optionally the op-amps' gain-bandwidth).  Derivatives: the implicit-function
-theorem on the augmented system's exact Jacobian (dual numbers), chained with the exact
-derivative of the components-to-parameters map (the same dual numbers through the KCL).
+The landmarks (:data:`LANDMARKS`: the grazing frequency, the 1:1 orbit's period doubling, the
+ends of the Fig. 6 period-3 orbit's interval, the LLE at eta = 0.712) are forcing frequencies
+``f_L = eta_L(theta(c)) omega(c) / (2 pi)`` of the signal generator; ``theta(c)``, ``omega(c)``
+is the effective system the components ``c`` realise (:func:`effective_parameters`).  Their
+derivatives: the implicit-function theorem on each branch point's augmented system
+(:mod:`precise_impact.analysis.orbits.landmarks`), chained with the parameter map, both in
+exact dual numbers; then Monte Carlo, Sobol indices (SALib, optional), worst-case corners and
+the existence limits of the Fig. 6 orbit.  The method and its checks: docs/guide/tolerance.rst.
 """
 
 from __future__ import annotations
