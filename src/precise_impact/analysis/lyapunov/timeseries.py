@@ -4,9 +4,8 @@ nearest-neighbour divergence estimators, for a forced system with neighbours at 
 Pairs of nearby points are followed forward; the slope of their mean log distance ``S(t)``
 over its rising part is the exponent.  With ``period`` given, neighbours are searched within
 the reference's own forcing phase (a Poincare section per phase bin), so both members of a
-pair see the same forcing.  The error bar, the forcing-period check, the truth table of the
-bias (``benchmarks/results/timeseries_lle.md``) and why nolds is not used: docs/guide/captures.rst,
-"The time-series LLE estimators".
+pair see the same forcing.  Error bar, period check, bias truth table, why not nolds:
+docs/guide/captures.rst, "The time-series LLE estimators".
 
 References: M. T. Rosenstein et al., Physica D 65 (1993) 117-134; H. Kantz, Phys. Lett. A 185
 (1994) 77-87; J. Theiler, Phys. Rev. A 34 (1986) 2427 (the Theiler window).
@@ -596,15 +595,8 @@ def timeseries_lle(
     )
     y, cutoff, noise_sd = _condition(y, dt, period, lowpass, scale)
     g = _lag_grid(y, dt, period, phase0, per_period, theiler, max_lag, lag_step, n_blocks)
-    spp, yg, n_periods, step_t, theiler_n, ls, lag_idx = (
-        g.spp,
-        g.yg,
-        g.n_periods,
-        g.step_t,
-        g.theiler_n,
-        g.ls,
-        g.lag_idx,
-    )
+    spp, yg, n_periods, theiler_n = g.spp, g.yg, g.n_periods, g.theiler_n
+    step_t, lag_idx = g.step_t, g.lag_idx
     n_ref = len(yg) - g.L  # references (and neighbours) that can be followed for every lag
     refs, nbrs, w, r0 = _neighbours(
         yg, n_ref, spp if period is not None else 0, theiler_n, method, radius, max_neighbors
@@ -627,22 +619,9 @@ def timeseries_lle(
     tail = curve[1:][np.isfinite(curve[1:])]
     rise = float(np.max(tail) - y0)
     fall = float(y0 - np.min(tail))
-    stats = {
-        "samples_per_period": spp if period is not None else None,
-        "raw_samples_per_period": None if period is None else float(period) / dt,
-        "periods": n_periods if period is not None else None,
-        "lowpass": cutoff,
-        "theiler": theiler_n * step_t,
-        "max_lag": float(t[-1]),
-        "lag_step": ls * step_t,
-        "neighbours_per_reference": float(np.mean((w > 0).sum(axis=1))),
-        "radius": None if method == "rosenstein" else r0,
-        "fit": fit,
-        "fit_fractions": (lo_f, hi_f),
-        "zero_distances": int(len(refs) * len(lag_idx) - counts.sum()),
-        "rise": rise,
-        "fall": fall,
-    }
+    stats = _curve_stats(g, period, dt, cutoff, t, w, method, r0, fit, lo_f, hi_f, refs, counts)
+    stats["rise"] = rise
+    stats["fall"] = fall
     if max(rise, fall) < min_rise and fit_range is None:
         reason = (
             f"the divergence curve moves {max(rise, fall):.2f} e-folds (< min_rise = {min_rise}) "
@@ -659,14 +638,7 @@ def timeseries_lle(
         t, curve, tail, sat, y0, fall, sign, fit_range, fit_fractions=(lo_f, hi_f),
         fit_shift=fit_shift,
     )  # fmt: skip
-    fixed_floor = None
-    if fit == "floor" and floor_from_noise and noise_sd is not None:
-        stats["noise_sd"] = [float(v) for v in noise_sd]
-        measured = _noise_floor(noise_sd)
-        # the noise floor is where a rising curve starts from; a falling curve (a stable
-        # orbit approached) goes below it, and a floor above the start is not a floor
-        if sign > 0 and measured < y0:
-            fixed_floor = measured
+    fixed_floor = _fixed_floor(fit, floor_from_noise, noise_sd, sign, y0, stats)
 
     def model(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[float, float, float]:
         return _FITS[fit](t, s, lo, hi, fixed_floor)
@@ -697,6 +669,38 @@ def timeseries_lle(
         slope, err, stat, syst, method, status, reason, t, curve, be,
         (lo, hi), icpt, sat, slopes_b, len(refs), stats,
     )  # fmt: skip
+
+
+def _curve_stats(g, period, dt, cutoff, t, w, method, r0, fit, lo_f, hi_f, refs, counts) -> dict:
+    """The result's ``stats``: the grid, the filter, the window, the neighbours, the fit."""
+    spp, n_periods, step_t, ls = g.spp, g.n_periods, g.step_t, g.ls
+    return {
+        "samples_per_period": spp if period is not None else None,
+        "raw_samples_per_period": None if period is None else float(period) / dt,
+        "periods": n_periods if period is not None else None,
+        "lowpass": cutoff,
+        "theiler": g.theiler_n * step_t,
+        "max_lag": float(t[-1]),
+        "lag_step": ls * step_t,
+        "neighbours_per_reference": float(np.mean((w > 0).sum(axis=1))),
+        "radius": None if method == "rosenstein" else r0,
+        "fit": fit,
+        "fit_fractions": (lo_f, hi_f),
+        "zero_distances": int(len(refs) * len(g.lag_idx) - counts.sum()),
+    }
+
+
+def _fixed_floor(fit, floor_from_noise, noise_sd, sign, y0, stats):
+    """The noise floor the fit holds fixed (measured from the filtered-out noise), or None."""
+    fixed_floor = None
+    if fit == "floor" and floor_from_noise and noise_sd is not None:
+        stats["noise_sd"] = [float(v) for v in noise_sd]
+        measured = _noise_floor(noise_sd)
+        # the noise floor is where a rising curve starts from; a falling curve (a stable
+        # orbit approached) goes below it, and a floor above the start is not a floor
+        if sign > 0 and measured < y0:
+            fixed_floor = measured
+    return fixed_floor
 
 
 def _check_inputs(states, dt, method, period, fit, fit_fractions, n_blocks, max_neighbors):
