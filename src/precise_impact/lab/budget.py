@@ -1,23 +1,13 @@
 """Tolerance budget: how the paper's landmarks move with every component of a circuit design.
 
-Landmarks (forcing frequencies of the bifurcation diagram, in Hz of the signal generator):
-
-* ``grazing``: the non-impacting orbit's maximum touches the wall;
-* ``pd_1_1``: the period-doubling point of the one-impact period-1 orbit;
-* ``p3_low``, ``p3_high``: the ends of the existence interval of the stable admissible
-  period-3 orbit of Fig. 6 (two grazings at the paper's parameters);
-* ``lle_0712``: the largest Lyapunov exponent with the generator set to ``eta = 0.712`` of
-  the design (not a branch point: Monte Carlo only).
-
-A landmark at mechanical parameters ``theta = (zeta, a, x_w)`` is ``eta_L(theta)``, located by
-continuation and polished by Newton on its augmented system
-(:mod:`precise_impact.analysis.orbits.landmarks`); in hertz it is
-``f_L = eta_L(theta(c)) omega(c) / (2 pi)`` with ``theta(c)``, ``omega(c)`` the effective
-system the circuit's components ``c`` realise (:func:`effective_parameters`, the KCL of
-:func:`~precise_impact.models.circuit.switched.effective_system`, with the switches'
-``R_on`` and optionally the op-amps' gain-bandwidth).  Derivatives: the implicit-function
-theorem on the augmented system's exact Jacobian (dual numbers), chained with the exact
-derivative of the components-to-parameters map (the same dual numbers through the KCL).
+The landmarks (:data:`LANDMARKS`: the grazing frequency, the 1:1 orbit's period doubling, the
+ends of the Fig. 6 period-3 orbit's interval, the LLE at eta = 0.712) are forcing frequencies
+``f_L = eta_L(theta(c)) omega(c) / (2 pi)`` of the signal generator; ``theta(c)``, ``omega(c)``
+is the effective system the components ``c`` realise (:func:`effective_parameters`).  Their
+derivatives: the implicit-function theorem on each branch point's augmented system
+(:mod:`precise_impact.analysis.orbits.landmarks`), chained with the parameter map, both in
+exact dual numbers; then Monte Carlo, Sobol indices (SALib, optional), worst-case corners and
+the existence limits of the Fig. 6 orbit.  The method and its checks: docs/guide/tolerance.rst.
 """
 
 from __future__ import annotations
@@ -32,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.fast import fast_batch_rows
 from precise_impact.analysis.orbits.landmarks import (
     BranchPoint,
     end_point,
@@ -41,11 +32,16 @@ from precise_impact.analysis.orbits.landmarks import (
 )
 from precise_impact.core.budget import Cost, Deadline, check_cost, parse_max_time
 from precise_impact.core.dual import Dual, seed
-from precise_impact.core.result import ResultMixin
+from precise_impact.core.params import exact
+from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import ConvergenceError, OptionalDependencyError, ParameterError
+from precise_impact.io.figures import finish, new_figure
 from precise_impact.io.markdown import table as md_table
 from precise_impact.models.circuit.components import Components
 from precise_impact.models.circuit.effects import switch
+from precise_impact.models.circuit.network import OpAmp, network_rhs
+from precise_impact.models.circuit.opamp import design_omega
+from precise_impact.scenes.scene import Scene, load_scene
 
 __all__ = [
     "tolerance_budget",
@@ -167,8 +163,6 @@ class _LinearHy:
 
 
 def _network_matrix(c: dict, gbw: Any):
-    from precise_impact.models.circuit.network import OpAmp, network_rhs
-
     op = OpAmp(gbw=Fraction(float(gbw)), gbw_mode="quasi-static")  # the effect takes floats
 
     def rhs(V_s, V_q, cos_v, sin_v):
@@ -290,8 +284,6 @@ class ToleranceBudget(ResultMixin):
         return {"ranked": self._ranked_columns}
 
     def _ranked_columns(self) -> dict:
-        from precise_impact.core.result import columns
-
         t = self.table
         return columns(
             ("rank", None, [r["rank"] for r in t]),
@@ -314,13 +306,28 @@ class ToleranceBudget(ResultMixin):
     def markdown(self) -> str:
         """The budget as a Markdown report."""
         lines = ["# Tolerance budget", ""]
+        lines += self._md_design()
+        lines += self._md_landmarks()
+        lines += self._md_lle()
+        lines += ["", "## Largest effects", ""]
+        lines += [f"- {t}" for t in self.ranked(8)]
+        lines += self._md_ranked()
+        lines += self._md_existence()
+        lines += self._md_sobol()
+        return "\n".join(lines) + "\n"
+
+    def _md_design(self) -> list[str]:
+        """The design's line: omega, the mechanical parameters, the generator, R_on."""
         nom = self.nominal
-        lines += [
+        return [
             f"Design: omega = {nom['omega']:.6g} rad/s, zeta = {nom['zeta']:.6g}, "
             f"a = {nom['a']:.6g}, x_w = {nom['x_w']:.6g}; generator at eta = {nom['eta']:.6g} "
             f"({nom['f_design']:.6g} Hz); R_on = {self.design.get('ron', '0')} ohm.",
             "",
         ]
+
+    def _md_landmarks(self) -> list[str]:
+        """The landmarks' table: where, the FD check, the Monte Carlo and linear spreads."""
         rows = []
         for name, L in self.landmarks.items():
             if "eta" not in L:
@@ -343,7 +350,7 @@ class ToleranceBudget(ResultMixin):
                     f"{wc['low_hz']:.6g} .. {wc['high_hz']:.6g}" if wc else "not run",
                 ]
             )
-        lines += md_table(
+        return md_table(
             [
                 "landmark",
                 "type",
@@ -358,20 +365,25 @@ class ToleranceBudget(ResultMixin):
             rows,
             align="ll",
         )
+
+    def _md_lle(self) -> list[str]:
+        """The LLE Monte Carlo's line (none when it did not run)."""
         lle = self.landmarks.get("lle_0712")
-        if lle and "monte_carlo" in lle:
-            m = lle["monte_carlo"]
-            lines += [
-                "",
-                f"LLE at eta = 0.712: nominal {lle['nominal']:.5g} +- {lle['nominal_stderr']:.2g}; "
-                f"over {m['n']} draws mean {m['mean']:.5g} +- {m['mean_stderr']:.2g}, "
-                f"std {m['std']:.4g}, range {m['min']:.4g} .. {m['max']:.4g}, "
-                f"{m['chaotic_fraction'] * 100:.0f} % of draws chaotic (LLE > 0).",
-            ]
-        lines += ["", "## Largest effects", ""]
-        lines += [f"- {t}" for t in self.ranked(8)]
-        lines += ["", "## Ranked (shift of each landmark at + the part's tolerance)", ""]
-        lines += md_table(
+        if not (lle and "monte_carlo" in lle):
+            return []
+        m = lle["monte_carlo"]
+        return [
+            "",
+            f"LLE at eta = 0.712: nominal {lle['nominal']:.5g} +- {lle['nominal_stderr']:.2g}; "
+            f"over {m['n']} draws mean {m['mean']:.5g} +- {m['mean_stderr']:.2g}, "
+            f"std {m['std']:.4g}, range {m['min']:.4g} .. {m['max']:.4g}, "
+            f"{m['chaotic_fraction'] * 100:.0f} % of draws chaotic (LLE > 0).",
+        ]
+
+    def _md_ranked(self) -> list[str]:
+        """The ranked table: each landmark's shift at + each part's tolerance."""
+        lines = ["", "## Ranked (shift of each landmark at + the part's tolerance)", ""]
+        return lines + md_table(
             ["rank", "landmark", "component", "tol [%]", "shift [Hz]", "shift [ppm]"],
             [
                 [
@@ -386,8 +398,11 @@ class ToleranceBudget(ResultMixin):
             ],
             align="rll",
         )
+
+    def _md_existence(self) -> list[str]:
+        """Where the Fig. 6 orbit holds, its Sobol indices, and the absent landmarks."""
         ex = self.existence
-        lines += ["", "## The Fig. 6 period-3 orbit", ""]
+        lines = ["", "## The Fig. 6 period-3 orbit", ""]
         for k, v in ex.items():
             if isinstance(v, (dict, list)):
                 continue
@@ -403,7 +418,11 @@ class ToleranceBudget(ResultMixin):
         for name, L in self.landmarks.items():
             if "absent" in L:
                 lines.append(f"- {name}: absent ({L['absent']})")
-        lines += ["", "## Sobol indices (first order S1 / total ST)", ""]
+        return lines
+
+    def _md_sobol(self) -> list[str]:
+        """Each landmark's largest Sobol indices (first order / total)."""
+        lines = ["", "## Sobol indices (first order S1 / total ST)", ""]
         for name, L in self.landmarks.items():
             s = L.get("sobol")
             if not s or "ST" not in s:
@@ -416,7 +435,7 @@ class ToleranceBudget(ResultMixin):
                 + ", ".join(f"{k} {s['S1'][k]:.3f}/{v:.3f}" for k, v in top)
                 + f" (N = {s['N']})"
             )
-        return "\n".join(lines) + "\n"
+        return lines
 
     def plot(self, path: str | Path | None = None, what: str = "existence", n: int = 12):
         """A figure of the budget, saved to ``path`` if given.
@@ -433,8 +452,6 @@ class ToleranceBudget(ResultMixin):
         n : int, default 12
             Rows of the ``'ranked'`` figure.
         """
-        from precise_impact.io.figures import finish, new_figure
-
         if what not in ("existence", "ranked"):
             raise ParameterError("what", what, "'existence' or 'ranked'")
 
@@ -510,8 +527,6 @@ class ToleranceBudget(ResultMixin):
 def _design_of(scene_or_components: Any) -> tuple[Components, Fraction, dict, str]:
     """``(design, ron, default tolerances, label)`` from a scene, a scene name/path or
     components."""
-    from precise_impact.scenes.scene import Scene, load_scene
-
     if isinstance(scene_or_components, Components):
         return scene_or_components, Fraction(0), {}, "components"
     sc = scene_or_components
@@ -673,6 +688,68 @@ def tolerance_budget(
     """
     t_start = time.perf_counter()
     design, ron0, defaults, label = _design_of(scene_or_components)
+    tol, ron0 = _check_arguments(
+        design, ron0, defaults, tolerances, landmarks, mc, sobol, lle_mc, seed, ron
+    )
+    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "budget")
+    say = progress or (lambda _m: None)
+    lin = _linearise(design, ron0)
+    sig = np.array([tol[n] for n in INPUTS])
+    result_lm: dict = {}
+    points: dict[str, BranchPoint] = {}
+    orbit_d, p3_why, ends = _fig6_orbit(landmarks, lin, say)
+    for name in [n for n in landmarks if n in BRANCH_LANDMARKS]:
+        deadline.check(f"before landmark {name}")
+        say(f"landmark {name}: located by continuation, polished on its augmented system")
+        try:
+            bp = _locate(name, orbit_d, ends, p3_why, lin.theta0)
+        except (ConvergenceError, ValueError) as e:
+            result_lm[name] = {"absent": str(e)}
+            continue
+        points[name] = bp
+        result_lm[name] = _derivatives(name, bp, lin, sig, fd_check, deadline, say)
+    table = _ranked(result_lm, tol)
+
+    rng = np.random.default_rng(seed)
+    active = [i for i, n in enumerate(INPUTS) if sig[i] > 0]
+    if mc and points:
+        say(f"Monte Carlo: {mc} draws (seed {seed})")
+        _monte_carlo(points, orbit_d, result_lm, rng, mc, lin, sig, deadline)
+    if sobol and points and active:
+        say(f"Sobol indices: N = {sobol}, {len(active)} inputs")
+        _sobol(
+            points, result_lm, lin.x0, sig, active, lin.c0, lin.ronf, lin.vu, sobol, seed,
+            orbit_d, deadline,
+        )  # fmt: skip
+    for name in points:
+        result_lm[name]["worst_case"] = _corners(
+            points[name], result_lm[name], lin.x0, sig, lin.c0, lin.ronf, lin.vu
+        )
+    if "lle_0712" in landmarks:
+        say(f"LLE at eta = 0.712: {lle_mc} draws")
+        result_lm["lle_0712"] = _lle_mc(
+            design, lin.x0, sig, lin.c0, lin.ronf, lin.vu, lle_mc, lle_periods, seed, deadline
+        )
+    existence, scan_data = _limits(points, lin, result_lm, sig, orbit_d, scans, deadline, say)
+    return ToleranceBudget(
+        design={**design.decimal(), "ron": str(float(ron0)), "source": label},
+        tolerances={n: tol[n] for n in INPUTS},
+        nominal=_plain(lin.nominal),
+        landmarks=result_lm,
+        table=table,
+        existence=existence,
+        seed=seed,
+        mc=mc,
+        sobol=sobol,
+        elapsed_s=time.perf_counter() - t_start,
+        scans=scan_data,
+    )
+
+
+def _check_arguments(
+    design, ron0, defaults, tolerances, landmarks, mc, sobol, lle_mc, seed, ron
+) -> tuple[dict[str, float], Fraction]:
+    """The tolerances and ``R_on`` of a budget, every argument checked (before any work)."""
     if not defaults:
         defaults = {n: 0.01 for n in PARTS[:8]} | {n: 0.05 for n in PARTS[8:]}
     tol = parse_tolerances(tolerances, defaults)
@@ -689,17 +766,32 @@ def tolerance_budget(
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ParameterError("seed", repr(seed), "an integer >= 0")
     if ron is not None:
-        from precise_impact.core.params import exact
-
         ron0 = exact("ron", ron)
         if ron0 < 0:
             raise ParameterError("ron", str(ron), ">= 0 ohm")
     check_ron(design, ron0, ron)
     if sobol:
         _require_salib()
-    deadline = Deadline(None if max_time is None else parse_max_time(max_time), "budget")
-    say = progress or (lambda _m: None)
+    return tol, ron0
 
+
+@dataclasses.dataclass
+class _Linear:
+    """The design's inputs, mechanical parameters and their exact first derivatives."""
+
+    c0: dict
+    vu: float
+    ronf: float
+    x0: np.ndarray
+    theta0: np.ndarray
+    dtheta: np.ndarray
+    omega0: float
+    domega: np.ndarray
+    nominal: dict
+
+
+def _linearise(design: Components, ron0: Fraction) -> _Linear:
+    """The derivative pass of the parameter map: dual numbers through the KCL at the design."""
     c0 = {n: float(getattr(design, n)) for n in INPUTS + ("Omega",)}
     vu = float(design.V_unit)
     ronf = float(ron0)
@@ -721,138 +813,120 @@ def tolerance_budget(
         "f_design": f_design,
         "ron_damping": 2 * ronf / c0["R3"],
     }
-    sig = np.array([tol[n] for n in INPUTS])
-    result_lm: dict = {}
-    points: dict[str, BranchPoint] = {}
+    return _Linear(c0, vu, ronf, x0, theta0, dtheta, omega0, domega, nominal)
+
+
+def _fig6_orbit(landmarks, lin: _Linear, say) -> tuple[BranchPoint | None, str, dict]:
+    """``(orbit, why not, its interval's ends)``: the Fig. 6 period-3 orbit at the design."""
     orbit_d: BranchPoint | None = None
     p3_why = ""
+    ends: dict = {}
     if {"p3_low", "p3_high"} & set(landmarks):
         say("the Fig. 6 period-3 orbit carried to the design; its interval by continuation")
         try:
-            orbit_d = _carry_orbit(_paper_orbit(), theta0, eta_d)
+            orbit_d = _carry_orbit(_paper_orbit(), lin.theta0, lin.nominal["eta"])
             if not orbit_d.stable():
                 p3_why = "the period-3 orbit carried to the design's eta is unstable"
                 orbit_d = None
         except ConvergenceError as e:
             p3_why = f"no period-3 orbit at the design's eta ({e})"
         ends = interval_ends(orbit_d) if orbit_d is not None else {}
-    for name in [n for n in landmarks if n in BRANCH_LANDMARKS]:
-        deadline.check(f"before landmark {name}")
-        say(f"landmark {name}: located by continuation, polished on its augmented system")
-        try:
-            if name in ("p3_low", "p3_high"):
-                end = ends.get(name[3:]) if orbit_d is not None else None
-                if end is None:
-                    raise ConvergenceError(
-                        p3_why or f"the branch's {name[3:]} end is not in eta +- 0.06"
-                    )
-                bp0 = end_point(orbit_d, end)
-                if bp0 is None:
-                    raise ConvergenceError(
-                        f"the {name[3:]} end is a {end[0]} at eta = {end[1]:.10g} (no augmented "
-                        "system for it here)"
-                    )
-                bp = bp0
-            else:
-                kind, start, stop, period, impacts = _SEARCH[name]
-                bp, _ = landmark_from_continuation(kind, _PAPER_THETA, start, stop, period, impacts)
-                bp = _move(bp, theta0)
-        except (ConvergenceError, ValueError) as e:
-            result_lm[name] = {"absent": str(e)}
-            continue
-        points[name] = bp
-        g = bp.sensitivity()  # d eta_L / d theta
-        deta_dc = g @ dtheta  # d eta_L / d c
-        f = bp.eta * omega0 / (2 * math.pi)
-        df_dc = (deta_dc * omega0 + bp.eta * domega) / (2 * math.pi)
-        dlnc = df_dc * x0  # Hz per unit relative change
-        result_lm[name] = {
-            "description": _DESCRIPTION[name],
-            "type": {"graze_free": "grazing", "graze": "grazing"}.get(bp.kind, bp.kind),
-            "eta": bp.eta,
-            "frequency_hz": f,
-            "deta_dtheta": dict(zip(("zeta", "a", "x_w"), g.tolist(), strict=True)),
-            "dfreq_dlnc": dict(zip(INPUTS, dlnc.tolist(), strict=True)),
-            "linear_std_hz": float(np.sqrt(np.sum((dlnc * sig) ** 2) / 3)),
-            "worst_case_linear_hz": float(np.sum(np.abs(dlnc * sig))),
-            "multipliers": [abs(complex(m)) for m in bp.multipliers()],
-        }
-        if fd_check:
-            deadline.check(f"before the finite differences of {name}")
-            say(f"landmark {name}: finite differences of re-continued landmarks")
-            result_lm[name]["fd_check"] = _fd_check(name, bp, g, theta0)
-    table = _ranked(result_lm, tol)
+    return orbit_d, p3_why, ends
 
-    rng = np.random.default_rng(seed)
-    active = [i for i, n in enumerate(INPUTS) if sig[i] > 0]
-    if mc and points:
-        say(f"Monte Carlo: {mc} draws (seed {seed})")
-        u = rng.uniform(-1.0, 1.0, size=(mc, len(INPUTS)))
-        draws = x0 * (1 + u * sig)
-        vals = _evaluate(points, draws, c0, ronf, vu, deadline)
-        if orbit_d is not None:
-            vals["_orbit"] = _evaluate({"_orbit": orbit_d}, draws, c0, ronf, vu, deadline)["_orbit"]
-        for name in points:
-            fs = vals[name]
-            ok = fs[np.isfinite(fs)]
-            n = len(ok)
-            std = float(np.std(ok, ddof=1)) if n > 1 else math.nan
-            result_lm[name]["monte_carlo"] = {
-                "n": int(n),
-                "failed": int(mc - n),
-                "mean_hz": float(np.mean(ok)) if n else math.nan,
-                "std_hz": std,
-                # std of a std of n draws: ~ std / sqrt(2 (n - 1)) (near-normal sums)
-                "std_stderr_hz": std / math.sqrt(2 * (n - 1)) if n > 1 else math.nan,
-                "min_hz": float(np.min(ok)) if n else math.nan,
-                "max_hz": float(np.max(ok)) if n else math.nan,
-            }
-        result_lm["_p3_draws"] = _p3_fraction(vals, f_design)
-        if "_orbit" in vals:
-            e = vals["_orbit"]
-            result_lm["_p3_draws"] = dict(
-                result_lm["_p3_draws"] or {},
-                orbit_fraction=float(np.mean(np.isfinite(e))),
-                orbit_fraction_stderr=float(
-                    math.sqrt(np.mean(np.isfinite(e)) * (1 - np.mean(np.isfinite(e))) / len(e))
-                ),
-                orbit_n=len(e),
+
+def _locate(name: str, orbit_d, ends: dict, p3_why: str, theta0: np.ndarray) -> BranchPoint:
+    """Landmark ``name`` at the design (raises ConvergenceError / ValueError when absent)."""
+    if name in ("p3_low", "p3_high"):
+        end = ends.get(name[3:]) if orbit_d is not None else None
+        if end is None:
+            raise ConvergenceError(p3_why or f"the branch's {name[3:]} end is not in eta +- 0.06")
+        bp0 = end_point(orbit_d, end)
+        if bp0 is None:
+            raise ConvergenceError(
+                f"the {name[3:]} end is a {end[0]} at eta = {end[1]:.10g} (no augmented "
+                "system for it here)"
             )
-    if sobol and points and active:
-        say(f"Sobol indices: N = {sobol}, {len(active)} inputs")
-        _sobol(points, result_lm, x0, sig, active, c0, ronf, vu, sobol, seed, orbit_d, deadline)
+        return bp0
+    kind, start, stop, period, impacts = _SEARCH[name]
+    bp, _ = landmark_from_continuation(kind, _PAPER_THETA, start, stop, period, impacts)
+    return _move(bp, theta0)
+
+
+def _derivatives(name, bp, lin: _Linear, sig, fd_check, deadline, say) -> dict:
+    """A located landmark's frequency and its derivatives by every input (IFT, chained)."""
+    g = bp.sensitivity()  # d eta_L / d theta
+    deta_dc = g @ lin.dtheta  # d eta_L / d c
+    f = bp.eta * lin.omega0 / (2 * math.pi)
+    df_dc = (deta_dc * lin.omega0 + bp.eta * lin.domega) / (2 * math.pi)
+    dlnc = df_dc * lin.x0  # Hz per unit relative change
+    entry = {
+        "description": _DESCRIPTION[name],
+        "type": {"graze_free": "grazing", "graze": "grazing"}.get(bp.kind, bp.kind),
+        "eta": bp.eta,
+        "frequency_hz": f,
+        "deta_dtheta": dict(zip(("zeta", "a", "x_w"), g.tolist(), strict=True)),
+        "dfreq_dlnc": dict(zip(INPUTS, dlnc.tolist(), strict=True)),
+        "linear_std_hz": float(np.sqrt(np.sum((dlnc * sig) ** 2) / 3)),
+        "worst_case_linear_hz": float(np.sum(np.abs(dlnc * sig))),
+        "multipliers": [abs(complex(m)) for m in bp.multipliers()],
+    }
+    if fd_check:
+        deadline.check(f"before the finite differences of {name}")
+        say(f"landmark {name}: finite differences of re-continued landmarks")
+        entry["fd_check"] = _fd_check(name, bp, g, lin.theta0)
+    return entry
+
+
+def _monte_carlo(points, orbit_d, result_lm, rng, mc, lin: _Linear, sig, deadline) -> None:
+    """The Monte Carlo pass: each landmark's spread over ``mc`` uniform draws of the parts,
+    and how often the Fig. 6 orbit survives (into ``result_lm``)."""
+    x0, c0, ronf, vu = lin.x0, lin.c0, lin.ronf, lin.vu
+    u = rng.uniform(-1.0, 1.0, size=(mc, len(INPUTS)))
+    draws = x0 * (1 + u * sig)
+    vals = _evaluate(points, draws, c0, ronf, vu, deadline)
+    if orbit_d is not None:
+        vals["_orbit"] = _evaluate({"_orbit": orbit_d}, draws, c0, ronf, vu, deadline)["_orbit"]
     for name in points:
-        result_lm[name]["worst_case"] = _corners(
-            points[name], result_lm[name], x0, sig, c0, ronf, vu
+        fs = vals[name]
+        ok = fs[np.isfinite(fs)]
+        n = len(ok)
+        std = float(np.std(ok, ddof=1)) if n > 1 else math.nan
+        result_lm[name]["monte_carlo"] = {
+            "n": int(n),
+            "failed": int(mc - n),
+            "mean_hz": float(np.mean(ok)) if n else math.nan,
+            "std_hz": std,
+            # std of a std of n draws: ~ std / sqrt(2 (n - 1)) (near-normal sums)
+            "std_stderr_hz": std / math.sqrt(2 * (n - 1)) if n > 1 else math.nan,
+            "min_hz": float(np.min(ok)) if n else math.nan,
+            "max_hz": float(np.max(ok)) if n else math.nan,
+        }
+    result_lm["_p3_draws"] = _p3_fraction(vals, lin.nominal["f_design"])
+    if "_orbit" in vals:
+        e = vals["_orbit"]
+        result_lm["_p3_draws"] = dict(
+            result_lm["_p3_draws"] or {},
+            orbit_fraction=float(np.mean(np.isfinite(e))),
+            orbit_fraction_stderr=float(
+                math.sqrt(np.mean(np.isfinite(e)) * (1 - np.mean(np.isfinite(e))) / len(e))
+            ),
+            orbit_n=len(e),
         )
-    if "lle_0712" in landmarks:
-        say(f"LLE at eta = 0.712: {lle_mc} draws")
-        result_lm["lle_0712"] = _lle_mc(
-            design, x0, sig, c0, ronf, vu, lle_mc, lle_periods, seed, deadline
-        )
+
+
+def _limits(points, lin: _Linear, result_lm, sig, orbit_d, scans, deadline, say):
+    """``(existence, scans)``: where the Fig. 6 orbit holds (draws, Sobol, the scans' limits)."""
     p3_draws = result_lm.pop("_p3_draws", None)
     sobol_existence = result_lm.pop("_sobol_existence", None)
-    existence = _plain(_existence(points, nominal, result_lm, sig, p3_draws))
+    existence = _plain(_existence(points, lin.nominal, result_lm, sig, p3_draws))
     if sobol_existence is not None:
         existence["sobol_indices_of_existence"] = sobol_existence
     scan_data: dict = {}
     if scans and orbit_d is not None:
         say("scans: R_on / R3 and GBW limits of the period-3 orbit")
-        scan_data, limits = _scans(orbit_d, c0, vu, ronf, deadline)
+        scan_data, limits = _scans(orbit_d, lin.c0, lin.vu, lin.ronf, deadline)
         existence.update(_plain(limits))
-    return ToleranceBudget(
-        design={**design.decimal(), "ron": str(float(ron0)), "source": label},
-        tolerances={n: tol[n] for n in INPUTS},
-        nominal=_plain(nominal),
-        landmarks=result_lm,
-        table=table,
-        existence=existence,
-        seed=seed,
-        mc=mc,
-        sobol=sobol,
-        elapsed_s=time.perf_counter() - t_start,
-        scans=scan_data,
-    )
+    return existence, scan_data
 
 
 def _plain(d: dict) -> dict:
@@ -911,7 +985,7 @@ def check_ron(design: Components, ron: Any, given: Any = None) -> None:
 
 def _require_salib() -> None:
     try:
-        import SALib  # noqa: F401
+        import SALib  # noqa: F401, PLC0415 -- optional: loaded on first use
     except ImportError:
         raise OptionalDependencyError(
             "SALib", "pip install 'precise_impact[lab]'", "Sobol indices (or sobol=0)"
@@ -1024,8 +1098,8 @@ def _sobol(
     """SALib's Sobol indices of each landmark frequency over the tolerance box (uniform
     parts), and of the Fig. 6 orbit's existence at the design's eta (an indicator: which
     parts decide whether it holds) when ``orbit`` is given."""
-    from SALib.analyze import sobol as sobol_analyze
-    from SALib.sample import sobol as sobol_sample
+    from SALib.analyze import sobol as sobol_analyze  # noqa: PLC0415 -- optional: loaded on first use
+    from SALib.sample import sobol as sobol_sample  # noqa: PLC0415 -- optional: loaded on first use
 
     names = [INPUTS[i] for i in active]
     problem = {
@@ -1082,9 +1156,6 @@ def _lle_mc(design, x0, sig, c0, ron, vu, n, periods, seed_, deadline=None) -> d
     """The LLE with the generator at ``eta = 0.712`` of the ideal design, over ``n`` draws:
     each draw's effective system run by the fast engine (its variational LLE, batch-means
     standard error)."""
-    from precise_impact.analysis.lyapunov.fast import fast_batch_rows
-    from precise_impact.models.circuit.opamp import design_omega
-
     omega_design = float(design_omega(design))
     W = LLE_ETA * omega_design
     rng = np.random.default_rng([seed_, 712])
@@ -1180,6 +1251,15 @@ def _existence(points, nominal, result_lm, sig, p3_draws) -> dict:
     out["exists"] = bool(m_lo > 0 and m_hi > 0)
     out["margin_low_hz"] = m_lo
     out["margin_high_hz"] = m_hi
+    out.update(_worst_case_tolerances(lo, hi, m_lo, m_hi, sig))
+    out.update(_draw_fractions(p3_draws))
+    return out
+
+
+def _worst_case_tolerances(lo: dict, hi: dict, m_lo: float, m_hi: float, sig) -> dict:
+    """The tolerances that keep the orbit in the worst case: R's alone, C's alone, every part,
+    and the 3-sigma scale of the budget's tolerances (linear in the parts)."""
+    out: dict = {}
     # linear worst case per class: shift of each margin per unit tolerance of R's and C's
     dR = {
         s: sum(abs(L["dfreq_dlnc"][INPUTS[i]]) for i in range(8))
@@ -1205,6 +1285,12 @@ def _existence(points, nominal, result_lm, sig, p3_draws) -> dict:
     out["three_sigma_scale_of_budget"] = min(
         max(margin[s], 0) / (3 * rss[s]) if rss[s] else math.inf for s in margin
     )
+    return out
+
+
+def _draw_fractions(p3_draws: dict | None) -> dict:
+    """The Monte Carlo draws' fractions with the orbit / with its whole interval."""
+    out: dict = {}
     if p3_draws is not None and "orbit_fraction" in p3_draws:
         out["fraction_of_draws_with_stable_period3_orbit"] = p3_draws["orbit_fraction"]
         out["orbit_fraction_stderr"] = p3_draws["orbit_fraction_stderr"]

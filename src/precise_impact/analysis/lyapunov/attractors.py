@@ -157,7 +157,7 @@ def periodic_bias_bound(orbit: Any) -> float:
         docstring, *Finite-time error bar*), from the compiled engine's monodromy at each
         cycle point (float64); ``nan`` where the engine does not resolve the orbit.
     """
-    from precise_impact.solvers.fast.single import STATUS_OK, orbit_map
+    from precise_impact.solvers.fast.single import STATUS_OK, orbit_map  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     p = orbit.params
     if not p.zeta < 1 or (p.zeta == 0 and p.eta == 1):

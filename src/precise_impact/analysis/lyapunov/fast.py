@@ -102,64 +102,18 @@ def fast_spectrum(
     params = as_params(params)
     deadline = Deadline(None if max_time is None else parse_max_time(max_time), "lle")
     progress = check_progress(progress)
-    if precision not in ("float64",):
-        raise ParameterError(
-            "precision", precision, "'float64' for method 'fast' (other precisions: 'variational')"
-        )
-    n = check_count(initial_conditions, "initial_conditions", 1000, minimum=1)
-    periods = check_count(periods, "periods", minimum=n)
-    transient = check_count(transient, "transient")
-    segments = check_count(segments, "segments", 10**6, minimum=2)
-    max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
-    per = periods // n
-    blocks = max(2, min(per, -(-segments // n)))
-    # finer blocks for the attractors' per-start tests (module attractors, *Grouping*): up to
-    # TEST_BLOCKS per start of >= TEST_BLOCK_PERIODS periods, summed back into ``blocks`` for
-    # the error bar (m is chosen so that the summed blocks are exactly the ``per // blocks``
-    # periods of the plain run: the same blocks, to rounding)
-    m = (
-        max(1, min(-(-TEST_BLOCKS // blocks), per // (TEST_BLOCK_PERIODS * blocks)))
-        if attractors
-        else 1
+    n, periods, transient, segments, max_impacts = _check_counts(
+        precision, initial_conditions, periods, transient, segments, max_impacts
     )
-    while m > 1 and (per // (blocks * m)) * m != per // blocks:
-        m -= 1
-    from precise_impact.solvers.fast.control import STATUS_INTERRUPTED
-    from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch
-    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT
+    per = periods // n
+    blocks, m = _blocks(per, n, segments, attractors)
+    from precise_impact.solvers.fast.lle import kernel_inputs  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     pars, starts = kernel_inputs(params, n)
 
     def compiled() -> LyapunovResult:
-        if not params.zeta < 1 or (params.zeta == 0 and params.eta == 1):
-            raise Unresolved("fast", "zeta >= 1")
-        start = time.perf_counter()
-        status, log1, log2, *_ = out = lle_batch(
-            pars,
-            starts,
-            per,
-            transient,
-            blocks * m,
-            max_impacts,
-            min(per, 3 * MAX_PERIOD),
-            abort_on_failure=True,  # one start unresolved sends all to heyoka: stop the others
-            progress=progress,
-        )
-        _refuse_endless_bounces(pars, starts, status, log1, log2, per + transient, max_impacts)
-        if np.any(status != STATUS_OK):
-            bad = {STATUS_TEXT[int(s)] for s in status if s not in (STATUS_OK, STATUS_INTERRUPTED)}
-            raise Unresolved("fast", "; ".join(sorted(bad)))
-        elapsed = time.perf_counter() - start
-        return _fast_result(
-            params,
-            per,
-            n,
-            blocks,
-            m,
-            transient,
-            attractors,
-            elapsed,
-            out,
+        return _compiled_spectrum(
+            params, pars, starts, per, n, blocks, m, transient, max_impacts, attractors, progress
         )
 
     def variational() -> LyapunovResult:
@@ -188,10 +142,81 @@ def fast_spectrum(
     )()
 
 
+def _check_counts(precision, initial_conditions, periods, transient, segments, max_impacts):
+    """``(n, periods, transient, segments, max_impacts)`` of :func:`fast_spectrum`, checked."""
+    if precision not in ("float64",):
+        raise ParameterError(
+            "precision", precision, "'float64' for method 'fast' (other precisions: 'variational')"
+        )
+    n = check_count(initial_conditions, "initial_conditions", 1000, minimum=1)
+    periods = check_count(periods, "periods", minimum=n)
+    transient = check_count(transient, "transient")
+    segments = check_count(segments, "segments", 10**6, minimum=2)
+    max_impacts = check_count(max_impacts, "max_impacts", 10**12, minimum=1)
+    return n, periods, transient, segments, max_impacts
+
+
+def _blocks(per: int, n: int, segments: int, attractors: bool) -> tuple[int, int]:
+    """``(blocks, m)``: the error bar's blocks per start, each split in ``m`` test blocks."""
+    blocks = max(2, min(per, -(-segments // n)))
+    # finer blocks for the attractors' per-start tests (module attractors, *Grouping*): up to
+    # TEST_BLOCKS per start of >= TEST_BLOCK_PERIODS periods, summed back into ``blocks`` for
+    # the error bar (m is chosen so that the summed blocks are exactly the ``per // blocks``
+    # periods of the plain run: the same blocks, to rounding)
+    m = (
+        max(1, min(-(-TEST_BLOCKS // blocks), per // (TEST_BLOCK_PERIODS * blocks)))
+        if attractors
+        else 1
+    )
+    while m > 1 and (per // (blocks * m)) * m != per // blocks:
+        m -= 1
+    return blocks, m
+
+
+def _compiled_spectrum(
+    params, pars, starts, per, n, blocks, m, transient, max_impacts, attractors, progress
+) -> LyapunovResult:
+    """The spectrum from the compiled kernel (Unresolved: the fallback runs heyoka)."""
+    from precise_impact.solvers.fast.control import STATUS_INTERRUPTED  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
+    from precise_impact.solvers.fast.lle import lle_batch  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
+    from precise_impact.solvers.fast.single import STATUS_OK, STATUS_TEXT  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
+
+    if not params.zeta < 1 or (params.zeta == 0 and params.eta == 1):
+        raise Unresolved("fast", "zeta >= 1")
+    start = time.perf_counter()
+    status, log1, log2, *_ = out = lle_batch(
+        pars,
+        starts,
+        per,
+        transient,
+        blocks * m,
+        max_impacts,
+        min(per, 3 * MAX_PERIOD),
+        abort_on_failure=True,  # one start unresolved sends all to heyoka: stop the others
+        progress=progress,
+    )
+    _refuse_endless_bounces(pars, starts, status, log1, log2, per + transient, max_impacts)
+    if np.any(status != STATUS_OK):
+        bad = {STATUS_TEXT[int(s)] for s in status if s not in (STATUS_OK, STATUS_INTERRUPTED)}
+        raise Unresolved("fast", "; ".join(sorted(bad)))
+    elapsed = time.perf_counter() - start
+    return _fast_result(
+        params,
+        per,
+        n,
+        blocks,
+        m,
+        transient,
+        attractors,
+        elapsed,
+        out,
+    )
+
+
 def bounce_refusal(row, start, status, tc, vc, total_periods: int, max_impacts: int):
     """The refusal message of a start the kernel stopped with ``STATUS_ENDLESS_BOUNCES``
     (``tc, vc``: the impact it predicted from; ``row`` = eta, zeta, a, x_w, R), else ``None``."""
-    from precise_impact.solvers.fast.single import STATUS_ENDLESS_BOUNCES
+    from precise_impact.solvers.fast.single import STATUS_ENDLESS_BOUNCES  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     if status != STATUS_ENDLESS_BOUNCES:
         return None
@@ -213,7 +238,7 @@ def _refuse_endless_bounces(pars, starts, status, log1, log2, total_periods, max
 
 def _fast_result(params, per, n, blocks, m, transient, attractors, elapsed, out) -> LyapunovResult:
     """The :class:`LyapunovResult` of a resolved compiled run (``out``: ``lle_batch``'s arrays)."""
-    from precise_impact.solvers.fast.single import STATUS_TEXT
+    from precise_impact.solvers.fast.single import STATUS_TEXT  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     status, log1, log2, imps, fine, fine_imps, xt, vt, refined = out
     bsums = fine.reshape(n, blocks, m).sum(axis=2)
@@ -364,8 +389,8 @@ def fast_batch_rows(
     list of dict
         As :func:`fast_batch`.
     """
-    from precise_impact.solvers.fast.lle import lle_batch, lle_batch_serial
-    from precise_impact.solvers.fast.single import STATUS_OK
+    from precise_impact.solvers.fast.lle import lle_batch, lle_batch_serial  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
+    from precise_impact.solvers.fast.single import STATUS_OK  # noqa: PLC0415 -- heavy: numba engine, loaded on first use
 
     periods = check_count(periods, "periods", minimum=1)
     transient = check_count(transient, "transient")

@@ -1,18 +1,12 @@
 """The finite-time largest Lyapunov exponent of a recorded stretch of a trajectory.
 
 A record of ``T`` time units has an exponent of its own, ``ln sigma_max(M) / T`` with ``M`` the
-tangent map of that stretch; on a chaotic attractor it scatters from record to record around
-the asymptotic LLE (at eta = 0.712, 200 forcing periods: ~11 %).  An estimate made *from* a
-record (:mod:`.timeseries`) is therefore validated against the exponent of the same stretch,
-not only against the asymptotic one.
-
-Between impacts the system is linear, so the tangent map of a stretch is a product of the
-closed-form homogeneous flow :func:`~precise_impact.core.flight.flow_matrix` over each flight and
-the saltation matrix :func:`~precise_impact.core.impact.oscillator_saltation` at each impact: it
-needs only the impacts' times and incoming velocities, which every engine records.  Following the
-*recorded* impacts (not a new integration from the record's first state) keeps the exponent on the
-stretch the record shows: a new float64 integration leaves a chaotic pseudo-orbit after ~130
-forcing periods at eta = 0.712.
+tangent map of that stretch (it scatters about the asymptotic LLE: ~11 % at eta = 0.712 over
+200 periods), so an estimate made *from* a record (:mod:`.timeseries`) is validated against it.
+``M`` is the product of the closed-form flight flows
+(:func:`~precise_impact.core.flight.flow_matrix`) and the impacts' saltation matrices
+(:func:`~precise_impact.core.impact.oscillator_saltation`) along the *recorded* impacts (why:
+docs/guide/captures.rst, "The finite-time exponent of a record").
 
 Reference: M. di Bernardo et al., *Piecewise-smooth Dynamical Systems* (2008), sec. 2.5
 (saltation); the closed form of the flight: docs/theory.

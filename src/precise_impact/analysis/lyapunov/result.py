@@ -13,6 +13,7 @@ from precise_impact.core.compat import RenamedAttribute
 from precise_impact.core.params import Params
 from precise_impact.core.result import ResultMixin, columns, to_jsonable
 from precise_impact.core.stats import lle_stderr, means_stderr, rounding_stderr
+from precise_impact.io.figures import figure_legend, finish, new_figure, wrap_title
 
 __all__ = [
     "Attractor",
@@ -254,8 +255,6 @@ class LyapunovResult(ResultMixin):
         -------
         matplotlib.figure.Figure
         """
-        from precise_impact.io.figures import figure_legend, finish, new_figure, wrap_title
-
         fig, axes = new_figure(1, 2, figsize=(11, 4.6), gridspec_kw={"width_ratios": [2, 1]})
         ax1, ax2 = axes[0]
         run = np.asarray(self.running, dtype=float)

@@ -1,115 +1,14 @@
 """The largest Lyapunov exponent from a measured time series: Rosenstein's and Kantz's
 nearest-neighbour divergence estimators, for a forced system with neighbours at equal phase.
 
-What is estimated
------------------
-Pairs of nearby points of the record are followed forward in time and the average
-logarithm of their distance, ``S(t)``, is plotted against the time ``t`` they have been
-followed (the *divergence curve*).  On a chaotic attractor ``S(t)`` rises with slope
-``lambda_1`` (the largest exponent) from the noise floor until the pairs are as far apart as
-two random points of the attractor; the estimate is the least-squares slope of ``S`` over
-the rising part (the *fit range*).
+Pairs of nearby points are followed forward; the slope of their mean log distance ``S(t)``
+over its rising part is the exponent.  With ``period`` given, neighbours are searched within
+the reference's own forcing phase (a Poincare section per phase bin), so both members of a
+pair see the same forcing.  Error bar, period check, bias truth table, why not nolds:
+docs/guide/captures.rst, "The time-series LLE estimators".
 
-* ``method='rosenstein'`` (Rosenstein, Collins & De Luca 1993 [1]_): one nearest neighbour per
-  reference point, ``S(t) = < ln |y_i(t) - y_j(t)| >_i``.
-* ``method='kantz'`` (Kantz 1994 [2]_): every neighbour within a radius ``epsilon``,
-  ``S(t) = < ln ( < |y_i(t) - y_j(t)| >_{j in U_i} ) >_i``.
-
-Neighbours at the same forcing phase
-------------------------------------
-The impact oscillator is forced: ``(x, v)`` alone is not its state, ``(x, v, phase)`` is.
-Two points close in ``(x, v)`` but at different forcing phases are not neighbours in phase
-space, and a delay embedding of a scalar channel mixes phases as well.  A capture records
-the state itself (``V_s ~ x``, ``V_q ~ v``) and the forcing phase is known (``V_3``) or
-estimated, so with ``period`` given the record is resampled (linear interpolation) onto a
-grid of exactly ``per_period`` samples per forcing period starting at phase 0; each phase
-bin is then a Poincare section, neighbours are searched only within a reference's own
-section (a KD-tree per section, :class:`scipy.spatial.cKDTree`), and the pair is followed
-on the common grid, so both members see the same forcing at every lag.  Without ``period``
-(an autonomous system, or an embedding made by :func:`delay_embed`) neighbours are searched
-in the whole record, away from the reference in time by the Theiler window [3]_.  The state
-components are divided by their standard deviations (volts and volts-per-second, or x and
-v, on one footing); the exponent does not depend on the norm.
-
-The non-smooth flow: two neighbours hit the wall at slightly different times and, between
-the two impacts, their velocities differ by ``(1 + R) |v|``; such short excursions touch a
-fraction ``~ d / |v|`` of the pairs and enter ``S`` as a small bias, which the truth table
-measures (``benchmarks/bench_timeseries_lle.py``).
-
-Error bar
----------
-``lle_stderr`` contains the delete-one-block jackknife error of the slope over ``n_blocks``
-blocks of reference points contiguous in time (the curve of the other blocks fitted over the
-same range, each block left out in turn) and, in quadrature, the estimator's systematic error:
-by default (``correct=True``, inside the truth table's domain) the table's rms scatter of
-corrected single records about the attractor's exponent (14.5 % of the estimate for Kantz at
-200 periods, 16.8 % for Rosenstein, scaled by ``sqrt(200 / periods)``); otherwise the
-fit-range systematic (the largest change of the slope when the fit range is moved by
-``fit_shift`` of the rise either way). ``stats['error_bar']`` says which, with the parts.
-:attr:`TimeSeriesLLE.ci95` is ``lle -+ t_{0.975, n_blocks-1} lle_stderr``. An estimate whose
-95 % interval is wider than itself is kept with ``status='uncertain'``; a fit without a finite
-slope or error is ``status='unfit'`` (NaN).
-
-A wrong forcing period
-----------------------
-With ``period`` the neighbours of every reference are also searched at *all* phases: on a
-forced record states close in ``(x, v)`` are mostly at equal forcing phase, so with the
-right period their grid phases agree, while a period off by ``delta`` (relative) makes a
-pair ``n`` periods apart agree when its grid phases differ by ``-n delta``.  The ``delta``
-that best aligns them (``stats['phase_drift']``) is the period's relative error; beyond
-0.5 % (``1 / periods`` for records under 200 periods) the estimate is ``'uncertain'`` and the reason
-says the phase grid drifts (a capture at eta = 0.712 mapped with the 0.74 design: -3.8 %).
-
-Bias (the truth table)
-----------------------
-``benchmarks/bench_timeseries_lle.py`` (results in ``benchmarks/results/timeseries_lle.md``)
-runs both estimators on synthetic captures of the ideal circuit at eta = 0.712, one condition
-varied at a time around the issue's capture (8 bits, 1 % noise, 200 periods, 176 samples per
-period): 25-400 samples per period, noise 0-3 % of full scale, 6-12 bits, 100-1000 periods; 304
-records, each its own stretch of the attractor, each scored against *its own* finite-time
-variational exponent (:func:`~precise_impact.finite_time_lle` along the model's impacts in the
-record): a 200-period stretch's exponent itself scatters 13 % rms about the attractor's
-(0.03039 per unit time), so a record cannot be judged against the asymptotic value alone.
-Against its own stretch, Kantz's raw estimate is low by 7 % at the issue's capture (Rosenstein
-12.5 %); the bias grows with the noise (-18 % at 3 % noise, +3 % without noise) and is modelled
-as linear in the divergence curve's noise floor (:data:`TRUTH_TABLE_BIAS`: -5.6 % at a floor of
--4, -5.6 % per unit). Corrected single 200-period records scatter 12.4 % rms about their own
-exponents (Rosenstein 14.1 %), 14.5 % about the attractor's, down to ~2.4 % and ~4 % at 1000
-periods. By default (``correct=True``) the estimate is divided by ``1 +`` that bias and the
-records' scatter about the attractor's exponent is the systematic part of the error bar; the 95
-% intervals then hold the attractor's exponent in 301 of the table's 304 records and the
-record's own in 301 (the fit-range bar: 238); only inside the table's domain
-(:data:`TRUTH_TABLE_DOMAIN`: a forced record, a rising curve, >= 25 samples per period, >= 2
-e-folds of rise, a noise floor in -6 .. -2.5); ``stats['raw_lle']`` keeps the uncorrected value.
-
-What a 200-period record gives: at the issue's capture, 26 of 30 independent records (87 %;
-Rosenstein 23/30) lie within 20 % of their own stretch's exponent with an interval that covers
-it; the estimator's scatter (12.4 %) is the limit, and 500-period records bring it to ~7 %.
-Stable periodic data (the period-3 orbit at eta = 0.74) are refused in every seed, and
-noise-free data approaching a non-impacting orbit give ``-zeta`` to 2e-3 relative (-0.05006 ..
--0.05009 for -0.05).
-
-Why not nolds
--------------
-nolds 0.6.3 (``lyap_r`` = Rosenstein, ``lyap_e`` = Eckmann) was measured and not used:
-``import nolds`` fails on Python 3.11 (``TypeError: 'nolds.datasets' is not a package``:
-its ``__init__`` loads data files with ``importlib.resources`` on a module); loaded from its
-file, ``lyap_r`` takes one scalar channel and delay-embeds it (no way to give the recorded
-state, nor to keep neighbours at equal forcing phase), builds the full ``m x m`` distance
-matrix (200 periods at 100 samples/period: 20 000 points, 3.2 GB), and fits the line over
-the whole followed range from ``fit_offset`` (no rising range is chosen, so saturation
-enters the slope: the low bias it is known for).  Run from its file on the issue's capture
-(V_s decimated to 20 samples per period, its defaults) it is 33-39 % low (the truth table).
-The algorithm itself is a dozen lines; written here on KD-trees.
-
-References
-----------
-.. [1] M. T. Rosenstein, J. J. Collins, C. J. De Luca, "A practical method for calculating
-       largest Lyapunov exponents from small data sets", Physica D 65 (1993) 117-134.
-.. [2] H. Kantz, "A robust method to estimate the maximal Lyapunov exponent of a time
-       series", Phys. Lett. A 185 (1994) 77-87.
-.. [3] J. Theiler, "Spurious dimension from correlation integrals of filtered noise",
-       Phys. Rev. A 34 (1986) 2427 (the window excluding temporal neighbours).
+References: M. T. Rosenstein et al., Physica D 65 (1993) 117-134; H. Kantz, Phys. Lett. A 185
+(1994) 77-87; J. Theiler, Phys. Rev. A 34 (1986) 2427 (the Theiler window).
 """
 
 from __future__ import annotations
@@ -117,12 +16,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import textwrap
 from typing import Any
 
 import numpy as np
 
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import OptionalDependencyError, ParameterError, check_type
+from precise_impact.io.figures import finish, new_figure
 
 __all__ = [
     "TIMESERIES_METHODS",
@@ -308,8 +209,6 @@ class TimeSeriesLLE(ResultMixin):
         -------
         matplotlib.figure.Figure
         """
-        from precise_impact.io.figures import finish, new_figure
-
         fig, axes = new_figure(1, 1, figsize=(7.5, 4.6))
         ax = axes[0][0] if isinstance(axes, np.ndarray) or isinstance(axes, list) else axes
         t = np.asarray(self.lags, dtype=float)
@@ -348,8 +247,6 @@ class TimeSeriesLLE(ResultMixin):
                     label=f"reference slope {truth:.4g}",
                 )
         else:
-            import textwrap
-
             ax.set_title("\n".join(textwrap.wrap("no exponent: " + self.reason, 100)), fontsize=8)
         ax.set_xlabel("time followed")
         ax.set_ylabel("mean ln distance")
@@ -464,7 +361,7 @@ def _noise_floor(noise_sd: np.ndarray) -> float:
     """``E[ln |n1 - n2|]`` for two independent noise vectors of component deviations
     ``noise_sd``: ``ln s + (digamma(d / 2) + ln 2) / 2`` with ``s^2 = 2 mean(sd^2)`` (exact for
     equal deviations: ``|n1 - n2| / s`` is chi-distributed with ``d`` degrees of freedom)."""
-    from scipy.special import digamma
+    from scipy.special import digamma  # noqa: PLC0415 -- optional: loaded on first use
 
     d = len(noise_sd)
     s2 = 2.0 * float(np.mean(np.square(noise_sd)))
@@ -490,7 +387,7 @@ def _fit_floor(
     """``S(t) = ln sqrt(exp(2 (a + lambda t)) + exp(2 b))`` over ``[lo, hi]``: an exponential
     separation seen through a noise floor ``b`` (the measured distance of a pair is the
     true one and the noise's in quadrature).  ``(lambda, a, b)``."""
-    from scipy.optimize import least_squares
+    from scipy.optimize import least_squares  # noqa: PLC0415 -- optional: loaded on first use
 
     tt, ss = _select(t, s, lo, hi)
     if len(tt) < 4:
@@ -693,10 +590,126 @@ def timeseries_lle(
     >>> timeseries_lle(rng.normal(size=(4000, 2)), 0.01, max_lag=2.0).status
     'flat'
     """
+    y, dt, lo_f, hi_f, period = _check_inputs(
+        states, dt, method, period, fit, fit_fractions, n_blocks, max_neighbors
+    )
+    y, cutoff, noise_sd = _condition(y, dt, period, lowpass, scale)
+    g = _lag_grid(y, dt, period, phase0, per_period, theiler, max_lag, lag_step, n_blocks)
+    spp, yg, n_periods, theiler_n = g.spp, g.yg, g.n_periods, g.theiler_n
+    step_t, lag_idx = g.step_t, g.lag_idx
+    n_ref = len(yg) - g.L  # references (and neighbours) that can be followed for every lag
+    refs, nbrs, w, r0 = _neighbours(
+        yg, n_ref, spp if period is not None else 0, theiler_n, method, radius, max_neighbors
+    )
+    if len(refs) < 2 * n_blocks:
+        raise ParameterError(
+            "states", f"{len(refs)} reference points with a neighbour", f">= {2 * n_blocks}"
+        )
+    sums, counts = _divergence_sums(yg, refs, nbrs, w, lag_idx, n_ref, n_blocks)
+    t = lag_idx * step_t
+    with np.errstate(invalid="ignore", divide="ignore"):
+        curve = sums.sum(0) / counts.sum(0)
+        per_block = sums / counts
+    be = per_block.std(axis=0, ddof=1) / math.sqrt(n_blocks)
+
+    sat = _saturation(yg, n_ref, spp if period is not None else 0)
+    # S at lag 0 is low by construction (each neighbour was chosen for its small noisy
+    # distance); the curve starts at the first lag, where the noise is independent again
+    y0 = float(curve[1])
+    tail = curve[1:][np.isfinite(curve[1:])]
+    rise = float(np.max(tail) - y0)
+    fall = float(y0 - np.min(tail))
+    stats = _curve_stats(g, period, dt, cutoff, t, w, method, r0, fit, lo_f, hi_f, refs, counts)
+    stats["rise"] = rise
+    stats["fall"] = fall
+    if max(rise, fall) < min_rise and fit_range is None:
+        reason = (
+            f"the divergence curve moves {max(rise, fall):.2f} e-folds (< min_rise = {min_rise}) "
+            "over the lags followed: neighbours stay at the noise floor (periodic or "
+            "quasi-periodic data, or too much noise); no exponent"
+        )
+        nan = math.nan
+        return TimeSeriesLLE(
+            nan, nan, nan, nan, method, _FLAT, reason, t, curve, be, (0.0, float(t[-1])),
+            nan, sat, np.full(n_blocks, nan), len(refs), stats,
+        )  # fmt: skip
+    sign = 1.0 if rise >= fall else -1.0  # falling: a stable orbit approached
+    lo, hi, shifted = _fit_ranges(
+        t, curve, tail, sat, y0, fall, sign, fit_range, fit_fractions=(lo_f, hi_f),
+        fit_shift=fit_shift,
+    )  # fmt: skip
+    fixed_floor = _fixed_floor(fit, floor_from_noise, noise_sd, sign, y0, stats)
+
+    def model(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[float, float, float]:
+        return _FITS[fit](t, s, lo, hi, fixed_floor)
+
+    slope, icpt, floor = model(t, curve, lo, hi)
+    slopes_b, stat, syst = _jackknife(model, t, curve, sums, counts, lo, hi, shifted, slope)
+    stats["noise_floor"] = floor
+    err = math.hypot(stat, syst)
+    stats["raw_lle"], stats["raw_stderr"] = slope, err
+    stats["bias"] = 0.0
+    stats["error_bar"] = (
+        f"jackknife over {n_blocks} blocks ({stat:.2g}) and the fit-range systematic "
+        f"({syst:.2g}, range moved by {fit_shift:g} of the rise) in quadrature; "
+        "bias not corrected"
+    )
+    applied, why = (False, "not requested (correct=False)")
+    if correct:
+        applied, why = _correctable(method, fit, sign, period, stats)
+    stats["correction"] = why
+    if applied and math.isfinite(slope):
+        slope, icpt, err, slopes_b, stat, syst = _corrected(
+            method, slope, icpt, stat, slopes_b, n_periods, floor, n_blocks, stats
+        )
+    status, reason, slope, err = _judge(slope, err, slopes_b, lo, hi, rise)
+    if period is not None:
+        status, reason = _check_phase_grid(yg, spp, theiler_n, n_periods, status, reason, stats)
+    return TimeSeriesLLE(
+        slope, err, stat, syst, method, status, reason, t, curve, be,
+        (lo, hi), icpt, sat, slopes_b, len(refs), stats,
+    )  # fmt: skip
+
+
+def _curve_stats(g, period, dt, cutoff, t, w, method, r0, fit, lo_f, hi_f, refs, counts) -> dict:
+    """The result's ``stats``: the grid, the filter, the window, the neighbours, the fit."""
+    spp, n_periods, step_t, ls = g.spp, g.n_periods, g.step_t, g.ls
+    return {
+        "samples_per_period": spp if period is not None else None,
+        "raw_samples_per_period": None if period is None else float(period) / dt,
+        "periods": n_periods if period is not None else None,
+        "lowpass": cutoff,
+        "theiler": g.theiler_n * step_t,
+        "max_lag": float(t[-1]),
+        "lag_step": ls * step_t,
+        "neighbours_per_reference": float(np.mean((w > 0).sum(axis=1))),
+        "radius": None if method == "rosenstein" else r0,
+        "fit": fit,
+        "fit_fractions": (lo_f, hi_f),
+        "zero_distances": int(len(refs) * len(g.lag_idx) - counts.sum()),
+    }
+
+
+def _fixed_floor(fit, floor_from_noise, noise_sd, sign, y0, stats):
+    """The noise floor the fit holds fixed (measured from the filtered-out noise), or None."""
+    fixed_floor = None
+    if fit == "floor" and floor_from_noise and noise_sd is not None:
+        stats["noise_sd"] = [float(v) for v in noise_sd]
+        measured = _noise_floor(noise_sd)
+        # the noise floor is where a rising curve starts from; a falling curve (a stable
+        # orbit approached) goes below it, and a floor above the start is not a floor
+        if sign > 0 and measured < y0:
+            fixed_floor = measured
+    return fixed_floor
+
+
+def _check_inputs(states, dt, method, period, fit, fit_fractions, n_blocks, max_neighbors):
+    """``(y, dt, lo_f, hi_f, period)``: the record as an ``(N, d)`` float array, every
+    argument checked (ParameterError, or OptionalDependencyError without scipy)."""
     if method not in TIMESERIES_METHODS:
         raise ParameterError("method", method, "one of " + ", ".join(TIMESERIES_METHODS))
     try:
-        import scipy  # noqa: F401  (KD-trees, filters, fits)
+        import scipy  # noqa: F401, PLC0415 -- optional: loaded on first use (KD-trees, filters, fits)
     except ImportError:
         raise OptionalDependencyError(
             "scipy", "pip install 'precise_impact[lab]'", "timeseries_lle"
@@ -729,9 +742,15 @@ def timeseries_lle(
         raise ParameterError("max_neighbors", max_neighbors, "an integer >= 1")
     if period is not None:
         period = _check_positive("period", period)
+    return y, dt, lo_f, hi_f, period
+
+
+def _condition(y, dt, period, lowpass, scale):
+    """``(y, cutoff, noise_sd)``: the record low-passed (zero phase) and scaled to unit
+    variance per component, with the noise the filter removed."""
     cutoff = _cutoff(lowpass, period, dt)
     if cutoff is not None:
-        from scipy.signal import butter, sosfiltfilt
+        from scipy.signal import butter, sosfiltfilt  # noqa: PLC0415 -- optional: loaded on first use
 
         sos = butter(4, cutoff * 2 * dt, output="sos")
         y_raw = y
@@ -746,7 +765,26 @@ def timeseries_lle(
         y = (y - y.mean(axis=0)) / sd
         if noise_sd is not None:
             noise_sd = noise_sd / sd
+    return y, cutoff, noise_sd
 
+
+@dataclasses.dataclass
+class _Grid:
+    """The embedding's time grid: samples per period, the gridded record, the lags."""
+
+    spp: int
+    yg: np.ndarray
+    n_periods: int
+    step_t: float
+    theiler_n: int
+    ls: int
+    L: int
+    lag_idx: np.ndarray
+
+
+def _lag_grid(y, dt, period, phase0, per_period, theiler, max_lag, lag_step, n_blocks) -> _Grid:
+    """The embedding: the record on a phase grid (forced data) or as sampled, the Theiler
+    window and the lags to follow, checked against the record's length."""
     if period is not None:
         # after the low-pass, 64 grid points per period keep every harmonic it passes
         spp = per_period if per_period is not None else max(4, min(64, round(period / dt)))
@@ -777,15 +815,11 @@ def timeseries_lle(
             f"(max_lag = {float(max_lag):.4g}, Theiler window {theiler_n * step_t:.4g}, "
             f"{n_periods} whole periods)",
         )
-    n_ref = n - L  # references (and neighbours) that can be followed for every lag
-    refs, nbrs, w, r0 = _neighbours(
-        yg, n_ref, spp if period is not None else 0, theiler_n, method, radius, max_neighbors
-    )
-    if len(refs) < 2 * n_blocks:
-        raise ParameterError(
-            "states", f"{len(refs)} reference points with a neighbour", f">= {2 * n_blocks}"
-        )
+    return _Grid(spp, yg, n_periods, step_t, theiler_n, ls, L, lag_idx)
 
+
+def _divergence_sums(yg, refs, nbrs, w, lag_idx, n_ref, n_blocks):
+    """``(sums, counts)`` per block and lag of the log distances of the pairs followed."""
     block_of = np.minimum((refs * n_blocks) // n_ref, n_blocks - 1)
     sums = np.zeros((n_blocks, len(lag_idx)))
     counts = np.zeros((n_blocks, len(lag_idx)))
@@ -804,47 +838,12 @@ def timeseries_lle(
         b = block_of[a : a + chunk]
         np.add.at(sums, b, np.where(ok, ld, 0.0))
         np.add.at(counts, b, ok)
-    t = lag_idx * step_t
-    with np.errstate(invalid="ignore", divide="ignore"):
-        curve = sums.sum(0) / counts.sum(0)
-        per_block = sums / counts
-    be = per_block.std(axis=0, ddof=1) / math.sqrt(n_blocks)
+    return sums, counts
 
-    sat = _saturation(yg, n_ref, spp if period is not None else 0)
-    # S at lag 0 is low by construction (each neighbour was chosen for its small noisy
-    # distance); the curve starts at the first lag, where the noise is independent again
-    y0 = float(curve[1])
-    tail = curve[1:][np.isfinite(curve[1:])]
-    rise = float(np.max(tail) - y0)
-    fall = float(y0 - np.min(tail))
-    stats = {
-        "samples_per_period": spp if period is not None else None,
-        "raw_samples_per_period": None if period is None else float(period) / dt,
-        "periods": n_periods if period is not None else None,
-        "lowpass": cutoff,
-        "theiler": theiler_n * step_t,
-        "max_lag": float(t[-1]),
-        "lag_step": ls * step_t,
-        "neighbours_per_reference": float(np.mean((w > 0).sum(axis=1))),
-        "radius": None if method == "rosenstein" else r0,
-        "fit": fit,
-        "fit_fractions": (lo_f, hi_f),
-        "zero_distances": int(len(refs) * len(lag_idx) - counts.sum()),
-        "rise": rise,
-        "fall": fall,
-    }
-    if max(rise, fall) < min_rise and fit_range is None:
-        reason = (
-            f"the divergence curve moves {max(rise, fall):.2f} e-folds (< min_rise = {min_rise}) "
-            "over the lags followed: neighbours stay at the noise floor (periodic or "
-            "quasi-periodic data, or too much noise); no exponent"
-        )
-        nan = math.nan
-        return TimeSeriesLLE(
-            nan, nan, nan, nan, method, _FLAT, reason, t, curve, be, (0.0, float(t[-1])),
-            nan, sat, np.full(n_blocks, nan), len(refs), stats,
-        )  # fmt: skip
-    sign = 1.0 if rise >= fall else -1.0  # falling: a stable orbit approached
+
+def _fit_ranges(t, curve, tail, sat, y0, fall, sign, fit_range, fit_fractions, fit_shift):
+    """``(lo, hi, shifted)``: the times fitted and the two ranges moved by ``fit_shift``."""
+    lo_f, hi_f = fit_fractions
     if fit_range is not None:
         lo, hi = (float(v) for v in fit_range)
         if not 0 <= lo < hi:
@@ -861,19 +860,12 @@ def timeseries_lle(
             _window(t, sc, sign * y0, delta, max(0.0, lo_f + d * (lo_f > 0)), min(1.0, hi_f + d))
             for d in (-fit_shift, fit_shift)
         ]
-    fixed_floor = None
-    if fit == "floor" and floor_from_noise and noise_sd is not None:
-        stats["noise_sd"] = [float(v) for v in noise_sd]
-        measured = _noise_floor(noise_sd)
-        # the noise floor is where a rising curve starts from; a falling curve (a stable
-        # orbit approached) goes below it, and a floor above the start is not a floor
-        if sign > 0 and measured < y0:
-            fixed_floor = measured
+    return lo, hi, shifted
 
-    def model(t: np.ndarray, s: np.ndarray, lo: float, hi: float) -> tuple[float, float, float]:
-        return _FITS[fit](t, s, lo, hi, fixed_floor)
 
-    slope, icpt, floor = model(t, curve, lo, hi)
+def _jackknife(model, t, curve, sums, counts, lo, hi, shifted, slope):
+    """``(block slopes, statistical error, fit-range systematic)`` of the fitted slope."""
+    n_blocks = len(sums)
     # delete-one-block jackknife of the whole fit (Efron & Stein 1981): each block left out
     # in turn, the curve of the other blocks fitted over the same range; a nonlinear fit of
     # one block's own noisy curve would inflate the spread
@@ -891,39 +883,36 @@ def timeseries_lle(
     )
     syst = max((abs(model(t, curve, a, b)[0] - slope) for a, b in shifted), default=0.0)
     syst = 0.0 if not math.isfinite(syst) else syst
-    stats["noise_floor"] = floor
-    err = math.hypot(stat, syst)
-    stats["raw_lle"], stats["raw_stderr"] = slope, err
-    stats["bias"] = 0.0
+    return slopes_b, stat, syst
+
+
+def _corrected(method, slope, icpt, stat, slopes_b, n_periods, floor, n_blocks, stats):
+    """The estimate divided by the truth table's bias, its error bar the table's scatter
+    (``(slope, intercept, error, block slopes, stat, syst)``; ``stats`` says so)."""
+    # the truth table measured the estimator's error on records whose exponent is known:
+    # its mean bias, and the scatter of single records about it (over its conditions and
+    # over independent stretches of the attractor); that scatter replaces the fit-range
+    # proxy (benchmarks/results/timeseries_lle.md)
+    b = table_bias(method, floor)
+    sb = TRUTH_TABLE_BIAS[method]["scatter"]
+    slope, stat_c, syst_c = apply_correction(method, slope, stat, n_periods, floor)
+    icpt = icpt / (1 + b)
+    err = math.hypot(stat_c, syst_c)
+    slopes_b = slopes_b / (1 + b)
+    stats["bias"] = b
     stats["error_bar"] = (
-        f"jackknife over {n_blocks} blocks ({stat:.2g}) and the fit-range systematic "
-        f"({syst:.2g}, range moved by {fit_shift:g} of the rise) in quadrature; "
-        "bias not corrected"
+        f"jackknife over {n_blocks} blocks ({stat_c:.2g}) and the truth table's scatter of "
+        f"single {TRUTH_TABLE_PERIODS}-period records about the attractor's exponent "
+        f"({sb:.1%} of the estimate, x sqrt({TRUTH_TABLE_PERIODS}/{n_periods}) periods: "
+        f"{syst_c:.2g}) in quadrature; raw estimate divided by 1 {b:+.3f} (the table's bias "
+        f"at a noise floor of {floor:.2f})"
     )
-    applied, why = (False, "not requested (correct=False)")
-    if correct:
-        applied, why = _correctable(method, fit, sign, period, stats)
-    stats["correction"] = why
-    if applied and math.isfinite(slope):
-        # the truth table measured the estimator's error on records whose exponent is known:
-        # its mean bias, and the scatter of single records about it (over its conditions and
-        # over independent stretches of the attractor); that scatter replaces the fit-range
-        # proxy (benchmarks/results/timeseries_lle.md)
-        b = table_bias(method, floor)
-        sb = TRUTH_TABLE_BIAS[method]["scatter"]
-        slope, stat_c, syst_c = apply_correction(method, slope, stat, n_periods, floor)
-        icpt = icpt / (1 + b)
-        err = math.hypot(stat_c, syst_c)
-        slopes_b = slopes_b / (1 + b)
-        stats["bias"] = b
-        stats["error_bar"] = (
-            f"jackknife over {n_blocks} blocks ({stat_c:.2g}) and the truth table's scatter of "
-            f"single {TRUTH_TABLE_PERIODS}-period records about the attractor's exponent "
-            f"({sb:.1%} of the estimate, x sqrt({TRUTH_TABLE_PERIODS}/{n_periods}) periods: "
-            f"{syst_c:.2g}) in quadrature; raw estimate divided by 1 {b:+.3f} (the table's bias "
-            f"at a noise floor of {floor:.2f})"
-        )
-        stat, syst = stat_c, syst_c
+    return slope, icpt, err, slopes_b, stat_c, syst_c
+
+
+def _judge(slope, err, slopes_b, lo, hi, rise):
+    """``(status, reason, slope, err)``: unfit (no finite slope or error: NaN), uncertain
+    (the 95 % interval wider than the estimate) or ok."""
     status, reason = "ok", ""
     if not (math.isfinite(slope) and math.isfinite(err)):
         status = _UNFIT
@@ -941,22 +930,23 @@ def timeseries_lle(
                 f"the estimate {slope:.3g} itself: no reliable exponent (too short or noisy a "
                 "record, or a wrong forcing period)"
             )
-    if period is not None:
-        drift = _phase_drift(yg, int(spp), theiler_n)
-        stats["phase_drift"] = drift
-        limit = max(_DRIFT_LIMIT, 1.0 / max(n_periods, 1))  # resolution: 1/4 period per record
-        if drift is not None and abs(drift) > limit:
-            if status == "ok":
-                status = _UNCERTAIN
-            reason += ("; " if reason else "") + (
-                f"neighbours at 'equal phase' are not: the phase grid drifts by {drift:+.2%} of a "
-                f"period per period (the forcing period given is ~{drift:+.1%} off; the "
-                "exponent assumes the right one)"
-            )
-    return TimeSeriesLLE(
-        slope, err, stat, syst, method, status, reason, t, curve, be,
-        (lo, hi), icpt, sat, slopes_b, len(refs), stats,
-    )  # fmt: skip
+    return status, reason, slope, err
+
+
+def _check_phase_grid(yg, spp, theiler_n, n_periods, status, reason, stats):
+    """``(status, reason)`` with the phase grid's drift checked (a forcing period off)."""
+    drift = _phase_drift(yg, int(spp), theiler_n)
+    stats["phase_drift"] = drift
+    limit = max(_DRIFT_LIMIT, 1.0 / max(n_periods, 1))  # resolution: 1/4 period per record
+    if drift is not None and abs(drift) > limit:
+        if status == "ok":
+            status = _UNCERTAIN
+        reason += ("; " if reason else "") + (
+            f"neighbours at 'equal phase' are not: the phase grid drifts by {drift:+.2%} of a "
+            f"period per period (the forcing period given is ~{drift:+.1%} off; the "
+            "exponent assumes the right one)"
+        )
+    return status, reason
 
 
 def apply_correction(
@@ -974,7 +964,7 @@ def apply_correction(
 
 def student_t975(n_blocks: int) -> float:
     """Student's ``t_{0.975}`` with ``n_blocks - 1`` degrees of freedom."""
-    from scipy.stats import t as student
+    from scipy.stats import t as student  # noqa: PLC0415 -- optional: loaded on first use
 
     return float(student.ppf(0.975, max(1, n_blocks - 1)))
 
@@ -1004,7 +994,7 @@ def _neighbours(y, n_ref, spp, theiler_n, method, radius, max_neighbors):
     """Reference indices, their neighbours ``(n, k)`` and weights ``(n, k)`` (Rosenstein: one
     neighbour, weight 1; Kantz: up to ``max_neighbors`` within ``radius``, weights
     ``1 / count``).  With ``spp > 0`` the search is within each phase section."""
-    from scipy.spatial import cKDTree
+    from scipy.spatial import cKDTree  # noqa: PLC0415 -- optional: loaded on first use
 
     k_query = max_neighbors if method == "kantz" else 1
     k_ask = k_query + 2 * (theiler_n // max(spp, 1)) + 2 if spp else k_query + 2 * theiler_n + 2
@@ -1062,7 +1052,7 @@ def _phase_drift(y: np.ndarray, spp: int, theiler_n: int, max_refs: int = 20000)
     phase when its grid phases differ by ``-n delta``.  ``delta`` is the maximiser of the
     phase coherence ``|< exp(2 pi i (phi + n delta)) >|`` over ``|delta| <= 0.1``; ``None``
     when the neighbours carry no phase information (coherence at the maximum < 0.2)."""
-    from scipy.spatial import cKDTree
+    from scipy.spatial import cKDTree  # noqa: PLC0415 -- optional: loaded on first use
 
     n = len(y)
     if n < 4 * spp or spp < 4:

@@ -12,12 +12,11 @@ from precise_impact.core.params import check_count
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.jsonout import print_json, write_json
+from precise_impact.lab import budget as lab_budget  # called through the module: tests patch it
 
 
 def register(sub) -> argparse.ArgumentParser:
     """Add ``budget`` to ``sub``."""
-    from precise_impact.lab.budget import LANDMARKS
-
     bp = sub.add_parser(
         "budget",
         help="tolerance budget: how the paper's landmarks move with every component",
@@ -37,9 +36,9 @@ def register(sub) -> argparse.ArgumentParser:
     )
     bp.add_argument(
         "--landmarks",
-        default=",".join(LANDMARKS),
+        default=",".join(lab_budget.LANDMARKS),
         metavar="LIST",
-        help="comma-separated subset of " + ", ".join(LANDMARKS) + " (default all)",
+        help="comma-separated subset of " + ", ".join(lab_budget.LANDMARKS) + " (default all)",
     )
     bp.add_argument(
         "--ron",
@@ -77,12 +76,6 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``budget``; returns the exit status."""
-    from precise_impact.lab.budget import (
-        check_budget,
-        parse_tolerances,
-        tolerance_budget,
-    )
-
     landmarks = tuple(s.strip() for s in ns.landmarks.split(",") if s.strip())
     mc = check_count(ns.mc, "mc", 100000)
     sobol = check_count(ns.sobol, "sobol", 65536)
@@ -90,8 +83,8 @@ def run(ns: argparse.Namespace) -> int:
     seed = check_count(ns.seed, "seed", 2**32)
     if sobol & (sobol - 1):
         raise ParameterError("sobol", str(sobol), "a power of 2 (Sobol sequences)")
-    parse_tolerances(ns.tolerance)  # bad input: one line, before any work
-    check_budget(
+    lab_budget.parse_tolerances(ns.tolerance)  # bad input: one line, before any work
+    lab_budget.check_budget(
         max_time(ns),
         landmarks=landmarks,
         mc=mc,
@@ -102,7 +95,7 @@ def run(ns: argparse.Namespace) -> int:
     )
     say = None if ns.json else (lambda m: print(f"budget: {m}", file=sys.stderr, flush=True))
     try:
-        res = tolerance_budget(
+        res = lab_budget.tolerance_budget(
             ns.scene,
             tolerances=ns.tolerance,
             landmarks=landmarks,
