@@ -1,51 +1,14 @@
 """How many significant digits a trajectory's samples can claim, and on what basis.
 
-Three bases, strongest first:
-
-``"proven"``
-    The certified model's balls: the digits every point of the ball shares.
-``"demonstrated"``
-    A second run at a higher precision (:func:`demonstrate`): the digits the two runs agree
-    on, sample by sample.
-``"estimated"``
-    One run (:func:`estimate`): the precision's rounding, amplified along the actual
-    trajectory by its tangent (variational) flow -- the closed-form flight's flow
-    :func:`~precise_impact.core.flight.flow_matrix` between events and the impact's saltation
-    matrix :func:`~precise_impact.core.impact.oscillator_saltation` at each impact.
-
-**The estimate's bound.**  A run commits a local error ``delta_j`` at each event ``j`` (a
-sample or an impact) and carries the earlier ones along: to first order the error at event ``n`` is
-``e_n = sum_j Phi(n, j) d_j`` with ``|d_j| <= delta_j``, so
-``|e_n,i| <= sum_j ||row_i Phi(n, j)|| delta_j``.  Summing that for every ``n`` is quadratic;
-Cauchy-Schwarz with positive weights ``w_j = exp(2 gamma (t_n - t_j))`` gives
-
-    ``sum_j a_j <= sqrt(sum_j w_j a_j^2) sqrt(sum_j 1 / w_j)``,
-
-whose two factors obey one-step recursions (``G <- e^{2 gamma dt} J G J^T + delta^2 I`` and
-``S <- e^{-2 gamma dt} S + 1``).  Every ``gamma >= 0`` gives a valid bound, so the smallest of
-a few (:data:`GAMMAS`) is taken at each sample: ``gamma = 0`` suits chaos (the oldest error
-dominates), a small positive ``gamma`` a contracting periodic orbit (where ``gamma = 0`` would
-cost ``sqrt(n)``, ~1.9 digits after 6000 events).
-
-The local error per event (:func:`local_error`), in units of ``u = max(eps, tol)`` (ngspice's
-RELTOL, 1e-3, for the ``'spice'`` model):
-
-- ``C_STATE (m + 1) max(1, |x|, |v|)``: the integrator's own error over the ``m`` steps of the
-  flight since the last event (heyoka's error control is ``tol max(1, |state|)`` per step and
-  its Taylor sums round to a few ``eps``; the closed forms take one "step", ~20 roundings of
-  quantities of the state's size; ``C_STATE = 8`` covers both with a factor ~2 to spare, and
-  the tests against a higher precision check it);
-- ``C_TIME |t| (|v| + |acc|)``: time is carried to relative ``eps``, so the forcing's phase
-  ``eta t``, an impact time and a sample time are each off by up to ``~eps |t|``, which moves
-  the state by ``|f| eps |t|`` (``|acc| <= |a| + |x| + 2 zeta |v|``); ``C_TIME = 4``.
-
-Where the linearisation cannot see a change of the impact sequence it adds the change itself:
-an impact slower than ``sqrt(2 |acc| e_x)`` (the position error could remove it) and a flight
-that passes within ``e_x`` of the wall without touching it (the error could add an impact) each
-add ``(1 + R) sqrt(2 |acc| e_x)`` to that event's local error.
-
-Digits: ``floor(log10(|value| / bound))``, between 0 and ``floor(-log10 eps)``; a value's digits
-beyond that count are not claimed.  :func:`agreement_digits` measures two runs the same way.
+Three bases, strongest first: ``"proven"`` (the certified model's balls: the digits every point
+of the ball shares), ``"demonstrated"`` (a second run at a higher precision, :func:`demonstrate`:
+the digits the two runs agree on) and ``"estimated"`` (one run, :func:`estimate`: the precision's
+rounding, :func:`local_error` per event, amplified along the trajectory by its tangent flow --
+:func:`~precise_impact.core.flight.flow_matrix` between events, the saltation matrix
+:func:`~precise_impact.core.impact.oscillator_saltation` at each impact -- bounded by
+Cauchy-Schwarz with weights ``exp(2 gamma (t_n - t_j))``, the smallest over :data:`GAMMAS`).
+Digits: ``floor(log10(|value| / bound))``.  The bound, its constants and the impact-sequence
+changes it adds: ``docs/numerics.rst``, "Digits a trajectory can claim".
 """
 
 from __future__ import annotations
@@ -59,6 +22,7 @@ import mpmath
 import numpy as np
 from mpmath import libmp
 
+from precise_impact.core.coupling import slave_position_rate, slave_reset, slave_rhs
 from precise_impact.core.flight import FLOAT as FLOAT_OPS
 from precise_impact.core.flight import (
     NUMPY,
@@ -68,7 +32,7 @@ from precise_impact.core.flight import (
     steady_coefficients,
 )
 from precise_impact.core.flow import acceleration
-from precise_impact.core.impact import oscillator_saltation
+from precise_impact.core.impact import oscillator_saltation, saltation_matrix
 from precise_impact.core.precision import log10_fraction
 
 __all__ = [
@@ -627,9 +591,6 @@ def _linear_part(form: str, zeta: float, k: float) -> np.ndarray:
     """``A`` of the pair's flow ``z' = A z + forcing``, ``z = (x, v, y, w)``, read off the one
     home of its equations (:func:`~precise_impact.core.flow.acceleration`,
     :func:`~precise_impact.core.coupling.slave_rhs`) with the forcing switched off."""
-    from precise_impact.core.coupling import slave_rhs
-    from precise_impact.core.flow import acceleration
-
     off = lambda _: 0.0  # noqa: E731 - cos of the forcing: 0 leaves the linear part
     A = np.zeros((4, 4))
     for j in range(4):
@@ -696,10 +657,6 @@ def estimate_coupled(traj: Any) -> Digits:
     oscillator.  The master's state at a slave impact comes from its closed-form flight
     (:class:`~precise_impact.core.flight.Flight`).  Near-grazing passes are looked for on the
     master's flights; the slave's impacts slower than its position error count as changes."""
-    from precise_impact.core.coupling import slave_position_rate, slave_reset, slave_rhs
-    from precise_impact.core.flow import acceleration
-    from precise_impact.core.impact import saltation_matrix
-
     P, p = traj.precision, traj.params
     cap = min(max_digits(P), _FLOAT_DIGITS)  # the estimate is carried in float64
     u = max(float(P.eps_fraction), _TINY)  # as in estimate
@@ -750,7 +707,7 @@ def estimate_coupled(traj: Any) -> Digits:
                 J = (V * np.exp(lam * dt)) @ Vi
                 J = J.real
             else:
-                import scipy.linalg
+                import scipy.linalg  # noqa: PLC0415 -- optional: loaded on first use
 
                 J = scipy.linalg.expm(A * dt)
             # master's state now (closed-form flight from its last event)

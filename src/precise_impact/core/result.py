@@ -355,7 +355,7 @@ class ResultMixin:
         if name not in tables:
             raise ParameterError("what", what, "one of " + ", ".join(map(repr, tables)))
         try:
-            import pandas as pd
+            import pandas as pd  # noqa: PLC0415 -- optional: loaded on first use
         except ImportError:
             raise OptionalDependencyError(
                 "pandas", "pip install 'precise_impact[pandas]'", "to_dataframe()"

@@ -1,40 +1,13 @@
 """Domains of attraction on the impact surface or the stroboscopic section.
 
-Every grid point is run to its attractor by the compiled fast engine (float64) and labelled by
-the existing machinery:
-
-* a *periodic* orbit: a cycle found by :func:`~precise_impact.analysis.periodicity.detect_period`
-  on the stroboscopic samples, refined by Newton
-  (:func:`~precise_impact.analysis.orbits.newton.find_orbit`: Floquet multipliers, stability,
-  exact LLE ``ln |mu| / (p T)``) and identified by its refined impacts (the fastest one as a point
-  ``(phase, v)`` of the impact surface), so that the same orbit reached from many starts, on
-  either section, gets one label;
-* *chatter ending in sticking*: the engine stops at an impact sequence whose speed falls
-  geometrically while the wall force pushes into the wall
-  (:func:`~precise_impact.core.impact.wall_acceleration` ``> 0``); the accumulation time is
-  :func:`~precise_impact.core.impact.chatter_accumulation_time` and the mass sits on the wall
-  until :func:`~precise_impact.core.impact.release_time`.  Every start that sticks leaves the
-  wall from the *same* state (``x_w``, 0 at the release phase), so all of them share the
-  attractor of that release state: "chatter + sticking" if it sticks again (a periodic orbit
-  through sticking), else the orbit it goes to;
-* a *non-impacting* orbit (a cycle without impacts: LLE ``-zeta`` exactly);
-* *chaos*: no period up to ``max_period`` and an LLE from the compiled variational kernel
-  (:func:`~precise_impact.solvers.fast.lle.lle_batch`) positive by more than three standard
-  errors of its batch means;
-* *unresolved*: no period and no positive LLE (quasi-periodic, or a long transient), or a
-  contact within double-double's rounding of the wall, which the compiled engine does not decide
-  (near-tangential contacts float64 cannot decide are refined in double-double,
-  :mod:`precise_impact.solvers.fast.dd`).
-
-Boundaries: after the map, every point with a 4-neighbour of another label (or unresolved) is
-run again with ``refine_factor`` times the transient and relabelled (the boundary points sit
-near the singularity set, where the map is discontinuous and transients are long).
-
-Sub-grid (``subgrid=k``, ``k >= 2``): after that, every boundary cell is sampled again at the
-centres of a ``k x k`` sub-grid inside the cell (with the boundary re-run's longer transient),
-each sub-point labelled against the same table of attractors (an attractor met only on
-sub-points is added to it), so a boundary is resolved ``k`` times finer where it runs and
-nowhere else.
+Every grid point is run to its attractor by the compiled fast engine (float64) and labelled:
+a periodic orbit (:func:`~precise_impact.analysis.periodicity.detect_period`, refined by
+:func:`~precise_impact.analysis.orbits.newton.find_orbit` and identified by its fastest
+impact), chatter ending in sticking (:func:`~precise_impact.core.impact.release_time`), a
+non-impacting orbit, chaos (an LLE from :func:`~precise_impact.solvers.fast.lle.lle_batch`
+positive by three standard errors) or unresolved.  Boundary points are re-run with a longer
+transient, and ``subgrid=k`` samples boundary cells on a ``k x k`` sub-grid.  The rules in full:
+the guide's "Domains of attraction" page (``docs/guide/basins.rst``).
 """
 
 from __future__ import annotations
@@ -65,6 +38,7 @@ from precise_impact.core.params import Params, check_count, exact, params_or_val
 from precise_impact.core.result import ResultMixin
 from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError, check_type
+from precise_impact.io.figures import finish, new_figure
 from precise_impact.io.progress import ProgressArg
 
 __all__ = [
@@ -122,7 +96,7 @@ def _floats(params: Params) -> tuple[float, float, float, float, float]:
 
 def _strobe(pars, t, x, v, n, max_impacts):
     """``n`` stroboscopic periods from ``(x, v)`` at ``t`` (retrying with a larger impact store)."""
-    from precise_impact.solvers.fast.single import strobe
+    from precise_impact.solvers.fast.single import strobe  # noqa: PLC0415 -- heavy: numba, loaded on first use
 
     eta, zeta, a, xw, R = pars
     cap = 256 + 4 * n
@@ -277,7 +251,7 @@ def clear_caches() -> None:
 
 
 def _chaos(pars, t, x, v, periods: int) -> tuple:
-    from precise_impact.solvers.fast.lle import lle_batch_serial
+    from precise_impact.solvers.fast.lle import lle_batch_serial  # noqa: PLC0415 -- heavy: numba, loaded on first use
 
     blocks = 10
     status, log1, _, imps, bsums, *_ = lle_batch_serial(
@@ -700,10 +674,8 @@ class BasinsResult(ResultMixin):
     def plot(self, path: str | os.PathLike | None = None, capture: bool | None = None):
         """The map, one colour per attractor with a legend naming each; with ``capture`` (default:
         when some points stick) a second panel of the impacts before sticking."""
-        from matplotlib.colors import BoundaryNorm, ListedColormap
-        from matplotlib.patches import Patch
-
-        from precise_impact.io.figures import finish, legend_outside, new_figure
+        from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: PLC0415 -- heavy: loaded on first plot
+        from matplotlib.patches import Patch  # noqa: PLC0415 -- heavy: loaded on first plot
 
         if capture is None:
             capture = bool(self.stuck.any())
@@ -730,7 +702,7 @@ class BasinsResult(ResultMixin):
         )  # fmt: skip
         k = int(self.stats.get("subgrid") or 1)
         if self.sub_u.size:  # the sub-grid: one small square per sub-point, its cell's size / k
-            from matplotlib.collections import PolyCollection
+            from matplotlib.collections import PolyCollection  # noqa: PLC0415 -- heavy: loaded on first plot
 
             hu, hv = (u1 - u0) / self.axes[0][3] / k / 2, (v1 - v0) / self.axes[1][3] / k / 2
             inside = self.sub_label >= 0
@@ -757,7 +729,6 @@ class BasinsResult(ResultMixin):
             for a, c, s in zip(self.attractors, colors, share, strict=True)
         ]
         ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-        del legend_outside
         ax.set_xlabel(un)
         ax.set_ylabel(vn)
         p = self.params

@@ -29,7 +29,10 @@ from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, as_params, exact
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import BudgetExceededError, CertificationError, ParameterError
+from precise_impact.io.figures import finish, new_figure
 from precise_impact.io.progress import Progress
+from precise_impact.solvers.certified.single import certify
+from precise_impact.solvers.simulate import simulate
 
 __all__ = [
     "ENGINES",
@@ -140,8 +143,6 @@ def _no_contact_rule(engine: str, e: Exception) -> BudgetExceededError:
 
 def _run(params: Params, engine: str, t: Fraction, v: Fraction, periods: int, bits: int | None):
     """Events after the impact ``(t, v)`` over ``periods`` forcing periods (start excluded)."""
-    from precise_impact.solvers.simulate import simulate
-
     model, precision = ENGINES[engine]
     if bits is not None and precision.startswith("mp:"):
         precision = f"mp:{bits}"
@@ -153,8 +154,6 @@ def _run(params: Params, engine: str, t: Fraction, v: Fraction, periods: int, bi
         return float(q) if mp_bits is None else ctx.mpf(q.numerator) / q.denominator
 
     if engine == "certified":
-        from precise_impact.solvers.certified.single import certify
-
         try:
             ct = certify(start, periods, precision=precision)
         except CertificationError as e:
@@ -383,7 +382,7 @@ def _run_fast(
     ``max_time`` and shows the progress between blocks of :data:`FAST_BLOCK` impacts.
     """
     # numba loads only when the compiled engine is used (not on import precise_impact)
-    from precise_impact.solvers.fast import surface
+    from precise_impact.solvers.fast import surface  # noqa: PLC0415 -- heavy: numba, loaded on first use
 
     eta, zeta, a, x_w, R = (float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R"))
     period = 2 * np.pi / eta
@@ -599,8 +598,6 @@ class ImpactMapResult(ResultMixin):
     def plot(self, path: Any = None, *, ax: Any = None, singularity: Any = None):
         """Scatter plot of the impact surface (phase on [0, 1), v >= 0); chatter and sticking
         with their own symbols; ``singularity`` (a SingularityResult) drawn over it."""
-        from precise_impact.io.figures import finish, new_figure
-
         fig = None
         if ax is None:
             fig, axes = new_figure(figsize=(7.0, 4.5))

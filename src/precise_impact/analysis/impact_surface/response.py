@@ -4,22 +4,10 @@ forcing periods against ``sigma = x_w`` or ``omega = eta``, with their parts tol
 The branches come from the continuation
 (:func:`~precise_impact.analysis.orbits.continuation.continue_orbit`) started on the closed-form
 orbits (:func:`~precise_impact.analysis.orbits.one_impact.one_impact_orbits`); the Budd-Dux
-closed forms of the undamped model (``zeta = 0``) are :func:`budd_dux_orbit` and
-:func:`budd_dux_points`, the references the continuation's folds and period-doublings are
-tested against.
-
-For ``zeta = 0`` the ``(1,n)`` orbit with impact phase ``theta = omega t*`` has, with
-``gamma = a / (1 - omega^2)`` and ``beta = (1 + r) / (1 - r) cot(n pi / omega)``,
-
-    sigma = gamma (cos theta + beta omega sin theta),   V = -2 omega gamma sin theta / (1 - r),
-
-an ellipse in ``(sigma, V)`` (Budd & Dux 1994): the free flight over ``n T`` is a rotation by
-``n T`` of ``(x - X, x' - X')`` that must return ``y0 = sigma - X`` and turn ``-r V - X'`` into
-``V - X'``; both hold iff ``sin(nT/2) y0 = cos(nT/2) u0`` and ``(1 - r) V = -2 X'``.  Its turning
-points in ``sigma`` (``tan theta = beta omega``) are the folds; its points with ``V = 0``
-(``theta = 0, pi``, ``sigma = +-gamma``) grazing; the multipliers are those of
-``M = S Phi(n T)`` (saltation :func:`~precise_impact.core.impact.oscillator_saltation`, flow
-:func:`~precise_impact.core.flight.flow_matrix`), ``det M = r^2``.
+closed forms of the undamped model (``zeta = 0``, an ellipse in ``(sigma, V)``) are
+:func:`budd_dux_orbit` and :func:`budd_dux_points`, the references the continuation's folds and
+period-doublings are tested against (Budd & Dux 1994).  Derivation and classification:
+``docs/guide/response_curves.rst``.
 """
 
 from __future__ import annotations
