@@ -108,6 +108,13 @@ def _costs():
         (("sync",), {"periods": 500, "runs": 12}),
         (("sync",), {"periods": 500, "runs": 12, "model": "fast"}),
         (("scene",), {"periods": 300, "per_period": 20}),
+        (("scene",), {"periods": 300, "per_period": 20, "model": "spice"}),
+        (("scene",), {"periods": 300, "per_period": 20, "coupled": True}),
+        (("sweep",), {"periods": 300, "runs": 400}),
+        (("sweep",), {"periods": 300, "runs": 400, "model": "heyoka", "precision": "float128"}),
+        (("lle",), {"periods": 100, "runs": 2, "precision": "mp:128"}),
+        (("no-such-job",), {"periods": 10}),
+        (("simulate", 1), {}),
     ]
     out = []
     for args, kw in calls:
@@ -121,7 +128,8 @@ def _costs():
 def _briefs():
     values = [None, True, 3, 0.1, 1e300, "s", "x" * 50, Fraction(1, 3), Fraction(7, 2),
               np.zeros((3, 2)), np.float64(2.5), np.int32(4), [1, 2.5, "a"], [1, 2, 3, 4],
-              (Fraction(1, 2),), {"a": 1}, pi.Params.make(eta="0.7"), object()]  # fmt: skip
+              (Fraction(1, 2),), {"a": 1}, pi.Params.make(eta="0.7"), object(), np.str_("ab"),
+              np.bool_(True), [np.float64(1.0)], Fraction(10**30, 3)]  # fmt: skip
     return [_brief(v).split(" object at ")[0] for v in values]
 
 
