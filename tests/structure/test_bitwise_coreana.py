@@ -92,7 +92,11 @@ def _basins():
 
 def _impact_map():
     p = pi.Params.make(eta="0.74")
-    return [impact_map(p, 0.1, 0.5, 12, engine=e) for e in ("closed-form", "fast")]
+    out = [impact_map(p, 0.1, 0.5, 12, engine=e) for e in ("closed-form", "fast")]
+    out.append(impact_map(p, 0.1, 0.5, 4, engine="closed-form", bits=100))
+    chatter = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.3")  # Budd-Dux
+    out.append(impact_map(chatter, 0.1, 0.5, 16, engine="fast"))
+    return out
 
 
 def _costs():
