@@ -87,7 +87,11 @@ def _response():
 
 def _basins():
     p = pi.Params.make(eta="0.74")
-    return basins(p, ((0, 1, 6), (0.5, 2.5, 6)), transient=40, progress=False)
+    impact = basins(p, ((0, 1, 6), (0.5, 2.5, 6)), transient=40, progress=False)
+    sub = basins(p, ((0, 1, 4), (0.5, 2.5, 4)), transient=30, subgrid=2, progress=False)
+    strobe = basins(p, ((1.0, 3.0, 4), (-1, 1, 3)), section="stroboscopic", transient=30,
+                    refine=False, progress=False)  # fmt: skip
+    return [impact, sub, strobe]
 
 
 def _impact_map():

@@ -859,26 +859,12 @@ def basins(
     ((3, 4), ['chatter + sticking'])
     """
     params = params_or_values(params, {})
-    if section not in SECTIONS:
-        raise ParameterError("section", section, "'impact' or 'stroboscopic'")
-    check_type(grid, (tuple, list), "grid", "a pair of axes (start, stop, n)")
-    if len(grid) != 2:
-        raise ParameterError("grid", grid, "a pair of axes (start, stop, n)")
-    names = ("phase", "v") if section == "impact" else ("x", "v")
-    axes = tuple(_check_axis(g, nm) for g, nm in zip(grid, names, strict=True))
-    if section == "impact" and (axes[0][1] < 0 or axes[0][2] > 1 or axes[1][1] < 0):
-        raise ParameterError("grid", grid, "phase within [0, 1] and v >= 0 on the impact section")
+    axes = _check_grid(section, grid)
     transient = check_count(transient, "transient", 10**7, minimum=1)
     max_period = check_count(max_period, "max_period", 1000, minimum=1)
     chaos_periods = check_count(chaos_periods, "chaos_periods", 10**8, minimum=10)
     refine_factor = check_count(refine_factor, "refine_factor", 1000, minimum=1)
-    subgrid_in = subgrid
-    try:  # an int, numpy integer or integer string, like the other counts
-        subgrid = check_count(subgrid, "subgrid", 32)
-    except ParameterError:
-        subgrid = 1
-    if subgrid == 1:
-        raise ParameterError("subgrid", subgrid_in, "0 (off) or an integer 2 <= subgrid <= 32")
+    subgrid = _check_subgrid(subgrid)
     spec = _Spec(_floats(params), float(params.t0), section, axes, transient, max_period,
                  chaos_periods)  # fmt: skip
     n = spec.shape[0] * spec.shape[1]
@@ -934,33 +920,11 @@ def basins(
     if sub is not None:
         labels, table, sub_label = _label(data, sub["data"])
         elapsed += sub["elapsed"]
-    stats = {
-        "points": n,
-        "refined": refined,
-        "changed": changed,
-        "boundary_fraction": float(bnd.sum() / max(1, inside)),
-        "elapsed_s": elapsed,
-        "time_per_point_s": elapsed / max(1, n),
-        "tiles_computed": n_run,
-        "workers": run.workers,
-        "backend": run.backend,
-        "transient": transient,
-        "refine_factor": refine_factor if refine else None,
-        "subgrid": subgrid,
-        "subgrid_points": 0,
-        "mixed_cells": 0,
-        "subgrid_agreement": None,
-    }
+    stats = _stats(n, refined, changed, float(bnd.sum() / max(1, inside)), elapsed, n_run, run,
+                   transient, refine_factor if refine else None, subgrid)  # fmt: skip
     extra: dict = {}
     if sub is not None:
-        cells = lab2.ravel()[sub["cells"]]  # each boundary cell's label (unchanged by _label)
-        per = sub_label.reshape(len(cells), subgrid * subgrid)
-        agree = (per == cells[:, None]).mean(axis=1)
-        mixed = int(sum(len(np.unique(r)) > 1 for r in per))
-        stats["subgrid_points"] = int(sub_label.size)
-        stats["mixed_cells"] = mixed
-        stats["subgrid_agreement"] = float((per == cells[:, None]).mean()) if per.size else None
-        extra = {"sub_u": sub["u"], "sub_v": sub["v"], "sub_label": sub_label, "sub_agree": agree}
+        extra = _subgrid_fields(sub, sub_label, lab2, subgrid, stats)
     return BasinsResult(
         params={k: str(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")},
         section=section,
@@ -973,6 +937,67 @@ def basins(
         stats=stats,
         **extra,
     )
+
+
+def _stats(
+    n, refined, changed, boundary_fraction, elapsed, n_run, run, transient, refine_factor, subgrid
+) -> dict:
+    """The map's ``stats`` (the sub-grid's counts zero until :func:`_subgrid_fields`)."""
+    return {
+        "points": n,
+        "refined": refined,
+        "changed": changed,
+        "boundary_fraction": boundary_fraction,
+        "elapsed_s": elapsed,
+        "time_per_point_s": elapsed / max(1, n),
+        "tiles_computed": n_run,
+        "workers": run.workers,
+        "backend": run.backend,
+        "transient": transient,
+        "refine_factor": refine_factor,
+        "subgrid": subgrid,
+        "subgrid_points": 0,
+        "mixed_cells": 0,
+        "subgrid_agreement": None,
+    }
+
+
+def _check_grid(section: str, grid: Any) -> tuple:
+    """The section and the grid's two axes, checked: the axes ``(name, start, stop, n)``."""
+    if section not in SECTIONS:
+        raise ParameterError("section", section, "'impact' or 'stroboscopic'")
+    check_type(grid, (tuple, list), "grid", "a pair of axes (start, stop, n)")
+    if len(grid) != 2:
+        raise ParameterError("grid", grid, "a pair of axes (start, stop, n)")
+    names = ("phase", "v") if section == "impact" else ("x", "v")
+    axes = tuple(_check_axis(g, nm) for g, nm in zip(grid, names, strict=True))
+    if section == "impact" and (axes[0][1] < 0 or axes[0][2] > 1 or axes[1][1] < 0):
+        raise ParameterError("grid", grid, "phase within [0, 1] and v >= 0 on the impact section")
+    return axes
+
+
+def _check_subgrid(subgrid: Any) -> int:
+    """``subgrid`` checked: 0 (off) or an integer from 2 to 32."""
+    subgrid_in = subgrid
+    try:  # an int, numpy integer or integer string, like the other counts
+        subgrid = check_count(subgrid, "subgrid", 32)
+    except ParameterError:
+        subgrid = 1
+    if subgrid == 1:
+        raise ParameterError("subgrid", subgrid_in, "0 (off) or an integer 2 <= subgrid <= 32")
+    return subgrid
+
+
+def _subgrid_fields(sub: dict, sub_label: Any, lab2: Any, subgrid: int, stats: dict) -> dict:
+    """The sub-grid's result fields; its counts and agreement written into ``stats``."""
+    cells = lab2.ravel()[sub["cells"]]  # each boundary cell's label (unchanged by _label)
+    per = sub_label.reshape(len(cells), subgrid * subgrid)
+    agree = (per == cells[:, None]).mean(axis=1)
+    mixed = int(sum(len(np.unique(r)) > 1 for r in per))
+    stats["subgrid_points"] = int(sub_label.size)
+    stats["mixed_cells"] = mixed
+    stats["subgrid_agreement"] = float((per == cells[:, None]).mean()) if per.size else None
+    return {"sub_u": sub["u"], "sub_v": sub["v"], "sub_label": sub_label, "sub_agree": agree}
 
 
 def _subgrid(spec, bnd, lab2, k, transient, tile_size, outp, workers, dask, progress, data):
