@@ -33,7 +33,14 @@ from precise_impact.core.result import ResultMixin, columns
 from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import EndlessBouncesError, IntegrationError, ParameterError
 from precise_impact.io.atomic import atomic_write
-from precise_impact.io.figures import new_figure
+from precise_impact.io.figures import (
+    check_plot_path,
+    draw_density,
+    finish,
+    legend_outside,
+    new_figure,
+    wrap_title,
+)
 from precise_impact.io.jsonout import dumps
 from precise_impact.io.progress import ProgressArg, check_progress
 from precise_impact.solvers.base import Unresolved, with_fallback
@@ -201,14 +208,6 @@ class BifurcationResult(ResultMixin):
         -------
         matplotlib.figure.Figure
         """
-        from precise_impact.io.figures import (
-            check_plot_path,
-            draw_density,
-            finish,
-            legend_outside,
-            wrap_title,
-        )
-
         check_plot_path(path)
         eta = np.array([float(e) for e in self.eta])
         fig, axes = new_figure(
@@ -305,8 +304,8 @@ def _fast_point(params: Params, periods: int, transient: int) -> tuple:
     if not params.zeta < 1:
         raise Unresolved("fast", "zeta >= 1 (the closed form is underdamped only)")
     # numba is imported on first use, not with the package (0.3 s of import time)
-    from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch_serial
-    from precise_impact.solvers.fast.single import STATUS_OK
+    from precise_impact.solvers.fast.lle import kernel_inputs, lle_batch_serial  # noqa: PLC0415 -- heavy: numba, loaded on first use
+    from precise_impact.solvers.fast.single import STATUS_OK  # noqa: PLC0415 -- heavy: numba, loaded on first use
 
     pars, starts = kernel_inputs(params, 1)
     st, l1, l2, imps, bsums, _, xt, *_ = lle_batch_serial(

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from precise_impact.errors import ParameterError
+
 __all__ = ["detect_period", "detect_period_noisy"]
 
 
@@ -113,7 +115,6 @@ def detect_period_noisy(
     """
     xs = np.asarray(xs, dtype=float)
     vs = np.asarray(vs, dtype=float)
-    from precise_impact.errors import ParameterError
 
     for name, sig in (("sigma_x", sigma_x), ("sigma_v", sigma_v)):
         # inf would make every chi2 zero (every sequence 'period 1'); NaN every test false

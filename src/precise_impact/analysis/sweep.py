@@ -36,7 +36,7 @@ from precise_impact.core.params import Params, as_params, check_count, decimal_s
 from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import OverBudgetError, ParameterError
 from precise_impact.io.atomic import atomic_write, check_output_dir
-from precise_impact.io.figures import figure
+from precise_impact.io.figures import figure, finish, period_colormap, wrap_title
 from precise_impact.io.jsonout import dumps, write_json
 from precise_impact.io.lock import DirectoryLock
 from precise_impact.io.progress import say
@@ -272,11 +272,11 @@ class SweepSpec:
     def digest(self) -> str:
         """The sweep's identity: a hash of :meth:`to_json_dict` and the engine versions
         (computed once per object: every tile written and read checks it)."""
-        import heyoka
+        import heyoka  # noqa: PLC0415 -- optional: loaded on first use
 
         ident = dict(self.to_json_dict(), heyoka=heyoka.__version__)
         if self.engine == "fast":
-            import numba
+            import numba  # noqa: PLC0415 -- heavy: numba, loaded on first use
 
             ident["numba"] = numba.__version__
         return hashlib.sha256(dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
@@ -736,9 +736,7 @@ def assemble(result: SweepResult, out: Path) -> dict[str, str]:
 def _plot(spec: SweepSpec, data: dict, path: Any = None):
     """The sweep's figure: the LLE and the detected period (a discrete colour per whole period,
     with the categories "none <= 32" and "refused"); written to ``path`` if given."""
-    from matplotlib.colors import TwoSlopeNorm
-
-    from precise_impact.io.figures import finish, period_colormap, wrap_title
+    from matplotlib.colors import TwoSlopeNorm  # noqa: PLC0415 -- heavy: loaded on first plot
 
     fig = figure(figsize=(13, 5.0), layout="constrained")
     if len(spec.axes) == 1:

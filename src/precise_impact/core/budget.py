@@ -195,14 +195,32 @@ def estimate_cost(
         raise TypeError(f"estimate_cost(job, ...) takes keywords only, not {args or kwargs}")
     length = periods + transient
     if job == "certify":
-        # ball arithmetic: the precision is 'mp:BITS' (python-flint), priced per period;
-        # the pair off the diagonal walks master, slave and their error flow: measured (k = 0.5,
-        # x0 = 0.1, y0 = (0.2, 0), eta = 0.712 and 0.74) 2.7-3.0 ms against 0.6-1.0 ms per period
-        # at 256 bits, 4.9-5.0 ms against 1.0-2.3 ms at 1024 bits: x5 bounds them
-        bits = int(str(precision)[3:]) if str(precision).startswith("mp:") else 128
-        seconds = length * certify_seconds_per_period(bits) * (5.0 if coupled else 1.0)
-        return Cost(seconds, 0.0, f"{length} certified periods at {bits} bits")
+        return _certify_cost(length, precision, coupled)
     P = Precision.parse(precision)
+    return _job_cost(job, P, length, per_period, model, runs, coupled)
+
+
+def _certify_cost(length: int, precision: Any, coupled: bool) -> Cost:
+    """The cost of a ``'certify'`` job: ``length`` periods in ball arithmetic."""
+    # ball arithmetic: the precision is 'mp:BITS' (python-flint), priced per period;
+    # the pair off the diagonal walks master, slave and their error flow: measured (k = 0.5,
+    # x0 = 0.1, y0 = (0.2, 0), eta = 0.712 and 0.74) 2.7-3.0 ms against 0.6-1.0 ms per period
+    # at 256 bits, 4.9-5.0 ms against 1.0-2.3 ms at 1024 bits: x5 bounds them
+    bits = int(str(precision)[3:]) if str(precision).startswith("mp:") else 128
+    seconds = length * certify_seconds_per_period(bits) * (5.0 if coupled else 1.0)
+    return Cost(seconds, 0.0, f"{length} certified periods at {bits} bits")
+
+
+def _job_cost(
+    job: Any,
+    P: Precision,
+    length: int,
+    per_period: int,
+    model: str | None,
+    runs: int | None,
+    coupled: bool,
+) -> Cost:
+    """The cost of a job priced from plain heyoka runs (every job but ``'certify'``)."""
     n = 1 if runs is None else runs
     if job == "simulate":
         return run_cost(P, length, per_period)

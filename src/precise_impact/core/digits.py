@@ -1,51 +1,14 @@
 """How many significant digits a trajectory's samples can claim, and on what basis.
 
-Three bases, strongest first:
-
-``"proven"``
-    The certified model's balls: the digits every point of the ball shares.
-``"demonstrated"``
-    A second run at a higher precision (:func:`demonstrate`): the digits the two runs agree
-    on, sample by sample.
-``"estimated"``
-    One run (:func:`estimate`): the precision's rounding, amplified along the actual
-    trajectory by its tangent (variational) flow -- the closed-form flight's flow
-    :func:`~precise_impact.core.flight.flow_matrix` between events and the impact's saltation
-    matrix :func:`~precise_impact.core.impact.oscillator_saltation` at each impact.
-
-**The estimate's bound.**  A run commits a local error ``delta_j`` at each event ``j`` (a
-sample or an impact) and carries the earlier ones along: to first order the error at event ``n`` is
-``e_n = sum_j Phi(n, j) d_j`` with ``|d_j| <= delta_j``, so
-``|e_n,i| <= sum_j ||row_i Phi(n, j)|| delta_j``.  Summing that for every ``n`` is quadratic;
-Cauchy-Schwarz with positive weights ``w_j = exp(2 gamma (t_n - t_j))`` gives
-
-    ``sum_j a_j <= sqrt(sum_j w_j a_j^2) sqrt(sum_j 1 / w_j)``,
-
-whose two factors obey one-step recursions (``G <- e^{2 gamma dt} J G J^T + delta^2 I`` and
-``S <- e^{-2 gamma dt} S + 1``).  Every ``gamma >= 0`` gives a valid bound, so the smallest of
-a few (:data:`GAMMAS`) is taken at each sample: ``gamma = 0`` suits chaos (the oldest error
-dominates), a small positive ``gamma`` a contracting periodic orbit (where ``gamma = 0`` would
-cost ``sqrt(n)``, ~1.9 digits after 6000 events).
-
-The local error per event (:func:`local_error`), in units of ``u = max(eps, tol)`` (ngspice's
-RELTOL, 1e-3, for the ``'spice'`` model):
-
-- ``C_STATE (m + 1) max(1, |x|, |v|)``: the integrator's own error over the ``m`` steps of the
-  flight since the last event (heyoka's error control is ``tol max(1, |state|)`` per step and
-  its Taylor sums round to a few ``eps``; the closed forms take one "step", ~20 roundings of
-  quantities of the state's size; ``C_STATE = 8`` covers both with a factor ~2 to spare, and
-  the tests against a higher precision check it);
-- ``C_TIME |t| (|v| + |acc|)``: time is carried to relative ``eps``, so the forcing's phase
-  ``eta t``, an impact time and a sample time are each off by up to ``~eps |t|``, which moves
-  the state by ``|f| eps |t|`` (``|acc| <= |a| + |x| + 2 zeta |v|``); ``C_TIME = 4``.
-
-Where the linearisation cannot see a change of the impact sequence it adds the change itself:
-an impact slower than ``sqrt(2 |acc| e_x)`` (the position error could remove it) and a flight
-that passes within ``e_x`` of the wall without touching it (the error could add an impact) each
-add ``(1 + R) sqrt(2 |acc| e_x)`` to that event's local error.
-
-Digits: ``floor(log10(|value| / bound))``, between 0 and ``floor(-log10 eps)``; a value's digits
-beyond that count are not claimed.  :func:`agreement_digits` measures two runs the same way.
+Three bases, strongest first: ``"proven"`` (the certified model's balls: the digits every point
+of the ball shares), ``"demonstrated"`` (a second run at a higher precision, :func:`demonstrate`:
+the digits the two runs agree on) and ``"estimated"`` (one run, :func:`estimate`: the precision's
+rounding, :func:`local_error` per event, amplified along the trajectory by its tangent flow --
+:func:`~precise_impact.core.flight.flow_matrix` between events, the saltation matrix
+:func:`~precise_impact.core.impact.oscillator_saltation` at each impact -- bounded by
+Cauchy-Schwarz with weights ``exp(2 gamma (t_n - t_j))``, the smallest over :data:`GAMMAS`).
+Digits: ``floor(log10(|value| / bound))``.  The bound, its constants and the impact-sequence
+changes it adds: ``docs/numerics.rst``, "Digits a trajectory can claim".
 """
 
 from __future__ import annotations
@@ -59,6 +22,7 @@ import mpmath
 import numpy as np
 from mpmath import libmp
 
+from precise_impact.core.coupling import slave_position_rate, slave_reset, slave_rhs
 from precise_impact.core.flight import FLOAT as FLOAT_OPS
 from precise_impact.core.flight import (
     NUMPY,
@@ -68,7 +32,7 @@ from precise_impact.core.flight import (
     steady_coefficients,
 )
 from precise_impact.core.flow import acceleration
-from precise_impact.core.impact import oscillator_saltation
+from precise_impact.core.impact import oscillator_saltation, saltation_matrix
 from precise_impact.core.precision import log10_fraction
 
 __all__ = [
@@ -305,6 +269,119 @@ def estimate(traj: Any) -> Digits:
     """
     P, p = traj.precision, traj.params
     cap = min(max_digits(P), _FLOAT_DIGITS)  # the estimate is carried in float64
+    st = traj.stats if isinstance(traj.stats, dict) else {}
+    u = _unit(traj, P, st)
+    eta, zeta, a, x_w, R = (float(q) for q in (p.eta, p.zeta, p.a, p.x_w, p.R))
+    ts, xs, vs = _floats(P, traj.t), _floats(P, traj.x), _floats(P, traj.v)
+    it, ivb, iva = (
+        _floats(P, traj.impacts_t),
+        _floats(P, traj.impacts_v_before),
+        _floats(P, traj.impacts_v_after),
+    )
+    n_s = len(ts)
+    refusal = _refusal(n_s, ivb, zeta, st, cap)
+    if refusal is not None:
+        return refusal
+    wd = damped_frequency(zeta, FLOAT_OPS)
+    # events in time order: kind 0 = sample, 1 = impact (an impact at a sample time first)
+    times, kinds, index = _event_order(ts, it)
+    x_after, v_after, v_before, (f00, f01, f10, f11), depth = _flights(
+        p, times, kinds, index, xs, vs, ivb, iva, x_w, zeta, wd
+    )
+    rate = _step_rate(traj, times[-1] - times[0])
+    # Cauchy-Schwarz bounds, one per gamma: G = exp(L) (gxx, gxv, gvv) and S (plain floats:
+    # a few microseconds an event)
+    bounds = [[0.0, 0.0, 0.0, 0.0, 0.0, gm] for gm in GAMMAS]  # gxx, gxv, gvv, L, S, gamma
+    log_ex, log_ev = np.full(n_s, -math.inf), np.full(n_s, -math.inf)
+    acc_max = abs(a) + abs(x_w) + 1.0  # a may be negative (the forcing's phase)
+    tl = times.tolist()
+    kl, il = kinds.tolist(), index.tolist()
+    xal, val, vbl = x_after.tolist(), v_after.tolist(), v_before.tolist()
+    fl = [z.tolist() for z in (f00, f01, f10, f11)]
+    dl = depth.tolist()
+    inf = math.inf
+    log_it, log_ivb, log_iva = (np.full(len(it), math.inf) for _ in range(3))
+    for e in range(len(tl)):
+        t = tl[e]
+        vb = vbl[e]
+        if e > 0:
+            dt = tl[e] - tl[e - 1]
+            _advance(bounds, fl[0][e - 1], fl[1][e - 1], fl[2][e - 1], fl[3][e - 1], dt)
+            delta = local_error(u, t, xal[e], max(abs(vb), abs(val[e])), rate * dt, a, zeta)
+            if kl[e] == 1 or dl[e - 1] < inf:
+                # the position error bound just before this event (and its own error)
+                lex = min(_half_log(b[0], b[3], b[4]) for b in bounds)
+                ex = math.exp(min(lex, 700.0))
+                acc = acc_max + 2 * zeta * abs(vb)
+                jump = (1 + R) * math.sqrt(2 * acc * 2 * ex)
+                if kl[e] == 1:
+                    j = il[e]
+                    log_it[j], log_ivb[j], log_iva[j] = _impact_logs(bounds, lex, t, vb, u, acc, R)
+                    if vb * vb <= 2 * acc * 2 * ex:
+                        delta += jump  # the impact could vanish
+                if dl[e - 1] <= 2 * ex:
+                    delta += jump  # a pass near the wall could become an impact
+            if kl[e] == 1:  # the impact's saltation matrix after the flight to it
+                _saltate(bounds, t, vb, eta, zeta, a, x_w, R)
+        else:  # the start: the parameters' exact x0, v0 rounded once to the precision
+            delta = _start_error(traj)
+        for b in bounds:
+            _add_identity(b, delta * delta)
+        if kl[e] == 0:
+            log_ex[il[e]], log_ev[il[e]] = _sample_logs(bounds)
+    impacts = {
+        name: _claimed(values, logs, cap)
+        for name, values, logs in (("t", it, log_it), ("v_before", ivb, log_ivb),
+                                   ("v_after", iva, log_iva))
+    }  # fmt: skip
+    dx, dv = _claimed(xs, log_ex, cap), _claimed(vs, log_ev, cap)
+    note = (
+        f"tangent flow along the run (flight flows and saltation matrices), local error "
+        f"{C_STATE:g} u (steps + 1) |state| + {C_TIME:g} u |t| |f| per event, u = {u:.3g}"
+    )
+    return Digits("estimated", dx, dv, cap, note, impacts=impacts)
+
+
+def _flights(p, times, kinds, index, xs, vs, ivb, iva, x_w, zeta, wd) -> tuple:
+    """The state after and ``v`` before each event, the flow matrix and the near-wall depth
+    of each flight (event ``e - 1`` to ``e``)."""
+    # state just after each event (the start of the next flight) and just before it
+    x_after = np.where(kinds == 0, _pick(xs, kinds == 0, index), x_w)
+    v_after = np.where(kinds == 0, _pick(vs, kinds == 0, index), _pick(iva, kinds == 1, index))
+    v_before = np.where(kinds == 1, _pick(ivb, kinds == 1, index), v_after)
+    # flights: event e-1 -> e
+    tau = np.diff(times)
+    flows = flow_matrix(tau, zeta, wd, NUMPY)
+    depth = near_misses(p, times[:-1], times[1:], x_after[:-1], v_after[:-1])
+    return x_after, v_after, v_before, flows, depth
+
+
+def _sample_logs(bounds: list) -> tuple[float, float]:
+    """log10 of the smallest ``x`` and ``v`` error bounds over the gammas."""
+    return (
+        min(_half_log(b[0], b[3], b[4]) for b in bounds) / _LN10,
+        min(_half_log(b[2], b[3], b[4]) for b in bounds) / _LN10,
+    )
+
+
+def _step_rate(traj: Any, span: float) -> float:
+    """The integrator's steps per unit time (0 without ``stats['steps']``)."""
+    steps = float(traj.stats.get("steps", 0) or 0) if isinstance(traj.stats, dict) else 0.0
+    return steps / span if span > 0 else 0.0
+
+
+def _saltate(bounds: list, t: float, vb: float, eta, zeta, a, x_w, R) -> None:
+    """Every bound through the oscillator's saltation matrix at the impact ``(t, vb)``."""
+    sm: Any
+    if vb == 0:
+        sm = ((-R, 0.0), (math.inf, -R))
+    else:
+        sm = oscillator_saltation(t, vb, eta, zeta, a, x_w, R, math.cos)
+    _advance(bounds, sm[0][0], sm[0][1], sm[1][0], sm[1][1], 0.0)
+
+
+def _unit(traj: Any, P: Any, st: dict) -> float:
+    """The run's ``u = max(eps, tol)`` (ngspice's RELTOL for ``'spice'``)."""
     # the unit roundoff, floored at the smallest normal float: above ~1020 bits the estimate
     # (carried in float64) claims at most ~300 digits, fewer than the precision holds, never more
     eps = max(float(P.eps_fraction), _TINY)
@@ -315,17 +392,13 @@ def estimate(traj: Any) -> Digits:
             u = max(eps, float(P.to_float(tol)))
         except (TypeError, ValueError):
             u = eps
-    st = traj.stats if isinstance(traj.stats, dict) else {}
     if traj.model == "spice":  # ngspice's steps are accurate to its RELTOL, not to eps
         u = max(u, float(st.get("reltol", SPICE_RELTOL)))
-    eta, zeta, a, x_w, R = (float(q) for q in (p.eta, p.zeta, p.a, p.x_w, p.R))
-    ts, xs, vs = _floats(P, traj.t), _floats(P, traj.x), _floats(P, traj.v)
-    it, ivb, iva = (
-        _floats(P, traj.impacts_t),
-        _floats(P, traj.impacts_v_before),
-        _floats(P, traj.impacts_v_after),
-    )
-    n_s = len(ts)
+    return u
+
+
+def _refusal(n_s: int, ivb: np.ndarray, zeta: float, st: dict, cap: int) -> Digits | None:
+    """No digit claimed, and why, where the estimate has nothing to go on; else ``None``."""
     if n_s == 0:
         return _none_claimed(0, cap, "no samples")
     if len(ivb) and not np.all(np.isfinite(ivb)):  # impacts without velocities: nothing to go on
@@ -341,107 +414,33 @@ def estimate(traj: Any) -> Digits:
             f"the circuit's effects ({', '.join(st['effects'])}) change the system the run "
             "realises (params are the nominal design's): use --demonstrate for digits",
         )
-    wd = damped_frequency(zeta, FLOAT_OPS)
-    # events in time order: kind 0 = sample, 1 = impact (an impact at a sample time first)
-    times = np.concatenate([ts, it])
-    kinds = np.concatenate([np.zeros(n_s, int), np.ones(len(it), int)])
-    index = np.concatenate([np.arange(n_s), np.arange(len(it))])
+    return None
+
+
+def _event_order(*groups: np.ndarray) -> tuple:
+    """The events of all ``groups`` in time order: ``(times, kinds, index)``, kind ``i`` for
+    group ``i``, index within it; at equal times the higher kind first."""
+    times = np.concatenate(groups)
+    kinds = np.concatenate([np.full(len(g), i, int) for i, g in enumerate(groups)])
+    index = np.concatenate([np.arange(len(g)) for g in groups])
     order = np.lexsort((-kinds, times))
-    times, kinds, index = times[order], kinds[order], index[order]
-    # state just after each event (the start of the next flight) and just before it
-    x_after = np.where(kinds == 0, _pick(xs, kinds == 0, index), x_w)
-    v_after = np.where(kinds == 0, _pick(vs, kinds == 0, index), _pick(iva, kinds == 1, index))
-    v_before = np.where(kinds == 1, _pick(ivb, kinds == 1, index), v_after)
-    # flights: event e-1 -> e
-    tau = np.diff(times)
-    f00, f01, f10, f11 = flow_matrix(tau, zeta, wd, NUMPY)
-    depth = near_misses(p, times[:-1], times[1:], x_after[:-1], v_after[:-1])
-    span = times[-1] - times[0]
-    steps = float(traj.stats.get("steps", 0) or 0) if isinstance(traj.stats, dict) else 0.0
-    rate = steps / span if span > 0 else 0.0
-    # Cauchy-Schwarz bounds, one per gamma: G = exp(L) (gxx, gxv, gvv) and S (plain floats:
-    # a few microseconds an event)
-    bounds = [[0.0, 0.0, 0.0, 0.0, 0.0, gm] for gm in GAMMAS]  # gxx, gxv, gvv, L, S, gamma
-    log_ex = np.full(n_s, -math.inf)
-    log_ev = np.full(n_s, -math.inf)
-    acc_max = abs(a) + abs(x_w) + 1.0  # a may be negative (the forcing's phase)
-    tl = times.tolist()
-    kl, il = kinds.tolist(), index.tolist()
-    xal, val, vbl = x_after.tolist(), v_after.tolist(), v_before.tolist()
-    fl = [z.tolist() for z in (f00, f01, f10, f11)]
-    dl = depth.tolist()
-    inf = math.inf
-    n_i = len(it)
-    log_it = np.full(n_i, math.inf)
-    log_ivb = np.full(n_i, math.inf)
-    log_iva = np.full(n_i, math.inf)
-    for e in range(len(tl)):
-        t = tl[e]
-        vb = vbl[e]
-        if e > 0:
-            dt = tl[e] - tl[e - 1]
-            _advance(bounds, fl[0][e - 1], fl[1][e - 1], fl[2][e - 1], fl[3][e - 1], dt)
-            delta = local_error(u, t, xal[e], max(abs(vb), abs(val[e])), rate * dt, a, zeta)
-            if kl[e] == 1 or dl[e - 1] < inf:
-                # the position error bound just before this event (and its own error)
-                lex = min(_half_log(b[0], b[3], b[4]) for b in bounds)
-                ex = math.exp(min(lex, 700.0))
-                acc = acc_max + 2 * zeta * abs(vb)
-                jump = (1 + R) * math.sqrt(2 * acc * 2 * ex)
-                if kl[e] == 1:
-                    # the impact's time and velocities: the position error is a time error
-                    # ex / |v-|, which moves v- by |acc| ex / |v-|
-                    lev = min(_half_log(b[2], b[3], b[4]) for b in bounds)
-                    j = il[e]
-                    lt = lex - math.log(abs(vb)) if vb else math.inf
-                    lt = _log_add(lt, math.log(u * max(abs(t), 1.0)))
-                    log_it[j] = lt / _LN10
-                    lvb = _log_add(
-                        _log_add(lev, math.log(acc) + lt), math.log(u * abs(vb) + 1e-300)
-                    )
-                    log_ivb[j] = lvb / _LN10
-                    log_iva[j] = (lvb + math.log(R)) / _LN10 if R else -math.inf
-                    if vb * vb <= 2 * acc * 2 * ex:
-                        delta += jump  # the impact could vanish
-                if dl[e - 1] <= 2 * ex:
-                    delta += jump  # a pass near the wall could become an impact
-            if kl[e] == 1:  # the impact's saltation matrix after the flight to it
-                sm: Any
-                if vb == 0:
-                    sm = ((-R, 0.0), (inf, -R))
-                else:
-                    sm = oscillator_saltation(t, vb, eta, zeta, a, x_w, R, math.cos)
-                _advance(bounds, sm[0][0], sm[0][1], sm[1][0], sm[1][1], 0.0)
-        else:  # the start: the parameters' exact x0, v0 rounded once to the precision
-            delta = _start_error(traj)
-        for b in bounds:
-            _add_identity(b, delta * delta)
-        if kl[e] == 0:
-            k = il[e]
-            log_ex[k] = min(_half_log(b[0], b[3], b[4]) for b in bounds) / _LN10
-            log_ev[k] = min(_half_log(b[2], b[3], b[4]) for b in bounds) / _LN10
-    impacts = {
-        "t": np.array([digits_of(_lg(z), lg, cap) for z, lg in zip(it, log_it, strict=True)], int),
-        "v_before": np.array(
-            [digits_of(_lg(z), lg, cap) for z, lg in zip(ivb, log_ivb, strict=True)], int
-        ),
-        "v_after": np.array(
-            [digits_of(_lg(z), lg, cap) for z, lg in zip(iva, log_iva, strict=True)], int
-        ),
-    }
-    dx = np.array(
-        [digits_of(_lg(xs[k]), log_ex[k], cap) for k in range(n_s)],
-        dtype=int,
-    )
-    dv = np.array(
-        [digits_of(_lg(vs[k]), log_ev[k], cap) for k in range(n_s)],
-        dtype=int,
-    )
-    note = (
-        f"tangent flow along the run (flight flows and saltation matrices), local error "
-        f"{C_STATE:g} u (steps + 1) |state| + {C_TIME:g} u |t| |f| per event, u = {u:.3g}"
-    )
-    return Digits("estimated", dx, dv, cap, note, impacts=impacts)
+    return times[order], kinds[order], index[order]
+
+
+def _impact_logs(bounds: list, lex: float, t: float, vb: float, u: float, acc: float, R: float):
+    """Natural logs / ln 10 of an impact's time, ``v-`` and ``v+`` error bounds."""
+    # the impact's time and velocities: the position error is a time error
+    # ex / |v-|, which moves v- by |acc| ex / |v-|
+    lev = min(_half_log(b[2], b[3], b[4]) for b in bounds)
+    lt = lex - math.log(abs(vb)) if vb else math.inf
+    lt = _log_add(lt, math.log(u * max(abs(t), 1.0)))
+    lvb = _log_add(_log_add(lev, math.log(acc) + lt), math.log(u * abs(vb) + 1e-300))
+    return lt / _LN10, lvb / _LN10, (lvb + math.log(R)) / _LN10 if R else -math.inf
+
+
+def _claimed(values: np.ndarray, logs: np.ndarray, cap: int) -> np.ndarray:
+    """The digits each value claims against its log10 error bound."""
+    return np.array([digits_of(_lg(z), lg, cap) for z, lg in zip(values, logs, strict=True)], int)
 
 
 def _advance(bounds: list, j00: float, j01: float, j10: float, j11: float, dt: float) -> None:
@@ -627,9 +626,6 @@ def _linear_part(form: str, zeta: float, k: float) -> np.ndarray:
     """``A`` of the pair's flow ``z' = A z + forcing``, ``z = (x, v, y, w)``, read off the one
     home of its equations (:func:`~precise_impact.core.flow.acceleration`,
     :func:`~precise_impact.core.coupling.slave_rhs`) with the forcing switched off."""
-    from precise_impact.core.coupling import slave_rhs
-    from precise_impact.core.flow import acceleration
-
     off = lambda _: 0.0  # noqa: E731 - cos of the forcing: 0 leaves the linear part
     A = np.zeros((4, 4))
     for j in range(4):
@@ -696,10 +692,6 @@ def estimate_coupled(traj: Any) -> Digits:
     oscillator.  The master's state at a slave impact comes from its closed-form flight
     (:class:`~precise_impact.core.flight.Flight`).  Near-grazing passes are looked for on the
     master's flights; the slave's impacts slower than its position error count as changes."""
-    from precise_impact.core.coupling import slave_position_rate, slave_reset, slave_rhs
-    from precise_impact.core.flow import acceleration
-    from precise_impact.core.impact import saltation_matrix
-
     P, p = traj.precision, traj.params
     cap = min(max_digits(P), _FLOAT_DIGITS)  # the estimate is carried in float64
     u = max(float(P.eps_fraction), _TINY)  # as in estimate
@@ -715,28 +707,14 @@ def estimate_coupled(traj: Any) -> Digits:
         _floats(P, getattr(traj, "slave_impacts_" + n)) for n in ("t", "w_before", "w_after", "x")
     )
     n_s = len(F["t"])
-    times = np.concatenate([F["t"], mt, st])
-    kinds = np.concatenate([np.zeros(n_s, int), np.ones(len(mt), int), np.full(len(st), 2)])
-    index = np.concatenate([np.arange(n_s), np.arange(len(mt)), np.arange(len(st))])
-    order = np.lexsort((-kinds, times))
-    times, kinds, index = times[order], kinds[order], index[order]
+    times, kinds, index = _event_order(F["t"], mt, st)
     A = _linear_part(form, zeta, k)
     lam, V = np.linalg.eig(A)
     Vi = np.linalg.inv(V) if np.linalg.cond(V) < 1e8 else None
     P_, Q_ = steady_coefficients(eta, zeta, a)
     wd = damped_frequency(zeta, FLOAT_OPS)
-    # master-only segments for the near-grazing passes
-    msk = kinds != 2
-    m_idx = np.flatnonzero(msk)
-    mx = np.where(kinds == 0, _pick(F["x"], kinds == 0, index), x_w)
-    mv = np.where(kinds == 0, _pick(F["v"], kinds == 0, index), 0.0)
-    mv = np.where(kinds == 1, _pick(mva, kinds == 1, index), mv)
-    depth_m = near_misses(p, times[m_idx][:-1], times[m_idx][1:], mx[m_idx][:-1], mv[m_idx][:-1])
-    depth = np.full(len(times), np.inf)
-    depth[m_idx[1:]] = depth_m
-    span = times[-1] - times[0] if len(times) else 0.0
-    steps = float((traj.stats or {}).get("steps", 0) or 0)
-    rate = steps / span if span > 0 else 0.0
+    depth = _master_depth(p, times, kinds, index, F, mva, x_w)
+    rate = _pair_rate(traj, times)
     b = _Bound(4)
     logs = {n: np.full(n_s, -math.inf) for n in ("x", "v", "y", "w")}
     off = lambda _: 0.0  # noqa: E731
@@ -746,49 +724,17 @@ def estimate_coupled(traj: Any) -> Digits:
         t, kind, i = float(times[e]), int(kinds[e]), int(index[e])
         if e > 0:
             dt = t - float(times[e - 1])
-            if Vi is not None:
-                J = (V * np.exp(lam * dt)) @ Vi
-                J = J.real
-            else:
-                import scipy.linalg
-
-                J = scipy.linalg.expm(A * dt)
+            J = _pair_flow(A, lam, V, Vi, dt)
             # master's state now (closed-form flight from its last event)
             fl = Flight(P_, Q_, eta, zeta, wd, FLOAT_OPS, *last_m)
             xm, vm = fl.at(t)
             if kind == 1:
                 vb, va = float(mvb[i]), float(mva[i])
-                # the slave's state cancels in f+ - f- (the flow is linear): 0 for both
-                fm = [vb, acceleration(t, x_w, vb, eta, zeta, a, math.cos)] + list(
-                    slave_rhs(form, t, x_w, vb, 0.0, 0.0, eta, zeta, a, k, off)
-                )
-                fp = [va, acceleration(t, x_w, va, eta, zeta, a, math.cos)] + list(
-                    slave_rhs(form, t, x_w, va, 0.0, 0.0, eta, zeta, a, k, off)
-                )
-                jm = [[1.0, 0.0, 0.0, 0.0], [0.0, -R, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]]
-                jm.append([0.0, 0.0, 0.0, 1.0])
-                S_ = saltation_matrix(jm, fm, fp, [1.0, 0.0, 0.0, 0.0]) if vb else None
-                J = (np.asarray(S_) if S_ is not None else np.full((4, 4), math.inf)) @ J
+                J = _master_impact(J, form, t, vb, va, x_w, eta, zeta, a, R, k, off)
                 xs, vs, wb = x_w, max(abs(vb), abs(va)), vb
             elif kind == 2:
                 wb, wa, xi = float(swb[i]), float(swa[i]), float(sx[i])
-                fm = [vm, acceleration(t, xi, vm, eta, zeta, a, math.cos)] + list(
-                    slave_rhs(form, t, xi, vm, x_w, wb, eta, zeta, a, k, math.cos)
-                )
-                fp = fm[:2] + list(slave_rhs(form, t, xi, vm, x_w, wa, eta, zeta, a, k, math.cos))
-                h = 1e-7 * max(1.0, abs(xi))  # the reset's x-derivative ('reduced': (1 + R) k)
-                dgx = (
-                    slave_reset(form, xi + h, wb, R, k, x_w)
-                    - slave_reset(form, xi - h, wb, R, k, x_w)
-                ) / (2 * h)
-                jac = [[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.0, 0], [dgx, 0, 0, -R]]
-                rate_y = slave_position_rate(form, xi, x_w, wb, k)
-                if rate_y:
-                    fm[2] = rate_y
-                    S_ = saltation_matrix(jac, fm, fp, [0.0, 0.0, 1.0, 0.0])
-                    J = np.asarray(S_, dtype=float) @ J
-                else:
-                    J = np.full((4, 4), math.inf)
+                J = _slave_impact(J, form, t, xi, vm, wb, wa, x_w, eta, zeta, a, R, k)
                 xs, vs = max(abs(xm), x_w), max(abs(vm), abs(wb), abs(wa))
             else:
                 xs = max(abs(F["x"][i]), abs(F["y"][i]))
@@ -797,13 +743,7 @@ def estimate_coupled(traj: Any) -> Digits:
             b.advance(J, dt)
             delta = local_error(u, t, xs, vs, rate * dt + (1 + k) * dt, a, zeta)
             acc = fullscale + 2 * zeta * vs + 2 * k * (fullscale + vs)
-            for comp, is_imp in ((0, kind == 1), (2, kind == 2)):
-                ex = math.exp(min(b.log10(comp) * _LN10, 700.0))
-                jump = (1 + R) * math.sqrt(2 * acc * 2 * ex)
-                if is_imp and wb is not None and wb * wb <= 2 * acc * 2 * ex:
-                    delta += jump
-                if comp == 0 and depth[e] <= 2 * ex:
-                    delta += jump
+            delta = _pair_jumps(b, delta, acc, R, kind, wb, depth[e])
             b.add(delta * delta)
         else:
             b.add(_start_error(traj) ** 2)
@@ -813,15 +753,91 @@ def estimate_coupled(traj: Any) -> Digits:
                 logs[n][i] = b.log10(c)
         elif kind == 1:
             last_m = (t, x_w, float(mva[i]))
-    out = {
-        n: np.array([digits_of(_lg(F[n][j]), logs[n][j], cap) for j in range(n_s)], dtype=int)
-        for n in logs
-    }
+    out = {n: _claimed(F[n], logs[n], cap) for n in logs}
     note = (
         "tangent flow of the pair along the run (exp(A tau) between impacts, saltation "
         f"matrices at both oscillators' impacts), local error as for one oscillator, u = {u:.3g}"
     )
     return Digits("estimated", out["x"], out["v"], cap, note, y=out["y"], w=out["w"])
+
+
+def _pair_rate(traj: Any, times: np.ndarray) -> float:
+    """The pair's integrator steps per unit time (0 without ``stats['steps']``)."""
+    span = times[-1] - times[0] if len(times) else 0.0
+    steps = float((traj.stats or {}).get("steps", 0) or 0)
+    return steps / span if span > 0 else 0.0
+
+
+def _pair_jumps(b: Any, delta: float, acc: float, R: float, kind: int, wb, depth: float) -> float:
+    """``delta`` plus the changes of the impact sequence the position errors allow: an impact
+    of either oscillator that could vanish, a master's pass near the wall that could hit."""
+    for comp, is_imp in ((0, kind == 1), (2, kind == 2)):
+        ex = math.exp(min(b.log10(comp) * _LN10, 700.0))
+        jump = (1 + R) * math.sqrt(2 * acc * 2 * ex)
+        if is_imp and wb is not None and wb * wb <= 2 * acc * 2 * ex:
+            delta += jump
+        if comp == 0 and depth <= 2 * ex:
+            delta += jump
+    return delta
+
+
+def _master_depth(p: Any, times, kinds, index, F: dict, mva, x_w: float) -> np.ndarray:
+    """Each event's near-wall depth on the master's flight to it (``inf``: none, or a slave
+    event): the master-only segments for the near-grazing passes."""
+    msk = kinds != 2
+    m_idx = np.flatnonzero(msk)
+    mx = np.where(kinds == 0, _pick(F["x"], kinds == 0, index), x_w)
+    mv = np.where(kinds == 0, _pick(F["v"], kinds == 0, index), 0.0)
+    mv = np.where(kinds == 1, _pick(mva, kinds == 1, index), mv)
+    depth_m = near_misses(p, times[m_idx][:-1], times[m_idx][1:], mx[m_idx][:-1], mv[m_idx][:-1])
+    depth = np.full(len(times), np.inf)
+    depth[m_idx[1:]] = depth_m
+    return depth
+
+
+def _pair_flow(A: np.ndarray, lam, V, Vi, dt: float) -> np.ndarray:
+    """``exp(A dt)``: by the eigen-decomposition when well conditioned, else scipy's expm."""
+    if Vi is not None:
+        J = (V * np.exp(lam * dt)) @ Vi
+        return J.real
+    import scipy.linalg  # noqa: PLC0415 -- optional: loaded on first use
+
+    return scipy.linalg.expm(A * dt)
+
+
+def _master_impact(J, form, t, vb, va, x_w, eta, zeta, a, R, k, off) -> np.ndarray:
+    """``J`` through the pair's saltation matrix at a master impact (``inf`` at ``vb = 0``)."""
+    # the slave's state cancels in f+ - f- (the flow is linear): 0 for both
+    fm = [vb, acceleration(t, x_w, vb, eta, zeta, a, math.cos)] + list(
+        slave_rhs(form, t, x_w, vb, 0.0, 0.0, eta, zeta, a, k, off)
+    )
+    fp = [va, acceleration(t, x_w, va, eta, zeta, a, math.cos)] + list(
+        slave_rhs(form, t, x_w, va, 0.0, 0.0, eta, zeta, a, k, off)
+    )
+    jm = [[1.0, 0.0, 0.0, 0.0], [0.0, -R, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]]
+    jm.append([0.0, 0.0, 0.0, 1.0])
+    S_ = saltation_matrix(jm, fm, fp, [1.0, 0.0, 0.0, 0.0]) if vb else None
+    return (np.asarray(S_) if S_ is not None else np.full((4, 4), math.inf)) @ J
+
+
+def _slave_impact(J, form, t, xi, vm, wb, wa, x_w, eta, zeta, a, R, k) -> np.ndarray:
+    """``J`` through the pair's saltation matrix at a slave impact (``inf`` where the slave's
+    position does not move)."""
+    fm = [vm, acceleration(t, xi, vm, eta, zeta, a, math.cos)] + list(
+        slave_rhs(form, t, xi, vm, x_w, wb, eta, zeta, a, k, math.cos)
+    )
+    fp = fm[:2] + list(slave_rhs(form, t, xi, vm, x_w, wa, eta, zeta, a, k, math.cos))
+    h = 1e-7 * max(1.0, abs(xi))  # the reset's x-derivative ('reduced': (1 + R) k)
+    dgx = (slave_reset(form, xi + h, wb, R, k, x_w) - slave_reset(form, xi - h, wb, R, k, x_w)) / (
+        2 * h
+    )
+    jac = [[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.0, 0], [dgx, 0, 0, -R]]
+    rate_y = slave_position_rate(form, xi, x_w, wb, k)
+    if rate_y:
+        fm[2] = rate_y
+        S_ = saltation_matrix(jac, fm, fp, [0.0, 0.0, 1.0, 0.0])
+        return np.asarray(S_, dtype=float) @ J
+    return np.full((4, 4), math.inf)
 
 
 # ------------------------------------------------------------------------------ printing

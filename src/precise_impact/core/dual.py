@@ -185,7 +185,7 @@ class BallDual(Dual):
 
     @staticmethod
     def coerce(x: Any) -> Any:
-        import flint
+        import flint  # noqa: PLC0415 -- optional: loaded on first use
 
         return x if isinstance(x, flint.arb) else flint.arb(x)
 
@@ -199,7 +199,7 @@ class BallDualOps(DualOps):
 
     @property
     def pi(self) -> Any:  # type: ignore[override]
-        import flint
+        import flint  # noqa: PLC0415 -- optional: loaded on first use
 
         return flint.arb.pi()
 

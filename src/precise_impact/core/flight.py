@@ -162,7 +162,7 @@ class ArbOps:
         ball around 0 does) is enclosed as ``[0, sqrt(upper)]`` instead of NaN."""
         if x.lower() >= 0:
             return x.sqrt()
-        import flint
+        import flint  # noqa: PLC0415 -- optional: loaded on first use
 
         return flint.arb(0).union(flint.arb(x.upper()).sqrt())
 
@@ -173,7 +173,7 @@ class ArbOps:
 
     @staticmethod
     def num(q: Fraction) -> Any:
-        import flint
+        import flint  # noqa: PLC0415 -- optional: loaded on first use
 
         q = Fraction(q)
         return flint.arb(q.numerator) / q.denominator

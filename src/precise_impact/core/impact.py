@@ -337,8 +337,6 @@ GRAZING_SAFETY = 16
 def grazing_depth_coefficient(precision) -> Fraction:
     """``16 u``, ``u = 2^-bits``: the default grazing depth is this times
     ``|x_w| + |a| + A_p (1 + eta |t|)``."""
-    from fractions import Fraction
-
     return Fraction(GRAZING_SAFETY, 2**precision.bits)
 
 
@@ -347,8 +345,6 @@ def steady_amplitude(params) -> float:
 
     At the undamped resonance (``zeta = 0``, ``eta = 1``: no steady state) ``|a|``.
     """
-    import math
-
     try:
         return math.sqrt(float(steady_state(params).amplitude_squared))
     except ParameterError:

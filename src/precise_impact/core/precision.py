@@ -55,7 +55,7 @@ def _real128() -> type:
     ``__float128`` (x86-64 Linux, not macOS or ARM builds): there a float64 run must
     still work, and a float128 request gets a clear refusal.
     """
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: loaded on first use
 
     t = getattr(hy, "real128", None)
     if t is None:
@@ -70,7 +70,7 @@ def _real128() -> type:
 
 def has_quad() -> bool:
     """Whether this heyoka build has quad precision (``heyoka.real128``)."""
-    import heyoka as hy
+    import heyoka as hy  # noqa: PLC0415 -- optional: loaded on first use
 
     return hasattr(hy, "real128")
 
@@ -185,7 +185,7 @@ class Precision:
             return np.longdouble
         if self.kind == "float128":
             return _real128()
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: loaded on first use
 
         return hy.real
 
@@ -242,7 +242,7 @@ class Precision:
             return np.longdouble("nan")
         if self.kind == "float128":
             return _real128()("nan")
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: loaded on first use
 
         return hy.real("nan", self.bits)
 
@@ -256,7 +256,7 @@ class Precision:
         s = libmp.to_str(m._mpf_, self.digits + 10)
         if self.kind == "longdouble":
             return np.longdouble(s)
-        import heyoka as hy
+        import heyoka as hy  # noqa: PLC0415 -- optional: loaded on first use
 
         if self.kind == "float128":
             return _real128()(s)

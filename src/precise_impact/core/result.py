@@ -234,22 +234,32 @@ def _brief(v: Any) -> str:
     if isinstance(v, np.ndarray):
         return f"<{'x'.join(map(str, v.shape))} {v.dtype}>"
     if isinstance(v, np.generic):
-        x = v.item()
-        if type(x) is not type(v):  # a numpy scalar: its Python value
-            return _brief(x)
-        try:  # heyoka's real / real128: 6 digits (str() gives all of them)
-            return format(float(v), ".6g")
-        except (TypeError, ValueError):
-            return f"<{type(v).__name__}>"
+        return _brief_generic(v)
     if isinstance(v, (list, tuple)):
-        if len(v) <= 3 and all(isinstance(x, (int, float, Fraction, str)) for x in v):
-            return "(" + ", ".join(_brief(x) for x in v) + ")"
-        return f"<{len(v)} items>"
+        return _brief_sequence(v)
     if isinstance(v, dict):
         return f"<{len(v)} keys>"
     if isinstance(v, ResultMixin):
         return f"<{type(v).__name__}>"
     return f"<{type(v).__name__}>"
+
+
+def _brief_generic(v: np.generic) -> str:
+    """A numpy scalar (or heyoka's real / real128) in a few characters."""
+    x = v.item()
+    if type(x) is not type(v):  # a numpy scalar: its Python value
+        return _brief(x)
+    try:  # heyoka's real / real128: 6 digits (str() gives all of them)
+        return format(float(v), ".6g")
+    except (TypeError, ValueError):
+        return f"<{type(v).__name__}>"
+
+
+def _brief_sequence(v: list | tuple) -> str:
+    """A short list or tuple of scalars itself, any other by its length."""
+    if len(v) <= 3 and all(isinstance(x, (int, float, Fraction, str)) for x in v):
+        return "(" + ", ".join(_brief(x) for x in v) + ")"
+    return f"<{len(v)} items>"
 
 
 def short_repr(self: Any) -> str:
@@ -355,7 +365,7 @@ class ResultMixin:
         if name not in tables:
             raise ParameterError("what", what, "one of " + ", ".join(map(repr, tables)))
         try:
-            import pandas as pd
+            import pandas as pd  # noqa: PLC0415 -- optional: loaded on first use
         except ImportError:
             raise OptionalDependencyError(
                 "pandas", "pip install 'precise_impact[pandas]'", "to_dataframe()"

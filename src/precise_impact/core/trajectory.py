@@ -15,6 +15,7 @@ from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, columns
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import plot_trajectory
 from precise_impact.io.jsonout import dumps, write_json
 
 __all__ = ["Trajectory", "atomic_write"]
@@ -302,8 +303,6 @@ class Trajectory(ResultMixin):
         -------
         matplotlib.figure.Figure
         """
-        from precise_impact.io.figures import plot_trajectory
-
         return plot_trajectory(self, path, units=units, components=components, last=last)
 
 

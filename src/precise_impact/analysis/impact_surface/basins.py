@@ -1,40 +1,13 @@
 """Domains of attraction on the impact surface or the stroboscopic section.
 
-Every grid point is run to its attractor by the compiled fast engine (float64) and labelled by
-the existing machinery:
-
-* a *periodic* orbit: a cycle found by :func:`~precise_impact.analysis.periodicity.detect_period`
-  on the stroboscopic samples, refined by Newton
-  (:func:`~precise_impact.analysis.orbits.newton.find_orbit`: Floquet multipliers, stability,
-  exact LLE ``ln |mu| / (p T)``) and identified by its refined impacts (the fastest one as a point
-  ``(phase, v)`` of the impact surface), so that the same orbit reached from many starts, on
-  either section, gets one label;
-* *chatter ending in sticking*: the engine stops at an impact sequence whose speed falls
-  geometrically while the wall force pushes into the wall
-  (:func:`~precise_impact.core.impact.wall_acceleration` ``> 0``); the accumulation time is
-  :func:`~precise_impact.core.impact.chatter_accumulation_time` and the mass sits on the wall
-  until :func:`~precise_impact.core.impact.release_time`.  Every start that sticks leaves the
-  wall from the *same* state (``x_w``, 0 at the release phase), so all of them share the
-  attractor of that release state: "chatter + sticking" if it sticks again (a periodic orbit
-  through sticking), else the orbit it goes to;
-* a *non-impacting* orbit (a cycle without impacts: LLE ``-zeta`` exactly);
-* *chaos*: no period up to ``max_period`` and an LLE from the compiled variational kernel
-  (:func:`~precise_impact.solvers.fast.lle.lle_batch`) positive by more than three standard
-  errors of its batch means;
-* *unresolved*: no period and no positive LLE (quasi-periodic, or a long transient), or a
-  contact within double-double's rounding of the wall, which the compiled engine does not decide
-  (near-tangential contacts float64 cannot decide are refined in double-double,
-  :mod:`precise_impact.solvers.fast.dd`).
-
-Boundaries: after the map, every point with a 4-neighbour of another label (or unresolved) is
-run again with ``refine_factor`` times the transient and relabelled (the boundary points sit
-near the singularity set, where the map is discontinuous and transients are long).
-
-Sub-grid (``subgrid=k``, ``k >= 2``): after that, every boundary cell is sampled again at the
-centres of a ``k x k`` sub-grid inside the cell (with the boundary re-run's longer transient),
-each sub-point labelled against the same table of attractors (an attractor met only on
-sub-points is added to it), so a boundary is resolved ``k`` times finer where it runs and
-nowhere else.
+Every grid point is run to its attractor by the compiled fast engine (float64) and labelled:
+a periodic orbit (:func:`~precise_impact.analysis.periodicity.detect_period`, refined by
+:func:`~precise_impact.analysis.orbits.newton.find_orbit` and identified by its fastest
+impact), chatter ending in sticking (:func:`~precise_impact.core.impact.release_time`), a
+non-impacting orbit, chaos (an LLE from :func:`~precise_impact.solvers.fast.lle.lle_batch`
+positive by three standard errors) or unresolved.  Boundary points are re-run with a longer
+transient, and ``subgrid=k`` samples boundary cells on a ``k x k`` sub-grid.  The rules in full:
+the guide's "Domains of attraction" page (``docs/guide/basins.rst``).
 """
 
 from __future__ import annotations
@@ -65,6 +38,7 @@ from precise_impact.core.params import Params, check_count, exact, params_or_val
 from precise_impact.core.result import ResultMixin
 from precise_impact.core.stats import lle_stderr
 from precise_impact.errors import ConvergenceError, IntegrationError, ParameterError, check_type
+from precise_impact.io.figures import finish, new_figure
 from precise_impact.io.progress import ProgressArg
 
 __all__ = [
@@ -122,7 +96,7 @@ def _floats(params: Params) -> tuple[float, float, float, float, float]:
 
 def _strobe(pars, t, x, v, n, max_impacts):
     """``n`` stroboscopic periods from ``(x, v)`` at ``t`` (retrying with a larger impact store)."""
-    from precise_impact.solvers.fast.single import strobe
+    from precise_impact.solvers.fast.single import strobe  # noqa: PLC0415 -- heavy: numba, loaded on first use
 
     eta, zeta, a, xw, R = pars
     cap = 256 + 4 * n
@@ -277,7 +251,7 @@ def clear_caches() -> None:
 
 
 def _chaos(pars, t, x, v, periods: int) -> tuple:
-    from precise_impact.solvers.fast.lle import lle_batch_serial
+    from precise_impact.solvers.fast.lle import lle_batch_serial  # noqa: PLC0415 -- heavy: numba, loaded on first use
 
     blocks = 10
     status, log1, _, imps, bsums, *_ = lle_batch_serial(
@@ -700,10 +674,8 @@ class BasinsResult(ResultMixin):
     def plot(self, path: str | os.PathLike | None = None, capture: bool | None = None):
         """The map, one colour per attractor with a legend naming each; with ``capture`` (default:
         when some points stick) a second panel of the impacts before sticking."""
-        from matplotlib.colors import BoundaryNorm, ListedColormap
-        from matplotlib.patches import Patch
-
-        from precise_impact.io.figures import finish, legend_outside, new_figure
+        from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: PLC0415 -- heavy: loaded on first plot
+        from matplotlib.patches import Patch  # noqa: PLC0415 -- heavy: loaded on first plot
 
         if capture is None:
             capture = bool(self.stuck.any())
@@ -730,7 +702,7 @@ class BasinsResult(ResultMixin):
         )  # fmt: skip
         k = int(self.stats.get("subgrid") or 1)
         if self.sub_u.size:  # the sub-grid: one small square per sub-point, its cell's size / k
-            from matplotlib.collections import PolyCollection
+            from matplotlib.collections import PolyCollection  # noqa: PLC0415 -- heavy: loaded on first plot
 
             hu, hv = (u1 - u0) / self.axes[0][3] / k / 2, (v1 - v0) / self.axes[1][3] / k / 2
             inside = self.sub_label >= 0
@@ -757,7 +729,6 @@ class BasinsResult(ResultMixin):
             for a, c, s in zip(self.attractors, colors, share, strict=True)
         ]
         ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-        del legend_outside
         ax.set_xlabel(un)
         ax.set_ylabel(vn)
         p = self.params
@@ -888,26 +859,12 @@ def basins(
     ((3, 4), ['chatter + sticking'])
     """
     params = params_or_values(params, {})
-    if section not in SECTIONS:
-        raise ParameterError("section", section, "'impact' or 'stroboscopic'")
-    check_type(grid, (tuple, list), "grid", "a pair of axes (start, stop, n)")
-    if len(grid) != 2:
-        raise ParameterError("grid", grid, "a pair of axes (start, stop, n)")
-    names = ("phase", "v") if section == "impact" else ("x", "v")
-    axes = tuple(_check_axis(g, nm) for g, nm in zip(grid, names, strict=True))
-    if section == "impact" and (axes[0][1] < 0 or axes[0][2] > 1 or axes[1][1] < 0):
-        raise ParameterError("grid", grid, "phase within [0, 1] and v >= 0 on the impact section")
+    axes = _check_grid(section, grid)
     transient = check_count(transient, "transient", 10**7, minimum=1)
     max_period = check_count(max_period, "max_period", 1000, minimum=1)
     chaos_periods = check_count(chaos_periods, "chaos_periods", 10**8, minimum=10)
     refine_factor = check_count(refine_factor, "refine_factor", 1000, minimum=1)
-    subgrid_in = subgrid
-    try:  # an int, numpy integer or integer string, like the other counts
-        subgrid = check_count(subgrid, "subgrid", 32)
-    except ParameterError:
-        subgrid = 1
-    if subgrid == 1:
-        raise ParameterError("subgrid", subgrid_in, "0 (off) or an integer 2 <= subgrid <= 32")
+    subgrid = _check_subgrid(subgrid)
     spec = _Spec(_floats(params), float(params.t0), section, axes, transient, max_period,
                  chaos_periods)  # fmt: skip
     n = spec.shape[0] * spec.shape[1]
@@ -963,33 +920,11 @@ def basins(
     if sub is not None:
         labels, table, sub_label = _label(data, sub["data"])
         elapsed += sub["elapsed"]
-    stats = {
-        "points": n,
-        "refined": refined,
-        "changed": changed,
-        "boundary_fraction": float(bnd.sum() / max(1, inside)),
-        "elapsed_s": elapsed,
-        "time_per_point_s": elapsed / max(1, n),
-        "tiles_computed": n_run,
-        "workers": run.workers,
-        "backend": run.backend,
-        "transient": transient,
-        "refine_factor": refine_factor if refine else None,
-        "subgrid": subgrid,
-        "subgrid_points": 0,
-        "mixed_cells": 0,
-        "subgrid_agreement": None,
-    }
+    stats = _stats(n, refined, changed, float(bnd.sum() / max(1, inside)), elapsed, n_run, run,
+                   transient, refine_factor if refine else None, subgrid)  # fmt: skip
     extra: dict = {}
     if sub is not None:
-        cells = lab2.ravel()[sub["cells"]]  # each boundary cell's label (unchanged by _label)
-        per = sub_label.reshape(len(cells), subgrid * subgrid)
-        agree = (per == cells[:, None]).mean(axis=1)
-        mixed = int(sum(len(np.unique(r)) > 1 for r in per))
-        stats["subgrid_points"] = int(sub_label.size)
-        stats["mixed_cells"] = mixed
-        stats["subgrid_agreement"] = float((per == cells[:, None]).mean()) if per.size else None
-        extra = {"sub_u": sub["u"], "sub_v": sub["v"], "sub_label": sub_label, "sub_agree": agree}
+        extra = _subgrid_fields(sub, sub_label, lab2, subgrid, stats)
     return BasinsResult(
         params={k: str(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R", "t0")},
         section=section,
@@ -1002,6 +937,67 @@ def basins(
         stats=stats,
         **extra,
     )
+
+
+def _stats(
+    n, refined, changed, boundary_fraction, elapsed, n_run, run, transient, refine_factor, subgrid
+) -> dict:
+    """The map's ``stats`` (the sub-grid's counts zero until :func:`_subgrid_fields`)."""
+    return {
+        "points": n,
+        "refined": refined,
+        "changed": changed,
+        "boundary_fraction": boundary_fraction,
+        "elapsed_s": elapsed,
+        "time_per_point_s": elapsed / max(1, n),
+        "tiles_computed": n_run,
+        "workers": run.workers,
+        "backend": run.backend,
+        "transient": transient,
+        "refine_factor": refine_factor,
+        "subgrid": subgrid,
+        "subgrid_points": 0,
+        "mixed_cells": 0,
+        "subgrid_agreement": None,
+    }
+
+
+def _check_grid(section: str, grid: Any) -> tuple:
+    """The section and the grid's two axes, checked: the axes ``(name, start, stop, n)``."""
+    if section not in SECTIONS:
+        raise ParameterError("section", section, "'impact' or 'stroboscopic'")
+    check_type(grid, (tuple, list), "grid", "a pair of axes (start, stop, n)")
+    if len(grid) != 2:
+        raise ParameterError("grid", grid, "a pair of axes (start, stop, n)")
+    names = ("phase", "v") if section == "impact" else ("x", "v")
+    axes = tuple(_check_axis(g, nm) for g, nm in zip(grid, names, strict=True))
+    if section == "impact" and (axes[0][1] < 0 or axes[0][2] > 1 or axes[1][1] < 0):
+        raise ParameterError("grid", grid, "phase within [0, 1] and v >= 0 on the impact section")
+    return axes
+
+
+def _check_subgrid(subgrid: Any) -> int:
+    """``subgrid`` checked: 0 (off) or an integer from 2 to 32."""
+    subgrid_in = subgrid
+    try:  # an int, numpy integer or integer string, like the other counts
+        subgrid = check_count(subgrid, "subgrid", 32)
+    except ParameterError:
+        subgrid = 1
+    if subgrid == 1:
+        raise ParameterError("subgrid", subgrid_in, "0 (off) or an integer 2 <= subgrid <= 32")
+    return subgrid
+
+
+def _subgrid_fields(sub: dict, sub_label: Any, lab2: Any, subgrid: int, stats: dict) -> dict:
+    """The sub-grid's result fields; its counts and agreement written into ``stats``."""
+    cells = lab2.ravel()[sub["cells"]]  # each boundary cell's label (unchanged by _label)
+    per = sub_label.reshape(len(cells), subgrid * subgrid)
+    agree = (per == cells[:, None]).mean(axis=1)
+    mixed = int(sum(len(np.unique(r)) > 1 for r in per))
+    stats["subgrid_points"] = int(sub_label.size)
+    stats["mixed_cells"] = mixed
+    stats["subgrid_agreement"] = float((per == cells[:, None]).mean()) if per.size else None
+    return {"sub_u": sub["u"], "sub_v": sub["v"], "sub_label": sub_label, "sub_agree": agree}
 
 
 def _subgrid(spec, bnd, lab2, k, transient, tile_size, outp, workers, dask, progress, data):

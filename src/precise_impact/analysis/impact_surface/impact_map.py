@@ -29,7 +29,10 @@ from precise_impact.core.impact import oscillator_saltation
 from precise_impact.core.params import Params, as_params, exact
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import BudgetExceededError, CertificationError, ParameterError
+from precise_impact.io.figures import finish, new_figure
 from precise_impact.io.progress import Progress
+from precise_impact.solvers.certified.single import certify
+from precise_impact.solvers.simulate import simulate
 
 __all__ = [
     "ENGINES",
@@ -140,8 +143,6 @@ def _no_contact_rule(engine: str, e: Exception) -> BudgetExceededError:
 
 def _run(params: Params, engine: str, t: Fraction, v: Fraction, periods: int, bits: int | None):
     """Events after the impact ``(t, v)`` over ``periods`` forcing periods (start excluded)."""
-    from precise_impact.solvers.simulate import simulate
-
     model, precision = ENGINES[engine]
     if bits is not None and precision.startswith("mp:"):
         precision = f"mp:{bits}"
@@ -153,42 +154,60 @@ def _run(params: Params, engine: str, t: Fraction, v: Fraction, periods: int, bi
         return float(q) if mp_bits is None else ctx.mpf(q.numerator) / q.denominator
 
     if engine == "certified":
-        from precise_impact.solvers.certified.single import certify
-
-        try:
-            ct = certify(start, periods, precision=precision)
-        except CertificationError as e:
-            raise _no_contact_rule(engine, e) from e
-        digits = ctx.dps + 10
-        times = [ctx.mpf(i[0].mid().str(digits, radius=False)) for i in ct.impacts]
-        vels = [ctx.mpf(i[1].mid().str(digits, radius=False)) for i in ct.impacts]
+        times, vels = _certified_impacts(start, periods, precision, ctx)
         stats: dict = {}
+        to_fraction = None
     else:
-        try:
-            tr = simulate(start, periods, model=model, precision=precision)
-        except BudgetExceededError as e:
-            if engine != "closed-form":
-                raise
-            raise _no_contact_rule(engine, e) from e
-        fr = tr.precision.to_fraction
-        if mp_bits is None and tr.precision.kind == "float64":  # floats already: exact
-            times = np.asarray(tr.impacts_t, dtype=float).tolist()
-            vels = np.asarray(tr.impacts_v_before, dtype=float).tolist()
-        else:
-            times = [conv(fr(x)) for x in tr.impacts_t]
-            vels = [conv(fr(x)) for x in tr.impacts_v_before]
-        stats = tr.stats
+        times, vels, stats, to_fraction = _engine_impacts(
+            start, engine, model, precision, periods, mp_bits, conv
+        )
     # the start is the first recorded impact
     # the engines record the start (an impact at t0) first
     times, vels = times[1:], vels[1:]
+    two_pi = 2 * np.pi if mp_bits is None else 2 * ctx.pi
+    return _events(times, vels, stats, to_fraction, conv, conv(params.eta), two_pi)
+
+
+def _certified_impacts(start: Params, periods: int, precision: str, ctx: Any) -> tuple:
+    """The certified engine's impact times and incoming speeds, the balls' midpoints."""
+    try:
+        ct = certify(start, periods, precision=precision)
+    except CertificationError as e:
+        raise _no_contact_rule("certified", e) from e
+    digits = ctx.dps + 10
+    times = [ctx.mpf(i[0].mid().str(digits, radius=False)) for i in ct.impacts]
+    vels = [ctx.mpf(i[1].mid().str(digits, radius=False)) for i in ct.impacts]
+    return times, vels
+
+
+def _engine_impacts(
+    start: Params, engine: str, model: str, precision: str, periods: int, mp_bits, conv
+) -> tuple:
+    """A simulated run's impact times, incoming speeds, stats and exact-value converter."""
+    try:
+        tr = simulate(start, periods, model=model, precision=precision)
+    except BudgetExceededError as e:
+        if engine != "closed-form":
+            raise
+        raise _no_contact_rule(engine, e) from e
+    fr = tr.precision.to_fraction
+    if mp_bits is None and tr.precision.kind == "float64":  # floats already: exact
+        times = np.asarray(tr.impacts_t, dtype=float).tolist()
+        vels = np.asarray(tr.impacts_v_before, dtype=float).tolist()
+    else:
+        times = [conv(fr(x)) for x in tr.impacts_t]
+        vels = [conv(fr(x)) for x in tr.impacts_v_before]
+    return times, vels, tr.stats, fr
+
+
+def _events(times: list, vels: list, stats: dict, to_fraction, conv, eta_n, two_pi) -> list:
+    """The impacts as events: chattering runs and sticking intervals as such, time-ordered."""
     events: list[ImpactEvent] = []
     chat = sorted(stats.get("chattering") or [], key=lambda c: float(c["t_accumulation"]))
     stick = sorted(stats.get("sticking") or [], key=lambda s: float(s[0]))
-    two_pi = 2 * np.pi if mp_bits is None else 2 * ctx.pi
-    eta_n = conv(params.eta)
     used = [False] * len(times)
     for c in chat:
-        ta = conv(tr.precision.to_fraction(c["t_accumulation"]))
+        ta = conv(to_fraction(c["t_accumulation"]))
         # the geometric run the accumulation was extrapolated from (not the episode: every
         # impact since the chunk began or the mass left the wall, long flights too)
         k = int(c.get("run_impacts") or c.get("episode_impacts") or 1)
@@ -205,8 +224,8 @@ def _run(params: Params, engine: str, t: Fraction, v: Fraction, periods: int, bi
             )
         )
     for s0, s1 in stick:
-        s0 = conv(tr.precision.to_fraction(s0))
-        s1 = None if s1 is None else conv(tr.precision.to_fraction(s1))
+        s0 = conv(to_fraction(s0))
+        s1 = None if s1 is None else conv(to_fraction(s1))
         events.append(ImpactEvent(STICKING, s0, 0 * s0, _phase(s0, eta_n, two_pi), s1))
     for i in range(len(times)):
         if not used[i]:
@@ -383,7 +402,7 @@ def _run_fast(
     ``max_time`` and shows the progress between blocks of :data:`FAST_BLOCK` impacts.
     """
     # numba loads only when the compiled engine is used (not on import precise_impact)
-    from precise_impact.solvers.fast import surface
+    from precise_impact.solvers.fast import surface  # noqa: PLC0415 -- heavy: numba, loaded on first use
 
     eta, zeta, a, x_w, R = (float(getattr(params, k)) for k in ("eta", "zeta", "a", "x_w", "R"))
     period = 2 * np.pi / eta
@@ -599,8 +618,6 @@ class ImpactMapResult(ResultMixin):
     def plot(self, path: Any = None, *, ax: Any = None, singularity: Any = None):
         """Scatter plot of the impact surface (phase on [0, 1), v >= 0); chatter and sticking
         with their own symbols; ``singularity`` (a SingularityResult) drawn over it."""
-        from precise_impact.io.figures import finish, new_figure
-
         fig = None
         if ax is None:
             fig, axes = new_figure(figsize=(7.0, 4.5))

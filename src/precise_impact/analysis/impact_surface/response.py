@@ -4,22 +4,10 @@ forcing periods against ``sigma = x_w`` or ``omega = eta``, with their parts tol
 The branches come from the continuation
 (:func:`~precise_impact.analysis.orbits.continuation.continue_orbit`) started on the closed-form
 orbits (:func:`~precise_impact.analysis.orbits.one_impact.one_impact_orbits`); the Budd-Dux
-closed forms of the undamped model (``zeta = 0``) are :func:`budd_dux_orbit` and
-:func:`budd_dux_points`, the references the continuation's folds and period-doublings are
-tested against.
-
-For ``zeta = 0`` the ``(1,n)`` orbit with impact phase ``theta = omega t*`` has, with
-``gamma = a / (1 - omega^2)`` and ``beta = (1 + r) / (1 - r) cot(n pi / omega)``,
-
-    sigma = gamma (cos theta + beta omega sin theta),   V = -2 omega gamma sin theta / (1 - r),
-
-an ellipse in ``(sigma, V)`` (Budd & Dux 1994): the free flight over ``n T`` is a rotation by
-``n T`` of ``(x - X, x' - X')`` that must return ``y0 = sigma - X`` and turn ``-r V - X'`` into
-``V - X'``; both hold iff ``sin(nT/2) y0 = cos(nT/2) u0`` and ``(1 - r) V = -2 X'``.  Its turning
-points in ``sigma`` (``tan theta = beta omega``) are the folds; its points with ``V = 0``
-(``theta = 0, pi``, ``sigma = +-gamma``) grazing; the multipliers are those of
-``M = S Phi(n T)`` (saltation :func:`~precise_impact.core.impact.oscillator_saltation`, flow
-:func:`~precise_impact.core.flight.flow_matrix`), ``det M = r^2``.
+closed forms of the undamped model (``zeta = 0``, an ellipse in ``(sigma, V)``) are
+:func:`budd_dux_orbit` and :func:`budd_dux_points`, the references the continuation's folds and
+period-doublings are tested against (Budd & Dux 1994).  Derivation and classification:
+``docs/guide/response_curves.rst``.
 """
 
 from __future__ import annotations
@@ -710,21 +698,7 @@ def response_curve(
     params = params_or_values(params, param_values)
     n = check_count(n, "n", 64, minimum=1)
     max_points = check_count(max_points, "max_points", 100_000, minimum=2)
-    if parameter not in _PARAMS:
-        raise ParameterError("parameter", str(parameter), "x_w or eta")
-    if start is None or stop is None:
-        raise ParameterError("start" if start is None else "stop", "None", "a decimal value")
-    lo_q, hi_q = exact("start", start), exact("stop", stop)
-    at_q = lo_q if at is None else exact("at", at)
-    if lo_q == hi_q:
-        raise ParameterError("stop", str(stop), f"a value of {parameter} other than start")
-    if not min(lo_q, hi_q) <= at_q <= max(lo_q, hi_q):
-        raise ParameterError("at", str(at), f"a value between start = {start} and stop = {stop}")
-    if parameter == "eta" and not at_q > 0:
-        raise ParameterError("at", str(at), "eta > 0")
-    budget = None if max_time is None else float(exact("max_time", max_time))
-    if budget is not None and not budget > 0:
-        raise ParameterError("max_time", str(max_time), "a positive number of seconds")
+    lo_q, hi_q, at_q, budget = _check_range(parameter, start, stop, at, max_time)
     # priced before any work: both directions of max_points from the start, each point
     # SECONDS_PER_POINT x n (its flights are n periods long)
     check_cost(
@@ -758,60 +732,22 @@ def response_curve(
             bifs: list = []
             k = 0
             for orb in orbits:
-                if budget is not None and time.perf_counter() - t_start > budget:
-                    raise BudgetExceededError(f"max_time = {max_time} s ran out")
+                _check_time(budget, t_start, max_time)
                 g = (float(orb.x), float(orb.v))
                 if _on_curve(vals_l, x_l, br_l, float(at_q), g[0]):
                     continue  # the second orbit at ``at`` already lies on a traced branch
                 pieces = []
                 for j, end in enumerate(e for e in (hi_q, lo_q) if e != at_q):
-                    if budget is not None and time.perf_counter() - t_start > budget:
-                        raise BudgetExceededError(f"max_time = {max_time} s ran out")
-                    res = continue_orbit(
-                        p_at,
-                        parameter,
-                        at_q,
-                        end,
-                        n,
-                        impacts=1,
-                        guess=g,
-                        virtual="10",
-                        max_points=max_points,
-                        doublings=0,
-                        progress=progress,
-                        within=(lo_q, hi_q),
-                    )
-                    b = res.branches[0]
-                    lam, V, kd = (
-                        np.asarray(b.values, float),
-                        np.asarray(b.impact_v, float)[:, 0],
-                        _kinds(b),
-                    )
-                    xs, vs = np.asarray(b.x, float)[:, 0], np.asarray(b.v, float)[:, 0]
-                    cut = _closed(lam, xs, vs)
-                    reason = b.stop_reason
-                    if cut is not None:
-                        lam, V, kd, xs, vs = (a[: cut + 1] for a in (lam, V, kd, xs, vs))
-                        reason = "closed (came back to its first point)"
-                    for bf in res.bifurcations:
-                        if bf.branch == 0:
-                            bf.branch = k
-                            bifs.append(bf)
-                    if j == 1:
-                        lam, V, kd, xs, vs = (a[::-1] for a in (lam, V, kd, xs, vs))
-                    pieces.append((lam, V, kd, xs, vs))
+                    _check_time(budget, t_start, max_time)
+                    piece, reason, cut = _piece(
+                        p_at, parameter, at_q, end, n, g, max_points, progress, (lo_q, hi_q),
+                        reverse=j == 1, branch=k, bifs=bifs,
+                    )  # fmt: skip
+                    pieces.append(piece)
                     reasons.append(reason)
                     if cut is not None:
                         break  # a closed curve: the other direction is the same curve
-                if len(pieces) == 2:
-                    pieces = [pieces[1], pieces[0]]
-                for lam, V, kd, xs, vs in pieces:
-                    x_l.extend(xs)
-                    v_l.extend(vs)
-                    vals_l.extend(lam)
-                    V_l.extend(V)
-                    kind_l.extend(kd)
-                    br_l.extend([k] * len(lam))
+                _append_pieces(pieces, k, vals_l, V_l, x_l, v_l, kind_l, br_l)
                 k += 1
             break
         except IntegrationError:
@@ -836,6 +772,87 @@ def response_curve(
         stop_reasons=reasons,
         elapsed_s=time.perf_counter() - t_start,
     )
+
+
+def _check_range(parameter: str, start: Any, stop: Any, at: Any, max_time: Any) -> tuple:
+    """The range, the starting value and the time budget, checked: ``(lo, hi, at, budget)``."""
+    if parameter not in _PARAMS:
+        raise ParameterError("parameter", str(parameter), "x_w or eta")
+    if start is None or stop is None:
+        raise ParameterError("start" if start is None else "stop", "None", "a decimal value")
+    lo_q, hi_q = exact("start", start), exact("stop", stop)
+    at_q = lo_q if at is None else exact("at", at)
+    if lo_q == hi_q:
+        raise ParameterError("stop", str(stop), f"a value of {parameter} other than start")
+    if not min(lo_q, hi_q) <= at_q <= max(lo_q, hi_q):
+        raise ParameterError("at", str(at), f"a value between start = {start} and stop = {stop}")
+    if parameter == "eta" and not at_q > 0:
+        raise ParameterError("at", str(at), "eta > 0")
+    budget = None if max_time is None else float(exact("max_time", max_time))
+    if budget is not None and not budget > 0:
+        raise ParameterError("max_time", str(max_time), "a positive number of seconds")
+    return lo_q, hi_q, at_q, budget
+
+
+def _piece(
+    p_at, parameter, at_q, end, n, g, max_points, progress, within, *, reverse, branch, bifs
+) -> tuple:
+    """One direction of the continuation from ``at_q`` to ``end``: ``((lam, V, kind, x, v),
+    stop reason, closing index or None)``; its bifurcations appended to ``bifs``."""
+    res = continue_orbit(
+        p_at,
+        parameter,
+        at_q,
+        end,
+        n,
+        impacts=1,
+        guess=g,
+        virtual="10",
+        max_points=max_points,
+        doublings=0,
+        progress=progress,
+        within=within,
+    )
+    b = res.branches[0]
+    lam, V, kd = (
+        np.asarray(b.values, float),
+        np.asarray(b.impact_v, float)[:, 0],
+        _kinds(b),
+    )
+    xs, vs = np.asarray(b.x, float)[:, 0], np.asarray(b.v, float)[:, 0]
+    cut = _closed(lam, xs, vs)
+    reason = b.stop_reason
+    if cut is not None:
+        lam, V, kd, xs, vs = (a[: cut + 1] for a in (lam, V, kd, xs, vs))
+        reason = "closed (came back to its first point)"
+    for bf in res.bifurcations:
+        if bf.branch == 0:
+            bf.branch = branch
+            bifs.append(bf)
+    if reverse:
+        lam, V, kd, xs, vs = (a[::-1] for a in (lam, V, kd, xs, vs))
+    return (lam, V, kd, xs, vs), reason, cut
+
+
+def _check_time(budget: float | None, t_start: float, max_time: Any) -> None:
+    """Raise :class:`BudgetExceededError` once ``budget`` seconds have passed since ``t_start``."""
+    if budget is not None and time.perf_counter() - t_start > budget:
+        raise BudgetExceededError(f"max_time = {max_time} s ran out")
+
+
+def _append_pieces(
+    pieces: list, k: int, vals_l: list, V_l: list, x_l: list, v_l: list, kind_l: list, br_l: list
+) -> None:
+    """Branch ``k``'s pieces (start-ward reversed first) appended to the curve's columns."""
+    if len(pieces) == 2:
+        pieces = [pieces[1], pieces[0]]
+    for lam, V, kd, xs, vs in pieces:
+        x_l.extend(xs)
+        v_l.extend(vs)
+        vals_l.extend(lam)
+        V_l.extend(V)
+        kind_l.extend(kd)
+        br_l.extend([k] * len(lam))
 
 
 def _on_curve(lam_l: list, x_l: list, br_l: list, lam: float, x: float) -> bool:

@@ -21,6 +21,7 @@ from precise_impact.core import flight
 from precise_impact.core.params import Params, as_params
 from precise_impact.core.result import ResultMixin
 from precise_impact.errors import ParameterError
+from precise_impact.io.figures import finish, new_figure
 
 __all__ = ["SingularityResult", "singularity_set", "grazing_residual"]
 
@@ -252,8 +253,6 @@ class SingularityResult(ResultMixin):
 
     def plot(self, path: Any = None, *, orbit: Any = None):
         """The set over an impact-map scatter (``orbit``: an ImpactMapResult) or alone."""
-        from precise_impact.io.figures import finish, new_figure
-
         if orbit is not None:
             return orbit.plot(path, singularity=self)
         fig, axes = new_figure(figsize=(7.0, 4.5))
