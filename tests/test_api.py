@@ -11,7 +11,7 @@ import os
 import shutil
 import subprocess
 import sys
-import types
+from collections.abc import Mapping, MutableMapping
 from pathlib import Path
 
 import numpy as np
@@ -61,7 +61,7 @@ def test_subpackages_have_a_docstring_and_all(sub):
 
 
 def test_models_is_read_only_and_aliases_resolve():
-    assert isinstance(pi.MODELS, types.MappingProxyType)
+    assert isinstance(pi.MODELS, Mapping) and not isinstance(pi.MODELS, MutableMapping)
     with pytest.raises(TypeError):
         pi.MODELS["mine"] = "no"  # type: ignore[index]
     assert set(pi.MODELS) == {
@@ -510,3 +510,26 @@ def test_missing_scipy_is_one_line_and_exit_2_before_any_work(tmp_path):
     assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
     assert "scipy" in lines[0] and "pip install 'precise_impact[bench]'" in lines[0]
     assert not (tmp_path / "wp").exists()  # refused before any work or output
+
+
+def test_every_model_is_registered_on_every_import_path():
+    """Since the package's names load on first use (issue 35), nothing imported the circuit
+    models, which register as they are imported: in a fresh process ``simulate(...,
+    model="switched-capacitor")`` was "not allowed" and ``MODELS`` listed 5 of 8 models.  The
+    registry now loads its providers at first use."""
+    import ast
+    import subprocess
+    import sys
+
+    program = (
+        "import sys; from precise_impact.solvers.base import MODELS, COUPLED_MODELS; "
+        "print(sorted(MODELS)); print(sorted(COUPLED_MODELS)); "
+        "import precise_impact as pi; "
+        "print(type(pi.simulate(pi.Params.make(), 2, model='switched-capacitor')).__name__)"
+    )
+    r = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, check=True)
+    models, coupled, made = r.stdout.splitlines()
+    want = {"spice", "circuit", "switched-capacitor", "heyoka", "fast"}
+    assert want <= set(ast.literal_eval(models))
+    assert len(ast.literal_eval(coupled)) >= 3
+    assert made == "Trajectory"

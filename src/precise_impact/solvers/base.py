@@ -7,9 +7,10 @@ Every model is a :class:`Solver` (``solve(params, periods, *, per_period=0) -> T
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import threading
 import types
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any, Protocol, runtime_checkable
 
 from precise_impact.core.params import Params
@@ -180,8 +181,47 @@ _REGISTRY: dict[str, _Model] = {}
 _DESCRIPTIONS: dict[str, str] = {}
 _REGISTRY_LOCK = threading.Lock()
 
+#: The modules whose import registers models: the solvers' own and the circuit models (the
+#: registry's plugin list, named, not imported: models/ sits above solvers/).  Loaded at the
+#: registry's first use: since the package's names load lazily, nothing else imports them, and
+#: ``simulate(..., model="switched-capacitor")`` in a fresh process was "not allowed".
+_PROVIDERS = ("precise_impact.solvers.simulate", "precise_impact.models")
+_providers_loaded = threading.Event()
+
+
+def _load_providers() -> None:
+    """Import :data:`_PROVIDERS` once (each registers its models as it is imported)."""
+    if _providers_loaded.is_set():
+        return
+    _providers_loaded.set()  # first: a provider's import may look models up itself
+    for name in _PROVIDERS:
+        importlib.import_module(name)
+
+
+class _Registered(Mapping):
+    """A read-only view of a registry that loads the providers before it is read."""
+
+    def __init__(self, table: dict[str, str]) -> None:
+        self._table = table
+
+    def __getitem__(self, key: str) -> str:
+        _load_providers()
+        return self._table[key]
+
+    def __iter__(self) -> Iterator[str]:
+        _load_providers()
+        return iter(dict(self._table))
+
+    def __len__(self) -> int:
+        _load_providers()
+        return len(self._table)
+
+    def __repr__(self) -> str:
+        return repr(dict(self))
+
+
 #: Model name -> one-line description (read-only view; filled by :func:`register_model`).
-MODELS = types.MappingProxyType(_DESCRIPTIONS)
+MODELS: Mapping[str, str] = _Registered(_DESCRIPTIONS)
 
 #: Old or alternative names accepted for a model, mapped to its one canonical name.
 MODEL_ALIASES = types.MappingProxyType({"mechanical": "heyoka"})
@@ -222,6 +262,7 @@ def canonical_model(name: str) -> str:
     ParameterError
         ``name`` is neither a model nor an alias.
     """
+    _load_providers()
     name = MODEL_ALIASES.get(name, name) if isinstance(name, str) else name
     if not isinstance(name, str) or name not in _REGISTRY:
         allowed = ", ".join(list(_REGISTRY) + [f"{a} (= {c})" for a, c in MODEL_ALIASES.items()])
@@ -324,7 +365,7 @@ _COUPLED: dict[str, _Model] = {}
 _COUPLED_DESCRIPTIONS: dict[str, str] = {}
 
 #: Coupled-pair model name -> one-line description (filled by :func:`register_coupled_model`).
-COUPLED_MODELS = types.MappingProxyType(_COUPLED_DESCRIPTIONS)
+COUPLED_MODELS: Mapping[str, str] = _Registered(_COUPLED_DESCRIPTIONS)
 
 
 def register_coupled_model(
@@ -350,6 +391,7 @@ def register_coupled_model(
 
 
 def _coupled_spec(model: Any) -> _Model:
+    _load_providers()
     if not isinstance(model, str) or model not in _COUPLED:
         raise ParameterError("model", model, "one of " + ", ".join(_COUPLED))
     return _COUPLED[model]
