@@ -57,14 +57,27 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.orbits.branch import brute_force_diagram
 from precise_impact.analysis.periodicity import detect_period_noisy
 from precise_impact.core.budget import Deadline, check_work, parse_max_time, run_cost
+from precise_impact.core.impact import reset_velocity
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ParameterError, check_type
+from precise_impact.io.figures import check_plot_path, finish, new_figure
 from precise_impact.io.markdown import table as md_table
-from precise_impact.lab.capture import Capture, check_channels, design_of
+from precise_impact.lab.capture import (
+    Capture,
+    adc_step,
+    channel_noise,
+    check_channels,
+    design_of,
+    noise_sigma,
+)
+from precise_impact.lab.scope_files import read_capture
+from precise_impact.lab.synth import Measurement, synth_capture
 from precise_impact.models.circuit.components import circuit_scales
+from precise_impact.scenes.scene import Scene, load_scene
 from precise_impact.verification.scores import sliced_wasserstein, wasserstein_1d
 
 #: What a capture argument may be.
@@ -332,33 +345,6 @@ def estimate_forcing(
 
 
 # ================================================================ noise, section, impacts
-def noise_sigma(y: np.ndarray) -> float:
-    """White-noise standard deviation of a sampled signal: ``1.4826 MAD(second differences)
-    / sqrt(6)`` (a second difference of white noise has variance ``6 sigma^2``; the median
-    ignores the impacts' jumps; the signal's own curvature adds ``y'' dt^2``, negligible at
-    tens of samples per period)."""
-    d2 = np.diff(np.asarray(y, float), 2)
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return 1.4826 * mad / math.sqrt(6)
-
-
-def adc_step(y: np.ndarray) -> float:
-    """The ADC's code step of a quantised record (the median gap between its distinct
-    values when they are fewer than half the samples), else 0."""
-    u = np.unique(np.asarray(y, float))
-    if len(u) < 2 or len(u) > 0.5 * len(y):
-        return 0.0
-    return float(np.median(np.diff(u)))
-
-
-def channel_noise(y: np.ndarray) -> dict[str, float]:
-    """``{'white', 'step', 'sigma'}`` of a channel: the white noise (:func:`noise_sigma`), the
-    ADC step (:func:`adc_step`) and their total ``sqrt(white^2 + step^2 / 12)`` (a coarse ADC
-    on a quiet signal repeats codes, so the second differences alone miss its error)."""
-    w, q = noise_sigma(y), adc_step(y)
-    return {"white": w, "step": q, "sigma": math.sqrt(w * w + q * q / 12.0)}
-
-
 def detect_impacts(
     x: np.ndarray,
     v: np.ndarray,
@@ -379,7 +365,6 @@ def detect_impacts(
     (:func:`precise_impact.core.impact.reset_velocity`): ``v- = (v_l + k v_r) / (1 + k^2)``
     (``(v_l - v_r) / 2`` for ``R = 1``; that half-jump was ``(1 + R) / 2 v-`` for ``R < 1``).
     """
-    from precise_impact.core.impact import reset_velocity
 
     k_reset = float(reset_velocity(1.0, R))
     dv = np.diff(v)
@@ -790,7 +775,6 @@ class CaptureScore(ResultMixin):
     def plot(self, path: Any = None, units: str = "dimensionless"):
         """Poincare sections (capture over model), impact-velocity distributions, and the
         figures; written to ``path`` if given."""
-        from precise_impact.io.figures import check_plot_path, finish, new_figure
 
         check_plot_path(path)
         fig, axes = new_figure(1, 2, figsize=(10.0, 4.4))
@@ -854,7 +838,9 @@ def _lle_slot(capture: Capture, comp: Any, forcing: ForcingEstimate, notes: list
     :func:`precise_impact.analysis.lyapunov.timeseries.timeseries_lle` on the recorded state
     ``(x, x')`` with neighbours at equal forcing phase, when that module is installed."""
     try:
-        from precise_impact.analysis.lyapunov.timeseries import timeseries_lle
+        from precise_impact.analysis.lyapunov.timeseries import (  # noqa: PLC0415 -- optional module
+            timeseries_lle,
+        )
     except ImportError:
         notes.append(
             "lle: left out (precise_impact.analysis.lyapunov.timeseries is not installed here)"
@@ -989,9 +975,6 @@ def score_capture(
     >>> s.period, s.period_model, s.separated
     (2, 3, True)
     """
-    from precise_impact.lab.scope_files import read_capture
-    from precise_impact.lab.synth import Measurement, synth_capture
-    from precise_impact.scenes.scene import Scene, load_scene
 
     deadline = Deadline(None if max_time is None else parse_max_time(max_time), "capture score")
     if not isinstance(capture, Capture):
@@ -1236,7 +1219,6 @@ class MeasuredBifurcation(ResultMixin):
 
     def plot(self, path: Any = None):
         """Computed diagram (grey dots) with the measured section points (red) on top."""
-        from precise_impact.io.figures import check_plot_path, finish, new_figure
 
         check_plot_path(path)
         fig, axes = new_figure(1, 1, figsize=(8.0, 5.0))
@@ -1343,9 +1325,6 @@ def measured_bifurcation(
     >>> [round(e, 3) for e in res.eta], res.period  # chaos: no period; period 3
     ([0.712, 0.74], [0, 3])
     """
-    from precise_impact.analysis.orbits.branch import brute_force_diagram
-    from precise_impact.lab.scope_files import read_capture
-    from precise_impact.scenes.scene import Scene, load_scene
 
     check_type(captures, (list, tuple), "captures", "a list of captures: " + _CAPTURE_ARG)
     if not captures:

@@ -445,6 +445,33 @@ def integrator_pair_fit(
     return (-1.0 / k if k else math.inf), r2
 
 
+def noise_sigma(y: np.ndarray) -> float:
+    """White-noise standard deviation of a sampled signal: ``1.4826 MAD(second differences)
+    / sqrt(6)`` (a second difference of white noise has variance ``6 sigma^2``; the median
+    ignores the impacts' jumps; the signal's own curvature adds ``y'' dt^2``, negligible at
+    tens of samples per period)."""
+    d2 = np.diff(np.asarray(y, float), 2)
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return 1.4826 * mad / math.sqrt(6)
+
+
+def adc_step(y: np.ndarray) -> float:
+    """The ADC's code step of a quantised record (the median gap between its distinct
+    values when they are fewer than half the samples), else 0."""
+    u = np.unique(np.asarray(y, float))
+    if len(u) < 2 or len(u) > 0.5 * len(y):
+        return 0.0
+    return float(np.median(np.diff(u)))
+
+
+def channel_noise(y: np.ndarray) -> dict[str, float]:
+    """``{'white', 'step', 'sigma'}`` of a channel: the white noise (:func:`noise_sigma`), the
+    ADC step (:func:`adc_step`) and their total ``sqrt(white^2 + step^2 / 12)`` (a coarse ADC
+    on a quiet signal repeats codes, so the second differences alone miss its error)."""
+    w, q = noise_sigma(y), adc_step(y)
+    return {"white": w, "step": q, "sigma": math.sqrt(w * w + q * q / 12.0)}
+
+
 def check_channels(capture: Capture, design: Any, names: dict | None = None) -> dict:
     """Refuse a capture whose channels are not the circuit's ``V_s``, ``V_q`` (swapped, wrong or
     inverted probes, another node) or that is clipped, with one line naming the channels.
@@ -462,7 +489,6 @@ def check_channels(capture: Capture, design: Any, names: dict | None = None) -> 
     names = dict(names or capture.source.get("channel_map") or {})
     label = {k: f"{k} ({names[k]})" if names.get(k) and names[k] != k else k for k in CHANNELS}
     what = str(capture.source.get("path") or "capture")
-    from precise_impact.lab.attractor import adc_step, channel_noise
 
     clipped, limits = {}, {}
     for k, y in capture.channels.items():
