@@ -24,9 +24,17 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.params import Params
-from precise_impact.core.result import ResultMixin, unit_column
+from precise_impact.core.result import ResultMixin, to_jsonable, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import check_plot_path, finish, new_figure
+from precise_impact.models.circuit.components import (
+    Components,
+    circuit_scales,
+    dimensionless,
+    nominal_components,
+)
+from precise_impact.scenes.scene import Scene, load_scene
 
 __all__ = [
     "Capture",
@@ -268,7 +276,6 @@ class Capture(ResultMixin):
             The forcing phase at ``t = 0`` [rad] (``V_3 = V_A cos(Omega t + phase0)``); ``None``
             leaves :attr:`MechanicalSeries.phase` out.
         """
-        from precise_impact.models.circuit.components import circuit_scales, dimensionless
 
         comp = design_of(design)
         sc = circuit_scales(comp)
@@ -296,7 +303,6 @@ class Capture(ResultMixin):
         """The channels against time (the first ``periods`` forcing periods of the design's
         nominal forcing if the capture carries a synthetic truth, else the first 2000 samples);
         written to ``path`` if given."""
-        from precise_impact.io.figures import check_plot_path, finish, new_figure
 
         check_plot_path(path)
         n = min(self.n_samples, 2000)
@@ -319,7 +325,6 @@ class Capture(ResultMixin):
 
 
 def ResultMixin_jsonable(obj: Any) -> Any:  # noqa: N802 - local alias of to_jsonable
-    from precise_impact.core.result import to_jsonable
 
     return to_jsonable(obj)
 
@@ -363,8 +368,6 @@ def design_of(design: Any):
     """Component values from a :class:`~precise_impact.models.circuit.components.Components`,
     a :class:`~precise_impact.core.params.Params` (the nominal design), a
     :class:`~precise_impact.scenes.scene.Scene` or a scene name / path."""
-    from precise_impact.models.circuit.components import Components, nominal_components
-    from precise_impact.scenes.scene import Scene, load_scene
 
     if isinstance(design, Components):
         return design
@@ -484,7 +487,6 @@ def check_channels(capture: Capture, design: Any, names: dict | None = None) -> 
     ``{'R8C1', 'R8C1_design', 'r2', 'clipped', 'clip_limit'}`` (``clipped``: each channel's
     largest share of samples at one rail; ``clip_limit``: the share refused).
     """
-    from precise_impact.models.circuit.components import circuit_scales
 
     names = dict(names or capture.source.get("channel_map") or {})
     label = {k: f"{k} ({names[k]})" if names.get(k) and names[k] != k else k for k in CHANNELS}

@@ -64,10 +64,23 @@ from precise_impact.errors import (
     check_type,
 )
 from precise_impact.io.figures import plot_units, save_figure
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.lab.attractor import fit_sinusoid
 from precise_impact.models.circuit.components import Components, circuit_scales, dimensionless
 from precise_impact.models.circuit.spice import find_ngspice
+from precise_impact.scenes.scene import load_scene
+from precise_impact.solvers.simulate import make_solver
+from precise_impact.verification.compare import (
+    REF_PERTURBATION,
+    demonstrated_reference,
+    portraits_figure,
+    reference_lle,
+    score_line,
+    separation_figure,
+)
+from precise_impact.verification.metrics import reference_bits
+from precise_impact.verification.scores import detected_period, score
 
 __all__ = [
     "NodeMap",
@@ -1183,7 +1196,6 @@ class NetlistScoreResult(ResultMixin):
         matplotlib.figure.Figure
             The figure.
         """
-        from precise_impact.verification.compare import portraits_figure, separation_figure
 
         if what not in ("portraits", "separation"):
             raise ParameterError("what", what, "'portraits' or 'separation'")
@@ -1209,7 +1221,6 @@ class NetlistScoreResult(ResultMixin):
 def _target(nmap: NodeMap, scene: str | None):
     """``(params, design or None, scene name)`` from the scene, the map's components or its
     parameters."""
-    from precise_impact.scenes.scene import load_scene
 
     name = scene or nmap.scene
     if name is not None:
@@ -1550,14 +1561,6 @@ def score_netlist(
     >>> r.runs[0]["periods"], r.mapping["mode"], r.runs[0]["scores"]["initial_separation"] < 1e-15
     (10, 'components', True)
     """
-    from precise_impact.verification.compare import (
-        REF_PERTURBATION,
-        demonstrated_reference,
-        reference_lle,
-        score_line,
-    )
-    from precise_impact.verification.metrics import reference_bits
-    from precise_impact.verification.scores import detected_period, score
 
     check_type(path, (str, os.PathLike), "path", "a netlist or .raw file (str or os.PathLike)")
     p = Path(path)
@@ -1695,8 +1698,6 @@ def score_netlist(
         regime = "periodic" if detected_period(ref, k) > 0 else "chaotic"
         ref2 = None
         if regime == "chaotic":
-            from precise_impact.solvers.simulate import make_solver
-
             p2 = p0.replace(x0=p0.x0 + REF_PERTURBATION)
             ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, n_per)
         sc = score(tr, ref, regime=regime, lle=lle["lle"], ref2=ref2, transient=k)
@@ -1745,8 +1746,6 @@ def score_netlist(
     )
     res._plots = {"runs": plots, "k": k, "target": target, "params": params, "design": design}
     if out is not None:
-        from precise_impact.io.jsonout import write_json
-
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)
         res.files = [str(o / "scores.json")]
@@ -1773,7 +1772,6 @@ def format_result(res: NetlistScoreResult) -> str:
         Source, mapping, reference, forcing fit, one line per run
         (:mod:`~precise_impact.verification.compare`'s form), the warnings.
     """
-    from precise_impact.verification.compare import score_line
 
     m, r = res.mapping, res.reference
     scale = f"scales from {m['mode']}: omega = {m['omega']:.10g} rad/s"

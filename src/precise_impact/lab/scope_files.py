@@ -66,7 +66,7 @@ import numpy as np
 
 from precise_impact.errors import OptionalDependencyError, ParameterError, check_type
 from precise_impact.io.atomic import atomic_write
-from precise_impact.lab.capture import CHANNELS, Capture
+from precise_impact.lab.capture import CHANNELS, UNIFORM_RTOL, Capture
 
 __all__ = [
     "read_capture",
@@ -957,7 +957,6 @@ def _check_printable(capture: Capture, fmt: str, path: Path) -> None:
     as printed must still be uniform to :data:`~precise_impact.lab.capture.UNIFORM_RTOL` (what
     the reader checks), each channel's rounding within :data:`PRINT_MAX_ROUNDING` of its
     peak-to-peak (a large offset on a small signal loses the signal)."""
-    from precise_impact.lab.capture import UNIFORM_RTOL
 
     t_fmt, v_fmt = _PRINTED[fmt]
     t, dt = capture.t, capture.sample_interval

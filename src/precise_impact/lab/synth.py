@@ -43,10 +43,17 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.finite_time import finite_time_lle
 from precise_impact.core.budget import Deadline, parse_max_time
+from precise_impact.core.flow import acceleration
 from precise_impact.core.params import decimal_str
 from precise_impact.errors import ParameterError
 from precise_impact.lab.capture import CHANNELS, MIN_SAMPLES, UNIFORM_RTOL, Capture
+from precise_impact.models.circuit.components import circuit_scales, to_circuit
+from precise_impact.models.circuit.effects.catalogue import CIRCUIT_MODELS
+from precise_impact.scenes.run import run_scene
+from precise_impact.scenes.scene import Scene, load_scene
+from precise_impact.verification.compare import scene_for_model
 
 __all__ = ["Measurement", "synth_capture", "sample_trajectory", "DEFAULT_SAMPLES_PER_PERIOD"]
 
@@ -179,7 +186,6 @@ def _knots(tr: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def sample_trajectory(tr: Any, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(x, x')`` of a trajectory with dense output at dimensionless times ``tau`` (cubic
     Hermite between its dense points and impacts; the acceleration of eq. (2a) as ``x''``)."""
-    from precise_impact.core.flow import acceleration
 
     if tr.dense_t is None or len(tr.dense_t) < 2:
         raise ParameterError("model", tr.model, "a model with dense output")
@@ -271,11 +277,6 @@ def synth_capture(
     >>> sorted(cap.channels), round(cap.source["truth"]["forcing_frequency_hz"], 3)
     (['V_3', 'V_q', 'V_s'], 117.775)
     """
-    from precise_impact.models.circuit.components import circuit_scales, to_circuit
-    from precise_impact.models.circuit.effects.catalogue import CIRCUIT_MODELS
-    from precise_impact.scenes.run import run_scene
-    from precise_impact.scenes.scene import Scene, load_scene
-    from precise_impact.verification.compare import scene_for_model
 
     meas = (measurement or Measurement(**measurement_kw)).check()
     if max_time is not None and not isinstance(max_time, Deadline):
@@ -384,8 +385,6 @@ def synth_capture(
     # exponent scatters ~11 % about the asymptotic one at eta = 0.712
     lle_record = None
     if model == "circuit" and not fitted.effects and 0 <= float(params.zeta) < 1:
-        from precise_impact.analysis.lyapunov.finite_time import finite_time_lle
-
         lle_record = finite_time_lle(
             params, f["impacts_t"], f["impacts_v_before"], float(tau[0]), float(tau[-1])
         )
