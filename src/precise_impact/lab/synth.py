@@ -1,38 +1,12 @@
 """Synthetic scope captures: a model of the circuit seen through an explicit measurement model.
 
-:func:`synth_capture` runs a scene on any model of the circuit (``circuit`` ideal op-amps,
-``switched-capacitor`` with datasheet parts, ``spice`` through ngspice) through the project's
-scene machinery (:func:`precise_impact.verification.compare.scene_for_model` and
-:func:`precise_impact.scenes.run.run_scene`, as ``compare`` runs each model), samples the trajectory
-at the scope's sample times, maps it to volts with the design's component values
-(:func:`precise_impact.models.circuit.components.to_circuit`) and applies a
-:class:`Measurement`:
-
-* the scope's time base runs ``timebase_ppm`` fast: the file says ``dt`` where ``dt / (1 + e)``
-  passed (``e = timebase_ppm 1e-6``), so every frequency read from the file is ``1 / (1 + e)``
-  of the true one;
-* the record starts at a random point of the attractor (``transient`` periods plus a uniform
-  fraction of a period, from ``seed``) and its first sample is at file time ``trigger_offset``;
-* each channel: probe gain ``(1 + gain_error)``, ``offset_error`` volts, white Gaussian noise of
-  RMS ``noise`` x full scale, 1/f noise of RMS ``flicker`` x full scale (spectrally shaped over
-  the record), then a ``bits``-bit ADC over the channel's full scale (mid-tread codes, clipped at
-  the rails: the clipped count is recorded).
-
-Sampling between the model's dense points is cubic Hermite in ``(x, x')`` and ``(x', x'')`` on
-knots that include every impact (before and after it at the wall), so the velocity's jump lands
-exactly at the impact time; its error is ``h^4/384 max|x''''|`` with ``h = 2 pi / (eta
-per_period)``, ~1e-8 at the default 256 points per period: far below an 8-bit code.
-
-The truth the scorers are tested against is recorded in ``capture.source['truth']``: the forcing
-angular frequency and phase in the file's time base, the model's impacts inside the record, the
-scene and its parameters, and ``lle_record``: the finite-time variational exponent of the record's
-own stretch (:func:`precise_impact.analysis.lyapunov.finite_time.finite_time_lle` along the model's
-impacts; ideal circuit only), the value an estimate from this one record is validated against.
-
-The seed draws the noise and the start's fraction of a period: records of different seeds share
-their stretch of the attractor.  Independent records of a chaotic attractor differ in
-``transient`` by more than their length (``transient = 100 + (periods + 50) k``, as the truth
-table of :mod:`precise_impact.analysis.lyapunov.timeseries` does).
+:func:`synth_capture` runs a scene on any model of the circuit (``circuit``,
+``switched-capacitor``, ``spice``) as ``compare`` runs each model, samples the trajectory at the
+scope's sample times (cubic Hermite on knots that include every impact), maps it to volts with
+the design's component values and applies a :class:`Measurement` (time-base error, trigger,
+probe gain and offset, white and 1/f noise, ADC).  The truth the scorers are tested against is
+kept in ``capture.source['truth']``.  The measurement model, the sampling error and the truth:
+:doc:`/guide/captures`, "The measurement model in detail".
 """
 
 from __future__ import annotations
@@ -116,6 +90,15 @@ class Measurement:
 
     def check(self) -> Measurement:
         """Validated (one :class:`ParameterError` naming the field and its range)."""
+        self._check_record()
+        for name in ("gain_error", "offset_error", "full_scale", "noise_v"):
+            self._check_per_channel(name)
+        if not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise ParameterError("seed", self.seed, "an integer >= 0")
+        return self
+
+    def _check_record(self) -> None:
+        """Check the ADC, noise, sample-rate, length, trigger and time-base fields."""
         if not (isinstance(self.bits, (int, np.integer)) and 0 <= self.bits <= 24):
             raise ParameterError("bits", self.bits, "an integer 0..24 (0: unquantised)")
         for name in ("noise", "flicker"):
@@ -132,23 +115,22 @@ class Measurement:
             raise ParameterError("trigger_offset", self.trigger_offset, "a finite time in s")
         if not (math.isfinite(self.timebase_ppm) and abs(self.timebase_ppm) <= 1e4):
             raise ParameterError("timebase_ppm", self.timebase_ppm, "|ppm| <= 1e4")
-        for name in ("gain_error", "offset_error", "full_scale", "noise_v"):
-            v = getattr(self, name)
-            vals = v.values() if isinstance(v, dict) else ([] if v is None else [v])
-            if isinstance(v, dict) and set(v) - set(CHANNELS):
-                raise ParameterError(name, sorted(set(v) - set(CHANNELS)), "keys of V_s, V_q, V_3")
-            for x in vals:
-                if not (isinstance(x, (int, float)) and math.isfinite(x)):
-                    raise ParameterError(name, x, "finite numbers")
-                if name == "gain_error" and not -0.5 < x < 0.5:
-                    raise ParameterError(name, x, "-0.5 < gain error < 0.5")
-                if name == "full_scale" and not x > 0:
-                    raise ParameterError(name, x, "> 0 V")
-                if name == "noise_v" and not x >= 0:
-                    raise ParameterError(name, x, ">= 0 V")
-        if not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise ParameterError("seed", self.seed, "an integer >= 0")
-        return self
+
+    def _check_per_channel(self, name: str) -> None:
+        """Check one per-channel field (a number or ``{channel: number}``) and its range."""
+        v = getattr(self, name)
+        vals = v.values() if isinstance(v, dict) else ([] if v is None else [v])
+        if isinstance(v, dict) and set(v) - set(CHANNELS):
+            raise ParameterError(name, sorted(set(v) - set(CHANNELS)), "keys of V_s, V_q, V_3")
+        for x in vals:
+            if not (isinstance(x, (int, float)) and math.isfinite(x)):
+                raise ParameterError(name, x, "finite numbers")
+            if name == "gain_error" and not -0.5 < x < 0.5:
+                raise ParameterError(name, x, "-0.5 < gain error < 0.5")
+            if name == "full_scale" and not x > 0:
+                raise ParameterError(name, x, "> 0 V")
+            if name == "noise_v" and not x >= 0:
+                raise ParameterError(name, x, ">= 0 V")
 
     def per_channel(self, name: str, field: str, default: Any = 0.0) -> Any:
         v = getattr(self, field)
