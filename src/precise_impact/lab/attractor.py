@@ -1,49 +1,12 @@
 """Score an oscilloscope capture against a model at the level of the attractor.
 
-A capture has no known initial condition, so it cannot be compared with a model sample by
-sample.  :func:`score_capture` compares what does not depend on it:
-
-1. **The forcing** (:func:`estimate_forcing`): frequency and phase by a least-squares sinusoid
-   fit refined by Gauss-Newton on the frequency (phase-coherent: the whole record constrains
-   the frequency, whose error falls as ``N^-1/2 T^-1``, not to the FFT's bin ``1/T``), started
-   from the interpolated peak of a Hann-windowed, zero-padded spectrum.  From ``V_3`` when it
-   was recorded; else from ``V_s`` (a fit of its first three harmonics near the design's
-   ``Omega``), its phase then referred to the forcing through the model's own lag of ``V_s``
-   behind ``V_3`` (measured on the model's synthetic captures).
-2. **The Poincare section** at a forcing phase (:func:`poincare_section`): each section point is
-   a local linear least-squares fit of ``+-w`` samples about the section time (the noise of a
-   point falls as ``(2w)^-1/2``), never across an impact.
-3. **The detected period** of the section sequence:
-   :func:`~precise_impact.analysis.periodicity.detect_period_noisy`, a chi-square test of the
-   ``p``-step differences against the measured noise of a section point (white noise from the
-   second differences, plus the ADC step's ``q^2/12``).  The computed sequences' detector
-   (:func:`~precise_impact.analysis.periodicity.detect_period`, every point within a relative
-   tolerance) does not fit measured ones: a tolerance wide enough for 10 % noise made the
-   chaotic record at eta = 0.712 "period 1".
-4. **Impacts** (:func:`detect_impacts`): ``V_q`` jumps sign at the wall; an impact is a one-sample
-   drop of ``x'`` by more than 8 noise deviations of a difference, next to the wall; its velocity
-   is half the jump of the one-sided local fits.  Impacts slower than about half the threshold
-   (grazing ones) are missed: :attr:`CaptureScore.impacts` states the threshold.
-5. **Distances to the model**: the sliced Wasserstein distance of the section clouds and the
-   1-Wasserstein distance of the impact velocities, and their **noise floors**: the model is
-   captured ``floor_captures`` times (3 by default) through the *same* measurement model
-   (the capture's sample rate, record length, ADC step, and its noise: with ``V_3`` recorded,
-   ``V_3``'s residual from its sinusoid, circularly shifted at random per channel and scaled by
-   each channel's white noise -- a surrogate with the scope's own spectrum, 1/f included;
-   without ``V_3``, white noise of each channel's measured level), from independent
-   points of its attractor and independent noise, and the floor is the distance between those
-   captures.  Independent captures and not a bootstrap of one: the section points of one record
-   are serially dependent (a periodic orbit visits the same ``p`` points; a chaotic one is
-   correlated over a few periods), so resampling one record underestimates how much a second
-   record would differ; two records of the same length and noise reproduce exactly the
-   variability the capture itself has.
-6. **LLE**: ``timeseries_lle`` of :mod:`precise_impact.analysis.lyapunov.timeseries` (another
-   part of issue 24) on the recorded state ``(x, x')`` in ``tau`` with neighbours at equal
-   forcing phase, when that module is installed; otherwise the field is ``None`` and ``notes``
-   says so.
-
-A set of captures at several forcing frequencies gives a measured bifurcation diagram laid
-over the computed one (:func:`measured_bifurcation`).
+A capture has no known initial condition, so :func:`score_capture` compares what does not depend
+on it: the forcing (:func:`estimate_forcing`), the Poincare section at a forcing phase
+(:func:`poincare_section`) and its detected period, the impacts (:func:`detect_impacts`), the
+sliced Wasserstein distances to the model against their noise floors (the model captured through
+the same measurement model), and the time-series LLE.  Several captures at several forcing
+frequencies give a measured bifurcation diagram (:func:`measured_bifurcation`).  Each step, its
+method and why: :doc:`/guide/captures`, "Scoring a capture in detail".
 """
 
 from __future__ import annotations

@@ -2,14 +2,11 @@
 
 A :class:`Capture` is what every reader of :mod:`precise_impact.lab.scope_files` returns and what
 :func:`precise_impact.lab.synth.synth_capture` writes: uniformly sampled channels named by their
-role in the circuit (``V_s`` the position integrator's output, ``V_q`` the velocity integrator's,
-``V_3`` the forcing source), SI units, the sample interval, and where it came from.
-
-:meth:`Capture.to_mechanical` maps it to the dimensionless ``(tau, x, x')`` of the oscillator
-through the one home of that mapping
-(:func:`precise_impact.models.circuit.components.circuit_scales`): ``tau = omega t``,
-``x = -V_s / V_unit``, ``x' = V_q / (omega R8 C1 V_unit)``, and the forcing phase
-``Omega t + phi0`` when the forcing is known (estimated by :mod:`precise_impact.lab.attractor`).
+role (``V_s`` the position integrator's output, ``V_q`` the velocity integrator's, ``V_3`` the
+forcing), SI units, the sample interval and where it came from.  :meth:`Capture.to_mechanical`
+maps it to ``(tau, x, x')`` through :func:`precise_impact.models.circuit.components.circuit_scales`
+(``tau = omega t``, ``x = -V_s / V_unit``, ``x' = V_q / (omega R8 C1 V_unit)``).  Also here: the
+checks of a capture's channels and the noise measures of a sampled channel.
 """
 
 from __future__ import annotations

@@ -2,35 +2,12 @@
 score it against the demonstrated mechanical reference from the same initial state.
 
 The node voltages carrying position, velocity and forcing are named by the user
-(:class:`NodeMap`, from keywords or a small TOML file, :func:`load_map`); volts and seconds
-are mapped to ``(x, x', tau)`` either from the design's component values
-(:func:`~precise_impact.models.circuit.components.to_mechanical`) or from scales fitted to
-the waveform itself (forcing frequency, amplitude and phase; the integrator's ``R8 C1`` from
-``V_s' = -V_q / (R8 C1)``), each reported with its standard error.  The run is then scored
-by :func:`precise_impact.verification.scores.score` against the heyoka reference that
-:mod:`precise_impact.verification.compare` makes (its ``_reference`` routine, the same
-precision rule, the same figures).
-
-Raw files are read with spicelib's ``RawRead`` (LTspice, ngspice, QSPICE and Xyce dialects,
-binary and ASCII, stepped LTspice runs and multi-plot ngspice files); no parser is written
-here.  Measured (``benchmarks/bench_netlist.py`` -> ``benchmarks/results/netlist.md``;
-ngspice-39, spicelib 1.6.4): the project's netlist of ``fig6-period3-ideal``, 20 periods,
-18340 points, written by ngspice as a binary raw (734 kB), an ASCII raw (``set
-filetype=ascii``, 2.25 MB) and ``wrdata`` text at 17 digits.  RawRead reads the binary file
-in 0.03-0.06 s and agrees with ``wrdata`` bit for bit on every vector (largest difference 0); the
-ASCII file in 0.1-0.2 s (two runs on a shared 2-core machine), within 1 ulp (max relative
-difference 5.5e-16: ngspice prints 16 digits there).
-The files ``ngspice -b -r`` writes (what :func:`run_netlist` runs) equal those of ``write``
-for the same run: bit for bit binary, within 4.4e-16 ASCII (``tests/lab/test_netlist.py``).
-It was chosen because it is maintained, reads every dialect users bring (LTspice's UTF-16
-headers, its stepped files, ngspice's multi-plot files) and is exact on binary files; spicelib
-cannot auto-detect ngspice-39's dialect (no ``Command:`` line), so :func:`read_raw` retries
-with ``dialect='ngspice'``.  The project's own ngspice backend
-(:mod:`precise_impact.models.circuit.spice`) reads ``wrdata`` text columns with
-``np.fromfile``: not a raw-file parser, left as it is.
-
-LTspice compresses waveforms lossily unless ``.options plotwinsize=0``: see
-:func:`lt_compression` and :data:`COMPRESSION_IMPACT_COST`.
+(:class:`NodeMap`, :func:`load_map`); volts and seconds map to ``(x, x', tau)`` from the design's
+component values or from scales fitted to the waveform, each with its standard error; the run is
+scored by :func:`precise_impact.verification.scores.score` against the heyoka reference of
+:mod:`precise_impact.verification.compare`.  Raw files are read with spicelib's ``RawRead``
+(why, and its measured exactness: :doc:`/guide/netlist`, "Reading raw files: spicelib");
+LTspice's lossy compression: :func:`lt_compression`.
 """
 
 from __future__ import annotations
