@@ -813,7 +813,6 @@ def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = N
     labels = [_LABELS[k] for k in ch]
     cols = [capture.channels[k] for k in ch]
     t, dt = capture.t, capture.sample_interval
-    n = len(t)
     if fmt == "npz":
         return capture.write_npz(path)
     if fmt == "keysight-bin":
@@ -827,75 +826,104 @@ def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = N
         return path
     _check_printable(capture, fmt, path)
     out = io.StringIO()
-    vals = np.column_stack(cols)
-    if fmt == "csv":
-        # the project's own layout keeps every bit: %.17g round-trips any float64
-        out.write("time [s]," + ",".join(f"{k} [V]" for k in ch) + "\n")
-        np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.17g"] + ["%.17g"] * len(ch)
-        )
-    elif fmt == "rigol":
-        out.write("X," + ",".join(labels) + ",Start,Increment,\n")
-        out.write("Sequence," + ",".join(["Volt"] * len(ch)) + f",{t[0]:.6e},{dt:.6e}\n")
-        np.savetxt(
-            out,
-            np.column_stack([np.arange(n), vals]),
-            delimiter=",",
-            fmt=["%d"] + ["%.5e"] * len(ch),
-            newline=",\n",
-        )
-    elif fmt == "keysight":
-        out.write("x-axis," + ",".join(lab[2:] for lab in labels) + "\n")
-        out.write("second," + ",".join(["Volt"] * len(ch)) + "\n")
-        np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.9e"] + ["%.6e"] * len(ch)
-        )
-    elif fmt == "tek":
-        k = len(ch)
-        pre = [
-            ("Model", ["MDO3024"]),
-            ("Firmware Version", ["1.30"]),
-            ("", []),
-            ("Waveform Type", ["ANALOG"]),
-            ("Point Format", ["Y"]),
-            ("Horizontal Units", ["s"]),
-            ("Horizontal Scale", [f"{n * dt / 10:.6g}"]),
-            ("Horizontal Delay", ["0"]),
-            ("Sample Interval", [f"{dt:.6g}"]),
-            ("Record Length", [str(n)]),
-            ("Gating", ["0.0% to 100.0%"]),
-            ("Probe Attenuation", ["1"] * k),
-            ("Vertical Units", ["V"] * k),
-            ("Vertical Offset", ["0"] * k),
-            ("Vertical Scale", ["1"] * k),
-            ("Vertical Position", ["0"] * k),
-            ("", []),
-            ("", []),
-            ("", []),
-            ("Label", [""] * k),
-        ]
-        for key, v in pre:
-            out.write(",".join([key, *v]) + "\n")
-        out.write("TIME," + ",".join(labels) + "\n")
-        np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.7e"] + ["%.5g"] * len(ch)
-        )
-    elif fmt == "siglent":
-        out.write(f"Record Length,Analog:{n}\n")
-        out.write(f"Sample Interval,{dt:.6E}\n")
-        out.write("Vertical Units," + ",".join(f"{lab}:V" for lab in labels) + "\n")
-        out.write("Vertical Scale," + ",".join(f"{lab}:1.00E+00" for lab in labels) + "\n")
-        out.write("Vertical Offset," + ",".join(f"{lab}:0.00E+00" for lab in labels) + "\n")
-        out.write("Horizontal Units,S\n")
-        out.write(f"Horizontal Scale,{n * dt / 14:.6E}\n")
-        out.write("Model Number,SDS1104X-E\n")
-        out.write("Source," + ",".join(labels) + "\n")
-        out.write("Second," + ",".join(["Volt"] * len(ch)) + "\n")
-        np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.8E"] + ["%.5E"] * len(ch)
-        )
+    _TEXT_WRITERS[fmt](out, t, dt, np.column_stack(cols), list(ch), labels)
     _write_text(path, out.getvalue())
     return path
+
+
+def _text_csv(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """The project's generic CSV (every bit: %.17g)."""
+    # the project's own layout keeps every bit: %.17g round-trips any float64
+    out.write("time [s]," + ",".join(f"{k} [V]" for k in ch) + "\n")
+    np.savetxt(out, np.column_stack([t, vals]), delimiter=",", fmt=["%.17g"] + ["%.17g"] * len(ch))
+
+
+def _text_rigol(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """Rigol DS1000Z CSV: index rows, start and increment in the header."""
+    n = len(t)
+    out.write("X," + ",".join(labels) + ",Start,Increment,\n")
+    out.write("Sequence," + ",".join(["Volt"] * len(ch)) + f",{t[0]:.6e},{dt:.6e}\n")
+    np.savetxt(
+        out,
+        np.column_stack([np.arange(n), vals]),
+        delimiter=",",
+        fmt=["%d"] + ["%.5e"] * len(ch),
+        newline=",\n",
+    )
+
+
+def _text_keysight(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """Keysight InfiniiVision CSV: ``x-axis`` and ``second`` header rows."""
+    out.write("x-axis," + ",".join(lab[2:] for lab in labels) + "\n")
+    out.write("second," + ",".join(["Volt"] * len(ch)) + "\n")
+    np.savetxt(out, np.column_stack([t, vals]), delimiter=",", fmt=["%.9e"] + ["%.6e"] * len(ch))
+
+
+def _text_tek(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """Tektronix MDO/MSO CSV: the key-value preamble, then ``TIME,CH1,..``."""
+    n = len(t)
+    k = len(ch)
+    pre = [
+        ("Model", ["MDO3024"]),
+        ("Firmware Version", ["1.30"]),
+        ("", []),
+        ("Waveform Type", ["ANALOG"]),
+        ("Point Format", ["Y"]),
+        ("Horizontal Units", ["s"]),
+        ("Horizontal Scale", [f"{n * dt / 10:.6g}"]),
+        ("Horizontal Delay", ["0"]),
+        ("Sample Interval", [f"{dt:.6g}"]),
+        ("Record Length", [str(n)]),
+        ("Gating", ["0.0% to 100.0%"]),
+        ("Probe Attenuation", ["1"] * k),
+        ("Vertical Units", ["V"] * k),
+        ("Vertical Offset", ["0"] * k),
+        ("Vertical Scale", ["1"] * k),
+        ("Vertical Position", ["0"] * k),
+        ("", []),
+        ("", []),
+        ("", []),
+        ("Label", [""] * k),
+    ]
+    for key, v in pre:
+        out.write(",".join([key, *v]) + "\n")
+    out.write("TIME," + ",".join(labels) + "\n")
+    np.savetxt(out, np.column_stack([t, vals]), delimiter=",", fmt=["%.7e"] + ["%.5g"] * len(ch))
+
+
+def _text_siglent(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """Siglent SDS CSV: the key-value header, then ``Second,Volt,..``."""
+    n = len(t)
+    out.write(f"Record Length,Analog:{n}\n")
+    out.write(f"Sample Interval,{dt:.6E}\n")
+    out.write("Vertical Units," + ",".join(f"{lab}:V" for lab in labels) + "\n")
+    out.write("Vertical Scale," + ",".join(f"{lab}:1.00E+00" for lab in labels) + "\n")
+    out.write("Vertical Offset," + ",".join(f"{lab}:0.00E+00" for lab in labels) + "\n")
+    out.write("Horizontal Units,S\n")
+    out.write(f"Horizontal Scale,{n * dt / 14:.6E}\n")
+    out.write("Model Number,SDS1104X-E\n")
+    out.write("Source," + ",".join(labels) + "\n")
+    out.write("Second," + ",".join(["Volt"] * len(ch)) + "\n")
+    np.savetxt(out, np.column_stack([t, vals]), delimiter=",", fmt=["%.8E"] + ["%.5E"] * len(ch))
+
+
+_TEXT_WRITERS = {
+    "csv": _text_csv,
+    "rigol": _text_rigol,
+    "keysight": _text_keysight,
+    "tek": _text_tek,
+    "siglent": _text_siglent,
+}
 
 
 #: What each layout prints: the time column's format (``None``: start and increment in the
