@@ -201,6 +201,105 @@ def _flicker(rng: np.random.Generator, n: int) -> np.ndarray:
     return y / float(np.std(y))
 
 
+def _checked_args(
+    scene: Any,
+    model: str | None,
+    measurement: Measurement | None,
+    measurement_kw: dict,
+    channels: Any,
+    transient: Any,
+    max_time: Any,
+) -> tuple[Measurement, Any, Any, Any, str]:
+    """Check synth_capture's arguments: (measurement, max_time, channels, scene, model)."""
+    meas = (measurement or Measurement(**measurement_kw)).check()
+    if max_time is not None and not isinstance(max_time, Deadline):
+        max_time = Deadline(parse_max_time(max_time), "capture synth")
+    if measurement is not None and measurement_kw:
+        raise ParameterError("measurement", sorted(measurement_kw), "a Measurement or its fields")
+    if isinstance(channels, str):
+        channels = tuple(c.strip() for c in channels.split(","))
+    if not {"V_s", "V_q"} <= set(channels) or set(channels) - set(CHANNELS):
+        raise ParameterError("channels", ",".join(channels), "V_s,V_q or V_s,V_q,V_3")
+    if not isinstance(transient, (int, np.integer)) or not 0 <= transient <= 10**5:
+        raise ParameterError("transient", transient, "an integer 0..1e5")
+    sc = scene if isinstance(scene, Scene) else load_scene(scene)
+    if sc.kind != "single":
+        raise ParameterError("scene", sc.name, "a single-oscillator scene")
+    model = model or sc.model
+    if model not in CIRCUIT_MODELS:
+        raise ParameterError("model", model, "a circuit model: " + ", ".join(CIRCUIT_MODELS))
+    return meas, max_time, channels, sc, model
+
+
+def _record_grid(meas: Measurement, T: float) -> tuple[float, float, int]:
+    """The sample rate, interval and count of the record, checked before any work."""
+    fs = meas.sample_rate or _rate_125(DEFAULT_SAMPLES_PER_PERIOD / T)
+    dt = 1.0 / fs
+    n = int(math.ceil(meas.periods * T / dt))
+    # the record, checked before any work: enough samples, sampled above Nyquist, not too many
+    lo_fs = max(2.0 / T, MIN_SAMPLES / (meas.periods * T))
+    if not lo_fs <= fs:
+        raise ParameterError(
+            "sample_rate",
+            fs,
+            f">= {lo_fs:.6g} Sa/s for this record (>= 2 samples per forcing period of "
+            f"{T:.6g} s and >= {MIN_SAMPLES} samples in {meas.periods:g} periods)",
+        )
+    if n > 5 * 10**7:
+        raise ParameterError("sample_rate", fs, f"a record of <= 5e7 samples (asked {n})")
+    # float64 file times trigger_offset + k dt must resolve a step to the reader's uniformity
+    # tolerance: an ulp of the largest time <= UNIFORM_RTOL / 10 of dt
+    t_max = abs(meas.trigger_offset) + n * dt
+    if math.ulp(t_max) > 0.1 * UNIFORM_RTOL * dt:
+        lim = 0.1 * UNIFORM_RTOL * dt / math.ulp(1.0) / 2
+        raise ParameterError(
+            "trigger_offset",
+            meas.trigger_offset,
+            f"|trigger offset| <~ {lim:.3g} s at this sample interval ({dt:.3g} s): float64 "
+            "times further from 0 no longer resolve a sample step",
+        )
+    return fs, dt, n
+
+
+def _measured(
+    name: str, y: np.ndarray, meas: Measurement, rng: np.random.Generator, n: int
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """One channel through the probe, the noise and the ADC: ``(samples, range record)``."""
+    g = float(meas.per_channel(name, "gain_error"))
+    y = (1 + g) * y + float(meas.per_channel(name, "offset_error"))
+    fsr = meas.per_channel(name, "full_scale", None)
+    if fsr is None:
+        pp = float(y.max() - y.min()) or 1.0
+        lo, fsr = float(y.min()) - 0.125 * pp, 1.25 * pp
+    else:
+        lo = 0.5 * float(y.max() + y.min()) - 0.5 * float(fsr)
+    sigma = meas.per_channel(name, "noise_v", None)
+    sigma = meas.noise * fsr if sigma is None else float(sigma)
+    y = y + sigma * rng.normal(size=n)
+    if meas.flicker:
+        y = y + meas.flicker * fsr * _flicker(rng, n)
+    clipped = 0
+    if meas.bits:
+        lsb = fsr / 2**meas.bits
+        code = np.floor((y - lo) / lsb)
+        clipped = int(np.sum((code < 0) | (code > 2**meas.bits - 1)))
+        y = lo + (np.clip(code, 0, 2**meas.bits - 1) + 0.5) * lsb
+    return y, {"low": lo, "full_scale": float(fsr), "clipped": clipped}
+
+
+def _lle_record(model: str, fitted: Any, params: Any, f: dict, tau: np.ndarray) -> Any:
+    """The finite-time LLE of the record's stretch (ideal circuit only), else ``None``."""
+    # the finite-time variational exponent of the record's own stretch (per unit of the
+    # oscillator's time), along the model's impacts: the mechanics' tangent map, so only for a
+    # model without effects (the ideal circuit is the mechanics); a 200-period record's own
+    # exponent scatters ~11 % about the asymptotic one at eta = 0.712
+    if model == "circuit" and not fitted.effects and 0 <= float(params.zeta) < 1:
+        return finite_time_lle(
+            params, f["impacts_t"], f["impacts_v_before"], float(tau[0]), float(tau[-1])
+        )
+    return None
+
+
 def synth_capture(
     scene: Any = "fig6-period3-ideal",
     model: str | None = None,
@@ -260,23 +359,9 @@ def synth_capture(
     (['V_3', 'V_q', 'V_s'], 117.775)
     """
 
-    meas = (measurement or Measurement(**measurement_kw)).check()
-    if max_time is not None and not isinstance(max_time, Deadline):
-        max_time = Deadline(parse_max_time(max_time), "capture synth")
-    if measurement is not None and measurement_kw:
-        raise ParameterError("measurement", sorted(measurement_kw), "a Measurement or its fields")
-    if isinstance(channels, str):
-        channels = tuple(c.strip() for c in channels.split(","))
-    if not {"V_s", "V_q"} <= set(channels) or set(channels) - set(CHANNELS):
-        raise ParameterError("channels", ",".join(channels), "V_s,V_q or V_s,V_q,V_3")
-    if not isinstance(transient, (int, np.integer)) or not 0 <= transient <= 10**5:
-        raise ParameterError("transient", transient, "an integer 0..1e5")
-    sc = scene if isinstance(scene, Scene) else load_scene(scene)
-    if sc.kind != "single":
-        raise ParameterError("scene", sc.name, "a single-oscillator scene")
-    model = model or sc.model
-    if model not in CIRCUIT_MODELS:
-        raise ParameterError("model", model, "a circuit model: " + ", ".join(CIRCUIT_MODELS))
+    meas, max_time, channels, sc, model = _checked_args(
+        scene, model, measurement, measurement_kw, channels, transient, max_time
+    )
     params = sc.params if eta is None else sc.params.replace(eta=eta)
     # the design realising these parameters (Omega follows eta); the scene itself is kept for
     # the run (its raw table carries the effects), the parameters passed beside it
@@ -285,31 +370,7 @@ def synth_capture(
     w = scales.omega
     Om = float(comp.Omega)
     T = 2 * math.pi / Om
-    fs = meas.sample_rate or _rate_125(DEFAULT_SAMPLES_PER_PERIOD / T)
-    dt = 1.0 / fs
-    n = int(math.ceil(meas.periods * T / dt))
-    # the record, checked before any work: enough samples, sampled above Nyquist, not too many
-    lo_fs = max(2.0 / T, MIN_SAMPLES / (meas.periods * T))
-    if not lo_fs <= fs:
-        raise ParameterError(
-            "sample_rate",
-            fs,
-            f">= {lo_fs:.6g} Sa/s for this record (>= 2 samples per forcing period of "
-            f"{T:.6g} s and >= {MIN_SAMPLES} samples in {meas.periods:g} periods)",
-        )
-    if n > 5 * 10**7:
-        raise ParameterError("sample_rate", fs, f"a record of <= 5e7 samples (asked {n})")
-    # float64 file times trigger_offset + k dt must resolve a step to the reader's uniformity
-    # tolerance: an ulp of the largest time <= UNIFORM_RTOL / 10 of dt
-    t_max = abs(meas.trigger_offset) + n * dt
-    if math.ulp(t_max) > 0.1 * UNIFORM_RTOL * dt:
-        lim = 0.1 * UNIFORM_RTOL * dt / math.ulp(1.0) / 2
-        raise ParameterError(
-            "trigger_offset",
-            meas.trigger_offset,
-            f"|trigger offset| <~ {lim:.3g} s at this sample interval ({dt:.3g} s): float64 "
-            "times further from 0 no longer resolve a sample step",
-        )
+    fs, dt, n = _record_grid(meas, T)
     deadline = max_time if max_time is not None else Deadline(None, "capture synth")
     e = meas.timebase_ppm * 1e-6
     rng = np.random.default_rng(meas.seed)
@@ -336,40 +397,12 @@ def synth_capture(
     out: dict[str, np.ndarray] = {}
     ranges: dict[str, Any] = {}
     for name, y in clean.items():
-        g = float(meas.per_channel(name, "gain_error"))
-        y = (1 + g) * y + float(meas.per_channel(name, "offset_error"))
-        fsr = meas.per_channel(name, "full_scale", None)
-        if fsr is None:
-            pp = float(y.max() - y.min()) or 1.0
-            lo, fsr = float(y.min()) - 0.125 * pp, 1.25 * pp
-        else:
-            lo = 0.5 * float(y.max() + y.min()) - 0.5 * float(fsr)
-        sigma = meas.per_channel(name, "noise_v", None)
-        sigma = meas.noise * fsr if sigma is None else float(sigma)
-        y = y + sigma * rng.normal(size=n)
-        if meas.flicker:
-            y = y + meas.flicker * fsr * _flicker(rng, n)
-        clipped = 0
-        if meas.bits:
-            lsb = fsr / 2**meas.bits
-            code = np.floor((y - lo) / lsb)
-            clipped = int(np.sum((code < 0) | (code > 2**meas.bits - 1)))
-            y = lo + (np.clip(code, 0, 2**meas.bits - 1) + 0.5) * lsb
-        out[name] = y
-        ranges[name] = {"low": lo, "full_scale": float(fsr), "clipped": clipped}
+        out[name], ranges[name] = _measured(name, y, meas, rng, n)
     t_file = meas.trigger_offset + np.arange(n) * dt
     f = tr.as_float64()
     inside = (f["impacts_t"] >= tau[0]) & (f["impacts_t"] <= tau[-1])
     imp_t_file = meas.trigger_offset + (f["impacts_t"][inside] / w - t_true0) * (1 + e)
-    # the finite-time variational exponent of the record's own stretch (per unit of the
-    # oscillator's time), along the model's impacts: the mechanics' tangent map, so only for a
-    # model without effects (the ideal circuit is the mechanics); a 200-period record's own
-    # exponent scatters ~11 % about the asymptotic one at eta = 0.712
-    lle_record = None
-    if model == "circuit" and not fitted.effects and 0 <= float(params.zeta) < 1:
-        lle_record = finite_time_lle(
-            params, f["impacts_t"], f["impacts_v_before"], float(tau[0]), float(tau[-1])
-        )
+    lle_record = _lle_record(model, fitted, params, f, tau)
     truth = {
         "scene": sc.name,
         "model": model,
