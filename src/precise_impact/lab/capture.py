@@ -232,7 +232,7 @@ class Capture(ResultMixin):
         path = Path(path)
         if fmt is None and path.suffix.lower() == ".json":
             return super().save(path)
-        from precise_impact.lab.scope_files import write_capture
+        from precise_impact.lab.scope_files import write_capture  # noqa: PLC0415 -- cycle: the writers check for a Capture
 
         return write_capture(self, path, fmt)
 

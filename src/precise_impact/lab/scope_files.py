@@ -714,7 +714,7 @@ def _isf_preamble(p: Path) -> tuple[str | None, str | None]:
 
 def _read_binary(paths: list[Path], channels: Any) -> Capture:
     try:
-        import RigolWFM.wfm as rwfm
+        import RigolWFM.wfm as rwfm  # noqa: PLC0415 -- optional: loaded on first use
     except ImportError:
         raise OptionalDependencyError(
             "RigolWFM", "pip install 'precise_impact[lab]'", "reading binary waveform files"
