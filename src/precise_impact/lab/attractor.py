@@ -867,6 +867,179 @@ def _requantised(ref: Capture, capture: Capture, noise: dict) -> Capture:
     )
 
 
+def _checked_score_args(
+    capture: Any, channels: Any, floor_captures: Any, max_period: Any, section_phase: Any
+) -> Capture:
+    """The capture (read from its file if a path) after checking score_capture's arguments."""
+    if not isinstance(capture, Capture):
+        check_type(capture, (str, os.PathLike, list, tuple), "capture", _CAPTURE_ARG)
+        capture = read_capture(capture, channels)
+    if not isinstance(floor_captures, int) or not 2 <= floor_captures <= 8:
+        raise ParameterError("floor_captures", floor_captures, "an integer 2..8")
+    if not isinstance(max_period, int) or not 1 <= max_period <= 64:
+        raise ParameterError("max_period", max_period, "an integer 1..64")
+    if not (isinstance(section_phase, (int, float)) and math.isfinite(section_phase)):
+        raise ParameterError("section_phase", section_phase, "a finite phase in rad")
+    return capture
+
+
+def _forcing_from_vs(capture: Capture, comp: Any, refs: list, ref_an: list) -> ForcingEstimate:
+    """The forcing from ``V_s``, its phase referred through the model captures' lag of V_s."""
+    # the model's lag of V_s's fundamental behind V_3, to refer V_s's phase to the forcing
+    lags = []
+    for r, a in zip(refs, ref_an, strict=True):
+        fit = fit_sinusoid(r.t, r.V_s, a["forcing"].omega, harmonics=3)
+        lags.append(_phase(fit["a"][0], fit["b"][0]) - a["forcing"].phase0)
+    lag = float(np.angle(np.mean(np.exp(1j * np.asarray(lags)))))
+    return estimate_forcing(capture, float(comp.Omega), "V_s", lag=lag)
+
+
+def _impact_distance(vimp: np.ndarray, vms: list, pairs: list) -> tuple[Any, Any, str]:
+    """``(W1, its floor, reason if none)`` of the impact velocities against the model's."""
+    # the impact-velocity distance needs impacts on both sides: none, with the reason, else
+    w1: float | None = None
+    w1_floor: float | None = None
+    w1_reason = ""
+    if not len(vimp):
+        w1_reason = "no impacts detected in the capture"
+    elif not all(len(vm) for vm in vms):
+        w1_reason = "no impacts in the model's captures"
+    else:
+        w1 = float(np.mean([wasserstein_1d(vimp, vm) for vm in vms]))
+        w1_floor = float(np.mean([wasserstein_1d(vms[i], vms[j]) for i, j in pairs]))
+    return w1, w1_floor, w1_reason
+
+
+def _halves_floor(cloud: np.ndarray, p: int) -> float:
+    """The SW distance of the capture's own halves (whole cycles each), over sqrt(2)."""
+    # the capture's own halves: a floor that does not rest on the noise model (a 4-bit ADC's
+    # undithered codes made the model captures' floor 17x too small); SW between clouds of
+    # n/2 points is sqrt(2) that between clouds of n (the distance falls as n^-1/2).  On a
+    # period-p orbit each half holds whole cycles (a half with one point of the cycle more than
+    # the other differs by ~ spread p / n: 0.08 of the spread for 25 points)
+    h = len(cloud) // 2
+    if p > 0:
+        h -= h % p
+    return sliced_wasserstein(cloud[:h], cloud[h : 2 * h]) / math.sqrt(2) if h else 0.0
+
+
+def _quantisation_floor(noise: dict, comp: Any, half_window: int, notes: list) -> float:
+    """The code error of a section point of an undithered ADC (0 if dithered), noted."""
+    # an undithered ADC (measured white noise below one code): the model captures' noise is
+    # then measured as ~0 (the second differences of a coarse code sequence are mostly 0), so
+    # they repeat one deterministic code pattern and their pairs' floor misses the code error
+    # the capture's sub-code noise leaves.  Its size under the standard quantisation model (a
+    # signal crossing codes within a section window: errors uniform, q^2/12, independent):
+    # q / sqrt(12 * 2 hw) per section point and channel; two clouds each perturbed that much
+    # differ by up to twice it in SW.  Noted in the report: the verdict rests on that model
+    sc_ = circuit_scales(comp)
+    n_fit = 2 * half_window
+    dq = {
+        k: (
+            noise[k]["step"] / math.sqrt(12 * n_fit)
+            if noise[k]["white"] < noise[k]["step"]
+            else 0.0
+        )
+        for k in ("V_s", "V_q")
+    }
+    quant = 2 * math.hypot(dq["V_s"] / abs(sc_.volts_per_x), dq["V_q"] / abs(sc_.volts_per_v))
+    if quant > 0:
+        notes.append(
+            "undithered quantisation: the ADC step exceeds the white noise "
+            f"({', '.join(k for k in dq if dq[k] > 0)}); the floor includes the code error of "
+            f"a section point, {quant:.3g} (2 q / sqrt(12 x {n_fit} samples), the standard "
+            "quantisation model: the verdict rests on it)"
+        )
+    return quant
+
+
+def _model_captures(
+    capture: Capture,
+    forcing: ForcingEstimate,
+    noise: dict,
+    periods: float,
+    seed: int,
+    run: tuple,
+    floor_captures: int,
+    max_time: Any,
+    deadline: Deadline,
+) -> list[Capture]:
+    """The model captured ``floor_captures`` times through the capture's measurement model."""
+    sc, model, eta_model, transient = run
+    # the capture's measurement, measured, is the synthetic captures': its sample rate, its
+    # record length, its white noise per channel and its ADC step
+    white = {k: n["white"] for k, n in noise.items()}
+    white.setdefault("V_3", white["V_s"])
+    meas = Measurement(
+        bits=0,
+        noise=0.0,
+        noise_v=white,
+        sample_rate=capture.sample_rate,
+        periods=max(2.0, periods),
+        seed=seed,
+    )
+    surrogate = _noise_surrogate(capture, forcing, noise)
+    if surrogate is not None:  # the scope's own noise, whatever its spectrum, replaces white
+        meas = dataclasses.replace(meas, noise_v=0.0)
+    rng = np.random.default_rng(seed)
+    refs = []
+    for i in range(floor_captures):
+        r = synth_capture(
+            sc,
+            model,
+            eta=eta_model,
+            measurement=dataclasses.replace(meas, seed=seed + 1 + i),
+            transient=transient,
+            max_time=max_time,
+        )
+        deadline.check(f"model capture {i + 1} of {floor_captures}")
+        if surrogate is not None:
+            r = _add_surrogate(r, surrogate, noise, rng)
+        refs.append(_requantised(r, capture, noise))
+    return refs
+
+
+def _check_probes(capture: Capture, comp: Any, notes: list) -> None:
+    """Refuse wrong, swapped or inverted probes; note channels near clipping."""
+    # wrong, swapped or inverted probes and clipped channels are refused before any scoring
+    chk = check_channels(capture, comp)
+    for k, share in chk["clipped"].items():
+        if share > 0.5 * chk["clip_limit"][k]:
+            notes.append(f"{k}: {share:.0%} of its samples at one rail (clipping?)")
+
+
+def _model_eta(eta: Any, eta_meas: float) -> Any:
+    """The model's ``eta``: the measured one (as a fraction) or the one given."""
+    if eta == "measured":
+        eta_model: Any = Fraction(eta_meas).limit_denominator(10**9)
+    else:
+        eta_model = eta
+    return eta_model
+
+
+def _impacts_record(an: dict, vimp: np.ndarray, vms: list, ref_an: list) -> dict[str, Any]:
+    """The score's ``impacts`` field: the capture's impacts beside the model captures'."""
+    return {
+        "count": an["impacts"]["count"],
+        "per_period": an["impacts"]["per_period"],
+        "per_period_model": float(np.mean([a["impacts"]["per_period"] for a in ref_an])),
+        "threshold_v": an["impacts"]["threshold_v"],
+        **_velocity_stats(vimp),
+        "t": an["impacts"]["t"],
+        "v": vimp,
+        "v_model": np.concatenate(vms) if vms else np.empty(0),
+    }
+
+
+def _note_short_record(periods: float, max_period: int, notes: list) -> None:
+    """Note a record too short to detect periods up to ``max_period``."""
+    if periods < 2 * max_period + max_period + 2:
+        notes.append(
+            f"record of {periods:.1f} periods: periods up to {max_period} need "
+            f">= {3 * max_period + 2}"
+        )
+
+
 def score_capture(
     capture: Capture | str | os.PathLike,
     scene: Any = "fig6-period3-ideal",
@@ -940,77 +1113,33 @@ def score_capture(
     """
 
     deadline = Deadline(None if max_time is None else parse_max_time(max_time), "capture score")
-    if not isinstance(capture, Capture):
-        check_type(capture, (str, os.PathLike, list, tuple), "capture", _CAPTURE_ARG)
-        capture = read_capture(capture, channels)
-    if not isinstance(floor_captures, int) or not 2 <= floor_captures <= 8:
-        raise ParameterError("floor_captures", floor_captures, "an integer 2..8")
-    if not isinstance(max_period, int) or not 1 <= max_period <= 64:
-        raise ParameterError("max_period", max_period, "an integer 1..64")
-    if not (isinstance(section_phase, (int, float)) and math.isfinite(section_phase)):
-        raise ParameterError("section_phase", section_phase, "a finite phase in rad")
+    capture = _checked_score_args(capture, channels, floor_captures, max_period, section_phase)
     sc = scene if isinstance(scene, Scene) else load_scene(scene)
     model = model or sc.model
     comp = sc.design()
     notes: list[str] = []
-    # wrong, swapped or inverted probes and clipped channels are refused before any scoring
-    chk = check_channels(capture, comp)
-    for k, share in chk["clipped"].items():
-        if share > 0.5 * chk["clip_limit"][k]:
-            notes.append(f"{k}: {share:.0%} of its samples at one rail (clipping?)")
+    _check_probes(capture, comp, notes)
     forcing = estimate_forcing(capture, float(comp.Omega))
     eta_meas = forcing.omega / float(comp.omega())
-    if eta == "measured":
-        eta_model: Any = Fraction(eta_meas).limit_denominator(10**9)
-    else:
-        eta_model = eta
+    eta_model = _model_eta(eta, eta_meas)
     periods = capture.duration * forcing.omega / (2 * math.pi)
-    if periods < 2 * max_period + max_period + 2:
-        notes.append(
-            f"record of {periods:.1f} periods: periods up to {max_period} need "
-            f">= {3 * max_period + 2}"
-        )
-    # the capture's measurement, measured, is the synthetic captures': its sample rate, its
-    # record length, its white noise per channel and its ADC step
+    _note_short_record(periods, max_period, notes)
     noise = {k: channel_noise(v) for k, v in capture.channels.items()}
-    white = {k: n["white"] for k, n in noise.items()}
-    white.setdefault("V_3", white["V_s"])
-    meas = Measurement(
-        bits=0,
-        noise=0.0,
-        noise_v=white,
-        sample_rate=capture.sample_rate,
-        periods=max(2.0, periods),
-        seed=seed,
+    refs = _model_captures(
+        capture,
+        forcing,
+        noise,
+        periods,
+        seed,
+        (sc, model, eta_model, transient),
+        floor_captures,
+        deadline if max_time is not None else None,
+        deadline,
     )
-    surrogate = _noise_surrogate(capture, forcing, noise)
-    if surrogate is not None:  # the scope's own noise, whatever its spectrum, replaces white
-        meas = dataclasses.replace(meas, noise_v=0.0)
-    rng = np.random.default_rng(seed)
-    refs = []
-    for i in range(floor_captures):
-        r = synth_capture(
-            sc,
-            model,
-            eta=eta_model,
-            measurement=dataclasses.replace(meas, seed=seed + 1 + i),
-            transient=transient,
-            max_time=deadline if max_time is not None else None,
-        )
-        deadline.check(f"model capture {i + 1} of {floor_captures}")
-        if surrogate is not None:
-            r = _add_surrogate(r, surrogate, noise, rng)
-        refs.append(_requantised(r, capture, noise))
     R = float(sc.params.R)
     ref_an = [analyse_capture(r, comp, None, section_phase, max_period, R) for r in refs]
     if capture.V_3 is None:
-        # the model's lag of V_s's fundamental behind V_3, to refer V_s's phase to the forcing
-        lags = []
-        for r, a in zip(refs, ref_an, strict=True):
-            fit = fit_sinusoid(r.t, r.V_s, a["forcing"].omega, harmonics=3)
-            lags.append(_phase(fit["a"][0], fit["b"][0]) - a["forcing"].phase0)
-        lag = float(np.angle(np.mean(np.exp(1j * np.asarray(lags)))))
-        forcing = estimate_forcing(capture, float(comp.Omega), "V_s", lag=lag)
+        forcing = _forcing_from_vs(capture, comp, refs, ref_an)
     an = analyse_capture(capture, comp, forcing, section_phase, max_period, R)
     cloud = np.column_stack([an["section"]["x"], an["section"]["v"]])
     clouds = [np.column_stack([a["section"]["x"], a["section"]["v"]]) for a in ref_an]
@@ -1019,63 +1148,11 @@ def score_capture(
     floors = [sliced_wasserstein(clouds[i], clouds[j]) for i, j in pairs]
     vimp = an["impacts"]["v"]
     vms = [a["impacts"]["v"] for a in ref_an]
-    # the impact-velocity distance needs impacts on both sides: none, with the reason, else
-    w1: float | None = None
-    w1_floor: float | None = None
-    w1_reason = ""
-    if not len(vimp):
-        w1_reason = "no impacts detected in the capture"
-    elif not all(len(vm) for vm in vms):
-        w1_reason = "no impacts in the model's captures"
-    else:
-        w1 = float(np.mean([wasserstein_1d(vimp, vm) for vm in vms]))
-        w1_floor = float(np.mean([wasserstein_1d(vms[i], vms[j]) for i, j in pairs]))
-    impacts = {
-        "count": an["impacts"]["count"],
-        "per_period": an["impacts"]["per_period"],
-        "per_period_model": float(np.mean([a["impacts"]["per_period"] for a in ref_an])),
-        "threshold_v": an["impacts"]["threshold_v"],
-        **_velocity_stats(vimp),
-        "t": an["impacts"]["t"],
-        "v": vimp,
-        "v_model": np.concatenate(vms) if vms else np.empty(0),
-    }
+    w1, w1_floor, w1_reason = _impact_distance(vimp, vms, pairs)
+    impacts = _impacts_record(an, vimp, vms, ref_an)
     lle_res = _lle_slot(capture, comp, forcing, notes) if lle else None
-    # the capture's own halves: a floor that does not rest on the noise model (a 4-bit ADC's
-    # undithered codes made the model captures' floor 17x too small); SW between clouds of
-    # n/2 points is sqrt(2) that between clouds of n (the distance falls as n^-1/2).  On a
-    # period-p orbit each half holds whole cycles (a half with one point of the cycle more than
-    # the other differs by ~ spread p / n: 0.08 of the spread for 25 points)
-    p = an["period"]
-    h = len(cloud) // 2
-    if p > 0:
-        h -= h % p
-    halves = sliced_wasserstein(cloud[:h], cloud[h : 2 * h]) / math.sqrt(2) if h else 0.0
-    # an undithered ADC (measured white noise below one code): the model captures' noise is
-    # then measured as ~0 (the second differences of a coarse code sequence are mostly 0), so
-    # they repeat one deterministic code pattern and their pairs' floor misses the code error
-    # the capture's sub-code noise leaves.  Its size under the standard quantisation model (a
-    # signal crossing codes within a section window: errors uniform, q^2/12, independent):
-    # q / sqrt(12 * 2 hw) per section point and channel; two clouds each perturbed that much
-    # differ by up to twice it in SW.  Noted in the report: the verdict rests on that model
-    sc_ = circuit_scales(comp)
-    n_fit = 2 * an["half_window"]
-    dq = {
-        k: (
-            noise[k]["step"] / math.sqrt(12 * n_fit)
-            if noise[k]["white"] < noise[k]["step"]
-            else 0.0
-        )
-        for k in ("V_s", "V_q")
-    }
-    quant = 2 * math.hypot(dq["V_s"] / abs(sc_.volts_per_x), dq["V_q"] / abs(sc_.volts_per_v))
-    if quant > 0:
-        notes.append(
-            "undithered quantisation: the ADC step exceeds the white noise "
-            f"({', '.join(k for k in dq if dq[k] > 0)}); the floor includes the code error of "
-            f"a section point, {quant:.3g} (2 q / sqrt(12 x {n_fit} samples), the standard "
-            "quantisation model: the verdict rests on it)"
-        )
+    halves = _halves_floor(cloud, an["period"])
+    quant = _quantisation_floor(noise, comp, an["half_window"], notes)
     floor_max = max(max(floors), halves, quant)
     sep = bool(sw > SEPARATION_THRESHOLD * floor_max)
     return CaptureScore(
