@@ -657,6 +657,62 @@ def tran_cost(text: str, name: str = "netlist") -> Cost:
     )
 
 
+def _run_budget(max_time: Any, timeout: float, text: str, name: str) -> tuple[Any, float]:
+    """``(budget, timeout)``: the run's estimate checked against ``max_time`` and the memory."""
+    budget = None
+    if max_time is not None:
+        budget = parse_max_time(max_time)
+        cost = tran_cost(text, name)  # before ngspice runs: its time, then its memory
+        if cost.seconds > budget:
+            raise OverBudgetError(
+                "max_time",
+                f"{budget:g} s",
+                f"a budget above the estimate ({cost.describe()}); raise --max-time or "
+                "shorten .tran (TSTOP) or lengthen its step",
+            )
+        try:
+            check_cost(cost, None)  # half the machine's memory: the raw file is read whole
+        except OverBudgetError:
+            raise OverBudgetError(
+                "file",
+                name,
+                f"a .tran run whose waveforms fit in half this machine's memory "
+                f"({cost.describe()}); shorten TSTOP or lengthen the step",
+            ) from None
+        timeout = min(timeout, budget)
+    return budget, timeout
+
+
+def _call_ngspice(
+    exe: str, raw: Path, cir: Path, wd: Path, timeout: float, budget: Any, text: str, name: str
+) -> tuple[str, float]:
+    """Run ngspice in ``wd``: ``(its log, elapsed s)``; a budget run out or an error raises."""
+    t0 = _time.perf_counter()
+    try:
+        proc = subprocess.run(
+            [exe, "-b", "-r", raw.name, cir.name],
+            cwd=wd,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+        )
+    except subprocess.TimeoutExpired as e:
+        # a budget ran out (the CLI: one line, exit 3), whichever of the two it was
+        which = "max_time" if budget is not None and timeout == budget else "timeout"
+        raise BudgetExceededError(
+            f"ngspice did not finish {name} within {which} = {timeout:g} s (estimate: "
+            f"{tran_cost(text, name).describe()}); raise --max-time or shorten .tran"
+        ) from e
+    elapsed = _time.perf_counter() - t0
+    log = proc.stdout + proc.stderr
+    (wd / "ngspice.log").write_text(log)
+    errs = [ln for ln in log.splitlines() if re.search(r"\berror\b|aborted|too small", ln, re.I)]
+    if proc.returncode != 0 or not raw.exists() or errs:
+        first = (errs or log.strip().splitlines()[-1:] or ["no output"])[0].strip()
+        raise SpiceError(f"ngspice could not run {name} (exit {proc.returncode}): {first}")
+    return log, elapsed
+
+
 def run_netlist(
     path: str | Path,
     workdir: str | Path | None = None,
@@ -736,27 +792,7 @@ def run_netlist(
     exe = find_ngspice(executable)
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
         raise ParameterError("timeout", timeout, "seconds > 0")
-    budget = None
-    if max_time is not None:
-        budget = parse_max_time(max_time)
-        cost = tran_cost(text, p.name)  # before ngspice runs: its time, then its memory
-        if cost.seconds > budget:
-            raise OverBudgetError(
-                "max_time",
-                f"{budget:g} s",
-                f"a budget above the estimate ({cost.describe()}); raise --max-time or "
-                "shorten .tran (TSTOP) or lengthen its step",
-            )
-        try:
-            check_cost(cost, None)  # half the machine's memory: the raw file is read whole
-        except OverBudgetError:
-            raise OverBudgetError(
-                "file",
-                p.name,
-                f"a .tran run whose waveforms fit in half this machine's memory "
-                f"({cost.describe()}); shorten TSTOP or lengthen the step",
-            ) from None
-        timeout = min(timeout, budget)
+    budget, timeout = _run_budget(max_time, timeout, text, p.name)
     with tempfile.TemporaryDirectory(prefix="precise_impact_netlist_") as tmp:
         wd = Path(workdir) if workdir is not None else Path(tmp)
         wd.mkdir(parents=True, exist_ok=True)
@@ -769,31 +805,7 @@ def run_netlist(
         raw = wd / "user.raw"
         if raw.exists():
             raw.unlink()
-        t0 = _time.perf_counter()
-        try:
-            proc = subprocess.run(
-                [exe, "-b", "-r", raw.name, cir.name],
-                cwd=wd,
-                capture_output=True,
-                text=True,
-                timeout=timeout,
-            )
-        except subprocess.TimeoutExpired as e:
-            # a budget ran out (the CLI: one line, exit 3), whichever of the two it was
-            which = "max_time" if budget is not None and timeout == budget else "timeout"
-            raise BudgetExceededError(
-                f"ngspice did not finish {p.name} within {which} = {timeout:g} s (estimate: "
-                f"{tran_cost(text, p.name).describe()}); raise --max-time or shorten .tran"
-            ) from e
-        elapsed = _time.perf_counter() - t0
-        log = proc.stdout + proc.stderr
-        (wd / "ngspice.log").write_text(log)
-        errs = [
-            ln for ln in log.splitlines() if re.search(r"\berror\b|aborted|too small", ln, re.I)
-        ]
-        if proc.returncode != 0 or not raw.exists() or errs:
-            first = (errs or log.strip().splitlines()[-1:] or ["no output"])[0].strip()
-            raise SpiceError(f"ngspice could not run {p.name} (exit {proc.returncode}): {first}")
+        log, elapsed = _call_ngspice(exe, raw, cir, wd, timeout, budget, text, p.name)
         runs = read_raw(raw)
         if workdir is None:
             for w in runs:
