@@ -120,7 +120,7 @@ _SNAP = 1e-9  # a time point within _SNAP * T of a sample time is that sample (b
 
 def _need_spicelib():
     try:
-        from spicelib import RawRead
+        from spicelib import RawRead  # noqa: PLC0415 -- optional: loaded on first use
     except ImportError as e:  # pragma: no cover - spicelib is in the 'lab' extra
         raise OptionalDependencyError(
             "spicelib", "pip install 'precise_impact[lab]'", "reading SPICE .raw files"
