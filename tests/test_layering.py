@@ -292,3 +292,103 @@ def test_the_checker_sees_an_upward_import(tmp_path):
         found == [("precise_impact.analysis.lyapunov", 5)]
         and _layer("precise_impact.core.flow") == 2
     )
+
+
+# lab/ in sub-layers, bottom to top (a lab module imports only lab modules of a lower or its own
+# sub-layer): what a capture IS (the data type, its checks and noise measures), how files
+# become captures (readers, writers), how a capture is made (the measurement model), what is
+# computed from captures (scores, estimators), what is computed from a netlist's run.
+LAB_LAYERS = {
+    "precise_impact.lab": 0,
+    "precise_impact.lab.capture": 1,
+    "precise_impact.lab.scope_files": 2,
+    "precise_impact.lab.synth": 3,
+    "precise_impact.lab.attractor": 4,
+    "precise_impact.lab.budget": 5,
+    "precise_impact.lab.netlist": 5,
+}
+# Upward edges still there, each a function-local import with its reason (module -> module).
+LAB_UPWARD_KNOWN: dict[tuple[str, str], str] = {
+    ("precise_impact.lab.capture", "precise_impact.lab.scope_files"): (
+        "Capture.save writes through scope_files.write_capture, which checks its argument "
+        "is a Capture"
+    ),
+}
+
+
+def _lab_edges(pkg: Path = PKG) -> set[tuple[str, str]]:
+    """Every (lab module, lab module it imports), inside functions too."""
+    edges = set()
+    for path in sorted((pkg / "lab").glob("*.py")):
+        name = _module_name(path) if pkg == PKG else "precise_impact.lab." + path.stem
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for mod, names in _imports(tree, name, path.name == "__init__.py"):
+            if mod == "precise_impact.lab":  # from precise_impact.lab import module
+                targets = [f"{mod}.{n}" for n in names]
+            elif mod.startswith("precise_impact.lab."):
+                targets = [mod]
+            else:
+                continue
+            edges |= {(name, t) for t in targets if t != name}
+    return edges
+
+
+def _lab_upward(edges) -> list[str]:
+    return [
+        f"{a} (lab sub-layer {LAB_LAYERS.get(a)}) imports {b} (sub-layer {LAB_LAYERS.get(b)})"
+        for a, b in sorted(edges)
+        if (a, b) not in LAB_UPWARD_KNOWN
+        and (a not in LAB_LAYERS or b not in LAB_LAYERS or LAB_LAYERS[b] > LAB_LAYERS[a])
+    ]
+
+
+def _cycle(edges) -> list[str] | None:
+    """One import cycle among ``edges`` (as the list of its modules), or ``None``."""
+    graph: dict[str, set[str]] = {}
+    for a, b in edges:
+        graph.setdefault(a, set()).add(b)
+    state: dict[str, int] = {}
+
+    def visit(n: str, path: list[str]) -> list[str] | None:
+        state[n] = 1
+        for m in sorted(graph.get(n, ())):
+            if state.get(m) == 1:
+                return path[path.index(m) :] + [m] if m in path else [n, m]
+            if not state.get(m):
+                found = visit(m, [*path, m])
+                if found:
+                    return found
+        state[n] = 2
+        return None
+
+    for n in sorted(graph):
+        if not state.get(n):
+            found = visit(n, [n])
+            if found:
+                return found
+    return None
+
+
+def test_lab_modules_have_a_sub_layer_and_import_only_downward():
+    edges = _lab_edges()
+    names = {a for a, _ in edges} | {b for _, b in edges}
+    assert names <= set(LAB_LAYERS), f"lab modules without a sub-layer: {names - set(LAB_LAYERS)}"
+    assert not _lab_upward(edges), "upward imports inside lab/:\n" + "\n".join(_lab_upward(edges))
+    assert set(LAB_UPWARD_KNOWN) <= edges, "LAB_UPWARD_KNOWN names an edge that is gone"
+
+
+def test_lab_has_no_import_cycle():
+    edges = _lab_edges() - set(LAB_UPWARD_KNOWN)
+    assert _cycle(edges) is None, "import cycle inside lab/: " + " -> ".join(_cycle(edges))
+
+
+def test_the_lab_checker_sees_a_cycle_and_an_upward_import(tmp_path):
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    (lab / "capture.py").write_text("def f():\n    from precise_impact.lab import synth\n")
+    (lab / "synth.py").write_text("from precise_impact.lab.capture import f\n")
+    edges = _lab_edges(tmp_path)
+    assert _cycle(edges) == ["precise_impact.lab.capture", "precise_impact.lab.synth"] + [
+        "precise_impact.lab.capture"
+    ]
+    assert len(_lab_upward(edges)) == 1 and "capture (lab sub-layer 1)" in _lab_upward(edges)[0]

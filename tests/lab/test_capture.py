@@ -76,7 +76,9 @@ def test_wall_and_amplitude_come_from_dimensionless(monkeypatch):
     p = comps.dimensionless(comp)
     m = _cap().to_mechanical(comp)
     assert (m.x_w, m.a) == (float(p.x_w), float(p.a))
-    monkeypatch.setattr(comps, "dimensionless", lambda c: p.replace(x_w="1.5", a="0.25"))
+    import precise_impact.lab.capture as lab_capture  # binds dimensionless at import
+
+    monkeypatch.setattr(lab_capture, "dimensionless", lambda c: p.replace(x_w="1.5", a="0.25"))
     m = _cap().to_mechanical(comp)
     assert (m.x_w, m.a) == (1.5, 0.25)
 

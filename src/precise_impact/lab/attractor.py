@@ -1,49 +1,12 @@
 """Score an oscilloscope capture against a model at the level of the attractor.
 
-A capture has no known initial condition, so it cannot be compared with a model sample by
-sample.  :func:`score_capture` compares what does not depend on it:
-
-1. **The forcing** (:func:`estimate_forcing`): frequency and phase by a least-squares sinusoid
-   fit refined by Gauss-Newton on the frequency (phase-coherent: the whole record constrains
-   the frequency, whose error falls as ``N^-1/2 T^-1``, not to the FFT's bin ``1/T``), started
-   from the interpolated peak of a Hann-windowed, zero-padded spectrum.  From ``V_3`` when it
-   was recorded; else from ``V_s`` (a fit of its first three harmonics near the design's
-   ``Omega``), its phase then referred to the forcing through the model's own lag of ``V_s``
-   behind ``V_3`` (measured on the model's synthetic captures).
-2. **The Poincare section** at a forcing phase (:func:`poincare_section`): each section point is
-   a local linear least-squares fit of ``+-w`` samples about the section time (the noise of a
-   point falls as ``(2w)^-1/2``), never across an impact.
-3. **The detected period** of the section sequence:
-   :func:`~precise_impact.analysis.periodicity.detect_period_noisy`, a chi-square test of the
-   ``p``-step differences against the measured noise of a section point (white noise from the
-   second differences, plus the ADC step's ``q^2/12``).  The computed sequences' detector
-   (:func:`~precise_impact.analysis.periodicity.detect_period`, every point within a relative
-   tolerance) does not fit measured ones: a tolerance wide enough for 10 % noise made the
-   chaotic record at eta = 0.712 "period 1".
-4. **Impacts** (:func:`detect_impacts`): ``V_q`` jumps sign at the wall; an impact is a one-sample
-   drop of ``x'`` by more than 8 noise deviations of a difference, next to the wall; its velocity
-   is half the jump of the one-sided local fits.  Impacts slower than about half the threshold
-   (grazing ones) are missed: :attr:`CaptureScore.impacts` states the threshold.
-5. **Distances to the model**: the sliced Wasserstein distance of the section clouds and the
-   1-Wasserstein distance of the impact velocities, and their **noise floors**: the model is
-   captured ``floor_captures`` times (3 by default) through the *same* measurement model
-   (the capture's sample rate, record length, ADC step, and its noise: with ``V_3`` recorded,
-   ``V_3``'s residual from its sinusoid, circularly shifted at random per channel and scaled by
-   each channel's white noise -- a surrogate with the scope's own spectrum, 1/f included;
-   without ``V_3``, white noise of each channel's measured level), from independent
-   points of its attractor and independent noise, and the floor is the distance between those
-   captures.  Independent captures and not a bootstrap of one: the section points of one record
-   are serially dependent (a periodic orbit visits the same ``p`` points; a chaotic one is
-   correlated over a few periods), so resampling one record underestimates how much a second
-   record would differ; two records of the same length and noise reproduce exactly the
-   variability the capture itself has.
-6. **LLE**: ``timeseries_lle`` of :mod:`precise_impact.analysis.lyapunov.timeseries` (another
-   part of issue 24) on the recorded state ``(x, x')`` in ``tau`` with neighbours at equal
-   forcing phase, when that module is installed; otherwise the field is ``None`` and ``notes``
-   says so.
-
-A set of captures at several forcing frequencies gives a measured bifurcation diagram laid
-over the computed one (:func:`measured_bifurcation`).
+A capture has no known initial condition, so :func:`score_capture` compares what does not depend
+on it: the forcing (:func:`estimate_forcing`), the Poincare section at a forcing phase
+(:func:`poincare_section`) and its detected period, the impacts (:func:`detect_impacts`), the
+sliced Wasserstein distances to the model against their noise floors (the model captured through
+the same measurement model), and the time-series LLE.  Several captures at several forcing
+frequencies give a measured bifurcation diagram (:func:`measured_bifurcation`).  Each step, its
+method and why: :doc:`/guide/captures`, "Scoring a capture in detail".
 """
 
 from __future__ import annotations
@@ -57,14 +20,27 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.orbits.branch import brute_force_diagram
 from precise_impact.analysis.periodicity import detect_period_noisy
 from precise_impact.core.budget import Deadline, check_work, parse_max_time, run_cost
+from precise_impact.core.impact import reset_velocity
 from precise_impact.core.precision import Precision
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ParameterError, check_type
+from precise_impact.io.figures import check_plot_path, finish, new_figure
 from precise_impact.io.markdown import table as md_table
-from precise_impact.lab.capture import Capture, check_channels, design_of
+from precise_impact.lab.capture import (
+    Capture,
+    adc_step,
+    channel_noise,
+    check_channels,
+    design_of,
+    noise_sigma,
+)
+from precise_impact.lab.scope_files import read_capture
+from precise_impact.lab.synth import Measurement, synth_capture
 from precise_impact.models.circuit.components import circuit_scales
+from precise_impact.scenes.scene import Scene, load_scene
 from precise_impact.verification.scores import sliced_wasserstein, wasserstein_1d
 
 #: What a capture argument may be.
@@ -332,33 +308,6 @@ def estimate_forcing(
 
 
 # ================================================================ noise, section, impacts
-def noise_sigma(y: np.ndarray) -> float:
-    """White-noise standard deviation of a sampled signal: ``1.4826 MAD(second differences)
-    / sqrt(6)`` (a second difference of white noise has variance ``6 sigma^2``; the median
-    ignores the impacts' jumps; the signal's own curvature adds ``y'' dt^2``, negligible at
-    tens of samples per period)."""
-    d2 = np.diff(np.asarray(y, float), 2)
-    mad = float(np.median(np.abs(d2 - np.median(d2))))
-    return 1.4826 * mad / math.sqrt(6)
-
-
-def adc_step(y: np.ndarray) -> float:
-    """The ADC's code step of a quantised record (the median gap between its distinct
-    values when they are fewer than half the samples), else 0."""
-    u = np.unique(np.asarray(y, float))
-    if len(u) < 2 or len(u) > 0.5 * len(y):
-        return 0.0
-    return float(np.median(np.diff(u)))
-
-
-def channel_noise(y: np.ndarray) -> dict[str, float]:
-    """``{'white', 'step', 'sigma'}`` of a channel: the white noise (:func:`noise_sigma`), the
-    ADC step (:func:`adc_step`) and their total ``sqrt(white^2 + step^2 / 12)`` (a coarse ADC
-    on a quiet signal repeats codes, so the second differences alone miss its error)."""
-    w, q = noise_sigma(y), adc_step(y)
-    return {"white": w, "step": q, "sigma": math.sqrt(w * w + q * q / 12.0)}
-
-
 def detect_impacts(
     x: np.ndarray,
     v: np.ndarray,
@@ -379,7 +328,6 @@ def detect_impacts(
     (:func:`precise_impact.core.impact.reset_velocity`): ``v- = (v_l + k v_r) / (1 + k^2)``
     (``(v_l - v_r) / 2`` for ``R = 1``; that half-jump was ``(1 + R) / 2 v-`` for ``R < 1``).
     """
-    from precise_impact.core.impact import reset_velocity
 
     k_reset = float(reset_velocity(1.0, R))
     dv = np.diff(v)
@@ -790,7 +738,6 @@ class CaptureScore(ResultMixin):
     def plot(self, path: Any = None, units: str = "dimensionless"):
         """Poincare sections (capture over model), impact-velocity distributions, and the
         figures; written to ``path`` if given."""
-        from precise_impact.io.figures import check_plot_path, finish, new_figure
 
         check_plot_path(path)
         fig, axes = new_figure(1, 2, figsize=(10.0, 4.4))
@@ -854,7 +801,9 @@ def _lle_slot(capture: Capture, comp: Any, forcing: ForcingEstimate, notes: list
     :func:`precise_impact.analysis.lyapunov.timeseries.timeseries_lle` on the recorded state
     ``(x, x')`` with neighbours at equal forcing phase, when that module is installed."""
     try:
-        from precise_impact.analysis.lyapunov.timeseries import timeseries_lle
+        from precise_impact.analysis.lyapunov.timeseries import (  # noqa: PLC0415 -- optional module
+            timeseries_lle,
+        )
     except ImportError:
         notes.append(
             "lle: left out (precise_impact.analysis.lyapunov.timeseries is not installed here)"
@@ -916,6 +865,179 @@ def _requantised(ref: Capture, capture: Capture, noise: dict) -> Capture:
     return Capture.make(
         ref.t, chans["V_s"], chans["V_q"], chans.get("V_3"), ref.sample_interval, ref.source
     )
+
+
+def _checked_score_args(
+    capture: Any, channels: Any, floor_captures: Any, max_period: Any, section_phase: Any
+) -> Capture:
+    """The capture (read from its file if a path) after checking score_capture's arguments."""
+    if not isinstance(capture, Capture):
+        check_type(capture, (str, os.PathLike, list, tuple), "capture", _CAPTURE_ARG)
+        capture = read_capture(capture, channels)
+    if not isinstance(floor_captures, int) or not 2 <= floor_captures <= 8:
+        raise ParameterError("floor_captures", floor_captures, "an integer 2..8")
+    if not isinstance(max_period, int) or not 1 <= max_period <= 64:
+        raise ParameterError("max_period", max_period, "an integer 1..64")
+    if not (isinstance(section_phase, (int, float)) and math.isfinite(section_phase)):
+        raise ParameterError("section_phase", section_phase, "a finite phase in rad")
+    return capture
+
+
+def _forcing_from_vs(capture: Capture, comp: Any, refs: list, ref_an: list) -> ForcingEstimate:
+    """The forcing from ``V_s``, its phase referred through the model captures' lag of V_s."""
+    # the model's lag of V_s's fundamental behind V_3, to refer V_s's phase to the forcing
+    lags = []
+    for r, a in zip(refs, ref_an, strict=True):
+        fit = fit_sinusoid(r.t, r.V_s, a["forcing"].omega, harmonics=3)
+        lags.append(_phase(fit["a"][0], fit["b"][0]) - a["forcing"].phase0)
+    lag = float(np.angle(np.mean(np.exp(1j * np.asarray(lags)))))
+    return estimate_forcing(capture, float(comp.Omega), "V_s", lag=lag)
+
+
+def _impact_distance(vimp: np.ndarray, vms: list, pairs: list) -> tuple[Any, Any, str]:
+    """``(W1, its floor, reason if none)`` of the impact velocities against the model's."""
+    # the impact-velocity distance needs impacts on both sides: none, with the reason, else
+    w1: float | None = None
+    w1_floor: float | None = None
+    w1_reason = ""
+    if not len(vimp):
+        w1_reason = "no impacts detected in the capture"
+    elif not all(len(vm) for vm in vms):
+        w1_reason = "no impacts in the model's captures"
+    else:
+        w1 = float(np.mean([wasserstein_1d(vimp, vm) for vm in vms]))
+        w1_floor = float(np.mean([wasserstein_1d(vms[i], vms[j]) for i, j in pairs]))
+    return w1, w1_floor, w1_reason
+
+
+def _halves_floor(cloud: np.ndarray, p: int) -> float:
+    """The SW distance of the capture's own halves (whole cycles each), over sqrt(2)."""
+    # the capture's own halves: a floor that does not rest on the noise model (a 4-bit ADC's
+    # undithered codes made the model captures' floor 17x too small); SW between clouds of
+    # n/2 points is sqrt(2) that between clouds of n (the distance falls as n^-1/2).  On a
+    # period-p orbit each half holds whole cycles (a half with one point of the cycle more than
+    # the other differs by ~ spread p / n: 0.08 of the spread for 25 points)
+    h = len(cloud) // 2
+    if p > 0:
+        h -= h % p
+    return sliced_wasserstein(cloud[:h], cloud[h : 2 * h]) / math.sqrt(2) if h else 0.0
+
+
+def _quantisation_floor(noise: dict, comp: Any, half_window: int, notes: list) -> float:
+    """The code error of a section point of an undithered ADC (0 if dithered), noted."""
+    # an undithered ADC (measured white noise below one code): the model captures' noise is
+    # then measured as ~0 (the second differences of a coarse code sequence are mostly 0), so
+    # they repeat one deterministic code pattern and their pairs' floor misses the code error
+    # the capture's sub-code noise leaves.  Its size under the standard quantisation model (a
+    # signal crossing codes within a section window: errors uniform, q^2/12, independent):
+    # q / sqrt(12 * 2 hw) per section point and channel; two clouds each perturbed that much
+    # differ by up to twice it in SW.  Noted in the report: the verdict rests on that model
+    sc_ = circuit_scales(comp)
+    n_fit = 2 * half_window
+    dq = {
+        k: (
+            noise[k]["step"] / math.sqrt(12 * n_fit)
+            if noise[k]["white"] < noise[k]["step"]
+            else 0.0
+        )
+        for k in ("V_s", "V_q")
+    }
+    quant = 2 * math.hypot(dq["V_s"] / abs(sc_.volts_per_x), dq["V_q"] / abs(sc_.volts_per_v))
+    if quant > 0:
+        notes.append(
+            "undithered quantisation: the ADC step exceeds the white noise "
+            f"({', '.join(k for k in dq if dq[k] > 0)}); the floor includes the code error of "
+            f"a section point, {quant:.3g} (2 q / sqrt(12 x {n_fit} samples), the standard "
+            "quantisation model: the verdict rests on it)"
+        )
+    return quant
+
+
+def _model_captures(
+    capture: Capture,
+    forcing: ForcingEstimate,
+    noise: dict,
+    periods: float,
+    seed: int,
+    run: tuple,
+    floor_captures: int,
+    max_time: Any,
+    deadline: Deadline,
+) -> list[Capture]:
+    """The model captured ``floor_captures`` times through the capture's measurement model."""
+    sc, model, eta_model, transient = run
+    # the capture's measurement, measured, is the synthetic captures': its sample rate, its
+    # record length, its white noise per channel and its ADC step
+    white = {k: n["white"] for k, n in noise.items()}
+    white.setdefault("V_3", white["V_s"])
+    meas = Measurement(
+        bits=0,
+        noise=0.0,
+        noise_v=white,
+        sample_rate=capture.sample_rate,
+        periods=max(2.0, periods),
+        seed=seed,
+    )
+    surrogate = _noise_surrogate(capture, forcing, noise)
+    if surrogate is not None:  # the scope's own noise, whatever its spectrum, replaces white
+        meas = dataclasses.replace(meas, noise_v=0.0)
+    rng = np.random.default_rng(seed)
+    refs = []
+    for i in range(floor_captures):
+        r = synth_capture(
+            sc,
+            model,
+            eta=eta_model,
+            measurement=dataclasses.replace(meas, seed=seed + 1 + i),
+            transient=transient,
+            max_time=max_time,
+        )
+        deadline.check(f"model capture {i + 1} of {floor_captures}")
+        if surrogate is not None:
+            r = _add_surrogate(r, surrogate, noise, rng)
+        refs.append(_requantised(r, capture, noise))
+    return refs
+
+
+def _check_probes(capture: Capture, comp: Any, notes: list) -> None:
+    """Refuse wrong, swapped or inverted probes; note channels near clipping."""
+    # wrong, swapped or inverted probes and clipped channels are refused before any scoring
+    chk = check_channels(capture, comp)
+    for k, share in chk["clipped"].items():
+        if share > 0.5 * chk["clip_limit"][k]:
+            notes.append(f"{k}: {share:.0%} of its samples at one rail (clipping?)")
+
+
+def _model_eta(eta: Any, eta_meas: float) -> Any:
+    """The model's ``eta``: the measured one (as a fraction) or the one given."""
+    if eta == "measured":
+        eta_model: Any = Fraction(eta_meas).limit_denominator(10**9)
+    else:
+        eta_model = eta
+    return eta_model
+
+
+def _impacts_record(an: dict, vimp: np.ndarray, vms: list, ref_an: list) -> dict[str, Any]:
+    """The score's ``impacts`` field: the capture's impacts beside the model captures'."""
+    return {
+        "count": an["impacts"]["count"],
+        "per_period": an["impacts"]["per_period"],
+        "per_period_model": float(np.mean([a["impacts"]["per_period"] for a in ref_an])),
+        "threshold_v": an["impacts"]["threshold_v"],
+        **_velocity_stats(vimp),
+        "t": an["impacts"]["t"],
+        "v": vimp,
+        "v_model": np.concatenate(vms) if vms else np.empty(0),
+    }
+
+
+def _note_short_record(periods: float, max_period: int, notes: list) -> None:
+    """Note a record too short to detect periods up to ``max_period``."""
+    if periods < 2 * max_period + max_period + 2:
+        notes.append(
+            f"record of {periods:.1f} periods: periods up to {max_period} need "
+            f">= {3 * max_period + 2}"
+        )
 
 
 def score_capture(
@@ -989,82 +1111,35 @@ def score_capture(
     >>> s.period, s.period_model, s.separated
     (2, 3, True)
     """
-    from precise_impact.lab.scope_files import read_capture
-    from precise_impact.lab.synth import Measurement, synth_capture
-    from precise_impact.scenes.scene import Scene, load_scene
 
     deadline = Deadline(None if max_time is None else parse_max_time(max_time), "capture score")
-    if not isinstance(capture, Capture):
-        check_type(capture, (str, os.PathLike, list, tuple), "capture", _CAPTURE_ARG)
-        capture = read_capture(capture, channels)
-    if not isinstance(floor_captures, int) or not 2 <= floor_captures <= 8:
-        raise ParameterError("floor_captures", floor_captures, "an integer 2..8")
-    if not isinstance(max_period, int) or not 1 <= max_period <= 64:
-        raise ParameterError("max_period", max_period, "an integer 1..64")
-    if not (isinstance(section_phase, (int, float)) and math.isfinite(section_phase)):
-        raise ParameterError("section_phase", section_phase, "a finite phase in rad")
+    capture = _checked_score_args(capture, channels, floor_captures, max_period, section_phase)
     sc = scene if isinstance(scene, Scene) else load_scene(scene)
     model = model or sc.model
     comp = sc.design()
     notes: list[str] = []
-    # wrong, swapped or inverted probes and clipped channels are refused before any scoring
-    chk = check_channels(capture, comp)
-    for k, share in chk["clipped"].items():
-        if share > 0.5 * chk["clip_limit"][k]:
-            notes.append(f"{k}: {share:.0%} of its samples at one rail (clipping?)")
+    _check_probes(capture, comp, notes)
     forcing = estimate_forcing(capture, float(comp.Omega))
     eta_meas = forcing.omega / float(comp.omega())
-    if eta == "measured":
-        eta_model: Any = Fraction(eta_meas).limit_denominator(10**9)
-    else:
-        eta_model = eta
+    eta_model = _model_eta(eta, eta_meas)
     periods = capture.duration * forcing.omega / (2 * math.pi)
-    if periods < 2 * max_period + max_period + 2:
-        notes.append(
-            f"record of {periods:.1f} periods: periods up to {max_period} need "
-            f">= {3 * max_period + 2}"
-        )
-    # the capture's measurement, measured, is the synthetic captures': its sample rate, its
-    # record length, its white noise per channel and its ADC step
+    _note_short_record(periods, max_period, notes)
     noise = {k: channel_noise(v) for k, v in capture.channels.items()}
-    white = {k: n["white"] for k, n in noise.items()}
-    white.setdefault("V_3", white["V_s"])
-    meas = Measurement(
-        bits=0,
-        noise=0.0,
-        noise_v=white,
-        sample_rate=capture.sample_rate,
-        periods=max(2.0, periods),
-        seed=seed,
+    refs = _model_captures(
+        capture,
+        forcing,
+        noise,
+        periods,
+        seed,
+        (sc, model, eta_model, transient),
+        floor_captures,
+        deadline if max_time is not None else None,
+        deadline,
     )
-    surrogate = _noise_surrogate(capture, forcing, noise)
-    if surrogate is not None:  # the scope's own noise, whatever its spectrum, replaces white
-        meas = dataclasses.replace(meas, noise_v=0.0)
-    rng = np.random.default_rng(seed)
-    refs = []
-    for i in range(floor_captures):
-        r = synth_capture(
-            sc,
-            model,
-            eta=eta_model,
-            measurement=dataclasses.replace(meas, seed=seed + 1 + i),
-            transient=transient,
-            max_time=deadline if max_time is not None else None,
-        )
-        deadline.check(f"model capture {i + 1} of {floor_captures}")
-        if surrogate is not None:
-            r = _add_surrogate(r, surrogate, noise, rng)
-        refs.append(_requantised(r, capture, noise))
     R = float(sc.params.R)
     ref_an = [analyse_capture(r, comp, None, section_phase, max_period, R) for r in refs]
     if capture.V_3 is None:
-        # the model's lag of V_s's fundamental behind V_3, to refer V_s's phase to the forcing
-        lags = []
-        for r, a in zip(refs, ref_an, strict=True):
-            fit = fit_sinusoid(r.t, r.V_s, a["forcing"].omega, harmonics=3)
-            lags.append(_phase(fit["a"][0], fit["b"][0]) - a["forcing"].phase0)
-        lag = float(np.angle(np.mean(np.exp(1j * np.asarray(lags)))))
-        forcing = estimate_forcing(capture, float(comp.Omega), "V_s", lag=lag)
+        forcing = _forcing_from_vs(capture, comp, refs, ref_an)
     an = analyse_capture(capture, comp, forcing, section_phase, max_period, R)
     cloud = np.column_stack([an["section"]["x"], an["section"]["v"]])
     clouds = [np.column_stack([a["section"]["x"], a["section"]["v"]]) for a in ref_an]
@@ -1073,63 +1148,11 @@ def score_capture(
     floors = [sliced_wasserstein(clouds[i], clouds[j]) for i, j in pairs]
     vimp = an["impacts"]["v"]
     vms = [a["impacts"]["v"] for a in ref_an]
-    # the impact-velocity distance needs impacts on both sides: none, with the reason, else
-    w1: float | None = None
-    w1_floor: float | None = None
-    w1_reason = ""
-    if not len(vimp):
-        w1_reason = "no impacts detected in the capture"
-    elif not all(len(vm) for vm in vms):
-        w1_reason = "no impacts in the model's captures"
-    else:
-        w1 = float(np.mean([wasserstein_1d(vimp, vm) for vm in vms]))
-        w1_floor = float(np.mean([wasserstein_1d(vms[i], vms[j]) for i, j in pairs]))
-    impacts = {
-        "count": an["impacts"]["count"],
-        "per_period": an["impacts"]["per_period"],
-        "per_period_model": float(np.mean([a["impacts"]["per_period"] for a in ref_an])),
-        "threshold_v": an["impacts"]["threshold_v"],
-        **_velocity_stats(vimp),
-        "t": an["impacts"]["t"],
-        "v": vimp,
-        "v_model": np.concatenate(vms) if vms else np.empty(0),
-    }
+    w1, w1_floor, w1_reason = _impact_distance(vimp, vms, pairs)
+    impacts = _impacts_record(an, vimp, vms, ref_an)
     lle_res = _lle_slot(capture, comp, forcing, notes) if lle else None
-    # the capture's own halves: a floor that does not rest on the noise model (a 4-bit ADC's
-    # undithered codes made the model captures' floor 17x too small); SW between clouds of
-    # n/2 points is sqrt(2) that between clouds of n (the distance falls as n^-1/2).  On a
-    # period-p orbit each half holds whole cycles (a half with one point of the cycle more than
-    # the other differs by ~ spread p / n: 0.08 of the spread for 25 points)
-    p = an["period"]
-    h = len(cloud) // 2
-    if p > 0:
-        h -= h % p
-    halves = sliced_wasserstein(cloud[:h], cloud[h : 2 * h]) / math.sqrt(2) if h else 0.0
-    # an undithered ADC (measured white noise below one code): the model captures' noise is
-    # then measured as ~0 (the second differences of a coarse code sequence are mostly 0), so
-    # they repeat one deterministic code pattern and their pairs' floor misses the code error
-    # the capture's sub-code noise leaves.  Its size under the standard quantisation model (a
-    # signal crossing codes within a section window: errors uniform, q^2/12, independent):
-    # q / sqrt(12 * 2 hw) per section point and channel; two clouds each perturbed that much
-    # differ by up to twice it in SW.  Noted in the report: the verdict rests on that model
-    sc_ = circuit_scales(comp)
-    n_fit = 2 * an["half_window"]
-    dq = {
-        k: (
-            noise[k]["step"] / math.sqrt(12 * n_fit)
-            if noise[k]["white"] < noise[k]["step"]
-            else 0.0
-        )
-        for k in ("V_s", "V_q")
-    }
-    quant = 2 * math.hypot(dq["V_s"] / abs(sc_.volts_per_x), dq["V_q"] / abs(sc_.volts_per_v))
-    if quant > 0:
-        notes.append(
-            "undithered quantisation: the ADC step exceeds the white noise "
-            f"({', '.join(k for k in dq if dq[k] > 0)}); the floor includes the code error of "
-            f"a section point, {quant:.3g} (2 q / sqrt(12 x {n_fit} samples), the standard "
-            "quantisation model: the verdict rests on it)"
-        )
+    halves = _halves_floor(cloud, an["period"])
+    quant = _quantisation_floor(noise, comp, an["half_window"], notes)
     floor_max = max(max(floors), halves, quant)
     sep = bool(sw > SEPARATION_THRESHOLD * floor_max)
     return CaptureScore(
@@ -1236,7 +1259,6 @@ class MeasuredBifurcation(ResultMixin):
 
     def plot(self, path: Any = None):
         """Computed diagram (grey dots) with the measured section points (red) on top."""
-        from precise_impact.io.figures import check_plot_path, finish, new_figure
 
         check_plot_path(path)
         fig, axes = new_figure(1, 1, figsize=(8.0, 5.0))
@@ -1343,9 +1365,6 @@ def measured_bifurcation(
     >>> [round(e, 3) for e in res.eta], res.period  # chaos: no period; period 3
     ([0.712, 0.74], [0, 3])
     """
-    from precise_impact.analysis.orbits.branch import brute_force_diagram
-    from precise_impact.lab.scope_files import read_capture
-    from precise_impact.scenes.scene import Scene, load_scene
 
     check_type(captures, (list, tuple), "captures", "a list of captures: " + _CAPTURE_ARG)
     if not captures:

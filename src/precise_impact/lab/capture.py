@@ -2,14 +2,11 @@
 
 A :class:`Capture` is what every reader of :mod:`precise_impact.lab.scope_files` returns and what
 :func:`precise_impact.lab.synth.synth_capture` writes: uniformly sampled channels named by their
-role in the circuit (``V_s`` the position integrator's output, ``V_q`` the velocity integrator's,
-``V_3`` the forcing source), SI units, the sample interval, and where it came from.
-
-:meth:`Capture.to_mechanical` maps it to the dimensionless ``(tau, x, x')`` of the oscillator
-through the one home of that mapping
-(:func:`precise_impact.models.circuit.components.circuit_scales`): ``tau = omega t``,
-``x = -V_s / V_unit``, ``x' = V_q / (omega R8 C1 V_unit)``, and the forcing phase
-``Omega t + phi0`` when the forcing is known (estimated by :mod:`precise_impact.lab.attractor`).
+role (``V_s`` the position integrator's output, ``V_q`` the velocity integrator's, ``V_3`` the
+forcing), SI units, the sample interval and where it came from.  :meth:`Capture.to_mechanical`
+maps it to ``(tau, x, x')`` through :func:`precise_impact.models.circuit.components.circuit_scales`
+(``tau = omega t``, ``x = -V_s / V_unit``, ``x' = V_q / (omega R8 C1 V_unit)``).  Also here: the
+checks of a capture's channels and the noise measures of a sampled channel.
 """
 
 from __future__ import annotations
@@ -24,9 +21,17 @@ from typing import Any
 import numpy as np
 
 from precise_impact.core.params import Params
-from precise_impact.core.result import ResultMixin, unit_column
+from precise_impact.core.result import ResultMixin, to_jsonable, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import check_plot_path, finish, new_figure
+from precise_impact.models.circuit.components import (
+    Components,
+    circuit_scales,
+    dimensionless,
+    nominal_components,
+)
+from precise_impact.scenes.scene import Scene, load_scene
 
 __all__ = [
     "Capture",
@@ -227,7 +232,7 @@ class Capture(ResultMixin):
         path = Path(path)
         if fmt is None and path.suffix.lower() == ".json":
             return super().save(path)
-        from precise_impact.lab.scope_files import write_capture
+        from precise_impact.lab.scope_files import write_capture  # noqa: PLC0415 -- cycle: the writers check for a Capture
 
         return write_capture(self, path, fmt)
 
@@ -268,7 +273,6 @@ class Capture(ResultMixin):
             The forcing phase at ``t = 0`` [rad] (``V_3 = V_A cos(Omega t + phase0)``); ``None``
             leaves :attr:`MechanicalSeries.phase` out.
         """
-        from precise_impact.models.circuit.components import circuit_scales, dimensionless
 
         comp = design_of(design)
         sc = circuit_scales(comp)
@@ -296,7 +300,6 @@ class Capture(ResultMixin):
         """The channels against time (the first ``periods`` forcing periods of the design's
         nominal forcing if the capture carries a synthetic truth, else the first 2000 samples);
         written to ``path`` if given."""
-        from precise_impact.io.figures import check_plot_path, finish, new_figure
 
         check_plot_path(path)
         n = min(self.n_samples, 2000)
@@ -319,7 +322,6 @@ class Capture(ResultMixin):
 
 
 def ResultMixin_jsonable(obj: Any) -> Any:  # noqa: N802 - local alias of to_jsonable
-    from precise_impact.core.result import to_jsonable
 
     return to_jsonable(obj)
 
@@ -363,8 +365,6 @@ def design_of(design: Any):
     """Component values from a :class:`~precise_impact.models.circuit.components.Components`,
     a :class:`~precise_impact.core.params.Params` (the nominal design), a
     :class:`~precise_impact.scenes.scene.Scene` or a scene name / path."""
-    from precise_impact.models.circuit.components import Components, nominal_components
-    from precise_impact.scenes.scene import Scene, load_scene
 
     if isinstance(design, Components):
         return design
@@ -445,6 +445,33 @@ def integrator_pair_fit(
     return (-1.0 / k if k else math.inf), r2
 
 
+def noise_sigma(y: np.ndarray) -> float:
+    """White-noise standard deviation of a sampled signal: ``1.4826 MAD(second differences)
+    / sqrt(6)`` (a second difference of white noise has variance ``6 sigma^2``; the median
+    ignores the impacts' jumps; the signal's own curvature adds ``y'' dt^2``, negligible at
+    tens of samples per period)."""
+    d2 = np.diff(np.asarray(y, float), 2)
+    mad = float(np.median(np.abs(d2 - np.median(d2))))
+    return 1.4826 * mad / math.sqrt(6)
+
+
+def adc_step(y: np.ndarray) -> float:
+    """The ADC's code step of a quantised record (the median gap between its distinct
+    values when they are fewer than half the samples), else 0."""
+    u = np.unique(np.asarray(y, float))
+    if len(u) < 2 or len(u) > 0.5 * len(y):
+        return 0.0
+    return float(np.median(np.diff(u)))
+
+
+def channel_noise(y: np.ndarray) -> dict[str, float]:
+    """``{'white', 'step', 'sigma'}`` of a channel: the white noise (:func:`noise_sigma`), the
+    ADC step (:func:`adc_step`) and their total ``sqrt(white^2 + step^2 / 12)`` (a coarse ADC
+    on a quiet signal repeats codes, so the second differences alone miss its error)."""
+    w, q = noise_sigma(y), adc_step(y)
+    return {"white": w, "step": q, "sigma": math.sqrt(w * w + q * q / 12.0)}
+
+
 def check_channels(capture: Capture, design: Any, names: dict | None = None) -> dict:
     """Refuse a capture whose channels are not the circuit's ``V_s``, ``V_q`` (swapped, wrong or
     inverted probes, another node) or that is clipped, with one line naming the channels.
@@ -457,12 +484,10 @@ def check_channels(capture: Capture, design: Any, names: dict | None = None) -> 
     ``{'R8C1', 'R8C1_design', 'r2', 'clipped', 'clip_limit'}`` (``clipped``: each channel's
     largest share of samples at one rail; ``clip_limit``: the share refused).
     """
-    from precise_impact.models.circuit.components import circuit_scales
 
     names = dict(names or capture.source.get("channel_map") or {})
     label = {k: f"{k} ({names[k]})" if names.get(k) and names[k] != k else k for k in CHANNELS}
     what = str(capture.source.get("path") or "capture")
-    from precise_impact.lab.attractor import adc_step, channel_noise
 
     clipped, limits = {}, {}
     for k, y in capture.channels.items():

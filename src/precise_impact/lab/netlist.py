@@ -2,35 +2,12 @@
 score it against the demonstrated mechanical reference from the same initial state.
 
 The node voltages carrying position, velocity and forcing are named by the user
-(:class:`NodeMap`, from keywords or a small TOML file, :func:`load_map`); volts and seconds
-are mapped to ``(x, x', tau)`` either from the design's component values
-(:func:`~precise_impact.models.circuit.components.to_mechanical`) or from scales fitted to
-the waveform itself (forcing frequency, amplitude and phase; the integrator's ``R8 C1`` from
-``V_s' = -V_q / (R8 C1)``), each reported with its standard error.  The run is then scored
-by :func:`precise_impact.verification.scores.score` against the heyoka reference that
-:mod:`precise_impact.verification.compare` makes (its ``_reference`` routine, the same
-precision rule, the same figures).
-
-Raw files are read with spicelib's ``RawRead`` (LTspice, ngspice, QSPICE and Xyce dialects,
-binary and ASCII, stepped LTspice runs and multi-plot ngspice files); no parser is written
-here.  Measured (``benchmarks/bench_netlist.py`` -> ``benchmarks/results/netlist.md``;
-ngspice-39, spicelib 1.6.4): the project's netlist of ``fig6-period3-ideal``, 20 periods,
-18340 points, written by ngspice as a binary raw (734 kB), an ASCII raw (``set
-filetype=ascii``, 2.25 MB) and ``wrdata`` text at 17 digits.  RawRead reads the binary file
-in 0.03-0.06 s and agrees with ``wrdata`` bit for bit on every vector (largest difference 0); the
-ASCII file in 0.1-0.2 s (two runs on a shared 2-core machine), within 1 ulp (max relative
-difference 5.5e-16: ngspice prints 16 digits there).
-The files ``ngspice -b -r`` writes (what :func:`run_netlist` runs) equal those of ``write``
-for the same run: bit for bit binary, within 4.4e-16 ASCII (``tests/lab/test_netlist.py``).
-It was chosen because it is maintained, reads every dialect users bring (LTspice's UTF-16
-headers, its stepped files, ngspice's multi-plot files) and is exact on binary files; spicelib
-cannot auto-detect ngspice-39's dialect (no ``Command:`` line), so :func:`read_raw` retries
-with ``dialect='ngspice'``.  The project's own ngspice backend
-(:mod:`precise_impact.models.circuit.spice`) reads ``wrdata`` text columns with
-``np.fromfile``: not a raw-file parser, left as it is.
-
-LTspice compresses waveforms lossily unless ``.options plotwinsize=0``: see
-:func:`lt_compression` and :data:`COMPRESSION_IMPACT_COST`.
+(:class:`NodeMap`, :func:`load_map`); volts and seconds map to ``(x, x', tau)`` from the design's
+component values or from scales fitted to the waveform, each with its standard error; the run is
+scored by :func:`precise_impact.verification.scores.score` against the heyoka reference of
+:mod:`precise_impact.verification.compare`.  Raw files are read with spicelib's ``RawRead``
+(why, and its measured exactness: :doc:`/guide/netlist`, "Reading raw files: spicelib");
+LTspice's lossy compression: :func:`lt_compression`.
 """
 
 from __future__ import annotations
@@ -64,10 +41,23 @@ from precise_impact.errors import (
     check_type,
 )
 from precise_impact.io.figures import plot_units, save_figure
+from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.lab.attractor import fit_sinusoid
 from precise_impact.models.circuit.components import Components, circuit_scales, dimensionless
 from precise_impact.models.circuit.spice import find_ngspice
+from precise_impact.scenes.scene import load_scene
+from precise_impact.solvers.simulate import make_solver
+from precise_impact.verification.compare import (
+    REF_PERTURBATION,
+    demonstrated_reference,
+    portraits_figure,
+    reference_lle,
+    score_line,
+    separation_figure,
+)
+from precise_impact.verification.metrics import reference_bits
+from precise_impact.verification.scores import detected_period, score
 
 __all__ = [
     "NodeMap",
@@ -130,7 +120,7 @@ _SNAP = 1e-9  # a time point within _SNAP * T of a sample time is that sample (b
 
 def _need_spicelib():
     try:
-        from spicelib import RawRead
+        from spicelib import RawRead  # noqa: PLC0415 -- optional: loaded on first use
     except ImportError as e:  # pragma: no cover - spicelib is in the 'lab' extra
         raise OptionalDependencyError(
             "spicelib", "pip install 'precise_impact[lab]'", "reading SPICE .raw files"
@@ -667,6 +657,62 @@ def tran_cost(text: str, name: str = "netlist") -> Cost:
     )
 
 
+def _run_budget(max_time: Any, timeout: float, text: str, name: str) -> tuple[Any, float]:
+    """``(budget, timeout)``: the run's estimate checked against ``max_time`` and the memory."""
+    budget = None
+    if max_time is not None:
+        budget = parse_max_time(max_time)
+        cost = tran_cost(text, name)  # before ngspice runs: its time, then its memory
+        if cost.seconds > budget:
+            raise OverBudgetError(
+                "max_time",
+                f"{budget:g} s",
+                f"a budget above the estimate ({cost.describe()}); raise --max-time or "
+                "shorten .tran (TSTOP) or lengthen its step",
+            )
+        try:
+            check_cost(cost, None)  # half the machine's memory: the raw file is read whole
+        except OverBudgetError:
+            raise OverBudgetError(
+                "file",
+                name,
+                f"a .tran run whose waveforms fit in half this machine's memory "
+                f"({cost.describe()}); shorten TSTOP or lengthen the step",
+            ) from None
+        timeout = min(timeout, budget)
+    return budget, timeout
+
+
+def _call_ngspice(
+    exe: str, raw: Path, cir: Path, wd: Path, timeout: float, budget: Any, text: str, name: str
+) -> tuple[str, float]:
+    """Run ngspice in ``wd``: ``(its log, elapsed s)``; a budget run out or an error raises."""
+    t0 = _time.perf_counter()
+    try:
+        proc = subprocess.run(
+            [exe, "-b", "-r", raw.name, cir.name],
+            cwd=wd,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+        )
+    except subprocess.TimeoutExpired as e:
+        # a budget ran out (the CLI: one line, exit 3), whichever of the two it was
+        which = "max_time" if budget is not None and timeout == budget else "timeout"
+        raise BudgetExceededError(
+            f"ngspice did not finish {name} within {which} = {timeout:g} s (estimate: "
+            f"{tran_cost(text, name).describe()}); raise --max-time or shorten .tran"
+        ) from e
+    elapsed = _time.perf_counter() - t0
+    log = proc.stdout + proc.stderr
+    (wd / "ngspice.log").write_text(log)
+    errs = [ln for ln in log.splitlines() if re.search(r"\berror\b|aborted|too small", ln, re.I)]
+    if proc.returncode != 0 or not raw.exists() or errs:
+        first = (errs or log.strip().splitlines()[-1:] or ["no output"])[0].strip()
+        raise SpiceError(f"ngspice could not run {name} (exit {proc.returncode}): {first}")
+    return log, elapsed
+
+
 def run_netlist(
     path: str | Path,
     workdir: str | Path | None = None,
@@ -746,27 +792,7 @@ def run_netlist(
     exe = find_ngspice(executable)
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
         raise ParameterError("timeout", timeout, "seconds > 0")
-    budget = None
-    if max_time is not None:
-        budget = parse_max_time(max_time)
-        cost = tran_cost(text, p.name)  # before ngspice runs: its time, then its memory
-        if cost.seconds > budget:
-            raise OverBudgetError(
-                "max_time",
-                f"{budget:g} s",
-                f"a budget above the estimate ({cost.describe()}); raise --max-time or "
-                "shorten .tran (TSTOP) or lengthen its step",
-            )
-        try:
-            check_cost(cost, None)  # half the machine's memory: the raw file is read whole
-        except OverBudgetError:
-            raise OverBudgetError(
-                "file",
-                p.name,
-                f"a .tran run whose waveforms fit in half this machine's memory "
-                f"({cost.describe()}); shorten TSTOP or lengthen the step",
-            ) from None
-        timeout = min(timeout, budget)
+    budget, timeout = _run_budget(max_time, timeout, text, p.name)
     with tempfile.TemporaryDirectory(prefix="precise_impact_netlist_") as tmp:
         wd = Path(workdir) if workdir is not None else Path(tmp)
         wd.mkdir(parents=True, exist_ok=True)
@@ -779,31 +805,7 @@ def run_netlist(
         raw = wd / "user.raw"
         if raw.exists():
             raw.unlink()
-        t0 = _time.perf_counter()
-        try:
-            proc = subprocess.run(
-                [exe, "-b", "-r", raw.name, cir.name],
-                cwd=wd,
-                capture_output=True,
-                text=True,
-                timeout=timeout,
-            )
-        except subprocess.TimeoutExpired as e:
-            # a budget ran out (the CLI: one line, exit 3), whichever of the two it was
-            which = "max_time" if budget is not None and timeout == budget else "timeout"
-            raise BudgetExceededError(
-                f"ngspice did not finish {p.name} within {which} = {timeout:g} s (estimate: "
-                f"{tran_cost(text, p.name).describe()}); raise --max-time or shorten .tran"
-            ) from e
-        elapsed = _time.perf_counter() - t0
-        log = proc.stdout + proc.stderr
-        (wd / "ngspice.log").write_text(log)
-        errs = [
-            ln for ln in log.splitlines() if re.search(r"\berror\b|aborted|too small", ln, re.I)
-        ]
-        if proc.returncode != 0 or not raw.exists() or errs:
-            first = (errs or log.strip().splitlines()[-1:] or ["no output"])[0].strip()
-            raise SpiceError(f"ngspice could not run {p.name} (exit {proc.returncode}): {first}")
+        log, elapsed = _call_ngspice(exe, raw, cir, wd, timeout, budget, text, p.name)
         runs = read_raw(raw)
         if workdir is None:
             for w in runs:
@@ -1183,7 +1185,6 @@ class NetlistScoreResult(ResultMixin):
         matplotlib.figure.Figure
             The figure.
         """
-        from precise_impact.verification.compare import portraits_figure, separation_figure
 
         if what not in ("portraits", "separation"):
             raise ParameterError("what", what, "'portraits' or 'separation'")
@@ -1209,7 +1210,6 @@ class NetlistScoreResult(ResultMixin):
 def _target(nmap: NodeMap, scene: str | None):
     """``(params, design or None, scene name)`` from the scene, the map's components or its
     parameters."""
-    from precise_impact.scenes.scene import load_scene
 
     name = scene or nmap.scene
     if name is not None:
@@ -1550,14 +1550,6 @@ def score_netlist(
     >>> r.runs[0]["periods"], r.mapping["mode"], r.runs[0]["scores"]["initial_separation"] < 1e-15
     (10, 'components', True)
     """
-    from precise_impact.verification.compare import (
-        REF_PERTURBATION,
-        demonstrated_reference,
-        reference_lle,
-        score_line,
-    )
-    from precise_impact.verification.metrics import reference_bits
-    from precise_impact.verification.scores import detected_period, score
 
     check_type(path, (str, os.PathLike), "path", "a netlist or .raw file (str or os.PathLike)")
     p = Path(path)
@@ -1695,8 +1687,6 @@ def score_netlist(
         regime = "periodic" if detected_period(ref, k) > 0 else "chaotic"
         ref2 = None
         if regime == "chaotic":
-            from precise_impact.solvers.simulate import make_solver
-
             p2 = p0.replace(x0=p0.x0 + REF_PERTURBATION)
             ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, n_per)
         sc = score(tr, ref, regime=regime, lle=lle["lle"], ref2=ref2, transient=k)
@@ -1745,8 +1735,6 @@ def score_netlist(
     )
     res._plots = {"runs": plots, "k": k, "target": target, "params": params, "design": design}
     if out is not None:
-        from precise_impact.io.jsonout import write_json
-
         o = Path(out)
         o.mkdir(parents=True, exist_ok=True)
         res.files = [str(o / "scores.json")]
@@ -1773,7 +1761,6 @@ def format_result(res: NetlistScoreResult) -> str:
         Source, mapping, reference, forcing fit, one line per run
         (:mod:`~precise_impact.verification.compare`'s form), the warnings.
     """
-    from precise_impact.verification.compare import score_line
 
     m, r = res.mapping, res.reference
     scale = f"scales from {m['mode']}: omega = {m['omega']:.10g} rad/s"

@@ -1,53 +1,12 @@
 """Oscilloscope capture files: readers (and writers of the same layouts, for tests and synthesis).
 
 :func:`read_capture` returns a :class:`~precise_impact.lab.capture.Capture` in SI units from the
-files bench oscilloscopes write; the layout is sniffed from the first lines (or given as
-``fmt``).  Every refusal is one :class:`~precise_impact.errors.ParameterError` naming the file
-(or ``channels``) and what is wrong: damaged (a non-numeric or missing value), truncated (fewer
-rows or bytes than the header states, a last row cut short), a wrong unit (a channel not in
-volts, a time axis not in seconds: an FFT export, a current probe) or a wrong channel (one asked
-for that the file does not hold).  The CLI prints it as one line and exits 2.
-
-Layouts (``fmt``), as the instruments write them:
-
-``rigol``  Rigol DS1000Z ("Save > CSV"): ``X,CH1,CH2,Start,Increment,`` then
-           ``Sequence,Volt,Volt,<start>,<increment>`` then ``<index>,<v1>,<v2>,`` rows; time is
-           ``start + index * increment`` (X in ``Second``, as some firmwares write it: the
-           times themselves, from ``start`` in steps of ``increment``).  Layout as parsed by
-           github.com/vidavidorra/rigol-csv-analyser (its header comment quotes a DS1054Z file).
-``rigol-mso5000``  Rigol MSO5000 / DHO: ``Time(s),CH1V,CH2V[,t0 = ..., tInc = ...]`` then
-           ``<t>,<v1>,<v2>`` rows (the header form parsed by the Rigol readers found in public
-           code: "Time(s),CH1V,CH2V").
-``keysight``  Keysight/Agilent InfiniiVision (2000/3000/4000 X "Save > CSV"): ``x-axis,1,2``
-           then ``second,Volt,Volt`` then ``<t>,<v1>,<v2>`` (the two header lines the openqlab
-           ``KeysightCSV`` importer keys on: ``^x-axis``, ``^second``).
-``tek-tbs``  Tektronix TDS1000/2000 and TBS1000 ("Save All" to ``ALLnnnn/FnnnnCHk.CSV``, one file
-           per channel): each row carries a header field in columns A-B (``Record Length``,
-           ``Sample Interval``, ``Trigger Point``, ``Source``, ``Vertical Units``, ``Horizontal
-           Units``, ..., ``Firmware Version``) and the sample in columns D-E (time, volts):
-           layout as documented by the ripyl project's "Reading oscilloscope data" page
-           (github.com/kevinpt/ripyl: sample period in cell B2, samples in column E).
-``tek``  Tektronix MDO3000/MSO-DPO2000-4000 and TBS2000: ``key,value[,value...]`` preamble rows
-           (``Model``, ``Firmware Version``, ``Horizontal Units``, ``Sample Interval``, ``Record
-           Length``, ``Vertical Units,V,V``, ``Label``) then ``TIME,CH1,CH2`` and the rows.
-``siglent``  Siglent SDS1000X-E/2000X: ``Record Length,Analog:N``, ``Sample Interval`` or
-           ``Sample Rate``, ``Vertical Scale,CH1:...``, ... then ``Second,Volt[,Volt]`` and
-           the rows (the layout shown in github.com/MartinCowen/SigFyCSV's README).
-``csv``  Generic time-first CSV: an optional header row of names with units in brackets or
-           parentheses (``time [s],V_s [V]``, ``Time (ms),CH1 (mV)``), then ``t,v1,v2[,v3]``.
-``npz``  :meth:`Capture.write_npz` (arrays ``t``, ``V_s``, ``V_q``, ``V_3`` and JSON ``meta``), or
-           any NPZ with a time array (``t``/``time``) and channel arrays.
-``binary``  Vendors' binary waveform files read by RigolWFM (>= 1.6): Rigol ``.wfm``/``.bin``,
-           Keysight/Agilent ``.bin`` (``AG10``: several channels in one file, the layout of the
-           InfiniiVision 2000 X-Series manual as RigolWFM's ``agilent_agxx_bin`` schema gives it),
-           Tektronix ``.isf``/``.wfm``, Siglent, LeCroy, Yokogawa ``.bin``/``.trc``/``.wfm``.
-
-Times: instruments print times to 4-7 significant digits, so a long record's printed steps are
-uneven; the time axis is replaced by its least-squares uniform grid when every printed time is
-within a quarter sample of it (a missing or repeated row is not, and is refused).
-
-Channels: the file's channels map to ``V_s``, ``V_q`` (and ``V_3``) in file order unless
-``channels`` names them: ``'CH2,CH1'`` (in role order) or ``'V_s=CH2,V_q=CH1,V_3=CH4'``.
+files bench oscilloscopes write (:data:`READ_FORMATS`; :func:`write_capture` writes
+:data:`WRITE_FORMATS`); the layout is sniffed from the first lines (or given as ``fmt``).  Every
+refusal is one :class:`~precise_impact.errors.ParameterError` naming the file (or ``channels``)
+and what is wrong; the CLI prints it as one line and exits 2.  Each layout as the instruments
+write it (and its public source), the time grid and the channel mapping:
+:doc:`/guide/captures`, "Capture files in detail".
 """
 
 from __future__ import annotations
@@ -66,7 +25,7 @@ import numpy as np
 
 from precise_impact.errors import OptionalDependencyError, ParameterError, check_type
 from precise_impact.io.atomic import atomic_write
-from precise_impact.lab.capture import CHANNELS, Capture
+from precise_impact.lab.capture import CHANNELS, UNIFORM_RTOL, Capture
 
 __all__ = [
     "read_capture",
@@ -187,32 +146,8 @@ def parse_channels(channels: Any, available: Sequence[str], path: Any = "") -> d
     """
     norm = {_key(a): a for a in available}
     if channels is None:
-        if len(available) < 2:
-            raise _bad(
-                path, f"{len(available)} channel(s)", "two or three channels: V_s, V_q[, V_3]"
-            )
-        if len(available) > 3:
-            raise ParameterError(
-                "channels",
-                None,
-                f"a choice among the file's {len(available)} channels ({', '.join(available)}): "
-                "e.g. --channels V_s=CH1,V_q=CH2,V_3=CH3",
-            )
-        return dict(zip(CHANNELS, available, strict=False))
-    if isinstance(channels, str):
-        parts = [p.strip() for p in channels.split(",") if p.strip()]
-        if all("=" in p for p in parts):
-            channels = dict(p.split("=", 1) for p in parts)
-        elif any("=" in p for p in parts):
-            raise ParameterError("channels", channels, "either all 'role=name' or all names")
-        else:
-            channels = parts
-    if isinstance(channels, dict):
-        mapping = {k.strip(): str(v).strip() for k, v in channels.items()}
-    else:
-        mapping = dict(zip(CHANNELS, [str(c) for c in channels], strict=False))
-        if len(channels) > 3:
-            raise ParameterError("channels", list(channels), "two or three names: V_s, V_q[, V_3]")
+        return _channels_in_order(available, path)
+    mapping, channels = _role_mapping(channels)
     bad_roles = sorted(set(mapping) - set(CHANNELS))
     if bad_roles or not {"V_s", "V_q"} <= set(mapping):
         raise ParameterError(
@@ -231,6 +166,39 @@ def parse_channels(channels: Any, available: Sequence[str], path: Any = "") -> d
     if len(set(out.values())) != len(out):
         raise ParameterError("channels", channels, "a different file channel for each role")
     return out
+
+
+def _channels_in_order(available: Sequence[str], path: Any) -> dict[str, str]:
+    """The file's two or three channels as ``V_s``, ``V_q``[, ``V_3``], in file order."""
+    if len(available) < 2:
+        raise _bad(path, f"{len(available)} channel(s)", "two or three channels: V_s, V_q[, V_3]")
+    if len(available) > 3:
+        raise ParameterError(
+            "channels",
+            None,
+            f"a choice among the file's {len(available)} channels ({', '.join(available)}): "
+            "e.g. --channels V_s=CH1,V_q=CH2,V_3=CH3",
+        )
+    return dict(zip(CHANNELS, available, strict=False))
+
+
+def _role_mapping(channels: Any) -> tuple[dict[str, str], Any]:
+    """``({role: name}, channels as parsed)`` from a string, a sequence or a dict of names."""
+    if isinstance(channels, str):
+        parts = [p.strip() for p in channels.split(",") if p.strip()]
+        if all("=" in p for p in parts):
+            channels = dict(p.split("=", 1) for p in parts)
+        elif any("=" in p for p in parts):
+            raise ParameterError("channels", channels, "either all 'role=name' or all names")
+        else:
+            channels = parts
+    if isinstance(channels, dict):
+        mapping = {k.strip(): str(v).strip() for k, v in channels.items()}
+    else:
+        mapping = dict(zip(CHANNELS, [str(c) for c in channels], strict=False))
+        if len(channels) > 3:
+            raise ParameterError("channels", list(channels), "two or three names: V_s, V_q[, V_3]")
+    return mapping, channels
 
 
 def _key(name: str) -> str:
@@ -320,7 +288,11 @@ def sniff_format(path: Path) -> str:
         text = head.decode("utf-8-sig")
     except UnicodeDecodeError:
         return "binary"
-    lines = text.splitlines()
+    return _text_layout(text.splitlines())
+
+
+def _text_layout(lines: list[str]) -> str:
+    """The layout of a text file from its first lines (the vendors' header signatures)."""
     first = lines[0].strip().lower() if lines else ""
     if first.startswith("x,") and "increment" in first:
         return "rigol"
@@ -742,7 +714,7 @@ def _isf_preamble(p: Path) -> tuple[str | None, str | None]:
 
 def _read_binary(paths: list[Path], channels: Any) -> Capture:
     try:
-        import RigolWFM.wfm as rwfm
+        import RigolWFM.wfm as rwfm  # noqa: PLC0415 -- optional: loaded on first use
     except ImportError:
         raise OptionalDependencyError(
             "RigolWFM", "pip install 'precise_impact[lab]'", "reading binary waveform files"
@@ -841,7 +813,6 @@ def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = N
     labels = [_LABELS[k] for k in ch]
     cols = [capture.channels[k] for k in ch]
     t, dt = capture.t, capture.sample_interval
-    n = len(t)
     if fmt == "npz":
         return capture.write_npz(path)
     if fmt == "keysight-bin":
@@ -855,75 +826,104 @@ def write_capture(capture: Capture, path: str | os.PathLike, fmt: str | None = N
         return path
     _check_printable(capture, fmt, path)
     out = io.StringIO()
-    vals = np.column_stack(cols)
-    if fmt == "csv":
-        # the project's own layout keeps every bit: %.17g round-trips any float64
-        out.write("time [s]," + ",".join(f"{k} [V]" for k in ch) + "\n")
-        np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.17g"] + ["%.17g"] * len(ch)
-        )
-    elif fmt == "rigol":
-        out.write("X," + ",".join(labels) + ",Start,Increment,\n")
-        out.write("Sequence," + ",".join(["Volt"] * len(ch)) + f",{t[0]:.6e},{dt:.6e}\n")
-        np.savetxt(
-            out,
-            np.column_stack([np.arange(n), vals]),
-            delimiter=",",
-            fmt=["%d"] + ["%.5e"] * len(ch),
-            newline=",\n",
-        )
-    elif fmt == "keysight":
-        out.write("x-axis," + ",".join(lab[2:] for lab in labels) + "\n")
-        out.write("second," + ",".join(["Volt"] * len(ch)) + "\n")
-        np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.9e"] + ["%.6e"] * len(ch)
-        )
-    elif fmt == "tek":
-        k = len(ch)
-        pre = [
-            ("Model", ["MDO3024"]),
-            ("Firmware Version", ["1.30"]),
-            ("", []),
-            ("Waveform Type", ["ANALOG"]),
-            ("Point Format", ["Y"]),
-            ("Horizontal Units", ["s"]),
-            ("Horizontal Scale", [f"{n * dt / 10:.6g}"]),
-            ("Horizontal Delay", ["0"]),
-            ("Sample Interval", [f"{dt:.6g}"]),
-            ("Record Length", [str(n)]),
-            ("Gating", ["0.0% to 100.0%"]),
-            ("Probe Attenuation", ["1"] * k),
-            ("Vertical Units", ["V"] * k),
-            ("Vertical Offset", ["0"] * k),
-            ("Vertical Scale", ["1"] * k),
-            ("Vertical Position", ["0"] * k),
-            ("", []),
-            ("", []),
-            ("", []),
-            ("Label", [""] * k),
-        ]
-        for key, v in pre:
-            out.write(",".join([key, *v]) + "\n")
-        out.write("TIME," + ",".join(labels) + "\n")
-        np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.7e"] + ["%.5g"] * len(ch)
-        )
-    elif fmt == "siglent":
-        out.write(f"Record Length,Analog:{n}\n")
-        out.write(f"Sample Interval,{dt:.6E}\n")
-        out.write("Vertical Units," + ",".join(f"{lab}:V" for lab in labels) + "\n")
-        out.write("Vertical Scale," + ",".join(f"{lab}:1.00E+00" for lab in labels) + "\n")
-        out.write("Vertical Offset," + ",".join(f"{lab}:0.00E+00" for lab in labels) + "\n")
-        out.write("Horizontal Units,S\n")
-        out.write(f"Horizontal Scale,{n * dt / 14:.6E}\n")
-        out.write("Model Number,SDS1104X-E\n")
-        out.write("Source," + ",".join(labels) + "\n")
-        out.write("Second," + ",".join(["Volt"] * len(ch)) + "\n")
-        np.savetxt(
-            out, np.column_stack([t, vals]), delimiter=",", fmt=["%.8E"] + ["%.5E"] * len(ch)
-        )
+    _TEXT_WRITERS[fmt](out, t, dt, np.column_stack(cols), list(ch), labels)
     _write_text(path, out.getvalue())
     return path
+
+
+def _text_csv(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """The project's generic CSV (every bit: %.17g)."""
+    # the project's own layout keeps every bit: %.17g round-trips any float64
+    out.write("time [s]," + ",".join(f"{k} [V]" for k in ch) + "\n")
+    np.savetxt(out, np.column_stack([t, vals]), delimiter=",", fmt=["%.17g"] + ["%.17g"] * len(ch))
+
+
+def _text_rigol(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """Rigol DS1000Z CSV: index rows, start and increment in the header."""
+    n = len(t)
+    out.write("X," + ",".join(labels) + ",Start,Increment,\n")
+    out.write("Sequence," + ",".join(["Volt"] * len(ch)) + f",{t[0]:.6e},{dt:.6e}\n")
+    np.savetxt(
+        out,
+        np.column_stack([np.arange(n), vals]),
+        delimiter=",",
+        fmt=["%d"] + ["%.5e"] * len(ch),
+        newline=",\n",
+    )
+
+
+def _text_keysight(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """Keysight InfiniiVision CSV: ``x-axis`` and ``second`` header rows."""
+    out.write("x-axis," + ",".join(lab[2:] for lab in labels) + "\n")
+    out.write("second," + ",".join(["Volt"] * len(ch)) + "\n")
+    np.savetxt(out, np.column_stack([t, vals]), delimiter=",", fmt=["%.9e"] + ["%.6e"] * len(ch))
+
+
+def _text_tek(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """Tektronix MDO/MSO CSV: the key-value preamble, then ``TIME,CH1,..``."""
+    n = len(t)
+    k = len(ch)
+    pre = [
+        ("Model", ["MDO3024"]),
+        ("Firmware Version", ["1.30"]),
+        ("", []),
+        ("Waveform Type", ["ANALOG"]),
+        ("Point Format", ["Y"]),
+        ("Horizontal Units", ["s"]),
+        ("Horizontal Scale", [f"{n * dt / 10:.6g}"]),
+        ("Horizontal Delay", ["0"]),
+        ("Sample Interval", [f"{dt:.6g}"]),
+        ("Record Length", [str(n)]),
+        ("Gating", ["0.0% to 100.0%"]),
+        ("Probe Attenuation", ["1"] * k),
+        ("Vertical Units", ["V"] * k),
+        ("Vertical Offset", ["0"] * k),
+        ("Vertical Scale", ["1"] * k),
+        ("Vertical Position", ["0"] * k),
+        ("", []),
+        ("", []),
+        ("", []),
+        ("Label", [""] * k),
+    ]
+    for key, v in pre:
+        out.write(",".join([key, *v]) + "\n")
+    out.write("TIME," + ",".join(labels) + "\n")
+    np.savetxt(out, np.column_stack([t, vals]), delimiter=",", fmt=["%.7e"] + ["%.5g"] * len(ch))
+
+
+def _text_siglent(
+    out: Any, t: np.ndarray, dt: float, vals: np.ndarray, ch: list[str], labels: list[str]
+) -> None:
+    """Siglent SDS CSV: the key-value header, then ``Second,Volt,..``."""
+    n = len(t)
+    out.write(f"Record Length,Analog:{n}\n")
+    out.write(f"Sample Interval,{dt:.6E}\n")
+    out.write("Vertical Units," + ",".join(f"{lab}:V" for lab in labels) + "\n")
+    out.write("Vertical Scale," + ",".join(f"{lab}:1.00E+00" for lab in labels) + "\n")
+    out.write("Vertical Offset," + ",".join(f"{lab}:0.00E+00" for lab in labels) + "\n")
+    out.write("Horizontal Units,S\n")
+    out.write(f"Horizontal Scale,{n * dt / 14:.6E}\n")
+    out.write("Model Number,SDS1104X-E\n")
+    out.write("Source," + ",".join(labels) + "\n")
+    out.write("Second," + ",".join(["Volt"] * len(ch)) + "\n")
+    np.savetxt(out, np.column_stack([t, vals]), delimiter=",", fmt=["%.8E"] + ["%.5E"] * len(ch))
+
+
+_TEXT_WRITERS = {
+    "csv": _text_csv,
+    "rigol": _text_rigol,
+    "keysight": _text_keysight,
+    "tek": _text_tek,
+    "siglent": _text_siglent,
+}
 
 
 #: What each layout prints: the time column's format (``None``: start and increment in the
@@ -957,7 +957,6 @@ def _check_printable(capture: Capture, fmt: str, path: Path) -> None:
     as printed must still be uniform to :data:`~precise_impact.lab.capture.UNIFORM_RTOL` (what
     the reader checks), each channel's rounding within :data:`PRINT_MAX_ROUNDING` of its
     peak-to-peak (a large offset on a small signal loses the signal)."""
-    from precise_impact.lab.capture import UNIFORM_RTOL
 
     t_fmt, v_fmt = _PRINTED[fmt]
     t, dt = capture.t, capture.sample_interval

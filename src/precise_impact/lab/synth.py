@@ -1,38 +1,12 @@
 """Synthetic scope captures: a model of the circuit seen through an explicit measurement model.
 
-:func:`synth_capture` runs a scene on any model of the circuit (``circuit`` ideal op-amps,
-``switched-capacitor`` with datasheet parts, ``spice`` through ngspice) through the project's
-scene machinery (:func:`precise_impact.verification.compare.scene_for_model` and
-:func:`precise_impact.scenes.run.run_scene`, as ``compare`` runs each model), samples the trajectory
-at the scope's sample times, maps it to volts with the design's component values
-(:func:`precise_impact.models.circuit.components.to_circuit`) and applies a
-:class:`Measurement`:
-
-* the scope's time base runs ``timebase_ppm`` fast: the file says ``dt`` where ``dt / (1 + e)``
-  passed (``e = timebase_ppm 1e-6``), so every frequency read from the file is ``1 / (1 + e)``
-  of the true one;
-* the record starts at a random point of the attractor (``transient`` periods plus a uniform
-  fraction of a period, from ``seed``) and its first sample is at file time ``trigger_offset``;
-* each channel: probe gain ``(1 + gain_error)``, ``offset_error`` volts, white Gaussian noise of
-  RMS ``noise`` x full scale, 1/f noise of RMS ``flicker`` x full scale (spectrally shaped over
-  the record), then a ``bits``-bit ADC over the channel's full scale (mid-tread codes, clipped at
-  the rails: the clipped count is recorded).
-
-Sampling between the model's dense points is cubic Hermite in ``(x, x')`` and ``(x', x'')`` on
-knots that include every impact (before and after it at the wall), so the velocity's jump lands
-exactly at the impact time; its error is ``h^4/384 max|x''''|`` with ``h = 2 pi / (eta
-per_period)``, ~1e-8 at the default 256 points per period: far below an 8-bit code.
-
-The truth the scorers are tested against is recorded in ``capture.source['truth']``: the forcing
-angular frequency and phase in the file's time base, the model's impacts inside the record, the
-scene and its parameters, and ``lle_record``: the finite-time variational exponent of the record's
-own stretch (:func:`precise_impact.analysis.lyapunov.finite_time.finite_time_lle` along the model's
-impacts; ideal circuit only), the value an estimate from this one record is validated against.
-
-The seed draws the noise and the start's fraction of a period: records of different seeds share
-their stretch of the attractor.  Independent records of a chaotic attractor differ in
-``transient`` by more than their length (``transient = 100 + (periods + 50) k``, as the truth
-table of :mod:`precise_impact.analysis.lyapunov.timeseries` does).
+:func:`synth_capture` runs a scene on any model of the circuit (``circuit``,
+``switched-capacitor``, ``spice``) as ``compare`` runs each model, samples the trajectory at the
+scope's sample times (cubic Hermite on knots that include every impact), maps it to volts with
+the design's component values and applies a :class:`Measurement` (time-base error, trigger,
+probe gain and offset, white and 1/f noise, ADC).  The truth the scorers are tested against is
+kept in ``capture.source['truth']``.  The measurement model, the sampling error and the truth:
+:doc:`/guide/captures`, "The measurement model in detail".
 """
 
 from __future__ import annotations
@@ -43,10 +17,17 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.lyapunov.finite_time import finite_time_lle
 from precise_impact.core.budget import Deadline, parse_max_time
+from precise_impact.core.flow import acceleration
 from precise_impact.core.params import decimal_str
 from precise_impact.errors import ParameterError
 from precise_impact.lab.capture import CHANNELS, MIN_SAMPLES, UNIFORM_RTOL, Capture
+from precise_impact.models.circuit.components import circuit_scales, to_circuit
+from precise_impact.models.circuit.effects.catalogue import CIRCUIT_MODELS
+from precise_impact.scenes.run import run_scene
+from precise_impact.scenes.scene import Scene, load_scene
+from precise_impact.verification.compare import scene_for_model
 
 __all__ = ["Measurement", "synth_capture", "sample_trajectory", "DEFAULT_SAMPLES_PER_PERIOD"]
 
@@ -109,6 +90,15 @@ class Measurement:
 
     def check(self) -> Measurement:
         """Validated (one :class:`ParameterError` naming the field and its range)."""
+        self._check_record()
+        for name in ("gain_error", "offset_error", "full_scale", "noise_v"):
+            self._check_per_channel(name)
+        if not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise ParameterError("seed", self.seed, "an integer >= 0")
+        return self
+
+    def _check_record(self) -> None:
+        """Check the ADC, noise, sample-rate, length, trigger and time-base fields."""
         if not (isinstance(self.bits, (int, np.integer)) and 0 <= self.bits <= 24):
             raise ParameterError("bits", self.bits, "an integer 0..24 (0: unquantised)")
         for name in ("noise", "flicker"):
@@ -125,23 +115,22 @@ class Measurement:
             raise ParameterError("trigger_offset", self.trigger_offset, "a finite time in s")
         if not (math.isfinite(self.timebase_ppm) and abs(self.timebase_ppm) <= 1e4):
             raise ParameterError("timebase_ppm", self.timebase_ppm, "|ppm| <= 1e4")
-        for name in ("gain_error", "offset_error", "full_scale", "noise_v"):
-            v = getattr(self, name)
-            vals = v.values() if isinstance(v, dict) else ([] if v is None else [v])
-            if isinstance(v, dict) and set(v) - set(CHANNELS):
-                raise ParameterError(name, sorted(set(v) - set(CHANNELS)), "keys of V_s, V_q, V_3")
-            for x in vals:
-                if not (isinstance(x, (int, float)) and math.isfinite(x)):
-                    raise ParameterError(name, x, "finite numbers")
-                if name == "gain_error" and not -0.5 < x < 0.5:
-                    raise ParameterError(name, x, "-0.5 < gain error < 0.5")
-                if name == "full_scale" and not x > 0:
-                    raise ParameterError(name, x, "> 0 V")
-                if name == "noise_v" and not x >= 0:
-                    raise ParameterError(name, x, ">= 0 V")
-        if not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise ParameterError("seed", self.seed, "an integer >= 0")
-        return self
+
+    def _check_per_channel(self, name: str) -> None:
+        """Check one per-channel field (a number or ``{channel: number}``) and its range."""
+        v = getattr(self, name)
+        vals = v.values() if isinstance(v, dict) else ([] if v is None else [v])
+        if isinstance(v, dict) and set(v) - set(CHANNELS):
+            raise ParameterError(name, sorted(set(v) - set(CHANNELS)), "keys of V_s, V_q, V_3")
+        for x in vals:
+            if not (isinstance(x, (int, float)) and math.isfinite(x)):
+                raise ParameterError(name, x, "finite numbers")
+            if name == "gain_error" and not -0.5 < x < 0.5:
+                raise ParameterError(name, x, "-0.5 < gain error < 0.5")
+            if name == "full_scale" and not x > 0:
+                raise ParameterError(name, x, "> 0 V")
+            if name == "noise_v" and not x >= 0:
+                raise ParameterError(name, x, ">= 0 V")
 
     def per_channel(self, name: str, field: str, default: Any = 0.0) -> Any:
         v = getattr(self, field)
@@ -179,7 +168,6 @@ def _knots(tr: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def sample_trajectory(tr: Any, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(x, x')`` of a trajectory with dense output at dimensionless times ``tau`` (cubic
     Hermite between its dense points and impacts; the acceleration of eq. (2a) as ``x''``)."""
-    from precise_impact.core.flow import acceleration
 
     if tr.dense_t is None or len(tr.dense_t) < 2:
         raise ParameterError("model", tr.model, "a model with dense output")
@@ -211,6 +199,105 @@ def _flicker(rng: np.random.Generator, n: int) -> np.ndarray:
     spec[1:] /= np.sqrt(f[1:])
     y = np.fft.irfft(spec, n)
     return y / float(np.std(y))
+
+
+def _checked_args(
+    scene: Any,
+    model: str | None,
+    measurement: Measurement | None,
+    measurement_kw: dict,
+    channels: Any,
+    transient: Any,
+    max_time: Any,
+) -> tuple[Measurement, Any, Any, Any, str]:
+    """Check synth_capture's arguments: (measurement, max_time, channels, scene, model)."""
+    meas = (measurement or Measurement(**measurement_kw)).check()
+    if max_time is not None and not isinstance(max_time, Deadline):
+        max_time = Deadline(parse_max_time(max_time), "capture synth")
+    if measurement is not None and measurement_kw:
+        raise ParameterError("measurement", sorted(measurement_kw), "a Measurement or its fields")
+    if isinstance(channels, str):
+        channels = tuple(c.strip() for c in channels.split(","))
+    if not {"V_s", "V_q"} <= set(channels) or set(channels) - set(CHANNELS):
+        raise ParameterError("channels", ",".join(channels), "V_s,V_q or V_s,V_q,V_3")
+    if not isinstance(transient, (int, np.integer)) or not 0 <= transient <= 10**5:
+        raise ParameterError("transient", transient, "an integer 0..1e5")
+    sc = scene if isinstance(scene, Scene) else load_scene(scene)
+    if sc.kind != "single":
+        raise ParameterError("scene", sc.name, "a single-oscillator scene")
+    model = model or sc.model
+    if model not in CIRCUIT_MODELS:
+        raise ParameterError("model", model, "a circuit model: " + ", ".join(CIRCUIT_MODELS))
+    return meas, max_time, channels, sc, model
+
+
+def _record_grid(meas: Measurement, T: float) -> tuple[float, float, int]:
+    """The sample rate, interval and count of the record, checked before any work."""
+    fs = meas.sample_rate or _rate_125(DEFAULT_SAMPLES_PER_PERIOD / T)
+    dt = 1.0 / fs
+    n = int(math.ceil(meas.periods * T / dt))
+    # the record, checked before any work: enough samples, sampled above Nyquist, not too many
+    lo_fs = max(2.0 / T, MIN_SAMPLES / (meas.periods * T))
+    if not lo_fs <= fs:
+        raise ParameterError(
+            "sample_rate",
+            fs,
+            f">= {lo_fs:.6g} Sa/s for this record (>= 2 samples per forcing period of "
+            f"{T:.6g} s and >= {MIN_SAMPLES} samples in {meas.periods:g} periods)",
+        )
+    if n > 5 * 10**7:
+        raise ParameterError("sample_rate", fs, f"a record of <= 5e7 samples (asked {n})")
+    # float64 file times trigger_offset + k dt must resolve a step to the reader's uniformity
+    # tolerance: an ulp of the largest time <= UNIFORM_RTOL / 10 of dt
+    t_max = abs(meas.trigger_offset) + n * dt
+    if math.ulp(t_max) > 0.1 * UNIFORM_RTOL * dt:
+        lim = 0.1 * UNIFORM_RTOL * dt / math.ulp(1.0) / 2
+        raise ParameterError(
+            "trigger_offset",
+            meas.trigger_offset,
+            f"|trigger offset| <~ {lim:.3g} s at this sample interval ({dt:.3g} s): float64 "
+            "times further from 0 no longer resolve a sample step",
+        )
+    return fs, dt, n
+
+
+def _measured(
+    name: str, y: np.ndarray, meas: Measurement, rng: np.random.Generator, n: int
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """One channel through the probe, the noise and the ADC: ``(samples, range record)``."""
+    g = float(meas.per_channel(name, "gain_error"))
+    y = (1 + g) * y + float(meas.per_channel(name, "offset_error"))
+    fsr = meas.per_channel(name, "full_scale", None)
+    if fsr is None:
+        pp = float(y.max() - y.min()) or 1.0
+        lo, fsr = float(y.min()) - 0.125 * pp, 1.25 * pp
+    else:
+        lo = 0.5 * float(y.max() + y.min()) - 0.5 * float(fsr)
+    sigma = meas.per_channel(name, "noise_v", None)
+    sigma = meas.noise * fsr if sigma is None else float(sigma)
+    y = y + sigma * rng.normal(size=n)
+    if meas.flicker:
+        y = y + meas.flicker * fsr * _flicker(rng, n)
+    clipped = 0
+    if meas.bits:
+        lsb = fsr / 2**meas.bits
+        code = np.floor((y - lo) / lsb)
+        clipped = int(np.sum((code < 0) | (code > 2**meas.bits - 1)))
+        y = lo + (np.clip(code, 0, 2**meas.bits - 1) + 0.5) * lsb
+    return y, {"low": lo, "full_scale": float(fsr), "clipped": clipped}
+
+
+def _lle_record(model: str, fitted: Any, params: Any, f: dict, tau: np.ndarray) -> Any:
+    """The finite-time LLE of the record's stretch (ideal circuit only), else ``None``."""
+    # the finite-time variational exponent of the record's own stretch (per unit of the
+    # oscillator's time), along the model's impacts: the mechanics' tangent map, so only for a
+    # model without effects (the ideal circuit is the mechanics); a 200-period record's own
+    # exponent scatters ~11 % about the asymptotic one at eta = 0.712
+    if model == "circuit" and not fitted.effects and 0 <= float(params.zeta) < 1:
+        return finite_time_lle(
+            params, f["impacts_t"], f["impacts_v_before"], float(tau[0]), float(tau[-1])
+        )
+    return None
 
 
 def synth_capture(
@@ -271,29 +358,10 @@ def synth_capture(
     >>> sorted(cap.channels), round(cap.source["truth"]["forcing_frequency_hz"], 3)
     (['V_3', 'V_q', 'V_s'], 117.775)
     """
-    from precise_impact.models.circuit.components import circuit_scales, to_circuit
-    from precise_impact.models.circuit.effects.catalogue import CIRCUIT_MODELS
-    from precise_impact.scenes.run import run_scene
-    from precise_impact.scenes.scene import Scene, load_scene
-    from precise_impact.verification.compare import scene_for_model
 
-    meas = (measurement or Measurement(**measurement_kw)).check()
-    if max_time is not None and not isinstance(max_time, Deadline):
-        max_time = Deadline(parse_max_time(max_time), "capture synth")
-    if measurement is not None and measurement_kw:
-        raise ParameterError("measurement", sorted(measurement_kw), "a Measurement or its fields")
-    if isinstance(channels, str):
-        channels = tuple(c.strip() for c in channels.split(","))
-    if not {"V_s", "V_q"} <= set(channels) or set(channels) - set(CHANNELS):
-        raise ParameterError("channels", ",".join(channels), "V_s,V_q or V_s,V_q,V_3")
-    if not isinstance(transient, (int, np.integer)) or not 0 <= transient <= 10**5:
-        raise ParameterError("transient", transient, "an integer 0..1e5")
-    sc = scene if isinstance(scene, Scene) else load_scene(scene)
-    if sc.kind != "single":
-        raise ParameterError("scene", sc.name, "a single-oscillator scene")
-    model = model or sc.model
-    if model not in CIRCUIT_MODELS:
-        raise ParameterError("model", model, "a circuit model: " + ", ".join(CIRCUIT_MODELS))
+    meas, max_time, channels, sc, model = _checked_args(
+        scene, model, measurement, measurement_kw, channels, transient, max_time
+    )
     params = sc.params if eta is None else sc.params.replace(eta=eta)
     # the design realising these parameters (Omega follows eta); the scene itself is kept for
     # the run (its raw table carries the effects), the parameters passed beside it
@@ -302,31 +370,7 @@ def synth_capture(
     w = scales.omega
     Om = float(comp.Omega)
     T = 2 * math.pi / Om
-    fs = meas.sample_rate or _rate_125(DEFAULT_SAMPLES_PER_PERIOD / T)
-    dt = 1.0 / fs
-    n = int(math.ceil(meas.periods * T / dt))
-    # the record, checked before any work: enough samples, sampled above Nyquist, not too many
-    lo_fs = max(2.0 / T, MIN_SAMPLES / (meas.periods * T))
-    if not lo_fs <= fs:
-        raise ParameterError(
-            "sample_rate",
-            fs,
-            f">= {lo_fs:.6g} Sa/s for this record (>= 2 samples per forcing period of "
-            f"{T:.6g} s and >= {MIN_SAMPLES} samples in {meas.periods:g} periods)",
-        )
-    if n > 5 * 10**7:
-        raise ParameterError("sample_rate", fs, f"a record of <= 5e7 samples (asked {n})")
-    # float64 file times trigger_offset + k dt must resolve a step to the reader's uniformity
-    # tolerance: an ulp of the largest time <= UNIFORM_RTOL / 10 of dt
-    t_max = abs(meas.trigger_offset) + n * dt
-    if math.ulp(t_max) > 0.1 * UNIFORM_RTOL * dt:
-        lim = 0.1 * UNIFORM_RTOL * dt / math.ulp(1.0) / 2
-        raise ParameterError(
-            "trigger_offset",
-            meas.trigger_offset,
-            f"|trigger offset| <~ {lim:.3g} s at this sample interval ({dt:.3g} s): float64 "
-            "times further from 0 no longer resolve a sample step",
-        )
+    fs, dt, n = _record_grid(meas, T)
     deadline = max_time if max_time is not None else Deadline(None, "capture synth")
     e = meas.timebase_ppm * 1e-6
     rng = np.random.default_rng(meas.seed)
@@ -353,42 +397,12 @@ def synth_capture(
     out: dict[str, np.ndarray] = {}
     ranges: dict[str, Any] = {}
     for name, y in clean.items():
-        g = float(meas.per_channel(name, "gain_error"))
-        y = (1 + g) * y + float(meas.per_channel(name, "offset_error"))
-        fsr = meas.per_channel(name, "full_scale", None)
-        if fsr is None:
-            pp = float(y.max() - y.min()) or 1.0
-            lo, fsr = float(y.min()) - 0.125 * pp, 1.25 * pp
-        else:
-            lo = 0.5 * float(y.max() + y.min()) - 0.5 * float(fsr)
-        sigma = meas.per_channel(name, "noise_v", None)
-        sigma = meas.noise * fsr if sigma is None else float(sigma)
-        y = y + sigma * rng.normal(size=n)
-        if meas.flicker:
-            y = y + meas.flicker * fsr * _flicker(rng, n)
-        clipped = 0
-        if meas.bits:
-            lsb = fsr / 2**meas.bits
-            code = np.floor((y - lo) / lsb)
-            clipped = int(np.sum((code < 0) | (code > 2**meas.bits - 1)))
-            y = lo + (np.clip(code, 0, 2**meas.bits - 1) + 0.5) * lsb
-        out[name] = y
-        ranges[name] = {"low": lo, "full_scale": float(fsr), "clipped": clipped}
+        out[name], ranges[name] = _measured(name, y, meas, rng, n)
     t_file = meas.trigger_offset + np.arange(n) * dt
     f = tr.as_float64()
     inside = (f["impacts_t"] >= tau[0]) & (f["impacts_t"] <= tau[-1])
     imp_t_file = meas.trigger_offset + (f["impacts_t"][inside] / w - t_true0) * (1 + e)
-    # the finite-time variational exponent of the record's own stretch (per unit of the
-    # oscillator's time), along the model's impacts: the mechanics' tangent map, so only for a
-    # model without effects (the ideal circuit is the mechanics); a 200-period record's own
-    # exponent scatters ~11 % about the asymptotic one at eta = 0.712
-    lle_record = None
-    if model == "circuit" and not fitted.effects and 0 <= float(params.zeta) < 1:
-        from precise_impact.analysis.lyapunov.finite_time import finite_time_lle
-
-        lle_record = finite_time_lle(
-            params, f["impacts_t"], f["impacts_v_before"], float(tau[0]), float(tau[-1])
-        )
+    lle_record = _lle_record(model, fitted, params, f, tau)
     truth = {
         "scene": sc.name,
         "model": model,

@@ -10,10 +10,15 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
 from precise_impact.cli.args import Parser, add_json, add_max_time, add_out, max_time
 from precise_impact.errors import ParameterError
+from precise_impact.io.atomic import atomic_write
+from precise_impact.io.figures import check_plot_path
 from precise_impact.io.jsonout import print_json
+from precise_impact.lab.scope_files import READ_FORMATS, WRITE_FORMATS, read_capture
+from precise_impact.scenes.scene import load_scene
 
 __all__ = ["register", "run"]
 
@@ -57,8 +62,6 @@ def _per_channel(name: str, text: str | None, lo: float, hi: float):
 
 def register(sub) -> argparse.ArgumentParser:
     """Add ``capture`` (with its sub-commands) to ``sub``."""
-    from precise_impact.lab.scope_files import READ_FORMATS, WRITE_FORMATS
-
     c = sub.add_parser("capture", help="oscilloscope captures: synthesise, score, bifurcation")
     cs = c.add_subparsers(dest="capture_command", required=True, parser_class=Parser)
 
@@ -150,7 +153,7 @@ def run(ns: argparse.Namespace) -> int:
 
 
 def run_synth(ns: argparse.Namespace) -> int:
-    from precise_impact.lab.synth import Measurement, synth_capture
+    from precise_impact.lab.synth import Measurement, synth_capture  # noqa: PLC0415 -- heavy: the measurement model loaded when the command runs, not at --help
 
     meas = Measurement(
         bits=_int("bits", ns.bits, 0, 24),
@@ -190,15 +193,12 @@ def run_synth(ns: argparse.Namespace) -> int:
 
 
 def run_score(ns: argparse.Namespace) -> int:
-    from precise_impact.lab.attractor import score_capture
-    from precise_impact.lab.scope_files import read_capture
+    from precise_impact.lab.attractor import score_capture  # noqa: PLC0415 -- heavy: lab scoring loaded when the command runs, not at --help
 
     budget = max_time(ns)
     phase = _float("phase", ns.phase, -1e3, 1e3)
     k = _int("floor-captures", ns.floor_captures, 2, 8)
     seed = _int("seed", ns.seed, 0, 2**63 - 1)
-    from precise_impact.scenes.scene import load_scene
-
     scene = load_scene(ns.scene)  # a bad scene is refused before the file is read
     cap = read_capture(ns.file, ns.channels, ns.format)
     res = score_capture(
@@ -214,10 +214,6 @@ def run_score(ns: argparse.Namespace) -> int:
     )
     written = []
     if ns.out is not None:
-        from pathlib import Path
-
-        from precise_impact.io.atomic import atomic_write
-
         out = Path(ns.out)
         res.save(out / "capture_score.json")
         res.plot(out / "capture_score.png")
@@ -237,8 +233,7 @@ def run_score(ns: argparse.Namespace) -> int:
 
 
 def run_bifurcation(ns: argparse.Namespace) -> int:
-    from precise_impact.io.figures import check_plot_path
-    from precise_impact.lab.attractor import measured_bifurcation
+    from precise_impact.lab.attractor import measured_bifurcation  # noqa: PLC0415 -- heavy: lab scoring loaded when the command runs, not at --help
 
     budget = max_time(ns)
     if ns.out is not None:

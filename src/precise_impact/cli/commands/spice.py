@@ -18,6 +18,8 @@ from precise_impact.cli.args import (
 from precise_impact.core.params import check_count
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.jsonout import print_json
+from precise_impact.models.circuit.spice import spice_netlist
+from precise_impact.scenes.scene import load_scene
 
 __all__ = ["register", "run"]
 
@@ -96,9 +98,6 @@ def register(sub) -> argparse.ArgumentParser:
 
 def run_netlist(ns: argparse.Namespace) -> int:
     """Run ``spice netlist``: the scene's netlist, written atomically; returns the exit status."""
-    from precise_impact.models.circuit.spice import spice_netlist
-    from precise_impact.scenes.scene import load_scene
-
     scene, _dropped = load_scene(ns.scene).fitted_to("spice")
     periods = scene.periods if ns.periods is None else check_count(ns.periods, "periods", 10**6, 1)
     tmax = ns.tmax if ns.tmax is not None else (scene.tmax if scene.tmax is not None else "1e-5")
@@ -111,7 +110,11 @@ def run_netlist(ns: argparse.Namespace) -> int:
 
 def run(ns: argparse.Namespace) -> int:
     """Run ``spice score``; returns the exit status."""
-    from precise_impact.lab.netlist import check_periods, format_result, score_netlist
+    from precise_impact.lab.netlist import (  # noqa: PLC0415 -- heavy: loaded when the command runs, not at --help
+        check_periods,
+        format_result,
+        score_netlist,
+    )
 
     step = None if ns.step is None else check_count(ns.step, "step", 10**6)
     periods = None if ns.periods is None else check_periods(ns.periods)
