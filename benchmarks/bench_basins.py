@@ -38,6 +38,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from dask.distributed import Client
 
 from precise_impact import Params
 from precise_impact.analysis.impact_surface.basins import basins
@@ -76,8 +77,6 @@ class LoopbackCluster:
                 stdout=log, stderr=log, start_new_session=True,
             )
         )  # fmt: skip
-        from dask.distributed import Client
-
         deadline = time.time() + 60
         while True:
             try:
@@ -92,8 +91,6 @@ class LoopbackCluster:
             time.sleep(0.5)
 
     def peak_rss_mib(self) -> list[float]:
-        from dask.distributed import Client
-
         with Client(self.address, timeout=10) as c:
             got = c.run(lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
         return sorted(got.values())
@@ -143,7 +140,7 @@ def _task_stream_breakdown(records: list[dict], wall: float, n_workers: int) -> 
 def _kernel_loads(dask_worker=None) -> tuple:
     """On a worker: the strobe kernel's numba cache hits and misses (compilations), and the
     preload's warm-up seconds."""
-    from precise_impact.solvers.fast.single import strobe
+    from precise_impact.solvers.fast.single import strobe  # noqa: PLC0415 -- runs on a worker
 
     st = strobe.stats
     warm = getattr(dask_worker, "precise_impact_warmup_s", None)
@@ -152,8 +149,6 @@ def _kernel_loads(dask_worker=None) -> tuple:
 
 def _run_dask(params, grid, kw, cluster, n_workers) -> tuple[dict, object]:
     """One map on the loopback cluster, with the breakdown from the scheduler's task stream."""
-    from dask.distributed import Client
-
     with Client(cluster.address, timeout=10) as c:
         c.get_task_stream(start=time.time())  # installs the scheduler's task-stream plugin
         t0 = time.time()

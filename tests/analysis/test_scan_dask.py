@@ -5,25 +5,33 @@ task."""
 from __future__ import annotations
 
 import dataclasses
-import functools
-import importlib.util
 import os
 import sys
+import time
 
+import numpy as np
 import pytest
 
-from precise_impact.analysis.impact_surface import basins as B
+from precise_impact import Params
+from precise_impact.analysis.impact_surface.basins import point_attractor
 from precise_impact.analysis.scan import run_scan
 
-pytestmark = pytest.mark.skipif(
-    importlib.util.find_spec("distributed") is None, reason="Dask is optional"
-)
+distributed = pytest.importorskip("distributed", reason="Dask is optional")
+cloudpickle = pytest.importorskip("cloudpickle", reason="Dask is optional")
 
-SPEC = B._Spec(
-    pars=(4.85, 0.0, 1.0, -0.3, 0.5), t0=0.0, section="impact",
-    axes=(("phase", 0.0, 1.0, 10), ("v", 0.0, 0.6, 8)), transient=30, max_period=8,
-    chaos_periods=50,
-)  # fmt: skip
+PARAMS = Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
+
+
+def _tile(lo: int, hi: int) -> dict:
+    """Points ``lo .. hi - 1`` of a 10 x 8 impact-surface grid, through the compiled engine."""
+    rows = [
+        point_attractor(PARAMS, "impact", (k % 10 + 0.5) / 10, 0.6 * (k // 10 + 0.5) / 8,
+                        transient=30, max_period=8, chaos_periods=50)
+        for k in range(lo, hi)
+    ]  # fmt: skip
+    return {
+        f: np.asarray([r[f] for r in rows], dtype=float) for f in ("capture", "lle", "rep_phase")
+    }
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,7 +41,7 @@ class Watched:
     job: object
 
     def __call__(self, lo: int, hi: int):
-        from precise_impact.solvers.fast.single import strobe
+        from precise_impact.solvers.fast.single import strobe  # noqa: PLC0415 -- on the worker
 
         tile = self.job(lo, hi)
         loads = sum(strobe.stats.cache_hits.values()) + sum(strobe.stats.cache_misses.values())
@@ -41,10 +49,8 @@ class Watched:
 
 
 def test_dask_tiles_equal_serial_and_compile_once():
-    import cloudpickle
-
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests
-    job = functools.partial(B._points_job, SPEC, None, 30)
+    job = _tile
     serial = run_scan(job, 80, 5, executor="serial")
     run = run_scan(Watched(job), 80, 5, dask="local", workers=2)
     assert run.backend == "dask" and run.workers == 2 and run.tiles_computed == 16
@@ -61,22 +67,19 @@ def test_dask_tiles_equal_serial_and_compile_once():
         assert loads == overloads == 1
 
 
-def _tile(lo: int, hi: int) -> list:
+def _range(lo: int, hi: int) -> list:
     return list(range(lo, hi))
 
 
 def test_dask_address_beside_a_default_client():
     """A user's own Client (the default one) stays the default, and run_scan does not wait on
     its event loop (``as_completed`` without ``loop`` did: each scan lost ~2 s)."""
-    import time
-
-    from dask.distributed import Client, LocalCluster, default_client
-
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
         with Client(cluster.scheduler_address) as mine:
             t = time.perf_counter()
-            runs = [run_scan(_tile, 6, 2, dask=cluster.scheduler_address) for _ in range(2)]
+            runs = [run_scan(_range, 6, 2, dask=cluster.scheduler_address) for _ in range(2)]
             wall = time.perf_counter() - t
-            assert default_client() is mine
+            assert distributed.default_client() is mine
     assert [r.values for r in runs] == [[[0, 1], [2, 3], [4, 5]]] * 2
     assert wall < 3.0, wall  # ~0.1 s each; ~2 s each before
