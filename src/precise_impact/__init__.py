@@ -3,11 +3,8 @@
     x'' + 2 zeta x' + x = a cos(eta t)  for x < x_w,    x'(t+) = -R x'(t-)  at x = x_w
 
 and its electronic equivalent (Denysenko, Balcerzak & Dabrowski): references with demonstrated
-or proven accuracy, Lyapunov exponents, periodic orbits, model scores and their cost.  The
-names below are the public API; the layering is described in ``docs/design.rst``.
-
-The names are loaded on first use (PEP 562): ``import precise_impact`` is cheap, so the
-command line installs its signal handling before the heavy imports (issue 35 item 7).
+or proven accuracy, Lyapunov exponents, periodic orbits, model scores and their cost.  The names
+below are the public API, loaded on first use (PEP 562); layering: ``docs/design.rst``.
 """
 
 from __future__ import annotations

@@ -1,13 +1,11 @@
 """Check your own solver against the shipped reference data (for users' pytest suites).
 
-Example::
+Example (errors are scipy-style, ``|y - y_ref| / (atol + rtol |y_ref|) <= 1``, computed exactly)::
 
     from precise_impact.testing import assert_stroboscopic_close
 
     def test_my_solver():   # my_solver(params, periods) -> x, v at t0 + k 2 pi / eta
         assert_stroboscopic_close(my_solver, "single-0.74", periods=30, atol=1e-6, rtol=1e-6)
-
-Errors are scipy-style, ``|y - y_ref| / (atol + rtol |y_ref|) <= 1``, computed exactly.
 """
 
 from __future__ import annotations

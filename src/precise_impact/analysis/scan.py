@@ -1,14 +1,9 @@
 """One parameter-scan runner: a grid, a per-point job, an executor, tiles with resume, progress.
 
-The grid's flat points (row-major) are cut into *tiles* of consecutive points; a
-picklable ``job(lo, hi)`` computes the points ``lo .. hi - 1`` of one tile.  Tiles run
-in this process, in local worker processes or on a Dask cluster; with a store
-(:class:`NpzTileStore`) each finished tile is written atomically at once, so an
-interrupted scan (Ctrl-C, SIGTERM) keeps its finished tiles and a rerun computes only
-the others, bit for bit the same.  :func:`~precise_impact.analysis.sweep.run_sweep`,
-:func:`~precise_impact.analysis.bifurcation.bifurcation`,
-:func:`~precise_impact.analysis.orbits.branch.brute_force_diagram` and the k-grid of
-:func:`~precise_impact.analysis.sync.sync_scan` all run through :func:`run_scan`.
+Tiles of consecutive grid points run in this process, in worker processes or on Dask; with a
+store (:class:`NpzTileStore`) an interrupted scan keeps its finished tiles and a rerun computes
+only the others, bit for bit the same.  Sweeps, bifurcation diagrams, brute-force branches and
+sync scans all run through :func:`run_scan`; design: ``docs/design.rst``.
 """
 
 from __future__ import annotations

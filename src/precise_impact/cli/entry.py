@@ -1,13 +1,8 @@
 """The process entry of ``precise-impact`` and ``python -m precise_impact``: a signal at any
-moment once the package is imported ends the process with one line and exit 130 (or, in the
-last teardown step, is ignored), never a traceback or a kill.
-
-:func:`~precise_impact.cli.main.main` handles Ctrl-C and SIGTERM while it works; this wrapper
-covers what it cannot: the command line's imports (a signal there is noted and ends the
-process once they are done), an interrupt inside an ``import``, a numba compilation or a
-finalizer during the run (:func:`interrupt`, :func:`_leave`), and the interpreter's teardown
-after ``main`` has returned (a signal then flushes the output and ends at once, ``os._exit``).
-Why each case and what was measured: ``docs/guide/cli.rst``, "Interrupts and signals".
+moment once the package is imported ends the process with one line and exit 130, never a
+traceback or a kill (imports, numba compilations, finalizers, teardown: :func:`interrupt`,
+:func:`_leave`).  Why each case and what was measured: ``docs/guide/cli.rst``, "Interrupts and
+signals".
 """
 
 from __future__ import annotations

@@ -1,15 +1,10 @@
 """The master-slave coupling written once: slave equations, slave reset, error equation.
 
-Generic in the number type (heyoka expressions, floats, Fractions, mpmath, arb balls), used by
-every engine of the pair: heyoka (:mod:`precise_impact.solvers.heyoka.coupled`, whose docstring
-derives the three forms), compiled (:mod:`precise_impact.solvers.fast.coupled`, numba copies
-pinned to these by ``tests/core/test_coupling.py``) and certified
-(:mod:`precise_impact.solvers.certified.coupled`).  The slave ``y`` is pulled towards the
-master ``x`` with coupling ``k >= 0`` in one of three forms: ``'first-order'`` (eqs. 12a-c,
-state ``(y1, y2)``), ``'paper'`` (eqs. 14a-b as printed, state ``(y, y')``) and ``'reduced'``
-(the second-order equation (12) reduces to).  Between impacts ``e = y - x`` obeys
-``e'' + c1 e' + c0 e = 0`` (:func:`error_coefficients`).  Reference: the paper's eqs.
-(10)-(15); Pecora & Carroll, Phys. Rev. Lett. 64 (1990) 821.
+Generic in the number type, shared by the heyoka, compiled and certified engines of the pair
+(:mod:`precise_impact.solvers.heyoka.coupled` derives the forms ``'first-order'``, ``'paper'``
+and ``'reduced'``).  Between impacts ``e = y - x`` obeys ``e'' + c1 e' + c0 e = 0``
+(:func:`error_coefficients`).  Reference: the paper's eqs. (10)-(15); Pecora & Carroll,
+Phys. Rev. Lett. 64 (1990) 821.
 """
 
 from __future__ import annotations

@@ -1,15 +1,10 @@
 """The safeguarded Newton iteration on the closed form, written once for the Python arithmetics.
 
-A crossing of the closed-form flight (the wall ``x = x_w``, or a maximum ``v = 0``) is the
-root of an increasing function on a bracket ``[lo, hi]``; Newton converges quadratically near
-it but may leave the bracket far from it.  The rule here: keep the bracket, take the Newton
-step only when it stays inside and at least halves the bracket, bisect otherwise, and stop at
-a step or bracket below ``tol``.  Generic in the number type (float, mpmath ``mpf``): the
-closed-form solver (:mod:`precise_impact.solvers.closed_form`, both backends) and the
-shooting system's grazing test (:mod:`precise_impact.analysis.orbits.shooting`) call it; the
-compiled engines keep their numba copy
-(:func:`precise_impact.solvers.fast.crossing.refine_crossing`).
-Reference: W. H. Press et al., *Numerical Recipes*, 3rd ed. (2007), sec. 9.4 (``rtsafe``).
+A crossing (the wall, or a maximum ``v = 0``) is the root of an increasing function on a
+bracket: Newton when the step stays inside and halves the bracket, bisection otherwise.  Used by
+:mod:`precise_impact.solvers.closed_form` and :mod:`precise_impact.analysis.orbits.shooting`;
+numba copy: :func:`precise_impact.solvers.fast.crossing.refine_crossing`.
+Reference: Press et al., *Numerical Recipes*, 3rd ed. (2007), sec. 9.4 (``rtsafe``).
 """
 
 from __future__ import annotations

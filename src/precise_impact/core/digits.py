@@ -1,14 +1,9 @@
 """How many significant digits a trajectory's samples can claim, and on what basis.
 
-Three bases, strongest first: ``"proven"`` (the certified model's balls: the digits every point
-of the ball shares), ``"demonstrated"`` (a second run at a higher precision, :func:`demonstrate`:
-the digits the two runs agree on) and ``"estimated"`` (one run, :func:`estimate`: the precision's
-rounding, :func:`local_error` per event, amplified along the trajectory by its tangent flow --
-:func:`~precise_impact.core.flight.flow_matrix` between events, the saltation matrix
-:func:`~precise_impact.core.impact.oscillator_saltation` at each impact -- bounded by
-Cauchy-Schwarz with weights ``exp(2 gamma (t_n - t_j))``, the smallest over :data:`GAMMAS`).
-Digits: ``floor(log10(|value| / bound))``.  The bound, its constants and the impact-sequence
-changes it adds: ``docs/numerics.rst``, "Digits a trajectory can claim".
+Strongest first: ``"proven"`` (the certified balls), ``"demonstrated"`` (agreement with a run
+at higher precision, :func:`demonstrate`) and ``"estimated"`` (one run's rounding amplified by
+its tangent flow, :func:`estimate`).  The bound and its constants: ``docs/numerics.rst``,
+"Digits a trajectory can claim".
 """
 
 from __future__ import annotations

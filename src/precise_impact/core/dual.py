@@ -1,15 +1,9 @@
-"""Forward-mode dual numbers: exact first derivatives through plain arithmetic and the
-closed-form flight (:mod:`precise_impact.core.flight` is generic over an ops namespace).
+"""Forward-mode dual numbers: exact first derivatives through the closed-form flight.
 
-A :class:`Dual` carries a value and its gradient with respect to chosen seeds; every
-operation applies the chain rule exactly, so the derivative has the rounding error of the
-value's own evaluation (a few ulps), never a step's truncation error (unlike a finite
-difference, whose step trades ``h^2`` truncation against ``eps / h`` rounding).
-
-The chain rules are written once, generic in the value's arithmetic: :class:`Dual` carries
-float64, :class:`BallDual` python-flint balls (value and gradient both balls, so the gradient
-encloses the derivative at every point of the value's ball: the interval extension of
-forward-mode differentiation, Moore et al. 2009 sec. 5.4, used for Krawczyk's ``F'(Y)``).
+Each operation applies the chain rule exactly, so a derivative carries the rounding of its value
+(a few ulps), not a finite difference's ``h^2`` truncation against ``eps / h`` rounding.
+:class:`Dual` is float64; :class:`BallDual` carries python-flint balls, enclosing the derivative
+over the value's ball (Krawczyk's ``F'(Y)``; Moore, Kearfott, Cloud 2009, sec. 5.4).
 """
 
 from __future__ import annotations

@@ -1,13 +1,10 @@
 """Solvers of the single oscillator and the model registry.
 
-:mod:`~precise_impact.solvers.base` (the :class:`Solver` protocol, :data:`MODELS`,
-:func:`make_solver`, the fast->heyoka fallback :func:`~precise_impact.solvers.base.with_fallback`),
-:mod:`~precise_impact.solvers.simulate` (:func:`simulate`, :func:`simulate_coupled`: one entry
-point for every model, :data:`COUPLED_MODELS`), :mod:`~precise_impact.solvers.closed_form`
-(:class:`AnalyticalSolver`), and the engines by arithmetic: :mod:`~precise_impact.solvers.heyoka`
-(the reference, every precision; its compiled integrators cached once, a private copy per
-caller), :mod:`~precise_impact.solvers.fast` (numba), :mod:`~precise_impact.solvers.certified`
-(python-flint balls).
+:mod:`~precise_impact.solvers.base` (:class:`Solver`, :data:`MODELS`, :func:`make_solver`),
+:mod:`~precise_impact.solvers.simulate` (:func:`simulate`, :func:`simulate_coupled`),
+:mod:`~precise_impact.solvers.closed_form`, and the engines by arithmetic:
+:mod:`~precise_impact.solvers.heyoka` (the reference), :mod:`~precise_impact.solvers.fast`
+(numba), :mod:`~precise_impact.solvers.certified` (python-flint balls).
 """
 
 from precise_impact.solvers.base import (

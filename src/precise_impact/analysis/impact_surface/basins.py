@@ -1,13 +1,8 @@
 """Domains of attraction on the impact surface or the stroboscopic section.
 
-Every grid point is run to its attractor by the compiled fast engine (float64) and labelled:
-a periodic orbit (:func:`~precise_impact.analysis.periodicity.detect_period`, refined by
-:func:`~precise_impact.analysis.orbits.newton.find_orbit` and identified by its fastest
-impact), chatter ending in sticking (:func:`~precise_impact.core.impact.release_time`), a
-non-impacting orbit, chaos (an LLE from :func:`~precise_impact.solvers.fast.lle.lle_batch`
-positive by three standard errors) or unresolved.  Boundary points are re-run with a longer
-transient, and ``subgrid=k`` samples boundary cells on a ``k x k`` sub-grid.  The rules in full:
-the guide's "Domains of attraction" page (``docs/guide/basins.rst``).
+Each grid point runs on the fast engine to its attractor and is labelled (periodic orbit,
+sticking, non-impacting, chaos, unresolved); boundary cells can be refined (``subgrid``).  The
+rules: ``docs/guide/basins.rst``, "Domains of attraction".
 """
 
 from __future__ import annotations

@@ -1,12 +1,9 @@
 """The impact map ``P: (phase, v) -> (next phase, next v)`` on the impact surface, its Jacobian
 and its orbits.
 
-An impact point is ``(phase, v)``: ``phase = (eta t / (2 pi)) mod 1`` and ``v > 0`` the incoming
-velocity at the wall ``x = x_w``; the state just after it is ``(x_w, -R v)`` at ``t``.  The next
-impacts come from an engine (:func:`~precise_impact.solvers.simulate.simulate`) started exactly on
-that impact (``Params(x0=x_w, v0=v, t0=t)``); chattering sequences and sticking intervals (the
-engines' contact rule, :func:`~precise_impact.core.impact.chatter_accumulation_time`,
-:func:`~precise_impact.core.impact.release_time`) are reported as such, never as ordinary points.
+Each impact point starts an engine exactly on the wall (``Params(x0=x_w, v0=v, t0=t)``);
+chattering and sticking are reported as such, never as ordinary points
+(``docs/guide/impact_map.rst``).
 """
 
 from __future__ import annotations

@@ -1,13 +1,8 @@
-"""(1,n) response curves: the impact velocity ``V`` of the orbits with one impact per ``n``
-forcing periods against ``sigma = x_w`` or ``omega = eta``, with their parts told apart.
+"""(1,n) response curves: impact velocity ``V`` against ``sigma = x_w`` or ``omega = eta``.
 
-The branches come from the continuation
-(:func:`~precise_impact.analysis.orbits.continuation.continue_orbit`) started on the closed-form
-orbits (:func:`~precise_impact.analysis.orbits.one_impact.one_impact_orbits`); the Budd-Dux
-closed forms of the undamped model (``zeta = 0``, an ellipse in ``(sigma, V)``) are
-:func:`budd_dux_orbit` and :func:`budd_dux_points`, the references the continuation's folds and
-period-doublings are tested against (Budd & Dux 1994).  Derivation and classification:
-``docs/guide/response_curves.rst``.
+Branches come from the continuation started on the closed-form orbits; the undamped Budd-Dux
+closed forms (:func:`budd_dux_orbit`, :func:`budd_dux_points`) are the references (Budd & Dux
+1994).  Derivation and classification: ``docs/guide/response_curves.rst``.
 """
 
 from __future__ import annotations

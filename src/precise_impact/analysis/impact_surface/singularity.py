@@ -1,12 +1,7 @@
 """The singularity set of the impact map: impact points whose next flight touches the wall
-tangentially (a maximum ``x = x_w`` with ``x' = 0``), found as curves by pseudo-arclength
-continuation of the grazing condition in ``(phase, v, s)`` (``s`` the flight time to the
-tangency), with its images under the map.
-
-Grazing condition, from the one flight (:class:`~precise_impact.core.flight.Flight`) started at
-``t = 2 pi phase / eta`` in ``(x_w, -R v)``: ``F(phase, v, s) = (x(t + s) - x_w, x'(t + s)) = 0``
-with ``x''(t + s) < 0`` (a maximum) and no crossing of the wall in ``(t, t + s)`` (else the
-tangency is virtual: an earlier impact comes first).
+tangentially, found as curves by pseudo-arclength continuation of the grazing condition
+``F(phase, v, s) = (x(t + s) - x_w, x'(t + s)) = 0``, with its images under the map.
+Physical and virtual tangencies: ``docs/guide/impact_map.rst``, "The singularity set".
 """
 
 from __future__ import annotations

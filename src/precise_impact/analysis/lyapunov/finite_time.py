@@ -1,15 +1,9 @@
 """The finite-time largest Lyapunov exponent of a recorded stretch of a trajectory.
 
-A record of ``T`` time units has an exponent of its own, ``ln sigma_max(M) / T`` with ``M`` the
-tangent map of that stretch (it scatters about the asymptotic LLE: ~11 % at eta = 0.712 over
-200 periods), so an estimate made *from* a record (:mod:`.timeseries`) is validated against it.
-``M`` is the product of the closed-form flight flows
-(:func:`~precise_impact.core.flight.flow_matrix`) and the impacts' saltation matrices
-(:func:`~precise_impact.core.impact.oscillator_saltation`) along the *recorded* impacts (why:
-docs/guide/captures.rst, "The finite-time exponent of a record").
-
-Reference: M. di Bernardo et al., *Piecewise-smooth Dynamical Systems* (2008), sec. 2.5
-(saltation); the closed form of the flight: docs/theory.
+``ln sigma_max(M) / T``, with ``M`` the record's tangent map (flight flows and saltation
+matrices along the recorded impacts): what an estimate from a record (:mod:`.timeseries`) is
+validated against; why: docs/guide/captures.rst, "The finite-time exponent of a record".
+Reference: di Bernardo et al., *Piecewise-smooth Dynamical Systems* (2008), sec. 2.5.
 """
 
 from __future__ import annotations

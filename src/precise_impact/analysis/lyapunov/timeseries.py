@@ -1,14 +1,9 @@
-"""The largest Lyapunov exponent from a measured time series: Rosenstein's and Kantz's
-nearest-neighbour divergence estimators, for a forced system with neighbours at equal phase.
+"""The largest Lyapunov exponent from a measured time series (Rosenstein's and Kantz's
+estimators), with neighbours searched at equal forcing phase.
 
-Pairs of nearby points are followed forward; the slope of their mean log distance ``S(t)``
-over its rising part is the exponent.  With ``period`` given, neighbours are searched within
-the reference's own forcing phase (a Poincare section per phase bin), so both members of a
-pair see the same forcing.  Error bar, period check, bias truth table, why not nolds:
-docs/guide/captures.rst, "The time-series LLE estimators".
-
-References: M. T. Rosenstein et al., Physica D 65 (1993) 117-134; H. Kantz, Phys. Lett. A 185
-(1994) 77-87; J. Theiler, Phys. Rev. A 34 (1986) 2427 (the Theiler window).
+Details and error bars: docs/guide/captures.rst, "The time-series LLE estimators".
+References: Rosenstein et al., Physica D 65 (1993) 117; Kantz, Phys. Lett. A 185 (1994) 77;
+Theiler, Phys. Rev. A 34 (1986) 2427 (the Theiler window).
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
 """Lyapunov spectrum from the variational equations with the impact's saltation matrix.
 
-The algorithm: orbits from an ensemble of starts, per-period logs of the QR of the tangent
-matrix, batch-means error bar and attractor attribution.  The integrator (heyoka's
-first-order variational equations, the saltation matrix applied and the tangents
-re-orthonormalised at every impact, the grazing-contact rule and the missed-impact guard)
-is :mod:`precise_impact.solvers.heyoka.variational`, whose docstring treats the hard cases.
-Benettin et al., Meccanica 15 (1980) 9-30; Müller, Chaos Solitons Fractals 5 (1995) 1671.
+Ensemble of starts, per-period QR logs, batch-means error bar, attractor attribution; the
+integrator is :mod:`precise_impact.solvers.heyoka.variational`.  References: Benettin et al.,
+Meccanica 15 (1980) 9-30; Müller, Chaos Solitons Fractals 5 (1995) 1671.
 """
 
 from __future__ import annotations

@@ -1,14 +1,9 @@
 """Krawczyk's test in python-flint balls: the one interval Newton of the package's proofs.
 
-A zero ``y*`` of ``F`` (a periodic orbit's ``P^p(z) - z``, a landmark's augmented system) is
-proven on a box ``Y = c + [-r, r]^m`` around a centre ``c`` refined by Newton on points:
-``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)``, ``C ~ F'(c)^-1`` (a point matrix).
-
-``K(Y)`` inside the interior of ``Y`` proves exactly one zero in ``Y``, lying in ``K(Y)``, and
-``F'`` nonsingular on ``Y`` (Krawczyk 1969; Moore, Kearfott, Cloud, *Introduction to Interval
-Analysis*, SIAM 2009, sec. 8.2).  :func:`~precise_impact.analysis.orbits.proof.prove_orbit`
-and :func:`~precise_impact.analysis.orbits.proof_landmarks.prove_landmark` both use it; each
-gives a function ``fun(ys, grad) -> (F(ys), F'(ys))`` in balls.
+``K(Y) = c - C F(c) + (I - C F'(Y)) (Y - c)`` inside the interior of ``Y`` proves exactly one
+zero of ``F`` in ``Y``; used by :func:`~precise_impact.analysis.orbits.proof.prove_orbit` and
+:func:`~precise_impact.analysis.orbits.proof_landmarks.prove_landmark`.  Reference: Krawczyk
+1969; Moore, Kearfott, Cloud, *Introduction to Interval Analysis*, SIAM 2009, sec. 8.2.
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
-"""Branch points as augmented systems with exact Jacobians, and their parameter sensitivities.
+"""Branch points (grazing, period-doubling, fold) as augmented systems with exact Jacobians.
 
-A landmark in ``eta`` (a grazing, a period-doubling, a fold) is a regular zero of an augmented
-system ``F(y; theta) = 0``: the orbit's impact-sequence equations
-(:mod:`~precise_impact.analysis.orbits.shooting`) plus the branch point's defining condition,
-unknowns ``y = (orbit, [t_m], eta)``, parameters ``theta = (zeta, a, x_w)``.  ``F`` is
-evaluated in forward-mode dual numbers (:mod:`precise_impact.core.dual`), so ``F_y`` and
-``F_theta`` are exact to rounding: Newton locates the landmark, and the implicit-function
-theorem gives ``d eta / d theta``.  The conditions (``graze_free``, ``graze``,
-``period-doubling``, ``fold``): ``docs/numerics.rst``, "Landmarks as augmented systems".
+``F(y; theta) = 0`` (impact-sequence equations plus the branch condition), evaluated in dual
+numbers (:mod:`precise_impact.core.dual`): Newton locates the landmark and the implicit-function
+theorem gives ``d eta / d theta``.  The conditions: ``docs/numerics.rst``, "Landmarks as
+augmented systems".
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
 """Proven bifurcation points: a Krawczyk test on the landmarks' augmented systems in arb.
 
-A landmark located in float64 (:mod:`~precise_impact.analysis.orbits.landmarks`) is a regular
-zero ``y*`` of its augmented system ``F(y) = 0``.  :func:`prove_landmark` proves it with the
-Krawczyk operator (:mod:`~precise_impact.analysis.orbits.krawczyk`; Krawczyk 1969; Moore et
-al. 2009, sec. 8.2) in python-flint balls at the exact decimal parameters: exactly one zero
-in the box, regular, and a crossing, not a touch (the test function ``g`` proven of opposite
-signs at the branch's orbits on either side, all on one branch).  The operator, the
-enclosures and the sign change: ``docs/numerics.rst``, "Proven bifurcation points".
+:func:`prove_landmark` proves a float64 landmark (:mod:`~precise_impact.analysis.orbits.landmarks`)
+a regular zero and a crossing, not a touch (Krawczyk 1969; Moore et al. 2009, sec. 8.2).  The
+operator, enclosures and sign change: ``docs/numerics.rst``, "Proven bifurcation points".
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
 """Lohner-type enclosures through impacts: the certified state as ``m + B r``.
 
-The interval scheme (:class:`~precise_impact.solvers.certified.single._Engine`) wraps the box
-of its two balls every period (0.26 decimal digits per period at eta = 0.712 against the true
-0.116).  Here the state at each sample is ``m + B r`` (a point, an exact frame, a box of balls
-centred at 0), mapped through one period by the mean-value form: a low pass (the interval
-scheme over the box, proving its impacts), the period map's Jacobian over the box (flight
-flows and saltation matrices), a point pass from ``m``, and a new frame by QR (Lohner's QR
-variant, as in CAPD's C^0/C^1 Lohner algorithm for smooth flows, here through impacts).
-The steps in full: ``docs/numerics.rst``, "Certified trajectories".
+The interval scheme wraps its box every period (0.26 digits per period at eta = 0.712 against the
+true 0.116); here the state is mapped by the mean-value form with a QR frame (Lohner's QR
+variant, as in CAPD's C^0/C^1 Lohner algorithm).  The steps: ``docs/numerics.rst``,
+"Certified trajectories".
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
 """Stopping and watching the fast engine's compiled loops: a stop flag they poll, a progress
-counter they publish, and the runner that turns Ctrl-C / SIGTERM into a clean stop.
+counter they publish, and :func:`run_kernel`, which turns Ctrl-C / SIGTERM into a clean stop
+(:class:`~precise_impact.errors.Interrupted` with the work done so far).
 
-:func:`run_kernel` runs the kernel (compiled with ``nogil``) in a helper thread that blocks
-SIGINT and SIGTERM while the main thread waits in Python: an interrupt sets the stop flag, the
-kernel returns :data:`STATUS_INTERRUPTED` within :data:`POLL_PERIODS` periods, and
-:class:`~precise_impact.errors.Interrupted` carries the work done so far.  The flag and the
-counters are ``int64`` arrays with atomic loads and stores (:func:`load_flag`,
-:func:`store_count`).  Why (a signal handler cannot run inside a nopython loop; a hoisted
-load): ``docs/design.rst``, "Engines by arithmetic".
+How and why (a signal handler cannot run inside a nopython loop): ``docs/design.rst``,
+"Engines by arithmetic".
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
 """The compiled LLE kernels of the fast engine (float64, numba): tangent flow and QR.
 
-Between impacts the tangent flow is the exact flow matrix ``Phi`` of the flight
-(:func:`~precise_impact.solvers.fast.single._flight` records it at every sample); at an
-impact the tangent basis goes through the saltation matrix
-(:func:`~precise_impact.solvers.fast.single.compiled_saltation`), and a Gram-Schmidt QR
-every ``QR_EVERY`` samples accumulates the logs (Benettin et al., Meccanica 15 (1980)
-9-30; Müller, Chaos Solitons Fractals 5 (1995) 1671).  The estimators (ensembles, error
-bars, attractors) are :mod:`precise_impact.analysis.lyapunov.fast`.
+Exact flow matrices between impacts, the saltation matrix at each impact, a QR every
+``QR_EVERY`` samples; estimators: :mod:`precise_impact.analysis.lyapunov.fast`.  References:
+Benettin et al., Meccanica 15 (1980) 9-30; Müller, Chaos Solitons Fractals 5 (1995) 1671.
 """
 
 from __future__ import annotations

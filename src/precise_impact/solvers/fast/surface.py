@@ -1,13 +1,9 @@
 """The impact map on the fast engine: impact after impact in one compiled call (float64, numba).
 
-:func:`impact_orbit` iterates the map ``(phase, v) -> (next phase, next v)`` with the fast
-engine's flight (:func:`~precise_impact.solvers.fast.single._flight`, the crossing search that
-cannot miss an impact) on the local clock (:func:`~precise_impact.solvers.fast.single.rebase`),
-so the phases stay accurate at every length of run.  What the engine leaves to the reference
-engine's contact rule (a run of short flights into the wall: chattering, sticking, the end of
-``R = 1`` bounces; a contact double-double cannot decide) ends the call with a status and the
-index of the last impact before that run: the caller goes on from there with the heyoka path
-(:func:`~precise_impact.analysis.impact_surface.impact_map.impact_map`).
+:func:`impact_orbit` iterates ``(phase, v) -> (next phase, next v)`` on the local clock; a run
+of short flights into the wall or an undecidable contact ends the call with a status, and the
+caller goes on with heyoka (:func:`~precise_impact.analysis.impact_surface.impact_map.impact_map`;
+``docs/guide/impact_map.rst``).
 """
 
 from __future__ import annotations

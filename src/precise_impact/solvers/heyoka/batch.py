@@ -1,11 +1,8 @@
 """The SIMD batch variational integrator (float64): many parameter points in one heyoka batch.
 
-Used by :func:`~precise_impact.analysis.lyapunov.batch.batch_lle` (the statistics) for
-parameter sweeps: ``taylor_adaptive_batch`` advances ``batch_size`` points together in SIMD
-lanes, each with its own steps, events and period boundaries (its local clock).  The flow, the
-impact map, the saltation matrix and the hard cases (QR right after every impact, grazing
-contacts, the missed-impact guard) are those of :mod:`~precise_impact.solvers.heyoka.variational`:
-``docs/numerics.rst``, "SIMD batch (sweeps)".
+Behind :func:`~precise_impact.analysis.lyapunov.batch.batch_lle`: ``taylor_adaptive_batch``
+advances ``batch_size`` points in SIMD lanes, each with its own clock; the rest as in
+:mod:`~precise_impact.solvers.heyoka.variational` (``docs/numerics.rst``, "SIMD batch (sweeps)").
 """
 
 from __future__ import annotations

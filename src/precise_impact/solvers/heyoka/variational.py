@@ -1,14 +1,11 @@
 """The heyoka variational integrator: tangent flow with the impact's saltation matrix.
 
-Used by :func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum` (the
-algorithm: ensemble, statistics, attractors); this module builds and drives the integrator.
-Between impacts heyoka's first-order variational equations (``var_ode_sys``); at every impact
-the terminal-event callback maps the tangents through the saltation matrix, ``Phi+ = S Phi-``,
-and re-orthonormalises them at once (QR; the logs of R's diagonal accumulate the exponents).
-The hard cases (the ``1/v-`` of ``S`` near grazing, heyoka's cooldown, rounding-level contacts),
-the local clock (*Time*), the *Per-period logs* and the missed-impact *guard*:
-``docs/numerics.rst``, "Variational equations with the saltation matrix".  References:
-Benettin et al., Meccanica 15 (1980) 21-30; Müller, Chaos Solitons Fractals 5 (1995) 1671.
+Builds and drives the integrator behind
+:func:`~precise_impact.analysis.lyapunov.variational.variational_spectrum`: heyoka's variational
+equations between impacts, ``Phi+ = S Phi-`` and a QR at every impact.  Hard cases, local clock,
+per-period logs, guard: ``docs/numerics.rst``, "Variational equations with the saltation
+matrix".  References: Benettin et al., Meccanica 15 (1980) 21-30; Müller, Chaos Solitons
+Fractals 5 (1995) 1671.
 """
 
 from __future__ import annotations
