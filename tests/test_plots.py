@@ -229,6 +229,11 @@ def test_bifurcation_names_the_minus_zeta_line_for_what_it_is():
     r8 = _bif("0.8")
     nu = r8.impacts_per_period * np.array([0.70, 0.71, 0.72]) / (2 * math.pi)
     assert r8.half_exponent_sum() == pytest.approx(-0.05 + nu * math.log(0.8), rel=1e-15)
+    # R = 0 (plastic): -inf where the orbit impacts, -zeta where it does not, one value per eta
+    # (a scalar failed the plot: `bifurcation --R 0` exited with a matplotlib traceback)
+    r0 = _bif("0")
+    assert list(r0.half_exponent_sum()) == [-0.05, -math.inf, -math.inf]
+    r0.plot()
     assert all(_outside(fig, lg) for lg in _legends(fig))
     ax1, ax2 = fig.axes[:2]
     assert ax1.get_ylabel() == "x at t0 + kT (dimensionless)" and ax2.get_xlabel().startswith("eta")

@@ -275,10 +275,15 @@ class BifurcationResult(ResultMixin):
     def half_exponent_sum(self) -> np.ndarray:
         """``(lambda_1 + lambda_2) / 2 = -zeta + nu ln R`` per eta, ``nu`` the measured impacts
         per unit time (each impact multiplies the Jacobian's determinant by ``R^2``, the flow
-        by ``exp(-2 zeta t)``): the LLE of an orbit whose multipliers are a complex pair."""
+        by ``exp(-2 zeta t)``): the LLE of an orbit whose multipliers are a complex pair.
+        ``R = 0`` (plastic impacts, the determinant 0): ``-inf`` where the orbit impacts."""
         nu = self.impacts_per_period * np.array([float(e) for e in self.eta]) / (2 * math.pi)
-        R = float(self.params.R)
-        return -float(self.params.zeta) + (nu * math.log(R) if R > 0 else 0.0) * (R != 1)
+        R, zeta = float(self.params.R), float(self.params.zeta)
+        if R == 1:
+            return np.full(nu.shape, -zeta)
+        if R == 0:  # one value per eta (a scalar here failed the plot: bifurcation --R 0)
+            return np.where(nu > 0, -np.inf, -zeta)
+        return -zeta + nu * math.log(R)
 
 
 def eta_grid(eta_min: Any, eta_max: Any, n: Any) -> list[Fraction]:
