@@ -44,6 +44,7 @@ from precise_impact.io.figures import plot_units, save_figure
 from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.lab.attractor import fit_sinusoid
+from precise_impact.lab.capture import integrator_pair_fit_se
 from precise_impact.models.circuit.components import Components, circuit_scales, dimensionless
 from precise_impact.models.circuit.spice import find_ngspice
 from precise_impact.scenes.scene import load_scene
@@ -1060,24 +1061,6 @@ def fit_forcing(t: np.ndarray, y: np.ndarray, omega_guess: float | None = None) 
     }
 
 
-def _fit_rc(t: np.ndarray, vs: np.ndarray, vq: np.ndarray) -> tuple[float, float, float]:
-    """``R8 C1`` from the integrator ``V_s(t) = V_s(t_0) - (1/(R8 C1)) integral V_q dt``: least
-    squares of ``V_s`` against the trapezoid integral of ``V_q`` (the reversals take
-    nanoseconds: the integral crosses them without error worth the name); with the fit's
-    standard error (residual scatter only: it does not include the trapezoid rule's error,
-    O(h^2) per unit time) and the fit's R^2 (1 for an integrator pair)."""
-    q = np.concatenate(([0.0], np.cumsum(0.5 * (vq[1:] + vq[:-1]) * np.diff(t))))
-    A = np.stack([q, np.ones_like(q)], axis=1)
-    coef, *_ = np.linalg.lstsq(A, vs, rcond=None)
-    k = float(coef[0])  # = -1 / (R8 C1)
-    r = vs - A @ coef
-    qc = q - q.mean()
-    se = math.sqrt(float(r @ r) / max(len(q) - 2, 1) / float(qc @ qc))
-    vc = vs - vs.mean()
-    r2 = 1.0 - float(r @ r) / float(vc @ vc) if float(vc @ vc) > 0 else 0.0
-    return (-1.0 / k if k else math.inf), (se / k**2 if k else math.inf), r2
-
-
 # ================================================================== scoring
 @dataclasses.dataclass
 class NetlistScoreResult(ResultMixin):
@@ -1253,7 +1236,7 @@ FORCING_MAX_RESIDUAL = 0.05
 def _check_channels(w: Waveforms, nmap: NodeMap, vs: np.ndarray, vq: np.ndarray) -> None:
     """The x and v nodes are an integrator pair (``V_s' = -V_q / (R8 C1)``, R8 C1 > 0), or one
     line saying which way they are not."""
-    rc, _, r2 = _fit_rc(w.time, vs, vq)
+    rc, r2, _ = integrator_pair_fit_se(w.time, vs, vq)
     if r2 >= INTEGRATOR_MIN_R2 and rc < 0:
         raise ParameterError(
             "x-node",
@@ -1316,7 +1299,9 @@ def _mapping(
     eta, a = float(params.eta), float(params.a)
     omega = fit["Omega"] / eta
     vu = fit["amplitude"] * nmap.forcing_gain / a
-    rc, rc_se, _ = _fit_rc(w.time, vs, vq)
+    # one segment (a simulator's noise-free run); the reversals take nanoseconds: the
+    # trapezoid integral crosses them without error worth the name
+    rc, _, rc_se = integrator_pair_fit_se(w.time, vs, vq)
     # the trapezoid integral's own error, relative (omega h)^2 / 12 for a sinusoid at omega;
     # doubled for the impacts' higher harmonics (measured: 1.4e-5 at h = 1e-5 s, omega = 1e3)
     h = float(np.max(np.diff(w.time)))
