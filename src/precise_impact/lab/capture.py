@@ -25,6 +25,7 @@ from precise_impact.core.result import ResultMixin, to_jsonable, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import check_plot_path, finish, new_figure
+from precise_impact.lab.scope_writers import write_layout
 from precise_impact.models.circuit.components import (
     Components,
     circuit_scales,
@@ -228,13 +229,11 @@ class Capture(ResultMixin):
     def save(self, path: str | os.PathLike, fmt: str | None = None) -> Path:
         """Write the capture: ``.npz`` (arrays + JSON metadata), ``.csv`` (generic time-first
         CSV), ``.json`` (the summary), or a vendor layout by ``fmt``
-        (:data:`precise_impact.lab.scope_files.WRITE_FORMATS`)."""
+        (:data:`precise_impact.lab.scope_writers.WRITE_FORMATS`)."""
         path = Path(path)
         if fmt is None and path.suffix.lower() == ".json":
             return super().save(path)
-        from precise_impact.lab.scope_files import write_capture  # noqa: PLC0415 -- cycle: the writers check for a Capture
-
-        return write_capture(self, path, fmt)
+        return write_layout(self, path, fmt, UNIFORM_RTOL)
 
     def npz_arrays(self) -> dict[str, np.ndarray]:
         """The arrays :meth:`save` puts in an ``.npz`` file (``meta`` is JSON text)."""
