@@ -97,6 +97,37 @@ def case_roundtrip():
     return _sha(out)
 
 
+def _tree_digest(p: Path):
+    """A written file's (or a directory's files') bytes; an ``.npz``'s arrays (its zip entries
+    carry the write time)."""
+    if p.is_dir():
+        return [[q.name, q.read_bytes()] for q in sorted(p.iterdir())]
+    if p.suffix == ".npz":
+        with np.load(p) as z:
+            return [[k, z[k]] for k in sorted(z.files)]
+    return p.read_bytes()
+
+
+def case_save():
+    c = synth_capture("fig6-period3-ideal", periods=6, transient=5, trigger_offset=-1e-3)
+    out = []
+    with tempfile.TemporaryDirectory() as d:
+        for fmt in WRITE_FORMATS:
+            p = c.save(Path(d) / f"s_{fmt}", fmt)
+            out.append([fmt, p.name, _tree_digest(p)])
+        for suffix in (".csv", ".npz", ".bin", ".json", ".txt"):
+            p = c.save(Path(d) / f"by{suffix}")
+            out.append([suffix, p.name, _tree_digest(p)])
+        far = dataclasses.replace(c, t=c.t + 1e3)
+        for fmt in ("rigol", "tek", "keysight", "siglent"):
+            try:
+                far.save(Path(d) / f"far_{fmt}", fmt)
+                out.append([fmt, "written"])
+            except Exception as e:  # noqa: BLE001 -- the refusal's type and text are the result
+                out.append([fmt, type(e).__name__, str(e)])
+    return _sha(out)
+
+
 def case_netlist():
     if shutil.which("ngspice") is None:
         pytest.skip("ngspice not installed")

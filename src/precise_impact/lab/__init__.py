@@ -4,4 +4,4 @@ measurement model by :mod:`.synth`, scored at the level of the attractor by :mod
 and the tolerance budget of a circuit design (:mod:`.budget`).  Guides: ``docs/guide/netlist.rst``,
 ``docs/guide/captures.rst``, ``docs/guide/tolerance.rst``."""
 
-__all__ = ["attractor", "budget", "capture", "netlist", "scope_files", "synth"]
+__all__ = ["attractor", "budget", "capture", "netlist", "scope_files", "scope_writers", "synth"]

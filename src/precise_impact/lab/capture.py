@@ -25,6 +25,7 @@ from precise_impact.core.result import ResultMixin, to_jsonable, unit_column
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import check_plot_path, finish, new_figure
+from precise_impact.lab.scope_writers import write_layout
 from precise_impact.models.circuit.components import (
     Components,
     circuit_scales,
@@ -228,13 +229,11 @@ class Capture(ResultMixin):
     def save(self, path: str | os.PathLike, fmt: str | None = None) -> Path:
         """Write the capture: ``.npz`` (arrays + JSON metadata), ``.csv`` (generic time-first
         CSV), ``.json`` (the summary), or a vendor layout by ``fmt``
-        (:data:`precise_impact.lab.scope_files.WRITE_FORMATS`)."""
+        (:data:`precise_impact.lab.scope_writers.WRITE_FORMATS`)."""
         path = Path(path)
         if fmt is None and path.suffix.lower() == ".json":
             return super().save(path)
-        from precise_impact.lab.scope_files import write_capture  # noqa: PLC0415 -- cycle: the writers check for a Capture
-
-        return write_capture(self, path, fmt)
+        return write_layout(self, path, fmt, UNIFORM_RTOL)
 
     def npz_arrays(self) -> dict[str, np.ndarray]:
         """The arrays :meth:`save` puts in an ``.npz`` file (``meta`` is JSON text)."""
@@ -418,6 +417,20 @@ def integrator_pair_fit(
     of both the residual and the total before the share is formed (a capture passes its white
     noise and ADC step together, ``sqrt(white^2 + q^2/12)``).
     """
+    rc, r2, _ = integrator_pair_fit_se(t, vs, vq, segment, noise_vs)
+    return rc, r2
+
+
+def integrator_pair_fit_se(
+    t: np.ndarray,
+    vs: np.ndarray,
+    vq: np.ndarray,
+    segment: int | None = None,
+    noise_vs: float = 0.0,
+) -> tuple[float, float, float]:
+    """``(R8 C1, R^2, standard error of R8 C1)``: :func:`integrator_pair_fit` with the fit's
+    standard error (residual scatter only, ``n - 2`` degrees of freedom per segment; not the
+    trapezoid rule's error, O(h^2) per unit time)."""
     t = np.asarray(t, float)
     vs = np.asarray(vs, float)
     vq = np.asarray(vq, float)
@@ -430,19 +443,21 @@ def integrator_pair_fit(
     q = np.concatenate(([0.0], np.cumsum(0.5 * (vq[1:] + vq[:-1]) * np.diff(t))))
     m = (n // seg) * seg
     if m < seg or m < 4:
-        return math.nan, 0.0
+        return math.nan, 0.0, math.nan
     qs = q[:m].reshape(-1, seg)
     ys = vs[:m].reshape(-1, seg)
     qs = qs - qs.mean(axis=1, keepdims=True)
     ys = ys - ys.mean(axis=1, keepdims=True)
     qq, yy = float(np.sum(qs * qs)), float(np.sum(ys * ys))
     if not (qq > 0 and yy > 0):
-        return math.nan, 0.0
+        return math.nan, 0.0, math.nan
     k = float(np.sum(qs * ys)) / qq  # = -1 / (R8 C1)
     r = ys - k * qs
     white = m * (1 - 1 / seg) * float(noise_vs) ** 2  # expected within-segment noise sum
-    r2 = 1.0 - max(float(np.sum(r * r)) - white, 0.0) / max(yy - white, 1e-300 * yy)
-    return (-1.0 / k if k else math.inf), r2
+    rr = float(np.sum(r * r))
+    r2 = 1.0 - max(rr - white, 0.0) / max(yy - white, 1e-300 * yy)
+    se = math.sqrt(rr / max(m - 2 * (m // seg), 1) / qq)  # of k
+    return (-1.0 / k if k else math.inf), r2, (se / k**2 if k else math.inf)
 
 
 def noise_sigma(y: np.ndarray) -> float:

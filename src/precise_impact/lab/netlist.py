@@ -44,6 +44,7 @@ from precise_impact.io.figures import plot_units, save_figure
 from precise_impact.io.jsonout import write_json
 from precise_impact.io.progress import say as _progress
 from precise_impact.lab.attractor import fit_sinusoid
+from precise_impact.lab.capture import integrator_pair_fit_se
 from precise_impact.models.circuit.components import Components, circuit_scales, dimensionless
 from precise_impact.models.circuit.spice import find_ngspice
 from precise_impact.scenes.scene import load_scene
@@ -1060,24 +1061,6 @@ def fit_forcing(t: np.ndarray, y: np.ndarray, omega_guess: float | None = None) 
     }
 
 
-def _fit_rc(t: np.ndarray, vs: np.ndarray, vq: np.ndarray) -> tuple[float, float, float]:
-    """``R8 C1`` from the integrator ``V_s(t) = V_s(t_0) - (1/(R8 C1)) integral V_q dt``: least
-    squares of ``V_s`` against the trapezoid integral of ``V_q`` (the reversals take
-    nanoseconds: the integral crosses them without error worth the name); with the fit's
-    standard error (residual scatter only: it does not include the trapezoid rule's error,
-    O(h^2) per unit time) and the fit's R^2 (1 for an integrator pair)."""
-    q = np.concatenate(([0.0], np.cumsum(0.5 * (vq[1:] + vq[:-1]) * np.diff(t))))
-    A = np.stack([q, np.ones_like(q)], axis=1)
-    coef, *_ = np.linalg.lstsq(A, vs, rcond=None)
-    k = float(coef[0])  # = -1 / (R8 C1)
-    r = vs - A @ coef
-    qc = q - q.mean()
-    se = math.sqrt(float(r @ r) / max(len(q) - 2, 1) / float(qc @ qc))
-    vc = vs - vs.mean()
-    r2 = 1.0 - float(r @ r) / float(vc @ vc) if float(vc @ vc) > 0 else 0.0
-    return (-1.0 / k if k else math.inf), (se / k**2 if k else math.inf), r2
-
-
 # ================================================================== scoring
 @dataclasses.dataclass
 class NetlistScoreResult(ResultMixin):
@@ -1253,7 +1236,7 @@ FORCING_MAX_RESIDUAL = 0.05
 def _check_channels(w: Waveforms, nmap: NodeMap, vs: np.ndarray, vq: np.ndarray) -> None:
     """The x and v nodes are an integrator pair (``V_s' = -V_q / (R8 C1)``, R8 C1 > 0), or one
     line saying which way they are not."""
-    rc, _, r2 = _fit_rc(w.time, vs, vq)
+    rc, r2, _ = integrator_pair_fit_se(w.time, vs, vq)
     if r2 >= INTEGRATOR_MIN_R2 and rc < 0:
         raise ParameterError(
             "x-node",
@@ -1316,7 +1299,9 @@ def _mapping(
     eta, a = float(params.eta), float(params.a)
     omega = fit["Omega"] / eta
     vu = fit["amplitude"] * nmap.forcing_gain / a
-    rc, rc_se, _ = _fit_rc(w.time, vs, vq)
+    # one segment (a simulator's noise-free run); the reversals take nanoseconds: the
+    # trapezoid integral crosses them without error worth the name
+    rc, _, rc_se = integrator_pair_fit_se(w.time, vs, vq)
     # the trapezoid integral's own error, relative (omega h)^2 / 12 for a sinusoid at omega;
     # doubled for the impacts' higher harmonics (measured: 1.4e-5 at h = 1e-5 s, omega = 1e3)
     h = float(np.max(np.diff(w.time)))
@@ -1445,6 +1430,260 @@ def check_periods(value: Any) -> int:
     return check_count(value, "periods", MAX_PERIODS, MIN_PERIODS)
 
 
+def _node_map(
+    map: str | Path | NodeMap | None,
+    x_node: str | None,
+    v_node: str | None,
+    forcing_node: str | None,
+    impact_node: str | None,
+) -> NodeMap:
+    """The node map: the ``map``'s (loaded if a path), overridden by the node names given."""
+    nmap = map if isinstance(map, NodeMap) else (load_map(map) if map is not None else None)
+    if nmap is None:
+        if x_node is None or v_node is None:
+            raise ParameterError(
+                "x-node", x_node, "node names for x and v (--x-node, --v-node or --map)"
+            )
+        nmap = NodeMap(x=x_node, v=v_node)
+    return dataclasses.replace(
+        nmap,
+        x=x_node or nmap.x,
+        v=v_node or nmap.v,
+        forcing=forcing_node or nmap.forcing,
+        impact=impact_node or nmap.impact,
+    )
+
+
+def _netlist_runs(
+    p: Path,
+    nmap: NodeMap,
+    step: int | None,
+    workdir: str | Path | None,
+    run_kw: dict,
+) -> tuple[list[Waveforms], dict]:
+    """Check a netlist's nodes and ``step``, run it by ngspice, keep the ``step``-th run."""
+    text = read_netlist(p)
+    roles = {"x": nmap.x, "v": nmap.v, "forcing": nmap.forcing, "impact": nmap.impact}
+    check_nodes(text, roles, p.name)  # before ngspice runs
+    n_tran = len(re.findall(r"^\s*\.tran\b", text, re.I | re.M))
+    if step is not None and not re.search(r"^\s*\.step\b", text, re.I | re.M):
+        if not 0 <= step < n_tran:
+            raise ParameterError(
+                "step", step, f"an integer 0 .. {n_tran - 1} ({p.name} has no .step)"
+            )
+    runs, info = run_netlist(p, workdir, **run_kw)
+    if step is not None:
+        if not 0 <= step < len(runs):
+            raise ParameterError("step", step, f"an integer 0 .. {len(runs) - 1}")
+        runs = [runs[step]]
+    return runs, info
+
+
+def _load_runs(
+    p: Path,
+    nmap: NodeMap,
+    step: int | None,
+    workdir: str | Path | None,
+    run_kw: dict,
+) -> tuple[list[Waveforms], dict, str]:
+    """The runs of a ``.raw`` file (read) or of a netlist (run), their info and the kind."""
+    suffix = p.suffix.lower()
+    if suffix in RAW_SUFFIXES:
+        return read_raw(p, step), {"options": {}, "notes": []}, "raw"
+    if suffix in NETLIST_SUFFIXES:
+        runs, info = _netlist_runs(p, nmap, step, workdir, run_kw)
+        return runs, info, "netlist"
+    _check_file(p, RAW_SUFFIXES + NETLIST_SUFFIXES, "netlist or raw file")
+    raise AssertionError  # pragma: no cover
+
+
+def _compression(
+    runs: list[Waveforms], info: dict, kind: str, warnings: list[str], progress: bool | None
+) -> dict:
+    """LTspice compression of a raw file's runs (a warning when compressed)."""
+    compression = (
+        lt_compression(runs, info.get("options"))
+        if kind == "raw"
+        else {"compressed": False, "why": "run here by ngspice (no compression)"}
+    )
+    if compression.get("compressed"):
+        warnings.append(compression["warning"])
+        _progress("warning: " + compression["warning"], progress)
+    return compression
+
+
+def _map_runs(
+    runs: list[Waveforms], nmap: NodeMap, params: Params, design: Any, scales: str
+) -> list[tuple]:
+    """Every run's corrected traces and mapping, checked before the reference is computed."""
+    mapped = []
+    for w in runs:
+        vs = nmap.corrected("x", w.node(nmap.x, "x"))
+        vq = nmap.corrected("v", w.node(nmap.v, "v"))
+        aux = w.node(nmap.impact, "impact") if nmap.impact else None
+        m, fit = _mapping(params, design, scales, w, nmap, vs, vq)
+        mapped.append((w, vs, vq, aux, m, fit))
+    return mapped
+
+
+def _timing(
+    mapped: list[tuple],
+    params: Params,
+    nmap: NodeMap,
+    periods: int | None,
+    transient: int | None,
+    warnings: list[str],
+) -> tuple[float, float, int, int]:
+    """The forcing period in seconds, its phase, the periods scored and the transient."""
+    m0, fit0 = mapped[0][4], mapped[0][5]
+    eta = float(params.eta)
+    period_s = 2 * math.pi / (m0["omega"] * eta)
+    phase = (
+        nmap.forcing_phase if nmap.forcing_phase is not None else (fit0["phase"] if fit0 else 0.0)
+    )
+    if fit0 is None and nmap.forcing_phase is None:
+        warnings.append("no forcing node: the forcing is taken as cos(Omega t) from SPICE time 0")
+    ts0 = mapped[0][0].time
+    tk = _samples(ts0, period_s, ts0[0], periods)
+    n_per = len(tk) - 1
+    for w, *_ in mapped[1:]:
+        n_per = min(n_per, len(_samples(w.time, period_s, w.time[0], periods)) - 1)
+    k = n_per // 5 if transient is None else int(transient)
+    if not 0 <= k < n_per:
+        raise ParameterError("transient", transient, f"0 <= transient < periods ({n_per})")
+    return period_s, phase, n_per, k
+
+
+def _run_trajectory(
+    run: tuple, params: Params, phase: float, period_s: float, n_per: int, elapsed_s: float
+) -> tuple[Trajectory, np.ndarray, int]:
+    """One run as a dimensionless trajectory sampled each period (its impacts detected);
+    with the sample times in seconds and how many samples were interpolated."""
+    w, vs, vq, aux, m, _fit = run
+    eta = float(params.eta)
+    tk = _samples(w.time, period_s, w.time[0], n_per)
+    tk = tk[: n_per + 1]
+    vs_k, n_i1 = _at(w.time, vs, tk, period_s)
+    vq_k, n_i2 = _at(w.time, vq, tk, period_s)
+    omega = m["omega"]
+    t0_tau = phase / eta
+    tau = omega * w.time + t0_tau
+    x = vs / m["volts_per_x"]
+    v = vq / m["volts_per_v"]
+    x_k, v_k = vs_k / m["volts_per_x"], vq_k / m["volts_per_v"]
+    tau_k = omega * tk + t0_tau
+    p0 = params.replace(x0=float(x_k[0]), v0=float(v_k[0]), t0=float(tau_k[0]))
+    tau_k = float(p0.t0) + np.arange(len(tk)) * (2 * math.pi / eta)
+    ti, vb, va = impacts_from_waveform(tau, x, v, tau if aux is not None else None, aux)
+    # only what lies between the first and the last sample is scored
+    keep = (ti >= tau_k[0]) & (ti <= tau_k[-1])
+    ti, vb, va = ti[keep], vb[keep], va[keep]
+    inside = (w.time >= tk[0] - _SNAP * period_s) & (w.time <= tk[-1] + _SNAP * period_s)
+    tau, x, v = tau[inside], x[inside], v[inside]
+    tr = Trajectory(
+        params=p0,
+        model="spice",
+        precision=Precision.parse("float64"),
+        tol=None,
+        t=tau_k,
+        x=x_k,
+        v=v_k,
+        impacts_t=ti,
+        impacts_v_before=vb,
+        impacts_v_after=va,
+        dense_t=tau,
+        dense_x=x,
+        dense_v=v,
+        elapsed_s=elapsed_s,
+        stats={"source": w.path},
+    )
+    return tr, tk, max(n_i1, n_i2)
+
+
+def _score_run(
+    tr: Trajectory, n_per: int, k: int, bits: int, lle: dict, progress: bool | None
+) -> tuple[dict, Any, Any, dict, str]:
+    """A run's scores against its own reference (from its first sample); the LLE (an
+    attractor's) computed once into ``lle``."""
+    p0 = tr.params
+    ref, check, ref_info = demonstrated_reference(p0, n_per, 50, bits, progress)
+    if not lle:
+        lle.update(reference_lle(p0, progress))
+    regime = "periodic" if detected_period(ref, k) > 0 else "chaotic"
+    ref2 = None
+    if regime == "chaotic":
+        p2 = p0.replace(x0=p0.x0 + REF_PERTURBATION)
+        ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, n_per)
+    sc = score(tr, ref, regime=regime, lle=lle["lle"], ref2=ref2, transient=k)
+    return sc, ref, check, ref_info, regime
+
+
+def _score_runs(
+    p: Path, mapped: list[tuple], params: Params, timing: tuple, info: dict, progress: bool | None
+) -> tuple[list[dict], list[dict], dict]:
+    """Every run's record, plot data and the LLE."""
+    period_s, phase, n_per, k = timing
+    bits = reference_bits(n_per)
+    out_runs: list[dict] = []
+    plots: list[dict] = []
+    lle: dict = {}
+    for run in mapped:
+        w, m = run[0], run[4]
+        elapsed = float(info.get("elapsed_s", 0.0))
+        tr, tk, n_interp = _run_trajectory(run, params, phase, period_s, n_per, elapsed)
+        sc, ref, check, ref_info, regime = _score_run(tr, n_per, k, bits, lle, progress)
+        name = p.name if len(mapped) == 1 else f"{p.name} {w.label}"
+        out_runs.append(
+            {
+                "name": name,
+                "label": w.label,
+                "points": int(len(w.time)),
+                "periods": n_per,
+                "first_sample_s": float(tk[0]),
+                "initial_state": {
+                    "x0": float(tr.x[0]),
+                    "v0": float(tr.v[0]),
+                    "t0": float(tr.params.t0),
+                },
+                "samples_interpolated": n_interp,
+                "data_precision": w.precision,
+                "regime": regime,
+                "scores": sc,
+                "mapping": m,
+                "reference": ref_info,
+            }
+        )
+        plots.append({"name": name, "ref": ref, "check": check, "traj": tr})
+        _progress(f"{name}: " + score_line(sc), progress)
+    return out_runs, plots, lle
+
+
+def _ngspice_info(kind: str, info: dict) -> dict | None:
+    """The ngspice run's mode, time, log and options (``None`` for a raw file)."""
+    if kind == "raw":
+        return None
+    return {
+        "ltspice_mode": info.get("ltspice_mode"),
+        "elapsed_s": info.get("elapsed_s"),
+        "log": info.get("ngspice_log"),
+        "options": info.get("options"),
+    }
+
+
+def _write_outputs(res: NetlistScoreResult, out: str | Path, units: str) -> None:
+    """``scores.json`` and each run's phase portraits and separation figures in ``out``."""
+    o = Path(out)
+    o.mkdir(parents=True, exist_ok=True)
+    res.files = [str(o / "scores.json")]
+    n = len(res._plots["runs"])
+    for i in range(n):
+        tag = "" if n == 1 else f"_{i}"
+        for what, stem in (("portraits", "phase_portraits"), ("separation", "separation")):
+            res.plot(o / f"{stem}{tag}.png", what, units, run=i)
+            res.files.append(str(o / f"{stem}{tag}.png"))
+    write_json(o / "scores.json", res.to_dict(), indent=2)
+
+
 def score_netlist(
     path: str | Path,
     x_node: str | None = None,
@@ -1553,20 +1792,7 @@ def score_netlist(
 
     check_type(path, (str, os.PathLike), "path", "a netlist or .raw file (str or os.PathLike)")
     p = Path(path)
-    nmap = map if isinstance(map, NodeMap) else (load_map(map) if map is not None else None)
-    if nmap is None:
-        if x_node is None or v_node is None:
-            raise ParameterError(
-                "x-node", x_node, "node names for x and v (--x-node, --v-node or --map)"
-            )
-        nmap = NodeMap(x=x_node, v=v_node)
-    nmap = dataclasses.replace(
-        nmap,
-        x=x_node or nmap.x,
-        v=v_node or nmap.v,
-        forcing=forcing_node or nmap.forcing,
-        impact=impact_node or nmap.impact,
-    )
+    nmap = _node_map(map, x_node, v_node, forcing_node, impact_node)
     if scales not in ("auto", "components", "fitted"):
         raise ParameterError("scales", scales, "'auto', 'components' or 'fitted'")
     if periods is not None:
@@ -1575,175 +1801,36 @@ def score_netlist(
         max_time = parse_max_time(max_time)
     params, design, target = _target(nmap, scene)
     plot_units(units, components=design if units == "circuit" else None)  # before any work
-    suffix = p.suffix.lower()
-    if suffix in RAW_SUFFIXES:
-        runs, info, kind = read_raw(p, step), {"options": {}, "notes": []}, "raw"
-    elif suffix in NETLIST_SUFFIXES:
-        text = read_netlist(p)
-        roles = {"x": nmap.x, "v": nmap.v, "forcing": nmap.forcing, "impact": nmap.impact}
-        check_nodes(text, roles, p.name)  # before ngspice runs
-        n_tran = len(re.findall(r"^\s*\.tran\b", text, re.I | re.M))
-        if step is not None and not re.search(r"^\s*\.step\b", text, re.I | re.M):
-            if not 0 <= step < n_tran:
-                raise ParameterError(
-                    "step", step, f"an integer 0 .. {n_tran - 1} ({p.name} has no .step)"
-                )
-        runs, info = run_netlist(
-            p,
-            workdir,
-            ltspice=ltspice,
-            timeout=timeout,
-            executable=executable,
-            max_time=max_time,
-        )
-        kind = "netlist"
-        if step is not None:
-            if not 0 <= step < len(runs):
-                raise ParameterError("step", step, f"an integer 0 .. {len(runs) - 1}")
-            runs = [runs[step]]
-    else:
-        _check_file(p, RAW_SUFFIXES + NETLIST_SUFFIXES, "netlist or raw file")
-        raise AssertionError  # pragma: no cover
+    run_kw = {
+        "ltspice": ltspice,
+        "timeout": timeout,
+        "executable": executable,
+        "max_time": max_time,
+    }
+    runs, info, kind = _load_runs(p, nmap, step, workdir, run_kw)
     warnings: list[str] = list(info.get("notes", []))
-    compression = (
-        lt_compression(runs, info.get("options"))
-        if kind == "raw"
-        else {"compressed": False, "why": "run here by ngspice (no compression)"}
-    )
-    if compression.get("compressed"):
-        warnings.append(compression["warning"])
-        _progress("warning: " + compression["warning"], progress)
-
-    # every run's nodes are checked before the reference is computed
-    mapped = []
-    for w in runs:
-        vs = nmap.corrected("x", w.node(nmap.x, "x"))
-        vq = nmap.corrected("v", w.node(nmap.v, "v"))
-        aux = w.node(nmap.impact, "impact") if nmap.impact else None
-        m, fit = _mapping(params, design, scales, w, nmap, vs, vq)
-        mapped.append((w, vs, vq, aux, m, fit))
-    m0, fit0 = mapped[0][4], mapped[0][5]
-    eta = float(params.eta)
-    period_s = 2 * math.pi / (m0["omega"] * eta)
-    phase = (
-        nmap.forcing_phase if nmap.forcing_phase is not None else (fit0["phase"] if fit0 else 0.0)
-    )
-    if fit0 is None and nmap.forcing_phase is None:
-        warnings.append("no forcing node: the forcing is taken as cos(Omega t) from SPICE time 0")
-    ts0 = mapped[0][0].time
-    tk = _samples(ts0, period_s, ts0[0], periods)
-    n_per = len(tk) - 1
-    for w, *_ in mapped[1:]:
-        n_per = min(n_per, len(_samples(w.time, period_s, w.time[0], periods)) - 1)
-    bits = reference_bits(n_per)
-    k = n_per // 5 if transient is None else int(transient)
-    if not 0 <= k < n_per:
-        raise ParameterError("transient", transient, f"0 <= transient < periods ({n_per})")
-
-    out_runs: list[dict] = []
-    plots: list[dict] = []
-    lle: dict = {}
-    for w, vs, vq, aux, m, _fit in mapped:
-        tk = _samples(w.time, period_s, w.time[0], n_per)
-        tk = tk[: n_per + 1]
-        vs_k, n_i1 = _at(w.time, vs, tk, period_s)
-        vq_k, n_i2 = _at(w.time, vq, tk, period_s)
-        omega = m["omega"]
-        t0_tau = phase / eta
-        tau = omega * w.time + t0_tau
-        x = vs / m["volts_per_x"]
-        v = vq / m["volts_per_v"]
-        x_k, v_k = vs_k / m["volts_per_x"], vq_k / m["volts_per_v"]
-        tau_k = omega * tk + t0_tau
-        p0 = params.replace(x0=float(x_k[0]), v0=float(v_k[0]), t0=float(tau_k[0]))
-        tau_k = float(p0.t0) + np.arange(len(tk)) * (2 * math.pi / eta)
-        ti, vb, va = impacts_from_waveform(tau, x, v, tau if aux is not None else None, aux)
-        # only what lies between the first and the last sample is scored
-        keep = (ti >= tau_k[0]) & (ti <= tau_k[-1])
-        ti, vb, va = ti[keep], vb[keep], va[keep]
-        inside = (w.time >= tk[0] - _SNAP * period_s) & (w.time <= tk[-1] + _SNAP * period_s)
-        tau, x, v = tau[inside], x[inside], v[inside]
-        tr = Trajectory(
-            params=p0,
-            model="spice",
-            precision=Precision.parse("float64"),
-            tol=None,
-            t=tau_k,
-            x=x_k,
-            v=v_k,
-            impacts_t=ti,
-            impacts_v_before=vb,
-            impacts_v_after=va,
-            dense_t=tau,
-            dense_x=x,
-            dense_v=v,
-            elapsed_s=float(info.get("elapsed_s", 0.0)),
-            stats={"source": w.path},
-        )
-        # each run from its own first sample: its own reference; the LLE (an attractor's) once
-        ref, check, ref_info = demonstrated_reference(p0, n_per, 50, bits, progress)
-        if not lle:
-            lle = reference_lle(p0, progress)
-        regime = "periodic" if detected_period(ref, k) > 0 else "chaotic"
-        ref2 = None
-        if regime == "chaotic":
-            p2 = p0.replace(x0=p0.x0 + REF_PERTURBATION)
-            ref2 = make_solver("heyoka", f"mp:{bits}").solve(p2, n_per)
-        sc = score(tr, ref, regime=regime, lle=lle["lle"], ref2=ref2, transient=k)
-        name = p.name if len(mapped) == 1 else f"{p.name} {w.label}"
-        out_runs.append(
-            {
-                "name": name,
-                "label": w.label,
-                "points": int(len(w.time)),
-                "periods": n_per,
-                "first_sample_s": float(tk[0]),
-                "initial_state": {"x0": float(x_k[0]), "v0": float(v_k[0]), "t0": float(p0.t0)},
-                "samples_interpolated": max(n_i1, n_i2),
-                "data_precision": w.precision,
-                "regime": regime,
-                "scores": sc,
-                "mapping": m,
-                "reference": ref_info,
-            }
-        )
-        plots.append({"name": name, "ref": ref, "check": check, "traj": tr})
-        _progress(f"{name}: " + score_line(sc), progress)
-
+    compression = _compression(runs, info, kind, warnings, progress)
+    mapped = _map_runs(runs, nmap, params, design, scales)
+    timing = _timing(mapped, params, nmap, periods, transient, warnings)
+    out_runs, plots, lle = _score_runs(p, mapped, params, timing, info, progress)
     res = NetlistScoreResult(
         source=str(p),
         kind=kind,
         dialect=runs[0].dialect,
         params={**params.decimal(), "target": target},
-        mapping=m0,
-        forcing=fit0,
+        mapping=mapped[0][4],
+        forcing=mapped[0][5],
         reference=out_runs[0]["reference"],
         lle=lle,
         runs=out_runs,
         compression=compression,
         warnings=warnings,
-        ngspice=(
-            None
-            if kind == "raw"
-            else {
-                "ltspice_mode": info.get("ltspice_mode"),
-                "elapsed_s": info.get("elapsed_s"),
-                "log": info.get("ngspice_log"),
-                "options": info.get("options"),
-            }
-        ),
+        ngspice=_ngspice_info(kind, info),
     )
+    k = timing[3]
     res._plots = {"runs": plots, "k": k, "target": target, "params": params, "design": design}
     if out is not None:
-        o = Path(out)
-        o.mkdir(parents=True, exist_ok=True)
-        res.files = [str(o / "scores.json")]
-        for i in range(len(plots)):
-            tag = "" if len(plots) == 1 else f"_{i}"
-            for what, stem in (("portraits", "phase_portraits"), ("separation", "separation")):
-                res.plot(o / f"{stem}{tag}.png", what, units, run=i)
-                res.files.append(str(o / f"{stem}{tag}.png"))
-        write_json(o / "scores.json", res.to_dict(), indent=2)
+        _write_outputs(res, out, units)
     return res
 
 
