@@ -32,7 +32,7 @@ from precise_impact.analysis.lyapunov.fast import fast_batch_rows, point_rows  #
 from precise_impact.core.flight import Flight, MpmathOps, steady_coefficients  # noqa: E402
 from precise_impact.core.flow import steady_state  # noqa: E402
 from precise_impact.solvers.fast import dd  # noqa: E402
-from precise_impact.solvers.fast.lle import fast_lle  # noqa: E402
+from precise_impact.solvers.fast.lle import fast_lle, lle_batch_serial  # noqa: E402
 from precise_impact.solvers.fast.single import (  # noqa: E402
     DD_ERR,
     STATUS_SLOW_IMPACT,
@@ -236,7 +236,8 @@ def test_chatter_grid_stops_before_refining_the_chatter_tail():
     speed floor (measured: 1415 refined flights of 144 starts, ~10 per start).  The kernel
     stops at the chatter's tail (``chatter_tail``: STATUS_SLOW_IMPACT, heyoka's chattering
     rule) with at most a few refined flights per episode, and the recorded impacts end in a
-    falling sequence under a wall force pushing into the wall (basins' ``_sticks`` rule)."""
+    falling sequence under a wall force pushing into the wall (basins' ``_sticks`` rule); the
+    LLE kernel too (measured before: 9-10 refined flights per start)."""
     eta, zeta, a, xw, R = 4.85, 0.0, 1.0, -0.3, 0.5
     n, refined = 60, []
     for ph in np.linspace(0, 1, 6, endpoint=False):
@@ -253,3 +254,8 @@ def test_chatter_grid_stops_before_refining_the_chatter_tail():
             assert a * math.cos(eta * it[ni - 1]) - xw > 0.0, (ph, v)
             refined.append(int(ref))
     assert max(refined) <= 2, refined
+    # the LLE kernel (sweeps, basins' chaos test) stops the same way
+    pars = np.array([[eta, zeta, a, xw, R]] * 8)
+    starts = np.array([[0.1 * j, xw, -0.05 - 0.07 * j] for j in range(8)])
+    status, *_, refined_lle = lle_batch_serial(pars, starts, 60, 0, 3, 10**6, 1)
+    assert status.tolist() == [STATUS_SLOW_IMPACT] * 8 and max(refined_lle) <= 2, refined_lle
