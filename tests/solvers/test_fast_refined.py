@@ -27,11 +27,18 @@ numba = pytest.importorskip(
 )
 
 from precise_impact import Params, simulate  # noqa: E402
+from precise_impact.analysis.impact_surface.basins import basins  # noqa: E402
+from precise_impact.analysis.lyapunov.fast import fast_batch_rows, point_rows  # noqa: E402
 from precise_impact.core.flight import Flight, MpmathOps, steady_coefficients  # noqa: E402
 from precise_impact.core.flow import steady_state  # noqa: E402
 from precise_impact.solvers.fast import dd  # noqa: E402
-from precise_impact.solvers.fast.lle import fast_lle  # noqa: E402
-from precise_impact.solvers.fast.single import DD_ERR, FastSolver  # noqa: E402
+from precise_impact.solvers.fast.lle import fast_lle, lle_batch_serial  # noqa: E402
+from precise_impact.solvers.fast.single import (  # noqa: E402
+    DD_ERR,
+    STATUS_SLOW_IMPACT,
+    FastSolver,
+    strobe,
+)
 
 EPS = float(np.finfo(float).eps)
 MP = mpmath.MPContext()
@@ -195,8 +202,6 @@ def test_sweep_tile_across_the_grazing_set_stays_compiled():
     """A sweep's tile (fast_batch_rows) whose x_w axis crosses the grazing set: the walls 1e-15
     inside, on, and 1e-15 beyond the steady amplitude; no point goes to heyoka and each refines
     its flights."""
-    from precise_impact.analysis.lyapunov.fast import fast_batch_rows, point_rows
-
     pts = [_grazing(o) for o in (-1e-15, 0.0, 1e-15)]
     res = fast_batch_rows(point_rows(pts), lambda idx: [pts[i] for i in idx], 300, 100)
     assert [r["engine"] for r in res] == ["fast"] * 3
@@ -214,8 +219,6 @@ def test_basins_grid_on_the_grazing_orbit_has_no_grazing_cells():
     float64's error of the wall without reaching it (a start 1e-3 away reaches it and goes to
     the chaotic attractor).  Before: cells labelled 'grazing contact' (the float64 engine does
     not decide); now every cell is the non-impacting orbit."""
-    from precise_impact.analysis.impact_surface.basins import basins
-
     p = _grazing(1e-15)
     x0, v0 = float(p.x0), float(p.v0)
     res = basins(
@@ -224,3 +227,35 @@ def test_basins_grid_on_the_grazing_orbit_has_no_grazing_cells():
     )  # fmt: skip
     kinds = {res.attractors[i]["kind"] for i in np.asarray(res.labels).ravel().tolist()}
     assert kinds == {"non-impacting"}, kinds
+
+
+def test_chatter_grid_stops_before_refining_the_chatter_tail():
+    """A chatter map (eta 4.85, zeta 0, R 0.5, x_w -0.3: every start chatters into sticking):
+    the late hops of a chatter start at the wall with post-impact speed ~1e-9..1e-6, inside
+    float64's error band, and each would be refined in double-double (~200 us) down to the
+    speed floor (measured: 1415 refined flights of 144 starts, ~10 per start).  The kernel
+    stops at the chatter's tail (``chatter_tail``: STATUS_SLOW_IMPACT, heyoka's chattering
+    rule) with at most a few refined flights per episode, and the recorded impacts end in a
+    falling sequence under a wall force pushing into the wall (basins' ``_sticks`` rule); the
+    LLE kernel too (measured before: 9-10 refined flights per start)."""
+    eta, zeta, a, xw, R = 4.85, 0.0, 1.0, -0.3, 0.5
+    n, refined = 60, []
+    for ph in np.linspace(0, 1, 6, endpoint=False):
+        for v in np.linspace(0.01, 0.6, 6):
+            it, iv = np.empty(100000), np.empty(100000)
+            xs, vs, ts = np.empty(n + 1), np.empty(n + 1), np.empty(n + 1)
+            st, ni, _, ref = strobe(
+                eta, zeta, a, xw, R, ph * 2 * math.pi / eta, xw, -v, n, 1, 1000 * n,
+                it, iv, xs, vs, ts, np.empty((0, 4)),
+            )  # fmt: skip
+            assert st == STATUS_SLOW_IMPACT, (ph, v, st)
+            last = iv[:ni][-3:]
+            assert ni >= 3 and last[2] < last[1] < last[0] < 1e-4, (ph, v, last)
+            assert a * math.cos(eta * it[ni - 1]) - xw > 0.0, (ph, v)
+            refined.append(int(ref))
+    assert max(refined) <= 2, refined
+    # the LLE kernel (sweeps, basins' chaos test) stops the same way
+    pars = np.array([[eta, zeta, a, xw, R]] * 8)
+    starts = np.array([[0.1 * j, xw, -0.05 - 0.07 * j] for j in range(8)])
+    status, *_, refined_lle = lle_batch_serial(pars, starts, 60, 0, 3, 10**6, 1)
+    assert status.tolist() == [STATUS_SLOW_IMPACT] * 8 and max(refined_lle) <= 2, refined_lle

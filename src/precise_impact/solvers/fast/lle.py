@@ -47,6 +47,7 @@ from precise_impact.solvers.fast.single import (
     STATUS_TEXT,
     _flight,
     _setup,
+    chatter_tail,
     compiled_saltation,
     rebase,
     sample_time,
@@ -112,6 +113,7 @@ def lle_orbit(  # noqa: C901, PLR0912, PLR0915 -- numba kernel: one compiled loo
     ``Phi W = q``); at an impact the basis becomes ``S Phi W`` and the new anchor's ``W``.
     """
     P, Q, w, S, err_scale, h_max, v_floor, steps = _setup(eta, zeta, a, xw)
+    err_tail = err_scale * (abs(xw) + S + 1.0)  # a flight's float64 gap error, at least
     T, T_lo = dd_period(eta)
     # samples per flight from one anchor: Phi(k T) ~ exp(-zeta k T) must not underflow
     # (measured at eta = 0.005: 16 samples of exp(-62.8) each, status non-finite)
@@ -249,6 +251,8 @@ def lle_orbit(  # noqa: C901, PLR0912, PLR0915 -- numba kernel: one compiled loo
                 block_impacts[j] += 1
         if n_imp >= max_impacts:
             return STATUS_BUDGET, log1, log2, n_meas, x, v, n_ref
+        if chatter_tail(tc, vc, eta, zeta, a, xw, R, err_tail):  # not refined hop by hop
+            return STATUS_SLOW_IMPACT, log1, log2, n_meas, x, v, n_ref
         t, base = rebase(tc, t0, T, T_lo, base)
         x, v = xw, -R * vc
     store_count(counts, slot, total)

@@ -410,6 +410,24 @@ def slow_impact(tc, vc, v_floor, eta, zeta, a, xw, R):
 
 
 @numba.njit(**JIT)
+def chatter_tail(tc, vc, eta, zeta, a, xw, R, err):
+    """An impact that ends a chatter's float64 part: the wall force pushes into the wall (the
+    test of :func:`slow_impact`) and the hop after it, post-impact speed ``u = R v``, peaks at
+    ``u^2 / (2 A)`` (``A`` that force) within ``64 err`` of the wall.  Such a hop lies inside
+    float64's evaluation error band (``err`` the gap's rounding, the float64 ``err0`` of
+    :func:`_flight` without the forcing-phase term) for all or nearly all of its flight, so the
+    flight's proofs fail and it is refined in double-double (~200 us); so is every later hop
+    of the chatter (each ``R^2`` lower), which converges to sticking (``R < 1``: at ``R = 1``
+    the hops do not shrink, the bounce sequence is not a chatter).  The caller stops here
+    (``STATUS_SLOW_IMPACT``: heyoka's chattering rule) instead of paying for them one by one;
+    measured on a chatter grid (eta 4.85, R 0.5): all 1415 refined flights started this way,
+    peaking within ``24 err`` (so ``64 err``: none refined; 0.18 s to 0.009 s)."""
+    A = a * math.cos(eta * tc) - xw + 2.0 * zeta * R * vc
+    u = R * vc
+    return R < 1.0 and A >= 0.0 and u * u < 128.0 * err * A
+
+
+@numba.njit(**JIT)
 def log_refined(rlog, n_ref, base, t, x, v):
     """Row ``n_ref`` of ``rlog`` (while it has room): the anchor ``(base, t, x, v)`` of a flight
     refined in double-double (absolute time ``t + base T``; replayable from ``(t, x, v)``)."""
@@ -426,9 +444,11 @@ def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb,
     ``rlog`` (``m x 4``) with the anchors of the first ``m`` refined flights
     (:func:`log_refined`).  Returns ``(status, impacts, samples_done, refined)``;
     ``impacts > len(imp_t)`` means the capacity was too small (the caller retries with more).
-    The clock is local (:func:`rebase`); ``ts`` and ``imp_t`` are absolute.
+    The clock is local (:func:`rebase`); ``ts`` and ``imp_t`` are absolute.  A chatter stops
+    after the impact whose next hop float64 cannot decide (:func:`chatter_tail`).
     """
     P, Q, w, S, err_scale, h_max, v_floor, steps = _setup(eta, zeta, a, xw)
+    err_tail = err_scale * (abs(xw) + S + 1.0)  # a flight's float64 gap error, at least
     T, T_lo = dd_period(eta)
     buf = np.empty((FLIGHT_SAMPLES, 6))
     t, x, v, base = t0, x0, v0, 0
@@ -462,6 +482,8 @@ def strobe(eta, zeta, a, xw, R, t0, x0, v0, n, step, max_impacts, imp_t, imp_vb,
         n_imp += 1
         if n_imp >= max_impacts:
             return STATUS_BUDGET, n_imp, k - 1, n_ref
+        if chatter_tail(tc, vc, eta, zeta, a, xw, R, err_tail):
+            return STATUS_SLOW_IMPACT, n_imp, k - 1, n_ref
         t, base = rebase(tc, t0, T, T_lo, base)
         x, v = xw, -R * vc
     return STATUS_OK, n_imp, n, n_ref
