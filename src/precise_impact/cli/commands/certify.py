@@ -195,22 +195,36 @@ def _certify_pair(ns: argparse.Namespace, params, max_bits: int, progress) -> tu
         ns.periods,
         y0=ns.y0,
         precision=ns.precision,
-        target_radius="1e-30" if ns.target is None else ns.target,
-        max_bits=max_bits,
-        progress=progress,
-        max_time=max_time(ns),
-        method="lohner" if ns.method is None else ns.method,
+        **_shared_options(ns, max_bits, progress),
     )
     d = r.to_dict()
     lines = [
         f"certified pair ({r.form}, k = {ns.k}): {r.periods} periods, "
         f"{len(r.master_impacts)} master and {len(r.slave_impacts)} slave impacts, at "
         f"{r.bits} bits ({r.bits_choice}) in {r.elapsed_s:.2f} s",
-        f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
-        f"{r.growth_digits_per_period():.3f} decimal digits per period",
+        _growth_line(r, d),
     ]
     names = "xvyw"
     return r, d, lines, names
+
+
+def _shared_options(ns: argparse.Namespace, max_bits: int, progress) -> dict:
+    """The options ``certify`` and ``certify_coupled`` take alike."""
+    return {
+        "target_radius": "1e-30" if ns.target is None else ns.target,
+        "max_bits": max_bits,
+        "progress": progress,
+        "max_time": max_time(ns),
+        "method": "lohner" if ns.method is None else ns.method,
+    }
+
+
+def _growth_line(r, d: dict) -> str:
+    """The summary's second line: the largest radius and how fast the radii grew."""
+    return (
+        f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
+        f"{r.growth_digits_per_period():.3f} decimal digits per period"
+    )
 
 
 def _certify_single(ns: argparse.Namespace, params, max_bits: int, progress) -> tuple:
@@ -221,18 +235,13 @@ def _certify_single(ns: argparse.Namespace, params, max_bits: int, progress) -> 
         params,
         ns.periods,
         precision="auto" if ns.precision is None else ns.precision,
-        target_radius="1e-30" if ns.target is None else ns.target,
-        max_bits=max_bits,
-        progress=progress,
-        max_time=max_time(ns),
-        method="lohner" if ns.method is None else ns.method,
+        **_shared_options(ns, max_bits, progress),
     )
     d = r.to_dict()
     lines = [
         f"certified {r.periods} periods, {len(r.impacts)} impacts, at {r.bits} bits "
         f"({r.bits_choice}) in {r.elapsed_s:.2f} s",
-        f"largest radius {d['max_radius']}; {r.method} enclosure, radius growth "
-        f"{r.growth_digits_per_period():.3f} decimal digits per period",
+        _growth_line(r, d),
     ]
     names = "xv"
     return r, d, lines, names
