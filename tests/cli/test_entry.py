@@ -149,6 +149,15 @@ try:
     with entry.interrupts():
         if case == "finalizer":
             Finalized()
+        elif case == "llvmlite-callback":  # as numba's cache notify, called by LLVM via ctypes
+            import llvmlite.binding as llvm
+            llvm.initialize_native_target()
+            llvm.initialize_native_asmprinter()
+            mod = llvm.parse_assembly("define i32 @f() {{\\n ret i32 1\\n}}\\n")
+            tm = llvm.Target.from_default_triple().create_target_machine()
+            ee = llvm.create_mcjit_compiler(mod, tm)
+            ee.set_object_cache(notify_func=lambda module, buf: kill_and_spin())
+            ee.finalize_object()
         elif case == "fork":
             os.register_at_fork(after_in_parent=kill_and_spin)
             p = multiprocessing.get_context("fork").Process(target=time.sleep, args=(0.2,))
@@ -160,7 +169,7 @@ except KeyboardInterrupt:
 """
 
 
-@pytest.mark.parametrize("case", ["finalizer", "fork", "before-the-block"])
+@pytest.mark.parametrize("case", ["finalizer", "fork", "llvmlite-callback", "before-the-block"])
 def test_an_interrupt_where_python_drops_exceptions_is_raised_after(case):
     r = subprocess.run(
         [sys.executable, "-c", DROPPED_PROGRAM.format(case=case)],

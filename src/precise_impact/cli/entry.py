@@ -26,10 +26,16 @@ _IMPORT_FRAMES = frozenset(
     {"<frozen importlib._bootstrap>", "<frozen importlib._bootstrap_external>"}
 )
 #: Where an exception raised by the handler is printed and dropped ("Exception ignored in"),
-#: and the interrupt lost: a finalizer, and the fork of a pool's worker (logging's at-fork
-#: hooks: a fast sweep ran on after SIGTERM).  Function names; file name endings.
+#: and the interrupt lost: a finalizer, the fork of a pool's worker (logging's at-fork
+#: hooks: a fast sweep ran on after SIGTERM), and llvmlite's object-cache callbacks, which
+#: LLVM calls through ctypes as numba compiles in the main thread (``continue`` ran on for
+#: 60 s after a SIGTERM there).  Function names; file name endings.
 _DROPPING_FUNCTIONS = frozenset({"__del__"})
-_DROPPING_FILES = ("multiprocessing/popen_fork.py", "multiprocessing/popen_forkserver.py")
+_DROPPING_FILES = (
+    "multiprocessing/popen_fork.py",
+    "multiprocessing/popen_forkserver.py",
+    "llvmlite/binding/executionengine.py",
+)
 
 #: Signals noted inside an import and not yet raised (see :func:`interrupt`).
 _deferred: list[int] = []
