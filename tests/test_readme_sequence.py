@@ -39,6 +39,7 @@ import pytest
 
 from precise_impact.cli.main import build_parser, main
 from precise_impact.io.lock import LOCK_NAME
+from precise_impact.io.markdown import parse_tables
 from precise_impact.verification.reproduce import OUTPUT_FILES
 
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -291,11 +292,40 @@ def test_the_readme_venv_holds_only_what_the_readme_installs():
     assert not (others & have) - required, (others & have) - required
 
 
+def _check_main_job(out: Path) -> None:
+    """What the README's first command, ``reproduce --quick``, left in ``out``: report.md with
+    every figure, the LLE and the sync thresholds (checked on the sequence's own run, not a
+    second run of the main job: ~50 s each on 2 cores)."""
+    rep = json.loads((out / "report.json").read_text())
+    assert set(rep["figures"]) == {"4", "5", "6"}
+    for fig in ("4", "6"):  # periodic: the ideal circuit model equals the reference to round-off
+        assert rep["figures"][fig]["models"]["circuit (ideal)"]["max_error_second_half"] < 1e-10
+        assert rep["figures"][fig]["demonstrated"] < 1e-40
+    v = rep["lle"]["variational"]
+    assert abs(v[0] - 0.0305) < 5 * v[1] + 1e-3
+    assert set(rep["sync"]) == {"first-order", "reduced", "paper"}
+    md = (out / "report.md").read_text()
+    assert "Largest Lyapunov exponent" in md and "Fig. 6" in md
+    assert len(parse_tables(md)) >= 4  # Figs. 4-6 and the thresholds at least; each renders
+    # every run's attractor; the datasheet circuit on another one at Figs. 4 and 6, explained
+    for fig, verdict in (("4", "another attractor"), ("6", "another attractor")):
+        att = rep["figures"][fig]["attractors"]
+        ds = att["models"]["switched-capacitor (datasheet)"]
+        assert ds["same_as_mechanics"] == verdict and ds["effective"]["explains"], fig
+        assert att["models"]["circuit (ideal)"]["same_as_mechanics"] == "same"
+    assert md.count("so the shifts explain it") == 3 and md.count("Attractors (") == 3
+    for name in ("fig4_phase_portraits.png", "fig7_first-order.png", "sync_fraction_paper.png"):
+        assert (out / name).stat().st_size > 5000
+
+
 @pytest.mark.slow  # reproduce --quick and bench work-precision --quick: minutes in all
 def test_readme_sequence(tmp_path):
     timings = _run_sequence(tmp_path, quick=False)
     print("\n".join(f"{t:7.1f} s  {c}" for c, t in timings))
     print(f"{sum(t for _, t in timings):7.1f} s  in all")
+    main_job = [c for c, _ in timings if c.startswith("precise-impact reproduce --quick")]
+    assert main_job == ["precise-impact reproduce --quick --out results"], main_job
+    _check_main_job(tmp_path / "results")
     # a second run of the main job into the same directory is refused, naming its own file
     r = subprocess.run(
         [_python(), "-m", "precise_impact", "reproduce", "--quick", "--out", "results"],

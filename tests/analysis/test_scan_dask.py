@@ -83,3 +83,22 @@ def test_dask_address_beside_a_default_client():
             assert distributed.default_client() is mine
     assert [r.values for r in runs] == [[[0, 1], [2, 3], [4, 5]]] * 2
     assert wall < 3.0, wall  # ~0.1 s each; ~2 s each before
+
+
+@pytest.mark.parametrize(
+    "n_tiles,workers", [(0, 2), (1, 2), (5, 2), (32, 2), (33, 2), (500, 2), (500, 7)]
+)
+def test_dask_batches_cover_every_tile_once_in_order(n_tiles, workers):
+    """Tiles go to Dask in consecutive groups: every tile once, in order, at most
+    ``TASKS_PER_WORKER`` tasks per worker, and one tile per task while that many suffice (a
+    Dask task costs ~10 ms of CPU: 500 tiles of the chatter map as 500 tasks lost 4-26 %)."""
+    from precise_impact.analysis.scan import TASKS_PER_WORKER, _dask_batches
+
+    todo = list(range(3, 3 + n_tiles))
+    batches = _dask_batches(todo, workers)
+    assert [t for b in batches for t in b] == todo
+    assert len(batches) <= workers * TASKS_PER_WORKER and all(batches)
+    if n_tiles <= workers * TASKS_PER_WORKER:
+        assert len(batches) == n_tiles
+    sizes = {len(b) for b in batches[:-1]}
+    assert len(sizes) <= 1 and (not batches or len(batches[-1]) <= max(sizes | {1}))

@@ -314,35 +314,6 @@ def test_sweep_cli_resumes(tmp_path):
     assert bad.returncode == 2 and bad.stderr.startswith("precise-impact: error: R_max = ")
 
 
-@pytest.mark.slow  # over ~10 s on 2 cores: CI runs the slow tests in a step of their own
-def test_reproduce_quick_main_job(tmp_path):
-    """The README's first command: report.md with every figure, the LLE and the sync thresholds."""
-    r = run("reproduce", "--quick", "--out", str(tmp_path))
-    assert r.returncode == 0, r.stderr
-    rep = json.loads((tmp_path / "report.json").read_text())
-    assert set(rep["figures"]) == {"4", "5", "6"}
-    for fig in ("4", "6"):  # periodic: the ideal circuit model equals the reference to round-off
-        assert rep["figures"][fig]["models"]["circuit (ideal)"]["max_error_second_half"] < 1e-10
-        assert rep["figures"][fig]["demonstrated"] < 1e-40
-    v = rep["lle"]["variational"]
-    assert abs(v[0] - 0.0305) < 5 * v[1] + 1e-3
-    assert set(rep["sync"]) == {"first-order", "reduced", "paper"}
-    md = (tmp_path / "report.md").read_text()
-    assert "Largest Lyapunov exponent" in md and "Fig. 6" in md
-    from precise_impact.io.markdown import parse_tables
-
-    assert len(parse_tables(md)) >= 4  # Figs. 4-6 and the thresholds at least; each renders
-    # every run's attractor; the datasheet circuit on another one at Figs. 4 and 6, explained
-    for fig, verdict in (("4", "another attractor"), ("6", "another attractor")):
-        att = rep["figures"][fig]["attractors"]
-        ds = att["models"]["switched-capacitor (datasheet)"]
-        assert ds["same_as_mechanics"] == verdict and ds["effective"]["explains"], fig
-        assert att["models"]["circuit (ideal)"]["same_as_mechanics"] == "same"
-    assert md.count("so the shifts explain it") == 3 and md.count("Attractors (") == 3
-    for name in ("fig4_phase_portraits.png", "fig7_first-order.png", "sync_fraction_paper.png"):
-        assert (tmp_path / name).stat().st_size > 5000
-
-
 def test_bench_work_precision_without_json_prints_the_table(capsys, monkeypatch):
     """``bench work-precision --quick --out DIR`` without ``--json`` (a README line) ended in
     ``AttributeError: 'WorkPrecisionResult' object has no attribute 'get'`` after its run, the
