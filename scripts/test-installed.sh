@@ -74,7 +74,7 @@ took
 
 # Two venvs that later steps need are set up in the background while the main venv installs and
 # the default suite runs: pip's downloads and unpacking wait on the network and the disk, not on
-# the cores (the default suite's time rose by < 3 % with them beside it, 1.5 min of wall saved).
+# the cores.
 bg() {  # bg NAME COMMAND...: run in the background, its output and time in $work/NAME.log
   local name=$1; shift
   ( t0=$SECONDS; "$@" >"$work/$name.log" 2>&1; rc=$?; echo "   ($((SECONDS - t0)) s)" >>"$work/$name.log"; exit $rc ) &
