@@ -67,8 +67,8 @@ QUICK = {
     "bifurcation --eta 0.68 0.82 400": [
         ("0.82 400", "0.82 4 --periods 40 --transient 40 --workers 1")
     ],
-    "budget --out results/budget": [
-        ("--out", "--landmarks grazing --mc 20 --sobol 0 --lle-mc 0 --no-scans --out")
+    "budget --sobol 64 --out results/budget": [
+        ("--sobol 64 --out", "--landmarks grazing --mc 20 --sobol 0 --lle-mc 0 --no-scans --out")
     ],
     "impact-map --eta 0.712": [("--singularity", "--n 200 --singularity")],
     "basins --eta 4.85": [("0 1 200", "0 1 12"), ("0.6 150", "0.6 9")],

@@ -92,10 +92,10 @@ def test_dask_batches_cover_every_tile_once_in_order(n_tiles, workers):
     """Tiles go to Dask in consecutive groups: every tile once, in order, at most
     ``TASKS_PER_WORKER`` tasks per worker, and one tile per task while that many suffice (a
     Dask task costs ~10 ms of CPU: 500 tiles of the chatter map as 500 tasks lost 4-26 %)."""
-    from precise_impact.analysis.scan import TASKS_PER_WORKER, _dask_batches
+    from precise_impact.analysis.scan import TASKS_PER_WORKER, dask_batches
 
     todo = list(range(3, 3 + n_tiles))
-    batches = _dask_batches(todo, workers)
+    batches = dask_batches(todo, workers)
     assert [t for b in batches for t in b] == todo
     assert len(batches) <= workers * TASKS_PER_WORKER and all(batches)
     if n_tiles <= workers * TASKS_PER_WORKER:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -95,3 +97,43 @@ def test_every_command_module_registers_and_runs():
             [m.__name__ for m in COMMANDS].index("precise_impact.cli.commands.reference")
         ].run
     )
+
+
+def test_the_command_table_names_what_each_module_registers():
+    """``MODULES`` maps each command to the module that registers it, in ``--help`` order."""
+    from precise_impact.cli.commands import MODULES
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    assert list(sub.choices) == list(MODULES)
+    for name in MODULES:
+        alone = build_parser([name, "--json"])
+        only = next(a for a in alone._actions if isinstance(a, argparse._SubParsersAction))
+        assert list(only.choices) == [name]
+        assert only.choices[name].get_default("run") is sub.choices[name].get_default("run")
+    for argv in ([], ["--help"], ["--version"], ["no-such-command"]):  # help and errors: all
+        every = next(
+            a for a in build_parser(argv)._actions if isinstance(a, argparse._SubParsersAction)
+        )
+        assert list(every.choices) == list(MODULES)
+
+
+def test_a_run_imports_its_own_command_only():
+    """``precise-impact scenes`` imports the scenes command, not the other 21 (their imports
+    cost 0.3-0.9 s per run: the analysis, verification and lab layers)."""
+    program = (
+        "import sys\n"
+        "from precise_impact.cli.main import main\n"
+        "assert main(['scenes']) == 0\n"
+        "print(sorted(m for m in sys.modules if m.startswith('precise_impact.')))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-800:]
+    loaded = r.stdout.strip().splitlines()[-1]
+    assert "precise_impact.cli.commands.scenes" in loaded
+    for other in (
+        "commands.accuracy",
+        "commands.budget",
+        "precise_impact.lab.",
+        "precise_impact.verification.compare",
+    ):
+        assert other not in loaded, other

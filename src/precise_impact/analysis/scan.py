@@ -39,8 +39,10 @@ __all__ = [
     "ScanRun",
     "check_axis",
     "check_workers",
+    "dask_batches",
     "deprecated_keyword",
     "resolve_model",
+    "TASKS_PER_WORKER",
     "run_scan",
     "tile_bounds",
 ]
@@ -541,7 +543,7 @@ def _run_dask(job, bounds, todo, dask: str, finished, workers) -> int:
     client, cluster = _dask_client(dask, workers)
     try:
         n_workers = len(client.scheduler_info()["workers"])
-        _dask_tiles(client, job, bounds, _dask_batches(todo, n_workers), finished)
+        _dask_tiles(client, job, bounds, dask_batches(todo, n_workers), finished)
     finally:
         client.close()
         if cluster is not None:
@@ -587,7 +589,7 @@ def _dask_client(dask: str, workers):
 TASKS_PER_WORKER = 16
 
 
-def _dask_batches(todo: list[int], n_workers: int) -> list[list[int]]:
+def dask_batches(todo: list[int], n_workers: int) -> list[list[int]]:
     """The ``todo`` tiles in consecutive groups, one Dask task each: about
     :data:`TASKS_PER_WORKER` per worker, at least one tile per task."""
     size = max(1, -(-len(todo) // (max(1, n_workers) * TASKS_PER_WORKER)))

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 import heyoka
 
 from precise_impact.cli.args import EXIT_BAD_INPUT, Parser, check_outputs
-from precise_impact.cli.commands import COMMANDS
+from precise_impact.cli.commands import MODULES, load
 from precise_impact.cli.entry import EXIT_INTERRUPTED, interrupts
 from precise_impact.errors import (
     BudgetExceededError,
@@ -41,8 +41,10 @@ EXIT_BUDGET = 3
 EXIT_IO = 4
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``precise-impact`` parser: one subparser per module of :data:`COMMANDS`."""
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The ``precise-impact`` parser: one subparser per command of
+    :data:`~precise_impact.cli.commands.MODULES`, or, when ``argv`` names a command, that
+    command's alone (only its module is imported)."""
     parser = Parser(
         prog="precise-impact",
         description="Verification suite for the piecewise-linear impact oscillator and its "
@@ -50,9 +52,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"precise-impact {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for command in COMMANDS:
-        command.register(sub)
+    for name in _named(argv):
+        load(name).register(sub)
     return parser
+
+
+def _named(argv: Sequence[str] | None) -> tuple[str, ...]:
+    """The command ``argv`` runs (its first word that is not an option: the top level has no
+    option taking a value), or every command (no argv, ``--help``, an unknown word: argparse's
+    own help and error list them all)."""
+    word = next((a for a in argv or () if not a.startswith("-")), None)
+    return (word,) if word in MODULES else tuple(MODULES)
 
 
 def _glue_negative_values(argv: list[str]) -> list[str]:
@@ -123,10 +133,9 @@ def _deprecations_as_lines():
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``precise-impact`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
-    parser = build_parser()
-    ns = _strip_glued(
-        parser.parse_args(_glue_negative_values(list(sys.argv[1:] if argv is None else argv)))
-    )
+    args = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(args)
+    ns = _strip_glued(parser.parse_args(_glue_negative_values(args)))
     # heyoka logs its warnings (e.g. root finding near grazing) to stdout, which would
     # corrupt --json output; the CLI keeps only errors.
     heyoka.set_logger_level_error()
