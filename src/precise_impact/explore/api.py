@@ -1,0 +1,178 @@
+"""The explorer's computations, one function per view: a :class:`~.state.State` in, a dict
+of strict-JSON values out.
+
+The browser's views and the JSON API (``/api/<view>``) call the same functions.  Each dict
+names the command line and the Python call giving the same numbers (``"command"``,
+``"python"``) and, where the command has ``--json``, holds the result's own ``to_dict()``
+(``"result"``: the CLI's ``--json`` but its ``elapsed_s``).  Every number is computed by the
+package's public functions: the explorer adds no numerics of its own.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from precise_impact.analysis.bifurcation import bifurcation as _bifurcation
+from precise_impact.analysis.impact_surface.impact_map import impact_map as _impact_map
+from precise_impact.analysis.lyapunov import lyapunov
+from precise_impact.analysis.orbits import prove_orbit
+from precise_impact.analysis.periodicity import detect_period
+from precise_impact.explore.state import State
+from precise_impact.io.jsonout import finite_or_marker
+from precise_impact.models.circuit.components import nominal_components
+from precise_impact.solvers.simulate import simulate
+
+__all__ = ["DENSE_PER_PERIOD", "VIEW_FUNCTIONS", "bifurcation", "lle", "orbit", "proof", "run_view"]
+
+#: Points per forcing period of the orbit view's curves (phase portrait, x(t)).
+DENSE_PER_PERIOD = 64
+#: Most stroboscopic samples a period is looked for in (the last ones of the run).
+PERIOD_WINDOW = 128
+
+
+def _floats(a: Any) -> list:
+    """Numbers as strict-JSON floats (NaN -> null, infinities -> 'inf' / '-inf')."""
+    return [finite_or_marker(float(x)) for x in np.asarray(a, dtype=float).ravel()]
+
+
+def _head(state: State, view: str, **args: Any) -> dict[str, Any]:
+    """What every view's dict starts with: the view, the state, the command and the call."""
+    return {
+        "view": view,
+        "state": state.to_query(),
+        "args": args,
+        "command": state.command(view, **args),
+        "python": state.python(view, **args),
+    }
+
+
+def orbit(state: State) -> dict[str, Any]:
+    """The orbit at the state's parameters: the stroboscopic samples and the curves after the
+    transient, the impacts, the period the samples repeat with (0: none within
+    :data:`PERIOD_WINDOW`), the digits claimed, and the run's own ``to_dict()``."""
+    n = state.transient + state.periods
+    traj = simulate(
+        state.params, n, model=state.model, precision=state.precision,
+        per_period=DENSE_PER_PERIOD,
+    )  # fmt: skip
+    x, v = np.asarray(traj.x, dtype=float), np.asarray(traj.v, dtype=float)
+    t = np.asarray(traj.t, dtype=float)
+    k = state.transient
+    t_start = float(t[k])
+    dense = np.asarray(traj.dense_t, dtype=float) >= t_start
+    hits = np.asarray(traj.impacts_t, dtype=float) >= t_start
+    result = traj.to_dict()
+    result.pop("elapsed_s", None)
+    out = _head(state, "orbit")
+    out.update(
+        strobe={"t": _floats(t[k:]), "x": _floats(x[k:]), "v": _floats(v[k:])},
+        curve={
+            "t": _floats(np.asarray(traj.dense_t, dtype=float)[dense]),
+            "x": _floats(np.asarray(traj.dense_x, dtype=float)[dense]),
+            "v": _floats(np.asarray(traj.dense_v, dtype=float)[dense]),
+        },
+        impacts={
+            "t": _floats(np.asarray(traj.impacts_t, dtype=float)[hits]),
+            "v": _floats(np.asarray(traj.impacts_v_before, dtype=float)[hits]),
+        },
+        period=_period(x[k:], v[k:]),
+        impacts_per_period=int(hits.sum()) / state.periods,
+        digits=result["digits"],
+        circuit=circuit_units(state),
+        result=result,
+    )
+    return out
+
+
+def _period(x: np.ndarray, v: np.ndarray) -> int:
+    """The period the last samples repeat with (0: none found)."""
+    if len(x) < 4:
+        return 0
+    return int(detect_period(x[-PERIOD_WINDOW:], v[-PERIOD_WINDOW:]))
+
+
+def circuit_units(state: State) -> dict[str, Any]:
+    """How the orbit reads in the paper's circuit (R = 10 kOhm, C = 100 nF, 1 V per unit of
+    displacement): seconds per unit of time ``1 / omega`` and the node voltage
+    ``V_s = -x V_unit``, as :class:`~precise_impact.models.circuit.opamp.CircuitSolver` maps
+    them; ``None`` where the design has no circuit (``zeta = 0``)."""
+    if state.params.zeta <= 0:
+        return {"available": False, "why": "the circuit needs zeta > 0 (R6 = R2 / (2 zeta))"}
+    comp = nominal_components(state.params)
+    return {
+        "available": True,
+        "seconds_per_unit_time": 1.0 / float(comp.omega()),
+        "volts_per_unit_x": -float(comp.V_unit),
+        "components": comp.decimal(),
+    }
+
+
+def lle(state: State) -> dict[str, Any]:
+    """The largest Lyapunov exponent on the compiled engine (variational, with the saltation
+    matrices) with its error bar: ``lyapunov(params, model='fast')``, the CLI's ``lle``."""
+    res = lyapunov(state.params, model="fast")
+    result = res.to_dict()
+    result.pop("elapsed_s", None)
+    out = _head(state, "lle")
+    out.update(lle=finite_or_marker(res.lle), stderr=finite_or_marker(res.lle_stderr))
+    out["result"] = result
+    return out
+
+
+def bifurcation(state: State) -> dict[str, Any]:
+    """The stroboscopic x against eta over the state's range, with the LLE beneath: the
+    CLI's ``bifurcation`` (compiled engine, one process)."""
+    axis = ("eta", state.eta_min, state.eta_max, state.n)
+    res = _bifurcation(
+        state.params, axis, periods=state.bif_periods, transient=state.bif_transient,
+        workers=1, progress=False,
+    )  # fmt: skip
+    out = _head(state, "bifurcation")
+    out.update(
+        eta=_floats(res.eta),
+        x=[_floats(row) for row in np.asarray(res.x, dtype=float)],
+        lle=_floats(res.lle),
+        lle_stderr=_floats(res.lle_stderr),
+    )
+    return out
+
+
+def impact_map(state: State, phase: float, v: float, n: int = 200) -> dict[str, Any]:
+    """``n`` impacts of the orbit leaving the wall at forcing ``phase`` (in [0, 1)) with
+    speed ``v``: the impact map's iterates, on the compiled engine."""
+    events = _impact_map(state.params, phase, v, n, engine="fast")
+    out = _head(state, "impact-map", phase=phase, v=v, n=n)
+    out.update(
+        phase=_floats([e.phase for e in events]),
+        v=_floats([e.v for e in events]),
+        kind=[e.kind for e in events],
+    )
+    return out
+
+
+def proof(state: State, period: int) -> dict[str, Any]:
+    """The period-``period`` orbit proven by the Krawczyk operator in ball arithmetic, its
+    balls' radii and its proven stability (``prove_orbit``, the CLI's ``orbit --prove``)."""
+    transient = max(state.transient, 500)
+    res = prove_orbit(state.params, period, transient=transient)
+    out = _head(state, "proof", period=period, transient=transient)
+    out["result"] = res.to_dict()
+    return out
+
+
+#: The views the JSON API serves: name -> function of the state (and its own arguments).
+VIEW_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
+    "orbit": orbit,
+    "lle": lle,
+    "bifurcation": bifurcation,
+    "impact-map": impact_map,
+    "proof": proof,
+}
+
+
+def run_view(view: str, state: State, **kwargs: Any) -> dict[str, Any]:
+    """``VIEW_FUNCTIONS[view](state, **kwargs)``."""
+    return VIEW_FUNCTIONS[view](state, **kwargs)
