@@ -20,15 +20,13 @@ from precise_impact.analysis.impact_surface.impact_map import impact_map as _imp
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.analysis.orbits import prove_orbit
 from precise_impact.analysis.periodicity import detect_period
-from precise_impact.explore.state import State
+from precise_impact.explore.state import DENSE_PER_PERIOD, State
 from precise_impact.io.jsonout import finite_or_marker
 from precise_impact.models.circuit.components import nominal_components
 from precise_impact.solvers.simulate import simulate
 
 __all__ = ["DENSE_PER_PERIOD", "VIEW_FUNCTIONS", "bifurcation", "lle", "orbit", "proof", "run_view"]
 
-#: Points per forcing period of the orbit view's curves (phase portrait, x(t)).
-DENSE_PER_PERIOD = 64
 #: Most stroboscopic samples a period is looked for in (the last ones of the run).
 PERIOD_WINDOW = 128
 
@@ -88,10 +86,12 @@ def orbit(state: State) -> dict[str, Any]:
 
 
 def _period(x: np.ndarray, v: np.ndarray) -> int:
-    """The period the last samples repeat with (0: none found)."""
-    if len(x) < 4:
-        return 0
-    return int(detect_period(x[-PERIOD_WINDOW:], v[-PERIOD_WINDOW:]))
+    """The period the last samples repeat with (0: none found).  ``detect_period`` compares
+    the last ``2 max_period`` samples with those ``p`` before, so a short run looks for
+    periods up to a third of its samples."""
+    x, v = x[-PERIOD_WINDOW:], v[-PERIOD_WINDOW:]
+    top = min(32, len(x) // 3)
+    return int(detect_period(x, v, max_period=top)) if top >= 1 else 0
 
 
 def circuit_units(state: State) -> dict[str, Any]:

@@ -17,12 +17,15 @@ from precise_impact.core.params import PARAM_NAMES, Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
 
-__all__ = ["ENGINES", "State", "UNITS", "VIEWS"]
+__all__ = ["DEFAULTS", "DENSE_PER_PERIOD", "ENGINES", "State", "UNITS", "VIEWS"]
 
 #: The engines the orbit view runs: the compiled closed forms or heyoka's Taylor integrator.
 ENGINES = ("fast", "heyoka")
 #: The orbit view's axes: the mechanics' dimensionless units or the circuit's volts and seconds.
 UNITS = ("mechanical", "circuit")
+#: Points per forcing period of the orbit view's curves (phase portrait, x(t)): the run is made
+#: with them (the compiled engine's samples then round as the command's ``--dense`` run does).
+DENSE_PER_PERIOD = 64
 #: The views, each one computation of :mod:`precise_impact.explore.api`.
 VIEWS = ("orbit", "lle", "bifurcation", "impact-map", "basins", "proof")
 
@@ -33,7 +36,7 @@ _INTS = {
     "bif_periods": 10**5,
     "bif_transient": 10**6,
 }
-_DEFAULTS: dict[str, str] = {
+DEFAULTS: dict[str, str] = {
     "model": "fast",
     "precision": "float64",
     "periods": "200",
@@ -84,19 +87,19 @@ class State:
     def from_query(cls, query: Mapping[str, Any]) -> State:
         """The state a query string's fields give (missing fields: the defaults); a field
         the explorer does not know, or a value out of range, is refused naming it."""
-        unknown = sorted(set(query) - set(PARAM_NAMES) - set(_DEFAULTS) - {"view"})
+        unknown = sorted(set(query) - set(PARAM_NAMES) - set(DEFAULTS) - {"view"})
         if unknown:
-            allowed = ", ".join((*PARAM_NAMES, *_DEFAULTS))
+            allowed = ", ".join((*PARAM_NAMES, *DEFAULTS))
             raise ParameterError(unknown[0], query[unknown[0]], f"one of the fields {allowed}")
         params = Params.make(**{k: query[k] for k in PARAM_NAMES if k in query})
-        got = {k: query.get(k, d) for k, d in _DEFAULTS.items()}
+        got = {k: query.get(k, d) for k, d in DEFAULTS.items()}
         return cls(params=params, **_checked(got))
 
     def to_query(self) -> dict[str, str]:
         """Every field as text (the parameters as exact decimals): ``from_query`` of it gives
         this state back."""
         out = dict(self.params.decimal())
-        for f in _DEFAULTS:
+        for f in DEFAULTS:
             out[f] = str(getattr(self, f))
         return out
 
@@ -143,7 +146,8 @@ def _cli_words(state: State, view: str, args: dict[str, Any]) -> list[str] | Non
     p = _param_flags(state)
     if view == "orbit":
         words = ["simulate", *p, "--model", state.model, "--precision", state.precision]
-        return [*words, "--periods", str(state.transient + state.periods), "--json"]
+        n = str(state.transient + state.periods)
+        return [*words, "--periods", n, "--dense", str(DENSE_PER_PERIOD), "--json"]
     if view == "lle":
         return ["lle", *p, "--model", "fast", "--json"]
     if view == "bifurcation":
@@ -163,7 +167,7 @@ def _api_call(state: State, view: str, args: dict[str, Any]) -> str:
     calls = {
         "orbit": lambda: (
             f"pi.simulate(p, {state.transient + state.periods}, "
-            f"model={state.model!r}, precision={state.precision!r})"
+            f"model={state.model!r}, precision={state.precision!r}, per_period={DENSE_PER_PERIOD})"
         ),
         "lle": lambda: "pi.lyapunov(p, model='fast')",
         "bifurcation": lambda: (
