@@ -1,0 +1,252 @@
+"""One browser session of the explorer: the parameter fields, the linked views and their
+background work (HoloViz Panel on Bokeh).
+
+The fields are exact decimals (a text field each, a slider beside the main ones); a value the
+package refuses shows the CLI's one-line message under its field and computes nothing.  The
+fields live in the URL (``pn.state.location``), so a link reopens the same state.  Every view
+recomputes on a new state through its own :class:`~.jobs.Runner` (a stale run is superseded,
+never shown); tapping the bifurcation diagram picks eta for the other views.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import functools
+from decimal import Decimal
+from typing import Any
+
+import panel as pn
+from bokeh.events import RangesUpdate, Tap
+
+from precise_impact.core.params import PARAM_NAMES, Params
+from precise_impact.errors import ParameterError, PreciseImpactError
+from precise_impact.explore import api, figures
+from precise_impact.explore.jobs import Runner
+from precise_impact.explore.state import DEFAULTS, ENGINES, UNITS, State
+from precise_impact.io.jsonout import dumps
+
+__all__ = ["Session", "make_session"]
+
+#: Sliders beside these fields: (start, end, step).
+SLIDERS = {"eta": (0.3, 3.0, 0.001), "zeta": (0.0, 0.5, 0.001), "x_w": (-1.0, 4.0, 0.01),
+           "R": (0.0, 1.0, 0.01), "a": (0.0, 3.0, 0.01)}  # fmt: skip
+#: The fields of the form: the parameters, then the run's settings.
+FIELDS = (*PARAM_NAMES, "model", "precision", "periods", "transient", "units")
+
+
+class Session:
+    """The page of one browser session (see the module docstring)."""
+
+    def __init__(
+        self,
+        executor: concurrent.futures.Executor,
+        doc: Any = None,
+        query: dict[str, str] | None = None,
+        location: Any = None,
+    ) -> None:
+        schedule = doc.add_next_tick_callback if doc is not None else (lambda cb: cb())
+        self.runners = {v: Runner(executor, schedule) for v in ("orbit", "lle", "bif", "proof")}
+        self.location = location
+        self.inputs, self.errors = self._form(query or {})
+        self.info = pn.pane.Markdown("", css_classes=["pi-orbit-info"], width=420)
+        self.command = pn.widgets.TextAreaInput(
+            name="copy as command / as Python", value="", height=140, width=620, disabled=True
+        )
+        self.orbit = figures.orbit_figures()
+        self.bif = figures.bifurcation_figures()
+        self.proof = figures.proof_figure()
+        self.proof_info = pn.pane.Markdown("", css_classes=["pi-proof-info"])
+        self.last: dict[str, Any] = {}
+        self._wire()
+
+    # ---------------------------------------------------------------- the form
+    def _form(self, query: dict[str, str]) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Text fields (and sliders) for the state, each with an error line under it; the
+        values ``query`` gives (a permalink's), the defaults elsewhere."""
+        p = {**Params.make().decimal(), **DEFAULTS, **query}
+        inputs: dict[str, Any] = {}
+        for name in PARAM_NAMES:
+            inputs[name] = pn.widgets.TextInput(name=name, value=p[name], width=150,
+                                                css_classes=[f"pi-field-{name}"])  # fmt: skip
+        inputs["model"] = pn.widgets.Select(name="engine", options=list(ENGINES), value=p["model"],
+                                            css_classes=["pi-field-model"], width=150)  # fmt: skip
+        for name in ("precision", "periods", "transient"):
+            inputs[name] = pn.widgets.TextInput(name=name, value=p[name], width=150,
+                                                css_classes=[f"pi-field-{name}"])  # fmt: skip
+        inputs["units"] = pn.widgets.RadioButtonGroup(options=list(UNITS), value=p["units"],
+                                                      css_classes=["pi-field-units"])  # fmt: skip
+        errors = {n: pn.pane.Str("", css_classes=[f"pi-error-{n}"], styles={"color": "#b00020"})
+                  for n in FIELDS}  # fmt: skip
+        return inputs, errors
+
+    def _sliders(self) -> dict[str, Any]:
+        """A slider beside each main parameter's text field, kept in step with it."""
+        out = {}
+        for name, (lo, hi, step) in SLIDERS.items():
+            s = pn.widgets.FloatSlider(start=lo, end=hi, step=step, width=150,
+                                       value=float(self.inputs[name].value))  # fmt: skip
+            s.param.watch(functools.partial(self._slid, name), "value_throttled")
+            out[name] = s
+        return out
+
+    def _slid(self, name: str, event: Any) -> None:
+        self.inputs[name].value = str(Decimal(repr(event.new)).normalize())
+
+    # ---------------------------------------------------------------- wiring
+    def _wire(self) -> None:
+        self.sliders = self._sliders()
+        for w in self.inputs.values():
+            w.param.watch(lambda e: self.refresh(), "value")
+        for fig in (self.bif["diagram"], self.bif["lle"]):
+            fig.on_event(Tap, self._tapped)
+        self.bif["diagram"].on_event(RangesUpdate, self._zoomed)
+        self.bif_button = pn.widgets.Button(name="recompute the diagram", button_type="primary",
+                                            css_classes=["pi-bif-run"])  # fmt: skip
+        self.bif_button.on_click(lambda e: self.run_bifurcation())
+        self.prove_period = pn.widgets.IntInput(
+            name="orbit period", value=1, start=1, end=64, width=120,
+            css_classes=["pi-prove-period"],
+        )  # fmt: skip
+        self.prove_button = pn.widgets.Button(name="prove the orbit (Krawczyk)",
+                                              css_classes=["pi-prove-run"])  # fmt: skip
+        self.prove_button.on_click(lambda e: self.run_proof())
+        self.download = pn.widgets.FileDownload(
+            callback=self._orbit_json, filename="orbit.json", label="orbit as JSON",
+            css_classes=["pi-download-json"],
+        )  # fmt: skip
+
+    def state(self) -> State | None:
+        """The form's state, or ``None`` with the refused field's message under it."""
+        for pane in self.errors.values():
+            pane.object = ""
+        query = {n: str(w.value) for n, w in self.inputs.items()}
+        try:
+            return State.from_query(query)
+        except ParameterError as e:
+            pane = self.errors.get(e.name) or self.errors["eta"]
+            pane.object = str(e)
+            return None
+
+    def refresh(self) -> None:
+        """A new state: recompute the orbit and its LLE (the diagram keeps its range)."""
+        st = self.state()
+        if st is None:
+            return
+        self.info.object = "computing ..."
+        if self.location is not None:  # the URL holds the state: a link reopens it
+            self.location.update_query(**{n: str(w.value) for n, w in self.inputs.items()})
+        self.runners["orbit"].start(lambda flag: api.orbit(st), self._orbit_done, self._failed)
+        self.runners["lle"].start(lambda flag: api.lle(st), self._lle_done, self._failed)
+
+    def _orbit_done(self, got: dict[str, Any]) -> None:
+        self.last["orbit"] = got
+        figures.show_orbit(self.orbit, got, str(self.inputs["units"].value))
+        d = got["digits"]
+        self.info.object = (
+            f"**period** {got['period'] or 'none found'} &nbsp; "
+            f"**impacts per period** {got['impacts_per_period']:.4g} &nbsp; "
+            f"**digits claimed** {d['min']}-{d['max_possible']} ({d['basis']})"
+            + self.last.get("lle_line", "")
+        )
+        self.command.value = f"{got['command']}\n\n{got['python']}"
+
+    def _lle_done(self, got: dict[str, Any]) -> None:
+        line = f" &nbsp; **LLE** {got['lle']:.6g} +- {got['stderr']:.2g}"
+        self.last["lle_line"] = line
+        if "LLE" not in self.info.object:
+            self.info.object += line
+
+    def _failed(self, error: BaseException) -> None:
+        text = " ".join(str(error).splitlines())
+        self.info.object = f"**{type(error).__name__}**: {text}"
+        if not isinstance(error, PreciseImpactError):
+            raise error
+
+    def _orbit_json(self):
+        import io  # noqa: PLC0415 -- only when a download is asked for
+
+        got = self.last.get("orbit") or api.orbit(self.state() or State.from_query({}))
+        return io.StringIO(dumps(got["result"]))
+
+    # ---------------------------------------------------------------- diagram
+    def run_bifurcation(self) -> None:
+        st = self.state()
+        if st is None:
+            return
+        self.bif["diagram"].title.text = "bifurcation diagram: computing ..."
+        self.runners["bif"].start(lambda flag: api.bifurcation(st), self._bif_done, self._failed)
+
+    def _bif_done(self, got: dict[str, Any]) -> None:
+        self._showing_bif = True
+        figures.show_bifurcation(self.bif, got)
+        self._showing_bif = False
+        self.bif["diagram"].title.text = "bifurcation diagram (drag to zoom, tap to pick eta)"
+
+    def _zoomed(self, event: Any) -> None:
+        """A drag zoomed the diagram: recompute it at the new resolution over the new range
+        (not when the figure's own update moved the range)."""
+        if getattr(self, "_showing_bif", False) or event.x0 is None or event.x1 is None:
+            return
+        if event.x1 <= event.x0 or event.x0 <= 0:
+            return
+        lo, hi = (str(Decimal(repr(round(x, 6))).normalize()) for x in (event.x0, event.x1))
+        self.run_bifurcation_range(lo, hi)
+
+    def run_bifurcation_range(self, lo: str, hi: str) -> None:
+        st = self.state()
+        if st is None:
+            return
+        try:
+            st = State.from_query({**st.to_query(), "eta_min": lo, "eta_max": hi})
+        except ParameterError:
+            return
+        self.runners["bif"].start(lambda flag: api.bifurcation(st), self._bif_done, self._failed)
+
+    def _tapped(self, event: Any) -> None:
+        if event.x is not None and event.x > 0:
+            self.inputs["eta"].value = str(Decimal(repr(round(event.x, 6))).normalize())
+
+    # ---------------------------------------------------------------- proof
+    def run_proof(self) -> None:
+        st = self.state()
+        if st is None:
+            return
+        period = int(self.prove_period.value)
+        self.proof_info.object = "proving ..."
+        work = lambda flag: api.proof(st, period)  # noqa: E731
+        self.runners["proof"].start(work, self._proof_done, self._proof_failed)
+
+    def _proof_done(self, got: dict[str, Any]) -> None:
+        figures.show_proof(self.proof, got)
+        r = got["result"]
+        self.proof_info.object = (
+            f"**proven**: {r['proven']}, stable: {r.get('stable')}, {r['bits']} bits; "
+            f"x = {r['x'][0][:24]} +- {r['x'][1]}"
+        )
+
+    def _proof_failed(self, error: BaseException) -> None:
+        self.proof_info.object = f"**not proven**: {' '.join(str(error).splitlines())}"
+
+    # ---------------------------------------------------------------- layout
+    def layout(self) -> Any:
+        rows = []
+        for n in FIELDS:
+            row = [self.inputs[n]] + ([self.sliders[n]] if n in self.sliders else [])
+            rows.append(pn.Column(pn.Row(*row), self.errors[n], margin=0))
+        form = pn.Column("## parameters (exact decimals)", *rows, width=360)
+        orbit = pn.Column(self.info, pn.Row(self.orbit["phase"], self.orbit["xt"]),
+                          pn.Row(self.command, self.download))  # fmt: skip
+        bif = pn.Column(self.bif_button, self.bif["diagram"], self.bif["lle"])
+        proof = pn.Column(pn.Row(self.prove_period, self.prove_button), self.proof_info,
+                          self.proof["figure"])  # fmt: skip
+        tabs = pn.Tabs(("orbit", orbit), ("bifurcation", bif), ("proof", proof), dynamic=False)
+        return pn.Row(form, tabs)
+
+
+def make_session(executor: concurrent.futures.Executor) -> Any:
+    """The page for a new browser session, from the URL's query string (a permalink)."""
+    args = pn.state.session_args or {}
+    query = {k: v[0].decode() for k, v in args.items() if k in FIELDS and v}
+    session = Session(executor, pn.state.curdoc, query, pn.state.location)
+    session.refresh()
+    return session.layout()

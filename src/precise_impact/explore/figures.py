@@ -1,0 +1,139 @@
+"""The explorer's Bokeh figures and what fills them: the orbit (phase portrait, x(t) with the
+wall), the bifurcation diagram with the LLE beneath, the impact map, a proof's radii.
+
+Each ``*_figures`` function builds empty figures bound to column data sources; each
+``show_*`` function puts one :mod:`.api` dict into them (mechanical or circuit units).  Bokeh
+draws them in the browser from the server's own static files (no CDN).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from bokeh.models import ColumnDataSource, Range1d, Span
+from bokeh.plotting import figure
+
+__all__ = [
+    "bifurcation_figures",
+    "impact_figure",
+    "orbit_figures",
+    "proof_figure",
+    "show_bifurcation",
+    "show_impacts",
+    "show_orbit",
+    "show_proof",
+]
+
+_TOOLS = "pan,box_zoom,wheel_zoom,reset,save"
+
+
+def orbit_figures() -> dict[str, Any]:
+    """The phase portrait and x(t), with their sources (``curve``, ``strobe``, ``impacts``)
+    and the wall's line."""
+    src = {k: ColumnDataSource({"t": [], "x": [], "v": []}) for k in ("curve", "strobe")}
+    src["impacts"] = ColumnDataSource({"t": [], "x": [], "v": []})
+    phase = figure(height=320, width=420, tools=_TOOLS, title="phase portrait")
+    phase.line("x", "v", source=src["curve"], line_width=1, color="#1f77b4")
+    phase.scatter("x", "v", source=src["strobe"], size=7, color="#d62728", legend_label="strobe")
+    xt = figure(height=320, width=620, tools=_TOOLS, title="x(t) and the wall")
+    xt.line("t", "x", source=src["curve"], line_width=1, color="#1f77b4")
+    xt.scatter("t", "x", source=src["impacts"], size=5, color="black", legend_label="impacts")
+    wall = Span(location=2.0, dimension="width", line_color="#555555", line_dash="dashed")
+    xt.add_layout(wall)
+    return {"phase": phase, "xt": xt, "sources": src, "wall": wall}
+
+
+def show_orbit(figs: dict[str, Any], got: dict[str, Any], units: str) -> None:
+    """Put the orbit view's dict into its figures, in ``units`` ('mechanical' or 'circuit':
+    volts at node s and milliseconds, as the circuit model maps them)."""
+    scale_t, scale_x, tl, xl, vl = 1.0, 1.0, "t", "x", "v"
+    c = got["circuit"]
+    if units == "circuit" and c["available"]:
+        scale_t, scale_x = 1e3 * c["seconds_per_unit_time"], c["volts_per_unit_x"]
+        tl, xl, vl = "t [ms]", "V_s [V]", "v (dimensionless)"
+    for name in ("curve", "strobe"):
+        d = got[name]
+        figs["sources"][name].data = {
+            "t": _scaled(d["t"], scale_t), "x": _scaled(d["x"], scale_x), "v": _nums(d["v"]),
+        }  # fmt: skip
+    imp = got["impacts"]
+    x_w = float(got["state"]["x_w"])
+    figs["sources"]["impacts"].data = {
+        "t": _scaled(imp["t"], scale_t), "x": [x_w * scale_x] * len(imp["t"]), "v": _nums(imp["v"]),
+    }  # fmt: skip
+    figs["wall"].location = x_w * scale_x
+    figs["phase"].xaxis.axis_label, figs["phase"].yaxis.axis_label = xl, vl
+    figs["xt"].xaxis.axis_label, figs["xt"].yaxis.axis_label = tl, xl
+
+
+def _nums(values: list) -> list[float]:
+    """Strict-JSON numbers back to floats (null -> NaN, 'inf' -> inf)."""
+    return [math.nan if v is None else float(v) for v in values]
+
+
+def _scaled(values: list, k: float) -> list[float]:
+    return [k * v for v in _nums(values)]
+
+
+def bifurcation_figures() -> dict[str, Any]:
+    """The bifurcation diagram (drag to zoom: the range is recomputed; tap: pick eta) and the
+    LLE beneath on the same eta axis."""
+    src = ColumnDataSource({"eta": [], "x": []})
+    lle_src = ColumnDataSource({"eta": [], "lle": [], "lo": [], "hi": []})
+    rng = Range1d(0.68, 0.82)
+    diag = figure(height=320, width=1060, x_range=rng, tools="xbox_zoom,tap,reset,save",
+                  title="bifurcation diagram (drag to zoom, tap to pick eta)")  # fmt: skip
+    diag.scatter("eta", "x", source=src, size=1.5, color="black")
+    diag.yaxis.axis_label = "stroboscopic x"
+    lle = figure(height=180, width=1060, x_range=rng, tools="tap,reset", title="LLE")
+    lle.line("eta", "lle", source=lle_src, color="#d62728")
+    lle.varea("eta", "lo", "hi", source=lle_src, fill_alpha=0.3, color="#d62728")
+    lle.add_layout(Span(location=0, dimension="width", line_color="#888888"))
+    lle.xaxis.axis_label, lle.yaxis.axis_label = "eta", "LLE"
+    return {"diagram": diag, "lle": lle, "range": rng, "source": src, "lle_source": lle_src}
+
+
+def show_bifurcation(figs: dict[str, Any], got: dict[str, Any]) -> None:
+    """Put a bifurcation slice into the figures (and the x range on it)."""
+    eta = _nums(got["eta"])
+    rows = [_nums(r) for r in got["x"]]
+    figs["source"].data = {
+        "eta": [e for e, r in zip(eta, rows, strict=True) for _ in r],
+        "x": [x for r in rows for x in r],
+    }
+    lle, err = np.array(_nums(got["lle"])), np.array(_nums(got["lle_stderr"]))
+    figs["lle_source"].data = {"eta": eta, "lle": lle, "lo": lle - err, "hi": lle + err}
+    figs["range"].start, figs["range"].end = eta[0], eta[-1]
+
+
+def impact_figure() -> dict[str, Any]:
+    """The impact map: phase against impact speed of successive impacts."""
+    src = ColumnDataSource({"phase": [], "v": []})
+    fig = figure(height=320, width=520, tools=_TOOLS, title="impact map")
+    fig.scatter("phase", "v", source=src, size=2, color="#2ca02c")
+    fig.xaxis.axis_label, fig.yaxis.axis_label = "phase of the forcing", "impact speed"
+    return {"figure": fig, "source": src}
+
+
+def show_impacts(figs: dict[str, Any], got: dict[str, Any]) -> None:
+    figs["source"].data = {"phase": _nums(got["phase"]), "v": _nums(got["v"])}
+
+
+def proof_figure() -> dict[str, Any]:
+    """A proof's ball radii (log10) at the orbit's points."""
+    src = ColumnDataSource({"k": [], "log10_radius": []})
+    fig = figure(height=240, width=520, tools=_TOOLS, title="proven balls: log10 radius")
+    fig.scatter("k", "log10_radius", source=src, size=6, color="#9467bd")
+    fig.xaxis.axis_label, fig.yaxis.axis_label = "coordinate", "log10 radius"
+    return {"figure": fig, "source": src}
+
+
+def show_proof(figs: dict[str, Any], got: dict[str, Any]) -> None:
+    """The radii of the proven orbit's state balls (x and v)."""
+    r = got["result"]
+    radii = [float(r["x"][1]), float(r["v"][1])]
+    figs["source"].data = {
+        "k": [0, 1], "log10_radius": [math.log10(max(q, 1e-300)) for q in radii],
+    }  # fmt: skip

@@ -1,0 +1,54 @@
+"""``precise-impact explore``: the explorer's web server on the loopback (Panel's Bokeh server,
+the JSON API beside the page).
+
+Every asset is served by this server itself (Bokeh's and Panel's bundles from their installed
+packages; no CDN), so the page works offline.  One thread pool runs the computations of every
+session and of the API; the event loop only moves data.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import os
+from collections.abc import Callable
+from typing import Any
+
+import panel as pn
+
+from precise_impact.explore.app import make_session
+from precise_impact.explore.http import api_patterns
+
+__all__ = ["make_server", "serve"]
+
+
+def make_server(address: str = "127.0.0.1", port: int = 5006, threads: int | None = None) -> Any:
+    """The explorer's server, not started: the page at ``/`` and the API at ``/api``."""
+    pn.config.raw_css = []
+    executor = concurrent.futures.ThreadPoolExecutor(threads or max(2, os.cpu_count() or 2))
+    origins = [f"{address}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"]
+
+    def page() -> Any:  # a plain function: Panel calls it once per browser session
+        return make_session(executor)
+
+    return pn.serve(
+        {"/": page},
+        address=address, port=port, show=False, start=False, threaded=False,
+        websocket_origin=origins, title="precise_impact explorer",
+        extra_patterns=api_patterns(executor), location=True,
+    )  # fmt: skip
+
+
+def serve(
+    address: str = "127.0.0.1",
+    port: int = 5006,
+    open_browser: bool = False,
+    say: Callable[[str], None] = print,
+) -> None:
+    """Serve until interrupted (Ctrl-C / SIGTERM end it with the CLI's exit 130)."""
+    server = make_server(address, port)
+    server.start()
+    url = f"http://{address}:{server.port}/"
+    say(f"precise-impact explore: {url} (JSON API: {url}api; Ctrl-C ends it)")
+    if open_browser:
+        server.io_loop.add_callback(server.show, "/")
+    server.io_loop.start()
