@@ -106,3 +106,17 @@ def pytest_sessionfinish(session):
             table[nodeid] = round(seconds, 1)
     ordered = dict(sorted(table.items(), key=lambda kv: (-kv[1], kv[0])))
     DURATIONS_FILE.write_text(json.dumps(ordered, indent=0) + "\n", encoding="utf-8")
+
+
+@pytest.fixture(scope="session")
+def dask_scheduler():
+    """The address of one Dask ``LocalCluster`` shared by the tests that run on Dask: what
+    ``dask='local'`` starts per call (2 single-threaded worker processes), started once per
+    test process instead of once per run (3-5 s each; basins with ``dask='local'`` starts one
+    per scan it makes).  ``dask='local'`` itself keeps its own test
+    (tests/analysis/test_scan_dask.py::test_dask_tiles_equal_serial_and_compile_once)."""
+    distributed = pytest.importorskip("distributed", reason="Dask is optional")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        yield cluster.scheduler_address

@@ -146,14 +146,22 @@ def test_ten_signals_per_long_command_exit_130_and_keep_tiles(name, delay, sig, 
 def test_an_interrupted_fast_sweep_resumes_to_the_uninterrupted_numbers(tmp_path):
     """A fast sweep stopped by SIGINT keeps whole tiles; rerunning the same command completes the
     grid, and its sweep.csv equals an uninterrupted run's bit for bit (tiles are deterministic)."""
-    # 24 points x 400,000 periods: ~7 s on two workers (4000 periods ended in under 4 s once the
+    # 24 points in 12 tiles of 2, 20,000 periods: the SIGINT is sent once the first tile is on
+    # disk (so whole tiles are kept and more are left to resume), not after a fixed 4 s sleep.
+    # Before: 24 points x 400,000 periods in one tile (the default 64 points per tile: nothing
+    # to keep), 3 runs of ~7 s, 22-27 s in all (now 14-18 s, mostly start-up); the fixed sleep
+    # needed a run longer than any machine's start-up (4000 periods ended in under 4 s once the
     # compiled engine stopped sending these chaotic points to heyoka, and the SIGINT then met
-    # the teardown: exit 0)
-    args = ["sweep", "--axis", "eta", "0.70", "0.72", "24", "--model", "fast"]
-    args += ["--periods", "400000"]
+    # the teardown: exit 0).
+    args = ["sweep", "--axis", "eta", "0.70", "0.72", "24", "--model", "fast", "--tile", "2"]
+    args += ["--periods", "20000"]
     cut = tmp_path / "cut"
     p = _start(args, cut)
-    time.sleep(4.0)
+    deadline = time.monotonic() + TIME_BOUND
+    while p.poll() is None and time.monotonic() < deadline:
+        if list(cut.glob("tiles/tile_*.npz")):
+            break
+        time.sleep(0.02)
     if p.poll() is None:
         p.send_signal(signal.SIGINT)
         _, err = p.communicate(timeout=TIME_BOUND)

@@ -328,33 +328,49 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
 
     out = tmp_path / "long.npz"
     part = tmp_path / "long.partial.npz"
-    # ~1.2 ms per period at 128 bits, after heyoka's JIT compilation (~2-4 s, far more on a
-    # loaded machine): the signal is sent after 5 s, and if no chunk was finished by then (the
-    # run says so and leaves no partial file) once more after 12 s, then 25 s.
-    for delay in (5, 12, 25):
-        p = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "precise_impact",
-                "simulate",
-                "--periods",
-                "40000",
-                "--precision",
-                "mp:128",
-                "--out",
-                str(out),
-            ],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        deadline = time.monotonic() + 40
-        time.sleep(delay)
-        p.send_signal(signal.SIGTERM)
-        _, err = p.communicate(timeout=TIME_BOUND)
-        if part.exists() or p.returncode != 130:
-            break
+    flag = tmp_path / "first-chunk"
+    # The signal is sent once the first chunk is finished, not after a fixed sleep (5 s, then
+    # 12 s, then 25 s before, each try a new run: heyoka's JIT compilation takes 2-4 s, far
+    # more on a loaded machine, and every period run past the first chunk made the reference
+    # below longer; 8-33 s, now 7-13 s on a loaded machine with `done` one chunk).  The event:
+    # the CLI's own progress callback, called after every chunk (whether or not the bar
+    # prints), writes ``flag`` at CHUNK_PERIODS periods done.  The process is otherwise the
+    # console script's (precise_impact.cli.entry.run: its signal handling, exit status and
+    # stderr line are what is tested).
+    spy = (
+        "import sys\n"
+        "from precise_impact.io.progress import Progress\n"
+        "update = Progress.update\n"
+        "def spy(self, done, extra=''):\n"
+        "    update(self, done, extra)\n"
+        f"    if done >= {CHUNK_PERIODS}:\n"
+        f"        open({str(flag)!r}, 'a').close()\n"
+        "Progress.update = spy\n"
+        "from precise_impact.cli.entry import run\n"
+        "run()\n"
+    )
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            spy,
+            "simulate",
+            "--periods",
+            "40000",
+            "--precision",
+            "mp:128",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 40
+    while not flag.exists() and p.poll() is None and time.monotonic() < deadline + TIME_BOUND:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=TIME_BOUND)
     assert time.monotonic() < deadline + TIME_BOUND
     assert p.returncode == 130, err[-500:]
     lines = err.strip().splitlines()
@@ -369,7 +385,7 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
     done = len(x) - 1
     assert done > 0 and done % CHUNK_PERIODS == 0 and done < 40000
     assert meta["partial"] == {"periods_done": done, "periods_asked": 40000}
-    ref = HeyokaSolver(precision="mp:128").solve(Params.make(), done)
+    ref = HeyokaSolver(precision="mp:128").solve(Params.make(), done)  # mostly one chunk
     to_str = ref.precision.to_str
     assert [to_str(a) for a in ref.x] == x and [to_str(a) for a in ref.v] == v
 
