@@ -119,12 +119,28 @@ def _tiles(out):
     return tiles
 
 
+#: The signal's moment, uniform on this range (seconds after the start).  Measured phases of
+#: every LONG_COMMAND (one run each with timestamps: -X importtime lines, numba cache events,
+#: progress lines, tiles; 2 cores at a load average of 2.4-5.7, as CI's two test workers make
+#: it; src of d78756c, before a run imported only its own command's module): the entry module
+#: (signal handlers) is imported by 0.07 s; the parent's imports end at 0.8-1.1 s (heyoka
+#: only) / 1.8-3.6 s (numba too); then simulate-mp compiles mp:256 (1.2 s), the fast kernels
+#: load from numba's cache (2.2-4.1 s), and the work is under way from 1.3 s (certify), 2.2 s
+#: (lle-fast), 3.1 s (sync), 3.3 s (lle-variational), 3.7 s (continue), 4.1 s (sweep-fast's
+#: workers, importing until 3.9 s); sweep-heyoka's and bifurcation's workers were still
+#: importing at 8 s.  1.0-5.0 s spans imports, compilation and work of every command
+#: (1.5-6.0 s, mean 3.75 s, began after most imports had ended idle): mean 3.0 s, 66 s less
+#: sleeping over the slow run's 90 signals (SIGINT and SIGTERM at 0.3, 0.6 and 1.0 s, inside
+#: the imports, were tried on simulate-mp and sweep-fast too: exit 130, one line).
+DELAY_RANGE = (1.0, 5.0)
+
+
 def _cases(tries):
     rng = random.Random(20261125)
     cases = []
     for name in LONG_COMMANDS:
         for i in range(tries):
-            delay = rng.uniform(1.5, 6.0)
+            delay = rng.uniform(*DELAY_RANGE)
             sig = signal.SIGINT if rng.random() < 0.5 else signal.SIGTERM
             cases.append(pytest.param(name, delay, sig, id=f"{name}-{i}-{sig.name}"))
     return cases

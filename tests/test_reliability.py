@@ -685,13 +685,15 @@ def test_an_out_name_too_long_is_bad_input(tmp_path, args):
     assert "File name too long" in lines[0] and took < 5
 
 
-@pytest.mark.slow  # ~50 s: the pair escalates to 8192 bits
+@pytest.mark.slow  # ~20 s: the pair escalates to 4096 bits
 def test_known_certify_coupled_large_forcing_is_one_line():
     """The widened fuzz found a RecursionError (exit 1) for the coupled pair at a >= 3.1e5; the
-    iterative bisection certifies it (at 8192 bits, ~50 s for 2 periods)."""
+    iterative bisection certifies it.  a = 3.1e5, the smallest the fuzz found: the code before
+    the fix (7c11c11) raises the RecursionError there too (2.3 s, as at 7e5), and it certifies
+    at 4096 bits in ~21 s for 2 periods where 7e5 took 8192 bits and ~54 s."""
     code, out, err, _ = cli_in_process_out(
         *["certify", "--k", "0.1", "--form", "reduced", "--y0", "0.5", "0.1", "--periods", "2"],
-        *["--precision", "mp:128", "--json", "--a", "700000"],
+        *["--precision", "mp:128", "--json", "--a", "310000"],
         bound=300,
     )
     assert code == 0 and not err.strip(), err[-800:]
