@@ -32,6 +32,7 @@ import os
 import resource
 import signal
 import socket
+import statistics
 import subprocess
 import sys
 import time
@@ -255,7 +256,10 @@ def _breakdown_lines(c: dict) -> list[str]:
     lines += [
         "",
         "T_processes / T_dask, round by round (>= 0.9: Dask within 10 % of the local "
-        "processes): " + ", ".join(f"{x:.3f}" for x in c["processes_over_dask"]) + ".",
+        "processes): "
+        + ", ".join(f"{x:.3f}" for x in c["processes_over_dask"])
+        + f"; median {statistics.median(c['processes_over_dask']):.3f} (this machine's speed moves "
+        "by up to 20 % between rounds: each round's pair runs back to back).",
         "",
     ]
     return lines

@@ -176,7 +176,11 @@ def _call_continue(**kw):
 def _call_certify(**kw):
     from precise_impact import certify
 
-    base = dict(periods=2, precision="mp:128")
+    # a budget: a hostile value that is a valid large count ("1_000" is periods=1000) ends
+    # within ~2 s (refused before work when estimated over it, else BudgetExceededError: both
+    # accepted answers) instead of certifying for up to a minute; the base call takes 0.04 s,
+    # so every small legal value still runs to its end
+    base = dict(periods=2, precision="mp:128", max_time=2)
     if "bits" in kw:  # the deprecated spelling of precision
         del base["precision"]
     base.update(kw)
@@ -186,7 +190,11 @@ def _call_certify(**kw):
 def _call_certify_coupled(**kw):
     from precise_impact import certify_coupled
 
-    base = dict(k="0.1", form="reduced", periods=2, y0=("0.5", "0.1"), precision="mp:128")
+    # a budget, as for certify: certify_coupled(periods="1_000") ran 30-45 s (refused at once
+    # now, estimated over max_time); the base call takes 0.04 s
+    base = dict(
+        k="0.1", form="reduced", periods=2, y0=("0.5", "0.1"), precision="mp:128", max_time=2
+    )
     if "bits" in kw:  # the deprecated spelling of precision
         del base["precision"]
     base.update(kw)

@@ -119,12 +119,28 @@ def _tiles(out):
     return tiles
 
 
+#: The signal's moment, uniform on this range (seconds after the start).  Measured phases of
+#: every LONG_COMMAND (one run each with timestamps: -X importtime lines, numba cache events,
+#: progress lines, tiles; 2 cores at a load average of 2.4-5.7, as CI's two test workers make
+#: it; src of d78756c, before a run imported only its own command's module): the entry module
+#: (signal handlers) is imported by 0.07 s; the parent's imports end at 0.8-1.1 s (heyoka
+#: only) / 1.8-3.6 s (numba too); then simulate-mp compiles mp:256 (1.2 s), the fast kernels
+#: load from numba's cache (2.2-4.1 s), and the work is under way from 1.3 s (certify), 2.2 s
+#: (lle-fast), 3.1 s (sync), 3.3 s (lle-variational), 3.7 s (continue), 4.1 s (sweep-fast's
+#: workers, importing until 3.9 s); sweep-heyoka's and bifurcation's workers were still
+#: importing at 8 s.  1.0-5.0 s spans imports, compilation and work of every command
+#: (1.5-6.0 s, mean 3.75 s, began after most imports had ended idle): mean 3.0 s, 66 s less
+#: sleeping over the slow run's 90 signals (SIGINT and SIGTERM at 0.3, 0.6 and 1.0 s, inside
+#: the imports, were tried on simulate-mp and sweep-fast too: exit 130, one line).
+DELAY_RANGE = (1.0, 5.0)
+
+
 def _cases(tries):
     rng = random.Random(20261125)
     cases = []
     for name in LONG_COMMANDS:
         for i in range(tries):
-            delay = rng.uniform(1.5, 6.0)
+            delay = rng.uniform(*DELAY_RANGE)
             sig = signal.SIGINT if rng.random() < 0.5 else signal.SIGTERM
             cases.append(pytest.param(name, delay, sig, id=f"{name}-{i}-{sig.name}"))
     return cases
@@ -146,14 +162,22 @@ def test_ten_signals_per_long_command_exit_130_and_keep_tiles(name, delay, sig, 
 def test_an_interrupted_fast_sweep_resumes_to_the_uninterrupted_numbers(tmp_path):
     """A fast sweep stopped by SIGINT keeps whole tiles; rerunning the same command completes the
     grid, and its sweep.csv equals an uninterrupted run's bit for bit (tiles are deterministic)."""
-    # 24 points x 400,000 periods: ~7 s on two workers (4000 periods ended in under 4 s once the
+    # 24 points in 12 tiles of 2, 20,000 periods: the SIGINT is sent once the first tile is on
+    # disk (so whole tiles are kept and more are left to resume), not after a fixed 4 s sleep.
+    # Before: 24 points x 400,000 periods in one tile (the default 64 points per tile: nothing
+    # to keep), 3 runs of ~7 s, 22-27 s in all (now 14-18 s, mostly start-up); the fixed sleep
+    # needed a run longer than any machine's start-up (4000 periods ended in under 4 s once the
     # compiled engine stopped sending these chaotic points to heyoka, and the SIGINT then met
-    # the teardown: exit 0)
-    args = ["sweep", "--axis", "eta", "0.70", "0.72", "24", "--model", "fast"]
-    args += ["--periods", "400000"]
+    # the teardown: exit 0).
+    args = ["sweep", "--axis", "eta", "0.70", "0.72", "24", "--model", "fast", "--tile", "2"]
+    args += ["--periods", "20000"]
     cut = tmp_path / "cut"
     p = _start(args, cut)
-    time.sleep(4.0)
+    deadline = time.monotonic() + TIME_BOUND
+    while p.poll() is None and time.monotonic() < deadline:
+        if list(cut.glob("tiles/tile_*.npz")):
+            break
+        time.sleep(0.02)
     if p.poll() is None:
         p.send_signal(signal.SIGINT)
         _, err = p.communicate(timeout=TIME_BOUND)

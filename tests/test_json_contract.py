@@ -5,8 +5,10 @@ non-finite numbers the result holds (NaN is ``null``, an infinity ``"inf"`` / ``
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -208,6 +210,32 @@ JSON_COMMANDS = {
 #: Over ~5 s each: CI runs them in its slow step.
 SLOW_JSON = {"bench", "compare", "spice"}
 
+#: ``bench work-precision --quick`` through ``work_precision(config=...)`` (the hook the CLI's
+#: function offers to shrink a run): every family, row kind and headline of the quick run
+#: (heyoka float64 / longdouble / float128 / mp, the paper's and the robust closed forms and
+#: mpmath, scipy's three methods, ngspice, the chaos table and its certification, the circuit
+#: ratio) in one or two settings over 10 periods, so the JSON line has the same form: finite
+#: errors, ints and nulls for horizons (DOP853 rtol=1e-6 and ngspice lose the chaotic orbit),
+#: a null compile time outside heyoka, the float64 headline bracketed.  The quick run took 68 s,
+#: 34 s of it in scipy's Radau and 8 s in the chaos table's 200-period references.
+BENCH_JSON_CONFIG = {
+    "cases": {
+        "periodic": {"eta": "0.74", "periods": 10},
+        "chaotic": {"eta": "0.712", "periods": 10},
+    },
+    "heyoka": {"float64": ["1e-6", None], "longdouble": [None], "float128": [None]},
+    "heyoka_mp": [128],
+    "analytical_paper": [Fraction(1, 100)],
+    "analytical_robust": True,
+    "analytical_mp_dps": [30],
+    "scipy": {"DOP853": [1e-6, 1e-8], "Radau": [1e-6], "LSODA": [1e-6]},
+    "spice_tmax": ["30e-6"],
+    "chaos_N": [10, 20],
+    "certify_N": 40,
+    "budget_s": 0.1,
+    "circuit": True,
+}
+
 
 def _json_commands() -> set[str]:
     """Every command (and sub-command) whose parser has ``--json``."""
@@ -235,13 +263,19 @@ def test_every_json_command_is_checked():
     "name",
     [pytest.param(n, marks=pytest.mark.slow) if n in SLOW_JSON else n for n in JSON_COMMANDS],
 )
-def test_every_json_command_prints_one_strict_json_object(name, tmp_path):
+def test_every_json_command_prints_one_strict_json_object(name, tmp_path, monkeypatch):
     """Each command's ``--json`` prints exactly one line a strict parser loads (the switched
     capacitor's impact velocities were NaN, its compare W1 NaN)."""
     import contextlib
     import io
 
     from precise_impact.cli.main import main
+
+    if name == "bench":  # the quick run's form in a smaller run: BENCH_JSON_CONFIG
+        from precise_impact.cli.commands import bench
+
+        small = functools.partial(bench.work_precision, config=BENCH_JSON_CONFIG)
+        monkeypatch.setattr(bench, "work_precision", small)
 
     args = [a.replace("{out}", str(tmp_path / "out")) for a in JSON_COMMANDS[name]] + ["--json"]
     out, err = io.StringIO(), io.StringIO()

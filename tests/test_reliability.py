@@ -328,33 +328,49 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
 
     out = tmp_path / "long.npz"
     part = tmp_path / "long.partial.npz"
-    # ~1.2 ms per period at 128 bits, after heyoka's JIT compilation (~2-4 s, far more on a
-    # loaded machine): the signal is sent after 5 s, and if no chunk was finished by then (the
-    # run says so and leaves no partial file) once more after 12 s, then 25 s.
-    for delay in (5, 12, 25):
-        p = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "precise_impact",
-                "simulate",
-                "--periods",
-                "40000",
-                "--precision",
-                "mp:128",
-                "--out",
-                str(out),
-            ],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        deadline = time.monotonic() + 40
-        time.sleep(delay)
-        p.send_signal(signal.SIGTERM)
-        _, err = p.communicate(timeout=TIME_BOUND)
-        if part.exists() or p.returncode != 130:
-            break
+    flag = tmp_path / "first-chunk"
+    # The signal is sent once the first chunk is finished, not after a fixed sleep (5 s, then
+    # 12 s, then 25 s before, each try a new run: heyoka's JIT compilation takes 2-4 s, far
+    # more on a loaded machine, and every period run past the first chunk made the reference
+    # below longer; 8-33 s, now 7-13 s on a loaded machine with `done` one chunk).  The event:
+    # the CLI's own progress callback, called after every chunk (whether or not the bar
+    # prints), writes ``flag`` at CHUNK_PERIODS periods done.  The process is otherwise the
+    # console script's (precise_impact.cli.entry.run: its signal handling, exit status and
+    # stderr line are what is tested).
+    spy = (
+        "import sys\n"
+        "from precise_impact.io.progress import Progress\n"
+        "update = Progress.update\n"
+        "def spy(self, done, extra=''):\n"
+        "    update(self, done, extra)\n"
+        f"    if done >= {CHUNK_PERIODS}:\n"
+        f"        open({str(flag)!r}, 'a').close()\n"
+        "Progress.update = spy\n"
+        "from precise_impact.cli.entry import run\n"
+        "run()\n"
+    )
+    p = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            spy,
+            "simulate",
+            "--periods",
+            "40000",
+            "--precision",
+            "mp:128",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 40
+    while not flag.exists() and p.poll() is None and time.monotonic() < deadline + TIME_BOUND:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=TIME_BOUND)
     assert time.monotonic() < deadline + TIME_BOUND
     assert p.returncode == 130, err[-500:]
     lines = err.strip().splitlines()
@@ -369,7 +385,7 @@ def test_an_interrupted_simulation_keeps_its_finished_periods(tmp_path):
     done = len(x) - 1
     assert done > 0 and done % CHUNK_PERIODS == 0 and done < 40000
     assert meta["partial"] == {"periods_done": done, "periods_asked": 40000}
-    ref = HeyokaSolver(precision="mp:128").solve(Params.make(), done)
+    ref = HeyokaSolver(precision="mp:128").solve(Params.make(), done)  # mostly one chunk
     to_str = ref.precision.to_str
     assert [to_str(a) for a in ref.x] == x and [to_str(a) for a in ref.v] == v
 
@@ -669,13 +685,15 @@ def test_an_out_name_too_long_is_bad_input(tmp_path, args):
     assert "File name too long" in lines[0] and took < 5
 
 
-@pytest.mark.slow  # ~50 s: the pair escalates to 8192 bits
+@pytest.mark.slow  # ~20 s: the pair escalates to 4096 bits
 def test_known_certify_coupled_large_forcing_is_one_line():
     """The widened fuzz found a RecursionError (exit 1) for the coupled pair at a >= 3.1e5; the
-    iterative bisection certifies it (at 8192 bits, ~50 s for 2 periods)."""
+    iterative bisection certifies it.  a = 3.1e5, the smallest the fuzz found: the code before
+    the fix (7c11c11) raises the RecursionError there too (2.3 s, as at 7e5), and it certifies
+    at 4096 bits in ~21 s for 2 periods where 7e5 took 8192 bits and ~54 s."""
     code, out, err, _ = cli_in_process_out(
         *["certify", "--k", "0.1", "--form", "reduced", "--y0", "0.5", "0.1", "--periods", "2"],
-        *["--precision", "mp:128", "--json", "--a", "700000"],
+        *["--precision", "mp:128", "--json", "--a", "310000"],
         bound=300,
     )
     assert code == 0 and not err.strip(), err[-800:]

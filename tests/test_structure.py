@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import json
 from pathlib import Path
 
 import precise_impact
@@ -130,3 +131,20 @@ def test_the_measures_see_what_they_measure(tmp_path):
     assert got["long"][0][0] == LONG + 1
     assert [(c, w) for c, w in got["complex"]] == [(COMPLEX + 1, f"m.py:{LONG + 7} branchy")]
     assert len(got["local"]) == 2 and got["doc"] == 3
+
+
+def test_the_durations_table_names_existing_tests():
+    """``tests/durations.json`` (the long tests run first, see ``tests/conftest.py``) names
+    tests that exist: its file, and a test function of that name in it (a renamed test would
+    lose its place silently; ``PRECISE_IMPACT_RECORD_DURATIONS=1`` rewrites the table)."""
+    tests = Path(__file__).resolve().parent
+    table = json.loads((tests / "durations.json").read_text(encoding="utf-8"))
+    assert table and all(isinstance(s, (int, float)) and s >= 1.0 for s in table.values())
+    stale = []
+    for nodeid in table:
+        path, _, name = nodeid.partition("::")
+        file = tests.parent / path
+        func = name.split("[", 1)[0].split("::")[-1]
+        if not file.is_file() or f"def {func}(" not in file.read_text(encoding="utf-8"):
+            stale.append(nodeid)
+    assert not stale, stale

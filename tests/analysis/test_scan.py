@@ -87,17 +87,21 @@ def test_tiles_and_grid():
         ),
     ],
 )
-def test_every_executor_gives_the_same_tiles(executor, workers, tmp_path):
+def test_every_executor_gives_the_same_tiles(executor, workers, tmp_path, request):
+    kw = {}
     if executor == "dask":  # Dask's worker processes cannot import this test module by name
         import cloudpickle
 
         cloudpickle.register_pickle_by_value(sys.modules[__name__])
+        # the session's LocalCluster of 2 worker processes: the one executor="dask" would
+        # start per run (twice here, 6-10 s)
+        kw["dask"] = request.getfixturevalue("dask_scheduler")
     job = Job()
-    run = run_scan(job, 10, 3, executor=executor, workers=workers)
+    run = run_scan(job, 10, 3, executor=executor, workers=workers, **kw)
     assert run.backend == executor and run.workers == workers
     assert np.array_equal(_flat(run), np.sin(np.arange(10)))
     store = _store(tmp_path)  # the same through the store: every tile on disk, nothing kept
-    run = run_scan(job, 10, 3, executor=executor, workers=workers, store=store)
+    run = run_scan(job, 10, 3, executor=executor, workers=workers, store=store, **kw)
     assert run.values == [None] * 4 and run.tiles_computed == 4
     assert np.array_equal(_from_store(store), np.sin(np.arange(10)))
 

@@ -71,16 +71,16 @@ def _range(lo: int, hi: int) -> list:
     return list(range(lo, hi))
 
 
-def test_dask_address_beside_a_default_client():
+def test_dask_address_beside_a_default_client(dask_scheduler):
     """A user's own Client (the default one) stays the default, and run_scan does not wait on
-    its event loop (``as_completed`` without ``loop`` did: each scan lost ~2 s)."""
-    Client, LocalCluster = distributed.Client, distributed.LocalCluster
-    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
-        with Client(cluster.scheduler_address) as mine:
-            t = time.perf_counter()
-            runs = [run_scan(_range, 6, 2, dask=cluster.scheduler_address) for _ in range(2)]
-            wall = time.perf_counter() - t
-            assert distributed.default_client() is mine
+    its event loop (``as_completed`` without ``loop`` did: each scan lost ~2 s).  The cluster:
+    the session's (its own 1-worker LocalCluster before: 3 s to start)."""
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests
+    with distributed.Client(dask_scheduler) as mine:
+        t = time.perf_counter()
+        runs = [run_scan(_range, 6, 2, dask=dask_scheduler) for _ in range(2)]
+        wall = time.perf_counter() - t
+        assert distributed.default_client() is mine
     assert [r.values for r in runs] == [[[0, 1], [2, 3], [4, 5]]] * 2
     assert wall < 3.0, wall  # ~0.1 s each; ~2 s each before
 

@@ -530,3 +530,13 @@ def test_log10_str_prints_any_magnitude():
     assert log10_str(math.log10(2.5) - 400) == "2.50e-400"
     assert log10_str(math.log10(9.9996) - 5) == "1.00e-04"  # 9.9996 rounds up to 10
     assert log10_str(math.log10(6.0) + 93) == "6.00e+93" == f"{6e93:.2e}"
+
+
+@pytest.mark.parametrize("max_bits", [100, "100"])
+def test_precision_above_max_bits_names_max_bits(max_bits):
+    """``precision='mp:128'`` with ``max_bits=100``: the refusal names ``max_bits`` (the limit
+    the two disagree on) and the precision's bits, in one line, before any work (it named
+    only ``precision``, with a range ending at 100)."""
+    with pytest.raises(pi.ParameterError) as e:
+        pi.certify(pi.Params.make(), 5, max_bits=max_bits, precision="mp:128")
+    assert e.value.name == "max_bits" and "128" in str(e.value) and "\n" not in str(e.value)

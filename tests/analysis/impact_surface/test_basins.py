@@ -108,10 +108,13 @@ def test_resume_is_bit_identical(tmp_path):
 
 
 @pytest.mark.skipif(importlib.util.find_spec("distributed") is None, reason="Dask is optional")
-def test_dask_map_equals_serial():
+def test_dask_map_equals_serial(dask_scheduler):
     g = ((0, 1, 20), (0, 0.6, 20))
     a = basins(CHATTER, g, transient=40, tile_size=50, progress=False)
-    b = basins(CHATTER, g, transient=40, tile_size=50, dask="local", workers=2, progress=False)
+    # the session's LocalCluster of 2 worker processes (dask="local" started one per scan
+    # basins makes: 5-11 s)
+    b = basins(CHATTER, g, transient=40, tile_size=50, dask=dask_scheduler, workers=2,
+               progress=False)  # fmt: skip
     assert b.stats["backend"] == "dask" and b.stats["workers"] == 2
     assert np.array_equal(a.labels, b.labels) and np.array_equal(a.capture, b.capture)
 

@@ -799,6 +799,10 @@ def certified_bits(precision: Any, max_bits: int) -> int | None:
         b = precision[3:]
         if b.isdigit() and MIN_BITS <= int(b) <= max_bits:
             return int(b)
+        if b.isdigit() and MIN_BITS <= int(b) <= MAX_BITS:  # the two disagree: name the limit
+            raise ParameterError(
+                "max_bits", max_bits, f"at least the {int(b)} bits of precision = {precision!r}"
+            )
     raise ParameterError("precision", precision, allowed)
 
 
