@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from precise_impact.analysis.bifurcation import bifurcation as _bifurcation
+from precise_impact.analysis.impact_surface.basins import basins as _basins
 from precise_impact.analysis.impact_surface.impact_map import impact_map as _impact_map
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.analysis.orbits import prove_orbit
@@ -25,7 +26,7 @@ from precise_impact.io.jsonout import finite_or_marker
 from precise_impact.models.circuit.components import nominal_components
 from precise_impact.solvers.simulate import simulate
 
-__all__ = ["DENSE_PER_PERIOD", "VIEW_FUNCTIONS", "bifurcation", "lle", "orbit", "proof", "run_view"]
+__all__ = ["VIEW_FUNCTIONS", "basins", "bifurcation", "lle", "orbit", "proof", "run_view"]
 
 #: Most stroboscopic samples a period is looked for in (the last ones of the run).
 PERIOD_WINDOW = 128
@@ -176,3 +177,39 @@ VIEW_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
 def run_view(view: str, state: State, **kwargs: Any) -> dict[str, Any]:
     """``VIEW_FUNCTIONS[view](state, **kwargs)``."""
     return VIEW_FUNCTIONS[view](state, **kwargs)
+
+
+def basins(
+    state: State,
+    n_phase: int = 60,
+    n_v: int = 40,
+    v_max: float = 4.0,
+    on_tile: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
+    """Domains of attraction on the impact surface (phase in [0, 1), incoming speed in
+    ``(0, v_max]``) on an ``n_phase x n_v`` grid, one row per tile: ``on_tile`` receives each
+    row's cells (flat indices, kind, period) as it finishes; the dict holds the labels."""
+    grid = ((0.0, 1.0, n_phase), (v_max / (2 * n_v), v_max, n_v))
+
+    def tile(t: int, arrays: dict) -> None:
+        if on_tile is not None:
+            on_tile({
+                "index": [int(i) for i in arrays["index"]],
+                "kind": _floats(arrays["kind"]),
+                "period": _floats(arrays["period"]),
+            })  # fmt: skip
+
+    res = _basins(
+        state.params, grid, transient=max(state.transient, 100), tile_size=n_phase,
+        progress=False, on_tile=tile,
+    )  # fmt: skip
+    out = _head(state, "basins", n_phase=n_phase, n_v=n_v, v_max=v_max)
+    out.update(
+        labels=[[int(x) for x in row] for row in res.labels],
+        attractors=res.to_dict().get("attractors"),
+        axes=res.axes,
+    )
+    return out
+
+
+VIEW_FUNCTIONS["basins"] = basins

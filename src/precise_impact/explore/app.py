@@ -21,7 +21,7 @@ from bokeh.events import RangesUpdate, Tap
 from precise_impact.core.params import PARAM_NAMES, Params
 from precise_impact.errors import ParameterError, PreciseImpactError
 from precise_impact.explore import api, figures
-from precise_impact.explore.jobs import Runner
+from precise_impact.explore.jobs import Cancelled, Runner
 from precise_impact.explore.state import DEFAULTS, ENGINES, UNITS, State
 from precise_impact.io.jsonout import dumps
 
@@ -45,7 +45,9 @@ class Session:
         location: Any = None,
     ) -> None:
         schedule = doc.add_next_tick_callback if doc is not None else (lambda cb: cb())
-        self.runners = {v: Runner(executor, schedule) for v in ("orbit", "lle", "bif", "proof")}
+        views = ("orbit", "lle", "bif", "proof", "basins")
+        self.runners = {v: Runner(executor, schedule) for v in views}
+        self.schedule = schedule
         self.location = location
         self.inputs, self.errors = self._form(query or {})
         self.info = pn.pane.Markdown("", css_classes=["pi-orbit-info"], width=420)
@@ -56,6 +58,9 @@ class Session:
         self.bif = figures.bifurcation_figures()
         self.proof = figures.proof_figure()
         self.proof_info = pn.pane.Markdown("", css_classes=["pi-proof-info"])
+        self.bif_info = pn.pane.Markdown("", css_classes=["pi-bif-info"])
+        self.basins_info = pn.pane.Markdown("", css_classes=["pi-basins-info"])
+        self.basins = figures.basins_figure(60, 40, 4.0)
         self.last: dict[str, Any] = {}
         self._wire()
 
@@ -110,6 +115,7 @@ class Session:
         self.prove_button = pn.widgets.Button(name="prove the orbit (Krawczyk)",
                                               css_classes=["pi-prove-run"])  # fmt: skip
         self.prove_button.on_click(lambda e: self.run_proof())
+        self._basins_widgets()
         self.download = pn.widgets.FileDownload(
             callback=self._orbit_json, filename="orbit.json", label="orbit as JSON",
             css_classes=["pi-download-json"],
@@ -140,13 +146,13 @@ class Session:
 
     def _orbit_done(self, got: dict[str, Any]) -> None:
         self.last["orbit"] = got
-        figures.show_orbit(self.orbit, got, str(self.inputs["units"].value))
+        units = figures.show_orbit(self.orbit, got, str(self.inputs["units"].value))
         d = got["digits"]
         self.info.object = (
             f"**period** {got['period'] or 'none found'} &nbsp; "
             f"**impacts per period** {got['impacts_per_period']:.4g} &nbsp; "
-            f"**digits claimed** {d['min']}-{d['max_possible']} ({d['basis']})"
-            + self.last.get("lle_line", "")
+            f"**digits claimed** {d['min']}-{d['max_possible']} ({d['basis']}) &nbsp; "
+            f"**axes** {units} &nbsp; **eta** {got['state']['eta']}" + self.last.get("lle_line", "")
         )
         self.command.value = f"{got['command']}\n\n{got['python']}"
 
@@ -173,14 +179,18 @@ class Session:
         st = self.state()
         if st is None:
             return
-        self.bif["diagram"].title.text = "bifurcation diagram: computing ..."
+        self.bif_info.object = "computing ..."
         self.runners["bif"].start(lambda flag: api.bifurcation(st), self._bif_done, self._failed)
 
     def _bif_done(self, got: dict[str, Any]) -> None:
         self._showing_bif = True
         figures.show_bifurcation(self.bif, got)
         self._showing_bif = False
-        self.bif["diagram"].title.text = "bifurcation diagram (drag to zoom, tap to pick eta)"
+        eta = got["eta"]
+        self.bif_info.object = (
+            f"{len(eta)} values of eta in [{got['state']['eta_min']}, {got['state']['eta_max']}], "
+            f"{got['state']['bif_periods']} periods each after {got['state']['bif_transient']}"
+        )
 
     def _zoomed(self, event: Any) -> None:
         """A drag zoomed the diagram: recompute it at the new resolution over the new range
@@ -200,11 +210,71 @@ class Session:
             st = State.from_query({**st.to_query(), "eta_min": lo, "eta_max": hi})
         except ParameterError:
             return
+        self.bif_info.object = f"computing [{lo}, {hi}] ..."
         self.runners["bif"].start(lambda flag: api.bifurcation(st), self._bif_done, self._failed)
 
     def _tapped(self, event: Any) -> None:
         if event.x is not None and event.x > 0:
             self.inputs["eta"].value = str(Decimal(repr(round(event.x, 6))).normalize())
+
+    # ---------------------------------------------------------------- basins
+    def _basins_widgets(self) -> None:
+        self.basins_n = pn.widgets.IntInput(name="cells per side", value=40, start=4, end=400,
+                                            width=120, css_classes=["pi-basins-n"])  # fmt: skip
+        self.basins_run = pn.widgets.Button(name="compute the map", button_type="primary",
+                                            css_classes=["pi-basins-run"])  # fmt: skip
+        self.basins_stop = pn.widgets.Button(name="cancel", css_classes=["pi-basins-cancel"])
+        self.basins_run.on_click(lambda e: self.run_basins())
+        self.basins_stop.on_click(lambda e: self.cancel_basins())
+        self.basins["figure"].on_event(Tap, self._cell_tapped)
+
+    def run_basins(self) -> None:
+        """The map on the impact surface, drawn row by row as the rows finish."""
+        st = self.state()
+        if st is None:
+            return
+        n = int(self.basins_n.value)
+        fig = figures.basins_figure(n, n, 4.0)
+        self.basins["source"].data = fig["source"].data
+        self.basins.update(shape=fig["shape"])
+        done = [0]
+
+        def work(flag):
+            def row(tile):
+                if flag.is_set():
+                    raise Cancelled
+                self.schedule(lambda: self._basins_row(tile, done, n))
+
+            return api.basins(st, n, n, 4.0, on_tile=row)
+
+        self.basins_info.object = f"computing {n} x {n} cells ..."
+        self.runners["basins"].start(work, self._basins_done, self._failed)
+
+    def _basins_row(self, tile: dict, done: list, n: int) -> None:
+        if not self.runners["basins"].running:
+            return
+        figures.show_basins_tile(self.basins, tile)
+        done[0] += 1
+        self.basins_info.object = f"rows {done[0]} / {n}"
+
+    def _basins_done(self, got: dict[str, Any]) -> None:
+        kinds = ", ".join(f"{a.get('name', a.get('kind'))}" for a in got["attractors"] or [])
+        self.basins_info.object = f"done: {len(got['labels'])} rows; attractors: {kinds}"
+
+    def cancel_basins(self) -> None:
+        self.runners["basins"].cancel()
+        self.basins_info.object = "cancelled (the rows drawn are kept)"
+
+    def _cell_tapped(self, event: Any) -> None:
+        """A cell's orbit: leaving the wall at its impact phase with speed R v."""
+        st = self.state()
+        if st is None or event.x is None or event.y is None or event.y <= 0:
+            return
+        p = st.params
+        t0 = event.x * 2 * 3.141592653589793 / float(p.eta)
+        self.inputs["x0"].value = p.decimal()["x_w"]
+        self.inputs["v0"].value = _short(-float(p.R) * event.y)
+        self.inputs["t0"].value = _short(t0)
 
     # ---------------------------------------------------------------- proof
     def run_proof(self) -> None:
@@ -236,10 +306,17 @@ class Session:
         form = pn.Column("## parameters (exact decimals)", *rows, width=360)
         orbit = pn.Column(self.info, pn.Row(self.orbit["phase"], self.orbit["xt"]),
                           pn.Row(self.command, self.download))  # fmt: skip
-        bif = pn.Column(self.bif_button, self.bif["diagram"], self.bif["lle"])
+        bif = pn.Column(
+            pn.Row(self.bif_button, self.bif_info), self.bif["diagram"], self.bif["lle"]
+        )
         proof = pn.Column(pn.Row(self.prove_period, self.prove_button), self.proof_info,
                           self.proof["figure"])  # fmt: skip
-        tabs = pn.Tabs(("orbit", orbit), ("bifurcation", bif), ("proof", proof), dynamic=False)
+        basins = pn.Column(
+            pn.Row(self.basins_n, self.basins_run, self.basins_stop), self.basins_info,
+            self.basins["figure"],
+        )  # fmt: skip
+        tabs = pn.Tabs(("orbit", orbit), ("bifurcation", bif), ("impact surface", basins),
+                       ("proof", proof), dynamic=False)  # fmt: skip
         return pn.Row(form, tabs)
 
 
@@ -250,3 +327,8 @@ def make_session(executor: concurrent.futures.Executor) -> Any:
     session = Session(executor, pn.state.curdoc, query, pn.state.location)
     session.refresh()
     return session.layout()
+
+
+def _short(x: float) -> str:
+    """A float as a short exact decimal (7 significant digits: a cell's centre, not more)."""
+    return str(Decimal(f"{x:.7g}").normalize())

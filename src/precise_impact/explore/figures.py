@@ -12,14 +12,17 @@ import math
 from typing import Any
 
 import numpy as np
-from bokeh.models import ColumnDataSource, Range1d, Span
+from bokeh.models import ColumnDataSource, LinearColorMapper, Range1d, Span
+from bokeh.palettes import Turbo256
 from bokeh.plotting import figure
 
 __all__ = [
+    "basins_figure",
     "bifurcation_figures",
     "impact_figure",
     "orbit_figures",
     "proof_figure",
+    "show_basins_tile",
     "show_bifurcation",
     "show_impacts",
     "show_orbit",
@@ -45,9 +48,10 @@ def orbit_figures() -> dict[str, Any]:
     return {"phase": phase, "xt": xt, "sources": src, "wall": wall}
 
 
-def show_orbit(figs: dict[str, Any], got: dict[str, Any], units: str) -> None:
+def show_orbit(figs: dict[str, Any], got: dict[str, Any], units: str) -> str:
     """Put the orbit view's dict into its figures, in ``units`` ('mechanical' or 'circuit':
-    volts at node s and milliseconds, as the circuit model maps them)."""
+    volts at node s and milliseconds, as the circuit model maps them); returns the axes'
+    names."""
     scale_t, scale_x, tl, xl, vl = 1.0, 1.0, "t", "x", "v"
     c = got["circuit"]
     if units == "circuit" and c["available"]:
@@ -66,6 +70,7 @@ def show_orbit(figs: dict[str, Any], got: dict[str, Any], units: str) -> None:
     figs["wall"].location = x_w * scale_x
     figs["phase"].xaxis.axis_label, figs["phase"].yaxis.axis_label = xl, vl
     figs["xt"].xaxis.axis_label, figs["xt"].yaxis.axis_label = tl, xl
+    return f"{xl} against {tl}"
 
 
 def _nums(values: list) -> list[float]:
@@ -137,3 +142,36 @@ def show_proof(figs: dict[str, Any], got: dict[str, Any]) -> None:
     figs["source"].data = {
         "k": [0, 1], "log10_radius": [math.log10(max(q, 1e-300)) for q in radii],
     }  # fmt: skip
+
+
+def basins_figure(n_phase: int, n_v: int, v_max: float) -> dict[str, Any]:
+    """The domains of attraction on the impact surface, filled in as the rows arrive: a cell's
+    colour is its orbit's period (1 .. 16), chatter / sticking / chaos above them, white where
+    not yet computed; tap a cell for its orbit."""
+    img = np.full((n_v, n_phase), np.nan)
+    src = ColumnDataSource({"img": [img]})
+    v_lo = v_max / (2 * n_v)
+    fig = figure(height=360, width=520, tools="tap,reset,save", title="domains of attraction",
+                 x_range=(0, 1), y_range=(0, v_max + v_lo))  # fmt: skip
+    cmap = LinearColorMapper(palette=Turbo256, low=0, high=24, nan_color="white")
+    fig.image(image="img", x=0, y=0, dw=1, dh=v_max + v_lo, source=src, color_mapper=cmap)
+    fig.xaxis.axis_label, fig.yaxis.axis_label = "impact phase", "incoming speed v"
+    return {"figure": fig, "source": src, "shape": (n_v, n_phase), "v_max": v_max}
+
+
+#: A cell's colour value per kind of attractor (periodic cells take their period).
+KIND_CODE = {2: 18.0, 3: 20.0, 4: 23.0}  # non-impacting, chatter + sticking, chaos
+
+
+def show_basins_tile(figs: dict[str, Any], tile: dict[str, Any]) -> None:
+    """One finished row of the map into the image."""
+    img = np.array(figs["source"].data["img"][0], dtype=float)
+    flat = img.reshape(-1)
+    for i, kind, period in zip(
+        tile["index"], _nums(tile["kind"]), _nums(tile["period"]), strict=True
+    ):
+        if kind == 1 and math.isfinite(period):
+            flat[i] = period
+        elif kind != 0:  # 0: the start is not on the section (left white)
+            flat[i] = KIND_CODE.get(int(kind), 24.0)
+    figs["source"].data = {"img": [img]}

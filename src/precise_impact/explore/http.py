@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import math
 from typing import Any
 
 from tornado.web import RequestHandler
@@ -36,7 +37,14 @@ ARGUMENTS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "n": ("integer", 200, "impacts, 1 .. 100000"),
     },
     "proof": {"period": ("integer", 1, "forcing periods of the orbit, 1 .. 64")},
+    "basins": {
+        "n_phase": ("integer", 60, "columns: impact phases in [0, 1), 1 .. 1000"),
+        "n_v": ("integer", 40, "rows: incoming speeds in (0, v_max], 1 .. 1000"),
+        "v_max": ("number", 4.0, "largest incoming speed, > 0"),
+    },
 }
+#: Largest value of each integer argument.
+INTEGER_MAX = {"period": 64, "n": 100_000, "n_phase": 1000, "n_v": 1000}
 
 #: What ``GET /api`` answers: the views, their arguments, the state's fields.
 SCHEMA: dict[str, Any] = {
@@ -60,13 +68,16 @@ def view_arguments(view: str, query: dict[str, str]) -> dict[str, Any]:
     for name, (kind, default, meaning) in ARGUMENTS[view].items():
         raw = query.get(name, default)
         if kind == "integer":
-            top = 64 if name == "period" else 100_000
-            out[name] = check_count(raw, name, top, minimum=1)
+            out[name] = check_count(raw, name, INTEGER_MAX[name], minimum=1)
             continue
         try:
             out[name] = float(raw)
         except (TypeError, ValueError):
             raise ParameterError(name, raw, meaning) from None
+        if not math.isfinite(out[name]) or (name != "phase" and out[name] <= 0):
+            raise ParameterError(name, raw, meaning)
+        if name == "phase" and not 0 <= out[name] < 1:
+            raise ParameterError(name, raw, meaning)
     return out
 
 

@@ -157,6 +157,11 @@ def _cli_words(state: State, view: str, args: dict[str, Any]) -> list[str] | Non
     if view == "impact-map":
         at = ["--phase", repr(args["phase"]), "--v", repr(args["v"]), "--n", str(args["n"])]
         return ["impact-map", *p, *at, "--engine", "fast", "--transient", "0", "--json"]
+    if view == "basins":
+        v_lo = args["v_max"] / (2 * args["n_v"])
+        grid = ["--phase", "0", "1", str(args["n_phase"]), "--v", repr(v_lo), repr(args["v_max"])]
+        t = ["--transient", str(max(state.transient, 100)), "--tile", str(args["n_phase"])]
+        return ["basins", *p, *grid, str(args["n_v"]), *t, "--out", "basins"]
     if view == "proof":
         return None
     raise ParameterError("view", view, "one of " + ", ".join(VIEWS))
@@ -178,6 +183,11 @@ def _api_call(state: State, view: str, args: dict[str, Any]) -> str:
             f"pi.impact_map(p, {args['phase']!r}, {args['v']!r}, {args['n']}, engine='fast')"
         ),
         "proof": lambda: f"pi.prove_orbit(p, {args['period']}, transient={args['transient']})",
+        "basins": lambda: (
+            f"pi.basins(p, ((0.0, 1.0, {args['n_phase']}), "
+            f"({args['v_max'] / (2 * args['n_v'])!r}, {args['v_max']!r}, {args['n_v']})), "
+            f"transient={max(state.transient, 100)}, tile_size={args['n_phase']})"
+        ),
     }
     if view not in calls:
         raise ParameterError("view", view, "one of " + ", ".join(VIEWS))

@@ -1,0 +1,197 @@
+"""The explorer in a real browser: Debian's chromium driven by Playwright, against
+``precise-impact explore`` started on the loopback.
+
+Each step leaves a screenshot in ``PRECISE_IMPACT_ARTIFACTS`` (default: the test's temporary
+directory), so CI keeps what the browser showed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("panel", reason="pip install 'precise_impact[explore]'")
+sync_api = pytest.importorskip("playwright.sync_api", reason="pip install playwright")
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+if not Path(CHROMIUM).exists():  # pragma: no cover - CI installs it
+    pytest.skip("apt-get install chromium (Debian's chromium)", allow_module_level=True)
+
+#: Debian's chromium, headless, with no network of its own (its background connections are
+#: refused by a closed machine, many at a time).
+ARGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+]  # fmt: skip
+#: Seconds a view may take to show its numbers (the first orbit loads the compiled kernels).
+WAIT_MS = 60_000
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server():
+    """``precise-impact explore`` on a free loopback port, until the module's tests end."""
+    port = _free_port()
+    p = subprocess.Popen(
+        [sys.executable, "-m", "precise_impact", "explore", "--port", str(port)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        with contextlib.suppress(OSError):
+            urllib.request.urlopen(url + "api", timeout=2).close()
+            break
+        assert p.poll() is None, p.stdout.read()
+        time.sleep(0.3)
+    yield url
+    p.terminate()
+    p.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_api.sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture
+def page(browser, server, tmp_path):
+    """A new page on the explorer; at the end, no console errors and no request to another
+    host (every asset is served locally)."""
+    out = Path(os.environ.get("PRECISE_IMPACT_ARTIFACTS", tmp_path))
+    out.mkdir(parents=True, exist_ok=True)
+    ctx = browser.new_context(viewport={"width": 1500, "height": 1100}, accept_downloads=True)
+    pg = ctx.new_page()
+    errors, hosts = [], set()
+    pg.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    pg.on("request", lambda r: hosts.add(r.url.split("/")[2]))
+    pg.shots = out  # type: ignore[attr-defined]
+    yield pg
+    ctx.close()
+    assert not errors, errors
+    assert hosts <= {server.split("/")[2]}, hosts
+
+
+#: The text of an element and of every shadow root under it (Panel's panes render in shadow
+#: DOM, which ``innerText`` leaves out).
+DEEP_TEXT = """el => { const walk = n => { let t = n.shadowRoot ? walk(n.shadowRoot) : '';
+  for (const c of n.childNodes) t += c.nodeType === 3 ? c.textContent : walk(c); return t; };
+  return walk(el); }"""
+
+
+def _text(pg, css: str) -> str:
+    return pg.locator(css).first.evaluate(DEEP_TEXT)
+
+
+def _info(pg) -> str:
+    return _text(pg, ".pi-orbit-info")
+
+
+def _wait_text(pg, css: str, text: str, timeout_s: float = WAIT_MS / 1000) -> str:
+    """The element's deep text once it contains ``text`` (polled; fails after the timeout)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        got = _text(pg, css) if pg.locator(css).count() else ""
+        if text in got:
+            return got
+        assert time.monotonic() < deadline, f"{css}: {text!r} not in {got!r}"
+        pg.wait_for_timeout(100)
+
+
+def _wait_info(pg, text: str) -> str:
+    return _wait_text(pg, ".pi-orbit-info", text)
+
+
+def _set(pg, field: str, value: str) -> None:
+    box = pg.locator(f".pi-field-{field} input")
+    box.fill(value)
+    box.press("Enter")
+
+
+def test_eta_074_shows_period_3_and_circuit_units_read_volts(page, server):
+    page.goto(server)
+    _wait_info(page, "period")
+    _set(page, "transient", "300")
+    _set(page, "eta", "0.74")
+    _wait_info(page, "eta 0.74")
+    info = _wait_info(page, "period 3")
+    assert "impacts per period 0.6667" in info, info
+    page.screenshot(path=str(page.shots / "01-eta-074-period-3.png"))
+    page.locator(".pi-field-units button", has_text="circuit").click()
+    info = _wait_info(page, "V_s [V]")
+    assert "t [ms]" in info, info
+    page.screenshot(path=str(page.shots / "02-circuit-units.png"))
+
+
+def test_bad_input_shows_the_clis_line_next_to_the_field(page, server):
+    page.goto(server)
+    _wait_info(page, "period")
+    _set(page, "R", "2")
+    line = _wait_text(page, ".pi-error-R", "R = '2' is not allowed")
+    assert "0 <= R <= 1" in line or "R <= 1" in line, line
+    page.screenshot(path=str(page.shots / "03-bad-input.png"))
+
+
+def test_a_permalink_reopens_the_same_state(page, server):
+    page.goto(server + "?eta=0.74&transient=300&periods=30&x_w=2")
+    info = _wait_info(page, "eta 0.74")
+    assert "period 3" in info or "period" in info
+    assert page.locator(".pi-field-periods input").input_value() == "30"
+    assert "eta=0.74" in page.url
+    page.screenshot(path=str(page.shots / "04-permalink.png"))
+
+
+def test_tapping_the_diagram_picks_eta_for_the_orbit(page, server):
+    page.goto(server + "?eta=0.74")
+    _wait_info(page, "eta 0.74")
+    page.get_by_role("tab", name="bifurcation").click()
+    page.locator(".pi-bif-run button").click()
+    _wait_text(page, ".pi-bif-info", "400 values of eta")
+    canvas = page.locator(".bk-Figure canvas").first
+    page.screenshot(path=str(page.shots / "05-bifurcation.png"))
+    box = canvas.bounding_box()
+    page.mouse.click(box["x"] + 0.25 * box["width"], box["y"] + 0.5 * box["height"])
+    page.wait_for_function(
+        "() => { const i = document.querySelector('.pi-field-eta input'); "
+        "return i && i.value !== '0.74'; }",
+        timeout=WAIT_MS,
+    )
+    eta = float(page.locator(".pi-field-eta input").input_value())
+    assert 0.68 < eta < 0.82
+    page.get_by_role("tab", name="orbit").click()
+    _wait_info(page, f"eta {page.locator('.pi-field-eta input').input_value()}")
+    page.screenshot(path=str(page.shots / "06-tapped-eta.png"))
+
+
+def test_the_downloaded_json_is_the_clis(page, server):
+    page.goto(server + "?eta=0.74&periods=20")
+    _wait_info(page, "eta 0.74")
+    with page.expect_download() as dl:
+        page.locator(".pi-download-json button, .pi-download-json a").first.click()
+    got = json.loads(Path(dl.value.path()).read_text())
+    cmd = page.locator("textarea").input_value().splitlines()[0]
+    assert cmd.startswith("precise-impact simulate") and "--eta 0.74" in cmd
+    r = subprocess.run(
+        [sys.executable, "-m", "precise_impact", *cmd.split()[1:]],
+        capture_output=True, text=True, timeout=120, check=True,
+    )  # fmt: skip
+    cli = json.loads(r.stdout)
+    cli.pop("elapsed_s")
+    assert got == cli
