@@ -53,3 +53,14 @@ def test_bifurcation_slice_has_period_3_inside_the_fig6_window():
     assert len(got["eta"]) == 3 and all(len(row) == 30 for row in got["x"])
     distinct = {round(x, 6) for x in got["x"][0]}
     assert len(distinct) == 3  # period 3 at eta = 0.74
+
+
+def test_basins_rows_arrive_and_make_the_labelled_map():
+    """The view's rows arrive one by one (each row once); the labels cover the grid."""
+    rows: list[dict] = []
+    chatter = State.from_query({"eta": "4.85", "zeta": "0", "R": "0.5", "x_w": "-0.3",
+                                "x0": "-0.5"})  # fmt: skip
+    got = _strict(api.basins(chatter, 6, 5, 0.6, on_tile=rows.append))
+    assert len(rows) == 5 and sorted(i for r in rows for i in r["index"]) == list(range(30))
+    assert len(got["labels"]) == 5 and all(len(r) == 6 for r in got["labels"])
+    assert got["command"].startswith("precise-impact basins") and "--phase 0 1 6" in got["command"]
