@@ -1,12 +1,6 @@
-"""The explorer's computations, one function per view: a :class:`~.state.State` in, a dict
-of strict-JSON values out.
-
-The browser's views and the JSON API (``/api/<view>``) call the same functions.  Each dict
-names the command line and the Python call giving the same numbers (``"command"``,
-``"python"``) and, where the command has ``--json``, holds the result's own ``to_dict()``
-(``"result"``: the CLI's ``--json`` but its ``elapsed_s``).  Every number is computed by the
-package's public functions: the explorer adds no numerics of its own.
-"""
+"""The explorer's computations, one function per view: a :class:`~.state.State` in, a dict of
+strict-JSON values out, naming the command line and the Python call that give the same numbers
+(``docs/guide/explore.rst``)."""
 
 from __future__ import annotations
 

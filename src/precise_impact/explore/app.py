@@ -1,12 +1,6 @@
-"""One browser session of the explorer: the parameter fields, the linked views and their
-background work (HoloViz Panel on Bokeh).
-
-The fields are exact decimals (a text field each, a slider beside the main ones); a value the
-package refuses shows the CLI's one-line message under its field and computes nothing.  The
-fields live in the URL (``pn.state.location``), so a link reopens the same state.  Every view
-recomputes on a new state through its own :class:`~.jobs.Runner` (a stale run is superseded,
-never shown); tapping the bifurcation diagram picks eta for the other views.
-"""
+"""One browser session of the explorer (HoloViz Panel on Bokeh): exact-decimal fields with the
+CLI's one-line refusals, linked views recomputed in the background, the state in the URL
+(``docs/guide/explore.rst``)."""
 
 from __future__ import annotations
 

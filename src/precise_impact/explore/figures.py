@@ -1,10 +1,5 @@
-"""The explorer's Bokeh figures and what fills them: the orbit (phase portrait, x(t) with the
-wall), the bifurcation diagram with the LLE beneath, the impact map, a proof's radii.
-
-Each ``*_figures`` function builds empty figures bound to column data sources; each
-``show_*`` function puts one :mod:`.api` dict into them (mechanical or circuit units).  Bokeh
-draws them in the browser from the server's own static files (no CDN).
-"""
+"""The explorer's Bokeh figures (orbit, bifurcation with the LLE, basins, proof) and the
+functions that put one view's dict into them, in mechanical or circuit units."""
 
 from __future__ import annotations
 

@@ -1,13 +1,6 @@
-"""The explorer's JSON API: ``GET /api/<view>?<state fields>&<view arguments>`` answers the
-view's dict (:mod:`.api`) as strict JSON, so that other tools can use a running explorer as
-F. Dux's impact-oscillator server is used.
-
-Bad input answers ``400`` with ``{"error": one line, "parameter": its name}`` (the CLI's message,
-before any work); a view the API does not have answers ``404``; ``GET /api`` lists the views,
-their arguments and the state's fields (the schema, also in ``docs/guide/explore.rst``).  The
-computations run on a thread pool, never on the server's event loop, so one long request does
-not hold up the others.
-"""
+"""The explorer's JSON API: ``GET /api/<view>?<fields>`` answers the view's dict as strict JSON
+(400 naming a refused field, 404 for no such view; ``GET /api``: the schema), computed on a
+thread pool, never on the event loop (``docs/guide/explore.rst``)."""
 
 from __future__ import annotations
 

@@ -1,10 +1,5 @@
-"""Background work of one view of one browser session: a new start supersedes the running one.
-
-The computation runs on a thread of the server's pool with a cancel flag of its own; its
-result comes back on the session's event loop (``Document.add_next_tick_callback``, safe from
-any thread), and only if no newer start replaced it, so a slow stale result never overwrites a
-fresh one and the server never blocks one view on another.
-"""
+"""Background work of one view of one browser session: a new start supersedes the running one,
+whose result is dropped; results reach the session's event loop from any thread."""
 
 from __future__ import annotations
 

@@ -1,10 +1,5 @@
-"""``precise-impact explore``: the explorer's web server on the loopback (Panel's Bokeh server,
-the JSON API beside the page).
-
-Every asset is served by this server itself (Bokeh's and Panel's bundles from their installed
-packages; no CDN), so the page works offline.  One thread pool runs the computations of every
-session and of the API; the event loop only moves data.
-"""
+"""``precise-impact explore``'s server: Panel's Bokeh server with the page at ``/`` and the JSON
+API at ``/api``, every asset served locally (no CDN), one thread pool for every session."""
 
 from __future__ import annotations
 

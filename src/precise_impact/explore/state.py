@@ -1,11 +1,6 @@
-"""What the explorer shows, as one value: the parameters (exact decimals), the engine and
-precision, the run's length and the views' settings.
-
-One URL query string holds it (:meth:`State.from_query`, :meth:`State.to_query`: a link reopens
-the same state), and it renders as the command line and the Python call that produce the same
-numbers (:meth:`State.command`, :meth:`State.python`).  Bad input is refused as the CLI refuses
-it: a :class:`~precise_impact.errors.ParameterError` naming the field, in one line.
-"""
+"""What the explorer shows, as one value: exact parameters, engine, run length and view settings;
+it round-trips through a URL query string and renders as the CLI and Python calls of each view
+(``docs/guide/explore.rst``)."""
 
 from __future__ import annotations
 
