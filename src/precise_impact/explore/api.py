@@ -4,6 +4,7 @@ strict-JSON values out, naming the command line and the Python call that give th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -18,9 +19,19 @@ from precise_impact.analysis.periodicity import detect_period
 from precise_impact.explore.state import DENSE_PER_PERIOD, State
 from precise_impact.io.jsonout import finite_or_marker
 from precise_impact.models.circuit.components import nominal_components
+from precise_impact.solvers.certified.single import certify as _certify
 from precise_impact.solvers.simulate import simulate
 
-__all__ = ["VIEW_FUNCTIONS", "basins", "bifurcation", "lle", "orbit", "proof", "run_view"]
+__all__ = [
+    "VIEW_FUNCTIONS",
+    "basins",
+    "bifurcation",
+    "certified",
+    "lle",
+    "orbit",
+    "proof",
+    "run_view",
+]
 
 #: Most stroboscopic samples a period is looked for in (the last ones of the run).
 PERIOD_WINDOW = 128
@@ -148,6 +159,24 @@ def impact_map(state: State, phase: float, v: float, n: int = 200) -> dict[str, 
     return out
 
 
+def certified(state: State, periods: int = 100) -> dict[str, Any]:
+    """The trajectory certified by ball arithmetic for ``periods`` forcing periods (bits chosen
+    for radius <= 1e-30): each sample's ball radii against time (``certify``)."""
+    res = _certify(state.params, periods, progress=False)
+    d = res.to_dict()
+    out = _head(state, "certified", periods=periods)
+    out.update(
+        t=[float(s["t"]) for s in d["samples"]],
+        log10_radius=[
+            max(math.log10(max(float(s["x_rad"]), float(s["v_rad"]), 1e-300)), -300.0)
+            for s in d["samples"]
+        ],  # fmt: skip
+        bits=d["bits"],
+        growth_digits_per_period=d["growth_digits_per_period"],
+    )
+    return out
+
+
 def proof(state: State, period: int) -> dict[str, Any]:
     """The period-``period`` orbit proven by the Krawczyk operator in ball arithmetic, its
     balls' radii and its proven stability (``prove_orbit``, the CLI's ``orbit --prove``)."""
@@ -165,6 +194,7 @@ VIEW_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
     "bifurcation": bifurcation,
     "impact-map": impact_map,
     "proof": proof,
+    "certified": certified,
 }
 
 

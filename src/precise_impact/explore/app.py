@@ -109,6 +109,9 @@ class Session:
         self.prove_button = pn.widgets.Button(name="prove the orbit (Krawczyk)",
                                               css_classes=["pi-prove-run"])  # fmt: skip
         self.prove_button.on_click(lambda e: self.run_proof())
+        self.certify_button = pn.widgets.Button(name="certify 100 periods (balls)",
+                                                css_classes=["pi-certify-run"])  # fmt: skip
+        self.certify_button.on_click(lambda e: self.run_certified())
         self._basins_widgets()
         self.download = pn.widgets.FileDownload(
             callback=self._orbit_json, filename="orbit.json", label="orbit as JSON",
@@ -280,8 +283,23 @@ class Session:
         work = lambda flag: api.proof(st, period)  # noqa: E731
         self.runners["proof"].start(work, self._proof_done, self._proof_failed)
 
+    def run_certified(self) -> None:
+        st = self.state()
+        if st is None:
+            return
+        self.proof_info.object = "certifying ..."
+        work = lambda flag: api.certified(st, 100)  # noqa: E731
+        self.runners["proof"].start(work, self._certified_done, self._proof_failed)
+
+    def _certified_done(self, got: dict[str, Any]) -> None:
+        figures.show_certified(self.proof, got)
+        self.proof_info.object = (
+            f"**certified** 100 periods at {got['bits']} bits: the radius grows "
+            f"{got['growth_digits_per_period']:.3g} decimal digits per period, last "
+            f"10^{got['log10_radius'][-1]:.1f}"
+        )
+
     def _proof_done(self, got: dict[str, Any]) -> None:
-        figures.show_proof(self.proof, got)
         r = got["result"]
         self.proof_info.object = (
             f"**proven**: {r['proven']}, stable: {r.get('stable')}, {r['bits']} bits; "
@@ -303,7 +321,8 @@ class Session:
         bif = pn.Column(
             pn.Row(self.bif_button, self.bif_info), self.bif["diagram"], self.bif["lle"]
         )
-        proof = pn.Column(pn.Row(self.prove_period, self.prove_button), self.proof_info,
+        proof = pn.Column(pn.Row(self.prove_period, self.prove_button, self.certify_button),
+                          self.proof_info,
                           self.proof["figure"])  # fmt: skip
         basins = pn.Column(
             pn.Row(self.basins_n, self.basins_run, self.basins_stop), self.basins_info,

@@ -21,7 +21,7 @@ __all__ = [
     "show_bifurcation",
     "show_impacts",
     "show_orbit",
-    "show_proof",
+    "show_certified",
 ]
 
 _TOOLS = "pan,box_zoom,wheel_zoom,reset,save"
@@ -122,21 +122,19 @@ def show_impacts(figs: dict[str, Any], got: dict[str, Any]) -> None:
 
 
 def proof_figure() -> dict[str, Any]:
-    """A proof's ball radii (log10) at the orbit's points."""
-    src = ColumnDataSource({"k": [], "log10_radius": []})
-    fig = figure(height=240, width=520, tools=_TOOLS, title="proven balls: log10 radius")
-    fig.scatter("k", "log10_radius", source=src, size=6, color="#9467bd")
-    fig.xaxis.axis_label, fig.yaxis.axis_label = "coordinate", "log10 radius"
+    """A certified trajectory's ball radii (log10) against time."""
+    src = ColumnDataSource({"t": [], "log10_radius": []})
+    fig = figure(height=300, width=620, tools=_TOOLS, title="certified: log10 ball radius")
+    fig.line("t", "log10_radius", source=src, color="#9467bd")
+    fig.scatter("t", "log10_radius", source=src, size=3, color="#9467bd")
+    fig.xaxis.axis_label, fig.yaxis.axis_label = "t", "log10 radius"
     return {"figure": fig, "source": src}
 
 
-def show_proof(figs: dict[str, Any], got: dict[str, Any]) -> None:
-    """The radii of the proven orbit's state balls (x and v)."""
-    r = got["result"]
-    radii = [float(r["x"][1]), float(r["v"][1])]
-    figs["source"].data = {
-        "k": [0, 1], "log10_radius": [math.log10(max(q, 1e-300)) for q in radii],
-    }  # fmt: skip
+def show_certified(figs: dict[str, Any], got: dict[str, Any]) -> None:
+    """The radii of a certified trajectory's sample balls (the start's exact point left out)."""
+    pts = [(t, r) for t, r in zip(got["t"], got["log10_radius"], strict=True) if r > -300]
+    figs["source"].data = {"t": [t for t, _ in pts], "log10_radius": [r for _, r in pts]}
 
 
 def basins_figure(n_phase: int, n_v: int, v_max: float) -> dict[str, Any]:

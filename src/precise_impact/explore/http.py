@@ -30,6 +30,7 @@ ARGUMENTS: dict[str, dict[str, tuple[str, Any, str]]] = {
         "n": ("integer", 200, "impacts, 1 .. 100000"),
     },
     "proof": {"period": ("integer", 1, "forcing periods of the orbit, 1 .. 64")},
+    "certified": {"periods": ("integer", 100, "forcing periods certified, 1 .. 3000")},
     "basins": {
         "n_phase": ("integer", 60, "columns: impact phases in [0, 1), 1 .. 1000"),
         "n_v": ("integer", 40, "rows: incoming speeds in (0, v_max], 1 .. 1000"),
@@ -37,7 +38,7 @@ ARGUMENTS: dict[str, dict[str, tuple[str, Any, str]]] = {
     },
 }
 #: Largest value of each integer argument.
-INTEGER_MAX = {"period": 64, "n": 100_000, "n_phase": 1000, "n_v": 1000}
+INTEGER_MAX = {"period": 64, "n": 100_000, "n_phase": 1000, "n_v": 1000, "periods": 3000}
 
 #: What ``GET /api`` answers: the views, their arguments, the state's fields.
 SCHEMA: dict[str, Any] = {

@@ -22,7 +22,7 @@ UNITS = ("mechanical", "circuit")
 #: with them (the compiled engine's samples then round as the command's ``--dense`` run does).
 DENSE_PER_PERIOD = 64
 #: The views, each one computation of :mod:`precise_impact.explore.api`.
-VIEWS = ("orbit", "lle", "bifurcation", "impact-map", "basins", "proof")
+VIEWS = ("orbit", "lle", "bifurcation", "impact-map", "basins", "proof", "certified")
 
 _INTS = {
     "periods": 10**6,
@@ -157,6 +157,8 @@ def _cli_words(state: State, view: str, args: dict[str, Any]) -> list[str] | Non
         grid = ["--phase", "0", "1", str(args["n_phase"]), "--v", repr(v_lo), repr(args["v_max"])]
         t = ["--transient", str(max(state.transient, 100)), "--tile", str(args["n_phase"])]
         return ["basins", *p, *grid, str(args["n_v"]), *t, "--out", "basins"]
+    if view == "certified":
+        return ["certify", *p, "--periods", str(args["periods"]), "--target", "1e-30"]
     if view == "proof":
         return None
     raise ParameterError("view", view, "one of " + ", ".join(VIEWS))
@@ -178,6 +180,7 @@ def _api_call(state: State, view: str, args: dict[str, Any]) -> str:
             f"pi.impact_map(p, {args['phase']!r}, {args['v']!r}, {args['n']}, engine='fast')"
         ),
         "proof": lambda: f"pi.prove_orbit(p, {args['period']}, transient={args['transient']})",
+        "certified": lambda: f"pi.certify(p, {args['periods']})",
         "basins": lambda: (
             f"pi.basins(p, ((0.0, 1.0, {args['n_phase']}), "
             f"({args['v_max'] / (2 * args['n_v'])!r}, {args['v_max']!r}, {args['n_v']})), "
