@@ -209,10 +209,12 @@ def basins(
     n_v: int = 40,
     v_max: float = 4.0,
     on_tile: Callable[[dict[str, Any]], None] | None = None,
+    dask: str | None = None,
 ) -> dict[str, Any]:
     """Domains of attraction on the impact surface (phase in [0, 1), incoming speed in
     ``(0, v_max]``) on an ``n_phase x n_v`` grid, one row per tile: ``on_tile`` receives each
-    row's cells (flat indices, kind, period) as it finishes; the dict holds the labels."""
+    row's cells (flat indices, kind, period) as it finishes; the dict holds the labels.  With
+    ``dask`` (a scheduler's ``tcp://HOST:PORT``) the rows run on that cluster."""
     grid = ((0.0, 1.0, n_phase), (v_max / (2 * n_v), v_max, n_v))
 
     def tile(t: int, arrays: dict) -> None:
@@ -225,7 +227,7 @@ def basins(
 
     res = _basins(
         state.params, grid, transient=max(state.transient, 100), tile_size=n_phase,
-        progress=False, on_tile=tile,
+        progress=False, on_tile=tile, dask=dask,
     )  # fmt: skip
     out = _head(state, "basins", n_phase=n_phase, n_v=n_v, v_max=v_max)
     out.update(

@@ -37,12 +37,13 @@ class Session:
         doc: Any = None,
         query: dict[str, str] | None = None,
         location: Any = None,
+        dask: str | None = None,
     ) -> None:
         schedule = doc.add_next_tick_callback if doc is not None else (lambda cb: cb())
         views = ("orbit", "lle", "bif", "proof", "basins")
         self.runners = {v: Runner(executor, schedule) for v in views}
         self.schedule = schedule
-        self.location = location
+        self.location, self.dask = location, dask
         self.inputs, self.errors = self._form(query or {})
         self.info = pn.pane.Markdown("", css_classes=["pi-orbit-info"], width=420)
         self.command = pn.widgets.TextAreaInput(
@@ -242,7 +243,7 @@ class Session:
                     raise Cancelled
                 self.schedule(lambda: self._basins_row(tile, done, n))
 
-            return api.basins(st, n, n, 4.0, on_tile=row)
+            return api.basins(st, n, n, 4.0, on_tile=row, dask=self.dask)
 
         self.basins_info.object = f"computing {n} x {n} cells ..."
         self.runners["basins"].start(work, self._basins_done, self._failed)
@@ -333,11 +334,12 @@ class Session:
         return pn.Row(form, tabs)
 
 
-def make_session(executor: concurrent.futures.Executor) -> Any:
-    """The page for a new browser session, from the URL's query string (a permalink)."""
+def make_session(executor: concurrent.futures.Executor, dask: str | None = None) -> Any:
+    """The page for a new browser session, from the URL's query string (a permalink); its
+    domains of attraction run on the Dask scheduler ``dask`` when one is given."""
     args = pn.state.session_args or {}
     query = {k: v[0].decode() for k, v in args.items() if k in FIELDS and v}
-    session = Session(executor, pn.state.curdoc, query, pn.state.location)
+    session = Session(executor, pn.state.curdoc, query, pn.state.location, dask)
     session.refresh()
     return session.layout()
 

@@ -16,14 +16,18 @@ from precise_impact.explore.http import api_patterns
 __all__ = ["make_server", "serve"]
 
 
-def make_server(address: str = "127.0.0.1", port: int = 5006, threads: int | None = None) -> Any:
-    """The explorer's server, not started: the page at ``/`` and the API at ``/api``."""
+def make_server(
+    address: str = "127.0.0.1", port: int = 5006, threads: int | None = None,
+    dask: str | None = None,
+) -> Any:  # fmt: skip
+    """The explorer's server, not started: the page at ``/`` and the API at ``/api`` (the
+    page's domains of attraction on the Dask scheduler ``dask`` when given)."""
     pn.config.raw_css = []
     executor = concurrent.futures.ThreadPoolExecutor(threads or max(2, os.cpu_count() or 2))
     origins = [f"{address}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"]
 
     def page() -> Any:  # a plain function: Panel calls it once per browser session
-        return make_session(executor)
+        return make_session(executor, dask)
 
     return pn.serve(
         {"/": page},
@@ -38,9 +42,10 @@ def serve(
     port: int = 5006,
     open_browser: bool = False,
     say: Callable[[str], None] = print,
+    dask: str | None = None,
 ) -> None:
     """Serve until interrupted (Ctrl-C / SIGTERM end it with the CLI's exit 130)."""
-    server = make_server(address, port)
+    server = make_server(address, port, dask=dask)
     server.start()
     url = f"http://{address}:{server.port}/"
     say(f"precise-impact explore: {url} (JSON API: {url}api; Ctrl-C ends it)")

@@ -19,6 +19,11 @@ def register(sub) -> argparse.ArgumentParser:
     e.add_argument("--address", default="127.0.0.1", help="address to serve on (default 127.0.0.1)")
     e.add_argument("--port", default="5006", help="port, 0 for any free one (default 5006)")
     e.add_argument("--show", action="store_true", help="open the page in the default browser")
+    e.add_argument(
+        "--dask", metavar="tcp://HOST:PORT", default=None,
+        help="run the domains of attraction on this Dask scheduler (pip install "
+        "'precise_impact[dask]')",
+    )  # fmt: skip
     e.set_defaults(run=run)
     return e
 
@@ -34,5 +39,7 @@ def run(ns: argparse.Namespace) -> int:
         raise OptionalDependencyError(
             "panel", "pip install 'precise_impact[explore]'", "explore"
         ) from e
-    serve(ns.address, port, open_browser=ns.show)
+    if ns.dask is not None and not ns.dask.startswith("tcp://"):
+        raise ParameterError("dask", ns.dask, "a scheduler address tcp://HOST:PORT")
+    serve(ns.address, port, open_browser=ns.show, dask=ns.dask)
     return 0
