@@ -16,7 +16,11 @@ def register(sub) -> argparse.ArgumentParser:
         help="live, linked views in the browser (orbit, bifurcation diagram, proofs) and a "
         "JSON API, served on the loopback",
     )
-    e.add_argument("--address", default="127.0.0.1", help="address to serve on (the loopback, 127.0.0.1, by default)")
+    e.add_argument(
+        "--address",
+        default="127.0.0.1",
+        help="address to serve on (the loopback, 127.0.0.1, by default)",
+    )
     e.add_argument("--port", default="5006", help="port, 0 for any free one (default 5006)")
     e.add_argument("--show", action="store_true", help="open the page in the default browser")
     e.add_argument(
