@@ -319,15 +319,14 @@ class Session:
         form = pn.Column("## parameters (exact decimals)", *rows, width=360)
         orbit = pn.Column(self.info, pn.Row(self.orbit["phase"], self.orbit["xt"]),
                           pn.Row(self.command, self.download))  # fmt: skip
-        bif = pn.Column(
-            pn.Row(self.bif_button, self.bif_info), self.bif["diagram"], self.bif["lle"]
-        )
+        diagram = pn.pane.Bokeh(self.bif["diagram"], css_classes=["pi-bif-diagram"])
+        bif = pn.Column(pn.Row(self.bif_button, self.bif_info), diagram, self.bif["lle"])
         proof = pn.Column(pn.Row(self.prove_period, self.prove_button, self.certify_button),
                           self.proof_info,
                           self.proof["figure"])  # fmt: skip
         basins = pn.Column(
             pn.Row(self.basins_n, self.basins_run, self.basins_stop), self.basins_info,
-            self.basins["figure"],
+            pn.pane.Bokeh(self.basins["figure"], css_classes=["pi-basins-map"]),
         )  # fmt: skip
         tabs = pn.Tabs(("orbit", orbit), ("bifurcation", bif), ("impact surface", basins),
                        ("proof", proof), dynamic=False)  # fmt: skip
