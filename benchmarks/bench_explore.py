@@ -38,7 +38,8 @@ ARGS = [
     "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
     "--disable-background-networking", "--disable-component-update", "--disable-sync",
 ]  # fmt: skip
-DEEP_TEXT = """el => { const walk = n => { let t = n.shadowRoot ? walk(n.shadowRoot) : '';
+DEEP_TEXT = """el => { const walk = n => { if (n.tagName === 'STYLE' || n.tagName === 'SCRIPT')
+  return ''; let t = n.shadowRoot ? walk(n.shadowRoot) : '';
   for (const c of n.childNodes) t += c.nodeType === 3 ? c.textContent : walk(c); return t; };
   return walk(el); }"""
 

@@ -57,6 +57,7 @@ class Session:
         self.basins_info = pn.pane.Markdown("", css_classes=["pi-basins-info"])
         self.basins = figures.basins_figure(60, 40, 4.0)
         self.last: dict[str, Any] = {}
+        self.summary, self.lle_line = "", ""
         self._wire()
 
     # ---------------------------------------------------------------- the form
@@ -86,8 +87,18 @@ class Session:
             s = pn.widgets.FloatSlider(start=lo, end=hi, step=step, width=150,
                                        value=float(self.inputs[name].value))  # fmt: skip
             s.param.watch(functools.partial(self._slid, name), "value_throttled")
+            self.inputs[name].param.watch(functools.partial(self._typed, s), "value")
             out[name] = s
         return out
+
+    def _typed(self, slider: Any, event: Any) -> None:
+        """A typed value moves its slider (within the slider's range; the text stays exact)."""
+        try:
+            x = float(event.new)
+        except ValueError:
+            return
+        if slider.start <= x <= slider.end and slider.value != x:
+            slider.value = x
 
     def _slid(self, name: str, event: Any) -> None:
         self.inputs[name].value = str(Decimal(repr(event.new)).normalize())
@@ -136,7 +147,8 @@ class Session:
         st = self.state()
         if st is None:
             return
-        self.info.object = "computing ..."
+        self.summary, self.lle_line = "computing ...", ""
+        self._show_info()
         if self.location is not None:  # the URL holds the state: a link reopens it
             self.location.update_query(**{n: str(w.value) for n, w in self.inputs.items()})
         self.runners["orbit"].start(lambda flag: api.orbit(st), self._orbit_done, self._failed)
@@ -146,19 +158,25 @@ class Session:
         self.last["orbit"] = got
         units = figures.show_orbit(self.orbit, got, str(self.inputs["units"].value))
         d = got["digits"]
-        self.info.object = (
+        self.summary = (
             f"**period** {got['period'] or 'none found'} &nbsp; "
             f"**impacts per period** {got['impacts_per_period']:.4g} &nbsp; "
             f"**digits claimed** {d['min']}-{d['max_possible']} ({d['basis']}) &nbsp; "
-            f"**axes** {units} &nbsp; **eta** {got['state']['eta']}" + self.last.get("lle_line", "")
+            f"**axes** {units} &nbsp; **eta** {got['state']['eta']}"
         )
+        self._show_info()
         self.command.value = f"{got['command']}\n\n{got['python']}"
 
     def _lle_done(self, got: dict[str, Any]) -> None:
-        line = f" &nbsp; **LLE** {got['lle']:.6g} +- {got['stderr']:.2g}"
-        self.last["lle_line"] = line
-        if "LLE" not in self.info.object:
-            self.info.object += line
+        self.lle_line = (
+            f" &nbsp; **LLE** {got['lle']:.6g} +- {got['stderr']:.2g} (eta {got['state']['eta']})"
+        )
+        self._show_info()
+
+    def _show_info(self) -> None:
+        """The orbit's line and its LLE (each as its own run finished; the LLE names its eta,
+        so a line never pairs one state's orbit with another's exponent)."""
+        self.info.object = self.summary + self.lle_line
 
     def _failed(self, error: BaseException) -> None:
         text = " ".join(str(error).splitlines())
