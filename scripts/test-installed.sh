@@ -122,6 +122,28 @@ step "installing it (non-editable) with [test,dask,bench,docs]"
 "$vpy" -m pip install -q "${wheel}[test,dask,bench,docs]"
 took
 
+# numba's compiled kernels, compiled once into the installed package's cache in the background
+# (beside the single-threaded static checks): with a cold cache each test process, and each
+# worker of a test's CLI run, compiled the same kernels at once (~40 s of CPU each) at the start
+# of the suite
+warm_kernels() {
+  (cd "$work" && "$vpy" - <<'PY'
+import time
+t = time.perf_counter()
+import precise_impact as pi
+p = pi.Params.make(eta="0.712")
+pi.simulate(p, 3, model="fast")
+pi.lyapunov(p, model="fast", periods=20)
+pi.simulate_coupled(p, "0.1", periods=3, model="fast")
+chatter = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
+pi.impact_map(chatter, 0.5, 0.3, 3, engine="fast")
+pi.basins(chatter, ((0, 1, 2), (0.1, 0.6, 2)), transient=5, progress=False)
+print(f"   compiled kernels in {time.perf_counter() - t:.1f} s")
+PY
+  )
+}
+bg warm_kernels warm_kernels
+
 step "static checks: ruff check, ruff format --check, mypy (pinned by the [lint] extra; zero findings)"
 "$vpy" -m pip install -q "${wheel}[lint]"
 (cd "$work/src" && "$work/venv/bin/ruff" check --no-cache . && "$work/venv/bin/ruff" format --check --no-cache . \
@@ -146,6 +168,10 @@ if len(blocks) != 1:
 exec(compile(blocks[0], "README.md", "exec"), {"__name__": "__main__"})
 print("   passed")
 PY
+took
+
+step "the compiled kernels (compiled in the background since the install)"
+wait_bg warm_kernels
 took
 
 step "the test suite against the installed package"
