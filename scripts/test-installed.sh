@@ -122,6 +122,28 @@ step "installing it (non-editable) with [test,dask,bench,docs,explore]"
 "$vpy" -m pip install -q "${wheel}[test,dask,bench,docs,explore]"
 took
 
+# numba's compiled kernels, compiled once into the installed package's cache in the background
+# (beside the single-threaded static checks): with a cold cache each test process, and each
+# worker of a test's CLI run, compiled the same kernels at once (~40 s of CPU each) at the start
+# of the suite
+warm_kernels() {
+  (cd "$work" && "$vpy" - <<'PY'
+import time
+t = time.perf_counter()
+import precise_impact as pi
+p = pi.Params.make(eta="0.712")
+pi.simulate(p, 3, model="fast")
+pi.lyapunov(p, model="fast", periods=20)
+pi.simulate_coupled(p, "0.1", periods=3, model="fast")
+chatter = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
+pi.impact_map(chatter, 0.5, 0.3, 3, engine="fast")
+pi.basins(chatter, ((0, 1, 2), (0.1, 0.6, 2)), transient=5, progress=False)
+print(f"   compiled kernels in {time.perf_counter() - t:.1f} s")
+PY
+  )
+}
+bg warm_kernels warm_kernels
+
 step "static checks: ruff check, ruff format --check, mypy (pinned by the [lint] extra; zero findings)"
 "$vpy" -m pip install -q "${wheel}[lint]"
 (cd "$work/src" && "$work/venv/bin/ruff" check --no-cache . && "$work/venv/bin/ruff" format --check --no-cache . \
@@ -146,6 +168,10 @@ if len(blocks) != 1:
 exec(compile(blocks[0], "README.md", "exec"), {"__name__": "__main__"})
 print("   passed")
 PY
+took
+
+step "the compiled kernels (compiled in the background since the install)"
+wait_bg warm_kernels
 took
 
 step "the test suite against the installed package"
@@ -195,13 +221,13 @@ if bad:
 print(f"   no remote scripts or stylesheets in {len(list(pathlib.Path(sys.argv[1]).rglob('*.html')))} pages")
 PY
 }
-# the documentation build is one process: it runs on one core beside the lowest-version subset
-# (one test process), not after it
+# the documentation build is one process: it runs beside the lowest-version subset, not after
+# it (measured: docs 155 s and the subset in one process 213 s, one after the other 368 s)
 if [ -f "$repo/docs/conf.py" ]; then bg docs docs; fi
 
 step "lowest declared dependency versions (venv set up in the background): $(grep -v '^#' "$repo/.ci/lowest-constraints.txt" | tr '\n' ' ')"
 wait_bg lowest_venv
-PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cacheprovider \
+PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cacheprovider -n auto \
   --rootdir "$repo" -c "$repo/pyproject.toml" -q \
   "$repo/tests/core/test_params.py" "$repo/tests/solvers/test_heyoka_reference.py" "$repo/tests/solvers/test_closed_form.py" \
   "$repo/tests/analysis/test_variational.py" "$repo/tests/test_threads.py" "$repo/tests/verification/test_reference_data.py" \
