@@ -151,7 +151,8 @@ class Session:
         self._show_info()
         if self.location is not None:  # the URL holds the state: a link reopens it
             self.location.update_query(**{n: str(w.value) for n, w in self.inputs.items()})
-        self.runners["orbit"].start(lambda flag: api.orbit(st), self._orbit_done, self._failed)
+        work = lambda flag: api.orbit(st, full=False)  # noqa: E731
+        self.runners["orbit"].start(work, self._orbit_done, self._failed)
         self.runners["lle"].start(lambda flag: api.lle(st), self._lle_done, self._failed)
 
     def _orbit_done(self, got: dict[str, Any]) -> None:
@@ -187,8 +188,9 @@ class Session:
     def _orbit_json(self):
         import io  # noqa: PLC0415 -- only when a download is asked for
 
-        got = self.last.get("orbit") or api.orbit(self.state() or State.from_query({}))
-        return io.StringIO(dumps(got["result"]))
+        got = self.last.get("orbit")
+        st = State.from_query(got["state"]) if got else (self.state() or State.from_query({}))
+        return io.StringIO(dumps(api.orbit(st)["result"]))
 
     # ---------------------------------------------------------------- diagram
     def run_bifurcation(self) -> None:
