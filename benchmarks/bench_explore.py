@@ -19,29 +19,17 @@ import argparse
 import json
 import os
 import platform
-import socket
 import statistics
-import subprocess
-import sys
 import time
-import urllib.request
 from pathlib import Path
 
 from precise_impact.analysis.impact_surface.basins import basins, clear_caches
 from precise_impact.explore import api
+from precise_impact.explore.browser import ARGS, DEEP_TEXT, chromium, explorer, wait_text
 from precise_impact.explore.state import State
 from precise_impact.io.atomic import atomic_write
 
 OUT = Path(__file__).resolve().parent / "results"
-CHROMIUM = "/usr/bin/chromium"
-ARGS = [
-    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync",
-]  # fmt: skip
-DEEP_TEXT = """el => { const walk = n => { if (n.tagName === 'STYLE' || n.tagName === 'SCRIPT')
-  return ''; let t = n.shadowRoot ? walk(n.shadowRoot) : '';
-  for (const c of n.childNodes) t += c.nodeType === 3 ? c.textContent : walk(c); return t; };
-  return walk(el); }"""
 
 
 def _orbit_times(repeat: int) -> list[float]:
@@ -84,50 +72,31 @@ def _basins_times(n: int) -> dict[str, float]:
 
 
 def _browser_times(repeat: int) -> list[float]:
+    """From Enter in the eta field to the orbit view's line naming that eta, timed in the
+    browser (``performance.now()``; the check runs at each animation frame, in the page)."""
     from playwright.sync_api import sync_playwright  # noqa: PLC0415 -- optional: the browser part
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    server = subprocess.Popen(
-        [sys.executable, "-m", "precise_impact", "explore", "--port", str(port)],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    url = f"http://127.0.0.1:{port}/"
-    try:
-        for _ in range(200):
-            try:
-                urllib.request.urlopen(url + "api", timeout=2).close()
-                break
-            except OSError:
-                time.sleep(0.3)
-        with sync_playwright() as pw:
-            b = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-            page = b.new_page()
-            page.goto(url + "?eta=0.7")
-            _wait(page, "eta 0.7", 60)
-            times = []
-            for k in range(repeat):
-                eta = f"{0.701 + 0.002 * k:.3f}"
-                box = page.locator(".pi-field-eta input")
-                box.fill(eta)
-                t = time.perf_counter()
-                box.press("Enter")
-                _wait(page, f"eta {eta}", 30)
-                times.append(time.perf_counter() - t)
-            b.close()
-        return times
-    finally:
-        server.terminate()
-        server.wait(timeout=30)
-
-
-def _wait(page, text: str, timeout_s: float) -> None:
-    deadline = time.monotonic() + timeout_s
-    while text not in page.locator(".pi-orbit-info").first.evaluate(DEEP_TEXT):
-        if time.monotonic() > deadline:
-            raise TimeoutError(text)
-        page.wait_for_timeout(5)
+    shown = (
+        "([want, t0]) => { const el = document.querySelector('.pi-orbit-info');"
+        " return el && (" + DEEP_TEXT + ")(el).includes(want) ? performance.now() - t0 : false; }"
+    )
+    with explorer() as url, sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=chromium(), args=ARGS)
+        page = b.new_page()
+        page.goto(url + "?eta=0.7")
+        wait_text(page, ".pi-orbit-info", "eta 0.7", 60)
+        times = []
+        for k in range(repeat):
+            eta = f"{0.701 + 0.002 * k:.3f}"
+            box = page.locator(".pi-field-eta input")
+            box.fill(eta)
+            t0 = page.evaluate("() => performance.now()")
+            box.press("Enter")
+            ms = page.wait_for_function(shown, arg=[f"eta {eta}", t0], polling="raf",
+                                        timeout=30_000).json_value()  # fmt: skip
+            times.append(ms / 1000)
+        b.close()
+    return times
 
 
 def main() -> None:

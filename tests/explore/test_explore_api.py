@@ -64,3 +64,31 @@ def test_basins_rows_arrive_and_make_the_labelled_map():
     assert len(rows) == 5 and sorted(i for r in rows for i in r["index"]) == list(range(30))
     assert len(got["labels"]) == 5 and all(len(r) == 6 for r in got["labels"])
     assert got["command"].startswith("precise-impact basins") and "--phase 0 1 6" in got["command"]
+
+
+def test_the_ideal_circuit_model_overlays_the_mechanics_to_its_tolerance():
+    """The paper's circuit with ideal components is the mechanics in other units: on the
+    period-3 orbit its samples lie on the compiled engine's within the circuit model's
+    integration tolerance (reproduce's report: below 1e-10 on Figs. 4 and 6)."""
+    got = _strict(api.circuit(State.from_query({"eta": "0.74", "periods": "6", "transient": "30"})))
+    assert got["model"] == "circuit" and len(got["strobe"]["x"]) == 7
+    assert got["max_dx_shown"] < 1e-8, got["max_dx_shown"]
+    assert len(got["curve"]["t"]) >= 6 * api.DENSE_PER_PERIOD
+
+
+def test_the_impact_map_jumps_across_its_singularity_set():
+    """A point of the singularity set is an impact whose next flight grazes the wall: the
+    map is discontinuous there, so two starts 1e-5 apart on either side of the curve (in v)
+    have next impacts far apart, while two starts 1e-5 apart away from it stay close."""
+    s = State.from_query({"eta": "0.712"})
+    got = _strict(api.impact_map(s, 0.3, 1.0, 50, singularity=True))
+    assert got["singularity"] and "--singularity" in got["command"]
+    curve = max(got["singularity"], key=lambda c: len(c["phase"]))
+    i = len(curve["phase"]) // 2
+    ph, v = curve["phase"][i], curve["v"][i]
+
+    def next_phase(dv):
+        return api.impact_map(s, ph, v + dv, 2)["phase"][1]
+
+    jump = abs(next_phase(1e-5) - next_phase(-1e-5))
+    assert min(jump, 1 - jump) > 1e-3, (ph, v, jump)

@@ -7,62 +7,37 @@ directory), so CI keeps what the browser showed.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import re
-import shutil
-import socket
 import subprocess
 import sys
 import time
-import urllib.request
 from pathlib import Path
 
 import pytest
 
 pytest.importorskip("panel", reason="pip install 'precise_impact[explore]'")
 sync_api = pytest.importorskip("playwright.sync_api", reason="pip install playwright")
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-if not Path(CHROMIUM).exists():  # pragma: no cover - CI installs it
-    pytest.skip("apt-get install chromium (Debian's chromium)", allow_module_level=True)
 
-#: Debian's chromium, headless, with no network of its own (its background connections are
-#: refused by a closed machine, many at a time).
-ARGS = [
-    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync",
-]  # fmt: skip
+from precise_impact.errors import PreciseImpactError  # noqa: E402
+from precise_impact.explore.browser import ARGS, chromium, explorer, text, wait_text  # noqa: E402
+
+try:
+    CHROMIUM = chromium()
+except PreciseImpactError as e:  # pragma: no cover - CI installs it
+    pytest.skip(str(e), allow_module_level=True)
+
 #: Milliseconds a view may take to show its numbers (the first orbit may compile the kernels:
 #: ~40 s with a cold cache on a busy 2-core machine).
 WAIT_MS = 180_000
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def server():
     """``precise-impact explore`` on a free loopback port, until the module's tests end."""
-    port = _free_port()
-    p = subprocess.Popen(
-        [sys.executable, "-m", "precise_impact", "explore", "--port", str(port)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )  # fmt: skip
-    url = f"http://127.0.0.1:{port}/"
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        with contextlib.suppress(OSError):
-            urllib.request.urlopen(url + "api", timeout=2).close()
-            break
-        assert p.poll() is None, p.stdout.read()
-        time.sleep(0.3)
-    yield url
-    p.terminate()
-    p.wait(timeout=30)
+    with explorer() as url:
+        yield url
 
 
 @pytest.fixture(scope="module")
@@ -91,31 +66,16 @@ def page(browser, server, tmp_path):
     assert hosts <= {server.split("/")[2]}, hosts
 
 
-#: The text of an element and of every shadow root under it (Panel's panes render in shadow
-#: DOM, which ``innerText`` leaves out).
-DEEP_TEXT = """el => { const walk = n => { if (n.tagName === 'STYLE' || n.tagName === 'SCRIPT')
-  return ''; let t = n.shadowRoot ? walk(n.shadowRoot) : '';
-  for (const c of n.childNodes) t += c.nodeType === 3 ? c.textContent : walk(c); return t; };
-  return walk(el); }"""
-
-
 def _text(pg, css: str) -> str:
-    return pg.locator(css).first.evaluate(DEEP_TEXT)
+    return text(pg, css)
+
+
+def _wait_text(pg, css: str, want: str) -> str:
+    return wait_text(pg, css, want, WAIT_MS / 1000)
 
 
 def _info(pg) -> str:
     return _text(pg, ".pi-orbit-info")
-
-
-def _wait_text(pg, css: str, text: str, timeout_s: float = WAIT_MS / 1000) -> str:
-    """The element's deep text once it contains ``text`` (polled; fails after the timeout)."""
-    deadline = time.monotonic() + timeout_s
-    while True:
-        got = _text(pg, css) if pg.locator(css).count() else ""
-        if text in got:
-            return got
-        assert time.monotonic() < deadline, f"{css}: {text!r} not in {got!r}"
-        pg.wait_for_timeout(100)
 
 
 def _wait_info(pg, text: str) -> str:
@@ -203,3 +163,60 @@ def test_the_downloaded_json_is_the_clis(page, server):
     cli = json.loads(r.stdout)
     cli.pop("elapsed_s")
     assert got == cli
+
+
+def test_a_basins_map_starts_drawing_and_cancels(page, server):
+    """200 x 200 cells (tens of seconds): rows are drawn as they finish; cancel stops it and
+    the rows drawn stay; no row arrives after the cancel."""
+    page.goto(server + "?eta=0.74")
+    _wait_info(page, "eta 0.74")
+    page.locator(".bk-tab", has_text="impact surface").click()
+    box = page.locator(".pi-basins-n input")
+    box.fill("200")
+    box.press("Enter")
+    page.locator(".pi-basins-run button").click()
+    got = _wait_text(page, ".pi-basins-info", "rows ")
+    assert "/ 200" in got, got
+    page.screenshot(path=str(page.shots / "07-basins-drawing.png"))
+    page.locator(".pi-basins-cancel button").click()
+    _wait_text(page, ".pi-basins-info", "cancelled")
+    page.wait_for_timeout(3000)  # a row finishing now would overwrite the line
+    assert "cancelled" in _text(page, ".pi-basins-info")
+    page.screenshot(path=str(page.shots / "08-basins-cancelled.png"))
+
+
+def test_the_impact_map_with_its_singularity_set(page, server):
+    page.goto(server + "?eta=0.712&transient=100")
+    _wait_info(page, "eta 0.712")
+    page.locator(".bk-tab", has_text="impact surface").click()
+    page.locator(".pi-impacts-run button").click()
+    got = _wait_text(page, ".pi-impacts-info", "singularity curves")
+    assert re.search(r"2000 events \(impact \d+", got), got
+    assert int(re.search(r"(\d+) singularity curves", got).group(1)) >= 1, got
+    page.screenshot(path=str(page.shots / "09-impact-map.png"))
+
+
+def test_the_circuit_models_overlay_the_orbit(page, server):
+    page.goto(server + "?eta=0.74&transient=100&periods=20")
+    _wait_info(page, "eta 0.74")
+    page.locator(".pi-overlay input").check()
+    _wait_text(page, ".pi-circuit-info", "switched-capacitor: max")
+    got = _wait_text(page, ".pi-circuit-info", "circuit: max")  # the op-amp circuit: seconds
+    page.screenshot(path=str(page.shots / "10-circuit-overlay.png"))
+    # the ideal circuit is the mechanics in volts: its samples on the orbit's (see test_api)
+    dx = re.search(r"(?:^|\s)circuit: max \|x - x_mechanics\| on the strobe ([\d.e+-]+)", got)
+    assert dx and float(dx.group(1)) < 1e-8, got
+
+
+def test_the_guides_screenshots_come_from_the_running_application(tmp_path):
+    """``screenshots`` (the docs build's pictures): a PNG of the page as it showed the orbit,
+    not a blank one (the figures' lines and the text make many distinct colours)."""
+    import matplotlib.image
+
+    from precise_impact.explore.browser import SHOTS, screenshots
+
+    (path,) = screenshots(tmp_path, shots=SHOTS[:1])
+    img = matplotlib.image.imread(path)
+    assert path.name == "explore_orbit.png" and img.shape[1] == 1500, img.shape
+    colours = {tuple(p) for p in (img[::7, ::7, :3] * 255).astype(int).reshape(-1, 3)}
+    assert len(colours) > 50, len(colours)

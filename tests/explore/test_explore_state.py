@@ -77,3 +77,15 @@ def test_impact_map_and_proof_calls_give_the_views_numbers():
     assert proof["command"] is None and proof["result"]["proven"] is True
     exec(proof["python"], scope)
     assert scope["r"].to_dict()["x"] == proof["result"]["x"]
+
+
+def test_the_circuit_views_command_and_call_give_its_numbers():
+    """The overlay's run is the command's (``simulate --model switched-capacitor``) and the
+    Python call's, sample for sample."""
+    s = State.from_query({"eta": "0.74", "periods": "6", "transient": "3"})
+    got = api.circuit(s, "switched-capacitor")
+    assert "--model switched-capacitor" in got["command"]
+    assert got["result"] == _cli_json(got["command"])
+    scope: dict = {}
+    exec(got["python"], scope)
+    assert [float(x) for x in scope["r"].x[3:]] == got["strobe"]["x"]

@@ -13,10 +13,12 @@ import numpy as np
 from precise_impact.analysis.bifurcation import bifurcation as _bifurcation
 from precise_impact.analysis.impact_surface.basins import basins as _basins
 from precise_impact.analysis.impact_surface.impact_map import impact_map as _impact_map
+from precise_impact.analysis.impact_surface.singularity import singularity_set
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.analysis.orbits import prove_orbit
 from precise_impact.analysis.periodicity import detect_period
-from precise_impact.explore.state import DENSE_PER_PERIOD, State
+from precise_impact.errors import ParameterError
+from precise_impact.explore.state import CIRCUIT_MODELS, DENSE_PER_PERIOD, State
 from precise_impact.io.jsonout import finite_or_marker
 from precise_impact.models.circuit.components import nominal_components
 from precise_impact.solvers.certified.single import certify as _certify
@@ -27,6 +29,7 @@ __all__ = [
     "basins",
     "bifurcation",
     "certified",
+    "circuit",
     "lle",
     "orbit",
     "proof",
@@ -102,6 +105,40 @@ def orbit(state: State, full: bool = True) -> dict[str, Any]:
     return out
 
 
+def circuit(state: State, model: str = "circuit") -> dict[str, Any]:
+    """The orbit on one of the circuit models (:data:`~.state.CIRCUIT_MODELS`: the op-amp
+    circuit, the switched-capacitor circuit) from the same start, its curve after the
+    transient in the mechanics' units, and how far its stroboscopic samples lie from the
+    mechanics' (the compiled engine's float64 run; a chaotic orbit's difference grows to O(1)
+    as the two part)."""
+    if model not in CIRCUIT_MODELS:
+        raise ParameterError("model", model, "one of " + ", ".join(CIRCUIT_MODELS))
+    n = state.transient + state.periods
+    traj = simulate(state.params, n, model=model, per_period=DENSE_PER_PERIOD)
+    mech = simulate(state.params, n, model="fast")
+    k = state.transient
+    x, v = np.asarray(traj.x, dtype=float), np.asarray(traj.v, dtype=float)
+    dx = np.abs(x - np.asarray(mech.x, dtype=float))
+    dense_t = np.asarray(traj.dense_t, dtype=float)
+    keep = dense_t >= float(np.asarray(traj.t, dtype=float)[k])
+    out = _head(state, "circuit", model=model)
+    out.update(
+        model=model,
+        curve={
+            "t": _floats(dense_t[keep]),
+            "x": _floats(np.asarray(traj.dense_x, dtype=float)[keep]),
+            "v": _floats(np.asarray(traj.dense_v, dtype=float)[keep]),
+        },
+        strobe={"x": _floats(x[k:]), "v": _floats(v[k:])},
+        max_dx_transient=finite_or_marker(float(np.max(dx[: k + 1]))),
+        max_dx_shown=finite_or_marker(float(np.max(dx[k:]))),
+    )
+    result = traj.to_dict()  # the command's --json (the samples as exact decimals)
+    result.pop("elapsed_s", None)
+    out["result"] = result
+    return out
+
+
 def _digits(traj: Any) -> dict[str, Any]:
     """The digits the run claims: the summary ``to_dict()`` puts beside the samples."""
     return traj.claimed_digits().summary()
@@ -162,17 +199,43 @@ def bifurcation(state: State) -> dict[str, Any]:
     return out
 
 
-def impact_map(state: State, phase: float, v: float, n: int = 200) -> dict[str, Any]:
+def impact_map(
+    state: State, phase: float, v: float, n: int = 200, singularity: bool = False
+) -> dict[str, Any]:
     """``n`` impacts of the orbit leaving the wall at forcing ``phase`` (in [0, 1)) with
-    speed ``v``: the impact map's iterates, on the compiled engine."""
+    speed ``v``: the impact map's iterates, on the compiled engine; with ``singularity`` the
+    map's singularity set too (the impacts whose next flight grazes the wall: where the map is
+    discontinuous), its physical parts as curves of (phase, v)."""
     events = _impact_map(state.params, phase, v, n, engine="fast")
-    out = _head(state, "impact-map", phase=phase, v=v, n=n)
+    args: dict[str, Any] = {"phase": phase, "v": v, "n": n}
+    if singularity:
+        args["singularity"] = True
+    out = _head(state, "impact-map", **args)
     out.update(
         phase=_floats([e.phase for e in events]),
         v=_floats([e.v for e in events]),
         kind=[e.kind for e in events],
     )
+    if singularity:
+        out["singularity"] = _singularity_curves(state)
     return out
+
+
+def _singularity_curves(state: State) -> list[dict[str, list]]:
+    """The singularity set's physical runs of points, one curve each (a curve breaks where a
+    branch leaves its physical part)."""
+    curves = []
+    for b in singularity_set(state.params).branches:
+        run: list[tuple[float, float]] = []
+        for ph, v, ok in zip(b["phase"], b["v"], b["physical"], strict=True):
+            if ok:
+                run.append((float(ph), float(v)))
+            elif run:
+                curves.append(run)
+                run = []
+        if run:
+            curves.append(run)
+    return [{"phase": _floats([p for p, _ in c]), "v": _floats([v for _, v in c])} for c in curves]
 
 
 def certified(state: State, periods: int = 100) -> dict[str, Any]:
@@ -207,6 +270,7 @@ def proof(state: State, period: int) -> dict[str, Any]:
 VIEW_FUNCTIONS: dict[str, Callable[..., dict[str, Any]]] = {
     "orbit": orbit,
     "lle": lle,
+    "circuit": circuit,
     "bifurcation": bifurcation,
     "impact-map": impact_map,
     "proof": proof,

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import functools
+import math
 from decimal import Decimal
 from typing import Any
 
@@ -16,7 +17,7 @@ from precise_impact.core.params import PARAM_NAMES, Params
 from precise_impact.errors import ParameterError, PreciseImpactError
 from precise_impact.explore import api, figures
 from precise_impact.explore.jobs import Cancelled, Runner
-from precise_impact.explore.state import DEFAULTS, ENGINES, UNITS, State
+from precise_impact.explore.state import CIRCUIT_MODELS, DEFAULTS, ENGINES, UNITS, State
 from precise_impact.io.jsonout import dumps
 
 __all__ = ["Session", "make_session"]
@@ -40,7 +41,7 @@ class Session:
         dask: str | None = None,
     ) -> None:
         schedule = doc.add_next_tick_callback if doc is not None else (lambda cb: cb())
-        views = ("orbit", "lle", "bif", "proof", "basins")
+        views = ("orbit", "lle", "bif", "proof", "basins", "impacts", *CIRCUIT_MODELS)
         self.runners = {v: Runner(executor, schedule) for v in views}
         self.schedule = schedule
         self.location, self.dask = location, dask
@@ -56,6 +57,9 @@ class Session:
         self.bif_info = pn.pane.Markdown("", css_classes=["pi-bif-info"])
         self.basins_info = pn.pane.Markdown("", css_classes=["pi-basins-info"])
         self.basins = figures.basins_figure(60, 40, 4.0)
+        self.impacts = figures.impact_figure()
+        self.impacts_info = pn.pane.Markdown("", css_classes=["pi-impacts-info"])
+        self.circuit_info = pn.pane.Markdown("", css_classes=["pi-circuit-info"])
         self.last: dict[str, Any] = {}
         self.summary, self.lle_line = "", ""
         self._wire()
@@ -125,6 +129,13 @@ class Session:
                                                 css_classes=["pi-certify-run"])  # fmt: skip
         self.certify_button.on_click(lambda e: self.run_certified())
         self._basins_widgets()
+        self.overlay = pn.widgets.Checkbox(name="overlay the circuit models", value=False,
+                                           css_classes=["pi-overlay"])  # fmt: skip
+        self.overlay.param.watch(lambda e: self.run_circuits(), "value")
+        self.impacts_button = pn.widgets.Button(
+            name="impact map + singularity set", css_classes=["pi-impacts-run"]
+        )
+        self.impacts_button.on_click(lambda e: self.run_impacts())
         self.download = pn.widgets.FileDownload(
             callback=self._orbit_json, filename="orbit.json", label="orbit as JSON",
             css_classes=["pi-download-json"],
@@ -167,6 +178,35 @@ class Session:
         )
         self._show_info()
         self.command.value = f"{got['command']}\n\n{got['python']}"
+        self.run_circuits()
+
+    # ---------------------------------------------------------------- circuit models
+    def run_circuits(self) -> None:
+        """The circuit models' orbits over the mechanics' (when the box is ticked), each in
+        its own run: the op-amp circuit takes seconds, the switched-capacitor one ~0.1 s."""
+        st = self.state()
+        if st is None or "orbit" not in self.last:
+            return
+        if not self.overlay.value:
+            for model in CIRCUIT_MODELS:
+                self.runners[model].cancel()
+                self.orbit["sources"][model].data = {"t": [], "x": [], "v": []}
+            self.circuit_info.object = ""
+            return
+        self.circuit_lines: dict[str, str] = {}
+        self.circuit_info.object = "computing the circuit models ..."
+        for model in CIRCUIT_MODELS:
+            work = functools.partial(lambda m, flag: api.circuit(st, m), model)
+            self.runners[model].start(work, self._circuit_done, self._failed)
+
+    def _circuit_done(self, got: dict[str, Any]) -> None:
+        if got["state"] != self.last["orbit"]["state"]:
+            return  # another orbit is shown by now
+        figures.show_circuit(self.orbit, got)
+        self.circuit_lines[got["model"]] = (
+            f"**{got['model']}**: max |x - x_mechanics| on the strobe {got['max_dx_shown']:.3g}"
+        )
+        self.circuit_info.object = " &nbsp; ".join(self.circuit_lines.values())
 
     def _lle_done(self, got: dict[str, Any]) -> None:
         self.lle_line = (
@@ -294,6 +334,32 @@ class Session:
         self.inputs["v0"].value = _short(-float(p.R) * event.y)
         self.inputs["t0"].value = _short(t0)
 
+    # ---------------------------------------------------------------- impact map
+    def run_impacts(self) -> None:
+        """The impact map from the orbit's last impact (on its attractor; from phase 0.3,
+        speed 1 when it has none), 2000 impacts, with the singularity set."""
+        st = self.state()
+        if st is None:
+            return
+        phase, v = 0.3, 1.0
+        imp = self.last.get("orbit", {}).get("impacts", {"t": []})
+        if imp["t"] and imp["t"][-1] is not None:
+            eta = float(st.params.eta)
+            phase = (imp["t"][-1] * eta / (2 * math.pi)) % 1.0
+            v = max(abs(imp["v"][-1]), 1e-6)  # the incoming speed, as the map takes it
+        self.impacts_info.object = "computing 2000 impacts and the singularity set ..."
+        work = lambda flag: api.impact_map(st, phase, v, 2000, singularity=True)  # noqa: E731
+        self.runners["impacts"].start(work, self._impacts_done, self._failed)
+
+    def _impacts_done(self, got: dict[str, Any]) -> None:
+        figures.show_impacts(self.impacts, got)
+        kinds = {k: got["kind"].count(k) for k in ("impact", "chatter", "sticking")}
+        self.impacts_info.object = (
+            f"{len(got['phase'])} events ({', '.join(f'{k} {n}' for k, n in kinds.items())}) from "
+            f"phase {got['args']['phase']:.4f}, v {got['args']['v']:.4f}; "
+            f"{len(got['singularity'])} singularity curves"
+        )
+
     # ---------------------------------------------------------------- proof
     def run_proof(self) -> None:
         st = self.state()
@@ -337,7 +403,8 @@ class Session:
             row = [self.inputs[n]] + ([self.sliders[n]] if n in self.sliders else [])
             rows.append(pn.Column(pn.Row(*row), self.errors[n], margin=0))
         form = pn.Column("## parameters (exact decimals)", *rows, width=360)
-        orbit = pn.Column(self.info, pn.Row(self.orbit["phase"], self.orbit["xt"]),
+        orbit = pn.Column(self.info, pn.Row(self.overlay, self.circuit_info),
+                          pn.Row(self.orbit["phase"], self.orbit["xt"]),
                           pn.Row(self.command, self.download))  # fmt: skip
         diagram = pn.pane.Bokeh(self.bif["diagram"], css_classes=["pi-bif-diagram"])
         bif = pn.Column(pn.Row(self.bif_button, self.bif_info), diagram, self.bif["lle"])
@@ -345,8 +412,10 @@ class Session:
                           self.proof_info,
                           self.proof["figure"])  # fmt: skip
         basins = pn.Column(
-            pn.Row(self.basins_n, self.basins_run, self.basins_stop), self.basins_info,
-            pn.pane.Bokeh(self.basins["figure"], css_classes=["pi-basins-map"]),
+            pn.Row(self.impacts_button, self.basins_n, self.basins_run, self.basins_stop),
+            self.impacts_info, self.basins_info,
+            pn.Row(pn.pane.Bokeh(self.impacts["figure"], css_classes=["pi-impact-map"]),
+                   pn.pane.Bokeh(self.basins["figure"], css_classes=["pi-basins-map"])),
         )  # fmt: skip
         tabs = pn.Tabs(("orbit", orbit), ("bifurcation", bif), ("impact surface", basins),
                        ("proof", proof), dynamic=False)  # fmt: skip

@@ -19,12 +19,15 @@ __all__ = [
     "proof_figure",
     "show_basins_tile",
     "show_bifurcation",
+    "show_circuit",
     "show_impacts",
     "show_orbit",
     "show_certified",
 ]
 
 _TOOLS = "pan,box_zoom,wheel_zoom,reset,save"
+#: The circuit models the orbit view can overlay, and their lines' colours.
+CIRCUIT_COLOURS = {"circuit": "#ff7f0e", "switched-capacitor": "#2ca02c"}
 
 
 def orbit_figures() -> dict[str, Any]:
@@ -32,11 +35,17 @@ def orbit_figures() -> dict[str, Any]:
     and the wall's line."""
     src = {k: ColumnDataSource({"t": [], "x": [], "v": []}) for k in ("curve", "strobe")}
     src["impacts"] = ColumnDataSource({"t": [], "x": [], "v": []})
+    for model in CIRCUIT_COLOURS:
+        src[model] = ColumnDataSource({"t": [], "x": [], "v": []})
     phase = figure(height=320, width=420, tools=_TOOLS, title="phase portrait")
     phase.line("x", "v", source=src["curve"], line_width=1, color="#1f77b4")
     phase.scatter("x", "v", source=src["strobe"], size=7, color="#d62728", legend_label="strobe")
     xt = figure(height=320, width=620, tools=_TOOLS, title="x(t) and the wall")
-    xt.line("t", "x", source=src["curve"], line_width=1, color="#1f77b4")
+    xt.line("t", "x", source=src["curve"], line_width=1, color="#1f77b4", legend_label="mechanics")
+    for model, colour in CIRCUIT_COLOURS.items():  # the circuit models, when asked for
+        xt.line("t", "x", source=src[model], line_width=1, color=colour, line_dash="dashed",
+                legend_label=model)  # fmt: skip
+        phase.line("x", "v", source=src[model], line_width=1, color=colour, line_dash="dashed")
     xt.scatter("t", "x", source=src["impacts"], size=5, color="black", legend_label="impacts")
     wall = Span(location=2.0, dimension="width", line_color="#555555", line_dash="dashed")
     xt.add_layout(wall)
@@ -60,21 +69,38 @@ def show_orbit(figs: dict[str, Any], got: dict[str, Any], units: str) -> str:
     imp = got["impacts"]
     x_w = float(got["state"]["x_w"])
     figs["sources"]["impacts"].data = {
-        "t": _scaled(imp["t"], scale_t), "x": [x_w * scale_x] * len(imp["t"]), "v": _nums(imp["v"]),
+        "t": _scaled(imp["t"], scale_t), "x": np.full(len(imp["t"]), x_w * scale_x),
+        "v": _nums(imp["v"]),
     }  # fmt: skip
     figs["wall"].location = x_w * scale_x
     figs["phase"].xaxis.axis_label, figs["phase"].yaxis.axis_label = xl, vl
     figs["xt"].xaxis.axis_label, figs["xt"].yaxis.axis_label = tl, xl
+    figs["scale"] = (scale_t, scale_x)
+    for model in CIRCUIT_COLOURS:  # a new orbit: the overlays of the old one go
+        figs["sources"][model].data = {"t": [], "x": [], "v": []}
     return f"{xl} against {tl}"
 
 
-def _nums(values: list) -> list[float]:
-    """Strict-JSON numbers back to floats (null -> NaN, 'inf' -> inf)."""
-    return [math.nan if v is None else float(v) for v in values]
+def show_circuit(figs: dict[str, Any], got: dict[str, Any]) -> None:
+    """A circuit model's curve over the mechanics', in the orbit's units."""
+    scale_t, scale_x = figs.get("scale", (1.0, 1.0))
+    c = got["curve"]
+    figs["sources"][got["model"]].data = {
+        "t": _scaled(c["t"], scale_t), "x": _scaled(c["x"], scale_x), "v": _nums(c["v"]),
+    }  # fmt: skip
 
 
-def _scaled(values: list, k: float) -> list[float]:
-    return [k * v for v in _nums(values)]
+def _nums(values: list) -> np.ndarray:
+    """Strict-JSON numbers back to a float array (null -> NaN, 'inf' -> inf): Bokeh sends an
+    array to the browser as one binary buffer, a list as JSON text number by number."""
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError):  # nulls or markers among them
+        return np.array([math.nan if v is None else float(v) for v in values], dtype=float)
+
+
+def _scaled(values: list, k: float) -> np.ndarray:
+    return k * _nums(values)
 
 
 def bifurcation_figures() -> dict[str, Any]:
@@ -100,25 +126,35 @@ def show_bifurcation(figs: dict[str, Any], got: dict[str, Any]) -> None:
     eta = _nums(got["eta"])
     rows = [_nums(r) for r in got["x"]]
     figs["source"].data = {
-        "eta": [e for e, r in zip(eta, rows, strict=True) for _ in r],
-        "x": [x for r in rows for x in r],
+        "eta": np.repeat(eta, [len(r) for r in rows]),
+        "x": np.concatenate(rows) if rows else np.array([]),
     }
-    lle, err = np.array(_nums(got["lle"])), np.array(_nums(got["lle_stderr"]))
+    lle, err = _nums(got["lle"]), _nums(got["lle_stderr"])
     figs["lle_source"].data = {"eta": eta, "lle": lle, "lo": lle - err, "hi": lle + err}
-    figs["range"].start, figs["range"].end = eta[0], eta[-1]
+    figs["range"].start, figs["range"].end = float(eta[0]), float(eta[-1])
 
 
 def impact_figure() -> dict[str, Any]:
-    """The impact map: phase against impact speed of successive impacts."""
+    """The impact map: phase against impact speed of successive impacts, with the map's
+    singularity set (the impacts whose next flight grazes the wall)."""
     src = ColumnDataSource({"phase": [], "v": []})
-    fig = figure(height=320, width=520, tools=_TOOLS, title="impact map")
-    fig.scatter("phase", "v", source=src, size=2, color="#2ca02c")
-    fig.xaxis.axis_label, fig.yaxis.axis_label = "phase of the forcing", "impact speed"
-    return {"figure": fig, "source": src}
+    sing = ColumnDataSource({"xs": [], "ys": []})
+    fig = figure(height=360, width=520, tools=_TOOLS, title="impact map and singularity set",
+                 x_range=(0, 1))  # fmt: skip
+    fig.scatter("phase", "v", source=src, size=2, color="#1f77b4", legend_label="impacts")
+    fig.multi_line("xs", "ys", source=sing, color="#d62728", line_width=1.5,
+                   legend_label="singularity set")  # fmt: skip
+    fig.xaxis.axis_label, fig.yaxis.axis_label = "impact phase", "impact speed v"
+    return {"figure": fig, "source": src, "singularity": sing}
 
 
 def show_impacts(figs: dict[str, Any], got: dict[str, Any]) -> None:
-    figs["source"].data = {"phase": _nums(got["phase"]), "v": _nums(got["v"])}
+    """An impact-map view's iterates and (when computed) its singularity curves."""
+    figs["source"].data = {"phase": _nums(got["phase"]), "v": np.abs(_nums(got["v"]))}
+    curves = got.get("singularity") or []
+    figs["singularity"].data = {
+        "xs": [_nums(c["phase"]) for c in curves], "ys": [_nums(c["v"]) for c in curves],
+    }  # fmt: skip
 
 
 def proof_figure() -> dict[str, Any]:

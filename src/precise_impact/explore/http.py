@@ -23,11 +23,13 @@ __all__ = ["ApiHandler", "SCHEMA", "api_patterns", "view_arguments"]
 ARGUMENTS: dict[str, dict[str, tuple[str, Any, str]]] = {
     "orbit": {},
     "lle": {},
+    "circuit": {"model": ("string", "circuit", "one of circuit, switched-capacitor")},
     "bifurcation": {},
     "impact-map": {
         "phase": ("number", 0.3, "forcing phase of the first impact, in [0, 1)"),
         "v": ("number", 1.0, "speed leaving the wall, > 0"),
         "n": ("integer", 200, "impacts, 1 .. 100000"),
+        "singularity": ("boolean", False, "true: the map's singularity set too"),
     },
     "proof": {"period": ("integer", 1, "forcing periods of the orbit, 1 .. 64")},
     "certified": {"periods": ("integer", 100, "forcing periods certified, 1 .. 3000")},
@@ -61,6 +63,14 @@ def view_arguments(view: str, query: dict[str, str]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name, (kind, default, meaning) in ARGUMENTS[view].items():
         raw = query.get(name, default)
+        if kind == "string":
+            out[name] = str(raw)
+            continue
+        if kind == "boolean":
+            if str(raw).lower() not in ("true", "false", "1", "0"):
+                raise ParameterError(name, raw, "true or false")
+            out[name] = str(raw).lower() in ("true", "1")
+            continue
         if kind == "integer":
             out[name] = check_count(raw, name, INTEGER_MAX[name], minimum=1)
             continue

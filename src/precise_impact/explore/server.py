@@ -23,7 +23,10 @@ def make_server(
     """The explorer's server, not started: the page at ``/`` and the API at ``/api`` (the
     page's domains of attraction on the Dask scheduler ``dask`` when given)."""
     pn.config.raw_css = []
-    executor = concurrent.futures.ThreadPoolExecutor(threads or max(2, os.cpu_count() or 2))
+    # threads enough that no view queues behind another's run (a page runs up to 8 at once:
+    # orbit, LLE, two circuit models, impact map, basins, diagram, proof); a superseded run ends
+    # in its thread, its result dropped
+    executor = concurrent.futures.ThreadPoolExecutor(threads or max(8, 4 * (os.cpu_count() or 2)))
     origins = [f"{address}:{port}", f"localhost:{port}", f"127.0.0.1:{port}"]
 
     def page() -> Any:  # a plain function: Panel calls it once per browser session

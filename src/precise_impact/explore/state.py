@@ -12,7 +12,7 @@ from precise_impact.core.params import PARAM_NAMES, Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
 
-__all__ = ["DEFAULTS", "DENSE_PER_PERIOD", "ENGINES", "State", "UNITS", "VIEWS"]
+__all__ = ["CIRCUIT_MODELS", "DEFAULTS", "DENSE_PER_PERIOD", "ENGINES", "State", "UNITS", "VIEWS"]
 
 #: The engines the orbit view runs: the compiled closed forms or heyoka's Taylor integrator.
 ENGINES = ("fast", "heyoka")
@@ -22,7 +22,9 @@ UNITS = ("mechanical", "circuit")
 #: with them (the compiled engine's samples then round as the command's ``--dense`` run does).
 DENSE_PER_PERIOD = 64
 #: The views, each one computation of :mod:`precise_impact.explore.api`.
-VIEWS = ("orbit", "lle", "bifurcation", "impact-map", "basins", "proof", "certified")
+VIEWS = ("orbit", "lle", "circuit", "bifurcation", "impact-map", "basins", "proof", "certified")
+#: The circuit models the orbit view overlays on the mechanics (the ``circuit`` view's ``model``).
+CIRCUIT_MODELS = ("circuit", "switched-capacitor")
 
 _INTS = {
     "periods": 10**6,
@@ -145,13 +147,18 @@ def _cli_words(state: State, view: str, args: dict[str, Any]) -> list[str] | Non
         return [*words, "--periods", n, "--dense", str(DENSE_PER_PERIOD), "--json"]
     if view == "lle":
         return ["lle", *p, "--model", "fast", "--json"]
+    if view == "circuit":
+        n = str(state.transient + state.periods)
+        words = ["simulate", *p, "--model", args["model"], "--periods", n]
+        return [*words, "--dense", str(DENSE_PER_PERIOD), "--json"]
     if view == "bifurcation":
         rng = ["--eta", state.eta_min, state.eta_max, str(state.n), *_param_flags(state, ("eta",))]
         runs = ["--periods", str(state.bif_periods), "--transient", str(state.bif_transient)]
         return ["bifurcation", *rng, *runs, "--out", "bifurcation"]
     if view == "impact-map":
         at = ["--phase", repr(args["phase"]), "--v", repr(args["v"]), "--n", str(args["n"])]
-        return ["impact-map", *p, *at, "--engine", "fast", "--transient", "0", "--json"]
+        sing = ["--singularity", "--out", "impact"] if args.get("singularity") else []
+        return ["impact-map", *p, *at, "--engine", "fast", "--transient", "0", *sing, "--json"]
     if view == "basins":
         v_lo = args["v_max"] / (2 * args["n_v"])
         grid = ["--phase", "0", "1", str(args["n_phase"]), "--v", repr(v_lo), repr(args["v_max"])]
@@ -172,12 +179,17 @@ def _api_call(state: State, view: str, args: dict[str, Any]) -> str:
             f"model={state.model!r}, precision={state.precision!r}, per_period={DENSE_PER_PERIOD})"
         ),
         "lle": lambda: "pi.lyapunov(p, model='fast')",
+        "circuit": lambda: (
+            f"pi.simulate(p, {state.transient + state.periods}, model={args.get('model')!r}, "
+            f"per_period={DENSE_PER_PERIOD})"
+        ),
         "bifurcation": lambda: (
             f"pi.bifurcation(p, {('eta', state.eta_min, state.eta_max, state.n)!r}, "
             f"periods={state.bif_periods}, transient={state.bif_transient})"
         ),
         "impact-map": lambda: (
             f"pi.impact_map(p, {args['phase']!r}, {args['v']!r}, {args['n']}, engine='fast')"
+            + ("\ns = pi.singularity_set(p)" if args.get("singularity") else "")
         ),
         "proof": lambda: f"pi.prove_orbit(p, {args['period']}, transient={args['transient']})",
         "certified": lambda: f"pi.certify(p, {args['periods']})",
