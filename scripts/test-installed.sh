@@ -8,19 +8,28 @@
 #   ruff check, ruff format --check and mypy on the sources (zero findings),
 #   precise-impact --version, precise-impact reference verify, the README's testing example
 #   (the code block itself, read from README.md), the whole test suite against the installed
-#   package (pyproject's pytest settings: markers, -m 'not slow'), then a venv set up exactly as
-#   the README says (its `pip install -e '.[...]'` line) in which the slow README-sequence test
-#   runs the README's commands, the slow tests but the ~10-minute hypothesis long run
-#   (-m slow), and the documentation
-#   build (html and doctest, warnings are errors) when docs/conf.py exists.
-# Then the lowest declared dependency versions (.ci/lowest-constraints.txt) in a second
-# venv run a fast subset, the documentation build beside them.  The README's venv and the
-# lowest-version venv are set up in the background from the moment the wheel is built (pip waits
-# on the network and the disk, not the cores).  Every step is timed.
+#   package in one pytest run: the default suite and the slow tests (-m slow: long
+#   references, coverage statistics, the README's commands in order, ten signals per long
+#   command) but the ~10-minute hypothesis long run, with a venv set up exactly as the README
+#   says (its `pip install -e '.[...]'` line) in which the slow README-sequence test runs the
+#   README's commands.
+# With --ci (what .ci/run adds): then the lowest declared dependency versions
+# (.ci/lowest-constraints.txt) in a second venv run a fast subset, with the documentation build
+# (html and doctest, warnings are errors) beside them.  The README's venv (and the lowest-version
+# venv) are set up in the background from the moment the wheel is built (pip waits on the
+# network and the disk, not the cores).  Every step is timed.
 #
-# Usage: bash scripts/test-installed.sh        (from anywhere; needs python3 >= 3.11 with venv)
-# Env:   PYTHON=python3.12 to pick the interpreter; KEEP=1 keeps the work directory.
+# Usage: bash scripts/test-installed.sh [--ci]  (from anywhere; needs python3 >= 3.11 with venv)
+# Env:   PYTHON=python3.12 to pick the interpreter; KEEP=1 keeps the work directory;
+#        WORKERS=N test processes (default: the cores + 1: with one per core, 15 % of the slow
+#        tests' CPU time was idle, user+sys 1202 s of 2 x 711 s, tests waiting on subprocesses).
 set -euo pipefail
+ci=0
+case "${1:-}" in
+  --ci) ci=1 ;;
+  "") ;;
+  *) echo "scripts/test-installed.sh: unknown argument '$1' (allowed: --ci)"; exit 2 ;;
+esac
 repo=$(cd "$(dirname "$0")/.." && pwd)
 py=${PYTHON:-python3}
 work=$(mktemp -d "${TMPDIR:-/tmp}/precise-impact-test.XXXXXX")
@@ -101,7 +110,8 @@ readme_venv() {
 }
 bg readme_venv readme_venv
 
-# the lowest declared dependency versions (.ci/lowest-constraints.txt), for a fast subset at the end
+# (--ci) the lowest declared dependency versions (.ci/lowest-constraints.txt), for a fast subset
+# at the end
 lowest_venv() {
   "$py" -m venv "$work/lowest"
   "$work/lowest/bin/python" -m pip install -q --upgrade pip
@@ -116,7 +126,7 @@ if wrong:
 print("   installed:", ", ".join(f"{n} {v.strip()}" for n, v in pins))
 PY
 }
-bg lowest_venv lowest_venv
+if [ "$ci" = 1 ]; then bg lowest_venv lowest_venv; fi
 
 step "installing it (non-editable) with [test,dask,bench,docs]"
 "$vpy" -m pip install -q "${wheel}[test,dask,bench,docs]"
@@ -174,27 +184,26 @@ step "the compiled kernels (compiled in the background since the install)"
 wait_bg warm_kernels
 took
 
-step "the test suite against the installed package"
-# on every core (pytest-xdist), the 20 slowest tests listed at the end
-PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -n auto \
-  --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" 2>&1 | tee "$work/pytest.log"
-# pyproject's settings applied (its markers and addopts -m 'not slow'), not pytest's defaults
-grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
-# (pytest-xdist's summary leaves out the deselected count: a collection in this process says it)
-python -m pytest "$repo/tests" -p no:cacheprovider --collect-only -q --rootdir "$repo" \
-  -c "$repo/pyproject.toml" 2>&1 | grep -Eq "[0-9]+ deselected" \
-  || { echo "addopts -m 'not slow' was not applied"; exit 1; }
-took
-
 step "the README's venv (set up in the background since the wheel was built)"
 wait_bg readme_venv
 export PRECISE_IMPACT_README_PYTHON="$work/readme/bin/python"
 took
 
-step "the slow tests (marked slow: long references, coverage statistics, the main job, the README's commands in order, ten signals per long command), installed package"
-# a manual run (pytest -m slow): the hypothesis long run (test_fuzz_long_run, ~10 min)
-PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -q -n auto \
-  --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m slow -k "not fuzz_long_run"
+step "the test suite against the installed package: the default suite and the slow tests, in one run"
+# slow: long references, coverage statistics, the README's commands in order in the README's venv,
+# ten signals per long command; all but the hypothesis long run (test_fuzz_long_run, ~10 min, a
+# manual run).  One run, longest first: no step ends with one worker busy and the other idle.
+# Processes: WORKERS (default: the cores + 1; the 20 slowest tests listed at the end).
+workers=${WORKERS:-$(( $(nproc) + 1 ))}
+PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -n "$workers" \
+  --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m "slow or not slow" \
+  -k "not fuzz_long_run" 2>&1 | tee "$work/pytest.log"
+# pyproject's settings read (its markers; addopts -m 'not slow' for a plain run), not pytest's defaults
+grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
+# (pytest-xdist's summary leaves out the deselected count: a collection in this process says it)
+python -m pytest "$repo/tests" -p no:cacheprovider --collect-only -q --rootdir "$repo" \
+  -c "$repo/pyproject.toml" 2>&1 | grep -Eq "[0-9]+ deselected" \
+  || { echo "addopts -m 'not slow' was not applied"; exit 1; }
 took
 
 docs() {  # html and doctest (warnings are errors, every example executed, every figure made)
@@ -223,8 +232,9 @@ PY
 }
 # the documentation build is one process: it runs beside the lowest-version subset, not after
 # it (measured: docs 155 s and the subset in one process 213 s, one after the other 368 s)
-if [ -f "$repo/docs/conf.py" ]; then bg docs docs; fi
+if [ "$ci" = 1 ] && [ -f "$repo/docs/conf.py" ]; then bg docs docs; fi
 
+if [ "$ci" = 1 ]; then
 step "lowest declared dependency versions (venv set up in the background): $(grep -v '^#' "$repo/.ci/lowest-constraints.txt" | tr '\n' ' ')"
 wait_bg lowest_venv
 PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cacheprovider -n auto \
@@ -235,9 +245,10 @@ PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cachep
   "$repo/tests/analysis/test_sweep.py" "$repo/tests/verification/test_workprecision.py" "$repo/tests/solvers/test_fast.py" \
   "$repo/tests/solvers/test_coupled_fast.py" "$repo/tests/solvers/test_certified.py"
 took
+fi
 
 
-if [ -f "$repo/docs/conf.py" ]; then
+if [ "$ci" = 1 ] && [ -f "$repo/docs/conf.py" ]; then
   step "documentation: html and doctest (warnings are errors, every example executed, every figure made; built beside the step above)"
   wait_bg docs
   took
