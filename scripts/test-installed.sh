@@ -21,8 +21,7 @@
 #
 # Usage: bash scripts/test-installed.sh [--ci]  (from anywhere; needs python3 >= 3.11 with venv)
 # Env:   PYTHON=python3.12 to pick the interpreter; KEEP=1 keeps the work directory;
-#        WORKERS=N test processes (default: the cores + 1: with one per core, 15 % of the slow
-#        tests' CPU time was idle, user+sys 1202 s of 2 x 711 s, tests waiting on subprocesses).
+#        WORKERS=N test processes (default: one per core).
 set -euo pipefail
 ci=0
 case "${1:-}" in
@@ -192,11 +191,15 @@ took
 step "the test suite against the installed package: the default suite and the slow tests, in one run"
 # slow: long references, coverage statistics, the README's commands in order in the README's venv,
 # ten signals per long command; all but the hypothesis long run (test_fuzz_long_run, ~10 min, a
-# manual run).  One run, longest first: no step ends with one worker busy and the other idle.
-# Processes: WORKERS (default: the cores + 1; the 20 slowest tests listed at the end).
-workers=${WORKERS:-$(( $(nproc) + 1 ))}
+# manual run).  One run, longest first (tests/durations.json), handed out one test at a time
+# (--maxschedchunk 1): pytest-xdist's default hands each worker a quarter of its share at once, in
+# order, so one worker held every long test while the others went idle (in the slow step: 15 % of
+# the cores idle, user+sys 1202 s of 2 x 711 s; a run of both suites at 89 % had one of three
+# workers busy for minutes).  Processes: WORKERS (default: one per core); the 20 slowest tests
+# are listed at the end.
+workers=${WORKERS:-$(nproc)}
 PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -n "$workers" \
-  --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m "slow or not slow" \
+  --maxschedchunk 1 --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m "slow or not slow" \
   -k "not fuzz_long_run" 2>&1 | tee "$work/pytest.log"
 # pyproject's settings read (its markers; addopts -m 'not slow' for a plain run), not pytest's defaults
 grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
