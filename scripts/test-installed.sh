@@ -159,11 +159,18 @@ took
 
 bg warm_kernels warm_kernels "$vpy"
 
-step "static checks: ruff check, ruff format --check, mypy (pinned by the [lint] extra; zero findings)"
-"$vpy" -m pip install -q "${wheel}[lint]"
-(cd "$work/src" && "$work/venv/bin/ruff" check --no-cache . && "$work/venv/bin/ruff" format --check --no-cache . \
-  && "$work/venv/bin/mypy" --no-incremental)
+step "the static checks' tools (the [lint] extra: pinned ruff and mypy)"
+"$vpy" -m pip install -q "${wheel}[lint]"   # not beside the tests: pip changes the venv they import from
 took
+static_checks() {  # ruff check, ruff format --check, mypy (zero findings)
+  cd "$work/src" && "$work/venv/bin/ruff" check --no-cache . && "$work/venv/bin/ruff" format --check --no-cache . \
+    && "$work/venv/bin/mypy" --no-incremental
+}
+# beside the kernels' compilation and then the test suite, at the lowest priority: the static
+# checks (and, with --ci, the documentation build) take the cores' idle moments (5 % of the
+# suite's, waiting on its subprocesses) instead of a step of their own (21 s; docs 182 s)
+bg static static_checks
+renice -n 19 -p "$pid_static" >/dev/null
 
 mkdir -p "$work/run" && cd "$work/run"   # outside the checkout: nothing is imported from src/
 export PATH="$work/venv/bin:$PATH"
@@ -194,27 +201,6 @@ wait_bg readme_venv
 export PRECISE_IMPACT_README_PYTHON="$work/readme/bin/python"
 took
 
-step "the test suite against the installed package: the default suite and the slow tests, in one run"
-# slow: long references, coverage statistics, the README's commands in order in the README's venv,
-# ten signals per long command; all but the hypothesis long run (test_fuzz_long_run, ~10 min, a
-# manual run).  One run, longest first (tests/durations.json), handed out one test at a time
-# (--maxschedchunk 1): pytest-xdist's default hands each worker a quarter of its share at once, in
-# order, so one worker held every long test while the others went idle (in the slow step: 15 % of
-# the cores idle, user+sys 1202 s of 2 x 711 s; a run of both suites at 89 % had one of three
-# workers busy for minutes).  Processes: WORKERS (default: one per core); the 20 slowest tests
-# are listed at the end.
-workers=${WORKERS:-$(nproc)}
-PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -n "$workers" \
-  --maxschedchunk 1 --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m "slow or not slow" \
-  -k "not fuzz_long_run" 2>&1 | tee "$work/pytest.log"
-# pyproject's settings read (its markers; addopts -m 'not slow' for a plain run), not pytest's defaults
-grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
-# (pytest-xdist's summary leaves out the deselected count: a collection in this process says it)
-python -m pytest "$repo/tests" -p no:cacheprovider --collect-only -q --rootdir "$repo" \
-  -c "$repo/pyproject.toml" 2>&1 | grep -Eq "[0-9]+ deselected" \
-  || { echo "addopts -m 'not slow' was not applied"; exit 1; }
-took
-
 docs() {  # html and doctest (warnings are errors, every example executed, every figure made)
   # one doctree directory for both builders: the doctest build reuses the html build's parse
   # (the figures of docs/_ext/docfigures are made once)
@@ -239,9 +225,36 @@ if bad:
 print(f"   no remote scripts or stylesheets in {len(list(pathlib.Path(sys.argv[1]).rglob('*.html')))} pages")
 PY
 }
-# the documentation build is one process: it runs beside the lowest-version subset, not after
-# it (measured: docs 155 s and the subset in one process 213 s, one after the other 368 s)
-if [ "$ci" = 1 ] && [ -f "$repo/docs/conf.py" ]; then bg docs docs; fi
+if [ "$ci" = 1 ] && [ -f "$repo/docs/conf.py" ]; then
+  bg docs docs
+  renice -n 19 -p "$pid_docs" >/dev/null
+fi
+
+step "the test suite against the installed package: the default suite and the slow tests, in one run"
+# slow: long references, coverage statistics, the README's commands in order in the README's venv,
+# ten signals per long command; all but the hypothesis long run (test_fuzz_long_run, ~10 min, a
+# manual run).  One run, longest first (tests/durations.json), handed out one test at a time
+# (--maxschedchunk 1): pytest-xdist's default hands each worker a quarter of its share at once, in
+# order, so one worker held every long test while the others went idle (in the slow step: 15 % of
+# the cores idle, user+sys 1202 s of 2 x 711 s; a run of both suites at 89 % had one of three
+# workers busy for minutes).  Processes: WORKERS (default: one per core); the 20 slowest tests
+# are listed at the end.
+workers=${WORKERS:-$(nproc)}
+PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -n "$workers" \
+  --maxschedchunk 1 --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m "slow or not slow" \
+  -k "not fuzz_long_run" 2>&1 | tee "$work/pytest.log"
+# pyproject's settings read (its markers; addopts -m 'not slow' for a plain run), not pytest's defaults
+grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
+# (pytest-xdist's summary leaves out the deselected count: a collection in this process says it)
+python -m pytest "$repo/tests" -p no:cacheprovider --collect-only -q --rootdir "$repo" \
+  -c "$repo/pyproject.toml" 2>&1 | grep -Eq "[0-9]+ deselected" \
+  || { echo "addopts -m 'not slow' was not applied"; exit 1; }
+took
+
+step "static checks: ruff check, ruff format --check, mypy (zero findings; run beside the suite)"
+wait_bg static
+took
+
 
 if [ "$ci" = 1 ]; then
 step "lowest declared dependency versions (venv set up in the background): $(grep -v '^#' "$repo/.ci/lowest-constraints.txt" | tr '\n' ' ')"
@@ -258,7 +271,7 @@ fi
 
 
 if [ "$ci" = 1 ] && [ -f "$repo/docs/conf.py" ]; then
-  step "documentation: html and doctest (warnings are errors, every example executed, every figure made; built beside the step above)"
+  step "documentation: html and doctest (warnings are errors, every example executed, every figure made; built beside the steps above)"
   wait_bg docs
   took
 fi
