@@ -8,19 +8,31 @@
 #   ruff check, ruff format --check and mypy on the sources (zero findings),
 #   precise-impact --version, precise-impact reference verify, the README's testing example
 #   (the code block itself, read from README.md), the whole test suite against the installed
-#   package (pyproject's pytest settings: markers, -m 'not slow'), then a venv set up exactly as
-#   the README says (its `pip install -e '.[...]'` line) in which the slow README-sequence test
-#   runs the README's commands, the slow tests but the ~10-minute hypothesis long run
-#   (-m slow), and the documentation
-#   build (html and doctest, warnings are errors) when docs/conf.py exists.
-# Then the lowest declared dependency versions (.ci/lowest-constraints.txt) in a second
-# venv run a fast subset, the documentation build beside them.  The README's venv and the
-# lowest-version venv are set up in the background from the moment the wheel is built (pip waits
-# on the network and the disk, not the cores).  Every step is timed.
+#   package in one pytest run: the default suite and the slow tests (-m slow: long
+#   references, coverage statistics, the README's commands in order, ten signals per long
+#   command) but the ~10-minute hypothesis long run, with a venv set up exactly as the README
+#   says (its `pip install -e '.[...]'` line) in which the slow README-sequence test runs the
+#   README's commands.
+# With --ci (what .ci/run adds): then the lowest declared dependency versions
+# (.ci/lowest-constraints.txt) in a second venv run a fast subset, with the documentation build
+# (html and doctest, warnings are errors) beside them.  The README's venv (and the lowest-version
+# venv) are set up in the background from the moment the wheel is built (pip waits on the
+# network and the disk, not the cores).  Every step is timed.
 #
-# Usage: bash scripts/test-installed.sh        (from anywhere; needs python3 >= 3.11 with venv)
-# Env:   PYTHON=python3.12 to pick the interpreter; KEEP=1 keeps the work directory.
+# Usage: bash scripts/test-installed.sh [--ci]  (from anywhere; needs python3 >= 3.11 with venv)
+# Env:   PYTHON=python3.12 to pick the interpreter; KEEP=1 keeps the work directory;
+#        WORKERS=N test processes (default: one per core).
 set -euo pipefail
+ci=0
+case "${1:-}" in
+  --ci) ci=1 ;;
+  "") ;;
+  *) echo "scripts/test-installed.sh: unknown argument '$1' (allowed: --ci)"; exit 2 ;;
+esac
+# bytecode is written (a machine may set PYTHONDONTWRITEBYTECODE=1): pytest's rewritten test
+# modules and the README venv's editable sources are compiled once, not in every process
+# (measured: collecting the suite 14.9 s without the cache, 5.0 s with it, in each process)
+unset PYTHONDONTWRITEBYTECODE
 repo=$(cd "$(dirname "$0")/.." && pwd)
 py=${PYTHON:-python3}
 work=$(mktemp -d "${TMPDIR:-/tmp}/precise-impact-test.XXXXXX")
@@ -86,6 +98,27 @@ wait_bg() {  # wait_bg NAME: its log, and its status
   cat "$work/$name.log"
 }
 
+# numba's compiled kernels, compiled once into the installed package's cache in the background
+# (beside the single-threaded static checks): with a cold cache each test process, and each
+# worker of a test's CLI run, compiled the same kernels at once (~40 s of CPU each) at the start
+# of the suite
+warm_kernels() {  # warm_kernels PYTHON
+  (cd "$work" && "$1" - <<'PY'
+import time
+t = time.perf_counter()
+import precise_impact as pi
+p = pi.Params.make(eta="0.712")
+pi.simulate(p, 3, model="fast")
+pi.lyapunov(p, model="fast", periods=20)
+pi.simulate_coupled(p, "0.1", periods=3, model="fast")
+chatter = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
+pi.impact_map(chatter, 0.5, 0.3, 3, engine="fast")
+pi.basins(chatter, ((0, 1, 2), (0.1, 0.6, 2)), transient=5, progress=False)
+print(f"   compiled kernels in {time.perf_counter() - t:.1f} s")
+PY
+  )
+}
+
 # a venv set up exactly as the README says (its pip install line, run in a copy of the checkout
 # of its own: the editable install writes its metadata there): the slow README-sequence test runs
 # the README's commands with this venv's interpreter, so an example needing a package the
@@ -101,7 +134,8 @@ readme_venv() {
 }
 bg readme_venv readme_venv
 
-# the lowest declared dependency versions (.ci/lowest-constraints.txt), for a fast subset at the end
+# (--ci) the lowest declared dependency versions (.ci/lowest-constraints.txt), for a fast subset
+# at the end
 lowest_venv() {
   "$py" -m venv "$work/lowest"
   "$work/lowest/bin/python" -m pip install -q --upgrade pip
@@ -115,40 +149,28 @@ if wrong:
     sys.exit(f"not the lowest versions: {wrong}")
 print("   installed:", ", ".join(f"{n} {v.strip()}" for n, v in pins))
 PY
+  warm_kernels "$work/lowest/bin/python"  # once here, not in each test process (~40 s each)
 }
-bg lowest_venv lowest_venv
+if [ "$ci" = 1 ]; then bg lowest_venv lowest_venv; fi
 
 step "installing it (non-editable) with [test,dask,bench,docs,explore]"
 "$vpy" -m pip install -q "${wheel}[test,dask,bench,docs,explore]"
 took
 
-# numba's compiled kernels, compiled once into the installed package's cache in the background
-# (beside the single-threaded static checks): with a cold cache each test process, and each
-# worker of a test's CLI run, compiled the same kernels at once (~40 s of CPU each) at the start
-# of the suite
-warm_kernels() {
-  (cd "$work" && "$vpy" - <<'PY'
-import time
-t = time.perf_counter()
-import precise_impact as pi
-p = pi.Params.make(eta="0.712")
-pi.simulate(p, 3, model="fast")
-pi.lyapunov(p, model="fast", periods=20)
-pi.simulate_coupled(p, "0.1", periods=3, model="fast")
-chatter = pi.Params.make(eta="4.85", zeta=0, R="0.5", x_w="-0.3", x0="-0.5")
-pi.impact_map(chatter, 0.5, 0.3, 3, engine="fast")
-pi.basins(chatter, ((0, 1, 2), (0.1, 0.6, 2)), transient=5, progress=False)
-print(f"   compiled kernels in {time.perf_counter() - t:.1f} s")
-PY
-  )
-}
-bg warm_kernels warm_kernels
+bg warm_kernels warm_kernels "$vpy"
 
-step "static checks: ruff check, ruff format --check, mypy (pinned by the [lint] extra; zero findings)"
-"$vpy" -m pip install -q "${wheel}[lint]"
-(cd "$work/src" && "$work/venv/bin/ruff" check --no-cache . && "$work/venv/bin/ruff" format --check --no-cache . \
-  && "$work/venv/bin/mypy" --no-incremental)
+step "the static checks' tools (the [lint] extra: pinned ruff and mypy)"
+"$vpy" -m pip install -q "${wheel}[lint]"   # not beside the tests: pip changes the venv they import from
 took
+static_checks() {  # ruff check, ruff format --check, mypy (zero findings)
+  cd "$work/src" && "$work/venv/bin/ruff" check --no-cache . && "$work/venv/bin/ruff" format --check --no-cache . \
+    && "$work/venv/bin/mypy" --no-incremental
+}
+# beside the kernels' compilation and then the test suite, at the lowest priority: the static
+# checks (and, with --ci, the documentation build) take the cores' idle moments (5 % of the
+# suite's, waiting on its subprocesses) instead of a step of their own (21 s; docs 182 s)
+bg static static_checks
+renice -n 19 -p "$pid_static" >/dev/null
 
 mkdir -p "$work/run" && cd "$work/run"   # outside the checkout: nothing is imported from src/
 export PATH="$work/venv/bin:$PATH"
@@ -174,27 +196,9 @@ step "the compiled kernels (compiled in the background since the install)"
 wait_bg warm_kernels
 took
 
-step "the test suite against the installed package"
-# on every core (pytest-xdist), the 20 slowest tests listed at the end
-PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -n auto \
-  --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" 2>&1 | tee "$work/pytest.log"
-# pyproject's settings applied (its markers and addopts -m 'not slow'), not pytest's defaults
-grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
-# (pytest-xdist's summary leaves out the deselected count: a collection in this process says it)
-python -m pytest "$repo/tests" -p no:cacheprovider --collect-only -q --rootdir "$repo" \
-  -c "$repo/pyproject.toml" 2>&1 | grep -Eq "[0-9]+ deselected" \
-  || { echo "addopts -m 'not slow' was not applied"; exit 1; }
-took
-
 step "the README's venv (set up in the background since the wheel was built)"
 wait_bg readme_venv
 export PRECISE_IMPACT_README_PYTHON="$work/readme/bin/python"
-took
-
-step "the slow tests (marked slow: long references, coverage statistics, the main job, the README's commands in order, ten signals per long command), installed package"
-# a manual run (pytest -m slow): the hypothesis long run (test_fuzz_long_run, ~10 min)
-PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -q -n auto \
-  --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m slow -k "not fuzz_long_run"
 took
 
 docs() {  # html and doctest (warnings are errors, every example executed, every figure made)
@@ -221,10 +225,38 @@ if bad:
 print(f"   no remote scripts or stylesheets in {len(list(pathlib.Path(sys.argv[1]).rglob('*.html')))} pages")
 PY
 }
-# the documentation build is one process: it runs beside the lowest-version subset, not after
-# it (measured: docs 155 s and the subset in one process 213 s, one after the other 368 s)
-if [ -f "$repo/docs/conf.py" ]; then bg docs docs; fi
+if [ "$ci" = 1 ] && [ -f "$repo/docs/conf.py" ]; then
+  bg docs docs
+  renice -n 19 -p "$pid_docs" >/dev/null
+fi
 
+step "the test suite against the installed package: the default suite and the slow tests, in one run"
+# slow: long references, coverage statistics, the README's commands in order in the README's venv,
+# ten signals per long command; all but the hypothesis long run (test_fuzz_long_run, ~10 min, a
+# manual run).  One run, longest first (tests/durations.json), handed out one test at a time
+# (--maxschedchunk 1): pytest-xdist's default hands each worker a quarter of its share at once, in
+# order, so one worker held every long test while the others went idle (in the slow step: 15 % of
+# the cores idle, user+sys 1202 s of 2 x 711 s; a run of both suites at 89 % had one of three
+# workers busy for minutes).  Processes: WORKERS (default: one per core); the 20 slowest tests
+# are listed at the end.
+workers=${WORKERS:-$(nproc)}
+PRECISE_IMPACT_TEST_INSTALLED=1 python -m pytest "$repo/tests" -p no:cacheprovider -n "$workers" \
+  --maxschedchunk 1 --durations=20 --rootdir "$repo" -c "$repo/pyproject.toml" -m "slow or not slow" \
+  -k "not fuzz_long_run" 2>&1 | tee "$work/pytest.log"
+# pyproject's settings read (its markers; addopts -m 'not slow' for a plain run), not pytest's defaults
+grep -q "configfile: pyproject.toml" "$work/pytest.log" || { echo "pytest did not read pyproject.toml"; exit 1; }
+# (pytest-xdist's summary leaves out the deselected count: a collection in this process says it)
+python -m pytest "$repo/tests" -p no:cacheprovider --collect-only -q --rootdir "$repo" \
+  -c "$repo/pyproject.toml" 2>&1 | grep -Eq "[0-9]+ deselected" \
+  || { echo "addopts -m 'not slow' was not applied"; exit 1; }
+took
+
+step "static checks: ruff check, ruff format --check, mypy (zero findings; run beside the suite)"
+wait_bg static
+took
+
+
+if [ "$ci" = 1 ]; then
 step "lowest declared dependency versions (venv set up in the background): $(grep -v '^#' "$repo/.ci/lowest-constraints.txt" | tr '\n' ' ')"
 wait_bg lowest_venv
 PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cacheprovider -n auto \
@@ -235,10 +267,11 @@ PRECISE_IMPACT_TEST_INSTALLED=1 "$work/lowest/bin/python" -m pytest -p no:cachep
   "$repo/tests/analysis/test_sweep.py" "$repo/tests/verification/test_workprecision.py" "$repo/tests/solvers/test_fast.py" \
   "$repo/tests/solvers/test_coupled_fast.py" "$repo/tests/solvers/test_certified.py"
 took
+fi
 
 
-if [ -f "$repo/docs/conf.py" ]; then
-  step "documentation: html and doctest (warnings are errors, every example executed, every figure made; built beside the step above)"
+if [ "$ci" = 1 ] && [ -f "$repo/docs/conf.py" ]; then
+  step "documentation: html and doctest (warnings are errors, every example executed, every figure made; built beside the steps above)"
   wait_bg docs
   took
 fi

@@ -146,6 +146,9 @@ def _cases(tries):
     return cases
 
 
+@pytest.mark.covered_by(
+    "tests/test_interrupts.py::test_ten_signals_per_long_command_exit_130_and_keep_tiles"
+)
 @pytest.mark.parametrize("name,delay,sig", [c for c in _cases(1) if c.values[0] in DEFAULT_SUITE])
 def test_a_signal_at_a_random_moment_exits_130(name, delay, sig, tmp_path):
     out = _interrupt_once(name, delay, sig, tmp_path)

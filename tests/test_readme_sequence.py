@@ -254,6 +254,7 @@ def test_readme_commands_are_known():
         assert any(c.startswith("precise-impact " + prefix) for c in cmds), prefix
 
 
+@pytest.mark.covered_by("tests/test_readme_sequence.py::test_readme_sequence")
 def test_readme_sequence_quick(tmp_path):
     timings = _run_sequence(tmp_path, quick=True)
     print("\n".join(f"{t:7.1f} s  {c}" for c, t in timings))

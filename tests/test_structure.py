@@ -20,6 +20,8 @@ from __future__ import annotations
 import ast
 import functools
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import precise_impact
@@ -148,3 +150,26 @@ def test_the_durations_table_names_existing_tests():
         if not file.is_file() or f"def {func}(" not in file.read_text(encoding="utf-8"):
             stale.append(nodeid)
     assert not stale, stale
+
+
+def _collected(*args: str) -> list[str]:
+    tests = Path(__file__).resolve().parent
+    r = subprocess.run(
+        [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--collect-only", "-q",
+         "--rootdir", str(tests.parent), "-c", str(tests.parent / "pyproject.toml"), *args,
+         str(tests / "test_readme_sequence.py")],
+        capture_output=True, text=True, timeout=120, cwd=tests.parent,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stdout[-800:] + r.stderr[-800:]
+    return [line.split("::")[-1] for line in r.stdout.splitlines() if "::" in line]
+
+
+def test_a_covered_test_is_left_out_only_beside_the_test_that_covers_it():
+    """``covered_by`` (tests/conftest.py): the README's quick sequence runs in the default
+    suite, and is left out of a run that also runs the sequence as written."""
+    default = _collected()
+    both = _collected("-m", "slow or not slow")
+    assert "test_readme_sequence_quick" in default and "test_readme_sequence" not in default
+    assert "test_readme_sequence" in both and "test_readme_sequence_quick" not in both
+    every = _collected("-m", "slow or not slow", "-k", "quick")  # the covering one deselected
+    assert every == ["test_readme_sequence_quick"]

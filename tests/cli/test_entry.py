@@ -158,6 +158,17 @@ try:
             ee = llvm.create_mcjit_compiler(mod, tm)
             ee.set_object_cache(notify_func=lambda module, buf: kill_and_spin())
             ee.finalize_object()
+        elif case == "llvmlite-object":  # inside llvmlite's ObjectRef.__init__, half-built
+            import ctypes
+            from llvmlite.binding import ffi
+
+            class Half(ffi.ObjectRef):
+                def __setattr__(self, name, value):
+                    object.__setattr__(self, name, value)
+                    if name == "_ptr":  # before _as_parameter_: its __del__ would raise
+                        kill_and_spin()
+
+            Half(ctypes.c_void_p(1))
         elif case == "fork":
             os.register_at_fork(after_in_parent=kill_and_spin)
             p = multiprocessing.get_context("fork").Process(target=time.sleep, args=(0.2,))
@@ -169,7 +180,9 @@ except KeyboardInterrupt:
 """
 
 
-@pytest.mark.parametrize("case", ["finalizer", "fork", "llvmlite-callback", "before-the-block"])
+@pytest.mark.parametrize(
+    "case", ["finalizer", "fork", "llvmlite-callback", "llvmlite-object", "before-the-block"]
+)
 def test_an_interrupt_where_python_drops_exceptions_is_raised_after(case):
     r = subprocess.run(
         [sys.executable, "-c", DROPPED_PROGRAM.format(case=case)],

@@ -36,6 +36,11 @@ _DROPPING_FILES = (
     "multiprocessing/popen_forkserver.py",
     "llvmlite/binding/executionengine.py",
 )
+#: Directories whose Python code is let finish before an interrupt: llvmlite's bindings build
+#: objects whose finalizer needs all their fields (a SIGTERM between two of
+#: ``ObjectRef.__init__``'s assignments printed "Exception ignored in ObjectRef.__del__" with
+#: a traceback, 1 of 90 slow-run signals); their Python steps take microseconds.
+_DEFERRING_DIRS = ("/llvmlite/binding/",)
 
 #: Signals noted inside an import and not yet raised (see :func:`interrupt`).
 _deferred: list[int] = []
@@ -50,6 +55,7 @@ def _importing(frame) -> bool:
             code.co_filename in _IMPORT_FRAMES
             or code.co_name in _DROPPING_FUNCTIONS
             or code.co_filename.endswith(_DROPPING_FILES)
+            or any(d in code.co_filename for d in _DEFERRING_DIRS)
         ):
             return True
         frame = frame.f_back
