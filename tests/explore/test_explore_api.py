@@ -83,6 +83,8 @@ def test_the_impact_map_jumps_across_its_singularity_set():
     s = State.from_query({"eta": "0.712"})
     got = _strict(api.impact_map(s, 0.3, 1.0, 50, singularity=True))
     assert got["singularity"] and "--singularity" in got["command"]
+    for c in got["singularity"]:  # a curve never jumps across the figure (phase wraps 1 -> 0)
+        assert all(abs(b - a) < 0.5 for a, b in zip(c["phase"], c["phase"][1:])), c["phase"]
     curve = max(got["singularity"], key=lambda c: len(c["phase"]))
     i = len(curve["phase"]) // 2
     ph, v = curve["phase"][i], curve["v"][i]

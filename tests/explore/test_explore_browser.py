@@ -34,9 +34,12 @@ WAIT_MS = 180_000
 
 
 @pytest.fixture(scope="module")
-def server():
-    """``precise-impact explore`` on a free loopback port, until the module's tests end."""
-    with explorer() as url:
+def server(tmp_path_factory):
+    """``precise-impact explore`` on a free loopback port, until the module's tests end (its
+    output in ``explore-server.log`` beside the screenshots)."""
+    out = Path(os.environ.get("PRECISE_IMPACT_ARTIFACTS", tmp_path_factory.mktemp("server")))
+    out.mkdir(parents=True, exist_ok=True)
+    with explorer(out / "explore-server.log") as url:
         yield url
 
 
@@ -208,14 +211,14 @@ def test_the_circuit_models_overlay_the_orbit(page, server):
     assert dx and float(dx.group(1)) < 1e-8, got
 
 
-def test_the_guides_screenshots_come_from_the_running_application(tmp_path):
+def test_the_guides_screenshots_come_from_the_running_application(browser, tmp_path):
     """``screenshots`` (the docs build's pictures): a PNG of the page as it showed the orbit,
     not a blank one (the figures' lines and the text make many distinct colours)."""
     import matplotlib.image
 
     from precise_impact.explore.browser import SHOTS, screenshots
 
-    (path,) = screenshots(tmp_path, shots=SHOTS[:1])
+    (path,) = screenshots(tmp_path, shots=SHOTS[:1], browser=browser)
     img = matplotlib.image.imread(path)
     assert path.name == "explore_orbit.png" and img.shape[1] == 1500, img.shape
     colours = {tuple(p) for p in (img[::7, ::7, :3] * 255).astype(int).reshape(-1, 3)}

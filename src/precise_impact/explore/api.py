@@ -223,16 +223,17 @@ def impact_map(
 
 def _singularity_curves(state: State) -> list[dict[str, list]]:
     """The singularity set's physical runs of points, one curve each (a curve breaks where a
-    branch leaves its physical part)."""
+    branch leaves its physical part, and where its phase wraps from 1 to 0)."""
     curves = []
     for b in singularity_set(state.params).branches:
         run: list[tuple[float, float]] = []
         for ph, v, ok in zip(b["phase"], b["v"], b["physical"], strict=True):
-            if ok:
-                run.append((float(ph), float(v)))
-            elif run:
+            wraps = bool(run) and abs(float(ph) - run[-1][0]) > 0.5
+            if run and (not ok or wraps):
                 curves.append(run)
                 run = []
+            if ok:
+                run.append((float(ph), float(v)))
         if run:
             curves.append(run)
     return [{"phase": _floats([p for p, _ in c]), "v": _floats([v for _, v in c])} for c in curves]

@@ -293,7 +293,7 @@ class Session:
             return
         n = int(self.basins_n.value)
         fig = figures.basins_figure(n, n, 4.0)
-        self.basins["source"].data = fig["source"].data
+        self.basins["source"].data = dict(fig["source"].data)
         self.basins.update(shape=fig["shape"])
         done = [0]
 

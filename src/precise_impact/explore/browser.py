@@ -6,6 +6,7 @@ and Debian's chromium driven by Playwright (nothing downloaded), for the guide's
 from __future__ import annotations
 
 import contextlib
+import os
 import shutil
 import socket
 import subprocess
@@ -50,29 +51,34 @@ def _free_port() -> int:
 
 
 @contextlib.contextmanager
-def explorer(timeout_s: float = 60.0) -> Iterator[str]:
+def explorer(log: str | Path | None = None, timeout_s: float = 60.0) -> Iterator[str]:
     """``precise-impact explore`` on a free loopback port (this interpreter's package) until
-    the block ends; yields its URL once its API answers."""
+    the block ends, its output into the file ``log`` (default: discarded); yields its URL once
+    its API answers."""
     port = _free_port()
-    p = subprocess.Popen(
-        [sys.executable, "-m", "precise_impact", "explore", "--port", str(port)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )  # fmt: skip
-    url = f"http://127.0.0.1:{port}/"
-    try:
-        deadline = time.monotonic() + timeout_s
-        while True:
-            with contextlib.suppress(OSError):
-                urllib.request.urlopen(url + "api", timeout=2).close()
-                break
-            if p.poll() is not None or time.monotonic() > deadline:
-                out = p.stdout.read() if p.poll() is not None and p.stdout else ""
-                raise PreciseImpactError(f"the explorer did not start on {url}: {out[-400:]}")
-            time.sleep(0.3)
-        yield url
-    finally:
-        p.terminate()
-        p.wait(timeout=30)
+    with open(log if log is not None else os.devnull, "w", encoding="utf-8") as sink:
+        p = subprocess.Popen(
+            [sys.executable, "-m", "precise_impact", "explore", "--port", str(port)],
+            stdout=sink, stderr=subprocess.STDOUT,
+        )  # fmt: skip
+        url = f"http://127.0.0.1:{port}/"
+        try:
+            _wait_until_serving(p, url, timeout_s)
+            yield url
+        finally:
+            p.terminate()
+            p.wait(timeout=30)
+
+
+def _wait_until_serving(p: subprocess.Popen, url: str, timeout_s: float) -> None:
+    deadline = time.monotonic() + timeout_s
+    while True:
+        with contextlib.suppress(OSError):
+            urllib.request.urlopen(url + "api", timeout=2).close()
+            return
+        if p.poll() is not None or time.monotonic() > deadline:
+            raise PreciseImpactError(f"the explorer did not start on {url} (exit {p.poll()})")
+        time.sleep(0.3)
 
 
 def text(page: Any, css: str) -> str:
@@ -136,26 +142,35 @@ SHOTS: tuple[tuple[str, str, Callable[[Any], None] | None], ...] = (
 )
 
 
-def screenshots(out: str | Path = ".", shots: Any = SHOTS, width: int = 1500) -> list[Path]:
+def screenshots(
+    out: str | Path = ".", shots: Any = SHOTS, width: int = 1500, browser: Any = None
+) -> list[Path]:
     """Each of ``shots`` (name, query, action) from the running application in Debian's
-    chromium, written as PNG files into ``out``; returns their paths."""
-    from playwright.sync_api import sync_playwright  # noqa: PLC0415 -- optional: [test]
-
+    chromium (or in ``browser``, a Playwright browser already open), written as PNG files
+    into ``out``; returns their paths."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    with explorer() as url, sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=chromium(), args=ARGS)
-        try:
-            for name, query, action in shots:
-                page = browser.new_page(viewport={"width": width, "height": 1000})
-                page.goto(url + query)
-                wait_text(page, ".pi-orbit-info", "LLE")
-                if action is not None:
-                    action(page)
-                paths.append(out / name)
-                page.screenshot(path=str(paths[-1]), full_page=True)
-                page.close()
-        finally:
-            browser.close()
-    return paths
+    with explorer() as url:
+        if browser is not None:
+            return [_shot(browser, url, out / name, q, a, width) for name, q, a in shots]
+        from playwright.sync_api import sync_playwright  # noqa: PLC0415 -- optional: [test]
+
+        with sync_playwright() as pw:
+            b = pw.chromium.launch(executable_path=chromium(), args=ARGS)
+            try:
+                return [_shot(b, url, out / name, q, a, width) for name, q, a in shots]
+            finally:
+                b.close()
+
+
+def _shot(browser: Any, url: str, path: Path, query: str, action: Any, width: int) -> Path:
+    page = browser.new_page(viewport={"width": width, "height": 1000})
+    try:
+        page.goto(url + query)
+        wait_text(page, ".pi-orbit-info", "LLE")
+        if action is not None:
+            action(page)
+        page.screenshot(path=str(path), full_page=True)
+    finally:
+        page.close()
+    return path
