@@ -4,7 +4,9 @@ API at ``/api``, every asset served locally (no CDN), one thread pool for every 
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
 import os
+import signal
 from collections.abc import Callable
 from typing import Any
 
@@ -32,12 +34,18 @@ def make_server(
     def page() -> Any:  # a plain function: Panel calls it once per browser session
         return make_session(executor, dask)
 
-    return pn.serve(
+    before = signal.getsignal(signal.SIGINT)
+    server = pn.serve(
         {"/": page},
         address=address, port=port, show=False, start=False, threaded=False,
         websocket_origin=origins, title="precise_impact explorer",
         extra_patterns=api_patterns(executor), location=True,
     )  # fmt: skip
+    # Panel puts in its own Ctrl-C handler, which stops the loop quietly (exit 0): Ctrl-C stays
+    # the CLI's (exit 130, one line), as SIGTERM is
+    with contextlib.suppress(ValueError):  # not the main thread: no handler was put in either
+        signal.signal(signal.SIGINT, before)
+    return server
 
 
 def serve(
