@@ -3,7 +3,7 @@
 # not ignored: no stale build/ directory can leak into it), checks that every file of the
 # package (the top-level reference_data/** as precise_impact/data/reference/, scenes/*.toml,
 # py.typed) is in it, installs it
-# non-editable with the extras [test,dask,bench,docs] into a fresh venv outside the
+# non-editable with the extras [test,dask,bench,docs,explore] into a fresh venv outside the
 # checkout and, from a directory outside the checkout, runs:
 #   ruff check, ruff format --check and mypy on the sources (zero findings),
 #   precise-impact --version, precise-impact reference verify, the README's testing example
@@ -153,8 +153,8 @@ PY
 }
 if [ "$ci" = 1 ]; then bg lowest_venv lowest_venv; fi
 
-step "installing it (non-editable) with [test,dask,bench,docs]"
-"$vpy" -m pip install -q "${wheel}[test,dask,bench,docs]"
+step "installing it (non-editable) with [test,dask,bench,docs,explore]"
+"$vpy" -m pip install -q "${wheel}[test,dask,bench,docs,explore]"
 took
 
 bg warm_kernels warm_kernels "$vpy"

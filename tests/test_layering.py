@@ -36,6 +36,7 @@ LAYERS = {
     "verification": 7,
     "testing": 8,
     "lab": 8,  # what users bring from the bench: builds on verification (the reference, scores)
+    "explore": 8,  # the browser's views and the JSON API: built on the public computations
     "cli": 9,
     "__main__": 9,
 }

@@ -163,6 +163,39 @@ def _run_in_process(cmd: str, cwd: Path) -> tuple[int, str]:
     return status, err.getvalue()
 
 
+def _run_server(cmd: str, cwd: Path) -> tuple[int, str]:
+    """``precise-impact explore ...`` as written: its page and its JSON API answer on the
+    port it names, then Ctrl-C ends it (status 0 for the sequence when it exits 130 with one
+    line; its stderr otherwise)."""
+    import signal  # noqa: PLC0415 -- this helper alone
+    import urllib.request  # noqa: PLC0415 -- this helper alone
+
+    port = re.search(r"--port (\d+)", cmd).group(1)
+    p = subprocess.Popen(
+        shlex.split(cmd), cwd=cwd, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True,
+    )  # fmt: skip
+    answered = None
+    deadline = time.monotonic() + 120
+    while answered is None and time.monotonic() < deadline and p.poll() is None:
+        try:
+            with urllib.request.urlopen(
+                f"http://127.0.0.1:{port}/api/orbit?periods=3", timeout=5
+            ) as r:
+                answered = json.loads(r.read())["view"] == "orbit"
+        except OSError:
+            time.sleep(0.5)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    lines = [
+        x
+        for x in err.splitlines()
+        if x.strip() and not x.startswith(("Launching", "precise-impact explore:"))
+    ]
+    ok = answered and p.returncode == 130 and len(lines) == 1
+    return (0 if ok else p.returncode or 1), err
+
+
 def _run_sequence(tmp_path: Path, quick: bool) -> list[tuple[str, float]]:
     cmds = readme_commands()
     unknown = [c for c in cmds if not c.startswith("precise-impact ") and not _is_setup(c)]
@@ -183,7 +216,9 @@ def _run_sequence(tmp_path: Path, quick: bool) -> list[tuple[str, float]]:
         ns, out = _out_dir(run, tmp_path)
         before = _snapshot(out)
         t0 = time.perf_counter()
-        if quick:  # in this process: the same main(), without a new interpreter per line
+        if run.startswith("precise-impact explore"):  # a server: it answers, then Ctrl-C
+            status, stderr = _run_server(exe + run.removeprefix("precise-impact"), tmp_path)
+        elif quick:  # in this process: the same main(), without a new interpreter per line
             status, stderr = _run_in_process(run, tmp_path)
         else:
             r = subprocess.run(

@@ -263,3 +263,28 @@ def test_bad_subgrid_names_the_parameter(bad):
     with pytest.raises(ParameterError, match="subgrid") as e:
         basins(PAPER, ((0, 1, 4), (0, 3, 4)), subgrid=bad, progress=False)
     assert str(e.value).count("\n") == 0
+
+
+def test_on_tile_sees_every_point_once_and_can_stop_the_map():
+    """``on_tile`` gets each tile of the first pass once, in this process: together their
+    points are the grid, and their kinds are the map's before refinement; an exception it
+    raises stops the map (the explorer's cancel)."""
+    seen: list[dict] = []
+    grid = ((0, 1, 6), (0.01, 0.6, 5))
+    r = basins(CHATTER, grid, transient=30, tile_size=6, refine=False, progress=False,
+               on_tile=lambda t, arrays: seen.append(arrays))  # fmt: skip
+    assert len(seen) == 5
+    index = np.concatenate([a["index"] for a in seen])
+    assert sorted(index.tolist()) == list(range(30))
+    kinds = np.empty(30)
+    kinds[index] = np.concatenate([a["kind"] for a in seen])
+    assert np.all(np.isfinite(kinds)) and r.labels.shape == (5, 6)
+
+    class Stop(Exception):
+        pass
+
+    def stop(t, arrays):
+        raise Stop
+
+    with pytest.raises(Stop):
+        basins(CHATTER, grid, transient=30, tile_size=6, progress=False, on_tile=stop)

@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import os
+from collections.abc import Callable
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -466,13 +467,16 @@ def _points_job(
     return arrays
 
 
-def _scan(job, n_points, tile_size, store_dir, digest, workers, dask, progress, label, max_tiles):
+def _scan(
+    job, n_points, tile_size, store_dir, digest, workers, dask, progress, label, max_tiles,
+    on_tile=None,
+):  # fmt: skip
     store = None
     if store_dir is not None:
         store = NpzTileStore(Path(store_dir), digest, FIELDS, n_points, tile_size)
     run = run_scan(
         job, n_points, tile_size, workers=workers, dask=dask, store=store, progress=progress,
-        label=label, max_tiles=max_tiles,
+        label=label, max_tiles=max_tiles, on_tile=on_tile,
     )  # fmt: skip
     tiles = []
     for t in range(run.tiles_total):
@@ -777,6 +781,7 @@ def basins(
     max_tiles: int | None = None,
     max_time: Any = None,
     progress: ProgressArg = None,
+    on_tile: Callable[[int, dict], None] | None = None,
 ) -> BasinsResult:
     """Domains of attraction on the impact surface or the stroboscopic section.
 
@@ -823,6 +828,12 @@ def basins(
         this machine's memory is refused either way.
     progress : bool, None or callable
         :data:`~precise_impact.io.progress.ProgressArg`.
+    on_tile : callable or None, default ``None``
+        ``on_tile(tile, arrays)`` in this process as each tile of the map's first pass
+        finishes (completion order): ``arrays`` holds the tile's points (``'index'``: their
+        flat grid indices, row-major; ``'kind'``, ``'period'``, ``'capture'``, ...), before the
+        boundary is refined and the attractors are labelled (the explorer draws them as they
+        arrive).  An exception it raises stops the map (finished tiles are kept in ``out``).
 
     Returns
     -------
@@ -877,7 +888,7 @@ def basins(
     job = functools.partial(_points_job, spec, None, transient)
     data, run = _scan(
         job, n, tile_size, outp / "tiles_main" if outp else None, spec.digest(), workers, dask,
-        progress, "basins", max_tiles,
+        progress, "basins", max_tiles, on_tile,
     )  # fmt: skip
     if data is None:
         raise ParameterError("max_tiles", max_tiles, "enough tiles for the map (rerun with out=)")

@@ -1,0 +1,91 @@
+"""The explorer's state: a query string round-trips exactly, bad input is refused naming the
+field in one line, and each view's command line and Python call give the view's own numbers."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+
+import pytest
+
+import precise_impact as pi
+from precise_impact.cli.main import main
+from precise_impact.explore import api
+from precise_impact.explore.state import DEFAULTS, State
+
+
+def test_defaults_and_exact_round_trip():
+    s = State.from_query({"eta": "89/125", "x_w": "2.5", "R": "0.8"})
+    assert s.params == pi.Params.make(eta="0.712", x_w="2.5", R="0.8")  # exact: 89/125 = 0.712
+    q = s.to_query()
+    assert q["eta"] == "0.712" and set(DEFAULTS) <= set(q)
+    assert State.from_query(q) == s
+
+
+@pytest.mark.parametrize(
+    "query,name",
+    [
+        ({"eta": "-1"}, "eta"),
+        ({"R": "2"}, "R"),
+        ({"bogus": "1"}, "bogus"),
+        ({"model": "rk4"}, "model"),
+        ({"model": "fast", "precision": "mp:256"}, "precision"),
+        ({"precision": "float7"}, "precision"),
+        ({"periods": "0"}, "periods"),
+        ({"periods": "1e9"}, "periods"),
+        ({"eta_min": "0.8", "eta_max": "0.7"}, "eta_max"),
+        ({"units": "furlongs"}, "units"),
+    ],
+)
+def test_bad_input_names_the_field_in_one_line(query, name):
+    with pytest.raises(pi.ParameterError) as e:
+        State.from_query(query)
+    assert e.value.name == name and "\n" not in str(e.value)
+
+
+def _cli_json(command: str) -> dict:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(command.split()[1:]) == 0
+    d = json.loads(out.getvalue())
+    d.pop("elapsed_s", None)
+    return d
+
+
+@pytest.mark.parametrize("view", ["orbit", "lle"])
+def test_the_command_and_the_call_give_the_views_numbers(view):
+    """The view's ``result`` equals the CLI's ``--json`` of its command and the ``to_dict()``
+    of its Python call (every field but the wall time)."""
+    s = State.from_query({"eta": "0.74", "periods": "12", "transient": "3"})
+    got = getattr(api, view)(s)
+    assert got["result"] == _cli_json(got["command"])
+    scope: dict = {}
+    exec(got["python"], scope)
+    d = scope["r"].to_dict()
+    d.pop("elapsed_s", None)
+    assert json.loads(json.dumps(d)) == got["result"]
+
+
+def test_impact_map_and_proof_calls_give_the_views_numbers():
+    s = State.from_query({"eta": "0.74"})
+    got = api.impact_map(s, 0.3, 1.0, 20)
+    scope: dict = {}
+    exec(got["python"], scope)
+    assert [e.phase for e in scope["r"]] == got["phase"]
+    proof = api.proof(s, 3)
+    assert proof["command"] is None and proof["result"]["proven"] is True
+    exec(proof["python"], scope)
+    assert scope["r"].to_dict()["x"] == proof["result"]["x"]
+
+
+def test_the_circuit_views_command_and_call_give_its_numbers():
+    """The overlay's run is the command's (``simulate --model switched-capacitor``) and the
+    Python call's, sample for sample."""
+    s = State.from_query({"eta": "0.74", "periods": "6", "transient": "3"})
+    got = api.circuit(s, "switched-capacitor")
+    assert "--model switched-capacitor" in got["command"]
+    assert got["result"] == _cli_json(got["command"])
+    scope: dict = {}
+    exec(got["python"], scope)
+    assert [float(x) for x in scope["r"].x[3:]] == got["strobe"]["x"]
