@@ -11,6 +11,7 @@ import pytest
 
 import precise_impact as pi
 from precise_impact.cli.main import main
+from precise_impact.errors import ParameterError
 from precise_impact.explore import api
 from precise_impact.explore.state import DEFAULTS, State
 
@@ -89,3 +90,20 @@ def test_the_circuit_views_command_and_call_give_its_numbers():
     scope: dict = {}
     exec(got["python"], scope)
     assert [float(x) for x in scope["r"].x[3:]] == got["strobe"]["x"]
+
+
+def test_a_scene_sets_the_fields_and_a_bad_one_is_refused_in_one_line(tmp_path):
+    """A built-in scene and a scene file give their exact parameters and start; the rest of the
+    state stays; a bad scene is the CLI's one line, naming ``scene``."""
+    s = State.from_scene("fig6-period3-ideal", {"transient": "300", "eta": "0.9"})
+    scene = pi.load_scene("fig6-period3-ideal")
+    assert s.params == scene.params and s.periods == scene.periods and s.transient == 300
+    f = tmp_path / "mine.toml"
+    f.write_text(
+        pi.builtin_scenes()["fig6-period3-ideal"].read_text().replace("0.74", "0.7123"),
+        encoding="utf-8",
+    )
+    assert State.from_scene(f).to_query()["eta"] == "0.7123"
+    with pytest.raises(ParameterError) as e:
+        State.from_scene("no-such-scene")
+    assert e.value.name == "scene" and "\n" not in str(e.value)

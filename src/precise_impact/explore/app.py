@@ -7,6 +7,7 @@ from __future__ import annotations
 import concurrent.futures
 import functools
 import math
+import tempfile
 from decimal import Decimal
 from typing import Any
 
@@ -19,6 +20,7 @@ from precise_impact.explore import api, figures
 from precise_impact.explore.jobs import Cancelled, Runner
 from precise_impact.explore.state import CIRCUIT_MODELS, DEFAULTS, ENGINES, UNITS, State
 from precise_impact.io.jsonout import dumps
+from precise_impact.scenes.scene import builtin_scenes
 
 __all__ = ["Session", "make_session"]
 
@@ -47,6 +49,7 @@ class Session:
         self.location, self.dask = location, dask
         self.inputs, self.errors = self._form(query or {})
         self.info = pn.pane.Markdown("", css_classes=["pi-orbit-info"], width=420)
+        self.loading = False
         self.command = pn.widgets.TextAreaInput(
             name="copy as command / as Python", value="", height=140, width=620, disabled=True
         )
@@ -95,6 +98,42 @@ class Session:
             out[name] = s
         return out
 
+    def _scene_widgets(self) -> list[Any]:
+        """A built-in scene to pick, or a scene file (``.toml``) to load, and its error line."""
+        self.scene = pn.widgets.Select(name="scene", options=["", *builtin_scenes()], value="",
+                                       css_classes=["pi-scene"], width=220)  # fmt: skip
+        self.scene_file = pn.widgets.FileInput(accept=".toml", css_classes=["pi-scene-file"])
+        self.scene_error = pn.pane.Str("", css_classes=["pi-error-scene"],
+                                       styles={"color": "#b00020"})  # fmt: skip
+        self.scene.param.watch(lambda e: e.new and self.load_scene(e.new), "value")
+        self.scene_file.param.watch(lambda e: e.new and self._scene_uploaded(e.new), "value")
+        return [self.scene, self.scene_file, self.scene_error]
+
+    def _scene_uploaded(self, data: bytes) -> None:
+        with tempfile.TemporaryDirectory() as d:
+            path = f"{d}/{self.scene_file.filename or 'scene.toml'}"
+            with open(path, "wb") as f:
+                f.write(data)
+            self.load_scene(path)
+
+    def load_scene(self, spec: str) -> None:
+        """The fields set from a scene (one recomputation, not one per field); a refused scene
+        shows its line under the scene's field and changes nothing."""
+        self.scene_error.object = ""
+        try:
+            st = State.from_scene(spec, {n: str(w.value) for n, w in self.inputs.items()})
+        except ParameterError as e:
+            self.scene_error.object = str(e)
+            return
+        self.loading = True
+        try:
+            for name, value in st.to_query().items():
+                if name in self.inputs:
+                    self.inputs[name].value = value
+        finally:
+            self.loading = False
+        self.refresh()
+
     def _typed(self, slider: Any, event: Any) -> None:
         """A typed value moves its slider (within the slider's range; the text stays exact)."""
         try:
@@ -111,7 +150,7 @@ class Session:
     def _wire(self) -> None:
         self.sliders = self._sliders()
         for w in self.inputs.values():
-            w.param.watch(lambda e: self.refresh(), "value")
+            w.param.watch(lambda e: self.loading or self.refresh(), "value")
         for fig in (self.bif["diagram"], self.bif["lle"]):
             fig.on_event(Tap, self._tapped)
         self.bif["diagram"].on_event(RangesUpdate, self._zoomed)
@@ -402,7 +441,8 @@ class Session:
         for n in FIELDS:
             row = [self.inputs[n]] + ([self.sliders[n]] if n in self.sliders else [])
             rows.append(pn.Column(pn.Row(*row), self.errors[n], margin=0))
-        form = pn.Column("## parameters (exact decimals)", *rows, width=360)
+        form = pn.Column("## parameters (exact decimals)", *self._scene_widgets(), *rows,
+                         width=360)  # fmt: skip
         orbit = pn.Column(self.info, pn.Row(self.overlay, self.circuit_info),
                           pn.Row(self.orbit["phase"], self.orbit["xt"]),
                           pn.Row(self.command, self.download))  # fmt: skip

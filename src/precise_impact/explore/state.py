@@ -11,6 +11,7 @@ from typing import Any
 from precise_impact.core.params import PARAM_NAMES, Params, check_count
 from precise_impact.core.precision import Precision
 from precise_impact.errors import ParameterError
+from precise_impact.scenes.scene import load_scene
 
 __all__ = ["CIRCUIT_MODELS", "DEFAULTS", "DENSE_PER_PERIOD", "ENGINES", "State", "UNITS", "VIEWS"]
 
@@ -91,6 +92,18 @@ class State:
         params = Params.make(**{k: query[k] for k in PARAM_NAMES if k in query})
         got = {k: query.get(k, d) for k, d in DEFAULTS.items()}
         return cls(params=params, **_checked(got))
+
+    @classmethod
+    def from_scene(cls, spec: Any, query: Mapping[str, Any] | None = None) -> State:
+        """The state a scene gives (a built-in name or a ``.toml`` path, as ``run`` takes it):
+        its parameters and start, its periods, its engine where the explorer has it; the other
+        fields from ``query``.  A bad scene is refused in one line (``ParameterError``)."""
+        scene = load_scene(spec)
+        fields = {**dict(query or {}), **scene.params.decimal(), "periods": str(scene.periods)}
+        if scene.model in ENGINES:
+            fields["model"] = scene.model
+            fields["precision"] = scene.precision.name
+        return cls.from_query(fields)
 
     def to_query(self) -> dict[str, str]:
         """Every field as text (the parameters as exact decimals): ``from_query`` of it gives
