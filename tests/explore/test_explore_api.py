@@ -95,3 +95,27 @@ def test_the_impact_map_jumps_across_its_singularity_set():
 
     jump = abs(next_phase(1e-5) - next_phase(-1e-5))
     assert min(jump, 1 - jump) > 1e-3, (ph, v, jump)
+
+
+def test_each_views_csv_holds_its_numbers():
+    """The CSV of a view (the page's download) parses back to the view's numbers, row for
+    row (floats as their shortest round-trip text)."""
+    import csv
+    import io
+
+    s = State.from_query({"eta": "0.74", "periods": "6", "transient": "30"})
+    orbit = api.orbit(s, full=False)
+    rows = list(csv.DictReader(io.StringIO(api.view_csv(orbit))))
+    strobe = [r for r in rows if r["kind"] == "strobe"]
+    assert [float(r["x"]) for r in strobe] == orbit["strobe"]["x"]
+    assert sum(r["kind"] == "impact" for r in rows) == len(orbit["impacts"]["t"])
+    bif = api.bifurcation(State.from_query({"eta_min": "0.74", "eta_max": "0.75", "n": "3",
+                                            "bif_periods": "5"}))  # fmt: skip
+    rows = list(csv.DictReader(io.StringIO(api.view_csv(bif))))
+    assert len(rows) == 3 * 5 and float(rows[-1]["x"]) == bif["x"][-1][-1]
+    chatter = State.from_query({"eta": "4.85", "zeta": "0", "R": "0.5", "x_w": "-0.3",
+                                "x0": "-0.5"})  # fmt: skip
+    basins = api.basins(chatter, 4, 3, 0.6)
+    rows = list(csv.DictReader(io.StringIO(api.view_csv(basins))))
+    assert len(rows) == 12 and float(rows[0]["phase"]) == 0.125  # the first cell's centre
+    assert [int(r["label"]) for r in rows[:4]] == basins["labels"][0]

@@ -233,3 +233,22 @@ def test_a_scene_is_loaded_into_the_fields(page, server):
     info = _wait_info(page, "period 3")  # Fig. 6's orbit, after the transient kept from the URL
     assert page.locator(".pi-field-eta input").input_value() == "0.74", info
     page.screenshot(path=str(page.shots / "11-scene.png"))
+
+
+def test_the_diagrams_csv_and_json_downloads_hold_its_numbers(page, server):
+    page.goto(server + "?eta=0.74")
+    _wait_info(page, "eta 0.74")
+    page.locator(".bk-tab", has_text="bifurcation").click()
+    page.locator(".pi-bif-run button").click()
+    _wait_text(page, ".pi-bif-info", "400 values of eta")
+    files = {}
+    for kind in ("json", "csv"):
+        css = f".pi-download-bifurcation-{kind}"
+        with page.expect_download() as dl:
+            page.locator(f"{css} button, {css} a").first.click()
+        files[kind] = Path(dl.value.path()).read_text()
+    got = json.loads(files["json"])
+    rows = files["csv"].splitlines()
+    n = len(got["x"][0])
+    assert rows[0] == "eta,x,lle,lle_stderr" and len(rows) == 1 + len(got["eta"]) * n
+    assert [float(r.split(",")[1]) for r in rows[1 : 1 + n]] == got["x"][0]

@@ -4,6 +4,8 @@ strict-JSON values out, naming the command line and the Python call that give th
 
 from __future__ import annotations
 
+import csv
+import io
 import math
 from collections.abc import Callable
 from typing import Any
@@ -25,6 +27,7 @@ from precise_impact.solvers.certified.single import certify as _certify
 from precise_impact.solvers.simulate import simulate
 
 __all__ = [
+    "CSV_VIEWS",
     "VIEW_FUNCTIONS",
     "basins",
     "bifurcation",
@@ -34,6 +37,7 @@ __all__ = [
     "orbit",
     "proof",
     "run_view",
+    "view_csv",
 ]
 
 #: Most stroboscopic samples a period is looked for in (the last ones of the run).
@@ -320,3 +324,56 @@ def basins(
 
 
 VIEW_FUNCTIONS["basins"] = basins
+
+
+def _orbit_rows(got: dict[str, Any]) -> Any:
+    yield ("kind", "t", "x", "v")
+    for kind in ("strobe", "curve"):
+        d = got[kind]
+        yield from ((kind, t, x, v) for t, x, v in zip(d["t"], d["x"], d["v"], strict=True))
+    imp = got["impacts"]
+    x_w = got["state"]["x_w"]
+    yield from (("impact", t, x_w, v) for t, v in zip(imp["t"], imp["v"], strict=True))
+
+
+def _bifurcation_rows(got: dict[str, Any]) -> Any:
+    yield ("eta", "x", "lle", "lle_stderr")
+    for eta, xs, lle, err in zip(got["eta"], got["x"], got["lle"], got["lle_stderr"], strict=True):
+        yield from ((eta, x, lle, err) for x in xs)
+
+
+def _impact_map_rows(got: dict[str, Any]) -> Any:
+    yield ("phase", "v", "kind")
+    yield from zip(got["phase"], got["v"], got["kind"], strict=True)
+
+
+def _centres(axis: list) -> list[float]:
+    """An axis ``[name, lo, hi, n]``'s cell centres (as the scan computes them)."""
+    _, lo, hi, n = axis
+    return [lo + (i + 0.5) * (hi - lo) / n for i in range(n)]
+
+
+def _basins_rows(got: dict[str, Any]) -> Any:
+    yield ("phase", "v", "label")
+    phases, speeds = (_centres(a) for a in got["axes"])
+    for v, row in zip(speeds, got["labels"], strict=True):
+        yield from ((p, v, label) for p, label in zip(phases, row, strict=True))
+
+
+#: The views a page offers as CSV, and their rows (a header first).
+CSV_VIEWS: dict[str, Callable[[dict[str, Any]], Any]] = {
+    "orbit": _orbit_rows,
+    "bifurcation": _bifurcation_rows,
+    "impact-map": _impact_map_rows,
+    "basins": _basins_rows,
+}
+
+
+def view_csv(got: dict[str, Any]) -> str:
+    """A view's numbers as CSV text (a header row, then one row per point; floats as their
+    shortest round-trip text, a missing value empty)."""
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    for row in CSV_VIEWS[got["view"]](got):
+        w.writerow(["" if x is None else x for x in row])
+    return out.getvalue()

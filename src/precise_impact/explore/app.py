@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import functools
+import io
 import math
 import tempfile
 from decimal import Decimal
@@ -179,6 +180,8 @@ class Session:
             callback=self._orbit_json, filename="orbit.json", label="orbit as JSON",
             css_classes=["pi-download-json"],
         )  # fmt: skip
+        self.downloads = {v: self._downloads(v) for v in ("orbit", "bifurcation", "impact-map",
+                                                           "basins")}  # fmt: skip
 
     def state(self) -> State | None:
         """The form's state, or ``None`` with the refused field's message under it."""
@@ -264,9 +267,28 @@ class Session:
         if not isinstance(error, PreciseImpactError):
             raise error
 
-    def _orbit_json(self):
-        import io  # noqa: PLC0415 -- only when a download is asked for
+    def _downloads(self, view: str) -> list[Any]:
+        """The view's last numbers as CSV, and (but the orbit's, which is the CLI's ``--json``
+        above) as the view's strict JSON."""
+        out = [pn.widgets.FileDownload(
+            callback=functools.partial(self._view_text, view, "csv"), filename=f"{view}.csv",
+            label=f"{view} as CSV", css_classes=[f"pi-download-{view}-csv"],
+        )]  # fmt: skip
+        if view != "orbit":
+            out.append(pn.widgets.FileDownload(
+                callback=functools.partial(self._view_text, view, "json"),
+                filename=f"{view}.json", label=f"{view} as JSON",
+                css_classes=[f"pi-download-{view}-json"],
+            ))  # fmt: skip
+        return out
 
+    def _view_text(self, view: str, kind: str) -> io.StringIO:
+        got = self.last.get(view)
+        if got is None:
+            return io.StringIO("")
+        return io.StringIO(api.view_csv(got) if kind == "csv" else dumps(got))
+
+    def _orbit_json(self):
         got = self.last.get("orbit")
         st = State.from_query(got["state"]) if got else (self.state() or State.from_query({}))
         return io.StringIO(dumps(api.orbit(st)["result"]))
@@ -280,6 +302,7 @@ class Session:
         self.runners["bif"].start(lambda flag: api.bifurcation(st), self._bif_done, self._failed)
 
     def _bif_done(self, got: dict[str, Any]) -> None:
+        self.last["bifurcation"] = got
         self._showing_bif = True
         figures.show_bifurcation(self.bif, got)
         self._showing_bif = False
@@ -355,6 +378,7 @@ class Session:
         self.basins_info.object = f"rows {done[0]} / {n}"
 
     def _basins_done(self, got: dict[str, Any]) -> None:
+        self.last["basins"] = got
         kinds = ", ".join(f"{a.get('name', a.get('kind'))}" for a in got["attractors"] or [])
         self.basins_info.object = f"done: {len(got['labels'])} rows; attractors: {kinds}"
 
@@ -391,6 +415,7 @@ class Session:
         self.runners["impacts"].start(work, self._impacts_done, self._failed)
 
     def _impacts_done(self, got: dict[str, Any]) -> None:
+        self.last["impact-map"] = got
         figures.show_impacts(self.impacts, got)
         kinds = {k: got["kind"].count(k) for k in ("impact", "chatter", "sticking")}
         self.impacts_info.object = (
@@ -445,15 +470,18 @@ class Session:
                          width=360)  # fmt: skip
         orbit = pn.Column(self.info, pn.Row(self.overlay, self.circuit_info),
                           pn.Row(self.orbit["phase"], self.orbit["xt"]),
-                          pn.Row(self.command, self.download))  # fmt: skip
+                          pn.Row(self.command,
+                                 pn.Column(self.download, *self.downloads["orbit"])))  # fmt: skip
         diagram = pn.pane.Bokeh(self.bif["diagram"], css_classes=["pi-bif-diagram"])
-        bif = pn.Column(pn.Row(self.bif_button, self.bif_info), diagram, self.bif["lle"])
+        bif = pn.Column(pn.Row(self.bif_button, self.bif_info, *self.downloads["bifurcation"]),
+                        diagram, self.bif["lle"])  # fmt: skip
         proof = pn.Column(pn.Row(self.prove_period, self.prove_button, self.certify_button),
                           self.proof_info,
                           self.proof["figure"])  # fmt: skip
         basins = pn.Column(
             pn.Row(self.impacts_button, self.basins_n, self.basins_run, self.basins_stop),
-            self.impacts_info, self.basins_info,
+            pn.Row(self.impacts_info, *self.downloads["impact-map"]),
+            pn.Row(self.basins_info, *self.downloads["basins"]),
             pn.Row(pn.pane.Bokeh(self.impacts["figure"], css_classes=["pi-impact-map"]),
                    pn.pane.Bokeh(self.basins["figure"], css_classes=["pi-basins-map"])),
         )  # fmt: skip
