@@ -19,7 +19,10 @@ from typing import Any
 
 from precise_impact.errors import PreciseImpactError
 
-__all__ = ["ARGS", "DEEP_TEXT", "SHOTS", "chromium", "explorer", "screenshots", "text", "wait_text"]
+__all__ = [
+    "ARGS", "DEEP_TEXT", "SHOTS", "chromium", "draw_bifurcation", "explorer", "screenshots", "text",
+    "wait_text",
+]  # fmt: skip
 
 #: Debian's chromium, headless, with no network of its own (its background connections are
 #: refused by a closed machine, many at a time).
@@ -102,7 +105,8 @@ def _tab(name: str) -> Callable[[Any], None]:
     return lambda page: page.locator(".bk-tab", has_text=name).click()
 
 
-def _bifurcation(page: Any) -> None:
+def draw_bifurcation(page: Any) -> None:
+    """The diagram's tab opened and the diagram computed and drawn (its info line shown)."""
     _tab("bifurcation")(page)
     page.locator(".pi-bif-run button").click()
     wait_text(page, ".pi-bif-info", "values of eta")
@@ -136,7 +140,7 @@ def _overlay(page: Any) -> None:
 SHOTS: tuple[tuple[str, str, Callable[[Any], None] | None], ...] = (
     ("explore_orbit.png", "?eta=0.74&transient=300&periods=30", None),
     ("explore_circuit.png", "?eta=0.74&transient=300&periods=12&units=circuit", _overlay),
-    ("explore_bifurcation.png", "?eta=0.712", _bifurcation),
+    ("explore_bifurcation.png", "?eta=0.712", draw_bifurcation),
     ("explore_impact_surface.png", "?eta=0.74&transient=100", _impact_surface),
     ("explore_proof.png", "?eta=0.712", _proof),
 )
