@@ -302,7 +302,25 @@ class Precision:
         return libmp.to_str(self.to_mpf(x)._mpf_, self.digits)
 
     def to_float(self, x: Any) -> float:
+        """``x`` rounded once to the nearest float64."""
+        if self.kind == "float64":
+            return float(x)
         return float(self.to_mpf(x))
+
+    def floats(self, values: Any) -> np.ndarray:
+        """An array of this precision rounded to float64, element by element as :meth:`to_float`
+        (one rounding to nearest).  float64 and long double convert in numpy (the hardware's
+        rounding is that one rounding); the others go through exact mpmath values (reproduce
+        --quick spent 18 of its 55 s sending float64 arrays that way)."""
+        if values is None:
+            return np.zeros(0)
+        if self.kind == "float64":
+            return np.asarray(values, dtype=float)
+        if self.kind == "longdouble":
+            return np.asarray(values, dtype=np.longdouble).astype(float)
+        if not len(values):
+            return np.zeros(0)
+        return np.vectorize(self.to_float, otypes=[float])(values)
 
     def array(self, values: Any) -> np.ndarray:
         """A numpy array of this precision's type (object array for float128 / mp)."""

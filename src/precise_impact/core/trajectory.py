@@ -142,11 +142,7 @@ class Trajectory(ResultMixin):
 
     def as_float64(self) -> dict[str, np.ndarray]:
         """Samples and impacts rounded to float64 (for plotting)."""
-        f = np.vectorize(self.precision.to_float, otypes=[float])
-
-        def conv(a):
-            return f(a) if a is not None and len(a) else np.zeros(0)
-
+        conv = self.precision.floats
         return {
             "t": conv(self.t),
             "x": conv(self.x),
@@ -243,7 +239,7 @@ class Trajectory(ResultMixin):
             for k, a in self.as_float64().items():
                 arrays[k] = a
             if self.dense_t is not None:
-                f = np.vectorize(self.precision.to_float, otypes=[float])
+                f = self.precision.floats
                 arrays["dense_t"], arrays["dense_x"], arrays["dense_v"] = (
                     f(self.dense_t),
                     f(self.dense_x),

@@ -517,7 +517,7 @@ def trajectory_floats(tr: Any) -> tuple[dict, tuple | None]:
         f = tr.as_float64()
     dense = None
     if getattr(tr, "dense_t", None) is not None and len(tr.dense_t):
-        conv = np.vectorize(tr.precision.to_float, otypes=[float])
+        conv = tr.precision.floats
         dense = (conv(tr.dense_t), conv(tr.dense_x), conv(tr.dense_v))
     return f, dense
 

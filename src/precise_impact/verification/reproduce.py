@@ -13,8 +13,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.analysis.periodicity import detect_period
 from precise_impact.analysis.sync import plot_fig7, plot_sync_fraction, sync_scan
@@ -87,7 +85,7 @@ DATASHEET_MODEL = "switched-capacitor (datasheet)"
 
 
 def _floats(tr: Trajectory, dense: bool):
-    conv = np.vectorize(tr.precision.to_float, otypes=[float])
+    conv = tr.precision.floats
     if dense and tr.dense_x is not None:
         return conv(tr.dense_x), conv(tr.dense_v)
     return conv(tr.x), conv(tr.v)

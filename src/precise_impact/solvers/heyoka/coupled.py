@@ -263,12 +263,7 @@ class CoupledTrajectory(CoupledPlotMixin, ResultMixin):
         return self.claim
 
     def _f(self, a) -> np.ndarray:
-        if a is None:
-            return np.zeros(0)
-        if self.precision.kind == "float64":
-            return np.asarray(a, dtype=float)
-        f = np.vectorize(self.precision.to_float, otypes=[float])
-        return f(a) if len(a) else np.zeros(0)
+        return self.precision.floats(a)
 
     def difference(self, dense: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """``(t, |x - y|)`` as float64 (stroboscopic, or dense if ``dense``).
