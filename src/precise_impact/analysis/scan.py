@@ -29,6 +29,7 @@ from precise_impact.errors import OptionalDependencyError, ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.progress import Progress, ProgressArg, check_progress
 from precise_impact.io.progress import say as _say
+from precise_impact.signals import recheck_later
 from precise_impact.solvers.base import ENGINES
 
 __all__ = [
@@ -501,15 +502,21 @@ _STOPPED = False
 
 
 def _worker_sigint(signum, frame) -> None:
+    """SIGINT (and its re-check, SIGALRM) in a worker: raised while a tile runs, unless the
+    worker is inside an import or a finalizer (:func:`~precise_impact.signals.recheck_later`),
+    where it waits for the import to end."""
     global _STOPPED
-    _STOPPED = True
-    if _BUSY:
+    if signum == signal.SIGINT:
+        _STOPPED = True
+    if _BUSY and _STOPPED and not recheck_later(frame):
         raise KeyboardInterrupt
 
 
 def _worker_init() -> None:
     """A pool worker: SIGINT stops the tile it computes, and is ignored between tiles."""
     signal.signal(signal.SIGINT, _worker_sigint)
+    if hasattr(signal, "SIGALRM"):
+        signal.signal(signal.SIGALRM, _worker_sigint)
 
 
 def _in_worker(job: Callable[[int, int], Any], lo: int, hi: int) -> Any:

@@ -15,51 +15,14 @@ import sys
 import threading
 from collections.abc import Iterator
 
+from precise_impact.signals import RECHECK_S, unsafe_to_raise
+
 #: The exit status of an interrupted run: 128 + SIGINT, the shell's convention.
 EXIT_INTERRUPTED = 130
 
 
-#: How often an interrupt that landed inside an import looks again whether the import is done.
-RECHECK_S = 0.01
-
-_IMPORT_FRAMES = frozenset(
-    {"<frozen importlib._bootstrap>", "<frozen importlib._bootstrap_external>"}
-)
-#: Where an exception raised by the handler is printed and dropped ("Exception ignored in"),
-#: and the interrupt lost: a finalizer, the fork of a pool's worker (logging's at-fork
-#: hooks: a fast sweep ran on after SIGTERM), and llvmlite's object-cache callbacks, which
-#: LLVM calls through ctypes as numba compiles in the main thread (``continue`` ran on for
-#: 60 s after a SIGTERM there).  Function names; file name endings.
-_DROPPING_FUNCTIONS = frozenset({"__del__"})
-_DROPPING_FILES = (
-    "multiprocessing/popen_fork.py",
-    "multiprocessing/popen_forkserver.py",
-    "llvmlite/binding/executionengine.py",
-)
-#: Directories whose Python code is let finish before an interrupt: llvmlite's bindings build
-#: objects whose finalizer needs all their fields (a SIGTERM between two of
-#: ``ObjectRef.__init__``'s assignments printed "Exception ignored in ObjectRef.__del__" with
-#: a traceback, 1 of 90 slow-run signals); their Python steps take microseconds.
-_DEFERRING_DIRS = ("/llvmlite/binding/",)
-
 #: Signals noted inside an import and not yet raised (see :func:`interrupt`).
 _deferred: list[int] = []
-
-
-def _importing(frame) -> bool:
-    """Whether ``frame`` runs inside an import (the import machinery is on its stack), a
-    finalizer or a fork (where an exception is printed and dropped)."""
-    while frame is not None:
-        code = frame.f_code
-        if (
-            code.co_filename in _IMPORT_FRAMES
-            or code.co_name in _DROPPING_FUNCTIONS
-            or code.co_filename.endswith(_DROPPING_FILES)
-            or any(d in code.co_filename for d in _DEFERRING_DIRS)
-        ):
-            return True
-        frame = frame.f_back
-    return False
 
 
 def interrupt(signum, frame) -> None:
@@ -73,7 +36,7 @@ def interrupt(signum, frame) -> None:
         _deferred.append(signum)
     elif not _deferred:  # a timer armed by someone else's code: not ours to act on
         return
-    if _importing(frame) and hasattr(signal, "setitimer"):
+    if unsafe_to_raise(frame) and hasattr(signal, "setitimer"):
         signal.setitimer(signal.ITIMER_REAL, RECHECK_S)
         return
     _deferred.clear()
