@@ -63,3 +63,23 @@ def test_a_real_failure_is_caught_by_the_base():
         precise_impact.Params.make(eta="-1")
     with pytest.raises(errors.PreciseImpactError):
         precise_impact.find_orbit(precise_impact.Params.make(eta="0.712"), 1, guess=("1e9", "0"))
+
+
+@pytest.mark.parametrize(
+    "err",
+    [
+        errors.ParameterError("eta", "x", "> 0"),
+        errors.OverBudgetError("max-time", 5, "more seconds"),
+        errors.OptionalDependencyError("scipy", "pip install scipy", "the bench"),
+        errors.NgspiceNotFoundError("the spice model needs ngspice"),
+        errors.SpiceError("ngspice failed"),
+    ],
+)
+def test_errors_pickle_as_themselves(err):
+    """A pool worker's refusal reaches the caller as itself (an unpicklable ParameterError
+    broke a ProcessPoolExecutor: "BrokenProcessPool" instead of the one-line refusal)."""
+    import pickle  # noqa: PLC0415 -- this test alone
+
+    back = pickle.loads(pickle.dumps(err))
+    assert type(back) is type(err) and str(back) == str(err)
+    assert vars(back) == vars(err)

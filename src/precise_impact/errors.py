@@ -67,6 +67,11 @@ class ParameterError(PreciseImpactError, ValueError):
         self.allowed = allowed
         super().__init__(f"{name} = {one_line(value)} is not allowed: {allowed}")
 
+    def __reduce__(self):
+        """Pickled with its three arguments (a pool worker's refusal reaches the caller as
+        itself, not as a broken pool: ``BaseException`` pickles ``args``, the message only)."""
+        return (type(self), (self.name, self.value, self.allowed))
+
 
 def check_type(value: Any, types: type | tuple[type, ...], name: str, wanted: str) -> Any:
     """``value`` when it is one of ``types``, else the one-line :class:`ParameterError` naming
@@ -156,6 +161,12 @@ class OptionalDependencyError(PreciseImpactError, RuntimeError):
         super().__init__(
             f"{purpose} needs {component}, which is not installed; install it with: {install}"
         )
+
+    def __reduce__(self):
+        """Pickled with its three arguments (see :meth:`ParameterError.__reduce__`)."""
+        if type(self).__init__ is not OptionalDependencyError.__init__:
+            return (type(self), self.args)
+        return (type(self), (self.component, self.install, self.purpose))
 
 
 class SpiceError(PreciseImpactError, RuntimeError):
