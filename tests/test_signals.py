@@ -72,3 +72,37 @@ def test_an_idle_worker_notes_the_interrupt_and_goes_on(busy_worker, monkeypatch
     _in("/x/y.py")(scan._worker_sigint, signal.SIGINT)
     assert scan._STOPPED
     _in("/x/y.py")(scan._worker_sigint, signal.SIGALRM)  # someone else's timer: nothing
+
+
+def _calls(filename: str):
+    """A function whose frame carries ``filename`` and that calls ``fn(*args)``."""
+    ns: dict = {}
+    exec(compile("def call(fn, *args):\n    return fn(*args)\n", filename, "exec"), ns)  # noqa: S102
+    return ns["call"]
+
+
+def test_a_forked_workers_tile_is_interrupted_at_once(busy_worker, monkeypatch):
+    """A forked pool worker's whole stack stands on multiprocessing's popen_fork (where the
+    process entry defers): the worker looks only above its tile's frame, so an interrupt in a
+    tile is raised at once (it waited for ever: a 3 s interrupt of a sweep took 55 s)."""
+    monkeypatch.setattr(scan, "_STOPPED", False)
+    monkeypatch.setattr(scan, "_BUSY", False)
+
+    def tile(lo, hi):
+        return _in("/x/precise_impact/solvers/fast/control.py")(scan._worker_sigint, signal.SIGINT)
+
+    launch = _calls("/usr/lib/python3.11/multiprocessing/popen_fork.py")
+    with pytest.raises(KeyboardInterrupt):
+        launch(scan._in_worker, tile, 0, 1)
+    assert signal.getitimer(signal.ITIMER_REAL)[0] == 0  # nothing deferred
+
+
+def test_below_limits_the_frames_looked_at():
+    launch = _calls("/x/multiprocessing/popen_fork.py")
+    middle = _calls("/x/precise_impact/analysis/scan.py")
+
+    def look():
+        return signals.unsafe_to_raise(sys._getframe(), below=middle.__code__)
+
+    assert launch(middle, look) is False
+    assert launch(middle, lambda: signals.unsafe_to_raise(sys._getframe())) is True

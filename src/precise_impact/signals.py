@@ -4,7 +4,7 @@ the entry's handler and the pool workers'; ``docs/guide/cli.rst``, "Interrupts a
 from __future__ import annotations
 
 import signal
-from types import FrameType
+from types import CodeType, FrameType
 
 __all__ = ["RECHECK_S", "unsafe_to_raise", "recheck_later"]
 
@@ -32,13 +32,17 @@ _DROPPING_FILES = (
 _DEFERRING_DIRS = ("/llvmlite/binding/",)
 
 
-def unsafe_to_raise(frame: FrameType | None) -> bool:
+def unsafe_to_raise(frame: FrameType | None, below: CodeType | None = None) -> bool:
     """Whether ``frame`` runs inside an import (the import machinery is on its stack: also its
     module-lock callbacks, where a pool worker's interrupt printed "Exception ignored in
     _get_module_lock.<locals>.cb", 1 of 40 SIGTERMs to ``bifurcation``), a finalizer, a fork or
-    llvmlite's bindings."""
+    llvmlite's bindings.  ``below``: the stack is looked at down to the frame of this code
+    only (a forked pool worker's whole stack stands on ``popen_fork``'s launch: looked at to
+    the bottom, every moment of it was "inside a fork" and its interrupts waited for ever)."""
     while frame is not None:
         code = frame.f_code
+        if code is below:
+            return False
         if (
             code.co_filename in _IMPORT_FRAMES
             or code.co_name in _DROPPING_FUNCTIONS
@@ -50,10 +54,11 @@ def unsafe_to_raise(frame: FrameType | None) -> bool:
     return False
 
 
-def recheck_later(frame: FrameType | None) -> bool:
-    """If ``frame`` may not raise: arm a one-shot real-time timer (SIGALRM in
-    :data:`RECHECK_S`, whose handler must be the caller's own) and return True; else False."""
-    if unsafe_to_raise(frame) and hasattr(signal, "setitimer"):
+def recheck_later(frame: FrameType | None, below: CodeType | None = None) -> bool:
+    """If ``frame`` may not raise (:func:`unsafe_to_raise`, down to ``below``): arm a one-shot
+    real-time timer (SIGALRM in :data:`RECHECK_S`, whose handler must be the caller's own) and
+    return True; else False."""
+    if unsafe_to_raise(frame, below) and hasattr(signal, "setitimer"):
         signal.setitimer(signal.ITIMER_REAL, RECHECK_S)
         return True
     return False

@@ -508,7 +508,7 @@ def _worker_sigint(signum, frame) -> None:
     global _STOPPED
     if signum == signal.SIGINT:
         _STOPPED = True
-    if _BUSY and _STOPPED and not recheck_later(frame):
+    if _BUSY and _STOPPED and not recheck_later(frame, below=_in_worker.__code__):
         raise KeyboardInterrupt
 
 
