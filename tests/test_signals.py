@@ -32,6 +32,7 @@ def _in(filename: str, name: str = "f"):
         ("/x/multiprocessing/popen_fork.py", "f", True),
         ("/x/site-packages/llvmlite/binding/ffi.py", "f", True),
         ("/x/anything.py", "__del__", True),
+        ("/usr/lib/python3.11/_weakrefset.py", "_remove", True),
         ("/x/precise_impact/solvers/fast/single.py", "f", False),
     ],
 )
