@@ -15,7 +15,7 @@ import sys
 import threading
 from collections.abc import Iterator
 
-from precise_impact.signals import RECHECK_S, unsafe_to_raise
+from precise_impact.signals import recheck_later
 
 #: The exit status of an interrupted run: 128 + SIGINT, the shell's convention.
 EXIT_INTERRUPTED = 130
@@ -30,14 +30,14 @@ def interrupt(signum, frame) -> None:
     ``KeyboardInterrupt``, unless the main thread is inside an import. An exception raised in
     a module's body half-way through leaves the module half-initialised, and raised inside a
     class body it is re-raised as a ``RuntimeError`` (``__set_name__``), not an interrupt. There
-    the signal is noted and looked at again every :data:`RECHECK_S` seconds (a one-shot
-    real-time timer, SIGALRM) until the import is done; then it is raised."""
+    the signal is noted and looked at again every
+    :data:`~precise_impact.signals.RECHECK_S` seconds (a one-shot real-time timer, SIGALRM,
+    :func:`~precise_impact.signals.recheck_later`) until the import is done; then raised."""
     if signum != getattr(signal, "SIGALRM", None):
         _deferred.append(signum)
     elif not _deferred:  # a timer armed by someone else's code: not ours to act on
         return
-    if unsafe_to_raise(frame) and hasattr(signal, "setitimer"):
-        signal.setitimer(signal.ITIMER_REAL, RECHECK_S)
+    if recheck_later(frame):
         return
     _deferred.clear()
     raise KeyboardInterrupt
