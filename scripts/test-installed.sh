@@ -47,10 +47,13 @@ t=$SECONDS
 step() { echo "== $* ($(date +%T))"; t=$SECONDS; }
 took() { echo "   ($((SECONDS - t)) s)"; }
 
+# pip runs with --no-compile everywhere: compiling every installed module's bytecode (scipy's,
+# pandas', sphinx's, ... most never imported here) took 45 of the main install's 62 s of CPU
+# (74 s -> 26 s wall in a quiet venv); the modules imported are compiled once on first import
 step "fresh venv outside the checkout: $work/venv"
 "$py" -m venv "$work/venv"
 vpy="$work/venv/bin/python"
-"$vpy" -m pip install -q --upgrade pip
+"$vpy" -m pip install -q --no-compile --upgrade pip
 took
 
 step "building the wheel"
@@ -129,8 +132,12 @@ readme_venv() {
   echo "   $readme_pip"
   cp -a "$work/src" "$work/readme-src"
   "$py" -m venv "$work/readme"
-  "$work/readme/bin/python" -m pip install -q --upgrade pip
-  (cd "$work/readme-src" && eval "\"$work/readme/bin/python\" -m $readme_pip -q")
+  "$work/readme/bin/python" -m pip install -q --no-compile --upgrade pip
+  (cd "$work/readme-src" && eval "\"$work/readme/bin/python\" -m $readme_pip -q --no-compile")
+  # its compiled kernels too, into its own checkout's cache, as for the main venv: the README's
+  # first commands compiled them under the suite's load (~45 s of CPU, measured 446 s for the
+  # sequence in CI against 315 s with a warm cache)
+  warm_kernels "$work/readme/bin/python"
 }
 bg readme_venv readme_venv
 
@@ -138,8 +145,8 @@ bg readme_venv readme_venv
 # at the end
 lowest_venv() {
   "$py" -m venv "$work/lowest"
-  "$work/lowest/bin/python" -m pip install -q --upgrade pip
-  "$work/lowest/bin/python" -m pip install -q -c "$repo/.ci/lowest-constraints.txt" "${wheel}[test,dask,bench]"
+  "$work/lowest/bin/python" -m pip install -q --no-compile --upgrade pip
+  "$work/lowest/bin/python" -m pip install -q --no-compile -c "$repo/.ci/lowest-constraints.txt" "${wheel}[test,dask,bench]"
   "$work/lowest/bin/python" - "$repo/.ci/lowest-constraints.txt" <<'PY'
 import sys
 from importlib.metadata import version
@@ -154,13 +161,13 @@ PY
 if [ "$ci" = 1 ]; then bg lowest_venv lowest_venv; fi
 
 step "installing it (non-editable) with [test,dask,bench,docs,explore]"
-"$vpy" -m pip install -q "${wheel}[test,dask,bench,docs,explore]"
+"$vpy" -m pip install -q --no-compile "${wheel}[test,dask,bench,docs,explore]"
 took
 
 bg warm_kernels warm_kernels "$vpy"
 
 step "the static checks' tools (the [lint] extra: pinned ruff and mypy)"
-"$vpy" -m pip install -q "${wheel}[lint]"   # not beside the tests: pip changes the venv they import from
+"$vpy" -m pip install -q --no-compile "${wheel}[lint]"   # not beside the tests: pip changes the venv they import from
 took
 static_checks() {  # ruff check, ruff format --check, mypy (zero findings)
   cd "$work/src" && "$work/venv/bin/ruff" check --no-cache . && "$work/venv/bin/ruff" format --check --no-cache . \

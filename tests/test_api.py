@@ -119,7 +119,7 @@ ROUND_TRIPPED_ELSEWHERE = {
 }
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def results(tmp_path_factory):
     """One small instance of every public result type, keyed by class name (about 6 s)."""
     tiny = {  # work precision on 10 periods, three heyoka tolerances and the closed form (~3 s)

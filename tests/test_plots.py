@@ -32,7 +32,7 @@ from precise_impact.models.circuit.spice import SpiceResult
 from precise_impact.verification.workprecision import wp_figure
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def traj():
     """Period 3 with impacts, dense output (0.1 s)."""
     return pi.simulate(pi.Params.make(eta="0.74"), 30, per_period=40)

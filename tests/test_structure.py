@@ -173,3 +173,20 @@ def test_a_covered_test_is_left_out_only_beside_the_test_that_covers_it():
     assert "test_readme_sequence" in both and "test_readme_sequence_quick" not in both
     every = _collected("-m", "slow or not slow", "-k", "quick")  # the covering one deselected
     assert every == ["test_readme_sequence_quick"]
+
+
+#: Module-scoped fixtures allowed: they hold a server or a browser, torn down with the module.
+MODULE_FIXTURES_ALLOWED = {"explore/test_explore_browser.py"}
+
+
+def test_shared_test_data_are_made_once_per_process():
+    """CI runs the longest tests first, one at a time, so a worker leaves and re-enters modules
+    all the time and pytest tears a module-scoped fixture down at each exit: a costly one was
+    recomputed up to four times a run (docs/development.rst).  Shared data are session-scoped."""
+    tests = Path(__file__).resolve().parent
+    found = sorted(
+        f.relative_to(tests).as_posix()
+        for f in tests.rglob("*.py")
+        if 'scope="module"' in f.read_text(encoding="utf-8")
+    )
+    assert set(found) <= MODULE_FIXTURES_ALLOWED | {"test_structure.py"}, found

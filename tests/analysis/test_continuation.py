@@ -18,7 +18,7 @@ from precise_impact.analysis.orbits.shooting import ShootingSystem, from_orbit
 EPS = 2.0**-52
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def nonimpacting():
     """The non-impacting orbit from eta = 0.6 to 1.3, through its virtual stretch."""
     ss = pi.steady_state(pi.Params.make(eta="0.6"))
@@ -34,14 +34,14 @@ def nonimpacting():
     )
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def one_to_one():
     """The 1:1 orbit at R = 0.8 from eta = 1 down to 0.93: a period-doubling point and its doubled
     branch."""
     return pi.continue_orbit(pi.Params.make(R="0.8", eta="1"), "eta", "1", "0.93", 1)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def period3():
     return pi.continue_orbit(pi.Params.make(eta="0.74"), "eta", "0.74", "0.80", 3)
 

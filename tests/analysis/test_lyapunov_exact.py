@@ -340,7 +340,7 @@ _ON_ORBIT = dict(
 )
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def on_orbit():
     """Started exactly on the (1,2) orbit at eta = 0.985 (issue 35 item 3), and its Floquet
     exponent from the 128-bit Newton orbit (-0.0263450205894733 to 16 digits)."""

@@ -62,7 +62,7 @@ def test_proven_lle_interval_is_rounded_outward():
 
 
 # ---- items 4, 5 and 6: a continuation through a tangential impact, reversed range -----------
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def tangential():
     # R = 0.9, eta from 1.04 down to 0.95: the doubled branch's regula falsi landed on an
     # impact with v^- = 0 exactly: ZeroDivisionError from the saltation matrix (a traceback)

@@ -200,7 +200,7 @@ def _in_box(ball: tuple, q: Fraction) -> bool:
     return abs(Fraction(ball[0]) - q) <= Fraction(ball[1])
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def unstable_1_1():
     """The unstable 1:1 orbit of eta = 0.712 in closed form at 1500 digits (~5000 bits: its
     error 1e-1500 is far below the 4096-bit box, 3e-617)."""

@@ -10,7 +10,7 @@ from precise_impact.analysis.periodicity import detect_period, detect_period_noi
 from precise_impact.errors import ParameterError
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def strobes():
     out = {}
     for eta in ("0.74", "0.712"):

@@ -56,7 +56,7 @@ def _capture(eta: str, seed: int, transient: int = 100, **meas):
             tr["lle_record"])  # fmt: skip
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def variational_0712():
     """The variational LLE at eta = 0.712 (compiled closed form, 4 x 100,000 periods: +-0.2 %,
     ~0.5 s; 4000 periods scatter by 2.5 % rms between realisations, and the default start's

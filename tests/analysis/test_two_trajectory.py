@@ -53,7 +53,7 @@ def test_non_impacting_orbit_gives_minus_zeta(values, transient):
 
 
 # ------------------------------------------------------------------ chaotic regime
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def chaotic():
     """eta = 0.712, 20000 periods after 1000 transient periods (~0.5 s in float64)."""
     return two_trajectory_lle(Params.make(eta="0.712"), periods=20000, transient=1000)

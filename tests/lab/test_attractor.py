@@ -25,7 +25,7 @@ from precise_impact.lab.synth import synth_capture
 BENCH = {"bits": 8, "noise": 0.01, "periods": 200}
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def ideal():
     return {
         eta: synth_capture("fig6-period3-ideal", eta=eta, seed=7, **BENCH)
@@ -33,7 +33,7 @@ def ideal():
     }
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def datasheet():
     return synth_capture("fig6-period2-datasheet", seed=8, **BENCH)
 

@@ -52,7 +52,7 @@ def ngspice(tmp: Path, text: str) -> None:
     subprocess.run(["ngspice", "-b", "c.cir"], cwd=tmp, check=True, capture_output=True)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def raws(tmp_path_factory):
     """One real ngspice run (12 periods) written as binary raw, ASCII raw and wrdata text; and a
     two-plot file (the run, then R3 + 10 %, appended)."""

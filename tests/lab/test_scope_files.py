@@ -14,7 +14,7 @@ from precise_impact.lab.synth import synth_capture
 SUFFIX = {"npz": ".npz", "keysight-bin": ".bin", "tek-tbs": ""}
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def cap():
     return synth_capture("fig6-period3-ideal", periods=8, transient=5, trigger_offset=-2e-3)
 

@@ -439,7 +439,7 @@ def test_certify_cli_json_is_strict_for_exact_points(capsys):
 
 
 # ---- issue 35 item 2: radii below the float range, stated and checked exactly ----------------
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def closed_form_refs():
     """The closed-form engine's samples of eta = 0.74 at mp:4096 and mp:8192 (another engine in
     mpmath, not arb): x, v as exact rationals per sample.  Their own error: 5 periods of a

@@ -181,7 +181,7 @@ def release_exact(t_start) -> mpmath.mpf:
         return (mpmath.pi / 3 + 2 * mpmath.pi * k) / eta
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def forced_ref():
     """192 bits: eps ~ 1.6e-58, far below the 128-bit run's eps ~ 5.9e-39 (2.2 s; 256 bits took
     6.4 s)."""

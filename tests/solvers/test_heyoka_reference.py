@@ -67,7 +67,7 @@ def test_precisions_agree_on_periodic_orbits(eta, precision):
 
 
 # ------------------------------------------------------------------ chaotic regime
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def chaotic_mp256():
     return simulate(Params.make(eta="0.712"), 200, precision="mp:256")
 

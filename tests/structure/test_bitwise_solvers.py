@@ -141,7 +141,7 @@ def _cases() -> dict:
     return out
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def now() -> dict:
     pytest.importorskip("heyoka")
     pytest.importorskip("flint")

@@ -29,7 +29,7 @@ def errors(traj, ref, start=0, stop=None):
     return out
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def ref74():
     return load_reference("single-0.74")
 

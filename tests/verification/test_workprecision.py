@@ -30,7 +30,7 @@ TINY = {
 }
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def tiny(tmp_path_factory):
     out = tmp_path_factory.mktemp("wp")
     return work_precision(quick=True, out=out, progress=False, config=TINY), out

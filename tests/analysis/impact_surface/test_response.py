@@ -30,13 +30,13 @@ from precise_impact.errors import BudgetExceededError, ConvergenceError, Paramet
 TOL = 1e-12
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def sigma_curve():
     p = pi.Params.make(zeta="0", a="1", R="0.8", eta="2.8", x_w="-1", x0="-2")
     return response_curve(p, 1, "x_w", "-2", "0.5", at="-1", max_points=400)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def omega_curve():
     p = pi.Params.make(zeta="0", a="1", R="0.8", eta="2.8", x_w="-0.5", x0="-2")
     return response_curve(p, 1, "eta", "1.5", "5", at="2.8", max_points=400)

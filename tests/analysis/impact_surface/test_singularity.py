@@ -12,7 +12,7 @@ from precise_impact.analysis.impact_surface.impact_map import impact_map
 from precise_impact.analysis.impact_surface.singularity import singularity_set
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def chaotic_set():
     return singularity_set(pi.Params.make(eta="0.712"), step=0.01)
 
