@@ -206,6 +206,8 @@ JSON_COMMANDS = {
     + ["--orbit", "0"],
     "basins": ["basins", "--eta", "0.74", "--phase", "0", "1", "3", "--v", "0", "2", "2"]
     + ["--transient", "20", "--out", "{out}"],
+    # {tmp}/scope.csv: 30 periods of the period-3 orbit, written by the test first
+    "identify": ["identify", "{tmp}/scope.csv", "--scene", "fig6-period3-ideal"],
 }
 #: Over ~5 s each: CI runs them in its slow step.
 SLOW_JSON = {"bench", "compare", "spice"}
@@ -277,7 +279,17 @@ def test_every_json_command_prints_one_strict_json_object(name, tmp_path, monkey
         small = functools.partial(bench.work_precision, config=BENCH_JSON_CONFIG)
         monkeypatch.setattr(bench, "work_precision", small)
 
-    args = [a.replace("{out}", str(tmp_path / "out")) for a in JSON_COMMANDS[name]] + ["--json"]
+    if name == "identify":
+        from precise_impact.lab.scope_files import write_capture
+        from precise_impact.lab.synth import synth_capture
+
+        cap = synth_capture("fig6-period3-ideal", periods=30, seed=3)
+        write_capture(cap, tmp_path / "scope.csv", "rigol")
+
+    args = [
+        a.replace("{out}", str(tmp_path / "out")).replace("{tmp}", str(tmp_path))
+        for a in JSON_COMMANDS[name]
+    ] + ["--json"]
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         code = main(args)

@@ -315,6 +315,7 @@ LAB_LAYERS = {
     "precise_impact.lab.attractor": 5,
     "precise_impact.lab.budget": 6,
     "precise_impact.lab.netlist": 6,
+    "precise_impact.lab.identify": 6,
 }
 # Upward edges still there, each a function-local import with its reason (module -> module).
 # (none: Capture.save and scope_files.write_capture share lab.scope_writers, below capture)

@@ -96,6 +96,7 @@ if TYPE_CHECKING:  # the names for type checkers and readers; at run time loaded
     )
     from precise_impact.lab.budget import ToleranceBudget, tolerance_budget
     from precise_impact.lab.capture import Capture
+    from precise_impact.lab.identify import Identification, identify
     from precise_impact.lab.netlist import NetlistScoreResult, read_raw, score_netlist
     from precise_impact.lab.scope_files import read_capture, write_capture
     from precise_impact.lab.synth import Measurement, synth_capture
@@ -244,6 +245,10 @@ _MODULES: dict[str, tuple[str, ...]] = {
         "tolerance_budget",
     ),
     "precise_impact.lab.capture": ("Capture",),
+    "precise_impact.lab.identify": (
+        "Identification",
+        "identify",
+    ),
     "precise_impact.lab.netlist": (
         "NetlistScoreResult",
         "read_raw",
@@ -454,6 +459,8 @@ __all__ = [
     "CaptureScore",
     "measured_bifurcation",
     "MeasuredBifurcation",
+    "identify",
+    "Identification",
     "tolerance_budget",
     "ToleranceBudget",
     "__version__",

@@ -1,13 +1,8 @@
-"""Tolerance budget: how the paper's landmarks move with every component of a circuit design.
-
-The landmarks (:data:`LANDMARKS`: the grazing frequency, the 1:1 orbit's period doubling, the
-ends of the Fig. 6 period-3 orbit's interval, the LLE at eta = 0.712) are forcing frequencies
-``f_L = eta_L(theta(c)) omega(c) / (2 pi)`` of the signal generator; ``theta(c)``, ``omega(c)``
-is the effective system the components ``c`` realise (:func:`effective_parameters`).  Their
-derivatives: the implicit-function theorem on each branch point's augmented system
-(:mod:`precise_impact.analysis.orbits.landmarks`), chained with the parameter map, both in
-exact dual numbers; then Monte Carlo, Sobol indices (SALib, optional), worst-case corners and
-the existence limits of the Fig. 6 orbit.  The method and its checks: docs/guide/tolerance.rst.
+"""Tolerance budget: how the paper's landmarks (:data:`LANDMARKS`) move with every component of a
+circuit design: derivatives by the implicit-function theorem on each branch point's augmented
+system, chained with the components' parameter map (:func:`effective_parameters`) in exact dual
+numbers; then Monte Carlo, Sobol indices (SALib), worst-case corners and the existence limits of
+the Fig. 6 orbit.  Method and checks: docs/guide/tolerance.rst.
 """
 
 from __future__ import annotations

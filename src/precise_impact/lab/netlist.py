@@ -1,13 +1,7 @@
-"""Your own netlist: run a user's ngspice/LTspice netlist (or read its ``.raw`` waveforms) and
-score it against the demonstrated mechanical reference from the same initial state.
-
-The node voltages carrying position, velocity and forcing are named by the user
-(:class:`NodeMap`, :func:`load_map`); volts and seconds map to ``(x, x', tau)`` from the design's
-component values or from scales fitted to the waveform, each with its standard error; the run is
-scored by :func:`precise_impact.verification.scores.score` against the heyoka reference of
-:mod:`precise_impact.verification.compare`.  Raw files are read with spicelib's ``RawRead``
-(why, and its measured exactness: :doc:`/guide/netlist`, "Reading raw files: spicelib");
-LTspice's lossy compression: :func:`lt_compression`.
+"""Your own netlist: run a user's ngspice/LTspice netlist (or read its ``.raw`` waveforms, with
+spicelib's ``RawRead``) and score it against the demonstrated mechanical reference from the same
+initial state; the nodes are named by the user (:class:`NodeMap`), volts and seconds map to
+``(x, x', tau)`` from the design or from fitted scales.  Details: :doc:`/guide/netlist`.
 """
 
 from __future__ import annotations

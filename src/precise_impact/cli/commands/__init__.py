@@ -4,7 +4,7 @@ Each module exposes ``register(subparsers) -> ArgumentParser`` (adds its parser,
 ``set_defaults(run=run)``) and ``run(ns) -> int`` (the exit status).  :data:`MODULES` is the
 one list of them, in the order ``precise-impact --help`` shows: a new command is one new
 module here plus one entry in that list.  A module is imported when its command is parsed
-(:func:`load`): a run pays for its own command's imports only, not all 23 (0.3-0.9 s less
+(:func:`load`): a run pays for its own command's imports only, not all 24 (0.3-0.9 s less
 per run, measured with ``-X importtime``); :data:`COMMANDS` imports them all.
 """
 
@@ -36,6 +36,7 @@ MODULES: dict[str, str] = {
     "spice": "spice",
     "budget": "budget",
     "capture": "capture",
+    "identify": "identify",
     "impact-map": "impact_map",
     "singularity": "singularity",
     "basins": "basins",
