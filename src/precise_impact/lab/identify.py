@@ -664,6 +664,10 @@ class Identification(ResultMixin):
     curves : dict
         The record and the fitted model over its first :data:`CURVE_PERIODS` forcing periods
         (``t`` [s], ``x``, ``v``, ``x_model``, ``v_model``, impact times ``t_impacts``).
+
+    See Also
+    --------
+    identify : makes one.
     """
 
     parameters: dict
@@ -1042,6 +1046,19 @@ def identify(
     ParameterError
         One line naming what cannot be identified and why: too few samples per period, too
         short, clipped or wrong channels, too few impacts, residuals far above the noise.
+
+    See Also
+    --------
+    precise_impact.lab.attractor.score_capture : a capture's distance from a chosen model.
+    precise_impact.lab.synth.synth_capture : captures with known truth.
+
+    Examples
+    --------
+    >>> from precise_impact import identify, synth_capture
+    >>> cap = synth_capture("fig6-period3-ideal", periods=30, seed=2)
+    >>> r = identify(cap, "fig6-period3-ideal")
+    >>> r.covers("eta", 0.74), r.impacts["total"]
+    (True, 20)
 
     References
     ----------
