@@ -175,12 +175,12 @@ def _residuals(g: dict, starts: np.ndarray, rec: Record, seg: Segments):
 def jacobian(
     g: dict, starts: np.ndarray, rec: Record, seg: Segments, with_globals: bool = True
 ) -> dict:
-    """Residuals and their derivatives: ``{'rx', 'rv', 'ok', 'Lx', 'Lv', 'Gx', 'Gv'}`` with
+    """Residuals and their derivatives: ``{'rx', 'rv', 'Lx', 'Lv', 'Gx', 'Gv'}`` with
     ``L*`` (samples x 2) by each sample's own segment start and ``G*`` (samples x globals).
     Complex steps: one for all segments' ``x0`` at once (a segment's samples depend on its own
     start only), one for ``v0``, one per global of the dynamics; the channels' gain and
     offsets enter linearly (their columns are the model's own values)."""
-    x, v, ok = model(g, starts, rec, seg)
+    x, v, _ = model(g, starts, rec, seg)
     n = len(rec.t)
     Lx, Lv = np.empty((n, 2)), np.empty((n, 2))
     for k in range(2):
@@ -198,7 +198,7 @@ def jacobian(
         Gv[:, GLOBALS.index("g_v")] = (v - g["o_v"]) / g["g_v"]
         Gx[:, GLOBALS.index("o_x")] = 1.0
         Gv[:, GLOBALS.index("o_v")] = 1.0
-    return {"rx": rec.x - x, "rv": rec.v - v, "ok": ok, "Lx": Lx, "Lv": Lv, "Gx": Gx, "Gv": Gv}
+    return {"rx": rec.x - x, "rv": rec.v - v, "Lx": Lx, "Lv": Lv, "Gx": Gx, "Gv": Gv}
 
 
 # ============================================================================ normal equations
