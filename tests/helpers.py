@@ -6,7 +6,9 @@ The paper (Denysenko, Balcerzak, Dabrowski): zeta = 0.05, a = 1, x_w = 2, R = 1;
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -41,3 +43,23 @@ def exponent_sum(params: pi.Params, impacts: int, time: float) -> float:
     exactly, chaotic or not: an identity every tangent integrator must reproduce.
     """
     return -2 * float(params.zeta) + impacts / time * math.log(float(params.R) ** 2)
+
+
+def check_accuracy_outputs(out, stdout: str) -> None:
+    """What ``precise-impact accuracy --out OUT`` leaves: a table on stdout, accuracy.json and
+    a plot; every reference demonstrated (< 1e-40), heyoka float64 and the compiled engine at
+    float64 accuracy on the periodic case (tests/cli/test_cli.py's run and the README's)."""
+    out = Path(out)
+    assert "reference" in stdout
+    res = json.loads((out / "accuracy.json").read_text())
+    assert (out / "accuracy.png").stat().st_size > 10_000
+    refs = [row for row in res["rows"] if row["role"] != "candidate"]
+    assert len(refs) == 3 and all(row["max_error"] < 1e-40 for row in refs)
+    f64 = {
+        row["eta"]: row["max_error"]
+        for row in res["rows"]
+        if row["model"] == "heyoka" and row["precision"] == "float64"
+    }
+    assert f64["0.74"] < 1e-12
+    fast = {row["eta"]: row["max_error"] for row in res["rows"] if row["model"] == "fast"}
+    assert fast["0.74"] < 1e-12  # the compiled engine scored like every model: float64 accuracy

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import pytest
 
+from helpers import check_accuracy_outputs
 from precise_impact.cli.main import build_parser, main
 from precise_impact.io.lock import LOCK_NAME
 from precise_impact.io.markdown import parse_tables
@@ -196,7 +197,11 @@ def _run_server(cmd: str, cwd: Path) -> tuple[int, str]:
     return (0 if ok else p.returncode or 1), err
 
 
-def _run_sequence(tmp_path: Path, quick: bool) -> list[tuple[str, float]]:
+def _run_sequence(
+    tmp_path: Path, quick: bool, stdouts: dict[str, str] | None = None
+) -> list[tuple[str, float]]:
+    """Each command's seconds, in order; ``stdouts`` (when given) receives each subprocess
+    command's standard output."""
     cmds = readme_commands()
     unknown = [c for c in cmds if not c.startswith("precise-impact ") and not _is_setup(c)]
     assert not unknown, f"README commands neither run here nor set-up: {unknown}"
@@ -231,6 +236,8 @@ def _run_sequence(tmp_path: Path, quick: bool) -> list[tuple[str, float]]:
                 timeout=900,
             )
             status, stderr = r.returncode, r.stderr
+            if stdouts is not None:
+                stdouts[run] = r.stdout
         timings.append((run, time.perf_counter() - t0))
         assert status == 0, f"README command failed ({status}): {run}\n{stderr[-2000:]}"
         assert "Traceback" not in stderr, run
@@ -356,12 +363,18 @@ def _check_main_job(out: Path) -> None:
 
 @pytest.mark.slow  # reproduce --quick and bench work-precision --quick: minutes in all
 def test_readme_sequence(tmp_path):
-    timings = _run_sequence(tmp_path, quick=False)
+    outputs: dict[str, str] = {}
+    timings = _run_sequence(tmp_path, quick=False, stdouts=outputs)
     print("\n".join(f"{t:7.1f} s  {c}" for c, t in timings))
     print(f"{sum(t for _, t in timings):7.1f} s  in all")
     main_job = [c for c, _ in timings if c.startswith("precise-impact reproduce --quick")]
     assert main_job == ["precise-impact reproduce --quick --out results"], main_job
     _check_main_job(tmp_path / "results")
+    # the accuracy job's outputs, as tests/cli/test_cli.py::test_accuracy_job checks them (it is
+    # left out of a session that runs this test)
+    accuracy = [c for c, _ in timings if c.startswith("precise-impact accuracy")]
+    assert accuracy == ["precise-impact accuracy --out results"], accuracy
+    check_accuracy_outputs(tmp_path / "results", outputs["precise-impact accuracy --out results"])
     # a second run of the main job into the same directory is refused, naming its own file
     r = subprocess.run(
         [_python(), "-m", "precise_impact", "reproduce", "--quick", "--out", "results"],

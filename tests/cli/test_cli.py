@@ -10,6 +10,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
+from helpers import check_accuracy_outputs
 from precise_impact import Params, Precision, simulate
 from precise_impact.cli.main import main
 
@@ -126,23 +127,13 @@ def test_out_files(tmp_path, capsys):
     assert not list(tmp_path.glob(".*.tmp"))  # atomic writes leave no temporaries
 
 
+@pytest.mark.covered_by("tests/test_readme_sequence.py::test_readme_sequence")
 def test_accuracy_job(tmp_path):
-    """The README's main job: a table, a JSON file and a plot; reference demonstrated."""
+    """The README's ``accuracy`` job: a table, a JSON file and a plot; references demonstrated
+    (the slow README sequence checks the same on the README's own run of 100 periods)."""
     r = run("accuracy", "--periods", "30", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr
-    assert "reference" in r.stdout
-    res = json.loads((tmp_path / "accuracy.json").read_text())
-    assert (tmp_path / "accuracy.png").stat().st_size > 10_000
-    refs = [row for row in res["rows"] if row["role"] != "candidate"]
-    assert len(refs) == 3 and all(row["max_error"] < 1e-40 for row in refs)
-    f64 = {
-        row["eta"]: row["max_error"]
-        for row in res["rows"]
-        if row["model"] == "heyoka" and row["precision"] == "float64"
-    }
-    assert f64["0.74"] < 1e-12
-    fast = {row["eta"]: row["max_error"] for row in res["rows"] if row["model"] == "fast"}
-    assert fast["0.74"] < 1e-12  # the compiled engine scored like every model: float64 accuracy
+    check_accuracy_outputs(tmp_path, r.stdout)
 
 
 def test_lle_json_contract():

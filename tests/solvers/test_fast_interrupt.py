@@ -313,14 +313,13 @@ def test_an_interrupted_fast_sweep_keeps_whole_tiles(tmp_path):
 
 @pytest.mark.slow
 def test_signals_at_random_moments():
-    """Ten signals at random moments of the run (SIGINT and SIGTERM alternately) for lle
-    --model fast, and for a fast sweep, which then resumes to the same numbers as one
-    uninterrupted run."""
+    """Up to ten signals at random moments of a fast sweep (SIGINT and SIGTERM alternately),
+    each run resuming the last one's tiles, end in the same numbers as one uninterrupted run.
+    (Ten signals at random moments of ``lle --model fast``, most of them inside its compiled
+    kernel, are tests/test_interrupts.py's slow tries of lle-fast: this test sent ten more.)"""
     rng = random.Random(28)
-    worst = 0.0
-    for k in range(10):
-        sig = signal.SIGINT if k % 2 == 0 else signal.SIGTERM
-        worst = max(worst, _lle_interrupted(sig, rng.uniform(0.0, 3.0)))
+    for _ in range(10):  # the moments the lle tries drew before: the sweep's stay the same
+        rng.uniform(0.0, 3.0)
     import tempfile
 
     with tempfile.TemporaryDirectory() as tmp:

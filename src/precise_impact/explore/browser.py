@@ -147,22 +147,27 @@ SHOTS: tuple[tuple[str, str, Callable[[Any], None] | None], ...] = (
 
 
 def screenshots(
-    out: str | Path = ".", shots: Any = SHOTS, width: int = 1500, browser: Any = None
+    out: str | Path = ".",
+    shots: Any = SHOTS,
+    width: int = 1500,
+    browser: Any = None,
+    url: str | None = None,
 ) -> list[Path]:
     """Each of ``shots`` (name, query, action) from the running application in Debian's
     chromium (or in ``browser``, a Playwright browser already open), written as PNG files
-    into ``out``; returns their paths."""
+    into ``out``; returns their paths.  The application is the explorer at ``url`` when given,
+    else one started for these shots."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with explorer() as url:
+    with explorer() if url is None else contextlib.nullcontext(url) as app:
         if browser is not None:
-            return [_shot(browser, url, out / name, q, a, width) for name, q, a in shots]
+            return [_shot(browser, app, out / name, q, a, width) for name, q, a in shots]
         from playwright.sync_api import sync_playwright  # noqa: PLC0415 -- optional: [test]
 
         with sync_playwright() as pw:
             b = pw.chromium.launch(executable_path=chromium(), args=ARGS)
             try:
-                return [_shot(b, url, out / name, q, a, width) for name, q, a in shots]
+                return [_shot(b, app, out / name, q, a, width) for name, q, a in shots]
             finally:
                 b.close()
 
