@@ -202,6 +202,17 @@ def add_units(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_capture_reading(p: argparse.ArgumentParser, formats: tuple[str, ...]) -> None:
+    """``--channels`` and ``--format``: how a scope file's channels and layout are read
+    (``formats``: the readers' layouts, :data:`precise_impact.lab.scope_files.READ_FORMATS`)."""
+    p.add_argument(
+        "--channels",
+        default=None,
+        help="the file's channels for V_s,V_q[,V_3]: CH1,CH2[,CH3] or V_s=CH2,V_q=CH1",
+    )
+    p.add_argument("--format", default="auto", choices=formats, help="file layout")
+
+
 def add_max_time(p: argparse.ArgumentParser) -> None:
     """``--max-time S``: the time budget, checked against the job's estimate before any work."""
     p.add_argument(

@@ -12,7 +12,14 @@ import argparse
 import math
 from pathlib import Path
 
-from precise_impact.cli.args import Parser, add_json, add_max_time, add_out, max_time
+from precise_impact.cli.args import (
+    Parser,
+    add_capture_reading,
+    add_json,
+    add_max_time,
+    add_out,
+    max_time,
+)
 from precise_impact.errors import ParameterError
 from precise_impact.io.atomic import atomic_write
 from precise_impact.io.figures import check_plot_path
@@ -104,12 +111,7 @@ def register(sub) -> argparse.ArgumentParser:
     sc = cs.add_parser("score", help="score a capture against a model's attractor")
     sc.add_argument("file", help="capture file (or a Tektronix ALLnnnn directory)")
     _scene_flags(sc)
-    sc.add_argument(
-        "--channels",
-        default=None,
-        help="the file's channels for V_s,V_q[,V_3]: CH1,CH2[,CH3] or V_s=CH2,V_q=CH1",
-    )
-    sc.add_argument("--format", default="auto", choices=READ_FORMATS, help="file layout")
+    add_capture_reading(sc, READ_FORMATS)
     sc.add_argument("--phase", default="0", help="forcing phase of the Poincare section, rad")
     sc.add_argument("--floor-captures", default="3", help="model captures for the floor (2..8)")
     sc.add_argument("--seed", default="0", help="seed of the model captures (default 0)")

@@ -6,7 +6,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from precise_impact.cli.args import add_json, add_max_time, add_out, max_time
+from precise_impact.cli.args import (
+    add_capture_reading,
+    add_json,
+    add_max_time,
+    add_out,
+    max_time,
+)
 from precise_impact.core.budget import check_work
 from precise_impact.core.params import check_count
 from precise_impact.io.jsonout import print_json, write_json
@@ -22,12 +28,7 @@ def register(sub) -> argparse.ArgumentParser:
         help="the oscillator a capture realises: eta, zeta, a, x_w, R with standard errors",
     )
     p.add_argument("file", help="capture file (or a Tektronix ALLnnnn directory)")
-    p.add_argument(
-        "--channels",
-        default=None,
-        help="the file's channels for V_s,V_q[,V_3]: CH1,CH2[,CH3] or V_s=CH2,V_q=CH1",
-    )
-    p.add_argument("--format", default="auto", choices=READ_FORMATS, help="file layout")
+    add_capture_reading(p, READ_FORMATS)
     p.add_argument(
         "--scene",
         default="fig5-chaotic-ideal",
