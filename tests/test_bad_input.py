@@ -127,6 +127,8 @@ CLI_CASES = [
 
 @pytest.mark.parametrize("argv, name", CLI_CASES)
 def test_cli_bad_input_exit_2_names_the_parameter(argv, name, capsys, tmp_path):
+    # each case its own --out: cases sharing one raced for its lock in parallel workers
+    argv = [str(tmp_path / "x") if a == "/tmp/x" else a for a in argv]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"precise-impact: error: {name} = ") and err.count("\n") == 1

@@ -700,3 +700,43 @@ def test_known_certify_coupled_large_forcing_is_one_line():
     )
     assert code == 0 and not err.strip(), err[-800:]
     assert json.loads(out)["periods"] == 2
+
+
+def test_runs_racing_into_a_new_out_directory_are_run_or_refused(tmp_path):
+    """A run that releases the directory its lock created removes it; a second run that had
+    just made the same directory then opened its lock file in a directory that was gone: an
+    I/O error (exit 4 instead of 2: seen once in CI, two bad-input tests sharing ``--out``).
+    Every racer must now either hold the lock or be refused (ParameterError), nothing else."""
+    import threading
+
+    from precise_impact.errors import ParameterError
+    from precise_impact.io.lock import DirectoryLock
+
+    out, outcomes, errors = tmp_path / "new" / "out", {"held": 0, "refused": 0}, []
+    guard = threading.Lock()
+
+    def race():
+        for _ in range(1000):  # failed 2 runs in 3 at 400 before the fix
+            try:
+                with DirectoryLock(out):
+                    kind = "held"
+            except ParameterError:
+                kind = "refused"
+            except OSError as e:  # the defect
+                errors.append(e)
+                return
+            with guard:
+                outcomes[kind] += 1
+
+    threads = [threading.Thread(target=race) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors[:3]
+    assert outcomes["held"] > 0, outcomes
+    # what is left is at most a released (empty) lock file: a racer may open the lock file
+    # between a releasing creator's unlink and rmdir, and a directory with a file is kept
+    left = list(out.iterdir()) if out.exists() else []
+    assert [p.name for p in left] in ([], [".precise_impact.lock"]), left
+    assert all(p.read_text() == "" for p in left)

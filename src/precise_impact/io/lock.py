@@ -111,7 +111,12 @@ class DirectoryLock:
         }
         if fcntl is not None:
             while True:
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+                try:
+                    fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+                except FileNotFoundError:  # a releasing holder removed the directory it made
+                    self._created = True
+                    self.directory.mkdir(parents=True, exist_ok=True)
+                    continue
                 try:
                     fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 except BlockingIOError:
