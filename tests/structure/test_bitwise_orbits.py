@@ -5,13 +5,13 @@
 result is canonicalised field by field: floats as ``float.hex``, mpmath numbers as their
 exact mantissa/exponent tuples, ball midpoints and radii as the exact decimal strings of
 the result; wall times (``elapsed_s``, ``time_s``) are left out.
+One set of values per machine (bits differ across CPUs): ``machine_goldens.py``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import sys
 from fractions import Fraction
 from pathlib import Path
@@ -19,6 +19,7 @@ from pathlib import Path
 import mpmath
 import numpy as np
 import pytest
+from machine_goldens import cases, record
 
 import precise_impact as pi
 from precise_impact.analysis.orbits.landmarks import end_point, interval_ends, seed_landmark
@@ -115,10 +116,8 @@ CASES = {
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_bitwise(name):
-    golden = json.loads(GOLDEN.read_text())
-    assert canon(CASES[name]()) == golden[name]
+    assert canon(CASES[name]()) == cases(GOLDEN)[name]
 
 
 if __name__ == "__main__" and "--regenerate" in sys.argv:
-    GOLDEN.write_text(json.dumps({k: canon(f()) for k, f in CASES.items()}, indent=1) + "\n")
-    print("wrote", GOLDEN)
+    record(GOLDEN, {k: canon(f()) for k, f in CASES.items()})

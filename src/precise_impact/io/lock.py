@@ -96,7 +96,7 @@ class DirectoryLock:
 
     def acquire(self) -> DirectoryLock:
         self._created = not self.directory.exists()
-        self.directory.mkdir(parents=True, exist_ok=True)
+        self._make_directory()
         key = os.path.realpath(self.directory)
         with _HELD_GUARD:
             held = _HELD.get(key)
@@ -115,7 +115,7 @@ class DirectoryLock:
                     fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
                 except FileNotFoundError:  # a releasing holder removed the directory it made
                     self._created = True
-                    self.directory.mkdir(parents=True, exist_ok=True)
+                    self._make_directory()
                     continue
                 try:
                     fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -158,6 +158,19 @@ class DirectoryLock:
             self._fd = fd
             self._hold(key)
             return self
+
+    def _make_directory(self) -> None:
+        """The directory made if missing, also while racers make and remove it (``mkdir``'s
+        ``exist_ok`` raises when the directory it found is removed before its own check)."""
+        while True:
+            try:
+                self.directory.mkdir(parents=True, exist_ok=True)
+                return
+            except FileExistsError:
+                if not self.directory.is_dir() and (
+                    self.directory.exists() or self.directory.is_symlink()
+                ):  # a file, or a dangling link: not a race
+                    raise
 
     def _hold(self, key: str) -> None:
         self._key = key
