@@ -243,3 +243,22 @@ def test_no_dense_sample_lies_beyond_the_wall(seed):
     tr = FastSolver(fallback=False).solve(p, 40, per_period=1000)
     scale = 1 + abs(float(p.x_w)) + abs(float(p.a))
     assert np.max(np.asarray(tr.dense_x) - float(p.x_w)) <= 64 * EPS * scale
+
+
+def _fast_lle_in_child(_):
+    import precise_impact as pi
+
+    r = pi.lyapunov(pi.Params.make(eta="0.712"), model="fast", periods=600, transient=100)
+    return r.lle, r.n_impacts
+
+
+def test_a_child_forked_after_a_fast_run_gets_the_same_exponent():
+    """GNU OpenMP's threads do not survive fork(): a child forked after the parent's parallel
+    kernel ran printed "Terminating: fork() called ..." and returned LLE 0.0 with no impacts.
+    The child now runs the serial kernel: the same numbers as the parent's, bit for bit."""
+    import multiprocessing
+
+    parent = _fast_lle_in_child(0)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        child = pool.map(_fast_lle_in_child, [0])[0]
+    assert parent[1] > 0 and child == parent

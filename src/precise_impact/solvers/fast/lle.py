@@ -8,6 +8,7 @@ Benettin et al., Meccanica 15 (1980) 9-30; Müller, Chaos Solitons Fractals 5 (1
 from __future__ import annotations
 
 import math
+import os
 from fractions import Fraction
 from typing import Any
 
@@ -366,6 +367,30 @@ def _make_batch(parallel: bool):
 #: nothing; :func:`lle_batch` is the way to call them (signals, progress).
 LLE_KERNELS = {True: _make_batch(True), False: _make_batch(False)}
 
+#: The threads of the parallel kernel: ``'unused'``, ``'running'`` in this process, or
+#: ``'lost'`` in a child forked after they started.  GNU OpenMP's pool does not survive
+#: ``fork()``: the child's parallel kernel printed "Terminating: fork() called from a process
+#: already using GNU OpenMP" and ran none of its orbits, and ``lyapunov(model='fast')``
+#: returned LLE 0.0 with no impacts (a ``multiprocessing`` pool with the 'fork' start method
+#: after one fast run in the parent).  A child that lost them runs the serial kernel.
+_THREADS = {"state": "unused"}
+
+
+def _lose_threads() -> None:
+    if _THREADS["state"] == "running":
+        _THREADS["state"] = "lost"
+
+
+os.register_at_fork(after_in_child=_lose_threads)
+
+
+def _kernel(parallel: bool):
+    """The batch kernel to run: the parallel one unless this process lost its threads."""
+    if parallel and _THREADS["state"] != "lost":
+        _THREADS["state"] = "running"
+        return LLE_KERNELS[True]
+    return LLE_KERNELS[False]
+
 
 def batch_outputs(n: int, blocks: int, keep: int) -> tuple[np.ndarray, ...]:
     """The batch kernels' output arrays for ``n`` orbits, zeroed: ``status, log1, log2,
@@ -435,7 +460,7 @@ def lle_batch(
     stop, counts = new_flag(), np.zeros(n, np.int64)
     length = transient + periods
     args = (pars, starts, periods, transient, blocks, max_impacts, bool(abort_on_failure))
-    kernel = LLE_KERNELS[bool(parallel)]
+    kernel = _kernel(bool(parallel))
     try:
         run_kernel(
             kernel,
