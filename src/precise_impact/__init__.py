@@ -98,6 +98,7 @@ if TYPE_CHECKING:  # the names for type checkers and readers; at run time loaded
     from precise_impact.lab.capture import Capture
     from precise_impact.lab.identify import Identification, identify
     from precise_impact.lab.netlist import NetlistScoreResult, read_raw, score_netlist
+    from precise_impact.lab.predict import Prediction, predict
     from precise_impact.lab.scope_files import read_capture, write_capture
     from precise_impact.lab.synth import Measurement, synth_capture
     from precise_impact.models.circuit.components import Components, nominal_components
@@ -248,6 +249,10 @@ _MODULES: dict[str, tuple[str, ...]] = {
     "precise_impact.lab.identify": (
         "Identification",
         "identify",
+    ),
+    "precise_impact.lab.predict": (
+        "Prediction",
+        "predict",
     ),
     "precise_impact.lab.netlist": (
         "NetlistScoreResult",
@@ -461,6 +466,8 @@ __all__ = [
     "MeasuredBifurcation",
     "identify",
     "Identification",
+    "predict",
+    "Prediction",
     "tolerance_budget",
     "ToleranceBudget",
     "__version__",

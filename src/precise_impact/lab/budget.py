@@ -40,6 +40,7 @@ from precise_impact.scenes.scene import Scene, load_scene
 
 __all__ = [
     "tolerance_budget",
+    "landmark_at",
     "ToleranceBudget",
     "effective_parameters",
     "LANDMARKS",
@@ -845,6 +846,23 @@ def _locate(name: str, orbit_d, ends: dict, p3_why: str, theta0: np.ndarray) -> 
     kind, start, stop, period, impacts = _SEARCH[name]
     bp, _ = landmark_from_continuation(kind, _PAPER_THETA, start, stop, period, impacts)
     return _move(bp, theta0)
+
+
+def landmark_at(name: str, theta: Any, eta_near: float = FIG6_ETA) -> BranchPoint:
+    """Landmark ``name`` (one of :data:`BRANCH_LANDMARKS`) of the system ``theta = (zeta, a,
+    x_w)`` with R = 1, found as the budget finds it at a design: the period-3 window's ends
+    from the Fig. 6 orbit carried to ``(theta, eta_near)``.  ``bp.eta`` is its frequency,
+    ``bp.sensitivity()`` its ``d eta / d theta``; :class:`ConvergenceError` when it is absent.
+    """
+    theta = np.asarray(theta, dtype=float)
+    if name not in BRANCH_LANDMARKS:
+        raise ParameterError("landmark", name, "one of " + ", ".join(BRANCH_LANDMARKS))
+    if name not in ("p3_low", "p3_high"):
+        return _locate(name, None, {}, "", theta)
+    orbit = _carry_orbit(_paper_orbit(), theta, eta_near)
+    if not orbit.stable():
+        raise ConvergenceError(f"the period-3 orbit is unstable at eta = {eta_near}")
+    return _locate(name, orbit, interval_ends(orbit), "", theta)
 
 
 def _derivatives(name, bp, lin: _Linear, sig, fd_check, deadline, say) -> dict:

@@ -664,6 +664,9 @@ class Identification(ResultMixin):
     curves : dict
         The record and the fitted model over its first :data:`CURVE_PERIODS` forcing periods
         (``t`` [s], ``x``, ``v``, ``x_model``, ``v_model``, impact times ``t_impacts``).
+    covariance : dict
+        ``{'names': GLOBALS, 'values': [...], 'matrix': [[...]]}``: the fitted globals and their
+        covariance, unrounded (what :func:`~precise_impact.lab.predict.predict` samples).
 
     See Also
     --------
@@ -681,6 +684,7 @@ class Identification(ResultMixin):
     seconds: float
     curves: dict = dataclasses.field(default_factory=dict)
     notes: list = dataclasses.field(default_factory=list)
+    covariance: dict = dataclasses.field(default_factory=dict)
 
     def _tables(self) -> dict:
         """``to_dataframe()`` tables ``parameters`` (one row per reported quantity: value,
@@ -1096,6 +1100,11 @@ def identify(
         iterations=int(fit["iterations"]),
         seconds=time.perf_counter() - t0,
         curves=curves(fit, rec, seg),
+        covariance={
+            "names": list(GLOBALS),
+            "values": [float(fit["g"][k]) for k in GLOBALS],
+            "matrix": cov.tolist(),
+        },
     )
 
 

@@ -1,5 +1,5 @@
-"""``precise-impact identify``: the impact oscillator a scope capture realises, with standard
-errors, confidence intervals and correlations (:func:`precise_impact.lab.identify.identify`)."""
+"""``precise-impact identify``: the impact oscillator a capture realises, with standard errors
+(:func:`~precise_impact.lab.identify.identify`); ``--predict``: what it does (``lab.predict``)."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from precise_impact.core.params import check_count
 from precise_impact.io.jsonout import print_json, write_json
 from precise_impact.io.progress import say
 from precise_impact.lab.identify import SECONDS_PER_SAMPLE, identify
+from precise_impact.lab.predict import SECONDS_PER_SAMPLE_RUN, predict
 from precise_impact.lab.scope_files import READ_FORMATS, read_capture
 
 
@@ -35,12 +36,24 @@ def register(sub) -> argparse.ArgumentParser:
         help="the design whose volts and seconds per unit map the channels (default: the paper's)",
     )
     p.add_argument("--bootstrap", default="0", help="parametric bootstrap refits (default 0)")
-    p.add_argument("--seed", default="0", help="the bootstrap's seed (default 0)")
+    p.add_argument("--seed", default="0", help="the bootstrap's and the samples' seed (default 0)")
+    p.add_argument(
+        "--predict",
+        action="store_true",
+        help="also what the identified system does: its attractor, LLE and landmarks, with the "
+        "identification's uncertainty carried through",
+    )
+    p.add_argument(
+        "--samples",
+        default="48",
+        help="with --predict: parameter sets drawn from the fit's covariance (default 48)",
+    )
     add_out(
         p,
         "dir",
-        "write identify.json and identify.png here",
-        writes=("identify.json", "identify.png"),
+        "write identify.json and identify.png here (with --predict also predict.json and "
+        "predict.png)",
+        writes=_writes,
     )
     add_max_time(p)
     add_json(p)
@@ -48,39 +61,55 @@ def register(sub) -> argparse.ArgumentParser:
     return p
 
 
+def _writes(ns: argparse.Namespace) -> tuple[str, ...]:
+    extra = ("predict.json", "predict.png") if ns.predict else ()
+    return ("identify.json", "identify.png", *extra)
+
+
 def run(ns: argparse.Namespace) -> int:
     """Run ``identify``; returns the exit status."""
     boot = check_count(ns.bootstrap, "bootstrap", 1000, minimum=0)
     seed = check_count(ns.seed, "seed", 2**31 - 1, minimum=0)
+    samples = check_count(ns.samples, "samples", 10_000, minimum=2)
     cap = read_capture(ns.file, ns.channels, ns.format)
     check_work(
-        f"identify: {len(cap.t)} samples x {1 + boot} fits",
-        len(cap.t) * (1 + boot),
+        f"identify: {len(cap.t)} samples x {1 + boot} fits"
+        + (f" and {samples} + 1 predicted systems" if ns.predict else ""),
+        # a predicted system priced in samples' worth of fitting
+        len(cap.t) * (1 + boot)
+        + (samples + 4) * SECONDS_PER_SAMPLE_RUN / SECONDS_PER_SAMPLE * ns.predict,
         SECONDS_PER_SAMPLE,
         400.0,
         max_time(ns),
         "bootstrap",
     )
-    r = identify(
-        cap,
-        ns.scene,
-        bootstrap=boot,
-        seed=seed,
-        say=None if ns.json else (lambda line: say(line, True)),
-    )
-    if ns.out is not None:
-        out = Path(ns.out)
-        write_json(out / "identify.json", r.to_dict(), indent=1)
-        r.plot(out / "identify.png")
+    tell = None if ns.json else (lambda line: say(line, True))
+    r = identify(cap, ns.scene, bootstrap=boot, seed=seed, say=tell)
+    if ns.out is not None:  # kept if the prediction is refused (an identified R above 1)
+        _write(Path(ns.out), r, None)
+    p = predict(r, samples=samples, seed=seed, say=tell) if ns.predict else None
+    if ns.out is not None and p is not None:
+        _write(Path(ns.out), None, p)
     if ns.json:
-        print_json(r.to_dict())
+        print_json({**r.to_dict(), "prediction": p.to_dict()} if p else r.to_dict())
         return 0
     print(r.summary())
+    if p is not None:
+        print(p.summary())
     if r.bootstrap:
         ratios = ", ".join(f"{k} {v:.2f}" for k, v in r.bootstrap["ratio"].items() if v)
         print(
             f"bootstrap / Jacobian standard errors ({r.bootstrap['replicates']} refits): {ratios}"
         )
     if ns.out is not None:
-        print(f"written: {Path(ns.out) / 'identify.json'}, {Path(ns.out) / 'identify.png'}")
+        print("written: " + ", ".join(str(Path(ns.out) / f) for f in _writes(ns)))
     return 0
+
+
+def _write(out: Path, r, p) -> None:
+    if r is not None:
+        write_json(out / "identify.json", r.to_dict(), indent=1)
+        r.plot(out / "identify.png")
+    if p is not None:
+        write_json(out / "predict.json", p.to_dict(), indent=1)
+        p.plot(out / "predict.png")

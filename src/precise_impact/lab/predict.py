@@ -1,0 +1,368 @@
+"""What an identified oscillator does (attractor, LLE, landmarks), the fit's uncertainty carried
+through by sampling and implicit-function derivatives.  Method: ``docs/guide/identify.rst``."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from precise_impact.analysis.lyapunov import lyapunov
+from precise_impact.core.params import Params, check_count
+from precise_impact.core.result import ResultMixin, unit_column
+from precise_impact.errors import ConvergenceError, ParameterError
+from precise_impact.io.figures import check_plot_path, finish, new_figure
+from precise_impact.lab.budget import landmark_at
+from precise_impact.lab.identify import Z95, Identification
+
+__all__ = ["Prediction", "predict", "PREDICTED_LANDMARKS", "SECONDS_PER_SAMPLE_RUN"]
+
+#: The landmarks predicted (``lab.budget``'s: R = 1 systems only).
+PREDICTED_LANDMARKS = ("grazing", "p3_low", "p3_high")
+#: Seconds per predicted system at the defaults (one sample's 6,000 periods and its three
+#: landmarks; the central system counts as 4): 48 samples took 8.0 s at 0.712 and 7.8 s at
+#: 0.74 (0.16 s each, landmarks included), taken x2.
+SECONDS_PER_SAMPLE_RUN = 0.35
+#: The sampled parameters, in the order of :func:`draws`' columns.
+SAMPLED = ("eta", "zeta", "x_w/a", "R")
+
+
+@dataclasses.dataclass
+class Prediction(ResultMixin):
+    """What the identified system does, with the identification's uncertainty.
+
+    Attributes
+    ----------
+    system : dict
+        The central system used: ``eta, zeta, x_w/a, R`` (``a = 1``: the motion scales with
+        ``a``, so only ``x_w / a`` enters the dynamics).
+    attractor : dict
+        The central system's attractor: ``kind`` (``'periodic'`` or ``'not periodic'``),
+        ``period`` and ``impacts`` per period (periodic), ``impact_rate``, and the fraction of
+        the samples whose attractor is of the same kind (and period).
+    lle : dict
+        ``value`` and ``stderr`` of the central system (finite-time; the Floquet value on a
+        periodic attractor, ``source``), ``sampled`` (median and 2.5 / 97.5 % quantiles of the
+        samples' exponents, the fraction positive) and ``ci95``: the union of the central
+        value's +-1.96 standard errors and the samples' quantiles.
+    landmarks : dict
+        ``name -> {eta, stderr, ci95, deta_dtheta, sampled_stderr, from_identified}``: the
+        landmark's frequency ratio, its standard error by the implicit-function derivatives
+        (``d eta_L / d (zeta, a, x_w)``) and the fit's covariance, the same from the samples,
+        and the identified ``eta`` minus the landmark in standard errors of that difference;
+        ``{'absent': why}`` where the landmark was not found.
+    samples : dict
+        Each sample's ``eta, zeta, x_w/a, R``, exponent and attractor kind.
+    seconds : float
+        Wall time.
+    notes : list
+        What was assumed (``R`` at 1, samples rejected as unphysical, ...).
+    """
+
+    system: dict
+    attractor: dict
+    lle: dict
+    landmarks: dict
+    samples: dict
+    seconds: float
+    notes: list = dataclasses.field(default_factory=list)
+
+    def _tables(self) -> dict:
+        """``to_dataframe()`` tables ``samples`` (one row per sampled system: its parameters,
+        exponent and attractor) and ``landmarks`` (one row per landmark found)."""
+
+        def samples() -> dict:
+            cols = {unit_column(k, "1"): self.samples[k] for k in (*SAMPLED, "lle")}
+            out = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+            return {**out, "attractor": list(self.samples["kind"])}
+
+        def landmarks() -> dict:
+            rows = {k: m for k, m in self.landmarks.items() if "absent" not in m}
+            return {
+                "name": list(rows),
+                unit_column("eta", "1"): np.array([m["eta"] for m in rows.values()], float),
+                unit_column("stderr", "1"): np.array([m["stderr"] for m in rows.values()], float),
+            }
+
+        return {"samples": samples, "landmarks": landmarks}
+
+    def covers(self, name: str, truth: float) -> bool:
+        """Whether the 95 % interval of ``'lle'`` or of a landmark holds ``truth``."""
+        entry = self.lle if name == "lle" else self.landmarks[name]
+        lo, hi = entry["ci95"]
+        return lo <= truth <= hi
+
+    def summary(self) -> str:
+        """The attractor, the exponent and the landmarks, one line each."""
+        a, e = self.attractor, self.lle
+        kind = a["kind"] if a["kind"] != "periodic" else f"period {a['period']}, {a['impacts']} "
+        kind += "impacts per period" if a["kind"] == "periodic" else ""
+        rows = [
+            f"attractor: {kind} ({a['same_kind']:.0%} of {len(self.samples['lle'])} samples alike)",
+            f"LLE {e['value']:.5f} +- {e['stderr']:.2g} per unit time ({e['source']}); 95 %: "
+            f"{e['ci95'][0]:.5f} .. {e['ci95'][1]:.5f}; positive in "
+            f"{e['sampled']['positive']:.0%} of the samples",
+        ]
+        for name, m in self.landmarks.items():
+            if "absent" in m:
+                rows.append(f"{name}: not found ({m['absent']})")
+            else:
+                rows.append(
+                    f"{name}: eta {m['eta']:.6f} +- {m['stderr']:.2g} (95 %: {m['ci95'][0]:.6f} "
+                    f".. {m['ci95'][1]:.6f}); identified eta is {m['from_identified']:+.1f} "
+                    "standard errors from it"
+                )
+        return "\n".join(rows)
+
+    def plot(self, path: Any = None):
+        """The samples' exponents (histogram, the central value and its interval) and the
+        identified eta beside the landmarks with their 95 % intervals."""
+        check_plot_path(path)
+        fig, axes = new_figure(1, 2, figsize=(11, 4))
+        ax1, ax2 = axes[0]
+        lle = np.asarray(self.samples["lle"], dtype=float)
+        ax1.hist(lle, bins=max(8, len(lle) // 3), color="0.7")
+        ax1.axvline(self.lle["value"], color="C0", label="central system")
+        ax1.axvspan(*self.lle["ci95"], color="C0", alpha=0.15, label="95 % interval")
+        ax1.set(xlabel="largest Lyapunov exponent", ylabel="samples", title="LLE")
+        ax1.legend(fontsize=8)
+        ax1.locator_params(axis="x", nbins=5)
+        rows = [(k, m) for k, m in self.landmarks.items() if "absent" not in m]
+        s = self.system
+        half = Z95 * s["eta_stderr"]
+        ax2.axvspan(s["eta"] - half, s["eta"] + half, color="C0", alpha=0.3)
+        ax2.axvline(s["eta"], color="C0", label=f"identified eta {s['eta']:.5f}")
+        for i, (name, m) in enumerate(rows):
+            ax2.errorbar(m["eta"], i, xerr=Z95 * m["stderr"], fmt="o", color="C1", capsize=4)
+            label = f"{name} {m['eta']:.5f} +- {Z95 * m['stderr']:.5f}"
+            ax2.annotate(label, (m["eta"], i), textcoords="offset points", xytext=(0, 8),
+                         ha="center", fontsize=8)  # fmt: skip
+        ax2.set(xlabel="eta", yticks=[], title="landmarks and the identified eta (95 %)")
+        ax2.set_ylim(-0.7, len(rows) - 0.3)
+        ax2.legend(fontsize=8, loc="lower right")
+        return finish(fig, path)
+
+
+def predict(
+    identified: Identification,
+    samples: Any = 48,
+    periods: Any = 20000,
+    sample_periods: Any = 5000,
+    transient: Any = 1000,
+    seed: Any = 0,
+    say: Any = None,
+) -> Prediction:
+    """The attractor, the largest Lyapunov exponent and the landmarks of an identified system.
+
+    Parameters
+    ----------
+    identified : Identification
+        From :func:`~precise_impact.lab.identify.identify`.
+    samples : int, default 48
+        Parameter sets drawn from the fit's normal distribution (its covariance; sets with
+        ``R > 1`` or ``zeta < 0`` are redrawn: the truncated normal, a flat prior on the
+        physical region), each run for its exponent and attractor.
+    periods : int, default 20000
+        Forcing periods of the central system's exponent (the compiled engine).
+    sample_periods : int, default 5000
+        Forcing periods of each sample's exponent.
+    transient : int, default 1000
+        Periods dropped before each exponent.
+    seed : int, default 0
+        The draws' seed.
+    say : callable or None
+        Called with a line at each stage.
+
+    Returns
+    -------
+    Prediction
+
+    Notes
+    -----
+    The exponent is not a smooth function of the parameters where windows of periodic motion
+    are dense, so its uncertainty is sampled; the landmarks are smooth (an augmented Newton
+    system each), so theirs is linear: ``var = g^T C g`` with ``g`` the implicit-function
+    derivative and ``C`` the covariance of ``(zeta, x_w / a)``; the samples check it.  The
+    landmark machinery is written for ``R = 1``: landmarks are predicted when the identified
+    ``R``'s interval holds 1.
+    """
+    t0 = time.perf_counter()
+    tell = say or (lambda _line: None)
+    n = check_count(samples, "samples", 10_000, minimum=2)
+    names, mean, cov = fit_law(identified)
+    _check_restitution(identified)
+    central, notes = central_system(mean, names)
+    drawn = draws(mean, cov, names, n, check_count(seed, "seed", 2**31 - 1, minimum=0))
+    tell(f"the central system's exponent over {periods} periods ...")
+    main = _exponent(central, periods, transient)
+    tell(f"{n} sampled systems, {sample_periods} periods each ...")
+    runs = [_exponent(_system(row), sample_periods, transient) for row in drawn]
+    landmarks = {}
+    if identified.covers("R", 1.0):
+        tell("landmarks: grazing and the period-3 window's ends ...")
+        landmarks = {k: _landmark(k, central, drawn, mean, cov, names) for k in PREDICTED_LANDMARKS}
+    else:
+        notes.append("landmarks not predicted: the identified R excludes 1 (they are R = 1's)")
+    return Prediction(
+        system={**central, "eta_stderr": identified.stderr("eta")},
+        attractor=_attractor(main, runs),
+        lle=_lle(main, runs),
+        landmarks=landmarks,
+        samples={
+            **{k: drawn[:, i].tolist() for i, k in enumerate(SAMPLED)},
+            "lle": [r["lle"] for r in runs],
+            "kind": [r["label"] for r in runs],
+        },
+        seconds=time.perf_counter() - t0,
+        notes=notes,
+    )
+
+
+def fit_law(identified: Identification) -> tuple[list, np.ndarray, np.ndarray]:
+    c = identified.covariance
+    if not c:
+        raise ParameterError(
+            "identified", "an Identification without its covariance", "one from identify()"
+        )
+    return list(c["names"]), np.asarray(c["values"], float), np.asarray(c["matrix"], float)
+
+
+def _check_restitution(identified: Identification) -> None:
+    """Refuse an identified ``R`` above 1 beyond its interval: energy gained at each impact."""
+    lo = identified.parameters["R"]["ci95"][0]
+    if lo > 1:
+        R, se = identified.value("R"), identified.stderr("R")
+        raise ParameterError(
+            "R",
+            f"{R:.5f} +- {se:.2g} (identified; 95 % from {lo:.5f})",
+            "an interval that holds R <= 1: above 1 each impact adds energy, which no impact "
+            "oscillator does (a non-ideality of the circuit that the model lacks); no prediction",
+        )
+
+
+def reduced(g: np.ndarray, names: list) -> np.ndarray:
+    """``(eta, zeta, x_w / a, R)`` of globals ``g`` (rows)."""
+    ix = {k: i for i, k in enumerate(names)}
+    a = np.hypot(g[..., ix["a_c"]], g[..., ix["a_s"]])
+    return np.stack([g[..., ix["eta"]], g[..., ix["zeta"]], g[..., ix["x_w"]] / a,
+                     g[..., ix["R"]]], axis=-1)  # fmt: skip
+
+
+def central_system(mean: np.ndarray, names: list) -> tuple[dict, list]:
+    eta, zeta, xwa, R = reduced(mean, names).tolist()
+    notes = []
+    if R > 1:  # the constrained estimate under R <= 1 sits on the boundary
+        notes.append(f"the identified R = {R:.6f} > 1: the central system uses R = 1")
+        R = 1.0
+    return {"eta": eta, "zeta": zeta, "x_w/a": xwa, "R": R}, notes
+
+
+def draws(mean, cov, names, n: int, seed: int) -> np.ndarray:
+    """``n`` rows of ``(eta, zeta, x_w / a, R)`` from the fit's normal law, truncated to the
+    physical region (``R <= 1``, ``zeta >= 0``, ``eta > 0``) by redrawing."""
+    rng = np.random.default_rng(seed)
+    rows: list = []
+    for _ in range(100):
+        g = rng.multivariate_normal(mean, cov, size=2 * n, method="eigh")
+        red = reduced(g, names)
+        ok = (red[:, 3] <= 1) & (red[:, 1] >= 0) & (red[:, 0] > 0)
+        rows.extend(red[ok].tolist())
+        if len(rows) >= n:
+            return np.asarray(rows[:n])
+    raise ParameterError("identified", "a covariance with most of its mass at R > 1", "R <= 1")
+
+
+def _system(row: Any) -> dict:
+    eta, zeta, xwa, R = (float(v) for v in row)
+    return {"eta": eta, "zeta": zeta, "x_w/a": xwa, "R": R}
+
+
+def _params(s: dict) -> Params:
+    xw = s["x_w/a"]
+    return Params.make(eta=repr(s["eta"]), zeta=repr(s["zeta"]), a="1", x_w=repr(xw),
+                       R=repr(s["R"]), x0=repr(min(0.0, xw - 1.0)))  # fmt: skip
+
+
+def _exponent(s: dict, periods: Any, transient: Any) -> dict:
+    r = lyapunov(_params(s), model="fast", periods=periods, transient=transient)
+    head = r.stats["attractors"][r.stats.get("headline_attractor", 0) or 0]
+    label = head["kind"] if head["kind"] != "periodic" else f"period {head['period']}"
+    return {
+        "lle": float(r.lle),
+        "stderr": float(r.lle_stderr),
+        "source": r.stats.get("lle_source", ""),
+        "head": head,
+        "label": label,
+    }
+
+
+def _attractor(main: dict, runs: list) -> dict:
+    h = main["head"]
+    out = {"kind": h["kind"], "impact_rate": float(h.get("impact_rate", math.nan))}
+    if h["kind"] == "periodic":
+        out.update(period=int(h["period"]), impacts=int(h["impacts"]))
+    out["same_kind"] = sum(r["label"] == main["label"] for r in runs) / len(runs)
+    return out
+
+
+def _lle(main: dict, runs: list) -> dict:
+    v = np.asarray([r["lle"] for r in runs])
+    lo, med, hi = np.quantile(v, [0.025, 0.5, 0.975]).tolist()
+    half = Z95 * main["stderr"]
+    return {
+        "value": main["lle"],
+        "stderr": main["stderr"],
+        "source": main["source"],
+        "sampled": {"median": med, "q025": lo, "q975": hi, "positive": float(np.mean(v > 0))},
+        "ci95": [min(lo, main["lle"] - half), max(hi, main["lle"] + half)],
+    }
+
+
+def _landmark(name: str, central: dict, drawn, mean, cov, names) -> dict:
+    theta = (central["zeta"], 1.0, central["x_w/a"])
+    try:
+        bp = landmark_at(name, theta)
+    except (ConvergenceError, ValueError, np.linalg.LinAlgError) as e:
+        return {"absent": str(e)}
+    g = bp.sensitivity()  # d eta_L / d (zeta, a, x_w) at a = 1
+    d = landmark_gradient(mean, names, g)
+    se = math.sqrt(max(float(d @ cov @ d), 0.0))
+    moved = [_moved(name, bp, row) for row in drawn]
+    moved = [m for m in moved if m is not None]
+    eta_ix = names.index("eta")
+    e = np.zeros(len(names))
+    e[eta_ix] = 1.0
+    gap_se = math.sqrt(max(float((e - d) @ cov @ (e - d)), 0.0))
+    return {
+        "eta": float(bp.eta),
+        "stderr": se,
+        "ci95": [bp.eta - Z95 * se, bp.eta + Z95 * se],
+        "deta_dtheta": dict(zip(("zeta", "a", "x_w"), g.tolist(), strict=True)),
+        "sampled_stderr": float(np.std(moved, ddof=1)) if len(moved) > 1 else math.nan,
+        "from_identified": (central["eta"] - bp.eta) / gap_se if gap_se > 0 else math.nan,
+    }
+
+
+def landmark_gradient(mean: np.ndarray, names: list, g: np.ndarray) -> np.ndarray:
+    """``d eta_L / d globals``: through ``zeta`` and ``x_w / a`` (``a`` held at 1)."""
+    ix = {k: i for i, k in enumerate(names)}
+    ac, as_, xw = mean[ix["a_c"]], mean[ix["a_s"]], mean[ix["x_w"]]
+    a = math.hypot(ac, as_)
+    d = np.zeros(len(names))
+    d[ix["zeta"]] = g[0]
+    d[ix["x_w"]] = g[2] / a
+    d[ix["a_c"]] = -g[2] * xw * ac / a**3
+    d[ix["a_s"]] = -g[2] * xw * as_ / a**3
+    return d
+
+
+def _moved(name: str, bp: Any, row: Any) -> float | None:
+    """The landmark of a sampled system (its eta is not an input: theta only)."""
+    _, zeta, xwa, _ = (float(v) for v in row)
+    try:
+        return float(landmark_at(name, (zeta, 1.0, xwa)).eta)
+    except (ConvergenceError, ValueError, np.linalg.LinAlgError):
+        return None
