@@ -189,6 +189,7 @@ def results(tmp_path_factory):
             pi.synth_capture("fig6-period3-ideal", periods=30, seed=2), "fig6-period3-ideal"
         ),
         pi.predict(ident, samples=4, periods=1000, sample_periods=500, transient=100),
+        pi.diagnose(ident),
         pi.timeseries_lle(np.column_stack([dx, dv]), dt, period=40 * dt),
         pi.tolerance_budget(
             "fig6-period2-datasheet",
@@ -368,11 +369,11 @@ def test_every_result_type_has_a_short_repr(results):
 
 
 def test_to_dataframe_on_every_result_type_with_rows(results):
-    """Every result type with samples or rows converts to a DataFrame (27 of the 32; the 5
+    """Every result type with samples or rows converts to a DataFrame (28 of the 33; the 5
     single-object types say they have none); columns carry units, numbers are float64."""
     pd = pytest.importorskip("pandas")
     everything = _every_result(results)
-    assert len(everything) == 32
+    assert len(everything) == 33
     covered = 0
     for name, r in everything.items():
         if name in NO_ROWS:
@@ -391,7 +392,7 @@ def test_to_dataframe_on_every_result_type_with_rows(results):
         pd.testing.assert_frame_equal(r.to_dataframe(), r.to_dataframe(r.tables()[0]))
         with pytest.raises(pi.ParameterError, match="what"):
             r.to_dataframe("no-such-table")
-    assert covered == 27
+    assert covered == 28
     tr = results["Trajectory"]
     df = tr.to_dataframe()
     assert list(df.columns) == ["period", "t [1]", "x [1]", "v [1]"]

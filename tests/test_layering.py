@@ -317,6 +317,7 @@ LAB_LAYERS = {
     "precise_impact.lab.netlist": 6,
     "precise_impact.lab.identify": 6,
     "precise_impact.lab.predict": 7,
+    "precise_impact.lab.diagnose": 7,
 }
 # Upward edges still there, each a function-local import with its reason (module -> module).
 # (none: Capture.save and scope_files.write_capture share lab.scope_writers, below capture)

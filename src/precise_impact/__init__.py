@@ -96,6 +96,7 @@ if TYPE_CHECKING:  # the names for type checkers and readers; at run time loaded
     )
     from precise_impact.lab.budget import ToleranceBudget, tolerance_budget
     from precise_impact.lab.capture import Capture
+    from precise_impact.lab.diagnose import Diagnosis, diagnose
     from precise_impact.lab.identify import Identification, identify
     from precise_impact.lab.netlist import NetlistScoreResult, read_raw, score_netlist
     from precise_impact.lab.predict import Prediction, predict
@@ -253,6 +254,10 @@ _MODULES: dict[str, tuple[str, ...]] = {
     "precise_impact.lab.predict": (
         "Prediction",
         "predict",
+    ),
+    "precise_impact.lab.diagnose": (
+        "Diagnosis",
+        "diagnose",
     ),
     "precise_impact.lab.netlist": (
         "NetlistScoreResult",
@@ -468,6 +473,8 @@ __all__ = [
     "Identification",
     "predict",
     "Prediction",
+    "diagnose",
+    "Diagnosis",
     "tolerance_budget",
     "ToleranceBudget",
     "__version__",

@@ -41,6 +41,7 @@ from precise_impact.scenes.scene import Scene, load_scene
 __all__ = [
     "tolerance_budget",
     "landmark_at",
+    "drawing",
     "ToleranceBudget",
     "effective_parameters",
     "LANDMARKS",
@@ -520,7 +521,7 @@ class ToleranceBudget(ResultMixin):
 
 
 # ------------------------------------------------------------------------ the budget
-def _design_of(scene_or_components: Any) -> tuple[Components, Fraction, dict, str]:
+def drawing(scene_or_components: Any) -> tuple[Components, Fraction, dict, str]:
     """``(design, ron, default tolerances, label)`` from a scene, a scene name/path or
     components."""
     if isinstance(scene_or_components, Components):
@@ -683,7 +684,7 @@ def tolerance_budget(
     ('C2 at 5 %', '-2.861 Hz (-25246 ppm)')
     """
     t_start = time.perf_counter()
-    design, ron0, defaults, label = _design_of(scene_or_components)
+    design, ron0, defaults, label = drawing(scene_or_components)
     tol, ron0 = _check_arguments(
         design, ron0, defaults, tolerances, landmarks, mc, sobol, lle_mc, seed, ron
     )

@@ -363,16 +363,18 @@ class MechanicalSeries(ResultMixin):
 def design_of(design: Any):
     """Component values from a :class:`~precise_impact.models.circuit.components.Components`,
     a :class:`~precise_impact.core.params.Params` (the nominal design), a
-    :class:`~precise_impact.scenes.scene.Scene` or a scene name / path."""
+    :class:`~precise_impact.scenes.scene.Scene` or a scene name / path.  A system with
+    ``R < 1`` (the mechanics; no circuit realises it) gets the ``R = 1`` design's volts and
+    seconds, which do not depend on ``R``."""
 
     if isinstance(design, Components):
         return design
     if isinstance(design, Params):
-        return nominal_components(design)
+        return nominal_components(design.replace(R=1))
     if isinstance(design, (str, Path)):
         design = load_scene(design)
     if isinstance(design, Scene):
-        return design.design()
+        return dataclasses.replace(design, params=design.params.replace(R=1)).design()
     raise ParameterError(
         "design", type(design).__name__, "Components, Params, a Scene or a scene name"
     )

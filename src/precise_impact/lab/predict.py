@@ -60,6 +60,10 @@ class Prediction(ResultMixin):
         Wall time.
     notes : list
         What was assumed (``R`` at 1, samples rejected as unphysical, ...).
+
+    See Also
+    --------
+    predict : makes one.
     """
 
     system: dict
@@ -179,6 +183,21 @@ def predict(
     Returns
     -------
     Prediction
+
+    See Also
+    --------
+    precise_impact.lab.identify.identify : the identification predicted from.
+    precise_impact.analysis.lyapunov.lyapunov : the exponents (``model='fast'``).
+    precise_impact.lab.budget.landmark_at : the landmarks.
+
+    Examples
+    --------
+    >>> from precise_impact import identify, predict, synth_capture
+    >>> cap = synth_capture("fig6-period3-ideal", periods=30, seed=2)
+    >>> p = predict(identify(cap, "fig6-period3-ideal"), samples=8, periods=2000,
+    ...             sample_periods=1000)
+    >>> p.attractor["period"], p.attractor["impacts"], p.lle["source"]
+    (3, 2, 'floquet')
 
     Notes
     -----

@@ -139,6 +139,10 @@ class Measurement:
         return default if v is None else v
 
 
+#: The model that records the mechanics itself (a reference trajectory through the scope).
+MECHANICS = "heyoka"
+
+
 def _rate_125(minimum: float) -> float:
     """The smallest 1-2-5 x 10^k value >= ``minimum`` (a scope's sample-rate ladder)."""
     k = math.floor(math.log10(minimum))
@@ -226,8 +230,9 @@ def _checked_args(
     if sc.kind != "single":
         raise ParameterError("scene", sc.name, "a single-oscillator scene")
     model = model or sc.model
-    if model not in CIRCUIT_MODELS:
-        raise ParameterError("model", model, "a circuit model: " + ", ".join(CIRCUIT_MODELS))
+    if model not in (*CIRCUIT_MODELS, MECHANICS):
+        allowed = ", ".join((*CIRCUIT_MODELS, MECHANICS))
+        raise ParameterError("model", model, "a circuit model or the mechanics: " + allowed)
     return meas, max_time, channels, sc, model
 
 
@@ -318,7 +323,8 @@ def synth_capture(
         A single-oscillator scene (its design gives the volts and seconds).
     model : str or None
         ``'circuit'``, ``'switched-capacitor'`` or ``'spice'`` (the scene's effects that fit it
-        kept); ``None`` is the scene's own model.
+        kept), or ``'heyoka'``: the mechanics itself through the design's volts and seconds
+        (any ``R``: the circuits realise ``R = 1`` only); ``None`` is the scene's own model.
     eta : decimal or None
         Another forcing frequency ratio (the design's ``Omega`` follows it).
     measurement : Measurement or None
@@ -365,7 +371,9 @@ def synth_capture(
     params = sc.params if eta is None else sc.params.replace(eta=eta)
     # the design realising these parameters (Omega follows eta); the scene itself is kept for
     # the run (its raw table carries the effects), the parameters passed beside it
-    comp = dataclasses.replace(sc, params=params).design()
+    # (the mechanics' R may be below 1: the volts and seconds are the R = 1 design's)
+    design_params = params.replace(R=1) if model == MECHANICS else params
+    comp = dataclasses.replace(sc, params=design_params).design()
     scales = circuit_scales(comp)
     w = scales.omega
     Om = float(comp.Omega)

@@ -17,6 +17,7 @@ from precise_impact.core.budget import check_work
 from precise_impact.core.params import check_count
 from precise_impact.io.jsonout import print_json, write_json
 from precise_impact.io.progress import say
+from precise_impact.lab.diagnose import diagnose
 from precise_impact.lab.identify import SECONDS_PER_SAMPLE, identify
 from precise_impact.lab.predict import SECONDS_PER_SAMPLE_RUN, predict
 from precise_impact.lab.scope_files import READ_FORMATS, read_capture
@@ -44,6 +45,12 @@ def register(sub) -> argparse.ArgumentParser:
         "identification's uncertainty carried through",
     )
     p.add_argument(
+        "--diagnose",
+        action="store_true",
+        help="also which drawn part (of --scene's circuit) most likely differs from what was "
+        "measured, within its tolerance",
+    )
+    p.add_argument(
         "--samples",
         default="48",
         help="with --predict: parameter sets drawn from the fit's covariance (default 48)",
@@ -63,6 +70,7 @@ def register(sub) -> argparse.ArgumentParser:
 
 def _writes(ns: argparse.Namespace) -> tuple[str, ...]:
     extra = ("predict.json", "predict.png") if ns.predict else ()
+    extra += ("diagnose.json",) if ns.diagnose else ()
     return ("identify.json", "identify.png", *extra)
 
 
@@ -85,15 +93,22 @@ def run(ns: argparse.Namespace) -> int:
     )
     tell = None if ns.json else (lambda line: say(line, True))
     r = identify(cap, ns.scene, bootstrap=boot, seed=seed, say=tell)
+    d = diagnose(r, ns.scene) if ns.diagnose else None
     if ns.out is not None:  # kept if the prediction is refused (an identified R above 1)
         _write(Path(ns.out), r, None)
+        if d is not None:
+            write_json(Path(ns.out) / "diagnose.json", d.to_dict(), indent=1)
     p = predict(r, samples=samples, seed=seed, say=tell) if ns.predict else None
     if ns.out is not None and p is not None:
         _write(Path(ns.out), None, p)
     if ns.json:
-        print_json({**r.to_dict(), "prediction": p.to_dict()} if p else r.to_dict())
+        extra = {"prediction": p.to_dict()} if p else {}
+        extra.update({"diagnosis": d.to_dict()} if d else {})
+        print_json({**r.to_dict(), **extra})
         return 0
     print(r.summary())
+    if d is not None:
+        print(d.summary())
     if p is not None:
         print(p.summary())
     if r.bootstrap:
