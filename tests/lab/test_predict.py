@@ -129,7 +129,7 @@ def test_cli_predicts_as_strict_json_with_figures(tmp_path):
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "precise_impact", "identify", str(path), "--scene", PERIOD3]
     r = subprocess.run(
-        [*cmd, "--predict", "--samples", "4", "--json", "--out", str(out)],
+        [*cmd, "--predict", "--samples", "4", "--diagram", "20", "--json", "--out", str(out)],
         capture_output=True,
         text=True,
         timeout=600,
@@ -138,30 +138,18 @@ def test_cli_predicts_as_strict_json_with_figures(tmp_path):
     d = json.loads(r.stdout)
     assert d["prediction"]["attractor"]["period"] == 3
     assert len(d["prediction"]["samples"]["lle"]) == 4
+    assert len(d["prediction"]["diagram"]["eta"]) == 20 and d["prediction"]["diagram"]["capture_x"]
     assert {f.name for f in out.iterdir()} >= {"predict.json", "predict.png", "identify.json"}
 
 
-@pytest.mark.parametrize("value", ["1", "x", "-2"])
-def test_cli_refuses_bad_samples_with_one_line(tmp_path, value):
+@pytest.mark.parametrize("flag,value", [("samples", "1"), ("samples", "x"), ("diagram", "-2")])
+def test_cli_refuses_bad_prediction_flags_with_one_line(tmp_path, flag, value):
     path = tmp_path / "none.csv"
     path.write_text("")
-    r = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "precise_impact",
-            "identify",
-            str(path),
-            "--predict",
-            "--samples",
-            value,
-        ],  # fmt: skip
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    cmd = [sys.executable, "-m", "precise_impact", "identify", str(path), "--predict"]
+    r = subprocess.run([*cmd, f"--{flag}", value], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
-    assert len(r.stderr.strip().splitlines()) == 1 and "samples" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and flag in r.stderr
 
 
 def test_draws_follow_the_fits_law():
@@ -189,3 +177,29 @@ def test_an_identified_restitution_above_one_is_refused_with_one_line(period3):
     with pytest.raises(ParameterError) as e:
         P.predict(dataclasses.replace(r, parameters=params), samples=4, **FAST)
     assert e.value.name == "R" and "\n" not in str(e.value)
+
+
+def test_the_capture_sits_on_the_identified_systems_diagram():
+    """The capture's stroboscopic samples, drawn at the identified eta over the identified
+    system's bifurcation diagram (period 3 there: three points): each sample within 4 noise
+    sigmas of one of them (the fit's residual noise on x, over a), and each cluster's mean
+    within 4 sigma / sqrt(n) + 0.01 of its point (the grid's eta step, ~5e-4, moves the
+    branch by less than 0.01)."""
+    cap = synth_capture(
+        PERIOD3, periods=60, bits=8, noise=0.01, seed=11, sample_rate=100 * 740 / (2 * math.pi)
+    )
+    r = identify(cap, PERIOD3)
+    p = P.predict(r, samples=4, diagram=80, capture=cap, **FAST)
+    d = p.diagram
+    j = int(np.argmin(np.abs(np.asarray(d["eta"]) - p.system["eta"])))
+    branch = np.asarray(d["x"][j])
+    xs = np.asarray(d["capture_x"])
+    sigma = r.noise["x"] / r.value("a")
+    points = np.unique(np.round(branch, 3))
+    assert len(xs) >= 55 and len(points) == 3  # the diagram's period 3 at that eta
+    nearest = np.argmin(np.abs(xs[:, None] - points[None, :]), axis=1)
+    assert np.max(np.abs(xs - points[nearest])) < 4 * sigma
+    for i, pt in enumerate(points):
+        cluster = xs[nearest == i]
+        assert abs(cluster.mean() - pt) < 4 * sigma / math.sqrt(len(cluster)) + 0.01, (i, pt)
+    p.plot()  # three panels

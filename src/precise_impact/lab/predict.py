@@ -10,15 +10,23 @@ from typing import Any
 
 import numpy as np
 
+from precise_impact.analysis.bifurcation import bifurcation
 from precise_impact.analysis.lyapunov import lyapunov
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ConvergenceError, ParameterError
 from precise_impact.io.figures import check_plot_path, finish, new_figure
 from precise_impact.lab.budget import landmark_at
-from precise_impact.lab.identify import Z95, Identification
+from precise_impact.lab.identify import Z95, Identification, record_of
 
-__all__ = ["Prediction", "predict", "PREDICTED_LANDMARKS", "SECONDS_PER_SAMPLE_RUN"]
+__all__ = [
+    "Prediction",
+    "predict",
+    "capture_strobe",
+    "PREDICTED_LANDMARKS",
+    "SECONDS_PER_SAMPLE_RUN",
+    "SECONDS_PER_DIAGRAM_VALUE",
+]
 
 #: The landmarks predicted (``lab.budget``'s: R = 1 systems only).
 PREDICTED_LANDMARKS = ("grazing", "p3_low", "p3_high")
@@ -26,6 +34,8 @@ PREDICTED_LANDMARKS = ("grazing", "p3_low", "p3_high")
 #: landmarks; the central system counts as 4): 48 samples took 8.0 s at 0.712 and 7.8 s at
 #: 0.74 (0.16 s each, landmarks included), taken x2.
 SECONDS_PER_SAMPLE_RUN = 0.35
+#: Seconds per eta value of the diagram (200 periods after 500): 60 values took 5.8 s, x2.
+SECONDS_PER_DIAGRAM_VALUE = 0.2
 #: The sampled parameters, in the order of :func:`draws`' columns.
 SAMPLED = ("eta", "zeta", "x_w/a", "R")
 
@@ -60,6 +70,11 @@ class Prediction(ResultMixin):
         Wall time.
     notes : list
         What was assumed (``R`` at 1, samples rejected as unphysical, ...).
+    diagram : dict
+        With ``diagram=N``: the central system's bifurcation diagram (``eta``, stroboscopic
+        ``x`` per value, ``lle``) over the identified eta and its landmarks, and with a
+        ``capture`` the capture's own stroboscopic ``x`` (``capture_x``, the same phase and
+        units: ``(x - o_x) / a``) to draw at the identified eta.
 
     See Also
     --------
@@ -73,6 +88,7 @@ class Prediction(ResultMixin):
     samples: dict
     seconds: float
     notes: list = dataclasses.field(default_factory=list)
+    diagram: dict = dataclasses.field(default_factory=dict)
 
     def _tables(self) -> dict:
         """``to_dataframe()`` tables ``samples`` (one row per sampled system: its parameters,
@@ -125,8 +141,11 @@ class Prediction(ResultMixin):
         """The samples' exponents (histogram, the central value and its interval) and the
         identified eta beside the landmarks with their 95 % intervals."""
         check_plot_path(path)
-        fig, axes = new_figure(1, 2, figsize=(11, 4))
-        ax1, ax2 = axes[0]
+        cols = 3 if self.diagram else 2
+        fig, axes = new_figure(1, cols, figsize=(5.5 * cols, 4))
+        ax1, ax2 = axes[0][:2]
+        if self.diagram:
+            self._plot_diagram(axes[0][2])
         lle = np.asarray(self.samples["lle"], dtype=float)
         ax1.hist(lle, bins=max(8, len(lle) // 3), color="0.7")
         ax1.axvline(self.lle["value"], color="C0", label="central system")
@@ -149,6 +168,18 @@ class Prediction(ResultMixin):
         ax2.legend(fontsize=8, loc="lower right")
         return finish(fig, path)
 
+    def _plot_diagram(self, ax) -> None:
+        d, s = self.diagram, self.system
+        eta = np.repeat(np.asarray(d["eta"], float), len(d["x"][0]))
+        ax.plot(eta, np.ravel(d["x"]), ",", color="0.3")
+        if d.get("capture_x"):
+            xs = np.asarray(d["capture_x"], float)
+            ax.plot(np.full(len(xs), s["eta"]), xs, ".", color="C3", ms=3, label="the capture")
+            ax.legend(fontsize=8, loc="lower right")
+        ax.axvline(s["eta"], color="C0", lw=0.8)
+        ax.set(xlabel="eta", ylabel="x at the forcing's phase 0 (a = 1)",
+               title="the identified system's diagram")  # fmt: skip
+
 
 def predict(
     identified: Identification,
@@ -158,6 +189,8 @@ def predict(
     transient: Any = 1000,
     seed: Any = 0,
     say: Any = None,
+    diagram: Any = 0,
+    capture: Any = None,
 ) -> Prediction:
     """The attractor, the largest Lyapunov exponent and the landmarks of an identified system.
 
@@ -179,6 +212,11 @@ def predict(
         The draws' seed.
     say : callable or None
         Called with a line at each stage.
+    diagram : int, default 0
+        Values of eta in the central system's bifurcation diagram (0: none), over the
+        identified eta and its landmarks (200 periods each after a 500-period transient).
+    capture : Capture or None
+        The identified capture: its stroboscopic samples are drawn over the diagram.
 
     Returns
     -------
@@ -225,7 +263,12 @@ def predict(
         landmarks = {k: _landmark(k, central, drawn, mean, cov, names) for k in PREDICTED_LANDMARKS}
     else:
         notes.append("landmarks not predicted: the identified R excludes 1 (they are R = 1's)")
+    shown = {}
+    if check_count(diagram, "diagram", 2000, minimum=0):
+        tell(f"the identified system's bifurcation diagram, {diagram} values ...")
+        shown = _diagram(central, landmarks, int(diagram), identified, capture)
     return Prediction(
+        diagram=shown,
         system={**central, "eta_stderr": identified.stderr("eta")},
         attractor=_attractor(main, runs),
         lle=_lle(main, runs),
@@ -376,6 +419,31 @@ def landmark_gradient(mean: np.ndarray, names: list, g: np.ndarray) -> np.ndarra
     d[ix["a_c"]] = -g[2] * xw * ac / a**3
     d[ix["a_s"]] = -g[2] * xw * as_ / a**3
     return d
+
+
+def _diagram(central: dict, landmarks: dict, n: int, identified, capture) -> dict:
+    """The central system's diagram over its eta and landmarks (+-0.01), at most +-0.08."""
+    etas = [central["eta"], *(m["eta"] for m in landmarks.values() if "eta" in m)]
+    lo = max(min(etas) - 0.01, central["eta"] - 0.08)
+    hi = min(max(etas) + 0.01, central["eta"] + 0.08)
+    b = bifurcation(_params(central), ("eta", repr(lo), repr(hi), n), periods=200,
+                    transient=500, progress=False)  # fmt: skip
+    out = {"eta": [float(e) for e in b.eta], "x": np.asarray(b.x, float).tolist(),
+           "lle": np.asarray(b.lle, float).tolist()}  # fmt: skip
+    if capture is not None:
+        out["capture_x"] = capture_strobe(identified, capture).tolist()
+    return out
+
+
+def capture_strobe(identified: Identification, capture: Any) -> np.ndarray:
+    """The capture's ``x`` at the forcing's phase 0 (``Omega t - phase = 2 pi k``), in the
+    identified system's units with ``a = 1``: ``(x - o_x) / a`` (linear interpolation)."""
+    rec = record_of(capture, identified.design)
+    Om, ph = float(identified.record["Omega_rad_s"]), identified.value("phase")
+    k = np.arange(math.ceil((Om * rec.t[0] - ph) / (2 * math.pi)),
+                  math.floor((Om * rec.t[-1] - ph) / (2 * math.pi)) + 1)  # fmt: skip
+    tk = (ph + 2 * math.pi * k) / Om
+    return (np.interp(tk, rec.t, rec.x) - identified.value("o_x")) / identified.value("a")
 
 
 def _moved(name: str, bp: Any, row: Any) -> float | None:

@@ -19,7 +19,7 @@ from precise_impact.io.jsonout import print_json, write_json
 from precise_impact.io.progress import say
 from precise_impact.lab.diagnose import diagnose
 from precise_impact.lab.identify import SECONDS_PER_SAMPLE, identify
-from precise_impact.lab.predict import SECONDS_PER_SAMPLE_RUN, predict
+from precise_impact.lab.predict import SECONDS_PER_DIAGRAM_VALUE, SECONDS_PER_SAMPLE_RUN, predict
 from precise_impact.lab.scope_files import READ_FORMATS, read_capture
 
 
@@ -43,6 +43,12 @@ def register(sub) -> argparse.ArgumentParser:
         action="store_true",
         help="also what the identified system does: its attractor, LLE and landmarks, with the "
         "identification's uncertainty carried through",
+    )
+    p.add_argument(
+        "--diagram",
+        default="200",
+        help="with --predict: eta values of the identified system's bifurcation diagram, the "
+        "capture drawn over it (default 200; 0: none)",
     )
     p.add_argument(
         "--diagnose",
@@ -79,13 +85,16 @@ def run(ns: argparse.Namespace) -> int:
     boot = check_count(ns.bootstrap, "bootstrap", 1000, minimum=0)
     seed = check_count(ns.seed, "seed", 2**31 - 1, minimum=0)
     samples = check_count(ns.samples, "samples", 10_000, minimum=2)
+    diagram = check_count(ns.diagram, "diagram", 2000, minimum=0)
     cap = read_capture(ns.file, ns.channels, ns.format)
     check_work(
         f"identify: {len(cap.t)} samples x {1 + boot} fits"
         + (f" and {samples} + 1 predicted systems" if ns.predict else ""),
         # a predicted system priced in samples' worth of fitting
         len(cap.t) * (1 + boot)
-        + (samples + 4) * SECONDS_PER_SAMPLE_RUN / SECONDS_PER_SAMPLE * ns.predict,
+        + ((samples + 4) * SECONDS_PER_SAMPLE_RUN + diagram * SECONDS_PER_DIAGRAM_VALUE)
+        / SECONDS_PER_SAMPLE
+        * ns.predict,
         SECONDS_PER_SAMPLE,
         400.0,
         max_time(ns),
@@ -98,7 +107,9 @@ def run(ns: argparse.Namespace) -> int:
         _write(Path(ns.out), r, None)
         if d is not None:
             write_json(Path(ns.out) / "diagnose.json", d.to_dict(), indent=1)
-    p = predict(r, samples=samples, seed=seed, say=tell) if ns.predict else None
+    p = None
+    if ns.predict:
+        p = predict(r, samples=samples, seed=seed, say=tell, diagram=diagram, capture=cap)
     if ns.out is not None and p is not None:
         _write(Path(ns.out), None, p)
     if ns.json:
