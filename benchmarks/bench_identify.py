@@ -59,8 +59,11 @@ def _scene(name: str, changes: dict):
     if not changes:
         return load_scene(name)
     text = (SCENES / f"{name}.toml").read_text(encoding="utf-8")
+    head, _, rest = text.partition("[parameters]")
+    params, sep, tail = rest.partition("\n[")  # the parameters' table only (R is a part too)
     for k, v in changes.items():
-        text = re.sub(rf'^{k} = ".*"$', f'{k} = "{v}"', text, flags=re.M)
+        params = re.sub(rf'^{k} = ".*"$', f'{k} = "{v}"', params, flags=re.M)
+    text = head + "[parameters]" + params + sep + tail
     if changes.get("R", "1") != "1":  # the circuits realise R = 1 only: the mechanics
         text = re.sub(r'^(\[model\]\nname = )".*"$', r'\1"heyoka"', text, flags=re.M)
     text = text.replace(f'name = "{name}"', f'name = "{name}-{"-".join(changes.values())}"')
@@ -191,16 +194,26 @@ def main(argv=None) -> int:
     ap.add_argument("--shrink-records", type=int, default=5)
     ap.add_argument("--lengths", type=int, nargs="+", default=list(LENGTHS))
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument(
+        "--cases", nargs="+", choices=list(CASES), help="rerun these cases only, the stored "
+        "rows of the others kept (no record-length runs)",
+    )  # fmt: skip
     a = ap.parse_args(argv)
     lengths = tuple(sorted(set(a.lengths) | {200}))
-    jobs = [(c, s, 200) for c in CASES for s in range(a.records)]
-    jobs += [("chaotic 0.712", s, n) for n in lengths if n != 200 for s in range(a.shrink_records)]
+    jobs = [(c, s, 200) for c in (a.cases or CASES) for s in range(a.records)]
+    if not a.cases:
+        jobs += [("chaotic 0.712", s, n) for n in lengths if n != 200
+                 for s in range(a.shrink_records)]  # fmt: skip
     t0 = time.perf_counter()
     with ProcessPoolExecutor(a.workers) as ex:
         futures = [ex.submit(one, *job) for job in jobs]
         for k, _ in enumerate(as_completed(futures), 1):  # progress: one line per record
             print(f"{k}/{len(jobs)} records, {time.perf_counter() - t0:.0f} s", file=sys.stderr)
         rows = [f.result() for f in futures]
+    if a.cases:  # the other cases' rows (and the record-length runs) from the stored results
+        old = json.loads((OUT / "identify.json").read_text())
+        rows = [r for r in old["rows"] if r["case"] not in a.cases] + rows
+        lengths = tuple(old["lengths"])
     res = {
         "records": a.records,
         "lengths": lengths,
