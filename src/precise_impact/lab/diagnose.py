@@ -12,7 +12,7 @@ import numpy as np
 from precise_impact.core.dual import seed
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.lab.budget import INPUTS, drawing, effective_parameters, parse_tolerances
-from precise_impact.lab.identify import Identification
+from precise_impact.lab.identify import Identification, derived
 
 __all__ = ["Diagnosis", "diagnose", "MEASURED"]
 
@@ -197,18 +197,12 @@ def _measured(identified: Identification) -> tuple[np.ndarray, np.ndarray]:
     """``(omega, zeta, a, x_w)`` and their covariance from the fit's (``omega = Omega / eta``;
     the scope's timebase error, ppm, is left out)."""
     c = identified.covariance
-    names, g, cov = list(c["names"]), np.asarray(c["values"]), np.asarray(c["matrix"])
-    ix = {k: i for i, k in enumerate(names)}
-    Om = float(identified.record["Omega_rad_s"])
-    eta, ac, as_ = g[ix["eta"]], g[ix["a_c"]], g[ix["a_s"]]
-    a = math.hypot(ac, as_)
-    D = np.zeros((4, len(names)))  # d (omega, zeta, a, x_w) / d globals
-    D[0, ix["eta"]] = -Om / eta**2
-    D[1, ix["zeta"]] = 1.0
-    D[2, ix["a_c"]], D[2, ix["a_s"]] = ac / a, as_ / a
-    D[3, ix["x_w"]] = 1.0
-    y = np.array([Om / eta, g[ix["zeta"]], a, g[ix["x_w"]]])
-    return y, D @ cov @ D.T
+    values, grads = derived(dict(zip(c["names"], c["values"], strict=True)))
+    Om, eta = float(identified.record["Omega_rad_s"]), values["eta"]
+    # d (omega, zeta, a, x_w) / d globals, omega = Omega / eta
+    D = np.array([-Om / eta**2 * grads["eta"], grads["zeta"], grads["a"], grads["x_w"]])
+    y = np.array([Om / eta, values["zeta"], values["a"], values["x_w"]])
+    return y, D @ np.asarray(c["matrix"]) @ D.T
 
 
 def _ranked(names: list, J: np.ndarray, t: np.ndarray, r: np.ndarray, S: np.ndarray) -> tuple:

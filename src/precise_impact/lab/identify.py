@@ -790,10 +790,10 @@ def curves(fit: dict, rec: Record, seg: Segments) -> dict:
     }
 
 
-def reported(g: dict, cov: np.ndarray) -> dict:
-    """:data:`REPORTED` from the globals and their covariance (delta method for ``a``,
-    ``x_w / a`` and the phase: exact gradients of those closed forms)."""
-    idx = {k: i for i, k in enumerate(GLOBALS)}
+def derived(g: dict) -> tuple[dict, dict]:
+    """``(values, gradients)`` of :data:`REPORTED` from the globals ``g``: each gradient a
+    vector over :data:`GLOBALS` (exact gradients of the closed forms of ``a``, ``x_w / a`` and
+    the phase; the one home of those formulas, used by ``lab.predict`` and ``lab.diagnose``)."""
     a = math.hypot(g["a_c"], g["a_s"])
     grads = {name: {name: 1.0} for name in ("eta", "zeta", "x_w", "R", "g_v", "o_x", "o_v")}
     grads["a"] = {"a_c": g["a_c"] / a, "a_s": g["a_s"] / a}
@@ -810,11 +810,22 @@ def reported(g: dict, cov: np.ndarray) -> dict:
         "x_w/a": g["x_w"] / a,
         "phase": math.atan2(g["a_s"], g["a_c"]),
     }
+    vectors = {}
+    for name, parts in grads.items():
+        d = np.zeros(len(GLOBALS))
+        for k, v in parts.items():
+            d[GLOBALS.index(k)] = v
+        vectors[name] = d
+    return values, vectors
+
+
+def reported(g: dict, cov: np.ndarray) -> dict:
+    """:data:`REPORTED` from the globals and their covariance (delta method for ``a``,
+    ``x_w / a`` and the phase: :func:`derived`)."""
+    values, grads = derived(g)
     out = {}
     for name in REPORTED:
-        d = np.zeros(len(GLOBALS))
-        for k, v in grads[name].items():
-            d[idx[k]] = v
+        d = grads[name]
         se = math.sqrt(max(float(d @ cov @ d), 0.0))
         val = float(values[name])
         out[name] = {"value": val, "stderr": se, "ci95": [val - Z95 * se, val + Z95 * se]}

@@ -17,7 +17,7 @@ from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ConvergenceError, ParameterError
 from precise_impact.io.figures import check_plot_path, finish, new_figure
 from precise_impact.lab.budget import landmark_at
-from precise_impact.lab.identify import Z95, Identification, record_of
+from precise_impact.lab.identify import Z95, Identification, derived, record_of
 
 __all__ = [
     "Prediction",
@@ -410,15 +410,8 @@ def _landmark(name: str, central: dict, drawn, mean, cov, names) -> dict:
 
 def landmark_gradient(mean: np.ndarray, names: list, g: np.ndarray) -> np.ndarray:
     """``d eta_L / d globals``: through ``zeta`` and ``x_w / a`` (``a`` held at 1)."""
-    ix = {k: i for i, k in enumerate(names)}
-    ac, as_, xw = mean[ix["a_c"]], mean[ix["a_s"]], mean[ix["x_w"]]
-    a = math.hypot(ac, as_)
-    d = np.zeros(len(names))
-    d[ix["zeta"]] = g[0]
-    d[ix["x_w"]] = g[2] / a
-    d[ix["a_c"]] = -g[2] * xw * ac / a**3
-    d[ix["a_s"]] = -g[2] * xw * as_ / a**3
-    return d
+    _, grads = derived(dict(zip(names, mean, strict=True)))
+    return g[0] * grads["zeta"] + g[2] * grads["x_w/a"]
 
 
 def _diagram(central: dict, landmarks: dict, n: int, identified, capture) -> dict:
