@@ -41,12 +41,17 @@ WAIT_MS = 180_000
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory):
-    """``precise-impact explore`` on a free loopback port, until the module's tests end (its
-    output in ``explore-server.log`` beside the screenshots)."""
+def server_log(tmp_path_factory) -> Path:
+    """Where the server's output goes: ``explore-server.log`` beside the screenshots."""
     out = Path(os.environ.get("PRECISE_IMPACT_ARTIFACTS", tmp_path_factory.mktemp("server")))
     out.mkdir(parents=True, exist_ok=True)
-    with explorer(out / "explore-server.log") as url:
+    return out / "explore-server.log"
+
+
+@pytest.fixture(scope="module")
+def server(server_log):
+    """``precise-impact explore`` on a free loopback port, until the module's tests end."""
+    with explorer(server_log) as url:
         yield url
 
 
@@ -59,9 +64,10 @@ def browser():
 
 
 @pytest.fixture
-def page(browser, server, tmp_path):
-    """A new page on the explorer; at the end, no console errors and no request to another
-    host (every asset is served locally)."""
+def page(browser, server, server_log, tmp_path):
+    """A new page on the explorer; at the end, no console errors, no request to another
+    host (every asset is served locally) and no traceback in the server's log (a handler that
+    raised leaves the page unchanged: the test would only see a timeout)."""
     out = Path(os.environ.get("PRECISE_IMPACT_ARTIFACTS", tmp_path))
     out.mkdir(parents=True, exist_ok=True)
     ctx = browser.new_context(viewport={"width": 1500, "height": 1100}, accept_downloads=True)
@@ -74,6 +80,8 @@ def page(browser, server, tmp_path):
     ctx.close()
     assert not errors, errors
     assert hosts <= {server.split("/")[2]}, hosts
+    log = server_log.read_text(encoding="utf-8")
+    assert "Traceback" not in log, log[log.index("Traceback") :][-3000:]
 
 
 def _text(pg, css: str) -> str:
@@ -217,6 +225,11 @@ def test_the_circuit_models_overlay_the_orbit(page, server):
     # the ideal circuit is the mechanics in volts: its samples on the orbit's (see test_api)
     dx = re.search(r"(?:^|\s)circuit: max \|x - x_mechanics\| on the strobe ([\d.e+-]+)", got)
     assert dx and float(dx.group(1)) < 1e-8, got
+    page.locator(".pi-overlay input").uncheck()  # the circuits' lines and their line go
+    deadline = time.monotonic() + 30
+    while _text(page, ".pi-circuit-info") and time.monotonic() < deadline:
+        page.wait_for_timeout(100)
+    assert _text(page, ".pi-circuit-info") == ""
 
 
 def test_the_guides_screenshots_come_from_the_running_application(browser, server, tmp_path):

@@ -9,6 +9,7 @@ import functools
 import io
 import math
 import tempfile
+from collections.abc import Callable
 from decimal import Decimal
 from typing import Any
 
@@ -148,6 +149,12 @@ class Session:
         self.inputs[name].value = str(Decimal(repr(event.new)).normalize())
 
     # ---------------------------------------------------------------- wiring
+    def _on_loop(self, handler: Callable[[], None]) -> Callable[..., None]:
+        """``handler`` as a widget callback that runs on the session's next tick, holding the
+        document lock: Panel >= 1.9 runs a button's click in a coroutine without it, where
+        writing a Bokeh model (a figure's data) raises (seen with panel 1.9.4, bokeh 3.9.2)."""
+        return lambda *event: self.schedule(handler)
+
     def _wire(self) -> None:
         self.sliders = self._sliders()
         for w in self.inputs.values():
@@ -157,25 +164,25 @@ class Session:
         self.bif["diagram"].on_event(RangesUpdate, self._zoomed)
         self.bif_button = pn.widgets.Button(name="recompute the diagram", button_type="primary",
                                             css_classes=["pi-bif-run"])  # fmt: skip
-        self.bif_button.on_click(lambda e: self.run_bifurcation())
+        self.bif_button.on_click(self._on_loop(self.run_bifurcation))
         self.prove_period = pn.widgets.IntInput(
             name="orbit period", value=1, start=1, end=64, width=120,
             css_classes=["pi-prove-period"],
         )  # fmt: skip
         self.prove_button = pn.widgets.Button(name="prove the orbit (Krawczyk)",
                                               css_classes=["pi-prove-run"])  # fmt: skip
-        self.prove_button.on_click(lambda e: self.run_proof())
+        self.prove_button.on_click(self._on_loop(self.run_proof))
         self.certify_button = pn.widgets.Button(name="certify 100 periods (balls)",
                                                 css_classes=["pi-certify-run"])  # fmt: skip
-        self.certify_button.on_click(lambda e: self.run_certified())
+        self.certify_button.on_click(self._on_loop(self.run_certified))
         self._basins_widgets()
         self.overlay = pn.widgets.Checkbox(name="overlay the circuit models", value=False,
                                            css_classes=["pi-overlay"])  # fmt: skip
-        self.overlay.param.watch(lambda e: self.run_circuits(), "value")
+        self.overlay.param.watch(self._on_loop(self.run_circuits), "value")
         self.impacts_button = pn.widgets.Button(
             name="impact map + singularity set", css_classes=["pi-impacts-run"]
         )
-        self.impacts_button.on_click(lambda e: self.run_impacts())
+        self.impacts_button.on_click(self._on_loop(self.run_impacts))
         self.download = pn.widgets.FileDownload(
             callback=self._orbit_json, filename="orbit.json", label="orbit as JSON",
             css_classes=["pi-download-json"],
@@ -344,8 +351,8 @@ class Session:
         self.basins_run = pn.widgets.Button(name="compute the map", button_type="primary",
                                             css_classes=["pi-basins-run"])  # fmt: skip
         self.basins_stop = pn.widgets.Button(name="cancel", css_classes=["pi-basins-cancel"])
-        self.basins_run.on_click(lambda e: self.run_basins())
-        self.basins_stop.on_click(lambda e: self.cancel_basins())
+        self.basins_run.on_click(self._on_loop(self.run_basins))
+        self.basins_stop.on_click(self._on_loop(self.cancel_basins))
         self.basins["figure"].on_event(Tap, self._cell_tapped)
 
     def run_basins(self) -> None:
