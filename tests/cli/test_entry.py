@@ -112,10 +112,10 @@ def test_an_interrupt_inside_an_import_waits_for_the_import(sig, after):
     )
     assert r.returncode == 0, (r.returncode, r.stderr[-800:])
     lines = r.stdout.splitlines()
-    assert lines[-2:] == ["interrupted after the import: True", "handler restored: True"], (
-        r.stdout,
-        r.stderr[-800:],
-    )
+    # the re-check may raise inside the block's print, after a part of it was written (seen on
+    # a loaded machine: 'importedinterrupted after the import: True'): the line's end counts
+    assert lines[-1] == "handler restored: True", (r.stdout, r.stderr[-800:])
+    assert lines[-2].endswith("interrupted after the import: True"), (r.stdout, r.stderr[-800:])
     assert "Traceback" not in r.stderr, r.stderr[-800:]
 
 
