@@ -8,6 +8,7 @@ elimination; and the refusals' one line for records that cannot be identified.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import subprocess
@@ -54,6 +55,7 @@ def test_the_model_is_the_circuit_on_its_own_impacts(clean):
         "a_s": 0.0,
         "x_w": 2.001,
         "R": 0.999,
+        "kappa": 0.0,
         "g_v": 1.0,
         "o_x": 0.0,
         "o_v": 0.0,
@@ -71,8 +73,10 @@ def test_complex_step_jacobian_equals_central_differences(clean):
     """Each column against central differences, on samples away from the impacts (where a
     finite difference straddles the jump).  Error ~ h^2 f'''/6 + eps |f| / h: eta enters
     through tau = Omega t / eta, so f''' grows like (tau / eta)^3 ~ 1e8 at the record's end
-    (h = 1e-5 left 4e-3 there); h = 1e-7 leaves ~2e-7 and a rounding part ~1e-8."""
+    (h = 1e-5 left 4e-3 there); h = 1e-7 leaves ~2e-7 and a rounding part ~1e-8.  The affine
+    impact law, so that every global has its column."""
     cap, rec = clean
+    rec = dataclasses.replace(rec, impact_law="affine")
     seg, vb = _true_segments(cap, rec)
     g = {
         "eta": 0.712,
@@ -81,6 +85,7 @@ def test_complex_step_jacobian_equals_central_differences(clean):
         "a_s": 0.07,
         "x_w": 2.0,
         "R": 0.95,
+        "kappa": 0.04,
         "g_v": 1.01,
         "o_x": 0.01,
         "o_v": -0.01,
@@ -102,8 +107,10 @@ def test_complex_step_jacobian_equals_central_differences(clean):
 
 
 def test_block_elimination_equals_a_dense_solve(clean):
-    """The Schur-complement step equals numpy's dense least squares on the same Jacobian."""
+    """The Schur-complement step equals numpy's dense least squares on the same Jacobian
+    (the affine impact law: every global free)."""
     cap, rec = clean
+    rec = dataclasses.replace(rec, impact_law="affine")
     seg, vb = _true_segments(cap, rec)
     g = {
         "eta": 0.713,
@@ -112,6 +119,7 @@ def test_block_elimination_equals_a_dense_solve(clean):
         "a_s": 0.07,
         "x_w": 2.0,
         "R": 0.97,
+        "kappa": 0.02,
         "g_v": 1.0,
         "o_x": 0.0,
         "o_v": 0.0,
@@ -269,7 +277,8 @@ def test_cli_identifies_a_scope_file_as_strict_json(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "flag,value", [("--bootstrap", "-1"), ("--bootstrap", "x"), ("--seed", "-3")]
+    "flag,value",
+    [("--bootstrap", "-1"), ("--bootstrap", "x"), ("--seed", "-3"), ("--impact-law", "elastic")],
 )
 def test_cli_refuses_bad_flags_with_one_line(tmp_path, flag, value):
     cap = synth_capture(SCENE, periods=30, bits=8, noise=0.01, seed=5)

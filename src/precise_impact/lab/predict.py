@@ -319,6 +319,10 @@ def central_system(mean: np.ndarray, names: list) -> tuple[dict, list]:
     if R > 1:  # the constrained estimate under R <= 1 sits on the boundary
         notes.append(f"the identified R = {R:.6f} > 1: the central system uses R = 1")
         R = 1.0
+    kappa = float(mean[names.index("kappa")]) if "kappa" in names else 0.0
+    if kappa:  # the mechanics has no feed-through: predicted for its eta, zeta, x_w / a, R
+        notes.append(f"the identified impact feed-through kappa = {kappa:.4g} is not predicted "
+                     "(the oscillator's impact law is v+ = -R v-)")  # fmt: skip
     return {"eta": eta, "zeta": zeta, "x_w/a": xwa, "R": R}, notes
 
 

@@ -18,7 +18,7 @@ from precise_impact.core.params import check_count
 from precise_impact.io.jsonout import print_json, write_json
 from precise_impact.io.progress import say
 from precise_impact.lab.diagnose import diagnose
-from precise_impact.lab.identify import SECONDS_PER_SAMPLE, identify
+from precise_impact.lab.identify import SECONDS_PER_SAMPLE, check_impact_law, identify
 from precise_impact.lab.predict import SECONDS_PER_DIAGRAM_VALUE, SECONDS_PER_SAMPLE_RUN, predict
 from precise_impact.lab.scope_files import READ_FORMATS, read_capture
 
@@ -35,6 +35,12 @@ def register(sub) -> argparse.ArgumentParser:
         "--scene",
         default="fig5-chaotic-ideal",
         help="the design whose volts and seconds per unit map the channels (default: the paper's)",
+    )
+    p.add_argument(
+        "--impact-law",
+        default="restitution",
+        help="restitution: v+ = -R v- (default); affine: plus kappa (a cos(eta t) - x_w), fitted "
+        "(a switched-capacitor circuit whose switches have an on-resistance)",
     )
     p.add_argument("--bootstrap", default="0", help="parametric bootstrap refits (default 0)")
     p.add_argument("--seed", default="0", help="the bootstrap's and the samples' seed (default 0)")
@@ -86,6 +92,7 @@ def run(ns: argparse.Namespace) -> int:
     seed = check_count(ns.seed, "seed", 2**31 - 1, minimum=0)
     samples = check_count(ns.samples, "samples", 10_000, minimum=2)
     diagram = check_count(ns.diagram, "diagram", 2000, minimum=0)
+    law = check_impact_law(ns.impact_law, "impact-law")
     cap = read_capture(ns.file, ns.channels, ns.format)
     check_work(
         f"identify: {len(cap.t)} samples x {1 + boot} fits"
@@ -101,7 +108,7 @@ def run(ns: argparse.Namespace) -> int:
         "bootstrap",
     )
     tell = None if ns.json else (lambda line: say(line, True))
-    r = identify(cap, ns.scene, bootstrap=boot, seed=seed, say=tell)
+    r = identify(cap, ns.scene, bootstrap=boot, seed=seed, say=tell, impact_law=law)
     d = diagnose(r, ns.scene) if ns.diagnose else None
     if ns.out is not None:  # kept if the prediction is refused (an identified R above 1)
         _write(Path(ns.out), r, None)
