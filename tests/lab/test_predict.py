@@ -115,6 +115,18 @@ def test_landmarks_are_not_predicted_when_r_excludes_one(period3):
     assert max(p.samples["R"]) < 0.9
 
 
+def test_an_affine_impact_law_is_noted(period3):
+    """An identification under the affine law carries ``kappa``: the predictions (v+ = -R v-)
+    say they leave it out and where its window is computed."""
+    r, _ = period3
+    cov = dict(r.covariance)
+    values = list(cov["values"])
+    values[cov["names"].index("kappa")] = 0.05
+    other = dataclasses.replace(r, covariance={**cov, "values": values})
+    p = P.predict(other, samples=4, **FAST)
+    assert any("kappa = 0.05" in n and "period3_window" in n for n in p.notes), p.notes
+
+
 def test_the_prediction_is_strict_json_and_plots(period3, tmp_path):
     _, p = period3
     json.dumps(p.to_dict(), allow_nan=False)

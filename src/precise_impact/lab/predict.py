@@ -4,6 +4,7 @@ through by sampling and implicit-function derivatives.  Method: ``docs/guide/ide
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from typing import Any
@@ -12,6 +13,13 @@ import numpy as np
 
 from precise_impact.analysis.bifurcation import bifurcation
 from precise_impact.analysis.lyapunov import lyapunov
+from precise_impact.core.flight import (
+    NUMPY,
+    homogeneous_start,
+    state_from_coefficients,
+    steady_coefficients,
+    trig_coefficients,
+)
 from precise_impact.core.params import Params, check_count
 from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ConvergenceError, ParameterError
@@ -26,6 +34,9 @@ __all__ = [
     "PREDICTED_LANDMARKS",
     "SECONDS_PER_SAMPLE_RUN",
     "SECONDS_PER_DIAGRAM_VALUE",
+    "affine_runner",
+    "period3_window",
+    "strobe_period",
 ]
 
 #: The landmarks predicted (``lab.budget``'s: R = 1 systems only).
@@ -321,8 +332,9 @@ def central_system(mean: np.ndarray, names: list) -> tuple[dict, list]:
         R = 1.0
     kappa = float(mean[names.index("kappa")]) if "kappa" in names else 0.0
     if kappa:  # the mechanics has no feed-through: predicted for its eta, zeta, x_w / a, R
-        notes.append(f"the identified impact feed-through kappa = {kappa:.4g} is not predicted "
-                     "(the oscillator's impact law is v+ = -R v-)")  # fmt: skip
+        notes.append(f"the identified impact feed-through kappa = {kappa:.4g} is not in these "
+                     "predictions (they use v+ = -R v-); the affine law's period-3 window: "
+                     "period3_window(affine_runner(...))")  # fmt: skip
     return {"eta": eta, "zeta": zeta, "x_w/a": xwa, "R": R}, notes
 
 
@@ -450,3 +462,119 @@ def _moved(name: str, bp: Any, row: Any) -> float | None:
         return float(landmark_at(name, (zeta, 1.0, xwa)).eta)
     except (ConvergenceError, ValueError, np.linalg.LinAlgError):
         return None
+
+
+# ============================================================================ the window by runs
+#: Strobe points compared to call an attractor period 3 (the last ``WINDOW_COMPARED``), and
+#: their tolerance (unit of ``x``): a period-3 orbit inside the window repeats to ~1e-9.
+WINDOW_COMPARED = 30
+WINDOW_TOL = 1e-4
+
+
+def affine_runner(system: dict) -> Any:
+    """``run(eta, state, periods) -> (strobe x, state)`` of the oscillator with the affine
+    impact law ``v+ = -R v- + kappa (a cos(eta t) - x_w)`` (``lab.identify.IMPACT_LAWS``):
+    the closed-form flights of :mod:`precise_impact.core.flight`, each impact found on a grid
+    of 64 points per flight (and at every apex above the wall) and refined to 1e-12."""
+    zeta, a, x_w = float(system["zeta"]), float(system["a"]), float(system["x_w"])
+    R, kappa = float(system["R"]), float(system.get("kappa", 0.0))
+    wd = math.sqrt(1 - zeta * zeta)
+
+    def run(eta: float, state: tuple, periods: int) -> tuple[np.ndarray, tuple]:
+        P, Q = steady_coefficients(eta, zeta, a)
+        T = 2 * math.pi / eta
+        x, v, out = float(state[0]), float(state[1]), np.empty(periods)
+        for k in range(periods):
+            s, end = k * T, (k + 1) * T
+            while True:
+                c = trig_coefficients(*homogeneous_start(s, x, v, P, Q, eta, NUMPY), zeta, wd)
+                flight = functools.partial(_at, s=s, c=c, P=P, Q=Q, eta=eta, zeta=zeta, wd=wd)
+                hit = _first_hit(flight, s, end, x_w)
+                if hit is None:
+                    x, v = _at(end, s, c, P, Q, eta, zeta, wd)
+                    break
+                _, vb = _at(hit, s, c, P, Q, eta, zeta, wd)
+                s, x, v = hit, x_w, -R * vb + kappa * (a * math.cos(eta * hit) - x_w)
+            out[k] = x
+        return out, (x, v)
+
+    return run
+
+
+def _at(t: Any, s: float, c: tuple, P, Q, eta, zeta, wd) -> tuple:
+    x, v, _ = state_from_coefficients(t, s, c, P, Q, eta, zeta, wd, NUMPY)
+    return x, v
+
+
+def _first_hit(at: Any, s: float, end: float, x_w: float) -> float | None:
+    """The first time in ``(s, end]`` where the flight ``at`` reaches ``x_w`` moving up."""
+    t = np.linspace(s, end, 65)[1:]
+    x, v = at(t)
+    x0, v0 = at(np.array([s]))
+    x, v = np.concatenate((x0, x)), np.concatenate((v0, v))
+    t = np.concatenate(([s], t))
+    for j in range(1, len(t)):
+        if x[j] >= x_w > x[j - 1]:
+            return _refine(at, t[j - 1], t[j], x_w, lambda xx, vv: xx - x_w)
+        if v[j - 1] > 0 >= v[j]:  # an apex between samples: above the wall?
+            tm = _refine(at, t[j - 1], t[j], 0.0, lambda xx, vv: vv, sign=-1)
+            if float(at(np.array([tm]))[0][0]) >= x_w:
+                return _refine(at, t[j - 1], tm, x_w, lambda xx, vv: xx - x_w)
+    return None
+
+
+def _refine(at: Any, lo: float, hi: float, _target: float, f: Any, sign: int = 1) -> float:
+    """The root of ``f(x, v)`` in ``[lo, hi]`` (``sign * f`` rises through it): three rounds
+    of 33 points, then bisection to 1e-12."""
+    for _ in range(3):
+        t = np.linspace(lo, hi, 33)
+        g = sign * f(*at(t))
+        j = int(np.argmax(g >= 0)) if np.any(g >= 0) else len(t) - 1
+        lo, hi = float(t[max(j - 1, 0)]), float(t[j])
+    while hi - lo > 1e-12 * max(1.0, abs(hi)):
+        mid = 0.5 * (lo + hi)
+        if sign * float(f(*at(np.array([mid])))[0]) >= 0:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def period3_window(
+    run: Any, eta_range: tuple = (0.70, 0.80), coarse: float = 0.002, step: float = 0.0002
+) -> dict | None:
+    """The interval of ``eta`` over which ``run``'s attractor is a period-3 orbit, as a sweep
+    finds it: a coarse scan from rest (400 periods each) for a period-3 value, then
+    continuation down and up in steps of ``step`` (each run from the last one's state, 150
+    periods) until the orbit is lost; each end the midpoint of the last period-3 value and
+    the first other.  ``run`` is :func:`affine_runner`'s or a circuit model's (the same
+    sweep for both); ``None`` if no period-3 value is found.  ``{'low', 'high', 'step'}``."""
+    inside = None
+    for eta in np.arange(eta_range[0], eta_range[1] + 1e-12, coarse):
+        xs, state = run(float(eta), (0.0, 0.0), 400)
+        if strobe_period(xs) == 3:
+            inside = (float(eta), state)
+            break
+    if inside is None:
+        return None
+    ends = [_continued(run, *inside, sign * step) for sign in (-1, 1)]
+    return {"low": ends[0], "high": ends[1], "step": step}
+
+
+def _continued(run: Any, eta: float, state: tuple, step: float) -> float:
+    for _ in range(int(0.2 / abs(step))):
+        xs, state = run(eta + step, state, 150)
+        if strobe_period(xs) != 3:
+            return eta + step / 2
+        eta += step
+    return eta
+
+
+def strobe_period(xs: np.ndarray) -> int:
+    """The period (1, 2 or 3 forcing periods) of the last :data:`WINDOW_COMPARED` strobe
+    points to :data:`WINDOW_TOL`, else 0."""
+    x = np.asarray(xs[-WINDOW_COMPARED:], float)
+    for p in (1, 2, 3):
+        if np.max(np.abs(x[p:] - x[:-p])) < WINDOW_TOL:
+            return p
+    return 0
