@@ -70,6 +70,7 @@ def one(seed: int, model: str) -> dict:
             "impacts": r.impacts["total"],
             "left_out": len(r.impacts["segments_left_out"]),
             "window_hz": _identified_window(r, law),
+            "Omega_rad_s": r.record["Omega_rad_s"],
         }
     return row
 

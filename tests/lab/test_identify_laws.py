@@ -163,9 +163,9 @@ def test_the_swept_window_is_the_orbit_continuations():
 def test_the_affine_law_puts_the_window_where_the_circuit_has_it(datasheet, identified):
     """The switched-capacitor circuit's period-3 window (its own model swept, in the forcing's
     frequency) against the identified systems' (the same sweep of the closed form): the
-    affine law's ends within 0.2 % (the benchmark's 200-period records agree to 0.05 %), the
-    restitution law's (R = 1, as ``predict`` uses) more than 0.4 % off at one end (0.6 % and
-    1.0 %: the feed-through moves the window)."""
+    affine law's ends within 0.2 % (the benchmark's 200-period records: 0.02 % and 0.08 %),
+    the restitution law's (R = 1, as ``predict`` uses) more than 0.4 % off at one end (the
+    benchmark: 0.5 % and 0.8 %: the feed-through moves the window)."""
     sc, cap, _ = datasheet
     run, omega = _circuit_runner(SwitchedCapacitorSolver(effects=sc.effects), sc.design(),
                                  Fraction(sc.params.decimal()["eta"]))  # fmt: skip

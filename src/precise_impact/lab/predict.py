@@ -544,21 +544,33 @@ def period3_window(
     run: Any, eta_range: tuple = (0.70, 0.80), coarse: float = 0.002, step: float = 0.0002
 ) -> dict | None:
     """The interval of ``eta`` over which ``run``'s attractor is a period-3 orbit, as a sweep
-    finds it: a coarse scan from rest (400 periods each) for a period-3 value, then
-    continuation down and up in steps of ``step`` (each run from the last one's state, 150
-    periods) until the orbit is lost; each end the midpoint of the last period-3 value and
-    the first other.  ``run`` is :func:`affine_runner`'s or a circuit model's (the same
-    sweep for both); ``None`` if no period-3 value is found.  ``{'low', 'high', 'step'}``."""
-    inside = None
+    finds it: a coarse scan from rest (400 periods each), then continuation from the middle of
+    its longest run of period-3 values, down and up in steps of ``step`` (each run from the
+    last one's state, 150 periods) until the orbit is lost; each end the midpoint of the last
+    period-3 value and the first other.  (Continuation from the first period-3 value of the
+    scan, at the window's edge, lost the orbit at once in one record of three.)  ``run`` is
+    :func:`affine_runner`'s or a circuit model's (the same sweep for both); ``None`` if no
+    period-3 value is found.  ``{'low', 'high', 'step'}``."""
+    found = []
     for eta in np.arange(eta_range[0], eta_range[1] + 1e-12, coarse):
         xs, state = run(float(eta), (0.0, 0.0), 400)
-        if strobe_period(xs) == 3:
-            inside = (float(eta), state)
-            break
+        found.append((float(eta), state) if strobe_period(xs) == 3 else None)
+    inside = _middle_of_longest(found)
     if inside is None:
         return None
     ends = [_continued(run, *inside, sign * step) for sign in (-1, 1)]
     return {"low": ends[0], "high": ends[1], "step": step}
+
+
+def _middle_of_longest(found: list) -> Any:
+    """The middle entry of the longest run of consecutive non-``None`` entries, or ``None``."""
+    best, start = (0, 0), None
+    for k, item in enumerate([*found, None]):
+        if item is not None and start is None:
+            start = k
+        elif item is None and start is not None:
+            best, start = max(best, (k - start, start)), None
+    return found[best[1] + best[0] // 2] if best[0] else None
 
 
 def _continued(run: Any, eta: float, state: tuple, step: float) -> float:
