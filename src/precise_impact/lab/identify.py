@@ -148,8 +148,8 @@ def model(g: dict, starts: np.ndarray, rec: Record, seg: Segments) -> tuple[Any,
     ok &= (ts.real > s0.real) & (ts.real <= ts_end.real + (tau[1] - tau[0]).real)
     _, vb, _ = state_from_coefficients(ts, s0, c1, P, Q, eta, zeta, wd, NUMPY)
     ok &= vb.real > 0
-    feed = g["kappa"] * (g["a_c"] * NUMPY.cos(eta * ts) + g["a_s"] * NUMPY.sin(eta * ts) - g["x_w"])
-    y2, u2 = homogeneous_start(ts, g["x_w"], -g["R"] * vb + feed, P, Q, eta, NUMPY)
+    vr = reset_velocity(vb, ts, eta, g["R"], g["kappa"], g["a_c"], g["a_s"], g["x_w"])
+    y2, u2 = homogeneous_start(ts, g["x_w"], vr, P, Q, eta, NUMPY)
     c2 = trig_coefficients(y2, u2, zeta, wd)
     # a segment whose flight no longer reaches the wall is that flight alone (no reset): the
     # cost stays finite and continuous where a step takes a slow impact away, so the fit is
@@ -159,6 +159,13 @@ def model(g: dict, starts: np.ndarray, rec: Record, seg: Segments) -> tuple[Any,
     x = np.where(before, x1, x2)
     v = np.where(before, v1, v2)
     return x + g["o_x"], g["g_v"] * v + g["o_v"], ok
+
+
+def reset_velocity(vb, ts, eta, R, kappa, a_c, a_s, x_w):
+    """The velocity leaving the wall under :data:`IMPACT_LAWS`' affine law (``kappa = 0``:
+    restitution): ``-R vb + kappa (a_c cos(eta ts) + a_s sin(eta ts) - x_w)``; real, complex
+    or array arguments (the one home of the law: ``lab.predict.affine_runner`` uses it too)."""
+    return -R * vb + kappa * (a_c * NUMPY.cos(eta * ts) + a_s * NUMPY.sin(eta * ts) - x_w)
 
 
 def _take(coefficients: tuple, i: np.ndarray) -> tuple:

@@ -25,7 +25,13 @@ from precise_impact.core.result import ResultMixin, unit_column
 from precise_impact.errors import ConvergenceError, ParameterError
 from precise_impact.io.figures import check_plot_path, finish, new_figure
 from precise_impact.lab.budget import landmark_at
-from precise_impact.lab.identify import Z95, Identification, derived, record_of
+from precise_impact.lab.identify import (
+    Z95,
+    Identification,
+    derived,
+    record_of,
+    reset_velocity,
+)
 
 __all__ = [
     "Prediction",
@@ -494,7 +500,7 @@ def affine_runner(system: dict) -> Any:
                     x, v = _at(end, s, c, P, Q, eta, zeta, wd)
                     break
                 _, vb = _at(hit, s, c, P, Q, eta, zeta, wd)
-                s, x, v = hit, x_w, -R * vb + kappa * (a * math.cos(eta * hit) - x_w)
+                s, x, v = hit, x_w, float(reset_velocity(vb, hit, eta, R, kappa, a, 0.0, x_w))
             out[k] = x
         return out, (x, v)
 
@@ -508,22 +514,19 @@ def _at(t: Any, s: float, c: tuple, P, Q, eta, zeta, wd) -> tuple:
 
 def _first_hit(at: Any, s: float, end: float, x_w: float) -> float | None:
     """The first time in ``(s, end]`` where the flight ``at`` reaches ``x_w`` moving up."""
-    t = np.linspace(s, end, 65)[1:]
+    t = np.linspace(s, end, 65)
     x, v = at(t)
-    x0, v0 = at(np.array([s]))
-    x, v = np.concatenate((x0, x)), np.concatenate((v0, v))
-    t = np.concatenate(([s], t))
     for j in range(1, len(t)):
         if x[j] >= x_w > x[j - 1]:
-            return _refine(at, t[j - 1], t[j], x_w, lambda xx, vv: xx - x_w)
+            return _refine(at, t[j - 1], t[j], lambda xx, vv: xx - x_w)
         if v[j - 1] > 0 >= v[j]:  # an apex between samples: above the wall?
-            tm = _refine(at, t[j - 1], t[j], 0.0, lambda xx, vv: vv, sign=-1)
+            tm = _refine(at, t[j - 1], t[j], lambda xx, vv: vv, sign=-1)
             if float(at(np.array([tm]))[0][0]) >= x_w:
-                return _refine(at, t[j - 1], tm, x_w, lambda xx, vv: xx - x_w)
+                return _refine(at, t[j - 1], tm, lambda xx, vv: xx - x_w)
     return None
 
 
-def _refine(at: Any, lo: float, hi: float, _target: float, f: Any, sign: int = 1) -> float:
+def _refine(at: Any, lo: float, hi: float, f: Any, sign: int = 1) -> float:
     """The root of ``f(x, v)`` in ``[lo, hi]`` (``sign * f`` rises through it): three rounds
     of 33 points, then bisection to 1e-12."""
     for _ in range(3):
