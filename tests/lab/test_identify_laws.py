@@ -21,7 +21,7 @@ import pytest
 import precise_impact as pi
 from precise_impact.lab import identify as I
 from precise_impact.lab.budget import landmark_at
-from precise_impact.lab.predict import affine_runner, period3_window
+from precise_impact.lab.predict import affine_runner, circuit_runner, period3_window
 from precise_impact.lab.synth import synth_capture
 from precise_impact.models.circuit.switched import SwitchedCapacitorSolver, effective_system
 from precise_impact.scenes.scene import load_scene
@@ -137,17 +137,6 @@ def test_the_affine_law_identifies_the_switched_circuits_effective_system(datash
     assert plain.value("R") - 1 > 5 * plain.stderr("R")
 
 
-def _circuit_runner(solver, design, drawn_eta: Fraction):
-    omega = Fraction(design.Omega) / drawn_eta
-
-    def run(eta, state, periods):
-        d = dataclasses.replace(design, Omega=omega * Fraction(repr(float(eta))))
-        tr = solver.solve(d, periods, x0=repr(state[0]), v0=repr(state[1]), t0="0")
-        return np.asarray(tr.x, float), (float(tr.x[-1]), float(tr.v[-1]))
-
-    return run, float(omega)
-
-
 @pytest.mark.slow
 def test_the_swept_window_is_the_orbit_continuations():
     """The sweep (:func:`period3_window`, steps of 5e-4) finds the paper system's period-3
@@ -167,7 +156,7 @@ def test_the_affine_law_puts_the_window_where_the_circuit_has_it(datasheet, iden
     the restitution law's (R = 1, as ``predict`` uses) more than 0.4 % off at one end (the
     benchmark: 0.5 % and 0.8 %: the feed-through moves the window)."""
     sc, cap, _ = datasheet
-    run, omega = _circuit_runner(SwitchedCapacitorSolver(effects=sc.effects), sc.design(),
+    run, omega = circuit_runner(SwitchedCapacitorSolver(effects=sc.effects), sc.design(),
                                  Fraction(sc.params.decimal()["eta"]))  # fmt: skip
     circuit = period3_window(run, (0.72, 0.735), step=5e-4)
     hz = omega / (2 * math.pi)

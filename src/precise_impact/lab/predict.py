@@ -7,6 +7,7 @@ import dataclasses
 import functools
 import math
 import time
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -41,6 +42,7 @@ __all__ = [
     "SECONDS_PER_SAMPLE_RUN",
     "SECONDS_PER_DIAGRAM_VALUE",
     "affine_runner",
+    "circuit_runner",
     "period3_window",
     "strobe_period",
 ]
@@ -505,6 +507,23 @@ def affine_runner(system: dict) -> Any:
         return out, (x, v)
 
     return run
+
+
+def circuit_runner(solver: Any, design: Any, drawn_eta: Any) -> tuple[Any, float]:
+    """``(run, omega)``: ``run(eta, state, periods) -> (strobe x, state)`` of a circuit model
+    (a solver of ``models.circuit``: switched-capacitor, ngspice, ...) at the drawn ``eta``:
+    the forcing's frequency ``eta omega`` with the parts unchanged, ``omega`` the design's
+    ``Omega / drawn_eta`` [rad/s]; the same sweep as :func:`affine_runner` for
+    :func:`period3_window`."""
+    omega = Fraction(design.Omega) / Fraction(drawn_eta)
+
+    def run(eta: float, state: tuple, periods: int) -> tuple[np.ndarray, tuple]:
+        d = dataclasses.replace(design, Omega=omega * Fraction(repr(float(eta))))
+        x0, v0 = (repr(float(u)) for u in state)
+        tr = solver.solve(d, periods, x0=x0, v0=v0, t0="0")
+        return np.asarray(tr.x, float), (float(tr.x[-1]), float(tr.v[-1]))
+
+    return run, float(omega)
 
 
 def _at(t: Any, s: float, c: tuple, P, Q, eta, zeta, wd) -> tuple:
