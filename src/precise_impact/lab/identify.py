@@ -338,12 +338,12 @@ def covariance(N: dict) -> np.ndarray:
     return cov
 
 
-def remaining_step(N: dict) -> float:
+def remaining_step(N: dict, cov: np.ndarray) -> float:
     """The largest undamped Gauss-Newton step left at a fit's end, in the globals' standard
-    errors: ~0 at a stationary point; a fit walled in by a step in its cost leaves more
-    (3.6 before :func:`off_the_impacts`)."""
+    errors (``cov``: :func:`covariance` of ``N``): ~0 at a stationary point; a fit walled in
+    by a step in its cost leaves more (3.6 before :func:`off_the_impacts`)."""
     _, dg, _ = solve_blocks(N, 0.0)
-    se = np.sqrt(np.abs(np.diag(covariance(N))))
+    se = np.sqrt(np.abs(np.diag(cov)))
     moved = se > 0
     return float(np.max(np.abs(dg[moved] / se[moved]))) if moved.any() else 0.0
 
@@ -1292,7 +1292,7 @@ def identify(
         bootstrap=boot,
         design=_design_name(design),
         iterations=int(fit["iterations"]),
-        remaining_step=remaining_step(fit["N"]),
+        remaining_step=remaining_step(fit["N"], cov),
         seconds=time.perf_counter() - t0,
         curves=curves(fit, used, useg),
         covariance={
